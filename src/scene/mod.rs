@@ -1,0 +1,405 @@
+//! The plain-data scene every part of Photon reads: world-space triangle meshes, materials,
+//! textures, lights, one camera and the world background. Structs of vectors with integer indices,
+//! no behaviour beyond small lookups and `validate`. Only `scene::gltf` builds it from files;
+//! `scene::builtin` builds the embedded default Cornell box.
+//!
+//! Units are Cycles' units (DESIGN.md): radiance in W·m⁻²·sr⁻¹, point/spot intensity in W/sr,
+//! sun irradiance in W/m². Conversions from glTF's photometric units live in `scene::units`.
+
+pub mod builtin;
+pub mod gltf;
+pub mod texture;
+pub mod units;
+
+use crate::math::{Affine3A, Vec2, Vec3, Vec4};
+pub use texture::{Texture, TextureRef};
+
+/// A triangle mesh already transformed to world space (instances are flattened).
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Name of the glTF node and mesh, for messages ("Cube/Cube.001 primitive 0").
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Unit shading normals, one per vertex (generated from faces when the file has none).
+    pub normals: Vec<Vec3>,
+    /// UV set 0; empty when the file has none.
+    pub uvs: Vec<Vec2>,
+    /// Tangents (xyz, w = bitangent sign); empty when the file has none.
+    pub tangents: Vec<Vec4>,
+    pub indices: Vec<[u32; 3]>,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Seen by camera rays. False for area-light geometry that Blender hides from the camera.
+    pub camera_visible: bool,
+}
+
+/// How a material's alpha is used (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    Opaque,
+    /// Surfaces with alpha below the cutoff are skipped by rays.
+    Mask {
+        cutoff: f32,
+    },
+    /// Alpha is the probability that a ray sees the surface (stochastic transparency).
+    Blend,
+}
+
+/// The glTF metallic-roughness material with the KHR extensions Blender writes, all factors
+/// resolved; texture references multiply their factor, as glTF specifies.
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB base colour and alpha (baseColorFactor).
+    pub base_color: Vec4,
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1]; GGX α = roughness².
+    pub roughness: f32,
+    /// Metallic in B, roughness in G (glTF convention).
+    pub metallic_roughness_texture: Option<TextureRef>,
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+    /// Emitted radiance: emissiveFactor × KHR_materials_emissive_strength.
+    pub emission: Vec3,
+    pub emissive_texture: Option<TextureRef>,
+    pub alpha_mode: AlphaMode,
+    pub double_sided: bool,
+    /// KHR_materials_transmission factor in [0, 1].
+    pub transmission: f32,
+    pub transmission_texture: Option<TextureRef>,
+    /// KHR_materials_ior (glTF default 1.5).
+    pub ior: f32,
+    /// KHR_materials_specular: specularFactor (scales the dielectric Fresnel) and specularColorFactor.
+    pub specular: f32,
+    pub specular_color: Vec3,
+    /// KHR_materials_volume: Beer–Lambert attenuation inside the object. `attenuation_distance` is
+    /// infinite when there is no absorption.
+    pub attenuation_color: Vec3,
+    pub attenuation_distance: f32,
+    /// KHR_materials_volume thicknessFactor; zero means thin-walled.
+    pub thickness: f32,
+}
+
+impl Default for Material {
+    /// glTF's defaults for a material with no properties.
+    fn default() -> Self {
+        Material {
+            name: String::from("default"),
+            base_color: Vec4::ONE,
+            base_color_texture: None,
+            metallic: 1.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
+            transmission: 0.0,
+            transmission_texture: None,
+            ior: 1.5,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            attenuation_color: Vec3::ONE,
+            attenuation_distance: f32::INFINITY,
+            thickness: 0.0,
+        }
+    }
+}
+
+impl Material {
+    /// A Lambert-like diffuse material (dielectric, rough, no specular) of the given colour.
+    pub fn diffuse(name: &str, color: Vec3) -> Self {
+        Material {
+            name: name.to_string(),
+            base_color: color.extend(1.0),
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            double_sided: true,
+            ..Material::default()
+        }
+    }
+
+    /// True when the material emits light (some texel may be black, but the factor is not).
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+/// A light that is not geometry. Emissive triangles are lights too; they are found from the
+/// materials when the renderer prepares the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// Emits `intensity` W/sr uniformly in all directions (Cycles: power P → I = P/4π).
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+        /// Blender's soft-shadow radius; 0 is a true point.
+        radius: f32,
+    },
+    /// A point light restricted to a cone around `direction`, with glTF's smooth falloff between
+    /// the inner and outer cone angles. Intensity inside the cone as for a point light.
+    Spot {
+        position: Vec3,
+        /// Unit vector the light points along.
+        direction: Vec3,
+        intensity: Vec3,
+        cos_inner: f32,
+        cos_outer: f32,
+        radius: f32,
+    },
+    /// A distant light: `irradiance` W/m² on a surface facing it.
+    Sun {
+        /// Unit vector the light travels along (from the sun into the scene).
+        direction: Vec3,
+        irradiance: Vec3,
+        /// Angular diameter in radians (Blender's sun angle); 0 is a hard sun.
+        angle: f32,
+    },
+}
+
+/// The camera projection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Vertical field of view in radians.
+    Perspective { yfov: f32 },
+    /// Half-width and half-height of the view in scene units (glTF xmag, ymag).
+    Orthographic { xmag: f32, ymag: f32 },
+}
+
+/// The camera. Looks along its local −Z with +Y up, as glTF and Blender define.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub name: String,
+    /// Camera space to world space (rigid; scale removed).
+    pub to_world: Affine3A,
+    pub projection: Projection,
+    /// Width / height the file asks for; `None` lets the image size decide.
+    pub aspect_ratio: Option<f32>,
+}
+
+/// What rays that leave the scene see.
+#[derive(Clone, Debug, PartialEq)]
+pub struct World {
+    /// Constant background radiance (Blender world colour × strength).
+    pub color: Vec3,
+}
+
+impl Default for World {
+    fn default() -> Self {
+        World { color: Vec3::ZERO }
+    }
+}
+
+/// Render settings a scene file may carry (our `PHOTON_render` extension); the command line wins.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneRenderSettings {
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub transparent_film: bool,
+}
+
+/// Everything there is to render.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<Light>,
+    pub camera: Camera,
+    pub world: World,
+    pub render_settings: SceneRenderSettings,
+    /// Non-fatal problems found while loading (skipped primitives, unsupported features).
+    pub warnings: Vec<String>,
+}
+
+/// Axis-aligned bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Bounds {
+    pub const EMPTY: Bounds = Bounds {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn is_empty(&self) -> bool {
+        !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
+    }
+
+    pub fn diagonal(&self) -> f32 {
+        if self.is_empty() {
+            0.0
+        } else {
+            (self.max - self.min).length()
+        }
+    }
+
+    pub fn center(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+}
+
+impl Scene {
+    /// Bounds of all geometry (empty for a scene with no triangles).
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::EMPTY;
+        for m in &self.meshes {
+            for &p in &m.positions {
+                b.grow(p);
+            }
+        }
+        b
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len()).sum()
+    }
+
+    /// Check the invariants the renderer relies on; returns a description of the first problem.
+    /// The glTF loader calls this, so a `Scene` it returns is always valid.
+    pub fn validate(&self) -> Result<(), String> {
+        for (mi, m) in self.meshes.iter().enumerate() {
+            let n = m.positions.len();
+            if m.material as usize >= self.materials.len() {
+                return Err(format!(
+                    "mesh {mi} '{}': material index {} out of range",
+                    m.name, m.material
+                ));
+            }
+            if m.normals.len() != n {
+                return Err(format!(
+                    "mesh {mi} '{}': {} normals for {n} positions",
+                    m.name,
+                    m.normals.len()
+                ));
+            }
+            if !m.uvs.is_empty() && m.uvs.len() != n {
+                return Err(format!(
+                    "mesh {mi} '{}': {} UVs for {n} positions",
+                    m.name,
+                    m.uvs.len()
+                ));
+            }
+            if !m.tangents.is_empty() && m.tangents.len() != n {
+                return Err(format!(
+                    "mesh {mi} '{}': {} tangents for {n} positions",
+                    m.name,
+                    m.tangents.len()
+                ));
+            }
+            if let Some(t) = m
+                .indices
+                .iter()
+                .find(|t| t.iter().any(|&i| i as usize >= n))
+            {
+                return Err(format!(
+                    "mesh {mi} '{}': triangle {t:?} indexes past {n} vertices",
+                    m.name
+                ));
+            }
+            if m.positions.iter().any(|p| !p.is_finite()) {
+                return Err(format!(
+                    "mesh {mi} '{}': vertex position is NaN or infinite",
+                    m.name
+                ));
+            }
+            if m.normals.iter().any(|p| !p.is_finite()) {
+                return Err(format!(
+                    "mesh {mi} '{}': vertex normal is NaN or infinite",
+                    m.name
+                ));
+            }
+            if m.uvs.iter().any(|p| !p.is_finite()) {
+                return Err(format!("mesh {mi} '{}': UV is NaN or infinite", m.name));
+            }
+        }
+        for m in &self.materials {
+            let refs = [
+                &m.base_color_texture,
+                &m.metallic_roughness_texture,
+                &m.normal_texture,
+                &m.emissive_texture,
+                &m.transmission_texture,
+            ];
+            for r in refs.into_iter().flatten() {
+                if r.texture as usize >= self.textures.len() {
+                    return Err(format!(
+                        "material '{}': texture index {} out of range",
+                        m.name, r.texture
+                    ));
+                }
+            }
+            let values = [
+                m.metallic,
+                m.roughness,
+                m.transmission,
+                m.ior,
+                m.specular,
+                m.normal_scale,
+            ];
+            if values.iter().any(|v| !v.is_finite())
+                || !m.base_color.is_finite()
+                || !m.emission.is_finite()
+            {
+                return Err(format!(
+                    "material '{}': a factor is NaN or infinite",
+                    m.name
+                ));
+            }
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            let ok = match l {
+                Light::Point {
+                    position,
+                    intensity,
+                    radius,
+                } => position.is_finite() && intensity.is_finite() && radius.is_finite(),
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                    radius,
+                } => {
+                    position.is_finite()
+                        && direction.is_finite()
+                        && intensity.is_finite()
+                        && cos_inner.is_finite()
+                        && cos_outer.is_finite()
+                        && radius.is_finite()
+                }
+                Light::Sun {
+                    direction,
+                    irradiance,
+                    angle,
+                } => direction.is_finite() && irradiance.is_finite() && angle.is_finite(),
+            };
+            if !ok {
+                return Err(format!("light {i}: a parameter is NaN or infinite"));
+            }
+        }
+        if !self.world.color.is_finite() {
+            return Err("world colour is NaN or infinite".into());
+        }
+        if !self.camera.to_world.is_finite() {
+            return Err(format!(
+                "camera '{}': transform is NaN or infinite",
+                self.camera.name
+            ));
+        }
+        Ok(())
+    }
+}
