@@ -2,10 +2,18 @@
 //! unbiased path tracer as reference. See DESIGN.md for the data flow: load → plan → build
 //! acceleration → build caches → render tiles → write the image.
 
+pub mod accel;
 pub mod bsdf;
+pub mod camera;
 pub mod error;
+pub mod film;
+pub mod image_io;
+pub mod integrator;
+pub mod interaction;
+pub mod light;
 pub mod material;
 pub mod math;
+pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod scene;

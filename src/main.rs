@@ -1,1 +1,7 @@
-fn main() {}
+//! The `photon` binary: a thin shell around the library; see `cli`.
+
+mod cli;
+
+fn main() {
+    std::process::exit(cli::main());
+}

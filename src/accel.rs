@@ -1,0 +1,322 @@
+//! Ray–scene intersection: the only user of `obvhs`. One `Accel` holds a compressed wide BVH
+//! (CWBVH) over every triangle of the scene, with the triangles copied in BVH leaf order, and
+//! answers closest-hit and occlusion queries.
+//!
+//! Triangles are intersected with the watertight algorithm of Woop, Benthin and Wald (2013,
+//! "Watertight Ray/Triangle Intersection"), which never lets a ray slip between two triangles
+//! that share an edge and gives the barycentric coordinates directly.
+//!
+//! Masked and blended materials (glTF alphaMode) are decided during traversal: a triangle whose
+//! material needs an alpha test is accepted only where its texture's alpha says so.
+
+use crate::math::{Vec2, Vec3, Vec3A};
+use crate::rng::hash_combine;
+use crate::scene::{AlphaMode, Scene};
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray as BvhRay, RayHit};
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use std::time::Duration;
+
+/// A ray with its valid parameter interval.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: Vec3,
+    /// Not necessarily unit length; `t` is measured in units of `direction`.
+    pub direction: Vec3,
+    pub t_max: f32,
+}
+
+/// Which query a ray serves: camera rays skip geometry hidden from the camera.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Visibility {
+    Camera,
+    Secondary,
+}
+
+/// The closest intersection found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub mesh: u32,
+    pub triangle: u32,
+    /// Barycentric coordinates of vertices 1 and 2; vertex 0 has 1 − b1 − b2.
+    pub b1: f32,
+    pub b2: f32,
+}
+
+const FLAG_ALPHA_TEST: u8 = 1;
+const FLAG_CAMERA_HIDDEN: u8 = 2;
+
+/// The acceleration structure over all scene triangles.
+pub struct Accel {
+    bvh: Option<CwBvh>,
+    /// Triangle vertices in BVH primitive order.
+    vertices: Vec<[Vec3A; 3]>,
+    /// (mesh, triangle) for each BVH primitive slot.
+    ids: Vec<(u32, u32)>,
+    flags: Vec<u8>,
+}
+
+/// Per-ray constants of the watertight test: the axis permutation and the shear.
+struct ShearedRay {
+    origin: Vec3A,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl ShearedRay {
+    fn new(origin: Vec3, dir: Vec3) -> Self {
+        let a = dir.abs();
+        let kz = if a.x > a.y {
+            if a.x > a.z {
+                0
+            } else {
+                2
+            }
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        ShearedRay {
+            origin: origin.into(),
+            kx,
+            ky,
+            kz,
+            sx: dir[kx] / dir[kz],
+            sy: dir[ky] / dir[kz],
+            sz: 1.0 / dir[kz],
+        }
+    }
+
+    /// Returns (t, b1, b2) when the ray crosses the triangle with t in (t_min, t_max).
+    fn intersect(&self, v: &[Vec3A; 3], t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let a = v[0] - self.origin;
+        let b = v[1] - self.origin;
+        let c = v[2] - self.origin;
+        let ax = a[kx] - self.sx * a[kz];
+        let ay = a[ky] - self.sy * a[kz];
+        let bx = b[kx] - self.sx * b[kz];
+        let by = b[ky] - self.sy * b[kz];
+        let cx = c[kx] - self.sx * c[kz];
+        let cy = c[ky] - self.sy * c[kz];
+        let mut u = cx * by - cy * bx;
+        let mut vv = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        // On an edge in single precision: decide in double precision so neighbours agree.
+        if u == 0.0 || vv == 0.0 || w == 0.0 {
+            u = (cx as f64 * by as f64 - cy as f64 * bx as f64) as f32;
+            vv = (ax as f64 * cy as f64 - ay as f64 * cx as f64) as f32;
+            w = (bx as f64 * ay as f64 - by as f64 * ax as f64) as f32;
+        }
+        if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + vv + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let az = self.sz * a[kz];
+        let bz = self.sz * b[kz];
+        let cz = self.sz * c[kz];
+        let t_scaled = u * az + vv * bz + w * cz;
+        let inv_det = 1.0 / det;
+        let t = t_scaled * inv_det;
+        if !(t > t_min && t < t_max) {
+            return None;
+        }
+        Some((t, vv * inv_det, w * inv_det))
+    }
+}
+
+impl Accel {
+    /// Build the BVH over every triangle of `scene`.
+    pub fn new(scene: &Scene) -> Self {
+        let mut tris = Vec::with_capacity(scene.triangle_count());
+        let mut ids = Vec::with_capacity(scene.triangle_count());
+        let mut flags = Vec::with_capacity(scene.triangle_count());
+        for (mi, mesh) in scene.meshes.iter().enumerate() {
+            let material = &scene.materials[mesh.material as usize];
+            let mut flag = 0;
+            if material.alpha_mode != AlphaMode::Opaque
+                && (material.base_color.w < 1.0 || material.base_color_texture.is_some())
+            {
+                flag |= FLAG_ALPHA_TEST;
+            }
+            if !mesh.camera_visible {
+                flag |= FLAG_CAMERA_HIDDEN;
+            }
+            for (ti, idx) in mesh.indices.iter().enumerate() {
+                let p = |k: usize| Vec3A::from(mesh.positions[idx[k] as usize]);
+                tris.push(Triangle {
+                    v0: p(0),
+                    v1: p(1),
+                    v2: p(2),
+                });
+                ids.push((mi as u32, ti as u32));
+                flags.push(flag);
+            }
+        }
+        if tris.is_empty() {
+            return Accel {
+                bvh: None,
+                vertices: Vec::new(),
+                ids: Vec::new(),
+                flags: Vec::new(),
+            };
+        }
+        let mut build_time = Duration::ZERO;
+        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+            &tris,
+            BvhBuildParams::medium_build(),
+            &mut build_time,
+        );
+        let order = &bvh.primitive_indices;
+        let vertices = order
+            .iter()
+            .map(|&i| {
+                let t = &tris[i as usize];
+                [t.v0, t.v1, t.v2]
+            })
+            .collect();
+        let ids = order.iter().map(|&i| ids[i as usize]).collect();
+        let flags = order.iter().map(|&i| flags[i as usize]).collect();
+        Accel {
+            bvh: Some(bvh),
+            vertices,
+            ids,
+            flags,
+        }
+    }
+
+    /// Whether a ray may stop at this triangle at (b1, b2): visibility and alpha.
+    fn accepts(
+        &self,
+        scene: &Scene,
+        slot: usize,
+        b1: f32,
+        b2: f32,
+        ray: &Ray,
+        visibility: Visibility,
+    ) -> bool {
+        let flag = self.flags[slot];
+        if flag == 0 {
+            return true;
+        }
+        if flag & FLAG_CAMERA_HIDDEN != 0 && visibility == Visibility::Camera {
+            return false;
+        }
+        if flag & FLAG_ALPHA_TEST == 0 {
+            return true;
+        }
+        let (mi, ti) = self.ids[slot];
+        let mesh = &scene.meshes[mi as usize];
+        let material = &scene.materials[mesh.material as usize];
+        let mut alpha = material.base_color.w;
+        if let (Some(tex), false) = (&material.base_color_texture, mesh.uvs.is_empty()) {
+            let idx = mesh.indices[ti as usize];
+            let uv = mesh.uvs[idx[0] as usize] * (1.0 - b1 - b2)
+                + mesh.uvs[idx[1] as usize] * b1
+                + mesh.uvs[idx[2] as usize] * b2;
+            alpha *= scene.textures[tex.texture as usize].sample(tex.apply(uv)).w;
+        }
+        match material.alpha_mode {
+            AlphaMode::Opaque => true,
+            AlphaMode::Mask { cutoff } => alpha >= cutoff,
+            // Stochastic transparency with a hash of the ray and triangle, so the decision is
+            // deterministic and the same for a shadow ray and a closest-hit ray along the same line.
+            AlphaMode::Blend => {
+                let h = hash_combine(&[
+                    ray.origin.x.to_bits() as u64 | ((ray.origin.y.to_bits() as u64) << 32),
+                    ray.origin.z.to_bits() as u64 | ((ray.direction.x.to_bits() as u64) << 32),
+                    ray.direction.y.to_bits() as u64 | ((ray.direction.z.to_bits() as u64) << 32),
+                    self.ids[slot].0 as u64 | ((self.ids[slot].1 as u64) << 32),
+                ]);
+                ((h >> 40) as f32 * (1.0 / 16_777_216.0)) < alpha
+            }
+        }
+    }
+
+    fn bvh_ray(ray: &Ray) -> BvhRay {
+        BvhRay::new(ray.origin.into(), ray.direction.into(), 0.0, ray.t_max)
+    }
+
+    /// The closest surface along `ray` with 0 < t < `ray.t_max`.
+    pub fn intersect(&self, scene: &Scene, ray: &Ray, visibility: Visibility) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        let sheared = ShearedRay::new(ray.origin, ray.direction);
+        let mut best: Option<(usize, f32, f32)> = None;
+        let mut hit = RayHit::none();
+        bvh.ray_traverse(Self::bvh_ray(ray), &mut hit, |r, slot| {
+            match sheared.intersect(&self.vertices[slot], 0.0, r.tmax) {
+                Some((t, b1, b2)) if self.accepts(scene, slot, b1, b2, ray, visibility) => {
+                    best = Some((slot, b1, b2));
+                    t
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        let (slot, b1, b2) = best?;
+        let (mesh, triangle) = self.ids[slot];
+        Some(Hit {
+            t: hit.t,
+            mesh,
+            triangle,
+            b1,
+            b2,
+        })
+    }
+
+    /// True when nothing blocks `ray` on 0 < t < `ray.t_max`.
+    pub fn unoccluded(&self, scene: &Scene, ray: &Ray) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return true;
+        };
+        let sheared = ShearedRay::new(ray.origin, ray.direction);
+        bvh.ray_traverse_miss(Self::bvh_ray(ray), |r, slot| {
+            match sheared.intersect(&self.vertices[slot], 0.0, r.tmax) {
+                Some((t, b1, b2))
+                    if self.accepts(scene, slot, b1, b2, ray, Visibility::Secondary) =>
+                {
+                    t
+                }
+                _ => f32::INFINITY,
+            }
+        })
+    }
+
+    /// Number of triangles in the structure.
+    pub fn triangle_count(&self) -> usize {
+        self.ids.len()
+    }
+}
+
+/// Barycentric interpolation helper: value at (b1, b2) from the three vertex values.
+pub fn interpolate<T>(v: [T; 3], b1: f32, b2: f32) -> T
+where
+    T: std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    let [a, b, c] = v;
+    a * (1.0 - b1 - b2) + b * b1 + c * b2
+}
+
+/// UV at a hit, or zero when the mesh has none.
+pub fn hit_uv(scene: &Scene, hit: &Hit) -> Vec2 {
+    let mesh = &scene.meshes[hit.mesh as usize];
+    if mesh.uvs.is_empty() {
+        return Vec2::ZERO;
+    }
+    let idx = mesh.indices[hit.triangle as usize];
+    interpolate(idx.map(|i| mesh.uvs[i as usize]), hit.b1, hit.b2)
+}

@@ -1,0 +1,351 @@
+//! The command line: parses arguments (clap), runs the command, prints progress and errors, and
+//! chooses the exit code. The only place in Photon that prints to the terminal.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use photon::error::{Error, Result};
+use photon::image_io::{write_image, ExrLayout};
+use photon::render::{render, Progress, ProgressEvent, RenderSettings, RenderStats};
+use photon::scene::gltf::{load, LoadOptions};
+use photon::scene::{builtin, Projection, Scene};
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "photon",
+    version,
+    about = "Photon: photon maps, irradiance caching and path tracing for glTF and Blender scenes"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a glTF scene (or the embedded Cornell box) to EXR or PNG.
+    Render(RenderArgs),
+    /// Describe a scene: what it holds and how it would be rendered.
+    Info {
+        /// The .glb or .gltf file.
+        scene: PathBuf,
+        /// Camera to use (glTF node or camera name).
+        #[arg(long)]
+        camera: Option<String>,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ProgressMode {
+    /// A progress bar when stderr is a terminal, nothing otherwise.
+    Auto,
+    /// A progress bar.
+    Bar,
+    /// One JSON object per line on stderr (for the Blender add-on and scripts).
+    Json,
+    /// Only the final summary.
+    None,
+}
+
+#[derive(clap::Args, Debug)]
+struct RenderArgs {
+    /// The .glb or .gltf scene; without it the embedded Cornell box is rendered.
+    scene: Option<PathBuf>,
+    /// Output image: .exr (linear float RGBA) or .png (sRGB preview).
+    #[arg(short, long, default_value = "photon.png")]
+    output: PathBuf,
+    /// Image width in pixels (default: the scene's, else 640).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    width: Option<u32>,
+    /// Image height in pixels (default: the scene's, else from the camera's aspect ratio).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    height: Option<u32>,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    spp: u32,
+    /// Maximum number of bounces.
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    max_depth: u32,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Random seed; the same seed gives the same image.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Camera to render through (glTF node or camera name; default: the first camera).
+    #[arg(long)]
+    camera: Option<String>,
+    /// How progress is shown on stderr.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
+    progress: ProgressMode,
+    /// Name EXR channels for Blender's multilayer loader: <VIEW_LAYER>.Combined.R and so on.
+    #[arg(long, value_name = "VIEW_LAYER")]
+    exr_layer: Option<String>,
+}
+
+/// Run the command line and return the process exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            // clap uses 2 for usage errors and 0 for --help / --version.
+            return e.exit_code();
+        }
+    };
+    // No command at all renders the embedded scene with the defaults.
+    let command = cli
+        .command
+        .or_else(|| Cli::try_parse_from(["photon", "render"]).ok()?.command);
+    let result = match command {
+        None => Err(Error::Internal("cannot build the default command".into())),
+        Some(command) => match command {
+            Command::Render(args) => run_render(args),
+            Command::Info { scene, camera } => run_info(&scene, camera),
+        },
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("photon: error: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+fn load_scene(path: Option<&Path>, camera: Option<String>) -> Result<Scene> {
+    let options = LoadOptions { camera };
+    match path {
+        Some(p) => load(p, &options),
+        None => builtin::cornell_box(&options),
+    }
+}
+
+/// Image size: command line, then the scene's render settings, then the camera's aspect ratio.
+fn image_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
+    let aspect = scene
+        .camera
+        .aspect_ratio
+        .filter(|a| a.is_finite() && *a > 0.0);
+    let width = width.or(scene.render_settings.width);
+    let height = height.or(scene.render_settings.height);
+    let from_aspect = |w: u32| {
+        aspect
+            .map_or(w * 3 / 4, |a| (w as f32 / a).round() as u32)
+            .max(1)
+    };
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, from_aspect(w)),
+        (None, Some(h)) => (
+            aspect
+                .map_or(h * 4 / 3, |a| (h as f32 * a).round() as u32)
+                .max(1),
+            h,
+        ),
+        (None, None) => (640, from_aspect(640)),
+    }
+}
+
+/// Ctrl+C and SIGTERM set the flag; a second signal ends the process at once with 130.
+fn install_signal_handlers() -> Result<Arc<AtomicBool>> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register_conditional_shutdown(signal, 130, cancel.clone())
+            .and_then(|_| signal_hook::flag::register(signal, cancel.clone()))
+            .map_err(|e| Error::Internal(format!("cannot install signal handler: {e}")))?;
+    }
+    Ok(cancel)
+}
+
+fn peak_memory_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+fn json_line(value: serde_json::Value) {
+    let mut err = std::io::stderr().lock();
+    let _ = writeln!(err, "{value}");
+}
+
+fn run_render(args: RenderArgs) -> Result<()> {
+    let cancel = install_signal_handlers()?;
+    let mode = match args.progress {
+        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
+        ProgressMode::Auto => ProgressMode::None,
+        m => m,
+    };
+    if mode == ProgressMode::Json {
+        json_line(
+            serde_json::json!({"stage": "load", "fraction": 0.0, "message": "loading scene"}),
+        );
+    }
+    let scene = load_scene(args.scene.as_deref(), args.camera.clone())?;
+    for w in &scene.warnings {
+        if mode == ProgressMode::Json {
+            json_line(serde_json::json!({"stage": "load", "fraction": 1.0, "warning": w}));
+        } else {
+            eprintln!("photon: warning: {w}");
+        }
+    }
+    let (width, height) = image_size(&scene, args.width, args.height);
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: args.spp,
+        max_depth: args.max_depth,
+        seed: args.seed,
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start threads: {e}")))?;
+    let threads = pool.current_num_threads();
+
+    let bar = (mode == ProgressMode::Bar).then(|| {
+        let bar = indicatif::ProgressBar::new(1000);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} {prefix:>6} [{bar:40}] {percent:>3}% {elapsed_precise} ETA {eta} {msg}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        bar
+    });
+    let last_stage = Mutex::new(String::new());
+    let report = |event: &ProgressEvent| match mode {
+        ProgressMode::Json => json_line(serde_json::json!({
+            "stage": event.stage, "fraction": event.fraction, "message": event.message,
+        })),
+        ProgressMode::Bar => {
+            if let Some(bar) = &bar {
+                if let Ok(mut last) = last_stage.lock() {
+                    if *last != event.stage {
+                        *last = event.stage.to_string();
+                        bar.set_prefix(event.stage.to_string());
+                    }
+                }
+                bar.set_position((event.fraction * 1000.0) as u64);
+            }
+        }
+        _ => {}
+    };
+    let progress = Progress {
+        cancel: &cancel,
+        report: &report,
+    };
+    let result = pool.install(|| render(&scene, &settings, &progress));
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let (image, stats) = result?;
+    let layout = match &args.exr_layer {
+        Some(layer) => ExrLayout::Blender {
+            view_layer: layer.clone(),
+        },
+        None => ExrLayout::Rgba,
+    };
+    write_image(&args.output, &image, &layout, &cancel)?;
+    summarise(&args.output, &settings, &stats, threads, mode);
+    Ok(())
+}
+
+fn summarise(
+    output: &Path,
+    settings: &RenderSettings,
+    stats: &RenderStats,
+    threads: usize,
+    mode: ProgressMode,
+) {
+    let mrays = stats.rays as f64 / stats.render_seconds.max(1e-9) / 1e6;
+    let memory = peak_memory_mib().unwrap_or(0.0);
+    if mode == ProgressMode::Json {
+        json_line(serde_json::json!({
+            "stage": "done", "fraction": 1.0, "message": format!("wrote {}", output.display()),
+            "stats": {
+                "width": settings.width, "height": settings.height, "spp": settings.spp,
+                "threads": threads, "triangles": stats.triangles, "lights": stats.lights,
+                "build_seconds": stats.build_seconds, "render_seconds": stats.render_seconds,
+                "rays": stats.rays, "mrays_per_second": mrays,
+                "nonfinite_samples": stats.nonfinite_samples, "peak_memory_mib": memory,
+            }
+        }));
+    } else {
+        eprintln!(
+            "photon: wrote {} ({}x{}, {} spp) in {:.2} s on {} threads: {:.1} M rays/s, build {:.3} s, peak memory {:.0} MiB{}",
+            output.display(),
+            settings.width,
+            settings.height,
+            settings.spp,
+            stats.render_seconds,
+            threads,
+            mrays,
+            stats.build_seconds,
+            memory,
+            if stats.nonfinite_samples > 0 {
+                format!(", {} non-finite samples dropped", stats.nonfinite_samples)
+            } else {
+                String::new()
+            }
+        );
+    }
+}
+
+fn run_info(path: &Path, camera: Option<String>) -> Result<()> {
+    let scene = load_scene(Some(path), camera)?;
+    let bounds = scene.bounds();
+    let emissive = scene.materials.iter().filter(|m| m.is_emissive()).count();
+    let transmissive = scene
+        .materials
+        .iter()
+        .filter(|m| m.transmission > 0.0)
+        .count();
+    let metallic = scene.materials.iter().filter(|m| m.metallic > 0.0).count();
+    println!("scene: {}", path.display());
+    println!(
+        "meshes: {}, triangles: {}",
+        scene.meshes.len(),
+        scene.triangle_count()
+    );
+    println!(
+        "materials: {} ({} emissive, {} transmissive, {} metallic)",
+        scene.materials.len(),
+        emissive,
+        transmissive,
+        metallic
+    );
+    println!("textures: {}", scene.textures.len());
+    let count =
+        |pred: fn(&photon::scene::Light) -> bool| scene.lights.iter().filter(|l| pred(l)).count();
+    println!(
+        "lights: {} point, {} spot, {} sun; world colour {:?}",
+        count(|l| matches!(l, photon::scene::Light::Point { .. })),
+        count(|l| matches!(l, photon::scene::Light::Spot { .. })),
+        count(|l| matches!(l, photon::scene::Light::Sun { .. })),
+        scene.world.color.to_array()
+    );
+    if !bounds.is_empty() {
+        println!(
+            "bounds: {:?} to {:?} (diagonal {:.4})",
+            bounds.min.to_array(),
+            bounds.max.to_array(),
+            bounds.diagonal()
+        );
+    }
+    let projection = match scene.camera.projection {
+        Projection::Perspective { yfov } => {
+            format!("perspective, vertical fov {:.1} deg", yfov.to_degrees())
+        }
+        Projection::Orthographic { xmag, ymag } => format!("orthographic {xmag} x {ymag}"),
+    };
+    println!("camera: '{}', {projection}", scene.camera.name);
+    for w in &scene.warnings {
+        println!("warning: {w}");
+    }
+    Ok(())
+}

@@ -1,0 +1,170 @@
+//! The surface hit as shading sees it, and the one routine that spawns rays off a surface.
+//!
+//! Ray origins are offset out of the floating-point error box of the intersection point along the
+//! geometric normal, then rounded one ulp further away, following pbrt-v4 §6.8.6 ("Robust
+//! Spawned Ray Origins"). The point is reconstructed from barycentrics, whose error is bounded by
+//! γ₇·(|b0·p0| + |b1·p1| + |b2·p2|) (pbrt-v4 §6.8.5). There is no global epsilon: every offset
+//! scales with the coordinates involved, which the reintersection test checks from 1e-4 to 1e5.
+
+use crate::accel::{hit_uv, interpolate, Hit, Ray};
+use crate::math::{Frame, Vec2, Vec3};
+use crate::scene::Scene;
+
+/// γ_n = nε / (1 − nε) with ε = 2⁻²⁴, the bound on relative error after n rounded operations.
+pub const fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5 * n as f32;
+    e / (1.0 - e)
+}
+
+/// Everything shading needs about a surface point.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub p: Vec3,
+    /// Conservative absolute error bound of `p` per axis.
+    pub p_error: Vec3,
+    /// Unit geometric normal from the triangle's winding (p1 − p0) × (p2 − p0).
+    pub ng: Vec3,
+    /// Shading frame: interpolated (and normal-mapped) normal, on the same side as `ng`.
+    pub frame: Frame,
+    pub uv: Vec2,
+    pub mesh: u32,
+    pub triangle: u32,
+    pub material: u32,
+    /// Distance along the ray that found this hit (in units of the ray's direction).
+    pub t: f32,
+}
+
+impl SurfaceHit {
+    /// Reconstruct the hit of `ray` on the scene: position with its error bound, normals, UV, and
+    /// the shading frame (perturbed by the material's normal texture when the mesh has tangents).
+    pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfaceHit {
+        let mesh = &scene.meshes[hit.mesh as usize];
+        let idx = mesh.indices[hit.triangle as usize];
+        let p = idx.map(|i| mesh.positions[i as usize]);
+        let (b1, b2) = (hit.b1, hit.b2);
+        let b0 = 1.0 - b1 - b2;
+        let pos = interpolate(p, b1, b2);
+        let p_error = gamma(7) * ((b0 * p[0]).abs() + (b1 * p[1]).abs() + (b2 * p[2]).abs());
+        let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+        let len = cross.length();
+        let ng = if len > 0.0 && len.is_finite() {
+            cross / len
+        } else {
+            // Degenerate triangle: any normal facing the ray keeps shading finite.
+            -ray.direction.normalize_or(Vec3::Z)
+        };
+        let mut n = interpolate(idx.map(|i| mesh.normals[i as usize]), b1, b2).normalize_or(ng);
+        if n.dot(ng) < 0.0 {
+            // Shading normals are stored per vertex and can face away from the winding normal
+            // (flipped meshes); shading uses the side of the geometry.
+            n = -n;
+        }
+        let uv = hit_uv(scene, hit);
+        let material = &scene.materials[mesh.material as usize];
+        let frame = match (&material.normal_texture, mesh.tangents.is_empty()) {
+            (Some(tex), false) => {
+                let t4 = interpolate(idx.map(|i| mesh.tangents[i as usize]), b1, b2);
+                let base = Frame::from_normal_tangent(n, t4.truncate());
+                let bitangent_sign = if t4.w < 0.0 { -1.0 } else { 1.0 };
+                let texel = scene.textures[tex.texture as usize].sample(tex.apply(uv));
+                let local = Vec3::new(
+                    (2.0 * texel.x - 1.0) * material.normal_scale,
+                    (2.0 * texel.y - 1.0) * material.normal_scale * bitangent_sign,
+                    2.0 * texel.z - 1.0,
+                );
+                let mapped = base.to_world(local).normalize_or(n);
+                // Keep the mapped normal on the geometric side so the frame stays usable.
+                let mapped = if mapped.dot(ng) <= 1e-3 { n } else { mapped };
+                Frame::from_normal_tangent(mapped, t4.truncate())
+            }
+            _ => Frame::from_normal(n),
+        };
+        SurfaceHit {
+            p: pos,
+            p_error,
+            ng,
+            frame,
+            uv,
+            mesh: hit.mesh,
+            triangle: hit.triangle,
+            material: mesh.material,
+            t: hit.t,
+        }
+    }
+
+    /// A ray leaving this surface in direction `dir`.
+    pub fn spawn(&self, dir: Vec3) -> Ray {
+        Ray {
+            origin: offset_origin(self.p, self.p_error, self.ng, dir),
+            direction: dir,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    /// A shadow ray from this surface towards a point on a light (see `spawn_to`).
+    pub fn spawn_to(&self, target: &LightPoint) -> Ray {
+        spawn_to(self.p, self.p_error, self.ng, target)
+    }
+}
+
+/// Next representable float towards +∞.
+pub fn next_float_up(v: f32) -> f32 {
+    if v.is_infinite() && v > 0.0 {
+        return v;
+    }
+    let v = if v == -0.0 { 0.0 } else { v };
+    let bits = v.to_bits();
+    f32::from_bits(if v >= 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// Next representable float towards −∞.
+pub fn next_float_down(v: f32) -> f32 {
+    if v.is_infinite() && v < 0.0 {
+        return v;
+    }
+    let v = if v == 0.0 { -0.0 } else { v };
+    let bits = v.to_bits();
+    f32::from_bits(if v > 0.0 { bits - 1 } else { bits + 1 })
+}
+
+/// Move `p` out of its error box along the geometric normal, to the side `dir` leaves on.
+pub fn offset_origin(p: Vec3, p_error: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+    let d = ng.abs().dot(p_error);
+    let mut offset = ng * d;
+    if dir.dot(ng) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = next_float_up(po[i]);
+        } else if offset[i] < 0.0 {
+            po[i] = next_float_down(po[i]);
+        }
+    }
+    po
+}
+
+/// Fraction of the distance a shadow ray covers, so it stops short of the light's surface.
+pub const SHADOW_EPSILON: f32 = 1e-4;
+
+/// A point a shadow ray aims at: on a light's surface (with its error bound and normal) or a
+/// point light (zero error, zero normal).
+#[derive(Clone, Copy, Debug)]
+pub struct LightPoint {
+    pub p: Vec3,
+    pub p_error: Vec3,
+    pub n: Vec3,
+}
+
+/// A shadow ray between a surface point and `target`, both ends pushed out of their error boxes,
+/// with an unnormalised direction and t in (0, 1 − ε).
+pub fn spawn_to(p: Vec3, p_error: Vec3, ng: Vec3, target: &LightPoint) -> Ray {
+    let origin = offset_origin(p, p_error, ng, target.p - p);
+    let end = offset_origin(target.p, target.p_error, target.n, origin - target.p);
+    Ray {
+        origin,
+        direction: end - origin,
+        t_max: 1.0 - SHADOW_EPSILON,
+    }
+}

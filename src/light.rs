@@ -1,0 +1,437 @@
+//! Lights as the integrators see them: every emitter of the scene (emissive triangles, point,
+//! spot and sun lights, the world background) in one list, chosen in proportion to an estimate of
+//! its power, with `sample_light` (a direction towards a light, for next-event estimation) and the
+//! matching densities for multiple importance sampling (Veach 1997, ch. 9).
+//!
+//! Units follow Cycles (DESIGN.md): triangle and world radiance as given, point and spot
+//! intensity in W/sr, sun irradiance in W/m².
+
+use crate::interaction::{LightPoint, SurfaceHit};
+use crate::math::{luminance, Frame, Vec2, Vec3};
+use crate::sampling::{
+    square_to_triangle, square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf,
+    Distribution1D, UNIFORM_SPHERE_PDF,
+};
+use crate::scene::{Light, Scene};
+use std::f32::consts::PI;
+
+/// One emitter.
+#[derive(Clone, Debug)]
+pub enum LightSource {
+    /// A triangle of a mesh whose material emits; radiance comes from the material at the point.
+    Triangle {
+        mesh: u32,
+        triangle: u32,
+        area: f32,
+        two_sided: bool,
+    },
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+    /// A sun: `to_sun` points from the scene towards the sun; a cone of half-angle θ with
+    /// cos θ = `cos_max` (1 for a hard sun, which is then a delta light).
+    Sun {
+        to_sun: Vec3,
+        irradiance: Vec3,
+        cos_max: f32,
+    },
+    /// The constant world background.
+    World {
+        radiance: Vec3,
+    },
+}
+
+/// A sampled direction towards a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Radiance arriving along `wi` (for delta lights: intensity / d² or irradiance), before
+    /// dividing by `pdf`.
+    pub li: Vec3,
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Density per unit solid angle, including the probability of choosing this light; for delta
+    /// lights only that probability.
+    pub pdf: f32,
+    pub delta: bool,
+    /// Where the shadow ray must reach.
+    pub target: LightPoint,
+}
+
+/// All emitters of a scene and the distribution that picks one.
+pub struct Lights {
+    pub sources: Vec<LightSource>,
+    select: Distribution1D,
+    /// For each mesh, the index of its first triangle light (triangle lights are contiguous).
+    mesh_first_light: Vec<Option<u32>>,
+    world: Option<u32>,
+    suns: Vec<u32>,
+    scene_center: Vec3,
+    scene_radius: f32,
+}
+
+fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
+    if edge1 <= edge0 {
+        return if x >= edge0 { 1.0 } else { 0.0 };
+    }
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Emitted radiance of a surface towards `wo` (unit, pointing away from the surface).
+pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+    let material = &scene.materials[hit.material as usize];
+    if !material.is_emissive() {
+        return Vec3::ZERO;
+    }
+    if !material.double_sided && wo.dot(hit.ng) <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let mut le = material.emission;
+    if let Some(tex) = &material.emissive_texture {
+        le *= scene.textures[tex.texture as usize]
+            .sample(tex.apply(hit.uv))
+            .truncate();
+    }
+    le
+}
+
+impl Lights {
+    pub fn new(scene: &Scene) -> Self {
+        let bounds = scene.bounds();
+        let (scene_center, scene_radius) = if bounds.is_empty() {
+            (Vec3::ZERO, 1.0)
+        } else {
+            (bounds.center(), (0.5 * bounds.diagonal()).max(1e-6))
+        };
+        let mut sources = Vec::new();
+        let mut power = Vec::new();
+        let mut mesh_first_light = vec![None; scene.meshes.len()];
+        for (mi, mesh) in scene.meshes.iter().enumerate() {
+            let material = &scene.materials[mesh.material as usize];
+            if !material.is_emissive() {
+                continue;
+            }
+            mesh_first_light[mi] = Some(sources.len() as u32);
+            let sides = if material.double_sided { 2.0 } else { 1.0 };
+            for (ti, idx) in mesh.indices.iter().enumerate() {
+                let p = idx.map(|i| mesh.positions[i as usize]);
+                let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+                let area = if area.is_finite() { area } else { 0.0 };
+                sources.push(LightSource::Triangle {
+                    mesh: mi as u32,
+                    triangle: ti as u32,
+                    area,
+                    two_sided: material.double_sided,
+                });
+                power.push(PI * luminance(material.emission) * area * sides);
+            }
+        }
+        let mut suns = Vec::new();
+        for light in &scene.lights {
+            match *light {
+                Light::Point {
+                    position,
+                    intensity,
+                    ..
+                } => {
+                    sources.push(LightSource::Point {
+                        position,
+                        intensity,
+                    });
+                    power.push(4.0 * PI * luminance(intensity));
+                }
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                    ..
+                } => {
+                    sources.push(LightSource::Spot {
+                        position,
+                        direction: direction.normalize_or(-Vec3::Z),
+                        intensity,
+                        cos_inner,
+                        cos_outer,
+                    });
+                    power.push(4.0 * PI * luminance(intensity));
+                }
+                Light::Sun {
+                    direction,
+                    irradiance,
+                    angle,
+                } => {
+                    suns.push(sources.len() as u32);
+                    let half = (0.5 * angle).clamp(0.0, 0.5 * PI);
+                    sources.push(LightSource::Sun {
+                        to_sun: -direction.normalize_or(-Vec3::Z),
+                        irradiance,
+                        cos_max: if half > 0.0 { half.cos() } else { 1.0 },
+                    });
+                    power.push(luminance(irradiance) * PI * scene_radius * scene_radius);
+                }
+            }
+        }
+        let mut world = None;
+        if luminance(scene.world.color) > 0.0 {
+            world = Some(sources.len() as u32);
+            sources.push(LightSource::World {
+                radiance: scene.world.color,
+            });
+            power.push(PI * PI * luminance(scene.world.color) * scene_radius * scene_radius);
+        }
+        Lights {
+            sources,
+            select: Distribution1D::new(&power),
+            mesh_first_light,
+            world,
+            suns,
+            scene_center,
+            scene_radius,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.select.is_empty()
+    }
+
+    /// A point far enough along `dir` from `p` to be outside the scene: the end of shadow rays
+    /// towards distant lights.
+    fn far_point(&self, p: Vec3, dir: Vec3) -> LightPoint {
+        let reach = 2.0 * (self.scene_radius + (p - self.scene_center).length());
+        LightPoint {
+            p: p + dir * reach,
+            p_error: Vec3::ZERO,
+            n: Vec3::ZERO,
+        }
+    }
+
+    /// Pick a light with `u_select` and sample a direction towards it from `p`.
+    pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        let (index, pmf) = self.select.sample(u_select)?;
+        let mut s = self.sample_source(scene, &self.sources[index], p, u)?;
+        s.pdf *= pmf;
+        (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
+    }
+
+    fn sample_source(
+        &self,
+        scene: &Scene,
+        source: &LightSource,
+        p: Vec3,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        match *source {
+            LightSource::Triangle {
+                mesh,
+                triangle,
+                area,
+                two_sided,
+            } => {
+                if area <= 0.0 {
+                    return None;
+                }
+                let m = &scene.meshes[mesh as usize];
+                let idx = m.indices[triangle as usize];
+                let v = idx.map(|i| m.positions[i as usize]);
+                let b = square_to_triangle(u);
+                let b0 = 1.0 - b.x - b.y;
+                let q = v[0] * b0 + v[1] * b.x + v[2] * b.y;
+                let q_error = crate::interaction::gamma(6)
+                    * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
+                let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                let d = q - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) {
+                    return None;
+                }
+                let wi = d / dist2.sqrt();
+                let cos_l = -wi.dot(n);
+                if cos_l <= 0.0 && !two_sided {
+                    return None;
+                }
+                let cos_l = cos_l.abs();
+                if cos_l <= 0.0 {
+                    return None;
+                }
+                let uv = if m.uvs.is_empty() {
+                    Vec2::ZERO
+                } else {
+                    let t = idx.map(|i| m.uvs[i as usize]);
+                    t[0] * b0 + t[1] * b.x + t[2] * b.y
+                };
+                let material = &scene.materials[m.material as usize];
+                let mut li = material.emission;
+                if let Some(tex) = &material.emissive_texture {
+                    li *= scene.textures[tex.texture as usize]
+                        .sample(tex.apply(uv))
+                        .truncate();
+                }
+                Some(LightSample {
+                    li,
+                    wi,
+                    pdf: dist2 / (cos_l * area),
+                    delta: false,
+                    target: LightPoint {
+                        p: q,
+                        p_error: q_error,
+                        n,
+                    },
+                })
+            }
+            LightSource::Point {
+                position,
+                intensity,
+            } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) {
+                    return None;
+                }
+                Some(LightSample {
+                    li: intensity / dist2,
+                    wi: d / dist2.sqrt(),
+                    pdf: 1.0,
+                    delta: true,
+                    target: LightPoint {
+                        p: position,
+                        p_error: Vec3::ZERO,
+                        n: Vec3::ZERO,
+                    },
+                })
+            }
+            LightSource::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) {
+                    return None;
+                }
+                let wi = d / dist2.sqrt();
+                let falloff = smoothstep(cos_outer, cos_inner, (-wi).dot(direction));
+                if falloff <= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    li: intensity * falloff / dist2,
+                    wi,
+                    pdf: 1.0,
+                    delta: true,
+                    target: LightPoint {
+                        p: position,
+                        p_error: Vec3::ZERO,
+                        n: Vec3::ZERO,
+                    },
+                })
+            }
+            LightSource::Sun {
+                to_sun,
+                irradiance,
+                cos_max,
+            } => {
+                if cos_max >= 1.0 {
+                    return Some(LightSample {
+                        li: irradiance,
+                        wi: to_sun,
+                        pdf: 1.0,
+                        delta: true,
+                        target: self.far_point(p, to_sun),
+                    });
+                }
+                let wi = Frame::from_normal(to_sun).to_world(square_to_uniform_cone(u, cos_max));
+                Some(LightSample {
+                    li: sun_disk_radiance(irradiance, cos_max),
+                    wi,
+                    pdf: uniform_cone_pdf(cos_max),
+                    delta: false,
+                    target: self.far_point(p, wi),
+                })
+            }
+            LightSource::World { radiance } => {
+                let wi = square_to_uniform_sphere(u);
+                Some(LightSample {
+                    li: radiance,
+                    wi,
+                    pdf: UNIFORM_SPHERE_PDF,
+                    delta: false,
+                    target: self.far_point(p, wi),
+                })
+            }
+        }
+    }
+
+    /// Solid-angle density with which `sample` would have chosen the point `hit` on an emissive
+    /// triangle, seen from `p` (for MIS when a BSDF-sampled ray hits an emitter).
+    pub fn triangle_pdf(&self, p: Vec3, hit: &SurfaceHit) -> f32 {
+        let Some(first) = self
+            .mesh_first_light
+            .get(hit.mesh as usize)
+            .copied()
+            .flatten()
+        else {
+            return 0.0;
+        };
+        let index = (first + hit.triangle) as usize;
+        let LightSource::Triangle { area, .. } = self.sources[index] else {
+            return 0.0;
+        };
+        let d = hit.p - p;
+        let dist2 = d.length_squared();
+        let cos_l = (d.normalize_or_zero().dot(hit.ng)).abs();
+        if area <= 0.0 || cos_l <= 0.0 {
+            return 0.0;
+        }
+        self.select.pmf(index) * dist2 / (cos_l * area)
+    }
+
+    /// Radiance of distant emitters (world and soft suns) seen along `dir`, each paired with its
+    /// light-sampling density for MIS: returns (radiance, pdf) per emitter via `visit`.
+    pub fn escaped(&self, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
+        if let Some(w) = self.world {
+            if let LightSource::World { radiance } = self.sources[w as usize] {
+                visit(radiance, self.select.pmf(w as usize) * UNIFORM_SPHERE_PDF);
+            }
+        }
+        for &s in &self.suns {
+            if let LightSource::Sun {
+                to_sun,
+                irradiance,
+                cos_max,
+            } = self.sources[s as usize]
+            {
+                if cos_max < 1.0 && dir.dot(to_sun) >= cos_max {
+                    visit(
+                        sun_disk_radiance(irradiance, cos_max),
+                        self.select.pmf(s as usize) * uniform_cone_pdf(cos_max),
+                    );
+                }
+            }
+        }
+    }
+
+    /// Bounding sphere of the scene geometry (centre, radius).
+    pub fn scene_sphere(&self) -> (Vec3, f32) {
+        (self.scene_center, self.scene_radius)
+    }
+}
+
+/// Radiance of a uniform sun disk of angular radius acos(cos_max) that gives `irradiance` on a
+/// surface facing it: E = L · π sin²θ.
+fn sun_disk_radiance(irradiance: Vec3, cos_max: f32) -> Vec3 {
+    let sin2 = (1.0 - cos_max * cos_max).max(1e-12);
+    irradiance / (PI * sin2)
+}

@@ -1,0 +1,237 @@
+//! The render driver: prepares the scene (acceleration structure, lights), splits the image into
+//! tiles rendered in parallel with rayon, reports progress, honours cancellation and counts
+//! non-finite samples (which never reach the film).
+//!
+//! Determinism: each camera sample draws from its own random stream, seeded by (seed, pixel,
+//! sample index), and each sample lands in exactly one pixel (see `film`), so the image is
+//! bit-identical for any number of threads.
+
+use crate::accel::Accel;
+use crate::camera::CameraRays;
+use crate::error::{Error, Result};
+use crate::film::{Image, PixelFilter};
+use crate::integrator::{path, Context};
+use crate::light::Lights;
+use crate::math::{Vec2, Vec3};
+use crate::rng::Rng;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+/// What to render. The command line and the Blender add-on map onto this struct.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Camera samples per pixel.
+    pub spp: u32,
+    /// Maximum path length in bounces.
+    pub max_depth: u32,
+    pub seed: u64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 640,
+            height: 480,
+            spp: 64,
+            max_depth: 32,
+            seed: 0,
+        }
+    }
+}
+
+/// Counters reported at the end of a render.
+#[derive(Clone, Debug, Default)]
+pub struct RenderStats {
+    pub triangles: usize,
+    pub lights: usize,
+    pub build_seconds: f64,
+    pub render_seconds: f64,
+    pub camera_samples: u64,
+    pub rays: u64,
+    /// Samples dropped because their radiance was NaN or infinite.
+    pub nonfinite_samples: u64,
+}
+
+/// One progress report.
+#[derive(Clone, Debug)]
+pub struct ProgressEvent<'a> {
+    pub stage: &'a str,
+    /// Fraction of the stage done, in [0, 1].
+    pub fraction: f32,
+    pub message: String,
+}
+
+/// How the renderer talks back while it works: progress reports and the cancel flag.
+pub struct Progress<'a> {
+    pub cancel: &'a AtomicBool,
+    pub report: &'a (dyn Fn(&ProgressEvent) + Sync),
+}
+
+impl Progress<'_> {
+    fn check(&self) -> Result<()> {
+        if self.cancel.load(Ordering::Relaxed) {
+            Err(Error::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+const TILE: u32 = 16;
+
+/// Render `scene` with the path tracer.
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    progress: &Progress,
+) -> Result<(Image, RenderStats)> {
+    if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
+        return Err(Error::Settings(
+            "width, height and samples must be at least 1".into(),
+        ));
+    }
+    let mut stats = RenderStats {
+        triangles: scene.triangle_count(),
+        ..RenderStats::default()
+    };
+    (progress.report)(&ProgressEvent {
+        stage: "build",
+        fraction: 0.0,
+        message: format!("building BVH over {} triangles", stats.triangles),
+    });
+    let start = Instant::now();
+    let accel = Accel::new(scene);
+    let lights = Lights::new(scene);
+    stats.lights = lights.sources.len();
+    stats.build_seconds = start.elapsed().as_secs_f64();
+    progress.check()?;
+
+    let ctx = Context {
+        scene,
+        accel: &accel,
+        lights: &lights,
+        max_depth: settings.max_depth,
+    };
+    let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
+    let filter = PixelFilter::default();
+    let tiles_x = settings.width.div_ceil(TILE);
+    let tiles_y = settings.height.div_ceil(TILE);
+    let tile_count = (tiles_x * tiles_y) as u64;
+    let done = AtomicU64::new(0);
+    let rays = AtomicU64::new(0);
+    let nonfinite = AtomicU64::new(0);
+    let start = Instant::now();
+
+    let tiles: Vec<(u32, u32, TileResult)> = (0..tiles_x * tiles_y)
+        .into_par_iter()
+        .map(|t| {
+            let (tx, ty) = (t % tiles_x * TILE, t / tiles_x * TILE);
+            let tile = render_tile(
+                &ctx, &camera, &filter, settings, tx, ty, progress, &rays, &nonfinite,
+            )?;
+            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
+            (progress.report)(&ProgressEvent {
+                stage: "render",
+                fraction: finished as f32 / tile_count as f32,
+                message: format!("tile {finished}/{tile_count}"),
+            });
+            Ok((tx, ty, tile))
+        })
+        .collect::<Result<_>>()?;
+
+    let mut image = Image::new(settings.width, settings.height);
+    for (tx, ty, tile) in tiles {
+        for (i, px) in tile.pixels.into_iter().enumerate() {
+            let x = tx + i as u32 % tile.width;
+            let y = ty + i as u32 / tile.width;
+            let k = (y * settings.width + x) as usize;
+            image.rgba[k] = px.rgba;
+            image.albedo[k] = px.albedo;
+            image.normal[k] = px.normal;
+            image.depth[k] = px.depth;
+        }
+    }
+    stats.render_seconds = start.elapsed().as_secs_f64();
+    stats.camera_samples = settings.width as u64 * settings.height as u64 * settings.spp as u64;
+    stats.rays = rays.into_inner();
+    stats.nonfinite_samples = nonfinite.into_inner();
+    Ok((image, stats))
+}
+
+struct PixelResult {
+    rgba: [f32; 4],
+    albedo: Vec3,
+    normal: Vec3,
+    depth: f32,
+}
+
+struct TileResult {
+    width: u32,
+    pixels: Vec<PixelResult>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_tile(
+    ctx: &Context,
+    camera: &CameraRays,
+    filter: &PixelFilter,
+    settings: &RenderSettings,
+    x0: u32,
+    y0: u32,
+    progress: &Progress,
+    rays: &AtomicU64,
+    nonfinite: &AtomicU64,
+) -> Result<TileResult> {
+    let x1 = (x0 + TILE).min(settings.width);
+    let y1 = (y0 + TILE).min(settings.height);
+    let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+    let mut tile_rays = 0u64;
+    let mut tile_nonfinite = 0u64;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            progress.check()?;
+            let pixel_index = y as u64 * settings.width as u64 + x as u64;
+            let mut sum = Vec3::ZERO;
+            let mut coverage = 0.0f32;
+            let mut albedo = Vec3::ZERO;
+            let mut normal = Vec3::ZERO;
+            let mut depth = 0.0f32;
+            for s in 0..settings.spp {
+                let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
+                let offset = filter.sample(rng.uniform2());
+                let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
+                let sample = path::trace(ctx, camera.ray(film), &mut rng);
+                tile_rays += sample.rays as u64;
+                if sample.radiance.is_finite() {
+                    sum += sample.radiance;
+                } else {
+                    tile_nonfinite += 1;
+                }
+                if sample.hit {
+                    coverage += 1.0;
+                }
+                albedo += sample.albedo;
+                normal += sample.normal;
+                depth += sample.depth;
+            }
+            let n = settings.spp as f32;
+            let c = sum / n;
+            pixels.push(PixelResult {
+                rgba: [c.x, c.y, c.z, coverage / n],
+                albedo: albedo / n,
+                normal: normal.normalize_or_zero(),
+                depth: depth / n,
+            });
+        }
+    }
+    rays.fetch_add(tile_rays, Ordering::Relaxed);
+    nonfinite.fetch_add(tile_nonfinite, Ordering::Relaxed);
+    Ok(TileResult {
+        width: x1 - x0,
+        pixels,
+    })
+}

@@ -1,0 +1,153 @@
+//! Small scenes built in code for the renderer's tests: analytic configurations whose answer is
+//! known exactly. Included by tests with `#[path = "support/scenes.rs"] mod scenes;`.
+#![allow(dead_code)]
+
+use photon::math::{Affine3A, Vec3};
+use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
+
+/// A unit sphere tessellated by latitude/longitude, with normals pointing outward (or inward).
+pub fn sphere(
+    center: Vec3,
+    radius: f32,
+    rings: u32,
+    segments: u32,
+    inward: bool,
+    material: u32,
+) -> Mesh {
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for r in 0..=rings {
+        let theta = std::f32::consts::PI * r as f32 / rings as f32;
+        for s in 0..=segments {
+            let phi = std::f32::consts::TAU * s as f32 / segments as f32;
+            let n = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            positions.push(center + radius * n);
+            normals.push(if inward { -n } else { n });
+        }
+    }
+    let mut indices = Vec::new();
+    let row = segments + 1;
+    for r in 0..rings {
+        for s in 0..segments {
+            let a = r * row + s;
+            let b = a + row;
+            // Counter-clockwise seen from outside.
+            let (t1, t2) = ([a, a + 1, b], [a + 1, b + 1, b]);
+            if inward {
+                indices.push([t1[0], t1[2], t1[1]]);
+                indices.push([t2[0], t2[2], t2[1]]);
+            } else {
+                indices.push(t1);
+                indices.push(t2);
+            }
+        }
+    }
+    Mesh {
+        name: "sphere".into(),
+        positions,
+        normals,
+        uvs: Vec::new(),
+        tangents: Vec::new(),
+        indices,
+        material,
+        camera_visible: true,
+    }
+}
+
+/// A square of side `size` in the plane y = `height`, facing +Y.
+pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
+    let h = 0.5 * size;
+    Mesh {
+        name: "floor".into(),
+        positions: vec![
+            Vec3::new(-h, height, -h),
+            Vec3::new(-h, height, h),
+            Vec3::new(h, height, h),
+            Vec3::new(h, height, -h),
+        ],
+        normals: vec![Vec3::Y; 4],
+        uvs: Vec::new(),
+        tangents: Vec::new(),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material,
+        camera_visible: true,
+    }
+}
+
+/// A camera at `eye` looking at `target`, +Y up.
+pub fn camera_looking_at(eye: Vec3, target: Vec3, projection: Projection) -> Camera {
+    let up = if (target - eye).normalize().dot(Vec3::Y).abs() > 0.99 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
+    let forward = (target - eye).normalize();
+    let right = forward.cross(up).normalize();
+    let true_up = right.cross(forward);
+    Camera {
+        name: "camera".into(),
+        to_world: Affine3A::from_cols(right.into(), true_up.into(), (-forward).into(), eye.into()),
+        projection,
+        aspect_ratio: None,
+    }
+}
+
+pub fn scene(
+    meshes: Vec<Mesh>,
+    materials: Vec<Material>,
+    lights: Vec<Light>,
+    camera: Camera,
+    world: Vec3,
+) -> Scene {
+    Scene {
+        meshes,
+        materials,
+        textures: Vec::new(),
+        lights,
+        camera,
+        world: World { color: world },
+        render_settings: SceneRenderSettings::default(),
+        warnings: Vec::new(),
+    }
+}
+
+/// Inside a closed sphere whose surface has albedo ρ and emits Le, the radiance is Le / (1 − ρ)
+/// everywhere. Here ρ = 0.5 and Le = 0.5, so every pixel converges to 1.
+pub fn furnace() -> Scene {
+    let mut m = Material::diffuse("furnace", Vec3::splat(0.5));
+    m.emission = Vec3::splat(0.5);
+    scene(
+        vec![sphere(Vec3::ZERO, 1.0, 32, 64, true, 0)],
+        vec![m],
+        Vec::new(),
+        camera_looking_at(
+            Vec3::new(0.0, 0.0, 0.3),
+            Vec3::new(0.0, 0.0, -1.0),
+            Projection::Perspective { yfov: 1.2 },
+        ),
+        Vec3::ZERO,
+    )
+}
+
+/// A diffuse floor of albedo `albedo` lit only by `light`, seen from straight above by an
+/// orthographic camera covering the central 0.2 × 0.2 of a 20 × 20 floor.
+pub fn lit_floor(albedo: f32, light: Light) -> Scene {
+    scene(
+        vec![floor(20.0, 0.0, 0)],
+        vec![Material::diffuse("floor", Vec3::splat(albedo))],
+        vec![light],
+        camera_looking_at(
+            Vec3::new(0.0, 5.0, 0.0),
+            Vec3::ZERO,
+            Projection::Orthographic {
+                xmag: 0.1,
+                ymag: 0.1,
+            },
+        ),
+        Vec3::ZERO,
+    )
+}
