@@ -6,16 +6,20 @@
 //! "Watertight Ray/Triangle Intersection"), which never lets a ray slip between two triangles
 //! that share an edge and gives the barycentric coordinates directly.
 //!
+//! obvhs works in absolute units in two places (its node test ignores boxes left before t = 1e-4,
+//! and near-zero direction components are clamped), so the BVH lives in its own space: the scene
+//! centred on the origin and scaled to a diagonal of 1000. Triangle tests stay in world space.
+//!
 //! Masked and blended materials (glTF alphaMode) are decided during traversal: a triangle whose
 //! material needs an alpha test is accepted only where its texture's alpha says so.
 
 use crate::math::{Vec2, Vec3, Vec3A};
 use crate::rng::hash_combine;
 use crate::scene::{AlphaMode, Scene};
+use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray as BvhRay, RayHit};
-use obvhs::triangle::Triangle;
-use obvhs::BvhBuildParams;
+use obvhs::{Boundable, BvhBuildParams};
 use std::time::Duration;
 
 /// A ray with its valid parameter interval.
@@ -51,6 +55,9 @@ const FLAG_CAMERA_HIDDEN: u8 = 2;
 /// The acceleration structure over all scene triangles.
 pub struct Accel {
     bvh: Option<CwBvh>,
+    /// BVH space = (world − `center`) × `scale`.
+    center: Vec3,
+    scale: f32,
     /// Triangle vertices in BVH primitive order.
     vertices: Vec<[Vec3A; 3]>,
     /// (mesh, triangle) for each BVH primitive slot.
@@ -140,6 +147,31 @@ impl ShearedRay {
     }
 }
 
+/// Diagonal of the scene in BVH space.
+const BVH_SPACE_SIZE: f32 = 1000.0;
+
+/// A triangle's bounds in BVH space, padded to cover the rounding of the change of space (and so
+/// that no box is flat). The exact triangle test decides hits; padding costs a few box tests.
+struct BvhTriangle(Aabb);
+
+impl BvhTriangle {
+    fn new(v: &[Vec3A; 3], center: Vec3A, scale: f32) -> Self {
+        let world_max = v[0].abs().max(v[1].abs()).max(v[2].abs());
+        let t = v.map(|p| (p - center) * scale);
+        let min = t[0].min(t[1]).min(t[2]);
+        let max = t[0].max(t[1]).max(t[2]);
+        let magnitude = world_max * scale + min.abs().max(max.abs());
+        let pad = (magnitude * 1e-6).max(Vec3A::splat(1e-20));
+        BvhTriangle(Aabb::new(min - pad, max + pad))
+    }
+}
+
+impl Boundable for BvhTriangle {
+    fn aabb(&self) -> Aabb {
+        self.0
+    }
+}
+
 impl Accel {
     /// Build the BVH over every triangle of `scene`.
     pub fn new(scene: &Scene) -> Self {
@@ -159,41 +191,47 @@ impl Accel {
             }
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let p = |k: usize| Vec3A::from(mesh.positions[idx[k] as usize]);
-                tris.push(Triangle {
-                    v0: p(0),
-                    v1: p(1),
-                    v2: p(2),
-                });
+                tris.push([p(0), p(1), p(2)]);
                 ids.push((mi as u32, ti as u32));
                 flags.push(flag);
             }
         }
-        if tris.is_empty() {
+        let bounds = scene.bounds();
+        if tris.is_empty() || bounds.is_empty() {
             return Accel {
                 bvh: None,
+                center: Vec3::ZERO,
+                scale: 1.0,
                 vertices: Vec::new(),
                 ids: Vec::new(),
                 flags: Vec::new(),
             };
         }
         let mut build_time = Duration::ZERO;
-        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
-            &tris,
+        let center = bounds.center();
+        let diagonal = bounds.diagonal();
+        let scale = if diagonal > 0.0 && diagonal.is_finite() {
+            BVH_SPACE_SIZE / diagonal
+        } else {
+            1.0
+        };
+        let boxes: Vec<BvhTriangle> = tris
+            .iter()
+            .map(|v| BvhTriangle::new(v, center.into(), scale))
+            .collect();
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(
+            &boxes,
             BvhBuildParams::medium_build(),
             &mut build_time,
         );
         let order = &bvh.primitive_indices;
-        let vertices = order
-            .iter()
-            .map(|&i| {
-                let t = &tris[i as usize];
-                [t.v0, t.v1, t.v2]
-            })
-            .collect();
+        let vertices = order.iter().map(|&i| tris[i as usize]).collect();
         let ids = order.iter().map(|&i| ids[i as usize]).collect();
         let flags = order.iter().map(|&i| flags[i as usize]).collect();
         Accel {
             bvh: Some(bvh),
+            center,
+            scale,
             vertices,
             ids,
             flags,
@@ -248,29 +286,37 @@ impl Accel {
         }
     }
 
-    fn bvh_ray(ray: &Ray) -> BvhRay {
-        BvhRay::new(ray.origin.into(), ray.direction.into(), 0.0, ray.t_max)
+    /// The ray in BVH space. Its parameter is world t × `scale`.
+    fn bvh_ray(&self, ray: &Ray) -> BvhRay {
+        // obvhs takes a component's sign from a comparison but its reciprocal from `signum`, which
+        // disagree for −0.0: an axis-aligned ray such as −Y = (−0, −1, −0) then misses everything.
+        // Adding +0.0 turns −0.0 into +0.0 and leaves every other value unchanged.
+        let direction = ray.direction + Vec3::ZERO;
+        let origin = (ray.origin - self.center) * self.scale;
+        BvhRay::new(origin.into(), direction.into(), 0.0, ray.t_max * self.scale)
     }
 
     /// The closest surface along `ray` with 0 < t < `ray.t_max`.
     pub fn intersect(&self, scene: &Scene, ray: &Ray, visibility: Visibility) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         let sheared = ShearedRay::new(ray.origin, ray.direction);
-        let mut best: Option<(usize, f32, f32)> = None;
+        let mut best: Option<(usize, f32, f32, f32)> = None;
         let mut hit = RayHit::none();
-        bvh.ray_traverse(Self::bvh_ray(ray), &mut hit, |r, slot| {
-            match sheared.intersect(&self.vertices[slot], 0.0, r.tmax) {
+        let (scale, inv_scale) = (self.scale, 1.0 / self.scale);
+        bvh.ray_traverse(self.bvh_ray(ray), &mut hit, |r, slot| {
+            let t_max = best.map_or(ray.t_max, |b| b.1).min(r.tmax * inv_scale);
+            match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
                 Some((t, b1, b2)) if self.accepts(scene, slot, b1, b2, ray, visibility) => {
-                    best = Some((slot, b1, b2));
-                    t
+                    best = Some((slot, t, b1, b2));
+                    t * scale
                 }
                 _ => f32::INFINITY,
             }
         });
-        let (slot, b1, b2) = best?;
+        let (slot, t, b1, b2) = best?;
         let (mesh, triangle) = self.ids[slot];
         Some(Hit {
-            t: hit.t,
+            t,
             mesh,
             triangle,
             b1,
@@ -284,12 +330,13 @@ impl Accel {
             return true;
         };
         let sheared = ShearedRay::new(ray.origin, ray.direction);
-        bvh.ray_traverse_miss(Self::bvh_ray(ray), |r, slot| {
-            match sheared.intersect(&self.vertices[slot], 0.0, r.tmax) {
+        let scale = self.scale;
+        bvh.ray_traverse_miss(self.bvh_ray(ray), |_, slot| {
+            match sheared.intersect(&self.vertices[slot], 0.0, ray.t_max) {
                 Some((t, b1, b2))
                     if self.accepts(scene, slot, b1, b2, ray, Visibility::Secondary) =>
                 {
-                    t
+                    t * scale
                 }
                 _ => f32::INFINITY,
             }

@@ -217,3 +217,56 @@ fn zero_size_image_is_a_settings_error() {
     );
     assert!(matches!(result, Err(Error::Settings(_))));
 }
+
+/// Scale the whole scene by `s` and move it by `offset` (camera included).
+fn transformed(mut scene: Scene, s: f32, offset: Vec3) -> Scene {
+    for m in &mut scene.meshes {
+        for p in &mut m.positions {
+            *p = *p * s + offset;
+        }
+    }
+    let t = &mut scene.camera.to_world;
+    t.translation = (Vec3::from(t.translation) * s + offset).into();
+    if let Projection::Orthographic { xmag, ymag } = scene.camera.projection {
+        scene.camera.projection = Projection::Orthographic {
+            xmag: xmag * s,
+            ymag: ymag * s,
+        };
+    }
+    scene
+}
+
+#[test]
+fn images_do_not_change_with_scene_scale_or_position() {
+    // A sphere on a floor under a sky: contact shadows and interreflection close to surfaces are
+    // where fixed epsilons go wrong.
+    let base = scenes::scene(
+        vec![
+            scenes::sphere(Vec3::new(0.0, 1.0, 0.0), 1.0, 24, 48, false, 0),
+            scenes::floor(6.0, 0.0, 0),
+        ],
+        vec![Material::diffuse("white", Vec3::splat(0.7))],
+        Vec::new(),
+        scenes::camera_looking_at(
+            Vec3::new(0.0, 2.0, 5.0),
+            Vec3::new(0.0, 0.7, 0.0),
+            Projection::Perspective { yfov: 0.9 },
+        ),
+        Vec3::splat(1.0),
+    );
+    let reference = render_with(&base, &settings(24, 32)).mean_rgb().x;
+    for (s, offset) in [
+        (1e-4, Vec3::ZERO),
+        (1e4, Vec3::ZERO),
+        (1.0, Vec3::new(1e5, -1e5, 1e5)),
+    ] {
+        let mean = render_with(&transformed(base.clone(), s, offset), &settings(24, 32))
+            .mean_rgb()
+            .x;
+        // Different floating-point rounding changes the samples, so compare within noise (~1 %).
+        assert!(
+            (mean - reference).abs() < 0.03 * reference,
+            "scale {s}, offset {offset:?}: {mean} vs {reference}"
+        );
+    }
+}
