@@ -286,14 +286,24 @@ impl Accel {
         }
     }
 
-    /// The ray in BVH space. Its parameter is world t × `scale`.
-    fn bvh_ray(&self, ray: &Ray) -> BvhRay {
+    /// The ray in BVH space with a unit direction, and the factor k with t_bvh = k · t_world.
+    /// obvhs culls boxes before t = 1e-4 in its own units, so its rays must have unit length in a
+    /// space of known size: otherwise a shadow ray with a long direction skips nearby occluders.
+    fn bvh_ray(&self, ray: &Ray) -> Option<(BvhRay, f32)> {
+        let length = ray.direction.length();
+        if !(length > 0.0 && length.is_finite()) || !ray.origin.is_finite() {
+            return None;
+        }
         // obvhs takes a component's sign from a comparison but its reciprocal from `signum`, which
         // disagree for −0.0: an axis-aligned ray such as −Y = (−0, −1, −0) then misses everything.
         // Adding +0.0 turns −0.0 into +0.0 and leaves every other value unchanged.
-        let direction = ray.direction + Vec3::ZERO;
+        let direction = ray.direction / length + Vec3::ZERO;
         let origin = (ray.origin - self.center) * self.scale;
-        BvhRay::new(origin.into(), direction.into(), 0.0, ray.t_max * self.scale)
+        let k = length * self.scale;
+        Some((
+            BvhRay::new(origin.into(), direction.into(), 0.0, ray.t_max * k),
+            k,
+        ))
     }
 
     /// The closest surface along `ray` with 0 < t < `ray.t_max`.
@@ -302,13 +312,13 @@ impl Accel {
         let sheared = ShearedRay::new(ray.origin, ray.direction);
         let mut best: Option<(usize, f32, f32, f32)> = None;
         let mut hit = RayHit::none();
-        let (scale, inv_scale) = (self.scale, 1.0 / self.scale);
-        bvh.ray_traverse(self.bvh_ray(ray), &mut hit, |r, slot| {
-            let t_max = best.map_or(ray.t_max, |b| b.1).min(r.tmax * inv_scale);
+        let (bvh_ray, k) = self.bvh_ray(ray)?;
+        bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
+            let t_max = best.map_or(ray.t_max, |b| b.1).min(r.tmax / k);
             match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
                 Some((t, b1, b2)) if self.accepts(scene, slot, b1, b2, ray, visibility) => {
                     best = Some((slot, t, b1, b2));
-                    t * scale
+                    t * k
                 }
                 _ => f32::INFINITY,
             }
@@ -330,13 +340,15 @@ impl Accel {
             return true;
         };
         let sheared = ShearedRay::new(ray.origin, ray.direction);
-        let scale = self.scale;
-        bvh.ray_traverse_miss(self.bvh_ray(ray), |_, slot| {
+        let Some((bvh_ray, k)) = self.bvh_ray(ray) else {
+            return true;
+        };
+        bvh.ray_traverse_miss(bvh_ray, |_, slot| {
             match sheared.intersect(&self.vertices[slot], 0.0, ray.t_max) {
                 Some((t, b1, b2))
                     if self.accepts(scene, slot, b1, b2, ray, Visibility::Secondary) =>
                 {
-                    t * scale
+                    t * k
                 }
                 _ => f32::INFINITY,
             }

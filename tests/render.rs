@@ -263,7 +263,8 @@ fn images_do_not_change_with_scene_scale_or_position() {
         let mean = render_with(&transformed(base.clone(), s, offset), &settings(24, 32))
             .mean_rgb()
             .x;
-        // Different floating-point rounding changes the samples, so compare within noise (~1 %).
+        // Rounding differs with scale, so paths diverge a little; a light leak or lost contact
+        // shadow (fixed epsilons, or the BVH culling near hits) showed up as 1.5 %.
         assert!(
             (mean - reference).abs() < 0.03 * reference,
             "scale {s}, offset {offset:?}: {mean} vs {reference}"
