@@ -1,0 +1,172 @@
+//! The `photon` binary as users and the Blender add-on run it: exit codes, clear errors, output
+//! written atomically, and cancellation by signal leaving nothing behind.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn photon() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_photon"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("photon-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn renders_the_embedded_scene_to_exr_and_png() {
+    let dir = temp_dir("embedded");
+    for name in ["out.exr", "out.png"] {
+        let out = dir.join(name);
+        let result = photon()
+            .args(["render", "-o"])
+            .arg(&out)
+            .args(["--width", "32", "--height", "24", "--spp", "2"])
+            .output()
+            .unwrap();
+        assert!(
+            result.status.success(),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        assert!(String::from_utf8_lossy(&result.stderr).contains("wrote"));
+    }
+    let (w, h, pixels) = photon::image_io::read_exr_rgba(&dir.join("out.exr")).unwrap();
+    assert_eq!((w, h), (32, 24));
+    let mean: f32 = pixels.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / pixels.len() as f32;
+    assert!(
+        mean > 0.01 && mean.is_finite(),
+        "Cornell box rendered black: {mean}"
+    );
+    assert_eq!(files_in(&dir), ["out.exr", "out.png"]);
+}
+
+#[test]
+fn json_progress_is_one_object_per_line() {
+    let dir = temp_dir("json");
+    let result = photon()
+        .args([
+            "render",
+            "--progress",
+            "json",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "1",
+            "-o",
+        ])
+        .arg(dir.join("x.exr"))
+        .output()
+        .unwrap();
+    assert!(result.status.success());
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    let lines: Vec<serde_json::Value> = stderr
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+        .collect();
+    assert!(lines.iter().any(|v| v["stage"] == "render"));
+    let last = lines.last().unwrap();
+    assert_eq!(last["stage"], "done");
+    assert!(last["stats"]["rays"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn bad_arguments_and_missing_files_exit_with_2() {
+    let dir = temp_dir("bad");
+    let cases: Vec<Vec<String>> = vec![
+        vec!["render".into(), "--width".into(), "0".into()],
+        vec!["render".into(), "--spp".into(), "many".into()],
+        vec!["render".into(), "--no-such-flag".into()],
+        vec![
+            "render".into(),
+            dir.join("missing.glb").to_string_lossy().into(),
+            "-o".into(),
+            dir.join("o.exr").to_string_lossy().into(),
+        ],
+        vec![
+            "render".into(),
+            "--width".into(),
+            "8".into(),
+            "--height".into(),
+            "8".into(),
+            "--spp".into(),
+            "1".into(),
+            "-o".into(),
+            dir.join("o.tiff").to_string_lossy().into(),
+        ],
+        vec![
+            "info".into(),
+            dir.join("missing.gltf").to_string_lossy().into(),
+        ],
+    ];
+    for args in cases {
+        let result = photon().args(&args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(!stderr.trim().is_empty(), "{args:?}: no message");
+    }
+    assert!(files_in(&dir).is_empty(), "{:?}", files_in(&dir));
+}
+
+#[test]
+fn sigterm_stops_quickly_with_130_and_keeps_the_old_output() {
+    let dir = temp_dir("sigterm");
+    let out = dir.join("render.exr");
+    std::fs::write(&out, b"previous image").unwrap();
+    let mut child = photon()
+        .args([
+            "render",
+            "--progress",
+            "json",
+            "--width",
+            "400",
+            "--height",
+            "400",
+            "--spp",
+            "100000",
+            "-o",
+        ])
+        .arg(&out)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until rendering has started.
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    loop {
+        line.clear();
+        let n = std::io::BufRead::read_line(&mut stderr, &mut line).unwrap();
+        assert!(n > 0, "photon exited before rendering");
+        if line.contains("\"build\"") {
+            break;
+        }
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let sent = Instant::now();
+    let status = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let status = child.wait().unwrap();
+    let elapsed = sent.elapsed();
+    assert_eq!(status.code(), Some(130));
+    assert!(elapsed < Duration::from_secs(1), "took {elapsed:?} to stop");
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous image");
+    assert_eq!(files_in(&dir), ["render.exr"]);
+}
