@@ -291,7 +291,7 @@ impl Accel {
     /// space of known size: otherwise a shadow ray with a long direction skips nearby occluders.
     fn bvh_ray(&self, ray: &Ray) -> Option<(BvhRay, f32)> {
         let length = ray.direction.length();
-        if !(length > 0.0 && length.is_finite()) || !ray.origin.is_finite() {
+        if !(length > 0.0 && length.is_finite() && ray.origin.is_finite()) {
             return None;
         }
         // obvhs takes a component's sign from a comparison but its reciprocal from `signum`, which

@@ -27,6 +27,16 @@ pub struct Cli {
 enum Command {
     /// Render a glTF scene (or the embedded Cornell box) to EXR or PNG.
     Render(RenderArgs),
+    /// Compare an image with a reference: relMSE, RMSE, difference of means.
+    Compare {
+        /// The image to judge (EXR).
+        image: PathBuf,
+        /// The reference (EXR).
+        reference: PathBuf,
+        /// Also write a false-colour map of the per-pixel relative error (.exr or .png).
+        #[arg(long)]
+        error_image: Option<PathBuf>,
+    },
     /// Describe a scene: what it holds and how it would be rendered.
     Info {
         /// The .glb or .gltf file.
@@ -104,6 +114,11 @@ pub fn main() -> i32 {
         Some(command) => match command {
             Command::Render(args) => run_render(args),
             Command::Info { scene, camera } => run_info(&scene, camera),
+            Command::Compare {
+                image,
+                reference,
+                error_image,
+            } => run_compare(&image, &reference, error_image.as_deref()),
         },
     };
     match result {
@@ -346,6 +361,33 @@ fn run_info(path: &Path, camera: Option<String>) -> Result<()> {
     println!("camera: '{}', {projection}", scene.camera.name);
     for w in &scene.warnings {
         println!("warning: {w}");
+    }
+    Ok(())
+}
+
+fn run_compare(image: &Path, reference: &Path, error_image: Option<&Path>) -> Result<()> {
+    let (w, h, pixels) = photon::image_io::read_exr_rgba(image)?;
+    let (rw, rh, ref_pixels) = photon::image_io::read_exr_rgba(reference)?;
+    if (w, h) != (rw, rh) {
+        return Err(Error::Settings(format!(
+            "{} is {w}x{h} but {} is {rw}x{rh}",
+            image.display(),
+            reference.display()
+        )));
+    }
+    let e = photon::metrics::compare(&pixels, &ref_pixels);
+    println!("relMSE {:.6}", e.rel_mse);
+    println!("RMSE {:.6}", e.rmse);
+    println!(
+        "mean {:.6} vs reference {:.6} ({:+.2} %)",
+        e.mean_image,
+        e.mean_reference,
+        100.0 * e.mean_relative_difference
+    );
+    if let Some(path) = error_image {
+        let mut out = photon::film::Image::new(w, h);
+        out.rgba = photon::metrics::false_colour_error(&pixels, &ref_pixels);
+        write_image(path, &out, &ExrLayout::Rgba, &AtomicBool::new(false))?;
     }
     Ok(())
 }

@@ -2,6 +2,9 @@
 //! unbiased path tracer as reference. See DESIGN.md for the data flow: load → plan → build
 //! acceleration → build caches → render tiles → write the image.
 
+// `!(x > 0.0)` is the idiom for "not positive, or NaN": rejecting NaN is the point there.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
@@ -13,6 +16,7 @@ pub mod interaction;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod metrics;
 pub mod render;
 pub mod rng;
 pub mod sampling;
