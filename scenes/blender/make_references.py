@@ -32,11 +32,14 @@ SCENES = {
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("scenes", nargs="*", choices=[[]] + list(SCENES), default=[])
+    ap.add_argument("scenes", nargs="*", metavar="SCENE", help="any of: " + ", ".join(SCENES))
     ap.add_argument("--quick", action="store_true",
                     help="1/16 of the samples and output to /tmp/photon_refs (a smoke test)")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
+    unknown = [s for s in args.scenes if s not in SCENES]
+    if unknown:
+        ap.error(f"unknown scene(s) {unknown}; choose from {list(SCENES)}")
     out = args.out or (Path("/tmp/photon_refs") if args.quick else HERE)
     t0 = time.perf_counter()
     for name in args.scenes or list(SCENES):
