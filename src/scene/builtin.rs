@@ -1,5 +1,6 @@
 //! The embedded default scene: the Cornell box from `scenes/cornell_box.glb`, compiled into the
-//! binary so `photon` with no arguments renders something.
+//! binary so `photon` with no arguments renders something. It goes through the same glTF loader
+//! as any file, so it is a live test of the loader too.
 
 use super::gltf::{load_slice, LoadOptions};
 use super::Scene;
@@ -10,4 +11,17 @@ pub fn cornell_box(options: &LoadOptions) -> Result<Scene> {
     load_slice(DEFAULT_SCENE, "<embedded Cornell box>", options)
 }
 
-const DEFAULT_SCENE: &[u8] = &[];
+const DEFAULT_SCENE: &[u8] = include_bytes!("../../scenes/cornell_box.glb");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_cornell_box_loads() {
+        let scene = cornell_box(&LoadOptions::default()).unwrap();
+        assert_eq!(scene.triangle_count(), 36);
+        assert!(scene.materials.iter().any(|m| m.is_emissive()));
+        assert_eq!(scene.render_settings.width, Some(256));
+    }
+}
