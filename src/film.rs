@@ -1,7 +1,9 @@
 //! The image being rendered: per-pixel sums of filtered samples, and the pixel filter.
 //!
-//! Like Cycles, Photon importance-samples its pixel filter (a Blackman–Harris window 1.5 pixels
-//! wide, sampled separably in x and y by an inverse-CDF table) instead of splatting: every sample
+//! Like Cycles, Photon importance-samples its pixel filter (Blackman–Harris, sampled separably in
+//! x and y by an inverse-CDF table) instead of splatting. Blender's "1.5 px" filter width is, in
+//! Cycles, a window twice that wide: Cycles doubles the width for Blackman–Harris before building
+//! its table (intern/cycles/scene/film.cpp), so samples spread over ±1.5 px. Every sample
 //! belongs to exactly one pixel with weight 1, so pixels are independent, tiles render in parallel
 //! and images are bit-identical for any number of threads.
 
@@ -14,7 +16,7 @@ pub struct PixelFilter {
 }
 
 impl PixelFilter {
-    /// Cycles' default filter width in pixels.
+    /// Blender's default filter width in pixels (Render Properties → Film → Pixel Filter).
     pub const DEFAULT_WIDTH: f32 = 1.5;
 
     /// The 4-term Blackman–Harris window over [−width/2, width/2].
@@ -23,7 +25,10 @@ impl PixelFilter {
         0.35875 - 0.48829 * a.cos() + 0.14128 * (2.0 * a).cos() - 0.01168 * (3.0 * a).cos()
     }
 
-    pub fn new(width: f32) -> Self {
+    /// The filter Blender calls `blender_width` pixels wide: a Blackman–Harris window over
+    /// [−width, width] (see the module documentation).
+    pub fn new(blender_width: f32) -> Self {
+        let width = 2.0 * blender_width;
         const STEPS: usize = 1024;
         const TABLE: usize = 256;
         // Cumulative integral of the window on a fine grid.
@@ -112,25 +117,24 @@ mod tests {
 
     #[test]
     fn filter_samples_follow_the_window() {
+        // Blender's 1.5 px filter is a Blackman–Harris window over [−1.5, 1.5] px.
         let f = PixelFilter::default();
-        // Histogram of samples against the normalised window.
-        let bins = 30;
+        let (half, bins, n) = (1.5f32, 30, 300_000);
+        let window = |x: f32| PixelFilter::blackman_harris(2.0 * half, x);
         let mut hist = vec![0usize; bins];
-        let n = 300_000;
         for i in 0..n {
             let x = f.lookup((i as f32 + 0.5) / n as f32);
-            assert!(x.abs() <= 0.75 + 1e-6);
-            hist[(((x + 0.75) / 1.5 * bins as f32) as usize).min(bins - 1)] += 1;
+            assert!(x.abs() <= half + 1e-6);
+            hist[(((x + half) / (2.0 * half) * bins as f32) as usize).min(bins - 1)] += 1;
         }
-        let norm: f32 = (0..1000)
-            .map(|i| {
-                PixelFilter::blackman_harris(1.5, -0.75 + 1.5 * (i as f32 + 0.5) / 1000.0) * 1.5
-                    / 1000.0
-            })
+        let steps = 1000;
+        let dx = 2.0 * half / steps as f32;
+        let norm: f32 = (0..steps)
+            .map(|i| window(-half + (i as f32 + 0.5) * dx) * dx)
             .sum();
         for (b, &count) in hist.iter().enumerate() {
-            let x = -0.75 + 1.5 * (b as f32 + 0.5) / bins as f32;
-            let expected = PixelFilter::blackman_harris(1.5, x) / norm * 1.5 / bins as f32;
+            let width = 2.0 * half / bins as f32;
+            let expected = window(-half + (b as f32 + 0.5) * width) / norm * width;
             assert!(
                 (count as f32 / n as f32 - expected).abs() < 0.002,
                 "bin {b}"
