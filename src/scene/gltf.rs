@@ -25,6 +25,15 @@
 //!     is `color × power / (π × area)` with the area of the polygon actually built (Blender's
 //!     "normalize"). Defaults: SQUARE, size 1, power 10 W, white, `visible_camera` false.
 //!
+//! # Limits and conventions
+//!
+//! Files that would exhaust memory are refused before allocating: accessors must fit in their
+//! buffer views, and a scene may hold at most `MAX_TRIANGLES` (200 M) triangles, `MAX_VERTICES`
+//! (400 M) vertices and `MAX_NODE_INSTANCES` (1 M) node instances after flattening. Only the
+//! default scene (or the first) is loaded; UV set 0 only. Under a mirroring transform the
+//! triangle winding is flipped and the tangent's w (bitangent sign) is negated, so both the
+//! geometric normal and the tangent frame keep their meaning.
+//!
 //! # Units
 //!
 //! Punctual lights are photometric as Blender's exporter writes them in "Standard" mode:
