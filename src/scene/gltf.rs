@@ -25,6 +25,15 @@
 //!     is `color × power / (π × area)` with the area of the polygon actually built (Blender's
 //!     "normalize"). Defaults: SQUARE, size 1, power 10 W, white, `visible_camera` false.
 //!
+//! # Limits and conventions
+//!
+//! Files that would exhaust memory are refused before allocating: accessors must fit in their
+//! buffer views, and a scene may hold at most `MAX_TRIANGLES` (200 M) triangles, `MAX_VERTICES`
+//! (400 M) vertices and `MAX_NODE_INSTANCES` (1 M) node instances after flattening. Only the
+//! default scene (or the first) is loaded; UV set 0 only. Under a mirroring transform the
+//! triangle winding is flipped and the tangent's w (bitangent sign) is negated, so both the
+//! geometric normal and the tangent frame keep their meaning.
+//!
 //! # Units
 //!
 //! Punctual lights are photometric as Blender's exporter writes them in "Standard" mode:
@@ -40,6 +49,7 @@ use crate::error::{Error, Result};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use crate::scene::units;
 use gltf::accessor::DataType;
+use gltf::mesh::Mode;
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -57,6 +67,13 @@ pub const MAX_TRIANGLES: usize = 200_000_000;
 
 /// An accessor without a buffer view is all zeros; refuse absurd counts for those.
 const MAX_VIEWLESS_ELEMENTS: usize = 1 << 24;
+
+/// Node instances (nodes reached through the hierarchy, counting each path to a shared node)
+/// beyond this are refused: a small file can otherwise describe billions of instances.
+pub const MAX_NODE_INSTANCES: usize = 1_000_000;
+
+/// Vertices (after instancing) beyond this are refused.
+pub const MAX_VERTICES: usize = 400_000_000;
 
 /// Node hierarchies deeper than this are treated as broken.
 const MAX_NODE_DEPTH: usize = 1000;
@@ -104,6 +121,8 @@ struct Loader {
     texture_slots: HashMap<(usize, bool), u32>,
     scene: Scene,
     triangle_total: usize,
+    vertex_total: usize,
+    node_instances: usize,
 }
 
 #[derive(Clone)]
@@ -153,6 +172,7 @@ impl Loader {
                 ),
             ));
         }
+        check_attribute_indices(&root).map_err(|(object, m)| Error::scene(path, object, m))?;
         // Everything left is supported here, even the extensions the gltf crate's validation does
         // not list as "enabled" (volume, specular); required-ness has been checked.
         root.extensions_required.clear();
@@ -203,6 +223,8 @@ impl Loader {
                 warnings: Vec::new(),
             },
             triangle_total: 0,
+            vertex_total: 0,
+            node_instances: 0,
         };
         loader.load_buffers(blob)?;
         Ok(loader)
@@ -317,6 +339,13 @@ impl Loader {
                 format!("node hierarchy deeper than {MAX_NODE_DEPTH}"),
             ));
         }
+        self.node_instances += 1;
+        if self.node_instances > MAX_NODE_INSTANCES {
+            return Err(self.err(
+                object,
+                format!("the hierarchy instances more than {MAX_NODE_INSTANCES} nodes"),
+            ));
+        }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         if !world.is_finite() {
             return Err(self.err(object, "transform is NaN or infinite"));
@@ -352,16 +381,31 @@ impl Loader {
         let mirrored = linear.determinant() < 0.0;
         for primitive in mesh.primitives() {
             let object = format!("{mesh_name} primitive {}", primitive.index());
-            let Some(triangles) = self.primitive_triangles(&primitive, &object)? else {
+            let mode = primitive.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                self.scene.warnings.push(format!(
+                    "{object}: {mode:?} primitives are not rendered, skipped"
+                ));
                 continue;
-            };
+            }
             let Some(position_accessor) = primitive.get(&gltf::Semantic::Positions) else {
                 self.scene
                     .warnings
                     .push(format!("{object}: no POSITION attribute, skipped"));
                 continue;
             };
+            // Reading is bounded by the buffer sizes; the total is bounded here.
             let positions = self.read_vec3(&position_accessor, &object, "POSITION")?;
+            self.vertex_total = self.vertex_total.saturating_add(positions.len());
+            if self.vertex_total > MAX_VERTICES {
+                return Err(self.err(
+                    &object,
+                    format!("the scene exceeds Photon's limit of {MAX_VERTICES} vertices"),
+                ));
+            }
             if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
                 return Err(self.err(
                     &object,
@@ -369,7 +413,7 @@ impl Loader {
                 ));
             }
             let vertex_count = positions.len();
-            let mut indices = triangles;
+            let mut indices = self.primitive_triangles(&primitive, vertex_count, &object)?;
             for (t, tri) in indices.iter().enumerate() {
                 if let Some(&i) = tri.iter().find(|&&i| i as usize >= vertex_count) {
                     return Err(self.err(
@@ -379,13 +423,6 @@ impl Loader {
                         ),
                     ));
                 }
-            }
-            self.triangle_total += indices.len();
-            if self.triangle_total > MAX_TRIANGLES {
-                return Err(self.err(
-                    &object,
-                    format!("the scene exceeds Photon's limit of {MAX_TRIANGLES} triangles"),
-                ));
             }
 
             let normals = match primitive.get(&gltf::Semantic::Normals) {
@@ -470,33 +507,34 @@ impl Loader {
     }
 
     /// The primitive's triangles as index triples (strips and fans converted), or `None` when
-    /// the primitive is not made of triangles.
+    /// the primitive is not made of triangles. Refuses primitives that would take the scene over
+    /// `MAX_TRIANGLES` before allocating them.
     fn primitive_triangles(
         &mut self,
         primitive: &gltf::Primitive,
+        vertex_count: usize,
         object: &str,
-    ) -> Result<Option<Vec<[u32; 3]>>> {
-        use gltf::mesh::Mode;
+    ) -> Result<Vec<[u32; 3]>> {
         let mode = primitive.mode();
-        if !matches!(
-            mode,
-            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-        ) {
-            self.scene.warnings.push(format!(
-                "{object}: {mode:?} primitives are not rendered, skipped"
+        let index_count = primitive.indices().map_or(vertex_count, |a| a.count());
+        let new_triangles = match mode {
+            Mode::Triangles => index_count / 3,
+            _ => index_count.saturating_sub(2),
+        };
+        self.triangle_total = self.triangle_total.saturating_add(new_triangles);
+        if self.triangle_total > MAX_TRIANGLES {
+            return Err(self.err(
+                object,
+                format!("the scene exceeds Photon's limit of {MAX_TRIANGLES} triangles"),
             ));
-            return Ok(None);
         }
         let list: Vec<u32> = match primitive.indices() {
             Some(accessor) => self.read_indices(&accessor, object)?,
-            None => match primitive.get(&gltf::Semantic::Positions) {
-                Some(p) => {
-                    let count = u32::try_from(p.count())
-                        .map_err(|_| self.err(object, "too many vertices for 32-bit indices"))?;
-                    (0..count).collect()
-                }
-                None => Vec::new(),
-            },
+            None => {
+                let count = u32::try_from(vertex_count)
+                    .map_err(|_| self.err(object, "too many vertices for 32-bit indices"))?;
+                (0..count).collect()
+            }
         };
         let triangles = match mode {
             Mode::Triangles => list.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
@@ -516,7 +554,7 @@ impl Loader {
                 None => Vec::new(),
             },
         };
-        Ok(Some(triangles))
+        Ok(triangles)
     }
 
     // ----- accessors ------------------------------------------------------------------------
@@ -1367,6 +1405,33 @@ fn component_as_u32(bytes: &[u8], data_type: DataType, _normalized: bool) -> u32
         (DataType::U32, &[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
         _ => u32::MAX,
     }
+}
+
+/// Every mesh attribute must name an existing accessor. Checked before the gltf crate's
+/// validation, which indexes the POSITION accessor without checking (and would panic).
+fn check_attribute_indices(root: &gltf::json::Root) -> std::result::Result<(), (String, String)> {
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for (semantic, accessor) in &primitive.attributes {
+                if accessor.value() >= root.accessors.len() {
+                    let mesh_name = named("mesh", m, mesh.name.as_deref());
+                    let semantic = match semantic {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        gltf::json::validation::Checked::Invalid => "attribute".into(),
+                    };
+                    return Err((
+                        format!("{mesh_name} primitive {p}"),
+                        format!(
+                            "{semantic} refers to accessor {}, which does not exist ({} accessors)",
+                            accessor.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A GLB chunk: its type, its data and the offset of the next chunk.

@@ -1,0 +1,1147 @@
+//! Integration tests of the glTF loader: the scenes built by `scenes/build_scenes.py`, small
+//! fixtures built here (transforms, normals, lights, cameras), and broken files that must give a
+//! `Error::Scene` naming the object at fault, never a panic.
+
+use photon::error::Error;
+use photon::math::{Vec3, Vec4};
+use photon::scene::gltf::{load, load_slice, LoadOptions};
+use photon::scene::{Light, Projection, Scene};
+use serde_json::{json, Value};
+use std::f32::consts::PI;
+use std::path::{Path, PathBuf};
+
+// ----- fixture builder ----------------------------------------------------------------------
+
+/// A glTF document under construction with one binary buffer.
+struct Doc {
+    json: Value,
+    bin: Vec<u8>,
+}
+
+impl Doc {
+    fn new() -> Doc {
+        Doc {
+            json: json!({
+                "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": []}],
+                "nodes": [], "meshes": [], "accessors": [], "bufferViews": []
+            }),
+            bin: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, key: &str, item: Value) -> usize {
+        let list = self.json[key].as_array_mut().unwrap();
+        list.push(item);
+        list.len() - 1
+    }
+
+    fn view(&mut self, bytes: &[u8]) -> usize {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        let offset = self.bin.len();
+        self.bin.extend_from_slice(bytes);
+        self.push(
+            "bufferViews",
+            json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()}),
+        )
+    }
+
+    fn floats(&mut self, data: &[f32], kind: &str) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let width = match kind {
+            "VEC2" => 2,
+            "VEC3" => 3,
+            "VEC4" => 4,
+            _ => 1,
+        };
+        let view = self.view(&bytes);
+        let mut accessor = json!({"bufferView": view, "componentType": 5126, "count": data.len() / width, "type": kind});
+        if width == 3 {
+            // glTF requires min/max on POSITION; non-finite values are left out of them.
+            let bound = |i: usize, f: fn(f32, f32) -> f32, start: f32| {
+                data.iter()
+                    .skip(i)
+                    .step_by(3)
+                    .filter(|v| v.is_finite())
+                    .fold(start, |a, &b| f(a, b))
+            };
+            accessor["min"] = json!([0, 1, 2].map(|i| bound(i, f32::min, f32::MAX)));
+            accessor["max"] = json!([0, 1, 2].map(|i| bound(i, f32::max, f32::MIN)));
+        }
+        self.push("accessors", accessor)
+    }
+
+    fn indices(&mut self, data: &[u32]) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.push(
+            "accessors",
+            json!({"bufferView": view, "componentType": 5125, "count": data.len(), "type": "SCALAR"}),
+        )
+    }
+
+    /// A mesh with one primitive; `normals` may be empty.
+    fn mesh(&mut self, name: &str, positions: &[f32], normals: &[f32], indices: &[u32]) -> usize {
+        let mut attributes = json!({"POSITION": self.floats(positions, "VEC3")});
+        if !normals.is_empty() {
+            attributes["NORMAL"] = json!(self.floats(normals, "VEC3"));
+        }
+        let mut primitive = json!({"attributes": attributes});
+        if !indices.is_empty() {
+            primitive["indices"] = json!(self.indices(indices));
+        }
+        self.push("meshes", json!({"name": name, "primitives": [primitive]}))
+    }
+
+    /// Add a node; root nodes are listed in the scene.
+    fn node(&mut self, node: Value, root: bool) -> usize {
+        let index = self.push("nodes", node);
+        if root {
+            self.json["scenes"][0]["nodes"]
+                .as_array_mut()
+                .unwrap()
+                .push(json!(index));
+        }
+        index
+    }
+
+    fn camera(&mut self, node_name: &str, camera_name: &str, translation: [f32; 3]) -> usize {
+        let list = self.json.as_object_mut().unwrap();
+        let cameras = list.entry("cameras").or_insert(json!([]));
+        cameras.as_array_mut().unwrap().push(json!({
+            "name": camera_name, "type": "perspective",
+            "perspective": {"yfov": 0.5, "aspectRatio": 1.5, "znear": 0.1}
+        }));
+        let index = cameras.as_array().unwrap().len() - 1;
+        self.node(
+            json!({"name": node_name, "camera": index, "translation": translation}),
+            true,
+        )
+    }
+
+    fn finish_json(&self, buffer_uri: Option<&str>) -> Value {
+        let mut json = self.json.clone();
+        let mut buffer = json!({"byteLength": self.bin.len()});
+        if let Some(uri) = buffer_uri {
+            buffer["uri"] = json!(uri);
+        }
+        json["buffers"] = json!([buffer]);
+        json
+    }
+
+    fn glb(&self) -> Vec<u8> {
+        let mut text = serde_json::to_vec(&self.finish_json(None)).unwrap();
+        while !text.len().is_multiple_of(4) {
+            text.push(b' ');
+        }
+        let mut bin = self.bin.clone();
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let total = 12 + 8 + text.len() + 8 + bin.len();
+        let mut out = Vec::new();
+        out.extend(b"glTF");
+        out.extend(2u32.to_le_bytes());
+        out.extend((total as u32).to_le_bytes());
+        out.extend((text.len() as u32).to_le_bytes());
+        out.extend(b"JSON");
+        out.extend(&text);
+        out.extend((bin.len() as u32).to_le_bytes());
+        out.extend(b"BIN\0");
+        out.extend(&bin);
+        out
+    }
+}
+
+fn load_glb(doc: &Doc) -> photon::error::Result<Scene> {
+    load_slice(&doc.glb(), "fixture.glb", &LoadOptions::default())
+}
+
+/// A unit right triangle in the XY plane with +Z normals, and a camera.
+fn triangle_doc() -> Doc {
+    let mut doc = Doc::new();
+    let mesh = doc.mesh(
+        "Tri",
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+        &[0, 1, 2],
+    );
+    doc.node(json!({"name": "TriNode", "mesh": mesh}), true);
+    doc.camera("Camera", "CameraData", [0.0, 0.0, 5.0]);
+    doc
+}
+
+impl Doc {
+    /// Give the first primitive material 0, defined by `material`.
+    fn set_material(&mut self, material: Value) {
+        self.json["meshes"][0]["primitives"][0]["material"] = json!(0);
+        self.json["materials"] = json!([material]);
+    }
+}
+
+/// The triangle fixture with `image` (in the buffer) as texture 0, used by `material`.
+fn textured_doc(image: &[u8], mime: &str, material: Value) -> Doc {
+    let mut doc = triangle_doc();
+    add_png_texture(&mut doc, image, mime);
+    doc.set_material(material);
+    doc
+}
+
+/// Assert a scene error whose text contains every one of `needles`.
+fn assert_scene_error(result: photon::error::Result<Scene>, needles: &[&str]) {
+    match result {
+        Err(e @ Error::Scene { .. }) => {
+            let text = e.to_string();
+            for needle in needles {
+                assert!(
+                    text.contains(needle),
+                    "'{text}' does not mention '{needle}'"
+                );
+            }
+        }
+        Err(other) => panic!("expected a scene error, got {other:?}"),
+        Ok(_) => panic!("expected a scene error, the file loaded"),
+    }
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("photon-gltf-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn scene_file(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+/// Index of the (first) mesh made for a PHOTON_light area light.
+fn area_light_index(scene: &Scene) -> usize {
+    let found = scene
+        .meshes
+        .iter()
+        .position(|m| m.name.contains("area light"));
+    found.expect("no area light mesh")
+}
+
+fn close(a: Vec3, b: Vec3) -> bool {
+    (a - b).length() < 1e-4
+}
+
+/// Unit normal of a triangle from its winding.
+fn face_normal(scene: &Scene, mesh: usize, triangle: usize) -> Vec3 {
+    let m = &scene.meshes[mesh];
+    let [a, b, c] = m.indices[triangle].map(|i| m.positions[i as usize]);
+    (b - a).cross(c - a).normalize()
+}
+
+fn png_bytes(
+    width: u32,
+    height: u32,
+    color: png::ColorType,
+    depth: png::BitDepth,
+    data: &[u8],
+) -> Vec<u8> {
+    let mut out = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut out, width, height);
+        encoder.set_color(color);
+        encoder.set_depth(depth);
+        let mut writer = encoder.write_header().unwrap();
+        writer.write_image_data(data).unwrap();
+    }
+    out
+}
+
+// ----- the built scenes -----------------------------------------------------------------------
+
+fn load_built(name: &str) -> Scene {
+    load(&scene_file(name), &LoadOptions::default()).unwrap()
+}
+
+fn count_lights(scene: &Scene) -> (usize, usize, usize) {
+    let point = scene
+        .lights
+        .iter()
+        .filter(|l| matches!(l, Light::Point { .. }))
+        .count();
+    let spot = scene
+        .lights
+        .iter()
+        .filter(|l| matches!(l, Light::Spot { .. }))
+        .count();
+    let sun = scene
+        .lights
+        .iter()
+        .filter(|l| matches!(l, Light::Sun { .. }))
+        .count();
+    (point, spot, sun)
+}
+
+#[test]
+fn cornell_box_has_walls_boxes_and_a_lamp() {
+    let scene = load_built("cornell_box.glb");
+    assert_eq!(scene.materials.len(), 4);
+    assert_eq!(scene.triangle_count(), 5 * 2 + 2 + 2 * 12);
+    assert!(scene.lights.is_empty());
+    assert_eq!(
+        scene.materials.iter().filter(|m| m.is_emissive()).count(),
+        1
+    );
+    let red = scene.materials.iter().find(|m| m.name == "Red").unwrap();
+    assert!(close(
+        red.base_color.truncate(),
+        Vec3::new(0.63, 0.065, 0.05)
+    ));
+    assert_eq!((red.specular, red.roughness, red.metallic), (0.0, 1.0, 0.0));
+    assert!(matches!(
+        scene.camera.projection,
+        Projection::Perspective { .. }
+    ));
+    assert_eq!(scene.render_settings.width, Some(256));
+    assert_eq!(scene.render_settings.height, Some(256));
+    // The two boxes share one mesh: both instances are there, inside the room.
+    let b = scene.bounds();
+    assert!(b.max.y <= 5.56 && b.min.y >= -1e-4);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+}
+
+#[test]
+fn furnace_is_a_closed_inward_sphere_around_the_camera() {
+    let scene = load_built("furnace.glb");
+    assert!(scene.triangle_count() >= 2000);
+    assert_eq!(scene.materials.len(), 1);
+    let m = &scene.materials[0];
+    assert!(
+        close(m.emission, Vec3::splat(0.5)) && close(m.base_color.truncate(), Vec3::splat(0.5))
+    );
+    assert_eq!(m.specular, 0.0);
+    let eye = scene.camera.to_world.translation;
+    assert!(Vec3::from(eye).length() < 1.0);
+    // Normals and winding point inward, towards the centre.
+    let mesh = &scene.meshes[0];
+    for (t, tri) in mesh.indices.iter().enumerate().step_by(97) {
+        let centroid = tri
+            .iter()
+            .map(|&i| mesh.positions[i as usize])
+            .sum::<Vec3>()
+            / 3.0;
+        assert!(face_normal(&scene, 0, t).dot(-centroid) > 0.0);
+        assert!(mesh.normals[tri[0] as usize].dot(-centroid) > 0.0);
+    }
+}
+
+#[test]
+fn materials_scene_has_glass_metal_texture_sun_and_world() {
+    let scene = load_built("materials.glb");
+    assert_eq!(scene.materials.len(), 4);
+    assert_eq!(scene.textures.len(), 1);
+    assert!(scene.textures[0].srgb && !scene.textures[0].bilinear);
+    let floor = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "Checker")
+        .unwrap();
+    let tex = floor.base_color_texture.unwrap();
+    assert_eq!(tex.transform[0], 4.0);
+    let glass = scene.materials.iter().find(|m| m.name == "Glass").unwrap();
+    assert_eq!((glass.transmission, glass.ior), (1.0, 1.5));
+    let metal = scene.materials.iter().find(|m| m.name == "Metal").unwrap();
+    assert_eq!((metal.metallic, metal.roughness), (1.0, 0.3));
+    assert_eq!(count_lights(&scene), (0, 0, 1));
+    if let Light::Sun {
+        irradiance,
+        angle,
+        direction,
+    } = &scene.lights[0]
+    {
+        assert!(close(*irradiance, Vec3::splat(3.0)));
+        assert!((angle - 0.0092).abs() < 1e-6);
+        assert!(direction.y < 0.0, "the sun shines downwards");
+    }
+    assert!(close(scene.world.color, Vec3::new(0.2, 0.25, 0.35)));
+}
+
+#[test]
+fn lights_scene_has_point_spot_and_visible_area_light() {
+    let scene = load_built("lights.glb");
+    assert_eq!(count_lights(&scene), (1, 1, 0));
+    for light in &scene.lights {
+        match light {
+            Light::Point {
+                intensity, radius, ..
+            } => {
+                assert!((intensity.x - 300.0 / (4.0 * PI)).abs() < 1e-3);
+                assert_eq!(*radius, 0.1);
+            }
+            Light::Spot {
+                cos_inner,
+                cos_outer,
+                intensity,
+                ..
+            } => {
+                assert!((cos_outer - (22.5f32).to_radians().cos()).abs() < 1e-5);
+                assert!(cos_inner > cos_outer);
+                assert!((intensity.y - 0.9 * 800.0 / (4.0 * PI)).abs() < 1e-2);
+            }
+            _ => unreachable!(),
+        }
+    }
+    let area = &scene.meshes[area_light_index(&scene)];
+    assert!(area.camera_visible);
+    let material = &scene.materials[area.material as usize];
+    let expected = 200.0 / (PI * 0.5);
+    assert!((material.emission.x - expected).abs() < 1e-3 * expected);
+    assert_eq!(scene.render_settings.width, Some(320));
+    assert_eq!(
+        scene.camera.aspect_ratio.map(|a| (a * 3.0).round()),
+        Some(4.0)
+    );
+}
+
+#[test]
+fn glass_caustic_scene_has_hidden_area_light_and_glass() {
+    let scene = load_built("glass_caustic.glb");
+    assert!(scene.lights.is_empty());
+    let area = &scene.meshes[area_light_index(&scene)];
+    assert!(!area.camera_visible);
+    assert!(scene.materials.iter().any(|m| m.transmission == 1.0));
+}
+
+#[test]
+fn built_scenes_are_small() {
+    for name in [
+        "cornell_box.glb",
+        "furnace.glb",
+        "materials.glb",
+        "lights.glb",
+        "glass_caustic.glb",
+    ] {
+        let size = std::fs::metadata(scene_file(name)).unwrap().len();
+        assert!(size < 500_000, "{name} is {size} bytes");
+    }
+}
+
+// ----- geometry -----------------------------------------------------------------------------
+
+#[test]
+fn hierarchy_transforms_are_flattened_to_world_space() {
+    let mut doc = triangle_doc();
+    let mesh = 0;
+    // Child: scale 2, translation (0, 0, 1). Parent: rotate 90° about +Z, then translate (1, 2, 3).
+    let child = doc.node(json!({"name": "Child", "mesh": mesh, "scale": [2.0, 2.0, 2.0], "translation": [0.0, 0.0, 1.0]}), false);
+    let s = (PI / 4.0).sin();
+    doc.node(
+        json!({"name": "Parent", "children": [child], "translation": [1.0, 2.0, 3.0], "rotation": [0.0, 0.0, s, s]}),
+        true,
+    );
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.meshes.len(), 2, "the mesh is instanced twice");
+    let m = &scene.meshes[1];
+    // Vertex (1, 0, 0): scale → (2, 0, 0), translate → (2, 0, 1), rotate → (0, 2, 1), → (1, 4, 4).
+    assert!(
+        close(m.positions[1], Vec3::new(1.0, 4.0, 4.0)),
+        "{:?}",
+        m.positions[1]
+    );
+    assert!(close(m.positions[0], Vec3::new(1.0, 2.0, 4.0)));
+    assert!(close(m.normals[0], Vec3::Z));
+}
+
+#[test]
+fn non_uniform_scale_transforms_normals_by_the_inverse_transpose() {
+    let mut doc = Doc::new();
+    // A slanted triangle with normal (1, 1, 0)/√2; scaling x by 2 turns it into (1, 2, 0)/√5.
+    let n = std::f32::consts::FRAC_1_SQRT_2;
+    let mesh = doc.mesh(
+        "Slant",
+        &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0],
+        &[n, n, 0.0, n, n, 0.0, n, n, 0.0],
+        &[0, 1, 2],
+    );
+    doc.node(json!({"mesh": mesh, "scale": [2.0, 1.0, 1.0]}), true);
+    let scene = load_glb(&doc).unwrap();
+    let expected = Vec3::new(1.0, 2.0, 0.0).normalize();
+    assert!(close(scene.meshes[0].normals[0], expected));
+    assert!(
+        face_normal(&scene, 0, 0).dot(expected) < -0.99
+            || face_normal(&scene, 0, 0).dot(expected) > 0.99
+    );
+}
+
+#[test]
+fn missing_normals_are_generated_flat_by_splitting_vertices() {
+    let mut doc = Doc::new();
+    // Two triangles sharing an edge, folded: one in XY (+Z), one in XZ (+Y by winding).
+    let mesh = doc.mesh(
+        "Fold",
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        &[],
+        &[0, 1, 2, 0, 3, 1],
+    );
+    doc.node(json!({"mesh": mesh}), true);
+    let scene = load_glb(&doc).unwrap();
+    let m = &scene.meshes[0];
+    assert_eq!(m.positions.len(), 6);
+    assert_eq!(m.indices, vec![[0, 1, 2], [3, 4, 5]]);
+    assert!(m.normals[..3].iter().all(|&n| close(n, Vec3::Z)));
+    assert!(m.normals[3..].iter().all(|&n| close(n, Vec3::Y)));
+    assert!(scene.warnings.iter().any(|w| w.contains("no camera")));
+}
+
+/// An outward-wound tetrahedron with per-face (split) normals omitted.
+fn tetrahedron_doc(scale: [f32; 3]) -> Doc {
+    let mut doc = Doc::new();
+    let mesh = doc.mesh(
+        "Tetra",
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        &[],
+        &[0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3],
+    );
+    doc.node(
+        json!({"mesh": mesh, "scale": scale, "translation": [3.0, 0.0, 0.0]}),
+        true,
+    );
+    doc
+}
+
+#[test]
+fn negative_scale_flips_winding_so_faces_still_point_outward() {
+    for scale in [[1.0, 1.0, 1.0], [-1.0, 1.0, 1.0], [2.0, -1.0, -3.0 + 2.0]] {
+        let scene = load_glb(&tetrahedron_doc(scale)).unwrap();
+        let m = &scene.meshes[0];
+        let centre = m.positions.iter().sum::<Vec3>() / m.positions.len() as f32;
+        for t in 0..m.indices.len() {
+            let tri = m.indices[t];
+            let centroid = tri.iter().map(|&i| m.positions[i as usize]).sum::<Vec3>() / 3.0;
+            let n = face_normal(&scene, 0, t);
+            assert!(
+                n.dot(centroid - centre) > 0.0,
+                "scale {scale:?} triangle {t}"
+            );
+            assert!(close(m.normals[tri[0] as usize], n));
+        }
+    }
+}
+
+#[test]
+fn mirrored_normals_with_explicit_normals_stay_outward() {
+    let mut doc = Doc::new();
+    // Triangle facing +X at x = 1 with explicit +X normals, mirrored in X: must face −X.
+    let mesh = doc.mesh(
+        "Wall",
+        &[1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 1.0],
+        &[1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+        &[0, 1, 2],
+    );
+    doc.node(json!({"mesh": mesh, "scale": [-1.0, 1.0, 1.0]}), true);
+    let scene = load_glb(&doc).unwrap();
+    assert!(close(scene.meshes[0].normals[0], Vec3::NEG_X));
+    assert!(close(face_normal(&scene, 0, 0), Vec3::NEG_X));
+}
+
+#[test]
+fn strips_are_converted_and_points_are_skipped_with_a_warning() {
+    let mut doc = triangle_doc();
+    let positions = doc.floats(
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0],
+        "VEC3",
+    );
+    doc.push(
+        "meshes",
+        json!({"name": "Mixed", "primitives": [
+            {"attributes": {"POSITION": positions}, "mode": 5},
+            {"attributes": {"POSITION": positions}, "mode": 0}
+        ]}),
+    );
+    doc.node(json!({"mesh": 1}), true);
+    let scene = load_glb(&doc).unwrap();
+    let strip = scene
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("Mixed"))
+        .unwrap();
+    assert_eq!(strip.indices.len(), 2);
+    assert!(scene
+        .warnings
+        .iter()
+        .any(|w| w.contains("Mixed") && w.contains("Points")));
+}
+
+// ----- materials and textures ---------------------------------------------------------------
+
+#[test]
+fn material_extensions_and_defaults_are_read() {
+    let mut doc = triangle_doc();
+    doc.set_material(json!({
+        "name": "Fancy",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.1, 0.2, 0.3, 0.5], "metallicFactor": 0.25, "roughnessFactor": 0.75},
+        "emissiveFactor": [1.0, 0.5, 0.2],
+        "alphaMode": "MASK", "alphaCutoff": 0.3, "doubleSided": true,
+        "extensions": {
+            "KHR_materials_emissive_strength": {"emissiveStrength": 10.0},
+            "KHR_materials_transmission": {"transmissionFactor": 0.5},
+            "KHR_materials_ior": {"ior": 1.33},
+            "KHR_materials_specular": {"specularFactor": 0.8, "specularColorFactor": [1.4, 1.4, 1.4]},
+            "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationDistance": 3.0, "attenuationColor": [0.9, 0.5, 0.1]}
+        }
+    }));
+    // A second primitive without material gets the glTF default material.
+    let positions = doc.json["meshes"][0]["primitives"][0]["attributes"]["POSITION"].clone();
+    doc.json["meshes"][0]["primitives"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"attributes": {"POSITION": positions}}));
+    // Volume and specular required: the crate's validation would refuse them, Photon reads them.
+    doc.json["extensionsRequired"] = json!(["KHR_materials_volume", "KHR_materials_specular"]);
+    let scene = load_glb(&doc).unwrap();
+    let m = &scene.materials[0];
+    assert_eq!(m.base_color, Vec4::new(0.1, 0.2, 0.3, 0.5));
+    assert_eq!((m.metallic, m.roughness), (0.25, 0.75));
+    assert!(close(m.emission, Vec3::new(10.0, 5.0, 2.0)));
+    assert_eq!(m.alpha_mode, photon::scene::AlphaMode::Mask { cutoff: 0.3 });
+    assert!(m.double_sided);
+    assert_eq!((m.transmission, m.ior, m.specular), (0.5, 1.33, 0.8));
+    assert!(close(m.specular_color, Vec3::splat(1.4)));
+    assert_eq!((m.thickness, m.attenuation_distance), (0.2, 3.0));
+    assert!(close(m.attenuation_color, Vec3::new(0.9, 0.5, 0.1)));
+    assert_eq!(scene.materials.len(), 2);
+    let default = &scene.materials[1];
+    assert_eq!(
+        (default.metallic, default.roughness, default.ior),
+        (1.0, 1.0, 1.5)
+    );
+    assert!(!default.double_sided);
+    assert_eq!(scene.meshes[1].material, 1);
+}
+
+/// Make `png` (stored in the buffer) texture 0 of `doc`.
+fn add_png_texture(doc: &mut Doc, png: &[u8], mime: &str) {
+    let view = doc.view(png);
+    doc.json["images"] = json!([{"name": "tex.png", "bufferView": view, "mimeType": mime}]);
+    doc.json["samplers"] = json!([{"wrapS": 33071, "wrapT": 33648, "magFilter": 9728}]);
+    doc.json["textures"] = json!([{"source": 0, "sampler": 0}]);
+}
+
+#[test]
+fn textures_are_created_per_colour_space_with_sampler_and_transform() {
+    let png = png_bytes(
+        2,
+        1,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        &[255, 0, 0, 0, 0, 255],
+    );
+    let doc = textured_doc(
+        &png,
+        "image/png",
+        json!({
+            "pbrMetallicRoughness": {
+                "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0], "scale": [2.0, 3.0]}}},
+                "metallicRoughnessTexture": {"index": 0}
+            },
+            "emissiveTexture": {"index": 0},
+            "normalTexture": {"index": 0, "scale": 0.5, "extensions": {"KHR_texture_transform": {"scale": [5.0, 5.0]}}}
+        }),
+    );
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.textures.len(), 2, "one per colour space");
+    let m = &scene.materials[0];
+    let base = m.base_color_texture.unwrap();
+    let mr = m.metallic_roughness_texture.unwrap();
+    assert_eq!(base.texture, m.emissive_texture.unwrap().texture);
+    assert!(scene.textures[base.texture as usize].srgb);
+    assert!(!scene.textures[mr.texture as usize].srgb);
+    assert_eq!(m.normal_texture.unwrap().texture, mr.texture);
+    assert_eq!(m.normal_texture.unwrap().transform[0], 5.0);
+    assert_eq!(m.normal_scale, 0.5);
+    assert_eq!(base.transform, [2.0, 0.0, 0.5, 0.0, 3.0, 0.0]);
+    let t = &scene.textures[0];
+    assert_eq!((t.width, t.height), (2, 1));
+    assert_eq!(t.texels, vec![[255, 0, 0, 255], [0, 0, 255, 255]]);
+    assert_eq!(t.wrap_s, photon::scene::texture::Wrap::ClampToEdge);
+    assert_eq!(t.wrap_t, photon::scene::texture::Wrap::MirroredRepeat);
+    assert!(!t.bilinear);
+}
+
+#[test]
+fn sixteen_bit_grey_png_becomes_rgba8() {
+    let png = png_bytes(
+        1,
+        1,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &[0xAB, 0xCD],
+    );
+    let doc = textured_doc(
+        &png,
+        "image/png",
+        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.textures[0].texels, vec![[0xAB, 0xAB, 0xAB, 255]]);
+}
+
+#[test]
+fn gltf_with_external_buffer_and_image_loads_from_disk() {
+    let dir = temp_dir("external");
+    let mut doc = triangle_doc();
+    doc.set_material(json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}));
+    doc.json["images"] = json!([{"uri": "my%20wood.png"}]);
+    doc.json["textures"] = json!([{"source": 0}]);
+    let png = png_bytes(
+        1,
+        1,
+        png::ColorType::Rgba,
+        png::BitDepth::Eight,
+        &[1, 2, 3, 4],
+    );
+    std::fs::write(dir.join("my wood.png"), png).unwrap();
+    std::fs::write(dir.join("scene.bin"), &doc.bin).unwrap();
+    let text = serde_json::to_vec(&doc.finish_json(Some("scene.bin"))).unwrap();
+    std::fs::write(dir.join("scene.gltf"), text).unwrap();
+    let scene = load(&dir.join("scene.gltf"), &LoadOptions::default()).unwrap();
+    assert_eq!(scene.textures[0].texels, vec![[1, 2, 3, 4]]);
+    assert_eq!(scene.triangle_count(), 1);
+
+    // The same document with the buffer as a data URI loads from memory.
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&doc.bin));
+    doc.json["images"] = json!([]);
+    doc.json["textures"] = json!([]);
+    doc.json["materials"] = json!([{}]);
+    let text = serde_json::to_vec(&doc.finish_json(Some(&uri))).unwrap();
+    let scene = load_slice(&text, "embedded.gltf", &LoadOptions::default()).unwrap();
+    assert_eq!(scene.triangle_count(), 1);
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for g in bytes.chunks(3) {
+        let n = (g[0] as u32) << 16
+            | (*g.get(1).unwrap_or(&0) as u32) << 8
+            | *g.get(2).unwrap_or(&0) as u32;
+        for i in 0..4 {
+            out.push(if i <= g.len() {
+                A[(n >> (18 - 6 * i) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    out
+}
+
+// ----- lights -------------------------------------------------------------------------------
+
+fn with_light(doc: &mut Doc, light: Value, node: Value) {
+    doc.json["extensions"] = json!({"KHR_lights_punctual": {"lights": [light]}});
+    doc.json["extensionsRequired"] = json!(["KHR_lights_punctual"]);
+    doc.json["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    doc.node(node, true);
+}
+
+#[test]
+fn blender_default_point_light_is_1000_watts() {
+    let mut doc = triangle_doc();
+    with_light(
+        &mut doc,
+        json!({"type": "point", "intensity": 54351.4, "color": [1.0, 1.0, 1.0]}),
+        json!({"name": "Light", "translation": [4.0, 5.0, -1.0], "extensions": {"KHR_lights_punctual": {"light": 0}, "PHOTON_light": {"radius": 0.25}}}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    let Light::Point {
+        position,
+        intensity,
+        radius,
+    } = &scene.lights[0]
+    else {
+        panic!("not a point light")
+    };
+    assert!(close(*position, Vec3::new(4.0, 5.0, -1.0)));
+    let expected = 1000.0 / (4.0 * PI);
+    assert!((intensity.x - expected).abs() < 1e-3 * expected);
+    assert_eq!(*radius, 0.25);
+}
+
+#[test]
+fn sun_direction_is_the_nodes_minus_z_and_lux_become_watts() {
+    let mut doc = triangle_doc();
+    // Rotate −90° about X: local −Z becomes world −Y.
+    let s = (PI / 4.0).sin();
+    with_light(
+        &mut doc,
+        json!({"type": "directional", "intensity": 2049.0}),
+        json!({"rotation": [-s, 0.0, 0.0, s], "extensions": {"KHR_lights_punctual": {"light": 0}, "PHOTON_light": {"angle": 0.1}}}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    let Light::Sun {
+        direction,
+        irradiance,
+        angle,
+    } = &scene.lights[0]
+    else {
+        panic!("not a sun")
+    };
+    assert!(close(*direction, Vec3::NEG_Y));
+    assert!(close(*irradiance, Vec3::splat(3.0)));
+    assert_eq!(*angle, 0.1);
+}
+
+fn area_light_doc(extension: Value, node_extra: Value) -> Doc {
+    let mut doc = triangle_doc();
+    let mut node = json!({"name": "AreaL", "extensions": {"PHOTON_light": extension}});
+    for (k, v) in node_extra.as_object().unwrap() {
+        node[k] = v.clone();
+    }
+    doc.node(node, true);
+    doc
+}
+
+#[test]
+fn area_light_emits_p_over_pi_a_along_the_nodes_minus_z() {
+    let s = (PI / 4.0).sin();
+    let doc = area_light_doc(
+        json!({"type": "area", "shape": "RECTANGLE", "size": 2.0, "size_y": 0.5, "power": 100.0, "color": [1.0, 0.5, 0.25]}),
+        // Rotated so local −Z is world −Y; scaled ×2 in X (area 4 × 0.5 = 2 m²).
+        json!({"translation": [0.0, 3.0, 0.0], "rotation": [-s, 0.0, 0.0, s], "scale": [2.0, 1.0, 1.0]}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    let index = area_light_index(&scene);
+    let mesh = &scene.meshes[index];
+    assert!(!mesh.camera_visible);
+    let material = &scene.materials[mesh.material as usize];
+    assert!(!material.double_sided);
+    assert_eq!(material.base_color.truncate(), Vec3::ZERO);
+    assert_eq!(material.metallic, 0.0);
+    let radiance = 100.0 / (PI * 2.0);
+    assert!(close(
+        material.emission,
+        Vec3::new(1.0, 0.5, 0.25) * radiance
+    ));
+    for t in 0..mesh.indices.len() {
+        assert!(close(face_normal(&scene, index, t), Vec3::NEG_Y));
+    }
+    assert!(mesh.normals.iter().all(|&n| close(n, Vec3::NEG_Y)));
+    assert!(mesh.positions.iter().all(|p| (p.y - 3.0).abs() < 1e-5));
+}
+
+#[test]
+fn disk_area_light_conserves_power_with_the_polygon_area() {
+    let doc = area_light_doc(
+        json!({"type": "area", "shape": "DISK", "size": 1.0, "power": 50.0, "visible_camera": true}),
+        json!({}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    let index = area_light_index(&scene);
+    let mesh = &scene.meshes[index];
+    assert!(mesh.camera_visible);
+    assert_eq!(mesh.indices.len(), 32);
+    let area: f32 = mesh
+        .indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    assert!(area < PI * 0.25 && area > 0.98 * PI * 0.25);
+    let emitted = scene.materials[mesh.material as usize].emission.x * PI * area;
+    assert!((emitted - 50.0).abs() < 1e-3);
+    assert!(close(face_normal(&scene, index, 0), Vec3::NEG_Z));
+}
+
+// ----- cameras and scene extensions ---------------------------------------------------------
+
+#[test]
+fn cameras_are_selected_by_node_or_camera_name() {
+    let mut doc = triangle_doc();
+    doc.camera("Second", "SecondData", [0.0, 1.0, 9.0]);
+    let pick = |name: &str| {
+        let options = LoadOptions {
+            camera: Some(name.to_string()),
+        };
+        load_slice(&doc.glb(), "fixture.glb", &options)
+    };
+    let first = load_glb(&doc).unwrap().camera;
+    assert_eq!(
+        Vec3::from(first.to_world.translation),
+        Vec3::new(0.0, 0.0, 5.0)
+    );
+    assert_eq!(first.projection, Projection::Perspective { yfov: 0.5 });
+    assert_eq!(first.aspect_ratio, Some(1.5));
+    for name in ["Second", "SecondData"] {
+        let camera = pick(name).unwrap().camera;
+        assert_eq!(
+            Vec3::from(camera.to_world.translation),
+            Vec3::new(0.0, 1.0, 9.0)
+        );
+    }
+    assert_scene_error(pick("Nope"), &["Nope", "Camera", "Second"]);
+}
+
+#[test]
+fn camera_scale_is_removed_and_orthographic_is_read() {
+    let mut doc = triangle_doc();
+    doc.json["cameras"] = json!([{"type": "orthographic", "orthographic": {"xmag": 2.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0}}]);
+    doc.json["nodes"][1]["scale"] = json!([3.0, 3.0, 3.0]);
+    let camera = load_glb(&doc).unwrap().camera;
+    assert_eq!(
+        camera.projection,
+        Projection::Orthographic {
+            xmag: 2.0,
+            ymag: 1.0
+        }
+    );
+    assert!((camera.to_world.matrix3.x_axis.length() - 1.0).abs() < 1e-5);
+}
+
+#[test]
+fn without_a_camera_one_is_synthesised_looking_at_the_scene() {
+    let mut doc = triangle_doc();
+    doc.json["scenes"][0]["nodes"] = json!([0]);
+    let scene = load_glb(&doc).unwrap();
+    assert!(scene.warnings.iter().any(|w| w.contains("no camera")));
+    let eye = Vec3::from(scene.camera.to_world.translation);
+    let forward = scene.camera.to_world.transform_vector3(Vec3::NEG_Z);
+    let to_centre = (scene.bounds().center() - eye).normalize();
+    assert!(forward.dot(to_centre) > 0.999);
+    assert!(eye.z > 0.0 && eye.y > scene.bounds().center().y);
+}
+
+#[test]
+fn world_and_render_extensions_are_read() {
+    let mut doc = triangle_doc();
+    doc.json["scenes"][0]["extensions"] = json!({
+        "PHOTON_world": {"color": [0.5, 0.25, 1.0], "strength": 2.0},
+        "PHOTON_render": {"width": 640, "height": 480, "film_transparent": true}
+    });
+    let scene = load_glb(&doc).unwrap();
+    assert!(close(scene.world.color, Vec3::new(1.0, 0.5, 2.0)));
+    assert_eq!(scene.render_settings.width, Some(640));
+    assert_eq!(scene.render_settings.height, Some(480));
+    assert!(scene.render_settings.transparent_film);
+}
+
+// ----- bad input ----------------------------------------------------------------------------
+
+#[test]
+fn malformed_json_is_a_scene_error() {
+    let result = load_slice(
+        b"{\"asset\": {\"version\": ",
+        "broken.gltf",
+        &LoadOptions::default(),
+    );
+    assert_scene_error(result, &["broken.gltf", "JSON"]);
+}
+
+#[test]
+fn truncated_glb_is_a_scene_error() {
+    let glb = triangle_doc().glb();
+    for cut in [3, 11, 20, glb.len() / 2, glb.len() - 1] {
+        let result = load_slice(&glb[..cut], "cut.glb", &LoadOptions::default());
+        assert!(matches!(result, Err(Error::Scene { .. })), "cut at {cut}");
+    }
+    assert_scene_error(
+        load_slice(&glb[..glb.len() / 2], "cut.glb", &LoadOptions::default()),
+        &["truncated"],
+    );
+}
+
+#[test]
+fn missing_external_buffer_and_image_name_the_file() {
+    let dir = temp_dir("missing");
+    let doc = triangle_doc();
+    let text = serde_json::to_vec(&doc.finish_json(Some("gone.bin"))).unwrap();
+    std::fs::write(dir.join("a.gltf"), text).unwrap();
+    assert_scene_error(
+        load(&dir.join("a.gltf"), &LoadOptions::default()),
+        &["buffer 0", "gone.bin"],
+    );
+
+    let mut doc = triangle_doc();
+    doc.set_material(json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}));
+    doc.json["images"] = json!([{"uri": "wood.png"}]);
+    doc.json["textures"] = json!([{"source": 0}]);
+    std::fs::write(dir.join("b.bin"), &doc.bin).unwrap();
+    let text = serde_json::to_vec(&doc.finish_json(Some("b.bin"))).unwrap();
+    std::fs::write(dir.join("b.gltf"), text).unwrap();
+    assert_scene_error(
+        load(&dir.join("b.gltf"), &LoadOptions::default()),
+        &["image 'wood.png'"],
+    );
+    // From memory, external files cannot be resolved at all.
+    let result = load_slice(&doc.glb(), "mem.glb", &LoadOptions::default());
+    assert_scene_error(result, &["wood.png", "external"]);
+}
+
+#[test]
+fn out_of_range_references_are_scene_errors() {
+    let mut doc = triangle_doc();
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(99);
+    assert_scene_error(
+        load_glb(&doc),
+        &["mesh 0 'Tri' primitive 0", "POSITION", "accessor 99"],
+    );
+    // A dangling index elsewhere goes through the gltf crate's validation.
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["mesh"] = json!(42);
+    assert_scene_error(load_glb(&doc), &["invalid glTF", "nodes[0].mesh"]);
+}
+
+#[test]
+fn accessor_past_its_buffer_view_is_refused() {
+    let mut doc = triangle_doc();
+    doc.json["accessors"][0]["count"] = json!(1_000_000_000_000u64);
+    assert_scene_error(load_glb(&doc), &["accessor 0", "do not fit"]);
+    let mut doc = triangle_doc();
+    doc.json["accessors"][0]["byteOffset"] = json!(4);
+    assert_scene_error(load_glb(&doc), &["accessor 0"]);
+    let mut doc = triangle_doc();
+    doc.json["bufferViews"][0]["byteLength"] = json!(1 << 30);
+    assert_scene_error(load_glb(&doc), &["buffer view 0", "outside"]);
+}
+
+#[test]
+fn huge_accessor_without_buffer_is_refused() {
+    let mut doc = triangle_doc();
+    // Sparse accessors need no buffer view: their base is all zeros, so only the count limits them.
+    let sparse_indices = doc.view(&0u32.to_le_bytes());
+    let sparse_values = doc.view(&[0u8; 12]);
+    let accessor = doc.push(
+        "accessors",
+        json!({"componentType": 5126, "count": 4_000_000_000u64, "type": "VEC3",
+               "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0],
+               "sparse": {"count": 1, "indices": {"bufferView": sparse_indices, "componentType": 5125},
+                          "values": {"bufferView": sparse_values}}}),
+    );
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(accessor);
+    doc.json["meshes"][0]["primitives"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("indices");
+    assert_scene_error(load_glb(&doc), &["too large"]);
+}
+
+#[test]
+fn index_past_the_vertex_count_is_refused() {
+    let mut doc = Doc::new();
+    let mesh = doc.mesh("Cube", &[0.0; 9], &[], &[0, 1, 7]);
+    doc.node(json!({"mesh": mesh}), true);
+    assert_scene_error(load_glb(&doc), &["mesh 'Cube' primitive 0", "vertex 7"]);
+}
+
+#[test]
+fn nan_positions_are_refused() {
+    let mut doc = Doc::new();
+    let mesh = doc.mesh(
+        "Bad",
+        &[0.0, 0.0, 0.0, f32::NAN, 0.0, 0.0, 0.0, 1.0, 0.0],
+        &[],
+        &[0, 1, 2],
+    );
+    doc.node(json!({"mesh": mesh}), true);
+    assert_scene_error(load_glb(&doc), &["mesh 'Bad' primitive 0", "NaN"]);
+    let mut doc = Doc::new();
+    let mesh = doc.mesh(
+        "Inf",
+        &[0.0, 0.0, f32::INFINITY, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        &[],
+        &[0, 1, 2],
+    );
+    doc.node(json!({"mesh": mesh}), true);
+    assert_scene_error(load_glb(&doc), &["mesh 'Inf'"]);
+}
+
+#[test]
+fn unsupported_required_extension_is_listed() {
+    let mut doc = triangle_doc();
+    doc.json["extensionsRequired"] = json!(["KHR_lights_punctual", "KHR_draco_mesh_compression"]);
+    assert_scene_error(
+        load_glb(&doc),
+        &["KHR_draco_mesh_compression", "extensionsRequired"],
+    );
+}
+
+#[test]
+fn webp_images_are_refused_by_name() {
+    let doc = textured_doc(
+        b"RIFF\x10\0\0\0WEBPVP8 fake",
+        "image/webp",
+        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}),
+    );
+    assert_scene_error(load_glb(&doc), &["image 'tex.png'", "image/webp"]);
+}
+
+#[test]
+fn corrupt_png_is_a_scene_error() {
+    let doc = textured_doc(
+        b"\x89PNG\r\n\x1a\nnot really",
+        "image/png",
+        json!({"emissiveTexture": {"index": 0}}),
+    );
+    assert_scene_error(load_glb(&doc), &["image 'tex.png'", "decode"]);
+}
+
+#[test]
+fn node_cycles_are_refused() {
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["children"] = json!([2]);
+    doc.node(json!({"name": "Loop", "children": [0]}), false);
+    let result = load_glb(&doc);
+    assert!(matches!(result, Err(Error::Scene { .. })), "{result:?}");
+}
+
+#[test]
+fn exponential_instancing_is_refused() {
+    // Each node has its successor twice as a child: 2^40 paths to the last node.
+    let mut doc = triangle_doc();
+    let first = doc.json["nodes"].as_array().unwrap().len();
+    for i in 0..40 {
+        let next = first + i + 1;
+        let children = if i < 39 {
+            json!([next, next])
+        } else {
+            json!([])
+        };
+        doc.node(
+            json!({"name": format!("Level{i}"), "children": children}),
+            i == 0,
+        );
+    }
+    assert_scene_error(load_glb(&doc), &["instances more than"]);
+}
+
+#[test]
+fn wrong_attribute_type_is_refused() {
+    let mut doc = triangle_doc();
+    doc.json["accessors"][0]["type"] = json!("VEC2");
+    doc.json["accessors"][0]["count"] = json!(4);
+    let result = load_glb(&doc);
+    assert!(matches!(result, Err(Error::Scene { .. })), "{result:?}");
+}
+
+#[test]
+fn unknown_area_light_shape_is_refused() {
+    let doc = area_light_doc(json!({"type": "area", "shape": "STAR"}), json!({}));
+    assert_scene_error(load_glb(&doc), &["AreaL", "STAR"]);
+}
+
+#[test]
+fn garbage_never_panics() {
+    // Flip bytes all over a valid file: every outcome must be Ok or a scene error.
+    let glb = triangle_doc().glb();
+    for i in 0..glb.len() {
+        for value in [0x00, 0xFF, 0x7F] {
+            let mut bytes = glb.clone();
+            bytes[i] = value;
+            match load_slice(&bytes, "fuzz.glb", &LoadOptions::default()) {
+                Ok(scene) => assert!(scene.validate().is_ok()),
+                Err(Error::Scene { .. }) => {}
+                Err(other) => panic!("byte {i} = {value}: {other:?}"),
+            }
+        }
+    }
+}
