@@ -208,12 +208,13 @@ class Gltf:
         return self._list("meshes", {"name": name, "primitives": [primitive]})
 
     def material(self, name, base=(0.8, 0.8, 0.8), metallic=0.0, roughness=0.5, emission=None,
-                 strength=1.0, lambert=False, extensions=None, base_texture=None):
+                 strength=1.0, lambert=False, extensions=None, base_texture=None,
+                 double_sided=True):
         pbr = {"baseColorFactor": clean(list(base) + [1.0]), "metallicFactor": metallic,
                "roughnessFactor": roughness}
         if base_texture is not None:
             pbr["baseColorTexture"] = base_texture
-        material = {"name": name, "pbrMetallicRoughness": pbr, "doubleSided": True}
+        material = {"name": name, "pbrMetallicRoughness": pbr, "doubleSided": double_sided}
         ext = dict(extensions or {})
         if lambert:
             ext["KHR_materials_specular"] = {"specularFactor": 0.0}
@@ -323,8 +324,10 @@ def cornell_box():
     white = g.material("White", base=(0.725, 0.71, 0.68), roughness=1.0, lambert=True)
     red = g.material("Red", base=(0.63, 0.065, 0.05), roughness=1.0, lambert=True)
     green = g.material("Green", base=(0.14, 0.45, 0.091), roughness=1.0, lambert=True)
+    # One-sided, so it emits only downwards: a double-sided lamp 1 cm under the ceiling would
+    # flood that gap with light and make every path that reaches it a firefly.
     light = g.material("Light", base=(0, 0, 0), roughness=1.0, lambert=True,
-                       emission=(1.0, 0.706, 0.235), strength=17.0)
+                       emission=(1.0, 0.706, 0.235), strength=40.0, double_sided=False)
     walls = [
         ("Floor", white, quad([[-s, 0, s], [s, 0, s], [s, 0, -s], [-s, 0, -s]], [0, 1, 0])),
         ("Ceiling", white, quad([[-s, h, -s], [s, h, -s], [s, h, s], [-s, h, s]], [0, -1, 0])),
