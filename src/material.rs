@@ -104,7 +104,10 @@ mod tests {
     fn absorption_follows_beer_lambert() {
         let s = absorption_coefficient(Vec3::new(0.5, 1.0, 0.25), 2.0);
         assert!((s - Vec3::new(0.5f32.ln() / -2.0, 0.0, 0.25f32.ln() / -2.0)).length() < 1e-6);
-        assert_eq!(absorption_coefficient(Vec3::splat(0.5), f32::INFINITY), Vec3::ZERO);
+        assert_eq!(
+            absorption_coefficient(Vec3::splat(0.5), f32::INFINITY),
+            Vec3::ZERO
+        );
         assert!(absorption_coefficient(Vec3::ZERO, 1.0).is_finite());
     }
 }

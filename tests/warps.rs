@@ -72,7 +72,9 @@ fn disk_is_uniform() {
         let p = square_to_disk(uniform2(&mut rng));
         let r2 = p.length_squared() as f64;
         assert!(r2 <= 1.0 + 1e-6);
-        let phi = (p.y as f64).atan2(p.x as f64).rem_euclid(std::f64::consts::TAU);
+        let phi = (p.y as f64)
+            .atan2(p.x as f64)
+            .rem_euclid(std::f64::consts::TAU);
         let i = ((r2 * nr as f64) as usize).min(nr - 1);
         let j = ((phi / std::f64::consts::TAU * nphi as f64) as usize).min(nphi - 1);
         observed[i * nphi + j] += 1.0;
@@ -122,7 +124,13 @@ fn harness_rejects_a_wrong_pdf_and_samples_in_empty_bins() {
         "cosine vs uniform",
         50_000,
         |_| Some(square_to_cosine_hemisphere(uniform2(&mut rng))),
-        |w| if w.z > 0.0 { 0.5 / std::f64::consts::PI } else { 0.0 },
+        |w| {
+            if w.z > 0.0 {
+                0.5 / std::f64::consts::PI
+            } else {
+                0.0
+            }
+        },
         1,
     );
     assert!(wrong.is_err());
@@ -132,7 +140,13 @@ fn harness_rejects_a_wrong_pdf_and_samples_in_empty_bins() {
         "sphere vs hemisphere",
         1_000,
         |_| Some(square_to_uniform_sphere(uniform2(&mut rng))),
-        |w| if w.z > 0.0 { 0.5 / std::f64::consts::PI } else { 0.0 },
+        |w| {
+            if w.z > 0.0 {
+                0.5 / std::f64::consts::PI
+            } else {
+                0.0
+            }
+        },
         1,
     );
     assert!(empty.unwrap_err().contains("samples in bin"));

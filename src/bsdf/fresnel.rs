@@ -78,8 +78,7 @@ impl F82Tint {
         let mu = cos_i.clamp(0.0, 1.0);
         let m = 1.0 - mu;
         let m5 = m * m * m * m * m;
-        (self.f0 + (Vec3::ONE - self.f0) * m5 - self.b * (mu * m5 * m))
-            .clamp(Vec3::ZERO, Vec3::ONE)
+        (self.f0 + (Vec3::ONE - self.f0) * m5 - self.b * (mu * m5 * m)).clamp(Vec3::ZERO, Vec3::ONE)
     }
 
     /// Cosine-weighted hemispherical average 2∫F(μ)μ dμ, in closed form

@@ -93,7 +93,8 @@ mod tests {
                 let h = Vec3::new(theta.sin(), 0.0, theta.cos());
                 sum += (ggx_d(alpha, h) * h.z * theta.sin()) as f64;
             }
-            let integral = sum * (std::f64::consts::FRAC_PI_2 / n as f64) * 2.0 * std::f64::consts::PI;
+            let integral =
+                sum * (std::f64::consts::FRAC_PI_2 / n as f64) * 2.0 * std::f64::consts::PI;
             assert!((integral - 1.0).abs() < 1e-3, "alpha {alpha}: {integral}");
         }
     }

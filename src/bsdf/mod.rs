@@ -28,6 +28,9 @@
 //! - refraction does not scale radiance by η² (Cycles' convention): flux is conserved across an
 //!   interface, so the same BSDF serves camera paths and photons.
 
+// `!(x > 0.0)` is deliberate throughout: it rejects NaN as well as non-positive values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod fresnel;
 pub mod microfacet;
 pub mod tables;

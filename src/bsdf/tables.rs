@@ -11,7 +11,8 @@
 //! - `s_avg(z)`: the cosine-weighted hemispherical average of the blend factor (Fss for the
 //!   compensation's multi-bounce Fresnel).
 //!
-//! `r` is perceptual roughness (α = r²), `z = F0^(1/4) = sqrt((η − 1)/(η + 1))`.
+//! `r` is perceptual roughness (α = r²), `z = F0^(1/4) = sqrt((η − 1)/(η + 1))`; the μ axes are
+//! uniform in sqrt(μ).
 
 use super::fresnel::fresnel_blend_factor;
 use super::microfacet::{ggx_g1, ggx_g2, sample_ggx_vndf, MIN_ALPHA};
@@ -21,7 +22,7 @@ use std::sync::OnceLock;
 const E_ROUGH: usize = 32;
 const E_MU: usize = 32;
 const S_ROUGH: usize = 16;
-const S_MU: usize = 16;
+const S_MU: usize = 32;
 const S_Z: usize = 16;
 const AVG_Z: usize = 64;
 
@@ -40,6 +41,11 @@ pub fn albedo_tables() -> &'static AlbedoTables {
 
 fn grid(i: usize, n: usize) -> f32 {
     i as f32 / (n - 1) as f32
+}
+
+/// The μ axes are uniform in t = sqrt(μ): Fresnel and masking change fastest near grazing.
+fn mu_of(t: f32) -> f32 {
+    t * t
 }
 
 fn alpha_of(rough: f32) -> f32 {
@@ -85,18 +91,20 @@ impl AlbedoTables {
             for im in 0..E_MU {
                 let mut sum = 0.0f64;
                 let n = 32;
-                for_each_reflection(alpha, view(grid(im, E_MU)), n, |_, w| sum += w as f64);
+                for_each_reflection(alpha, view(mu_of(grid(im, E_MU))), n, |_, w| {
+                    sum += w as f64
+                });
                 e[ir * E_MU + im] = (sum / (n * n) as f64) as f32;
             }
-            // E_avg = 2∫E(μ)μ dμ by the trapezoid rule on the table's own samples.
+            // E_avg = 2∫E(μ)μ dμ = 4∫E(t²)t³ dt (μ = t²), trapezoid rule on the table's samples.
             let row = &e[ir * E_MU..(ir + 1) * E_MU];
             let h = 1.0 / (E_MU - 1) as f32;
             let mut acc = 0.0;
             for im in 0..E_MU - 1 {
-                let (m0, m1) = (grid(im, E_MU), grid(im + 1, E_MU));
-                acc += 0.5 * h * (row[im] * m0 + row[im + 1] * m1);
+                let (t0, t1) = (grid(im, E_MU), grid(im + 1, E_MU));
+                acc += 0.5 * h * (row[im] * t0.powi(3) + row[im + 1] * t1.powi(3));
             }
-            e_avg[ir] = (2.0 * acc).min(1.0);
+            e_avg[ir] = (4.0 * acc).min(1.0);
         }
 
         let mut s_bar = vec![0.0; S_ROUGH * S_MU * S_Z];
@@ -104,7 +112,7 @@ impl AlbedoTables {
         for ir in 0..S_ROUGH {
             let alpha = alpha_of(grid(ir, S_ROUGH));
             for im in 0..S_MU {
-                let wo = view(grid(im, S_MU));
+                let wo = view(mu_of(grid(im, S_MU)));
                 let mut weighted = [0.0f64; S_Z];
                 let mut total = 0.0f64;
                 for_each_reflection(alpha, wo, 16, |h, w| {
@@ -151,7 +159,7 @@ impl AlbedoTables {
 
     /// Directional albedo of a white single-scattering GGX reflector.
     pub fn ggx_e(&self, mu: f32, rough: f32) -> f32 {
-        lerp_2d(&self.e, E_ROUGH, E_MU, rough, mu)
+        lerp_2d(&self.e, E_ROUGH, E_MU, rough, mu.max(0.0).sqrt())
     }
 
     /// Cosine-weighted average of `ggx_e` over the hemisphere.
@@ -161,7 +169,11 @@ impl AlbedoTables {
 
     /// Lobe-averaged Fresnel blend factor of a dielectric GGX reflector of relative IOR `eta`.
     pub fn dielectric_s_bar(&self, mu: f32, rough: f32, eta: f32) -> f32 {
-        let (x, y, z) = (axis(rough, S_ROUGH), axis(mu, S_MU), axis(z_of_eta(eta), S_Z));
+        let (x, y, z) = (
+            axis(rough, S_ROUGH),
+            axis(mu.max(0.0).sqrt(), S_MU),
+            axis(z_of_eta(eta), S_Z),
+        );
         let (x0, y0, z0) = (x.floor() as usize, y.floor() as usize, z.floor() as usize);
         let (x1, y1, z1) = (
             (x0 + 1).min(S_ROUGH - 1),
@@ -192,7 +204,11 @@ fn z_of_eta(eta: f32) -> f32 {
 
 /// Continuous index of `t` ∈ [0, 1] on a grid of `n` points.
 fn axis(t: f32, n: usize) -> f32 {
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     t * (n - 1) as f32
 }
 

@@ -95,12 +95,19 @@ pub fn gamma_q(a: f64, x: f64) -> f64 {
 
 /// Chi-square test of `observed` counts against `expected` counts (same total). Returns the
 /// p-value, or an error naming the failure.
-pub fn chi2_test(name: &str, observed: &[f64], expected: &[f64], num_tests: usize) -> Result<f64, String> {
+pub fn chi2_test(
+    name: &str,
+    observed: &[f64],
+    expected: &[f64],
+    num_tests: usize,
+) -> Result<f64, String> {
     assert_eq!(observed.len(), expected.len());
     let total: f64 = observed.iter().sum();
     for (i, (&o, &e)) in observed.iter().zip(expected).enumerate() {
         if o > 0.0 && e <= 1e-9 * total.max(1.0) {
-            return Err(format!("{name}: {o} samples in bin {i}, where the pdf integrates to {e}"));
+            return Err(format!(
+                "{name}: {o} samples in bin {i}, where the pdf integrates to {e}"
+            ));
         }
     }
     // Pool the bins with small expected counts, smallest first, into one.
@@ -167,10 +174,16 @@ fn adaptive_2d(
     depth: u32,
 ) -> f64 {
     let (xm, ym) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let quads = [(x0, xm, y0, ym), (xm, x1, y0, ym), (x0, xm, ym, y1), (xm, x1, ym, y1)];
+    let quads = [
+        (x0, xm, y0, ym),
+        (xm, x1, y0, ym),
+        (x0, xm, ym, y1),
+        (xm, x1, ym, y1),
+    ];
     let parts = quads.map(|(a, b, c, d)| simpson_2d(f, a, b, c, d));
     let sum: f64 = parts.iter().sum();
-    if depth == 0 || (sum - whole).abs() <= 15.0 * tol {
+    // Converged when the refinement changes little in absolute or in relative terms.
+    if depth == 0 || (sum - whole).abs() <= 15.0 * tol.max(1e-4 * sum.abs()) {
         return sum + (sum - whole) / 15.0;
     }
     quads
@@ -182,7 +195,15 @@ fn adaptive_2d(
 
 /// Integral of `f` over a rectangle: a fixed `pre`×`pre` grid (so narrow peaks are seen) refined
 /// adaptively.
-pub fn integrate_2d(f: &impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64, pre: usize, tol: f64) -> f64 {
+pub fn integrate_2d(
+    f: &impl Fn(f64, f64) -> f64,
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    pre: usize,
+    tol: f64,
+) -> f64 {
     let mut total = 0.0;
     let cell_tol = tol / (pre * pre) as f64;
     for i in 0..pre {
@@ -192,7 +213,7 @@ pub fn integrate_2d(f: &impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1:
             let c = y0 + (y1 - y0) * j as f64 / pre as f64;
             let d = y0 + (y1 - y0) * (j + 1) as f64 / pre as f64;
             let whole = simpson_2d(f, a, b, c, d);
-            total += adaptive_2d(f, a, b, c, d, whole, cell_tol, 10);
+            total += adaptive_2d(f, a, b, c, d, whole, cell_tol, 8);
         }
     }
     total.max(0.0)
@@ -206,7 +227,10 @@ pub struct SphereBins {
 }
 
 impl SphereBins {
-    pub const DEFAULT: SphereBins = SphereBins { n_cos: 20, n_phi: 40 };
+    pub const DEFAULT: SphereBins = SphereBins {
+        n_cos: 20,
+        n_phi: 40,
+    };
 
     pub fn index(&self, w: Vec3) -> usize {
         let cos = (w.z as f64).clamp(-1.0, 1.0);
@@ -223,7 +247,11 @@ impl SphereBins {
     pub fn integrate(&self, pdf: &impl Fn(Vec3) -> f64) -> Vec<f64> {
         let f = |cos: f64, phi: f64| {
             let sin = (1.0 - cos * cos).max(0.0).sqrt();
-            let w = Vec3::new((sin * phi.cos()) as f32, (sin * phi.sin()) as f32, cos as f32);
+            let w = Vec3::new(
+                (sin * phi.cos()) as f32,
+                (sin * phi.sin()) as f32,
+                cos as f32,
+            );
             let p = pdf(w);
             if p.is_finite() {
                 p
@@ -238,7 +266,7 @@ impl SphereBins {
             for j in 0..self.n_phi {
                 let p0 = 2.0 * PI * j as f64 / self.n_phi as f64;
                 let p1 = 2.0 * PI * (j + 1) as f64 / self.n_phi as f64;
-                out.push(integrate_2d(&f, c0, c1, p0, p1, 6, 1e-7));
+                out.push(integrate_2d(&f, c0, c1, p0, p1, 4, 1e-8));
             }
         }
         out
