@@ -183,7 +183,7 @@ fn adaptive_2d(
     let parts = quads.map(|(a, b, c, d)| simpson_2d(f, a, b, c, d));
     let sum: f64 = parts.iter().sum();
     // Converged when the refinement changes little in absolute or in relative terms.
-    if depth == 0 || (sum - whole).abs() <= 15.0 * tol.max(1e-4 * sum.abs()) {
+    if depth == 0 || (sum - whole).abs() <= 15.0 * tol.max(1e-5 * sum.abs()) {
         return sum + (sum - whole) / 15.0;
     }
     quads
@@ -266,7 +266,7 @@ impl SphereBins {
             for j in 0..self.n_phi {
                 let p0 = 2.0 * PI * j as f64 / self.n_phi as f64;
                 let p1 = 2.0 * PI * (j + 1) as f64 / self.n_phi as f64;
-                out.push(integrate_2d(&f, c0, c1, p0, p1, 4, 1e-8));
+                out.push(integrate_2d(&f, c0, c1, p0, p1, 6, 1e-8));
             }
         }
         out
