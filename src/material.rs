@@ -1,12 +1,10 @@
 //! Material evaluation at a surface point: textures and factors resolved into the small plain
-//! `SurfaceMaterial` that shading reads (yocto-gl's `eval_material` habit).
-//!
-//! CONTRACT (filled in by the BSDF work): `eval_material` multiplies every glTF factor by its
-//! texture as the glTF spec says (base colour × texture, metallic = B channel, roughness = G
-//! channel, emission × emissive texture, transmission × R channel of its texture).
+//! `SurfaceMaterial` that shading reads (yocto-gl's `eval_material` habit), following the glTF
+//! 2.0 specification §3.9 (metallic-roughness) and the KHR_materials_transmission, _ior,
+//! _specular, _emissive_strength and _volume extensions.
 
-use crate::math::{Vec2, Vec3};
-use crate::scene::{Material, Scene};
+use crate::math::{Vec2, Vec3, Vec4};
+use crate::scene::{Material, Scene, TextureRef};
 
 /// A material's values at one point, with textures applied. Colours are linear RGB.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -15,10 +13,13 @@ pub struct SurfaceMaterial {
     /// Coverage in [0, 1] (base colour alpha × texture alpha).
     pub alpha: f32,
     pub metallic: f32,
-    /// Perceptual roughness in [0, 1].
+    /// Perceptual roughness in [0, 1] (GGX α = roughness²).
     pub roughness: f32,
     pub transmission: f32,
+    /// Index of refraction of the object (inside over outside).
     pub ior: f32,
+    /// KHR_materials_specular specularFactor and specularColorFactor (Blender writes
+    /// 2 × Specular IOR Level × Specular Tint into the colour).
     pub specular: f32,
     pub specular_color: Vec3,
     /// Emitted radiance (W·m⁻²·sr⁻¹).
@@ -29,20 +30,84 @@ pub struct SurfaceMaterial {
     pub thin_walled: bool,
 }
 
-/// Resolve `material` at texture coordinate `uv`.
+impl Default for SurfaceMaterial {
+    /// Blender's Principled BSDF node defaults (base 0.8, roughness 0.5, IOR 1.5, level 0.5).
+    fn default() -> Self {
+        SurfaceMaterial {
+            base_color: Vec3::splat(0.8),
+            alpha: 1.0,
+            metallic: 0.0,
+            roughness: 0.5,
+            transmission: 0.0,
+            ior: 1.5,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            emission: Vec3::ZERO,
+            absorption: Vec3::ZERO,
+            thin_walled: false,
+        }
+    }
+}
+
+/// Linear RGBA of `texture` at `uv`; white (the identity for factors) when absent or dangling.
+fn lookup(scene: &Scene, texture: &Option<TextureRef>, uv: Vec2) -> Vec4 {
+    match texture {
+        Some(t) => match scene.textures.get(t.texture as usize) {
+            Some(image) => image.sample(t.apply(uv)),
+            None => Vec4::ONE,
+        },
+        None => Vec4::ONE,
+    }
+}
+
+/// σ_a = −ln(attenuation colour) / attenuation distance, zero for an infinite distance.
+/// A zero colour channel is clamped to a tiny value so σ_a stays finite.
+pub fn absorption_coefficient(attenuation_color: Vec3, attenuation_distance: f32) -> Vec3 {
+    if !(attenuation_distance.is_finite() && attenuation_distance > 0.0) {
+        return Vec3::ZERO;
+    }
+    let c = attenuation_color.clamp(Vec3::splat(1e-6), Vec3::ONE);
+    Vec3::new(-c.x.ln(), -c.y.ln(), -c.z.ln()) / attenuation_distance
+}
+
+/// Resolve `material` at texture coordinate `uv`: every factor times its texture, as glTF
+/// specifies (base colour × RGBA texture, metallic × B, roughness × G, emission × RGB,
+/// transmission × R).
 pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMaterial {
-    let _ = (scene, uv);
+    let base = material.base_color * lookup(scene, &material.base_color_texture, uv);
+    let metal_rough = lookup(scene, &material.metallic_roughness_texture, uv);
+    let emissive = lookup(scene, &material.emissive_texture, uv);
+    let transmission = lookup(scene, &material.transmission_texture, uv);
     SurfaceMaterial {
-        base_color: material.base_color.truncate(),
-        alpha: material.base_color.w,
-        metallic: material.metallic,
-        roughness: material.roughness,
-        transmission: material.transmission,
+        base_color: base.truncate(),
+        alpha: base.w.clamp(0.0, 1.0),
+        metallic: (material.metallic * metal_rough.z).clamp(0.0, 1.0),
+        roughness: (material.roughness * metal_rough.y).clamp(0.0, 1.0),
+        transmission: (material.transmission * transmission.x).clamp(0.0, 1.0),
         ior: material.ior,
         specular: material.specular,
         specular_color: material.specular_color,
-        emission: material.emission,
-        absorption: Vec3::ZERO,
+        emission: material.emission * emissive.truncate(),
+        absorption: absorption_coefficient(
+            material.attenuation_color,
+            material.attenuation_distance,
+        ),
         thin_walled: material.thickness <= 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn absorption_follows_beer_lambert() {
+        let s = absorption_coefficient(Vec3::new(0.5, 1.0, 0.25), 2.0);
+        assert!((s - Vec3::new(0.5f32.ln() / -2.0, 0.0, 0.25f32.ln() / -2.0)).length() < 1e-6);
+        assert_eq!(
+            absorption_coefficient(Vec3::splat(0.5), f32::INFINITY),
+            Vec3::ZERO
+        );
+        assert!(absorption_coefficient(Vec3::ZERO, 1.0).is_finite());
     }
 }

@@ -1,27 +1,81 @@
-//! The surface scattering model: Blender's Principled BSDF as glTF's metallic-roughness model
-//! describes it. Closed set of lobes, static dispatch, free functions.
+//! The surface scattering model: Blender 4.5's Principled BSDF (the Cycles closure set) as glTF's
+//! metallic-roughness model with KHR_materials_transmission / _ior / _specular describes it.
+//! A closed set of lobes with static dispatch and free functions; the lobe math lives beside
+//! this file (`microfacet`: GGX, `fresnel`: Fresnel models, `tables`: albedo tables).
+//!
+//! Composition (Cycles `svm_node_closure_principled`, Multiscatter GGX):
+//! - metal, weight `metallic`: GGX conductor with F82-tint Fresnel (F0 = base colour, tint =
+//!   specular colour), energy-compensated after Kulla & Conty 2017;
+//! - glass, weight `(1 − metallic)·transmission`: rough or smooth dielectric reflection and
+//!   refraction (Walter et al. 2007), transmission tinted by sqrt(base colour) per crossing;
+//! - dielectric base, weight `(1 − metallic)(1 − transmission)`: an energy-compensated GGX
+//!   specular layer over a Lambertian diffuse, the diffuse scaled by 1 − (the layer's
+//!   directional albedo), so a white base conserves energy.
 //!
 //! Conventions (all functions):
 //! - directions are in the local shading frame, normal = +Z, both `wo` and `wi` point away from
 //!   the surface; `wo.z < 0` means the viewer is on the back side (inside, for transmissive
-//!   materials);
+//!   materials). Opaque materials (no glass lobe) scatter nothing for `wo.z ≤ 0`: the integrator
+//!   flips their frame to the viewer's side. When a glass lobe exists, the opaque lobes reflect on
+//!   the viewer's side (Cycles flips the normal of every closure on back faces) and the glass
+//!   sees the inverse relative IOR;
 //! - `eval_bsdf` returns f(wo, wi) · |cos θi| (the cosine is included);
 //! - `sample_bsdf` returns `None` when it produces no direction; its `weight` is
-//!   f · |cos θi| / pdf; for delta lobes `pdf` is the discrete probability of the lobe and
+//!   f · |cos θi| / pdf; for delta lobes `pdf` is the discrete probability of the choice and
 //!   `delta` is true;
-//! - `bsdf_pdf` is the solid-angle density of `sample_bsdf` over the non-delta lobes.
-//!
-//! CONTRACT: this stub is a Lambertian; the BSDF work replaces it.
+//! - `bsdf_pdf` is the solid-angle density of `sample_bsdf` over the non-delta lobes (its
+//!   integral is 1 minus the probability of delta lobes and of rejected samples);
+//! - refraction does not scale radiance by η² (Cycles' convention): flux is conserved across an
+//!   interface, so the same BSDF serves camera paths and photons.
+
+// `!(x > 0.0)` is deliberate throughout: it rejects NaN as well as non-positive values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod fresnel;
+pub mod microfacet;
+pub mod tables;
 
 use crate::material::SurfaceMaterial;
-use crate::math::{Vec2, Vec3};
+use crate::math::{max_component, reflect, refract, Vec2, Vec3};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use fresnel::{f0_from_ior, fresnel_blend_factor, ior_from_f0, F82Tint};
+use microfacet::{ggx_d, ggx_g2, ggx_vndf_pdf, sample_ggx_vndf, MIN_ALPHA};
 use std::f32::consts::FRAC_1_PI;
+use tables::albedo_tables;
+
+/// Below this perceptual roughness the specular, metal and glass lobes are perfectly smooth
+/// (delta lobes).
+pub const SMOOTH_ROUGHNESS: f32 = 0.02;
+
+/// Glass whose IOR is this close to 1 neither reflects nor bends light: a delta pass-through.
+const IOR_ONE_TOLERANCE: f32 = 1e-4;
+
+/// Smallest rough-glass lobe choice probability (Cycles clamps to [0.125, 0.875] likewise).
+const MIN_GLASS_CHOICE: f32 = 0.125;
 
 /// The BSDF at one point, built once per hit from a `SurfaceMaterial`.
 #[derive(Clone, Copy, Debug)]
 pub struct Bsdf {
-    pub base_color: Vec3,
+    base_color: Vec3,
+    /// (1 − metallic)(1 − transmission): the dielectric base (specular layer over diffuse).
+    base_weight: f32,
+    metal_weight: f32,
+    glass_weight: f32,
+    /// Perceptual roughness, and GGX α = roughness² clamped to `MIN_ALPHA`.
+    roughness: f32,
+    alpha: f32,
+    /// Specular, metal and glass lobes are delta lobes.
+    smooth: bool,
+    /// Relative IOR of the dielectric specular layer after the specular-level adjustment; 1 when
+    /// the layer is absent.
+    spec_eta: f32,
+    /// F0 of the specular layer times the specular tint.
+    spec_f0: Vec3,
+    metal_fresnel: F82Tint,
+    /// IOR of the glass (inside over outside).
+    glass_ior: f32,
+    glass_f0: Vec3,
+    glass_transmit_tint: Vec3,
 }
 
 /// One sampled direction.
@@ -37,47 +91,516 @@ pub struct BsdfSample {
     pub transmitted: bool,
 }
 
+fn average(c: Vec3) -> f32 {
+    (c.x + c.y + c.z) * (1.0 / 3.0)
+}
+
+fn mix(a: Vec3, b: Vec3, t: f32) -> Vec3 {
+    a + (b - a) * t
+}
+
+/// Kulla–Conty multiple-scattering Fresnel term as Cycles applies it: the compensated lobe is
+/// the single-scattering lobe times 1 + Fms·(1 − E)/E.
+fn multiscatter_fresnel(f_avg: Vec3, e_avg: f32) -> Vec3 {
+    f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6))
+}
+
 impl Bsdf {
     pub fn new(m: &SurfaceMaterial) -> Self {
+        let clean = |v: f32, lo: f32, hi: f32| if v.is_finite() { v.clamp(lo, hi) } else { lo };
+        let clean3 = |v: Vec3| {
+            Vec3::new(
+                clean(v.x, 0.0, f32::MAX),
+                clean(v.y, 0.0, f32::MAX),
+                clean(v.z, 0.0, f32::MAX),
+            )
+        };
+        let base_color = clean3(m.base_color);
+        let clamped_base = base_color.min(Vec3::ONE);
+        let metallic = clean(m.metallic, 0.0, 1.0);
+        let transmission = clean(m.transmission, 0.0, 1.0);
+        let roughness = clean(m.roughness, 0.0, 1.0);
+        let ior = if m.ior.is_finite() {
+            m.ior.max(1e-5)
+        } else {
+            1.5
+        };
+
+        // glTF's specularColorFactor is Blender's 2·level·tint (and specularFactor scales it):
+        // the level is its largest component, the tint its normalised colour.
+        let specular_color = clean3(m.specular_color);
+        let level2 = clean(m.specular, 0.0, f32::MAX) * max_component(specular_color);
+        let tint = if max_component(specular_color) > 0.0 {
+            specular_color / max_component(specular_color)
+        } else {
+            Vec3::ONE
+        };
+
+        // Cycles scales F0 by 2·level and re-derives the IOR from it.
+        let layer_ior = if ior < 1.0 { 1.0 / ior } else { ior };
+        let f0 = (f0_from_ior(layer_ior) * level2).min(0.99);
+        let (spec_eta, spec_f0) = if f0 > 1e-7 {
+            (ior_from_f0(f0), (tint * f0).min(Vec3::ONE))
+        } else {
+            (1.0, Vec3::ZERO)
+        };
+
         Bsdf {
-            base_color: m.base_color,
+            base_color,
+            base_weight: (1.0 - metallic) * (1.0 - transmission),
+            metal_weight: metallic,
+            glass_weight: (1.0 - metallic) * transmission,
+            roughness,
+            alpha: (roughness * roughness).max(MIN_ALPHA),
+            smooth: roughness < SMOOTH_ROUGHNESS,
+            spec_eta,
+            spec_f0,
+            metal_fresnel: F82Tint::new(clamped_base, tint),
+            glass_ior: ior,
+            glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
+            glass_transmit_tint: Vec3::new(
+                clamped_base.x.sqrt(),
+                clamped_base.y.sqrt(),
+                clamped_base.z.sqrt(),
+            ),
         }
+    }
+
+    fn has_spec_layer(&self) -> bool {
+        self.base_weight > 0.0 && self.spec_eta != 1.0
+    }
+
+    fn glass_passes_straight(&self) -> bool {
+        (self.glass_ior - 1.0).abs() < IOR_ONE_TOLERANCE
     }
 
     /// True when some lobe is not a delta: light sampling can contribute.
     pub fn has_non_delta(&self) -> bool {
-        true
+        self.base_weight > 0.0
+            || (!self.smooth
+                && (self.metal_weight > 0.0
+                    || (self.glass_weight > 0.0 && !self.glass_passes_straight())))
+    }
+
+    /// True when every lobe is a delta (smooth metal or glass): no light sampling, no MIS.
+    pub fn is_delta_only(&self) -> bool {
+        !self.has_non_delta()
+    }
+
+    /// True when some lobe is a delta (a smooth mirror or glass component).
+    pub fn has_delta(&self) -> bool {
+        let smooth_lobe =
+            self.metal_weight > 0.0 || self.glass_weight > 0.0 || self.has_spec_layer();
+        (self.smooth && smooth_lobe) || (self.glass_weight > 0.0 && self.glass_passes_straight())
+    }
+
+    /// True when light can cross the surface (a glass lobe exists): the integrator must not flip
+    /// the frame to the viewer's side, and `wo.z < 0` means inside the object.
+    pub fn is_transmissive(&self) -> bool {
+        self.glass_weight > 0.0
+    }
+
+    /// True when some lobe is glossy or specular (anything but the Lambertian base): paths that
+    /// leave through it can carry caustics.
+    pub fn has_specular(&self) -> bool {
+        self.metal_weight > 0.0 || self.glass_weight > 0.0 || self.has_spec_layer()
+    }
+
+    pub fn roughness(&self) -> f32 {
+        self.roughness
+    }
+
+    /// The Lambertian part seen from `wo`: the diffuse term of `eval_bsdf` is
+    /// `diffuse_reflectance(wo) / π · |cos θi|`. It includes the base weight and the attenuation
+    /// by the specular layer above it, which depends on the view angle (zero when `wo` cannot
+    /// see the diffuse).
+    pub fn diffuse_reflectance(&self, wo: Vec3) -> Vec3 {
+        match LobeSet::new(self, wo) {
+            Some(l) => l.diffuse,
+            None => Vec3::ZERO,
+        }
     }
 }
 
-pub fn eval_bsdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> Vec3 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
-        return Vec3::ZERO;
-    }
-    b.base_color * FRAC_1_PI * wi.z
+/// Everything about the lobes that depends on `wo` only: computed once per call.
+struct LobeSet {
+    /// −1 when the frame is mirrored so the viewer is above the surface.
+    side: f32,
+    /// `wo` in the mirrored frame (z > 0).
+    wo: Vec3,
+    /// Lambertian reflectance (f = diffuse / π).
+    diffuse: Vec3,
+    /// Specular-layer and metal multipliers (lobe weight × energy compensation).
+    spec_scale: Vec3,
+    metal_scale: Vec3,
+    /// Relative IOR seen by the glass from the viewer's side.
+    glass_eta: f32,
+    /// Estimated directional albedo of each lobe: diffuse, specular layer, metal, glass.
+    albedo: [Vec3; 4],
+    /// Probability of sampling each lobe.
+    prob: [f32; 4],
 }
 
-pub fn sample_bsdf(b: &Bsdf, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-    if wo.z <= 0.0 {
+const DIFFUSE: usize = 0;
+const SPECULAR: usize = 1;
+const METAL: usize = 2;
+const GLASS: usize = 3;
+
+impl LobeSet {
+    fn new(b: &Bsdf, wo: Vec3) -> Option<LobeSet> {
+        if !wo.is_finite() || wo.z == 0.0 {
+            return None;
+        }
+        let opaque_visible = wo.z > 0.0 || b.glass_weight > 0.0;
+        if !opaque_visible {
+            return None;
+        }
+        let side = if wo.z > 0.0 { 1.0 } else { -1.0 };
+        let wo = Vec3::new(wo.x, wo.y, wo.z * side);
+        let mu = wo.z.min(1.0);
+        let t = albedo_tables();
+        let rough = b.roughness;
+
+        let mut albedo = [Vec3::ZERO; 4];
+        let mut spec_scale = Vec3::ZERO;
+        let mut metal_scale = Vec3::ZERO;
+
+        let (e, e_avg) = if b.smooth {
+            (1.0, 1.0)
+        } else {
+            (t.ggx_e(mu, rough).max(1e-3), t.ggx_e_avg(rough).max(1e-3))
+        };
+        let missing = (1.0 - e) / e;
+
+        if b.has_spec_layer() {
+            let s = if b.smooth {
+                fresnel_blend_factor(mu, b.spec_eta)
+            } else {
+                t.dielectric_s_bar(mu, rough, b.spec_eta)
+            };
+            let f_lobe = mix(b.spec_f0, Vec3::ONE, s);
+            let f_avg = mix(b.spec_f0, Vec3::ONE, t.dielectric_s_avg(b.spec_eta));
+            let f_ms = multiscatter_fresnel(f_avg, e_avg);
+            albedo[SPECULAR] = (f_lobe * e + f_ms * (1.0 - e)) * b.base_weight;
+            spec_scale = (Vec3::ONE + f_ms * missing) * b.base_weight;
+        }
+        let layer_albedo = if b.base_weight > 0.0 {
+            max_component(albedo[SPECULAR]) / b.base_weight
+        } else {
+            0.0
+        };
+        let diffuse = b.base_color * (b.base_weight * (1.0 - layer_albedo).max(0.0));
+        albedo[DIFFUSE] = diffuse;
+
+        if b.metal_weight > 0.0 {
+            let f_view = b.metal_fresnel.eval(mu);
+            let f_ms = multiscatter_fresnel(b.metal_fresnel.average(), e_avg);
+            albedo[METAL] = (f_view * e + f_ms * (1.0 - e)) * b.metal_weight;
+            metal_scale = (Vec3::ONE + f_ms * missing) * b.metal_weight;
+        }
+
+        let glass_eta = if side > 0.0 {
+            b.glass_ior
+        } else {
+            1.0 / b.glass_ior
+        };
+        if b.glass_weight > 0.0 {
+            let (r, tr) = glass_split(b, mu, glass_eta);
+            albedo[GLASS] = (r + tr) * b.glass_weight;
+        }
+
+        // Sample in proportion to the estimated albedo; a tiny floor keeps every lobe that can
+        // carry light reachable.
+        let mut prob = [0.0f32; 4];
+        if b.base_weight > 0.0 {
+            prob[DIFFUSE] = average(diffuse);
+            if b.has_spec_layer() {
+                prob[SPECULAR] = average(albedo[SPECULAR]).max(1e-4 * b.base_weight);
+            }
+        }
+        if b.metal_weight > 0.0 {
+            prob[METAL] = average(albedo[METAL]).max(1e-4 * b.metal_weight);
+        }
+        if b.glass_weight > 0.0 {
+            prob[GLASS] = average(albedo[GLASS]).max(1e-4 * b.glass_weight);
+        }
+        let total: f32 = prob.iter().sum();
+        if !(total > 0.0) || !total.is_finite() {
+            return None;
+        }
+        for p in &mut prob {
+            *p /= total;
+        }
+
+        Some(LobeSet {
+            side,
+            wo,
+            diffuse,
+            spec_scale,
+            metal_scale,
+            glass_eta,
+            albedo,
+            prob,
+        })
+    }
+
+    /// Mirror a direction into (or out of) the viewer-up frame.
+    fn to_side(&self, w: Vec3) -> Vec3 {
+        Vec3::new(w.x, w.y, w.z * self.side)
+    }
+}
+
+/// Glass reflectance and transmittance for a microfacet (or the macro-surface) at cosine `cos_i`
+/// from the viewer's side with relative IOR `eta`: Cycles' tinted dielectric
+/// F = mix(F0·tint, 1, s), T = (1 − F)·sqrt(base colour). Total internal reflection gives F = 1.
+fn glass_split(b: &Bsdf, cos_i: f32, eta: f32) -> (Vec3, Vec3) {
+    if b.glass_passes_straight() {
+        return (Vec3::ZERO, b.glass_transmit_tint);
+    }
+    let s = fresnel_blend_factor(cos_i, eta);
+    let r = mix(b.glass_f0, Vec3::ONE, s);
+    (r, (Vec3::ONE - r) * b.glass_transmit_tint)
+}
+
+/// Probability of choosing reflection for glass given its reflectance and transmittance.
+fn glass_reflect_probability(r: Vec3, t: Vec3, smooth: bool) -> f32 {
+    let (ra, ta) = (average(r), average(t));
+    if ta <= 0.0 {
+        return 1.0;
+    }
+    if ra <= 0.0 {
+        return 0.0;
+    }
+    let p = ra / (ra + ta);
+    if smooth {
+        p
+    } else {
+        p.clamp(MIN_GLASS_CHOICE, 1.0 - MIN_GLASS_CHOICE)
+    }
+}
+
+/// Refraction half vector (pointing up) and the terms its density needs, for `wo` above and `wi`
+/// below an interface of relative IOR `eta`. `None` when the pair is not a valid refraction.
+struct RefractionGeometry {
+    h: Vec3,
+    cos_oh: f32,
+    cos_ih: f32,
+    /// (wo·h + η wi·h)².
+    denom2: f32,
+}
+
+fn refraction_geometry(wo: Vec3, wi: Vec3, eta: f32) -> Option<RefractionGeometry> {
+    let mut h = -(wo + wi * eta);
+    let len2 = h.length_squared();
+    if !(len2 > 1e-12) {
         return None;
     }
-    let wi = square_to_cosine_hemisphere(u);
-    let pdf = cosine_hemisphere_pdf(wi.z);
-    if pdf <= 0.0 {
+    h /= len2.sqrt();
+    if h.z < 0.0 {
+        h = -h;
+    }
+    let cos_oh = wo.dot(h);
+    let cos_ih = wi.dot(h);
+    if cos_oh <= 0.0 || cos_ih >= 0.0 {
         return None;
     }
-    Some(BsdfSample {
-        wi,
-        weight: b.base_color,
-        pdf,
-        delta: false,
-        transmitted: false,
+    let denom = cos_oh + eta * cos_ih;
+    let denom2 = denom * denom;
+    if !(denom2 > 1e-12) {
+        return None;
+    }
+    Some(RefractionGeometry {
+        h,
+        cos_oh,
+        cos_ih,
+        denom2,
     })
 }
 
-pub fn bsdf_pdf(_b: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
-        return 0.0;
+/// f·|cos θi| and the solid-angle pdf (per lobe, before lobe probabilities), over non-delta
+/// lobes, for `wo` and `wi` in the viewer-up frame.
+fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
+    let wo = l.wo;
+    let mut f = Vec3::ZERO;
+    let mut pdf = 0.0;
+    if !wi.is_finite() || wi.z == 0.0 {
+        return (f, pdf);
     }
-    cosine_hemisphere_pdf(wi.z)
+    if wi.z > 0.0 {
+        if l.prob[DIFFUSE] > 0.0 {
+            f += l.diffuse * (FRAC_1_PI * wi.z);
+            pdf += l.prob[DIFFUSE] * cosine_hemisphere_pdf(wi.z);
+        }
+        if b.smooth {
+            return (f, pdf);
+        }
+        let h = (wo + wi).normalize_or_zero();
+        let cos_oh = wo.dot(h);
+        if h.z <= 0.0 || cos_oh <= 0.0 {
+            return (f, pdf);
+        }
+        let d = ggx_d(b.alpha, h);
+        let single = d * ggx_g2(b.alpha, wo, wi) / (4.0 * wo.z);
+        let reflect_pdf = ggx_vndf_pdf(b.alpha, wo, h) / (4.0 * cos_oh);
+        if l.prob[SPECULAR] > 0.0 {
+            let fr = mix(
+                b.spec_f0,
+                Vec3::ONE,
+                fresnel_blend_factor(cos_oh, b.spec_eta),
+            );
+            f += fr * l.spec_scale * single;
+            pdf += l.prob[SPECULAR] * reflect_pdf;
+        }
+        if l.prob[METAL] > 0.0 {
+            f += b.metal_fresnel.eval(cos_oh) * l.metal_scale * single;
+            pdf += l.prob[METAL] * reflect_pdf;
+        }
+        if l.prob[GLASS] > 0.0 && !b.glass_passes_straight() {
+            let (r, t) = glass_split(b, cos_oh, l.glass_eta);
+            f += r * (b.glass_weight * single);
+            pdf += l.prob[GLASS] * reflect_pdf * glass_reflect_probability(r, t, false);
+        }
+    } else if l.prob[GLASS] > 0.0 && !b.smooth && !b.glass_passes_straight() {
+        let eta = l.glass_eta;
+        if let Some(g) = refraction_geometry(wo, wi, eta) {
+            let d = ggx_d(b.alpha, g.h);
+            let (r, t) = glass_split(b, g.cos_oh, eta);
+            let jacobian = eta * eta * (-g.cos_ih) / g.denom2;
+            let value = d * ggx_g2(b.alpha, wo, wi) * g.cos_oh * jacobian / wo.z;
+            f += t * (b.glass_weight * value);
+            let p_t = 1.0 - glass_reflect_probability(r, t, false);
+            pdf += l.prob[GLASS] * ggx_vndf_pdf(b.alpha, wo, g.h) * jacobian * p_t;
+        }
+    }
+    (f, pdf)
+}
+
+/// f(wo, wi) · |cos θi| over the non-delta lobes.
+pub fn eval_bsdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> Vec3 {
+    match LobeSet::new(b, wo) {
+        Some(l) => eval_and_pdf(b, &l, l.to_side(wi)).0,
+        None => Vec3::ZERO,
+    }
+}
+
+/// Solid-angle density with which `sample_bsdf` produces `wi` through its non-delta lobes.
+pub fn bsdf_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
+    match LobeSet::new(b, wo) {
+        Some(l) => eval_and_pdf(b, &l, l.to_side(wi)).1,
+        None => 0.0,
+    }
+}
+
+/// Cheap estimate of the directional albedo ∫ f |cos θi| dωi seen from `wo` (for Russian
+/// roulette and photon survival); exact for the diffuse and metal-free white cases up to table
+/// interpolation.
+pub fn bsdf_albedo(b: &Bsdf, wo: Vec3) -> Vec3 {
+    match LobeSet::new(b, wo) {
+        Some(l) => l.albedo.iter().copied().sum(),
+        None => Vec3::ZERO,
+    }
+}
+
+/// Sample a direction: `u_lobe` picks the lobe (and, remapped, reflection or refraction for
+/// glass), `u` the direction within it.
+pub fn sample_bsdf(b: &Bsdf, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+    let l = LobeSet::new(b, wo)?;
+    let wo_up = l.wo;
+    // Pick the lobe and rescale u_lobe to [0, 1) within it.
+    let mut lobe = usize::MAX;
+    let mut start = 0.0;
+    for (k, &p) in l.prob.iter().enumerate() {
+        if p > 0.0 {
+            lobe = k;
+            if u_lobe < start + p {
+                break;
+            }
+            start += p;
+        }
+    }
+    if lobe == usize::MAX {
+        return None;
+    }
+    let p_lobe = l.prob[lobe];
+    let u_choice = ((u_lobe - start) / p_lobe).clamp(0.0, 0.999_999_94);
+    let uu = [u.x, u.y];
+
+    let delta = |wi_up: Vec3, value: Vec3, pdf: f32| -> Option<BsdfSample> {
+        if !(pdf > 0.0) {
+            return None;
+        }
+        let weight = value / pdf;
+        if !weight.is_finite() || !wi_up.is_finite() {
+            return None;
+        }
+        let wi = l.to_side(wi_up);
+        Some(BsdfSample {
+            wi,
+            weight,
+            pdf,
+            delta: true,
+            transmitted: wi.z * wo.z < 0.0,
+        })
+    };
+    let mirror = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
+
+    // The direction in the viewer-up frame, and whether it must lie above the surface.
+    let (wi_up, above) = match lobe {
+        DIFFUSE => (square_to_cosine_hemisphere(u), true),
+        SPECULAR | METAL if b.smooth => {
+            let value = if lobe == SPECULAR {
+                let s = fresnel_blend_factor(wo_up.z, b.spec_eta);
+                mix(b.spec_f0, Vec3::ONE, s) * l.spec_scale
+            } else {
+                b.metal_fresnel.eval(wo_up.z) * l.metal_scale
+            };
+            return delta(mirror, value, p_lobe);
+        }
+        SPECULAR | METAL => {
+            let h = sample_ggx_vndf(b.alpha, wo_up, uu);
+            (reflect(wo_up, h), true)
+        }
+        _ => {
+            let eta = l.glass_eta;
+            if b.smooth || b.glass_passes_straight() {
+                let (r, t) = glass_split(b, wo_up.z, eta);
+                let p_r = glass_reflect_probability(r, t, true);
+                return if u_choice < p_r {
+                    delta(mirror, r * b.glass_weight, p_lobe * p_r)
+                } else {
+                    let wi_up = refract(wo_up, Vec3::Z, eta)?;
+                    delta(wi_up, t * b.glass_weight, p_lobe * (1.0 - p_r))
+                };
+            }
+            let h = sample_ggx_vndf(b.alpha, wo_up, uu);
+            let cos_oh = wo_up.dot(h);
+            let (r, t) = glass_split(b, cos_oh, eta);
+            if u_choice < glass_reflect_probability(r, t, false) {
+                (reflect(wo_up, h), true)
+            } else {
+                (refract(wo_up, h, eta)?, false)
+            }
+        }
+    };
+    // Reflections that leave below the surface (and refractions that leave above) are lost:
+    // `bsdf_pdf` does not count them either.
+    if (above && !(wi_up.z > 0.0)) || (!above && !(wi_up.z < 0.0)) {
+        return None;
+    }
+    let (f, pdf) = eval_and_pdf(b, &l, wi_up);
+    if !(pdf > 0.0) || !pdf.is_finite() {
+        return None;
+    }
+    let weight = f / pdf;
+    if !weight.is_finite() {
+        return None;
+    }
+    let wi = l.to_side(wi_up);
+    Some(BsdfSample {
+        wi,
+        weight,
+        pdf,
+        delta: false,
+        transmitted: wi.z * wo.z < 0.0,
+    })
 }
