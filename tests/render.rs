@@ -48,6 +48,17 @@ fn closed_furnace_sphere_has_radiance_one_everywhere() {
 }
 
 #[test]
+fn sphere_lit_by_an_emissive_cap_matches_the_uniform_irradiance_solution() {
+    // A localised light with many bounces: tests light sampling, MIS against BSDF hits on the
+    // emitter, and the indirect estimate together.
+    let (scene, expected) = scenes::sphere_with_emissive_cap();
+    let image = render_with(&scene, &settings(16, 256));
+    let mean = image.mean_rgb().x;
+    eprintln!("cap sphere: {mean} vs {expected}");
+    assert!((mean - expected).abs() < 0.02 * expected, "{mean} vs {expected}");
+}
+
+#[test]
 fn point_light_irradiance_follows_cycles_units() {
     // Cycles: a point light of power P gives E = P / (4π d²) and a white diffuse surface shows E / π.
     let power = 1000.0;

@@ -151,3 +151,55 @@ pub fn lit_floor(albedo: f32, light: Light) -> Scene {
         Vec3::ZERO,
     )
 }
+
+/// A closed sphere of albedo ρ = 0.5 whose top cap (y > 0.8 R) also emits Le = 10 inwards.
+/// Inside a sphere every surface element receives the same irradiance from any other, so each
+/// bounce spreads light uniformly: E = Φ / (4πR²) / (1 − ρ) with Φ = π·Le·A_cap, and every
+/// non-emitting point shows L = ρE/π. Returns the scene and that radiance.
+pub fn sphere_with_emissive_cap() -> (Scene, f32) {
+    let mut whole = sphere(Vec3::ZERO, 1.0, 48, 96, true, 0);
+    let mut cap = Mesh {
+        name: "cap".into(),
+        material: 1,
+        indices: Vec::new(),
+        ..whole.clone()
+    };
+    let mut rest = Vec::new();
+    let mut cap_area = 0.0f32;
+    for t in &whole.indices {
+        let p = t.map(|i| whole.positions[i as usize]);
+        if (p[0].y + p[1].y + p[2].y) / 3.0 > 0.8 {
+            cap.indices.push(*t);
+            cap_area += 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+        } else {
+            rest.push(*t);
+        }
+    }
+    whole.indices = rest;
+    let albedo = 0.5;
+    let le = 10.0;
+    let mut emitter = Material::diffuse("cap", Vec3::splat(albedo));
+    emitter.emission = Vec3::splat(le);
+    emitter.double_sided = false;
+    // The tessellated sphere's area, for the uniform-irradiance formula.
+    let total_area: f32 = whole
+        .indices
+        .iter()
+        .chain(&cap.indices)
+        .map(|t| {
+            let p = t.map(|i| whole.positions[i as usize]);
+            0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+        })
+        .sum();
+    let flux = std::f32::consts::PI * le * cap_area;
+    let irradiance = flux / total_area / (1.0 - albedo);
+    let radiance = albedo * irradiance / std::f32::consts::PI;
+    let scene = scene(
+        vec![whole, cap],
+        vec![Material::diffuse("wall", Vec3::splat(albedo)), emitter],
+        Vec::new(),
+        camera_looking_at(Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, -1.0, 0.2), Projection::Perspective { yfov: 1.0 }),
+        Vec3::ZERO,
+    );
+    (scene, radiance)
+}
