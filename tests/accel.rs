@@ -178,3 +178,58 @@ fn shadow_rays_between_two_surfaces_reach_at_every_scale() {
         }
     }
 }
+
+#[test]
+fn masked_alpha_lets_rays_through_where_alpha_is_below_the_cutoff() {
+    let v = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let ray = Ray {
+        origin: Vec3::new(0.0, 0.0, 1.0),
+        direction: -Vec3::Z,
+        t_max: f32::INFINITY,
+    };
+    for (alpha, mode, visible) in [
+        (0.3, photon::scene::AlphaMode::Mask { cutoff: 0.5 }, false),
+        (0.7, photon::scene::AlphaMode::Mask { cutoff: 0.5 }, true),
+        (0.3, photon::scene::AlphaMode::Opaque, true),
+        (0.0, photon::scene::AlphaMode::Blend, false),
+        (1.0, photon::scene::AlphaMode::Blend, true),
+    ] {
+        let mut scene = triangle_scene(v);
+        scene.materials[0].base_color.w = alpha;
+        scene.materials[0].alpha_mode = mode;
+        let accel = Accel::new(&scene);
+        assert_eq!(
+            accel
+                .intersect(&scene, &ray, Visibility::Secondary)
+                .is_some(),
+            visible,
+            "{alpha} {mode:?}"
+        );
+        assert_eq!(accel.unoccluded(&scene, &ray), !visible, "{alpha} {mode:?}");
+    }
+}
+
+#[test]
+fn geometry_hidden_from_the_camera_is_seen_by_other_rays() {
+    let v = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let mut scene = triangle_scene(v);
+    scene.meshes[0].camera_visible = false;
+    let accel = Accel::new(&scene);
+    let ray = Ray {
+        origin: Vec3::new(0.0, 0.0, 1.0),
+        direction: -Vec3::Z,
+        t_max: f32::INFINITY,
+    };
+    assert!(accel.intersect(&scene, &ray, Visibility::Camera).is_none());
+    assert!(accel
+        .intersect(&scene, &ray, Visibility::Secondary)
+        .is_some());
+}

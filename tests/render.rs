@@ -54,8 +54,10 @@ fn sphere_lit_by_an_emissive_cap_matches_the_uniform_irradiance_solution() {
     let (scene, expected) = scenes::sphere_with_emissive_cap();
     let image = render_with(&scene, &settings(16, 256));
     let mean = image.mean_rgb().x;
-    eprintln!("cap sphere: {mean} vs {expected}");
-    assert!((mean - expected).abs() < 0.02 * expected, "{mean} vs {expected}");
+    assert!(
+        (mean - expected).abs() < 0.02 * expected,
+        "{mean} vs {expected}"
+    );
 }
 
 #[test]

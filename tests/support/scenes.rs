@@ -198,7 +198,11 @@ pub fn sphere_with_emissive_cap() -> (Scene, f32) {
         vec![whole, cap],
         vec![Material::diffuse("wall", Vec3::splat(albedo)), emitter],
         Vec::new(),
-        camera_looking_at(Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, -1.0, 0.2), Projection::Perspective { yfov: 1.0 }),
+        camera_looking_at(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, -1.0, 0.2),
+            Projection::Perspective { yfov: 1.0 },
+        ),
         Vec3::ZERO,
     );
     (scene, radiance)
