@@ -233,3 +233,86 @@ fn geometry_hidden_from_the_camera_is_seen_by_other_rays() {
         .intersect(&scene, &ray, Visibility::Secondary)
         .is_some());
 }
+
+/// Closest hit by testing every triangle: the oracle for the BVH.
+fn brute_force_t(scene: &photon::scene::Scene, ray: &Ray) -> Option<f32> {
+    let mut best: Option<f32> = None;
+    for mesh in &scene.meshes {
+        for idx in &mesh.indices {
+            let v = idx.map(|i| mesh.positions[i as usize]);
+            let single = triangle_scene(v);
+            let accel = Accel::new(&single);
+            if let Some(h) = accel.intersect(&single, ray, Visibility::Secondary) {
+                if best.is_none_or(|b| h.t < b) {
+                    best = Some(h.t);
+                }
+            }
+        }
+    }
+    best
+}
+
+#[test]
+fn bvh_agrees_with_brute_force_at_grazing_angles_in_large_scenes() {
+    // A 6 m floor and a small box 20 m away that stretches the scene bounds; rays from a camera
+    // looking across the floor at grazing angles (where a far-edge darkening was reported).
+    let mut rng = Rng::new(21);
+    let floor = scenes::floor(6.0, 0.0, 0);
+    let mut far_box = scenes::sphere(Vec3::new(0.0, 0.5, -20.0), 0.5, 4, 8, false, 0);
+    far_box.name = "far".into();
+    let scene = scenes::scene(
+        vec![floor, far_box],
+        vec![Material::diffuse("m", Vec3::ONE)],
+        Vec::new(),
+        scenes::camera_looking_at(Vec3::Z, Vec3::ZERO, Projection::Perspective { yfov: 1.0 }),
+        Vec3::ZERO,
+    );
+    let accel = Accel::new(&scene);
+    let mut mismatches = Vec::new();
+    for _ in 0..2000 {
+        let origin = Vec3::new((rng.uniform() - 0.5) * 2.0, 0.05 + rng.uniform() * 0.5, 4.0);
+        let target = Vec3::new((rng.uniform() - 0.5) * 6.0, 0.0, -3.0 + rng.uniform() * 1.0);
+        let ray = Ray {
+            origin,
+            direction: (target - origin).normalize(),
+            t_max: f32::INFINITY,
+        };
+        let bvh = accel
+            .intersect(&scene, &ray, Visibility::Secondary)
+            .map(|h| h.t);
+        let oracle = brute_force_t(&scene, &ray);
+        let agree = match (bvh, oracle) {
+            (Some(a), Some(b)) => (a - b).abs() <= 1e-5 * b,
+            (None, None) => true,
+            _ => false,
+        };
+        if !agree {
+            mismatches.push((ray, bvh, oracle));
+        }
+        // Shadow rays along the floor towards a point light above it.
+        if let Some(t) = oracle {
+            let p = ray.origin + ray.direction * t;
+            let light = Vec3::new(0.0, 2.0, 0.0);
+            let shadow = photon::interaction::spawn_to(
+                p,
+                Vec3::splat(1e-6),
+                Vec3::Y,
+                &LightPoint {
+                    p: light,
+                    p_error: Vec3::ZERO,
+                    n: Vec3::ZERO,
+                },
+            );
+            assert!(
+                accel.unoccluded(&scene, &shadow),
+                "shadow ray from {p:?} blocked"
+            );
+        }
+    }
+    assert!(
+        mismatches.is_empty(),
+        "{} mismatches, first: {:?}",
+        mismatches.len(),
+        mismatches.first()
+    );
+}
