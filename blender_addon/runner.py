@@ -57,6 +57,8 @@ def find_binary(preference_path: str | None, addon_dir: Path, environ=None) -> P
                 raise PhotonError(f"Photon binary '{path}' set in {origin} is not an executable file")
             return path
     packaged = addon_binary(addon_dir)
+    if packaged.is_file() and not _is_executable(packaged):
+        _make_executable(packaged)  # zip extraction may drop the executable bit
     if _is_executable(packaged):
         return packaged
     on_path = shutil.which(BINARY_NAME, path=environ.get("PATH", os.defpath))
@@ -70,6 +72,13 @@ def find_binary(preference_path: str | None, addon_dir: Path, environ=None) -> P
 
 def _is_executable(path: Path) -> bool:
     return path.is_file() and os.access(path, os.X_OK)
+
+
+def _make_executable(path: Path):
+    try:
+        path.chmod(path.stat().st_mode | 0o111)
+    except OSError:
+        pass
 
 
 def render_command(binary, scene, output, *, width, height, samples, max_bounces, seed, threads,

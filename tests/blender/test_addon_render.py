@@ -1,0 +1,55 @@
+"""F12 with Photon through the add-on (`bpy.ops.render.render()`, engine PHOTON, $PHOTON_BINARY)
+against Cycles rendering the same Blender scene in the same test: mean brightness within 3 % and
+relMSE <= 0.02 for the factory-default scene, an area light (PHOTON_light) and a sun with a world
+colour (PHOTON_world). Images are 64x36.
+"""
+
+import time
+
+import bpy
+import numpy as np
+import pytest
+
+import scenes_bpy
+from helpers import photon_binary, rel_mse
+
+PHOTON_SPP = 256
+CYCLES_SPP = 1024
+MEAN_TOL = 0.03
+RELMSE_MAX = 0.02
+
+
+@pytest.fixture(autouse=True)
+def binary(photon_addon):
+    return photon_binary()
+
+
+def compare(name, build, tmp_path):
+    scene = build()
+    t0 = time.perf_counter()
+    ref = scenes_bpy.render(scene, "CYCLES", tmp_path / "cycles.exr", CYCLES_SPP)
+    t1 = time.perf_counter()
+    img = scenes_bpy.render(scene, "PHOTON", tmp_path / "photon.exr", PHOTON_SPP)
+    t2 = time.perf_counter()
+    assert img.shape == ref.shape == (36, 64, 3), (img.shape, ref.shape)
+    assert np.isfinite(img).all()
+    err = rel_mse(img, ref)
+    diff = float(img.mean() / ref.mean()) - 1.0
+    msg = (f"{name}: mean photon {img.mean():.5f} vs cycles {ref.mean():.5f} ({100 * diff:+.2f} %), "
+           f"relMSE {err:.5f}; cycles {CYCLES_SPP} spp {t1 - t0:.1f} s, "
+           f"photon {PHOTON_SPP} spp {t2 - t1:.1f} s (export + render + load)")
+    print(msg)
+    assert abs(diff) <= MEAN_TOL, msg
+    assert err <= RELMSE_MAX, msg
+
+
+def test_default_scene_matches_cycles(tmp_path):
+    compare("default scene", scenes_bpy.default_scene, tmp_path)
+
+
+def test_area_light_matches_cycles(tmp_path):
+    compare("area light", scenes_bpy.area_light_scene, tmp_path)
+
+
+def test_sun_and_world_match_cycles(tmp_path):
+    compare("sun + world", scenes_bpy.sun_world_scene, tmp_path)
