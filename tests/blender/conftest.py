@@ -26,3 +26,10 @@ def photon_addon():
     blender_addon.register()
     yield blender_addon
     blender_addon.unregister()
+
+
+@pytest.fixture
+def binary_env():
+    """$PHOTON_BINARY checked to be a usable executable (fails the test otherwise)."""
+    from helpers import photon_binary
+    return photon_binary()
