@@ -54,7 +54,8 @@ def find_binary(preference_path: str | None, addon_dir: Path, environ=None) -> P
         if value:
             path = Path(value).expanduser()
             if not _is_executable(path):
-                raise PhotonError(f"the photon binary '{path}' set in {origin} is not an executable file")
+                raise PhotonError(
+                    f"the photon binary '{path}' set in {origin} is not an executable file")
             return path
     packaged = addon_binary(addon_dir)
     if packaged.is_file() and not _is_executable(packaged):
@@ -65,7 +66,8 @@ def find_binary(preference_path: str | None, addon_dir: Path, environ=None) -> P
     if on_path:
         return Path(on_path)
     raise PhotonError(
-        "the photon binary was not found. Looked in: the add-on preferences (Photon > Binary, not set); "
+        "the photon binary was not found. Looked in: "
+        "the add-on preferences (Photon > Binary, not set); "
         f"the {ENV_VAR} environment variable (not set); the add-on folder ({packaged}); "
         f"'{BINARY_NAME}' on PATH. Build it with 'cargo build --release' and set one of these.")
 

@@ -8,7 +8,6 @@ no pixels in background mode). Returns float32 (H, W, 3), row 0 = top.
 
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 

@@ -4,6 +4,7 @@ a missing binary, a scene the renderer rejects, a renderer that fails, a scene w
 """
 
 import math
+import os
 
 import bpy
 import pytest
@@ -31,7 +32,7 @@ def render_error(scene, capfd) -> str:
         bpy.ops.render.render(write_still=True)
     captured = capfd.readouterr()
     assert "Traceback" not in captured.err + captured.out, captured.err[-2000:]
-    assert not (scene.render.filepath and __import__("os").path.exists(scene.render.filepath))
+    assert not (scene.render.filepath and os.path.exists(scene.render.filepath))
     return str(err.value)
 
 

@@ -6,7 +6,6 @@ colour (PHOTON_world). Images are 64x36.
 
 import time
 
-import bpy
 import numpy as np
 import pytest
 
@@ -35,8 +34,8 @@ def compare(name, build, tmp_path):
     assert np.isfinite(img).all()
     err = rel_mse(img, ref)
     diff = float(img.mean() / ref.mean()) - 1.0
-    msg = (f"{name}: mean photon {img.mean():.5f} vs cycles {ref.mean():.5f} ({100 * diff:+.2f} %), "
-           f"relMSE {err:.5f}; cycles {CYCLES_SPP} spp {t1 - t0:.1f} s, "
+    msg = (f"{name}: mean photon {img.mean():.5f} vs cycles {ref.mean():.5f} "
+           f"({100 * diff:+.2f} %), relMSE {err:.5f}; cycles {CYCLES_SPP} spp {t1 - t0:.1f} s, "
            f"photon {PHOTON_SPP} spp {t2 - t1:.1f} s (export + render + load)")
     print(msg)
     assert abs(diff) <= MEAN_TOL, msg

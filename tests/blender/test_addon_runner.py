@@ -3,9 +3,7 @@ error messages from a failing renderer, progress parsing, cancellation within a 
 temporary folder always removed, and reading EXR channel names.
 """
 
-import os
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,7 +19,8 @@ def places(tmp_path):
     """Four candidate binaries, one per lookup place."""
     made = {}
     for place in ("prefs", "env", "addon", "path"):
-        target = tmp_path / place / NAME if place != "addon" else runner.addon_binary(tmp_path / "addon")
+        target = (runner.addon_binary(tmp_path / "addon") if place == "addon"
+                  else tmp_path / place / NAME)
         made[place] = fake_binary(target, "sys.exit(0)\n")
     return made
 
