@@ -72,7 +72,7 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
                 camera=scene.camera.name, view_layer=view_layer.name)
             stats = runner.run(command, self._on_event, self.test_break)
             self._load(exr, view_layer.name, width, height)
-        self.update_stats("", "Photon: " + summary(stats))
+        self.update_stats("", f"Photon: {summary(stats)}; {self._timing_summary()}")
 
     def _export(self, scene, folder, glb):
         if export.export_route() == "inprocess":
@@ -120,6 +120,16 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self.end_result(result, cancel=True)
             raise runner.PhotonError(f"Blender could not load the rendered image: {exc}") from None
         self.end_result(result)
+
+
+    def _timing_summary(self) -> str:
+        """Seconds from the call of render() to the end of the export, to the renderer's first
+        progress report, and in total."""
+        t = self.timings
+        start = t["start"]
+        parts = [f"{name} {t[key] - start:.2f} s" for name, key in
+                 (("export", "exported"), ("first progress", "first_progress")) if key in t]
+        return ", ".join(parts + [f"total {time.perf_counter() - start:.2f} s"])
 
 
 def summary(stats: dict) -> str:

@@ -52,3 +52,19 @@ def test_area_light_matches_cycles(tmp_path):
 
 def test_sun_and_world_match_cycles(tmp_path):
     compare("sun + world", scenes_bpy.sun_world_scene, tmp_path)
+
+
+def test_background_blender_export_route(tmp_path, monkeypatch, capfd):
+    """The route used in the UI (snapshot .blend exported by a child process) renders the same
+    image as the in-process export; also prints the time to the first progress report."""
+    scene = scenes_bpy.default_scene()
+    inproc = scenes_bpy.render(scene, "PHOTON", tmp_path / "a.exr", 16)
+    first = capfd.readouterr().out
+    monkeypatch.setenv("PHOTON_EXPORT", "subprocess")
+    child = scenes_bpy.render(scene, "PHOTON", tmp_path / "b.exr", 16)
+    second = capfd.readouterr().out
+    for route, out in (("in process", first), ("background Blender", second)):
+        timing = [line for line in out.splitlines() if "first progress" in line]
+        assert timing, out[-2000:]
+        print(f"{route}: {timing[-1].split('Photon: ')[-1]}")
+    assert np.array_equal(inproc, child), "the two export routes gave different images"
