@@ -59,6 +59,10 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         settings = scene.photon
         if scene.camera is None:
             raise runner.PhotonError("the scene has no active camera")
+        if scene.render.use_border:
+            raise runner.PhotonError(
+                "render regions (Output > Format > Render Region) are not supported yet: the "
+                "renderer cannot render a window of the frame; turn the region off")
         binary = runner.find_binary(properties.preference_binary(bpy.context), ADDON_DIR)
         width, height = self.resolution_x, self.resolution_y
         self._progress("export", 0.0, "exporting scene")

@@ -99,3 +99,10 @@ def test_no_camera(small_scene, capfd, binary_env):
     small_scene.camera = None
     text = render_error(small_scene, capfd)
     assert "no camera" in text or "no active camera" in text, text
+
+
+def test_render_region_is_refused_clearly(small_scene, capfd, binary_env):
+    small_scene.render.use_border = True
+    small_scene.render.border_max_x = 0.5
+    text = render_error(small_scene, capfd)
+    assert "render regions" in text and "not supported yet" in text, text

@@ -6,6 +6,8 @@ colour (PHOTON_world). Images are 64x36.
 
 import time
 
+import bpy
+
 import numpy as np
 import pytest
 
@@ -68,3 +70,20 @@ def test_background_blender_export_route(tmp_path, monkeypatch, capfd):
         assert timing, out[-2000:]
         print(f"{route}: {timing[-1].split('Photon: ')[-1]}")
     assert np.array_equal(inproc, child), "the two export routes gave different images"
+
+
+def test_animation_renders_each_frame(tmp_path):
+    """Ctrl+F12: every frame is exported at its own time (the cube moves between frames)."""
+    scene = scenes_bpy.default_scene()
+    cube = scene.objects["Cube"]
+    for frame, x in ((1, -1.0), (2, 1.0)):
+        cube.location.x = x
+        cube.keyframe_insert("location", frame=frame)
+    scene.frame_start, scene.frame_end = 1, 2
+    scenes_bpy.render(scene, "PHOTON", tmp_path / "still.exr", 4)  # configures the output
+    scene.render.filepath = str(tmp_path / "frame_####")
+    scene.render.use_file_extension = True
+    bpy.ops.render.render(animation=True)
+    frames = [scenes_bpy.read_exr(tmp_path / f"frame_{f:04d}.exr") for f in (1, 2)]
+    left, right = (float(img[:, :32].mean() - img[:, 32:].mean()) for img in frames)
+    assert left > 0 > right, f"cube not where it should be: {left:.4f}, {right:.4f}"
