@@ -10,3 +10,26 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parents[1] / "scenes" / "blender"))
+
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def photon_addon():
+    """The add-on registered from the source folder (blender_addon/) for the whole session, and
+    unregistered at the end: a still-registered Python RenderEngine makes the bpy module hang at
+    interpreter exit."""
+    import bpy  # noqa: F401 - imported here so the runner tests need no bpy
+    sys.path.insert(0, str(HERE.parents[1]))
+    import blender_addon
+    blender_addon.register()
+    yield blender_addon
+    blender_addon.unregister()
+
+
+@pytest.fixture
+def binary_env():
+    """$PHOTON_BINARY checked to be a usable executable (fails the test otherwise)."""
+    from helpers import photon_binary
+    return photon_binary()

@@ -1,0 +1,76 @@
+"""Build the installable extension zip of the Photon add-on, with the release binary inside.
+
+    python blender_addon/build_zip.py [--binary target/release/photon] [--output dist/]
+
+Writes dist/photon_render-<version>-<platform>.zip holding the add-on's Python files, its
+manifest (with `platforms` set to this machine's platform, as Blender requires for extensions
+that carry a native binary) and the binary as bin/photon (bin/photon.exe on Windows). Install it in
+Blender with Edit > Preferences > Get Extensions > Install from Disk. Run
+`cargo build --release` first. Standard library only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import re
+import sys
+import zipfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+FILES = ("__init__.py", "engine.py", "export.py", "properties.py", "runner.py", "ui.py",
+         "README.md")
+
+
+def blender_platform() -> str:
+    """This machine in Blender's platform naming (linux-x64, macos-arm64, windows-x64, ...)."""
+    system = {"linux": "linux", "darwin": "macos", "win32": "windows"}.get(sys.platform)
+    machine = platform.machine().lower()
+    arch = {"x86_64": "x64", "amd64": "x64", "aarch64": "arm64", "arm64": "arm64"}.get(machine)
+    if system is None or arch is None:
+        raise SystemExit(f"unsupported platform {sys.platform}/{machine}")
+    return f"{system}-{arch}"
+
+
+def manifest_with_platform(text: str, plat: str) -> str:
+    """The manifest with `platforms = [plat]` (replacing any existing line)."""
+    line = f'platforms = ["{plat}"]'
+    if re.search(r"^platforms\s*=", text, flags=re.M):
+        return re.sub(r"^platforms\s*=.*$", line, text, flags=re.M)
+    return text.replace("\n[permissions]", f"\n{line}\n\n[permissions]", 1)
+
+
+def build(binary: Path, output: Path) -> Path:
+    if not binary.is_file():
+        raise SystemExit(f"no binary at {binary}: run 'cargo build --release' first")
+    manifest = (HERE / "blender_manifest.toml").read_text()
+    version = re.search(r'^version\s*=\s*"([^"]+)"', manifest, flags=re.M).group(1)
+    plat = blender_platform()
+    output.mkdir(parents=True, exist_ok=True)
+    target = output / f"photon_render-{version}-{plat.replace('-', '_')}.zip"
+    binary_name = "bin/photon.exe" if plat.startswith("windows") else "bin/photon"
+    with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("blender_manifest.toml", manifest_with_platform(manifest, plat))
+        for name in FILES:
+            z.write(HERE / name, name)
+        info = zipfile.ZipInfo(binary_name)
+        info.external_attr = 0o100755 << 16  # a regular file, executable
+        info.compress_type = zipfile.ZIP_DEFLATED
+        z.writestr(info, binary.read_bytes())
+    return target
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--binary", type=Path, default=REPO / "target" / "release" / "photon")
+    parser.add_argument("--output", type=Path, default=REPO / "dist")
+    args = parser.parse_args(argv)
+    target = build(args.binary, args.output)
+    print(f"wrote {target} ({target.stat().st_size / 1e6:.1f} MB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

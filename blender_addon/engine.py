@@ -1,0 +1,158 @@
+"""The render engine "Photon": export the scene, run the photon binary, load its image.
+
+A thin `RenderEngine`: export and process handling live in export.py and runner.py. Every
+failure the user can act on (no binary, no camera, export failure, renderer error, unreadable
+image) ends as one `report({'ERROR'}, ...)` with the renderer's own message, never a traceback
+and never a silently black image. Esc (`test_break`) stops the child within a second; the
+temporary folder is always removed.
+"""
+
+import time
+import traceback
+from pathlib import Path
+
+import bpy
+
+from . import export, properties, runner
+
+ADDON_DIR = Path(__file__).resolve().parent
+
+# Share of the progress bar given to each stage of the renderer's progress protocol.
+STAGES = {"export": (0.0, 0.05), "load": (0.05, 0.1), "build": (0.1, 0.15), "render": (0.15, 1.0)}
+
+
+class PhotonRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "PHOTON"
+    bl_label = "Photon"
+    bl_use_preview = False
+    bl_use_postprocess = True
+    bl_use_shading_nodes_custom = False
+    bl_use_eevee_viewport = True
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        """Passes the renderer writes: Combined always; Depth, Normal and the denoising data
+        when the view layer asks for them (so the compositor's Denoise node can use them)."""
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+        if renderlayer.use_pass_normal:
+            self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+        if getattr(getattr(renderlayer, "cycles", None), "denoising_store_passes", False):
+            self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
+            self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
+
+    def render(self, depsgraph):
+        self.timings = {"start": time.perf_counter()}
+        try:
+            self._render(depsgraph)
+        except runner.Cancelled:
+            self.update_stats("", "Photon: cancelled")
+        except (runner.PhotonError, export.ExportError) as exc:
+            self.report({"ERROR"}, f"Photon: {exc}")
+        except Exception as exc:  # noqa: BLE001 - a bug in the add-on: say so, log the trace
+            traceback.print_exc()
+            self.report({"ERROR"}, f"Photon add-on internal error: {exc!r} (trace in the console)")
+
+    def _render(self, depsgraph):
+        scene = depsgraph.scene
+        view_layer = depsgraph.view_layer
+        settings = scene.photon
+        if scene.camera is None:
+            raise runner.PhotonError("the scene has no active camera")
+        if scene.render.use_border:
+            raise runner.PhotonError(
+                "render regions (Output > Format > Render Region) are not supported yet: the "
+                "renderer cannot render a window of the frame; turn the region off")
+        binary = runner.find_binary(properties.preference_binary(bpy.context), ADDON_DIR)
+        width, height = self.resolution_x, self.resolution_y
+        self._progress("export", 0.0, "exporting scene")
+        with runner.temporary_folder() as folder:
+            glb, exr = folder / "scene.glb", folder / "render.exr"
+            self._export(scene, folder, glb)
+            self.timings["exported"] = time.perf_counter()
+            command = runner.render_command(
+                binary, glb, exr, width=width, height=height, samples=settings.samples,
+                max_bounces=settings.max_bounces, seed=settings.seed, threads=settings.threads,
+                camera=scene.camera.name, view_layer=view_layer.name)
+            stats = runner.run(command, self._on_event, self.test_break)
+            self._load(exr, view_layer.name, width, height)
+        self.update_stats("", f"Photon: {summary(stats)}; {self._timing_summary()}")
+
+    def _export(self, scene, folder, glb):
+        if export.export_route() == "inprocess":
+            export.export_in_process(glb, __package__)
+            return
+        snapshot = folder / "snapshot.blend"
+        export.write_snapshot(scene, snapshot)
+        runner.run(export.child_command(snapshot, glb), None, self.test_break,
+                   what="glTF export (background Blender)", cwd=str(folder))
+        if not glb.is_file():
+            raise export.ExportError(f"the background Blender export wrote no {glb.name}")
+
+    def _on_event(self, event):
+        self.timings.setdefault("first_progress", time.perf_counter())
+        if "warning" in event:
+            self.report({"WARNING"}, f"Photon: {event['warning']}")
+            return
+        stage = str(event.get("stage", ""))
+        if stage == "done":
+            self.update_progress(1.0)
+            return
+        fraction = event.get("fraction")
+        self._progress(stage, fraction if isinstance(fraction, (int, float)) else 0.0,
+                       str(event.get("message", "")))
+
+    def _progress(self, stage, fraction, message):
+        lo, hi = STAGES.get(stage, (0.0, 1.0))
+        self.update_progress(lo + (hi - lo) * min(max(fraction, 0.0), 1.0))
+        self.update_stats("", f"Photon: {stage} {100 * fraction:.0f}% {message}".rstrip())
+
+    def _load(self, exr, layer_name, width, height):
+        """Fill the render result from the EXR, after checking that Blender's loader will find
+        the channels (it loads nothing, silently, when the names do not match)."""
+        if not exr.is_file():
+            raise runner.PhotonError("the renderer exited normally but wrote no image")
+        wanted = f"{layer_name}.Combined.R"
+        channels = runner.exr_channels(exr)
+        if wanted not in channels:
+            raise runner.PhotonError(
+                f"the rendered image has no channel '{wanted}' (it has: {', '.join(channels[:8])})")
+        result = self.begin_result(0, 0, width, height, layer=layer_name)
+        try:
+            result.load_from_file(str(exr))
+        except RuntimeError as exc:
+            self.end_result(result, cancel=True)
+            raise runner.PhotonError(f"Blender could not load the rendered image: {exc}") from None
+        self.end_result(result)
+
+
+    def _timing_summary(self) -> str:
+        """Seconds from the call of render() to the end of the export, to the renderer's first
+        progress report, and in total."""
+        t = self.timings
+        start = t["start"]
+        parts = [f"{name} {t[key] - start:.2f} s" for name, key in
+                 (("export", "exported"), ("first progress", "first_progress")) if key in t]
+        return ", ".join(parts + [f"total {time.perf_counter() - start:.2f} s"])
+
+
+def summary(stats: dict) -> str:
+    """One line for the status bar from the renderer's final statistics."""
+    if not stats:
+        return "done"
+    return (f"{stats.get('width')}x{stats.get('height')}, {stats.get('spp')} spp in "
+            f"{stats.get('render_seconds', 0):.2f} s, {stats.get('mrays_per_second', 0):.1f} "
+            f"M rays/s, {stats.get('triangles')} triangles")
+
+
+classes = (PhotonRenderEngine,)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,237 @@
+"""Running the photon binary: finding it, building its command line, polling it, cancelling it.
+
+No bpy here, so this module is tested on its own. The engine calls `find_binary`, then `run`
+with two callbacks: `on_event(dict)` for every JSON progress line the renderer prints on stderr
+and `should_cancel()` (the engine's `test_break`). `run` polls the child several times a second;
+on cancel it terminates the child, waits briefly, then kills it, and raises `Cancelled`. A
+non-zero exit raises `PhotonError` whose message is the renderer's own error line (or the tail of
+its stderr). `temporary_folder()` gives the folder for the scene and the image, removed always.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import json
+import os
+import queue
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+BINARY_NAME = "photon.exe" if sys.platform == "win32" else "photon"
+ENV_VAR = "PHOTON_BINARY"
+POLL_SECONDS = 0.1
+KILL_AFTER_SECONDS = 0.5
+TAIL_LINES = 30
+
+
+class PhotonError(Exception):
+    """Something the user must fix or know about; the message is meant to be shown as is."""
+
+
+class Cancelled(Exception):
+    """The user cancelled; the child process has ended."""
+
+
+def addon_binary(addon_dir: Path) -> Path:
+    """Where the packaged binary lives inside the add-on folder."""
+    return Path(addon_dir) / "bin" / BINARY_NAME
+
+
+def find_binary(preference_path: str | None, addon_dir: Path, environ=None) -> Path:
+    """The photon executable: the add-on preference, then $PHOTON_BINARY, then the add-on's
+    bin/ folder, then `photon` on PATH. A place that is set but unusable is an error (it is never
+    skipped silently); nothing found is an error naming every place looked at."""
+    environ = os.environ if environ is None else environ
+    for origin, value in (("the add-on preferences (Photon > Binary)", preference_path),
+                          (f"the {ENV_VAR} environment variable", environ.get(ENV_VAR))):
+        if value:
+            path = Path(value).expanduser()
+            if not _is_executable(path):
+                raise PhotonError(
+                    f"the photon binary '{path}' set in {origin} is not an executable file")
+            return path
+    packaged = addon_binary(addon_dir)
+    if packaged.is_file() and not _is_executable(packaged):
+        _make_executable(packaged)  # zip extraction may drop the executable bit
+    if _is_executable(packaged):
+        return packaged
+    on_path = shutil.which(BINARY_NAME, path=environ.get("PATH", os.defpath))
+    if on_path:
+        return Path(on_path)
+    raise PhotonError(
+        "the photon binary was not found. Looked in: "
+        "the add-on preferences (Photon > Binary, not set); "
+        f"the {ENV_VAR} environment variable (not set); the add-on folder ({packaged}); "
+        f"'{BINARY_NAME}' on PATH. Build it with 'cargo build --release' and set one of these.")
+
+
+def _is_executable(path: Path) -> bool:
+    return path.is_file() and os.access(path, os.X_OK)
+
+
+def _make_executable(path: Path):
+    try:
+        path.chmod(path.stat().st_mode | 0o111)
+    except OSError:
+        pass
+
+
+def render_command(binary, scene, output, *, width, height, samples, max_bounces, seed, threads,
+                   camera=None, view_layer=None) -> list[str]:
+    """The `photon render` command line for one frame, with JSON progress on stderr."""
+    cmd = [str(binary), "render", str(scene), "-o", str(output),
+           "--width", str(width), "--height", str(height), "--spp", str(samples),
+           "--max-depth", str(max_bounces), "--seed", str(seed), "--threads", str(threads),
+           "--progress", "json"]
+    if camera:
+        cmd += ["--camera", camera]
+    if view_layer:
+        cmd += ["--exr-layer", view_layer]
+    return cmd
+
+
+@contextlib.contextmanager
+def temporary_folder():
+    """A fresh folder for one render, removed with everything in it however the block ends."""
+    folder = tempfile.mkdtemp(prefix="photon_")
+    try:
+        yield Path(folder)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def run(command, on_event=None, should_cancel=None, *, what="photon", cwd=None,
+        poll_seconds=POLL_SECONDS) -> dict:
+    """Run `command`, feed its JSON stderr lines to `on_event`, and return the final `stats`
+    (empty if it printed none). Raises `Cancelled` when `should_cancel()` turns true and
+    `PhotonError` when the process cannot start or exits with a non-zero code."""
+    try:
+        proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, cwd=cwd)
+    except OSError as exc:
+        raise PhotonError(f"cannot start {what} ({command[0]}): {exc.strerror or exc}") from None
+    lines: queue.Queue = queue.Queue()
+    reader = threading.Thread(target=_read_lines, args=(proc.stderr, lines), daemon=True)
+    reader.start()
+    tail = collections.deque(maxlen=TAIL_LINES)
+    stats: dict = {}
+    try:
+        while True:
+            finished = proc.poll() is not None
+            if finished:
+                reader.join(timeout=2.0)
+            _drain(lines, tail, stats, on_event)
+            if finished:
+                break
+            if should_cancel is not None and should_cancel():
+                _stop(proc)
+                raise Cancelled()
+            time.sleep(poll_seconds)
+    except BaseException:
+        if proc.poll() is None:
+            _stop(proc)
+        raise
+    finally:
+        proc.stderr.close()
+    if proc.returncode != 0:
+        raise PhotonError(_failure_message(what, proc.returncode, tail))
+    return stats
+
+
+def _read_lines(stream, lines: queue.Queue):
+    for raw in stream:
+        lines.put(raw.decode("utf-8", errors="replace").rstrip("\r\n"))
+
+
+def _drain(lines: queue.Queue, tail, stats: dict, on_event):
+    while True:
+        try:
+            line = lines.get_nowait()
+        except queue.Empty:
+            return
+        event = _parse_event(line)
+        if event is None:
+            if line.strip():
+                tail.append(line)
+            continue
+        if "warning" in event:
+            tail.append(f"warning: {event['warning']}")
+        if isinstance(event.get("stats"), dict):
+            stats.update(event["stats"])
+        if on_event is not None:
+            on_event(event)
+
+
+def _parse_event(line: str):
+    if not line.startswith("{"):
+        return None
+    try:
+        event = json.loads(line)
+    except ValueError:
+        return None
+    return event if isinstance(event, dict) and "stage" in event else None
+
+
+def _stop(proc: subprocess.Popen):
+    """Terminate, wait briefly, then kill."""
+    proc.terminate()
+    try:
+        proc.wait(timeout=KILL_AFTER_SECONDS)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+EXIT_MEANING = {1: "internal failure", 2: "bad input", 130: "cancelled"}
+
+
+def _failure_message(what: str, code: int, tail) -> str:
+    errors = [line.split("error:", 1)[1].strip() for line in tail if "error:" in line]
+    if code < 0:
+        meaning = f"killed by signal {-code}"
+    else:
+        meaning = f"exit code {code}" + (f", {EXIT_MEANING[code]}" if code in EXIT_MEANING else "")
+    if errors:
+        return f"{what} failed ({meaning}): " + "; ".join(errors)
+    detail = "\n".join(tail) if tail else "(no output)"
+    return f"{what} failed ({meaning}). Last output:\n{detail}"
+
+
+def exr_channels(path) -> list[str]:
+    """Channel names in the header of a single-part OpenEXR file (raises PhotonError if the file
+    is not one). Used to check the renderer's image before Blender loads it, because Blender's
+    loader silently loads nothing when the names do not match."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read(1 << 16)
+    except OSError as exc:
+        raise PhotonError(f"cannot read the rendered image {path}: {exc.strerror}") from None
+    if len(data) < 8 or struct.unpack_from("<I", data, 0)[0] != 20000630:
+        raise PhotonError(f"the rendered image {path} is not an OpenEXR file")
+    pos = 8
+    while pos < len(data) and data[pos] != 0:
+        name, pos = _cstring(data, pos)
+        _type, pos = _cstring(data, pos)
+        (size,) = struct.unpack_from("<i", data, pos)
+        pos += 4
+        if name == "channels":
+            channels, p = [], pos
+            while data[p] != 0:
+                chan, p = _cstring(data, p)
+                channels.append(chan)
+                p += 16
+            return channels
+        pos += size
+    raise PhotonError(f"the rendered image {path} has no channel list")
+
+
+def _cstring(data: bytes, pos: int):
+    end = data.index(b"\0", pos)
+    return data[pos:end].decode("utf-8", errors="replace"), end + 1

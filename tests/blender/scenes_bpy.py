@@ -1,0 +1,76 @@
+"""Test scenes built with bpy for the add-on tests, and rendering them through
+`bpy.ops.render.render()` with Photon (the add-on) or with Cycles (configured as for the committed
+references in scenes/blender/common.py: no clamping, no glossy filter, Blackman-Harris 1.5 px).
+
+Images are written with write_still to a linear EXR and read back (the Render Result image has
+no pixels in background mode). Returns float32 (H, W, 3), row 0 = top.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+import common  # scenes/blender/common.py
+from refimage import read_exr
+
+THREADS = os.cpu_count() or 2
+
+
+def default_scene():
+    """The factory-default scene (cube, 1000 W point light, camera) at 64x36 through the
+    resolution percentage (640x360 at 10 %). The point light's radius is set to 0: Photon
+    renders point lights as true points for now, Blender's default radius is 0.1 m."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 640, 360
+    scene.render.resolution_percentage = 10
+    bpy.data.objects["Light"].data.shadow_soft_size = 0.0
+    return scene
+
+
+def _floor_and_box(width, height):
+    scene = common.reset_scene(width, height)
+    grey = common.principled("Grey", (0.8, 0.8, 0.8))
+    red = common.principled("Red", (0.8, 0.2, 0.1), roughness=0.4)
+    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], grey)
+    common.box("Box", (1.0, 1.0, 1.0), red, (0.0, 0.0, 0.0), 30.0)
+    common.camera("Camera", (4.0, -4.0, 3.2), (62.0, 0.0, 45.0), 50.0)
+    return scene
+
+
+def area_light_scene():
+    """A box on a floor under a 1 m square area light (300 W) pointing down; black world."""
+    scene = _floor_and_box(64, 36)
+    common.light("Area", "AREA", (0.5, -0.5, 2.5), energy=300.0, shape="SQUARE", size=1.0)
+    return scene
+
+
+def sun_world_scene():
+    """A box on a floor lit by a 3 W/m² sun at 40 degrees and a blue-grey world (0.2, 0.3,
+    0.5) x 1."""
+    scene = _floor_and_box(64, 36)
+    common.light("Sun", "SUN", (0, 0, 5), (40.0, 0.0, 30.0), energy=3.0)
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.2, 0.3, 0.5, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    return scene
+
+
+def render(scene, engine: str, path: Path, samples: int) -> np.ndarray:
+    """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back."""
+    common.configure_cycles(scene, samples, seed=1, threads=THREADS)
+    scene.render.engine = engine
+    if engine == "PHOTON":
+        scene.photon.samples = samples
+        scene.photon.seed = 1
+        scene.photon.threads = 0
+    scene.render.filepath = str(path)
+    scene.render.use_file_extension = False
+    bpy.ops.render.render(write_still=True)
+    if not path.exists():
+        raise AssertionError(f"{engine} wrote no image at {path}")
+    return read_exr(path)

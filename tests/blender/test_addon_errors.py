@@ -1,0 +1,108 @@
+"""Failures during F12 with Photon end as a clear error from `bpy.ops.render.render()` carrying
+the add-on's message, not a Python traceback from inside the add-on, and no image is written:
+a missing binary, a scene the renderer rejects (a WebP texture), a renderer that fails, a scene without camera.
+"""
+
+import os
+
+import bpy
+import pytest
+
+from addon import fake_binary
+
+
+@pytest.fixture
+def small_scene(photon_addon, tmp_path):
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    scene.render.engine = "PHOTON"
+    scene.render.resolution_x, scene.render.resolution_y = 32, 18
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.filepath = str(tmp_path / "out.exr")
+    scene.render.use_file_extension = False
+    scene.photon.samples = 4
+    return scene
+
+
+def render_error(scene, capfd) -> str:
+    """Render and return the error text; fails if the render succeeded or raised a traceback."""
+    with pytest.raises(RuntimeError) as err:
+        bpy.ops.render.render(write_still=True)
+    captured = capfd.readouterr()
+    assert "Traceback" not in captured.err + captured.out, captured.err[-2000:]
+    assert not (scene.render.filepath and os.path.exists(scene.render.filepath))
+    return str(err.value)
+
+
+def test_missing_binary(small_scene, monkeypatch, tmp_path, capfd):
+    monkeypatch.delenv("PHOTON_BINARY", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    text = render_error(small_scene, capfd)
+    assert "photon binary was not found" in text
+    for place in ("preferences", "PHOTON_BINARY", "bin/photon", "PATH"):
+        assert place in text, text
+
+
+def test_binary_set_but_missing(small_scene, monkeypatch, tmp_path, capfd):
+    monkeypatch.setenv("PHOTON_BINARY", str(tmp_path / "nowhere" / "photon"))
+    text = render_error(small_scene, capfd)
+    assert "PHOTON_BINARY" in text and "not an executable" in text, text
+
+
+def test_broken_scene(small_scene, capfd, binary_env, tmp_path):
+    """A WebP texture: the exporter writes it with EXT_texture_webp marked required, and the
+    renderer, which does not read WebP yet, refuses the file as bad input with its own message.
+    (A NaN vertex is no use here: the exporter writes it as 0.)"""
+    image = bpy.data.images.new("tex", 4, 4)
+    image.filepath_raw = str(tmp_path / "tex.webp")
+    image.file_format = "WEBP"
+    image.save()
+    tree = bpy.data.materials["Material"].node_tree
+    node = tree.nodes.new("ShaderNodeTexImage")
+    node.image = bpy.data.images.load(str(tmp_path / "tex.webp"))
+    tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    text = render_error(small_scene, capfd)
+    assert "photon failed (exit code 2, bad input)" in text, text
+    assert "EXT_texture_webp" in text, text
+
+
+def test_renderer_error_message_is_shown(small_scene, monkeypatch, tmp_path, capfd):
+    fake = fake_binary(tmp_path / "photon", """
+        emit(stage="load", fraction=0.0, message="loading scene")
+        print("photon: error: scene.glb: material 'Material': something is wrong", file=sys.stderr)
+        sys.exit(2)
+        """)
+    monkeypatch.setenv("PHOTON_BINARY", str(fake))
+    text = render_error(small_scene, capfd)
+    assert "material 'Material': something is wrong" in text, text
+
+
+def test_renderer_writing_a_plain_rgba_exr_is_an_error(small_scene, monkeypatch, tmp_path, capfd):
+    """Blender would load nothing from channels R, G, B, A: say so instead of a black image."""
+    fake = fake_binary(tmp_path / "photon", """
+        import numpy as np, OpenEXR
+        out = sys.argv[sys.argv.index("-o") + 1]
+        plane = np.ones((18, 32), np.float32)
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+        with OpenEXR.File(header, {c: plane for c in "RGBA"}) as f:
+            f.write(out)
+        emit(stage="done", fraction=1.0, message="wrote", stats={})
+        """)
+    monkeypatch.setenv("PHOTON_BINARY", str(fake))
+    text = render_error(small_scene, capfd)
+    assert "no channel 'ViewLayer.Combined.R'" in text, text
+
+
+def test_no_camera(small_scene, capfd, binary_env):
+    """Blender itself refuses before calling the engine; the engine checks too."""
+    small_scene.camera = None
+    text = render_error(small_scene, capfd)
+    assert "no camera" in text or "no active camera" in text, text
+
+
+def test_render_region_is_refused_clearly(small_scene, capfd, binary_env):
+    small_scene.render.use_border = True
+    small_scene.render.border_max_x = 0.5
+    text = render_error(small_scene, capfd)
+    assert "render regions" in text and "not supported yet" in text, text

@@ -1,0 +1,105 @@
+"""The add-on's glTF export with bpy: the hooks write PHOTON_light (point radius, sun angle,
+area lights), PHOTON_world and PHOTON_render, never as required extensions; the background-
+Blender route (used in the UI) writes the same file as the in-process route; and the export
+time of a 1-million-triangle mesh (printed, for the notes).
+"""
+
+import json
+import struct
+import time
+from pathlib import Path
+
+import bpy
+import pytest
+
+
+def read_glb_json(path: Path) -> dict:
+    data = path.read_bytes()
+    (length,) = struct.unpack_from("<I", data, 12)
+    return json.loads(data[20:20 + length])
+
+
+def nodes_by_name(doc: dict) -> dict:
+    return {n["name"]: n for n in doc["nodes"]}
+
+
+@pytest.fixture
+def lights_scene(photon_addon):
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    area = bpy.data.lights.new("AreaL", "AREA")
+    area.shape, area.size, area.size_y, area.energy = "RECTANGLE", 2.0, 0.5, 200.0
+    area.color = (1.0, 0.5, 0.25)
+    scene.collection.objects.link(bpy.data.objects.new("AreaL", area))
+    sun = bpy.data.lights.new("SunL", "SUN")
+    sun.angle = 0.1
+    scene.collection.objects.link(bpy.data.objects.new("SunL", sun))
+    bpy.data.objects["Light"].data.shadow_soft_size = 0.25
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.4, 1)
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2.0
+    scene.render.resolution_percentage = 50
+    scene.render.film_transparent = True
+    return scene
+
+
+def check_extensions(doc: dict):
+    assert not any(e.startswith("PHOTON_") for e in doc.get("extensionsRequired", []))
+    assert {"PHOTON_light", "PHOTON_world", "PHOTON_render"} <= set(doc["extensionsUsed"])
+    nodes = nodes_by_name(doc)
+    area = nodes["AreaL"]["extensions"]["PHOTON_light"]
+    assert area["type"] == "area" and area["shape"] == "RECTANGLE"
+    assert area["size"] == pytest.approx(2.0) and area["size_y"] == pytest.approx(0.5)
+    assert area["power"] == pytest.approx(200.0)
+    assert area["color"] == pytest.approx([1.0, 0.5, 0.25])
+    assert nodes["SunL"]["extensions"]["PHOTON_light"]["angle"] == pytest.approx(0.1)
+    assert nodes["Light"]["extensions"]["PHOTON_light"]["radius"] == pytest.approx(0.25)
+    ext = doc["scenes"][doc.get("scene", 0)]["extensions"]
+    assert ext["PHOTON_world"]["color"] == pytest.approx([0.2, 0.3, 0.4])
+    assert ext["PHOTON_world"]["strength"] == pytest.approx(2.0)
+    assert ext["PHOTON_render"] == {"width": 960, "height": 540, "film_transparent": True}
+
+
+def test_hooks_write_photon_extensions(lights_scene, tmp_path):
+    from blender_addon import export
+    glb = tmp_path / "scene.glb"
+    export.export_in_process(glb, "blender_addon")
+    check_extensions(read_glb_json(glb))
+    assert "blender_addon" not in bpy.context.preferences.addons.keys()
+
+
+def test_background_blender_route_writes_the_same_file(lights_scene, tmp_path):
+    from blender_addon import export, runner
+    inproc, child, snapshot = tmp_path / "a.glb", tmp_path / "b.glb", tmp_path / "snap.blend"
+    export.export_in_process(inproc, "blender_addon")
+    t0 = time.perf_counter()
+    export.write_snapshot(lights_scene, snapshot)
+    runner.run(export.child_command(snapshot, child), None, None, what="glTF export")
+    print(f"snapshot + export in a child process: {time.perf_counter() - t0:.2f} s")
+    doc = read_glb_json(child)
+    check_extensions(doc)
+    assert doc == read_glb_json(inproc)
+
+
+def test_world_without_nodes_uses_world_colour(photon_addon):
+    from blender_addon import export
+    world = bpy.data.worlds.new("Plain")
+    world.use_nodes = False
+    world.color = (0.1, 0.2, 0.3)
+    assert export.world_extension(world) == {"color": pytest.approx([0.1, 0.2, 0.3]),
+                                             "strength": 1.0}
+    assert export.world_extension(None)["color"] == [0.0, 0.0, 0.0]
+
+
+def test_export_time_one_million_triangles(photon_addon, tmp_path):
+    from blender_addon import export
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=710, y_subdivisions=710, size=2.0)
+    obj = bpy.context.active_object
+    triangles = sum(len(p.vertices) - 2 for p in obj.data.polygons)
+    assert triangles >= 1_000_000
+    bpy.ops.object.camera_add(location=(0, 0, 5))
+    glb = tmp_path / "grid.glb"
+    t0 = time.perf_counter()
+    export.export_in_process(glb, "blender_addon")
+    dt = time.perf_counter() - t0
+    print(f"export of {triangles} triangles: {dt:.2f} s, {glb.stat().st_size / 1e6:.1f} MB")

@@ -1,0 +1,47 @@
+"""Render passes through the add-on: with Depth, Normal and Denoising Data enabled on the view
+layer, Photon's EXR fills them through `load_from_file` (they reach a multilayer EXR written by
+Blender), and at the cube's centre pixel they agree with Cycles'.
+"""
+
+import bpy
+import numpy as np
+import OpenEXR
+import pytest
+
+import common
+import scenes_bpy
+from helpers import photon_binary
+
+PASSES = ["Combined.R", "Combined.A", "Depth.Z", "Normal.X", "Normal.Y", "Normal.Z",
+          "Denoising Normal.X", "Denoising Albedo.R"]
+
+
+def render_multilayer(scene, engine, path):
+    common.configure_cycles(scene, 32, seed=1, threads=scenes_bpy.THREADS)
+    scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    scene.render.engine = engine
+    scene.photon.samples = 32
+    scene.render.filepath = str(path)
+    scene.render.use_file_extension = False
+    bpy.ops.render.render(write_still=True)
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {name: np.array(chan.pixels) for name, chan in f.channels().items()}
+
+
+def test_passes_are_loaded(photon_addon, tmp_path):
+    photon_binary()
+    scene = scenes_bpy.default_scene()
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = True
+    layer.cycles.denoising_store_passes = True
+    cycles = render_multilayer(scene, "CYCLES", tmp_path / "cycles.exr")
+    photon = render_multilayer(scene, "PHOTON", tmp_path / "photon.exr")
+    for name in PASSES:
+        assert f"{layer.name}.{name}" in photon, sorted(photon)
+    centre = (18, 32)
+    get = lambda img, name: float(img[f"{layer.name}.{name}"][centre])  # noqa: E731
+    assert get(photon, "Depth.Z") == pytest.approx(get(cycles, "Depth.Z"), rel=1e-3)
+    assert get(photon, "Normal.X") == pytest.approx(get(cycles, "Normal.X"), abs=0.05)
+    assert get(photon, "Denoising Albedo.R") == pytest.approx(get(cycles, "Denoising Albedo.R"),
+                                                              rel=0.03)
+    assert get(photon, "Combined.A") == pytest.approx(1.0)

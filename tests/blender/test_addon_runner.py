@@ -1,0 +1,160 @@
+"""blender_addon/runner.py without bpy: binary lookup order and the missing-binary message,
+error messages from a failing renderer, progress parsing, cancellation within a second, the
+temporary folder always removed, and reading EXR channel names.
+"""
+
+import time
+
+import numpy as np
+import pytest
+
+from addon import fake_binary, load_runner
+
+runner = load_runner()
+NAME = runner.BINARY_NAME
+
+
+@pytest.fixture
+def places(tmp_path):
+    """Four candidate binaries, one per lookup place."""
+    made = {}
+    for place in ("prefs", "env", "addon", "path"):
+        target = (runner.addon_binary(tmp_path / "addon") if place == "addon"
+                  else tmp_path / place / NAME)
+        made[place] = fake_binary(target, "sys.exit(0)\n")
+    return made
+
+
+def test_lookup_order(places, tmp_path):
+    addon_dir = tmp_path / "addon"
+    path_env = str(places["path"].parent)
+    env = {"PHOTON_BINARY": str(places["env"]), "PATH": path_env}
+    assert runner.find_binary(str(places["prefs"]), addon_dir, env) == places["prefs"]
+    assert runner.find_binary("", addon_dir, env) == places["env"]
+    assert runner.find_binary("", addon_dir, {"PATH": path_env}) == places["addon"]
+    assert runner.find_binary(None, tmp_path / "elsewhere", {"PATH": path_env}) == places["path"]
+
+
+def test_missing_binary_message_names_every_place(tmp_path):
+    with pytest.raises(runner.PhotonError) as err:
+        runner.find_binary("", tmp_path / "addon", {"PATH": str(tmp_path / "empty")})
+    text = str(err.value)
+    for place in ("preferences", "PHOTON_BINARY", str(runner.addon_binary(tmp_path / "addon")),
+                  "PATH"):
+        assert place in text, text
+
+
+def test_set_but_broken_place_is_an_error(tmp_path, places):
+    missing = tmp_path / "nowhere" / NAME
+    with pytest.raises(runner.PhotonError, match="preferences.*not an executable"):
+        runner.find_binary(str(missing), tmp_path / "addon", {})
+    with pytest.raises(runner.PhotonError, match="PHOTON_BINARY.*not an executable"):
+        runner.find_binary("", tmp_path / "addon", {"PHOTON_BINARY": str(missing)})
+
+
+def test_progress_and_stats(tmp_path):
+    binary = fake_binary(tmp_path / NAME, """
+        emit(stage="load", fraction=0.0, message="loading scene")
+        print("not json", file=sys.stderr)
+        emit(stage="load", fraction=1.0, warning="material 'X': texture missing")
+        emit(stage="render", fraction=0.5, message="tiles")
+        emit(stage="done", fraction=1.0, message="wrote", stats={"spp": 4, "rays": 10})
+        """)
+    events = []
+    stats = runner.run([str(binary)], events.append, lambda: False)
+    assert [e["stage"] for e in events] == ["load", "load", "render", "done"]
+    assert events[1]["warning"].startswith("material")
+    assert stats == {"spp": 4, "rays": 10}
+
+
+def test_error_message_reaches_the_caller(tmp_path):
+    binary = fake_binary(tmp_path / NAME, """
+        emit(stage="load", fraction=0.0, message="loading scene")
+        print("photon: error: scene.glb: node 'Cube': accessor 3 is out of range", file=sys.stderr)
+        sys.exit(2)
+        """)
+    events = []
+    with pytest.raises(runner.PhotonError) as err:
+        runner.run([str(binary)], events.append, lambda: False)
+    text = str(err.value)
+    assert "exit code 2, bad input" in text
+    assert "scene.glb: node 'Cube': accessor 3 is out of range" in text
+    assert events and events[0]["stage"] == "load"
+
+
+def test_crash_without_message_shows_the_tail(tmp_path):
+    binary = fake_binary(tmp_path / NAME, """
+        print("thread 'main' panicked at src/x.rs:1", file=sys.stderr)
+        sys.exit(101)
+        """)
+    with pytest.raises(runner.PhotonError, match="(?s)exit code 101.*panicked"):
+        runner.run([str(binary)], None, None)
+
+
+def test_cannot_start(tmp_path):
+    with pytest.raises(runner.PhotonError, match="cannot start photon"):
+        runner.run([str(tmp_path / "no_such_binary")], None, None)
+
+
+@pytest.mark.parametrize("ignores_sigterm", [False, True])
+def test_cancel_ends_within_a_second_and_leaves_nothing(tmp_path, ignores_sigterm):
+    body = """
+        if IGNORE:
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        open(sys.argv[1], "w").write("partial")
+        emit(stage="render", fraction=0.1, message="tiles")
+        time.sleep(60)
+        """.replace("IGNORE", str(ignores_sigterm))
+    binary = fake_binary(tmp_path / NAME, body)
+    events, folder, elapsed = [], None, None
+    with pytest.raises(runner.Cancelled):
+        with runner.temporary_folder() as folder:
+            out = folder / "render.exr"
+            t0 = None
+
+            def cancel():
+                nonlocal t0
+                if events and t0 is None:
+                    t0 = time.perf_counter()
+                return t0 is not None
+
+            try:
+                runner.run([str(binary), str(out)], events.append, cancel)
+            finally:
+                elapsed = time.perf_counter() - t0 if t0 else None
+    assert elapsed is not None and elapsed < 1.0, f"cancel took {elapsed} s"
+    assert not folder.exists(), f"{folder} left behind: {list(folder.iterdir())}"
+
+
+def test_temporary_folder_removed_on_error():
+    with pytest.raises(RuntimeError):
+        with runner.temporary_folder() as folder:
+            (folder / "scene.glb").write_bytes(b"x")
+            raise RuntimeError("boom")
+    assert not folder.exists()
+
+
+def test_render_command():
+    cmd = runner.render_command("photon", "s.glb", "o.exr", width=64, height=36, samples=16,
+                                max_bounces=8, seed=3, threads=2, camera="Camera",
+                                view_layer="ViewLayer")
+    assert cmd[:2] == ["photon", "render"]
+    for flag, value in (("--width", "64"), ("--height", "36"), ("--spp", "16"),
+                        ("--max-depth", "8"), ("--seed", "3"), ("--threads", "2"),
+                        ("--progress", "json"), ("--camera", "Camera"),
+                        ("--exr-layer", "ViewLayer")):
+        assert cmd[cmd.index(flag) + 1] == value
+
+
+def test_exr_channels(tmp_path):
+    import OpenEXR
+    path = tmp_path / "t.exr"
+    plane = np.zeros((2, 3), np.float32)
+    names = ["ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Depth.Z"]
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {n: plane for n in names}) as f:
+        f.write(str(path))
+    assert sorted(runner.exr_channels(path)) == sorted(names)
+    (tmp_path / "bad.exr").write_bytes(b"not an exr at all")
+    with pytest.raises(runner.PhotonError, match="not an OpenEXR"):
+        runner.exr_channels(tmp_path / "bad.exr")
