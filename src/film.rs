@@ -7,7 +7,7 @@
 //! belongs to exactly one pixel with weight 1, so pixels are independent, tiles render in parallel
 //! and images are bit-identical for any number of threads.
 
-use crate::math::{Vec2, Vec3};
+use crate::math::{Mat3, Vec2, Vec3};
 
 /// The Blackman–Harris pixel filter, sampled by table inversion.
 pub struct PixelFilter {
@@ -86,6 +86,8 @@ pub struct Image {
     pub normal: Vec<Vec3>,
     /// Distance from the camera to the first surface; 1e10 for the background (Blender's Z).
     pub depth: Vec<f32>,
+    /// Camera-to-world rotation, to express normals in camera space (Blender's Denoising Normal).
+    pub camera_rotation: Mat3,
 }
 
 impl Image {
@@ -98,7 +100,13 @@ impl Image {
             albedo: vec![Vec3::ZERO; n],
             normal: vec![Vec3::ZERO; n],
             depth: vec![0.0; n],
+            camera_rotation: Mat3::IDENTITY,
         }
+    }
+
+    /// The first-hit normal of pixel `i` in camera space (x right, y up, z towards the viewer).
+    pub fn camera_space_normal(&self, i: usize) -> Vec3 {
+        self.camera_rotation.transpose() * self.normal[i]
     }
 
     /// Mean of R, G and B over all pixels.

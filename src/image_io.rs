@@ -93,9 +93,18 @@ fn exr_channels(image: &Image, layout: &ExrLayout) -> Vec<(String, Vec<f32>)> {
                 (name("Normal", "X"), vec3(&image.normal, 0)),
                 (name("Normal", "Y"), vec3(&image.normal, 1)),
                 (name("Normal", "Z"), vec3(&image.normal, 2)),
-                (name("Denoising Normal", "X"), vec3(&image.normal, 0)),
-                (name("Denoising Normal", "Y"), vec3(&image.normal, 1)),
-                (name("Denoising Normal", "Z"), vec3(&image.normal, 2)),
+                (
+                    name("Denoising Normal", "X"),
+                    plane(&|i| image.camera_space_normal(i).x),
+                ),
+                (
+                    name("Denoising Normal", "Y"),
+                    plane(&|i| image.camera_space_normal(i).y),
+                ),
+                (
+                    name("Denoising Normal", "Z"),
+                    plane(&|i| image.camera_space_normal(i).z),
+                ),
                 (name("Denoising Albedo", "R"), vec3(&image.albedo, 0)),
                 (name("Denoising Albedo", "G"), vec3(&image.albedo, 1)),
                 (name("Denoising Albedo", "B"), vec3(&image.albedo, 2)),

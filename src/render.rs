@@ -115,6 +115,7 @@ pub fn render(
         accel: &accel,
         lights: &lights,
         max_depth: settings.max_depth,
+        transparent_background: scene.render_settings.transparent_film,
     };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
     let filter = PixelFilter::default();
@@ -144,6 +145,7 @@ pub fn render(
         .collect::<Result<_>>()?;
 
     let mut image = Image::new(settings.width, settings.height);
+    image.camera_rotation = crate::math::Mat3::from(scene.camera.to_world.matrix3);
     for (tx, ty, tile) in tiles {
         for (i, px) in tile.pixels.into_iter().enumerate() {
             let x = tx + i as u32 % tile.width;
@@ -199,7 +201,8 @@ fn render_tile(
             let mut coverage = 0.0f32;
             let mut albedo = Vec3::ZERO;
             let mut normal = Vec3::ZERO;
-            let mut depth = 0.0f32;
+            // Like Cycles, depth is not filtered: the nearest surface seen in the pixel.
+            let mut depth = f32::INFINITY;
             for s in 0..settings.spp {
                 let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
                 let offset = filter.sample(rng.uniform2());
@@ -216,7 +219,7 @@ fn render_tile(
                 }
                 albedo += sample.albedo;
                 normal += sample.normal;
-                depth += sample.depth;
+                depth = depth.min(sample.depth);
             }
             let n = settings.spp as f32;
             let c = sum / n;
@@ -224,7 +227,7 @@ fn render_tile(
                 rgba: [c.x, c.y, c.z, coverage / n],
                 albedo: albedo / n,
                 normal: normal.normalize_or_zero(),
-                depth: depth / n,
+                depth,
             });
         }
     }

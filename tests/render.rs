@@ -284,3 +284,32 @@ fn images_do_not_change_with_scene_scale_or_position() {
         );
     }
 }
+
+#[test]
+fn transparent_film_hides_the_world_but_keeps_its_light() {
+    let mut scene = scenes::scene(
+        vec![scenes::sphere(Vec3::ZERO, 1.0, 24, 48, false, 0)],
+        vec![Material::diffuse("ball", Vec3::splat(0.8))],
+        Vec::new(),
+        scenes::camera_looking_at(
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::ZERO,
+            Projection::Orthographic {
+                xmag: 2.0,
+                ymag: 2.0,
+            },
+        ),
+        Vec3::splat(1.0),
+    );
+    scene.render_settings.transparent_film = true;
+    let image = render_with(&scene, &settings(16, 16));
+    // Corners see only the world: transparent and black. The centre sees the lit sphere.
+    assert_eq!(image.rgba[0], [0.0; 4]);
+    let centre = image.rgba[8 * 16 + 8];
+    assert!(
+        (centre[0] - 0.8).abs() < 0.05 && centre[3] == 1.0,
+        "{centre:?}"
+    );
+    assert_eq!(image.depth[0], 1e10);
+    assert!((image.depth[8 * 16 + 8] - 4.0).abs() < 0.05);
+}

@@ -15,6 +15,9 @@ pub struct Context<'a> {
     pub lights: &'a Lights,
     /// Maximum number of bounces (0 = emitters and direct visibility of lights only).
     pub max_depth: u32,
+    /// Blender's "Film → Transparent": camera rays that leave the scene see nothing (alpha 0)
+    /// instead of the world, which still lights the scene.
+    pub transparent_background: bool,
 }
 
 /// What one camera sample produced.
@@ -24,6 +27,7 @@ pub struct CameraSample {
     /// The camera ray hit geometry (alpha coverage).
     pub hit: bool,
     pub albedo: Vec3,
+    /// World-space shading normal at the first hit.
     pub normal: Vec3,
     pub depth: f32,
     /// Rays traced for this sample (closest-hit and shadow), for statistics.

@@ -39,6 +39,9 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
         };
         out.rays += 1;
         let Some(hit) = ctx.accel.intersect(scene, &ray, visibility) else {
+            if depth == 0 && ctx.transparent_background {
+                break;
+            }
             ctx.lights.escaped(ray.direction, |le, light_pdf| {
                 let w = if prev_delta {
                     1.0
