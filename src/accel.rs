@@ -143,6 +143,23 @@ impl ShearedRay {
         if !(t > t_min && t < t_max) {
             return None;
         }
+        // Reject t within its own rounding error of zero (pbrt-v4 §6.8.7): a ray that starts on
+        // the surface — possible when the origin's error bound along the normal is zero, e.g. a
+        // floor at exactly y = 0 — must not find that surface again at t ≈ 1e-9.
+        let gamma = crate::interaction::gamma;
+        let max_x = ax.abs().max(bx.abs()).max(cx.abs());
+        let max_y = ay.abs().max(by.abs()).max(cy.abs());
+        let max_z = az.abs().max(bz.abs()).max(cz.abs());
+        let delta_x = gamma(5) * (max_x + max_z);
+        let delta_y = gamma(5) * (max_y + max_z);
+        let delta_z = gamma(3) * max_z;
+        let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let max_e = u.abs().max(vv.abs()).max(w.abs());
+        let delta_t =
+            3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv_det.abs();
+        if t <= delta_t {
+            return None;
+        }
         Some((t, vv * inv_det, w * inv_det))
     }
 }

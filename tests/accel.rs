@@ -316,3 +316,48 @@ fn bvh_agrees_with_brute_force_at_grazing_angles_in_large_scenes() {
         mismatches.first()
     );
 }
+
+#[test]
+fn rays_leaving_a_surface_on_a_coordinate_plane_do_not_hit_it_again() {
+    // A floor exactly at y = 0 has a zero error bound along its normal, so spawned origins are
+    // not offset at all; the triangle test must still reject the surface the ray starts on. A
+    // distant sphere stretches the scene bounds, as in the Blender scene that showed this (shadow
+    // rays re-hit the floor at t ≈ 4e-9 and the far floor lost its direct light).
+    let far = scenes::sphere(Vec3::new(0.0, 0.5, -20.0), 0.5, 4, 8, false, 0);
+    let scene = scenes::scene(
+        vec![scenes::floor(6.0, 0.0, 0), far],
+        vec![Material::diffuse("m", Vec3::ONE)],
+        Vec::new(),
+        scenes::camera_looking_at(Vec3::Z, Vec3::ZERO, Projection::Perspective { yfov: 1.0 }),
+        Vec3::ZERO,
+    );
+    let accel = Accel::new(&scene);
+    let mut rng = Rng::new(3);
+    for _ in 0..20_000 {
+        let xz = (rng.uniform2() - 0.5) * 5.8;
+        let from = Vec3::new(xz.x, 1.0 + rng.uniform(), xz.y);
+        let down = Ray {
+            origin: from,
+            direction: Vec3::new(
+                0.1 * (rng.uniform() - 0.5),
+                -1.0,
+                0.1 * (rng.uniform() - 0.5),
+            ),
+            t_max: f32::INFINITY,
+        };
+        let Some(hit) = accel.intersect(&scene, &down, Visibility::Secondary) else {
+            continue;
+        };
+        let sh = SurfaceHit::new(&scene, &down, &hit);
+        let mut dir = square_to_uniform_sphere(rng.uniform2());
+        dir.y = dir.y.abs();
+        let out = sh.spawn(dir);
+        let again = accel.intersect(&scene, &out, Visibility::Secondary);
+        assert!(
+            again.is_none_or(|h| h.mesh != 0),
+            "re-hit the floor at t = {:?} from {:?}",
+            again.map(|h| h.t),
+            sh.p
+        );
+    }
+}
