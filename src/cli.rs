@@ -138,10 +138,15 @@ struct RenderArgs {
 impl RenderArgs {
     fn photon_settings(&self) -> Result<PhotonSettings> {
         let d = PhotonSettings::default();
-        for (name, r) in [("radius", self.radius), ("caustic-radius", self.caustic_radius)] {
+        for (name, r) in [
+            ("radius", self.radius),
+            ("caustic-radius", self.caustic_radius),
+        ] {
             if let Some(r) = r {
                 if !(r.is_finite() && r > 0.0) {
-                    return Err(Error::Settings(format!("--{name} must be positive, not {r}")));
+                    return Err(Error::Settings(format!(
+                        "--{name} must be positive, not {r}"
+                    )));
                 }
             }
         }

@@ -93,33 +93,33 @@ impl Photon {
     }
 }
 
-/// Ward's shared-exponent encoding (Graphics Gems II, "Real pixels"): the largest component
-/// keeps 8 bits of mantissa, so the error of every component is below 1/256 of the largest.
+/// Ward's shared-exponent encoding (Graphics Gems II, "Real pixels"), rounding to nearest: the
+/// largest component keeps 8 bits of mantissa, so every component's error is at most half a
+/// step, below 1/256 of the largest component; zero stays zero.
 pub fn encode_rgbe(c: Vec3) -> [u8; 4] {
     let c = c.max(Vec3::ZERO);
     let v = c.max_element();
     if !(v > 1e-32) || !v.is_finite() {
         return [0; 4];
     }
-    // v = m · 2^e with m in [0.5, 1).
+    // v = m · 2^e with m in [0.5, 1); bump e when rounding would carry the mantissa to 256.
     let mut e = v.log2().floor() as i32 + 1;
-    if v >= 2f32.powi(e) {
+    while (v * (256.0 / 2f32.powi(e))).round() >= 256.0 {
         e += 1;
     }
     let e = e.clamp(-127, 127);
     let scale = 256.0 / 2f32.powi(e);
-    let q = |x: f32| (x * scale).floor().min(255.0) as u8;
+    let q = |x: f32| (x * scale).round().min(255.0) as u8;
     [q(c.x), q(c.y), q(c.z), (e + 128) as u8]
 }
 
-/// Inverse of `encode_rgbe`, reconstructing at the centre of each quantisation step.
+/// Inverse of `encode_rgbe`.
 pub fn decode_rgbe(b: [u8; 4]) -> Vec3 {
     if b[3] == 0 {
         return Vec3::ZERO;
     }
     let f = 2f32.powi(b[3] as i32 - 128 - 8);
-    let d = |x: u8| if x == 0 { 0.0 } else { (x as f32 + 0.5) * f };
-    Vec3::new(d(b[0]), d(b[1]), d(b[2]))
+    Vec3::new(b[0] as f32, b[1] as f32, b[2] as f32) * f
 }
 
 /// A unit direction as (θ, φ) bytes: 256 steps of θ ∈ [0, π] and of φ ∈ [0, 2π).

@@ -155,8 +155,7 @@ pub fn render(
     };
     let maps = match settings.method.photon_view() {
         Some(view) => {
-            let (maps, info) =
-                photon::build_maps(&ctx, &settings.photon, settings.seed, progress)?;
+            let (maps, info) = photon::build_maps(&ctx, &settings.photon, settings.seed, progress)?;
             stats.photon = Some(info);
             Some((maps, view))
         }
@@ -181,16 +180,7 @@ pub fn render(
         .map(|t| {
             let (tx, ty) = (t % tiles_x * TILE, t / tiles_x * TILE);
             let tile = render_tile(
-                &ctx,
-                integrator,
-                &camera,
-                &filter,
-                settings,
-                tx,
-                ty,
-                progress,
-                &rays,
-                &nonfinite,
+                &ctx, integrator, &camera, &filter, settings, tx, ty, progress, &rays, &nonfinite,
             )?;
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
             (progress.report)(&ProgressEvent {

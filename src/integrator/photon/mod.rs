@@ -464,12 +464,20 @@ impl Pass2<'_> {
 
     /// A non-delta final-gather ray from `from` with BSDF density `pdf`: the emission it finds
     /// (MIS-weighted against light sampling) plus the global estimate behind specular surfaces.
-    fn gather_ray(&mut self, from: Vec3, ray: Ray, pdf: f32, absorption: Vec3, rng: &mut Rng) -> Vec3 {
+    fn gather_ray(
+        &mut self,
+        from: Vec3,
+        ray: Ray,
+        pdf: f32,
+        absorption: Vec3,
+        rng: &mut Rng,
+    ) -> Vec3 {
         let ctx = self.ctx;
         let Some(hit) = self.intersect(&ray) else {
             let mut l = Vec3::ZERO;
-            ctx.lights
-                .escaped(ray.direction, |le, lpdf| l += le * power_heuristic(pdf, lpdf));
+            ctx.lights.escaped(ray.direction, |le, lpdf| {
+                l += le * power_heuristic(pdf, lpdf)
+            });
             return l;
         };
         let mut t = Vec3::ONE;

@@ -157,7 +157,8 @@ impl Emitters {
                 cos_outer,
             } => {
                 let cos_outer = cos_outer.clamp(-1.0, 1.0);
-                let dir = Frame::from_normal(direction).to_world(square_to_uniform_cone(u1, cos_outer));
+                let dir =
+                    Frame::from_normal(direction).to_world(square_to_uniform_cone(u1, cos_outer));
                 let falloff = smoothstep(cos_outer, cos_inner, dir.dot(direction));
                 (
                     ray(position, dir),
