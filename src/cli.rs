@@ -4,7 +4,8 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use photon::error::{Error, Result};
 use photon::image_io::{write_image, ExrLayout};
-use photon::render::{render, Progress, ProgressEvent, RenderSettings, RenderStats};
+use photon::integrator::photon::PhotonSettings;
+use photon::render::{render, Method, Progress, ProgressEvent, RenderSettings, RenderStats};
 use photon::scene::gltf::{load, LoadOptions};
 use photon::scene::{builtin, Projection, Scene};
 use std::io::{IsTerminal, Write};
@@ -59,6 +60,21 @@ enum ProgressMode {
     None,
 }
 
+/// The rendering algorithm (`--method`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum MethodArg {
+    /// Unbiased path tracing (the reference).
+    Path,
+    /// Photon mapping with final gathering.
+    Photon,
+    /// Debug: the global photon map's radiance estimate, seen directly.
+    PhotonGlobal,
+    /// Debug: the caustic photon map's radiance estimate.
+    PhotonCaustic,
+    /// Debug: photon positions (white: global, orange: caustic).
+    Photons,
+}
+
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
     /// The .glb or .gltf scene; without it the embedded Cornell box is rendered.
@@ -93,6 +109,58 @@ struct RenderArgs {
     /// Name EXR channels for Blender's multilayer loader: <VIEW_LAYER>.Combined.R and so on.
     #[arg(long, value_name = "VIEW_LAYER")]
     exr_layer: Option<String>,
+    /// Rendering algorithm.
+    #[arg(long, value_enum, default_value_t = MethodArg::Path)]
+    method: MethodArg,
+    /// Photons emitted for the global map [default: 200000].
+    #[arg(long)]
+    photons: Option<u32>,
+    /// Photons emitted for the caustic map (0 skips it) [default: 500000].
+    #[arg(long)]
+    caustic_photons: Option<u32>,
+    /// Final-gather rays per shading point (0 reads the global map directly) [default: 32].
+    #[arg(long)]
+    gather_rays: Option<u32>,
+    /// Nearest photons in a global radiance estimate [default: 64].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    k: Option<u32>,
+    /// Nearest photons in a caustic radiance estimate [default: 64].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    caustic_k: Option<u32>,
+    /// Maximum global search radius, as a fraction of the scene's bounding radius [default: 0.1].
+    #[arg(long)]
+    radius: Option<f32>,
+    /// Maximum caustic search radius, as a fraction of the scene's bounding radius [default: 0.02].
+    #[arg(long)]
+    caustic_radius: Option<f32>,
+}
+
+impl RenderArgs {
+    fn photon_settings(&self) -> Result<PhotonSettings> {
+        let d = PhotonSettings::default();
+        for (name, r) in [
+            ("radius", self.radius),
+            ("caustic-radius", self.caustic_radius),
+        ] {
+            if let Some(r) = r {
+                if !(r.is_finite() && r > 0.0) {
+                    return Err(Error::Settings(format!(
+                        "--{name} must be positive, not {r}"
+                    )));
+                }
+            }
+        }
+        Ok(PhotonSettings {
+            global_photons: self.photons.unwrap_or(d.global_photons),
+            caustic_photons: self.caustic_photons.unwrap_or(d.caustic_photons),
+            k_global: self.k.unwrap_or(d.k_global),
+            k_caustic: self.caustic_k.unwrap_or(d.k_caustic),
+            global_radius: self.radius.unwrap_or(d.global_radius),
+            caustic_radius: self.caustic_radius.unwrap_or(d.caustic_radius),
+            gather_rays: self.gather_rays.unwrap_or(d.gather_rays),
+            max_photon_bounces: d.max_photon_bounces,
+        })
+    }
 }
 
 /// Run the command line and return the process exit code.
@@ -214,6 +282,14 @@ fn run_render(args: RenderArgs) -> Result<()> {
         spp: args.spp,
         max_depth: args.max_depth,
         seed: args.seed,
+        method: match args.method {
+            MethodArg::Path => Method::Path,
+            MethodArg::Photon => Method::Photon,
+            MethodArg::PhotonGlobal => Method::PhotonGlobal,
+            MethodArg::PhotonCaustic => Method::PhotonCaustic,
+            MethodArg::Photons => Method::Photons,
+        },
+        photon: args.photon_settings()?,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -278,6 +354,34 @@ fn summarise(
     mode: ProgressMode,
 ) {
     let mrays = stats.rays as f64 / stats.render_seconds.max(1e-9) / 1e6;
+    if let Some(p) = &stats.photon {
+        let rate = (p.global_emitted + p.caustic_emitted) as f64 / p.trace_seconds.max(1e-9);
+        if mode == ProgressMode::Json {
+            json_line(serde_json::json!({
+                "stage": "photons", "fraction": 1.0, "message": "photon maps built",
+                "stats": {
+                    "global_emitted": p.global_emitted, "global_stored": p.global_stored,
+                    "caustic_emitted": p.caustic_emitted, "caustic_stored": p.caustic_stored,
+                    "caustic_skipped": p.caustic_skipped, "trace_seconds": p.trace_seconds,
+                    "kdtree_seconds": p.kdtree_seconds, "photons_per_second": rate,
+                }
+            }));
+        } else {
+            if let Some(why) = &p.caustic_skipped {
+                eprintln!("photon: caustic map skipped: {why}");
+            }
+            eprintln!(
+                "photon: photons: global {} emitted / {} stored, caustic {} emitted / {} stored; traced in {:.3} s ({:.2} M photons/s), kd-trees {:.3} s",
+                p.global_emitted,
+                p.global_stored,
+                p.caustic_emitted,
+                p.caustic_stored,
+                p.trace_seconds,
+                rate / 1e6,
+                p.kdtree_seconds
+            );
+        }
+    }
     let memory = peak_memory_mib().unwrap_or(0.0);
     if mode == ProgressMode::Json {
         json_line(serde_json::json!({

@@ -17,6 +17,7 @@ pub mod light;
 pub mod material;
 pub mod math;
 pub mod metrics;
+pub mod photon_map;
 pub mod render;
 pub mod rng;
 pub mod sampling;

@@ -77,7 +77,7 @@ pub struct Lights {
     scene_radius: f32,
 }
 
-fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
+pub fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
     if edge1 <= edge0 {
         return if x >= edge0 { 1.0 } else { 0.0 };
     }

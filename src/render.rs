@@ -10,7 +10,8 @@ use crate::accel::Accel;
 use crate::camera::CameraRays;
 use crate::error::{Error, Result};
 use crate::film::{Image, PixelFilter};
-use crate::integrator::{path, Context};
+use crate::integrator::photon::{self, PhotonInfo, PhotonMaps, PhotonSettings, View};
+use crate::integrator::{path, CameraSample, Context};
 use crate::light::Lights;
 use crate::math::{Vec2, Vec3};
 use crate::rng::Rng;
@@ -29,6 +30,38 @@ pub struct RenderSettings {
     /// Maximum path length in bounces.
     pub max_depth: u32,
     pub seed: u64,
+    /// The rendering algorithm.
+    pub method: Method,
+    /// Photon-mapping settings (used by the photon methods).
+    pub photon: PhotonSettings,
+}
+
+/// The rendering algorithm, chosen once per render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Method {
+    /// The unbiased path tracer (the reference).
+    #[default]
+    Path,
+    /// Photon mapping: direct + specular + caustic map + final gathering into the global map.
+    Photon,
+    /// Debug view: the global map's radiance estimate seen directly.
+    PhotonGlobal,
+    /// Debug view: the caustic map's radiance estimate.
+    PhotonCaustic,
+    /// Debug view: photon positions.
+    Photons,
+}
+
+impl Method {
+    fn photon_view(self) -> Option<View> {
+        match self {
+            Method::Path => None,
+            Method::Photon => Some(View::Full),
+            Method::PhotonGlobal => Some(View::Global),
+            Method::PhotonCaustic => Some(View::Caustic),
+            Method::Photons => Some(View::Photons),
+        }
+    }
 }
 
 impl Default for RenderSettings {
@@ -39,6 +72,8 @@ impl Default for RenderSettings {
             spp: 64,
             max_depth: 32,
             seed: 0,
+            method: Method::Path,
+            photon: PhotonSettings::default(),
         }
     }
 }
@@ -54,6 +89,8 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples dropped because their radiance was NaN or infinite.
     pub nonfinite_samples: u64,
+    /// Pass 1 of the photon methods: what was traced and skipped.
+    pub photon: Option<PhotonInfo>,
 }
 
 /// One progress report.
@@ -72,7 +109,7 @@ pub struct Progress<'a> {
 }
 
 impl Progress<'_> {
-    fn check(&self) -> Result<()> {
+    pub(crate) fn check(&self) -> Result<()> {
         if self.cancel.load(Ordering::Relaxed) {
             Err(Error::Cancelled)
         } else {
@@ -117,6 +154,18 @@ pub fn render(
         max_depth: settings.max_depth,
         transparent_background: scene.render_settings.transparent_film,
     };
+    let maps = match settings.method.photon_view() {
+        Some(view) => {
+            let (maps, info) = photon::build_maps(&ctx, &settings.photon, settings.seed, progress)?;
+            stats.photon = Some(info);
+            Some((maps, view))
+        }
+        None => None,
+    };
+    let integrator = match &maps {
+        Some((maps, view)) => Integrator::Photon(maps, *view),
+        None => Integrator::Path,
+    };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
     let filter = PixelFilter::default();
     let tiles_x = settings.width.div_ceil(TILE);
@@ -132,7 +181,7 @@ pub fn render(
         .map(|t| {
             let (tx, ty) = (t % tiles_x * TILE, t / tiles_x * TILE);
             let tile = render_tile(
-                &ctx, &camera, &filter, settings, tx, ty, progress, &rays, &nonfinite,
+                &ctx, integrator, &camera, &filter, settings, tx, ty, progress, &rays, &nonfinite,
             )?;
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
             (progress.report)(&ProgressEvent {
@@ -176,9 +225,26 @@ struct TileResult {
     pixels: Vec<PixelResult>,
 }
 
+/// The integrator of this render, chosen once.
+#[derive(Clone, Copy)]
+enum Integrator<'a> {
+    Path,
+    Photon(&'a PhotonMaps, View),
+}
+
+impl Integrator<'_> {
+    fn trace(self, ctx: &Context, ray: crate::accel::Ray, rng: &mut Rng) -> CameraSample {
+        match self {
+            Integrator::Path => path::trace(ctx, ray, rng),
+            Integrator::Photon(maps, view) => photon::trace(ctx, maps, view, ray, rng),
+        }
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 fn render_tile(
     ctx: &Context,
+    integrator: Integrator,
     camera: &CameraRays,
     filter: &PixelFilter,
     settings: &RenderSettings,
@@ -207,7 +273,7 @@ fn render_tile(
                 let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
                 let offset = filter.sample(rng.uniform2());
                 let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-                let sample = path::trace(ctx, camera.ray(film), &mut rng);
+                let sample = integrator.trace(ctx, camera.ray(film), &mut rng);
                 tile_rays += sample.rays as u64;
                 if sample.radiance.is_finite() {
                     sum += sample.radiance;

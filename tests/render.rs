@@ -33,6 +33,7 @@ fn settings(size: u32, spp: u32) -> RenderSettings {
         spp,
         max_depth: 64,
         seed: 1,
+        ..RenderSettings::default()
     }
 }
 

@@ -1,0 +1,680 @@
+//! Two-pass photon mapping (Jensen 2000, "Photon maps" and "Rendering equation solution"; Jensen
+//! 2001, ch. 9). Pass 1 (`tracing`) stores photons in a global and a caustic map; pass 2 renders
+//! each camera path by the notes' decomposition of the reflected radiance at the first
+//! non-specular surface x (the first surface where `stores_photons` holds):
+//!
+//! L(x) = Le + L_direct + L_specular + L_caustic + L_indirect, where
+//! - **direct** (paths L D(x) E): one light sample with MIS against the BSDF-sampled gather rays,
+//!   which add the emission they hit with the complementary weight (as in `path.rs`);
+//! - **specular** (E S* x): specular and glossy-only surfaces before x are ray traced as in the
+//!   path tracer, and a delta lobe of x itself (a smooth coat) is traced recursively;
+//! - **caustics** (L S+ D(x)): the caustic map's estimate at x, cone-filtered (k = 1);
+//! - **indirect** (L (S|D)* D S* D(x)): final gathering: `gather_rays` BSDF-sampled rays from x
+//!   (stratified); each follows specular surfaces without adding emission (L S+ paths arriving
+//!   that way are caustics, already counted) and reads the global map's radiance estimate at the
+//!   first non-specular hit y. The global map holds *every* stored photon (direct, caustic and
+//!   indirect), so the estimate at y is y's full reflected radiance, and emission at gather hits
+//!   is counted only through the MIS-weighted direct term above.
+//!
+//! Each light path is counted once: by the first diffuse vertex from the eye it is direct (no
+//! diffuse vertex between it and the light, no specular either), caustic (only specular between),
+//! or indirect (some diffuse vertex between). A gather sample that picks a delta lobe of x follows
+//! the mirror direction and, at the next non-specular hit, adds its emission and the global
+//! estimate (no second gather: Jensen's "less accurate" path for secondary rays).
+//!
+//! "Specular" means a delta lobe, or a surface without Lambertian part whose perceptual roughness
+//! is below `SPECULAR_ROUGHNESS` = 0.049 (LuxCore's glossiness threshold): such surfaces are ray
+//! traced; all others store photons and are shaded from the maps.
+//!
+//! Radiance estimates use the k nearest photons within a maximum radius (relative to the scene's
+//! bounding radius), `L ≈ Σ f_r ΔΦ / (π r²)`, where r is the k-th distance (or the maximum radius
+//! when fewer are found), discarding photons off the tangent plane (more than a quarter of r away
+//! along the normal) and, through f_r, photons from the wrong side.
+
+pub mod tracing;
+
+use super::{CameraSample, Context};
+use crate::accel::{Hit, Ray, Visibility};
+use crate::bsdf::{bsdf_albedo, bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf, BsdfSample};
+use crate::error::Result;
+use crate::interaction::SurfaceHit;
+use crate::light::emitted_radiance;
+use crate::material::{eval_material, SurfaceMaterial};
+use crate::math::{max_component, Frame, Vec2, Vec3};
+use crate::photon_map::{Neighbors, Photon, PhotonMap};
+use crate::render::{Progress, ProgressEvent};
+use crate::rng::Rng;
+use crate::sampling::power_heuristic;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+use tracing::{stores_photons, trace_photon, Emitters, Pass};
+
+/// Perceptual roughness below which a surface without Lambertian part counts as specular
+/// (LuxCore's glossiness threshold). Such lobes are narrow enough that ray tracing them
+/// converges fast, while a photon estimate would blur them.
+pub const SPECULAR_ROUGHNESS: f32 = 0.049;
+
+/// Photons further than this fraction of the search radius from the tangent plane are ignored.
+const PLANE_TOLERANCE: f32 = 0.25;
+
+/// Longest chain of specular bounces followed by gather and estimate rays.
+const MAX_SPECULAR_CHAIN: u32 = 12;
+
+/// Photons per work item of pass 1 (a batch has its own random stream).
+const BATCH: u32 = 4096;
+
+/// Photon-mapping settings; the command line maps onto them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhotonSettings {
+    /// Photons emitted for the global map (default 200 000).
+    pub global_photons: u32,
+    /// Photons emitted for the caustic map (default 500 000; most miss the specular objects).
+    pub caustic_photons: u32,
+    /// Nearest photons in a global estimate (default 64).
+    pub k_global: u32,
+    /// Nearest photons in a caustic estimate (default 64).
+    pub k_caustic: u32,
+    /// Maximum global search radius as a fraction of the scene's bounding radius (default 0.1).
+    pub global_radius: f32,
+    /// Maximum caustic search radius as a fraction of the scene's bounding radius (0.02).
+    pub caustic_radius: f32,
+    /// Final-gather rays per shading point (default 32; 0 reads the global map directly).
+    pub gather_rays: u32,
+    /// Maximum bounces of a photon (default 16).
+    pub max_photon_bounces: u32,
+}
+
+impl Default for PhotonSettings {
+    fn default() -> Self {
+        PhotonSettings {
+            global_photons: 200_000,
+            caustic_photons: 500_000,
+            k_global: 64,
+            k_caustic: 64,
+            global_radius: 0.1,
+            caustic_radius: 0.02,
+            gather_rays: 32,
+            max_photon_bounces: 16,
+        }
+    }
+}
+
+/// What pass 2 shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// The full solution (direct + specular + caustics + final gather).
+    Full,
+    /// The global map's radiance estimate at the first non-specular hit, plus emission.
+    Global,
+    /// The caustic map's radiance estimate at the first non-specular hit.
+    Caustic,
+    /// Photon positions: white dots for global photons, orange for caustic ones.
+    Photons,
+}
+
+/// The plan and statistics of pass 1.
+#[derive(Clone, Debug, Default)]
+pub struct PhotonInfo {
+    pub global_emitted: u64,
+    pub global_stored: usize,
+    pub caustic_emitted: u64,
+    pub caustic_stored: usize,
+    /// Why the caustic map was skipped, if it was.
+    pub caustic_skipped: Option<String>,
+    pub trace_seconds: f64,
+    pub kdtree_seconds: f64,
+}
+
+/// Both maps and the lookup parameters.
+pub struct PhotonMaps {
+    pub global: Option<PhotonMap>,
+    pub caustic: Option<PhotonMap>,
+    pub settings: PhotonSettings,
+    global_radius2: f32,
+    caustic_radius2: f32,
+    dot_radius2: f32,
+}
+
+/// A surface hit prepared for shading, with the path tracer's frame convention: opaque surfaces
+/// turn the frame (and `ng`) to the viewer's side, transmissive ones keep the winding side.
+pub struct Shading {
+    pub sh: SurfaceHit,
+    pub surface: SurfaceMaterial,
+    pub frame: Frame,
+    pub ng: Vec3,
+    pub opaque: bool,
+    pub bsdf: Bsdf,
+    /// Unit direction towards the viewer (or where the photon came from).
+    pub wo: Vec3,
+    pub wo_local: Vec3,
+}
+
+impl Shading {
+    pub fn new(ctx: &Context, ray: &Ray, hit: &Hit) -> Shading {
+        let sh = SurfaceHit::new(ctx.scene, ray, hit);
+        let wo = -ray.direction.normalize();
+        let surface = eval_material(ctx.scene, &ctx.scene.materials[sh.material as usize], sh.uv);
+        let mut frame = sh.frame;
+        let opaque = surface.transmission <= 0.0;
+        let mut ng = sh.ng;
+        if opaque && wo.dot(ng) < 0.0 {
+            frame.n = -frame.n;
+            frame.t = -frame.t;
+            ng = -ng;
+        }
+        Shading {
+            sh,
+            frame,
+            ng,
+            opaque,
+            bsdf: Bsdf::new(&surface),
+            wo,
+            wo_local: frame.to_local(wo),
+            surface,
+        }
+    }
+
+    /// Absorption coefficient of the medium a ray leaving along `wi` by `bs` travels through.
+    pub fn absorption_after(&self, bs: &BsdfSample, wi: Vec3, current: Vec3) -> Vec3 {
+        if !bs.transmitted {
+            current
+        } else if wi.dot(self.sh.ng) < 0.0 {
+            self.surface.absorption
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Sample the BSDF and turn the sample into a world direction; `None` when the path ends.
+    fn sample(&self, u_lobe: f32, u: Vec2) -> Option<(BsdfSample, Vec3)> {
+        let bs = sample_bsdf(&self.bsdf, self.wo_local, u_lobe, u)?;
+        let wi = self.frame.to_world(bs.wi).normalize();
+        if self.opaque && wi.dot(self.ng) <= 0.0 {
+            return None;
+        }
+        Some((bs, wi))
+    }
+}
+
+/// True when some material has a delta or glossy-only lobe (`SPECULAR_ROUGHNESS`), so a photon
+/// can scatter specularly and a caustic map is needed. Roughness textures count as smooth.
+pub fn needs_caustic_map(scene: &crate::scene::Scene) -> bool {
+    scene.materials.iter().any(|m| {
+        let mut s = eval_material(scene, m, Vec2::ZERO);
+        if m.metallic_roughness_texture.is_some() {
+            s.roughness = 0.0;
+        }
+        let b = Bsdf::new(&s);
+        b.has_delta() || (b.has_specular() && b.roughness() < SPECULAR_ROUGHNESS)
+    })
+}
+
+/// Trace `count` photons of one pass in parallel batches, concatenated in batch order.
+fn trace_pass(
+    ctx: &Context,
+    emitters: &Emitters,
+    settings: &PhotonSettings,
+    pass: Pass,
+    count: u32,
+    seed: u64,
+    progress: &Progress,
+) -> Result<Vec<Photon>> {
+    let batches = count.div_ceil(BATCH);
+    let done = AtomicU64::new(0);
+    let scale = 1.0 / count.max(1) as f32;
+    let tag = match pass {
+        Pass::Global => 0x9b0a_1c5e_u64,
+        Pass::Caustic => 0x3c4f_77d1_u64,
+    };
+    let parts: Vec<Vec<Photon>> = (0..batches)
+        .into_par_iter()
+        .map(|b| {
+            progress.check()?;
+            let mut rng = Rng::for_item(seed ^ tag, b as u64, 0);
+            let n = BATCH.min(count - b * BATCH);
+            let mut out = Vec::with_capacity(n as usize * 2);
+            for _ in 0..n {
+                if let Some((ray, power)) = emitters.emit(ctx, &mut rng) {
+                    let max = settings.max_photon_bounces;
+                    trace_photon(ctx, ray, power * scale, pass, max, &mut rng, &mut out);
+                }
+            }
+            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
+            (progress.report)(&ProgressEvent {
+                stage: "photons",
+                fraction: finished as f32 / batches as f32,
+                message: format!("{pass:?} photons: batch {finished}/{batches}"),
+            });
+            Ok(out)
+        })
+        .collect::<Result<_>>()?;
+    Ok(parts.concat())
+}
+
+/// Pass 1: trace and balance the maps.
+pub fn build_maps(
+    ctx: &Context,
+    settings: &PhotonSettings,
+    seed: u64,
+    progress: &Progress,
+) -> Result<(PhotonMaps, PhotonInfo)> {
+    let emitters = Emitters::new(ctx);
+    let mut info = PhotonInfo::default();
+    let start = Instant::now();
+    let global = trace_pass(
+        ctx,
+        &emitters,
+        settings,
+        Pass::Global,
+        settings.global_photons,
+        seed,
+        progress,
+    )?;
+    info.global_emitted = settings.global_photons as u64;
+    let caustic = if settings.caustic_photons == 0 {
+        info.caustic_skipped = Some("no caustic photons requested".into());
+        Vec::new()
+    } else if !needs_caustic_map(ctx.scene) {
+        info.caustic_skipped = Some("no material has a delta or glossy lobe".into());
+        Vec::new()
+    } else {
+        info.caustic_emitted = settings.caustic_photons as u64;
+        trace_pass(
+            ctx,
+            &emitters,
+            settings,
+            Pass::Caustic,
+            settings.caustic_photons,
+            seed,
+            progress,
+        )?
+    };
+    info.trace_seconds = start.elapsed().as_secs_f64();
+    info.global_stored = global.len();
+    info.caustic_stored = caustic.len();
+    let start = Instant::now();
+    let (global, caustic) = rayon::join(
+        || (!global.is_empty()).then(|| PhotonMap::build(global)),
+        || (!caustic.is_empty()).then(|| PhotonMap::build(caustic)),
+    );
+    info.kdtree_seconds = start.elapsed().as_secs_f64();
+    let (_, radius) = ctx.lights.scene_sphere();
+    let sq = |f: f32| (f * radius) * (f * radius);
+    Ok((
+        PhotonMaps {
+            global,
+            caustic,
+            settings: settings.clone(),
+            global_radius2: sq(settings.global_radius),
+            caustic_radius2: sq(settings.caustic_radius),
+            dot_radius2: sq(0.004),
+        },
+        info,
+    ))
+}
+
+/// Radiance leaving `s` towards its viewer estimated from `map`: Σ f_r ΔΦ / (π r²), with a cone
+/// filter (k = 1, normalised by 1 − 2/3) when `cone` is set.
+fn radiance_estimate(
+    map: &PhotonMap,
+    k: u32,
+    max_radius2: f32,
+    cone: bool,
+    s: &Shading,
+    buf: &mut Neighbors,
+) -> Vec3 {
+    map.nearest(s.sh.p, k as usize, max_radius2, buf);
+    if buf.is_empty() {
+        return Vec3::ZERO;
+    }
+    let r2 = buf.radius2;
+    let r = r2.sqrt();
+    // Pure Lambertian opaque surfaces: f_r = ρ/π on the viewer's side, no per-photon BSDF call.
+    let rho = s.bsdf.diffuse_reflectance(s.wo_local);
+    let lambert = s.opaque && max_component(bsdf_albedo(&s.bsdf, s.wo_local) - rho) < 1e-4;
+    let mut sum = Vec3::ZERO;
+    for nb in buf.iter() {
+        let ph = &map.photons()[nb.index as usize];
+        if (ph.position() - s.sh.p).dot(s.ng).abs() > PLANE_TOLERANCE * r {
+            continue;
+        }
+        let wi = ph.incoming();
+        let f = if lambert {
+            if wi.dot(s.ng) > 0.0 {
+                rho * (1.0 / PI)
+            } else {
+                continue;
+            }
+        } else {
+            let wl = s.frame.to_local(wi);
+            if wl.z.abs() < 1e-6 {
+                continue;
+            }
+            eval_bsdf(&s.bsdf, s.wo_local, wl) / wl.z.abs()
+        };
+        let w = if cone { 1.0 - nb.dist2.sqrt() / r } else { 1.0 };
+        sum += f * ph.power() * w;
+    }
+    let area = if cone { PI * r2 / 3.0 } else { PI * r2 };
+    sum / area
+}
+
+/// Per-sample state shared by the pass-2 routines.
+struct Pass2<'a> {
+    ctx: &'a Context<'a>,
+    maps: &'a PhotonMaps,
+    buf: Neighbors,
+    rays: u32,
+}
+
+impl Pass2<'_> {
+    fn intersect(&mut self, ray: &Ray) -> Option<Hit> {
+        self.rays += 1;
+        self.ctx
+            .accel
+            .intersect(self.ctx.scene, ray, Visibility::Secondary)
+    }
+
+    fn global(&mut self, s: &Shading) -> Vec3 {
+        let (maps, k) = (self.maps, self.maps.settings.k_global);
+        match &maps.global {
+            Some(m) => radiance_estimate(m, k, maps.global_radius2, false, s, &mut self.buf),
+            None => Vec3::ZERO,
+        }
+    }
+
+    fn caustic(&mut self, s: &Shading) -> Vec3 {
+        let (maps, k) = (self.maps, self.maps.settings.k_caustic);
+        match &maps.caustic {
+            Some(m) => radiance_estimate(m, k, maps.caustic_radius2, true, s, &mut self.buf),
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// One light sample at `s`, MIS-weighted against BSDF sampling when `mis` is set.
+    fn direct(&mut self, s: &Shading, mis: bool, rng: &mut Rng) -> Vec3 {
+        let ctx = self.ctx;
+        let Some(ls) = ctx
+            .lights
+            .sample(ctx.scene, s.sh.p, rng.uniform(), rng.uniform2())
+        else {
+            return Vec3::ZERO;
+        };
+        // An opaque surface cannot be lit from behind its geometry.
+        if ls.li == Vec3::ZERO || (s.opaque && ls.wi.dot(s.ng) <= 0.0) {
+            return Vec3::ZERO;
+        }
+        let wi_local = s.frame.to_local(ls.wi);
+        let f = eval_bsdf(&s.bsdf, s.wo_local, wi_local);
+        if f == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        self.rays += 1;
+        if !ctx.accel.unoccluded(ctx.scene, &s.sh.spawn_to(&ls.target)) {
+            return Vec3::ZERO;
+        }
+        let w = if ls.delta || !mis {
+            1.0
+        } else {
+            power_heuristic(ls.pdf, bsdf_pdf(&s.bsdf, s.wo_local, wi_local))
+        };
+        f * ls.li * (w / ls.pdf)
+    }
+
+    /// Follow specular surfaces from `s` to the first surface that stores photons; returns it
+    /// with the throughput, adding emission met on the way to `le` when `emission` is set.
+    fn through_specular(
+        &mut self,
+        mut s: Shading,
+        mut absorption: Vec3,
+        emission: bool,
+        le: &mut Vec3,
+        rng: &mut Rng,
+    ) -> Option<(Shading, Vec3)> {
+        let mut beta = Vec3::ONE;
+        for _ in 0..MAX_SPECULAR_CHAIN {
+            if stores_photons(&s.bsdf, s.wo_local) {
+                return Some((s, beta));
+            }
+            let (bs, wi) = s.sample(rng.uniform(), rng.uniform2())?;
+            beta *= bs.weight;
+            absorption = s.absorption_after(&bs, wi, absorption);
+            let ray = s.sh.spawn(wi);
+            let Some(hit) = self.intersect(&ray) else {
+                if emission {
+                    self.ctx.lights.escaped(wi, |l, _| *le += beta * l);
+                }
+                return None;
+            };
+            if absorption != Vec3::ZERO {
+                beta *= (-absorption * (hit.t * ray.direction.length())).exp();
+            }
+            s = Shading::new(self.ctx, &ray, &hit);
+            if emission {
+                *le += beta * emitted_radiance(self.ctx.scene, &s.sh, s.wo);
+            }
+            if beta == Vec3::ZERO || !beta.is_finite() {
+                return None;
+            }
+        }
+        None
+    }
+
+    /// A non-delta final-gather ray from `from` with BSDF density `pdf`: the emission it finds
+    /// (MIS-weighted against light sampling) plus the global estimate behind specular surfaces.
+    fn gather_ray(
+        &mut self,
+        from: Vec3,
+        ray: Ray,
+        pdf: f32,
+        absorption: Vec3,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        let ctx = self.ctx;
+        let Some(hit) = self.intersect(&ray) else {
+            let mut l = Vec3::ZERO;
+            ctx.lights.escaped(ray.direction, |le, lpdf| {
+                l += le * power_heuristic(pdf, lpdf)
+            });
+            return l;
+        };
+        let mut t = Vec3::ONE;
+        if absorption != Vec3::ZERO {
+            t = (-absorption * (hit.t * ray.direction.length())).exp();
+        }
+        let s = Shading::new(ctx, &ray, &hit);
+        let mut l = emitted_radiance(ctx.scene, &s.sh, s.wo);
+        if l != Vec3::ZERO {
+            l *= power_heuristic(pdf, ctx.lights.triangle_pdf(from, &s.sh));
+        }
+        let mut unused = Vec3::ZERO;
+        if let Some((d, beta)) = self.through_specular(s, absorption, false, &mut unused, rng) {
+            l += beta * self.global(&d);
+        }
+        t * l
+    }
+
+    /// Radiance along a ray that left a diffuse surface through a delta lobe: emission along the
+    /// specular chain plus the global estimate at its end.
+    fn estimate_ray(&mut self, ray: Ray, absorption: Vec3, rng: &mut Rng) -> Vec3 {
+        let Some(hit) = self.intersect(&ray) else {
+            let mut l = Vec3::ZERO;
+            self.ctx.lights.escaped(ray.direction, |le, _| l += le);
+            return l;
+        };
+        let mut t = Vec3::ONE;
+        if absorption != Vec3::ZERO {
+            t = (-absorption * (hit.t * ray.direction.length())).exp();
+        }
+        let s = Shading::new(self.ctx, &ray, &hit);
+        let mut l = emitted_radiance(self.ctx.scene, &s.sh, s.wo);
+        if let Some((d, beta)) = self.through_specular(s, absorption, true, &mut l, rng) {
+            l += beta * self.global(&d);
+        }
+        t * l
+    }
+
+    /// Reflected radiance at a non-specular surface: direct + caustics + final gather.
+    fn shade(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+        let m = self.maps.settings.gather_rays;
+        let mut l = self.direct(s, m > 0, rng) + self.caustic(s);
+        if m == 0 {
+            return l + self.global(s);
+        }
+        let n = (m as f32).sqrt() as u32;
+        let mut sum = Vec3::ZERO;
+        for i in 0..m {
+            // Stratify the first n² directions on an n × n grid.
+            let u = if i < n * n {
+                let j = Vec2::new((i % n) as f32, (i / n) as f32);
+                ((j + rng.uniform2()) / n as f32).min(Vec2::splat(0.999_999_94))
+            } else {
+                rng.uniform2()
+            };
+            let Some((bs, wi)) = s.sample(rng.uniform(), u) else {
+                continue;
+            };
+            let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
+            let ray = s.sh.spawn(wi);
+            let li = if bs.delta {
+                self.estimate_ray(ray, absorption, rng)
+            } else {
+                self.gather_ray(s.sh.p, ray, bs.pdf, absorption, rng)
+            };
+            sum += bs.weight * li;
+        }
+        l += sum / m as f32;
+        l
+    }
+
+    /// Photon dots: the nearest photon within a small radius, white (global) or orange (caustic).
+    fn dots(&mut self, s: &Shading) -> Vec3 {
+        let maps = self.maps;
+        for (map, colour) in [
+            (&maps.caustic, Vec3::new(1.0, 0.5, 0.1)),
+            (&maps.global, Vec3::ONE),
+        ] {
+            if let Some(m) = map {
+                m.nearest(s.sh.p, 1, maps.dot_radius2, &mut self.buf);
+                if !self.buf.is_empty() {
+                    return colour;
+                }
+            }
+        }
+        Vec3::ZERO
+    }
+}
+
+/// Pass 2 for one camera ray: specular surfaces are ray traced (as the path tracer does, with
+/// light sampling on glossy ones), and the first non-specular surface is shaded by `view`.
+pub fn trace(
+    ctx: &Context,
+    maps: &PhotonMaps,
+    view: View,
+    camera_ray: Ray,
+    rng: &mut Rng,
+) -> CameraSample {
+    let scene = ctx.scene;
+    let mut out = CameraSample {
+        depth: 1e10,
+        ..CameraSample::default()
+    };
+    let mut p2 = Pass2 {
+        ctx,
+        maps,
+        buf: Neighbors::default(),
+        rays: 0,
+    };
+    let emission = matches!(view, View::Full | View::Global);
+    let mut radiance = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut ray = camera_ray;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_delta = true;
+    let mut prev_p = ray.origin;
+    let mut absorption = Vec3::ZERO;
+    for depth in 0..=ctx.max_depth {
+        let visibility = if depth == 0 {
+            Visibility::Camera
+        } else {
+            Visibility::Secondary
+        };
+        p2.rays += 1;
+        let Some(hit) = ctx.accel.intersect(scene, &ray, visibility) else {
+            if emission {
+                ctx.lights.escaped(ray.direction, |le, light_pdf| {
+                    let w = if prev_delta {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, light_pdf)
+                    };
+                    radiance += beta * le * w;
+                });
+            }
+            break;
+        };
+        if absorption != Vec3::ZERO {
+            beta *= (-absorption * (hit.t * ray.direction.length())).exp();
+        }
+        let s = Shading::new(ctx, &ray, &hit);
+        if depth == 0 {
+            out.hit = true;
+            out.albedo = s.surface.base_color;
+            out.normal = s.sh.frame.n;
+            out.depth = hit.t * ray.direction.length();
+        }
+        let le = emitted_radiance(scene, &s.sh, s.wo);
+        if emission && le != Vec3::ZERO {
+            let w = if prev_delta {
+                1.0
+            } else {
+                power_heuristic(prev_pdf, ctx.lights.triangle_pdf(prev_p, &s.sh))
+            };
+            radiance += beta * le * w;
+        }
+        if depth == ctx.max_depth {
+            break;
+        }
+        if stores_photons(&s.bsdf, s.wo_local) {
+            let l = match view {
+                View::Full => p2.shade(&s, rng),
+                View::Global => p2.global(&s),
+                View::Caustic => p2.caustic(&s),
+                View::Photons => p2.dots(&s),
+            };
+            radiance += beta * l;
+            break;
+        }
+        // A glossy-only surface: light sampling with MIS, as in the path tracer.
+        let glossy_nee = view == View::Full && s.bsdf.has_non_delta();
+        if glossy_nee {
+            radiance += beta * p2.direct(&s, true, rng);
+        }
+        let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) else {
+            break;
+        };
+        beta *= bs.weight;
+        if beta == Vec3::ZERO || !beta.is_finite() {
+            break;
+        }
+        prev_pdf = bs.pdf;
+        prev_delta = bs.delta || !glossy_nee;
+        prev_p = s.sh.p;
+        absorption = s.absorption_after(&bs, wi, absorption);
+        ray = s.sh.spawn(wi);
+        if depth >= 3 {
+            let q = max_component(beta).min(1.0);
+            if q < 1.0 {
+                if rng.uniform() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+        }
+    }
+    out.radiance = radiance;
+    out.rays = p2.rays;
+    out
+}

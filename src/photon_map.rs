@@ -1,0 +1,356 @@
+//! The photon map of Jensen's "Biased Monte Carlo Ray Tracing" notes (2000, "Photon maps": the
+//! photon map data structure) and of "Realistic Image Synthesis Using Photon Mapping" (2001,
+//! §6.3–6.4): compact photons in a left-balanced kd-tree stored as a flat array in heap order,
+//! with k-nearest-neighbour search. Depends only on math, so it is tested on its own.
+//!
+//! A photon is 20 bytes: position (3 × f32), power as Ward's shared-exponent RGBE (4 bytes),
+//! incoming direction as two bytes (θ, φ), the kd split axis and flags. The tree is built by
+//! splitting on the largest extent of each subtree's bounding box at the left-balanced median
+//! (found by selection, `select_nth_unstable_by`), so node `i` has children `2i+1` and `2i+2` and
+//! no pointers are stored. Search keeps a bounded max-heap of squared distances and shrinks the
+//! search radius to the k-th distance once the heap is full.
+
+use crate::math::Vec3;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+use std::f32::consts::PI;
+
+/// Flag: the photon arrived straight from a light (first hit).
+const FLAG_DIRECT: u8 = 1 << 2;
+/// Flag: the photon's path is light → specular+ → this surface (a caustic photon).
+const FLAG_CAUSTIC: u8 = 1 << 3;
+/// Bits 4–7 hold the number of bounces before the hit, saturated at 15.
+const BOUNCE_SHIFT: u8 = 4;
+
+/// One stored photon (20 bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+pub struct Photon {
+    pub position: [f32; 3],
+    rgbe: [u8; 4],
+    theta: u8,
+    phi: u8,
+    /// Bits 0–1: kd split axis; bit 2 direct; bit 3 caustic; bits 4–7 bounces.
+    flags: u8,
+    _pad: u8,
+}
+
+impl Photon {
+    /// A photon at `position` carrying `power` (W) that arrived from direction `wi` (unit,
+    /// pointing away from the surface, towards where the photon came from); `bounces` is the
+    /// number of surfaces it scattered from before this hit (0: straight from the light).
+    pub fn new(position: Vec3, power: Vec3, wi: Vec3, bounces: u32, caustic: bool) -> Photon {
+        let (theta, phi) = encode_direction(wi);
+        let mut flags = (bounces.min(15) as u8) << BOUNCE_SHIFT;
+        if bounces == 0 {
+            flags |= FLAG_DIRECT;
+        }
+        if caustic {
+            flags |= FLAG_CAUSTIC;
+        }
+        Photon {
+            position: position.to_array(),
+            rgbe: encode_rgbe(power),
+            theta,
+            phi,
+            flags,
+            _pad: 0,
+        }
+    }
+
+    pub fn position(&self) -> Vec3 {
+        Vec3::from_array(self.position)
+    }
+
+    pub fn power(&self) -> Vec3 {
+        decode_rgbe(self.rgbe)
+    }
+
+    /// Unit direction towards where the photon came from.
+    pub fn incoming(&self) -> Vec3 {
+        decode_direction(self.theta, self.phi)
+    }
+
+    pub fn is_direct(&self) -> bool {
+        self.flags & FLAG_DIRECT != 0
+    }
+
+    pub fn is_caustic(&self) -> bool {
+        self.flags & FLAG_CAUSTIC != 0
+    }
+
+    /// Bounces before this hit (saturated at 15).
+    pub fn bounces(&self) -> u32 {
+        (self.flags >> BOUNCE_SHIFT) as u32
+    }
+
+    fn axis(&self) -> usize {
+        (self.flags & 3) as usize
+    }
+
+    fn set_axis(&mut self, axis: usize) {
+        self.flags = (self.flags & !3) | (axis as u8 & 3);
+    }
+}
+
+/// Ward's shared-exponent encoding (Graphics Gems II, "Real pixels"), rounding to nearest: the
+/// largest component keeps 8 bits of mantissa, so every component's error is at most half a
+/// step, below 1/256 of the largest component; zero stays zero.
+pub fn encode_rgbe(c: Vec3) -> [u8; 4] {
+    let c = c.max(Vec3::ZERO);
+    let v = c.max_element();
+    if !(v > 1e-32) || !v.is_finite() {
+        return [0; 4];
+    }
+    // v = m · 2^e with m in [0.5, 1); bump e when rounding would carry the mantissa to 256.
+    let mut e = v.log2().floor() as i32 + 1;
+    while (v * (256.0 / 2f32.powi(e))).round() >= 256.0 {
+        e += 1;
+    }
+    let e = e.clamp(-127, 127);
+    let scale = 256.0 / 2f32.powi(e);
+    let q = |x: f32| (x * scale).round().min(255.0) as u8;
+    [q(c.x), q(c.y), q(c.z), (e + 128) as u8]
+}
+
+/// Inverse of `encode_rgbe`.
+pub fn decode_rgbe(b: [u8; 4]) -> Vec3 {
+    if b[3] == 0 {
+        return Vec3::ZERO;
+    }
+    let f = 2f32.powi(b[3] as i32 - 128 - 8);
+    Vec3::new(b[0] as f32, b[1] as f32, b[2] as f32) * f
+}
+
+/// A unit direction as (θ, φ) bytes: 256 steps of θ ∈ [0, π] and of φ ∈ [0, 2π).
+pub fn encode_direction(d: Vec3) -> (u8, u8) {
+    let theta = d.z.clamp(-1.0, 1.0).acos();
+    let mut phi = d.y.atan2(d.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let t = (theta * (256.0 / PI)).floor().clamp(0.0, 255.0) as u8;
+    let p = ((phi * (256.0 / (2.0 * PI))).floor() as i32).rem_euclid(256) as u8;
+    (t, p)
+}
+
+/// Inverse of `encode_direction` at the centre of the cell: the angular error is at most about
+/// √((π/512)² + (π/256)²) ≈ 0.0137 rad.
+pub fn decode_direction(theta: u8, phi: u8) -> Vec3 {
+    let t = (theta as f32 + 0.5) * (PI / 256.0);
+    let p = (phi as f32 + 0.5) * (2.0 * PI / 256.0);
+    let (st, ct) = t.sin_cos();
+    let (sp, cp) = p.sin_cos();
+    Vec3::new(st * cp, st * sp, ct)
+}
+
+/// Photons in a left-balanced kd-tree (heap order).
+#[derive(Clone, Debug, Default)]
+pub struct PhotonMap {
+    photons: Vec<Photon>,
+}
+
+/// Number of nodes in the left subtree of a left-balanced (complete) tree of `n` nodes.
+fn left_subtree_size(n: usize) -> usize {
+    if n <= 1 {
+        return 0;
+    }
+    let h = usize::BITS - 1 - n.leading_zeros(); // depth of the last level
+    let full_above = (1usize << h) - 1;
+    let last = n - full_above;
+    let half = 1usize << (h - 1);
+    (half - 1) + last.min(half)
+}
+
+/// Partition `p` in place so that its median (at `left_subtree_size`) splits it on the axis of
+/// largest extent, recursively; subtrees are built in parallel when large.
+fn partition(p: &mut [Photon]) {
+    let n = p.len();
+    if n == 0 {
+        return;
+    }
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for q in p.iter() {
+        lo = lo.min(q.position());
+        hi = hi.max(q.position());
+    }
+    let ext = hi - lo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let m = left_subtree_size(n);
+    p.select_nth_unstable_by(m, |a, b| a.position[axis].total_cmp(&b.position[axis]));
+    p[m].set_axis(axis);
+    let (left, rest) = p.split_at_mut(m);
+    let right = &mut rest[1..];
+    if n > 50_000 {
+        rayon::join(|| partition(left), || partition(right));
+    } else {
+        partition(left);
+        partition(right);
+    }
+}
+
+/// Copy the partitioned slice into heap order: node `i` at `heap[i]`.
+fn to_heap(p: &[Photon], heap: &mut [Photon], i: usize) {
+    if p.is_empty() {
+        return;
+    }
+    let m = left_subtree_size(p.len());
+    heap[i] = p[m];
+    to_heap(&p[..m], heap, 2 * i + 1);
+    to_heap(&p[m + 1..], heap, 2 * i + 2);
+}
+
+/// One neighbour found by `PhotonMap::nearest`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Neighbor {
+    pub dist2: f32,
+    pub index: u32,
+}
+
+impl Eq for Neighbor {}
+impl PartialOrd for Neighbor {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Neighbor {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.dist2
+            .total_cmp(&other.dist2)
+            .then(self.index.cmp(&other.index))
+    }
+}
+
+/// The result buffer of a k-nearest search (reused between queries to avoid allocation).
+#[derive(Clone, Debug, Default)]
+pub struct Neighbors {
+    heap: BinaryHeap<Neighbor>,
+    k: usize,
+    /// Current squared search radius: the maximum, shrunk to the k-th distance once full.
+    pub radius2: f32,
+}
+
+impl Neighbors {
+    pub fn len(&self) -> usize {
+        self.heap.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.heap.is_empty()
+    }
+
+    /// True when k photons were found (`radius2` is then the k-th squared distance).
+    pub fn is_full(&self) -> bool {
+        self.heap.len() >= self.k
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = &Neighbor> {
+        self.heap.iter()
+    }
+
+    fn offer(&mut self, n: Neighbor) {
+        if self.heap.len() < self.k {
+            self.heap.push(n);
+        } else if let Some(mut top) = self.heap.peek_mut() {
+            if n < *top {
+                *top = n;
+            }
+        }
+        if self.heap.len() == self.k {
+            if let Some(top) = self.heap.peek() {
+                self.radius2 = top.dist2;
+            }
+        }
+    }
+}
+
+impl PhotonMap {
+    /// Balance `photons` into a kd-tree.
+    pub fn build(mut photons: Vec<Photon>) -> PhotonMap {
+        partition(&mut photons);
+        let mut heap = photons.clone();
+        to_heap(&photons, &mut heap, 0);
+        PhotonMap { photons: heap }
+    }
+
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.photons.is_empty()
+    }
+
+    /// All photons, in heap order.
+    pub fn photons(&self) -> &[Photon] {
+        &self.photons
+    }
+
+    /// Find the (at most) `k` photons nearest to `p` within squared distance `max_dist2`.
+    pub fn nearest(&self, p: Vec3, k: usize, max_dist2: f32, out: &mut Neighbors) {
+        out.heap.clear();
+        out.k = k;
+        out.radius2 = max_dist2;
+        if k == 0 || self.photons.is_empty() {
+            return;
+        }
+        self.locate(0, p.to_array(), out);
+    }
+
+    fn locate(&self, i: usize, p: [f32; 3], out: &mut Neighbors) {
+        let ph = &self.photons[i];
+        let left = 2 * i + 1;
+        if left < self.photons.len() {
+            let axis = ph.axis();
+            let delta = p[axis] - ph.position[axis];
+            let (near, far) = if delta < 0.0 {
+                (left, left + 1)
+            } else {
+                (left + 1, left)
+            };
+            if near < self.photons.len() {
+                self.locate(near, p, out);
+            }
+            if delta * delta < out.radius2 && far < self.photons.len() {
+                self.locate(far, p, out);
+            }
+        }
+        let d = [
+            ph.position[0] - p[0],
+            ph.position[1] - p[1],
+            ph.position[2] - p[2],
+        ];
+        let dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if dist2 < out.radius2 {
+            out.offer(Neighbor {
+                dist2,
+                index: i as u32,
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn photon_is_twenty_bytes() {
+        assert_eq!(std::mem::size_of::<Photon>(), 20);
+    }
+
+    #[test]
+    fn left_subtree_sizes() {
+        // n = 1..7: complete trees.
+        let expected = [0, 1, 1, 2, 3, 3, 3, 4, 5, 6, 7, 7];
+        for (n, &e) in expected.iter().enumerate() {
+            assert_eq!(left_subtree_size(n + 1), e, "n = {}", n + 1);
+        }
+    }
+}
