@@ -150,8 +150,12 @@ impl ShearedRay {
         let max_x = ax.abs().max(bx.abs()).max(cx.abs());
         let max_y = ay.abs().max(by.abs()).max(cy.abs());
         let max_z = az.abs().max(bz.abs()).max(cz.abs());
-        let delta_x = gamma(5) * (max_x + max_z);
-        let delta_y = gamma(5) * (max_y + max_z);
+        // The shear x' = x − sx·z rounds in units of the unscaled z (|sx| ≤ 1). pbrt uses the
+        // z already divided by the direction's length, which is dimensionless for the
+        // unnormalised directions of shadow rays and loosens the bound at small scene scales.
+        let max_z_raw = a[kz].abs().max(b[kz].abs()).max(c[kz].abs());
+        let delta_x = gamma(5) * (max_x + max_z_raw);
+        let delta_y = gamma(5) * (max_y + max_z_raw);
         let delta_z = gamma(3) * max_z;
         let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
         let max_e = u.abs().max(vv.abs()).max(w.abs());

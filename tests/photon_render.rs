@@ -74,6 +74,7 @@ fn stored_power_equals_emitted_and_reflected_power() {
         accel: &accel,
         lights: &lights,
         max_depth: 64,
+        transparent_background: false,
     };
     let n = 50_000;
     let settings = PhotonSettings {

@@ -20,6 +20,7 @@ fn render_file(path: &Path, size: u32, spp: u32) -> photon::film::Image {
         spp,
         max_depth: 16,
         seed: 3,
+        ..RenderSettings::default()
     };
     let (image, stats) = render(&scene, &settings, &progress).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(stats.nonfinite_samples, 0, "{}", path.display());

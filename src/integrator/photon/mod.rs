@@ -603,7 +603,7 @@ pub fn trace(
         };
         p2.rays += 1;
         let Some(hit) = ctx.accel.intersect(scene, &ray, visibility) else {
-            if emission {
+            if emission && !(depth == 0 && ctx.transparent_background) {
                 ctx.lights.escaped(ray.direction, |le, light_pdf| {
                     let w = if prev_delta {
                         1.0
