@@ -25,9 +25,12 @@ pub enum LightSource {
         area: f32,
         two_sided: bool,
     },
+    /// `radius` > 0 makes it a sphere of uniform radiance I / (πr²), like Blender's soft point
+    /// light: the same intensity far away, soft shadows near it.
     Point {
         position: Vec3,
         intensity: Vec3,
+        radius: f32,
     },
     Spot {
         position: Vec3,
@@ -35,6 +38,7 @@ pub enum LightSource {
         intensity: Vec3,
         cos_inner: f32,
         cos_outer: f32,
+        radius: f32,
     },
     /// A sun: `to_sun` points from the scene towards the sun; a cone of half-angle θ with
     /// cos θ = `cos_max` (1 for a hard sun, which is then a delta light).
@@ -44,9 +48,7 @@ pub enum LightSource {
         cos_max: f32,
     },
     /// The constant world background.
-    World {
-        radiance: Vec3,
-    },
+    World { radiance: Vec3 },
 }
 
 /// A sampled direction towards a light.
@@ -60,6 +62,8 @@ pub struct LightSample {
     /// Density per unit solid angle, including the probability of choosing this light; for delta
     /// lights only that probability.
     pub pdf: f32,
+    /// The light cannot be reached by BSDF-sampled rays (a point, a hard sun, a sphere light,
+    /// which is not geometry): its sample is used without MIS.
     pub delta: bool,
     /// Where the shadow ray must reach.
     pub target: LightPoint,
@@ -140,11 +144,12 @@ impl Lights {
                 Light::Point {
                     position,
                     intensity,
-                    ..
+                    radius,
                 } => {
                     sources.push(LightSource::Point {
                         position,
                         intensity,
+                        radius,
                     });
                     power.push(4.0 * PI * luminance(intensity));
                 }
@@ -154,7 +159,7 @@ impl Lights {
                     intensity,
                     cos_inner,
                     cos_outer,
-                    ..
+                    radius,
                 } => {
                     sources.push(LightSource::Spot {
                         position,
@@ -162,6 +167,7 @@ impl Lights {
                         intensity,
                         cos_inner,
                         cos_outer,
+                        radius,
                     });
                     power.push(4.0 * PI * luminance(intensity));
                 }
@@ -291,22 +297,15 @@ impl Lights {
             LightSource::Point {
                 position,
                 intensity,
+                radius,
             } => {
-                let d = position - p;
-                let dist2 = d.length_squared();
-                if !(dist2 > 0.0) {
-                    return None;
-                }
+                let (wi, scale, pdf, target) = sample_punctual(position, radius, p, u)?;
                 Some(LightSample {
-                    li: intensity / dist2,
-                    wi: d / dist2.sqrt(),
-                    pdf: 1.0,
+                    li: intensity * scale,
+                    wi,
+                    pdf,
                     delta: true,
-                    target: LightPoint {
-                        p: position,
-                        p_error: Vec3::ZERO,
-                        n: Vec3::ZERO,
-                    },
+                    target,
                 })
             }
             LightSource::Spot {
@@ -315,27 +314,21 @@ impl Lights {
                 intensity,
                 cos_inner,
                 cos_outer,
+                radius,
             } => {
-                let d = position - p;
-                let dist2 = d.length_squared();
-                if !(dist2 > 0.0) {
-                    return None;
-                }
-                let wi = d / dist2.sqrt();
-                let falloff = smoothstep(cos_outer, cos_inner, (-wi).dot(direction));
+                let (wi, scale, pdf, target) = sample_punctual(position, radius, p, u)?;
+                // The cone is evaluated from the light's centre, as for a point.
+                let from_light = (p - position).normalize_or_zero();
+                let falloff = smoothstep(cos_outer, cos_inner, from_light.dot(direction));
                 if falloff <= 0.0 {
                     return None;
                 }
                 Some(LightSample {
-                    li: intensity * falloff / dist2,
+                    li: intensity * (falloff * scale),
                     wi,
-                    pdf: 1.0,
+                    pdf,
                     delta: true,
-                    target: LightPoint {
-                        p: position,
-                        p_error: Vec3::ZERO,
-                        n: Vec3::ZERO,
-                    },
+                    target,
                 })
             }
             LightSource::Sun {
@@ -427,6 +420,54 @@ impl Lights {
     pub fn scene_sphere(&self) -> (Vec3, f32) {
         (self.scene_center, self.scene_radius)
     }
+}
+
+/// Direction towards a point or spot light seen from `p`, with the factor that turns its
+/// intensity into the radiance arriving along that direction, the solid-angle pdf of the
+/// direction (1 for a true point) and the shadow-ray target. With `radius` > 0 the light is a
+/// sphere of radiance I / (πr²) (its projected area is πr²) sampled uniformly over the cone it
+/// subtends; far away this gives the point light's I / d².
+fn sample_punctual(
+    position: Vec3,
+    radius: f32,
+    p: Vec3,
+    u: Vec2,
+) -> Option<(Vec3, f32, f32, LightPoint)> {
+    let d = position - p;
+    let dist2 = d.length_squared();
+    if !(dist2 > 0.0) {
+        return None;
+    }
+    let to_centre = d / dist2.sqrt();
+    let sin2_max = radius * radius / dist2;
+    let one_minus_cos = 1.0 - (1.0 - sin2_max).max(0.0).sqrt();
+    // Inside the sphere, or so far that the cone is numerically a point: a true point light.
+    if !(radius > 0.0 && sin2_max < 1.0 && one_minus_cos > 1e-6) {
+        let target = LightPoint {
+            p: position,
+            p_error: Vec3::ZERO,
+            n: Vec3::ZERO,
+        };
+        return Some((to_centre, 1.0 / dist2, 1.0, target));
+    }
+    let cos_max = 1.0 - one_minus_cos;
+    let wi = Frame::from_normal(to_centre).to_world(square_to_uniform_cone(u, cos_max));
+    // Nearest intersection of the ray p + t·wi with the sphere.
+    let b = wi.dot(d);
+    let t = b - (b * b - (dist2 - radius * radius)).max(0.0).sqrt();
+    let q = p + wi * t;
+    let target = LightPoint {
+        p: q,
+        p_error: crate::interaction::gamma(8) * (q.abs() + position.abs()),
+        n: (q - position) / radius,
+    };
+    let radiance_per_intensity = 1.0 / (PI * radius * radius);
+    Some((
+        wi,
+        radiance_per_intensity,
+        uniform_cone_pdf(cos_max),
+        target,
+    ))
 }
 
 /// Radiance of a uniform sun disk of angular radius acos(cos_max) that gives `irradiance` on a

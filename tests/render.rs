@@ -314,3 +314,25 @@ fn transparent_film_hides_the_world_but_keeps_its_light() {
     assert_eq!(image.depth[0], 1e10);
     assert!((image.depth[8 * 16 + 8] - 4.0).abs() < 0.05);
 }
+
+#[test]
+fn soft_point_light_gives_the_irradiance_of_a_point_light() {
+    // A sphere of radiance I/(πr²) seen from d gives E = L·π·sin²θ = I/d² on a surface facing it.
+    let intensity = 1000.0 / (4.0 * PI);
+    let make = |radius: f32| {
+        scenes::lit_floor(
+            0.8,
+            Light::Point {
+                position: Vec3::new(0.0, 2.0, 0.0),
+                intensity: Vec3::splat(intensity),
+                radius,
+            },
+        )
+    };
+    let hard = render_with(&make(0.0), &settings(8, 16)).mean_rgb().x;
+    let soft = render_with(&make(0.3), &settings(8, 64)).mean_rgb().x;
+    assert!(
+        (soft - hard).abs() < 0.01 * hard,
+        "soft {soft} vs hard {hard}"
+    );
+}

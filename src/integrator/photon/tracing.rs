@@ -142,9 +142,12 @@ impl Emitters {
                     le * (PI * area * sides),
                 )
             }
+            // Photons leave point and spot lights from their centre whatever their radius: the
+            // radius only softens shadows, which the photon maps do not resolve.
             LightSource::Point {
                 position,
                 intensity,
+                ..
             } => (
                 ray(position, square_to_uniform_sphere(u1)),
                 intensity * (4.0 * PI),
@@ -155,6 +158,7 @@ impl Emitters {
                 intensity,
                 cos_inner,
                 cos_outer,
+                ..
             } => {
                 let cos_outer = cos_outer.clamp(-1.0, 1.0);
                 let dir =
