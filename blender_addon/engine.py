@@ -59,12 +59,15 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         settings = scene.photon
         if scene.camera is None:
             raise runner.PhotonError("the scene has no active camera")
-        if scene.render.use_border:
-            raise runner.PhotonError(
-                "render regions (Output > Format > Render Region) are not supported yet: the "
-                "renderer cannot render a window of the frame; turn the region off")
         binary = runner.find_binary(properties.preference_binary(bpy.context), ADDON_DIR)
         width, height = self.resolution_x, self.resolution_y
+        # Render Region: the renderer renders only that window of the full-frame camera and
+        # Blender places it into the frame (or crops to it).
+        region = None
+        r = scene.render
+        if r.use_border:
+            region = runner.border_region(width, height, r.border_min_x, r.border_max_x,
+                                          r.border_min_y, r.border_max_y)
         self._progress("export", 0.0, "exporting scene")
         with runner.temporary_folder() as folder:
             glb, exr = folder / "scene.glb", folder / "render.exr"
@@ -73,8 +76,10 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             command = runner.render_command(
                 binary, glb, exr, width=width, height=height, samples=settings.samples,
                 max_bounces=settings.max_bounces, seed=settings.seed, threads=settings.threads,
-                camera=scene.camera.name, view_layer=view_layer.name)
+                camera=scene.camera.name, view_layer=view_layer.name, region=region)
             stats = runner.run(command, self._on_event, self.test_break)
+            if region:
+                width, height = region[2] - region[0], region[3] - region[1]
             self._load(exr, view_layer.name, width, height)
         self.update_stats("", f"Photon: {summary(stats)}; {self._timing_summary()}")
 

@@ -84,8 +84,9 @@ def _make_executable(path: Path):
 
 
 def render_command(binary, scene, output, *, width, height, samples, max_bounces, seed, threads,
-                   camera=None, view_layer=None) -> list[str]:
-    """The `photon render` command line for one frame, with JSON progress on stderr."""
+                   camera=None, view_layer=None, region=None) -> list[str]:
+    """The `photon render` command line for one frame, with JSON progress on stderr. `region`
+    is (x0, y0, x1, y1) in full-frame pixels from the top-left, x1 and y1 exclusive."""
     cmd = [str(binary), "render", str(scene), "-o", str(output),
            "--width", str(width), "--height", str(height), "--spp", str(samples),
            "--max-depth", str(max_bounces), "--seed", str(seed), "--threads", str(threads),
@@ -94,7 +95,19 @@ def render_command(binary, scene, output, *, width, height, samples, max_bounces
         cmd += ["--camera", camera]
     if view_layer:
         cmd += ["--exr-layer", view_layer]
+    if region:
+        cmd += ["--region", *(str(v) for v in region)]
     return cmd
+
+
+def border_region(width, height, min_x, max_x, min_y, max_y):
+    """Blender's render border (fractions of the frame, origin at the bottom-left) as a pixel
+    window (x0, y0, x1, y1) from the top-left, x1 and y1 exclusive; never empty."""
+    x0 = min(max(round(min_x * width), 0), width - 1)
+    x1 = min(max(round(max_x * width), x0 + 1), width)
+    y0 = min(max(round((1.0 - max_y) * height), 0), height - 1)
+    y1 = min(max(round((1.0 - min_y) * height), y0 + 1), height)
+    return x0, y0, x1, y1
 
 
 @contextlib.contextmanager

@@ -109,6 +109,10 @@ struct RenderArgs {
     /// Name EXR channels for Blender's multilayer loader: <VIEW_LAYER>.Combined.R and so on.
     #[arg(long, value_name = "VIEW_LAYER")]
     exr_layer: Option<String>,
+    /// Render only this window of the frame (Blender's render region), in pixels from the
+    /// top-left corner, X1 and Y1 exclusive; the image has the window's size.
+    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
+    region: Option<Vec<u32>>,
     /// Rendering algorithm.
     #[arg(long, value_enum, default_value_t = MethodArg::Path)]
     method: MethodArg,
@@ -290,6 +294,12 @@ fn run_render(args: RenderArgs) -> Result<()> {
             MethodArg::Photons => Method::Photons,
         },
         photon: args.photon_settings()?,
+        region: args.region.as_deref().map(|r| photon::render::Region {
+            x0: r[0],
+            y0: r[1],
+            x1: r[2],
+            y1: r[3],
+        }),
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)

@@ -34,6 +34,28 @@ pub struct RenderSettings {
     pub method: Method,
     /// Photon-mapping settings (used by the photon methods).
     pub photon: PhotonSettings,
+    /// Render only this window of the `width` × `height` frame (Blender's render region); the
+    /// image is the window's size and equals that crop of the full render, bit for bit.
+    pub region: Option<Region>,
+}
+
+/// A window of the frame in pixels, top-left origin, `x1` and `y1` exclusive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Region {
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
 }
 
 /// The rendering algorithm, chosen once per render.
@@ -74,6 +96,7 @@ impl Default for RenderSettings {
             seed: 0,
             method: Method::Path,
             photon: PhotonSettings::default(),
+            region: None,
         }
     }
 }
@@ -131,6 +154,22 @@ pub fn render(
             "width, height and samples must be at least 1".into(),
         ));
     }
+    let window = settings.region.unwrap_or(Region {
+        x0: 0,
+        y0: 0,
+        x1: settings.width,
+        y1: settings.height,
+    });
+    if window.x0 >= window.x1
+        || window.y0 >= window.y1
+        || window.x1 > settings.width
+        || window.y1 > settings.height
+    {
+        return Err(Error::Settings(format!(
+            "region {}..{} x {}..{} is empty or outside the {}x{} frame",
+            window.x0, window.x1, window.y0, window.y1, settings.width, settings.height
+        )));
+    }
     let mut stats = RenderStats {
         triangles: scene.triangle_count(),
         ..RenderStats::default()
@@ -168,8 +207,8 @@ pub fn render(
     };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
     let filter = PixelFilter::default();
-    let tiles_x = settings.width.div_ceil(TILE);
-    let tiles_y = settings.height.div_ceil(TILE);
+    let tiles_x = window.width().div_ceil(TILE);
+    let tiles_y = window.height().div_ceil(TILE);
     let tile_count = (tiles_x * tiles_y) as u64;
     let done = AtomicU64::new(0);
     let rays = AtomicU64::new(0);
@@ -179,9 +218,13 @@ pub fn render(
     let tiles: Vec<(u32, u32, TileResult)> = (0..tiles_x * tiles_y)
         .into_par_iter()
         .map(|t| {
-            let (tx, ty) = (t % tiles_x * TILE, t / tiles_x * TILE);
+            let (tx, ty) = (
+                window.x0 + t % tiles_x * TILE,
+                window.y0 + t / tiles_x * TILE,
+            );
             let tile = render_tile(
-                &ctx, integrator, &camera, &filter, settings, tx, ty, progress, &rays, &nonfinite,
+                &ctx, integrator, &camera, &filter, settings, &window, tx, ty, progress, &rays,
+                &nonfinite,
             )?;
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
             (progress.report)(&ProgressEvent {
@@ -193,13 +236,13 @@ pub fn render(
         })
         .collect::<Result<_>>()?;
 
-    let mut image = Image::new(settings.width, settings.height);
+    let mut image = Image::new(window.width(), window.height());
     image.camera_rotation = crate::math::Mat3::from(scene.camera.to_world.matrix3);
     for (tx, ty, tile) in tiles {
         for (i, px) in tile.pixels.into_iter().enumerate() {
             let x = tx + i as u32 % tile.width;
             let y = ty + i as u32 / tile.width;
-            let k = (y * settings.width + x) as usize;
+            let k = ((y - window.y0) * window.width() + (x - window.x0)) as usize;
             image.rgba[k] = px.rgba;
             image.albedo[k] = px.albedo;
             image.normal[k] = px.normal;
@@ -207,7 +250,7 @@ pub fn render(
         }
     }
     stats.render_seconds = start.elapsed().as_secs_f64();
-    stats.camera_samples = settings.width as u64 * settings.height as u64 * settings.spp as u64;
+    stats.camera_samples = window.width() as u64 * window.height() as u64 * settings.spp as u64;
     stats.rays = rays.into_inner();
     stats.nonfinite_samples = nonfinite.into_inner();
     Ok((image, stats))
@@ -248,14 +291,15 @@ fn render_tile(
     camera: &CameraRays,
     filter: &PixelFilter,
     settings: &RenderSettings,
+    window: &Region,
     x0: u32,
     y0: u32,
     progress: &Progress,
     rays: &AtomicU64,
     nonfinite: &AtomicU64,
 ) -> Result<TileResult> {
-    let x1 = (x0 + TILE).min(settings.width);
-    let y1 = (y0 + TILE).min(settings.height);
+    let x1 = (x0 + TILE).min(window.x1);
+    let y1 = (y0 + TILE).min(window.y1);
     let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
     let mut tile_rays = 0u64;
     let mut tile_nonfinite = 0u64;

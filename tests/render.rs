@@ -336,3 +336,60 @@ fn soft_point_light_gives_the_irradiance_of_a_point_light() {
         "soft {soft} vs hard {hard}"
     );
 }
+
+#[test]
+fn a_region_render_is_the_same_crop_of_the_full_render() {
+    let scene = scenes::furnace();
+    let full = render_with(&scene, &settings(40, 2));
+    let region = photon::render::Region {
+        x0: 7,
+        y0: 20,
+        x1: 31,
+        y1: 33,
+    };
+    let crop = render_with(
+        &scene,
+        &RenderSettings {
+            region: Some(region),
+            ..settings(40, 2)
+        },
+    );
+    assert_eq!((crop.width, crop.height), (24, 13));
+    for y in 0..13 {
+        for x in 0..24 {
+            let a = crop.rgba[(y * 24 + x) as usize];
+            let b = full.rgba[((y + 20) * 40 + x + 7) as usize];
+            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "pixel {x},{y}");
+        }
+    }
+    let cancel = AtomicBool::new(false);
+    let report = |_: &ProgressEvent| {};
+    let progress = Progress {
+        cancel: &cancel,
+        report: &report,
+    };
+    for bad in [
+        photon::render::Region {
+            x0: 5,
+            y0: 0,
+            x1: 5,
+            y1: 10,
+        },
+        photon::render::Region {
+            x0: 0,
+            y0: 0,
+            x1: 41,
+            y1: 10,
+        },
+    ] {
+        let result = render(
+            &scene,
+            &RenderSettings {
+                region: Some(bad),
+                ..settings(40, 1)
+            },
+            &progress,
+        );
+        assert!(matches!(result, Err(Error::Settings(_))), "{bad:?}");
+    }
+}

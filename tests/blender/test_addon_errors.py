@@ -101,8 +101,23 @@ def test_no_camera(small_scene, capfd, binary_env):
     assert "no camera" in text or "no active camera" in text, text
 
 
-def test_render_region_is_refused_clearly(small_scene, capfd, binary_env):
-    small_scene.render.use_border = True
-    small_scene.render.border_max_x = 0.5
-    text = render_error(small_scene, capfd)
-    assert "render regions" in text and "not supported yet" in text, text
+def test_render_region_renders_the_window_of_the_frame(small_scene, tmp_path):
+    """With Render Region (no crop) Blender places the window into the full frame; inside it
+    the pixels are those of the full render (Photon renders a region as a crop, bit for bit),
+    outside it they are empty."""
+    import numpy as np
+    from refimage import read_exr
+
+    bpy.ops.render.render(write_still=True)
+    full = read_exr(small_scene.render.filepath)
+    r = small_scene.render
+    r.use_border, r.use_crop_to_border = True, False
+    r.border_min_x, r.border_max_x, r.border_min_y, r.border_max_y = 0.25, 0.75, 0.5, 1.0
+    r.filepath = str(tmp_path / "region.exr")
+    bpy.ops.render.render(write_still=True)
+    part = read_exr(r.filepath)
+    assert part.shape == full.shape, (part.shape, full.shape)
+    # Top half (border y from 0.5 to 1, origin bottom-left), middle half of the columns.
+    inside = (slice(0, 9), slice(8, 24))
+    assert np.array_equal(part[inside], full[inside])
+    assert part[12:, :].max() == 0.0 and part[:, :6].max() == 0.0
