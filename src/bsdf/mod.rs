@@ -281,8 +281,11 @@ impl LobeSet {
             let f_lobe = mix(b.spec_f0, Vec3::ONE, s);
             let f_avg = mix(b.spec_f0, Vec3::ONE, t.dielectric_s_avg(b.spec_eta));
             let f_ms = multiscatter_fresnel(f_avg, e_avg);
-            albedo[SPECULAR] = (f_lobe * e + f_ms * (1.0 - e)) * b.base_weight;
+            // The compensated lobe reflects E·f_lobe·(1 + F_ms·(1 − E)/E): Cycles' estimate of
+            // the layer's albedo (bsdf_microfacet_estimate_albedo times the darkening already in
+            // the weight), and what the diffuse below must give up.
             spec_scale = (Vec3::ONE + f_ms * missing) * b.base_weight;
+            albedo[SPECULAR] = f_lobe * e * spec_scale;
         }
         let layer_albedo = if b.base_weight > 0.0 {
             max_component(albedo[SPECULAR]) / b.base_weight

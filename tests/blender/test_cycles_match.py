@@ -65,3 +65,21 @@ def test_spot_brightness():
     assert outside <= 0.01 * inside, (
         f"spot_plane: photon lights the plane outside the cone: mean {outside:.5f} over "
         f"{int(dark.sum())} px (cycles ~0, lit region {inside:.5f})")
+
+
+PRINCIPLED_MEAN_TOL = 0.01
+
+
+@pytest.mark.parametrize("name", ["principled_r05", "principled_r10"])
+def test_default_principled_layering_matches_cycles(name):
+    """Direct light on Blender's default Principled material at roughness 0.5 and 1: the diffuse
+    base must give up exactly what the specular layer reflects, as in Cycles (an estimate of
+    that albedo that differed from Cycles' made Photon 1.9 % dark at roughness 1)."""
+    ref, info = reference(name)
+    img = render_photon(name, info["width"], info["height"], PLANE_SPP)
+    ratio = float(img.mean() / ref.mean())
+    err = rel_mse(img, ref)
+    msg = f"{name}: mean ratio {ratio:.4f} (tolerance {PRINCIPLED_MEAN_TOL:.0%}), relMSE {err:.6f}"
+    print(msg)
+    assert abs(ratio - 1.0) <= PRINCIPLED_MEAN_TOL, msg
+    assert err <= 0.002, msg

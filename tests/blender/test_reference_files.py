@@ -14,7 +14,8 @@ import pytest
 
 from helpers import SCENES, lit_mask, read_exr, reference, rel_mse
 
-NAMES = ["cornell", "cornell_lambert", "point_plane", "sun_plane", "spot_plane"]
+NAMES = ["cornell", "cornell_lambert", "point_plane", "sun_plane", "spot_plane", "principled_r05",
+         "principled_r10"]
 
 
 @pytest.mark.parametrize("name", NAMES)
