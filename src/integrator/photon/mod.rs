@@ -84,6 +84,9 @@ pub struct PhotonSettings {
     pub gather_rays: u32,
     /// Maximum bounces of a photon (default 16).
     pub max_photon_bounces: u32,
+    /// Precompute irradiance at every n-th global photon (Christensen 1999) and let final-gather
+    /// hits on Lambertian surfaces read the nearest record; 0 computes a full estimate per hit.
+    pub irradiance_stride: u32,
 }
 
 impl Default for PhotonSettings {
@@ -97,6 +100,7 @@ impl Default for PhotonSettings {
             caustic_radius: 0.02,
             gather_rays: 32,
             max_photon_bounces: 16,
+            irradiance_stride: 4,
         }
     }
 }
@@ -125,12 +129,17 @@ pub struct PhotonInfo {
     pub caustic_skipped: Option<String>,
     pub trace_seconds: f64,
     pub kdtree_seconds: f64,
+    /// Precomputed irradiance records (Christensen 1999) and the time they took.
+    pub irradiance_records: usize,
+    pub irradiance_seconds: f64,
 }
 
 /// Both maps and the lookup parameters.
 pub struct PhotonMaps {
     pub global: Option<PhotonMap>,
     pub caustic: Option<PhotonMap>,
+    /// Precomputed irradiance records: position, irradiance as `power`, normal as `incoming`.
+    pub irradiance: Option<PhotonMap>,
     pub settings: PhotonSettings,
     global_radius2: f32,
     caustic_radius2: f32,
@@ -302,10 +311,22 @@ pub fn build_maps(
     info.kdtree_seconds = start.elapsed().as_secs_f64();
     let (_, radius) = ctx.lights.scene_sphere();
     let sq = |f: f32| (f * radius) * (f * radius);
+    let start = Instant::now();
+    let irradiance = match (&global, settings.irradiance_stride) {
+        (Some(g), n) if n > 0 => {
+            let records =
+                precompute_irradiance(g, n, settings.k_global, sq(settings.global_radius));
+            info.irradiance_records = records.len();
+            (!records.is_empty()).then(|| PhotonMap::build(records))
+        }
+        _ => None,
+    };
+    info.irradiance_seconds = start.elapsed().as_secs_f64();
     Ok((
         PhotonMaps {
             global,
             caustic,
+            irradiance,
             settings: settings.clone(),
             global_radius2: sq(settings.global_radius),
             caustic_radius2: sq(settings.caustic_radius),
@@ -313,6 +334,71 @@ pub fn build_maps(
         },
         info,
     ))
+}
+
+/// Christensen's precomputation: irradiance at every `stride`-th photon of `map` (in heap
+/// order, which is spatially well mixed) from its k nearest photons, counting only photons on
+/// the same side of the same surface (normal within ~60°, within a quarter radius of the
+/// tangent plane, arriving from the normal's side). Each record is a photon whose `power` is the
+/// irradiance and whose `incoming` direction is the surface normal.
+fn precompute_irradiance(map: &PhotonMap, stride: u32, k: u32, max_radius2: f32) -> Vec<Photon> {
+    let photons = map.photons();
+    let step = stride.max(1) as usize;
+    let ids: Vec<usize> = (0..photons.len()).step_by(step).collect();
+    ids.par_chunks(1024)
+        .map_init(Neighbors::default, |buf, chunk| {
+            let mut out = Vec::with_capacity(chunk.len());
+            for &i in chunk {
+                let ph = &photons[i];
+                let (p, n) = (ph.position(), ph.normal());
+                map.nearest(p, k as usize, max_radius2, buf);
+                let r2 = buf.radius2;
+                let r = r2.sqrt();
+                let mut sum = Vec3::ZERO;
+                for nb in buf.iter() {
+                    let q = &photons[nb.index as usize];
+                    if (q.position() - p).dot(n).abs() <= PLANE_TOLERANCE * r
+                        && q.normal().dot(n) > 0.5
+                        && q.incoming().dot(n) > 0.0
+                    {
+                        sum += q.power();
+                    }
+                }
+                let e = if r2 > 0.0 {
+                    sum / (PI * r2)
+                } else {
+                    Vec3::ZERO
+                };
+                out.push(Photon::new(p, e, n, 0, false));
+            }
+            out
+        })
+        .collect::<Vec<_>>()
+        .concat()
+}
+
+/// The nearest precomputed irradiance record to `s` whose normal agrees with the surface's
+/// (cos > 0.9) and that lies near its tangent plane; `None` when there is none within
+/// `max_radius2` among the few nearest.
+fn nearest_irradiance(
+    map: &PhotonMap,
+    max_radius2: f32,
+    s: &Shading,
+    buf: &mut Neighbors,
+) -> Option<Vec3> {
+    map.nearest(s.sh.p, 8, max_radius2, buf);
+    let mut best: Option<(f32, Vec3)> = None;
+    for nb in buf.iter() {
+        let rec = &map.photons()[nb.index as usize];
+        let d = rec.position() - s.sh.p;
+        if rec.incoming().dot(s.ng) < 0.9 || d.dot(s.ng).abs() > PLANE_TOLERANCE * nb.dist2.sqrt() {
+            continue;
+        }
+        if best.is_none_or(|(d2, _)| nb.dist2 < d2) {
+            best = Some((nb.dist2, rec.power()));
+        }
+    }
+    best.map(|(_, e)| e)
 }
 
 /// Radiance leaving `s` towards its viewer estimated from `map`: Σ f_r ΔΦ / (π r²), with a cone
@@ -375,6 +461,22 @@ impl Pass2<'_> {
         self.ctx
             .accel
             .intersect(self.ctx.scene, ray, Visibility::Secondary)
+    }
+
+    /// The global estimate at a final-gather hit: ρ/π × the nearest precomputed irradiance on
+    /// Lambertian opaque surfaces when records exist, else the full estimate.
+    fn gather_estimate(&mut self, s: &Shading) -> Vec3 {
+        if let Some(irr) = &self.maps.irradiance {
+            let rho = s.bsdf.diffuse_reflectance(s.wo_local);
+            let albedo = bsdf_albedo(&s.bsdf, s.wo_local);
+            if s.opaque && max_component(albedo - rho) < 1e-4 {
+                let r2 = self.maps.global_radius2;
+                if let Some(e) = nearest_irradiance(irr, r2, s, &mut self.buf) {
+                    return rho * e * (1.0 / PI);
+                }
+            }
+        }
+        self.global(s)
     }
 
     fn global(&mut self, s: &Shading) -> Vec3 {
@@ -491,7 +593,7 @@ impl Pass2<'_> {
         }
         let mut unused = Vec3::ZERO;
         if let Some((d, beta)) = self.through_specular(s, absorption, false, &mut unused, rng) {
-            l += beta * self.global(&d);
+            l += beta * self.gather_estimate(&d);
         }
         t * l
     }
