@@ -118,7 +118,7 @@ struct RenderArgs {
     /// Photons emitted for the caustic map (0 skips it) [default: 500000].
     #[arg(long)]
     caustic_photons: Option<u32>,
-    /// Final-gather rays per shading point (0 reads the global map directly) [default: 32].
+    /// Final-gather rays per shading point (0 reads the global map directly) [default: 4].
     #[arg(long)]
     gather_rays: Option<u32>,
     /// Nearest photons in a global radiance estimate [default: 64].

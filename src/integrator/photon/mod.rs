@@ -26,6 +26,24 @@
 //! is below `SPECULAR_ROUGHNESS` = 0.049 (LuxCore's glossiness threshold): such surfaces are ray
 //! traced; all others store photons and are shaded from the maps.
 //!
+//! **Precomputed irradiance** (Christensen 1999, "Faster photon map global illumination"): after
+//! pass 1, irradiance is estimated at every `irradiance_stride`-th global photon (default 4) from
+//! its k nearest photons on the same surface side (the photon records its normal at trace time)
+//! and stored as records in a kd-tree of their own. A final-gather hit on a Lambertian opaque
+//! surface reads the nearest record whose normal agrees (cos > 0.9): L = ρ/π · E, instead of a
+//! full k-nearest estimate; other surfaces, and the `photon-global` view, keep the full estimate.
+//! Measured on the Cornell box (96 × 96, 4 spp, 32 gather rays, 200 000 photons, 2 cores):
+//! pass 2 takes 1.31 s instead of 6.54 s (5.0×), the whole render 2.2 s instead of 6.9 s, and
+//! the 90 829 records take 0.52 s; against a 4096-spp path reference relMSE is 0.013359 with
+//! records and 0.013368 without, the mean −0.44 % instead of −0.34 %. It is the default.
+//!
+//! **Gather rays vs samples per pixel**: the Cornell box's photon-method error at moderate spp is
+//! pixel noise (the lamp's edge pixels and the one light sample per pixel sample), not the map's
+//! bias (about −0.3 % in the mean), so a few gather rays per pixel sample and more pixel samples
+//! win at equal time. Cornell, 96 × 96 vs the 4096-spp path reference, wall time on 2 cores:
+//! 16 spp × 32 gather rays 6.5 s relMSE 0.0160; 64 × 8 7.4 s 0.0027; 128 × 4 7.3 s 0.0018;
+//! 256 × 2 8.5 s 0.0011 (the path tracer: 256 spp, 5.0 s, 0.0020). Hence 4 gather rays by default.
+//!
 //! Radiance estimates use the k nearest photons within a maximum radius (relative to the scene's
 //! bounding radius), `L ≈ Σ f_r ΔΦ / (π r²)`, where r is the k-th distance (or the maximum radius
 //! when fewer are found), discarding photons off the tangent plane (more than a quarter of r away
@@ -80,7 +98,7 @@ pub struct PhotonSettings {
     pub global_radius: f32,
     /// Maximum caustic search radius as a fraction of the scene's bounding radius (0.02).
     pub caustic_radius: f32,
-    /// Final-gather rays per shading point (default 32; 0 reads the global map directly).
+    /// Final-gather rays per shading point (default 4; 0 reads the global map directly).
     pub gather_rays: u32,
     /// Maximum bounces of a photon (default 16).
     pub max_photon_bounces: u32,
@@ -98,7 +116,7 @@ impl Default for PhotonSettings {
             k_caustic: 64,
             global_radius: 0.1,
             caustic_radius: 0.02,
-            gather_rays: 32,
+            gather_rays: 4,
             max_photon_bounces: 16,
             irradiance_stride: 4,
         }
