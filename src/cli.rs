@@ -122,7 +122,7 @@ struct RenderArgs {
     /// Photons emitted for the caustic map (0 skips it) [default: 500000].
     #[arg(long)]
     caustic_photons: Option<u32>,
-    /// Final-gather rays per shading point (0 reads the global map directly) [default: 32].
+    /// Final-gather rays per shading point (0 reads the global map directly) [default: 4].
     #[arg(long)]
     gather_rays: Option<u32>,
     /// Nearest photons in a global radiance estimate [default: 64].
@@ -137,6 +137,10 @@ struct RenderArgs {
     /// Maximum caustic search radius, as a fraction of the scene's bounding radius [default: 0.02].
     #[arg(long)]
     caustic_radius: Option<f32>,
+    /// Precompute irradiance at every n-th global photon for final gathering (Christensen 1999;
+    /// 0: a full radiance estimate at every gather hit) [default: 4].
+    #[arg(long)]
+    irradiance_stride: Option<u32>,
 }
 
 impl RenderArgs {
@@ -163,6 +167,7 @@ impl RenderArgs {
             caustic_radius: self.caustic_radius.unwrap_or(d.caustic_radius),
             gather_rays: self.gather_rays.unwrap_or(d.gather_rays),
             max_photon_bounces: d.max_photon_bounces,
+            irradiance_stride: self.irradiance_stride.unwrap_or(d.irradiance_stride),
         })
     }
 }
@@ -374,6 +379,8 @@ fn summarise(
                     "caustic_emitted": p.caustic_emitted, "caustic_stored": p.caustic_stored,
                     "caustic_skipped": p.caustic_skipped, "trace_seconds": p.trace_seconds,
                     "kdtree_seconds": p.kdtree_seconds, "photons_per_second": rate,
+                    "irradiance_records": p.irradiance_records,
+                    "irradiance_seconds": p.irradiance_seconds,
                 }
             }));
         } else {
@@ -381,14 +388,16 @@ fn summarise(
                 eprintln!("photon: caustic map skipped: {why}");
             }
             eprintln!(
-                "photon: photons: global {} emitted / {} stored, caustic {} emitted / {} stored; traced in {:.3} s ({:.2} M photons/s), kd-trees {:.3} s",
+                "photon: photons: global {} emitted / {} stored, caustic {} emitted / {} stored; traced in {:.3} s ({:.2} M photons/s), kd-trees {:.3} s, {} irradiance records in {:.3} s",
                 p.global_emitted,
                 p.global_stored,
                 p.caustic_emitted,
                 p.caustic_stored,
                 p.trace_seconds,
                 rate / 1e6,
-                p.kdtree_seconds
+                p.kdtree_seconds,
+                p.irradiance_records,
+                p.irradiance_seconds
             );
         }
     }

@@ -3,8 +3,10 @@
 //! §6.3–6.4): compact photons in a left-balanced kd-tree stored as a flat array in heap order,
 //! with k-nearest-neighbour search. Depends only on math, so it is tested on its own.
 //!
-//! A photon is 20 bytes: position (3 × f32), power as Ward's shared-exponent RGBE (4 bytes),
-//! incoming direction as two bytes (θ, φ), the kd split axis and flags. The tree is built by
+//! A photon is 24 bytes: position (3 × f32), power as Ward's shared-exponent RGBE (4 bytes),
+//! incoming direction as two bytes (θ, φ), the kd split axis and flags, and the surface normal
+//! as two more bytes (θ, φ; for Christensen's precomputed irradiance, see
+//! `integrator::photon`), padded to the f32 alignment. The tree is built by
 //! splitting on the largest extent of each subtree's bounding box at the left-balanced median
 //! (found by selection, `select_nth_unstable_by`), so node `i` has children `2i+1` and `2i+2` and
 //! no pointers are stored. Search keeps a bounded max-heap of squared distances and shrinks the
@@ -22,7 +24,7 @@ const FLAG_CAUSTIC: u8 = 1 << 3;
 /// Bits 4–7 hold the number of bounces before the hit, saturated at 15.
 const BOUNCE_SHIFT: u8 = 4;
 
-/// One stored photon (20 bytes).
+/// One stored photon (24 bytes).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Photon {
@@ -32,7 +34,8 @@ pub struct Photon {
     phi: u8,
     /// Bits 0–1: kd split axis; bit 2 direct; bit 3 caustic; bits 4–7 bounces.
     flags: u8,
-    _pad: u8,
+    normal: [u8; 2],
+    _pad: [u8; 3],
 }
 
 impl Photon {
@@ -54,8 +57,22 @@ impl Photon {
             theta,
             phi,
             flags,
-            _pad: 0,
+            normal: [theta, phi],
+            _pad: [0; 3],
         }
+    }
+
+    /// The same photon with the surface normal `n` (unit) recorded; without it the normal is
+    /// the incoming direction.
+    pub fn with_normal(mut self, n: Vec3) -> Photon {
+        let (t, p) = encode_direction(n);
+        self.normal = [t, p];
+        self
+    }
+
+    /// The recorded surface normal (quantised to two bytes).
+    pub fn normal(&self) -> Vec3 {
+        decode_direction(self.normal[0], self.normal[1])
     }
 
     pub fn position(&self) -> Vec3 {
@@ -342,7 +359,7 @@ mod tests {
 
     #[test]
     fn photon_is_twenty_bytes() {
-        assert_eq!(std::mem::size_of::<Photon>(), 20);
+        assert_eq!(std::mem::size_of::<Photon>(), 24);
     }
 
     #[test]

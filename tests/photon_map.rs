@@ -134,5 +134,8 @@ fn direction_packing_error_is_below_fourteen_milliradians() {
     let ph = Photon::new(Vec3::ONE, Vec3::new(1.0, 2.0, 3.0), -Vec3::Z, 3, true);
     assert!(ph.incoming().dot(-Vec3::Z) > 0.9999);
     assert!(ph.is_caustic() && !ph.is_direct() && ph.bounces() == 3);
-    assert_eq!(std::mem::size_of::<Photon>(), 20);
+    let n = Vec3::new(0.6, 0.0, 0.8);
+    assert!(ph.normal().dot(-Vec3::Z) > 0.9999);
+    assert!(ph.with_normal(n).normal().dot(n) > 0.9999);
+    assert_eq!(std::mem::size_of::<Photon>(), 24);
 }

@@ -240,11 +240,12 @@ pub fn trace_photon(
         let storing = stores_photons(&s.bsdf, s.wo_local);
         if storing {
             let caustic = bounce > 0 && specular_path;
+            let photon = |c| Photon::new(s.sh.p, power, s.wo, bounce, c).with_normal(s.ng);
             match pass {
-                Pass::Global => out.push(Photon::new(s.sh.p, power, s.wo, bounce, caustic)),
+                Pass::Global => out.push(photon(caustic)),
                 Pass::Caustic => {
                     if caustic {
-                        out.push(Photon::new(s.sh.p, power, s.wo, bounce, true));
+                        out.push(photon(true));
                     }
                     return;
                 }
