@@ -87,7 +87,13 @@ struct ChildRun {
 
 /// Render `scene` in a child process with `extra` arguments; wall time measured here, peak memory
 /// from the child's final JSON statistics.
-fn render_child(scene: &Path, output: &Path, args: &BenchArgs, extra: &[String]) -> Result<ChildRun> {
+fn render_child(
+    scene: &Path,
+    output: &Path,
+    args: &BenchArgs,
+    size: (u32, u32),
+    extra: &[String],
+) -> Result<ChildRun> {
     let exe = std::env::current_exe()
         .map_err(|e| Error::Internal(format!("cannot find the photon binary: {e}")))?;
     let start = Instant::now();
@@ -97,8 +103,12 @@ fn render_child(scene: &Path, output: &Path, args: &BenchArgs, extra: &[String])
         .arg("-o")
         .arg(output)
         .args(["--progress", "json", "--threads", &args.threads.to_string()])
-        .args(["--width", &args.width.to_string()])
-        .args(args.height.map(|h| ["--height".to_string(), h.to_string()]).into_iter().flatten())
+        .args([
+            "--width",
+            &size.0.to_string(),
+            "--height",
+            &size.1.to_string(),
+        ])
         .args(extra)
         .output()
         .map_err(|e| Error::Internal(format!("cannot run a child render: {e}")))?;
@@ -120,6 +130,15 @@ fn render_child(scene: &Path, output: &Path, args: &BenchArgs, extra: &[String])
     Ok(ChildRun { seconds, peak_mib })
 }
 
+/// Bench image size: `--width`, and `--height` or the scene's own aspect ratio.
+fn bench_size(scene: &photon::scene::Scene, args: &BenchArgs) -> (u32, u32) {
+    let (w, h) = image_size(scene, None, None);
+    let height = args
+        .height
+        .unwrap_or_else(|| ((args.width as u64 * h as u64) / w.max(1) as u64).max(1) as u32);
+    (args.width, height)
+}
+
 /// The cached reference of `scene`, rendered when missing.
 fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<PathBuf> {
     let bytes = std::fs::read(scene).map_err(|e| io_error(scene, e))?;
@@ -137,7 +156,7 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<PathBuf
     if !path.exists() {
         eprintln!("photon bench: reference for {} ...", scene.display());
         let extra = ["--method", "path", "--spp", &args.reference_spp.to_string()];
-        render_child(scene, &path, args, &extra.map(String::from))?;
+        render_child(scene, &path, args, size, &extra.map(String::from))?;
     }
     Ok(path)
 }
@@ -153,7 +172,7 @@ fn read_rgba(path: &Path) -> Result<Vec<[f32; 4]>> {
 
 fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<()> {
     let scene = load_scene(Some(scene_path), None)?;
-    let size = image_size(&scene, Some(args.width), args.height);
+    let size = bench_size(&scene, args);
     let scene_plan = plan(&scene, Quality::Default);
     let reference_pixels = read_rgba(&reference(scene_path, args, size)?)?;
     let images = args.out.join("images");
@@ -176,7 +195,7 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
                 "--caustic-photons".into(),
                 (budget * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
             ];
-            let run = render_child(scene_path, &output, args, &extra)?;
+            let run = render_child(scene_path, &output, args, size, &extra)?;
             let pixels = read_rgba(&output)?;
             if pixels.len() != reference_pixels.len() {
                 return Err(Error::Internal(format!(
@@ -207,8 +226,9 @@ fn write_file(path: &Path, text: &str) -> Result<()> {
 }
 
 fn csv(rows: &[Row]) -> String {
-    let mut out =
-        String::from("scene,method,budget,seconds,peak_mib,rel_mse,rmse,mean_relative_difference\n");
+    let mut out = String::from(
+        "scene,method,budget,seconds,peak_mib,rel_mse,rmse,mean_relative_difference\n",
+    );
     for r in rows {
         let _ = writeln!(
             out,
@@ -334,7 +354,10 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
     write_file(&args.out.join("results.csv"), &csv(&rows))?;
     write_file(&args.out.join("report.md"), &report(&rows, &names, &args))?;
     for name in &names {
-        write_file(&args.out.join(format!("{name}.svg")), &svg_plot(name, &rows))?;
+        write_file(
+            &args.out.join(format!("{name}.svg")),
+            &svg_plot(name, &rows),
+        )?;
     }
     println!("wrote {}", args.out.join("report.md").display());
     Ok(())

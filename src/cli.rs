@@ -412,9 +412,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
     } else {
         settings.spp
     };
-    let result = pool.install(|| {
-        render_in_passes(&scene, &settings, pass_spp, time_limit, &progress)
-    });
+    let result =
+        pool.install(|| render_in_passes(&scene, &settings, pass_spp, time_limit, &progress));
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }

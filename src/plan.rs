@@ -368,9 +368,15 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
         "no translucent material (subsurface scattering is not implemented yet)",
     );
     let (method, method_reason) = if !anything_to_trace {
-        (Method::Path, "no light: the path tracer only shows emission and background")
+        (
+            Method::Path,
+            "no light: the path tracer only shows emission and background",
+        )
     } else if caustic_map.needed {
-        (Method::Photon, "caustics: the caustic map resolves what path tracing finds only by chance")
+        (
+            Method::Photon,
+            "caustics: the caustic map resolves what path tracing finds only by chance",
+        )
     } else {
         (Method::Path, "no caustics: the path tracer converges at least as fast here (first rule; see the benchmark)")
     };
