@@ -317,15 +317,22 @@ fn svg_plot(scene: &str, rows: &[Row]) -> String {
     methods.dedup();
     for (i, method) in methods.iter().enumerate() {
         let colour = colours[i % colours.len()];
-        let line: Vec<String> = points
+        let line: Vec<(f64, f64)> = points
             .iter()
             .filter(|r| r.method == *method)
-            .map(|r| format!("{:.1},{:.1}", px(r.seconds), py(r.error.rel_mse)))
+            .map(|r| (px(r.seconds), py(r.error.rel_mse)))
             .collect();
+        for (x, y) in &line {
+            let _ = writeln!(
+                out,
+                "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"3\" fill=\"{colour}\"/>"
+            );
+        }
+        let coordinates: Vec<String> = line.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
         let _ = writeln!(
             out,
-            "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\" marker-mid=\"\"/>\n<text x=\"{}\" y=\"{}\" fill=\"{colour}\">{method}</text>",
-            line.join(" "),
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\"/>\n<text x=\"{}\" y=\"{}\" fill=\"{colour}\">{method}</text>",
+            coordinates.join(" "),
             w - margin + 4.0,
             margin + 14.0 * i as f64
         );
