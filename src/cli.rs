@@ -5,13 +5,21 @@ use clap::{Parser, Subcommand, ValueEnum};
 use photon::error::{Error, Result};
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::PhotonSettings;
-use photon::render::{render, Method, Progress, ProgressEvent, RenderSettings, RenderStats};
+use photon::passes::{render_in_passes, PassesResult};
+use photon::plan::{plan_for_image, Quality};
+use photon::render::{Method, Progress, ProgressEvent, RenderSettings, RenderStats};
 use photon::scene::gltf::{load, LoadOptions};
 use photon::scene::{builtin, Projection, Scene};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// Samples per pixel of one pass when rendering under `--time-limit`.
+const TIME_LIMITED_PASS_SPP: u32 = 4;
+/// Upper bound on samples per pixel under `--time-limit` without `--spp`.
+const TIME_LIMITED_MAX_SPP: u32 = 65_536;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -45,7 +53,33 @@ enum Command {
         /// Camera to use (glTF node or camera name).
         #[arg(long)]
         camera: Option<String>,
+        /// Quality preset the plan is made for.
+        #[arg(long, value_enum, default_value_t = QualityArg::Default)]
+        quality: QualityArg,
     },
+    /// Benchmark run time against error for each method on each scene.
+    Bench(crate::bench::BenchArgs),
+}
+
+/// Quality preset (`--quality`): samples and photon counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum QualityArg {
+    /// Few samples and photons, for a quick look.
+    Preview,
+    /// The default.
+    Default,
+    /// Many samples and photons, for final frames.
+    Final,
+}
+
+impl From<QualityArg> for Quality {
+    fn from(q: QualityArg) -> Quality {
+        match q {
+            QualityArg::Preview => Quality::Preview,
+            QualityArg::Default => Quality::Default,
+            QualityArg::Final => Quality::Final,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -63,6 +97,8 @@ enum ProgressMode {
 /// The rendering algorithm (`--method`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum MethodArg {
+    /// The scene planner's choice (see `photon info`).
+    Auto,
     /// Unbiased path tracing (the reference).
     Path,
     /// Photon mapping with final gathering.
@@ -88,9 +124,15 @@ struct RenderArgs {
     /// Image height in pixels (default: the scene's, else from the camera's aspect ratio).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
     height: Option<u32>,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
-    spp: u32,
+    /// Samples per pixel [default: from --quality; with --time-limit, as many as fit].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    spp: Option<u32>,
+    /// Quality preset: samples per pixel and, for photon mapping, photon counts.
+    #[arg(long, value_enum, default_value_t = QualityArg::Default)]
+    quality: QualityArg,
+    /// Stop adding samples after this many seconds (rendering in passes; the first always completes).
+    #[arg(long, value_name = "SECONDS")]
+    time_limit: Option<f64>,
     /// Maximum number of bounces.
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(0..=1024))]
     max_depth: u32,
@@ -144,8 +186,9 @@ struct RenderArgs {
 }
 
 impl RenderArgs {
-    fn photon_settings(&self) -> Result<PhotonSettings> {
-        let d = PhotonSettings::default();
+    /// Photon settings: the command line's, else `defaults` (the plan's for `auto`).
+    fn photon_settings(&self, defaults: &PhotonSettings) -> Result<PhotonSettings> {
+        let d = defaults.clone();
         for (name, r) in [
             ("radius", self.radius),
             ("caustic-radius", self.caustic_radius),
@@ -166,8 +209,8 @@ impl RenderArgs {
             global_radius: self.radius.unwrap_or(d.global_radius),
             caustic_radius: self.caustic_radius.unwrap_or(d.caustic_radius),
             gather_rays: self.gather_rays.unwrap_or(d.gather_rays),
-            max_photon_bounces: d.max_photon_bounces,
             irradiance_stride: self.irradiance_stride.unwrap_or(d.irradiance_stride),
+            ..d
         })
     }
 }
@@ -190,7 +233,12 @@ pub fn main() -> i32 {
         None => Err(Error::Internal("cannot build the default command".into())),
         Some(command) => match command {
             Command::Render(args) => run_render(args),
-            Command::Info { scene, camera } => run_info(&scene, camera),
+            Command::Info {
+                scene,
+                camera,
+                quality,
+            } => run_info(&scene, camera, quality.into()),
+            Command::Bench(args) => crate::bench::run_bench(args),
             Command::Compare {
                 image,
                 reference,
@@ -207,7 +255,7 @@ pub fn main() -> i32 {
     }
 }
 
-fn load_scene(path: Option<&Path>, camera: Option<String>) -> Result<Scene> {
+pub fn load_scene(path: Option<&Path>, camera: Option<String>) -> Result<Scene> {
     let options = LoadOptions { camera };
     match path {
         Some(p) => load(p, &options),
@@ -216,7 +264,7 @@ fn load_scene(path: Option<&Path>, camera: Option<String>) -> Result<Scene> {
 }
 
 /// Image size: command line, then the scene's render settings, then the camera's aspect ratio.
-fn image_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
+pub fn image_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
     let aspect = scene
         .camera
         .aspect_ratio
@@ -285,26 +333,55 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }
     }
     let (width, height) = image_size(&scene, args.width, args.height);
+    let quality = Quality::from(args.quality);
+    let time_limit = match args.time_limit {
+        Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
+        Some(t) => {
+            return Err(Error::Settings(format!(
+                "--time-limit must be positive, not {t}"
+            )))
+        }
+        None => None,
+    };
+    let plan = plan_for_image(&scene, quality, width, height);
+    let spp = match (args.spp, time_limit) {
+        (Some(spp), _) => spp,
+        (None, Some(_)) => TIME_LIMITED_MAX_SPP,
+        (None, None) => plan.spp,
+    };
     let settings = RenderSettings {
         width,
         height,
-        spp: args.spp,
+        spp,
         max_depth: args.max_depth,
         seed: args.seed,
         method: match args.method {
+            MethodArg::Auto => plan.method,
             MethodArg::Path => Method::Path,
             MethodArg::Photon => Method::Photon,
             MethodArg::PhotonGlobal => Method::PhotonGlobal,
             MethodArg::PhotonCaustic => Method::PhotonCaustic,
             MethodArg::Photons => Method::Photons,
         },
-        photon: args.photon_settings()?,
         region: args.region.as_deref().map(|r| photon::render::Region {
             x0: r[0],
             y0: r[1],
             x1: r[2],
             y1: r[3],
         }),
+        photon: if args.method == MethodArg::Auto {
+            // Explicit counts override the plan's, but maps the plan skips stay skipped.
+            let mut photon = args.photon_settings(&plan.photon)?;
+            if !plan.global_map.needed {
+                photon.global_photons = 0;
+            }
+            if !plan.caustic_map.needed {
+                photon.caustic_photons = 0;
+            }
+            photon
+        } else {
+            args.photon_settings(&PhotonSettings::default())?
+        },
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -345,11 +422,20 @@ fn run_render(args: RenderArgs) -> Result<()> {
         cancel: &cancel,
         report: &report,
     };
-    let result = pool.install(|| render(&scene, &settings, &progress));
+    let pass_spp = if time_limit.is_some() {
+        TIME_LIMITED_PASS_SPP
+    } else {
+        settings.spp
+    };
+    let result =
+        pool.install(|| render_in_passes(&scene, &settings, pass_spp, time_limit, &progress));
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
-    let (image, stats) = result?;
+    let PassesResult {
+        image, stats, spp, ..
+    } = result?;
+    let settings = RenderSettings { spp, ..settings };
     let layout = match &args.exr_layer {
         Some(layer) => ExrLayout::Blender {
             view_layer: layer.clone(),
@@ -434,47 +520,11 @@ fn summarise(
     }
 }
 
-fn run_info(path: &Path, camera: Option<String>) -> Result<()> {
+fn run_info(path: &Path, camera: Option<String>, quality: Quality) -> Result<()> {
     let scene = load_scene(Some(path), camera)?;
-    let bounds = scene.bounds();
-    let emissive = scene.materials.iter().filter(|m| m.is_emissive()).count();
-    let transmissive = scene
-        .materials
-        .iter()
-        .filter(|m| m.transmission > 0.0)
-        .count();
-    let metallic = scene.materials.iter().filter(|m| m.metallic > 0.0).count();
+    let (width, height) = image_size(&scene, None, None);
     println!("scene: {}", path.display());
-    println!(
-        "meshes: {}, triangles: {}",
-        scene.meshes.len(),
-        scene.triangle_count()
-    );
-    println!(
-        "materials: {} ({} emissive, {} transmissive, {} metallic)",
-        scene.materials.len(),
-        emissive,
-        transmissive,
-        metallic
-    );
     println!("textures: {}", scene.textures.len());
-    let count =
-        |pred: fn(&photon::scene::Light) -> bool| scene.lights.iter().filter(|l| pred(l)).count();
-    println!(
-        "lights: {} point, {} spot, {} sun; world colour {:?}",
-        count(|l| matches!(l, photon::scene::Light::Point { .. })),
-        count(|l| matches!(l, photon::scene::Light::Spot { .. })),
-        count(|l| matches!(l, photon::scene::Light::Sun { .. })),
-        scene.world.color.to_array()
-    );
-    if !bounds.is_empty() {
-        println!(
-            "bounds: {:?} to {:?} (diagonal {:.4})",
-            bounds.min.to_array(),
-            bounds.max.to_array(),
-            bounds.diagonal()
-        );
-    }
     let projection = match scene.camera.projection {
         Projection::Perspective { yfov } => {
             format!("perspective, vertical fov {:.1} deg", yfov.to_degrees())
@@ -482,6 +532,7 @@ fn run_info(path: &Path, camera: Option<String>) -> Result<()> {
         Projection::Orthographic { xmag, ymag } => format!("orthographic {xmag} x {ymag}"),
     };
     println!("camera: '{}', {projection}", scene.camera.name);
+    println!("{}", plan_for_image(&scene, quality, width, height));
     for w in &scene.warnings {
         println!("warning: {w}");
     }

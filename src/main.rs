@@ -1,5 +1,6 @@
 //! The `photon` binary: a thin shell around the library; see `cli`.
 
+mod bench;
 mod cli;
 
 fn main() {

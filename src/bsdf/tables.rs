@@ -17,7 +17,6 @@
 use super::fresnel::fresnel_blend_factor;
 use super::microfacet::{ggx_g1, ggx_g2, sample_ggx_vndf, MIN_ALPHA};
 use crate::math::{reflect, Vec3};
-use rayon::prelude::*;
 use std::sync::OnceLock;
 
 const E_ROUGH: usize = 32;
@@ -34,8 +33,7 @@ pub struct AlbedoTables {
     s_avg: Vec<f32>,
 }
 
-/// The tables, built on first use (about 130 ms of CPU time in a release build, spread over
-/// the rayon thread pool).
+/// The tables, built on first use (about 130 ms of CPU time in a release build, on one thread).
 pub fn albedo_tables() -> &'static AlbedoTables {
     static TABLES: OnceLock<AlbedoTables> = OnceLock::new();
     TABLES.get_or_init(AlbedoTables::build)
@@ -86,9 +84,10 @@ fn for_each_reflection(alpha: f32, wo: Vec3, n: usize, mut f: impl FnMut(Vec3, f
 
 impl AlbedoTables {
     fn build() -> Self {
-        // Rows of roughness are independent: build them in parallel (deterministically).
+        // Serial on purpose: this runs inside a `OnceLock` initialiser, often on a rayon worker;
+        // a parallel build there deadlocks when the other workers block on the same `OnceLock`
+        // (seen as a hang of concurrent tests in tests/scenes.rs).
         let e_rows: Vec<Vec<f32>> = (0..E_ROUGH)
-            .into_par_iter()
             .map(|ir| {
                 let alpha = alpha_of(grid(ir, E_ROUGH));
                 (0..E_MU)
@@ -120,7 +119,6 @@ impl AlbedoTables {
 
         let etas: Vec<f32> = (0..S_Z).map(|iz| eta_of_z(grid(iz, S_Z))).collect();
         let s_rows: Vec<Vec<f32>> = (0..S_ROUGH)
-            .into_par_iter()
             .map(|ir| {
                 let alpha = alpha_of(grid(ir, S_ROUGH));
                 let mut row = vec![0.0; S_MU * S_Z];

@@ -1,0 +1,371 @@
+//! `photon bench`: run time against error. For each scene, a converged path-traced reference is
+//! rendered once and cached in `OUT/refs/` (keyed by a hash of the scene file, the renderer version
+//! and the resolution); then each applicable method renders at a series of budgets (samples per
+//! pixel and photon counts scaled together). Every render runs as a child process of this binary,
+//! so its wall time and peak memory (the child's VmHWM) are its own. Writes `OUT/results.csv`,
+//! `OUT/report.md` and one log-log SVG plot of relMSE against time per scene.
+
+use crate::cli::{image_size, load_scene};
+use photon::error::{Error, Result};
+use photon::metrics::{compare, ImageError};
+use photon::plan::{plan, Quality};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// Global photons per unit of budget (budget 40 gives the default 200 000).
+const GLOBAL_PHOTONS_PER_BUDGET: u32 = 5_000;
+/// Caustic photons per unit of budget (budget 40 gives the default 500 000).
+const CAUSTIC_PHOTONS_PER_BUDGET: u32 = 12_500;
+
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    /// Scenes to benchmark [default: every .glb in scenes/].
+    scenes: Vec<PathBuf>,
+    /// Budgets: samples per pixel; photon counts scale with them.
+    #[arg(long, value_delimiter = ',', default_values_t = [1, 4, 16])]
+    budgets: Vec<u32>,
+    /// Methods to compare.
+    #[arg(long, value_delimiter = ',', default_values_t = ["path".to_string(), "photon".to_string(), "auto".to_string()])]
+    methods: Vec<String>,
+    /// Worker threads of each render (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Output directory.
+    #[arg(long, default_value = "bench")]
+    out: PathBuf,
+    /// Image width of every render.
+    #[arg(long, default_value_t = 64)]
+    width: u32,
+    /// Image height (default: from the scene camera's aspect ratio).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Samples per pixel of the path-traced reference.
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+}
+
+/// One render of the benchmark.
+#[derive(Clone, Debug)]
+struct Row {
+    scene: String,
+    method: String,
+    budget: u32,
+    seconds: f64,
+    peak_mib: f64,
+    error: ImageError,
+}
+
+/// FNV-1a, 64 bits: a stable content hash for the reference cache key.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+fn io_error(path: &Path, e: std::io::Error) -> Error {
+    Error::Settings(format!("{}: {e}", path.display()))
+}
+
+fn default_scenes() -> Result<Vec<PathBuf>> {
+    let dir = Path::new("scenes");
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| io_error(dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "glb"))
+        .collect();
+    scenes.sort();
+    Ok(scenes)
+}
+
+/// What one child render reported.
+struct ChildRun {
+    seconds: f64,
+    peak_mib: f64,
+}
+
+/// Render `scene` in a child process with `extra` arguments; wall time measured here, peak memory
+/// from the child's final JSON statistics.
+fn render_child(
+    scene: &Path,
+    output: &Path,
+    args: &BenchArgs,
+    size: (u32, u32),
+    extra: &[String],
+) -> Result<ChildRun> {
+    let exe = std::env::current_exe()
+        .map_err(|e| Error::Internal(format!("cannot find the photon binary: {e}")))?;
+    let start = Instant::now();
+    let result = Command::new(exe)
+        .arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(output)
+        .args(["--progress", "json", "--threads", &args.threads.to_string()])
+        .args([
+            "--width",
+            &size.0.to_string(),
+            "--height",
+            &size.1.to_string(),
+        ])
+        .args(extra)
+        .output()
+        .map_err(|e| Error::Internal(format!("cannot run a child render: {e}")))?;
+    let seconds = start.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    if !result.status.success() {
+        return Err(Error::Internal(format!(
+            "child render of {} failed: {}",
+            scene.display(),
+            stderr.lines().last().unwrap_or("")
+        )));
+    }
+    let peak_mib = stderr
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["stage"] == "done")
+        .find_map(|v| v["stats"]["peak_memory_mib"].as_f64())
+        .unwrap_or(f64::NAN);
+    Ok(ChildRun { seconds, peak_mib })
+}
+
+/// Bench image size: `--width`, and `--height` or the scene's own aspect ratio.
+fn bench_size(scene: &photon::scene::Scene, args: &BenchArgs) -> (u32, u32) {
+    let (w, h) = image_size(scene, None, None);
+    let height = args
+        .height
+        .unwrap_or_else(|| ((args.width as u64 * h as u64) / w.max(1) as u64).max(1) as u32);
+    (args.width, height)
+}
+
+/// The cached reference of `scene`, rendered when missing.
+fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<PathBuf> {
+    let bytes = std::fs::read(scene).map_err(|e| io_error(scene, e))?;
+    let refs = args.out.join("refs");
+    std::fs::create_dir_all(&refs).map_err(|e| io_error(&refs, e))?;
+    let path = refs.join(format!(
+        "{}-{:016x}-v{}-{}x{}-{}spp.exr",
+        stem(scene),
+        fnv1a(&bytes),
+        env!("CARGO_PKG_VERSION"),
+        size.0,
+        size.1,
+        args.reference_spp
+    ));
+    if !path.exists() {
+        eprintln!("photon bench: reference for {} ...", scene.display());
+        let extra = ["--method", "path", "--spp", &args.reference_spp.to_string()];
+        render_child(scene, &path, args, size, &extra.map(String::from))?;
+    }
+    Ok(path)
+}
+
+fn stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned())
+}
+
+fn read_rgba(path: &Path) -> Result<Vec<[f32; 4]>> {
+    Ok(photon::image_io::read_exr_rgba(path)?.2)
+}
+
+fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<()> {
+    let scene = load_scene(Some(scene_path), None)?;
+    let size = bench_size(&scene, args);
+    let scene_plan = plan(&scene, Quality::Default);
+    let reference_pixels = read_rgba(&reference(scene_path, args, size)?)?;
+    let images = args.out.join("images");
+    std::fs::create_dir_all(&images).map_err(|e| io_error(&images, e))?;
+    let name = stem(scene_path);
+    for method in &args.methods {
+        // Photon mapping has nothing to do in a scene without light.
+        if method == "photon" && !scene_plan.anything_to_trace {
+            continue;
+        }
+        for &budget in &args.budgets {
+            let output = images.join(format!("{name}-{method}-{budget}.exr"));
+            let extra = [
+                "--method".to_string(),
+                method.clone(),
+                "--spp".into(),
+                budget.to_string(),
+                "--photons".into(),
+                (budget * GLOBAL_PHOTONS_PER_BUDGET).to_string(),
+                "--caustic-photons".into(),
+                (budget * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
+            ];
+            let run = render_child(scene_path, &output, args, size, &extra)?;
+            let pixels = read_rgba(&output)?;
+            if pixels.len() != reference_pixels.len() {
+                return Err(Error::Internal(format!(
+                    "{} and its reference differ in size",
+                    output.display()
+                )));
+            }
+            let error = compare(&pixels, &reference_pixels);
+            eprintln!(
+                "photon bench: {name} {method} budget {budget}: {:.2} s, relMSE {:.5}",
+                run.seconds, error.rel_mse
+            );
+            rows.push(Row {
+                scene: name.clone(),
+                method: method.clone(),
+                budget,
+                seconds: run.seconds,
+                peak_mib: run.peak_mib,
+                error,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn write_file(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).map_err(|e| io_error(path, e))
+}
+
+fn csv(rows: &[Row]) -> String {
+    let mut out = String::from(
+        "scene,method,budget,seconds,peak_mib,rel_mse,rmse,mean_relative_difference\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "{},{},{},{:.4},{:.1},{:.6},{:.6},{:.6}",
+            r.scene,
+            r.method,
+            r.budget,
+            r.seconds,
+            r.peak_mib,
+            r.error.rel_mse,
+            r.error.rmse,
+            r.error.mean_relative_difference
+        );
+    }
+    out
+}
+
+fn report(rows: &[Row], scenes: &[String], args: &BenchArgs) -> String {
+    let mut out = format!(
+        "# Photon benchmark\n\n{} px wide, reference: path tracer at {} spp; budget b = b spp, \
+         {}·b global and {}·b caustic photons. Time is the wall time of the whole render process.\n",
+        args.width, args.reference_spp, GLOBAL_PHOTONS_PER_BUDGET, CAUSTIC_PHOTONS_PER_BUDGET
+    );
+    for scene in scenes {
+        let _ = write!(
+            out,
+            "\n## {scene}\n\n![relMSE against time]({scene}.svg)\n\n\
+             | method | budget | time (s) | peak MiB | relMSE | mean error |\n|---|---:|---:|---:|---:|---:|\n"
+        );
+        for r in rows.iter().filter(|r| &r.scene == scene) {
+            let _ = writeln!(
+                out,
+                "| {} | {} | {:.2} | {:.0} | {:.5} | {:+.2} % |",
+                r.method,
+                r.budget,
+                r.seconds,
+                r.peak_mib,
+                r.error.rel_mse,
+                100.0 * r.error.mean_relative_difference
+            );
+        }
+    }
+    out
+}
+
+/// A log-log plot of relMSE against time, one polyline per method.
+fn svg_plot(scene: &str, rows: &[Row]) -> String {
+    let (w, h, margin) = (480.0, 320.0, 50.0);
+    let points: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.scene == scene && r.seconds > 0.0 && r.error.rel_mse > 0.0)
+        .collect();
+    let decade = |f: fn(f64, f64) -> f64, init: f64, v: &dyn Fn(&Row) -> f64| {
+        points.iter().map(|r| v(r).log10()).fold(init, f)
+    };
+    let (x0, x1) = (
+        decade(f64::min, f64::INFINITY, &|r| r.seconds).floor(),
+        decade(f64::max, f64::NEG_INFINITY, &|r| r.seconds).ceil(),
+    );
+    let (y0, y1) = (
+        decade(f64::min, f64::INFINITY, &|r| r.error.rel_mse).floor(),
+        decade(f64::max, f64::NEG_INFINITY, &|r| r.error.rel_mse).ceil(),
+    );
+    let (x1, y1) = (x1.max(x0 + 1.0), y1.max(y0 + 1.0));
+    let px = |s: f64| margin + (s.log10() - x0) / (x1 - x0) * (w - 2.0 * margin);
+    let py = |e: f64| h - margin - (e.log10() - y0) / (y1 - y0) * (h - 2.0 * margin);
+    let mut out = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n\
+         <rect width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n<text x=\"{}\" y=\"16\" text-anchor=\"middle\">{scene}: relMSE against time (s)</text>\n",
+        w / 2.0
+    );
+    if !(x0.is_finite() && y0.is_finite()) {
+        out.push_str("</svg>\n");
+        return out;
+    }
+    for d in (x0 as i32)..=(x1 as i32) {
+        let x = px(10f64.powi(d));
+        let _ = writeln!(out, "<line x1=\"{x}\" y1=\"{}\" x2=\"{x}\" y2=\"{}\" stroke=\"#ddd\"/><text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">1e{d}</text>", margin, h - margin, h - margin + 14.0);
+    }
+    for d in (y0 as i32)..=(y1 as i32) {
+        let y = py(10f64.powi(d));
+        let _ = writeln!(out, "<line x1=\"{margin}\" y1=\"{y}\" x2=\"{}\" y2=\"{y}\" stroke=\"#ddd\"/><text x=\"{}\" y=\"{}\" text-anchor=\"end\">1e{d}</text>", w - margin, margin - 4.0, y + 4.0);
+    }
+    let colours = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
+    let mut methods: Vec<&str> = points.iter().map(|r| r.method.as_str()).collect();
+    methods.dedup();
+    for (i, method) in methods.iter().enumerate() {
+        let colour = colours[i % colours.len()];
+        let line: Vec<(f64, f64)> = points
+            .iter()
+            .filter(|r| r.method == *method)
+            .map(|r| (px(r.seconds), py(r.error.rel_mse)))
+            .collect();
+        for (x, y) in &line {
+            let _ = writeln!(
+                out,
+                "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"3\" fill=\"{colour}\"/>"
+            );
+        }
+        let coordinates: Vec<String> = line.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
+        let _ = writeln!(
+            out,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\"/>\n<text x=\"{}\" y=\"{}\" fill=\"{colour}\">{method}</text>",
+            coordinates.join(" "),
+            w - margin + 4.0,
+            margin + 14.0 * i as f64
+        );
+    }
+    out.push_str("</svg>\n");
+    out
+}
+
+pub fn run_bench(args: BenchArgs) -> Result<()> {
+    let scenes = if args.scenes.is_empty() {
+        default_scenes()?
+    } else {
+        args.scenes.clone()
+    };
+    if scenes.is_empty() || args.budgets.is_empty() || args.budgets.contains(&0) {
+        return Err(Error::Settings(
+            "bench needs at least one scene and positive budgets".into(),
+        ));
+    }
+    std::fs::create_dir_all(&args.out).map_err(|e| io_error(&args.out, e))?;
+    let mut rows = Vec::new();
+    for scene in &scenes {
+        bench_scene(scene, &args, &mut rows)?;
+    }
+    let names: Vec<String> = scenes.iter().map(|s| stem(s)).collect();
+    write_file(&args.out.join("results.csv"), &csv(&rows))?;
+    write_file(&args.out.join("report.md"), &report(&rows, &names, &args))?;
+    for name in &names {
+        write_file(
+            &args.out.join(format!("{name}.svg")),
+            &svg_plot(name, &rows),
+        )?;
+    }
+    println!("wrote {}", args.out.join("report.md").display());
+    Ok(())
+}

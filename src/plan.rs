@@ -1,0 +1,511 @@
+//! The scene planner: "skip what a scene doesn't need" (DESIGN.md). Before rendering, `plan`
+//! looks at the scene (materials by kind, lights by kind, bounds) and decides which passes are
+//! worth their cost, with the reason for each decision, the method `auto` uses, the sample and
+//! photon budgets of a quality preset, and an estimate of the memory the render needs.
+//!
+//! The plan is plain data; `Display` prints it for `photon info`. The rules are a first version,
+//! deliberately simple and conservative (a pass is skipped only when it provably adds nothing):
+//!
+//! - **caustic map**: needed when a mesh uses a material with a delta or near-specular lobe
+//!   (perceptual roughness below `SPECULAR_ROUGHNESS`) and the scene has a light. Whether light
+//!   actually reaches that surface is not traced yet.
+//! - **global map + final gather**: needed when indirect diffuse light is possible: there is a light,
+//!   some mesh has a non-black diffuse material, and the geometry is not a single convex mesh lit
+//!   only from outside (light leaving a convex surface never meets the scene again).
+//! - **subsurface**: needed when a translucent material exists; none can be expressed yet, so it
+//!   is always skipped (the slot is kept so the plan already says why).
+//! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
+//!   the background); a caustic map needed → photon mapping (caustics are where path tracing is
+//!   noisiest); otherwise → the path tracer, which the benchmark shows is at least as good as
+//!   photon mapping with final gathering on the diffuse scenes of `scenes/` at equal time.
+
+use crate::bsdf::Bsdf;
+use crate::integrator::photon::{PhotonSettings, SPECULAR_ROUGHNESS};
+use crate::material::eval_material;
+use crate::math::{Vec2, Vec3};
+use crate::render::Method;
+use crate::scene::{Bounds, Light, Mesh, Scene};
+use std::fmt;
+
+/// Stored photon record size (position, RGBE power, packed direction, flags).
+pub const PHOTON_BYTES: u64 = 20;
+/// Acceleration structure bytes per triangle (vertices, ids, flags and about two BVH nodes).
+pub const BVH_BYTES_PER_TRIANGLE: u64 = 128;
+/// Film bytes per pixel: RGBA, albedo, normal (f32) and depth.
+pub const IMAGE_BYTES_PER_PIXEL: u64 = 44;
+/// Photons stored per emitted global photon (one per diffuse bounce; a rough average).
+const GLOBAL_STORED_PER_EMITTED: u64 = 3;
+/// Largest (faces × vertices) product for which the convexity test is run.
+const CONVEXITY_TEST_LIMIT: usize = 20_000_000;
+
+/// A quality preset: what a user asks for instead of internal parameters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Quality {
+    /// Quick look: few samples and photons.
+    Preview,
+    /// The default.
+    #[default]
+    Default,
+    /// Final frames: many samples and photons.
+    Final,
+}
+
+impl Quality {
+    /// Camera samples per pixel.
+    pub fn spp(self) -> u32 {
+        match self {
+            Quality::Preview => 16,
+            Quality::Default => 64,
+            Quality::Final => 256,
+        }
+    }
+
+    /// Factor applied to the default photon counts.
+    pub fn photon_scale(self) -> f32 {
+        match self {
+            Quality::Preview => 0.25,
+            Quality::Default => 1.0,
+            Quality::Final => 4.0,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Quality::Preview => "preview",
+            Quality::Default => "default",
+            Quality::Final => "final",
+        }
+    }
+}
+
+/// Materials used by meshes, by kind. A material counts once per kind it has (a diffuse base
+/// with a smooth coat is diffuse and specular); unused materials are not counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MaterialKinds {
+    pub used: usize,
+    /// A Lambertian part with non-zero reflectance.
+    pub diffuse: usize,
+    /// Rough metal or glass lobes without a diffuse part (shaded from the photon maps).
+    pub glossy: usize,
+    /// A delta or near-specular lobe (mirror, smooth glass or smooth coat): casts caustics.
+    pub specular: usize,
+    /// Of the specular ones, those that refract.
+    pub refractive: usize,
+    pub emissive: usize,
+    /// Subsurface materials (none can be expressed yet).
+    pub translucent: usize,
+    /// Non-emissive materials that reflect nothing.
+    pub black: usize,
+}
+
+/// Emitters by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LightKinds {
+    pub emissive_triangles: usize,
+    pub point: usize,
+    pub spot: usize,
+    pub sun: usize,
+    /// The world background emits (non-black colour).
+    pub world: bool,
+}
+
+impl LightKinds {
+    pub fn any(&self) -> bool {
+        self.emissive_triangles + self.point + self.spot + self.sun > 0 || self.world
+    }
+}
+
+/// What the scene holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneSummary {
+    pub meshes: usize,
+    pub triangles: usize,
+    pub materials: MaterialKinds,
+    pub lights: LightKinds,
+    pub bounds: Bounds,
+}
+
+/// Whether a pass runs, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Decision {
+    pub needed: bool,
+    pub reason: String,
+}
+
+impl Decision {
+    fn new(needed: bool, reason: impl Into<String>) -> Self {
+        Decision {
+            needed,
+            reason: reason.into(),
+        }
+    }
+}
+
+/// Estimated memory of a render, in bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    pub photon_maps: u64,
+    pub bvh: u64,
+    pub image: u64,
+}
+
+impl MemoryEstimate {
+    pub fn total(&self) -> u64 {
+        self.photon_maps + self.bvh + self.image
+    }
+}
+
+/// The render plan of one scene at one quality.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    pub summary: SceneSummary,
+    pub quality: Quality,
+    /// False when the scene has no light at all: the image is the background.
+    pub anything_to_trace: bool,
+    pub caustic_map: Decision,
+    pub global_map: Decision,
+    pub subsurface: Decision,
+    /// The method `--method auto` renders with, and why.
+    pub method: Method,
+    pub method_reason: String,
+    pub spp: u32,
+    /// Photon settings for the photon method; counts are zero for skipped maps.
+    pub photon: PhotonSettings,
+    /// Search radii in scene units (the settings hold fractions of the scene's bounding radius).
+    pub global_radius: f32,
+    pub caustic_radius: f32,
+    /// Estimated memory for `width`×`height`, as given to `plan_for_image`.
+    pub memory: MemoryEstimate,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// How one material behaves, from its factors (textures at UV 0; roughness textures count as
+/// smooth so a textured mirror is not missed).
+struct MaterialTraits {
+    diffuse: bool,
+    glossy: bool,
+    specular: bool,
+    refractive: bool,
+    emissive: bool,
+}
+
+fn material_traits(scene: &Scene, index: usize) -> Option<MaterialTraits> {
+    let material = scene.materials.get(index)?;
+    let mut surface = eval_material(scene, material, Vec2::ZERO);
+    if material.metallic_roughness_texture.is_some() {
+        surface.roughness = 0.0;
+    }
+    let bsdf = Bsdf::new(&surface);
+    let specular =
+        bsdf.has_delta() || (bsdf.has_specular() && bsdf.roughness() < SPECULAR_ROUGHNESS);
+    let diffuse = bsdf.diffuse_reflectance(Vec3::Z).max_element() > 0.0;
+    Some(MaterialTraits {
+        diffuse,
+        glossy: bsdf.has_specular() && !specular && !diffuse,
+        specular,
+        refractive: specular && bsdf.is_transmissive(),
+        emissive: material.is_emissive(),
+    })
+}
+
+fn used_materials(scene: &Scene) -> Vec<usize> {
+    let mut used: Vec<usize> = scene.meshes.iter().map(|m| m.material as usize).collect();
+    used.sort_unstable();
+    used.dedup();
+    used
+}
+
+fn summarise(scene: &Scene) -> SceneSummary {
+    let mut materials = MaterialKinds::default();
+    for index in used_materials(scene) {
+        let Some(t) = material_traits(scene, index) else {
+            continue;
+        };
+        materials.used += 1;
+        materials.diffuse += t.diffuse as usize;
+        materials.glossy += t.glossy as usize;
+        materials.specular += t.specular as usize;
+        materials.refractive += t.refractive as usize;
+        materials.emissive += t.emissive as usize;
+        materials.black += (!t.emissive && !t.diffuse && !t.glossy && !t.specular) as usize;
+    }
+    let mut lights = LightKinds {
+        world: scene.world.color.max_element() > 0.0,
+        ..LightKinds::default()
+    };
+    for mesh in &scene.meshes {
+        if scene
+            .materials
+            .get(mesh.material as usize)
+            .is_some_and(|m| m.is_emissive())
+        {
+            lights.emissive_triangles += mesh.indices.len();
+        }
+    }
+    for light in &scene.lights {
+        match light {
+            Light::Point { .. } => lights.point += 1,
+            Light::Spot { .. } => lights.spot += 1,
+            Light::Sun { .. } => lights.sun += 1,
+        }
+    }
+    SceneSummary {
+        meshes: scene.meshes.len(),
+        triangles: scene.triangle_count(),
+        materials,
+        lights,
+        bounds: scene.bounds(),
+    }
+}
+
+/// True when every vertex of `mesh` lies on or behind the plane of every face (a closed or open
+/// convex surface). Scale-aware tolerance; `None` when the test would be too slow.
+fn is_convex(mesh: &Mesh) -> Option<bool> {
+    if mesh.indices.len().saturating_mul(mesh.positions.len()) > CONVEXITY_TEST_LIMIT {
+        return None;
+    }
+    let mut bounds = Bounds::EMPTY;
+    mesh.positions.iter().for_each(|&p| bounds.grow(p));
+    let tolerance = 1e-4 * bounds.diagonal();
+    let mut sides = (false, false);
+    for tri in &mesh.indices {
+        let [a, b, c] = tri.map(|i| mesh.positions.get(i as usize).copied());
+        let (Some(a), Some(b), Some(c)) = (a, b, c) else {
+            return Some(false);
+        };
+        let normal = (b - a).cross(c - a).normalize_or_zero();
+        if normal == Vec3::ZERO {
+            continue;
+        }
+        for &p in &mesh.positions {
+            let d = normal.dot(p - a);
+            sides.0 |= d > tolerance;
+            sides.1 |= d < -tolerance;
+            // Consistent winding is not guaranteed, so a face may see everything on either side,
+            // but one face seeing vertices on both sides proves a concavity.
+            if sides.0 && sides.1 {
+                return Some(false);
+            }
+        }
+        sides = (false, false);
+    }
+    Some(true)
+}
+
+/// True when a point or spot light sits inside `bounds` (so it may light the inside of a shell).
+fn light_inside(scene: &Scene, bounds: &Bounds) -> bool {
+    scene.lights.iter().any(|l| match l {
+        Light::Point { position, .. } | Light::Spot { position, .. } => {
+            position.cmpge(bounds.min).all() && position.cmple(bounds.max).all()
+        }
+        Light::Sun { .. } => false,
+    })
+}
+
+fn caustic_decision(summary: &SceneSummary) -> Decision {
+    let m = &summary.materials;
+    if !summary.lights.any() {
+        Decision::new(false, "no light: nothing to focus")
+    } else if m.specular == 0 {
+        Decision::new(
+            false,
+            "no mirror, smooth glass or smooth coat: light cannot be focused",
+        )
+    } else {
+        Decision::new(
+            true,
+            format!(
+                "{} specular material(s) ({} refractive) and a light: caustics possible",
+                m.specular, m.refractive
+            ),
+        )
+    }
+}
+
+fn global_decision(scene: &Scene, summary: &SceneSummary) -> Decision {
+    let m = &summary.materials;
+    if !summary.lights.any() {
+        return Decision::new(false, "no light: no indirect light");
+    }
+    if m.diffuse == 0 {
+        return Decision::new(
+            false,
+            "no diffuse surface: indirect light has nothing to land on",
+        );
+    }
+    if let [mesh] = scene.meshes.as_slice() {
+        let self_lit = m.emissive > 0 || light_inside(scene, &summary.bounds);
+        if !self_lit && is_convex(mesh) == Some(true) {
+            return Decision::new(
+                false,
+                "a single convex object lit from outside: light never bounces back onto it",
+            );
+        }
+    }
+    Decision::new(
+        true,
+        format!(
+            "{} diffuse material(s) and a light: indirect diffuse light possible",
+            m.diffuse
+        ),
+    )
+}
+
+/// The plan for a 640×480 image.
+pub fn plan(scene: &Scene, quality: Quality) -> Plan {
+    plan_for_image(scene, quality, 640, 480)
+}
+
+/// The plan for an image of `width`×`height` pixels (which only the memory estimate uses).
+pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) -> Plan {
+    let summary = summarise(scene);
+    let anything_to_trace = summary.lights.any();
+    let caustic_map = caustic_decision(&summary);
+    let global_map = global_decision(scene, &summary);
+    let subsurface = Decision::new(
+        false,
+        "no translucent material (subsurface scattering is not implemented yet)",
+    );
+    let (method, method_reason) = if !anything_to_trace {
+        (
+            Method::Path,
+            "no light: the path tracer only shows emission and background",
+        )
+    } else if caustic_map.needed {
+        (
+            Method::Photon,
+            "caustics: the caustic map resolves what path tracing finds only by chance",
+        )
+    } else {
+        (Method::Path, "no caustics: the path tracer converges at least as fast here (first rule; see the benchmark)")
+    };
+    let defaults = PhotonSettings::default();
+    let scale = |count: u32| (count as f32 * quality.photon_scale()).round() as u32;
+    let photon = PhotonSettings {
+        global_photons: if global_map.needed {
+            scale(defaults.global_photons)
+        } else {
+            0
+        },
+        caustic_photons: if caustic_map.needed {
+            scale(defaults.caustic_photons)
+        } else {
+            0
+        },
+        ..defaults
+    };
+    let scene_radius = 0.5 * summary.bounds.diagonal();
+    let photon_bytes = if method == Method::Photon {
+        (photon.global_photons as u64 * GLOBAL_STORED_PER_EMITTED + photon.caustic_photons as u64)
+            * PHOTON_BYTES
+    } else {
+        0
+    };
+    let memory = MemoryEstimate {
+        photon_maps: photon_bytes,
+        bvh: summary.triangles as u64 * BVH_BYTES_PER_TRIANGLE,
+        image: width as u64 * height as u64 * IMAGE_BYTES_PER_PIXEL,
+    };
+    Plan {
+        global_radius: photon.global_radius * scene_radius,
+        caustic_radius: photon.caustic_radius * scene_radius,
+        summary,
+        quality,
+        anything_to_trace,
+        caustic_map,
+        global_map,
+        subsurface,
+        method,
+        method_reason: method_reason.to_string(),
+        spp: quality.spp(),
+        photon,
+        memory,
+        width,
+        height,
+    }
+}
+
+fn mib(bytes: u64) -> f64 {
+    bytes as f64 / (1024.0 * 1024.0)
+}
+
+fn yes_no(d: &Decision) -> &'static str {
+    if d.needed {
+        "yes"
+    } else {
+        "skip"
+    }
+}
+
+impl fmt::Display for Plan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.summary;
+        let m = &s.materials;
+        let l = &s.lights;
+        writeln!(f, "meshes: {}, triangles: {}", s.meshes, s.triangles)?;
+        writeln!(
+            f,
+            "materials in use: {} ({} diffuse, {} glossy, {} specular of which {} refractive, {} emissive, {} translucent, {} black)",
+            m.used, m.diffuse, m.glossy, m.specular, m.refractive, m.emissive, m.translucent, m.black
+        )?;
+        writeln!(
+            f,
+            "lights: {} emissive triangles, {} point, {} spot, {} sun, world {}",
+            l.emissive_triangles,
+            l.point,
+            l.spot,
+            l.sun,
+            if l.world { "emits" } else { "black" }
+        )?;
+        if !s.bounds.is_empty() {
+            writeln!(
+                f,
+                "bounds: {:?} to {:?} (diagonal {:.4})",
+                s.bounds.min.to_array(),
+                s.bounds.max.to_array(),
+                s.bounds.diagonal()
+            )?;
+        }
+        writeln!(f, "plan ({} quality):", self.quality.name())?;
+        if !self.anything_to_trace {
+            writeln!(f, "  nothing to trace: the scene has no light")?;
+        }
+        for (name, d) in [
+            ("caustic map", &self.caustic_map),
+            ("global map + final gather", &self.global_map),
+            ("subsurface", &self.subsurface),
+        ] {
+            writeln!(f, "  {name}: {} ({})", yes_no(d), d.reason)?;
+        }
+        let method = match self.method {
+            Method::Path => "path tracer",
+            _ => "photon mapping",
+        };
+        writeln!(f, "  auto method: {method} ({})", self.method_reason)?;
+        writeln!(f, "  samples per pixel: {}", self.spp)?;
+        if self.method == Method::Photon {
+            writeln!(
+                f,
+                "  photons: {} global (k {}, radius {:.4}), {} caustic (k {}, radius {:.4}), {} gather rays",
+                self.photon.global_photons,
+                self.photon.k_global,
+                self.global_radius,
+                self.photon.caustic_photons,
+                self.photon.k_caustic,
+                self.caustic_radius,
+                self.photon.gather_rays
+            )?;
+        }
+        write!(
+            f,
+            "  memory estimate at {}x{}: {:.1} MiB (photon maps {:.1}, BVH {:.1}, image {:.1})",
+            self.width,
+            self.height,
+            mib(self.memory.total()),
+            mib(self.memory.photon_maps),
+            mib(self.memory.bvh),
+            mib(self.memory.image)
+        )
+    }
+}

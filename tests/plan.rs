@@ -1,0 +1,192 @@
+//! The scene planner skips what each scene does not need; `photon info` prints the plan;
+//! `--time-limit` stops adding passes when the time is up; `photon bench` writes its results.
+
+use photon::plan::{plan, Quality};
+use photon::render::Method;
+use photon::scene::gltf::{load, LoadOptions};
+use photon::scene::{builtin, Scene};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn scene_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+fn scene(name: &str) -> Scene {
+    load(&scene_path(name), &LoadOptions::default()).expect("scene loads")
+}
+
+fn photon() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_photon"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("photon-plan-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+#[test]
+fn cornell_box_needs_no_caustic_map_but_indirect_light() {
+    let p = plan(&scene("cornell_box.glb"), Quality::Default);
+    assert!(p.anything_to_trace);
+    assert!(!p.caustic_map.needed, "{}", p.caustic_map.reason);
+    assert!(p.global_map.needed, "{}", p.global_map.reason);
+    assert!(!p.subsurface.needed);
+    assert_eq!(p.method, Method::Path);
+    assert_eq!(p.summary.materials.specular, 0);
+    assert!(p.summary.lights.emissive_triangles > 0);
+}
+
+#[test]
+fn glass_caustic_needs_a_caustic_map_and_auto_uses_photons() {
+    let p = plan(&scene("glass_caustic.glb"), Quality::Default);
+    assert!(p.caustic_map.needed, "{}", p.caustic_map.reason);
+    assert!(p.summary.materials.refractive >= 1);
+    assert_eq!(p.method, Method::Photon);
+    assert!(p.photon.caustic_photons > 0);
+    assert!(p.memory.photon_maps > 0);
+}
+
+#[test]
+fn every_scene_plan_is_consistent_with_its_contents() {
+    for name in [
+        "cornell_box.glb",
+        "furnace.glb",
+        "glass_caustic.glb",
+        "lights.glb",
+        "materials.glb",
+    ] {
+        let p = plan(&scene(name), Quality::Default);
+        let m = &p.summary.materials;
+        assert_eq!(p.caustic_map.needed, m.specular > 0, "{name}");
+        assert_eq!(p.method == Method::Photon, p.caustic_map.needed, "{name}");
+        assert!(!p.subsurface.needed, "{name}: no translucent material");
+        if !p.caustic_map.needed {
+            assert_eq!(p.photon.caustic_photons, 0, "{name}");
+            assert_eq!(p.memory.photon_maps, 0, "{name}: path tracer needs no map");
+        }
+        // Radii are relative to the scene's size.
+        let radius = 0.5 * p.summary.bounds.diagonal();
+        assert!((p.global_radius - p.photon.global_radius * radius).abs() < 1e-4 * radius);
+        assert!(p.to_string().contains("caustic map"), "{name}");
+    }
+}
+
+#[test]
+fn a_scene_without_lights_has_nothing_to_trace() {
+    let mut s = builtin::cornell_box(&LoadOptions::default()).expect("builtin scene");
+    for m in &mut s.materials {
+        m.emission = photon::math::Vec3::ZERO;
+    }
+    s.lights.clear();
+    s.world.color = photon::math::Vec3::ZERO;
+    let p = plan(&s, Quality::Default);
+    assert!(!p.anything_to_trace);
+    assert!(!p.caustic_map.needed && !p.global_map.needed);
+    assert_eq!(p.method, Method::Path);
+    assert_eq!(p.photon.global_photons + p.photon.caustic_photons, 0);
+}
+
+#[test]
+fn black_materials_need_no_global_map() {
+    let mut s = builtin::cornell_box(&LoadOptions::default()).expect("builtin scene");
+    for m in &mut s.materials {
+        if !m.is_emissive() {
+            m.base_color = photon::math::Vec4::new(0.0, 0.0, 0.0, 1.0);
+        }
+    }
+    let p = plan(&s, Quality::Default);
+    assert!(p.anything_to_trace);
+    assert!(!p.global_map.needed, "{}", p.global_map.reason);
+}
+
+#[test]
+fn quality_presets_scale_samples_and_photons() {
+    let s = scene("glass_caustic.glb");
+    let (preview, fine) = (plan(&s, Quality::Preview), plan(&s, Quality::Final));
+    assert!(preview.spp < fine.spp);
+    assert!(preview.photon.caustic_photons < fine.photon.caustic_photons);
+    assert!(preview.memory.photon_maps < fine.memory.photon_maps);
+}
+
+#[test]
+fn info_prints_the_plan() {
+    let out = photon()
+        .arg("info")
+        .arg(scene_path("cornell_box.glb"))
+        .output()
+        .expect("runs");
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("caustic map: skip"), "{text}");
+    assert!(text.contains("global map + final gather: yes"), "{text}");
+    assert!(text.contains("auto method: path tracer"), "{text}");
+}
+
+#[test]
+fn time_limit_stops_adding_passes() {
+    let dir = temp_dir("time-limit");
+    let out = dir.join("out.exr");
+    let start = std::time::Instant::now();
+    let result = photon()
+        .arg("render")
+        .arg(scene_path("cornell_box.glb"))
+        .arg("-o")
+        .arg(&out)
+        .args(["--width", "32", "--height", "32", "--time-limit", "0.5"])
+        .args(["--progress", "json", "--threads", "2"])
+        .output()
+        .expect("runs");
+    let elapsed = start.elapsed().as_secs_f64();
+    assert!(result.status.success());
+    assert!(out.exists());
+    // Without the limit this would render 65 536 samples per pixel.
+    assert!(elapsed < 10.0, "took {elapsed} s");
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    let spp = stderr
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .find_map(|v| v["stats"]["spp"].as_u64())
+        .expect("final statistics");
+    assert!((4..65_536).contains(&spp), "{spp} spp");
+}
+
+#[test]
+fn bench_writes_results_for_each_method_and_budget() {
+    let dir = temp_dir("bench");
+    let result = photon()
+        .arg("bench")
+        .arg(scene_path("cornell_box.glb"))
+        .args(["--budgets", "1,2", "--width", "16", "--height", "16"])
+        .args(["--reference-spp", "16", "--threads", "2", "--out"])
+        .arg(&dir)
+        .output()
+        .expect("runs");
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.join("results.csv")).expect("results.csv");
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 6, "{csv}");
+    for method in ["path", "photon", "auto"] {
+        for budget in ["1", "2"] {
+            let prefix = format!("cornell_box,{method},{budget},");
+            assert!(
+                rows.iter().any(|r| r.starts_with(&prefix)),
+                "{prefix}: {csv}"
+            );
+        }
+    }
+    assert!(dir.join("report.md").exists());
+    assert!(dir.join("cornell_box.svg").exists());
+    assert_eq!(
+        std::fs::read_dir(dir.join("refs")).expect("refs").count(),
+        1
+    );
+}
