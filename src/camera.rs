@@ -30,6 +30,11 @@ impl CameraRays {
         }
     }
 
+    /// The direction the camera looks along (its local −Z in world space).
+    pub fn forward(&self) -> Vec3 {
+        self.to_world.transform_vector3(Vec3::NEG_Z).normalize()
+    }
+
     /// The ray through film position `film` (in pixels).
     pub fn ray(&self, film: Vec2) -> Ray {
         let aspect = self.width / self.height;

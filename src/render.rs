@@ -311,13 +311,15 @@ fn render_tile(
             let mut coverage = 0.0f32;
             let mut albedo = Vec3::ZERO;
             let mut normal = Vec3::ZERO;
-            // Like Cycles, depth is not filtered: the nearest surface seen in the pixel.
-            let mut depth = f32::INFINITY;
+            // Depth as Cycles writes it: distance along the camera's axis, averaged over the
+            // samples that hit something (1e10 when none did), never mixed with the background.
+            let mut depth_sum = 0.0f32;
             for s in 0..settings.spp {
                 let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
                 let offset = filter.sample(rng.uniform2());
                 let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-                let sample = integrator.trace(ctx, camera.ray(film), &mut rng);
+                let ray = camera.ray(film);
+                let sample = integrator.trace(ctx, ray, &mut rng);
                 tile_rays += sample.rays as u64;
                 if sample.radiance.is_finite() {
                     sum += sample.radiance;
@@ -326,10 +328,10 @@ fn render_tile(
                 }
                 if sample.hit {
                     coverage += 1.0;
+                    depth_sum += sample.depth * ray.direction.normalize().dot(camera.forward());
                 }
                 albedo += sample.albedo;
                 normal += sample.normal;
-                depth = depth.min(sample.depth);
             }
             let n = settings.spp as f32;
             let c = sum / n;
@@ -337,7 +339,11 @@ fn render_tile(
                 rgba: [c.x, c.y, c.z, coverage / n],
                 albedo: albedo / n,
                 normal: normal.normalize_or_zero(),
-                depth,
+                depth: if coverage > 0.0 {
+                    depth_sum / coverage
+                } else {
+                    1e10
+                },
             });
         }
     }
