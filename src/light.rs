@@ -98,13 +98,53 @@ pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
     if !material.double_sided && wo.dot(hit.ng) <= 0.0 {
         return Vec3::ZERO;
     }
-    let mut le = material.emission;
-    if let Some(tex) = &material.emissive_texture {
-        le *= scene.textures[tex.texture as usize]
-            .sample(tex.apply(hit.uv))
-            .truncate();
+    material_emission(scene, material, hit.uv)
+}
+
+/// A material's emitted radiance at texture coordinate `uv` (emission × emissive texture).
+fn material_emission(scene: &Scene, material: &crate::scene::Material, uv: Vec2) -> Vec3 {
+    match &material.emissive_texture {
+        Some(tex) => {
+            material.emission
+                * scene.textures[tex.texture as usize]
+                    .sample(tex.apply(uv))
+                    .truncate()
+        }
+        None => material.emission,
     }
-    le
+}
+
+/// A point drawn uniformly on an emissive triangle.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterPoint {
+    /// Position with its error bound and the unit winding normal (zero if degenerate).
+    pub point: LightPoint,
+    /// Emitted radiance there (towards the sides the material emits to).
+    pub radiance: Vec3,
+}
+
+/// Draw a point uniformly on triangle `triangle` of mesh `mesh` with `u`: the one routine both
+/// light sampling and photon emission use.
+pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) -> EmitterPoint {
+    let m = &scene.meshes[mesh as usize];
+    let idx = m.indices[triangle as usize];
+    let v = idx.map(|i| m.positions[i as usize]);
+    let b = square_to_triangle(u);
+    let b0 = 1.0 - b.x - b.y;
+    let p = v[0] * b0 + v[1] * b.x + v[2] * b.y;
+    let p_error = crate::interaction::gamma(6)
+        * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
+    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    let uv = if m.uvs.is_empty() {
+        Vec2::ZERO
+    } else {
+        let t = idx.map(|i| m.uvs[i as usize]);
+        t[0] * b0 + t[1] * b.x + t[2] * b.y
+    };
+    EmitterPoint {
+        point: LightPoint { p, p_error, n },
+        radiance: material_emission(scene, &scene.materials[m.material as usize], uv),
+    }
 }
 
 impl Lights {
@@ -246,15 +286,8 @@ impl Lights {
                 if area <= 0.0 {
                     return None;
                 }
-                let m = &scene.meshes[mesh as usize];
-                let idx = m.indices[triangle as usize];
-                let v = idx.map(|i| m.positions[i as usize]);
-                let b = square_to_triangle(u);
-                let b0 = 1.0 - b.x - b.y;
-                let q = v[0] * b0 + v[1] * b.x + v[2] * b.y;
-                let q_error = crate::interaction::gamma(6)
-                    * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
-                let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                let emitter = sample_emitter_point(scene, mesh, triangle, u);
+                let (q, n) = (emitter.point.p, emitter.point.n);
                 let d = q - p;
                 let dist2 = d.length_squared();
                 if !(dist2 > 0.0) {
@@ -269,29 +302,12 @@ impl Lights {
                 if cos_l <= 0.0 {
                     return None;
                 }
-                let uv = if m.uvs.is_empty() {
-                    Vec2::ZERO
-                } else {
-                    let t = idx.map(|i| m.uvs[i as usize]);
-                    t[0] * b0 + t[1] * b.x + t[2] * b.y
-                };
-                let material = &scene.materials[m.material as usize];
-                let mut li = material.emission;
-                if let Some(tex) = &material.emissive_texture {
-                    li *= scene.textures[tex.texture as usize]
-                        .sample(tex.apply(uv))
-                        .truncate();
-                }
                 Some(LightSample {
-                    li,
+                    li: emitter.radiance,
                     wi,
                     pdf: dist2 / (cos_l * area),
                     delta: false,
-                    target: LightPoint {
-                        p: q,
-                        p_error: q_error,
-                        n,
-                    },
+                    target: emitter.point,
                 })
             }
             LightSource::Point {

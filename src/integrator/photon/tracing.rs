@@ -18,14 +18,14 @@ use super::{Shading, SPECULAR_ROUGHNESS};
 use crate::accel::{Ray, Visibility};
 use crate::bsdf::{sample_bsdf, Bsdf};
 use crate::integrator::Context;
-use crate::interaction::{gamma, offset_origin};
-use crate::light::{smoothstep, LightSource};
+use crate::interaction::{offset_origin, LightPoint};
+use crate::light::{sample_emitter_point, smoothstep, LightSource};
 use crate::math::{luminance, max_component, Frame, Vec2, Vec3};
 use crate::photon_map::Photon;
 use crate::rng::Rng;
 use crate::sampling::{
-    square_to_cosine_hemisphere, square_to_disk, square_to_triangle, square_to_uniform_cone,
-    square_to_uniform_sphere, uniform_cone_pdf, Distribution1D,
+    square_to_cosine_hemisphere, square_to_disk, square_to_uniform_cone, square_to_uniform_sphere,
+    uniform_cone_pdf, Distribution1D,
 };
 use std::f32::consts::PI;
 
@@ -110,15 +110,12 @@ impl Emitters {
                 area,
                 two_sided,
             } => {
-                let m = &ctx.scene.meshes[mesh as usize];
-                let idx = m.indices[triangle as usize];
-                let v = idx.map(|i| m.positions[i as usize]);
-                let b = square_to_triangle(u1);
-                let b0 = 1.0 - b.x - b.y;
-                let q = v[0] * b0 + v[1] * b.x + v[2] * b.y;
-                let q_error =
-                    gamma(6) * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
-                let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                let emitter = sample_emitter_point(ctx.scene, mesh, triangle, u1);
+                let LightPoint {
+                    p: q,
+                    p_error: q_error,
+                    n,
+                } = emitter.point;
                 if n == Vec3::ZERO {
                     return None;
                 }
@@ -128,18 +125,9 @@ impl Emitters {
                     _ => (n, 1.0),
                 };
                 let dir = Frame::from_normal(side).to_world(square_to_cosine_hemisphere(u2));
-                let material = &ctx.scene.materials[m.material as usize];
-                let mut le = material.emission;
-                if let (Some(tex), false) = (&material.emissive_texture, m.uvs.is_empty()) {
-                    let t = idx.map(|i| m.uvs[i as usize]);
-                    let uv = t[0] * b0 + t[1] * b.x + t[2] * b.y;
-                    le *= ctx.scene.textures[tex.texture as usize]
-                        .sample(tex.apply(uv))
-                        .truncate();
-                }
                 (
                     ray(offset_origin(q, q_error, n, dir), dir),
-                    le * (PI * area * sides),
+                    emitter.radiance * (PI * area * sides),
                 )
             }
             // Photons leave point and spot lights from their centre whatever their radius: the
