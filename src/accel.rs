@@ -13,7 +13,7 @@
 //! Masked and blended materials (glTF alphaMode) are decided during traversal: a triangle whose
 //! material needs an alpha test is accepted only where its texture's alpha says so.
 
-use crate::math::{Vec2, Vec3, Vec3A};
+use crate::math::{Vec2, Vec3, Vec3A, Vec3Swizzles};
 use crate::rng::hash_combine;
 use crate::scene::{AlphaMode, Scene};
 use obvhs::aabb::Aabb;
@@ -68,12 +68,22 @@ pub struct Accel {
 /// Per-ray constants of the watertight test: the axis permutation and the shear.
 struct ShearedRay {
     origin: Vec3A,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    /// Which axis becomes z (the direction's largest component) and whether x and y swap to
+    /// keep the winding; applied by `permute`.
+    axes: Axes,
+    /// The shear (sx, sy, sz): x' = x − sx·z, y' = y − sy·z, z' = sz·z.
+    shear: Vec3A,
+}
+
+/// The six axis permutations of the watertight test, as swizzles (no per-vertex indexing).
+#[derive(Clone, Copy)]
+enum Axes {
+    Yzx,
+    Zyx,
+    Zxy,
+    Xzy,
+    Xyz,
+    Yxz,
 }
 
 impl ShearedRay {
@@ -90,34 +100,35 @@ impl ShearedRay {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let swap = dir[kz] < 0.0;
+        let axes = match (kz, swap) {
+            (0, false) => Axes::Yzx,
+            (0, true) => Axes::Zyx,
+            (1, false) => Axes::Zxy,
+            (1, true) => Axes::Xzy,
+            (_, false) => Axes::Xyz,
+            (_, true) => Axes::Yxz,
+        };
+        let d = permute(axes, dir.into());
         ShearedRay {
             origin: origin.into(),
-            kx,
-            ky,
-            kz,
-            sx: dir[kx] / dir[kz],
-            sy: dir[ky] / dir[kz],
-            sz: 1.0 / dir[kz],
+            axes,
+            shear: Vec3A::new(d.x / d.z, d.y / d.z, 1.0 / d.z),
         }
     }
 
     /// Returns (t, b1, b2) when the ray crosses the triangle with t in (t_min, t_max).
     fn intersect(&self, v: &[Vec3A; 3], t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
-        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let a = v[0] - self.origin;
-        let b = v[1] - self.origin;
-        let c = v[2] - self.origin;
-        let ax = a[kx] - self.sx * a[kz];
-        let ay = a[ky] - self.sy * a[kz];
-        let bx = b[kx] - self.sx * b[kz];
-        let by = b[ky] - self.sy * b[kz];
-        let cx = c[kx] - self.sx * c[kz];
-        let cy = c[ky] - self.sy * c[kz];
+        let a = permute(self.axes, v[0] - self.origin);
+        let b = permute(self.axes, v[1] - self.origin);
+        let c = permute(self.axes, v[2] - self.origin);
+        let (sx, sy) = (self.shear.x, self.shear.y);
+        let ax = a.x - sx * a.z;
+        let ay = a.y - sy * a.z;
+        let bx = b.x - sx * b.z;
+        let by = b.y - sy * b.z;
+        let cx = c.x - sx * c.z;
+        let cy = c.y - sy * c.z;
         let mut u = cx * by - cy * bx;
         let mut vv = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
@@ -134,9 +145,9 @@ impl ShearedRay {
         if det == 0.0 || !det.is_finite() {
             return None;
         }
-        let az = self.sz * a[kz];
-        let bz = self.sz * b[kz];
-        let cz = self.sz * c[kz];
+        let az = self.shear.z * a.z;
+        let bz = self.shear.z * b.z;
+        let cz = self.shear.z * c.z;
         let t_scaled = u * az + vv * bz + w * cz;
         let inv_det = 1.0 / det;
         let t = t_scaled * inv_det;
@@ -153,7 +164,7 @@ impl ShearedRay {
         // The shear x' = x − sx·z rounds in units of the unscaled z (|sx| ≤ 1). pbrt uses the
         // z already divided by the direction's length, which is dimensionless for the
         // unnormalised directions of shadow rays and loosens the bound at small scene scales.
-        let max_z_raw = a[kz].abs().max(b[kz].abs()).max(c[kz].abs());
+        let max_z_raw = a.z.abs().max(b.z.abs()).max(c.z.abs());
         let delta_x = gamma(5) * (max_x + max_z_raw);
         let delta_y = gamma(5) * (max_y + max_z_raw);
         let delta_z = gamma(3) * max_z;
@@ -165,6 +176,19 @@ impl ShearedRay {
             return None;
         }
         Some((t, vv * inv_det, w * inv_det))
+    }
+}
+
+/// `v` with its axes reordered so that the ray's dominant axis is z.
+#[inline(always)]
+fn permute(axes: Axes, v: Vec3A) -> Vec3A {
+    match axes {
+        Axes::Yzx => v.yzx(),
+        Axes::Zyx => v.zyx(),
+        Axes::Zxy => v.zxy(),
+        Axes::Xzy => v.xzy(),
+        Axes::Xyz => v,
+        Axes::Yxz => v.yxz(),
     }
 }
 

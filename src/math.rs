@@ -1,7 +1,7 @@
 //! Small geometric helpers on top of glam: orthonormal frames, colour luminance, reflection and
 //! refraction. Colours are linear Rec.709 RGB stored in `Vec3`.
 
-pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec3A, Vec4};
+pub use glam::{Affine3A, Mat3, Mat4, Quat, Vec2, Vec3, Vec3A, Vec3Swizzles, Vec4};
 
 /// An orthonormal basis. Shading happens in the local frame where the normal is +Z, so
 /// `cos θ = w.z`.
