@@ -232,24 +232,6 @@ fn zero_size_image_is_a_settings_error() {
     assert!(matches!(result, Err(Error::Settings(_))));
 }
 
-/// Scale the whole scene by `s` and move it by `offset` (camera included).
-fn transformed(mut scene: Scene, s: f32, offset: Vec3) -> Scene {
-    for m in &mut scene.meshes {
-        for p in &mut m.positions {
-            *p = *p * s + offset;
-        }
-    }
-    let t = &mut scene.camera.to_world;
-    t.translation = (Vec3::from(t.translation) * s + offset).into();
-    if let Projection::Orthographic { xmag, ymag } = scene.camera.projection {
-        scene.camera.projection = Projection::Orthographic {
-            xmag: xmag * s,
-            ymag: ymag * s,
-        };
-    }
-    scene
-}
-
 #[test]
 fn images_do_not_change_with_scene_scale_or_position() {
     // A sphere on a floor under a sky: contact shadows and interreflection close to surfaces are
@@ -274,9 +256,12 @@ fn images_do_not_change_with_scene_scale_or_position() {
         (1e4, Vec3::ZERO),
         (1.0, Vec3::new(1e5, -1e5, 1e5)),
     ] {
-        let mean = render_with(&transformed(base.clone(), s, offset), &settings(24, 32))
-            .mean_rgb()
-            .x;
+        let mean = render_with(
+            &scenes::transformed(base.clone(), s, offset),
+            &settings(24, 32),
+        )
+        .mean_rgb()
+        .x;
         // Rounding differs with scale, so paths diverge a little; a light leak or lost contact
         // shadow (fixed epsilons, or the BVH culling near hits) showed up as 1.5 %.
         assert!(

@@ -207,3 +207,42 @@ pub fn sphere_with_emissive_cap() -> (Scene, f32) {
     );
     (scene, radiance)
 }
+
+/// Scale the whole scene by `s` and move it by `offset` (camera and lights included; point and
+/// spot intensities scale by s² so that the image stays the same).
+pub fn transformed(mut scene: Scene, s: f32, offset: Vec3) -> Scene {
+    for m in &mut scene.meshes {
+        for p in &mut m.positions {
+            *p = *p * s + offset;
+        }
+    }
+    for light in &mut scene.lights {
+        match light {
+            Light::Point {
+                position,
+                intensity,
+                radius,
+            }
+            | Light::Spot {
+                position,
+                intensity,
+                radius,
+                ..
+            } => {
+                *position = *position * s + offset;
+                *intensity *= s * s;
+                *radius *= s;
+            }
+            Light::Sun { .. } => {}
+        }
+    }
+    let t = &mut scene.camera.to_world;
+    t.translation = (Vec3::from(t.translation) * s + offset).into();
+    if let Projection::Orthographic { xmag, ymag } = scene.camera.projection {
+        scene.camera.projection = Projection::Orthographic {
+            xmag: xmag * s,
+            ymag: ymag * s,
+        };
+    }
+    scene
+}

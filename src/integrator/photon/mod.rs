@@ -384,10 +384,7 @@ fn precompute_irradiance(map: &PhotonMap, stride: u32, k: u32, max_radius2: f32)
                 let mut sum = Vec3::ZERO;
                 for nb in buf.iter() {
                     let q = &photons[nb.index as usize];
-                    if (q.position() - p).dot(n).abs() <= PLANE_TOLERANCE * r
-                        && q.normal().dot(n) > 0.5
-                        && q.incoming().dot(n) > 0.0
-                    {
+                    if on_surface(q, p, n, r) && q.incoming().dot(n) > 0.0 {
                         sum += q.power();
                     }
                 }
@@ -402,6 +399,14 @@ fn precompute_irradiance(map: &PhotonMap, stride: u32, k: u32, max_radius2: f32)
         })
         .collect::<Vec<_>>()
         .concat()
+}
+
+/// Whether photon `ph`, found within radius `r` of point `p` with normal `n`, lies on the same
+/// side of the same surface: near the tangent plane, its recorded normal within ~60° of `n`. The
+/// normal test keeps photons on the far side of a thin or strongly curved object (the outside of
+/// a small sphere, seen from within) out of the estimate: without it light leaks through walls.
+fn on_surface(ph: &Photon, p: Vec3, n: Vec3, r: f32) -> bool {
+    (ph.position() - p).dot(n).abs() <= PLANE_TOLERANCE * r && ph.normal().dot(n) > 0.5
 }
 
 /// The nearest precomputed irradiance record to `s` whose normal agrees with the surface's
@@ -450,7 +455,7 @@ fn radiance_estimate(
     let mut sum = Vec3::ZERO;
     for nb in buf.iter() {
         let ph = &map.photons()[nb.index as usize];
-        if (ph.position() - s.sh.p).dot(s.ng).abs() > PLANE_TOLERANCE * r {
+        if !on_surface(ph, s.sh.p, s.ng, r) {
             continue;
         }
         let wi = ph.incoming();
