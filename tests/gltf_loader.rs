@@ -1056,6 +1056,24 @@ fn nan_positions_are_refused() {
 }
 
 #[test]
+fn coordinates_whose_distances_overflow_are_refused() {
+    // Found by tests/fuzz_gltf.rs: a vertex at 1.4e27 made the scene's diagonal infinite and
+    // the BVH builder index out of bounds. Also reachable through a node's scale.
+    let mut doc = Doc::new();
+    let mesh = doc.mesh(
+        "Far",
+        &[0.0, 0.0, 0.0, 1.4e27, 0.0, 0.0, 0.0, 1.0, 0.0],
+        &[],
+        &[0, 1, 2],
+    );
+    doc.node(json!({"mesh": mesh}), true);
+    assert_scene_error(load_glb(&doc), &["Far primitive 0", "beyond"]);
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["scale"] = json!([1e20, 1.0, 1.0]);
+    assert_scene_error(load_glb(&doc), &["beyond"]);
+}
+
+#[test]
 fn unsupported_required_extension_is_listed() {
     let mut doc = triangle_doc();
     doc.json["extensionsRequired"] = json!(["KHR_lights_punctual", "KHR_draco_mesh_compression"]);

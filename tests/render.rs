@@ -14,13 +14,7 @@ use std::f32::consts::PI;
 use std::sync::atomic::AtomicBool;
 
 fn render_with(scene: &Scene, settings: &RenderSettings) -> Image {
-    let cancel = AtomicBool::new(false);
-    let report = |_: &ProgressEvent| {};
-    let progress = Progress {
-        cancel: &cancel,
-        report: &report,
-    };
-    let (image, stats) = render(scene, settings, &progress).expect("render");
+    let (image, stats) = scenes::render_quietly(scene, settings).expect("render");
     assert_eq!(stats.nonfinite_samples, 0);
     assert!(image.rgba.iter().all(|p| p.iter().all(|v| v.is_finite())));
     image

@@ -1,19 +1,15 @@
 //! Every scene shipped in `scenes/` (and the Blender-made ones) loads and renders: no NaN or Inf,
 //! no dropped samples, something visible. The furnace scene also gives its analytic radiance.
 
-use photon::render::{render, Progress, ProgressEvent, RenderSettings};
+#[path = "support/scenes.rs"]
+mod scenes;
+
+use photon::render::RenderSettings;
 use photon::scene::gltf::{load, LoadOptions};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 fn render_file(path: &Path, size: u32, spp: u32) -> photon::film::Image {
     let scene = load(path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-    let cancel = AtomicBool::new(false);
-    let report = |_: &ProgressEvent| {};
-    let progress = Progress {
-        cancel: &cancel,
-        report: &report,
-    };
     let settings = RenderSettings {
         width: size,
         height: size,
@@ -22,7 +18,8 @@ fn render_file(path: &Path, size: u32, spp: u32) -> photon::film::Image {
         seed: 3,
         ..RenderSettings::default()
     };
-    let (image, stats) = render(&scene, &settings, &progress).unwrap_or_else(|e| panic!("{e}"));
+    let (image, stats) =
+        scenes::render_quietly(&scene, &settings).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(stats.nonfinite_samples, 0, "{}", path.display());
     image
 }

@@ -10,9 +10,8 @@ mod scenes;
 
 use photon::integrator::photon::PhotonSettings;
 use photon::math::Vec3;
-use photon::render::{render, Method, Progress, ProgressEvent, RenderSettings};
+use photon::render::{Method, RenderSettings};
 use photon::scene::{Light, Material, Mesh, Projection, Scene};
-use std::sync::atomic::AtomicBool;
 
 /// Every rendering method a user can pick (debug views excluded).
 const METHODS: [Method; 2] = [Method::Path, Method::Photon];
@@ -37,14 +36,8 @@ fn settings(method: Method) -> RenderSettings {
 
 /// Render and return the mean of the colour channels, asserting a finite, non-negative image.
 fn mean(name: &str, scene: &Scene, settings: &RenderSettings) -> f32 {
-    let cancel = AtomicBool::new(false);
-    let report = |_: &ProgressEvent| {};
-    let progress = Progress {
-        cancel: &cancel,
-        report: &report,
-    };
     let method = settings.method;
-    let (image, stats) = render(scene, settings, &progress)
+    let (image, stats) = scenes::render_quietly(scene, settings)
         .unwrap_or_else(|e| panic!("{name} ({method:?}): render failed: {e}"));
     assert_eq!(
         stats.nonfinite_samples, 0,

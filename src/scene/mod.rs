@@ -109,6 +109,10 @@ impl Default for Material {
     }
 }
 
+/// Largest vertex coordinate a scene may have: squared distances between points must stay
+/// finite in single precision (1e38), with room for the renderer's arithmetic.
+pub const MAX_COORDINATE: f32 = 1e15;
+
 impl Material {
     /// A Lambert-like diffuse material (dielectric, rough, no specular) of the given colour.
     pub fn diffuse(name: &str, color: Vec3) -> Self {
@@ -312,6 +316,17 @@ impl Scene {
             if m.positions.iter().any(|p| !p.is_finite()) {
                 return Err(format!(
                     "mesh {mi} '{}': vertex position is NaN or infinite",
+                    m.name
+                ));
+            }
+            if let Some(p) = m
+                .positions
+                .iter()
+                .find(|p| p.abs().max_element() > MAX_COORDINATE)
+            {
+                return Err(format!(
+                    "mesh {mi} '{}': vertex position {p} is beyond ±{MAX_COORDINATE:e} \
+                     (distances between such points overflow single precision)",
                     m.name
                 ));
             }

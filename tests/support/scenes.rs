@@ -2,8 +2,11 @@
 //! known exactly. Included by tests with `#[path = "support/scenes.rs"] mod scenes;`.
 #![allow(dead_code)]
 
+use photon::film::Image;
 use photon::math::{Affine3A, Vec3};
+use photon::render::{render, Progress, ProgressEvent, RenderSettings, RenderStats};
 use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
+use std::sync::atomic::AtomicBool;
 
 /// A unit sphere tessellated by latitude/longitude, with normals pointing outward (or inward).
 pub fn sphere(
@@ -245,4 +248,18 @@ pub fn transformed(mut scene: Scene, s: f32, offset: Vec3) -> Scene {
         };
     }
     scene
+}
+
+/// Render with no progress output and no cancellation.
+pub fn render_quietly(
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> photon::error::Result<(Image, RenderStats)> {
+    let cancel = AtomicBool::new(false);
+    let report = |_: &ProgressEvent| {};
+    let progress = Progress {
+        cancel: &cancel,
+        report: &report,
+    };
+    render(scene, settings, &progress)
 }
