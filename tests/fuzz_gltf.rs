@@ -21,7 +21,7 @@ use std::path::PathBuf;
 fn scene_files() -> Vec<PathBuf> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut files = Vec::new();
-    for dir in [root.clone(), root.join("blender")] {
+    for dir in [root.clone(), root.join("blender"), root.join("gallery")] {
         for entry in std::fs::read_dir(dir).expect("scenes folder") {
             let path = entry.expect("entry").path();
             if path.extension().is_some_and(|e| e == "glb") {
