@@ -492,6 +492,7 @@ fn summarise(
         json_line(serde_json::json!({
             "stage": "done", "fraction": 1.0, "message": format!("wrote {}", output.display()),
             "stats": {
+                "method": format!("{:?}", settings.method),
                 "width": settings.width, "height": settings.height, "spp": settings.spp,
                 "threads": threads, "triangles": stats.triangles, "lights": stats.lights,
                 "build_seconds": stats.build_seconds, "render_seconds": stats.render_seconds,
