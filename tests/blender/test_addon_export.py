@@ -81,9 +81,14 @@ def test_background_blender_route_writes_the_same_file(lights_scene, tmp_path):
 
 
 def test_world_without_nodes_uses_world_colour(photon_addon):
+    """Blender 4: a world with use_nodes off renders its colour. Blender 5 always renders the
+    node tree (World.use_nodes is deprecated), so there the Background node is read."""
     from blender_addon import export
     world = bpy.data.worlds.new("Plain")
-    world.use_nodes = False
+    if bpy.app.version >= (5, 0, 0):
+        world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.1, 0.2, 0.3, 1)
+    else:
+        world.use_nodes = False
     world.color = (0.1, 0.2, 0.3)
     assert export.world_extension(world) == {"color": pytest.approx([0.1, 0.2, 0.3]),
                                              "strength": 1.0}
@@ -103,3 +108,35 @@ def test_export_time_one_million_triangles(photon_addon, tmp_path):
     export.export_in_process(glb, "blender_addon")
     dt = time.perf_counter() - t0
     print(f"export of {triangles} triangles: {dt:.2f} s, {glb.stat().st_size / 1e6:.1f} MB")
+
+
+def test_subsurface_extension(photon_addon, tmp_path):
+    """PHOTON_material_subsurface carries the Principled BSDF's subsurface inputs, and only for
+    materials whose subsurface weight is above 0."""
+    from blender_addon import export
+    bpy.ops.wm.read_factory_settings()
+    skin = bpy.data.materials.new("Skin")
+    if bpy.app.version < (5, 0, 0):
+        skin.use_nodes = True
+    bpy.data.objects["Cube"].data.materials[0] = skin
+    bsdf = skin.node_tree.nodes["Principled BSDF"]
+    bsdf.subsurface_method = "RANDOM_WALK_SKIN"  # the method that reads Subsurface IOR
+    for name, value in (("Subsurface Weight", 0.8), ("Subsurface Radius", (1.0, 0.2, 0.1)),
+                        ("Subsurface Scale", 0.05), ("Subsurface IOR", 1.33),
+                        ("Subsurface Anisotropy", 0.25)):
+        bsdf.inputs[name].default_value = value
+    plain = bpy.data.materials.new("Plain")
+    if bpy.app.version < (5, 0, 0):
+        plain.use_nodes = True
+    bpy.ops.mesh.primitive_plane_add(location=(0, 0, -2))
+    bpy.context.active_object.data.materials.append(plain)
+    glb = tmp_path / "sss.glb"
+    export.export_in_process(glb, "blender_addon")
+    doc = read_glb_json(glb)
+    assert "PHOTON_material_subsurface" not in doc.get("extensionsRequired", [])
+    materials = {m["name"]: m for m in doc["materials"]}
+    sss = materials["Skin"]["extensions"]["PHOTON_material_subsurface"]
+    assert sss == {"weight": pytest.approx(0.8), "radius": pytest.approx([1.0, 0.2, 0.1]),
+                   "scale": pytest.approx(0.05), "ior": pytest.approx(1.33),
+                   "anisotropy": pytest.approx(0.25)}
+    assert "PHOTON_material_subsurface" not in materials["Plain"].get("extensions", {})
