@@ -1,7 +1,7 @@
 """F12 with Photon through the add-on (`bpy.ops.render.render()`, engine PHOTON, $PHOTON_BINARY)
 against Cycles rendering the same Blender scene in the same test: mean brightness within 3 % and
-relMSE <= 0.02 for the factory-default scene, an area light (PHOTON_light) and a sun with a world
-colour (PHOTON_world). Images are 64x36.
+relMSE <= 0.02 for the factory-default scene, an area light (PHOTON_light), a sun with a world
+colour (PHOTON_world) and an HDRI world (PHOTON_world environment). Images are 64x36.
 """
 
 import time
@@ -54,6 +54,12 @@ def test_area_light_matches_cycles(tmp_path):
 
 def test_sun_and_world_match_cycles(tmp_path):
     compare("sun + world", scenes_bpy.sun_world_scene, tmp_path)
+
+
+def test_hdri_world_matches_cycles(tmp_path):
+    """Lit only by an equirectangular environment image (PHOTON_world environment, written as
+    EXR by the add-on): orientation, rotation and brightness as in Cycles."""
+    compare("HDRI world", scenes_bpy.hdri_scene, tmp_path)
 
 
 def test_background_blender_export_route(tmp_path, monkeypatch, capfd):
