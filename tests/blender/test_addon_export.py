@@ -5,6 +5,7 @@ time of a 1-million-triangle mesh (printed, for the notes).
 """
 
 import json
+import math
 import struct
 import time
 from pathlib import Path
@@ -140,3 +141,32 @@ def test_subsurface_extension(photon_addon, tmp_path):
                    "scale": pytest.approx(0.05), "ior": pytest.approx(1.33),
                    "anisotropy": pytest.approx(0.25)}
     assert "PHOTON_material_subsurface" not in materials["Plain"].get("extensions", {})
+
+
+def test_environment_texture_is_written_as_float_exr(photon_addon, tmp_path):
+    """An Environment Texture feeding the Background: PHOTON_world gets "environment" with the
+    image's file name, the Mapping node's rotation and the interpolation, and the EXR beside
+    the .glb holds the image's pixels exactly (top row first, 32-bit float)."""
+    import OpenEXR
+    import numpy as np
+    import scenes_bpy
+    from blender_addon import export
+    scene = scenes_bpy.hdri_scene(rotation_z_deg=30.0)
+    glb = tmp_path / "scene.glb"
+    export.export_in_process(glb, "blender_addon")
+    doc = read_glb_json(glb)
+    world = doc["scenes"][doc.get("scene", 0)]["extensions"]["PHOTON_world"]
+    env = world["environment"]
+    assert env["uri"] == "world_SyntheticSky.exr" and env["interpolation"] == "linear"
+    assert env["rotation"] == pytest.approx([0.0, 0.0, math.radians(30.0)])
+    assert world["strength"] == pytest.approx(1.5)
+    image = scene.world.node_tree.nodes["Environment Texture"].image
+    w, h = image.size
+    want = np.empty(w * h * 4, np.float32)
+    image.pixels.foreach_get(want)
+    want = want.reshape(h, w, 4)[::-1, :, :3]
+    with OpenEXR.File(str(tmp_path / env["uri"]), separate_channels=True) as f:
+        channels = f.channels()
+        got = np.stack([channels[c].pixels for c in "RGB"], axis=2)
+    assert got.dtype == np.float32 and got.shape == (h, w, 3)
+    assert np.array_equal(got, want)
