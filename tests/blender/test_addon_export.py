@@ -4,6 +4,7 @@ Blender route (used in the UI) writes the same file as the in-process route; and
 time of a 1-million-triangle mesh (printed, for the notes).
 """
 
+import dataclasses
 import json
 import math
 import struct
@@ -170,3 +171,22 @@ def test_environment_texture_is_written_as_float_exr(photon_addon, tmp_path):
         got = np.stack([channels[c].pixels for c in "RGB"], axis=2)
     assert got.dtype == np.float32 and got.shape == (h, w, 3)
     assert np.array_equal(got, want)
+
+
+def test_scene_settings_map_to_render_settings(photon_addon):
+    """scene.photon has the defaults of runner.RenderSettings and maps onto it field by field
+    (enum items lower-cased as the renderer's flags spell them)."""
+    from blender_addon import properties, runner
+    bpy.ops.wm.read_factory_settings()
+    props = bpy.context.scene.photon
+    defaults = dataclasses.asdict(runner.RenderSettings())
+    got = dataclasses.asdict(properties.render_settings(props))
+    assert got.keys() == defaults.keys()
+    for key, value in defaults.items():  # floats are stored as float32 by Blender
+        assert got[key] == (pytest.approx(value) if isinstance(value, float) else value), key
+    props.method, props.quality, props.irradiance_cache = "PHOTON", "FINAL", "ON"
+    props.samples, props.time_limit, props.custom_photons, props.ic_accuracy = 8, 1.5, True, 0.3
+    got = properties.render_settings(props)
+    assert (got.method, got.quality, got.irradiance_cache) == ("photon", "final", "on")
+    assert (got.samples, got.custom_photons) == (8, True)
+    assert got.time_limit == pytest.approx(1.5) and got.ic_accuracy == pytest.approx(0.3)
