@@ -190,3 +190,30 @@ def test_scene_settings_map_to_render_settings(photon_addon):
     assert (got.method, got.quality, got.irradiance_cache) == ("photon", "final", "on")
     assert (got.samples, got.custom_photons) == (8, True)
     assert got.time_limit == pytest.approx(1.5) and got.ic_accuracy == pytest.approx(0.3)
+
+
+def test_byte_srgb_environment_is_linearised(photon_addon, tmp_path):
+    """An 8-bit sRGB image (as a PNG or JPEG HDRI preview would be) is written linear, as Cycles
+    reads it; a Texture-type Mapping node's rotation is exported inverted."""
+    import OpenEXR
+    import numpy as np
+    import scenes_bpy
+    from blender_addon import export
+    scene = scenes_bpy.hdri_scene()
+    node = scene.world.node_tree.nodes["Environment Texture"]
+    image = bpy.data.images.new("Bytes", 2, 1, alpha=True, float_buffer=False)
+    assert image.colorspace_settings.name == "sRGB" and not image.is_float
+    image.pixels.foreach_set(np.array([0.5, 0.5, 0.5, 1, 1, 0, 0.2, 1], np.float32))
+    node.image = image
+    mapping = scene.world.node_tree.nodes["Mapping"]
+    mapping.vector_type = "TEXTURE"
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.4)
+    data = export.world_extension(scene.world, tmp_path)
+    assert data["environment"]["rotation"] == pytest.approx([0.0, 0.0, -0.4], abs=1e-6)
+    with OpenEXR.File(str(tmp_path / data["environment"]["uri"]), separate_channels=True) as f:
+        r = f.channels()["R"].pixels
+        b = f.channels()["B"].pixels
+    srgb = lambda v: ((v + 0.055) / 1.055) ** 2.4  # noqa: E731
+    # Bytes store 0.5 as 128/255 and 0.2 as 51/255.
+    assert r[0, 0] == pytest.approx(srgb(128 / 255), rel=1e-4) and r[0, 1] == pytest.approx(1.0)
+    assert b[0, 1] == pytest.approx(srgb(51 / 255), rel=1e-4)
