@@ -74,14 +74,21 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self._export(scene, folder, glb)
             self.timings["exported"] = time.perf_counter()
             command = runner.render_command(
-                binary, glb, exr, width=width, height=height, samples=settings.samples,
-                max_bounces=settings.max_bounces, seed=settings.seed, threads=settings.threads,
-                camera=scene.camera.name, view_layer=view_layer.name, region=region)
+                binary, glb, exr, width=width, height=height,
+                settings=properties.render_settings(settings), camera=scene.camera.name,
+                view_layer=view_layer.name, region=region)
             stats = runner.run(command, self._on_event, self.test_break)
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]
             self._load(exr, view_layer.name, width, height)
-        self.update_stats("", f"Photon: {summary(stats)}; {self._timing_summary()}")
+        self._final_stats(f"Photon: {summary(stats)}; {self._timing_summary()}")
+
+    def _final_stats(self, line):
+        """Show the final status line. Blender 4 also prints it in background mode (render farm
+        logs show it); Blender 5 no longer does, so there it is printed here."""
+        self.update_stats("", line)
+        if bpy.app.background and bpy.app.version >= (5, 0, 0):
+            print(line, flush=True)
 
     def _export(self, scene, folder, glb):
         if export.export_route() == "inprocess":

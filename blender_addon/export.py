@@ -15,17 +15,20 @@ The environment variable PHOTON_EXPORT=inprocess|subprocess overrides the choice
 `glTF2ExportUserExtension` (re-exported by the add-on's top-level module, where the exporter
 looks for it) writes, always with required=False so that other viewers still open the file:
 PHOTON_light on light nodes (point/spot radius, sun angle, area lights, which the exporter drops),
-PHOTON_world (background colour x strength) and PHOTON_render (final resolution, transparent
-film) on the scene. The fields are documented in the renderer's src/scene/gltf.rs.
+PHOTON_material_subsurface on materials (the Principled BSDF's subsurface inputs), PHOTON_world
+(background colour x strength, or an equirectangular environment image written next to the .glb
+as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
+are documented in the renderer's src/scene/gltf.rs.
 
-This file runs both inside the add-on and as the child's script, so it imports only bpy and the
-standard library.
+This file runs both inside the add-on and as the child's script, so it imports only bpy, the
+standard library and numpy (shipped with Blender).
 """
 
 from __future__ import annotations
 
 import math
 import os
+import struct
 import sys
 from pathlib import Path
 
@@ -67,8 +70,14 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             if data:
                 self._add(gltf_node, "PHOTON_light", data)
 
+    def gather_material_hook(self, gltf_material, blender_material, export_settings):
+        data = subsurface_extension(blender_material)
+        if data:
+            self._add(gltf_material, "PHOTON_material_subsurface", data)
+
     def gather_scene_hook(self, gltf_scene, blender_scene, export_settings):
-        self._add(gltf_scene, "PHOTON_world", world_extension(blender_scene.world))
+        folder = Path(export_settings["gltf_filedirectory"])
+        self._add(gltf_scene, "PHOTON_world", world_extension(blender_scene.world, folder))
         self._add(gltf_scene, "PHOTON_render", render_extension(blender_scene))
 
 
@@ -93,19 +102,155 @@ def light_extension(obj) -> dict:
             "visible_camera": bool(obj.visible_camera)}
 
 
-def world_extension(world) -> dict:
+def subsurface_extension(material) -> dict:
+    """PHOTON_material_subsurface: the subsurface inputs of the material's Principled BSDF (the
+    one feeding the output, else the first), which the glTF exporter drops; empty when the
+    weight is 0 or there is no Principled BSDF."""
+    bsdf = _principled_bsdf(material)
+    if bsdf is None:
+        return {}
+    def value(name, default):
+        socket = bsdf.inputs.get(name)  # older files' nodes lack some inputs
+        return default if socket is None else socket.default_value
+
+    weight = float(value("Subsurface Weight", 0.0))
+    if weight <= 0.0:
+        return {}
+    # Cycles reads "Subsurface IOR" only for Random Walk (Skin); otherwise the BSDF's IOR.
+    skin = getattr(bsdf, "subsurface_method", "") == "RANDOM_WALK_SKIN"
+    return {"weight": weight,
+            "radius": [float(c) for c in value("Subsurface Radius", (1.0, 0.2, 0.1))[:3]],
+            "scale": float(value("Subsurface Scale", 0.05)),
+            "ior": float(value("Subsurface IOR", 1.4) if skin else value("IOR", 1.5)),
+            "anisotropy": float(value("Subsurface Anisotropy", 0.0))}
+
+
+def _principled_bsdf(material):
+    tree = getattr(material, "node_tree", None)
+    if tree is None:
+        return None
+    bsdfs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"]
+    for out in (n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"):
+        surface = out.inputs.get("Surface")
+        if out.is_active_output and surface is not None and surface.is_linked:
+            if surface.links[0].from_node in bsdfs:
+                return surface.links[0].from_node
+    return bsdfs[0] if bsdfs else None
+
+
+def world_extension(world, folder: Path | None = None) -> dict:
     """PHOTON_world: the Background colour and strength feeding the world output, or the world's
-    viewport colour when it does not use nodes; black without a world."""
+    viewport colour when it does not use nodes; black without a world. When an Environment
+    Texture feeds the Background's colour and `folder` is given, its image is written there as
+    a float EXR and described in "environment" (see `environment_extension`)."""
     if world is None:
         return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
-    if world.use_nodes and world.node_tree is not None:
+    if world_uses_nodes(world):
         background = _world_background(world.node_tree)
         if background is not None:
-            color = background.inputs["Color"].default_value
-            strength = background.inputs["Strength"].default_value
-            return {"color": [float(c) for c in color[:3]], "strength": float(strength)}
+            color_input = background.inputs["Color"]
+            color = [float(c) for c in color_input.default_value[:3]]
+            data = {"color": color, "strength": float(background.inputs["Strength"].default_value)}
+            texture = color_input.links[0].from_node if color_input.is_linked else None
+            if texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment":
+                data["color"] = [0.0, 0.0, 0.0]  # what Cycles shows without a usable image
+                if folder is not None:
+                    environment = environment_extension(texture, folder)
+                    if environment:
+                        data["environment"] = environment
+            return data
         return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
     return {"color": [float(c) for c in world.color[:3]], "strength": 1.0}
+
+
+def environment_extension(node, folder: Path) -> dict:
+    """The "environment" of PHOTON_world for an Environment Texture node: its image written to
+    `folder` as a float EXR (linear RGB; 8-bit sRGB images are linearised as Cycles does), the
+    rotation of a Mapping node feeding its vector, and its interpolation. Empty (with a message
+    on the console) when the node has no image, the image has no pixels or the projection is not
+    equirectangular: the world is then black, as in Cycles."""
+    image = node.image
+    if image is None:
+        return {}
+    if node.projection != "EQUIRECTANGULAR":
+        print(f"Photon: world texture '{image.name}': only the equirectangular projection is "
+              f"supported, not {node.projection}; the world is black", flush=True)
+        return {}
+    width, height = image.size
+    if width == 0 or height == 0:
+        print(f"Photon: world texture '{image.name}' has no pixels (file missing? "
+              f"{image.filepath}); the world is black", flush=True)
+        return {}
+    import numpy as np  # shipped with Blender; imported here so the module loads without it
+    pixels = np.empty(len(image.pixels), dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    rgb = pixels.reshape(height, width, -1)[::-1, :, :3]  # Blender's rows start at the bottom
+    if rgb.shape[2] < 3:
+        rgb = np.repeat(rgb[:, :, :1], 3, axis=2)
+    if not image.is_float and image.colorspace_settings.name == "sRGB":
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in image.name)
+    uri = f"world_{safe}.exr"
+    write_exr_rgb(folder / uri, np.ascontiguousarray(rgb, dtype=np.float32))
+    return {"uri": uri, "rotation": _environment_rotation(node),
+            "interpolation": "closest" if node.interpolation == "Closest" else "linear"}
+
+
+def _environment_rotation(node) -> list[float]:
+    """Euler XYZ rotation (radians) applied to the lookup direction, read from a Mapping node
+    feeding the texture's Vector (Point, Vector and Normal types rotate the direction, Texture
+    inverts; location and scale are ignored);
+    zero when the vector is not mapped."""
+    vector = node.inputs.get("Vector")
+    if vector is None or not vector.is_linked:
+        return [0.0, 0.0, 0.0]
+    mapping = vector.links[0].from_node
+    if mapping.bl_idname != "ShaderNodeMapping":
+        return [0.0, 0.0, 0.0]
+    euler = mapping.inputs["Rotation"].default_value.copy()
+    if mapping.vector_type == "TEXTURE":
+        euler = euler.to_matrix().inverted().to_euler("XYZ")
+    return [float(a) for a in euler]
+
+
+def write_exr_rgb(path: Path, rgb):
+    """Write an (H, W, 3) float32 array (row 0 = top) as an uncompressed scanline OpenEXR file
+    with FLOAT channels R, G, B: exact, and the same in every Blender version (Image.save gives
+    no control over precision)."""
+    height, width, _ = rgb.shape
+
+    def attribute(name, kind, value: bytes) -> bytes:
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
+
+    channels = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R"))
+    window = struct.pack("<iiii", 0, 0, width - 1, height - 1)
+    header = (struct.pack("<ii", 20000630, 2)
+              + attribute("channels", "chlist", channels + b"\0")
+              + attribute("compression", "compression", b"\0")
+              + attribute("dataWindow", "box2i", window)
+              + attribute("displayWindow", "box2i", window)
+              + attribute("lineOrder", "lineOrder", b"\0")
+              + attribute("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+              + attribute("screenWindowCenter", "v2f", struct.pack("<ff", 0.0, 0.0))
+              + attribute("screenWindowWidth", "float", struct.pack("<f", 1.0))
+              + b"\0")
+    line_bytes = 3 * 4 * width
+    first = len(header) + 8 * height
+    offsets = struct.pack(f"<{height}Q", *(first + y * (8 + line_bytes) for y in range(height)))
+    with open(path, "wb") as f:
+        f.write(header + offsets)
+        for y in range(height):
+            row = rgb[y].astype("<f4")
+            f.write(struct.pack("<ii", y, line_bytes))
+            f.write(b"".join(row[:, c].tobytes() for c in (2, 1, 0)))
+
+
+def world_uses_nodes(world) -> bool:
+    """Whether the world's node tree is what renders. Blender 5 always uses it (World.use_nodes
+    is deprecated there and reading it warns); Blender 4 only when use_nodes is on."""
+    if world.node_tree is None:
+        return False
+    return bpy.app.version >= (5, 0, 0) or world.use_nodes
 
 
 def _world_background(tree):

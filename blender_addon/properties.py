@@ -1,26 +1,81 @@
 """Settings: the per-scene render settings (`scene.photon`) and the add-on preferences.
 
-Defaults render the factory-default scene well with no changes; they map one to one onto the
-renderer's command line (--spp, --max-depth, --seed, --threads).
+The settings mirror `runner.RenderSettings` one to one (same names, same defaults), which
+`runner.settings_arguments` turns into the renderer's flags. The defaults render the
+factory-default scene well with no changes: the renderer's planner picks the method, the
+"default" quality preset picks the samples and photon counts.
 """
 
+import dataclasses
+
 import bpy
-from bpy.props import IntProperty, PointerProperty, StringProperty
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
+
+from .runner import RenderSettings
+
+D = RenderSettings()
 
 
 class PhotonRenderSettings(bpy.types.PropertyGroup):
+    method: EnumProperty(
+        name="Method", description="Rendering algorithm", default=D.method.upper(),
+        items=[("AUTO", "Auto", "The renderer's planner chooses from the scene (photon "
+                "mapping when light can be focused into caustics, else path tracing)"),
+               ("PATH", "Path Tracing", "Unbiased path tracing (the reference)"),
+               ("PHOTON", "Photon Mapping", "Photon maps with final gathering (Jensen)")])
+    quality: EnumProperty(
+        name="Quality", description="Preset for the samples per pixel and the photon counts",
+        default=D.quality.upper(),
+        items=[("PREVIEW", "Preview", "16 samples, a quarter of the photons: a quick look"),
+               ("DEFAULT", "Default", "64 samples, the default photon counts"),
+               ("FINAL", "Final", "256 samples, four times the photons: final frames")])
     samples: IntProperty(
-        name="Samples", description="Samples per pixel", default=64, min=1, soft_max=4096,
-        max=1_000_000)
+        name="Samples", description="Samples per pixel (0: from the quality preset, or as many "
+        "as the time limit allows)", default=D.samples, min=0, soft_max=4096, max=1_000_000)
+    time_limit: FloatProperty(
+        name="Time Limit", description="Stop adding samples after this time (0: no limit)",
+        default=D.time_limit, min=0.0, soft_max=3600.0, subtype="TIME_ABSOLUTE")
     max_bounces: IntProperty(
         name="Max Bounces", description="Maximum number of bounces of a light path "
-        "(Russian roulette ends most paths earlier)", default=32, min=0, max=1024)
+        "(Russian roulette ends most paths earlier)", default=D.max_bounces, min=0, max=1024)
     seed: IntProperty(
-        name="Seed", description="Random seed: the same seed gives the same image", default=0,
-        min=0)
+        name="Seed", description="Random seed: the same seed gives the same image",
+        default=D.seed, min=0)
     threads: IntProperty(
-        name="Threads", description="Render threads (0: one per core)", default=0, min=0,
+        name="Threads", description="Render threads (0: one per core)", default=D.threads, min=0,
         max=1024)
+    custom_photons: BoolProperty(
+        name="Custom Photon Counts", description="Use the photon counts below instead of the "
+        "quality preset's", default=D.custom_photons)
+    photons: IntProperty(
+        name="Global Photons", description="Photons emitted for the global photon map",
+        default=D.photons, min=1, soft_max=10_000_000)
+    caustic_photons: IntProperty(
+        name="Caustic Photons", description="Photons emitted for the caustic map (0: no "
+        "caustic map)", default=D.caustic_photons, min=0, soft_max=10_000_000)
+    gather_rays: IntProperty(
+        name="Final Gather Rays", description="Final-gather rays per shading point (0: read "
+        "the global photon map directly)", default=D.gather_rays, min=0, soft_max=256)
+    irradiance_cache: EnumProperty(
+        name="Irradiance Cache", description="Cache and interpolate indirect diffuse light "
+        "(Ward's irradiance cache) in photon mapping", default=D.irradiance_cache.upper(),
+        items=[("DEFAULT", "Renderer Default", "Let the renderer decide"),
+               ("ON", "On", "Use the irradiance cache"),
+               ("OFF", "Off", "Final-gather at every shading point")])
+    ic_accuracy: FloatProperty(
+        name="Cache Accuracy", description="Irradiance-cache accuracy (Ward's a): smaller is "
+        "more accurate, with more records", default=D.ic_accuracy, min=0.01, max=1.0,
+        precision=3)
+
+
+def render_settings(props) -> RenderSettings:
+    """`scene.photon` as the plain `runner.RenderSettings` (enum items lower-cased)."""
+    values = {}
+    for field in dataclasses.fields(RenderSettings):
+        value = getattr(props, field.name)
+        values[field.name] = value.lower() if isinstance(value, str) else value
+    return RenderSettings(**values)
 
 
 class PhotonPreferences(bpy.types.AddonPreferences):

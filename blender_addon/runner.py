@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
 import json
 import os
 import queue
@@ -83,13 +84,52 @@ def _make_executable(path: Path):
         pass
 
 
-def render_command(binary, scene, output, *, width, height, samples, max_bounces, seed, threads,
+@dataclasses.dataclass
+class RenderSettings:
+    """The render settings as plain data, with the add-on's defaults; `scene.photon` (properties.py)
+    maps onto it one to one and `settings_arguments` onto the renderer's flags. Zero means "the
+    renderer decides" where it says so."""
+
+    method: str = "auto"          # --method auto | path | photon (auto: the renderer's planner)
+    quality: str = "default"      # --quality preview | default | final
+    samples: int = 0              # --spp; 0: from the quality preset (or as many as --time-limit fits)
+    time_limit: float = 0.0       # --time-limit in seconds; 0: none
+    max_bounces: int = 32         # --max-depth
+    seed: int = 0                 # --seed
+    threads: int = 0              # --threads; 0: one per core
+    custom_photons: bool = False  # pass the two photon counts below instead of the preset's
+    photons: int = 200_000        # --photons (global map)
+    caustic_photons: int = 500_000  # --caustic-photons (0 skips the caustic map)
+    gather_rays: int = 4          # --gather-rays (final-gather rays per shading point)
+    irradiance_cache: str = "default"  # 'default' (the renderer's choice), 'on' or 'off'
+    ic_accuracy: float = 0.15     # --ic-accuracy (Ward's a), passed with --irradiance-cache on
+
+
+def settings_arguments(settings: RenderSettings) -> list[str]:
+    """The `photon render` flags for `settings`. Values that mean "the renderer decides" are left
+    out, so the renderer's own defaults and planner apply."""
+    s = settings
+    args = ["--method", s.method, "--quality", s.quality, "--max-depth", str(s.max_bounces),
+            "--seed", str(s.seed), "--threads", str(s.threads), "--gather-rays", str(s.gather_rays)]
+    if s.samples > 0:
+        args += ["--spp", str(s.samples)]
+    if s.time_limit > 0:
+        args += ["--time-limit", f"{s.time_limit:g}"]
+    if s.custom_photons:
+        args += ["--photons", str(s.photons), "--caustic-photons", str(s.caustic_photons)]
+    if s.irradiance_cache == "on":
+        args += ["--irradiance-cache", "on", "--ic-accuracy", f"{s.ic_accuracy:g}"]
+    elif s.irradiance_cache == "off":
+        args += ["--irradiance-cache", "off"]
+    return args
+
+
+def render_command(binary, scene, output, *, width, height, settings: RenderSettings,
                    camera=None, view_layer=None, region=None) -> list[str]:
     """The `photon render` command line for one frame, with JSON progress on stderr. `region`
     is (x0, y0, x1, y1) in full-frame pixels from the top-left, x1 and y1 exclusive."""
     cmd = [str(binary), "render", str(scene), "-o", str(output),
-           "--width", str(width), "--height", str(height), "--spp", str(samples),
-           "--max-depth", str(max_bounces), "--seed", str(seed), "--threads", str(threads),
+           "--width", str(width), "--height", str(height), *settings_arguments(settings),
            "--progress", "json"]
     if camera:
         cmd += ["--camera", camera]

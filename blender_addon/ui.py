@@ -27,19 +27,45 @@ class PhotonPanel:
         return context.engine in cls.COMPAT_ENGINES
 
 
+def _split(layout):
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout.column()
+
+
 class RENDER_PT_photon_sampling(PhotonPanel, bpy.types.Panel):
     bl_label = "Sampling"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
         settings = context.scene.photon
-        col = layout.column()
+        col = _split(self.layout)
+        col.prop(settings, "method")
+        col.prop(settings, "quality")
         col.prop(settings, "samples")
+        col.prop(settings, "time_limit")
         col.prop(settings, "max_bounces")
         col.prop(settings, "seed")
         col.prop(settings, "threads")
+
+
+class RENDER_PT_photon_photons(PhotonPanel, bpy.types.Panel):
+    bl_label = "Photon Mapping"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        settings = context.scene.photon
+        col = _split(self.layout)
+        col.active = settings.method != "PATH"
+        col.prop(settings, "custom_photons")
+        sub = col.column()
+        sub.active = settings.custom_photons
+        sub.prop(settings, "photons")
+        sub.prop(settings, "caustic_photons")
+        col.prop(settings, "gather_rays")
+        col.prop(settings, "irradiance_cache")
+        sub = col.column()
+        sub.active = settings.irradiance_cache == "ON"
+        sub.prop(settings, "ic_accuracy")
 
 
 def shared_panels():
@@ -52,7 +78,7 @@ def shared_panels():
             yield panel
 
 
-classes = (RENDER_PT_photon_sampling,)
+classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_photons)
 
 
 def register():

@@ -5,14 +5,18 @@
 //!
 //! Units follow Cycles (DESIGN.md): triangle and world radiance as given, point and spot
 //! intensity in W/sr, sun irradiance in W/m².
+//!
+//! An environment map (`EnvironmentLight`) is importance-sampled with a 2D piecewise-constant
+//! distribution over its pixels weighted by luminance × sin θ, mapped to the sphere with the
+//! Jacobian 2π² sin θ (pbrt-v4 §12.5.2, "Image infinite lights").
 
 use crate::interaction::{LightPoint, SurfaceHit};
 use crate::math::{luminance, Frame, Vec2, Vec3};
 use crate::sampling::{
     square_to_triangle, square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf,
-    Distribution1D, UNIFORM_SPHERE_PDF,
+    Distribution1D, Distribution2D, UNIFORM_SPHERE_PDF,
 };
-use crate::scene::{Light, Scene};
+use crate::scene::{Environment, Light, Scene};
 use std::f32::consts::PI;
 
 /// One emitter.
@@ -47,7 +51,8 @@ pub enum LightSource {
         irradiance: Vec3,
         cos_max: f32,
     },
-    /// The constant world background.
+    /// The world background; `radiance` is its average over the sphere (the constant colour,
+    /// or the environment map's mean), which sets its share of light and photon samples.
     World { radiance: Vec3 },
 }
 
@@ -76,6 +81,7 @@ pub struct Lights {
     /// For each mesh, the index of its first triangle light (triangle lights are contiguous).
     mesh_first_light: Vec<Option<u32>>,
     world: Option<u32>,
+    environment: Option<EnvironmentLight>,
     suns: Vec<u32>,
     scene_center: Vec3,
     scene_radius: f32,
@@ -228,18 +234,22 @@ impl Lights {
             }
         }
         let mut world = None;
-        if luminance(scene.world.color) > 0.0 {
+        let environment = scene.world.environment.as_ref().map(EnvironmentLight::new);
+        let radiance = match &environment {
+            Some(env) => env.average,
+            None => scene.world.color,
+        };
+        if luminance(radiance) > 0.0 {
             world = Some(sources.len() as u32);
-            sources.push(LightSource::World {
-                radiance: scene.world.color,
-            });
-            power.push(PI * PI * luminance(scene.world.color) * scene_radius * scene_radius);
+            sources.push(LightSource::World { radiance });
+            power.push(PI * PI * luminance(radiance) * scene_radius * scene_radius);
         }
         Lights {
             sources,
             select: Distribution1D::new(&power),
             mesh_first_light,
             world,
+            environment,
             suns,
             scene_center,
             scene_radius,
@@ -370,12 +380,12 @@ impl Lights {
                     target: self.far_point(p, wi),
                 })
             }
-            LightSource::World { radiance } => {
-                let wi = square_to_uniform_sphere(u);
+            LightSource::World { .. } => {
+                let (wi, li, pdf) = self.sample_world(u)?;
                 Some(LightSample {
-                    li: radiance,
+                    li,
                     wi,
-                    pdf: UNIFORM_SPHERE_PDF,
+                    pdf,
                     delta: false,
                     target: self.far_point(p, wi),
                 })
@@ -411,9 +421,8 @@ impl Lights {
     /// light-sampling density for MIS: returns (radiance, pdf) per emitter via `visit`.
     pub fn escaped(&self, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
         if let Some(w) = self.world {
-            if let LightSource::World { radiance } = self.sources[w as usize] {
-                visit(radiance, self.select.pmf(w as usize) * UNIFORM_SPHERE_PDF);
-            }
+            let (radiance, pdf) = self.world_radiance(dir);
+            visit(radiance, self.select.pmf(w as usize) * pdf);
         }
         for &s in &self.suns {
             if let LightSource::Sun {
@@ -429,6 +438,34 @@ impl Lights {
                     );
                 }
             }
+        }
+    }
+
+    /// A direction towards the world background (for light samples and photon emission), the
+    /// radiance arriving along it and its solid-angle density, not counting the probability of
+    /// choosing the world: the environment map by importance, a constant colour uniformly.
+    pub fn sample_world(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        let w = self.world?;
+        match &self.environment {
+            Some(env) => env.sample(u),
+            None => {
+                let LightSource::World { radiance } = self.sources[w as usize] else {
+                    return None;
+                };
+                Some((square_to_uniform_sphere(u), radiance, UNIFORM_SPHERE_PDF))
+            }
+        }
+    }
+
+    /// Radiance of the world background along `dir` and the density `sample_world` gives it.
+    fn world_radiance(&self, dir: Vec3) -> (Vec3, f32) {
+        match (&self.environment, self.world) {
+            (Some(env), _) => (env.eval(dir), env.pdf(dir)),
+            (None, Some(w)) => match self.sources[w as usize] {
+                LightSource::World { radiance } => (radiance, UNIFORM_SPHERE_PDF),
+                _ => (Vec3::ZERO, 0.0),
+            },
+            (None, None) => (Vec3::ZERO, 0.0),
         }
     }
 
@@ -491,4 +528,106 @@ fn sample_punctual(
 fn sun_disk_radiance(irradiance: Vec3, cos_max: f32) -> Vec3 {
     let sin2 = (1.0 - cos_max * cos_max).max(1e-12);
     irradiance / (PI * sin2)
+}
+
+/// An equirectangular environment map as a light: radiance lookups by direction and importance
+/// sampling of directions (see the module documentation for the method, `scene::Environment`
+/// for the mapping).
+#[derive(Clone, Debug)]
+pub struct EnvironmentLight {
+    map: Environment,
+    distribution: Distribution2D,
+    /// Mean radiance over the sphere, ∫L dω / 4π.
+    pub average: Vec3,
+}
+
+impl EnvironmentLight {
+    pub fn new(map: &Environment) -> Self {
+        let (w, h) = (map.width as usize, map.height as usize);
+        let lum: Vec<f32> = map.pixels.iter().map(|&c| luminance(c)).collect();
+        let mut weights = vec![0.0; w * h];
+        let mut sum = Vec3::ZERO;
+        for y in 0..h {
+            let sin_theta = (PI * (y as f32 + 0.5) / h as f32).sin();
+            // Solid angle of a pixel of this row: (2π/w)·(cos θ0 − cos θ1).
+            let (theta0, theta1) = (PI * y as f32 / h as f32, PI * (y + 1) as f32 / h as f32);
+            let solid_angle = 2.0 * PI / w as f32 * (theta0.cos() - theta1.cos());
+            for x in 0..w {
+                // Bilinear lookups blend in the neighbours: weigh a pixel by the brightest of
+                // its 3×3 neighbourhood so the density is positive wherever radiance is.
+                let mut peak = lum[y * w + x];
+                if !map.closest {
+                    for yy in y.saturating_sub(1)..(y + 2).min(h) {
+                        for dx in [w - 1, 0, 1] {
+                            peak = peak.max(lum[yy * w + (x + dx) % w]);
+                        }
+                    }
+                }
+                weights[y * w + x] = peak * sin_theta;
+                sum += map.pixels[y * w + x] * solid_angle;
+            }
+        }
+        let average = sum / (4.0 * PI);
+        EnvironmentLight {
+            map: map.clone(),
+            distribution: Distribution2D::new(&weights, w, h),
+            average,
+        }
+    }
+
+    /// Image coordinates (u across, t down from the top, both in [0, 1]) of a scene direction,
+    /// and sin θ (from x and y, which stay accurate near the poles).
+    fn to_image(&self, dir: Vec3) -> (Vec2, f32) {
+        let d = (self.map.to_map * dir).normalize_or_zero();
+        let sin_theta = d.x.hypot(d.y);
+        let u = 0.5 - d.y.atan2(d.x) / (2.0 * PI);
+        let u = (u - u.floor()).min(1.0 - f32::EPSILON);
+        (Vec2::new(u, sin_theta.atan2(d.z) / PI), sin_theta)
+    }
+
+    /// Radiance arriving from direction `dir` (scene space, towards the environment).
+    pub fn eval(&self, dir: Vec3) -> Vec3 {
+        let (p, _) = self.to_image(dir);
+        let (w, h) = (self.map.width as usize, self.map.height as usize);
+        let px = &self.map.pixels;
+        if self.map.closest {
+            let x = ((p.x * w as f32) as usize).min(w - 1);
+            let y = ((p.y * h as f32) as usize).min(h - 1);
+            return px[y * w + x];
+        }
+        // Bilinear between pixel centres, wrapping around in u and clamped at the poles.
+        let fx = p.x * w as f32 - 0.5;
+        let fy = (p.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (ax, ay) = (fx - x0, fy - y0);
+        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let x1 = (x0 + 1) % w;
+        let y0 = y0 as usize;
+        let y1 = (y0 + 1).min(h - 1);
+        let row = |y: usize| px[y * w + x0] * (1.0 - ax) + px[y * w + x1] * ax;
+        row(y0) * (1.0 - ay) + row(y1) * ay
+    }
+
+    /// Solid-angle density with which `sample` picks `dir`.
+    pub fn pdf(&self, dir: Vec3) -> f32 {
+        let (p, sin_theta) = self.to_image(dir);
+        if sin_theta <= 0.0 {
+            return 0.0;
+        }
+        self.distribution.pdf(p) / (2.0 * PI * PI * sin_theta)
+    }
+
+    /// A direction (scene space, towards the environment), its radiance and solid-angle density.
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        let (p, pdf_image) = self.distribution.sample(u)?;
+        let (theta, phi) = (PI * p.y, PI - 2.0 * PI * p.x);
+        let sin_theta = theta.sin();
+        if sin_theta <= 0.0 {
+            return None;
+        }
+        let d = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), theta.cos());
+        let dir = self.map.to_map.transpose() * d;
+        let pdf = pdf_image / (2.0 * PI * PI * sin_theta);
+        (pdf > 0.0 && pdf.is_finite()).then(|| (dir, self.eval(dir), pdf))
+    }
 }

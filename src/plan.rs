@@ -231,7 +231,7 @@ fn summarise(scene: &Scene) -> SceneSummary {
         materials.black += (!t.emissive && !t.diffuse && !t.glossy && !t.specular) as usize;
     }
     let mut lights = LightKinds {
-        world: scene.world.color.max_element() > 0.0,
+        world: scene.world.emits(),
         ..LightKinds::default()
     };
     for mesh in &scene.meshes {

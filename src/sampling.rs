@@ -1,5 +1,6 @@
 //! Warps from the unit square to the domains Photon samples, each with its density, plus the
-//! discrete distribution used to pick lights by power and the MIS power heuristic.
+//! discrete distribution used to pick lights by power, the 2D piecewise-constant one used for
+//! environment maps, and the MIS power heuristic.
 //! Formulas follow pbrt-v4, chapter A.5 ("Sampling multidimensional functions").
 //! Every warp is checked against its pdf by the chi-square tests in `tests/warps.rs`.
 
@@ -164,6 +165,67 @@ impl Distribution1D {
     /// Probability of drawing `index`.
     pub fn pmf(&self, index: usize) -> f32 {
         self.pmf.get(index).copied().unwrap_or(0.0)
+    }
+
+    /// Like `sample`, and also `u` rescaled to [0, 1) within the chosen index's share of the
+    /// unit interval: a fresh uniform number for a continuous position inside that entry.
+    pub fn sample_remapped(&self, u: f32) -> Option<(usize, f32, f32)> {
+        let (i, pmf) = self.sample(u)?;
+        let below = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        Some((i, pmf, ((u - below) / pmf).clamp(0.0, 1.0 - f32::EPSILON)))
+    }
+}
+
+/// A piecewise-constant density on [0, 1)² from a grid of non-negative weights (row-major, row
+/// 0 at y = 0): a row is drawn from the marginal distribution of row sums, then a column from
+/// that row's conditional distribution (pbrt-v4, A.5.6).
+#[derive(Clone, Debug, Default)]
+pub struct Distribution2D {
+    rows: Vec<Distribution1D>,
+    marginal: Distribution1D,
+    width: usize,
+    height: usize,
+}
+
+impl Distribution2D {
+    pub fn new(weights: &[f32], width: usize, height: usize) -> Self {
+        let rows: Vec<Distribution1D> = weights
+            .chunks(width.max(1))
+            .take(height)
+            .map(Distribution1D::new)
+            .collect();
+        let sums: Vec<f32> = rows.iter().map(|r| r.total() as f32).collect();
+        Distribution2D {
+            marginal: Distribution1D::new(&sums),
+            rows,
+            width,
+            height,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.marginal.is_empty()
+    }
+
+    /// A point of [0, 1)² (x along a row) and its density per unit area.
+    pub fn sample(&self, u: Vec2) -> Option<(Vec2, f32)> {
+        let (row, p_row, v) = self.marginal.sample_remapped(u.y)?;
+        let (col, p_col, w) = self.rows[row].sample_remapped(u.x)?;
+        let point = Vec2::new(
+            (col as f32 + w) / self.width as f32,
+            (row as f32 + v) / self.height as f32,
+        );
+        Some((point, p_row * p_col * (self.width * self.height) as f32))
+    }
+
+    /// Density of `sample` at `point` per unit area.
+    pub fn pdf(&self, point: Vec2) -> f32 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let col = ((point.x * self.width as f32) as usize).min(self.width - 1);
+        let row = ((point.y * self.height as f32) as usize).min(self.height - 1);
+        self.marginal.pmf(row) * self.rows[row].pmf(col) * (self.width * self.height) as f32
     }
 }
 

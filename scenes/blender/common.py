@@ -43,7 +43,8 @@ def reset_scene(width: int, height: int):
     scene.render.pixel_aspect_x = 1.0
     scene.render.pixel_aspect_y = 1.0
     world = bpy.data.worlds.new("World")
-    world.use_nodes = True
+    if bpy.app.version < (5, 0, 0):  # always on (and deprecated) in Blender 5
+        world.use_nodes = True
     bg = world.node_tree.nodes["Background"]
     bg.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     bg.inputs["Strength"].default_value = 0.0
@@ -91,7 +92,8 @@ def principled(name, base_color, *, roughness=None, specular_ior_level=None,
     Returns the material; `principled_values(mat)` reads back what Cycles will use.
     """
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    if bpy.app.version < (5, 0, 0):  # always on (and deprecated) in Blender 5
+        mat.use_nodes = True
     bsdf = mat.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (*base_color, 1.0)
     if roughness is not None:
@@ -166,6 +168,15 @@ def export_glb(path: Path):
         raise RuntimeError(f"glTF export to {path} failed: {result}")
 
 
+def set_multilayer_exr(image_settings):
+    """Output a multilayer EXR: Blender 5 chooses it with media_type (OPEN_EXR_MULTILAYER is no
+    longer among the plain image formats), Blender 4 with the file format."""
+    if hasattr(image_settings, "media_type"):
+        image_settings.media_type = "MULTI_LAYER_IMAGE"  # its only file format: multilayer EXR
+    else:
+        image_settings.file_format = "OPEN_EXR_MULTILAYER"
+
+
 def configure_cycles(scene, samples: int, seed: int, threads: int):
     """Cycles settings for an unclamped, converged CPU reference. Returns them as a dict."""
     c = scene.cycles
@@ -201,6 +212,8 @@ def configure_cycles(scene, samples: int, seed: int, threads: int):
     vs.exposure = 0.0
     vs.gamma = 1.0
     img = scene.render.image_settings
+    if hasattr(img, "media_type"):  # Blender 5
+        img.media_type = "IMAGE"
     img.file_format = "OPEN_EXR"
     img.color_mode = "RGB"
     img.color_depth = "32"

@@ -8,8 +8,16 @@
 //! Blender's exporter drops what glTF cannot say; the add-on writes it back in these extensions.
 //! They are listed in `extensionsUsed`, never in `extensionsRequired`, and every field is optional.
 //!
-//! - `PHOTON_world` on a scene: `{"color": [r, g, b], "strength": s}`. The background radiance is
-//!   `color × strength` (defaults: black, 1).
+//! - `PHOTON_world` on a scene: `{"color": [r, g, b], "strength": s, "environment": {...}}`.
+//!   The background radiance is `color × strength` (defaults: black, 1). The optional
+//!   `environment` is an equirectangular image (Blender's Environment Texture feeding the
+//!   Background node), which replaces the colour: `{"uri": "file.exr", "rotation": [x, y, z],
+//!   "interpolation": "linear" | "closest"}`. `uri` is an OpenEXR file (R, G, B channels, linear)
+//!   relative to the glTF file; the radiance is image × `strength`. The mapping is Cycles': for a
+//!   direction d in Blender's Z-up frame (glTF (x, y, z) is Blender (x, −z, y)), the column is
+//!   u = 0.5 − atan2(d.y, d.x)/2π and the row θ = acos(d.z)/π from the top. `rotation` (radians,
+//!   default 0) is the Euler XYZ rotation of a Mapping node (Point type) applied to d before the
+//!   lookup; `interpolation` defaults to linear (bilinear, wrapping around in u).
 //! - `PHOTON_render` on a scene: `{"width": w, "height": h, "film_transparent": bool}`, the
 //!   render resolution and whether the background is transparent in the image.
 //! - `PHOTON_light` on a node:
@@ -42,8 +50,8 @@
 
 use super::texture::Wrap;
 use super::{
-    AlphaMode, Bounds, Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings,
-    Texture, TextureRef, World,
+    AlphaMode, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
+    SceneRenderSettings, Texture, TextureRef, World,
 };
 use crate::error::{Error, Result};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -1156,11 +1164,76 @@ impl Loader {
 
     // ----- scene-level extensions and the camera ------------------------------------------
 
+    /// The `environment` of PHOTON_world: an EXR beside the glTF file, × `strength`.
+    fn load_environment(&self, env: &Value, strength: f32) -> Result<Environment> {
+        let object = "scene PHOTON_world environment";
+        let uri = env
+            .get("uri")
+            .and_then(Value::as_str)
+            .ok_or_else(|| self.err(object, "'uri' (the environment image) is missing"))?;
+        let file = self.resolve_file(uri, object)?;
+        if !file.is_file() {
+            return Err(self.err(
+                object,
+                format!("environment image '{uri}' not found ({})", file.display()),
+            ));
+        }
+        let (width, height, rgba) = crate::image_io::read_exr_rgba(&file).map_err(|e| {
+            self.err(
+                object,
+                format!("cannot read environment image '{uri}' as OpenEXR: {e}"),
+            )
+        })?;
+        let mut pixels = Vec::with_capacity(rgba.len());
+        for [r, g, b, _] in rgba {
+            let c = Vec3::new(r, g, b) * strength;
+            if !c.is_finite() {
+                return Err(self.err(
+                    object,
+                    format!("environment image '{uri}' holds NaN or infinite values"),
+                ));
+            }
+            pixels.push(c.max(Vec3::ZERO));
+        }
+        let rotation = match env.get("rotation") {
+            None => Vec3::ZERO,
+            Some(v) => json_vec3(v).filter(|r| r.is_finite()).ok_or_else(|| {
+                self.err(object, format!("'rotation' must be [x, y, z], found {v}"))
+            })?,
+        };
+        let closest = match env.get("interpolation").and_then(Value::as_str) {
+            None | Some("linear") => false,
+            Some("closest") => true,
+            Some(other) => {
+                return Err(self.err(
+                    object,
+                    format!("unknown interpolation '{other}' (linear or closest)"),
+                ))
+            }
+        };
+        // Blender's XYZ Euler rotation (X first), after the glTF Y-up to Blender Z-up change:
+        // Blender (x, y, z) = glTF (x, −z, y).
+        let euler = Mat3::from_rotation_z(rotation.z)
+            * Mat3::from_rotation_y(rotation.y)
+            * Mat3::from_rotation_x(rotation.x);
+        let y_up_to_z_up = Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
+        Ok(Environment {
+            width,
+            height,
+            pixels: pixels.into(),
+            to_map: euler * y_up_to_z_up,
+            closest,
+        })
+    }
+
     fn read_scene_extensions(&mut self, gltf_scene: &gltf::Scene) -> Result<()> {
         if let Some(world) = gltf_scene.extension_value("PHOTON_world") {
             let color = world.get("color").and_then(json_vec3).unwrap_or(Vec3::ZERO);
             let strength = world.get("strength").and_then(Value::as_f64).unwrap_or(1.0) as f32;
             self.scene.world.color = color * strength;
+            if let Some(env) = world.get("environment") {
+                self.scene.world.environment = Some(self.load_environment(env, strength)?);
+            }
         }
         if let Some(render) = gltf_scene.extension_value("PHOTON_render") {
             let dimension = |key: &str| -> Result<Option<u32>> {

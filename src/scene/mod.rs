@@ -11,7 +11,7 @@ pub mod gltf;
 pub mod texture;
 pub mod units;
 
-use crate::math::{Affine3A, Vec2, Vec3, Vec4};
+use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec4};
 pub use texture::{Texture, TextureRef};
 
 /// A triangle mesh already transformed to world space (instances are flattened).
@@ -188,14 +188,47 @@ pub struct Camera {
 /// What rays that leave the scene see.
 #[derive(Clone, Debug, PartialEq)]
 pub struct World {
-    /// Constant background radiance (Blender world colour × strength).
+    /// Constant background radiance (Blender world colour × strength); unused when
+    /// `environment` is set.
     pub color: Vec3,
+    /// An equirectangular environment image (Blender's Environment Texture).
+    pub environment: Option<Environment>,
 }
 
 impl Default for World {
     fn default() -> Self {
-        World { color: Vec3::ZERO }
+        World {
+            color: Vec3::ZERO,
+            environment: None,
+        }
     }
+}
+
+impl World {
+    /// The background emits light (a non-black colour or an environment image).
+    pub fn emits(&self) -> bool {
+        match &self.environment {
+            Some(env) => env.pixels.iter().any(|p| p.max_element() > 0.0),
+            None => self.color.max_element() > 0.0,
+        }
+    }
+}
+
+/// An equirectangular environment map in Blender's convention (Cycles' Environment Texture):
+/// for a direction d in Blender's Z-up frame, u = 0.5 − atan2(d.y, d.x)/2π across the image and
+/// θ = acos(d.z) from the top row down (the top row is the +Z pole).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB radiance (image × Background strength), row 0 = top; shared, not copied, by
+    /// the light that samples it.
+    pub pixels: std::sync::Arc<[Vec3]>,
+    /// Rotation from scene (glTF, Y-up) directions to the map's Blender frame: the axis change
+    /// followed by the rotation of a Mapping node feeding the texture.
+    pub to_map: Mat3,
+    /// Nearest-pixel lookups (Blender's "Closest") instead of bilinear ("Linear").
+    pub closest: bool,
 }
 
 /// Render settings a scene file may carry (our `PHOTON_render` extension); the command line wins.
@@ -408,6 +441,14 @@ impl Scene {
         }
         if !self.world.color.is_finite() {
             return Err("world colour is NaN or infinite".into());
+        }
+        if let Some(env) = &self.world.environment {
+            if env.pixels.len() != env.width as usize * env.height as usize || env.width == 0 {
+                return Err("environment image: pixel count does not match its size".into());
+            }
+            if !env.to_map.is_finite() || env.pixels.iter().any(|p| !p.is_finite()) {
+                return Err("environment image: a value is NaN or infinite".into());
+            }
         }
         if !self.camera.to_world.is_finite() {
             return Err(format!(

@@ -19,6 +19,7 @@ def load_runner():
     """blender_addon/runner.py as a standalone module (it imports no bpy)."""
     spec = importlib.util.spec_from_file_location("photon_runner", ADDON_DIR / "runner.py")
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
     spec.loader.exec_module(module)
     return module
 

@@ -8,6 +8,7 @@ no pixels in background mode). Returns float32 (H, W, 3), row 0 = top.
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -57,6 +58,44 @@ def sun_world_scene():
     bg = scene.world.node_tree.nodes["Background"]
     bg.inputs["Color"].default_value = (0.2, 0.3, 0.5, 1.0)
     bg.inputs["Strength"].default_value = 1.0
+    return scene
+
+
+def synthetic_hdri(width=64, height=32) -> "bpy.types.Image":
+    """A float image made here: a sky gradient (blue-white at the zenith, darker towards the
+    horizon, dark brown ground) and one bright 6x4-pixel patch ("the sun") off the axes, at
+    u = 0.62-0.72, 0.19-0.31 of the height from the top, so that a mirrored or shifted mapping
+    lights the scene from elsewhere."""
+    rows = (np.arange(height) + 0.5) / height  # 0 at the top
+    sky = np.where(rows[:, None] < 0.5,
+                   np.array([0.35, 0.5, 0.9]) * (1.2 - rows[:, None]),
+                   np.array([0.08, 0.06, 0.04]))
+    rgb = np.broadcast_to(sky[:, None, :], (height, width, 3)).copy()
+    u0 = int(0.62 * width)
+    v0 = int(0.19 * height)
+    rgb[v0:v0 + 4, u0:u0 + 6] = (60.0, 50.0, 40.0)
+    rgba = np.concatenate([rgb, np.ones((height, width, 1))], axis=2)[::-1]  # rows bottom-up
+    image = bpy.data.images.new("SyntheticSky", width, height, alpha=True, float_buffer=True)
+    image.pixels.foreach_set(rgba.astype(np.float32).ravel())
+    image.pack()  # keeps the pixels in a snapshot .blend too
+    return image
+
+
+def hdri_scene(rotation_z_deg=30.0):
+    """The box on the floor lit only by `synthetic_hdri` through an Environment Texture (linear
+    interpolation) rotated by a Mapping node, Background strength 1.5; no lights."""
+    scene = _floor_and_box(64, 36)
+    tree = scene.world.node_tree
+    env = tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = synthetic_hdri()
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(rotation_z_deg))
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    tree.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    bg = tree.nodes["Background"]
+    tree.links.new(env.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = 1.5
     return scene
 
 

@@ -4,7 +4,9 @@ Blender route (used in the UI) writes the same file as the in-process route; and
 time of a 1-million-triangle mesh (printed, for the notes).
 """
 
+import dataclasses
 import json
+import math
 import struct
 import time
 from pathlib import Path
@@ -81,9 +83,14 @@ def test_background_blender_route_writes_the_same_file(lights_scene, tmp_path):
 
 
 def test_world_without_nodes_uses_world_colour(photon_addon):
+    """Blender 4: a world with use_nodes off renders its colour. Blender 5 always renders the
+    node tree (World.use_nodes is deprecated), so there the Background node is read."""
     from blender_addon import export
     world = bpy.data.worlds.new("Plain")
-    world.use_nodes = False
+    if bpy.app.version >= (5, 0, 0):
+        world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.1, 0.2, 0.3, 1)
+    else:
+        world.use_nodes = False
     world.color = (0.1, 0.2, 0.3)
     assert export.world_extension(world) == {"color": pytest.approx([0.1, 0.2, 0.3]),
                                              "strength": 1.0}
@@ -103,3 +110,110 @@ def test_export_time_one_million_triangles(photon_addon, tmp_path):
     export.export_in_process(glb, "blender_addon")
     dt = time.perf_counter() - t0
     print(f"export of {triangles} triangles: {dt:.2f} s, {glb.stat().st_size / 1e6:.1f} MB")
+
+
+def test_subsurface_extension(photon_addon, tmp_path):
+    """PHOTON_material_subsurface carries the Principled BSDF's subsurface inputs, and only for
+    materials whose subsurface weight is above 0."""
+    from blender_addon import export
+    bpy.ops.wm.read_factory_settings()
+    skin = bpy.data.materials.new("Skin")
+    if bpy.app.version < (5, 0, 0):
+        skin.use_nodes = True
+    bpy.data.objects["Cube"].data.materials[0] = skin
+    bsdf = skin.node_tree.nodes["Principled BSDF"]
+    bsdf.subsurface_method = "RANDOM_WALK_SKIN"  # the method that reads Subsurface IOR
+    for name, value in (("Subsurface Weight", 0.8), ("Subsurface Radius", (1.0, 0.2, 0.1)),
+                        ("Subsurface Scale", 0.05), ("Subsurface IOR", 1.33),
+                        ("Subsurface Anisotropy", 0.25)):
+        bsdf.inputs[name].default_value = value
+    plain = bpy.data.materials.new("Plain")
+    if bpy.app.version < (5, 0, 0):
+        plain.use_nodes = True
+    bpy.ops.mesh.primitive_plane_add(location=(0, 0, -2))
+    bpy.context.active_object.data.materials.append(plain)
+    glb = tmp_path / "sss.glb"
+    export.export_in_process(glb, "blender_addon")
+    doc = read_glb_json(glb)
+    assert "PHOTON_material_subsurface" not in doc.get("extensionsRequired", [])
+    materials = {m["name"]: m for m in doc["materials"]}
+    sss = materials["Skin"]["extensions"]["PHOTON_material_subsurface"]
+    assert sss == {"weight": pytest.approx(0.8), "radius": pytest.approx([1.0, 0.2, 0.1]),
+                   "scale": pytest.approx(0.05), "ior": pytest.approx(1.33),
+                   "anisotropy": pytest.approx(0.25)}
+    assert "PHOTON_material_subsurface" not in materials["Plain"].get("extensions", {})
+
+
+def test_environment_texture_is_written_as_float_exr(photon_addon, tmp_path):
+    """An Environment Texture feeding the Background: PHOTON_world gets "environment" with the
+    image's file name, the Mapping node's rotation and the interpolation, and the EXR beside
+    the .glb holds the image's pixels exactly (top row first, 32-bit float)."""
+    import OpenEXR
+    import numpy as np
+    import scenes_bpy
+    from blender_addon import export
+    scene = scenes_bpy.hdri_scene(rotation_z_deg=30.0)
+    glb = tmp_path / "scene.glb"
+    export.export_in_process(glb, "blender_addon")
+    doc = read_glb_json(glb)
+    world = doc["scenes"][doc.get("scene", 0)]["extensions"]["PHOTON_world"]
+    env = world["environment"]
+    assert env["uri"] == "world_SyntheticSky.exr" and env["interpolation"] == "linear"
+    assert env["rotation"] == pytest.approx([0.0, 0.0, math.radians(30.0)])
+    assert world["strength"] == pytest.approx(1.5)
+    image = scene.world.node_tree.nodes["Environment Texture"].image
+    w, h = image.size
+    want = np.empty(w * h * 4, np.float32)
+    image.pixels.foreach_get(want)
+    want = want.reshape(h, w, 4)[::-1, :, :3]
+    with OpenEXR.File(str(tmp_path / env["uri"]), separate_channels=True) as f:
+        channels = f.channels()
+        got = np.stack([channels[c].pixels for c in "RGB"], axis=2)
+    assert got.dtype == np.float32 and got.shape == (h, w, 3)
+    assert np.array_equal(got, want)
+
+
+def test_scene_settings_map_to_render_settings(photon_addon):
+    """scene.photon has the defaults of runner.RenderSettings and maps onto it field by field
+    (enum items lower-cased as the renderer's flags spell them)."""
+    from blender_addon import properties, runner
+    bpy.ops.wm.read_factory_settings()
+    props = bpy.context.scene.photon
+    defaults = dataclasses.asdict(runner.RenderSettings())
+    got = dataclasses.asdict(properties.render_settings(props))
+    assert got.keys() == defaults.keys()
+    for key, value in defaults.items():  # floats are stored as float32 by Blender
+        assert got[key] == (pytest.approx(value) if isinstance(value, float) else value), key
+    props.method, props.quality, props.irradiance_cache = "PHOTON", "FINAL", "ON"
+    props.samples, props.time_limit, props.custom_photons, props.ic_accuracy = 8, 1.5, True, 0.3
+    got = properties.render_settings(props)
+    assert (got.method, got.quality, got.irradiance_cache) == ("photon", "final", "on")
+    assert (got.samples, got.custom_photons) == (8, True)
+    assert got.time_limit == pytest.approx(1.5) and got.ic_accuracy == pytest.approx(0.3)
+
+
+def test_byte_srgb_environment_is_linearised(photon_addon, tmp_path):
+    """An 8-bit sRGB image (as a PNG or JPEG HDRI preview would be) is written linear, as Cycles
+    reads it; a Texture-type Mapping node's rotation is exported inverted."""
+    import OpenEXR
+    import numpy as np
+    import scenes_bpy
+    from blender_addon import export
+    scene = scenes_bpy.hdri_scene()
+    node = scene.world.node_tree.nodes["Environment Texture"]
+    image = bpy.data.images.new("Bytes", 2, 1, alpha=True, float_buffer=False)
+    assert image.colorspace_settings.name == "sRGB" and not image.is_float
+    image.pixels.foreach_set(np.array([0.5, 0.5, 0.5, 1, 1, 0, 0.2, 1], np.float32))
+    node.image = image
+    mapping = scene.world.node_tree.nodes["Mapping"]
+    mapping.vector_type = "TEXTURE"
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.4)
+    data = export.world_extension(scene.world, tmp_path)
+    assert data["environment"]["rotation"] == pytest.approx([0.0, 0.0, -0.4], abs=1e-6)
+    with OpenEXR.File(str(tmp_path / data["environment"]["uri"]), separate_channels=True) as f:
+        r = f.channels()["R"].pixels
+        b = f.channels()["B"].pixels
+    srgb = lambda v: ((v + 0.055) / 1.055) ** 2.4  # noqa: E731
+    # Bytes store 0.5 as 128/255 and 0.2 as 51/255.
+    assert r[0, 0] == pytest.approx(srgb(128 / 255), rel=1e-4) and r[0, 1] == pytest.approx(1.0)
+    assert b[0, 1] == pytest.approx(srgb(51 / 255), rel=1e-4)

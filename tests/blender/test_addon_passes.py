@@ -18,14 +18,16 @@ PASSES = ["Combined.R", "Combined.A", "Depth.Z", "Normal.X", "Normal.Y", "Normal
 
 def render_multilayer(scene, engine, path):
     common.configure_cycles(scene, 32, seed=1, threads=scenes_bpy.THREADS)
-    scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+    common.set_multilayer_exr(scene.render.image_settings)
     scene.render.engine = engine
     scene.photon.samples = 32
     scene.render.filepath = str(path)
     scene.render.use_file_extension = False
     bpy.ops.render.render(write_still=True)
+    # Blender 5 writes one part per pass, Blender 4 a single part: read every part.
     with OpenEXR.File(str(path), separate_channels=True) as f:
-        return {name: np.array(chan.pixels) for name, chan in f.channels().items()}
+        return {name: np.array(chan.pixels) for part in f.parts
+                for name, chan in part.channels.items()}
 
 
 def test_passes_are_loaded(photon_addon, tmp_path):

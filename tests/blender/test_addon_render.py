@@ -1,7 +1,7 @@
 """F12 with Photon through the add-on (`bpy.ops.render.render()`, engine PHOTON, $PHOTON_BINARY)
 against Cycles rendering the same Blender scene in the same test: mean brightness within 3 % and
-relMSE <= 0.02 for the factory-default scene, an area light (PHOTON_light) and a sun with a world
-colour (PHOTON_world). Images are 64x36.
+relMSE <= 0.02 for the factory-default scene, an area light (PHOTON_light), a sun with a world
+colour (PHOTON_world) and an HDRI world (PHOTON_world environment). Images are 64x36.
 """
 
 import time
@@ -25,23 +25,29 @@ def binary(photon_addon):
     return photon_binary()
 
 
-def compare(name, build, tmp_path):
+def compare(name, build, tmp_path, cycles_spp=CYCLES_SPP, methods=(("AUTO", PHOTON_SPP),)):
+    """Render `build()` with Cycles, then with Photon for each (method, samples) of `methods`;
+    each must match."""
     scene = build()
     t0 = time.perf_counter()
-    ref = scenes_bpy.render(scene, "CYCLES", tmp_path / "cycles.exr", CYCLES_SPP)
-    t1 = time.perf_counter()
-    img = scenes_bpy.render(scene, "PHOTON", tmp_path / "photon.exr", PHOTON_SPP)
-    t2 = time.perf_counter()
-    assert img.shape == ref.shape == (36, 64, 3), (img.shape, ref.shape)
-    assert np.isfinite(img).all()
-    err = rel_mse(img, ref)
-    diff = float(img.mean() / ref.mean()) - 1.0
-    msg = (f"{name}: mean photon {img.mean():.5f} vs cycles {ref.mean():.5f} "
-           f"({100 * diff:+.2f} %), relMSE {err:.5f}; cycles {CYCLES_SPP} spp {t1 - t0:.1f} s, "
-           f"photon {PHOTON_SPP} spp {t2 - t1:.1f} s (export + render + load)")
-    print(msg)
-    assert abs(diff) <= MEAN_TOL, msg
-    assert err <= RELMSE_MAX, msg
+    ref = scenes_bpy.render(scene, "CYCLES", tmp_path / "cycles.exr", cycles_spp)
+    cycles_seconds = time.perf_counter() - t0
+    for method, spp in methods:
+        scene.photon.method = method
+        t1 = time.perf_counter()
+        img = scenes_bpy.render(scene, "PHOTON", tmp_path / "photon.exr", spp)
+        t2 = time.perf_counter()
+        assert img.shape == ref.shape == (36, 64, 3), (img.shape, ref.shape)
+        assert np.isfinite(img).all()
+        err = rel_mse(img, ref)
+        diff = float(img.mean() / ref.mean()) - 1.0
+        msg = (f"{name} ({method.lower()}): mean photon {img.mean():.5f} vs cycles "
+               f"{ref.mean():.5f} ({100 * diff:+.2f} %), relMSE {err:.5f}; cycles {cycles_spp} "
+               f"spp {cycles_seconds:.1f} s, photon {spp} spp {t2 - t1:.1f} s "
+               f"(export + render + load)")
+        print(msg)
+        assert abs(diff) <= MEAN_TOL, msg
+        assert err <= RELMSE_MAX, msg
 
 
 def test_default_scene_matches_cycles(tmp_path):
@@ -54,6 +60,13 @@ def test_area_light_matches_cycles(tmp_path):
 
 def test_sun_and_world_match_cycles(tmp_path):
     compare("sun + world", scenes_bpy.sun_world_scene, tmp_path)
+
+
+def test_hdri_world_matches_cycles(tmp_path):
+    """Lit only by an equirectangular environment image (PHOTON_world environment, written as
+    EXR by the add-on): orientation, rotation and brightness as in Cycles."""
+    compare("HDRI world", scenes_bpy.hdri_scene, tmp_path, cycles_spp=256,  # 1024: 16 s here
+            methods=(("PATH", PHOTON_SPP), ("PHOTON", 128)))  # photons leave the map too
 
 
 def test_background_blender_export_route(tmp_path, monkeypatch, capfd):

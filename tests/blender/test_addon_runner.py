@@ -134,16 +134,52 @@ def test_temporary_folder_removed_on_error():
     assert not folder.exists()
 
 
+def flag_values(cmd):
+    """{flag: value} for the `--flag value` pairs of a command line (value None for a bare flag)."""
+    out = {}
+    for i, arg in enumerate(cmd):
+        if arg.startswith("--"):
+            nxt = cmd[i + 1] if i + 1 < len(cmd) else None
+            out[arg] = None if nxt is None or nxt.startswith("--") else nxt
+    return out
+
+
 def test_render_command():
-    cmd = runner.render_command("photon", "s.glb", "o.exr", width=64, height=36, samples=16,
-                                max_bounces=8, seed=3, threads=2, camera="Camera",
-                                view_layer="ViewLayer")
-    assert cmd[:2] == ["photon", "render"]
+    settings = runner.RenderSettings(samples=16, max_bounces=8, seed=3, threads=2)
+    cmd = runner.render_command("photon", "s.glb", "o.exr", width=64, height=36,
+                                settings=settings, camera="Camera", view_layer="ViewLayer")
+    assert cmd[:3] == ["photon", "render", "s.glb"]
+    flags = flag_values(cmd)
     for flag, value in (("--width", "64"), ("--height", "36"), ("--spp", "16"),
                         ("--max-depth", "8"), ("--seed", "3"), ("--threads", "2"),
                         ("--progress", "json"), ("--camera", "Camera"),
-                        ("--exr-layer", "ViewLayer")):
-        assert cmd[cmd.index(flag) + 1] == value
+                        ("--exr-layer", "ViewLayer"), ("--method", "auto"),
+                        ("--quality", "default"), ("--gather-rays", "4")):
+        assert flags[flag] == value, (flag, cmd)
+
+
+def test_settings_arguments_defaults_leave_choices_to_the_renderer():
+    """Zero samples, no time limit, preset photon counts and the default irradiance-cache choice
+    are not passed, so the quality preset and the renderer's defaults apply."""
+    flags = flag_values(runner.settings_arguments(runner.RenderSettings()))
+    for flag in ("--spp", "--time-limit", "--photons", "--caustic-photons",
+                 "--irradiance-cache", "--ic-accuracy"):
+        assert flag not in flags, flag
+    assert flags["--method"] == "auto" and flags["--quality"] == "default"
+
+
+def test_settings_arguments_map_every_setting():
+    settings = runner.RenderSettings(
+        method="photon", quality="final", samples=5, time_limit=2.5, max_bounces=7, seed=9,
+        threads=3, custom_photons=True, photons=1234, caustic_photons=0, gather_rays=16,
+        irradiance_cache="on", ic_accuracy=0.25)
+    flags = flag_values(runner.settings_arguments(settings))
+    assert flags == {"--method": "photon", "--quality": "final", "--spp": "5",
+                     "--time-limit": "2.5", "--max-depth": "7", "--seed": "9", "--threads": "3",
+                     "--photons": "1234", "--caustic-photons": "0", "--gather-rays": "16",
+                     "--irradiance-cache": "on", "--ic-accuracy": "0.25"}
+    off = runner.settings_arguments(runner.RenderSettings(irradiance_cache="off"))
+    assert flag_values(off)["--irradiance-cache"] == "off" and "--ic-accuracy" not in off
 
 
 def test_exr_channels(tmp_path):

@@ -112,7 +112,10 @@ pub fn scene(
         textures: Vec::new(),
         lights,
         camera,
-        world: World { color: world },
+        world: World {
+            color: world,
+            environment: None,
+        },
         render_settings: SceneRenderSettings::default(),
         warnings: Vec::new(),
     }

@@ -11,8 +11,9 @@
 //! - spot light: uniform within the outer cone, I·smoothstep falloff / cone pdf (as light.rs);
 //! - sun: parallel rays from a disc of the scene's bounding radius R, facing the sun (soft suns
 //!   jitter the direction within their cone), E·πR²;
-//! - world: a uniform direction, then a disc of radius R outside the scene facing it,
-//!   L·πR²·4π.
+//! - world: a direction as `Lights::sample_world` draws it (uniform for a constant colour, by
+//!   importance for an environment map), then a disc of radius R outside the scene facing it,
+//!   L(ω)·πR²/pdf(ω).
 
 use super::{Shading, SPECULAR_ROUGHNESS};
 use crate::accel::{Ray, Visibility};
@@ -174,12 +175,12 @@ impl Emitters {
                     irradiance * (PI * self.radius * self.radius),
                 )
             }
-            LightSource::World { radiance } => {
-                let toward = square_to_uniform_sphere(u2);
+            LightSource::World { .. } => {
+                let (toward, radiance, pdf) = ctx.lights.sample_world(u2)?;
                 let origin = self.disc_point(&Frame::from_normal(toward), u1);
                 (
                     ray(origin, -toward),
-                    radiance * (4.0 * PI * PI * self.radius * self.radius),
+                    radiance * (PI * self.radius * self.radius / pdf),
                 )
             }
         };
