@@ -99,7 +99,7 @@ class RenderSettings:
     threads: int = 0              # --threads; 0: one per core
     custom_photons: bool = False  # pass the two photon counts below instead of the preset's
     photons: int = 200_000        # --photons (global map)
-    caustic_photons: int = 500_000  # --caustic-photons (0 skips the caustic map)
+    caustic_photons: int = 100_000  # --caustic-photons (0 skips the caustic map)
     gather_rays: int = 4          # --gather-rays (final-gather rays per shading point)
     irradiance_cache: str = "default"  # 'default' (the renderer's choice), 'on' or 'off'
     ic_accuracy: float = 0.15     # --ic-accuracy (Ward's a), passed with --irradiance-cache on

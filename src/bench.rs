@@ -16,8 +16,8 @@ use std::time::Instant;
 
 /// Global photons per unit of budget (budget 40 gives the default 200 000).
 const GLOBAL_PHOTONS_PER_BUDGET: u32 = 5_000;
-/// Caustic photons per unit of budget (budget 40 gives the default 500 000).
-const CAUSTIC_PHOTONS_PER_BUDGET: u32 = 12_500;
+/// Caustic photons per unit of budget (budget 40 gives the default 100 000).
+const CAUSTIC_PHOTONS_PER_BUDGET: u32 = 2_500;
 
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {

@@ -161,7 +161,7 @@ struct RenderArgs {
     /// Photons emitted for the global map [default: 200000].
     #[arg(long)]
     photons: Option<u32>,
-    /// Photons emitted for the caustic map (0 skips it) [default: 500000].
+    /// Photons emitted for the caustic map (0 skips it) [default: 100000].
     #[arg(long)]
     caustic_photons: Option<u32>,
     /// Final-gather rays per shading point (0 reads the global map directly) [default: 4].

@@ -217,3 +217,125 @@ fn precomputed_irradiance_matches_the_full_estimate() {
         assert!(rel.abs() < 0.01, "with {with:?} without {without:?}");
     }
 }
+
+#[test]
+fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
+    // Projection towards the specular objects' bounding spheres must not change the caustic
+    // flux: for each kind of light, the total power of stored caustic photons with and without
+    // aiming agrees within the Monte Carlo error (two glass spheres, one overlapping the other's
+    // cone, so the mixture density matters).
+    use photon::integrator::photon::tracing::{trace_photon, Emitters, Pass};
+    use photon::rng::Rng;
+    let glass = Material {
+        name: "glass".into(),
+        base_color: Vec3::ONE.extend(1.0),
+        metallic: 0.0,
+        roughness: 0.0,
+        transmission: 1.0,
+        ior: 1.5,
+        ..Material::default()
+    };
+    let lights = [
+        Light::Point {
+            position: Vec3::new(0.3, 3.0, 0.2),
+            intensity: Vec3::splat(10.0),
+            radius: 0.0,
+        },
+        Light::Spot {
+            position: Vec3::new(0.3, 3.0, 0.2),
+            direction: -Vec3::Y,
+            intensity: Vec3::splat(10.0),
+            cos_inner: 0.95,
+            cos_outer: 0.85,
+            radius: 0.0,
+        },
+        Light::Sun {
+            direction: Vec3::new(0.3, -1.0, 0.1).normalize(),
+            irradiance: Vec3::splat(2.0),
+            angle: 0.05,
+        },
+    ];
+    let mut setups: Vec<(String, Scene)> = Vec::new();
+    for light in lights {
+        let scene = scenes::scene(
+            vec![
+                scenes::floor(6.0, 0.0, 0),
+                scenes::sphere(Vec3::new(0.0, 0.8, 0.0), 0.8, 16, 32, false, 1),
+                scenes::sphere(Vec3::new(0.9, 0.5, 0.3), 0.5, 16, 32, false, 1),
+            ],
+            vec![Material::diffuse("floor", Vec3::splat(0.8)), glass.clone()],
+            vec![light.clone()],
+            scenes::camera_looking_at(
+                Vec3::new(0.0, 3.0, 5.0),
+                Vec3::ZERO,
+                Projection::Perspective { yfov: 0.8 },
+            ),
+            Vec3::ZERO,
+        );
+        setups.push((format!("{light:?}"), scene));
+    }
+    // An emissive quad (Blender's area lights) and a uniform world, with the spot's geometry.
+    let mut quad = setups[0].1.clone();
+    quad.lights.clear();
+    let mut lamp = scenes::floor(0.5, 3.0, 2);
+    for t in &mut lamp.indices {
+        t.swap(1, 2);
+    }
+    for n in &mut lamp.normals {
+        *n = -Vec3::Y;
+    }
+    quad.meshes.push(lamp);
+    let mut emitter = Material::diffuse("lamp", Vec3::ZERO);
+    emitter.emission = Vec3::splat(20.0);
+    emitter.double_sided = false;
+    quad.materials.push(emitter);
+    setups.push(("emissive quad".into(), quad));
+    let mut world = setups[0].1.clone();
+    world.lights.clear();
+    world.world.color = Vec3::ONE;
+    setups.push(("uniform world".into(), world));
+    for (light, scene) in setups {
+        let accel = Accel::new(&scene);
+        let lights = Lights::new(&scene);
+        let ctx = Context {
+            scene: &scene,
+            accel: &accel,
+            lights: &lights,
+            max_depth: 16,
+            transparent_background: false,
+        };
+        let emitters = Emitters::new(&ctx);
+        assert!(emitters.has_caustic_targets());
+        let n = 120_000;
+        let flux = |aimed: bool| -> (f64, f64, usize) {
+            let mut rng = Rng::for_item(5, 0, 0);
+            let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+            let mut stored = 0;
+            for _ in 0..n {
+                let mut out = Vec::new();
+                if let Some((ray, power)) = emitters.emit(&ctx, aimed, &mut rng) {
+                    trace_photon(&ctx, ray, power, Pass::Caustic, 16, &mut rng, &mut out);
+                }
+                let v: f64 = out.iter().map(|p| p.power().x as f64).sum();
+                sum += v;
+                sum2 += v * v;
+                stored += out.len();
+            }
+            let mean = sum / n as f64;
+            let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+            (mean, sigma, stored)
+        };
+        let (plain, plain_sigma, plain_stored) = flux(false);
+        let (aimed, aimed_sigma, aimed_stored) = flux(true);
+        let sigma = (plain_sigma * plain_sigma + aimed_sigma * aimed_sigma).sqrt();
+        assert!(
+            (plain - aimed).abs() < 4.0 * sigma + 0.005 * plain,
+            "{light}: caustic flux {plain} (σ {plain_sigma}) plain vs {aimed} (σ {aimed_sigma}) aimed"
+        );
+        // The spot's own cone already points at the spheres: a smaller gain there.
+        assert!(
+            2 * aimed_stored > 3 * plain_stored,
+            "{light}: aiming stored {aimed_stored} vs {plain_stored}"
+        );
+    }
+}

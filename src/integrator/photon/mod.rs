@@ -97,7 +97,7 @@ const BATCH: u32 = 4096;
 pub struct PhotonSettings {
     /// Photons emitted for the global map (default 200 000).
     pub global_photons: u32,
-    /// Photons emitted for the caustic map (default 500 000; most miss the specular objects).
+    /// Photons emitted for the caustic map (default 100 000, aimed at the specular objects).
     pub caustic_photons: u32,
     /// Nearest photons in a global estimate (default 64).
     pub k_global: u32,
@@ -120,7 +120,7 @@ impl Default for PhotonSettings {
     fn default() -> Self {
         PhotonSettings {
             global_photons: 200_000,
-            caustic_photons: 500_000,
+            caustic_photons: 100_000,
             k_global: 64,
             k_caustic: 64,
             global_radius: 0.1,
@@ -235,16 +235,21 @@ impl Shading {
 }
 
 /// True when some material has a delta or glossy-only lobe (`SPECULAR_ROUGHNESS`), so a photon
-/// can scatter specularly and a caustic map is needed. Roughness textures count as smooth.
+/// can scatter specularly and a caustic map is needed.
 pub fn needs_caustic_map(scene: &crate::scene::Scene) -> bool {
-    scene.materials.iter().any(|m| {
-        let mut s = eval_material(scene, m, Vec2::ZERO);
-        if m.metallic_roughness_texture.is_some() {
-            s.roughness = 0.0;
-        }
-        let b = Bsdf::new(&s);
-        b.has_delta() || (b.has_specular() && b.roughness() < SPECULAR_ROUGHNESS)
-    })
+    (0..scene.materials.len()).any(|m| is_specular(scene, m as u32))
+}
+
+/// True when material `m` has a delta or glossy-only lobe: a photon may scatter specularly off
+/// it. Roughness textures count as smooth.
+pub fn is_specular(scene: &crate::scene::Scene, m: u32) -> bool {
+    let material = &scene.materials[m as usize];
+    let mut s = eval_material(scene, material, Vec2::ZERO);
+    if material.metallic_roughness_texture.is_some() {
+        s.roughness = 0.0;
+    }
+    let b = Bsdf::new(&s);
+    b.has_delta() || (b.has_specular() && b.roughness() < SPECULAR_ROUGHNESS)
 }
 
 /// Trace `count` photons of one pass in parallel batches, concatenated in batch order.
@@ -272,7 +277,7 @@ fn trace_pass(
             let n = BATCH.min(count - b * BATCH);
             let mut out = Vec::with_capacity(n as usize * 2);
             for _ in 0..n {
-                if let Some((ray, power)) = emitters.emit(ctx, &mut rng) {
+                if let Some((ray, power)) = emitters.emit(ctx, pass == Pass::Caustic, &mut rng) {
                     let max = settings.max_photon_bounces;
                     trace_photon(ctx, ray, power * scale, pass, max, &mut rng, &mut out);
                 }
@@ -312,8 +317,8 @@ pub fn build_maps(
     let caustic = if settings.caustic_photons == 0 {
         info.caustic_skipped = Some("no caustic photons requested".into());
         Vec::new()
-    } else if !needs_caustic_map(ctx.scene) {
-        info.caustic_skipped = Some("no material has a delta or glossy lobe".into());
+    } else if !emitters.has_caustic_targets() {
+        info.caustic_skipped = Some("no mesh has a delta or glossy-only material".into());
         Vec::new()
     } else {
         info.caustic_emitted = settings.caustic_photons as u64;
