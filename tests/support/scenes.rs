@@ -3,7 +3,19 @@
 #![allow(dead_code)]
 
 use photon::math::{Affine3A, Vec3};
+use photon::render::{Progress, ProgressEvent};
 use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
+use std::sync::atomic::AtomicBool;
+
+/// Run `f` with a progress sink that is never cancelled and reports nothing.
+pub fn with_progress<T>(f: impl FnOnce(&Progress) -> T) -> T {
+    let cancel = AtomicBool::new(false);
+    let report = |_: &ProgressEvent| {};
+    f(&Progress {
+        cancel: &cancel,
+        report: &report,
+    })
+}
 
 /// A unit sphere tessellated by latitude/longitude, with normals pointing outward (or inward).
 pub fn sphere(

@@ -1,0 +1,137 @@
+//! The photon renderer's subsurface term ("diffusion photon mode", Jensen & Buhler 2002 §3 with
+//! photons as the irradiance samples, Jensen 2000 "Subsurface scattering"): a dedicated photon
+//! pass stores the flux entering each translucent surface (after the specular layer's Fresnel
+//! transmission, times the subsurface weight), one octree of those samples per translucent
+//! material, and at a shading point x the radiance T(ω_o) M(x)/π, where M is the dipole
+//! exitance of `crate::subsurface` and T(ω_o) the layer's transmission out (the same factor a
+//! Lambertian base gets, so a translucent surface under uniform light shows R_d E/π exactly as
+//! the diffuse surface it replaces). Light diffuses only within one material's samples.
+
+use super::tracing::{trace_subsurface_photon, Emitters};
+use super::{trace_pass, PhotonInfo, PhotonSettings, Shading};
+use crate::error::Result;
+use crate::integrator::Context;
+use crate::math::Vec3;
+use crate::render::Progress;
+use crate::scene::Scene;
+use crate::subsurface::{Dipole, Sample, SampleTree};
+use std::f32::consts::PI;
+use std::time::Instant;
+
+/// The kernel's smoothing radius covers this many samples' areas (`SampleTree::build`).
+const SMOOTHING_SAMPLES: f32 = 16.0;
+
+/// Subsurface samples per translucent material.
+pub struct SubsurfaceMaps {
+    /// Indexed by material; `None` for opaque materials or ones no photon reached.
+    trees: Vec<Option<SampleTree>>,
+    accuracy: f32,
+    brute_force: bool,
+}
+
+/// Surface area of each material's meshes (scene units²).
+fn material_areas(scene: &Scene) -> Vec<f32> {
+    let mut area = vec![0.0f32; scene.materials.len()];
+    for m in &scene.meshes {
+        let p = &m.positions;
+        let a: f32 = m
+            .indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| p[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum();
+        if let Some(slot) = area.get_mut(m.material as usize) {
+            *slot += a;
+        }
+    }
+    area
+}
+
+/// True when some mesh uses a translucent material.
+pub fn has_translucent(scene: &Scene) -> bool {
+    scene.meshes.iter().any(|m| {
+        scene
+            .materials
+            .get(m.material as usize)
+            .is_some_and(|mat| mat.is_translucent())
+    })
+}
+
+/// Trace the subsurface photons and build the octrees; `None` (with the reason in `info`) when
+/// nothing is translucent or no photons are requested.
+pub fn build(
+    ctx: &Context,
+    emitters: &Emitters,
+    settings: &PhotonSettings,
+    seed: u64,
+    progress: &Progress,
+    info: &mut PhotonInfo,
+) -> Result<Option<SubsurfaceMaps>> {
+    if !has_translucent(ctx.scene) {
+        info.subsurface_skipped = Some("no translucent material".into());
+        return Ok(None);
+    }
+    if settings.subsurface_photons == 0 {
+        info.subsurface_skipped = Some("no subsurface photons requested".into());
+        return Ok(None);
+    }
+    let start = Instant::now();
+    let max = settings.max_photon_bounces;
+    let samples = trace_pass(
+        ctx,
+        emitters,
+        "Subsurface",
+        0x5ab5_0f7e,
+        settings.subsurface_photons,
+        seed,
+        progress,
+        |ray, power, rng, out| trace_subsurface_photon(ctx, ray, power, max, rng, out),
+    )?;
+    info.subsurface_emitted = settings.subsurface_photons as u64;
+    info.subsurface_stored = samples.len();
+    let areas = material_areas(ctx.scene);
+    let mut per_material: Vec<Vec<Sample>> = vec![Vec::new(); ctx.scene.materials.len()];
+    for (m, s) in samples {
+        if let Some(list) = per_material.get_mut(m as usize) {
+            list.push(s);
+        }
+    }
+    let trees = per_material
+        .into_iter()
+        .zip(areas)
+        .map(|(list, area)| {
+            (!list.is_empty()).then(|| SampleTree::build(list, area, SMOOTHING_SAMPLES))
+        })
+        .collect();
+    info.subsurface_seconds = start.elapsed().as_secs_f64();
+    Ok(Some(SubsurfaceMaps {
+        trees,
+        accuracy: settings.subsurface_accuracy,
+        brute_force: settings.subsurface_brute_force,
+    }))
+}
+
+impl SubsurfaceMaps {
+    /// The subsurface radiance leaving `s` towards its viewer, T(ω_o) M(x)/π; `None` when the
+    /// surface is not translucent. `s` carries the full BSDF (the layer's transmission out).
+    pub fn radiance(&self, s: &Shading) -> Option<Vec3> {
+        let sub = &s.surface.subsurface;
+        if !(sub.weight > 0.0) {
+            return None;
+        }
+        let Some(Some(tree)) = self.trees.get(s.sh.material as usize) else {
+            return Some(Vec3::ZERO);
+        };
+        let reflectance = s.surface.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+        let dipole = Dipole::new(reflectance, sub.mean_free_path(), sub.ior, tree.smoothing());
+        let m = if self.brute_force {
+            tree.exitance_brute_force(s.sh.p, &dipole)
+        } else {
+            tree.exitance(s.sh.p, &dipole, self.accuracy).0
+        };
+        let l = m * (s.bsdf.base_transmittance(s.wo_local) / PI);
+        Some(if l.is_finite() { l } else { Vec3::ZERO })
+    }
+}
