@@ -11,6 +11,7 @@ use scenes::with_progress;
 use photon::integrator::photon::PhotonSettings;
 use photon::math::Vec3;
 use photon::metrics::compare;
+use photon::plan::{plan_for_image, Quality};
 use photon::render::{render, Method, RenderSettings};
 use photon::rng::Rng;
 use photon::scene::{Light, Material, Scene, Subsurface};
@@ -283,4 +284,33 @@ fn hierarchical_render_matches_brute_force_render() {
     let (_, brute) = mean_radiance(&scene, true);
     let err = compare(&fast, &brute);
     assert!(err.rel_mse <= 1e-3, "relMSE {}", err.rel_mse);
+    // Deterministic whatever the thread count (photon batches and octree order are fixed).
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
+    let (_, single) = pool.expect("pool").install(|| mean_radiance(&scene, false));
+    let bits = |im: &[[f32; 4]]| {
+        im.iter()
+            .flat_map(|p| p.map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(bits(&fast), bits(&single));
+}
+
+#[test]
+fn plan_needs_subsurface_only_for_translucent_lit_scenes() {
+    let translucent = slab(Vec3::splat(0.5), 0.01, 1.3, 1.0);
+    let plan = plan_for_image(&translucent, Quality::Default, 16, 16);
+    assert!(plan.subsurface.needed, "{}", plan.subsurface.reason);
+    assert_eq!(plan.method, Method::Photon);
+    let mut opaque = translucent.clone();
+    opaque.materials[0].subsurface.weight = 0.0;
+    let plan = plan_for_image(&opaque, Quality::Default, 16, 16);
+    assert!(!plan.subsurface.needed);
+    assert!(plan.subsurface.reason.contains("no translucent"));
+    let mut dark = translucent;
+    dark.lights.clear();
+    assert!(
+        !plan_for_image(&dark, Quality::Default, 16, 16)
+            .subsurface
+            .needed
+    );
 }

@@ -6,6 +6,23 @@
 //! exitance of `crate::subsurface` and T(ω_o) the layer's transmission out (the same factor a
 //! Lambertian base gets, so a translucent surface under uniform light shows R_d E/π exactly as
 //! the diffuse surface it replaces). Light diffuses only within one material's samples.
+//!
+//! **Against Cycles' random walk** (`scenes/blender/subsurface.py`: a 1 m box, base colour
+//! (0.8, 0.5, 0.3), radius (1, 0.2, 0.1), on a white plane under a sun; 64 × 64, 64 spp,
+//! 1 M subsurface photons, ~10 500 samples on the box), over the box's pixels: Subsurface Scale
+//! 0.02 → relMSE 0.014, mean −0.8 % (R −3.6 %, G +1.0 %, B +3.8 %); scale 0.1 → relMSE 0.032,
+//! mean −9.9 % (R −21 %). The dipole assumes a flat semi-infinite medium: with red's mean free
+//! path at 0.1 m and α′ ≈ 0.99 the profile reaches 1/σ_tr ≈ 0.6 m, so much of the red kernel
+//! falls where the box has no surface (beyond its edges and into the air) and is lost, while the
+//! random walk keeps every path inside the volume until it leaves through some face. The short
+//! channels agree within a few percent; the dipole also reddens the shaded faces by diffusing
+//! straight through the box's corners (Euclidean distance, not a path inside the volume).
+//!
+//! **Speed** (same scene at scale 0.02, 64 × 64, 8 spp, 4 M photons → ~42 000 samples, 2 busy
+//! cores, `photon render --progress json` render_seconds): octree (accuracy 0.05) 0.53–1.02 s,
+//! brute force 15.1 s, the same render without the subsurface term 0.28 s; relMSE between the
+//! octree and brute-force images over the box 5e-7. On 40 000 samples in a unit square the
+//! octree evaluates 625 kernels per point instead of 40 000 (`tests/subsurface.rs`).
 
 use super::tracing::{trace_subsurface_photon, Emitters};
 use super::{trace_pass, PhotonInfo, PhotonSettings, Shading};
