@@ -192,6 +192,10 @@ struct RenderArgs {
     /// Sum every subsurface sample instead of using the octree (for measurements).
     #[arg(long)]
     subsurface_brute_force: bool,
+    /// Jensen & Buhler's irradiance points over translucent surfaces instead of subsurface
+    /// photons (0: photons) [default: 0].
+    #[arg(long)]
+    subsurface_points: Option<u32>,
 }
 
 impl RenderArgs {
@@ -223,6 +227,7 @@ impl RenderArgs {
             subsurface_photons: self.subsurface_photons.unwrap_or(d.subsurface_photons),
             subsurface_accuracy: self.subsurface_accuracy.unwrap_or(d.subsurface_accuracy),
             subsurface_brute_force: self.subsurface_brute_force,
+            subsurface_points: self.subsurface_points.unwrap_or(d.subsurface_points),
             ..d
         })
     }

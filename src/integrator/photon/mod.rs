@@ -123,6 +123,11 @@ pub struct PhotonSettings {
     pub subsurface_accuracy: f32,
     /// Sum every subsurface sample instead of the octree (for tests and measurements).
     pub subsurface_brute_force: bool,
+    /// Jensen & Buhler's irradiance points instead of subsurface photons: this many points over
+    /// the translucent surfaces (default 0: photons).
+    pub subsurface_points: u32,
+    /// Shadow rays per irradiance point (default 4).
+    pub subsurface_light_samples: u32,
 }
 
 impl Default for PhotonSettings {
@@ -140,6 +145,8 @@ impl Default for PhotonSettings {
             subsurface_photons: 1_000_000,
             subsurface_accuracy: 0.05,
             subsurface_brute_force: false,
+            subsurface_points: 0,
+            subsurface_light_samples: 4,
         }
     }
 }
@@ -375,7 +382,6 @@ pub fn build_maps(
         )?
     };
     info.trace_seconds = start.elapsed().as_secs_f64();
-    let subsurface = subsurface::build(ctx, &emitters, settings, seed, progress, &mut info)?;
     info.global_stored = global.len();
     info.caustic_stored = caustic.len();
     let start = Instant::now();
@@ -397,6 +403,16 @@ pub fn build_maps(
         _ => None,
     };
     info.irradiance_seconds = start.elapsed().as_secs_f64();
+    let subsurface = subsurface::build(
+        ctx,
+        &emitters,
+        settings,
+        global.as_ref(),
+        sq(settings.global_radius),
+        seed,
+        progress,
+        &mut info,
+    )?;
     Ok((
         PhotonMaps {
             global,
