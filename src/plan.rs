@@ -14,10 +14,10 @@
 //!   only from outside (light leaving a convex surface never meets the scene again).
 //! - **subsurface**: needed when a mesh uses a translucent material (`PHOTON_material_subsurface`
 //!   weight > 0) and the scene has a light: the photon method then traces subsurface photons and
-//!   evaluates the dipole (`integrator::photon::subsurface`). The path tracer shades translucent
-//!   materials as their Lambertian limit.
+//!   evaluates the dipole (`integrator::photon::subsurface`). The path tracer samples the same
+//!   dipole by probe rays and needs no pass.
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
-//!   the background); a caustic map or subsurface needed → photon mapping (caustics are where path tracing is
+//!   the background); a caustic map needed → photon mapping (caustics are where path tracing is
 //!   noisiest); otherwise → the path tracer, which the benchmark shows is at least as good as
 //!   photon mapping with final gathering on the diffuse scenes of `scenes/` at equal time.
 
@@ -391,11 +391,6 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
         (
             Method::Photon,
             "caustics: the caustic map resolves what path tracing finds only by chance",
-        )
-    } else if subsurface.needed {
-        (
-            Method::Photon,
-            "subsurface scattering: only the photon method evaluates the dipole",
         )
     } else {
         (Method::Path, "no caustics: the path tracer converges at least as fast here (first rule; see the benchmark)")

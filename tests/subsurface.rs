@@ -316,7 +316,6 @@ fn plan_needs_subsurface_only_for_translucent_lit_scenes() {
     let translucent = slab(Vec3::splat(0.5), 0.01, 1.3, 1.0);
     let plan = plan_for_image(&translucent, Quality::Default, 16, 16);
     assert!(plan.subsurface.needed, "{}", plan.subsurface.reason);
-    assert_eq!(plan.method, Method::Photon);
     let mut opaque = translucent.clone();
     opaque.materials[0].subsurface.weight = 0.0;
     let plan = plan_for_image(&opaque, Quality::Default, 16, 16);
@@ -329,4 +328,26 @@ fn plan_needs_subsurface_only_for_translucent_lit_scenes() {
             .subsurface
             .needed
     );
+}
+
+#[test]
+fn path_tracer_slab_shows_rd_e_over_pi() {
+    let colour = Vec3::new(0.8, 0.5, 0.2);
+    let scene = slab(colour, 0.02, 1.4, 1.0);
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 64,
+        max_depth: 8,
+        seed: 1,
+        method: Method::Path,
+        ..RenderSettings::default()
+    };
+    let (image, stats) = with_progress(|p| render(&scene, &settings, p)).expect("render");
+    assert_eq!(stats.nonfinite_samples, 0);
+    let sum: Vec3 = image.rgba.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum();
+    let l = sum / image.rgba.len() as f32;
+    let expected = colour / PI;
+    let rel = ((l - expected) / expected).abs().max_element();
+    assert!(rel < 0.03, "L = {l}, R_d·E/π = {expected} ({rel:.4})");
 }

@@ -18,6 +18,12 @@
 //! channels agree within a few percent; the dipole also reddens the shaded faces by diffusing
 //! straight through the box's corners (Euclidean distance, not a path inside the volume).
 //!
+//! The path tracer's probe-ray sampling of the same BSSRDF (`integrator::path`, 64 × 64, 2048
+//! spp, 14 s) gives over the box vs Cycles relMSE 0.0103, mean −1.7 % at scale 0.02 (at 256
+//! spp: −2.8 %; scale 0.1: −12.4 %); photons (4 M) vs that path image: relMSE 0.0062, photons
+//! +1.6 % (red +2.5 %: the probes stop at the radius holding 99 % of R_d and see only the
+//! material's own surface along three axes, the photon kernel reaches every sample).
+//!
 //! **Photons or irradiance points.** With `subsurface_points` > 0 the samples are instead
 //! Jensen & Buhler's points, uniform by area over the translucent triangles, with the entering
 //! irradiance from 4 shadow rays plus the global map's non-direct photons. On the scale-0.02
