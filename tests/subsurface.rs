@@ -276,13 +276,19 @@ fn white_slab_loses_nothing() {
 fn extreme_radii_and_unit_ior_stay_finite() {
     let colour = Vec3::new(0.7, 0.4, 0.9);
     for (mfp, ior) in [(1e-5, 1.0), (1e-5, 1.4), (10.0, 1.0), (10.0, 1.4)] {
-        let (l, pixels) = mean_radiance(&slab(colour, mfp, ior, 1.0), false);
+        let scene = slab(colour, mfp, ior, 1.0);
+        let (l, pixels) = mean_radiance(&scene, false);
         assert!(pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
+        let (path, pixels) = path_mean(&scene);
+        assert!(pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
+        assert!(path.cmple(colour / PI * 1.05).all(), "path ℓ {mfp}: {path}");
         let expected = colour / PI;
         if mfp < 1e-3 {
             // The diffuse limit: light leaves where it entered.
             let rel = ((l - expected) / expected).abs().max_element();
             assert!(rel < 0.05, "ℓ {mfp} η {ior}: {l} vs {expected}");
+            let rel = ((path - expected) / expected).abs().max_element();
+            assert!(rel < 0.05, "path ℓ {mfp} η {ior}: {path} vs {expected}");
         } else {
             // ℓ = 10 on a 2-unit slab: most light leaves the slab's area, never more than R_d.
             assert!(
@@ -330,10 +336,8 @@ fn plan_needs_subsurface_only_for_translucent_lit_scenes() {
     );
 }
 
-#[test]
-fn path_tracer_slab_shows_rd_e_over_pi() {
-    let colour = Vec3::new(0.8, 0.5, 0.2);
-    let scene = slab(colour, 0.02, 1.4, 1.0);
+/// Mean radiance and pixels of an 8 × 8 path-traced render at 64 spp.
+fn path_mean(scene: &Scene) -> (Vec3, Vec<[f32; 4]>) {
     let settings = RenderSettings {
         width: 8,
         height: 8,
@@ -343,10 +347,16 @@ fn path_tracer_slab_shows_rd_e_over_pi() {
         method: Method::Path,
         ..RenderSettings::default()
     };
-    let (image, stats) = with_progress(|p| render(&scene, &settings, p)).expect("render");
+    let (image, stats) = with_progress(|p| render(scene, &settings, p)).expect("render");
     assert_eq!(stats.nonfinite_samples, 0);
     let sum: Vec3 = image.rgba.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum();
-    let l = sum / image.rgba.len() as f32;
+    (sum / image.rgba.len() as f32, image.rgba)
+}
+
+#[test]
+fn path_tracer_slab_shows_rd_e_over_pi() {
+    let colour = Vec3::new(0.8, 0.5, 0.2);
+    let (l, _) = path_mean(&slab(colour, 0.02, 1.4, 1.0));
     let expected = colour / PI;
     let rel = ((l - expected) / expected).abs().max_element();
     assert!(rel < 0.03, "L = {l}, R_d·E/π = {expected} ({rel:.4})");
