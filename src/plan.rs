@@ -378,7 +378,7 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
         Decision::new(
             true,
             format!(
-                "{translucent} translucent material(s): dipole diffusion from subsurface photons"
+                "{translucent} translucent material(s): dipole diffusion, from subsurface photons (photon method) or probe rays (path tracer)"
             ),
         )
     };
@@ -517,6 +517,13 @@ impl fmt::Display for Plan {
                 self.caustic_radius,
                 self.photon.gather_rays
             )?;
+            if self.photon.subsurface_photons > 0 {
+                writeln!(
+                    f,
+                    "  subsurface photons: {} (octree accuracy {})",
+                    self.photon.subsurface_photons, self.photon.subsurface_accuracy
+                )?;
+            }
         }
         write!(
             f,
