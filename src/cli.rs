@@ -507,9 +507,9 @@ fn summarise(
                 p.irradiance_records,
                 p.irradiance_seconds
             );
-            if p.subsurface_emitted > 0 {
+            if p.subsurface_stored > 0 {
                 eprintln!(
-                    "photon: subsurface: {} emitted / {} samples on translucent surfaces, traced and octrees built in {:.3} s",
+                    "photon: subsurface: {} photons emitted / {} samples on translucent surfaces, built with their octrees in {:.3} s",
                     p.subsurface_emitted, p.subsurface_stored, p.subsurface_seconds
                 );
             }

@@ -230,7 +230,9 @@ pub fn build(
             |ray, power, rng, out| trace_subsurface_photon(ctx, ray, power, max, rng, out),
         )?
     };
-    info.subsurface_emitted = settings.subsurface_photons as u64;
+    if settings.subsurface_points == 0 {
+        info.subsurface_emitted = settings.subsurface_photons as u64;
+    }
     info.subsurface_stored = samples.len();
     let areas = material_areas(ctx.scene);
     let mut per_material: Vec<Vec<Sample>> = vec![Vec::new(); ctx.scene.materials.len()];
