@@ -183,6 +183,19 @@ struct RenderArgs {
     /// 0: a full radiance estimate at every gather hit) [default: 4].
     #[arg(long)]
     irradiance_stride: Option<u32>,
+    /// Photons emitted for the subsurface samples of translucent materials [default: 1000000].
+    #[arg(long)]
+    subsurface_photons: Option<u32>,
+    /// Jensen & Buhler's octree error bound (solid angle) [default: 0.05].
+    #[arg(long)]
+    subsurface_accuracy: Option<f32>,
+    /// Sum every subsurface sample instead of using the octree (for measurements).
+    #[arg(long)]
+    subsurface_brute_force: bool,
+    /// Jensen & Buhler's irradiance points over translucent surfaces instead of subsurface
+    /// photons (0: photons) [default: 0].
+    #[arg(long)]
+    subsurface_points: Option<u32>,
 }
 
 impl RenderArgs {
@@ -192,6 +205,7 @@ impl RenderArgs {
         for (name, r) in [
             ("radius", self.radius),
             ("caustic-radius", self.caustic_radius),
+            ("subsurface-accuracy", self.subsurface_accuracy),
         ] {
             if let Some(r) = r {
                 if !(r.is_finite() && r > 0.0) {
@@ -210,6 +224,10 @@ impl RenderArgs {
             caustic_radius: self.caustic_radius.unwrap_or(d.caustic_radius),
             gather_rays: self.gather_rays.unwrap_or(d.gather_rays),
             irradiance_stride: self.irradiance_stride.unwrap_or(d.irradiance_stride),
+            subsurface_photons: self.subsurface_photons.unwrap_or(d.subsurface_photons),
+            subsurface_accuracy: self.subsurface_accuracy.unwrap_or(d.subsurface_accuracy),
+            subsurface_brute_force: self.subsurface_brute_force,
+            subsurface_points: self.subsurface_points.unwrap_or(d.subsurface_points),
             ..d
         })
     }
@@ -467,6 +485,10 @@ fn summarise(
                     "kdtree_seconds": p.kdtree_seconds, "photons_per_second": rate,
                     "irradiance_records": p.irradiance_records,
                     "irradiance_seconds": p.irradiance_seconds,
+                    "subsurface_emitted": p.subsurface_emitted,
+                    "subsurface_stored": p.subsurface_stored,
+                    "subsurface_skipped": p.subsurface_skipped,
+                    "subsurface_seconds": p.subsurface_seconds,
                 }
             }));
         } else {
@@ -485,6 +507,12 @@ fn summarise(
                 p.irradiance_records,
                 p.irradiance_seconds
             );
+            if p.subsurface_stored > 0 {
+                eprintln!(
+                    "photon: subsurface: {} photons emitted / {} samples on translucent surfaces, built with their octrees in {:.3} s",
+                    p.subsurface_emitted, p.subsurface_stored, p.subsurface_seconds
+                );
+            }
         }
     }
     let memory = peak_memory_mib().unwrap_or(0.0);

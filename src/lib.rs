@@ -24,3 +24,4 @@ pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod subsurface;

@@ -4,7 +4,7 @@
 //! _specular, _emissive_strength and _volume extensions.
 
 use crate::math::{Vec2, Vec3, Vec4};
-use crate::scene::{Material, Scene, TextureRef};
+use crate::scene::{Material, Scene, Subsurface, TextureRef};
 
 /// A material's values at one point, with textures applied. Colours are linear RGB.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +28,8 @@ pub struct SurfaceMaterial {
     /// zero when the material has no volume.
     pub absorption: Vec3,
     pub thin_walled: bool,
+    /// Blender's subsurface inputs; translucent when `subsurface.weight > 0`.
+    pub subsurface: Subsurface,
 }
 
 impl Default for SurfaceMaterial {
@@ -45,6 +47,7 @@ impl Default for SurfaceMaterial {
             emission: Vec3::ZERO,
             absorption: Vec3::ZERO,
             thin_walled: false,
+            subsurface: Subsurface::default(),
         }
     }
 }
@@ -93,6 +96,7 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
             material.attenuation_distance,
         ),
         thin_walled: material.thickness <= 0.0,
+        subsurface: material.subsurface,
     }
 }
 

@@ -12,8 +12,10 @@
 //! - **global map + final gather**: needed when indirect diffuse light is possible: there is a light,
 //!   some mesh has a non-black diffuse material, and the geometry is not a single convex mesh lit
 //!   only from outside (light leaving a convex surface never meets the scene again).
-//! - **subsurface**: needed when a translucent material exists; none can be expressed yet, so it
-//!   is always skipped (the slot is kept so the plan already says why).
+//! - **subsurface**: needed when a mesh uses a translucent material (`PHOTON_material_subsurface`
+//!   weight > 0) and the scene has a light: the photon method then traces subsurface photons and
+//!   evaluates the dipole (`integrator::photon::subsurface`). The path tracer samples the same
+//!   dipole by probe rays and needs no pass.
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
 //!   the background); a caustic map needed → photon mapping (caustics are where path tracing is
 //!   noisiest); otherwise → the path tracer, which the benchmark shows is at least as good as
@@ -33,6 +35,9 @@ pub const PHOTON_BYTES: u64 = 20;
 pub const BVH_BYTES_PER_TRIANGLE: u64 = 128;
 /// Film bytes per pixel: RGBA, albedo, normal (f32) and depth.
 pub const IMAGE_BYTES_PER_PIXEL: u64 = 44;
+/// Bytes per subsurface sample (position, flux, material) and its share of the octree; about
+/// one sample per emitted subsurface photon.
+const SUBSURFACE_SAMPLE_BYTES: u64 = 40;
 /// Photons stored per emitted global photon (one per diffuse bounce; a rough average).
 const GLOBAL_STORED_PER_EMITTED: u64 = 3;
 /// Largest (faces × vertices) product for which the convexity test is run.
@@ -92,7 +97,7 @@ pub struct MaterialKinds {
     /// Of the specular ones, those that refract.
     pub refractive: usize,
     pub emissive: usize,
-    /// Subsurface materials (none can be expressed yet).
+    /// Translucent materials (subsurface weight > 0).
     pub translucent: usize,
     /// Non-emissive materials that reflect nothing.
     pub black: usize,
@@ -228,6 +233,7 @@ fn summarise(scene: &Scene) -> SceneSummary {
         materials.specular += t.specular as usize;
         materials.refractive += t.refractive as usize;
         materials.emissive += t.emissive as usize;
+        materials.translucent += scene.materials[index].is_translucent() as usize;
         materials.black += (!t.emissive && !t.diffuse && !t.glossy && !t.specular) as usize;
     }
     let mut lights = LightKinds {
@@ -363,10 +369,19 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
     let anything_to_trace = summary.lights.any();
     let caustic_map = caustic_decision(&summary);
     let global_map = global_decision(scene, &summary);
-    let subsurface = Decision::new(
-        false,
-        "no translucent material (subsurface scattering is not implemented yet)",
-    );
+    let translucent = summary.materials.translucent;
+    let subsurface = if translucent == 0 {
+        Decision::new(false, "no translucent material")
+    } else if !anything_to_trace {
+        Decision::new(false, "translucent materials but no light")
+    } else {
+        Decision::new(
+            true,
+            format!(
+                "{translucent} translucent material(s): dipole diffusion, from subsurface photons (photon method) or probe rays (path tracer)"
+            ),
+        )
+    };
     let (method, method_reason) = if !anything_to_trace {
         (
             Method::Path,
@@ -393,12 +408,18 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
         } else {
             0
         },
+        subsurface_photons: if subsurface.needed {
+            scale(defaults.subsurface_photons)
+        } else {
+            0
+        },
         ..defaults
     };
     let scene_radius = 0.5 * summary.bounds.diagonal();
     let photon_bytes = if method == Method::Photon {
         (photon.global_photons as u64 * GLOBAL_STORED_PER_EMITTED + photon.caustic_photons as u64)
             * PHOTON_BYTES
+            + photon.subsurface_photons as u64 * SUBSURFACE_SAMPLE_BYTES
     } else {
         0
     };
@@ -496,6 +517,13 @@ impl fmt::Display for Plan {
                 self.caustic_radius,
                 self.photon.gather_rays
             )?;
+            if self.photon.subsurface_photons > 0 {
+                writeln!(
+                    f,
+                    "  subsurface photons: {} (octree accuracy {})",
+                    self.photon.subsurface_photons, self.photon.subsurface_accuracy
+                )?;
+            }
         }
         write!(
             f,

@@ -617,6 +617,35 @@ fn material_extensions_and_defaults_are_read() {
     assert_eq!(scene.meshes[1].material, 1);
 }
 
+#[test]
+fn subsurface_extension_is_read_with_blender_defaults_and_checked() {
+    let mut doc = triangle_doc();
+    doc.set_material(json!({
+        "name": "Wax",
+        "extensions": {"PHOTON_material_subsurface": {"weight": 0.5, "radius": [2.0, 1.0, 0.5], "ior": 1.3}}
+    }));
+    doc.json["extensionsUsed"] = json!(["PHOTON_material_subsurface"]);
+    let scene = load_glb(&doc).unwrap();
+    let s = scene.materials[0].subsurface;
+    assert_eq!(
+        (s.weight, s.scale, s.ior, s.anisotropy),
+        (0.5, 0.05, 1.3, 0.0)
+    );
+    assert!(close(s.mean_free_path(), Vec3::new(0.1, 0.05, 0.025)));
+    assert!(scene.materials[0].is_translucent());
+    for bad in [
+        json!({"weight": 1.5}),
+        json!({"radius": [1.0, -1.0, 0.0]}),
+        json!({"radius": [1.0]}),
+        json!({"ior": 0.0}),
+        json!({"scale": "big"}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.set_material(json!({"name": "Wax", "extensions": {"PHOTON_material_subsurface": bad}}));
+        assert_scene_error(load_glb(&doc), &["Wax", "PHOTON_material_subsurface"]);
+    }
+}
+
 /// Make `png` (stored in the buffer) texture 0 of `doc`.
 fn add_png_texture(doc: &mut Doc, png: &[u8], mime: &str) {
     let view = doc.view(png);

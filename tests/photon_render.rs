@@ -5,26 +5,18 @@
 #[path = "support/scenes.rs"]
 mod scenes;
 
+use scenes::with_progress;
+
 use photon::accel::Accel;
 use photon::film::Image;
 use photon::integrator::photon::{build_maps, PhotonSettings};
 use photon::integrator::Context;
 use photon::light::Lights;
 use photon::math::Vec3;
-use photon::render::{render, Method, Progress, ProgressEvent, RenderSettings};
+use photon::render::{render, Method, RenderSettings};
 use photon::scene::gltf::LoadOptions;
 use photon::scene::{builtin, Light, Material, Projection, Scene};
 use std::f32::consts::PI;
-use std::sync::atomic::AtomicBool;
-
-fn with_progress<T>(f: impl FnOnce(&Progress) -> T) -> T {
-    let cancel = AtomicBool::new(false);
-    let report = |_: &ProgressEvent| {};
-    f(&Progress {
-        cancel: &cancel,
-        report: &report,
-    })
-}
 
 fn render_with(scene: &Scene, settings: &RenderSettings) -> Image {
     let (image, stats) = with_progress(|p| render(scene, settings, p)).expect("render");

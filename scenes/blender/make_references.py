@@ -6,7 +6,8 @@ Usage (from the repository root, after tests/setup_python.sh):
     .venv/bin/python scenes/blender/make_references.py --quick      # 1/16 of the samples, to /tmp
 
 Scenes: cornell, cornell_lambert (cornell.py); point_plane, sun_plane, spot_plane
-(lights_plane.py); principled_r05, principled_r10 (principled_plane.py). Takes about 15 minutes on 2 cores, almost all of it the Cornell boxes.
+(lights_plane.py); principled_r05, principled_r10 (principled_plane.py); subsurface, subsurface_s02
+(subsurface.py). Takes about 15 minutes on 2 cores, almost all of it the Cornell boxes.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ sys.path.insert(0, str(HERE))
 import cornell  # noqa: E402
 import lights_plane  # noqa: E402
 import principled_plane  # noqa: E402
+import subsurface  # noqa: E402
 
 SCENES = {
     "cornell_lambert": (cornell.make, cornell.SAMPLES),
@@ -30,6 +32,8 @@ SCENES = {
     "spot_plane": (lights_plane.make, lights_plane.SAMPLES),
     "principled_r05": (principled_plane.make, principled_plane.SAMPLES),
     "principled_r10": (principled_plane.make, principled_plane.SAMPLES),
+    "subsurface": (subsurface.make, subsurface.SAMPLES),
+    "subsurface_s02": (subsurface.make, subsurface.SAMPLES),
 }
 
 

@@ -76,6 +76,9 @@ pub struct Bsdf {
     glass_ior: f32,
     glass_f0: Vec3,
     glass_transmit_tint: Vec3,
+    /// Fraction of the Lambertian part kept (1 − subsurface weight where a subsurface term
+    /// replaces the rest; 1 otherwise).
+    diffuse_scale: f32,
 }
 
 /// One sampled direction.
@@ -163,7 +166,23 @@ impl Bsdf {
                 clamped_base.y.sqrt(),
                 clamped_base.z.sqrt(),
             ),
+            diffuse_scale: 1.0,
         }
+    }
+
+    /// The same BSDF with `weight` of its Lambertian part removed, for shading a translucent
+    /// surface whose subsurface term replaces that part (Principled v2).
+    pub fn without_subsurface(mut self, weight: f32) -> Bsdf {
+        self.diffuse_scale = (1.0 - weight).clamp(0.0, 1.0);
+        self
+    }
+
+    /// Fraction of the light arriving from (or leaving towards) `wo` that crosses the
+    /// specular layer into the base (or out of it): (1 − metallic)(1 − transmission)(1 − the
+    /// layer's directional albedo). Light entering a translucent base is this times the
+    /// subsurface weight.
+    pub fn base_transmittance(&self, wo: Vec3) -> f32 {
+        LobeSet::new(self, wo).map_or(0.0, |l| l.base_transmittance)
     }
 
     fn has_spec_layer(&self) -> bool {
@@ -230,6 +249,8 @@ struct LobeSet {
     wo: Vec3,
     /// Lambertian reflectance (f = diffuse / π).
     diffuse: Vec3,
+    /// Fraction of the light that crosses the specular layer into the base.
+    base_transmittance: f32,
     /// Specular-layer and metal multipliers (lobe weight × energy compensation).
     spec_scale: Vec3,
     metal_scale: Vec3,
@@ -292,7 +313,8 @@ impl LobeSet {
         } else {
             0.0
         };
-        let diffuse = b.base_color * (b.base_weight * (1.0 - layer_albedo).max(0.0));
+        let base_transmittance = b.base_weight * (1.0 - layer_albedo).max(0.0);
+        let diffuse = b.base_color * (base_transmittance * b.diffuse_scale);
         albedo[DIFFUSE] = diffuse;
 
         if b.metal_weight > 0.0 {
@@ -339,6 +361,7 @@ impl LobeSet {
             side,
             wo,
             diffuse,
+            base_transmittance,
             spec_scale,
             metal_scale,
             glass_eta,

@@ -4,16 +4,122 @@
 //! the power heuristic; next-event estimation samples one light chosen by power; the BSDF is
 //! sampled to continue; Russian roulette on the throughput after three bounces (pbrt-v4 §13.4).
 //! Inside a transmissive object the throughput is attenuated by Beer–Lambert absorption.
+//!
+//! Translucent materials (subsurface weight w > 0) use the same dipole BSSRDF as the photon
+//! renderer (`crate::subsurface`), sampled by probe rays (as pbrt-v3 and Cycles' disk method
+//! do): with probability ½ the path takes the subsurface branch, else the BSDF without w of its
+//! Lambertian part. The branch picks a channel, a radius from that channel's R_d profile and a
+//! projection axis (normal ½, tangents ¼ each), casts a probe through the disc and picks one of
+//! its hits on the same material uniformly; the area density of that point sums all channels
+//! and axes (one-sample MIS). The throughput is multiplied by w·T(ω_o)·R_d(d)/pdf, and the path
+//! continues from the exit point with an entry lobe f = T(ω_i)/π (light sampling with MIS, then
+//! a cosine-sampled direction). T is the specular layer's transmission, as in the photon
+//! renderer, so both evaluate S = w T(ω_o) R_d(d) T(ω_i)/π.
 
 use super::{CameraSample, Context};
 use crate::accel::{Ray, Visibility};
 use crate::bsdf::{bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf};
 use crate::interaction::SurfaceHit;
 use crate::light::emitted_radiance;
-use crate::material::eval_material;
-use crate::math::{max_component, Vec3};
+use crate::material::{eval_material, SurfaceMaterial};
+use crate::math::{max_component, Frame, Vec3};
 use crate::rng::Rng;
-use crate::sampling::power_heuristic;
+use crate::sampling::{cosine_hemisphere_pdf, power_heuristic, square_to_cosine_hemisphere};
+use crate::subsurface::Dipole;
+use std::f32::consts::PI;
+
+/// Probability of the subsurface branch at a translucent vertex.
+const SUBSURFACE_BRANCH: f32 = 0.5;
+/// Most probe-ray hits considered.
+const MAX_PROBE_HITS: usize = 8;
+
+/// A point where light leaves the translucent material, found by a probe ray from `sh`, with
+/// the throughput factor R_d(d)/pdf(x_i) per channel. `None` when the probe finds nothing.
+fn sample_exit(
+    ctx: &Context,
+    sh: &SurfaceHit,
+    frame: &Frame,
+    surface: &SurfaceMaterial,
+    rng: &mut Rng,
+) -> Option<(SurfaceHit, Vec3)> {
+    let sub = &surface.subsurface;
+    let dipole = Dipole::new(
+        surface.base_color.clamp(Vec3::ZERO, Vec3::ONE),
+        sub.mean_free_path(),
+        sub.ior,
+        0.0,
+    );
+    let r_max: [f32; 3] = std::array::from_fn(|c| dipole.max_radius(c));
+    let channel = (rng.uniform() * 3.0).min(2.0) as usize;
+    let axes = [
+        (frame.n, frame.s, frame.t, 0.5f32),
+        (frame.s, frame.t, frame.n, 0.25),
+        (frame.t, frame.n, frame.s, 0.25),
+    ];
+    let u = rng.uniform();
+    let (axis, a, b, _) = axes[if u < 0.5 {
+        0
+    } else if u < 0.75 {
+        1
+    } else {
+        2
+    }];
+    let r = dipole.sample_radius(channel, rng.uniform(), r_max[channel]);
+    let phi = 2.0 * PI * rng.uniform();
+    let half = (r_max[channel] * r_max[channel] - r * r).max(0.0).sqrt();
+    let centre = sh.p + (a * phi.cos() + b * phi.sin()) * r;
+    // Collect the probe's hits on the same material, from one end of the chord to the other.
+    let mut hits = Vec::with_capacity(MAX_PROBE_HITS);
+    let mut ray = Ray {
+        origin: centre + axis * half,
+        direction: -axis,
+        t_max: 2.0 * half,
+    };
+    let end = centre - axis * half;
+    while hits.len() < MAX_PROBE_HITS {
+        let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary) else {
+            break;
+        };
+        let h = SurfaceHit::new(ctx.scene, &ray, &hit);
+        if h.material == sh.material {
+            hits.push(h);
+        }
+        ray = h.spawn(-axis);
+        ray.t_max = (end - ray.origin).dot(-axis);
+        if !(ray.t_max > 0.0) {
+            break;
+        }
+    }
+    if hits.is_empty() {
+        return None;
+    }
+    let exit = hits[((rng.uniform() * hits.len() as f32) as usize).min(hits.len() - 1)];
+    let d = exit.p - sh.p;
+    let mut pdf = 0.0;
+    for (axis, _, _, p_axis) in axes {
+        let along = d.dot(axis);
+        let r_axis = (d.length_squared() - along * along).max(0.0).sqrt();
+        let cos = exit.ng.dot(axis).abs();
+        for (c, &rm) in r_max.iter().enumerate() {
+            pdf += p_axis / 3.0 * dipole.disc_pdf(c, r_axis, rm) * cos;
+        }
+    }
+    pdf /= hits.len() as f32;
+    let weight = dipole.rd(d.length_squared()) / pdf;
+    (pdf > 0.0 && weight.is_finite()).then_some((exit, weight))
+}
+
+/// Russian roulette on the throughput: false when the path ends, else `beta` is reweighted.
+fn russian_roulette(beta: &mut Vec3, rng: &mut Rng) -> bool {
+    let q = max_component(*beta).min(1.0);
+    if q < 1.0 {
+        if rng.uniform() >= q {
+            return false;
+        }
+        *beta /= q;
+    }
+    true
+}
 
 /// Trace one path from the camera ray and return its radiance and first-hit data.
 pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
@@ -89,8 +195,56 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
             frame.t = -frame.t;
             ng = -ng;
         }
-        let bsdf = Bsdf::new(&surface);
+        let mut bsdf = Bsdf::new(&surface);
         let wo_local = frame.to_local(wo);
+
+        let weight = surface.subsurface.weight;
+        if weight > 0.0 && opaque {
+            if rng.uniform() < SUBSURFACE_BRANCH {
+                // The subsurface branch: leave the material at x_i, then the entry lobe there.
+                let enter = weight * bsdf.base_transmittance(wo_local) / SUBSURFACE_BRANCH;
+                let Some((exit, rd_over_pdf)) = sample_exit(ctx, &sh, &frame, &surface, rng) else {
+                    break;
+                };
+                beta *= rd_over_pdf * enter;
+                let exit_frame = Frame::from_normal(exit.ng);
+                let transmit = |wi: Vec3| bsdf.base_transmittance(exit_frame.to_local(wi));
+                if let Some(ls) = ctx
+                    .lights
+                    .sample(scene, exit.p, rng.uniform(), rng.uniform2())
+                {
+                    let cos = ls.wi.dot(exit.ng);
+                    if cos > 0.0 && ls.li != Vec3::ZERO {
+                        out.rays += 1;
+                        if ctx.accel.unoccluded(scene, &exit.spawn_to(&ls.target)) {
+                            let w = if ls.delta {
+                                1.0
+                            } else {
+                                power_heuristic(ls.pdf, cosine_hemisphere_pdf(cos))
+                            };
+                            let f = transmit(ls.wi) * cos / PI;
+                            radiance += beta * ls.li * (f * w / ls.pdf);
+                        }
+                    }
+                }
+                let local = square_to_cosine_hemisphere(rng.uniform2());
+                let wi = exit_frame.to_world(local).normalize();
+                beta *= transmit(wi);
+                if beta == Vec3::ZERO || !beta.is_finite() {
+                    break;
+                }
+                prev_pdf = cosine_hemisphere_pdf(local.z);
+                prev_delta = false;
+                prev_p = exit.p;
+                ray = exit.spawn(wi);
+                if depth >= 3 && !russian_roulette(&mut beta, rng) {
+                    break;
+                }
+                continue;
+            }
+            bsdf = bsdf.without_subsurface(weight);
+            beta /= 1.0 - SUBSURFACE_BRANCH;
+        }
 
         if bsdf.has_non_delta() {
             if let Some(ls) = ctx
@@ -144,14 +298,8 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
         }
         ray = sh.spawn(wi);
 
-        if depth >= 3 {
-            let q = max_component(beta).min(1.0);
-            if q < 1.0 {
-                if rng.uniform() >= q {
-                    break;
-                }
-                beta /= q;
-            }
+        if depth >= 3 && !russian_roulette(&mut beta, rng) {
+            break;
         }
     }
     out.radiance = radiance;

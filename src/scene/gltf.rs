@@ -33,6 +33,13 @@
 //!     is `color × power / (π × area)` with the area of the polygon actually built (Blender's
 //!     "normalize"). Defaults: SQUARE, size 1, power 10 W, white, `visible_camera` false.
 //!
+//! - `PHOTON_material_subsurface` on a material: `{"weight": w, "radius": [r, g, b], "scale": s,
+//!   "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs (defaults: weight 0,
+//!   radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4, anisotropy 0). With weight > 0 the material
+//!   is translucent: the subsurface part replaces weight × the diffuse part, with the base colour
+//!   as its total diffuse reflectance and `radius × scale` (scene units) as the mean free path
+//!   per channel (see `crate::subsurface`). Out-of-range values are refused with an error.
+//!
 //! # Limits and conventions
 //!
 //! Files that would exhaust memory are refused before allocating: accessors must fit in their
@@ -51,7 +58,7 @@
 use super::texture::Wrap;
 use super::{
     AlphaMode, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
-    SceneRenderSettings, Texture, TextureRef, World,
+    SceneRenderSettings, Subsurface, Texture, TextureRef, World,
 };
 use crate::error::{Error, Result};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -848,6 +855,40 @@ impl Loader {
             out.thickness = volume.thickness_factor();
             out.attenuation_distance = volume.attenuation_distance();
             out.attenuation_color = Vec3::from(volume.attenuation_color());
+        }
+        if let Some(sss) = material.extension_value("PHOTON_material_subsurface") {
+            out.subsurface = self.read_subsurface(sss, &object)?;
+        }
+        Ok(out)
+    }
+
+    /// `PHOTON_material_subsurface`: every field optional (Blender's defaults), every value
+    /// finite; weight in [0, 1], radius and scale ≥ 0, IOR > 0, anisotropy in (−1, 1).
+    fn read_subsurface(&self, value: &Value, object: &str) -> Result<Subsurface> {
+        let object = format!("{object} PHOTON_material_subsurface");
+        let mut out = Subsurface::default();
+        let number = |key: &str, ok: fn(f32) -> bool, default: f32| -> Result<f32> {
+            match value.get(key) {
+                None => Ok(default),
+                Some(v) => match v.as_f64().map(|x| x as f32) {
+                    Some(x) if x.is_finite() && ok(x) => Ok(x),
+                    _ => Err(self.err(&object, format!("'{key}' is out of range: {v}"))),
+                },
+            }
+        };
+        out.weight = number("weight", |x| (0.0..=1.0).contains(&x), out.weight)?;
+        out.scale = number("scale", |x| x >= 0.0, out.scale)?;
+        out.ior = number("ior", |x| x > 0.0, out.ior)?;
+        out.anisotropy = number("anisotropy", |x| x.abs() < 1.0, out.anisotropy)?;
+        if let Some(v) = value.get("radius") {
+            out.radius = json_vec3(v)
+                .filter(|r| r.is_finite() && r.min_element() >= 0.0)
+                .ok_or_else(|| {
+                    self.err(
+                        &object,
+                        format!("'radius' must be three numbers ≥ 0, found {v}"),
+                    )
+                })?;
         }
         Ok(out)
     }

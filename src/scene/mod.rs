@@ -79,6 +79,44 @@ pub struct Material {
     pub attenuation_distance: f32,
     /// KHR_materials_volume thicknessFactor; zero means thin-walled.
     pub thickness: f32,
+    /// Blender's Principled subsurface inputs (our `PHOTON_material_subsurface` extension).
+    pub subsurface: Subsurface,
+}
+
+/// Blender's Principled BSDF subsurface inputs. The material is translucent when `weight > 0`:
+/// the subsurface part then replaces `weight` × the diffuse part (see `crate::subsurface`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Subsurface {
+    /// Subsurface Weight in [0, 1].
+    pub weight: f32,
+    /// Subsurface Radius per channel; the mean free path is `radius × scale` (scene units).
+    pub radius: Vec3,
+    /// Subsurface Scale.
+    pub scale: f32,
+    /// Subsurface IOR (relative, inside over outside).
+    pub ior: f32,
+    /// Subsurface Anisotropy (read and kept; the dipole does not use it).
+    pub anisotropy: f32,
+}
+
+impl Default for Subsurface {
+    /// Blender's Principled BSDF defaults: weight 0, radius (1, 0.2, 0.1), scale 0.05, IOR 1.4.
+    fn default() -> Self {
+        Subsurface {
+            weight: 0.0,
+            radius: Vec3::new(1.0, 0.2, 0.1),
+            scale: 0.05,
+            ior: 1.4,
+            anisotropy: 0.0,
+        }
+    }
+}
+
+impl Subsurface {
+    /// Mean free path per channel (scene units).
+    pub fn mean_free_path(&self) -> Vec3 {
+        self.radius * self.scale
+    }
 }
 
 impl Default for Material {
@@ -105,6 +143,7 @@ impl Default for Material {
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
             thickness: 0.0,
+            subsurface: Subsurface::default(),
         }
     }
 }
@@ -125,6 +164,11 @@ impl Material {
             double_sided: true,
             ..Material::default()
         }
+    }
+
+    /// True when the material has a subsurface (translucent) part.
+    pub fn is_translucent(&self) -> bool {
+        self.subsurface.weight > 0.0
     }
 
     /// True when the material emits light (some texel may be black, but the factor is not).

@@ -8,6 +8,16 @@ use photon::render::{render, Progress, ProgressEvent, RenderSettings, RenderStat
 use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
 use std::sync::atomic::AtomicBool;
 
+/// Run `f` with a progress sink that is never cancelled and reports nothing.
+pub fn with_progress<T>(f: impl FnOnce(&Progress) -> T) -> T {
+    let cancel = AtomicBool::new(false);
+    let report = |_: &ProgressEvent| {};
+    f(&Progress {
+        cancel: &cancel,
+        report: &report,
+    })
+}
+
 /// A unit sphere tessellated by latitude/longitude, with normals pointing outward (or inward).
 pub fn sphere(
     center: Vec3,
@@ -258,11 +268,5 @@ pub fn render_quietly(
     scene: &Scene,
     settings: &RenderSettings,
 ) -> photon::error::Result<(Image, RenderStats)> {
-    let cancel = AtomicBool::new(false);
-    let report = |_: &ProgressEvent| {};
-    let progress = Progress {
-        cancel: &cancel,
-        report: &report,
-    };
-    render(scene, settings, &progress)
+    with_progress(|progress| render(scene, settings, progress))
 }

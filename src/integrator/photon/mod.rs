@@ -58,6 +58,7 @@
 //! when fewer are found), discarding photons off the tangent plane (more than a quarter of r away
 //! along the normal) and, through f_r, photons from the wrong side.
 
+pub mod subsurface;
 pub mod tracing;
 
 use super::{CameraSample, Context};
@@ -114,6 +115,19 @@ pub struct PhotonSettings {
     /// Precompute irradiance at every n-th global photon (Christensen 1999) and let final-gather
     /// hits on Lambertian surfaces read the nearest record; 0 computes a full estimate per hit.
     pub irradiance_stride: u32,
+    /// Photons emitted for the subsurface samples (default 1 000 000; only with a translucent
+    /// material).
+    pub subsurface_photons: u32,
+    /// Jensen & Buhler's error bound: an octree node counts as one sample when the solid angle
+    /// its samples' area subtends is below this (default 0.05).
+    pub subsurface_accuracy: f32,
+    /// Sum every subsurface sample instead of the octree (for tests and measurements).
+    pub subsurface_brute_force: bool,
+    /// Jensen & Buhler's irradiance points instead of subsurface photons: this many points over
+    /// the translucent surfaces (default 0: photons).
+    pub subsurface_points: u32,
+    /// Shadow rays per irradiance point (default 4).
+    pub subsurface_light_samples: u32,
 }
 
 impl Default for PhotonSettings {
@@ -128,6 +142,11 @@ impl Default for PhotonSettings {
             gather_rays: 4,
             max_photon_bounces: 16,
             irradiance_stride: 4,
+            subsurface_photons: 1_000_000,
+            subsurface_accuracy: 0.05,
+            subsurface_brute_force: false,
+            subsurface_points: 0,
+            subsurface_light_samples: 4,
         }
     }
 }
@@ -159,6 +178,12 @@ pub struct PhotonInfo {
     /// Precomputed irradiance records (Christensen 1999) and the time they took.
     pub irradiance_records: usize,
     pub irradiance_seconds: f64,
+    pub subsurface_emitted: u64,
+    pub subsurface_stored: usize,
+    /// Why the subsurface pass was skipped, if it was.
+    pub subsurface_skipped: Option<String>,
+    /// Tracing the subsurface photons and building their octrees.
+    pub subsurface_seconds: f64,
 }
 
 /// Both maps and the lookup parameters.
@@ -167,6 +192,8 @@ pub struct PhotonMaps {
     pub caustic: Option<PhotonMap>,
     /// Precomputed irradiance records: position, irradiance as `power`, normal as `incoming`.
     pub irradiance: Option<PhotonMap>,
+    /// Subsurface samples of translucent materials.
+    pub subsurface: Option<subsurface::SubsurfaceMaps>,
     pub settings: PhotonSettings,
     global_radius2: f32,
     caustic_radius2: f32,
@@ -175,6 +202,7 @@ pub struct PhotonMaps {
 
 /// A surface hit prepared for shading, with the path tracer's frame convention: opaque surfaces
 /// turn the frame (and `ng`) to the viewer's side, transmissive ones keep the winding side.
+#[derive(Clone, Copy)]
 pub struct Shading {
     pub sh: SurfaceHit,
     pub surface: SurfaceMaterial,
@@ -252,8 +280,54 @@ pub fn is_specular(scene: &crate::scene::Scene, m: u32) -> bool {
     b.has_delta() || (b.has_specular() && b.roughness() < SPECULAR_ROUGHNESS)
 }
 
-/// Trace `count` photons of one pass in parallel batches, concatenated in batch order.
-fn trace_pass(
+/// Which photons a pass emits: its name in progress messages, the tag that separates its random
+/// stream from the other passes', and whether its photons are aimed at the specular meshes.
+struct Stream<'a> {
+    label: &'a str,
+    tag: u64,
+    aimed: bool,
+}
+
+/// Trace `count` photons in parallel batches with `trace(ray, power, rng, out)` (power already
+/// divided by the count), concatenated in batch order.
+fn trace_pass<T: Send + Clone>(
+    ctx: &Context,
+    emitters: &Emitters,
+    stream: Stream,
+    count: u32,
+    seed: u64,
+    progress: &Progress,
+    trace: impl Fn(Ray, Vec3, &mut Rng, &mut Vec<T>) + Sync,
+) -> Result<Vec<T>> {
+    let batches = count.div_ceil(BATCH);
+    let done = AtomicU64::new(0);
+    let scale = 1.0 / count.max(1) as f32;
+    let parts: Vec<Vec<T>> = (0..batches)
+        .into_par_iter()
+        .map(|b| {
+            progress.check()?;
+            let mut rng = Rng::for_item(seed ^ stream.tag, b as u64, 0);
+            let n = BATCH.min(count - b * BATCH);
+            let mut out = Vec::with_capacity(n as usize * 2);
+            for _ in 0..n {
+                if let Some((ray, power)) = emitters.emit(ctx, stream.aimed, &mut rng) {
+                    trace(ray, power * scale, &mut rng, &mut out);
+                }
+            }
+            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
+            (progress.report)(&ProgressEvent {
+                stage: "photons",
+                fraction: finished as f32 / batches as f32,
+                message: format!("{} photons: batch {finished}/{batches}", stream.label),
+            });
+            Ok(out)
+        })
+        .collect::<Result<_>>()?;
+    Ok(parts.concat())
+}
+
+/// `trace_pass` for the global and caustic maps.
+fn trace_map_pass(
     ctx: &Context,
     emitters: &Emitters,
     settings: &PhotonSettings,
@@ -262,36 +336,26 @@ fn trace_pass(
     seed: u64,
     progress: &Progress,
 ) -> Result<Vec<Photon>> {
-    let batches = count.div_ceil(BATCH);
-    let done = AtomicU64::new(0);
-    let scale = 1.0 / count.max(1) as f32;
     let tag = match pass {
         Pass::Global => 0x9b0a_1c5e_u64,
         Pass::Caustic => 0x3c4f_77d1_u64,
     };
-    let parts: Vec<Vec<Photon>> = (0..batches)
-        .into_par_iter()
-        .map(|b| {
-            progress.check()?;
-            let mut rng = Rng::for_item(seed ^ tag, b as u64, 0);
-            let n = BATCH.min(count - b * BATCH);
-            let mut out = Vec::with_capacity(n as usize * 2);
-            for _ in 0..n {
-                if let Some((ray, power)) = emitters.emit(ctx, pass == Pass::Caustic, &mut rng) {
-                    let max = settings.max_photon_bounces;
-                    trace_photon(ctx, ray, power * scale, pass, max, &mut rng, &mut out);
-                }
-            }
-            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            (progress.report)(&ProgressEvent {
-                stage: "photons",
-                fraction: finished as f32 / batches as f32,
-                message: format!("{pass:?} photons: batch {finished}/{batches}"),
-            });
-            Ok(out)
-        })
-        .collect::<Result<_>>()?;
-    Ok(parts.concat())
+    let max = settings.max_photon_bounces;
+    let label = format!("{pass:?}");
+    let stream = Stream {
+        label: &label,
+        tag,
+        aimed: pass == Pass::Caustic,
+    };
+    trace_pass(
+        ctx,
+        emitters,
+        stream,
+        count,
+        seed,
+        progress,
+        |ray, power, rng, out| trace_photon(ctx, ray, power, pass, max, rng, out),
+    )
 }
 
 /// Pass 1: trace and balance the maps.
@@ -304,7 +368,7 @@ pub fn build_maps(
     let emitters = Emitters::new(ctx);
     let mut info = PhotonInfo::default();
     let start = Instant::now();
-    let global = trace_pass(
+    let global = trace_map_pass(
         ctx,
         &emitters,
         settings,
@@ -322,7 +386,7 @@ pub fn build_maps(
         Vec::new()
     } else {
         info.caustic_emitted = settings.caustic_photons as u64;
-        trace_pass(
+        trace_map_pass(
             ctx,
             &emitters,
             settings,
@@ -354,11 +418,22 @@ pub fn build_maps(
         _ => None,
     };
     info.irradiance_seconds = start.elapsed().as_secs_f64();
+    let subsurface = subsurface::build(
+        ctx,
+        &emitters,
+        settings,
+        global.as_ref(),
+        sq(settings.global_radius),
+        seed,
+        progress,
+        &mut info,
+    )?;
     Ok((
         PhotonMaps {
             global,
             caustic,
             irradiance,
+            subsurface,
             settings: settings.clone(),
             global_radius2: sq(settings.global_radius),
             caustic_radius2: sq(settings.caustic_radius),
@@ -688,6 +763,23 @@ impl Pass2<'_> {
         l
     }
 
+    /// `shade`, where on a translucent surface the subsurface term replaces the subsurface
+    /// weight's share of the Lambertian part.
+    fn shade_full(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+        let sss = self.maps.subsurface.as_ref().and_then(|m| m.radiance(s));
+        match sss {
+            None => self.shade(s, rng),
+            Some(l) => {
+                let weight = s.surface.subsurface.weight;
+                let rest = Shading {
+                    bsdf: s.bsdf.without_subsurface(weight),
+                    ..*s
+                };
+                l + self.shade(&rest, rng)
+            }
+        }
+    }
+
     /// Photon dots: the nearest photon within a small radius, white (global) or orange (caustic).
     fn dots(&mut self, s: &Shading) -> Vec3 {
         let maps = self.maps;
@@ -778,7 +870,7 @@ pub fn trace(
         }
         if stores_photons(&s.bsdf, s.wo_local) {
             let l = match view {
-                View::Full => p2.shade(&s, rng),
+                View::Full => p2.shade_full(&s, rng),
                 View::Global => p2.global(&s),
                 View::Caustic => p2.caustic(&s),
                 View::Photons => p2.dots(&s),

@@ -34,6 +34,7 @@ use crate::sampling::{
     square_to_cosine_hemisphere, square_to_disk, square_to_uniform_cone, square_to_uniform_sphere,
     uniform_cone_pdf, Distribution1D,
 };
+use crate::subsurface::Sample;
 use std::f32::consts::PI;
 
 /// True when a photon arriving at this surface is stored and the renderer reads photon maps
@@ -355,12 +356,73 @@ pub enum Pass {
 /// the photons it leaves to `out`.
 pub fn trace_photon(
     ctx: &Context,
-    mut ray: Ray,
-    mut power: Vec3,
+    ray: Ray,
+    power: Vec3,
     pass: Pass,
     max_bounces: u32,
     rng: &mut Rng,
     out: &mut Vec<Photon>,
+) {
+    walk_photon(
+        ctx,
+        ray,
+        power,
+        max_bounces,
+        rng,
+        |s, power, bounce, caustic| {
+            let photon = Photon::new(s.sh.p, power, s.wo, bounce, caustic).with_normal(s.ng);
+            match pass {
+                Pass::Global => {
+                    out.push(photon);
+                    true
+                }
+                Pass::Caustic => {
+                    if caustic {
+                        out.push(photon);
+                    }
+                    false
+                }
+            }
+        },
+    );
+}
+
+/// Trace one photon for the subsurface samples: at every hit on a translucent surface, the
+/// flux entering it (power × subsurface weight × the base's share behind the specular layer,
+/// seen from the photon's direction) is appended to `out` with the material index. The photon
+/// goes on scattering with the full BSDF (the subsurface part treated as its local, Lambertian
+/// limit), so light reaching the object after other bounces is counted too.
+pub fn trace_subsurface_photon(
+    ctx: &Context,
+    ray: Ray,
+    power: Vec3,
+    max_bounces: u32,
+    rng: &mut Rng,
+    out: &mut Vec<(u32, Sample)>,
+) {
+    walk_photon(ctx, ray, power, max_bounces, rng, |s, power, _, _| {
+        let w = s.surface.subsurface.weight;
+        if w > 0.0 {
+            let flux = power * (w * s.bsdf.base_transmittance(s.wo_local));
+            if max_component(flux) > 0.0 {
+                let position = s.sh.p;
+                out.push((s.sh.material, Sample { position, flux }));
+            }
+        }
+        true
+    });
+}
+
+/// The photon random walk shared by every pass: `store(shading, power, bounces, caustic)` is
+/// called at each hit on a surface that stores photons (`caustic`: only specular bounces so
+/// far) and returns whether the walk goes on.
+fn walk_photon(
+    ctx: &Context,
+    mut ray: Ray,
+    mut power: Vec3,
+    max_bounces: u32,
+    rng: &mut Rng,
+    mut store: impl FnMut(&Shading, Vec3, u32, bool) -> bool,
 ) {
     // True while every bounce so far was specular (light → S*).
     let mut specular_path = true;
@@ -374,18 +436,8 @@ pub fn trace_photon(
         }
         let s = Shading::new(ctx, &ray, &hit);
         let storing = stores_photons(&s.bsdf, s.wo_local);
-        if storing {
-            let caustic = bounce > 0 && specular_path;
-            let photon = |c| Photon::new(s.sh.p, power, s.wo, bounce, c).with_normal(s.ng);
-            match pass {
-                Pass::Global => out.push(photon(caustic)),
-                Pass::Caustic => {
-                    if caustic {
-                        out.push(photon(true));
-                    }
-                    return;
-                }
-            }
+        if storing && !store(&s, power, bounce, bounce > 0 && specular_path) {
+            return;
         }
         if bounce == max_bounces {
             return;
