@@ -65,6 +65,7 @@ use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::{bsdf_albedo, bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf, BsdfSample};
 use crate::error::Result;
 use crate::interaction::SurfaceHit;
+use crate::irradiance_cache::IrradianceCache;
 use crate::light::emitted_radiance;
 use crate::material::{eval_material, SurfaceMaterial};
 use crate::math::{max_component, Frame, Vec2, Vec3};
@@ -167,6 +168,9 @@ pub struct PhotonMaps {
     pub caustic: Option<PhotonMap>,
     /// Precomputed irradiance records: position, irradiance as `power`, normal as `incoming`.
     pub irradiance: Option<PhotonMap>,
+    /// Ward's irradiance cache for the indirect term on Lambertian surfaces (`integrator::ic`),
+    /// set after the maps are built; `None` shades with plain final gather rays.
+    pub cache: Option<IrradianceCache>,
     pub settings: PhotonSettings,
     global_radius2: f32,
     caustic_radius2: f32,
@@ -224,7 +228,7 @@ impl Shading {
     }
 
     /// Sample the BSDF and turn the sample into a world direction; `None` when the path ends.
-    fn sample(&self, u_lobe: f32, u: Vec2) -> Option<(BsdfSample, Vec3)> {
+    pub(crate) fn sample(&self, u_lobe: f32, u: Vec2) -> Option<(BsdfSample, Vec3)> {
         let bs = sample_bsdf(&self.bsdf, self.wo_local, u_lobe, u)?;
         let wi = self.frame.to_world(bs.wi).normalize();
         if self.opaque && wi.dot(self.ng) <= 0.0 {
@@ -354,6 +358,7 @@ pub fn build_maps(
             global,
             caustic,
             irradiance,
+            cache: None,
             settings: settings.clone(),
             global_radius2: sq(settings.global_radius),
             caustic_radius2: sq(settings.caustic_radius),
@@ -647,6 +652,12 @@ impl Pass2<'_> {
 
     /// Reflected radiance at a non-specular surface: direct + caustics + final gather.
     fn shade(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+        // Irradiance cache: indirect from the records, direct by light sampling alone.
+        if let Some(cache) = &self.maps.cache {
+            if let Some(indirect) = super::ic::cached_radiance(cache, s) {
+                return self.direct(s, false, rng) + self.caustic(s) + indirect;
+            }
+        }
         let m = self.maps.settings.gather_rays;
         let mut l = self.direct(s, m > 0, rng) + self.caustic(s);
         if m == 0 {
@@ -694,6 +705,35 @@ impl Pass2<'_> {
         }
         Vec3::ZERO
     }
+}
+
+/// Radiance arriving at `s` along `wi` for an irradiance-cache record, with the distance of the
+/// first hit: the global estimate behind specular surfaces, as a final-gather ray reads it, but
+/// without emission (the cached point samples its lights itself).
+pub(crate) fn cache_gather(
+    ctx: &Context,
+    maps: &PhotonMaps,
+    s: &Shading,
+    wi: Vec3,
+    rng: &mut Rng,
+) -> (Vec3, f32) {
+    let mut p2 = Pass2 {
+        ctx,
+        maps,
+        buf: Neighbors::default(),
+        rays: 0,
+    };
+    let ray = s.sh.spawn(wi);
+    let Some(hit) = p2.intersect(&ray) else {
+        return (Vec3::ZERO, f32::INFINITY);
+    };
+    let d = Shading::new(ctx, &ray, &hit);
+    let mut unused = Vec3::ZERO;
+    let l = match p2.through_specular(d, Vec3::ZERO, false, &mut unused, rng) {
+        Some((d, beta)) => beta * p2.gather_estimate(&d),
+        None => Vec3::ZERO,
+    };
+    (l, hit.t * ray.direction.length())
 }
 
 /// Pass 2 for one camera ray: specular surfaces are ray traced (as the path tracer does, with
