@@ -201,10 +201,10 @@ struct RenderArgs {
     /// (off: final gather rays at every shading point) [default: on].
     #[arg(long, value_enum)]
     irradiance_cache: Option<OnOff>,
-    /// Irradiance-cache accuracy a (records are used where Ward's weight exceeds 1/a) [default: 0.15].
+    /// Irradiance-cache accuracy a (records are used where Ward's weight exceeds 1/a) [default: 0.2].
     #[arg(long)]
     ic_accuracy: Option<f32>,
-    /// Gather rays per irradiance record (split into T x P strata) [default: 512].
+    /// Gather rays per irradiance record (split into T x P strata) [default: 256].
     #[arg(long)]
     ic_gather_rays: Option<u32>,
     /// Smallest radius an irradiance record covers, in pixels [default: 1.5].

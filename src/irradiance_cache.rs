@@ -46,9 +46,9 @@ use std::f32::consts::PI;
 pub struct IcSettings {
     /// The photon method shades Lambertian surfaces from the cache (`--irradiance-cache`).
     pub enabled: bool,
-    /// Ward's accuracy a: records are used where w > 1/a (default 0.15).
+    /// Ward's accuracy a: records are used where w > 1/a (default 0.2).
     pub accuracy: f32,
-    /// Gather rays per record, split into T × P strata (default 512).
+    /// Gather rays per record, split into T × P strata (default 256).
     pub gather_rays: u32,
     /// Smallest radius a record covers, in pixels (default 1.5).
     pub min_spacing: f32,
@@ -60,8 +60,8 @@ impl Default for IcSettings {
     fn default() -> Self {
         IcSettings {
             enabled: true,
-            accuracy: 0.15,
-            gather_rays: 512,
+            accuracy: 0.2,
+            gather_rays: 256,
             min_spacing: 1.5,
             max_spacing: 48.0,
         }
@@ -327,9 +327,12 @@ impl IrradianceCache {
 
     /// Call `f` with every record whose node's loose box holds `p`.
     fn visit(&self, p: Vec3, mut f: impl FnMut(&Record)) {
-        let mut stack = vec![0u32];
-        while let Some(i) = stack.pop() {
-            let node = &self.nodes[i as usize];
+        // Depth-first with a fixed stack: at most 8 children wait per level.
+        let mut stack = [0u32; 8 * MAX_DEPTH as usize + 1];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let node = &self.nodes[stack[top] as usize];
             for &r in &node.records {
                 f(&self.records[r as usize]);
             }
@@ -337,7 +340,8 @@ impl IrradianceCache {
                 if c != 0 {
                     let child = &self.nodes[c as usize];
                     if (p - child.center).abs().max_element() <= 2.0 * child.half {
-                        stack.push(c);
+                        stack[top] = c;
+                        top += 1;
                     }
                 }
             }
