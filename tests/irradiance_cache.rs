@@ -296,3 +296,40 @@ fn path_cache_agrees_with_the_path_tracer() {
     println!("mean {cached} with the cache, {path} path traced");
     assert!(diff < 0.04, "means differ by {:.1} %", 100.0 * diff);
 }
+
+#[test]
+fn debug_views_show_irradiance_and_record_dots() {
+    let scene = builtin::cornell_box(&LoadOptions::default()).expect("cornell box");
+    let irradiance = render_in_pool(&scene, &cornell_settings(Method::IcIrradiance, 24, 1), 2);
+    let lit = irradiance.rgba.iter().filter(|p| p[0] > 0.0).count();
+    assert!(
+        lit > 24 * 24 / 2,
+        "only {lit} pixels show cached irradiance"
+    );
+    let records = render_in_pool(&scene, &cornell_settings(Method::IcRecords, 24, 1), 2);
+    let dots = records.rgba.iter().filter(|p| p[..3] == [1.0; 3]).count();
+    assert!(dots > 10 && dots < 24 * 24 / 2, "{dots} record dots");
+}
+
+#[test]
+fn bad_cache_settings_exit_with_2() {
+    for args in [
+        ["--ic-accuracy", "0"],
+        ["--ic-gather-rays", "0"],
+        ["--ic-min-spacing", "0"],
+        ["--irradiance-cache", "maybe"],
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_photon"))
+            .args(["render", "--width", "8", "--height", "8", "--spp", "1"])
+            .args(["-o", "/dev/null/never.png"])
+            .args(args)
+            .output()
+            .expect("run photon");
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains(args[0].trim_start_matches('-')),
+            "{args:?}: {stderr}"
+        );
+    }
+}

@@ -26,6 +26,14 @@
 //! is below `SPECULAR_ROUGHNESS` = 0.049 (LuxCore's glossiness threshold): such surfaces are ray
 //! traced; all others store photons and are shaded from the maps.
 //!
+//! **Irradiance cache** (`integrator::ic`, on by default): at a Lambertian opaque x, the indirect
+//! term is ρ/π × E interpolated from Ward's records (each gathered once by stratified rays into
+//! the global map, as `gather_ray` reads it but without emission), and direct light is one light
+//! sample without MIS. Other surfaces, and points no record covers, keep the gather rays. Cornell
+//! 96 × 96 against the 4096-spp path reference, CPU seconds: 256 spp 7.1 s relMSE 0.00095
+//! (1422 records, 1.7 s), vs the path tracer 256 spp 8.2 s 0.0020 and plain gather 64 spp × 4
+//! rays 8.3 s 0.0031.
+//!
 //! **Precomputed irradiance** (Christensen 1999, "Faster photon map global illumination"): after
 //! pass 1, irradiance is estimated at every `irradiance_stride`-th global photon (default 4) from
 //! its k nearest photons on the same surface side (the photon records its normal at trace time)
