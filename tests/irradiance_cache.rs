@@ -1,8 +1,8 @@
 //! The irradiance cache (Ward 1988, Ward & Heckbert 1992) on its own and in the renderers:
 //! interpolated against brute-force irradiance on the Cornell box (with gradients better than
 //! without), finite-difference checks of both gradients on an analytic configuration, record
-//! count against accuracy, agreement of `path-cache` with the path tracer, and determinism
-//! across thread counts.
+//! count against accuracy, agreement of `path-cache` with the path tracer, determinism across
+//! thread counts and region renders, the debug views and bad settings.
 
 use photon::accel::{Accel, Ray, Visibility};
 use photon::camera::CameraRays;
@@ -272,6 +272,34 @@ fn same_seed_same_image_for_one_and_two_threads() {
             one.rgba == two.rgba,
             "{method:?} differs between 1 and 2 threads"
         );
+    }
+}
+
+#[test]
+fn a_region_render_with_the_cache_is_the_crop_of_the_full_render() {
+    let scene = builtin::cornell_box(&LoadOptions::default()).expect("cornell box");
+    let settings = cornell_settings(Method::Photon, 24, 1);
+    let full = render_in_pool(&scene, &settings, 2);
+    let region = photon::render::Region {
+        x0: 5,
+        y0: 9,
+        x1: 20,
+        y1: 17,
+    };
+    let crop = render_in_pool(
+        &scene,
+        &RenderSettings {
+            region: Some(region),
+            ..settings
+        },
+        2,
+    );
+    for y in 0..8 {
+        for x in 0..15 {
+            let a = crop.rgba[y * 15 + x];
+            let b = full.rgba[(y + 9) * 24 + x + 5];
+            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "pixel {x},{y}");
+        }
     }
 }
 
