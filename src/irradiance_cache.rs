@@ -221,7 +221,17 @@ pub fn gather_record(
         }
     }
     let n = (nt * np) as f32;
-    let to_world = |g: [Vec3; 3]| g.map(|v| frame.to_world(v));
+    // A degenerate footprint can leave distances tiny enough to overflow the gradient.
+    let to_world = |g: [Vec3; 3]| {
+        g.map(|v| {
+            let w = frame.to_world(v);
+            if w.is_finite() {
+                w
+            } else {
+                Vec3::ZERO
+            }
+        })
+    };
     Record {
         p: site.p,
         n: site.n,
@@ -423,7 +433,8 @@ fn clamp_radius(rec: &mut Record, settings: &IcSettings) {
 /// Place records over a `width` × `height` image, coarse to fine (see the module header).
 /// `find(x, y, rng)` returns the site seen through pixel (x, y) with the caller's surface data
 /// `P`, `gather(data, direction, rng)` the radiance along a direction and its distance;
-/// `check` is called once per level and stops the build on error (cancellation).
+/// `check` is called before each level and at the end, and stops the build on error
+/// (cancellation; `find` may return `None` meanwhile to finish a level quickly).
 #[allow(clippy::too_many_arguments)]
 pub fn build<P: Send>(
     width: u32,
@@ -473,6 +484,7 @@ pub fn build<P: Send>(
         }
         step /= 2;
     }
+    check(1.0)?;
     info.records = cache.len();
     Ok((cache, info))
 }

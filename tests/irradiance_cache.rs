@@ -350,3 +350,21 @@ fn bad_cache_settings_exit_with_2() {
         );
     }
 }
+
+#[test]
+fn cancelling_during_the_cache_build_stops_the_render() {
+    let scene = builtin::cornell_box(&LoadOptions::default()).expect("cornell box");
+    let cancel = AtomicBool::new(false);
+    let report = |e: &ProgressEvent| {
+        if e.stage == "cache" {
+            cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    };
+    let progress = Progress {
+        cancel: &cancel,
+        report: &report,
+    };
+    let settings = cornell_settings(Method::PathCache, 64, 1);
+    let result = render(&scene, &settings, &progress);
+    assert!(matches!(result, Err(photon::error::Error::Cancelled)));
+}

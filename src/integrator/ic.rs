@@ -16,6 +16,10 @@
 //! The pre-pass covers the full frame even for a region render, so a region is still the crop
 //! of the full image bit for bit. Shading points no record covers fall back to the integrator's
 //! own estimate (see `irradiance_cache`).
+//!
+//! Measured (`photon bench scenes/cornell_box.glb --budgets 16,64,256 --methods
+//! path,photon,path-cache --width 96 --reference-spp 4096`, wall time, 2 busy cores):
+//! path-cache 256 spp 5.6 s relMSE 0.0010 (64 spp 1.4 s 0.0029), path 256 spp 10.3 s 0.0020.
 
 use super::photon::tracing::stores_photons;
 use super::photon::{self, PhotonMaps, Shading};
@@ -29,6 +33,7 @@ use crate::math::{max_component, Vec2, Vec3};
 use crate::render::{Progress, ProgressEvent};
 use crate::rng::Rng;
 use std::f32::consts::PI;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 /// Longest chain of specular surfaces followed from the camera to a cached surface.
@@ -111,6 +116,9 @@ pub fn build_cache(
     let start = Instant::now();
     let camera = CameraRays::new(&ctx.scene.camera, width, height);
     let find = |x: u32, y: u32, rng: &mut Rng| {
+        if progress.cancel.load(Ordering::Relaxed) {
+            return None;
+        }
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
         let (ray, next) = (camera.ray(film), camera.ray(film + Vec2::X));
         let (s, length) = first_surface(ctx, ray, rng)?;
