@@ -3,9 +3,12 @@
 //! cache's debug views.
 //!
 //! Records are placed at the surface each pixel centre sees first through specular surfaces
-//! (the surfaces the photon renderer ray traces, `!stores_photons`), when that surface is
-//! Lambertian and opaque; other surfaces (glossy, mixed, transmissive) are never cached and keep
-//! plain gather rays or path tracing. A record gathers *indirect* irradiance only: emission found
+//! (the surfaces the photon renderer ray traces, `!stores_photons`), when that surface is opaque
+//! with a diffuse lobe. A Lambertian surface takes all its indirect light from the cache. On a
+//! mixed one (diffuse under a glossy layer, Principled's default) the photon renderer keeps its
+//! gather rays but counts their global estimates for the other lobes only, f − ρ_d/π, and adds
+//! ρ_d/π · E from the cache (`CachedDiffuse`); the path tracer's cache mode serves Lambertian
+//! surfaces only. Metals, glass and glossy-only surfaces have no records. A record gathers *indirect* irradiance only: emission found
 //! by the gather rays is left out, since the shading point samples its lights separately
 //! (without MIS) when it reads the cache. Two gather sources:
 //! - `Source::Photon`: final gathering into the global photon map, as the photon renderer's own
@@ -25,7 +28,7 @@ use super::photon::tracing::stores_photons;
 use super::photon::{self, PhotonMaps, Shading};
 use super::{path, CameraSample, Context};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::{bsdf_albedo, Bsdf};
+use crate::bsdf::{bsdf_albedo, Bsdf, BsdfSample};
 use crate::camera::CameraRays;
 use crate::error::Result;
 use crate::irradiance_cache::{self, IcSettings, IrradianceCache, Site};
@@ -75,11 +78,43 @@ pub fn lambertian_reflectance(bsdf: &Bsdf, wo_local: Vec3, opaque: bool) -> Opti
         .then_some(rho)
 }
 
-/// Reflected indirect radiance ρ/π · E at `s` from the cache, `None` when `s` is not a cached
-/// kind of surface or no record covers it.
-pub fn cached_radiance(cache: &IrradianceCache, s: &Shading) -> Option<Vec3> {
-    let rho = lambertian_reflectance(&s.bsdf, s.wo_local, s.opaque)?;
-    Some(rho * cache.lookup(s.sh.p, s.frame.n)? * (1.0 / PI))
+/// ρ_d of the diffuse lobe of an opaque BSDF (Lambertian or under a glossy layer), `None` when
+/// it has none: the surfaces that get records.
+fn diffuse_reflectance(bsdf: &Bsdf, wo_local: Vec3, opaque: bool) -> Option<Vec3> {
+    let rho = bsdf.diffuse_reflectance(wo_local);
+    (opaque && rho != Vec3::ZERO).then_some(rho)
+}
+
+/// The cache's answer for the diffuse lobe at a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct CachedDiffuse {
+    /// ρ_d of the diffuse lobe (as seen from the viewer).
+    pub rho: Vec3,
+    /// Its reflected indirect radiance ρ_d/π · E.
+    pub radiance: Vec3,
+    /// The BSDF is that lobe alone.
+    pub lambertian: bool,
+}
+
+impl CachedDiffuse {
+    /// The weight f·cos/pdf of a BSDF sample without the diffuse lobe's part ρ_d/π·cos/pdf: a
+    /// gather ray's global estimate counted for the other lobes only.
+    pub fn non_diffuse_weight(&self, bs: &BsdfSample) -> Vec3 {
+        let diffuse = self.rho * (bs.wi.z.abs() / (PI * bs.pdf));
+        (bs.weight - diffuse).max(Vec3::ZERO)
+    }
+}
+
+/// The cached indirect light of the diffuse lobe at `s`, `None` when `s` has no diffuse lobe or no
+/// record covers it.
+pub fn cached_diffuse(cache: &IrradianceCache, s: &Shading) -> Option<CachedDiffuse> {
+    let rho = diffuse_reflectance(&s.bsdf, s.wo_local, s.opaque)?;
+    let e = cache.lookup(s.sh.p, s.frame.n)?;
+    Some(CachedDiffuse {
+        rho,
+        radiance: rho * e * (1.0 / PI),
+        lambertian: lambertian_reflectance(&s.bsdf, s.wo_local, s.opaque).is_some(),
+    })
 }
 
 /// Follow specular surfaces from `ray` to the first surface that stores photons; returns it with
@@ -122,7 +157,7 @@ pub fn build_cache(
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
         let (ray, next) = (camera.ray(film), camera.ray(film + Vec2::X));
         let (s, length) = first_surface(ctx, ray, rng)?;
-        lambertian_reflectance(&s.bsdf, s.wo_local, s.opaque)?;
+        diffuse_reflectance(&s.bsdf, s.wo_local, s.opaque)?;
         let at = |r: &Ray| r.origin + r.direction * length;
         let site = Site {
             p: s.sh.p,
@@ -183,7 +218,7 @@ pub fn trace(
     out.albedo = s.surface.base_color;
     out.normal = s.sh.frame.n;
     out.depth = length;
-    if lambertian_reflectance(&s.bsdf, s.wo_local, s.opaque).is_none() {
+    if diffuse_reflectance(&s.bsdf, s.wo_local, s.opaque).is_none() {
         return out;
     }
     let e = cache.lookup(s.sh.p, s.frame.n).unwrap_or(Vec3::ZERO);
