@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use photon::error::{Error, Result};
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::PhotonSettings;
+use photon::irradiance_cache::IcSettings;
 use photon::passes::{render_in_passes, PassesResult};
 use photon::plan::{plan_for_image, Quality};
 use photon::render::{Method, Progress, ProgressEvent, RenderSettings, RenderStats};
@@ -109,6 +110,19 @@ enum MethodArg {
     PhotonCaustic,
     /// Debug: photon positions (white: global, orange: caustic).
     Photons,
+    /// Path tracing with an irradiance cache (path-traced records) at the first diffuse bounce.
+    PathCache,
+    /// Debug: the photon method's cached indirect irradiance.
+    IcIrradiance,
+    /// Debug: irradiance-record positions (white dots over the dimmed cached irradiance).
+    IcRecords,
+}
+
+/// A switch (`on` / `off`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum OnOff {
+    On,
+    Off,
 }
 
 #[derive(clap::Args, Debug)]
@@ -196,9 +210,39 @@ struct RenderArgs {
     /// photons (0: photons) [default: 0].
     #[arg(long)]
     subsurface_points: Option<u32>,
+    /// Ward's irradiance cache for the photon method's indirect light on Lambertian surfaces
+    /// (off: final gather rays at every shading point) [default: on].
+    #[arg(long, value_enum)]
+    irradiance_cache: Option<OnOff>,
+    /// Irradiance-cache accuracy a (records are used where Ward's weight exceeds 1/a) [default: 0.2].
+    #[arg(long)]
+    ic_accuracy: Option<f32>,
+    /// Gather rays per irradiance record (split into T x P strata) [default: 256].
+    #[arg(long)]
+    ic_gather_rays: Option<u32>,
+    /// Smallest radius an irradiance record covers, in pixels [default: 1.5].
+    #[arg(long)]
+    ic_min_spacing: Option<f32>,
+    /// Largest radius an irradiance record covers, in pixels [default: 48].
+    #[arg(long)]
+    ic_max_spacing: Option<f32>,
 }
 
 impl RenderArgs {
+    /// Irradiance-cache settings: the command line's, else the defaults.
+    fn ic_settings(&self) -> Result<IcSettings> {
+        let d = IcSettings::default();
+        let ic = IcSettings {
+            enabled: self.irradiance_cache.map_or(d.enabled, |s| s == OnOff::On),
+            accuracy: self.ic_accuracy.unwrap_or(d.accuracy),
+            gather_rays: self.ic_gather_rays.unwrap_or(d.gather_rays),
+            min_spacing: self.ic_min_spacing.unwrap_or(d.min_spacing),
+            max_spacing: self.ic_max_spacing.unwrap_or(d.max_spacing),
+        };
+        ic.validate()?;
+        Ok(ic)
+    }
+
     /// Photon settings: the command line's, else `defaults` (the plan's for `auto`).
     fn photon_settings(&self, defaults: &PhotonSettings) -> Result<PhotonSettings> {
         let d = defaults.clone();
@@ -380,7 +424,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
             MethodArg::PhotonGlobal => Method::PhotonGlobal,
             MethodArg::PhotonCaustic => Method::PhotonCaustic,
             MethodArg::Photons => Method::Photons,
+            MethodArg::PathCache => Method::PathCache,
+            MethodArg::IcIrradiance => Method::IcIrradiance,
+            MethodArg::IcRecords => Method::IcRecords,
         },
+        irradiance_cache: args.ic_settings()?,
         region: args.region.as_deref().map(|r| photon::render::Region {
             x0: r[0],
             y0: r[1],
@@ -513,6 +561,20 @@ fn summarise(
                     p.subsurface_emitted, p.subsurface_stored, p.subsurface_seconds
                 );
             }
+        }
+    }
+    if let Some(c) = &stats.irradiance_cache {
+        if mode == ProgressMode::Json {
+            json_line(serde_json::json!({
+                "stage": "cache", "fraction": 1.0, "message": "irradiance cache built",
+                "stats": {"records": c.records, "seconds": c.seconds,
+                          "strata": [c.strata.0, c.strata.1]}
+            }));
+        } else {
+            eprintln!(
+                "photon: irradiance cache: {} records ({} x {} gather rays) in {:.3} s",
+                c.records, c.strata.0, c.strata.1, c.seconds
+            );
         }
     }
     let memory = peak_memory_mib().unwrap_or(0.0);

@@ -13,6 +13,7 @@ pub mod film;
 pub mod image_io;
 pub mod integrator;
 pub mod interaction;
+pub mod irradiance_cache;
 pub mod light;
 pub mod material;
 pub mod math;

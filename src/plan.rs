@@ -169,6 +169,8 @@ pub struct Plan {
     pub anything_to_trace: bool,
     pub caustic_map: Decision,
     pub global_map: Decision,
+    /// Ward's irradiance cache for the photon method's indirect light (`--irradiance-cache`).
+    pub irradiance_cache: Decision,
     pub subsurface: Decision,
     /// The method `--method auto` renders with, and why.
     pub method: Method,
@@ -435,6 +437,14 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
         quality,
         anything_to_trace,
         caustic_map,
+        irradiance_cache: Decision::new(
+            global_map.needed,
+            if global_map.needed {
+                "photon method: Lambertian surfaces interpolate indirect light from records"
+            } else {
+                "no indirect light to gather"
+            },
+        ),
         global_map,
         subsurface,
         method,
@@ -495,6 +505,7 @@ impl fmt::Display for Plan {
         for (name, d) in [
             ("caustic map", &self.caustic_map),
             ("global map + final gather", &self.global_map),
+            ("irradiance cache", &self.irradiance_cache),
             ("subsurface", &self.subsurface),
         ] {
             writeln!(f, "  {name}: {} ({})", yes_no(d), d.reason)?;

@@ -10,8 +10,10 @@ use crate::accel::Accel;
 use crate::camera::CameraRays;
 use crate::error::{Error, Result};
 use crate::film::{Image, PixelFilter};
+use crate::integrator::ic::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::{self, PhotonInfo, PhotonMaps, PhotonSettings, View};
 use crate::integrator::{path, CameraSample, Context};
+use crate::irradiance_cache::{IcSettings, IrradianceCache};
 use crate::light::Lights;
 use crate::math::{Vec2, Vec3};
 use crate::rng::Rng;
@@ -34,6 +36,8 @@ pub struct RenderSettings {
     pub method: Method,
     /// Photon-mapping settings (used by the photon methods).
     pub photon: PhotonSettings,
+    /// Irradiance-cache settings (the photon method when enabled, and the cache methods).
+    pub irradiance_cache: IcSettings,
     /// Render only this window of the `width` × `height` frame (Blender's render region); the
     /// image is the window's size and equals that crop of the full render, bit for bit.
     pub region: Option<Region>,
@@ -72,6 +76,12 @@ pub enum Method {
     PhotonCaustic,
     /// Debug view: photon positions.
     Photons,
+    /// The path tracer with an irradiance cache (path-traced records) at its first diffuse bounce.
+    PathCache,
+    /// Debug view: the photon method's cached indirect irradiance.
+    IcIrradiance,
+    /// Debug view: the photon method's irradiance-record positions.
+    IcRecords,
 }
 
 impl Method {
@@ -82,6 +92,18 @@ impl Method {
             Method::PhotonGlobal => Some(View::Global),
             Method::PhotonCaustic => Some(View::Caustic),
             Method::Photons => Some(View::Photons),
+            Method::IcIrradiance | Method::IcRecords => Some(View::Full),
+            Method::PathCache => None,
+        }
+    }
+
+    /// The view of the cache-based methods; `None` for the others.
+    fn cache_view(self) -> Option<CacheView> {
+        match self {
+            Method::PathCache => Some(CacheView::PathCache),
+            Method::IcIrradiance => Some(CacheView::Irradiance),
+            Method::IcRecords => Some(CacheView::Records),
+            _ => None,
         }
     }
 }
@@ -96,6 +118,7 @@ impl Default for RenderSettings {
             seed: 0,
             method: Method::Path,
             photon: PhotonSettings::default(),
+            irradiance_cache: IcSettings::default(),
             region: None,
         }
     }
@@ -114,6 +137,8 @@ pub struct RenderStats {
     pub nonfinite_samples: u64,
     /// Pass 1 of the photon methods: what was traced and skipped.
     pub photon: Option<PhotonInfo>,
+    /// The irradiance cache, when one was built.
+    pub irradiance_cache: Option<IcInfo>,
 }
 
 /// One progress report.
@@ -201,9 +226,11 @@ pub fn render(
         }
         None => None,
     };
-    let integrator = match &maps {
-        Some((maps, view)) => Integrator::Photon(maps, *view),
-        None => Integrator::Path,
+    let (maps, cache) = prepare_cache(&ctx, settings, maps, progress, &mut stats)?;
+    let integrator = match (&maps, &cache, settings.method.cache_view()) {
+        (_, Some(cache), Some(view)) => Integrator::Cache(cache, view),
+        (Some((maps, view)), _, _) => Integrator::Photon(maps, *view),
+        _ => Integrator::Path,
     };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
     let filter = PixelFilter::default();
@@ -273,6 +300,7 @@ struct TileResult {
 enum Integrator<'a> {
     Path,
     Photon(&'a PhotonMaps, View),
+    Cache(&'a IrradianceCache, CacheView),
 }
 
 impl Integrator<'_> {
@@ -280,7 +308,42 @@ impl Integrator<'_> {
         match self {
             Integrator::Path => path::trace(ctx, ray, rng),
             Integrator::Photon(maps, view) => photon::trace(ctx, maps, view, ray, rng),
+            Integrator::Cache(cache, view) => ic::trace(ctx, cache, view, ray, rng),
         }
+    }
+}
+
+/// The photon maps of a photon method and the view it renders.
+type Maps = Option<(PhotonMaps, View)>;
+
+/// Build the irradiance cache the method needs over the full frame: into the photon maps for
+/// the photon method (when enabled and a global map exists), on its own for the cache methods.
+fn prepare_cache(
+    ctx: &Context,
+    settings: &RenderSettings,
+    mut maps: Maps,
+    progress: &Progress,
+    stats: &mut RenderStats,
+) -> Result<(Maps, Option<IrradianceCache>)> {
+    let ic = &settings.irradiance_cache;
+    let frame = (settings.width, settings.height);
+    let view = settings.method.cache_view();
+    let source = match &maps {
+        Some((m, _)) if m.global.is_none() => return Ok((maps, None)),
+        Some((m, _)) if view.is_some() || (settings.method == Method::Photon && ic.enabled) => {
+            Source::Photon(m)
+        }
+        None if view.is_some() => Source::Path,
+        _ => return Ok((maps, None)),
+    };
+    let (cache, info) = ic::build_cache(ctx, source, ic, frame, settings.seed, progress)?;
+    stats.irradiance_cache = Some(info);
+    match (&mut maps, view) {
+        (Some((m, _)), None) => {
+            m.cache = Some(cache);
+            Ok((maps, None))
+        }
+        _ => Ok((maps, Some(cache))),
     }
 }
 

@@ -1,7 +1,9 @@
 //! Integrators: the algorithms that turn a camera ray into radiance. Chosen once per render.
 //! `path` is the unbiased reference (Kajiya 1986 with next-event estimation and MIS, Veach 1997);
-//! `photon` is Jensen's two-pass photon mapping with final gathering, and its debug views.
+//! `photon` is Jensen's two-pass photon mapping with final gathering, and its debug views; `ic`
+//! connects Ward's irradiance cache to both.
 
+pub mod ic;
 pub mod path;
 pub mod photon;
 

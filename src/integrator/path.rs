@@ -15,18 +15,27 @@
 //! continues from the exit point with an entry lobe f = T(ω_i)/π (light sampling with MIS, then
 //! a cosine-sampled direction). T is the specular layer's transmission, as in the photon
 //! renderer, so both evaluate S = w T(ω_o) R_d(d) T(ω_i)/π.
+//!
+//! With an irradiance cache (`--method path-cache`, see `ic`), the first surface that stores
+//! photons on the camera path (after specular ones only) takes its indirect light from the cache
+//! when it is Lambertian and a record covers it: emission + light sample (no MIS, no BSDF ray) +
+//! ρ/π · E, and the path ends; elsewhere the path goes on as usual. The records' gather rays
+//! are paths too (`incident_radiance`), leaving out the emission of their first hit.
 
+use super::ic::lambertian_reflectance;
+use super::photon::tracing::stores_photons;
 use super::{CameraSample, Context};
 use crate::accel::{Ray, Visibility};
 use crate::bsdf::{bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf};
 use crate::interaction::SurfaceHit;
+use crate::irradiance_cache::IrradianceCache;
 use crate::light::emitted_radiance;
 use crate::material::{eval_material, SurfaceMaterial};
 use crate::math::{max_component, Frame, Vec3};
 use crate::rng::Rng;
 use crate::sampling::{cosine_hemisphere_pdf, power_heuristic, square_to_cosine_hemisphere};
 use crate::subsurface::Dipole;
-use std::f32::consts::PI;
+use std::f32::consts::{FRAC_1_PI, PI};
 
 /// Probability of the subsurface branch at a translucent vertex.
 const SUBSURFACE_BRANCH: f32 = 0.5;
@@ -123,6 +132,34 @@ fn russian_roulette(beta: &mut Vec3, rng: &mut Rng) -> bool {
 
 /// Trace one path from the camera ray and return its radiance and first-hit data.
 pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
+    trace_path(ctx, None, camera_ray, rng, false)
+}
+
+/// `trace`, reading indirect light at the first diffuse surface from `cache` (module header).
+pub fn trace_cached(
+    ctx: &Context,
+    cache: Option<&IrradianceCache>,
+    camera_ray: Ray,
+    rng: &mut Rng,
+) -> CameraSample {
+    trace_path(ctx, cache, camera_ray, rng, false)
+}
+
+/// Radiance arriving along `ray` (a gather ray of an irradiance record) without the emission of
+/// the first surface it meets or the world it escapes to, and the distance of that surface.
+pub fn incident_radiance(ctx: &Context, ray: Ray, rng: &mut Rng) -> (Vec3, f32) {
+    let out = trace_path(ctx, None, ray, rng, true);
+    let distance = if out.hit { out.depth } else { f32::INFINITY };
+    (out.radiance, distance)
+}
+
+fn trace_path(
+    ctx: &Context,
+    cache: Option<&IrradianceCache>,
+    camera_ray: Ray,
+    rng: &mut Rng,
+    gather: bool,
+) -> CameraSample {
     let scene = ctx.scene;
     let mut out = CameraSample {
         depth: 1e10,
@@ -136,16 +173,18 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
     let mut prev_delta = true;
     let mut prev_p = ray.origin;
     let mut absorption = Vec3::ZERO;
+    // Still on the camera's specular chain, where cache records are placed.
+    let mut on_chain = cache.is_some();
 
     for depth in 0..=ctx.max_depth {
-        let visibility = if depth == 0 {
+        let visibility = if depth == 0 && !gather {
             Visibility::Camera
         } else {
             Visibility::Secondary
         };
         out.rays += 1;
         let Some(hit) = ctx.accel.intersect(scene, &ray, visibility) else {
-            if depth == 0 && ctx.transparent_background {
+            if depth == 0 && (ctx.transparent_background || gather) {
                 break;
             }
             ctx.lights.escaped(ray.direction, |le, light_pdf| {
@@ -173,7 +212,7 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
         }
 
         let le = emitted_radiance(scene, &sh, wo);
-        if le != Vec3::ZERO {
+        if le != Vec3::ZERO && !(gather && depth == 0) {
             let w = if prev_delta {
                 1.0
             } else {
@@ -200,6 +239,8 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
 
         let weight = surface.subsurface.weight;
         if weight > 0.0 && opaque {
+            // Translucent surfaces are path traced: the cache holds no subsurface light.
+            on_chain = false;
             if rng.uniform() < SUBSURFACE_BRANCH {
                 // The subsurface branch: leave the material at x_i, then the entry lobe there.
                 let enter = weight * bsdf.base_transmittance(wo_local) / SUBSURFACE_BRANCH;
@@ -246,6 +287,16 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
             beta /= 1.0 - SUBSURFACE_BRANCH;
         }
 
+        let mut cached = None;
+        if on_chain && stores_photons(&bsdf, wo_local) {
+            on_chain = false;
+            if let (Some(cache), Some(rho)) =
+                (cache, lambertian_reflectance(&bsdf, wo_local, opaque))
+            {
+                cached = cache.lookup(sh.p, frame.n).map(|e| rho * e * FRAC_1_PI);
+            }
+        }
+
         if bsdf.has_non_delta() {
             if let Some(ls) = ctx
                 .lights
@@ -263,7 +314,7 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
                 if f != Vec3::ZERO && ls.li != Vec3::ZERO {
                     out.rays += 1;
                     if ctx.accel.unoccluded(scene, &sh.spawn_to(&ls.target)) {
-                        let w = if ls.delta {
+                        let w = if ls.delta || cached.is_some() {
                             1.0
                         } else {
                             power_heuristic(ls.pdf, bsdf_pdf(&bsdf, wo_local, wi_local))
@@ -272,6 +323,11 @@ pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
                     }
                 }
             }
+        }
+
+        if let Some(indirect) = cached {
+            radiance += beta * indirect;
+            break;
         }
 
         let Some(s) = sample_bsdf(&bsdf, wo_local, rng.uniform(), rng.uniform2()) else {

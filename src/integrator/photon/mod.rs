@@ -26,6 +26,16 @@
 //! is below `SPECULAR_ROUGHNESS` = 0.049 (LuxCore's glossiness threshold): such surfaces are ray
 //! traced; all others store photons and are shaded from the maps.
 //!
+//! **Irradiance cache** (`integrator::ic`, on by default): at a Lambertian opaque x, the indirect
+//! term is ρ/π × E interpolated from Ward's records (each gathered once by stratified rays into
+//! the global map, as `gather_ray` reads it but without emission), and direct light is one light
+//! sample without MIS. A diffuse lobe under a glossy layer takes ρ_d/π × E from the cache while
+//! the gather rays still run and count their global estimates with f − ρ_d/π (emission as
+//! before). Other surfaces, and points no record covers, keep the plain gather rays. Cornell
+//! 96 × 96 against the 4096-spp path reference, CPU seconds: 256 spp 7.1 s relMSE 0.00095
+//! (1422 records, 1.7 s), vs the path tracer 256 spp 8.2 s 0.0020 and plain gather 64 spp × 4
+//! rays 8.3 s 0.0031.
+//!
 //! **Precomputed irradiance** (Christensen 1999, "Faster photon map global illumination"): after
 //! pass 1, irradiance is estimated at every `irradiance_stride`-th global photon (default 4) from
 //! its k nearest photons on the same surface side (the photon records its normal at trace time)
@@ -66,6 +76,7 @@ use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::{bsdf_albedo, bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf, BsdfSample};
 use crate::error::Result;
 use crate::interaction::SurfaceHit;
+use crate::irradiance_cache::IrradianceCache;
 use crate::light::emitted_radiance;
 use crate::material::{eval_material, SurfaceMaterial};
 use crate::math::{max_component, Frame, Vec2, Vec3};
@@ -194,6 +205,9 @@ pub struct PhotonMaps {
     pub irradiance: Option<PhotonMap>,
     /// Subsurface samples of translucent materials.
     pub subsurface: Option<subsurface::SubsurfaceMaps>,
+    /// Ward's irradiance cache for the indirect term on Lambertian surfaces (`integrator::ic`),
+    /// set after the maps are built; `None` shades with plain final gather rays.
+    pub cache: Option<IrradianceCache>,
     pub settings: PhotonSettings,
     global_radius2: f32,
     caustic_radius2: f32,
@@ -252,7 +266,7 @@ impl Shading {
     }
 
     /// Sample the BSDF and turn the sample into a world direction; `None` when the path ends.
-    fn sample(&self, u_lobe: f32, u: Vec2) -> Option<(BsdfSample, Vec3)> {
+    pub(crate) fn sample(&self, u_lobe: f32, u: Vec2) -> Option<(BsdfSample, Vec3)> {
         let bs = sample_bsdf(&self.bsdf, self.wo_local, u_lobe, u)?;
         let wi = self.frame.to_world(bs.wi).normalize();
         if self.opaque && wi.dot(self.ng) <= 0.0 {
@@ -434,6 +448,7 @@ pub fn build_maps(
             caustic,
             irradiance,
             subsurface,
+            cache: None,
             settings: settings.clone(),
             global_radius2: sq(settings.global_radius),
             caustic_radius2: sq(settings.caustic_radius),
@@ -677,7 +692,8 @@ impl Pass2<'_> {
     }
 
     /// A non-delta final-gather ray from `from` with BSDF density `pdf`: the emission it finds
-    /// (MIS-weighted against light sampling) plus the global estimate behind specular surfaces.
+    /// (MIS-weighted against light sampling) and the global estimate behind specular surfaces,
+    /// returned apart (the irradiance cache replaces the diffuse lobe's share of the second).
     fn gather_ray(
         &mut self,
         from: Vec3,
@@ -685,14 +701,14 @@ impl Pass2<'_> {
         pdf: f32,
         absorption: Vec3,
         rng: &mut Rng,
-    ) -> Vec3 {
+    ) -> (Vec3, Vec3) {
         let ctx = self.ctx;
         let Some(hit) = self.intersect(&ray) else {
             let mut l = Vec3::ZERO;
             ctx.lights.escaped(ray.direction, |le, lpdf| {
                 l += le * power_heuristic(pdf, lpdf)
             });
-            return l;
+            return (l, Vec3::ZERO);
         };
         let mut t = Vec3::ONE;
         if absorption != Vec3::ZERO {
@@ -704,10 +720,11 @@ impl Pass2<'_> {
             l *= power_heuristic(pdf, ctx.lights.triangle_pdf(from, &s.sh));
         }
         let mut unused = Vec3::ZERO;
+        let mut estimate = Vec3::ZERO;
         if let Some((d, beta)) = self.through_specular(s, absorption, false, &mut unused, rng) {
-            l += beta * self.gather_estimate(&d);
+            estimate = beta * self.gather_estimate(&d);
         }
-        t * l
+        (t * l, t * estimate)
     }
 
     /// Radiance along a ray that left a diffuse surface through a delta lobe: emission along the
@@ -732,6 +749,13 @@ impl Pass2<'_> {
 
     /// Reflected radiance at a non-specular surface: direct + caustics + final gather.
     fn shade(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+        // Irradiance cache: a Lambertian surface takes its indirect light from the records and
+        // samples only the lights; on a mixed one the cache replaces the diffuse lobe's share
+        // of the gather rays' global estimates.
+        let cached = (self.maps.cache.as_ref()).and_then(|c| super::ic::cached_diffuse(c, s));
+        if let Some(d) = cached.filter(|d| d.lambertian) {
+            return self.direct(s, false, rng) + self.caustic(s) + d.radiance;
+        }
         let m = self.maps.settings.gather_rays;
         let mut l = self.direct(s, m > 0, rng) + self.caustic(s);
         if m == 0 {
@@ -752,14 +776,15 @@ impl Pass2<'_> {
             };
             let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
             let ray = s.sh.spawn(wi);
-            let li = if bs.delta {
-                self.estimate_ray(ray, absorption, rng)
+            sum += if bs.delta {
+                bs.weight * self.estimate_ray(ray, absorption, rng)
             } else {
-                self.gather_ray(s.sh.p, ray, bs.pdf, absorption, rng)
+                let (emission, estimate) = self.gather_ray(s.sh.p, ray, bs.pdf, absorption, rng);
+                let w = cached.map_or(bs.weight, |d| d.non_diffuse_weight(&bs));
+                bs.weight * emission + w * estimate
             };
-            sum += bs.weight * li;
         }
-        l += sum / m as f32;
+        l += sum / m as f32 + cached.map_or(Vec3::ZERO, |d| d.radiance);
         l
     }
 
@@ -796,6 +821,35 @@ impl Pass2<'_> {
         }
         Vec3::ZERO
     }
+}
+
+/// Radiance arriving at `s` along `wi` for an irradiance-cache record, with the distance of the
+/// first hit: the global estimate behind specular surfaces, as a final-gather ray reads it, but
+/// without emission (the cached point samples its lights itself).
+pub(crate) fn cache_gather(
+    ctx: &Context,
+    maps: &PhotonMaps,
+    s: &Shading,
+    wi: Vec3,
+    rng: &mut Rng,
+) -> (Vec3, f32) {
+    let mut p2 = Pass2 {
+        ctx,
+        maps,
+        buf: Neighbors::default(),
+        rays: 0,
+    };
+    let ray = s.sh.spawn(wi);
+    let Some(hit) = p2.intersect(&ray) else {
+        return (Vec3::ZERO, f32::INFINITY);
+    };
+    let d = Shading::new(ctx, &ray, &hit);
+    let mut unused = Vec3::ZERO;
+    let l = match p2.through_specular(d, Vec3::ZERO, false, &mut unused, rng) {
+        Some((d, beta)) => beta * p2.gather_estimate(&d),
+        None => Vec3::ZERO,
+    };
+    (l, hit.t * ray.direction.length())
 }
 
 /// Pass 2 for one camera ray: specular surfaces are ray traced (as the path tracer does, with
