@@ -46,6 +46,12 @@ CORNELL_VIEWS = [
     ("cornell_global_k256", "Global photon map, 256 photons per estimate",
      ["--method", "photon-global", "--k", "256"]),
     ("cornell_photons", "Photon positions", ["--method", "photons", "--photons", "20000"]),
+    ("cornell_irradiance", "Irradiance view: the cached indirect irradiance",
+     ["--method", "ic-irradiance"]),
+    ("cornell_records_a02", "Irradiance-cache records, accuracy 0.2",
+     ["--method", "ic-records", "--ic-accuracy", "0.2"]),
+    ("cornell_records_a01", "Irradiance-cache records, accuracy 0.1",
+     ["--method", "ic-records", "--ic-accuracy", "0.1"]),
 ]
 
 
