@@ -23,7 +23,8 @@
 //!
 //! **Interpolation**: E(x) = Σ wᵢ (Eᵢ + (Nᵢ × N)·∇_r + (x − xᵢ)·∇_t) / Σ wᵢ over records with
 //! w = 1/(‖x−xᵢ‖/Rᵢ + √(1−N·Nᵢ)) > 1/a, a the accuracy; records in front of x
-//! ((x − xᵢ)·(N + Nᵢ)/2 < 0, with a small tolerance) are skipped. Rᵢ is clamped so that a record
+//! ((x − xᵢ)·(N + Nᵢ)/2 < 0, with a small tolerance) are skipped. The sums use w − 1/a, which
+//! falls to zero at the edge of a record's validity, so coverage boundaries leave no seams. Rᵢ is clamped so that a record
 //! covers between `min_spacing` and `max_spacing` pixels (a·Rᵢ in pixel footprints at xᵢ):
 //! this stops record explosions in corners and splotches from far-seeing records.
 //!
@@ -419,8 +420,7 @@ pub struct BuildInfo {
 
 /// Clamp a record's Rᵢ so that it covers between the minimum and maximum spacing in pixels, and
 /// (Tabellion & Lamorlette 2004) so that the translation gradient changes no channel by more than
-/// its value over Rᵢ: Rᵢ ≤ E_c / |∇_t E_c|. Interpolation weights are Ward's w minus 1/a, which
-/// fall to zero at the edge of a record's validity, so coverage boundaries leave no seams.
+/// its value over Rᵢ: Rᵢ ≤ E_c / |∇_t E_c|.
 fn clamp_radius(rec: &mut Record, settings: &IcSettings) {
     let per_pixel = rec.footprint / settings.accuracy;
     let (lo, hi) = (
