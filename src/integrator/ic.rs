@@ -22,7 +22,7 @@
 //!
 //! Measured (`photon bench scenes/cornell_box.glb --budgets 16,64,256 --methods
 //! path,photon,path-cache --width 96 --reference-spp 4096`, wall time, 2 busy cores):
-//! path-cache 256 spp 5.6 s relMSE 0.0010 (64 spp 1.4 s 0.0029), path 256 spp 10.3 s 0.0020.
+//! path-cache 256 spp 5.0 s relMSE 0.0011 (64 spp 2.4 s 0.0029), path 256 spp 6.9 s 0.0020.
 
 use super::photon::tracing::stores_photons;
 use super::photon::{self, PhotonMaps, Shading};
