@@ -36,7 +36,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Render a glTF scene (or the embedded Cornell box) to EXR or PNG.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Compare an image with a reference: relMSE, RMSE, difference of means.
     Compare {
         /// The image to judge (EXR).
@@ -203,6 +203,10 @@ struct RenderArgs {
     /// Jensen & Buhler's octree error bound (solid angle) [default: 0.05].
     #[arg(long)]
     subsurface_accuracy: Option<f32>,
+    /// Memory budget of the photon maps and subsurface samples, in MiB; tracing stops with an
+    /// error when they would exceed it [default: half the machine's memory].
+    #[arg(long, value_name = "MIB")]
+    memory_limit: Option<u64>,
     /// Sum every subsurface sample instead of using the octree (for measurements).
     #[arg(long)]
     subsurface_brute_force: bool,
@@ -272,9 +276,21 @@ impl RenderArgs {
             subsurface_accuracy: self.subsurface_accuracy.unwrap_or(d.subsurface_accuracy),
             subsurface_brute_force: self.subsurface_brute_force,
             subsurface_points: self.subsurface_points.unwrap_or(d.subsurface_points),
+            memory_limit_mib: self.memory_limit.unwrap_or_else(default_memory_limit_mib),
             ..d
         })
     }
+}
+
+/// Half the machine's memory (from /proc/meminfo), else the library default.
+fn default_memory_limit_mib() -> u64 {
+    let total_kib = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|text| {
+            let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+            line.split_whitespace().nth(1)?.parse::<u64>().ok()
+        });
+    total_kib.map_or(PhotonSettings::default().memory_limit_mib, |kib| kib / 2048)
 }
 
 /// Run the command line and return the process exit code.
@@ -294,7 +310,7 @@ pub fn main() -> i32 {
     let result = match command {
         None => Err(Error::Internal("cannot build the default command".into())),
         Some(command) => match command {
-            Command::Render(args) => run_render(args),
+            Command::Render(args) => run_render(*args),
             Command::Info {
                 scene,
                 camera,

@@ -170,3 +170,39 @@ fn sigterm_stops_quickly_with_130_and_keeps_the_old_output() {
     assert_eq!(std::fs::read(&out).unwrap(), b"previous image");
     assert_eq!(files_in(&dir), ["render.exr"]);
 }
+
+#[test]
+fn photon_maps_beyond_the_memory_limit_stop_with_a_clear_error() {
+    let dir = temp_dir("memory-limit");
+    let out = dir.join("out.exr");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass_caustic.glb");
+    let run = |limit: &str| {
+        photon()
+            .arg("render")
+            .arg(&scene)
+            .args([
+                "--method", "photon", "--width", "8", "--height", "8", "--spp", "1",
+            ])
+            .args(["--photons", "100000", "--memory-limit", limit, "-o"])
+            .arg(&out)
+            .output()
+            .expect("runs")
+    };
+    // 100 000 photons store about 44 000 photons of 24 bytes: more than 1 MiB with the join copy.
+    let refused = run("1");
+    assert_eq!(refused.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(err.contains("memory limit"), "{err}");
+    assert!(
+        files_in(&dir).is_empty(),
+        "no output when refused: {:?}",
+        files_in(&dir)
+    );
+    let fits = run("64");
+    assert!(
+        fits.status.success(),
+        "{}",
+        String::from_utf8_lossy(&fits.stderr)
+    );
+    assert!(out.exists());
+}

@@ -75,7 +75,7 @@ pub mod tracing;
 use super::{CameraSample, Context};
 use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::{bsdf_albedo, bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf, BsdfSample};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::interaction::SurfaceHit;
 use crate::irradiance_cache::IrradianceCache;
 use crate::light::emitted_radiance;
@@ -127,6 +127,11 @@ pub struct PhotonSettings {
     /// Precompute irradiance at every n-th global photon (Christensen 1999) and let final-gather
     /// hits on Lambertian surfaces read the nearest record; 0 computes a full estimate per hit.
     pub irradiance_stride: u32,
+    /// Memory budget of the photon maps and subsurface samples together, in MiB (default
+    /// 8192; the command line defaults to half the machine's memory). Tracing stops with a
+    /// settings error, naming the budget, as soon as the stored photons would exceed it
+    /// (counting the copy made while the batches are joined).
+    pub memory_limit_mib: u64,
     /// Photons emitted for the subsurface samples (default 1 000 000; only with a translucent
     /// material).
     pub subsurface_photons: u32,
@@ -154,12 +159,20 @@ impl Default for PhotonSettings {
             gather_rays: 4,
             max_photon_bounces: 16,
             irradiance_stride: 4,
+            memory_limit_mib: 8192,
             subsurface_photons: 1_000_000,
             subsurface_accuracy: 0.05,
             subsurface_brute_force: false,
             subsurface_points: 0,
             subsurface_light_samples: 4,
         }
+    }
+}
+
+impl PhotonSettings {
+    /// The memory budget in bytes.
+    pub fn memory_budget_bytes(&self) -> u64 {
+        self.memory_limit_mib.saturating_mul(1 << 20)
     }
 }
 
@@ -301,6 +314,8 @@ struct Stream<'a> {
     label: &'a str,
     tag: u64,
     aimed: bool,
+    /// Bytes the pass may store (what the memory budget leaves after the earlier passes).
+    budget_bytes: u64,
 }
 
 /// Trace `count` photons in parallel batches with `trace(ray, power, rng, out)` (power already
@@ -316,6 +331,9 @@ fn trace_pass<T: Send + Clone>(
 ) -> Result<Vec<T>> {
     let batches = count.div_ceil(BATCH);
     let done = AtomicU64::new(0);
+    let stored = AtomicU64::new(0);
+    // Batches are joined into one vector at the end: both exist for a moment.
+    let bytes_per_item = 2 * std::mem::size_of::<T>() as u64;
     let scale = 1.0 / count.max(1) as f32;
     let parts: Vec<Vec<T>> = (0..batches)
         .into_par_iter()
@@ -328,6 +346,17 @@ fn trace_pass<T: Send + Clone>(
                 if let Some((ray, power)) = emitters.emit(ctx, stream.aimed, &mut rng) {
                     trace(ray, power * scale, &mut rng, &mut out);
                 }
+            }
+            // Partial sums never exceed the final count, so whether this fails does not depend
+            // on the order the batches finish in.
+            let total = stored.fetch_add(out.len() as u64, Ordering::Relaxed) + out.len() as u64;
+            if total * bytes_per_item > stream.budget_bytes {
+                return Err(Error::Settings(format!(
+                    "the {} photons need more than the {} MiB left of the photon memory limit \
+                     ({total} stored so far); emit fewer photons or raise --memory-limit",
+                    stream.label,
+                    stream.budget_bytes >> 20
+                )));
             }
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
             (progress.report)(&ProgressEvent {
@@ -347,13 +376,13 @@ fn trace_map_pass(
     emitters: &Emitters,
     settings: &PhotonSettings,
     pass: Pass,
-    count: u32,
+    used_bytes: u64,
     seed: u64,
     progress: &Progress,
 ) -> Result<Vec<Photon>> {
-    let tag = match pass {
-        Pass::Global => 0x9b0a_1c5e_u64,
-        Pass::Caustic => 0x3c4f_77d1_u64,
+    let (tag, count) = match pass {
+        Pass::Global => (0x9b0a_1c5e_u64, settings.global_photons),
+        Pass::Caustic => (0x3c4f_77d1_u64, settings.caustic_photons),
     };
     let max = settings.max_photon_bounces;
     let label = format!("{pass:?}");
@@ -361,6 +390,7 @@ fn trace_map_pass(
         label: &label,
         tag,
         aimed: pass == Pass::Caustic,
+        budget_bytes: settings.memory_budget_bytes().saturating_sub(used_bytes),
     };
     trace_pass(
         ctx,
@@ -383,15 +413,7 @@ pub fn build_maps(
     let emitters = Emitters::new(ctx);
     let mut info = PhotonInfo::default();
     let start = Instant::now();
-    let global = trace_map_pass(
-        ctx,
-        &emitters,
-        settings,
-        Pass::Global,
-        settings.global_photons,
-        seed,
-        progress,
-    )?;
+    let global = trace_map_pass(ctx, &emitters, settings, Pass::Global, 0, seed, progress)?;
     info.global_emitted = settings.global_photons as u64;
     let caustic = if settings.caustic_photons == 0 {
         info.caustic_skipped = Some("no caustic photons requested".into());
@@ -406,7 +428,7 @@ pub fn build_maps(
             &emitters,
             settings,
             Pass::Caustic,
-            settings.caustic_photons,
+            (global.len() * std::mem::size_of::<Photon>()) as u64,
             seed,
             progress,
         )?

@@ -226,6 +226,11 @@ pub fn build(
                 label: "Subsurface",
                 tag: 0x5ab5_0f7e,
                 aimed: false,
+                budget_bytes: settings.memory_budget_bytes().saturating_sub(
+                    ((info.global_stored + info.caustic_stored)
+                        * std::mem::size_of::<crate::photon_map::Photon>())
+                        as u64,
+                ),
             },
             settings.subsurface_photons,
             seed,
