@@ -192,6 +192,9 @@ fn permute(axes: Axes, v: Vec3A) -> Vec3A {
     }
 }
 
+/// Above this many triangles the BVH is built with less search effort (start-up time).
+const LARGE_SCENE_TRIANGLES: usize = 1 << 18;
+
 /// Diagonal of the scene in BVH space.
 const BVH_SPACE_SIZE: f32 = 1000.0;
 
@@ -266,7 +269,14 @@ impl Accel {
             .collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
             &boxes,
-            BvhBuildParams::medium_build(),
+            // Large scenes build faster with a lower search effort: on a 1 M-triangle scene
+            // (scenes/make_large.py) fast_build took 1.73 s instead of medium's 2.26 s, with
+            // no measurable change in traversal speed (examples/ray_throughput, loaded machine).
+            if tris.len() > LARGE_SCENE_TRIANGLES {
+                BvhBuildParams::fast_build()
+            } else {
+                BvhBuildParams::medium_build()
+            },
             &mut build_time,
         );
         let order = &bvh.primitive_indices;
