@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::film::{Image, PixelFilter};
 use crate::integrator::ic::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::{self, PhotonInfo, PhotonMaps, PhotonSettings, View};
-use crate::integrator::{path, CameraSample, Context};
+use crate::integrator::{path, CameraSample, Context, Passes};
 use crate::irradiance_cache::{IcSettings, IrradianceCache};
 use crate::light::Lights;
 use crate::math::{Vec2, Vec3};
@@ -274,6 +274,7 @@ pub fn render(
             image.albedo[k] = px.albedo;
             image.normal[k] = px.normal;
             image.depth[k] = px.depth;
+            image.passes[k] = px.passes;
         }
     }
     stats.render_seconds = start.elapsed().as_secs_f64();
@@ -288,6 +289,7 @@ struct PixelResult {
     albedo: Vec3,
     normal: Vec3,
     depth: f32,
+    passes: Passes,
 }
 
 struct TileResult {
@@ -371,6 +373,7 @@ fn render_tile(
             progress.check()?;
             let pixel_index = y as u64 * settings.width as u64 + x as u64;
             let mut sum = Vec3::ZERO;
+            let mut passes = Passes::default();
             let mut coverage = 0.0f32;
             let mut albedo = Vec3::ZERO;
             let mut normal = Vec3::ZERO;
@@ -386,6 +389,7 @@ fn render_tile(
                 tile_rays += sample.rays as u64;
                 if sample.radiance.is_finite() {
                     sum += sample.radiance;
+                    passes += sample.passes;
                 } else {
                     tile_nonfinite += 1;
                 }
@@ -398,6 +402,7 @@ fn render_tile(
             }
             let n = settings.spp as f32;
             let c = sum / n;
+            passes.scale(1.0 / n);
             pixels.push(PixelResult {
                 rgba: [c.x, c.y, c.z, coverage / n],
                 albedo: albedo / n,
@@ -407,6 +412,7 @@ fn render_tile(
                 } else {
                     1e10
                 },
+                passes,
             });
         }
     }
