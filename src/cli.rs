@@ -452,6 +452,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         } else {
             args.photon_settings(&PhotonSettings::default())?
         },
+        light_passes: args.passes,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)

@@ -88,7 +88,8 @@ pub struct Image {
     /// Distance from the camera to the first surface; 1e10 for the background (Blender's Z).
     pub depth: Vec<f32>,
     /// Radiance by light path (`integrator::LightPass`), filtered like `rgba`, so the passes
-    /// of a pixel add up to its colour (all zero for the debug views of the cache).
+    /// of a pixel add up to its colour (all zero for the debug views of the cache). Empty
+    /// unless `RenderSettings::light_passes` asked for them.
     pub passes: Vec<Passes>,
     /// Camera-to-world rotation, to express normals in camera space (Blender's Denoising Normal).
     pub camera_rotation: Mat3,
@@ -104,7 +105,7 @@ impl Image {
             albedo: vec![Vec3::ZERO; n],
             normal: vec![Vec3::ZERO; n],
             depth: vec![0.0; n],
-            passes: vec![Passes::default(); n],
+            passes: Vec::new(),
             camera_rotation: Mat3::IDENTITY,
         }
     }

@@ -136,6 +136,16 @@ fn exr_channels(image: &Image, layout: &ExrLayout) -> Vec<(String, Vec<f32>)> {
 }
 
 fn write_exr(tmp: &Path, target: &Path, image: &Image, layout: &ExrLayout) -> Result<()> {
+    if let ExrLayout::Blender {
+        light_passes: true, ..
+    } = layout
+    {
+        if image.passes.len() != image.rgba.len() {
+            return Err(Error::Settings(
+                "the light passes were not rendered (RenderSettings::light_passes)".into(),
+            ));
+        }
+    }
     let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = exr_channels(image, layout)
         .into_iter()
         .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data)))

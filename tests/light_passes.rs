@@ -10,8 +10,9 @@ mod scenes;
 use photon::film::Image;
 use photon::image_io::{write_image, ExrLayout, LIGHT_PASS_NAMES};
 use photon::integrator::photon::PhotonSettings;
-use photon::integrator::LightPass;
+use photon::integrator::{LightPass, Passes};
 use photon::math::Vec3;
+use photon::passes::render_in_passes;
 use photon::render::{render, Method, RenderSettings};
 use photon::scene::{Material, Projection, Scene, Subsurface};
 use std::sync::atomic::AtomicBool;
@@ -81,6 +82,7 @@ fn settings(method: Method, max_depth: u32) -> RenderSettings {
             subsurface_photons: 20_000,
             ..PhotonSettings::default()
         },
+        light_passes: true,
         ..RenderSettings::default()
     }
 }
@@ -132,7 +134,13 @@ fn check_passes(image: &Image) {
 
 #[test]
 fn path_tracer_passes_add_up() {
-    let image = render_image(&glass_scene(), &settings(Method::Path, 16));
+    // In two passes of 8 samples (as under a time limit), so that merging keeps the sums.
+    let result = scenes::with_progress(|p| {
+        render_in_passes(&glass_scene(), &settings(Method::Path, 16), 8, None, p)
+    })
+    .expect("render succeeds");
+    assert_eq!(result.passes, 2);
+    let image = result.image;
     check_passes(&image);
     // The path tracer's caustics are classified by their vertices: no Caustic pass.
     assert_eq!(pass_sum(&image, LightPass::Caustic), 0.0);
@@ -149,6 +157,10 @@ fn photon_passes_add_up() {
 #[test]
 fn one_bounce_has_no_indirect_light() {
     let scene = glass_scene();
+    // Passes are stored only on request.
+    let mut off = settings(Method::Path, 1);
+    off.light_passes = false;
+    assert!(render_image(&scene, &off).passes.is_empty());
     let image = render_image(&scene, &settings(Method::Path, 1));
     assert_eq!(pass_sum(&image, LightPass::Indirect), 0.0);
     assert!(pass_sum(&image, LightPass::Direct) > 0.0);
@@ -163,6 +175,7 @@ fn one_bounce_has_no_indirect_light() {
 #[test]
 fn multilayer_exr_holds_the_passes_under_blender_names() {
     let mut image = Image::new(2, 1);
+    image.passes = vec![Passes::default(); 2];
     image.rgba = vec![[3.0, 3.0, 3.0, 1.0]; 2];
     for (p, pass) in LightPass::ALL.iter().enumerate() {
         for v in &mut image.passes {
@@ -189,6 +202,15 @@ fn multilayer_exr_holds_the_passes_under_blender_names() {
             })
             .collect::<Vec<_>>()
     };
+    // Asking for passes that were not rendered is an error, not a panic.
+    let unrendered = Image::new(2, 1);
+    let layout = ExrLayout::Blender {
+        view_layer: "ViewLayer".into(),
+        light_passes: true,
+    };
+    let cancel = AtomicBool::new(false);
+    assert!(write_image(&path, &unrendered, &layout, &cancel).is_err());
+    assert!(!path.exists());
     let plain = channels(false);
     assert!(!plain.iter().any(|(n, _)| n.contains("DiffDir")));
     let with = channels(true);
