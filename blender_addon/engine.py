@@ -30,8 +30,9 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
     bl_use_eevee_viewport = True
 
     def update_render_passes(self, scene=None, renderlayer=None):
-        """Passes the renderer writes: Combined always; Depth, Normal and the denoising data
-        when the view layer asks for them (so the compositor's Denoise node can use them)."""
+        """Passes the renderer writes: Combined always; Depth, Normal, the denoising data (so
+        the compositor's Denoise node can use them) and the light passes (which add up to
+        Combined) when the view layer asks for them."""
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         if renderlayer.use_pass_z:
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
@@ -40,6 +41,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         if getattr(getattr(renderlayer, "cycles", None), "denoising_store_passes", False):
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
             self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
+        for name in properties.enabled_light_passes(renderlayer):
+            self.register_pass(scene, renderlayer, name, 3, "RGB", "COLOR")
 
     def render(self, depsgraph):
         self.timings = {"start": time.perf_counter()}
@@ -76,7 +79,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             command = runner.render_command(
                 binary, glb, exr, width=width, height=height,
                 settings=properties.render_settings(settings), camera=scene.camera.name,
-                view_layer=view_layer.name, region=region)
+                view_layer=view_layer.name, region=region,
+                passes=bool(properties.enabled_light_passes(view_layer)))
             stats = runner.run(command, self._on_event, self.test_break)
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]

@@ -78,6 +78,37 @@ def render_settings(props) -> RenderSettings:
     return RenderSettings(**values)
 
 
+class PhotonViewLayerSettings(bpy.types.PropertyGroup):
+    """Light passes Blender has no view-layer toggle for (`view_layer.photon`)."""
+    use_pass_caustic: BoolProperty(
+        name="Caustic", description="Photon mapping's caustic-map term (light focused by "
+        "glass and mirrors onto diffuse surfaces; 0 with path tracing, whose caustics are in "
+        "Direct and Indirect)", default=False)
+    use_pass_subsurface: BoolProperty(
+        name="Subsurface", description="Light that entered a translucent (subsurface) "
+        "material", default=False)
+
+
+# Light passes: (Blender pass name, the view-layer setting that enables it, the object holding
+# that setting). Emission, Diffuse Direct and Diffuse Indirect are Blender's own toggles (Photon
+# puts all its direct and indirect light there, glossy included); the renderer writes its passes
+# under the same names (src/image_io.rs LIGHT_PASS_NAMES).
+LIGHT_PASSES = (("Emit", "use_pass_emit", None), ("DiffDir", "use_pass_diffuse_direct", None),
+                ("DiffInd", "use_pass_diffuse_indirect", None),
+                ("Caustic", "use_pass_caustic", "photon"),
+                ("Subsurface", "use_pass_subsurface", "photon"))
+
+
+def enabled_light_passes(view_layer) -> list[str]:
+    """Names of the light passes enabled on `view_layer`."""
+    names = []
+    for name, prop, group in LIGHT_PASSES:
+        owner = getattr(view_layer, group) if group else view_layer
+        if getattr(owner, prop, False):
+            names.append(name)
+    return names
+
+
 class PhotonPreferences(bpy.types.AddonPreferences):
     bl_idname = __package__
 
@@ -98,16 +129,18 @@ def preference_binary(context) -> str:
     return getattr(prefs, "binary_path", "") or ""
 
 
-classes = (PhotonRenderSettings, PhotonPreferences)
+classes = (PhotonRenderSettings, PhotonViewLayerSettings, PhotonPreferences)
 
 
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.photon = PointerProperty(type=PhotonRenderSettings)
+    bpy.types.ViewLayer.photon = PointerProperty(type=PhotonViewLayerSettings)
 
 
 def unregister():
+    del bpy.types.ViewLayer.photon
     del bpy.types.Scene.photon
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -125,9 +125,10 @@ def settings_arguments(settings: RenderSettings) -> list[str]:
 
 
 def render_command(binary, scene, output, *, width, height, settings: RenderSettings,
-                   camera=None, view_layer=None, region=None) -> list[str]:
+                   camera=None, view_layer=None, region=None, passes=False) -> list[str]:
     """The `photon render` command line for one frame, with JSON progress on stderr. `region`
-    is (x0, y0, x1, y1) in full-frame pixels from the top-left, x1 and y1 exclusive."""
+    is (x0, y0, x1, y1) in full-frame pixels from the top-left, x1 and y1 exclusive; `passes`
+    adds the light passes to the view layer's EXR."""
     cmd = [str(binary), "render", str(scene), "-o", str(output),
            "--width", str(width), "--height", str(height), *settings_arguments(settings),
            "--progress", "json"]
@@ -137,6 +138,8 @@ def render_command(binary, scene, output, *, width, height, settings: RenderSett
         cmd += ["--exr-layer", view_layer]
     if region:
         cmd += ["--region", *(str(v) for v in region)]
+    if passes and view_layer:
+        cmd += ["--passes"]
     return cmd
 
 

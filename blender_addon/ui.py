@@ -78,7 +78,22 @@ def shared_panels():
             yield panel
 
 
-classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_photons)
+class VIEWLAYER_PT_photon_light_passes(PhotonPanel, bpy.types.Panel):
+    """The light passes Photon writes: Blender's own toggles where they exist."""
+    bl_label = "Light Passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        layer = context.view_layer
+        col = _split(self.layout)
+        col.prop(layer, "use_pass_emit", text="Emission")
+        col.prop(layer, "use_pass_diffuse_direct", text="Direct")
+        col.prop(layer, "use_pass_diffuse_indirect", text="Indirect")
+        col.prop(layer.photon, "use_pass_caustic")
+        col.prop(layer.photon, "use_pass_subsurface")
+
+
+classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_photons, VIEWLAYER_PT_photon_light_passes)
 
 
 def register():

@@ -165,6 +165,10 @@ struct RenderArgs {
     /// Name EXR channels for Blender's multilayer loader: <VIEW_LAYER>.Combined.R and so on.
     #[arg(long, value_name = "VIEW_LAYER")]
     exr_layer: Option<String>,
+    /// With --exr-layer, also write the light-path passes (Emit, DiffDir, DiffInd, Caustic,
+    /// Subsurface; see `integrator::LightPass`), which add up to Combined.
+    #[arg(long, requires = "exr_layer")]
+    passes: bool,
     /// Render only this window of the frame (Blender's render region), in pixels from the
     /// top-left corner, X1 and Y1 exclusive; the image has the window's size.
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
@@ -464,6 +468,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         } else {
             args.photon_settings(&PhotonSettings::default())?
         },
+        light_passes: args.passes,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -521,6 +526,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let layout = match &args.exr_layer {
         Some(layer) => ExrLayout::Blender {
             view_layer: layer.clone(),
+            light_passes: args.passes,
         },
         None => ExrLayout::Rgba,
     };

@@ -15,9 +15,19 @@ pub enum ExrLayout {
     /// Plain R, G, B, A: what image viewers and compositing tools expect.
     Rgba,
     /// Blender's multilayer naming `<view layer>.<pass>.<channel>` (Combined, Depth, Normal,
-    /// Denoising Albedo, Denoising Normal), which `RenderResult.load_from_file` reads.
-    Blender { view_layer: String },
+    /// Denoising Albedo, Denoising Normal), which `RenderResult.load_from_file` reads; with
+    /// `light_passes`, also the light-path passes under the names in `LIGHT_PASS_NAMES`.
+    Blender {
+        view_layer: String,
+        light_passes: bool,
+    },
 }
+
+/// Blender pass names of the light-path passes, in `LightPass` order. Emission, Direct and
+/// Indirect use the names of Blender's own view-layer passes (Emission, Diffuse Direct, Diffuse
+/// Indirect, which Photon fills with all of its direct and indirect light, glossy included);
+/// Caustic and Subsurface have no Blender counterpart and are the add-on's own.
+pub const LIGHT_PASS_NAMES: [&str; 5] = ["Emit", "DiffDir", "DiffInd", "Caustic", "Subsurface"];
 
 /// The temporary path a file is written to before it is renamed to `path`.
 pub fn temporary_path(path: &Path) -> PathBuf {
@@ -82,9 +92,12 @@ fn exr_channels(image: &Image, layout: &ExrLayout) -> Vec<(String, Vec<f32>)> {
             ("B".into(), rgba(2)),
             ("A".into(), rgba(3)),
         ],
-        ExrLayout::Blender { view_layer } => {
+        ExrLayout::Blender {
+            view_layer,
+            light_passes,
+        } => {
             let name = |pass: &str, chan: &str| format!("{view_layer}.{pass}.{chan}");
-            vec![
+            let mut channels = vec![
                 (name("Combined", "R"), rgba(0)),
                 (name("Combined", "G"), rgba(1)),
                 (name("Combined", "B"), rgba(2)),
@@ -108,12 +121,31 @@ fn exr_channels(image: &Image, layout: &ExrLayout) -> Vec<(String, Vec<f32>)> {
                 (name("Denoising Albedo", "R"), vec3(&image.albedo, 0)),
                 (name("Denoising Albedo", "G"), vec3(&image.albedo, 1)),
                 (name("Denoising Albedo", "B"), vec3(&image.albedo, 2)),
-            ]
+            ];
+            if *light_passes {
+                for (p, pass) in LIGHT_PASS_NAMES.iter().enumerate() {
+                    for (c, chan) in ["R", "G", "B"].iter().enumerate() {
+                        let values = plane(&|i| image.passes[i].0[p][c]);
+                        channels.push((name(pass, chan), values));
+                    }
+                }
+            }
+            channels
         }
     }
 }
 
 fn write_exr(tmp: &Path, target: &Path, image: &Image, layout: &ExrLayout) -> Result<()> {
+    if let ExrLayout::Blender {
+        light_passes: true, ..
+    } = layout
+    {
+        if image.passes.len() != image.rgba.len() {
+            return Err(Error::Settings(
+                "the light passes were not rendered (RenderSettings::light_passes)".into(),
+            ));
+        }
+    }
     let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = exr_channels(image, layout)
         .into_iter()
         .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data)))

@@ -98,6 +98,12 @@ fn merge(mut sum: Image, sum_spp: u32, pass: &Image, pass_spp: u32) -> Image {
     for (s, p) in sum.normal.iter_mut().zip(&pass.normal) {
         *s = (*s * a + *p * b).normalize_or_zero();
     }
+    for (s, p) in sum.passes.iter_mut().zip(&pass.passes) {
+        let mut p = *p;
+        p.scale(b);
+        s.scale(a);
+        *s += p;
+    }
     for (s, p) in sum.depth.iter_mut().zip(&pass.depth) {
         *s = s.min(*p);
     }

@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::film::{Image, PixelFilter};
 use crate::integrator::ic::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::{self, PhotonInfo, PhotonMaps, PhotonSettings, View};
-use crate::integrator::{path, CameraSample, Context};
+use crate::integrator::{path, CameraSample, Context, Passes};
 use crate::irradiance_cache::{IcSettings, IrradianceCache};
 use crate::light::Lights;
 use crate::math::{Vec2, Vec3};
@@ -41,6 +41,8 @@ pub struct RenderSettings {
     /// Render only this window of the `width` × `height` frame (Blender's render region); the
     /// image is the window's size and equals that crop of the full render, bit for bit.
     pub region: Option<Region>,
+    /// Keep the light-path passes (`Image::passes`); off, they are summed but not stored.
+    pub light_passes: bool,
 }
 
 /// A window of the frame in pixels, top-left origin, `x1` and `y1` exclusive.
@@ -120,6 +122,7 @@ impl Default for RenderSettings {
             photon: PhotonSettings::default(),
             irradiance_cache: IcSettings::default(),
             region: None,
+            light_passes: false,
         }
     }
 }
@@ -264,6 +267,9 @@ pub fn render(
         .collect::<Result<_>>()?;
 
     let mut image = Image::new(window.width(), window.height());
+    if settings.light_passes {
+        image.passes = vec![Passes::default(); image.rgba.len()];
+    }
     image.camera_rotation = crate::math::Mat3::from(scene.camera.to_world.matrix3);
     for (tx, ty, tile) in tiles {
         for (i, px) in tile.pixels.into_iter().enumerate() {
@@ -274,6 +280,14 @@ pub fn render(
             image.albedo[k] = px.albedo;
             image.normal[k] = px.normal;
             image.depth[k] = px.depth;
+        }
+        if settings.light_passes {
+            for (i, passes) in tile.passes.into_iter().enumerate() {
+                let x = tx + i as u32 % tile.width;
+                let y = ty + i as u32 / tile.width;
+                image.passes[((y - window.y0) * window.width() + (x - window.x0)) as usize] =
+                    passes;
+            }
         }
     }
     stats.render_seconds = start.elapsed().as_secs_f64();
@@ -293,6 +307,8 @@ struct PixelResult {
 struct TileResult {
     width: u32,
     pixels: Vec<PixelResult>,
+    /// The light-path passes of the pixels, when the settings keep them.
+    passes: Vec<Passes>,
 }
 
 /// The integrator of this render, chosen once.
@@ -364,6 +380,7 @@ fn render_tile(
     let x1 = (x0 + TILE).min(window.x1);
     let y1 = (y0 + TILE).min(window.y1);
     let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+    let mut tile_passes = Vec::new();
     let mut tile_rays = 0u64;
     let mut tile_nonfinite = 0u64;
     for y in y0..y1 {
@@ -371,6 +388,7 @@ fn render_tile(
             progress.check()?;
             let pixel_index = y as u64 * settings.width as u64 + x as u64;
             let mut sum = Vec3::ZERO;
+            let mut passes = Passes::default();
             let mut coverage = 0.0f32;
             let mut albedo = Vec3::ZERO;
             let mut normal = Vec3::ZERO;
@@ -386,6 +404,7 @@ fn render_tile(
                 tile_rays += sample.rays as u64;
                 if sample.radiance.is_finite() {
                     sum += sample.radiance;
+                    passes += sample.passes;
                 } else {
                     tile_nonfinite += 1;
                 }
@@ -398,6 +417,7 @@ fn render_tile(
             }
             let n = settings.spp as f32;
             let c = sum / n;
+            passes.scale(1.0 / n);
             pixels.push(PixelResult {
                 rgba: [c.x, c.y, c.z, coverage / n],
                 albedo: albedo / n,
@@ -408,6 +428,9 @@ fn render_tile(
                     1e10
                 },
             });
+            if settings.light_passes {
+                tile_passes.push(passes);
+            }
         }
     }
     rays.fetch_add(tile_rays, Ordering::Relaxed);
@@ -415,5 +438,6 @@ fn render_tile(
     Ok(TileResult {
         width: x1 - x0,
         pixels,
+        passes: tile_passes,
     })
 }

@@ -112,6 +112,13 @@ fn bad_arguments_and_missing_files_exit_with_2() {
             "info".into(),
             dir.join("missing.gltf").to_string_lossy().into(),
         ],
+        // The light-path passes need Blender's multilayer naming.
+        vec![
+            "render".into(),
+            "--passes".into(),
+            "-o".into(),
+            dir.join("o.exr").to_string_lossy().into(),
+        ],
     ];
     for args in cases {
         let result = photon().args(&args).output().unwrap();

@@ -21,10 +21,14 @@
 //! when it is Lambertian and a record covers it: emission + light sample (no MIS, no BSDF ray) +
 //! ρ/π · E, and the path ends; elsewhere the path goes on as usual. The records' gather rays
 //! are paths too (`incident_radiance`), leaving out the emission of their first hit.
+//!
+//! Light passes (`super::LightPass`): each contribution goes to the pass given by the number of
+//! non-delta vertices before it (a light sample counts its own vertex), or to Subsurface once
+//! the path took the subsurface branch; the cached term is Indirect. Caustic stays 0.
 
 use super::ic::lambertian_reflectance;
 use super::photon::tracing::stores_photons;
-use super::{CameraSample, Context};
+use super::{CameraSample, Context, LightPass, Passes};
 use crate::accel::{Ray, Visibility};
 use crate::bsdf::{bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf};
 use crate::interaction::SurfaceHit;
@@ -118,6 +122,16 @@ fn sample_exit(
     (pdf > 0.0 && weight.is_finite()).then_some((exit, weight))
 }
 
+/// The pass of light reaching the camera after `diffuse` non-specular vertices, `subsurface`
+/// when the path went through a translucent material (`LightPass`).
+fn light_pass(diffuse: u32, subsurface: bool) -> LightPass {
+    if subsurface {
+        LightPass::Subsurface
+    } else {
+        LightPass::after(diffuse)
+    }
+}
+
 /// Russian roulette on the throughput: false when the path ends, else `beta` is reweighted.
 fn russian_roulette(beta: &mut Vec3, rng: &mut Rng) -> bool {
     let q = max_component(*beta).min(1.0);
@@ -165,7 +179,10 @@ fn trace_path(
         depth: 1e10,
         ..CameraSample::default()
     };
-    let mut radiance = Vec3::ZERO;
+    let mut passes = Passes::default();
+    // Non-specular vertices so far, and whether the path went through the subsurface branch.
+    let mut diffuse = 0u32;
+    let mut subsurface = false;
     let mut beta = Vec3::ONE;
     let mut ray = camera_ray;
     // The previous bounce's sampling density and whether it was a delta lobe, for MIS.
@@ -187,13 +204,14 @@ fn trace_path(
             if depth == 0 && (ctx.transparent_background || gather) {
                 break;
             }
+            let pass = light_pass(diffuse, subsurface);
             ctx.lights.escaped(ray.direction, |le, light_pdf| {
                 let w = if prev_delta {
                     1.0
                 } else {
                     power_heuristic(prev_pdf, light_pdf)
                 };
-                radiance += beta * le * w;
+                passes.add(pass, beta * le * w);
             });
             break;
         };
@@ -218,7 +236,7 @@ fn trace_path(
             } else {
                 power_heuristic(prev_pdf, ctx.lights.triangle_pdf(prev_p, &sh))
             };
-            radiance += beta * le * w;
+            passes.add(light_pass(diffuse, subsurface), beta * le * w);
         }
         if depth == ctx.max_depth {
             break;
@@ -248,6 +266,7 @@ fn trace_path(
                     break;
                 };
                 beta *= rd_over_pdf * enter;
+                subsurface = true;
                 let exit_frame = Frame::from_normal(exit.ng);
                 let transmit = |wi: Vec3| bsdf.base_transmittance(exit_frame.to_local(wi));
                 if let Some(ls) = ctx
@@ -264,7 +283,7 @@ fn trace_path(
                                 power_heuristic(ls.pdf, cosine_hemisphere_pdf(cos))
                             };
                             let f = transmit(ls.wi) * cos / PI;
-                            radiance += beta * ls.li * (f * w / ls.pdf);
+                            passes.add(LightPass::Subsurface, beta * ls.li * (f * w / ls.pdf));
                         }
                     }
                 }
@@ -319,14 +338,15 @@ fn trace_path(
                         } else {
                             power_heuristic(ls.pdf, bsdf_pdf(&bsdf, wo_local, wi_local))
                         };
-                        radiance += beta * f * ls.li * (w / ls.pdf);
+                        let pass = light_pass(diffuse + 1, subsurface);
+                        passes.add(pass, beta * f * ls.li * (w / ls.pdf));
                     }
                 }
             }
         }
 
         if let Some(indirect) = cached {
-            radiance += beta * indirect;
+            passes.add(light_pass(diffuse + 2, subsurface), beta * indirect);
             break;
         }
 
@@ -340,6 +360,9 @@ fn trace_path(
         beta *= s.weight;
         if beta == Vec3::ZERO || !beta.is_finite() {
             break;
+        }
+        if !s.delta {
+            diffuse += 1;
         }
         prev_pdf = s.pdf;
         prev_delta = s.delta;
@@ -358,6 +381,7 @@ fn trace_path(
             break;
         }
     }
-    out.radiance = radiance;
+    out.radiance = passes.total();
+    out.passes = passes;
     out
 }

@@ -47,3 +47,33 @@ def test_passes_are_loaded(photon_addon, tmp_path):
     assert get(photon, "Denoising Albedo.R") == pytest.approx(get(cycles, "Denoising Albedo.R"),
                                                               rel=0.03)
     assert get(photon, "Combined.A") == pytest.approx(1.0)
+
+
+LIGHT_PASSES = ["Emit", "DiffDir", "DiffInd", "Caustic", "Subsurface"]
+
+
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_light_passes_add_up_to_combined(photon_addon, tmp_path, method):
+    """With Emission, Diffuse Direct/Indirect and Photon's Caustic and Subsurface enabled, the
+    passes reach the render result and add up to Combined."""
+    photon_binary()
+    scene = scenes_bpy.default_scene()
+    layer = scene.view_layers[0]
+    layer.use_pass_emit = layer.use_pass_diffuse_direct = layer.use_pass_diffuse_indirect = True
+    layer.photon.use_pass_caustic = layer.photon.use_pass_subsurface = True
+    scene.photon.method = method
+    common.set_multilayer_exr(scene.render.image_settings)
+    scene.render.image_settings.color_depth = "32"  # full float, for the sum
+    photon = render_multilayer(scene, "PHOTON", tmp_path / "photon.exr")
+    for name in LIGHT_PASSES:
+        for chan in "RGB":
+            assert f"{layer.name}.{name}.{chan}" in photon, sorted(photon)
+    for chan in "RGB":
+        combined = photon[f"{layer.name}.Combined.{chan}"]
+        total = sum(photon[f"{layer.name}.{name}.{chan}"] for name in LIGHT_PASSES)
+        assert combined.mean() > 0.01
+        np.testing.assert_allclose(total, combined, rtol=1e-4, atol=1e-6)
+        for name in LIGHT_PASSES:
+            assert photon[f"{layer.name}.{name}.{chan}"].min() >= 0.0
+    # The point light lights the cube directly.
+    assert photon[f"{layer.name}.DiffDir.R"].mean() > 0.0

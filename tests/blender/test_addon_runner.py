@@ -156,6 +156,10 @@ def test_render_command():
                         ("--exr-layer", "ViewLayer"), ("--method", "auto"),
                         ("--quality", "default"), ("--gather-rays", "4")):
         assert flags[flag] == value, (flag, cmd)
+    assert "--passes" not in cmd
+    cmd = runner.render_command("photon", "s.glb", "o.exr", width=64, height=36,
+                                settings=settings, view_layer="ViewLayer", passes=True)
+    assert "--passes" in cmd
 
 
 def test_settings_arguments_defaults_leave_choices_to_the_renderer():

@@ -22,6 +22,11 @@
 //! the mirror direction and, at the next non-specular hit, adds its emission and the global
 //! estimate (no second gather: Jensen's "less accurate" path for secondary rays).
 //!
+//! Light passes (`super::LightPass`), as seen from x: its light sample and the emission its
+//! gather rays find are Direct, emission through its delta lobes Emission, the global estimates
+//! and the cache Indirect, the caustic estimate Caustic, the dipole term Subsurface; glossy
+//! vertices on the camera chain before x move Emission and Direct one step further.
+//!
 //! "Specular" means a delta lobe, or a surface without Lambertian part whose perceptual roughness
 //! is below `SPECULAR_ROUGHNESS` = 0.049 (LuxCore's glossiness threshold): such surfaces are ray
 //! traced; all others store photons and are shaded from the maps.
@@ -72,7 +77,7 @@
 pub mod subsurface;
 pub mod tracing;
 
-use super::{CameraSample, Context};
+use super::{CameraSample, Context, LightPass, Passes};
 use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::{bsdf_albedo, bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf, BsdfSample};
 use crate::error::{Error, Result};
@@ -751,12 +756,12 @@ impl Pass2<'_> {
     }
 
     /// Radiance along a ray that left a diffuse surface through a delta lobe: emission along the
-    /// specular chain plus the global estimate at its end.
-    fn estimate_ray(&mut self, ray: Ray, absorption: Vec3, rng: &mut Rng) -> Vec3 {
+    /// specular chain and the global estimate at its end, returned apart (for the passes).
+    fn estimate_ray(&mut self, ray: Ray, absorption: Vec3, rng: &mut Rng) -> (Vec3, Vec3) {
         let Some(hit) = self.intersect(&ray) else {
             let mut l = Vec3::ZERO;
             self.ctx.lights.escaped(ray.direction, |le, _| l += le);
-            return l;
+            return (l, Vec3::ZERO);
         };
         let mut t = Vec3::ONE;
         if absorption != Vec3::ZERO {
@@ -764,28 +769,38 @@ impl Pass2<'_> {
         }
         let s = Shading::new(self.ctx, &ray, &hit);
         let mut l = emitted_radiance(self.ctx.scene, &s.sh, s.wo);
+        let mut estimate = Vec3::ZERO;
         if let Some((d, beta)) = self.through_specular(s, absorption, true, &mut l, rng) {
-            l += beta * self.global(&d);
+            estimate = beta * self.global(&d);
         }
-        t * l
+        (t * l, t * estimate)
     }
 
-    /// Reflected radiance at a non-specular surface: direct + caustics + final gather.
-    fn shade(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+    /// Reflected radiance at a non-specular surface: direct + caustics + final gather, by pass
+    /// as seen from `s` (emission through its delta lobes is `Emission`, its light samples and
+    /// the emission its gather rays find `Direct`, their global estimates `Indirect`).
+    fn shade(&mut self, s: &Shading, rng: &mut Rng) -> Passes {
+        let mut passes = Passes::default();
         // Irradiance cache: a Lambertian surface takes its indirect light from the records and
         // samples only the lights; on a mixed one the cache replaces the diffuse lobe's share
         // of the gather rays' global estimates.
         let cached = (self.maps.cache.as_ref()).and_then(|c| super::ic::cached_diffuse(c, s));
         if let Some(d) = cached.filter(|d| d.lambertian) {
-            return self.direct(s, false, rng) + self.caustic(s) + d.radiance;
+            passes.add(LightPass::Direct, self.direct(s, false, rng));
+            passes.add(LightPass::Caustic, self.caustic(s));
+            passes.add(LightPass::Indirect, d.radiance);
+            return passes;
         }
         let m = self.maps.settings.gather_rays;
-        let mut l = self.direct(s, m > 0, rng) + self.caustic(s);
+        passes.add(LightPass::Direct, self.direct(s, m > 0, rng));
+        passes.add(LightPass::Caustic, self.caustic(s));
         if m == 0 {
-            return l + self.global(s);
+            passes.add(LightPass::Indirect, self.global(s));
+            return passes;
         }
         let n = (m as f32).sqrt() as u32;
-        let mut sum = Vec3::ZERO;
+        // Sums over the gather rays by pass.
+        let mut sum = Passes::default();
         for i in 0..m {
             // Stratify the first n² directions on an n × n grid.
             let u = if i < n * n {
@@ -799,21 +814,29 @@ impl Pass2<'_> {
             };
             let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
             let ray = s.sh.spawn(wi);
-            sum += if bs.delta {
-                bs.weight * self.estimate_ray(ray, absorption, rng)
+            if bs.delta {
+                let (emission, estimate) = self.estimate_ray(ray, absorption, rng);
+                sum.add(LightPass::Emission, bs.weight * emission);
+                sum.add(LightPass::Indirect, bs.weight * estimate);
             } else {
                 let (emission, estimate) = self.gather_ray(s.sh.p, ray, bs.pdf, absorption, rng);
                 let w = cached.map_or(bs.weight, |d| d.non_diffuse_weight(&bs));
-                bs.weight * emission + w * estimate
-            };
+                sum.add(LightPass::Direct, bs.weight * emission);
+                sum.add(LightPass::Indirect, w * estimate);
+            }
         }
-        l += sum / m as f32 + cached.map_or(Vec3::ZERO, |d| d.radiance);
-        l
+        sum.scale(1.0 / m as f32);
+        passes += sum;
+        passes.add(
+            LightPass::Indirect,
+            cached.map_or(Vec3::ZERO, |d| d.radiance),
+        );
+        passes
     }
 
     /// `shade`, where on a translucent surface the subsurface term replaces the subsurface
     /// weight's share of the Lambertian part.
-    fn shade_full(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+    fn shade_full(&mut self, s: &Shading, rng: &mut Rng) -> Passes {
         let sss = self.maps.subsurface.as_ref().and_then(|m| m.radiance(s));
         match sss {
             None => self.shade(s, rng),
@@ -823,7 +846,9 @@ impl Pass2<'_> {
                     bsdf: s.bsdf.without_subsurface(weight),
                     ..*s
                 };
-                l + self.shade(&rest, rng)
+                let mut passes = self.shade(&rest, rng);
+                passes.add(LightPass::Subsurface, l);
+                passes
             }
         }
     }
@@ -896,7 +921,9 @@ pub fn trace(
         rays: 0,
     };
     let emission = matches!(view, View::Full | View::Global);
-    let mut radiance = Vec3::ZERO;
+    let mut passes = Passes::default();
+    // Non-specular (glossy) vertices on the camera chain so far.
+    let mut diffuse = 0u32;
     let mut beta = Vec3::ONE;
     let mut ray = camera_ray;
     let mut prev_pdf = 0.0f32;
@@ -918,7 +945,7 @@ pub fn trace(
                     } else {
                         power_heuristic(prev_pdf, light_pdf)
                     };
-                    radiance += beta * le * w;
+                    passes.add(LightPass::after(diffuse), beta * le * w);
                 });
             }
             break;
@@ -940,25 +967,29 @@ pub fn trace(
             } else {
                 power_heuristic(prev_pdf, ctx.lights.triangle_pdf(prev_p, &s.sh))
             };
-            radiance += beta * le * w;
+            passes.add(LightPass::after(diffuse), beta * le * w);
         }
         if depth == ctx.max_depth {
             break;
         }
         if stores_photons(&s.bsdf, s.wo_local) {
-            let l = match view {
-                View::Full => p2.shade_full(&s, rng),
-                View::Global => p2.global(&s),
-                View::Caustic => p2.caustic(&s),
-                View::Photons => p2.dots(&s),
+            let mut l = Passes::default();
+            match view {
+                View::Full => l = p2.shade_full(&s, rng),
+                View::Global => l.add(LightPass::Indirect, p2.global(&s)),
+                View::Caustic => l.add(LightPass::Caustic, p2.caustic(&s)),
+                View::Photons => l.add(LightPass::Indirect, p2.dots(&s)),
             };
-            radiance += beta * l;
+            passes.add_after(&l, beta, diffuse);
             break;
         }
         // A glossy-only surface: light sampling with MIS, as in the path tracer.
         let glossy_nee = view == View::Full && s.bsdf.has_non_delta();
         if glossy_nee {
-            radiance += beta * p2.direct(&s, true, rng);
+            passes.add(
+                LightPass::after(diffuse + 1),
+                beta * p2.direct(&s, true, rng),
+            );
         }
         let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) else {
             break;
@@ -966,6 +997,9 @@ pub fn trace(
         beta *= bs.weight;
         if beta == Vec3::ZERO || !beta.is_finite() {
             break;
+        }
+        if !bs.delta {
+            diffuse += 1;
         }
         prev_pdf = bs.pdf;
         prev_delta = bs.delta || !glossy_nee;
@@ -982,7 +1016,8 @@ pub fn trace(
             }
         }
     }
-    out.radiance = radiance;
+    out.radiance = passes.total();
+    out.passes = passes;
     out.rays = p2.rays;
     out
 }
