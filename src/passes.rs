@@ -1,14 +1,15 @@
 //! Rendering in passes under a time limit: the image is the sample-weighted average of passes of
-//! `pass_spp` samples, each a full `render` with its own seed, and no new pass starts once the time
+//! `pass_spp` samples, each with its own seed, and no new pass starts once the time
 //! is up (the first pass always completes). The same settings and number of completed passes give
 //! the same image bit for bit; pass 0 uses the caller's seed, so one pass equals a plain render.
 //!
-//! Each pass rebuilds the acceleration structure and, for the photon methods, traces new photon
-//! maps: simple, and the independent maps of later passes average away part of the photon noise.
+//! The acceleration structure, photon maps and irradiance cache are built once, with the
+//! caller's seed, and shared by all passes (`render::render_scheduled`): before, every 4-spp
+//! pass rebuilt them, which made a time-limited photon render mostly photon tracing.
 
 use crate::error::Result;
 use crate::film::Image;
-use crate::render::{render, Progress, RenderSettings, RenderStats};
+use crate::render::{render_scheduled, Progress, RenderSettings, RenderStats};
 use crate::scene::Scene;
 use std::time::{Duration, Instant};
 
@@ -41,38 +42,25 @@ pub fn render_in_passes(
 ) -> Result<PassesResult> {
     let start = Instant::now();
     let pass_spp = pass_spp.clamp(1, settings.spp.max(1));
-    let mut total: Option<(Image, RenderStats)> = None;
+    let mut total: Option<Image> = None;
     let mut done_spp = 0u32;
     let mut passes = 0u32;
-    while done_spp < settings.spp {
-        if passes > 0 && time_limit.is_some_and(|limit| start.elapsed() >= limit) {
-            break;
+    let stats = render_scheduled(scene, settings, progress, &mut |finished| {
+        if let Some((image, spp)) = finished {
+            total = Some(match total.take() {
+                None => image,
+                Some(sum) => merge(sum, done_spp, &image, spp),
+            });
+            done_spp += spp;
+            passes += 1;
         }
-        let spp = pass_spp.min(settings.spp - done_spp);
-        let pass_settings = RenderSettings {
-            spp,
-            seed: pass_seed(settings.seed, passes),
-            ..settings.clone()
-        };
-        let (image, stats) = render(scene, &pass_settings, progress)?;
-        total = Some(match total {
-            None => (image, stats),
-            Some((sum, sum_stats)) => (
-                merge(sum, done_spp, &image, spp),
-                RenderStats {
-                    build_seconds: sum_stats.build_seconds + stats.build_seconds,
-                    render_seconds: sum_stats.render_seconds + stats.render_seconds,
-                    camera_samples: sum_stats.camera_samples + stats.camera_samples,
-                    rays: sum_stats.rays + stats.rays,
-                    nonfinite_samples: sum_stats.nonfinite_samples + stats.nonfinite_samples,
-                    ..stats
-                },
-            ),
-        });
-        done_spp += spp;
-        passes += 1;
-    }
-    let (image, stats) = total.ok_or_else(|| {
+        let time_up = passes > 0 && time_limit.is_some_and(|limit| start.elapsed() >= limit);
+        (done_spp < settings.spp && !time_up).then(|| {
+            let spp = pass_spp.min(settings.spp - done_spp);
+            (pass_seed(settings.seed, passes), spp)
+        })
+    })?;
+    let image = total.ok_or_else(|| {
         crate::error::Error::Settings("samples per pixel must be at least 1".into())
     })?;
     Ok(PassesResult {

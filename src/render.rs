@@ -177,6 +177,30 @@ pub fn render(
     settings: &RenderSettings,
     progress: &Progress,
 ) -> Result<(Image, RenderStats)> {
+    let mut image = None;
+    let stats = render_scheduled(scene, settings, progress, &mut |done| match done {
+        None => Some((settings.seed, settings.spp)),
+        Some((pass, _)) => {
+            image = Some(pass);
+            None
+        }
+    })?;
+    Ok((image.expect("one pass rendered"), stats))
+}
+
+/// What a scheduled render does after its preparation: given the image of the pass just
+/// rendered and its samples per pixel (`None` before the first), the seed and samples per pixel
+/// of the next pass, or `None` to finish.
+pub type Schedule<'a> = dyn FnMut(Option<(Image, u32)>) -> Option<(u64, u32)> + 'a;
+
+/// Prepare once (BVH, lights, photon maps and irradiance cache, built with `settings.seed`),
+/// then render the passes `schedule` asks for; the returned statistics cover all of them.
+pub fn render_scheduled(
+    scene: &Scene,
+    settings: &RenderSettings,
+    progress: &Progress,
+    schedule: &mut Schedule,
+) -> Result<RenderStats> {
     if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
         return Err(Error::Settings(
             "width, height and samples must be at least 1".into(),
@@ -237,6 +261,48 @@ pub fn render(
     };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
     let filter = PixelFilter::default();
+    let mut previous = None;
+    while let Some((seed, spp)) = schedule(previous.take()) {
+        if spp == 0 {
+            return Err(Error::Settings(
+                "samples per pixel must be at least 1".into(),
+            ));
+        }
+        let pass_settings = RenderSettings {
+            seed,
+            spp,
+            ..settings.clone()
+        };
+        let image = render_pass(
+            &ctx,
+            integrator,
+            &camera,
+            &filter,
+            &pass_settings,
+            &window,
+            progress,
+            &mut stats,
+        )?;
+        previous = Some((image, spp));
+    }
+    Ok(stats)
+}
+
+/// Render `settings.spp` samples per pixel of `window` with `settings.seed`, adding the time,
+/// samples and rays to `stats`.
+#[allow(clippy::too_many_arguments)]
+fn render_pass(
+    ctx: &Context,
+    integrator: Integrator,
+    camera: &CameraRays,
+    filter: &PixelFilter,
+    settings: &RenderSettings,
+    window: &Region,
+    progress: &Progress,
+    stats: &mut RenderStats,
+) -> Result<Image> {
+    let scene = ctx.scene;
+    let window = *window;
     let tiles_x = window.width().div_ceil(TILE);
     let tiles_y = window.height().div_ceil(TILE);
     let tile_count = (tiles_x * tiles_y) as u64;
@@ -253,7 +319,7 @@ pub fn render(
                 window.y0 + t / tiles_x * TILE,
             );
             let tile = render_tile(
-                &ctx, integrator, &camera, &filter, settings, &window, tx, ty, progress, &rays,
+                ctx, integrator, camera, filter, settings, &window, tx, ty, progress, &rays,
                 &nonfinite,
             )?;
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -290,11 +356,11 @@ pub fn render(
             }
         }
     }
-    stats.render_seconds = start.elapsed().as_secs_f64();
-    stats.camera_samples = window.width() as u64 * window.height() as u64 * settings.spp as u64;
-    stats.rays = rays.into_inner();
-    stats.nonfinite_samples = nonfinite.into_inner();
-    Ok((image, stats))
+    stats.render_seconds += start.elapsed().as_secs_f64();
+    stats.camera_samples += window.width() as u64 * window.height() as u64 * settings.spp as u64;
+    stats.rays += rays.into_inner();
+    stats.nonfinite_samples += nonfinite.into_inner();
+    Ok(image)
 }
 
 struct PixelResult {

@@ -331,3 +331,36 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
         );
     }
 }
+
+#[test]
+fn passes_share_one_set_of_photon_maps() {
+    // A time-limited render in passes builds the photon maps once: the global pass reports
+    // its last batch once, however many passes run, and four passes of 2 spp give the image of
+    // the same passes again (deterministic).
+    use photon::passes::render_in_passes;
+    use photon::render::{Progress, ProgressEvent};
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Mutex;
+    let scene = builtin::cornell_box(&LoadOptions::default()).expect("cornell box");
+    let settings = photon_settings(12, 8, 5_000);
+    let finished = Mutex::new(0);
+    let cancel = AtomicBool::new(false);
+    let report = |e: &ProgressEvent| {
+        if e.stage == "photons" && e.fraction == 1.0 && e.message.starts_with("Global") {
+            *finished.lock().unwrap() += 1;
+        }
+    };
+    let progress = Progress {
+        cancel: &cancel,
+        report: &report,
+    };
+    let a = render_in_passes(&scene, &settings, 2, None, &progress).expect("render");
+    assert_eq!(a.passes, 4);
+    assert_eq!(
+        *finished.lock().unwrap(),
+        1,
+        "maps built once for four passes"
+    );
+    let b = render_in_passes(&scene, &settings, 2, None, &progress).expect("render");
+    assert_eq!(a.image.rgba, b.image.rgba);
+}
