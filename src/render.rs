@@ -273,36 +273,35 @@ pub fn render_scheduled(
             spp,
             ..settings.clone()
         };
-        let image = render_pass(
-            &ctx,
+        let pass = PassSetup {
+            ctx: &ctx,
             integrator,
-            &camera,
-            &filter,
-            &pass_settings,
-            &window,
-            progress,
-            &mut stats,
-        )?;
+            camera: &camera,
+            filter: &filter,
+            settings: &pass_settings,
+            window,
+        };
+        let image = render_pass(&pass, progress, &mut stats)?;
         previous = Some((image, spp));
     }
     Ok(stats)
 }
 
-/// Render `settings.spp` samples per pixel of `window` with `settings.seed`, adding the time,
+/// What every tile of one pass shares.
+struct PassSetup<'a> {
+    ctx: &'a Context<'a>,
+    integrator: Integrator<'a>,
+    camera: &'a CameraRays,
+    filter: &'a PixelFilter,
+    /// The pass's seed and samples per pixel.
+    settings: &'a RenderSettings,
+    window: Region,
+}
+
+/// Render `settings.spp` samples per pixel of the window with `settings.seed`, adding the time,
 /// samples and rays to `stats`.
-#[allow(clippy::too_many_arguments)]
-fn render_pass(
-    ctx: &Context,
-    integrator: Integrator,
-    camera: &CameraRays,
-    filter: &PixelFilter,
-    settings: &RenderSettings,
-    window: &Region,
-    progress: &Progress,
-    stats: &mut RenderStats,
-) -> Result<Image> {
-    let scene = ctx.scene;
-    let window = *window;
+fn render_pass(pass: &PassSetup, progress: &Progress, stats: &mut RenderStats) -> Result<Image> {
+    let (scene, settings, window) = (pass.ctx.scene, pass.settings, pass.window);
     let tiles_x = window.width().div_ceil(TILE);
     let tiles_y = window.height().div_ceil(TILE);
     let tile_count = (tiles_x * tiles_y) as u64;
@@ -318,10 +317,7 @@ fn render_pass(
                 window.x0 + t % tiles_x * TILE,
                 window.y0 + t / tiles_x * TILE,
             );
-            let tile = render_tile(
-                ctx, integrator, camera, filter, settings, &window, tx, ty, progress, &rays,
-                &nonfinite,
-            )?;
+            let tile = render_tile(pass, tx, ty, progress, &rays, &nonfinite)?;
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
             (progress.report)(&ProgressEvent {
                 stage: "render",
@@ -429,20 +425,22 @@ fn prepare_cache(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn render_tile(
-    ctx: &Context,
-    integrator: Integrator,
-    camera: &CameraRays,
-    filter: &PixelFilter,
-    settings: &RenderSettings,
-    window: &Region,
+    pass: &PassSetup,
     x0: u32,
     y0: u32,
     progress: &Progress,
     rays: &AtomicU64,
     nonfinite: &AtomicU64,
 ) -> Result<TileResult> {
+    let (ctx, integrator, camera, filter, settings, window) = (
+        pass.ctx,
+        pass.integrator,
+        pass.camera,
+        pass.filter,
+        pass.settings,
+        &pass.window,
+    );
     let x1 = (x0 + TILE).min(window.x1);
     let y1 = (y0 + TILE).min(window.y1);
     let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
