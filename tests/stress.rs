@@ -13,8 +13,9 @@ use photon::math::Vec3;
 use photon::render::{Method, RenderSettings};
 use photon::scene::{Light, Material, Mesh, Projection, Scene};
 
-/// Every rendering method a user can pick (debug views excluded).
-const METHODS: [Method; 2] = [Method::Path, Method::Photon];
+/// Every rendering method a user can pick (debug views excluded); the photon method renders
+/// with the irradiance cache (its default) and, in `settings`, without it too.
+const METHODS: [Method; 3] = [Method::Path, Method::Photon, Method::PathCache];
 
 fn settings(method: Method) -> RenderSettings {
     RenderSettings {
@@ -362,6 +363,22 @@ fn cases() -> Vec<Case> {
         scene: black,
         expect: Expect::Range(0.0, 0.0),
     });
+    // Translucent spheres with the smallest and largest mean free paths a user can set.
+    for (name, scale) in [
+        ("translucent sphere, mean free path 1e-5", 1e-5),
+        ("translucent sphere, mean free path 10", 10.0),
+    ] {
+        let mut marble = Material::diffuse("marble", Vec3::splat(0.8));
+        marble.subsurface.weight = 1.0;
+        marble.subsurface.radius = Vec3::ONE;
+        marble.subsurface.scale = scale;
+        marble.subsurface.ior = 1.0;
+        cases.push(Case {
+            name,
+            scene: sphere_on_floor(marble, lit()),
+            expect: Expect::Range(1e-3, 10.0),
+        });
+    }
     // White furnace: a convex sphere of albedo 1 under a uniform sky of radiance 1 reflects 1.
     cases.push(Case {
         name: "white furnace (albedo 1 under a uniform sky)",
@@ -444,6 +461,34 @@ fn every_method_gives_the_same_image_at_any_scale_and_distance_from_the_origin()
             assert!(
                 (m - reference).abs() < 0.05 * reference,
                 "{name} ({method:?}): {m} vs {reference}"
+            );
+        }
+    }
+}
+
+#[test]
+fn irradiance_cache_at_extreme_accuracy_settings() {
+    let scene = sphere_on_floor(
+        Material::diffuse("white", Vec3::splat(0.8)),
+        point_light(20.0),
+    );
+    for method in [Method::Photon, Method::PathCache] {
+        let reference = mean("default accuracy", &scene, &settings(method));
+        for (accuracy, gather_rays, min_spacing, max_spacing) in [
+            (1e-3, 4, 0.1, 1.0),
+            (1.0, 1, 100.0, 1000.0),
+            (0.2, 1024, 1.5, 48.0),
+        ] {
+            let mut s = settings(method);
+            s.irradiance_cache.accuracy = accuracy;
+            s.irradiance_cache.gather_rays = gather_rays;
+            s.irradiance_cache.min_spacing = min_spacing;
+            s.irradiance_cache.max_spacing = max_spacing;
+            let m = mean("cache settings", &scene, &s);
+            // Coarse settings blur the indirect light; they must not lose or invent light.
+            assert!(
+                (m - reference).abs() < 0.25 * reference,
+                "{method:?} a = {accuracy}, {gather_rays} rays: {m} vs {reference}"
             );
         }
     }
