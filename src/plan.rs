@@ -447,6 +447,11 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
             Method::Photon,
             "caustics: the caustic map resolves what path tracing finds only by chance".into(),
         )
+    } else if subsurface.needed {
+        (
+            Method::Photon,
+            "translucent materials: the dipole from subsurface photons is smooth where the path tracer's probe rays are noisy".into(),
+        )
     } else if !global_map.needed {
         (
             Method::Path,

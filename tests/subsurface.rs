@@ -322,6 +322,7 @@ fn plan_needs_subsurface_only_for_translucent_lit_scenes() {
     let translucent = slab(Vec3::splat(0.5), 0.01, 1.3, 1.0);
     let plan = plan_for_image(&translucent, Quality::Default, 16, 16);
     assert!(plan.subsurface.needed, "{}", plan.subsurface.reason);
+    assert_eq!(plan.method, Method::Photon, "{}", plan.method_reason);
     let mut opaque = translucent.clone();
     opaque.materials[0].subsurface.weight = 0.0;
     let plan = plan_for_image(&opaque, Quality::Default, 16, 16);

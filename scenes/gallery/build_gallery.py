@@ -386,9 +386,9 @@ def translucent_bust():
     parts = merge(dome, lathe(neck, 48), lathe(egg, 64),
                   transformed(uv_sphere(0.05, 16, 8), 1.0, [0.0, 1.22, 0.225]))  # nose
     g.node("Bust", mesh=g.mesh("Bust", parts, marble))
-    small_lamp(g, [-1.5, 2.5, -1.5], 0.5, 600.0, name="KeyLight")
+    small_lamp(g, [-1.5, 2.5, -1.5], 0.5, 150.0, name="KeyLight")
     g.doc["nodes"][-1]["rotation"] = bs.clean(bs.look_at([-1.5, 2.5, -1.5], [0, 1.0, 0]))
-    small_lamp(g, [2.0, 1.8, 2.0], 0.6, 150.0, name="FillLight")
+    small_lamp(g, [2.0, 1.8, 2.0], 0.6, 40.0, name="FillLight")
     g.doc["nodes"][-1]["rotation"] = bs.clean(bs.look_at([2.0, 1.8, 2.0], [0, 1.0, 0]))
     g.scene_extension("PHOTON_world", {"color": [0.02, 0.02, 0.025], "strength": 1.0})
     g.camera("Camera", [0.6, 1.35, 3.2], [0, 0.95, 0], 35.0, 1.0)
