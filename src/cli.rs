@@ -7,7 +7,7 @@ use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
 use photon::passes::{render_in_passes, PassesResult};
-use photon::plan::{plan_for_image, Quality};
+use photon::plan::{plan_for_image, plan_with_pilot, Quality};
 use photon::render::{Method, Progress, ProgressEvent, RenderSettings, RenderStats};
 use photon::scene::gltf::{load, LoadOptions};
 use photon::scene::{builtin, Projection, Scene};
@@ -425,7 +425,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }
         None => None,
     };
-    let plan = plan_for_image(&scene, quality, width, height);
+    let auto = args.method == MethodArg::Auto;
+    let plan = plan_with_pilot(&scene, quality, width, height, auto);
     let spp = match (args.spp, time_limit) {
         (Some(spp), _) => spp,
         (None, Some(_)) => TIME_LIMITED_MAX_SPP,

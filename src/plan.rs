@@ -420,6 +420,19 @@ pub fn plan(scene: &Scene, quality: Quality) -> Plan {
 
 /// The plan for an image of `width`×`height` pixels (which only the memory estimate uses).
 pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) -> Plan {
+    plan_with_pilot(scene, quality, width, height, true)
+}
+
+/// `plan_for_image`; without `pilot` the auto method is not measured where it would need the
+/// photon pilot (which builds a BVH: a second of start-up on a million triangles), for renders
+/// whose method is given explicitly.
+pub fn plan_with_pilot(
+    scene: &Scene,
+    quality: Quality,
+    width: u32,
+    height: u32,
+    pilot: bool,
+) -> Plan {
     let summary = summarise(scene);
     let anything_to_trace = summary.lights.any();
     let caustic_map = caustic_decision(&summary);
@@ -456,6 +469,11 @@ pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) 
         (
             Method::Path,
             "no caustics and no indirect light: nothing for photon maps to cache".into(),
+        )
+    } else if !pilot {
+        (
+            Method::Path,
+            "not measured: the method was given explicitly".into(),
         )
     } else {
         let share = indirect_share(scene);

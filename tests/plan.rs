@@ -202,3 +202,18 @@ fn bench_writes_results_for_each_method_and_budget() {
         1
     );
 }
+
+#[test]
+fn an_explicit_method_skips_the_photon_pilot() {
+    // The pilot builds a BVH (a second on a million triangles): renders with a given method
+    // plan without it.
+    let scene = scene("cornell_box.glb");
+    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, false);
+    assert!(
+        p.method_reason.contains("not measured"),
+        "{}",
+        p.method_reason
+    );
+    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, true);
+    assert!(p.method_reason.contains("pilot"), "{}", p.method_reason);
+}
