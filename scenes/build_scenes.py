@@ -316,9 +316,9 @@ def floor_quad(half):
 
 # ----- scenes ---------------------------------------------------------------------------------
 
-def cornell_box():
-    """The Cornell box, 5.55 m on a side, open at +Z, lit by an emissive quad under the ceiling."""
-    g = Gltf()
+def cornell_room(g):
+    """The Cornell box's room, 5.55 m on a side, open at +Z, lit by an emissive quad under the
+    ceiling; returns the white material."""
     s = 2.775  # half size
     h = 2 * s
     white = g.material("White", base=(0.725, 0.71, 0.68), roughness=1.0, lambert=True)
@@ -341,6 +341,14 @@ def cornell_box():
     lx, lz, ly = 0.65, 0.525, h - 0.01
     lamp = quad([[-lx, ly, -lz], [lx, ly, -lz], [lx, ly, lz], [-lx, ly, lz]], [0, -1, 0])
     g.node("Lamp", mesh=g.mesh("Lamp", lamp, light))
+    return white
+
+
+def cornell_box():
+    """The Cornell box with two diffuse boxes."""
+    g = Gltf()
+    s = 2.775
+    white = cornell_room(g)
     # One unit cube mesh, instanced twice with rotation and non-uniform scale.
     box = g.mesh("Box", cube(), white)
     g.node("ShortBox", mesh=box, translation=[0.93, 0.825, 0.7],

@@ -96,27 +96,10 @@ def box(lo, hi):
     return [[centre[k] + size[k] * v[k] for k in range(3)] for v in p], n, u, i
 
 
-def cornell_walls(g, s=2.775, lamp=True):
-    """The Cornell box's walls and lamp (as in scenes/build_scenes.py); returns the white."""
-    h = 2 * s
-    white = g.material("White", base=(0.725, 0.71, 0.68), roughness=1.0, lambert=True)
-    red = g.material("Red", base=(0.63, 0.065, 0.05), roughness=1.0, lambert=True)
-    green = g.material("Green", base=(0.14, 0.45, 0.091), roughness=1.0, lambert=True)
-    walls = [
-        ("Floor", white, quad([[-s, 0, s], [s, 0, s], [s, 0, -s], [-s, 0, -s]], [0, 1, 0])),
-        ("Ceiling", white, quad([[-s, h, -s], [s, h, -s], [s, h, s], [-s, h, s]], [0, -1, 0])),
-        ("Back", white, quad([[-s, 0, -s], [s, 0, -s], [s, h, -s], [-s, h, -s]], [0, 0, 1])),
-        ("Left", red, quad([[-s, 0, s], [-s, 0, -s], [-s, h, -s], [-s, h, s]], [1, 0, 0])),
-        ("Right", green, quad([[s, 0, -s], [s, 0, s], [s, h, s], [s, h, -s]], [-1, 0, 0])),
-    ]
-    for name, material, geometry in walls:
-        g.node(name, mesh=g.mesh(name, geometry, material))
-    if lamp:
-        light = g.material("Light", base=(0, 0, 0), roughness=1.0, lambert=True,
-                           emission=(1.0, 0.706, 0.235), strength=40.0, double_sided=False)
-        lx, lz, ly = 0.65, 0.525, h - 0.01
-        geometry = quad([[-lx, ly, -lz], [lx, ly, -lz], [lx, ly, lz], [-lx, ly, lz]], [0, -1, 0])
-        g.node("Lamp", mesh=g.mesh("Lamp", geometry, light))
+def cornell_walls(g):
+    """The Cornell box's room (`build_scenes.cornell_room`) with its camera; returns the white."""
+    s = 2.775
+    white = bs.cornell_room(g)
     g.camera("Camera", [0, s, s + 8.0], [0, s, 0], 39.3, 1.0)
     bs.render_settings(g, 256, 256)
     return white
