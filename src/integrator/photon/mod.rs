@@ -295,12 +295,6 @@ impl Shading {
     }
 }
 
-/// True when some material has a delta or glossy-only lobe (`SPECULAR_ROUGHNESS`), so a photon
-/// can scatter specularly and a caustic map is needed.
-pub fn needs_caustic_map(scene: &crate::scene::Scene) -> bool {
-    (0..scene.materials.len()).any(|m| is_specular(scene, m as u32))
-}
-
 /// True when material `m` has a delta or glossy-only lobe: a photon may scatter specularly off
 /// it. Roughness textures count as smooth.
 pub fn is_specular(scene: &crate::scene::Scene, m: u32) -> bool {
