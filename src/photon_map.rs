@@ -151,13 +151,32 @@ pub fn encode_direction(d: Vec3) -> (u8, u8) {
     (t, p)
 }
 
+/// Sines and cosines of the 256 cell centres of θ and of φ, computed once: decoding is on the
+/// path of every photon lookup, and two `sin_cos` calls per photon cost more than the lookup's
+/// distance test (Jensen's notes suggest the same tables).
+struct DirectionTables {
+    theta: [(f32, f32); 256],
+    phi: [(f32, f32); 256],
+}
+
+static DIRECTION_TABLES: std::sync::LazyLock<DirectionTables> = std::sync::LazyLock::new(|| {
+    let mut t = DirectionTables {
+        theta: [(0.0, 0.0); 256],
+        phi: [(0.0, 0.0); 256],
+    };
+    for i in 0..256 {
+        t.theta[i] = ((i as f32 + 0.5) * (PI / 256.0)).sin_cos();
+        t.phi[i] = ((i as f32 + 0.5) * (2.0 * PI / 256.0)).sin_cos();
+    }
+    t
+});
+
 /// Inverse of `encode_direction` at the centre of the cell: the angular error is at most about
 /// √((π/512)² + (π/256)²) ≈ 0.0137 rad.
 pub fn decode_direction(theta: u8, phi: u8) -> Vec3 {
-    let t = (theta as f32 + 0.5) * (PI / 256.0);
-    let p = (phi as f32 + 0.5) * (2.0 * PI / 256.0);
-    let (st, ct) = t.sin_cos();
-    let (sp, cp) = p.sin_cos();
+    let tables = &*DIRECTION_TABLES;
+    let (st, ct) = tables.theta[theta as usize];
+    let (sp, cp) = tables.phi[phi as usize];
     Vec3::new(st * cp, st * sp, ct)
 }
 
@@ -318,6 +337,56 @@ impl PhotonMap {
             return;
         }
         self.locate(0, p.to_array(), out);
+    }
+
+    /// The photon nearest to `p` within squared distance `max_dist2` among those `accept`
+    /// takes (called with the photon and its squared distance), as (index, squared distance).
+    /// The filter runs inside the search, so the radius shrinks only on accepted photons.
+    pub fn nearest_accepted(
+        &self,
+        p: Vec3,
+        max_dist2: f32,
+        accept: impl Fn(&Photon, f32) -> bool,
+    ) -> Option<(u32, f32)> {
+        let mut best = (u32::MAX, max_dist2);
+        if !self.photons.is_empty() {
+            self.locate_accepted(0, p.to_array(), &accept, &mut best);
+        }
+        (best.0 != u32::MAX).then_some(best)
+    }
+
+    fn locate_accepted(
+        &self,
+        i: usize,
+        p: [f32; 3],
+        accept: &impl Fn(&Photon, f32) -> bool,
+        best: &mut (u32, f32),
+    ) {
+        let ph = &self.photons[i];
+        let left = 2 * i + 1;
+        if left < self.photons.len() {
+            let delta = p[ph.axis()] - ph.position[ph.axis()];
+            let (near, far) = if delta < 0.0 {
+                (left, left + 1)
+            } else {
+                (left + 1, left)
+            };
+            if near < self.photons.len() {
+                self.locate_accepted(near, p, accept, best);
+            }
+            if delta * delta < best.1 && far < self.photons.len() {
+                self.locate_accepted(far, p, accept, best);
+            }
+        }
+        let d = [
+            ph.position[0] - p[0],
+            ph.position[1] - p[1],
+            ph.position[2] - p[2],
+        ];
+        let dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if dist2 < best.1 && accept(ph, dist2) {
+            *best = (i as u32, dist2);
+        }
     }
 
     fn locate(&self, i: usize, p: [f32; 3], out: &mut Neighbors) {

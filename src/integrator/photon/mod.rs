@@ -528,26 +528,14 @@ fn on_surface(ph: &Photon, p: Vec3, n: Vec3, r: f32) -> bool {
 
 /// The nearest precomputed irradiance record to `s` whose normal agrees with the surface's
 /// (cos > 0.9) and that lies near its tangent plane; `None` when there is none within
-/// `max_radius2` among the few nearest.
-fn nearest_irradiance(
-    map: &PhotonMap,
-    max_radius2: f32,
-    s: &Shading,
-    buf: &mut Neighbors,
-) -> Option<Vec3> {
-    map.nearest(s.sh.p, 8, max_radius2, buf);
-    let mut best: Option<(f32, Vec3)> = None;
-    for nb in buf.iter() {
-        let rec = &map.photons()[nb.index as usize];
+/// `max_radius2`.
+fn nearest_irradiance(map: &PhotonMap, max_radius2: f32, s: &Shading) -> Option<Vec3> {
+    let accept = |rec: &Photon, dist2: f32| {
         let d = rec.position() - s.sh.p;
-        if rec.incoming().dot(s.ng) < 0.9 || d.dot(s.ng).abs() > PLANE_TOLERANCE * nb.dist2.sqrt() {
-            continue;
-        }
-        if best.is_none_or(|(d2, _)| nb.dist2 < d2) {
-            best = Some((nb.dist2, rec.power()));
-        }
-    }
-    best.map(|(_, e)| e)
+        rec.incoming().dot(s.ng) >= 0.9 && d.dot(s.ng).abs() <= PLANE_TOLERANCE * dist2.sqrt()
+    };
+    map.nearest_accepted(s.sh.p, max_radius2, accept)
+        .map(|(i, _)| map.photons()[i as usize].power())
 }
 
 /// Radiance leaving `s` towards its viewer estimated from `map`: Σ f_r ΔΦ / (π r²), with a cone
@@ -620,7 +608,7 @@ impl Pass2<'_> {
             let albedo = bsdf_albedo(&s.bsdf, s.wo_local);
             if s.opaque && max_component(albedo - rho) < 1e-4 {
                 let r2 = self.maps.global_radius2;
-                if let Some(e) = nearest_irradiance(irr, r2, s, &mut self.buf) {
+                if let Some(e) = nearest_irradiance(irr, r2, s) {
                     return rho * e * (1.0 / PI);
                 }
             }
