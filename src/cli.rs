@@ -2,6 +2,7 @@
 //! chooses the exit code. The only place in Photon that prints to the terminal.
 
 use clap::{Parser, Subcommand, ValueEnum};
+use photon::accel::Accel;
 use photon::error::{Error, Result};
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::PhotonSettings;
@@ -15,7 +16,7 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Samples per pixel of one pass when rendering under `--time-limit`.
 const TIME_LIMITED_PASS_SPP: u32 = 4;
@@ -173,8 +174,8 @@ struct RenderArgs {
     /// top-left corner, X1 and Y1 exclusive; the image has the window's size.
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
     region: Option<Vec<u32>>,
-    /// Rendering algorithm.
-    #[arg(long, value_enum, default_value_t = MethodArg::Path)]
+    /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
+    #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     method: MethodArg,
     /// Photons emitted for the global map [default: 200000].
     #[arg(long)]
@@ -425,8 +426,16 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }
         None => None,
     };
-    let auto = args.method == MethodArg::Auto;
-    let plan = plan_with_pilot(&scene, quality, width, height, auto);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start threads: {e}")))?;
+    let threads = pool.current_num_threads();
+    // The auto method's photon pilot needs the BVH: build it once, for the pilot and the render.
+    let start = Instant::now();
+    let accel = (args.method == MethodArg::Auto).then(|| pool.install(|| Accel::new(&scene)));
+    let pilot_build_seconds = start.elapsed().as_secs_f64();
+    let plan = plan_with_pilot(&scene, quality, width, height, accel.as_ref());
     let spp = match (args.spp, time_limit) {
         (Some(spp), _) => spp,
         (None, Some(_)) => TIME_LIMITED_MAX_SPP,
@@ -471,11 +480,6 @@ fn run_render(args: RenderArgs) -> Result<()> {
         },
         light_passes: args.passes,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads)
-        .build()
-        .map_err(|e| Error::Internal(format!("cannot start threads: {e}")))?;
-    let threads = pool.current_num_threads();
 
     let bar = (mode == ProgressMode::Bar).then(|| {
         let bar = indicatif::ProgressBar::new(1000);
@@ -515,14 +519,26 @@ fn run_render(args: RenderArgs) -> Result<()> {
     } else {
         settings.spp
     };
-    let result =
-        pool.install(|| render_in_passes(&scene, &settings, pass_spp, time_limit, &progress));
+    let result = pool.install(|| {
+        render_in_passes(
+            &scene,
+            accel.as_ref(),
+            &settings,
+            pass_spp,
+            time_limit,
+            &progress,
+        )
+    });
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
     let PassesResult {
-        image, stats, spp, ..
+        image,
+        mut stats,
+        spp,
+        ..
     } = result?;
+    stats.build_seconds += pilot_build_seconds;
     let settings = RenderSettings { spp, ..settings };
     let layout = match &args.exr_layer {
         Some(layer) => ExrLayout::Blender {

@@ -7,6 +7,7 @@
 //! caller's seed, and shared by all passes (`render::render_scheduled`): before, every 4-spp
 //! pass rebuilt them, which made a time-limited photon render mostly photon tracing.
 
+use crate::accel::Accel;
 use crate::error::Result;
 use crate::film::Image;
 use crate::render::{render_scheduled, Progress, RenderSettings, RenderStats};
@@ -32,9 +33,10 @@ fn pass_seed(seed: u64, index: u32) -> u64 {
 }
 
 /// Render up to `settings.spp` samples per pixel in passes of `pass_spp`, stopping between passes
-/// once `time_limit` has elapsed.
+/// once `time_limit` has elapsed; `accel` is the scene's BVH when already built.
 pub fn render_in_passes(
     scene: &Scene,
+    accel: Option<&Accel>,
     settings: &RenderSettings,
     pass_spp: u32,
     time_limit: Option<Duration>,
@@ -45,7 +47,7 @@ pub fn render_in_passes(
     let mut total: Option<Image> = None;
     let mut done_spp = 0u32;
     let mut passes = 0u32;
-    let stats = render_scheduled(scene, settings, progress, &mut |finished| {
+    let stats = render_scheduled(scene, accel, settings, progress, &mut |finished| {
         if let Some((image, spp)) = finished {
             total = Some(match total.take() {
                 None => image,

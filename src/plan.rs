@@ -21,6 +21,7 @@
 //!   noisiest); otherwise → the path tracer, which the benchmark shows is at least as good as
 //!   photon mapping with final gathering on the diffuse scenes of `scenes/` at equal time.
 
+use crate::accel::Accel;
 use crate::bsdf::Bsdf;
 use crate::integrator::photon::{PhotonSettings, SPECULAR_ROUGHNESS};
 use crate::material::eval_material;
@@ -372,19 +373,17 @@ const INDIRECT_SHARE_FOR_PHOTONS: f32 = 0.3;
 
 /// Fraction of the power stored by a small global-photon pilot that arrived after at least one
 /// bounce: how much of what the camera sees on diffuse surfaces is indirect light. Builds the
-/// BVH, traces `PILOT_PHOTONS` photons (milliseconds, deterministic).
-fn indirect_share(scene: &Scene) -> f32 {
-    use crate::accel::Accel;
+/// `accel` (the scene's BVH), traces `PILOT_PHOTONS` photons (milliseconds, deterministic).
+fn indirect_share(scene: &Scene, accel: &Accel) -> f32 {
     use crate::integrator::photon::tracing::{trace_photon, Emitters, Pass};
     use crate::integrator::Context;
     use crate::light::Lights;
     use crate::math::luminance;
     use crate::rng::Rng;
-    let accel = Accel::new(scene);
     let lights = Lights::new(scene);
     let ctx = Context {
         scene,
-        accel: &accel,
+        accel,
         lights: &lights,
         max_depth: 16,
         transparent_background: false,
@@ -420,18 +419,19 @@ pub fn plan(scene: &Scene, quality: Quality) -> Plan {
 
 /// The plan for an image of `width`×`height` pixels (which only the memory estimate uses).
 pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) -> Plan {
-    plan_with_pilot(scene, quality, width, height, true)
+    plan_with_pilot(scene, quality, width, height, Some(&Accel::new(scene)))
 }
 
-/// `plan_for_image`; without `pilot` the auto method is not measured where it would need the
-/// photon pilot (which builds a BVH: a second of start-up on a million triangles), for renders
-/// whose method is given explicitly.
+/// `plan_for_image`, with the photon pilot traced through `pilot`, the scene's BVH (built once
+/// and shared with the render: a second of start-up on a million triangles). Without it the auto
+/// method is not measured where it would need the pilot: for renders whose method is given
+/// explicitly.
 pub fn plan_with_pilot(
     scene: &Scene,
     quality: Quality,
     width: u32,
     height: u32,
-    pilot: bool,
+    pilot: Option<&Accel>,
 ) -> Plan {
     let summary = summarise(scene);
     let anything_to_trace = summary.lights.any();
@@ -470,13 +470,8 @@ pub fn plan_with_pilot(
             Method::Path,
             "no caustics and no indirect light: nothing for photon maps to cache".into(),
         )
-    } else if !pilot {
-        (
-            Method::Path,
-            "not measured: the method was given explicitly".into(),
-        )
-    } else {
-        let share = indirect_share(scene);
+    } else if let Some(accel) = pilot {
+        let share = indirect_share(scene, accel);
         if share >= INDIRECT_SHARE_FOR_PHOTONS {
             (
                 Method::Photon,
@@ -494,6 +489,11 @@ pub fn plan_with_pilot(
                 ),
             )
         }
+    } else {
+        (
+            Method::Path,
+            "not measured: the method was given explicitly".into(),
+        )
     };
     let defaults = PhotonSettings::default();
     let scale = |count: u32| (count as f32 * quality.photon_scale()).round() as u32;

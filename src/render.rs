@@ -178,7 +178,7 @@ pub fn render(
     progress: &Progress,
 ) -> Result<(Image, RenderStats)> {
     let mut image = None;
-    let stats = render_scheduled(scene, settings, progress, &mut |done| match done {
+    let stats = render_scheduled(scene, None, settings, progress, &mut |done| match done {
         None => Some((settings.seed, settings.spp)),
         Some((pass, _)) => {
             image = Some(pass);
@@ -193,10 +193,12 @@ pub fn render(
 /// of the next pass, or `None` to finish.
 pub type Schedule<'a> = dyn FnMut(Option<(Image, u32)>) -> Option<(u64, u32)> + 'a;
 
-/// Prepare once (BVH, lights, photon maps and irradiance cache, built with `settings.seed`),
-/// then render the passes `schedule` asks for; the returned statistics cover all of them.
+/// Prepare once (BVH unless `accel` is the scene's already built, lights, photon maps and
+/// irradiance cache, built with `settings.seed`), then render the passes `schedule` asks for;
+/// the returned statistics cover all of them.
 pub fn render_scheduled(
     scene: &Scene,
+    accel: Option<&Accel>,
     settings: &RenderSettings,
     progress: &Progress,
     schedule: &mut Schedule,
@@ -232,7 +234,14 @@ pub fn render_scheduled(
         message: format!("building BVH over {} triangles", stats.triangles),
     });
     let start = Instant::now();
-    let accel = Accel::new(scene);
+    let built;
+    let accel = match accel {
+        Some(accel) => accel,
+        None => {
+            built = Accel::new(scene);
+            &built
+        }
+    };
     let lights = Lights::new(scene);
     stats.lights = lights.sources.len();
     stats.build_seconds = start.elapsed().as_secs_f64();
@@ -240,7 +249,7 @@ pub fn render_scheduled(
 
     let ctx = Context {
         scene,
-        accel: &accel,
+        accel,
         lights: &lights,
         max_depth: settings.max_depth,
         transparent_background: scene.render_settings.transparent_film,

@@ -82,6 +82,10 @@ fn json_progress_is_one_object_per_line() {
     let last = lines.last().unwrap();
     assert_eq!(last["stage"], "done");
     assert!(last["stats"]["rays"].as_u64().unwrap() > 0);
+    // No --method: auto, whose pilot finds the Cornell box mostly indirectly lit (photon
+    // mapping); the pilot's BVH is the render's, so one build is reported.
+    assert_eq!(last["stats"]["method"], "Photon", "{last}");
+    assert!(last["stats"]["build_seconds"].as_f64().unwrap() > 0.0);
 }
 
 #[test]

@@ -136,7 +136,14 @@ fn check_passes(image: &Image) {
 fn path_tracer_passes_add_up() {
     // In two passes of 8 samples (as under a time limit), so that merging keeps the sums.
     let result = scenes::with_progress(|p| {
-        render_in_passes(&glass_scene(), &settings(Method::Path, 16), 8, None, p)
+        render_in_passes(
+            &glass_scene(),
+            None,
+            &settings(Method::Path, 16),
+            8,
+            None,
+            p,
+        )
     })
     .expect("render succeeds");
     assert_eq!(result.passes, 2);

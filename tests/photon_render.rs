@@ -354,13 +354,13 @@ fn passes_share_one_set_of_photon_maps() {
         cancel: &cancel,
         report: &report,
     };
-    let a = render_in_passes(&scene, &settings, 2, None, &progress).expect("render");
+    let a = render_in_passes(&scene, None, &settings, 2, None, &progress).expect("render");
     assert_eq!(a.passes, 4);
     assert_eq!(
         *finished.lock().unwrap(),
         1,
         "maps built once for four passes"
     );
-    let b = render_in_passes(&scene, &settings, 2, None, &progress).expect("render");
+    let b = render_in_passes(&scene, None, &settings, 2, None, &progress).expect("render");
     assert_eq!(a.image.rgba, b.image.rgba);
 }

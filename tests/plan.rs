@@ -208,12 +208,13 @@ fn an_explicit_method_skips_the_photon_pilot() {
     // The pilot builds a BVH (a second on a million triangles): renders with a given method
     // plan without it.
     let scene = scene("cornell_box.glb");
-    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, false);
+    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, None);
     assert!(
         p.method_reason.contains("not measured"),
         "{}",
         p.method_reason
     );
-    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, true);
+    let accel = photon::accel::Accel::new(&scene);
+    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, Some(&accel));
     assert!(p.method_reason.contains("pilot"), "{}", p.method_reason);
 }
