@@ -10,7 +10,8 @@
 //! splitting on the largest extent of each subtree's bounding box at the left-balanced median
 //! (found by selection, `select_nth_unstable_by`), so node `i` has children `2i+1` and `2i+2` and
 //! no pointers are stored. Search keeps a bounded max-heap of squared distances and shrinks the
-//! search radius to the k-th distance once the heap is full.
+//! search radius to the k-th distance once the heap is full; a single-nearest search with a
+//! filter (`nearest_accepted`) needs no heap.
 
 use crate::math::Vec3;
 use std::cmp::Ordering;

@@ -1,5 +1,5 @@
-//! The photon map on its own: the left-balanced kd-tree's k-nearest search against brute force
-//! on random and clustered points, and the compact photon's RGBE power and (θ, φ) direction
+//! The photon map on its own: the left-balanced kd-tree's k-nearest and filtered nearest searches
+//! against brute force on random and clustered points, and the compact photon's RGBE power and (θ, φ) direction
 //! packing with their error bounds.
 
 use photon::math::Vec3;
@@ -70,6 +70,18 @@ fn check_against_brute_force(clustered: bool) {
         all.truncate(k);
         assert_eq!(found, all, "query {q}: k {k}, max {max_d2}");
         assert_eq!(buf.is_full(), all.len() == k);
+
+        // The filtered single-nearest search: photons in the upper half-space only.
+        let accept = |ph: &Photon, _: f32| ph.position().y > 1.0;
+        let accepted = map.nearest_accepted(p, max_d2, accept).map(|(_, d2)| d2);
+        let expected = map
+            .photons()
+            .iter()
+            .filter(|ph| accept(ph, 0.0))
+            .map(|ph| (ph.position() - p).length_squared())
+            .filter(|&d2| d2 < max_d2)
+            .min_by(f32::total_cmp);
+        assert_eq!(accepted, expected, "filtered query {q}: max {max_d2}");
     }
 }
 
