@@ -26,8 +26,8 @@ pub struct BenchArgs {
     /// Budgets: samples per pixel; photon counts scale with them.
     #[arg(long, value_delimiter = ',', default_values_t = [1, 4, 16])]
     budgets: Vec<u32>,
-    /// Methods to compare.
-    #[arg(long, value_delimiter = ',', default_values_t = ["path".to_string(), "photon".to_string(), "auto".to_string()])]
+    /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto [default: all].
+    #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
     /// Worker threads of each render (0: one per core).
     #[arg(long, default_value_t = 0)]
@@ -44,6 +44,37 @@ pub struct BenchArgs {
     /// Samples per pixel of the path-traced reference.
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
+}
+
+/// The bench methods and the render options each adds. `photon` is pure final gathering,
+/// `photon-ic` takes the indirect light from Ward's irradiance cache; `auto` renders the planner's
+/// choice with the same budget, so the bench judges the choice.
+const METHODS: [(&str, &[&str]); 4] = [
+    ("path", &["--method", "path"]),
+    (
+        "photon",
+        &["--method", "photon", "--irradiance-cache", "off"],
+    ),
+    (
+        "photon-ic",
+        &["--method", "photon", "--irradiance-cache", "on"],
+    ),
+    ("auto", &["--method", "auto"]),
+];
+
+/// The render options of the bench method `name`; unknown names are a settings error.
+fn method_options(name: &str) -> Result<&'static [&'static str]> {
+    METHODS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, options)| *options)
+        .ok_or_else(|| {
+            let valid: Vec<&str> = METHODS.iter().map(|(n, _)| *n).collect();
+            Error::Settings(format!(
+                "unknown bench method '{name}' (valid: {})",
+                valid.join(", ")
+            ))
+        })
 }
 
 /// One render of the benchmark.
@@ -180,21 +211,23 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
     let name = stem(scene_path);
     for method in &args.methods {
         // Photon mapping has nothing to do in a scene without light.
-        if method == "photon" && !scene_plan.anything_to_trace {
+        if method.starts_with("photon") && !scene_plan.anything_to_trace {
             continue;
         }
         for &budget in &args.budgets {
             let output = images.join(format!("{name}-{method}-{budget}.exr"));
-            let extra = [
-                "--method".to_string(),
-                method.clone(),
+            let mut extra: Vec<String> = method_options(method)?
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            extra.extend([
                 "--spp".into(),
                 budget.to_string(),
                 "--photons".into(),
                 (budget * GLOBAL_PHOTONS_PER_BUDGET).to_string(),
                 "--caustic-photons".into(),
                 (budget * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
-            ];
+            ]);
             let run = render_child(scene_path, &output, args, size, &extra)?;
             let pixels = read_rgba(&output)?;
             if pixels.len() != reference_pixels.len() {
@@ -341,7 +374,13 @@ fn svg_plot(scene: &str, rows: &[Row]) -> String {
     out
 }
 
-pub fn run_bench(args: BenchArgs) -> Result<()> {
+pub fn run_bench(mut args: BenchArgs) -> Result<()> {
+    if args.methods.is_empty() {
+        args.methods = METHODS.iter().map(|(n, _)| n.to_string()).collect();
+    }
+    for method in &args.methods {
+        method_options(method)?;
+    }
     let scenes = if args.scenes.is_empty() {
         default_scenes()?
     } else {
