@@ -7,11 +7,14 @@
 
 use crate::cli::{image_size, load_scene};
 use photon::error::{Error, Result};
+use photon::film::Image;
+use photon::image_io::{write_image, ExrLayout};
 use photon::metrics::{compare, ImageError};
 use photon::plan::{plan, Quality};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 /// Global photons per unit of budget (budget 40 gives the default 200 000).
@@ -170,26 +173,81 @@ fn bench_size(scene: &photon::scene::Scene, args: &BenchArgs) -> (u32, u32) {
     (args.width, height)
 }
 
-/// The cached reference of `scene`, rendered when missing.
-fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<PathBuf> {
+/// A scene's path-traced reference and an estimate of its own error.
+struct Reference {
+    pixels: Vec<[f32; 4]>,
+    /// Estimated relMSE of the reference against the true image.
+    noise: f64,
+}
+
+/// The mean of two independent renders `a` and `b`, and the mean's relMSE against the truth
+/// estimated from their difference: E[(A − B)²] = 2σ² and the mean has variance σ²/2, so it is
+/// relMSE(A, B)/4. The mean stands in for the truth in relMSE's denominator (A − B + M is
+/// compared with M), as the reference does for every bench error.
+fn two_half_noise(a: &[[f32; 4]], b: &[[f32; 4]]) -> (Vec<[f32; 4]>, f64) {
+    let mean: Vec<[f32; 4]> = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| std::array::from_fn(|c| 0.5 * (p[c] + q[c])))
+        .collect();
+    let shifted: Vec<[f32; 4]> = a
+        .iter()
+        .zip(b)
+        .zip(&mean)
+        .map(|((p, q), m)| std::array::from_fn(|c| p[c] - q[c] + m[c]))
+        .collect();
+    let noise = compare(&shifted, &mean).rel_mse / 4.0;
+    (mean, noise)
+}
+
+/// The cached reference of `scene`, rendered when missing: two path-traced halves of
+/// `--reference-spp / 2` samples with seeds 1 and 2, averaged into `refs/KEY.exr`, their noise
+/// estimate in `refs/KEY.noise.json`.
+fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Reference> {
     let bytes = std::fs::read(scene).map_err(|e| io_error(scene, e))?;
     let refs = args.out.join("refs");
     std::fs::create_dir_all(&refs).map_err(|e| io_error(&refs, e))?;
-    let path = refs.join(format!(
-        "{}-{:016x}-v{}-{}x{}-{}spp.exr",
+    let key = format!(
+        "{}-{:016x}-v{}-{}x{}-{}spp",
         stem(scene),
         fnv1a(&bytes),
         env!("CARGO_PKG_VERSION"),
         size.0,
         size.1,
         args.reference_spp
-    ));
-    if !path.exists() {
-        eprintln!("photon bench: reference for {} ...", scene.display());
-        let extra = ["--method", "path", "--spp", &args.reference_spp.to_string()];
-        render_child(scene, &path, args, size, &extra.map(String::from))?;
+    );
+    let exr = refs.join(format!("{key}.exr"));
+    let noise_file = refs.join(format!("{key}.noise.json"));
+    if let (true, Ok(text)) = (exr.exists(), std::fs::read_to_string(&noise_file)) {
+        let cached: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        if let Some(noise) = cached["reference_noise_rel_mse"].as_f64() {
+            return Ok(Reference {
+                pixels: read_rgba(&exr)?,
+                noise,
+            });
+        }
     }
-    Ok(path)
+    eprintln!("photon bench: reference for {} ...", scene.display());
+    let half_spp = (args.reference_spp / 2).max(1).to_string();
+    let mut halves = Vec::new();
+    for seed in ["1", "2"] {
+        let half = refs.join(format!("{key}.half{seed}.exr"));
+        let extra = ["--method", "path", "--spp", &half_spp, "--seed", seed];
+        render_child(scene, &half, args, size, &extra.map(String::from))?;
+        halves.push(read_rgba(&half)?);
+        std::fs::remove_file(&half).map_err(|e| io_error(&half, e))?;
+    }
+    let (pixels, noise) = two_half_noise(&halves[0], &halves[1]);
+    let mut image = Image::new(size.0, size.1);
+    image.rgba.clone_from(&pixels);
+    write_image(&exr, &image, &ExrLayout::Rgba, &AtomicBool::new(false))?;
+    let cached = serde_json::json!({
+        "reference_noise_rel_mse": noise,
+        "half_spp": half_spp,
+        "seeds": [1, 2],
+    });
+    write_file(&noise_file, &format!("{cached:#}\n"))?;
+    Ok(Reference { pixels, noise })
 }
 
 fn stem(path: &Path) -> String {
@@ -201,11 +259,19 @@ fn read_rgba(path: &Path) -> Result<Vec<[f32; 4]>> {
     Ok(photon::image_io::read_exr_rgba(path)?.2)
 }
 
-fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<()> {
+/// What the bench learnt of one scene besides its rows.
+struct SceneResult {
+    name: String,
+    /// Estimated relMSE of the reference itself.
+    reference_noise: f64,
+}
+
+fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<SceneResult> {
     let scene = load_scene(Some(scene_path), None)?;
     let size = bench_size(&scene, args);
     let scene_plan = plan(&scene, Quality::Default);
-    let reference_pixels = read_rgba(&reference(scene_path, args, size)?)?;
+    let reference = reference(scene_path, args, size)?;
+    let reference_pixels = &reference.pixels;
     let images = args.out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| io_error(&images, e))?;
     let name = stem(scene_path);
@@ -236,7 +302,7 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
                     output.display()
                 )));
             }
-            let error = compare(&pixels, &reference_pixels);
+            let error = compare(&pixels, reference_pixels);
             eprintln!(
                 "photon bench: {name} {method} budget {budget}: {:.2} s, relMSE {:.5}",
                 run.seconds, error.rel_mse
@@ -251,7 +317,10 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
             });
         }
     }
-    Ok(())
+    Ok(SceneResult {
+        name,
+        reference_noise: reference.noise,
+    })
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {
@@ -279,17 +348,25 @@ fn csv(rows: &[Row]) -> String {
     out
 }
 
-fn report(rows: &[Row], scenes: &[String], args: &BenchArgs) -> String {
+fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
     let mut out = format!(
         "# Photon benchmark\n\n{} px wide, reference: path tracer at {} spp; budget b = b spp, \
          {}·b global and {}·b caustic photons. Time is the wall time of the whole render process.\n",
         args.width, args.reference_spp, GLOBAL_PHOTONS_PER_BUDGET, CAUSTIC_PHOTONS_PER_BUDGET
     );
-    for scene in scenes {
+    for SceneResult {
+        name: scene,
+        reference_noise,
+    } in scenes
+    {
         let _ = write!(
             out,
             "\n## {scene}\n\n![relMSE against time]({scene}.svg)\n\n\
-             | method | budget | time (s) | peak MiB | relMSE | mean error |\n|---|---:|---:|---:|---:|---:|\n"
+             Reference noise ≈ relMSE {reference_noise:.2e} (two halves of {} spp, seeds 1 and 2); \
+             errors below ~{:.2e} are not resolved.\n\n\
+             | method | budget | time (s) | peak MiB | relMSE | mean error |\n|---|---:|---:|---:|---:|---:|\n",
+            (args.reference_spp / 2).max(1),
+            3.0 * reference_noise
         );
         for r in rows.iter().filter(|r| &r.scene == scene) {
             let _ = writeln!(
@@ -393,13 +470,13 @@ pub fn run_bench(mut args: BenchArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&args.out).map_err(|e| io_error(&args.out, e))?;
     let mut rows = Vec::new();
+    let mut results = Vec::new();
     for scene in &scenes {
-        bench_scene(scene, &args, &mut rows)?;
+        results.push(bench_scene(scene, &args, &mut rows)?);
     }
-    let names: Vec<String> = scenes.iter().map(|s| stem(s)).collect();
     write_file(&args.out.join("results.csv"), &csv(&rows))?;
-    write_file(&args.out.join("report.md"), &report(&rows, &names, &args))?;
-    for name in &names {
+    write_file(&args.out.join("report.md"), &report(&rows, &results, &args))?;
+    for SceneResult { name, .. } in &results {
         write_file(
             &args.out.join(format!("{name}.svg")),
             &svg_plot(name, &rows),
@@ -407,4 +484,37 @@ pub fn run_bench(mut args: BenchArgs) -> Result<()> {
     }
     println!("wrote {}", args.out.join("report.md").display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use photon::rng::Rng;
+
+    /// `n` pixels of value 1 plus uniform noise in [−h, h] (variance h²/3) in every channel.
+    fn noisy(n: usize, h: f32, seed: u64) -> Vec<[f32; 4]> {
+        let mut rng = Rng::new(seed);
+        (0..n)
+            .map(|_| std::array::from_fn(|_| 1.0 + h * (2.0 * rng.uniform() - 1.0)))
+            .collect()
+    }
+
+    #[test]
+    fn two_half_noise_estimates_the_error_of_the_mean() {
+        let (n, h) = (20_000, 0.3);
+        let (a, b) = (noisy(n, h, 1), noisy(n, h, 2));
+        let (mean, noise) = two_half_noise(&a, &b);
+        // The mean has variance h²/3/2; relMSE divides by 1² + 0.01.
+        let expected = h as f64 * h as f64 / 6.0 / 1.01;
+        assert!(
+            (noise / expected - 1.0).abs() < 0.05,
+            "{noise} vs {expected}"
+        );
+        // And it agrees with the mean's actual error against the truth.
+        let truth = vec![[1.0; 4]; n];
+        let actual = compare(&mean, &truth).rel_mse;
+        assert!((noise / actual - 1.0).abs() < 0.05, "{noise} vs {actual}");
+        // Identical halves: no measurable noise.
+        assert_eq!(two_half_noise(&a, &a).1, 0.0);
+    }
 }

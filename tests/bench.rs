@@ -50,8 +50,23 @@ fn bench_writes_results_for_each_method_and_budget() {
             );
         }
     }
-    assert!(dir.join("report.md").exists());
     assert!(dir.join("cornell_box.svg").exists());
+    // The reference: the mean of two halves (the halves themselves are removed) and its noise.
+    let mut refs: Vec<String> = std::fs::read_dir(dir.join("refs"))
+        .expect("refs")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    refs.sort();
+    assert_eq!(refs.len(), 2, "{refs:?}");
+    assert!(refs[0].ends_with("-16spp.exr") && refs[1].ends_with("-16spp.noise.json"));
+    let cached: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("refs").join(&refs[1])).expect("noise file"),
+    )
+    .expect("noise JSON");
+    let noise = cached["reference_noise_rel_mse"].as_f64().expect("noise");
+    assert!(noise > 0.0 && noise.is_finite(), "{noise}");
+    let report = std::fs::read_to_string(dir.join("report.md")).expect("report.md");
+    assert!(report.contains("Reference noise ≈ relMSE"), "{report}");
 }
 
 #[test]
