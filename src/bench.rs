@@ -44,9 +44,12 @@ pub struct BenchArgs {
     /// Image height (default: from the scene camera's aspect ratio).
     #[arg(long)]
     height: Option<u32>,
-    /// Samples per pixel of the path-traced reference.
+    /// Samples per pixel of the path-traced reference (two halves with seeds 1 and 2).
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
+    /// The relMSE whose time to reach the report tabulates per method.
+    #[arg(long, default_value_t = 0.01)]
+    target_error: f64,
 }
 
 /// The bench methods and the render options each adds. `photon` is pure final gathering,
@@ -323,6 +326,124 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
     })
 }
 
+/// The line through (x0, y0) and (x1, y1) in log-log space, at `x`; linear where a value is not
+/// positive (a log would be infinite), and y0 when x0 = x1.
+fn log_log(x0: f64, y0: f64, x1: f64, y1: f64, x: f64) -> f64 {
+    if x0 == x1 {
+        y0
+    } else if x0 > 0.0 && x1 > 0.0 && x > 0.0 && y0 > 0.0 && y1 > 0.0 {
+        y0 * (y1 / y0).powf((x / x0).ln() / (x1 / x0).ln())
+    } else {
+        y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+    }
+}
+
+/// The (time, relMSE) points of `method` on `scene`, sorted by time.
+fn curve(rows: &[Row], scene: &str, method: &str) -> Vec<(f64, f64)> {
+    let mut points: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.scene == scene && r.method == method)
+        .map(|r| (r.seconds, r.error.rel_mse))
+        .collect();
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    points
+}
+
+/// When a method's error reaches the target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TimeToTarget {
+    /// Interpolated between the two measured points that bracket the target.
+    Reached(f64),
+    /// Already at or below the target at the shortest measured time: at most that time.
+    AtMost(f64),
+    /// No measured point reached it: the best error, its time, and the longest measured time.
+    NotReached {
+        best_error: f64,
+        seconds: f64,
+        longest: f64,
+    },
+}
+
+impl TimeToTarget {
+    /// The interval the time lies in.
+    fn bounds(self) -> (f64, f64) {
+        match self {
+            TimeToTarget::Reached(t) => (t, t),
+            TimeToTarget::AtMost(t) => (0.0, t),
+            TimeToTarget::NotReached { longest, .. } => (longest, f64::INFINITY),
+        }
+    }
+
+    fn text(self) -> String {
+        match self {
+            TimeToTarget::Reached(t) => format!("{t:.2} s"),
+            TimeToTarget::AtMost(t) => format!("≤ {t:.2} s (below target at the smallest budget)"),
+            TimeToTarget::NotReached {
+                best_error,
+                seconds,
+                ..
+            } => format!("not reached (best relMSE {best_error:.2e} at {seconds:.2} s)"),
+        }
+    }
+}
+
+/// The time `curve` (sorted by time) reaches `target`: log-log interpolation between the first
+/// pair of consecutive points whose errors bracket it.
+fn time_to_target(curve: &[(f64, f64)], target: f64) -> Option<TimeToTarget> {
+    let &(t0, e0) = curve.first()?;
+    if e0 <= target {
+        return Some(TimeToTarget::AtMost(t0));
+    }
+    if let Some(w) = curve
+        .windows(2)
+        .find(|w| w[0].1 > target && w[1].1 <= target)
+    {
+        let ((ta, ea), (tb, eb)) = (w[0], w[1]);
+        return Some(TimeToTarget::Reached(log_log(ea, ta, eb, tb, target)));
+    }
+    let &(seconds, best_error) = curve.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(TimeToTarget::NotReached {
+        best_error,
+        seconds,
+        longest: curve.last()?.0,
+    })
+}
+
+/// The ratio of a method's time to target to path's, as far as the bounds tell it: a number when
+/// both were interpolated, "≤ x" or "≥ x" when one is a bound, "—" when nothing is known.
+fn ratio_text(method: TimeToTarget, path: TimeToTarget) -> String {
+    let ((m_lo, m_hi), (p_lo, p_hi)) = (method.bounds(), path.bounds());
+    let (lo, hi) = (m_lo / p_hi, m_hi / p_lo);
+    if lo == hi {
+        format!("{lo:.2}")
+    } else if hi.is_finite() {
+        format!("≤ {hi:.2}")
+    } else if lo > 0.0 {
+        format!("≥ {lo:.2}")
+    } else {
+        "—".into()
+    }
+}
+
+/// What the report and summary.json say about one scene.
+struct Analysis {
+    time_to_target: Vec<(String, TimeToTarget)>,
+}
+
+fn analyse(rows: &[Row], scene: &str, args: &BenchArgs) -> Analysis {
+    let time_to_target = args
+        .methods
+        .iter()
+        .filter_map(|m| {
+            Some((
+                m.clone(),
+                time_to_target(&curve(rows, scene, m), args.target_error)?,
+            ))
+        })
+        .collect();
+    Analysis { time_to_target }
+}
+
 fn write_file(path: &Path, text: &str) -> Result<()> {
     std::fs::write(path, text).map_err(|e| io_error(path, e))
 }
@@ -351,7 +472,10 @@ fn csv(rows: &[Row]) -> String {
 fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
     let mut out = format!(
         "# Photon benchmark\n\n{} px wide, reference: path tracer at {} spp; budget b = b spp, \
-         {}·b global and {}·b caustic photons. Time is the wall time of the whole render process.\n",
+         {}·b global and {}·b caustic photons. Time is the wall time of the whole render process. \
+         Time to target: log-log interpolation between the two measured points that bracket it. \
+         Issue 7's targets: photon-ic reaches relMSE 0.01 in at most 1/5 of path's time on caustic \
+         and indirect-lit scenes, 1/2 on the Cornell box.\n",
         args.width, args.reference_spp, GLOBAL_PHOTONS_PER_BUDGET, CAUSTIC_PHOTONS_PER_BUDGET
     );
     for SceneResult {
@@ -379,6 +503,21 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
                 r.error.rel_mse,
                 100.0 * r.error.mean_relative_difference
             );
+        }
+        let analysis = analyse(rows, scene, args);
+        let _ = write!(
+            out,
+            "\n### Time to relMSE {}\n\n| method | time to target | ratio to path |\n|---|---:|---:|\n",
+            args.target_error
+        );
+        let path = analysis
+            .time_to_target
+            .iter()
+            .find(|(m, _)| m == "path")
+            .map(|(_, t)| *t);
+        for (method, time) in &analysis.time_to_target {
+            let ratio = path.map_or_else(|| "—".into(), |p| ratio_text(*time, p));
+            let _ = writeln!(out, "| {method} | {} | {ratio} |", time.text());
         }
     }
     out
@@ -468,6 +607,12 @@ pub fn run_bench(mut args: BenchArgs) -> Result<()> {
             "bench needs at least one scene and positive budgets".into(),
         ));
     }
+    if !(args.target_error > 0.0 && args.target_error.is_finite()) {
+        return Err(Error::Settings(format!(
+            "--target-error {} must be a positive relMSE",
+            args.target_error
+        )));
+    }
     std::fs::create_dir_all(&args.out).map_err(|e| io_error(&args.out, e))?;
     let mut rows = Vec::new();
     let mut results = Vec::new();
@@ -516,5 +661,78 @@ mod tests {
         assert!((noise / actual - 1.0).abs() < 0.05, "{noise} vs {actual}");
         // Identical halves: no measurable noise.
         assert_eq!(two_half_noise(&a, &a).1, 0.0);
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-9 * b.abs().max(1.0)
+    }
+
+    #[test]
+    fn log_log_interpolates_power_laws_exactly() {
+        // relMSE ∝ 1/t through (1, 1) and (100, 0.01).
+        assert!(close(log_log(1.0, 1.0, 100.0, 0.01, 10.0), 0.1));
+        assert!(close(log_log(1.0, 1.0, 100.0, 0.01, 1000.0), 0.001));
+        // A zero value falls back to linear interpolation instead of an infinite log.
+        assert!(close(log_log(1.0, 0.0, 3.0, 1.0, 2.0), 0.5));
+        assert_eq!(log_log(2.0, 5.0, 2.0, 7.0, 2.0), 5.0);
+    }
+
+    #[test]
+    fn time_to_target_interpolates_bounds_or_gives_up() {
+        let curve = [(1.0, 0.04), (4.0, 0.01), (16.0, 0.0025)];
+        let Some(TimeToTarget::Reached(t)) = time_to_target(&curve, 0.02) else {
+            panic!("reached");
+        };
+        assert!(close(t, 2.0), "{t}");
+        assert_eq!(
+            time_to_target(&curve, 0.05),
+            Some(TimeToTarget::AtMost(1.0))
+        );
+        assert_eq!(
+            time_to_target(&curve, 0.04),
+            Some(TimeToTarget::AtMost(1.0))
+        );
+        assert_eq!(
+            time_to_target(&curve, 0.001),
+            Some(TimeToTarget::NotReached {
+                best_error: 0.0025,
+                seconds: 16.0,
+                longest: 16.0
+            })
+        );
+        assert_eq!(time_to_target(&[], 0.01), None);
+        // Noisy curve: the first bracketing pair counts ((1, 0.16)–(2, 0.04), e ∝ 1/t², so √2),
+        // not the later (3, 0.09)–(4, 0.01).
+        let noisy = [(1.0, 0.16), (2.0, 0.04), (3.0, 0.09), (4.0, 0.01)];
+        let Some(TimeToTarget::Reached(t)) = time_to_target(&noisy, 0.08) else {
+            panic!("reached");
+        };
+        assert!(close(t, 2f64.sqrt()), "{t}");
+        // Not reached: the best point, which need not be the last.
+        let plateau = [(1.0, 0.05), (2.0, 0.02), (4.0, 0.03)];
+        assert_eq!(
+            time_to_target(&plateau, 0.01),
+            Some(TimeToTarget::NotReached {
+                best_error: 0.02,
+                seconds: 2.0,
+                longest: 4.0
+            })
+        );
+    }
+
+    #[test]
+    fn ratios_to_path_respect_the_bounds() {
+        use TimeToTarget::*;
+        let not_reached = |longest| NotReached {
+            best_error: 0.1,
+            seconds: 1.0,
+            longest,
+        };
+        assert_eq!(ratio_text(Reached(1.0), Reached(4.0)), "0.25");
+        assert_eq!(ratio_text(AtMost(1.0), Reached(4.0)), "≤ 0.25");
+        assert_eq!(ratio_text(Reached(2.0), not_reached(4.0)), "≤ 0.50");
+        assert_eq!(ratio_text(not_reached(8.0), Reached(2.0)), "≥ 4.00");
+        assert_eq!(ratio_text(not_reached(8.0), not_reached(8.0)), "—");
+        assert_eq!(ratio_text(Reached(2.0), AtMost(1.0)), "≥ 2.00");
     }
 }

@@ -67,6 +67,13 @@ fn bench_writes_results_for_each_method_and_budget() {
     assert!(noise > 0.0 && noise.is_finite(), "{noise}");
     let report = std::fs::read_to_string(dir.join("report.md")).expect("report.md");
     assert!(report.contains("Reference noise ≈ relMSE"), "{report}");
+    let (_, time_table) = report
+        .split_once("### Time to relMSE 0.01")
+        .expect("time-to-target table");
+    for method in ["path", "photon", "photon-ic", "auto"] {
+        let row = format!("\n| {method} | ");
+        assert!(time_table.contains(&row), "{row}: {report}");
+    }
 }
 
 #[test]
