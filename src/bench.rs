@@ -425,9 +425,70 @@ fn ratio_text(method: TimeToTarget, path: TimeToTarget) -> String {
     }
 }
 
+/// The relMSE of `curve` (sorted by time) at time `t`: log-log interpolation between the measured
+/// points around `t`; outside them, extrapolation from the nearest end with relMSE ∝ 1/t (Monte
+/// Carlo convergence; a biased method converges no faster, so this favours the fixed method).
+fn error_at_time(curve: &[(f64, f64)], t: f64) -> Option<f64> {
+    let (&(t0, e0), &(tn, en)) = (curve.first()?, curve.last()?);
+    if t <= t0 {
+        return Some(e0 * t0 / t);
+    }
+    if t >= tn {
+        return Some(en * tn / t);
+    }
+    let w = curve.windows(2).find(|w| w[0].0 <= t && t <= w[1].0)?;
+    Some(log_log(w[0].0, w[0].1, w[1].0, w[1].1, t))
+}
+
+/// Auto's ratio to the best fixed method at which its verdict is "ok": a quarter more error is
+/// within the run-to-run noise of these small benches.
+const AUTO_TOLERANCE: f64 = 1.25;
+
+/// Auto at one budget against the fixed methods at auto's time.
+#[derive(Clone, Debug, PartialEq)]
+struct AutoCheck {
+    budget: u32,
+    seconds: f64,
+    rel_mse: f64,
+    /// The fixed method with the least error at auto's time, and that error.
+    best_method: String,
+    best_rel_mse: f64,
+}
+
+impl AutoCheck {
+    fn ratio(&self) -> f64 {
+        self.rel_mse / self.best_rel_mse
+    }
+
+    fn ok(&self) -> bool {
+        self.ratio() <= AUTO_TOLERANCE
+    }
+}
+
+/// Auto's (budget, time, relMSE) points against the best of the `fixed` (method, curve) pairs at
+/// auto's time.
+fn auto_checks(auto: &[(u32, f64, f64)], fixed: &[(String, Vec<(f64, f64)>)]) -> Vec<AutoCheck> {
+    auto.iter()
+        .filter_map(|&(budget, seconds, rel_mse)| {
+            let (best_method, best_rel_mse) = fixed
+                .iter()
+                .filter_map(|(m, c)| Some((m.clone(), error_at_time(c, seconds)?)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))?;
+            Some(AutoCheck {
+                budget,
+                seconds,
+                rel_mse,
+                best_method,
+                best_rel_mse,
+            })
+        })
+        .collect()
+}
+
 /// What the report and summary.json say about one scene.
 struct Analysis {
     time_to_target: Vec<(String, TimeToTarget)>,
+    auto_checks: Vec<AutoCheck>,
 }
 
 fn analyse(rows: &[Row], scene: &str, args: &BenchArgs) -> Analysis {
@@ -435,13 +496,26 @@ fn analyse(rows: &[Row], scene: &str, args: &BenchArgs) -> Analysis {
         .methods
         .iter()
         .filter_map(|m| {
-            Some((
-                m.clone(),
-                time_to_target(&curve(rows, scene, m), args.target_error)?,
-            ))
+            let time = time_to_target(&curve(rows, scene, m), args.target_error)?;
+            Some((m.clone(), time))
         })
         .collect();
-    Analysis { time_to_target }
+    let auto: Vec<(u32, f64, f64)> = rows
+        .iter()
+        .filter(|r| r.scene == scene && r.method == "auto")
+        .map(|r| (r.budget, r.seconds, r.error.rel_mse))
+        .collect();
+    let fixed: Vec<(String, Vec<(f64, f64)>)> = args
+        .methods
+        .iter()
+        .filter(|m| *m != "auto")
+        .map(|m| (m.clone(), curve(rows, scene, m)))
+        .filter(|(_, c)| !c.is_empty())
+        .collect();
+    Analysis {
+        time_to_target,
+        auto_checks: auto_checks(&auto, &fixed),
+    }
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {
@@ -475,7 +549,10 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
          {}·b global and {}·b caustic photons. Time is the wall time of the whole render process. \
          Time to target: log-log interpolation between the two measured points that bracket it. \
          Issue 7's targets: photon-ic reaches relMSE 0.01 in at most 1/5 of path's time on caustic \
-         and indirect-lit scenes, 1/2 on the Cornell box.\n",
+         and indirect-lit scenes, 1/2 on the Cornell box. Auto against the fixed methods: each \
+         fixed method's relMSE at auto's time, log-log interpolated between its measured points \
+         and extrapolated beyond them with relMSE ∝ 1/t (which favours the fixed method); \
+         verdict ok when auto's relMSE is at most {AUTO_TOLERANCE} times the best.\n",
         args.width, args.reference_spp, GLOBAL_PHOTONS_PER_BUDGET, CAUSTIC_PHOTONS_PER_BUDGET
     );
     for SceneResult {
@@ -519,6 +596,33 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
             let ratio = path.map_or_else(|| "—".into(), |p| ratio_text(*time, p));
             let _ = writeln!(out, "| {method} | {} | {ratio} |", time.text());
         }
+        if analysis.auto_checks.is_empty() {
+            continue;
+        }
+        out.push_str(
+            "\n### Auto against the best fixed method\n\n\
+             | budget | auto time (s) | auto relMSE | best fixed method | its relMSE at auto's time | auto / best | verdict |\n\
+             |---:|---:|---:|---|---:|---:|---|\n",
+        );
+        for c in &analysis.auto_checks {
+            let _ = writeln!(
+                out,
+                "| {} | {:.2} | {:.2e} | {} | {:.2e} | {:.2} | {} |",
+                c.budget,
+                c.seconds,
+                c.rel_mse,
+                c.best_method,
+                c.best_rel_mse,
+                c.ratio(),
+                if c.ok() { "ok" } else { "worse" }
+            );
+        }
+        let _ = writeln!(
+            out,
+            "\nAuto within tolerance at {} of {} budgets.",
+            analysis.auto_checks.iter().filter(|c| c.ok()).count(),
+            analysis.auto_checks.len()
+        );
     }
     out
 }
@@ -734,5 +838,39 @@ mod tests {
         assert_eq!(ratio_text(not_reached(8.0), Reached(2.0)), "≥ 4.00");
         assert_eq!(ratio_text(not_reached(8.0), not_reached(8.0)), "—");
         assert_eq!(ratio_text(Reached(2.0), AtMost(1.0)), "≥ 2.00");
+    }
+
+    #[test]
+    fn error_at_time_interpolates_inside_and_extrapolates_as_one_over_t() {
+        let curve = [(1.0, 0.04), (4.0, 0.01)];
+        assert!(close(error_at_time(&curve, 2.0).unwrap(), 0.02));
+        assert!(close(error_at_time(&curve, 4.0).unwrap(), 0.01));
+        assert!(close(error_at_time(&curve, 0.5).unwrap(), 0.08));
+        assert!(close(error_at_time(&curve, 8.0).unwrap(), 0.005));
+        // A single point extrapolates both ways.
+        assert!(close(error_at_time(&[(2.0, 0.1)], 4.0).unwrap(), 0.05));
+        assert_eq!(error_at_time(&[], 1.0), None);
+    }
+
+    #[test]
+    fn auto_is_judged_against_the_best_fixed_method_at_its_time() {
+        let fixed = [
+            ("path".to_string(), vec![(1.0, 0.04), (4.0, 0.01)]),
+            // A biased method that flattens out.
+            ("photon".to_string(), vec![(1.0, 0.01), (4.0, 0.008)]),
+        ];
+        let auto = [(1, 2.0, 0.02), (2, 8.0, 0.0045)];
+        let checks = auto_checks(&auto, &fixed);
+        assert_eq!(checks.len(), 2);
+        // At 2 s: path 0.02, photon 0.01·0.8^½ ≈ 0.00894: auto is 2.24 times worse.
+        assert_eq!(checks[0].best_method, "photon");
+        assert!(close(checks[0].best_rel_mse, 0.01 * 0.8f64.sqrt()));
+        assert!(!checks[0].ok());
+        // At 8 s, beyond both: path 0.005, photon 0.004 (∝ 1/t); 0.0045 is within 1.25.
+        assert_eq!(checks[1].best_method, "photon");
+        assert!(close(checks[1].best_rel_mse, 0.004));
+        assert!(close(checks[1].ratio(), 1.125) && checks[1].ok());
+        // Nothing to compare with: no rows.
+        assert!(auto_checks(&auto, &[]).is_empty());
     }
 }

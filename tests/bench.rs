@@ -74,6 +74,18 @@ fn bench_writes_results_for_each_method_and_budget() {
         let row = format!("\n| {method} | ");
         assert!(time_table.contains(&row), "{row}: {report}");
     }
+    let (_, auto_table) = report
+        .split_once("### Auto against the best fixed method")
+        .expect("auto table");
+    assert_eq!(
+        auto_table.matches("\n| 1 | ").count() + auto_table.matches("\n| 2 | ").count(),
+        2,
+        "{report}"
+    );
+    assert!(
+        auto_table.contains("Auto within tolerance at ") && auto_table.contains(" of 2 budgets."),
+        "{report}"
+    );
 }
 
 #[test]
