@@ -1,9 +1,13 @@
-//! `photon bench`: run time against error. For each scene, a converged path-traced reference is
-//! rendered once and cached in `OUT/refs/` (keyed by a hash of the scene file, the renderer version
-//! and the resolution); then each applicable method renders at a series of budgets (samples per
-//! pixel and photon counts scaled together). Every render runs as a child process of this binary,
-//! so its wall time and peak memory (the child's VmHWM) are its own. Writes `OUT/results.csv`,
-//! `OUT/report.md` and one log-log SVG plot of relMSE against time per scene.
+//! `photon bench`: run time against error (issue 7). For each scene, a path-traced reference is
+//! rendered once as two independent halves (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a
+//! hash of the scene file, the renderer version, the resolution and the samples) with the estimate
+//! of its own noise the halves give; then each method (path, photon map, photon map + irradiance
+//! cache, auto) renders at a series of budgets (samples per pixel and photon counts scaled
+//! together). Every render runs as a child process of this binary, so its wall time and peak
+//! memory (the child's VmHWM) are its own. From the (time, relMSE) points it derives the time each
+//! method needs to reach a target error and judges auto against the best fixed method at auto's
+//! time, both by log-log interpolation. Writes `OUT/results.csv`, `OUT/report.md`,
+//! `OUT/summary.json` and one log-log SVG plot of relMSE against time per scene.
 
 use crate::cli::{image_size, load_scene};
 use photon::error::{Error, Result};
@@ -11,6 +15,7 @@ use photon::film::Image;
 use photon::image_io::{write_image, ExrLayout};
 use photon::metrics::{compare, ImageError};
 use photon::plan::{plan, Quality};
+use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -267,6 +272,7 @@ struct SceneResult {
     name: String,
     /// Estimated relMSE of the reference itself.
     reference_noise: f64,
+    analysis: Analysis,
 }
 
 fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<SceneResult> {
@@ -321,6 +327,7 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
         }
     }
     Ok(SceneResult {
+        analysis: analyse(rows, &name, args),
         name,
         reference_noise: reference.noise,
     })
@@ -558,6 +565,7 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
     for SceneResult {
         name: scene,
         reference_noise,
+        analysis,
     } in scenes
     {
         let _ = write!(
@@ -581,7 +589,6 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
                 100.0 * r.error.mean_relative_difference
             );
         }
-        let analysis = analyse(rows, scene, args);
         let _ = write!(
             out,
             "\n### Time to relMSE {}\n\n| method | time to target | ratio to path |\n|---|---:|---:|\n",
@@ -625,6 +632,66 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
         );
     }
     out
+}
+
+/// `summary.json`: per scene, the reference noise, the time to target per method and the auto
+/// check rows.
+fn summary(scenes: &[SceneResult], args: &BenchArgs) -> serde_json::Value {
+    let scene_json = |r: &SceneResult| {
+        let path = r.analysis.time_to_target.iter().find(|(m, _)| m == "path");
+        let times: serde_json::Map<String, serde_json::Value> = r
+            .analysis
+            .time_to_target
+            .iter()
+            .map(|(method, time)| {
+                let mut v = match *time {
+                    TimeToTarget::Reached(t) => json!({"status": "reached", "seconds": t}),
+                    TimeToTarget::AtMost(t) => json!({"status": "at_most", "seconds": t}),
+                    TimeToTarget::NotReached {
+                        best_error,
+                        seconds,
+                        ..
+                    } => json!({"status": "not_reached", "best_rel_mse": best_error, "seconds": seconds}),
+                };
+                if let Some((_, p)) = path {
+                    v["ratio_to_path"] = ratio_text(*time, *p).into();
+                }
+                (method.clone(), v)
+            })
+            .collect();
+        let checks: Vec<serde_json::Value> = r
+            .analysis
+            .auto_checks
+            .iter()
+            .map(|c| {
+                json!({
+                    "budget": c.budget,
+                    "auto_seconds": c.seconds,
+                    "auto_rel_mse": c.rel_mse,
+                    "best_fixed_method": c.best_method,
+                    "best_fixed_rel_mse": c.best_rel_mse,
+                    "ratio": c.ratio(),
+                    "ok": c.ok(),
+                })
+            })
+            .collect();
+        json!({
+            "scene": r.name,
+            "reference_noise_rel_mse": r.reference_noise,
+            "time_to_target": times,
+            "auto_check": checks,
+            "auto_ok_budgets": r.analysis.auto_checks.iter().filter(|c| c.ok()).count(),
+        })
+    };
+    json!({
+        "target_rel_mse": args.target_error,
+        "auto_tolerance": AUTO_TOLERANCE,
+        "width": args.width,
+        "reference_spp": args.reference_spp,
+        "budgets": args.budgets,
+        "methods": args.methods,
+        "scenes": scenes.iter().map(scene_json).collect::<Vec<_>>(),
+    })
 }
 
 /// A log-log plot of relMSE against time, one polyline per method.
@@ -725,6 +792,10 @@ pub fn run_bench(mut args: BenchArgs) -> Result<()> {
     }
     write_file(&args.out.join("results.csv"), &csv(&rows))?;
     write_file(&args.out.join("report.md"), &report(&rows, &results, &args))?;
+    write_file(
+        &args.out.join("summary.json"),
+        &format!("{:#}\n", summary(&results, &args)),
+    )?;
     for SceneResult { name, .. } in &results {
         write_file(
             &args.out.join(format!("{name}.svg")),

@@ -86,6 +86,30 @@ fn bench_writes_results_for_each_method_and_budget() {
         auto_table.contains("Auto within tolerance at ") && auto_table.contains(" of 2 budgets."),
         "{report}"
     );
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("summary.json")).expect("summary.json"),
+    )
+    .expect("summary JSON");
+    assert_eq!(summary["target_rel_mse"], 0.01);
+    let scene = &summary["scenes"][0];
+    assert_eq!(scene["scene"], "cornell_box");
+    assert_eq!(scene["reference_noise_rel_mse"].as_f64(), Some(noise));
+    for method in ["path", "photon", "photon-ic", "auto"] {
+        let status = scene["time_to_target"][method]["status"].as_str();
+        assert!(
+            matches!(status, Some("reached" | "at_most" | "not_reached")),
+            "{method}: {summary}"
+        );
+    }
+    let checks = scene["auto_check"].as_array().expect("auto checks");
+    assert_eq!(checks.len(), 2, "{summary}");
+    for check in checks {
+        let ratio = check["auto_rel_mse"].as_f64().expect("auto")
+            / check["best_fixed_rel_mse"].as_f64().expect("best");
+        assert!((check["ratio"].as_f64().expect("ratio") - ratio).abs() <= 1e-9 * ratio);
+        assert_eq!(check["ok"].as_bool(), Some(ratio <= 1.25));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -106,4 +130,5 @@ fn an_unknown_bench_method_is_a_settings_error_naming_the_valid_ones() {
         !dir.join("refs").exists(),
         "nothing renders on a bad method"
     );
+    let _ = std::fs::remove_dir_all(&dir);
 }
