@@ -1,23 +1,31 @@
-//! `photon bench`: run time against error. For each scene, a converged path-traced reference is
-//! rendered once and cached in `OUT/refs/` (keyed by a hash of the scene file, the renderer version
-//! and the resolution); then each applicable method renders at a series of budgets (samples per
-//! pixel and photon counts scaled together). Every render runs as a child process of this binary,
-//! so its wall time and peak memory (the child's VmHWM) are its own. Writes `OUT/results.csv`,
-//! `OUT/report.md` and one log-log SVG plot of relMSE against time per scene.
+//! `photon bench`: run time against error (issue 7). For each scene, a path-traced reference is
+//! rendered once as two independent halves (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a
+//! hash of the scene file, the renderer version, the resolution and the samples) with the estimate
+//! of its own noise the halves give; then each method (path, photon map, photon map + irradiance
+//! cache, auto) renders at a series of budgets (samples per pixel and photon counts scaled
+//! together). Every render runs as a child process of this binary, so its wall time and peak
+//! memory (the child's VmHWM) are its own. From the (time, relMSE) points it derives the time each
+//! method needs to reach a target error and judges auto against the best fixed method at auto's
+//! time, both by log-log interpolation. Writes `OUT/results.csv`, `OUT/report.md`,
+//! `OUT/summary.json` and one log-log SVG plot of relMSE against time per scene.
 
 use crate::cli::{image_size, load_scene};
 use photon::error::{Error, Result};
+use photon::film::Image;
+use photon::image_io::{write_image, ExrLayout};
 use photon::metrics::{compare, ImageError};
 use photon::plan::{plan, Quality};
+use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 /// Global photons per unit of budget (budget 40 gives the default 200 000).
-const GLOBAL_PHOTONS_PER_BUDGET: u32 = 5_000;
+const GLOBAL_PHOTONS_PER_BUDGET: u64 = 5_000;
 /// Caustic photons per unit of budget (budget 40 gives the default 100 000).
-const CAUSTIC_PHOTONS_PER_BUDGET: u32 = 2_500;
+const CAUSTIC_PHOTONS_PER_BUDGET: u64 = 2_500;
 
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
@@ -26,8 +34,8 @@ pub struct BenchArgs {
     /// Budgets: samples per pixel; photon counts scale with them.
     #[arg(long, value_delimiter = ',', default_values_t = [1, 4, 16])]
     budgets: Vec<u32>,
-    /// Methods to compare.
-    #[arg(long, value_delimiter = ',', default_values_t = ["path".to_string(), "photon".to_string(), "auto".to_string()])]
+    /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto [default: all].
+    #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
     /// Worker threads of each render (0: one per core).
     #[arg(long, default_value_t = 0)]
@@ -41,9 +49,43 @@ pub struct BenchArgs {
     /// Image height (default: from the scene camera's aspect ratio).
     #[arg(long)]
     height: Option<u32>,
-    /// Samples per pixel of the path-traced reference.
+    /// Samples per pixel of the path-traced reference (two halves with seeds 1 and 2).
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
+    /// The relMSE whose time to reach the report tabulates per method.
+    #[arg(long, default_value_t = 0.01)]
+    target_error: f64,
+}
+
+/// The bench methods and the render options each adds. `photon` is pure final gathering,
+/// `photon-ic` takes the indirect light from Ward's irradiance cache; `auto` renders the planner's
+/// choice with the same budget, so the bench judges the choice.
+const METHODS: [(&str, &[&str]); 4] = [
+    ("path", &["--method", "path"]),
+    (
+        "photon",
+        &["--method", "photon", "--irradiance-cache", "off"],
+    ),
+    (
+        "photon-ic",
+        &["--method", "photon", "--irradiance-cache", "on"],
+    ),
+    ("auto", &["--method", "auto"]),
+];
+
+/// The render options of the bench method `name`; unknown names are a settings error.
+fn method_options(name: &str) -> Result<&'static [&'static str]> {
+    METHODS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, options)| *options)
+        .ok_or_else(|| {
+            let valid: Vec<&str> = METHODS.iter().map(|(n, _)| *n).collect();
+            Error::Settings(format!(
+                "unknown bench method '{name}' (valid: {})",
+                valid.join(", ")
+            ))
+        })
 }
 
 /// One render of the benchmark.
@@ -139,26 +181,88 @@ fn bench_size(scene: &photon::scene::Scene, args: &BenchArgs) -> (u32, u32) {
     (args.width, height)
 }
 
-/// The cached reference of `scene`, rendered when missing.
-fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<PathBuf> {
+/// A scene's path-traced reference and an estimate of its own error.
+struct Reference {
+    pixels: Vec<[f32; 4]>,
+    /// Estimated relMSE of the reference against the true image.
+    noise: f64,
+}
+
+/// The mean of two independent renders `a` and `b`, and the mean's relMSE against the truth
+/// estimated from their difference: E[(A − B)²] = 2σ² and the mean has variance σ²/2, so it is
+/// relMSE(A, B)/4. The mean stands in for the truth in relMSE's denominator (A − B + M is
+/// compared with M), as the reference does for every bench error.
+fn two_half_noise(a: &[[f32; 4]], b: &[[f32; 4]]) -> (Vec<[f32; 4]>, f64) {
+    let mean: Vec<[f32; 4]> = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| std::array::from_fn(|c| 0.5 * (p[c] + q[c])))
+        .collect();
+    let shifted: Vec<[f32; 4]> = a
+        .iter()
+        .zip(b)
+        .zip(&mean)
+        .map(|((p, q), m)| std::array::from_fn(|c| p[c] - q[c] + m[c]))
+        .collect();
+    let noise = compare(&shifted, &mean).rel_mse / 4.0;
+    (mean, noise)
+}
+
+/// The cached reference of `scene`, rendered when missing: two path-traced halves of
+/// `--reference-spp / 2` samples with seeds 1 and 2, averaged into `refs/KEY.exr`, their noise
+/// estimate in `refs/KEY.noise.json`.
+fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Reference> {
     let bytes = std::fs::read(scene).map_err(|e| io_error(scene, e))?;
     let refs = args.out.join("refs");
     std::fs::create_dir_all(&refs).map_err(|e| io_error(&refs, e))?;
-    let path = refs.join(format!(
-        "{}-{:016x}-v{}-{}x{}-{}spp.exr",
+    let key = format!(
+        "{}-{:016x}-v{}-{}x{}-{}spp",
         stem(scene),
         fnv1a(&bytes),
         env!("CARGO_PKG_VERSION"),
         size.0,
         size.1,
         args.reference_spp
-    ));
-    if !path.exists() {
-        eprintln!("photon bench: reference for {} ...", scene.display());
-        let extra = ["--method", "path", "--spp", &args.reference_spp.to_string()];
-        render_child(scene, &path, args, size, &extra.map(String::from))?;
+    );
+    let exr = refs.join(format!("{key}.exr"));
+    let noise_file = refs.join(format!("{key}.noise.json"));
+    if let (true, Ok(text)) = (exr.exists(), std::fs::read_to_string(&noise_file)) {
+        let cached: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        if let Some(noise) = cached["reference_noise_rel_mse"].as_f64() {
+            return Ok(Reference {
+                pixels: read_rgba(&exr)?,
+                noise,
+            });
+        }
     }
-    Ok(path)
+    eprintln!("photon bench: reference for {} ...", scene.display());
+    let half_spp = (args.reference_spp / 2).max(1);
+    let mut halves = Vec::new();
+    for seed in ["1", "2"] {
+        let half = refs.join(format!("{key}.half{seed}.exr"));
+        let extra = [
+            "--method",
+            "path",
+            "--spp",
+            &half_spp.to_string(),
+            "--seed",
+            seed,
+        ];
+        render_child(scene, &half, args, size, &extra.map(String::from))?;
+        halves.push(read_rgba(&half)?);
+        std::fs::remove_file(&half).map_err(|e| io_error(&half, e))?;
+    }
+    let (pixels, noise) = two_half_noise(&halves[0], &halves[1]);
+    let mut image = Image::new(size.0, size.1);
+    image.rgba.clone_from(&pixels);
+    write_image(&exr, &image, &ExrLayout::Rgba, &AtomicBool::new(false))?;
+    let cached = serde_json::json!({
+        "reference_noise_rel_mse": noise,
+        "half_spp": half_spp,
+        "seeds": [1, 2],
+    });
+    write_file(&noise_file, &format!("{cached:#}\n"))?;
+    Ok(Reference { pixels, noise })
 }
 
 fn stem(path: &Path) -> String {
@@ -170,31 +274,42 @@ fn read_rgba(path: &Path) -> Result<Vec<[f32; 4]>> {
     Ok(photon::image_io::read_exr_rgba(path)?.2)
 }
 
-fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<()> {
+/// What the bench learnt of one scene besides its rows.
+struct SceneResult {
+    name: String,
+    /// Estimated relMSE of the reference itself.
+    reference_noise: f64,
+    analysis: Analysis,
+}
+
+fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<SceneResult> {
     let scene = load_scene(Some(scene_path), None)?;
     let size = bench_size(&scene, args);
     let scene_plan = plan(&scene, Quality::Default);
-    let reference_pixels = read_rgba(&reference(scene_path, args, size)?)?;
+    let reference = reference(scene_path, args, size)?;
+    let reference_pixels = &reference.pixels;
     let images = args.out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| io_error(&images, e))?;
     let name = stem(scene_path);
     for method in &args.methods {
         // Photon mapping has nothing to do in a scene without light.
-        if method == "photon" && !scene_plan.anything_to_trace {
+        if method.starts_with("photon") && !scene_plan.anything_to_trace {
             continue;
         }
         for &budget in &args.budgets {
             let output = images.join(format!("{name}-{method}-{budget}.exr"));
-            let extra = [
-                "--method".to_string(),
-                method.clone(),
+            let mut extra: Vec<String> = method_options(method)?
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            extra.extend([
                 "--spp".into(),
                 budget.to_string(),
                 "--photons".into(),
-                (budget * GLOBAL_PHOTONS_PER_BUDGET).to_string(),
+                (budget as u64 * GLOBAL_PHOTONS_PER_BUDGET).to_string(),
                 "--caustic-photons".into(),
-                (budget * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
-            ];
+                (budget as u64 * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
+            ]);
             let run = render_child(scene_path, &output, args, size, &extra)?;
             let pixels = read_rgba(&output)?;
             if pixels.len() != reference_pixels.len() {
@@ -203,7 +318,7 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
                     output.display()
                 )));
             }
-            let error = compare(&pixels, &reference_pixels);
+            let error = compare(&pixels, reference_pixels);
             eprintln!(
                 "photon bench: {name} {method} budget {budget}: {:.2} s, relMSE {:.5}",
                 run.seconds, error.rel_mse
@@ -218,7 +333,203 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
             });
         }
     }
-    Ok(())
+    Ok(SceneResult {
+        analysis: analyse(rows, &name, args),
+        name,
+        reference_noise: reference.noise,
+    })
+}
+
+/// The line through (x0, y0) and (x1, y1) in log-log space, at `x`; linear where a value is not
+/// positive (a log would be infinite), and y0 when x0 = x1.
+fn log_log(x0: f64, y0: f64, x1: f64, y1: f64, x: f64) -> f64 {
+    if x0 == x1 {
+        y0
+    } else if x0 > 0.0 && x1 > 0.0 && x > 0.0 && y0 > 0.0 && y1 > 0.0 {
+        y0 * (y1 / y0).powf((x / x0).ln() / (x1 / x0).ln())
+    } else {
+        y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+    }
+}
+
+/// The (time, relMSE) points of `method` on `scene`, sorted by time.
+fn curve(rows: &[Row], scene: &str, method: &str) -> Vec<(f64, f64)> {
+    let mut points: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.scene == scene && r.method == method)
+        .map(|r| (r.seconds, r.error.rel_mse))
+        .collect();
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    points
+}
+
+/// When a method's error reaches the target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TimeToTarget {
+    /// Interpolated between the two measured points that bracket the target.
+    Reached(f64),
+    /// Already at or below the target at the shortest measured time: at most that time.
+    AtMost(f64),
+    /// No measured point reached it: the best error, its time, and the longest measured time.
+    NotReached {
+        best_error: f64,
+        seconds: f64,
+        longest: f64,
+    },
+}
+
+impl TimeToTarget {
+    /// The interval the time lies in.
+    fn bounds(self) -> (f64, f64) {
+        match self {
+            TimeToTarget::Reached(t) => (t, t),
+            TimeToTarget::AtMost(t) => (0.0, t),
+            TimeToTarget::NotReached { longest, .. } => (longest, f64::INFINITY),
+        }
+    }
+
+    fn text(self) -> String {
+        match self {
+            TimeToTarget::Reached(t) => format!("{t:.2} s"),
+            TimeToTarget::AtMost(t) => format!("≤ {t:.2} s (below target at the smallest budget)"),
+            TimeToTarget::NotReached {
+                best_error,
+                seconds,
+                ..
+            } => format!("not reached (best relMSE {best_error:.2e} at {seconds:.2} s)"),
+        }
+    }
+}
+
+/// The time `curve` (sorted by time) reaches `target`: log-log interpolation between the first
+/// pair of consecutive points whose errors bracket it.
+fn time_to_target(curve: &[(f64, f64)], target: f64) -> Option<TimeToTarget> {
+    let &(t0, e0) = curve.first()?;
+    if e0 <= target {
+        return Some(TimeToTarget::AtMost(t0));
+    }
+    if let Some(w) = curve
+        .windows(2)
+        .find(|w| w[0].1 > target && w[1].1 <= target)
+    {
+        let ((ta, ea), (tb, eb)) = (w[0], w[1]);
+        return Some(TimeToTarget::Reached(log_log(ea, ta, eb, tb, target)));
+    }
+    let &(seconds, best_error) = curve.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(TimeToTarget::NotReached {
+        best_error,
+        seconds,
+        longest: curve.last()?.0,
+    })
+}
+
+/// The ratio of a method's time to target to path's, as far as the bounds tell it: a number when
+/// both were interpolated, "≤ x" or "≥ x" when one is a bound, "—" when nothing is known.
+fn ratio_text(method: TimeToTarget, path: TimeToTarget) -> String {
+    let ((m_lo, m_hi), (p_lo, p_hi)) = (method.bounds(), path.bounds());
+    let (lo, hi) = (m_lo / p_hi, m_hi / p_lo);
+    if lo == hi {
+        format!("{lo:.2}")
+    } else if hi.is_finite() {
+        format!("≤ {hi:.2}")
+    } else if lo > 0.0 {
+        format!("≥ {lo:.2}")
+    } else {
+        "—".into()
+    }
+}
+
+/// The relMSE of `curve` (sorted by time) at time `t`: log-log interpolation between the measured
+/// points around `t`; outside them, extrapolation from the nearest end with relMSE ∝ 1/t (Monte
+/// Carlo convergence; a biased method converges no faster, so this favours the fixed method).
+fn error_at_time(curve: &[(f64, f64)], t: f64) -> Option<f64> {
+    let (&(t0, e0), &(tn, en)) = (curve.first()?, curve.last()?);
+    if t <= t0 {
+        return Some(e0 * t0 / t);
+    }
+    if t >= tn {
+        return Some(en * tn / t);
+    }
+    let w = curve.windows(2).find(|w| w[0].0 <= t && t <= w[1].0)?;
+    Some(log_log(w[0].0, w[0].1, w[1].0, w[1].1, t))
+}
+
+/// Auto's verdict is "ok" while its relMSE is at most this many times the best fixed method's:
+/// timings and errors of single small renders are noisy, so equality cannot be asked for.
+const AUTO_TOLERANCE: f64 = 1.25;
+
+/// Auto at one budget against the fixed methods at auto's time.
+#[derive(Clone, Debug, PartialEq)]
+struct AutoCheck {
+    budget: u32,
+    seconds: f64,
+    rel_mse: f64,
+    /// The fixed method with the least error at auto's time, and that error.
+    best_method: String,
+    best_rel_mse: f64,
+}
+
+impl AutoCheck {
+    fn ratio(&self) -> f64 {
+        self.rel_mse / self.best_rel_mse
+    }
+
+    fn ok(&self) -> bool {
+        self.ratio() <= AUTO_TOLERANCE
+    }
+}
+
+/// Auto's (budget, time, relMSE) points against the best of the `fixed` (method, curve) pairs at
+/// auto's time.
+fn auto_checks(auto: &[(u32, f64, f64)], fixed: &[(String, Vec<(f64, f64)>)]) -> Vec<AutoCheck> {
+    auto.iter()
+        .filter_map(|&(budget, seconds, rel_mse)| {
+            let (best_method, best_rel_mse) = fixed
+                .iter()
+                .filter_map(|(m, c)| Some((m.clone(), error_at_time(c, seconds)?)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))?;
+            Some(AutoCheck {
+                budget,
+                seconds,
+                rel_mse,
+                best_method,
+                best_rel_mse,
+            })
+        })
+        .collect()
+}
+
+/// What the report and summary.json say about one scene.
+struct Analysis {
+    time_to_target: Vec<(String, TimeToTarget)>,
+    auto_checks: Vec<AutoCheck>,
+}
+
+fn analyse(rows: &[Row], scene: &str, args: &BenchArgs) -> Analysis {
+    let time_to_target = args
+        .methods
+        .iter()
+        .filter_map(|m| {
+            let time = time_to_target(&curve(rows, scene, m), args.target_error)?;
+            Some((m.clone(), time))
+        })
+        .collect();
+    let auto: Vec<(u32, f64, f64)> = rows
+        .iter()
+        .filter(|r| r.scene == scene && r.method == "auto")
+        .map(|r| (r.budget, r.seconds, r.error.rel_mse))
+        .collect();
+    let fixed: Vec<(String, Vec<(f64, f64)>)> = args
+        .methods
+        .iter()
+        .filter(|m| *m != "auto")
+        .map(|m| (m.clone(), curve(rows, scene, m)))
+        .filter(|(_, c)| !c.is_empty())
+        .collect();
+    Analysis {
+        time_to_target,
+        auto_checks: auto_checks(&auto, &fixed),
+    }
 }
 
 fn write_file(path: &Path, text: &str) -> Result<()> {
@@ -246,17 +557,32 @@ fn csv(rows: &[Row]) -> String {
     out
 }
 
-fn report(rows: &[Row], scenes: &[String], args: &BenchArgs) -> String {
+fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
     let mut out = format!(
         "# Photon benchmark\n\n{} px wide, reference: path tracer at {} spp; budget b = b spp, \
-         {}·b global and {}·b caustic photons. Time is the wall time of the whole render process.\n",
+         {}·b global and {}·b caustic photons. Time is the wall time of the whole render process. \
+         Time to target: log-log interpolation between the two measured points that bracket it. \
+         Issue 7's targets: photon-ic reaches relMSE 0.01 in at most 1/5 of path's time on caustic \
+         and indirect-lit scenes, 1/2 on the Cornell box. Auto against the fixed methods: each \
+         fixed method's relMSE at auto's time, log-log interpolated between its measured points \
+         and extrapolated beyond them with relMSE ∝ 1/t (which favours the fixed method); \
+         verdict ok when auto's relMSE is at most {AUTO_TOLERANCE} times the best.\n",
         args.width, args.reference_spp, GLOBAL_PHOTONS_PER_BUDGET, CAUSTIC_PHOTONS_PER_BUDGET
     );
-    for scene in scenes {
+    for SceneResult {
+        name: scene,
+        reference_noise,
+        analysis,
+    } in scenes
+    {
         let _ = write!(
             out,
             "\n## {scene}\n\n![relMSE against time]({scene}.svg)\n\n\
-             | method | budget | time (s) | peak MiB | relMSE | mean error |\n|---|---:|---:|---:|---:|---:|\n"
+             Reference noise ≈ relMSE {reference_noise:.2e} (two halves of {} spp, seeds 1 and 2); \
+             errors below ~{:.2e} are not resolved.\n\n\
+             | method | budget | time (s) | peak MiB | relMSE | mean error |\n|---|---:|---:|---:|---:|---:|\n",
+            (args.reference_spp / 2).max(1),
+            3.0 * reference_noise
         );
         for r in rows.iter().filter(|r| &r.scene == scene) {
             let _ = writeln!(
@@ -270,8 +596,109 @@ fn report(rows: &[Row], scenes: &[String], args: &BenchArgs) -> String {
                 100.0 * r.error.mean_relative_difference
             );
         }
+        let _ = write!(
+            out,
+            "\n### Time to relMSE {}\n\n| method | time to target | ratio to path |\n|---|---:|---:|\n",
+            args.target_error
+        );
+        let path = analysis
+            .time_to_target
+            .iter()
+            .find(|(m, _)| m == "path")
+            .map(|(_, t)| *t);
+        for (method, time) in &analysis.time_to_target {
+            let ratio = path.map_or_else(|| "—".into(), |p| ratio_text(*time, p));
+            let _ = writeln!(out, "| {method} | {} | {ratio} |", time.text());
+        }
+        if analysis.auto_checks.is_empty() {
+            continue;
+        }
+        out.push_str(
+            "\n### Auto against the best fixed method\n\n\
+             | budget | auto time (s) | auto relMSE | best fixed method | its relMSE at auto's time | auto / best | verdict |\n\
+             |---:|---:|---:|---|---:|---:|---|\n",
+        );
+        for c in &analysis.auto_checks {
+            let _ = writeln!(
+                out,
+                "| {} | {:.2} | {:.2e} | {} | {:.2e} | {:.2} | {} |",
+                c.budget,
+                c.seconds,
+                c.rel_mse,
+                c.best_method,
+                c.best_rel_mse,
+                c.ratio(),
+                if c.ok() { "ok" } else { "worse" }
+            );
+        }
+        let _ = writeln!(
+            out,
+            "\nAuto within tolerance at {} of {} budgets.",
+            analysis.auto_checks.iter().filter(|c| c.ok()).count(),
+            analysis.auto_checks.len()
+        );
     }
     out
+}
+
+/// `summary.json`: per scene, the reference noise, the time to target per method and the auto
+/// check rows.
+fn summary(scenes: &[SceneResult], args: &BenchArgs) -> serde_json::Value {
+    let scene_json = |r: &SceneResult| {
+        let path = r.analysis.time_to_target.iter().find(|(m, _)| m == "path");
+        let times: serde_json::Map<String, serde_json::Value> = r
+            .analysis
+            .time_to_target
+            .iter()
+            .map(|(method, time)| {
+                let mut v = match *time {
+                    TimeToTarget::Reached(t) => json!({"status": "reached", "seconds": t}),
+                    TimeToTarget::AtMost(t) => json!({"status": "at_most", "seconds": t}),
+                    TimeToTarget::NotReached {
+                        best_error,
+                        seconds,
+                        ..
+                    } => json!({"status": "not_reached", "best_rel_mse": best_error, "seconds": seconds}),
+                };
+                if let Some((_, p)) = path {
+                    v["ratio_to_path"] = ratio_text(*time, *p).into();
+                }
+                (method.clone(), v)
+            })
+            .collect();
+        let checks: Vec<serde_json::Value> = r
+            .analysis
+            .auto_checks
+            .iter()
+            .map(|c| {
+                json!({
+                    "budget": c.budget,
+                    "auto_seconds": c.seconds,
+                    "auto_rel_mse": c.rel_mse,
+                    "best_fixed_method": c.best_method,
+                    "best_fixed_rel_mse": c.best_rel_mse,
+                    "ratio": c.ratio(),
+                    "ok": c.ok(),
+                })
+            })
+            .collect();
+        json!({
+            "scene": r.name,
+            "reference_noise_rel_mse": r.reference_noise,
+            "time_to_target": times,
+            "auto_check": checks,
+            "auto_ok_budgets": r.analysis.auto_checks.iter().filter(|c| c.ok()).count(),
+        })
+    };
+    json!({
+        "target_rel_mse": args.target_error,
+        "auto_tolerance": AUTO_TOLERANCE,
+        "width": args.width,
+        "reference_spp": args.reference_spp,
+        "budgets": args.budgets,
+        "methods": args.methods,
+        "scenes": scenes.iter().map(scene_json).collect::<Vec<_>>(),
+    })
 }
 
 /// A log-log plot of relMSE against time, one polyline per method.
@@ -341,7 +768,15 @@ fn svg_plot(scene: &str, rows: &[Row]) -> String {
     out
 }
 
-pub fn run_bench(args: BenchArgs) -> Result<()> {
+pub fn run_bench(mut args: BenchArgs) -> Result<()> {
+    if args.methods.is_empty() {
+        args.methods = METHODS.iter().map(|(n, _)| n.to_string()).collect();
+    }
+    for method in &args.methods {
+        method_options(method)?;
+    }
+    let mut seen = std::collections::HashSet::new();
+    args.methods.retain(|m| seen.insert(m.clone()));
     let scenes = if args.scenes.is_empty() {
         default_scenes()?
     } else {
@@ -352,15 +787,25 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
             "bench needs at least one scene and positive budgets".into(),
         ));
     }
+    if !(args.target_error > 0.0 && args.target_error.is_finite()) {
+        return Err(Error::Settings(format!(
+            "--target-error {} must be a positive relMSE",
+            args.target_error
+        )));
+    }
     std::fs::create_dir_all(&args.out).map_err(|e| io_error(&args.out, e))?;
     let mut rows = Vec::new();
+    let mut results = Vec::new();
     for scene in &scenes {
-        bench_scene(scene, &args, &mut rows)?;
+        results.push(bench_scene(scene, &args, &mut rows)?);
     }
-    let names: Vec<String> = scenes.iter().map(|s| stem(s)).collect();
     write_file(&args.out.join("results.csv"), &csv(&rows))?;
-    write_file(&args.out.join("report.md"), &report(&rows, &names, &args))?;
-    for name in &names {
+    write_file(&args.out.join("report.md"), &report(&rows, &results, &args))?;
+    write_file(
+        &args.out.join("summary.json"),
+        &format!("{:#}\n", summary(&results, &args)),
+    )?;
+    for SceneResult { name, .. } in &results {
         write_file(
             &args.out.join(format!("{name}.svg")),
             &svg_plot(name, &rows),
@@ -368,4 +813,144 @@ pub fn run_bench(args: BenchArgs) -> Result<()> {
     }
     println!("wrote {}", args.out.join("report.md").display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use photon::rng::Rng;
+
+    /// `n` pixels of value 1 plus uniform noise in [−h, h] (variance h²/3) in every channel.
+    fn noisy(n: usize, h: f32, seed: u64) -> Vec<[f32; 4]> {
+        let mut rng = Rng::new(seed);
+        (0..n)
+            .map(|_| std::array::from_fn(|_| 1.0 + h * (2.0 * rng.uniform() - 1.0)))
+            .collect()
+    }
+
+    #[test]
+    fn two_half_noise_estimates_the_error_of_the_mean() {
+        let (n, h) = (20_000, 0.3);
+        let (a, b) = (noisy(n, h, 1), noisy(n, h, 2));
+        let (mean, noise) = two_half_noise(&a, &b);
+        // The mean has variance h²/3/2; relMSE divides by 1² + 0.01.
+        let expected = h as f64 * h as f64 / 6.0 / 1.01;
+        assert!(
+            (noise / expected - 1.0).abs() < 0.05,
+            "{noise} vs {expected}"
+        );
+        // And it agrees with the mean's actual error against the truth.
+        let truth = vec![[1.0; 4]; n];
+        let actual = compare(&mean, &truth).rel_mse;
+        assert!((noise / actual - 1.0).abs() < 0.05, "{noise} vs {actual}");
+        // Identical halves: no measurable noise.
+        assert_eq!(two_half_noise(&a, &a).1, 0.0);
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-9 * b.abs().max(1.0)
+    }
+
+    #[test]
+    fn log_log_interpolates_power_laws_exactly() {
+        // relMSE ∝ 1/t through (1, 1) and (100, 0.01).
+        assert!(close(log_log(1.0, 1.0, 100.0, 0.01, 10.0), 0.1));
+        assert!(close(log_log(1.0, 1.0, 100.0, 0.01, 1000.0), 0.001));
+        // A zero value falls back to linear interpolation instead of an infinite log.
+        assert!(close(log_log(1.0, 0.0, 3.0, 1.0, 2.0), 0.5));
+        assert_eq!(log_log(2.0, 5.0, 2.0, 7.0, 2.0), 5.0);
+    }
+
+    #[test]
+    fn time_to_target_interpolates_bounds_or_gives_up() {
+        let curve = [(1.0, 0.04), (4.0, 0.01), (16.0, 0.0025)];
+        let Some(TimeToTarget::Reached(t)) = time_to_target(&curve, 0.02) else {
+            panic!("reached");
+        };
+        assert!(close(t, 2.0), "{t}");
+        assert_eq!(
+            time_to_target(&curve, 0.05),
+            Some(TimeToTarget::AtMost(1.0))
+        );
+        assert_eq!(
+            time_to_target(&curve, 0.04),
+            Some(TimeToTarget::AtMost(1.0))
+        );
+        assert_eq!(
+            time_to_target(&curve, 0.001),
+            Some(TimeToTarget::NotReached {
+                best_error: 0.0025,
+                seconds: 16.0,
+                longest: 16.0
+            })
+        );
+        assert_eq!(time_to_target(&[], 0.01), None);
+        // Noisy curve: the first bracketing pair counts ((1, 0.16)–(2, 0.04), e ∝ 1/t², so √2),
+        // not the later (3, 0.09)–(4, 0.01).
+        let noisy = [(1.0, 0.16), (2.0, 0.04), (3.0, 0.09), (4.0, 0.01)];
+        let Some(TimeToTarget::Reached(t)) = time_to_target(&noisy, 0.08) else {
+            panic!("reached");
+        };
+        assert!(close(t, 2f64.sqrt()), "{t}");
+        // Not reached: the best point, which need not be the last.
+        let plateau = [(1.0, 0.05), (2.0, 0.02), (4.0, 0.03)];
+        assert_eq!(
+            time_to_target(&plateau, 0.01),
+            Some(TimeToTarget::NotReached {
+                best_error: 0.02,
+                seconds: 2.0,
+                longest: 4.0
+            })
+        );
+    }
+
+    #[test]
+    fn ratios_to_path_respect_the_bounds() {
+        use TimeToTarget::*;
+        let not_reached = |longest| NotReached {
+            best_error: 0.1,
+            seconds: 1.0,
+            longest,
+        };
+        assert_eq!(ratio_text(Reached(1.0), Reached(4.0)), "0.25");
+        assert_eq!(ratio_text(AtMost(1.0), Reached(4.0)), "≤ 0.25");
+        assert_eq!(ratio_text(Reached(2.0), not_reached(4.0)), "≤ 0.50");
+        assert_eq!(ratio_text(not_reached(8.0), Reached(2.0)), "≥ 4.00");
+        assert_eq!(ratio_text(not_reached(8.0), not_reached(8.0)), "—");
+        assert_eq!(ratio_text(Reached(2.0), AtMost(1.0)), "≥ 2.00");
+    }
+
+    #[test]
+    fn error_at_time_interpolates_inside_and_extrapolates_as_one_over_t() {
+        let curve = [(1.0, 0.04), (4.0, 0.01)];
+        assert!(close(error_at_time(&curve, 2.0).unwrap(), 0.02));
+        assert!(close(error_at_time(&curve, 4.0).unwrap(), 0.01));
+        assert!(close(error_at_time(&curve, 0.5).unwrap(), 0.08));
+        assert!(close(error_at_time(&curve, 8.0).unwrap(), 0.005));
+        // A single point extrapolates both ways.
+        assert!(close(error_at_time(&[(2.0, 0.1)], 4.0).unwrap(), 0.05));
+        assert_eq!(error_at_time(&[], 1.0), None);
+    }
+
+    #[test]
+    fn auto_is_judged_against_the_best_fixed_method_at_its_time() {
+        let fixed = [
+            ("path".to_string(), vec![(1.0, 0.04), (4.0, 0.01)]),
+            // A biased method that flattens out.
+            ("photon".to_string(), vec![(1.0, 0.01), (4.0, 0.008)]),
+        ];
+        let auto = [(1, 2.0, 0.02), (2, 8.0, 0.0045)];
+        let checks = auto_checks(&auto, &fixed);
+        assert_eq!(checks.len(), 2);
+        // At 2 s: path 0.02, photon 0.01·0.8^½ ≈ 0.00894: auto is 2.24 times worse.
+        assert_eq!(checks[0].best_method, "photon");
+        assert!(close(checks[0].best_rel_mse, 0.01 * 0.8f64.sqrt()));
+        assert!(!checks[0].ok());
+        // At 8 s, beyond both: path 0.005, photon 0.004 (∝ 1/t); 0.0045 is within 1.25.
+        assert_eq!(checks[1].best_method, "photon");
+        assert!(close(checks[1].best_rel_mse, 0.004));
+        assert!(close(checks[1].ratio(), 1.125) && checks[1].ok());
+        // Nothing to compare with: no rows.
+        assert!(auto_checks(&auto, &[]).is_empty());
+    }
 }

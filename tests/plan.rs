@@ -1,5 +1,5 @@
 //! The scene planner skips what each scene does not need; `photon info` prints the plan;
-//! `--time-limit` stops adding passes when the time is up; `photon bench` writes its results.
+//! `--time-limit` stops adding passes when the time is up.
 
 use photon::plan::{plan, Quality};
 use photon::render::Method;
@@ -165,42 +165,6 @@ fn time_limit_stops_adding_passes() {
         .find_map(|v| v["stats"]["spp"].as_u64())
         .expect("final statistics");
     assert!((4..65_536).contains(&spp), "{spp} spp");
-}
-
-#[test]
-fn bench_writes_results_for_each_method_and_budget() {
-    let dir = temp_dir("bench");
-    let result = photon()
-        .arg("bench")
-        .arg(scene_path("cornell_box.glb"))
-        .args(["--budgets", "1,2", "--width", "16", "--height", "16"])
-        .args(["--reference-spp", "16", "--threads", "2", "--out"])
-        .arg(&dir)
-        .output()
-        .expect("runs");
-    assert!(
-        result.status.success(),
-        "{}",
-        String::from_utf8_lossy(&result.stderr)
-    );
-    let csv = std::fs::read_to_string(dir.join("results.csv")).expect("results.csv");
-    let rows: Vec<&str> = csv.lines().skip(1).collect();
-    assert_eq!(rows.len(), 6, "{csv}");
-    for method in ["path", "photon", "auto"] {
-        for budget in ["1", "2"] {
-            let prefix = format!("cornell_box,{method},{budget},");
-            assert!(
-                rows.iter().any(|r| r.starts_with(&prefix)),
-                "{prefix}: {csv}"
-            );
-        }
-    }
-    assert!(dir.join("report.md").exists());
-    assert!(dir.join("cornell_box.svg").exists());
-    assert_eq!(
-        std::fs::read_dir(dir.join("refs")).expect("refs").count(),
-        1
-    );
 }
 
 #[test]
