@@ -18,14 +18,14 @@
 //!   dipole by probe rays and needs no pass.
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
 //!   the background); a caustic map needed → photon mapping (caustics are where path tracing is
-//!   noisiest); otherwise → the path tracer, which the benchmark shows is at least as good as
-//!   photon mapping with final gathering on the diffuse scenes of `scenes/` at equal time.
+//!   noisiest); translucent materials → photon mapping (subsurface photons); indirect light
+//!   possible → a small photon pilot measures the indirect share of the light, and photon
+//!   mapping with the irradiance cache is chosen when it is large (`INDIRECT_SHARE_FOR_PHOTONS`),
+//!   the path tracer otherwise.
 
 use crate::accel::Accel;
-use crate::bsdf::Bsdf;
-use crate::integrator::photon::{PhotonSettings, SPECULAR_ROUGHNESS};
-use crate::material::eval_material;
-use crate::math::{Vec2, Vec3};
+use crate::integrator::photon::{bsdf_is_specular, classifying_bsdf, PhotonSettings};
+use crate::math::Vec3;
 use crate::render::Method;
 use crate::scene::{Bounds, Light, Mesh, Scene};
 use std::fmt;
@@ -200,13 +200,8 @@ struct MaterialTraits {
 
 fn material_traits(scene: &Scene, index: usize) -> Option<MaterialTraits> {
     let material = scene.materials.get(index)?;
-    let mut surface = eval_material(scene, material, Vec2::ZERO);
-    if material.metallic_roughness_texture.is_some() {
-        surface.roughness = 0.0;
-    }
-    let bsdf = Bsdf::new(&surface);
-    let specular =
-        bsdf.has_delta() || (bsdf.has_specular() && bsdf.roughness() < SPECULAR_ROUGHNESS);
+    let bsdf = classifying_bsdf(scene, index as u32);
+    let specular = bsdf_is_specular(&bsdf);
     let diffuse = bsdf.diffuse_reflectance(Vec3::Z).max_element() > 0.0;
     Some(MaterialTraits {
         diffuse,

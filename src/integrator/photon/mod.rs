@@ -295,16 +295,25 @@ impl Shading {
     }
 }
 
-/// True when material `m` has a delta or glossy-only lobe: a photon may scatter specularly off
-/// it. Roughness textures count as smooth.
-pub fn is_specular(scene: &crate::scene::Scene, m: u32) -> bool {
+/// The BSDF that classifies material `m` for photon tracing and the scene planner: its value at
+/// texture coordinate 0, with roughness textures counted as smooth (a texture may reach 0).
+pub fn classifying_bsdf(scene: &crate::scene::Scene, m: u32) -> Bsdf {
     let material = &scene.materials[m as usize];
     let mut s = eval_material(scene, material, Vec2::ZERO);
     if material.metallic_roughness_texture.is_some() {
         s.roughness = 0.0;
     }
-    let b = Bsdf::new(&s);
+    Bsdf::new(&s)
+}
+
+/// True when `b` has a delta or glossy-only lobe: a photon may scatter specularly off it.
+pub fn bsdf_is_specular(b: &Bsdf) -> bool {
     b.has_delta() || (b.has_specular() && b.roughness() < SPECULAR_ROUGHNESS)
+}
+
+/// True when material `m` (classified by `classifying_bsdf`) scatters photons specularly.
+pub fn is_specular(scene: &crate::scene::Scene, m: u32) -> bool {
+    bsdf_is_specular(&classifying_bsdf(scene, m))
 }
 
 /// Which photons a pass emits: its name in progress messages, the tag that separates its random
