@@ -346,30 +346,28 @@ pub fn load_scene(path: Option<&Path>, camera: Option<String>) -> Result<Scene> 
     }
 }
 
-/// Image size: command line, then the scene's render settings, then the camera's aspect ratio.
+/// Image size: the command line's, else the scene's stored resolution, else 640 wide; a missing
+/// side follows the aspect ratio of the stored resolution (or of the camera).
 pub fn image_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
-    let aspect = scene
-        .camera
-        .aspect_ratio
-        .filter(|a| a.is_finite() && *a > 0.0);
-    let width = width.or(scene.render_settings.width);
-    let height = height.or(scene.render_settings.height);
-    let from_aspect = |w: u32| {
-        aspect
-            .map_or(w * 3 / 4, |a| (w as f32 / a).round() as u32)
-            .max(1)
-    };
-    match (width, height) {
-        (Some(w), Some(h)) => (w, h),
-        (Some(w), None) => (w, from_aspect(w)),
-        (None, Some(h)) => (
-            aspect
-                .map_or(h * 4 / 3, |a| (h as f32 * a).round() as u32)
-                .max(1),
-            h,
-        ),
-        (None, None) => (640, from_aspect(640)),
+    let stored = (scene.render_settings.width, scene.render_settings.height);
+    // The frame's aspect ratio: the scene's stored resolution, else its camera's.
+    let aspect = match stored {
+        (Some(w), Some(h)) if w > 0 && h > 0 => Some(w as f32 / h as f32),
+        _ => scene.camera.aspect_ratio,
     }
+    .filter(|a| a.is_finite() && *a > 0.0)
+    .unwrap_or(4.0 / 3.0);
+    let complete = |size: (Option<u32>, Option<u32>)| match size {
+        (Some(w), Some(h)) => Some((w, h)),
+        (Some(w), None) => Some((w, ((w as f32 / aspect).round() as u32).max(1))),
+        (None, Some(h)) => Some((((h as f32 * aspect).round() as u32).max(1), h)),
+        (None, None) => None,
+    };
+    // A size given on the command line wins as a whole: `--width` alone keeps the aspect ratio
+    // instead of pairing with the stored height.
+    complete((width, height))
+        .or_else(|| complete(stored))
+        .unwrap_or_else(|| (640, ((640.0 / aspect).round() as u32).max(1)))
 }
 
 /// Ctrl+C and SIGTERM set the flag; a second signal ends the process at once with 130.

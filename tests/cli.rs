@@ -217,3 +217,27 @@ fn photon_maps_beyond_the_memory_limit_stop_with_a_clear_error() {
     );
     assert!(out.exists());
 }
+
+#[test]
+fn a_width_or_height_alone_keeps_the_scenes_aspect_ratio() {
+    // lights.glb stores 320×240: `--width` alone must not pair with the stored height.
+    let dir = temp_dir("aspect");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/lights.glb");
+    for (flag, value, expected) in [("--width", "32", (32, 24)), ("--height", "12", (16, 12))] {
+        let out = dir.join(format!("{value}.exr"));
+        let result = photon()
+            .args([
+                "render", scene, flag, value, "--spp", "1", "--method", "path", "-o",
+            ])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(
+            result.status.success(),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        let (w, h, _) = photon::image_io::read_exr_rgba(&out).unwrap();
+        assert_eq!((w, h), expected, "{flag} {value}");
+    }
+}
