@@ -260,6 +260,11 @@ impl Lights {
         self.select.is_empty()
     }
 
+    /// True when some mesh emits: its triangles are lights that rays can also hit.
+    pub fn has_emitting_triangles(&self) -> bool {
+        self.mesh_first_light.iter().any(Option::is_some)
+    }
+
     /// A point far enough along `dir` from `p` to be outside the scene: the end of shadow rays
     /// towards distant lights.
     fn far_point(&self, p: Vec3, dir: Vec3) -> LightPoint {

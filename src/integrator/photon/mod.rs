@@ -711,14 +711,16 @@ impl Pass2<'_> {
     }
 
     /// A non-delta final-gather ray from `from` with BSDF density `pdf`: the emission it finds
-    /// (MIS-weighted against light sampling) and the global estimate behind specular surfaces,
-    /// returned apart (the irradiance cache replaces the diffuse lobe's share of the second).
+    /// (MIS-weighted against light sampling) and, with `estimate`, the global estimate behind
+    /// specular surfaces, returned apart (the irradiance cache replaces the diffuse lobe's share
+    /// of the second).
     fn gather_ray(
         &mut self,
         from: Vec3,
         ray: Ray,
         pdf: f32,
         absorption: Vec3,
+        estimate: bool,
         rng: &mut Rng,
     ) -> (Vec3, Vec3) {
         let ctx = self.ctx;
@@ -738,12 +740,36 @@ impl Pass2<'_> {
         if l != Vec3::ZERO {
             l *= power_heuristic(pdf, ctx.lights.triangle_pdf(from, &s.sh));
         }
+        if !estimate {
+            return (t * l, Vec3::ZERO);
+        }
         let mut unused = Vec3::ZERO;
         let mut estimate = Vec3::ZERO;
         if let Some((d, beta)) = self.through_specular(s, absorption, false, &mut unused, rng) {
             estimate = beta * self.gather_estimate(&d);
         }
         (t * l, t * estimate)
+    }
+
+    /// Direct light at `s` when no final-gather ray leaves it (its indirect light is cached):
+    /// light sampling alone has unbounded variance where an emitting mesh meets the surface
+    /// at a concave corner (the 1/d² of nearby light samples), so with emitting triangles in
+    /// the scene one BSDF-sampled ray adds the emission it finds and both are MIS-weighted, as
+    /// in the path tracer. Scenes lit only by lamps and the world keep light sampling alone.
+    fn direct_without_gather(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+        if !self.ctx.lights.has_emitting_triangles() {
+            return self.direct(s, false, rng);
+        }
+        let mut l = self.direct(s, true, rng);
+        if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
+            if !bs.delta {
+                let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
+                let ray = s.sh.spawn(wi);
+                let (emission, _) = self.gather_ray(s.sh.p, ray, bs.pdf, absorption, false, rng);
+                l += bs.weight * emission;
+            }
+        }
+        l
     }
 
     /// Radiance along a ray that left a diffuse surface through a delta lobe: emission along the
@@ -777,7 +803,7 @@ impl Pass2<'_> {
         // of the gather rays' global estimates.
         let cached = (self.maps.cache.as_ref()).and_then(|c| super::ic::cached_diffuse(c, s));
         if let Some(d) = cached.filter(|d| d.lambertian) {
-            passes.add(LightPass::Direct, self.direct(s, false, rng));
+            passes.add(LightPass::Direct, self.direct_without_gather(s, rng));
             passes.add(LightPass::Caustic, self.caustic(s));
             passes.add(LightPass::Indirect, d.radiance);
             return passes;
@@ -810,7 +836,8 @@ impl Pass2<'_> {
                 sum.add(LightPass::Emission, bs.weight * emission);
                 sum.add(LightPass::Indirect, bs.weight * estimate);
             } else {
-                let (emission, estimate) = self.gather_ray(s.sh.p, ray, bs.pdf, absorption, rng);
+                let (emission, estimate) =
+                    self.gather_ray(s.sh.p, ray, bs.pdf, absorption, true, rng);
                 let w = cached.map_or(bs.weight, |d| d.non_diffuse_weight(&bs));
                 sum.add(LightPass::Direct, bs.weight * emission);
                 sum.add(LightPass::Indirect, w * estimate);
