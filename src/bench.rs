@@ -37,7 +37,7 @@ pub struct BenchArgs {
     /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto [default: all].
     #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
-    /// Worker threads of each render (0: one per core).
+    /// Worker threads of each timed render (0: one per core); references use every core.
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Output directory.
@@ -127,12 +127,13 @@ struct ChildRun {
     peak_mib: f64,
 }
 
-/// Render `scene` in a child process with `extra` arguments; wall time measured here, peak memory
+/// Render `scene` in a child process on `threads` threads with `extra` arguments; wall time
+/// measured here, peak memory
 /// from the child's final JSON statistics.
 fn render_child(
     scene: &Path,
     output: &Path,
-    args: &BenchArgs,
+    threads: usize,
     size: (u32, u32),
     extra: &[String],
 ) -> Result<ChildRun> {
@@ -144,7 +145,7 @@ fn render_child(
         .arg(scene)
         .arg("-o")
         .arg(output)
-        .args(["--progress", "json", "--threads", &args.threads.to_string()])
+        .args(["--progress", "json", "--threads", &threads.to_string()])
         .args([
             "--width",
             &size.0.to_string(),
@@ -248,7 +249,8 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
             "--seed",
             seed,
         ];
-        render_child(scene, &half, args, size, &extra.map(String::from))?;
+        // References are not timed: every core renders them, whatever `--threads` says.
+        render_child(scene, &half, 0, size, &extra.map(String::from))?;
         halves.push(read_rgba(&half)?);
         std::fs::remove_file(&half).map_err(|e| io_error(&half, e))?;
     }
@@ -310,7 +312,7 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
                 "--caustic-photons".into(),
                 (budget as u64 * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
             ]);
-            let run = render_child(scene_path, &output, args, size, &extra)?;
+            let run = render_child(scene_path, &output, args.threads, size, &extra)?;
             let pixels = read_rgba(&output)?;
             if pixels.len() != reference_pixels.len() {
                 return Err(Error::Internal(format!(
