@@ -128,8 +128,7 @@ struct ChildRun {
 }
 
 /// Render `scene` in a child process on `threads` threads with `extra` arguments; wall time
-/// measured here, peak memory
-/// from the child's final JSON statistics.
+/// measured here, peak memory from the child's final JSON statistics.
 fn render_child(
     scene: &Path,
     output: &Path,
