@@ -8,7 +8,7 @@ use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
 use photon::passes::{render_in_passes, PassesResult};
-use photon::plan::{plan_for_image, plan_with_pilot, Quality};
+use photon::plan::{cache_pays_off, plan_for_image, plan_with_pilot, Quality};
 use photon::render::{Method, Progress, ProgressEvent, RenderSettings, RenderStats};
 use photon::scene::gltf::{load, LoadOptions};
 use photon::scene::{builtin, Projection, Scene};
@@ -434,6 +434,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let accel = (args.method == MethodArg::Auto).then(|| pool.install(|| Accel::new(&scene)));
     let pilot_build_seconds = start.elapsed().as_secs_f64();
     let plan = plan_with_pilot(&scene, quality, width, height, accel.as_ref());
+    let ic_settings = args.ic_settings()?;
     let spp = match (args.spp, time_limit) {
         (Some(spp), _) => spp,
         (None, Some(_)) => TIME_LIMITED_MAX_SPP,
@@ -456,7 +457,14 @@ fn run_render(args: RenderArgs) -> Result<()> {
             MethodArg::IcIrradiance => Method::IcIrradiance,
             MethodArg::IcRecords => Method::IcRecords,
         },
-        irradiance_cache: args.ic_settings()?,
+        irradiance_cache: IcSettings {
+            // Auto leaves the cache out where too few samples amortise it (`plan.rs`).
+            enabled: match (args.method, args.irradiance_cache, time_limit) {
+                (MethodArg::Auto, None, None) => cache_pays_off(Some(spp)),
+                _ => ic_settings.enabled,
+            },
+            ..ic_settings
+        },
         region: args.region.as_deref().map(|r| photon::render::Region {
             x0: r[0],
             y0: r[1],

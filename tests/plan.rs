@@ -182,3 +182,25 @@ fn an_explicit_method_skips_the_photon_pilot() {
     let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, Some(&accel));
     assert!(p.method_reason.contains("pilot"), "{}", p.method_reason);
 }
+
+#[test]
+fn auto_builds_the_irradiance_cache_only_from_a_few_samples_per_pixel() {
+    let dir = temp_dir("auto-cache");
+    for (spp, cached) in [(1, false), (photon::plan::MIN_SPP_FOR_CACHE, true)] {
+        let result = photon()
+            .arg("render")
+            .arg(scene_path("cornell_box.glb"))
+            .args(["--width", "16", "--height", "16", "--photons", "2000"])
+            .args(["--spp", &spp.to_string(), "--progress", "json", "-o"])
+            .arg(dir.join(format!("{spp}.exr")))
+            .output()
+            .expect("runs");
+        assert!(result.status.success());
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        let built = stderr
+            .lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .any(|v| v["stage"] == "cache");
+        assert_eq!(built, cached, "{spp} spp: {stderr}");
+    }
+}
