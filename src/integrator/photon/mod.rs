@@ -101,6 +101,13 @@ use tracing::{stores_photons, trace_photon, Emitters, Pass};
 /// converges fast, while a photon estimate would blur them.
 pub const SPECULAR_ROUGHNESS: f32 = 0.049;
 
+/// Perceptual roughness from which a final-gather hit's glossy lobe is shaded from the
+/// precomputed irradiance like its diffuse part (`Pass2::gather_estimate`): Principled materials
+/// carry a specular layer (0.5 by default), so without this almost no Blender surface takes the
+/// fast path. Rough lobes blur the incident light nearly as a diffuse one does; below this the
+/// full estimate sees each photon's direction.
+const ROUGH_AS_DIFFUSE: f32 = 0.5;
+
 /// Photons further than this fraction of the search radius from the tangent plane are ignored.
 const PLANE_TOLERANCE: f32 = 0.25;
 
@@ -609,16 +616,22 @@ impl Pass2<'_> {
             .intersect(self.ctx.scene, ray, Visibility::Secondary)
     }
 
-    /// The global estimate at a final-gather hit: ρ/π × the nearest precomputed irradiance on
-    /// Lambertian opaque surfaces when records exist, else the full estimate.
+    /// The global estimate at a final-gather hit: on opaque surfaces that are Lambertian or
+    /// whose glossy lobe is rough (`ROUGH_AS_DIFFUSE`), albedo(wo)/π × the nearest precomputed
+    /// irradiance when records exist (exact for Lambertian surfaces, and for any BSDF under
+    /// uniform incident light, by reciprocity); else the full estimate, whose photons keep
+    /// their directions for sharper lobes.
     fn gather_estimate(&mut self, s: &Shading) -> Vec3 {
         if let Some(irr) = &self.maps.irradiance {
-            let rho = s.bsdf.diffuse_reflectance(s.wo_local);
-            let albedo = bsdf_albedo(&s.bsdf, s.wo_local);
-            if s.opaque && max_component(albedo - rho) < 1e-4 {
-                let r2 = self.maps.global_radius2;
-                if let Some(e) = nearest_irradiance(irr, r2, s) {
-                    return rho * e * (1.0 / PI);
+            if s.opaque && !s.bsdf.has_delta() {
+                let albedo = bsdf_albedo(&s.bsdf, s.wo_local);
+                let lambertian =
+                    max_component(albedo - s.bsdf.diffuse_reflectance(s.wo_local)) < 1e-4;
+                if lambertian || s.bsdf.roughness() >= ROUGH_AS_DIFFUSE {
+                    let r2 = self.maps.global_radius2;
+                    if let Some(e) = nearest_irradiance(irr, r2, s) {
+                        return albedo * e * (1.0 / PI);
+                    }
                 }
             }
         }
