@@ -381,11 +381,14 @@ enum TimeToTarget {
     Reached(f64),
     /// Already at or below the target at the shortest measured time: at most that time.
     AtMost(f64),
-    /// No measured point reached it: the best error, its time, and the longest measured time.
+    /// No measured point reached it: the best error, its time, the longest measured time, and
+    /// the time extrapolated from the last point with relMSE ∝ 1/t (Monte Carlo convergence of
+    /// an unbiased method; an estimate, not a bound).
     NotReached {
         best_error: f64,
         seconds: f64,
         longest: f64,
+        extrapolated: f64,
     },
 }
 
@@ -406,8 +409,19 @@ impl TimeToTarget {
             TimeToTarget::NotReached {
                 best_error,
                 seconds,
+                extrapolated,
                 ..
-            } => format!("not reached (best relMSE {best_error:.2e} at {seconds:.2} s)"),
+            } => format!(
+                "not reached (best relMSE {best_error:.2e} at {seconds:.2} s; ≈ {extrapolated:.3} s extrapolated as 1/t)"
+            ),
+        }
+    }
+
+    /// The time itself where measured, else its bound or extrapolation.
+    fn estimate(self) -> f64 {
+        match self {
+            TimeToTarget::Reached(t) | TimeToTarget::AtMost(t) => t,
+            TimeToTarget::NotReached { extrapolated, .. } => extrapolated,
         }
     }
 }
@@ -427,19 +441,22 @@ fn time_to_target(curve: &[(f64, f64)], target: f64) -> Option<TimeToTarget> {
         return Some(TimeToTarget::Reached(log_log(ea, ta, eb, tb, target)));
     }
     let &(seconds, best_error) = curve.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let &(longest, last_error) = curve.last()?;
     Some(TimeToTarget::NotReached {
         best_error,
         seconds,
-        longest: curve.last()?.0,
+        longest,
+        extrapolated: longest * last_error / target,
     })
 }
 
 /// The ratio of a method's time to target to path's, as far as the bounds tell it: a number when
-/// both were interpolated, "≤ x" or "≥ x" when one is a bound, "—" when nothing is known.
+/// both were interpolated, "≤ x" or "≥ x" when one is a bound, "—" when nothing is known; when
+/// either did not reach the target, followed by the ratio of the 1/t extrapolations.
 fn ratio_text(method: TimeToTarget, path: TimeToTarget) -> String {
     let ((m_lo, m_hi), (p_lo, p_hi)) = (method.bounds(), path.bounds());
     let (lo, hi) = (m_lo / p_hi, m_hi / p_lo);
-    if lo == hi {
+    let bounded = if lo == hi {
         format!("{lo:.2}")
     } else if hi.is_finite() {
         format!("≤ {hi:.2}")
@@ -447,6 +464,13 @@ fn ratio_text(method: TimeToTarget, path: TimeToTarget) -> String {
         format!("≥ {lo:.2}")
     } else {
         "—".into()
+    };
+    let extrapolated = |t: TimeToTarget| matches!(t, TimeToTarget::NotReached { .. });
+    if extrapolated(method) || extrapolated(path) {
+        let ratio = method.estimate() / path.estimate();
+        format!("{bounded} (≈ {ratio:.3} extrapolated)")
+    } else {
+        bounded
     }
 }
 
@@ -678,8 +702,9 @@ fn summary(scenes: &[SceneResult], args: &BenchArgs) -> serde_json::Value {
                     TimeToTarget::NotReached {
                         best_error,
                         seconds,
+                        extrapolated,
                         ..
-                    } => json!({"status": "not_reached", "best_rel_mse": best_error, "seconds": seconds}),
+                    } => json!({"status": "not_reached", "best_rel_mse": best_error, "seconds": seconds, "extrapolated_seconds": extrapolated}),
                 };
                 if let Some((_, p)) = path {
                     v["ratio_to_path"] = ratio_text(*time, *p).into();
@@ -904,7 +929,8 @@ mod tests {
             Some(TimeToTarget::NotReached {
                 best_error: 0.0025,
                 seconds: 16.0,
-                longest: 16.0
+                longest: 16.0,
+                extrapolated: 40.0
             })
         );
         assert_eq!(time_to_target(&[], 0.01), None);
@@ -922,7 +948,8 @@ mod tests {
             Some(TimeToTarget::NotReached {
                 best_error: 0.02,
                 seconds: 2.0,
-                longest: 4.0
+                longest: 4.0,
+                extrapolated: 12.0
             })
         );
     }
@@ -934,12 +961,22 @@ mod tests {
             best_error: 0.1,
             seconds: 1.0,
             longest,
+            extrapolated: 10.0 * longest,
         };
         assert_eq!(ratio_text(Reached(1.0), Reached(4.0)), "0.25");
         assert_eq!(ratio_text(AtMost(1.0), Reached(4.0)), "≤ 0.25");
-        assert_eq!(ratio_text(Reached(2.0), not_reached(4.0)), "≤ 0.50");
-        assert_eq!(ratio_text(not_reached(8.0), Reached(2.0)), "≥ 4.00");
-        assert_eq!(ratio_text(not_reached(8.0), not_reached(8.0)), "—");
+        assert_eq!(
+            ratio_text(Reached(2.0), not_reached(4.0)),
+            "≤ 0.50 (≈ 0.050 extrapolated)"
+        );
+        assert_eq!(
+            ratio_text(not_reached(8.0), Reached(2.0)),
+            "≥ 4.00 (≈ 40.000 extrapolated)"
+        );
+        assert_eq!(
+            ratio_text(not_reached(8.0), not_reached(8.0)),
+            "— (≈ 1.000 extrapolated)"
+        );
         assert_eq!(ratio_text(Reached(2.0), AtMost(1.0)), "≥ 2.00");
     }
 
