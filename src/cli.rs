@@ -458,9 +458,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
             MethodArg::IcRecords => Method::IcRecords,
         },
         irradiance_cache: IcSettings {
-            // Auto leaves the cache out where too few samples amortise it (`plan.rs`).
+            // Auto leaves the cache out where too few samples amortise it (`plan.rs`); a
+            // time-limited render, whose samples are not known in advance, keeps it.
             enabled: match (args.method, args.irradiance_cache, time_limit) {
-                (MethodArg::Auto, None, None) => cache_pays_off(Some(spp)),
+                (MethodArg::Auto, None, None) => cache_pays_off(spp),
                 _ => ic_settings.enabled,
             },
             ..ic_settings

@@ -364,10 +364,10 @@ fn global_decision(scene: &Scene, summary: &SceneSummary) -> Decision {
 /// equal time (Cornell box relMSE 0.017 against 0.045), from 4 spp the cache wins.
 pub const MIN_SPP_FOR_CACHE: u32 = 4;
 
-/// Whether a photon render of `spp` samples per pixel (`None`: until a time limit, unknown)
-/// gathers its indirect light through the irradiance cache when the user did not say.
-pub fn cache_pays_off(spp: Option<u32>) -> bool {
-    spp.is_none_or(|spp| spp >= MIN_SPP_FOR_CACHE)
+/// Whether a photon render of `spp` samples per pixel gathers its indirect light through the
+/// irradiance cache when the user did not say.
+pub fn cache_pays_off(spp: u32) -> bool {
+    spp >= MIN_SPP_FOR_CACHE
 }
 
 /// Photons of the pilot that measures how much of a scene's light is indirect.
