@@ -454,6 +454,9 @@ fn time_to_target(curve: &[(f64, f64)], target: f64) -> Option<TimeToTarget> {
 /// both were interpolated, "≤ x" or "≥ x" when one is a bound, "—" when nothing is known; when
 /// either did not reach the target, followed by the ratio of the 1/t extrapolations.
 fn ratio_text(method: TimeToTarget, path: TimeToTarget) -> String {
+    if method == path {
+        return "1.00".into();
+    }
     let ((m_lo, m_hi), (p_lo, p_hi)) = (method.bounds(), path.bounds());
     let (lo, hi) = (m_lo / p_hi, m_hi / p_lo);
     let bounded = if lo == hi {
@@ -973,9 +976,10 @@ mod tests {
             ratio_text(not_reached(8.0), Reached(2.0)),
             "≥ 4.00 (≈ 40.000 extrapolated)"
         );
+        assert_eq!(ratio_text(not_reached(8.0), not_reached(8.0)), "1.00");
         assert_eq!(
-            ratio_text(not_reached(8.0), not_reached(8.0)),
-            "— (≈ 1.000 extrapolated)"
+            ratio_text(not_reached(8.0), not_reached(4.0)),
+            "— (≈ 2.000 extrapolated)"
         );
         assert_eq!(ratio_text(Reached(2.0), AtMost(1.0)), "≥ 2.00");
     }
