@@ -822,7 +822,13 @@ impl Pass2<'_> {
             passes.add(LightPass::Indirect, d.radiance);
             return passes;
         }
-        let m = self.maps.settings.gather_rays;
+        // Where the cache serves the diffuse lobe, the gather rays carry only the rest of the
+        // BSDF (a glossy layer's indirect light and emission): one per camera sample, as the
+        // path tracer's bounce, instead of a full final gather.
+        let m = match cached {
+            Some(_) => self.maps.settings.gather_rays.min(1),
+            None => self.maps.settings.gather_rays,
+        };
         passes.add(LightPass::Direct, self.direct(s, m > 0, rng));
         passes.add(LightPass::Caustic, self.caustic(s));
         if m == 0 {
