@@ -2,25 +2,9 @@
 //! writes the CSV, the report (time to a target error, auto against the fixed methods) and
 //! summary.json.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn scene_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
-
-fn photon() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_photon"))
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("photon-bench-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+#[path = "support/binary.rs"]
+mod binary;
+use binary::*;
 
 #[test]
 fn bench_writes_results_for_each_method_and_budget() {
@@ -33,11 +17,7 @@ fn bench_writes_results_for_each_method_and_budget() {
         .arg(&dir)
         .output()
         .expect("runs");
-    assert!(
-        result.status.success(),
-        "{}",
-        String::from_utf8_lossy(&result.stderr)
-    );
+    assert_success(&result);
     let csv = std::fs::read_to_string(dir.join("results.csv")).expect("results.csv");
     let rows: Vec<&str> = csv.lines().skip(1).collect();
     assert_eq!(rows.len(), 8, "{csv}");

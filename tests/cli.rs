@@ -1,20 +1,13 @@
 //! The `photon` binary as users and the Blender add-on run it: exit codes, clear errors, output
 //! written atomically, and cancellation by signal leaving nothing behind.
 
-use std::path::{Path, PathBuf};
+#[path = "support/binary.rs"]
+mod binary;
+use binary::*;
+
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn photon() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_photon"))
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("photon-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn files_in(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
@@ -36,11 +29,7 @@ fn renders_the_embedded_scene_to_exr_and_png() {
             .args(["--width", "32", "--height", "24", "--spp", "2"])
             .output()
             .unwrap();
-        assert!(
-            result.status.success(),
-            "{}",
-            String::from_utf8_lossy(&result.stderr)
-        );
+        assert_success(&result);
         assert!(String::from_utf8_lossy(&result.stderr).contains("wrote"));
     }
     let (w, h, pixels) = photon::image_io::read_exr_rgba(&dir.join("out.exr")).unwrap();
@@ -72,7 +61,7 @@ fn json_progress_is_one_object_per_line() {
         .arg(dir.join("x.exr"))
         .output()
         .unwrap();
-    assert!(result.status.success());
+    assert_success(&result);
     let stderr = String::from_utf8_lossy(&result.stderr);
     let lines: Vec<serde_json::Value> = stderr
         .lines()
@@ -232,11 +221,7 @@ fn a_width_or_height_alone_keeps_the_scenes_aspect_ratio() {
             .arg(&out)
             .output()
             .unwrap();
-        assert!(
-            result.status.success(),
-            "{}",
-            String::from_utf8_lossy(&result.stderr)
-        );
+        assert_success(&result);
         let (w, h, _) = photon::image_io::read_exr_rgba(&out).unwrap();
         assert_eq!((w, h), expected, "{flag} {value}");
     }

@@ -1,32 +1,17 @@
 //! The scene planner skips what each scene does not need; `photon info` prints the plan;
 //! `--time-limit` stops adding passes when the time is up.
 
+#[path = "support/binary.rs"]
+mod binary;
+use binary::*;
+
 use photon::plan::{plan, Quality};
 use photon::render::Method;
 use photon::scene::gltf::{load, LoadOptions};
 use photon::scene::{builtin, Scene};
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn scene_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
 
 fn scene(name: &str) -> Scene {
     load(&scene_path(name), &LoadOptions::default()).expect("scene loads")
-}
-
-fn photon() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_photon"))
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("photon-plan-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
 }
 
 #[test]
@@ -154,7 +139,7 @@ fn time_limit_stops_adding_passes() {
         .output()
         .expect("runs");
     let elapsed = start.elapsed().as_secs_f64();
-    assert!(result.status.success());
+    assert_success(&result);
     assert!(out.exists());
     // Without the limit this would render 65 536 samples per pixel.
     assert!(elapsed < 10.0, "took {elapsed} s");
@@ -195,7 +180,7 @@ fn auto_builds_the_irradiance_cache_only_from_a_few_samples_per_pixel() {
             .arg(dir.join(format!("{spp}.exr")))
             .output()
             .expect("runs");
-        assert!(result.status.success());
+        assert_success(&result);
         let stderr = String::from_utf8_lossy(&result.stderr);
         let built = stderr
             .lines()

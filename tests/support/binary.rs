@@ -1,0 +1,40 @@
+//! Helpers for tests that run the `photon` binary: the command, the committed scenes, a fresh
+//! temporary directory per test, and a success check that shows the binary's stderr. Included
+//! by tests with `#[path = "support/binary.rs"] mod binary;`.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `photon` binary built for this test run.
+pub fn photon() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_photon"))
+}
+
+/// A scene committed under `scenes/`.
+pub fn scene_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+/// An empty directory for one test, named after the test file, `name` and the process.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "photon-{}-{name}-{}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// Panic with the binary's stderr unless it exited with success.
+pub fn assert_success(output: &Output) {
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
