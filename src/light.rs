@@ -80,6 +80,8 @@ pub struct Lights {
     select: Distribution1D,
     /// For each mesh, the index of its first triangle light (triangle lights are contiguous).
     mesh_first_light: Vec<Option<u32>>,
+    /// Some mesh emits (checked per camera sample by the photon method, so kept, not searched).
+    emitting_triangles: bool,
     world: Option<u32>,
     environment: Option<EnvironmentLight>,
     suns: Vec<u32>,
@@ -247,6 +249,7 @@ impl Lights {
         Lights {
             sources,
             select: Distribution1D::new(&power),
+            emitting_triangles: mesh_first_light.iter().any(Option::is_some),
             mesh_first_light,
             world,
             environment,
@@ -262,7 +265,7 @@ impl Lights {
 
     /// True when some mesh emits: its triangles are lights that rays can also hit.
     pub fn has_emitting_triangles(&self) -> bool {
-        self.mesh_first_light.iter().any(Option::is_some)
+        self.emitting_triangles
     }
 
     /// A point far enough along `dir` from `p` to be outside the scene: the end of shadow rays

@@ -626,9 +626,10 @@ impl Pass2<'_> {
         if let Some(irr) = &self.maps.irradiance {
             if s.opaque && !s.bsdf.has_delta() {
                 let albedo = bsdf_albedo(&s.bsdf, s.wo_local);
+                // The roughness test first: it spares the lobe set the Lambertian test builds.
                 let lambertian =
-                    max_component(albedo - s.bsdf.diffuse_reflectance(s.wo_local)) < 1e-4;
-                if lambertian || s.bsdf.roughness() >= ROUGH_AS_DIFFUSE {
+                    || max_component(albedo - s.bsdf.diffuse_reflectance(s.wo_local)) < 1e-4;
+                if s.bsdf.roughness() >= ROUGH_AS_DIFFUSE || lambertian() {
                     let r2 = self.maps.global_radius2;
                     if let Some(e) = nearest_irradiance(irr, r2, s) {
                         return albedo * e * (1.0 / PI);
