@@ -202,7 +202,11 @@ fn material_traits(scene: &Scene, index: usize) -> Option<MaterialTraits> {
     let material = scene.materials.get(index)?;
     let bsdf = classifying_bsdf(scene, index as u32);
     let specular = bsdf_is_specular(&bsdf);
-    let diffuse = bsdf.diffuse_reflectance(Vec3::Z).max_element() > 0.0;
+    let diffuse = bsdf
+        .viewed_from(Vec3::Z)
+        .diffuse_reflectance()
+        .max_element()
+        > 0.0;
     Some(MaterialTraits {
         diffuse,
         glossy: bsdf.has_specular() && !specular && !diffuse,

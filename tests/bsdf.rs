@@ -1,4 +1,4 @@
-//! Tests of the Principled BSDF: chi-square of `sample_bsdf` against `bsdf_pdf` for every lobe
+//! Tests of the Principled BSDF: chi-square of `ViewedBsdf::sample` against `ViewedBsdf::pdf` for every lobe
 //! family, agreement of sample weights with eval/pdf, hemisphere rules, reciprocity, white
 //! furnace, smooth-glass Fresnel split and robustness at extreme inputs.
 
@@ -6,7 +6,7 @@ mod common;
 
 use common::chi2::chi2_sphere;
 use photon::bsdf::fresnel::fresnel_dielectric;
-use photon::bsdf::{bsdf_albedo, bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf};
+use photon::bsdf::Bsdf;
 use photon::material::SurfaceMaterial;
 use photon::math::Vec3;
 use photon::rng::Rng;
@@ -117,12 +117,12 @@ fn chi2_family(family: &str) {
                 |_| {
                     let u_lobe = rng.uniform();
                     let u = rng.uniform2();
-                    sample_bsdf(&b, wo, u_lobe, u).map(|s| {
+                    b.viewed_from(wo).sample(u_lobe, u).map(|s| {
                         assert!(!s.delta);
                         s.wi
                     })
                 },
-                |wi| bsdf_pdf(&b, wo, wi) as f64,
+                |wi| b.viewed_from(wo).pdf(wi) as f64,
                 NUM_CHI2_TESTS,
             );
             println!("{} wo={wo:?}: {result:?}", c.name);
@@ -169,11 +169,11 @@ fn sample_weight_is_eval_over_pdf() {
         for wo in view_directions(c.inside) {
             let mut rng = Rng::new(5);
             for _ in 0..5000 {
-                let Some(s) = sample_bsdf(&c.bsdf, wo, rng.uniform(), rng.uniform2()) else {
+                let Some(s) = c.bsdf.viewed_from(wo).sample(rng.uniform(), rng.uniform2()) else {
                     continue;
                 };
-                let pdf = bsdf_pdf(&c.bsdf, wo, s.wi);
-                let f = eval_bsdf(&c.bsdf, wo, s.wi);
+                let pdf = c.bsdf.viewed_from(wo).pdf(s.wi);
+                let f = c.bsdf.viewed_from(wo).eval(s.wi);
                 assert!(
                     close(pdf, s.pdf, 1e-3),
                     "{}: pdf {} vs {}",
@@ -209,12 +209,16 @@ fn opaque_lobes_stay_on_the_viewer_side() {
             for _ in 0..200 {
                 let wi = photon::sampling::square_to_uniform_sphere(rng.uniform2());
                 if wi.z < 0.0 {
-                    assert_eq!(eval_bsdf(&c.bsdf, wo, wi), Vec3::ZERO, "{}", c.name);
-                    assert_eq!(bsdf_pdf(&c.bsdf, wo, wi), 0.0, "{}", c.name);
+                    assert_eq!(c.bsdf.viewed_from(wo).eval(wi), Vec3::ZERO, "{}", c.name);
+                    assert_eq!(c.bsdf.viewed_from(wo).pdf(wi), 0.0, "{}", c.name);
                 }
-                assert_eq!(eval_bsdf(&c.bsdf, below, wi), Vec3::ZERO, "{}", c.name);
-                assert_eq!(bsdf_pdf(&c.bsdf, below, wi), 0.0, "{}", c.name);
-                assert!(sample_bsdf(&c.bsdf, below, rng.uniform(), rng.uniform2()).is_none());
+                assert_eq!(c.bsdf.viewed_from(below).eval(wi), Vec3::ZERO, "{}", c.name);
+                assert_eq!(c.bsdf.viewed_from(below).pdf(wi), 0.0, "{}", c.name);
+                assert!(c
+                    .bsdf
+                    .viewed_from(below)
+                    .sample(rng.uniform(), rng.uniform2())
+                    .is_none());
             }
         }
     }
@@ -223,9 +227,9 @@ fn opaque_lobes_stay_on_the_viewer_side() {
     for wo in [Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.6, 0.0, -0.8)] {
         let reflected = Vec3::new(-0.6, 0.0, wo.z);
         let refracted = Vec3::new(-0.3, 0.0, -wo.z.signum() * 0.95).normalize();
-        assert!(eval_bsdf(&glass, wo, reflected).max_element() > 0.0);
-        assert!(eval_bsdf(&glass, wo, refracted).max_element() > 0.0);
-        assert!(bsdf_pdf(&glass, wo, refracted) > 0.0);
+        assert!(glass.viewed_from(wo).eval(reflected).max_element() > 0.0);
+        assert!(glass.viewed_from(wo).eval(refracted).max_element() > 0.0);
+        assert!(glass.viewed_from(wo).pdf(refracted) > 0.0);
     }
 }
 
@@ -255,8 +259,8 @@ fn single_scattering_lobes_are_reciprocal() {
                     Vec3::new(a.x, a.y, a.z * side),
                     Vec3::new(c.x, c.y, c.z * side),
                 );
-                let f1 = eval_bsdf(&b, wo, wi) / wi.z.abs();
-                let f2 = eval_bsdf(&b, wi, wo) / wo.z.abs();
+                let f1 = b.viewed_from(wo).eval(wi) / wi.z.abs();
+                let f2 = b.viewed_from(wi).eval(wo) / wo.z.abs();
                 for i in 0..3 {
                     assert!(
                         close(f1[i], f2[i], 2e-3),
@@ -274,7 +278,7 @@ fn measured_albedo(b: &Bsdf, wo: Vec3, n: usize, seed: u64) -> (Vec3, f32) {
     let mut rng = Rng::new(seed);
     let (mut sum, mut sum2) = (Vec3::ZERO, 0.0f64);
     for _ in 0..n {
-        if let Some(s) = sample_bsdf(b, wo, rng.uniform(), rng.uniform2()) {
+        if let Some(s) = b.viewed_from(wo).sample(rng.uniform(), rng.uniform2()) {
             sum += s.weight;
             sum2 += (s.weight.max_element() as f64).powi(2);
         }
@@ -325,7 +329,7 @@ fn white_furnace_is_one_for_white_dielectric_and_metal() {
         let (albedo, err) = measured_albedo(&dielectric, view(mu), 400_000, 9);
         println!(
             "white dielectric r=0.5 μ={mu}: {albedo:?} ± {err}, estimate {:?}",
-            bsdf_albedo(&dielectric, view(mu))
+            dielectric.viewed_from(view(mu)).albedo()
         );
         assert!(
             (albedo.max_element() - 1.0).abs() < 0.025,
@@ -357,7 +361,9 @@ fn smooth_glass_splits_by_fresnel() {
         let n = 100_000;
         let mut reflected = 0;
         for _ in 0..n {
-            let s = sample_bsdf(&glass, wo, rng.uniform(), rng.uniform2())
+            let s = glass
+                .viewed_from(wo)
+                .sample(rng.uniform(), rng.uniform2())
                 .expect("glass always scatters");
             assert!(s.delta);
             assert!(
@@ -409,13 +415,13 @@ fn extreme_inputs_give_finite_values() {
                             for &z in &[1e-6f32, -1e-6, 0.0, 0.3, 1.0, -1.0] {
                                 let wo = Vec3::new((1.0 - z * z).max(0.0).sqrt(), 0.0, z);
                                 let wi = photon::sampling::square_to_uniform_sphere(rng.uniform2());
-                                assert!(eval_bsdf(&b, wo, wi).is_finite(), "{m:?}");
-                                assert!(bsdf_pdf(&b, wo, wi).is_finite(), "{m:?}");
-                                assert!(bsdf_albedo(&b, wo).is_finite(), "{m:?}");
-                                assert!(b.diffuse_reflectance(wo).is_finite());
+                                assert!(b.viewed_from(wo).eval(wi).is_finite(), "{m:?}");
+                                assert!(b.viewed_from(wo).pdf(wi).is_finite(), "{m:?}");
+                                assert!(b.viewed_from(wo).albedo().is_finite(), "{m:?}");
+                                assert!(b.viewed_from(wo).diffuse_reflectance().is_finite());
                                 for _ in 0..20 {
                                     if let Some(s) =
-                                        sample_bsdf(&b, wo, rng.uniform(), rng.uniform2())
+                                        b.viewed_from(wo).sample(rng.uniform(), rng.uniform2())
                                     {
                                         assert!(
                                             s.weight.is_finite() && s.wi.is_finite(),
@@ -450,8 +456,11 @@ fn flags_describe_the_lobes() {
     assert!(glass.is_transmissive() && glass.has_non_delta());
     // The diffuse part shrinks where the specular layer reflects more.
     let grey = Bsdf::new(&material(Vec3::splat(0.5), 0.0, 0.5, 0.0));
-    assert!(grey.diffuse_reflectance(view(0.1)).x < grey.diffuse_reflectance(view(1.0)).x);
-    assert!(grey.diffuse_reflectance(view(1.0)).x < 0.5);
+    assert!(
+        grey.viewed_from(view(0.1)).diffuse_reflectance().x
+            < grey.viewed_from(view(1.0)).diffuse_reflectance().x
+    );
+    assert!(grey.viewed_from(view(1.0)).diffuse_reflectance().x < 0.5);
 }
 
 /// Run with `cargo test --release --test bsdf -- --ignored --nocapture` to time the sampler.
@@ -477,12 +486,12 @@ fn time_ten_million_samples() {
         let start = std::time::Instant::now();
         let mut acc = Vec3::ZERO;
         for _ in 0..10_000_000 {
-            if let Some(s) = sample_bsdf(&b, wo, rng.uniform(), rng.uniform2()) {
+            if let Some(s) = b.viewed_from(wo).sample(rng.uniform(), rng.uniform2()) {
                 acc += s.weight;
             }
         }
         println!(
-            "{name}: 10^7 sample_bsdf in {:?} (mean weight {:?})",
+            "{name}: 10^7 samples in {:?} (mean weight {:?})",
             start.elapsed(),
             acc / 1e7
         );

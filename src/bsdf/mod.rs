@@ -19,11 +19,11 @@
 //!   flips their frame to the viewer's side. When a glass lobe exists, the opaque lobes reflect on
 //!   the viewer's side (Cycles flips the normal of every closure on back faces) and the glass
 //!   sees the inverse relative IOR;
-//! - `eval_bsdf` returns f(wo, wi) · |cos θi| (the cosine is included);
-//! - `sample_bsdf` returns `None` when it produces no direction; its `weight` is
+//! - `ViewedBsdf::eval` returns f(wo, wi) · |cos θi| (the cosine is included);
+//! - `ViewedBsdf::sample` returns `None` when it produces no direction; its `weight` is
 //!   f · |cos θi| / pdf; for delta lobes `pdf` is the discrete probability of the choice and
 //!   `delta` is true;
-//! - `bsdf_pdf` is the solid-angle density of `sample_bsdf` over the non-delta lobes (its
+//! - `ViewedBsdf::pdf` is the solid-angle density of `sample` over the non-delta lobes (its
 //!   integral is 1 minus the probability of delta lobes and of rejected samples);
 //! - refraction does not scale radiance by η² (Cycles' convention): flux is conserved across an
 //!   interface, so the same BSDF serves camera paths and photons.
@@ -177,12 +177,14 @@ impl Bsdf {
         self
     }
 
-    /// Fraction of the light arriving from (or leaving towards) `wo` that crosses the
-    /// specular layer into the base (or out of it): (1 − metallic)(1 − transmission)(1 − the
-    /// layer's directional albedo). Light entering a translucent base is this times the
-    /// subsurface weight.
-    pub fn base_transmittance(&self, wo: Vec3) -> f32 {
-        LobeSet::new(self, wo).map_or(0.0, |l| l.base_transmittance)
+    /// This BSDF seen from `wo`: what depends on `wo` alone is computed here, once, for any
+    /// number of evaluations and samples.
+    pub fn viewed_from(&self, wo: Vec3) -> ViewedBsdf {
+        ViewedBsdf {
+            bsdf: *self,
+            wo,
+            lobes: LobeSet::new(self, wo),
+        }
     }
 
     fn has_spec_layer(&self) -> bool {
@@ -228,20 +230,10 @@ impl Bsdf {
     pub fn roughness(&self) -> f32 {
         self.roughness
     }
-
-    /// The Lambertian part seen from `wo`: the diffuse term of `eval_bsdf` is
-    /// `diffuse_reflectance(wo) / π · |cos θi|`. It includes the base weight and the attenuation
-    /// by the specular layer above it, which depends on the view angle (zero when `wo` cannot
-    /// see the diffuse).
-    pub fn diffuse_reflectance(&self, wo: Vec3) -> Vec3 {
-        match LobeSet::new(self, wo) {
-            Some(l) => l.diffuse,
-            None => Vec3::ZERO,
-        }
-    }
 }
 
-/// Everything about the lobes that depends on `wo` only: computed once per call.
+/// Everything about the lobes that depends on `wo` only.
+#[derive(Clone, Copy, Debug)]
 struct LobeSet {
     /// −1 when the frame is mirrored so the viewer is above the surface.
     side: f32,
@@ -371,7 +363,7 @@ impl LobeSet {
     }
 
     /// Mirror a direction into (or out of) the viewer-up frame.
-    fn to_side(&self, w: Vec3) -> Vec3 {
+    fn mirror(&self, w: Vec3) -> Vec3 {
         Vec3::new(w.x, w.y, w.z * self.side)
     }
 }
@@ -501,36 +493,82 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
     (f, pdf)
 }
 
-/// f(wo, wi) · |cos θi| over the non-delta lobes.
-pub fn eval_bsdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> Vec3 {
-    match LobeSet::new(b, wo) {
-        Some(l) => eval_and_pdf(b, &l, l.to_side(wi)).0,
-        None => Vec3::ZERO,
+/// A BSDF seen from a fixed direction `wo` (`Bsdf::viewed_from`): the lobe weights, albedos and
+/// sampling probabilities that depend on `wo` alone are computed once, so a shading point that
+/// evaluates many directions (a light sample and its MIS density, the photons of a radiance
+/// estimate) pays for them once. It dereferences to the `Bsdf` for the view-independent
+/// queries.
+#[derive(Clone, Copy, Debug)]
+pub struct ViewedBsdf {
+    bsdf: Bsdf,
+    wo: Vec3,
+    /// `None` when nothing scatters towards `wo` (an opaque surface seen from behind).
+    lobes: Option<LobeSet>,
+}
+
+impl std::ops::Deref for ViewedBsdf {
+    type Target = Bsdf;
+    fn deref(&self) -> &Bsdf {
+        &self.bsdf
     }
 }
 
-/// Solid-angle density with which `sample_bsdf` produces `wi` through its non-delta lobes.
-pub fn bsdf_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
-    match LobeSet::new(b, wo) {
-        Some(l) => eval_and_pdf(b, &l, l.to_side(wi)).1,
-        None => 0.0,
+impl ViewedBsdf {
+    /// f(wo, wi) · |cos θi| over the non-delta lobes.
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        self.eval_and_pdf(wi).0
+    }
+
+    /// Solid-angle density with which `sample` produces `wi` through its non-delta lobes.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        self.eval_and_pdf(wi).1
+    }
+
+    /// `eval` and `pdf` together (one half-vector computation).
+    pub fn eval_and_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        match &self.lobes {
+            Some(l) => eval_and_pdf(&self.bsdf, l, l.mirror(wi)),
+            None => (Vec3::ZERO, 0.0),
+        }
+    }
+
+    /// Cheap estimate of the directional albedo ∫ f |cos θi| dωi (for Russian roulette and
+    /// photon survival); exact for the diffuse and metal-free white cases up to table
+    /// interpolation.
+    pub fn albedo(&self) -> Vec3 {
+        self.lobes
+            .as_ref()
+            .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum())
+    }
+
+    /// The Lambertian part: the diffuse term of `eval` is `diffuse_reflectance() / π ·
+    /// |cos θi|`. It includes the base weight and the attenuation by the specular layer above
+    /// it, which depends on the view angle (zero when `wo` cannot see the diffuse).
+    pub fn diffuse_reflectance(&self) -> Vec3 {
+        self.lobes.as_ref().map_or(Vec3::ZERO, |l| l.diffuse)
+    }
+
+    /// Fraction of the light arriving from (or leaving towards) `wo` that crosses the
+    /// specular layer into the base (or out of it): (1 − metallic)(1 − transmission)(1 − the
+    /// layer's directional albedo). Light entering a translucent base is this times the
+    /// subsurface weight.
+    pub fn base_transmittance(&self) -> f32 {
+        self.lobes.as_ref().map_or(0.0, |l| l.base_transmittance)
+    }
+
+    /// The same view of `Bsdf::without_subsurface`.
+    pub fn without_subsurface(&self, weight: f32) -> ViewedBsdf {
+        self.bsdf.without_subsurface(weight).viewed_from(self.wo)
+    }
+
+    /// Sample a direction: `u_lobe` picks the lobe (and, remapped, reflection or refraction for
+    /// glass), `u` the direction within it.
+    pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        sample(&self.bsdf, self.lobes.as_ref()?, self.wo, u_lobe, u)
     }
 }
 
-/// Cheap estimate of the directional albedo ∫ f |cos θi| dωi seen from `wo` (for Russian
-/// roulette and photon survival); exact for the diffuse and metal-free white cases up to table
-/// interpolation.
-pub fn bsdf_albedo(b: &Bsdf, wo: Vec3) -> Vec3 {
-    match LobeSet::new(b, wo) {
-        Some(l) => l.albedo.iter().copied().sum(),
-        None => Vec3::ZERO,
-    }
-}
-
-/// Sample a direction: `u_lobe` picks the lobe (and, remapped, reflection or refraction for
-/// glass), `u` the direction within it.
-pub fn sample_bsdf(b: &Bsdf, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-    let l = LobeSet::new(b, wo)?;
+fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
     let wo_up = l.wo;
     // Pick the lobe and rescale u_lobe to [0, 1) within it.
     let mut lobe = usize::MAX;
@@ -559,7 +597,7 @@ pub fn sample_bsdf(b: &Bsdf, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSampl
         if !weight.is_finite() || !wi_up.is_finite() {
             return None;
         }
-        let wi = l.to_side(wi_up);
+        let wi = l.mirror(wi_up);
         Some(BsdfSample {
             wi,
             weight,
@@ -609,11 +647,11 @@ pub fn sample_bsdf(b: &Bsdf, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSampl
         }
     };
     // Reflections that leave below the surface (and refractions that leave above) are lost:
-    // `bsdf_pdf` does not count them either.
+    // `ViewedBsdf::pdf` does not count them either.
     if (above && !(wi_up.z > 0.0)) || (!above && !(wi_up.z < 0.0)) {
         return None;
     }
-    let (f, pdf) = eval_and_pdf(b, &l, wi_up);
+    let (f, pdf) = eval_and_pdf(b, l, wi_up);
     if !(pdf > 0.0) || !pdf.is_finite() {
         return None;
     }
@@ -621,7 +659,7 @@ pub fn sample_bsdf(b: &Bsdf, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSampl
     if !weight.is_finite() {
         return None;
     }
-    let wi = l.to_side(wi_up);
+    let wi = l.mirror(wi_up);
     Some(BsdfSample {
         wi,
         weight,

@@ -28,7 +28,7 @@ use super::photon::tracing::stores_photons;
 use super::photon::{self, PhotonMaps, Shading};
 use super::{path, CameraSample, Context};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::{bsdf_albedo, Bsdf, BsdfSample};
+use crate::bsdf::{BsdfSample, ViewedBsdf};
 use crate::camera::CameraRays;
 use crate::error::Result;
 use crate::irradiance_cache::{self, IcSettings, IrradianceCache, Site};
@@ -72,16 +72,15 @@ pub struct IcInfo {
 }
 
 /// ρ of a Lambertian opaque BSDF (the surfaces the cache serves), `None` for any other.
-pub fn lambertian_reflectance(bsdf: &Bsdf, wo_local: Vec3, opaque: bool) -> Option<Vec3> {
-    let rho = bsdf.diffuse_reflectance(wo_local);
-    (opaque && rho != Vec3::ZERO && max_component(bsdf_albedo(bsdf, wo_local) - rho) < 1e-4)
-        .then_some(rho)
+pub fn lambertian_reflectance(bsdf: &ViewedBsdf, opaque: bool) -> Option<Vec3> {
+    let rho = bsdf.diffuse_reflectance();
+    (opaque && rho != Vec3::ZERO && max_component(bsdf.albedo() - rho) < 1e-4).then_some(rho)
 }
 
 /// ρ_d of the diffuse lobe of an opaque BSDF (Lambertian or under a glossy layer), `None` when
 /// it has none: the surfaces that get records.
-fn diffuse_reflectance(bsdf: &Bsdf, wo_local: Vec3, opaque: bool) -> Option<Vec3> {
-    let rho = bsdf.diffuse_reflectance(wo_local);
+fn diffuse_reflectance(bsdf: &ViewedBsdf, opaque: bool) -> Option<Vec3> {
+    let rho = bsdf.diffuse_reflectance();
     (opaque && rho != Vec3::ZERO).then_some(rho)
 }
 
@@ -108,12 +107,12 @@ impl CachedDiffuse {
 /// The cached indirect light of the diffuse lobe at `s`, `None` when `s` has no diffuse lobe or no
 /// record covers it.
 pub fn cached_diffuse(cache: &IrradianceCache, s: &Shading) -> Option<CachedDiffuse> {
-    let rho = diffuse_reflectance(&s.bsdf, s.wo_local, s.opaque)?;
+    let rho = diffuse_reflectance(&s.bsdf, s.opaque)?;
     let e = cache.lookup(s.sh.p, s.frame.n)?;
     Some(CachedDiffuse {
         rho,
         radiance: rho * e * (1.0 / PI),
-        lambertian: lambertian_reflectance(&s.bsdf, s.wo_local, s.opaque).is_some(),
+        lambertian: lambertian_reflectance(&s.bsdf, s.opaque).is_some(),
     })
 }
 
@@ -130,7 +129,7 @@ fn first_surface(ctx: &Context, mut ray: Ray, rng: &mut Rng) -> Option<(Shading,
         let hit = ctx.accel.intersect(ctx.scene, &ray, visibility)?;
         length += hit.t * ray.direction.length();
         let s = Shading::new(ctx, &ray, &hit);
-        if stores_photons(&s.bsdf, s.wo_local) {
+        if stores_photons(&s.bsdf) {
             return Some((s, length));
         }
         let (_, wi) = s.sample(rng.uniform(), rng.uniform2())?;
@@ -157,7 +156,7 @@ pub fn build_cache(
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
         let (ray, next) = (camera.ray(film), camera.ray(film + Vec2::X));
         let (s, length) = first_surface(ctx, ray, rng)?;
-        diffuse_reflectance(&s.bsdf, s.wo_local, s.opaque)?;
+        diffuse_reflectance(&s.bsdf, s.opaque)?;
         let at = |r: &Ray| r.origin + r.direction * length;
         let site = Site {
             p: s.sh.p,
@@ -218,7 +217,7 @@ pub fn trace(
     out.albedo = s.surface.base_color;
     out.normal = s.sh.frame.n;
     out.depth = length;
-    if diffuse_reflectance(&s.bsdf, s.wo_local, s.opaque).is_none() {
+    if diffuse_reflectance(&s.bsdf, s.opaque).is_none() {
         return out;
     }
     let e = cache.lookup(s.sh.p, s.frame.n).unwrap_or(Vec3::ZERO);

@@ -30,7 +30,7 @@ use super::ic::lambertian_reflectance;
 use super::photon::tracing::stores_photons;
 use super::{CameraSample, Context, LightPass, Passes};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::{bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf};
+use crate::bsdf::Bsdf;
 use crate::interaction::SurfaceHit;
 use crate::irradiance_cache::IrradianceCache;
 use crate::light::emitted_radiance;
@@ -252,8 +252,7 @@ fn trace_path(
             frame.t = -frame.t;
             ng = -ng;
         }
-        let mut bsdf = Bsdf::new(&surface);
-        let wo_local = frame.to_local(wo);
+        let mut bsdf = Bsdf::new(&surface).viewed_from(frame.to_local(wo));
 
         let weight = surface.subsurface.weight;
         if weight > 0.0 && opaque {
@@ -261,14 +260,17 @@ fn trace_path(
             on_chain = false;
             if rng.uniform() < SUBSURFACE_BRANCH {
                 // The subsurface branch: leave the material at x_i, then the entry lobe there.
-                let enter = weight * bsdf.base_transmittance(wo_local) / SUBSURFACE_BRANCH;
+                let enter = weight * bsdf.base_transmittance() / SUBSURFACE_BRANCH;
                 let Some((exit, rd_over_pdf)) = sample_exit(ctx, &sh, &frame, &surface, rng) else {
                     break;
                 };
                 beta *= rd_over_pdf * enter;
                 subsurface = true;
                 let exit_frame = Frame::from_normal(exit.ng);
-                let transmit = |wi: Vec3| bsdf.base_transmittance(exit_frame.to_local(wi));
+                let transmit = |wi: Vec3| {
+                    bsdf.viewed_from(exit_frame.to_local(wi))
+                        .base_transmittance()
+                };
                 if let Some(ls) = ctx
                     .lights
                     .sample(scene, exit.p, rng.uniform(), rng.uniform2())
@@ -307,11 +309,9 @@ fn trace_path(
         }
 
         let mut cached = None;
-        if on_chain && stores_photons(&bsdf, wo_local) {
+        if on_chain && stores_photons(&bsdf) {
             on_chain = false;
-            if let (Some(cache), Some(rho)) =
-                (cache, lambertian_reflectance(&bsdf, wo_local, opaque))
-            {
+            if let (Some(cache), Some(rho)) = (cache, lambertian_reflectance(&bsdf, opaque)) {
                 cached = cache.lookup(sh.p, frame.n).map(|e| rho * e * FRAC_1_PI);
             }
         }
@@ -325,10 +325,10 @@ fn trace_path(
                 // An opaque surface cannot be lit from behind its geometry, whatever the shading
                 // normal says (avoids light leaking through interpolated normals).
                 let geometric_ok = !opaque || ls.wi.dot(ng) > 0.0;
-                let f = if geometric_ok {
-                    eval_bsdf(&bsdf, wo_local, wi_local)
+                let (f, bsdf_pdf) = if geometric_ok {
+                    bsdf.eval_and_pdf(wi_local)
                 } else {
-                    Vec3::ZERO
+                    (Vec3::ZERO, 0.0)
                 };
                 if f != Vec3::ZERO && ls.li != Vec3::ZERO {
                     out.rays += 1;
@@ -336,7 +336,7 @@ fn trace_path(
                         let w = if ls.delta || cached.is_some() {
                             1.0
                         } else {
-                            power_heuristic(ls.pdf, bsdf_pdf(&bsdf, wo_local, wi_local))
+                            power_heuristic(ls.pdf, bsdf_pdf)
                         };
                         let pass = light_pass(diffuse + 1, subsurface);
                         passes.add(pass, beta * f * ls.li * (w / ls.pdf));
@@ -350,7 +350,7 @@ fn trace_path(
             break;
         }
 
-        let Some(s) = sample_bsdf(&bsdf, wo_local, rng.uniform(), rng.uniform2()) else {
+        let Some(s) = bsdf.sample(rng.uniform(), rng.uniform2()) else {
             break;
         };
         let wi = frame.to_world(s.wi).normalize();

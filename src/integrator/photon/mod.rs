@@ -80,7 +80,7 @@ pub mod tracing;
 
 use super::{CameraSample, Context, LightPass, Passes};
 use crate::accel::{Hit, Ray, Visibility};
-use crate::bsdf::{bsdf_albedo, bsdf_pdf, eval_bsdf, sample_bsdf, Bsdf, BsdfSample};
+use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
 use crate::error::{Error, Result};
 use crate::interaction::SurfaceHit;
 use crate::irradiance_cache::IrradianceCache;
@@ -250,7 +250,8 @@ pub struct Shading {
     pub frame: Frame,
     pub ng: Vec3,
     pub opaque: bool,
-    pub bsdf: Bsdf,
+    /// The BSDF seen from `wo`.
+    pub bsdf: ViewedBsdf,
     /// Unit direction towards the viewer (or where the photon came from).
     pub wo: Vec3,
     pub wo_local: Vec3,
@@ -269,14 +270,15 @@ impl Shading {
             frame.t = -frame.t;
             ng = -ng;
         }
+        let wo_local = frame.to_local(wo);
         Shading {
             sh,
             frame,
             ng,
             opaque,
-            bsdf: Bsdf::new(&surface),
+            bsdf: Bsdf::new(&surface).viewed_from(wo_local),
             wo,
-            wo_local: frame.to_local(wo),
+            wo_local,
             surface,
         }
     }
@@ -294,7 +296,7 @@ impl Shading {
 
     /// Sample the BSDF and turn the sample into a world direction; `None` when the path ends.
     pub(crate) fn sample(&self, u_lobe: f32, u: Vec2) -> Option<(BsdfSample, Vec3)> {
-        let bs = sample_bsdf(&self.bsdf, self.wo_local, u_lobe, u)?;
+        let bs = self.bsdf.sample(u_lobe, u)?;
         let wi = self.frame.to_world(bs.wi).normalize();
         if self.opaque && wi.dot(self.ng) <= 0.0 {
             return None;
@@ -572,8 +574,8 @@ fn radiance_estimate(
     let r2 = buf.radius2;
     let r = r2.sqrt();
     // Pure Lambertian opaque surfaces: f_r = ρ/π on the viewer's side, no per-photon BSDF call.
-    let rho = s.bsdf.diffuse_reflectance(s.wo_local);
-    let lambert = s.opaque && max_component(bsdf_albedo(&s.bsdf, s.wo_local) - rho) < 1e-4;
+    let rho = s.bsdf.diffuse_reflectance();
+    let lambert = s.opaque && max_component(s.bsdf.albedo() - rho) < 1e-4;
     let mut sum = Vec3::ZERO;
     for nb in buf.iter() {
         let ph = &map.photons()[nb.index as usize];
@@ -592,7 +594,7 @@ fn radiance_estimate(
             if wl.z.abs() < 1e-6 {
                 continue;
             }
-            eval_bsdf(&s.bsdf, s.wo_local, wl) / wl.z.abs()
+            s.bsdf.eval(wl) / wl.z.abs()
         };
         let w = if cone { 1.0 - nb.dist2.sqrt() / r } else { 1.0 };
         sum += f * ph.power() * w;
@@ -625,11 +627,9 @@ impl Pass2<'_> {
     fn gather_estimate(&mut self, s: &Shading) -> Vec3 {
         if let Some(irr) = &self.maps.irradiance {
             if s.opaque && !s.bsdf.has_delta() {
-                let albedo = bsdf_albedo(&s.bsdf, s.wo_local);
-                // The roughness test first: it spares the lobe set the Lambertian test builds.
-                let lambertian =
-                    || max_component(albedo - s.bsdf.diffuse_reflectance(s.wo_local)) < 1e-4;
-                if s.bsdf.roughness() >= ROUGH_AS_DIFFUSE || lambertian() {
+                let albedo = s.bsdf.albedo();
+                let lambertian = max_component(albedo - s.bsdf.diffuse_reflectance()) < 1e-4;
+                if s.bsdf.roughness() >= ROUGH_AS_DIFFUSE || lambertian {
                     let r2 = self.maps.global_radius2;
                     if let Some(e) = nearest_irradiance(irr, r2, s) {
                         return albedo * e * (1.0 / PI);
@@ -670,7 +670,7 @@ impl Pass2<'_> {
             return Vec3::ZERO;
         }
         let wi_local = s.frame.to_local(ls.wi);
-        let f = eval_bsdf(&s.bsdf, s.wo_local, wi_local);
+        let (f, bsdf_pdf) = s.bsdf.eval_and_pdf(wi_local);
         if f == Vec3::ZERO {
             return Vec3::ZERO;
         }
@@ -681,7 +681,7 @@ impl Pass2<'_> {
         let w = if ls.delta || !mis {
             1.0
         } else {
-            power_heuristic(ls.pdf, bsdf_pdf(&s.bsdf, s.wo_local, wi_local))
+            power_heuristic(ls.pdf, bsdf_pdf)
         };
         f * ls.li * (w / ls.pdf)
     }
@@ -698,7 +698,7 @@ impl Pass2<'_> {
     ) -> Option<(Shading, Vec3)> {
         let mut beta = Vec3::ONE;
         for _ in 0..MAX_SPECULAR_CHAIN {
-            if stores_photons(&s.bsdf, s.wo_local) {
+            if stores_photons(&s.bsdf) {
                 return Some((s, beta));
             }
             let (bs, wi) = s.sample(rng.uniform(), rng.uniform2())?;
@@ -1011,7 +1011,7 @@ pub fn trace(
         if depth == ctx.max_depth {
             break;
         }
-        if stores_photons(&s.bsdf, s.wo_local) {
+        if stores_photons(&s.bsdf) {
             let mut l = Passes::default();
             match view {
                 View::Full => l = p2.shade_full(&s, rng),

@@ -148,7 +148,12 @@ fn point_samples(
             };
             let s = Shading::new(ctx, &ray, &hit);
             let w = s.surface.subsurface.weight;
-            let enter = |wi: Vec3| w * s.bsdf.base_transmittance(s.frame.to_local(wi));
+            let enter = |wi: Vec3| {
+                w * s
+                    .bsdf
+                    .viewed_from(s.frame.to_local(wi))
+                    .base_transmittance()
+            };
             let mut flux = Vec3::ZERO;
             let m = settings.subsurface_light_samples.max(1);
             for _ in 0..m {
@@ -282,7 +287,7 @@ impl SubsurfaceMaps {
         } else {
             tree.exitance(s.sh.p, &dipole, self.accuracy).0
         };
-        let l = m * (s.bsdf.base_transmittance(s.wo_local) / PI);
+        let l = m * (s.bsdf.base_transmittance() / PI);
         Some(if l.is_finite() { l } else { Vec3::ZERO })
     }
 }

@@ -23,7 +23,7 @@
 
 use super::{is_specular, Shading, SPECULAR_ROUGHNESS};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::{sample_bsdf, Bsdf};
+use crate::bsdf::ViewedBsdf;
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
 use crate::light::{sample_emitter_point, smoothstep, LightSource};
@@ -40,10 +40,9 @@ use std::f32::consts::PI;
 /// True when a photon arriving at this surface is stored and the renderer reads photon maps
 /// here ("diffuse" in Jensen's L(S|D)*E notation): some lobe is not a delta, and the surface is
 /// not a glossy-only one (no Lambertian part and roughness below `SPECULAR_ROUGHNESS`).
-pub fn stores_photons(bsdf: &Bsdf, wo_local: Vec3) -> bool {
+pub fn stores_photons(bsdf: &ViewedBsdf) -> bool {
     bsdf.has_non_delta()
-        && (bsdf.roughness() >= SPECULAR_ROUGHNESS
-            || bsdf.diffuse_reflectance(wo_local) != Vec3::ZERO)
+        && (bsdf.roughness() >= SPECULAR_ROUGHNESS || bsdf.diffuse_reflectance() != Vec3::ZERO)
 }
 
 /// The lights as photon sources, chosen in proportion to their flux (luminance).
@@ -403,7 +402,7 @@ pub fn trace_subsurface_photon(
     walk_photon(ctx, ray, power, max_bounces, rng, |s, power, _, _| {
         let w = s.surface.subsurface.weight;
         if w > 0.0 {
-            let flux = power * (w * s.bsdf.base_transmittance(s.wo_local));
+            let flux = power * (w * s.bsdf.base_transmittance());
             if max_component(flux) > 0.0 {
                 let position = s.sh.p;
                 out.push((s.sh.material, Sample { position, flux }));
@@ -435,14 +434,14 @@ fn walk_photon(
             power *= (-absorption * (hit.t * ray.direction.length())).exp();
         }
         let s = Shading::new(ctx, &ray, &hit);
-        let storing = stores_photons(&s.bsdf, s.wo_local);
+        let storing = stores_photons(&s.bsdf);
         if storing && !store(&s, power, bounce, bounce > 0 && specular_path) {
             return;
         }
         if bounce == max_bounces {
             return;
         }
-        let Some(bs) = sample_bsdf(&s.bsdf, s.wo_local, rng.uniform(), rng.uniform2()) else {
+        let Some(bs) = s.bsdf.sample(rng.uniform(), rng.uniform2()) else {
             return;
         };
         let wi = s.frame.to_world(bs.wi).normalize();
