@@ -1,5 +1,7 @@
-//! Albedo tables for energy compensation and layering, integrated numerically once (on first use,
-//! behind a `OnceLock`) with deterministic stratified visible-normal samples:
+//! Albedo tables for energy compensation and layering, integrated numerically with deterministic
+//! stratified visible-normal samples and baked into the binary (`albedo_tables.bin`: the
+//! integration takes ~80 ms, most of a small preview render; a test rebuilds the tables and
+//! checks the baked copy):
 //!
 //! - `E(μ, r)`: directional albedo of a white single-scattering GGX reflector, and its cosine-
 //!   weighted average `E_avg(r)`: what multiscatter compensation needs (Kulla & Conty 2017,
@@ -17,7 +19,7 @@
 use super::fresnel::fresnel_blend_factor;
 use super::microfacet::{ggx_g1, ggx_g2, sample_ggx_vndf, MIN_ALPHA};
 use crate::math::{reflect, Vec3};
-use std::sync::OnceLock;
+use std::sync::LazyLock;
 
 const E_ROUGH: usize = 32;
 const E_MU: usize = 32;
@@ -33,10 +35,14 @@ pub struct AlbedoTables {
     s_avg: Vec<f32>,
 }
 
-/// The tables, built on first use (about 130 ms of CPU time in a release build, on one thread).
+/// The baked tables: `AlbedoTables::build`'s output as little-endian f32 (e, e_avg, s_bar,
+/// s_avg in order), written by `PHOTON_BAKE_TABLES=1 cargo test --release --lib tables`.
+const BAKED: &[u8] = include_bytes!("albedo_tables.bin");
+
+/// The tables, read from the baked copy on first use.
 pub fn albedo_tables() -> &'static AlbedoTables {
-    static TABLES: OnceLock<AlbedoTables> = OnceLock::new();
-    TABLES.get_or_init(AlbedoTables::build)
+    static TABLES: LazyLock<AlbedoTables> = LazyLock::new(|| AlbedoTables::from_bytes(BAKED));
+    &TABLES
 }
 
 fn grid(i: usize, n: usize) -> f32 {
@@ -83,10 +89,39 @@ fn for_each_reflection(alpha: f32, wo: Vec3, n: usize, mut f: impl FnMut(Vec3, f
 }
 
 impl AlbedoTables {
-    fn build() -> Self {
-        // Serial on purpose: this runs inside a `OnceLock` initialiser, often on a rayon worker;
-        // a parallel build there deadlocks when the other workers block on the same `OnceLock`
-        // (seen as a hang of concurrent tests in tests/scenes.rs).
+    /// Table lengths in `BAKED` order.
+    const LENGTHS: [usize; 4] = [E_ROUGH * E_MU, E_ROUGH, S_ROUGH * S_MU * S_Z, AVG_Z];
+
+    fn from_bytes(bytes: &[u8]) -> Self {
+        let total: usize = Self::LENGTHS.iter().sum();
+        assert_eq!(
+            bytes.len(),
+            4 * total,
+            "albedo_tables.bin does not match the table sizes"
+        );
+        let mut values = bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        let mut next = |n: usize| values.by_ref().take(n).collect::<Vec<f32>>();
+        let [e, e_avg, s_bar, s_avg] = Self::LENGTHS;
+        AlbedoTables {
+            e: next(e),
+            e_avg: next(e_avg),
+            s_bar: next(s_bar),
+            s_avg: next(s_avg),
+        }
+    }
+
+    /// The tables as `albedo_tables.bin` stores them.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        [&self.e, &self.e_avg, &self.s_bar, &self.s_avg]
+            .into_iter()
+            .flat_map(|t| t.iter().flat_map(|v| v.to_le_bytes()))
+            .collect()
+    }
+
+    /// Integrate the tables (what `albedo_tables.bin` holds).
+    pub fn build() -> Self {
         let e_rows: Vec<Vec<f32>> = (0..E_ROUGH)
             .map(|ir| {
                 let alpha = alpha_of(grid(ir, E_ROUGH));
@@ -247,10 +282,38 @@ fn lerp_2d(table: &[f32], nx: usize, ny: usize, tx: f32, ty: f32) -> f32 {
 mod tests {
     use super::*;
 
+    /// The baked tables are what `build` integrates today (a change to the BSDF's GGX or
+    /// Fresnel code must re-bake them: run this test with `PHOTON_BAKE_TABLES=1`).
+    #[test]
+    fn baked_tables_match_a_fresh_build() {
+        let fresh = AlbedoTables::build();
+        if std::env::var_os("PHOTON_BAKE_TABLES").is_some() {
+            let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/bsdf/albedo_tables.bin");
+            std::fs::write(path, fresh.to_bytes()).unwrap();
+            return;
+        }
+        let baked = AlbedoTables::from_bytes(BAKED);
+        let fresh_bytes = fresh.to_bytes();
+        let pairs = baked
+            .to_bytes()
+            .chunks_exact(4)
+            .zip(fresh_bytes.chunks_exact(4))
+            .map(|(a, b)| {
+                let v = |c: &[u8]| f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+                (v(a), v(b))
+            })
+            .collect::<Vec<_>>();
+        // Bit-exact on the machine that baked them; other libms may round sin/cos differently.
+        let worst = pairs
+            .iter()
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "baked albedo tables differ from a fresh build by {worst}: re-bake with PHOTON_BAKE_TABLES=1");
+    }
+
     #[test]
     fn tables_are_plausible() {
-        // Build time (~80–130 ms on 2 cores) is a benchmark figure, not a test assertion.
-        let t = AlbedoTables::build();
+        let t = albedo_tables();
         // A smooth reflector loses nothing. At α = 1, D = 1/π, so E(μ = 1) ≤ (1/π)·2π/4 = 0.5;
         // reference values from a brute-force quadrature of D·G2/(4μo) over the hemisphere.
         assert!((t.ggx_e(0.7, 0.0) - 1.0).abs() < 1e-3);
