@@ -17,11 +17,12 @@
 //!   evaluates the dipole (`integrator::photon::subsurface`). The path tracer samples the same
 //!   dipole by probe rays and needs no pass.
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
-//!   the background); a caustic map needed → photon mapping (caustics are where path tracing is
-//!   noisiest); translucent materials → photon mapping (subsurface photons); indirect light
-//!   possible → a small photon pilot measures the indirect share of the light, and photon
-//!   mapping with the irradiance cache is chosen when it is large (`INDIRECT_SHARE_FOR_PHOTONS`),
-//!   the path tracer otherwise.
+//!   the background); translucent materials → photon mapping (subsurface photons); otherwise,
+//!   when caustics or indirect light are possible, two pilots measure them: photon mapping
+//!   when the caustics of lamps and emitting meshes carry a visible share of what the camera
+//!   sees (`HARD_CAUSTIC_SHARE_FOR_PHOTONS`; caustics are where path tracing is noisiest) or
+//!   when most reflected light in a small path-traced image is indirect
+//!   (`INDIRECT_SHARE_FOR_PHOTONS`: the irradiance cache pays off), the path tracer otherwise.
 
 use crate::accel::Accel;
 use crate::integrator::photon::{bsdf_is_specular, classifying_bsdf, PhotonSettings};
@@ -374,24 +375,91 @@ pub fn cache_pays_off(spp: u32) -> bool {
     spp >= MIN_SPP_FOR_CACHE
 }
 
-/// Photons of the pilot that measures how much of a scene's light is indirect.
+/// Photons of each of the caustic pilot's two passes (global, and aimed at the specular meshes).
 const PILOT_PHOTONS: u32 = 4096;
 
-/// Indirect share of stored photon power above which `auto` picks photon mapping with the
-/// irradiance cache. Measured with `photon bench --width 64 --budgets 16,64 --methods
-/// path,photon`: the Cornell box (indirect share 0.47) renders to a lower error at equal time
-/// with photons + cache, lights.glb (0.05, mostly direct light) three times faster with the
-/// path tracer.
+/// The path-traced pilot image: width in pixels (the height follows the aspect ratio) and
+/// samples per pixel, about 3000 paths.
+const PILOT_WIDTH: u32 = 32;
+const PILOT_SPP: u32 = 4;
+
+/// Share of the pilot image's reflected light that is indirect (averaged over pixels) above
+/// which `auto` picks photon mapping with the irradiance cache. Measured with `photon bench`
+/// (docs/bench): the Cornell box (0.52), the furnace (0.48) and the window-lit interior (0.74)
+/// render to a lower error at equal time with photons + cache; lights.glb (0.07) and
+/// materials.glb (0.12), lit mostly directly, render faster with the path tracer.
 const INDIRECT_SHARE_FOR_PHOTONS: f32 = 0.3;
 
-/// Fraction of the power stored by a small global-photon pilot that arrived after at least one
-/// bounce: how much of what the camera sees on diffuse surfaces is indirect light. Builds the
-/// `accel` (the scene's BVH), traces `PILOT_PHOTONS` photons (milliseconds, deterministic).
-fn indirect_share(scene: &Scene, accel: &Accel) -> f32 {
+/// Share of the light the camera sees on surfaces that is a caustic of a lamp or an emitting
+/// mesh, above which `auto` renders with the caustic map. glass_caustic (3.4 %), the cognac
+/// glass (5.7 %) and the other gallery caustic scenes (5–20 %) lie above; materials.glb
+/// (0.3 %: the sun's caustic under its glass ball, hidden from the camera) and the glass cube
+/// (0.7 %: its caustic is seen only through the glass) below.
+const HARD_CAUSTIC_SHARE_FOR_PHOTONS: f32 = 0.02;
+
+/// What the pilots measure of a scene's light.
+#[derive(Clone, Copy, Debug)]
+struct PilotShares {
+    /// Per-pixel fraction of the reflected light (all but emission seen directly) that is
+    /// indirect, averaged over the pixels of a small path-traced image: relMSE weighs every
+    /// pixel alike, so a window-lit room whose sunny patches carry most of the power but
+    /// cover little of the image counts as indirect-lit.
+    indirect: f32,
+    /// Power of the caustic photons (light → specular+ → diffuse) of lights other than the
+    /// world, as a fraction of the global photons' power, both counted where the camera sees
+    /// them directly: the caustics a path tracer finds only by chance (a small light seen
+    /// through glass) or never (a point, spot or sun light). It finds the world's caustics by
+    /// BSDF sampling, as it finds any sky light. Zero when no mesh is specular.
+    hard_caustic: f32,
+}
+
+/// A test of whether the camera sees a surface point `p` (normal `n`) directly: inside the view
+/// of an image of aspect ratio `aspect` and unoccluded.
+fn seen_by_camera<'a>(
+    scene: &'a Scene,
+    accel: &'a Accel,
+    aspect: f32,
+) -> impl Fn(Vec3, Vec3) -> bool + 'a {
+    use crate::scene::Projection;
+    let camera = &scene.camera;
+    let to_camera = camera.to_world.inverse();
+    let lift = 1e-4 * scene.bounds().diagonal().max(1e-6);
+    move |p: Vec3, n: Vec3| {
+        let q = to_camera.transform_point3(p);
+        let (x, y, eye) = match camera.projection {
+            Projection::Perspective { yfov } => {
+                let h = (0.5 * yfov).tan() * -q.z;
+                (q.x / h, q.y / h, Vec3::ZERO)
+            }
+            Projection::Orthographic { ymag, .. } => {
+                (q.x / ymag, q.y / ymag, q * Vec3::new(1.0, 1.0, 0.0))
+            }
+        };
+        if !(q.z < 0.0) || x.abs() > aspect || y.abs() > 1.0 {
+            return false;
+        }
+        // Lift p off its surface on the eye's side, then test the segment to the eye.
+        let eye = camera.to_world.transform_point3(eye);
+        let from = p + n * (lift * n.dot(eye - p).signum());
+        let ray = crate::accel::Ray {
+            origin: from,
+            direction: eye - from,
+            t_max: 1.0 - 1e-4,
+        };
+        accel.unoccluded(scene, &ray)
+    }
+}
+
+/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`: a
+/// path-traced image of `PILOT_WIDTH` pixels across at `PILOT_SPP`, and, when `caustics`,
+/// `PILOT_PHOTONS` global and as many aimed caustic photons. Milliseconds; deterministic.
+fn pilot_shares(scene: &Scene, accel: &Accel, aspect: f32, caustics: bool) -> PilotShares {
+    use crate::camera::CameraRays;
     use crate::integrator::photon::tracing::{trace_photon, Emitters, Pass};
-    use crate::integrator::Context;
-    use crate::light::Lights;
-    use crate::math::luminance;
+    use crate::integrator::{path, Context, LightPass};
+    use crate::light::{LightSource, Lights};
+    use crate::math::{luminance, Vec2};
+    use crate::photon_map::Photon;
     use crate::rng::Rng;
     let lights = Lights::new(scene);
     let ctx = Context {
@@ -401,27 +469,76 @@ fn indirect_share(scene: &Scene, accel: &Accel) -> f32 {
         max_depth: 16,
         transparent_background: false,
     };
+
+    let height = ((PILOT_WIDTH as f32 / aspect).round() as u32).max(1);
+    let camera = CameraRays::new(&scene.camera, PILOT_WIDTH, height);
+    let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
+    let (mut sum, mut pixels) = (0.0f64, 0u32);
+    for y in 0..height {
+        for x in 0..PILOT_WIDTH {
+            let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
+            for _ in 0..PILOT_SPP {
+                let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
+                let passes = path::trace(&ctx, camera.ray(film), &mut rng).passes;
+                let pass = |p: LightPass| luminance(passes.0[p as usize]) as f64;
+                indirect += pass(LightPass::Indirect);
+                reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
+            }
+            if reflected > 0.0 {
+                sum += indirect / reflected;
+                pixels += 1;
+            }
+        }
+    }
+    let indirect = (sum / pixels.max(1) as f64) as f32;
+
+    let mut hard_caustic = 0.0;
     let emitters = Emitters::new(&ctx);
-    let mut rng = Rng::for_item(0x0f1a_7e57, 0, 0);
-    let mut out = Vec::new();
-    for _ in 0..PILOT_PHOTONS {
-        if let Some((ray, power)) = emitters.emit(&ctx, false, &mut rng) {
-            trace_photon(&ctx, ray, power, Pass::Global, 16, &mut rng, &mut out);
+    if caustics && emitters.has_caustic_targets() {
+        let seen = seen_by_camera(scene, accel, aspect);
+        let power = |photons: &[Photon]| -> f64 {
+            let seen = photons.iter().filter(|p| seen(p.position(), p.normal()));
+            seen.map(|p| luminance(p.power()) as f64).sum()
+        };
+        let mut rng = Rng::for_item(0x0f1a_7e57, 0, 0);
+        let mut photons = Vec::new();
+        for _ in 0..PILOT_PHOTONS {
+            if let Some(e) = emitters.emit(&ctx, false, &mut rng) {
+                trace_photon(
+                    &ctx,
+                    e.ray,
+                    e.power,
+                    Pass::Global,
+                    16,
+                    &mut rng,
+                    &mut photons,
+                );
+            }
+        }
+        let total = power(&photons);
+        photons.clear();
+        for _ in 0..PILOT_PHOTONS {
+            if let Some(e) = emitters.emit(&ctx, true, &mut rng) {
+                if !matches!(lights.sources[e.light], LightSource::World { .. }) {
+                    trace_photon(
+                        &ctx,
+                        e.ray,
+                        e.power,
+                        Pass::Caustic,
+                        16,
+                        &mut rng,
+                        &mut photons,
+                    );
+                }
+            }
+        }
+        if total > 0.0 {
+            hard_caustic = (power(&photons) / total) as f32;
         }
     }
-    let (mut direct, mut indirect) = (0.0f64, 0.0f64);
-    for ph in &out {
-        let v = luminance(ph.power()) as f64;
-        if ph.bounces() == 0 {
-            direct += v;
-        } else {
-            indirect += v;
-        }
-    }
-    if direct + indirect > 0.0 {
-        (indirect / (direct + indirect)) as f32
-    } else {
-        0.0
+    PilotShares {
+        indirect,
+        hard_caustic,
     }
 }
 
@@ -468,37 +585,43 @@ pub fn plan_with_pilot(
             Method::Path,
             "no light: the path tracer only shows emission and background".into(),
         )
-    } else if caustic_map.needed {
-        (
-            Method::Photon,
-            "caustics: the caustic map resolves what path tracing finds only by chance".into(),
-        )
     } else if subsurface.needed {
         (
             Method::Photon,
             "translucent materials: the dipole from subsurface photons is smooth where the path tracer's probe rays are noisy".into(),
         )
-    } else if !global_map.needed {
+    } else if !global_map.needed && !caustic_map.needed {
         (
             Method::Path,
             "no caustics and no indirect light: nothing for photon maps to cache".into(),
         )
     } else if let Some(accel) = pilot {
-        let share = indirect_share(scene, accel);
-        if share >= INDIRECT_SHARE_FOR_PHOTONS {
+        let aspect = width as f32 / height.max(1) as f32;
+        let shares = pilot_shares(scene, accel, aspect, caustic_map.needed);
+        let percent = |x: f32| 100.0 * x;
+        if shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS {
             (
                 Method::Photon,
                 format!(
-                    "{:.0} % of the light a pilot of {PILOT_PHOTONS} photons stores is indirect: the irradiance cache pays off",
-                    100.0 * share
+                    "caustics: {:.1} % of the light the camera sees on surfaces (a pilot of {PILOT_PHOTONS} photons) is focused from lamps or emitting meshes, which path tracing finds only by chance; the caustic map resolves it",
+                    percent(shares.hard_caustic)
+                ),
+            )
+        } else if global_map.needed && shares.indirect >= INDIRECT_SHARE_FOR_PHOTONS {
+            (
+                Method::Photon,
+                format!(
+                    "{:.0} % of the reflected light in a small path-traced pilot image is indirect: the irradiance cache pays off",
+                    percent(shares.indirect)
                 ),
             )
         } else {
             (
                 Method::Path,
                 format!(
-                    "only {:.0} % of the light a pilot of {PILOT_PHOTONS} photons stores is indirect: mostly direct light, where the path tracer is fastest",
-                    100.0 * share
+                    "mostly direct light, where the path tracer is fastest: {:.0} % of the reflected light in a small path-traced pilot image is indirect, {:.1} % of what the camera sees on surfaces is a caustic of lamps or emitting meshes",
+                    percent(shares.indirect),
+                    percent(shares.hard_caustic)
                 ),
             )
         }

@@ -305,8 +305,8 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
             let mut stored = 0;
             for _ in 0..n {
                 let mut out = Vec::new();
-                if let Some((ray, power)) = emitters.emit(&ctx, aimed, &mut rng) {
-                    trace_photon(&ctx, ray, power, Pass::Caustic, 16, &mut rng, &mut out);
+                if let Some(e) = emitters.emit(&ctx, aimed, &mut rng) {
+                    trace_photon(&ctx, e.ray, e.power, Pass::Caustic, 16, &mut rng, &mut out);
                 }
                 let v: f64 = out.iter().map(|p| p.power().x as f64).sum();
                 sum += v;

@@ -361,8 +361,8 @@ fn trace_pass<T: Send + Clone>(
             let n = BATCH.min(count - b * BATCH);
             let mut out = Vec::with_capacity(n as usize * 2);
             for _ in 0..n {
-                if let Some((ray, power)) = emitters.emit(ctx, stream.aimed, &mut rng) {
-                    trace(ray, power * scale, &mut rng, &mut out);
+                if let Some(e) = emitters.emit(ctx, stream.aimed, &mut rng) {
+                    trace(e.ray, e.power * scale, &mut rng, &mut out);
                 }
             }
             // Partial sums never exceed the final count, so whether this fails does not depend

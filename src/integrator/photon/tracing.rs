@@ -45,6 +45,16 @@ pub fn stores_photons(bsdf: &ViewedBsdf) -> bool {
         && (bsdf.roughness() >= SPECULAR_ROUGHNESS || bsdf.diffuse_reflectance() != Vec3::ZERO)
 }
 
+/// One emitted photon.
+pub struct Emitted {
+    /// Its first ray.
+    pub ray: Ray,
+    /// Its power, before dividing by the photon count.
+    pub power: Vec3,
+    /// The light it left: an index into `Lights::sources`.
+    pub light: usize,
+}
+
 /// The lights as photon sources, chosen in proportion to their flux (luminance).
 pub struct Emitters {
     select: Distribution1D,
@@ -109,11 +119,10 @@ impl Emitters {
             .sum()
     }
 
-    /// Emit one photon: its first ray and its power (before dividing by the photon count).
-    /// `aimed` photons (the caustic pass) leave only towards the specular meshes' bounding
-    /// spheres (the parallel rays of the sun and the world: through them), and their power
-    /// divides by that density instead.
-    pub fn emit(&self, ctx: &Context, aimed: bool, rng: &mut Rng) -> Option<(Ray, Vec3)> {
+    /// Emit one photon. `aimed` photons (the caustic pass) leave only towards the specular
+    /// meshes' bounding spheres (the parallel rays of the sun and the world: through them), and
+    /// their power divides by that density instead.
+    pub fn emit(&self, ctx: &Context, aimed: bool, rng: &mut Rng) -> Option<Emitted> {
         let aim = if aimed { self.targets.as_ref() } else { None };
         let (index, pmf) = self.select.sample(rng.uniform())?;
         let (u1, u2) = (rng.uniform2(), rng.uniform2());
@@ -216,7 +225,11 @@ impl Emitters {
             }
         };
         let power = power / pmf;
-        (power.is_finite() && max_component(power) > 0.0).then_some((r, power))
+        (power.is_finite() && max_component(power) > 0.0).then_some(Emitted {
+            ray: r,
+            power,
+            light: index,
+        })
     }
 
     /// The origin of a ray travelling along −`toward` from outside the scene, and the area
