@@ -54,7 +54,10 @@ fn every_scene_plan_is_consistent_with_its_contents() {
         // light (the Cornell box and the furnace); the path tracer for the mostly direct light
         // of lights.glb and of materials.glb, whose only lamp caustic (the sun's, under its
         // glass ball) the camera does not see.
-        let photons = matches!(name, "glass_caustic.glb" | "cornell_box.glb" | "furnace.glb");
+        let photons = matches!(
+            name,
+            "glass_caustic.glb" | "cornell_box.glb" | "furnace.glb"
+        );
         assert_eq!(
             p.method == Method::Photon,
             photons,
