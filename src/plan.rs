@@ -450,10 +450,17 @@ fn seen_by_camera<'a>(
     }
 }
 
-/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`: a
-/// path-traced image of `PILOT_WIDTH` pixels across at `PILOT_SPP`, and, when `caustics`,
-/// `PILOT_PHOTONS` global and as many aimed caustic photons. Milliseconds; deterministic.
-fn pilot_shares(scene: &Scene, accel: &Accel, aspect: f32, caustics: bool) -> PilotShares {
+/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`: when
+/// `global`, a path-traced image of `PILOT_WIDTH` pixels across at `PILOT_SPP` (else the
+/// indirect share is 0); when `caustics`, `PILOT_PHOTONS` global and as many aimed caustic
+/// photons. Milliseconds; deterministic.
+fn pilot_shares(
+    scene: &Scene,
+    accel: &Accel,
+    aspect: f32,
+    global: bool,
+    caustics: bool,
+) -> PilotShares {
     use crate::camera::CameraRays;
     use crate::integrator::photon::tracing::{trace_photon, Emitters, Pass};
     use crate::integrator::{path, Context, LightPass};
@@ -470,7 +477,11 @@ fn pilot_shares(scene: &Scene, accel: &Accel, aspect: f32, caustics: bool) -> Pi
         transparent_background: false,
     };
 
-    let height = ((PILOT_WIDTH as f32 / aspect).round() as u32).max(1);
+    let height = if global {
+        ((PILOT_WIDTH as f32 / aspect).round() as u32).max(1)
+    } else {
+        0
+    };
     let camera = CameraRays::new(&scene.camera, PILOT_WIDTH, height);
     let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
     let (mut sum, mut pixels) = (0.0f64, 0u32);
@@ -597,7 +608,7 @@ pub fn plan_with_pilot(
         )
     } else if let Some(accel) = pilot {
         let aspect = width as f32 / height.max(1) as f32;
-        let shares = pilot_shares(scene, accel, aspect, caustic_map.needed);
+        let shares = pilot_shares(scene, accel, aspect, global_map.needed, caustic_map.needed);
         let percent = |x: f32| 100.0 * x;
         if shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS {
             (
