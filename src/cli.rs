@@ -229,7 +229,7 @@ struct RenderArgs {
     /// Gather rays per irradiance record (split into T x P strata) [default: 256].
     #[arg(long)]
     ic_gather_rays: Option<u32>,
-    /// Smallest radius an irradiance record covers, in pixels [default: 1.5].
+    /// Smallest radius an irradiance record covers, in pixels [default: 3].
     #[arg(long)]
     ic_min_spacing: Option<f32>,
     /// Largest radius an irradiance record covers, in pixels [default: 48].

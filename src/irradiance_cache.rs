@@ -54,7 +54,9 @@ pub struct IcSettings {
     pub accuracy: f32,
     /// Gather rays per record, split into T × P strata (default 256).
     pub gather_rays: u32,
-    /// Smallest radius a record covers, in pixels (default 1.5).
+    /// Smallest radius a record covers, in pixels (default 3: in corners, where Ward's Rᵢ goes
+    /// to zero, records 1.5 px apart cost 40–60 % more records than 3 px for no lower error;
+    /// `photon-ic` at 4–64 spp on the Cornell box, furnace, interior and fractal Cornell box).
     pub min_spacing: f32,
     /// Largest radius a record covers, in pixels (default 48).
     pub max_spacing: f32,
@@ -66,7 +68,7 @@ impl Default for IcSettings {
             enabled: true,
             accuracy: 0.2,
             gather_rays: 256,
-            min_spacing: 1.5,
+            min_spacing: 3.0,
             max_spacing: 48.0,
         }
     }
