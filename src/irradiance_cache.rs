@@ -262,7 +262,17 @@ struct Node {
     center: Vec3,
     half: f32,
     children: [u32; 8],
-    records: Vec<u32>,
+    records: Vec<Extent>,
+}
+
+/// Where a record of a node is valid: its position and squared validity radius (a·Rᵢ)², kept
+/// next to each other so that a lookup rejects the records it is outside of (most of those in a
+/// loose node) without reading the full record.
+#[derive(Clone, Copy, Debug)]
+struct Extent {
+    p: Vec3,
+    radius2: f32,
+    index: u32,
 }
 
 impl Node {
@@ -341,10 +351,15 @@ impl IrradianceCache {
                 new
             };
         }
-        self.nodes[node].records.push(index);
+        self.nodes[node].records.push(Extent {
+            p: record.p,
+            radius2: radius * radius,
+            index,
+        });
     }
 
-    /// Call `f` with every record whose node's loose box holds `p`.
+    /// Call `f` with every record whose validity sphere (radius a·Rᵢ, widened by a relative
+    /// 1e-5 so that rounding never drops one `error` accepts) holds `p`.
     fn visit(&self, p: Vec3, mut f: impl FnMut(&Record)) {
         // Depth-first with a fixed stack: at most 8 children wait per level.
         let mut stack = [0u32; 8 * MAX_DEPTH as usize + 1];
@@ -352,8 +367,10 @@ impl IrradianceCache {
         while top > 0 {
             top -= 1;
             let node = &self.nodes[stack[top] as usize];
-            for &r in &node.records {
-                f(&self.records[r as usize]);
+            for e in &node.records {
+                if (p - e.p).length_squared() <= e.radius2 * (1.0 + 1e-5) {
+                    f(&self.records[e.index as usize]);
+                }
             }
             for &c in &node.children {
                 if c != 0 {
