@@ -257,12 +257,17 @@ pub fn gather_record(
 }
 
 /// Octree node: a cube of half-size `half` around `center`; `children[i]` is 0 when absent.
+/// `reach_min`/`reach_max` bound the validity spheres of every record in the node's subtree: a
+/// lookup enters only the nodes whose reach holds its point, which is much tighter than the loose
+/// box (records lie on surfaces, so a node's reach is thin across a flat wall).
 #[derive(Clone, Debug)]
 struct Node {
     center: Vec3,
     half: f32,
     children: [u32; 8],
     records: Vec<Extent>,
+    reach_min: Vec3,
+    reach_max: Vec3,
 }
 
 /// Where a record of a node is valid: its position and squared validity radius (a·Rᵢ)², kept
@@ -282,6 +287,8 @@ impl Node {
             half,
             children: [0; 8],
             records: Vec::new(),
+            reach_min: Vec3::INFINITY,
+            reach_max: Vec3::NEG_INFINITY,
         }
     }
 }
@@ -328,9 +335,15 @@ impl IrradianceCache {
         let radius = self.accuracy * record.r;
         let index = self.records.len() as u32;
         self.records.push(record);
+        // Slightly widened, as in `visit`, so that rounding never drops a record `error` takes.
+        let reach = radius * (1.0 + 1e-5);
+        let (lo, hi) = (record.p - Vec3::splat(reach), record.p + Vec3::splat(reach));
         let mut node = 0usize;
         for _ in 0..MAX_DEPTH {
-            let (c, half) = (self.nodes[node].center, self.nodes[node].half);
+            let n = &mut self.nodes[node];
+            n.reach_min = n.reach_min.min(lo);
+            n.reach_max = n.reach_max.max(hi);
+            let (c, half) = (n.center, n.half);
             // A child's loose box reaches half a child beyond it: it holds spheres of radius ≤ half/2.
             let inside = (record.p - c).abs().max_element() <= half;
             if !(radius <= 0.5 * half && inside) {
@@ -351,7 +364,10 @@ impl IrradianceCache {
                 new
             };
         }
-        self.nodes[node].records.push(Extent {
+        let n = &mut self.nodes[node];
+        n.reach_min = n.reach_min.min(lo);
+        n.reach_max = n.reach_max.max(hi);
+        n.records.push(Extent {
             p: record.p,
             radius2: radius * radius,
             index,
@@ -375,7 +391,7 @@ impl IrradianceCache {
             for &c in &node.children {
                 if c != 0 {
                     let child = &self.nodes[c as usize];
-                    if (p - child.center).abs().max_element() <= 2.0 * child.half {
+                    if p.cmpge(child.reach_min).all() && p.cmple(child.reach_max).all() {
                         stack[top] = c;
                         top += 1;
                     }
