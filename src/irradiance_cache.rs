@@ -29,7 +29,9 @@
 //! this stops record explosions in corners and splotches from far-seeing records.
 //!
 //! **Spatial index**: a loose octree; a record lives in the deepest node at least as large as its
-//! validity radius a·Rᵢ, and a lookup visits the nodes whose loosened box holds x.
+//! validity radius a·Rᵢ. Each node also keeps the box bounding the validity spheres of its
+//! subtree's records, and a lookup visits only the nodes whose box holds x, testing each record's
+//! sphere before reading the record.
 //!
 //! **Determinism with threads** (`build`): records are placed in a pre-pass over a coarse-to-fine
 //! pixel pattern (every 32nd pixel, then every 16th, ... every pixel). The candidates of a level
