@@ -334,10 +334,16 @@ impl PhotonMap {
         out.heap.clear();
         out.k = k;
         out.radius2 = max_dist2;
-        if k == 0 || self.photons.is_empty() {
+        if k == 0 {
             return;
         }
-        self.locate(0, p.to_array(), out);
+        self.search(p, max_dist2, |index, dist2| {
+            out.offer(Neighbor {
+                dist2,
+                index: index as u32,
+            });
+            out.radius2
+        });
     }
 
     /// The photon nearest to `p` within squared distance `max_dist2` among those `accept`
@@ -350,75 +356,66 @@ impl PhotonMap {
         accept: impl Fn(&Photon, f32) -> bool,
     ) -> Option<(u32, f32)> {
         let mut best = (u32::MAX, max_dist2);
-        if !self.photons.is_empty() {
-            self.locate_accepted(0, p.to_array(), &accept, &mut best);
-        }
+        self.search(p, max_dist2, |index, dist2| {
+            if accept(&self.photons[index], dist2) {
+                best = (index as u32, dist2);
+            }
+            best.1
+        });
         (best.0 != u32::MAX).then_some(best)
     }
 
-    fn locate_accepted(
-        &self,
-        i: usize,
-        p: [f32; 3],
-        accept: &impl Fn(&Photon, f32) -> bool,
-        best: &mut (u32, f32),
-    ) {
-        let ph = &self.photons[i];
-        let left = 2 * i + 1;
-        if left < self.photons.len() {
-            let delta = p[ph.axis()] - ph.position[ph.axis()];
-            let (near, far) = if delta < 0.0 {
-                (left, left + 1)
-            } else {
-                (left + 1, left)
-            };
-            if near < self.photons.len() {
-                self.locate_accepted(near, p, accept, best);
-            }
-            if delta * delta < best.1 && far < self.photons.len() {
-                self.locate_accepted(far, p, accept, best);
-            }
+    /// Jensen's kd-tree search, iterative: every photon closer to `p` than the current squared
+    /// radius is passed to `visit(index, dist2)`, which returns the radius from then on. Each
+    /// node is tested before its subtrees, the near subtree before the far one, and a far
+    /// subtree is skipped when the split plane lies beyond the radius.
+    fn search(&self, p: Vec3, max_dist2: f32, mut visit: impl FnMut(usize, f32) -> f32) {
+        let n = self.photons.len();
+        if n == 0 {
+            return;
         }
-        let d = [
-            ph.position[0] - p[0],
-            ph.position[1] - p[1],
-            ph.position[2] - p[2],
-        ];
-        let dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        if dist2 < best.1 && accept(ph, dist2) {
-            *best = (i as u32, dist2);
-        }
-    }
-
-    fn locate(&self, i: usize, p: [f32; 3], out: &mut Neighbors) {
-        let ph = &self.photons[i];
-        let left = 2 * i + 1;
-        if left < self.photons.len() {
-            let axis = ph.axis();
-            let delta = p[axis] - ph.position[axis];
-            let (near, far) = if delta < 0.0 {
-                (left, left + 1)
-            } else {
-                (left + 1, left)
-            };
-            if near < self.photons.len() {
-                self.locate(near, p, out);
+        let p = p.to_array();
+        let mut radius2 = max_dist2;
+        // (node, squared distance from p to the split plane in front of it). Each level leaves
+        // at most one far subtree waiting, and a tree of fewer than 2³² photons has at most 32
+        // levels.
+        let mut stack = [(0u32, 0.0f32); 34];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let (i, plane2) = stack[top];
+            if plane2 >= radius2 {
+                continue;
             }
-            if delta * delta < out.radius2 && far < self.photons.len() {
-                self.locate(far, p, out);
+            let i = i as usize;
+            let ph = &self.photons[i];
+            let d = [
+                ph.position[0] - p[0],
+                ph.position[1] - p[1],
+                ph.position[2] - p[2],
+            ];
+            let dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            if dist2 < radius2 {
+                radius2 = visit(i, dist2);
             }
-        }
-        let d = [
-            ph.position[0] - p[0],
-            ph.position[1] - p[1],
-            ph.position[2] - p[2],
-        ];
-        let dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        if dist2 < out.radius2 {
-            out.offer(Neighbor {
-                dist2,
-                index: i as u32,
-            });
+            let left = 2 * i + 1;
+            if left < n {
+                let axis = ph.axis();
+                let delta = p[axis] - ph.position[axis];
+                let (near, far) = if delta < 0.0 {
+                    (left, left + 1)
+                } else {
+                    (left + 1, left)
+                };
+                if far < n {
+                    stack[top] = (far as u32, delta * delta);
+                    top += 1;
+                }
+                if near < n {
+                    stack[top] = (near as u32, 0.0);
+                    top += 1;
+                }
+            }
         }
     }
 }
