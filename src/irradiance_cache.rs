@@ -8,7 +8,11 @@
 //! gradient. Rᵢ is also held below twice the nearest hit distance: the harmonic mean lets a
 //! record on a box face reach the floor it stands on, across the non-linear drop where the
 //! face starts to see the box's own shadow (measured: +3.5 % and pixels 2.5× too bright along
-//! the Cornell box's contact at 640 × 480; +0.5 % with the bound, for 2.3× the records). Eᵢ comes from stratified cosine sampling on T × P cells,
+//! the Cornell box's contact at 640 × 480; +0.5 % with the bound, for 2.3× the records). Hits on
+//! a surface facing within ~26° of the record's normal do not count as nearest: on a concave
+//! curved surface (the inside of a sphere or a cove) grazing rays meet the same surface at
+//! distances going to zero, where irradiance changes smoothly (the furnace at 256 px: 749
+//! records for all hits, 112 with this rule, same error). Eᵢ comes from stratified cosine sampling on T × P cells,
 //! θ_t = asin(√((t − ξ)/T)), φ_p = 2π(p − ψ)/P, E ≈ π/(TP) Σ L (every cell has projected solid
 //! angle π/(TP)); T ≈ √(N/π) and P = ⌈N/T⌉ from one "gather rays" setting N.
 //!
@@ -107,6 +111,29 @@ impl IcSettings {
     }
 }
 
+/// What a gather ray brings back.
+#[derive(Clone, Copy, Debug)]
+pub struct Incoming {
+    pub radiance: Vec3,
+    /// Distance to the surface the radiance came from (infinite for none).
+    pub distance: f32,
+    /// That surface's unit normal, on either side (zero for none: counts as an obstacle).
+    pub normal: Vec3,
+}
+
+impl Incoming {
+    /// Nothing hit: no radiance from anything at a finite distance.
+    pub const NONE: Incoming = Incoming {
+        radiance: Vec3::ZERO,
+        distance: f32::INFINITY,
+        normal: Vec3::ZERO,
+    };
+}
+
+/// Cosine above which a gather hit's surface faces the record's way closely enough to count as
+/// the same (curved) surface, not as a nearby obstacle, for the bound Rᵢ ≤ 2 d_min.
+const SAME_SURFACE_COS: f32 = 0.9;
+
 /// Where a record may be placed: a surface point seen through a pixel.
 #[derive(Clone, Copy, Debug)]
 pub struct Site {
@@ -143,8 +170,8 @@ fn add3(a: &mut [Vec3; 3], b: [Vec3; 3]) {
     }
 }
 
-/// Gather a record at `site`: `gather(direction, rng)` returns the radiance arriving along the
-/// world direction and the distance to the surface it came from (infinite for none). Distances
+/// Gather a record at `site`: `gather(direction, rng)` returns what arrives along the world
+/// direction (radiance, distance and normal of the surface it came from). Distances
 /// below the minimum spacing's radius count as that radius, in Rᵢ and in the translation
 /// gradient (a wall met at distance ~0 in a corner would make the gradient explode); `build`
 /// clamps Rᵢ from above.
@@ -152,7 +179,7 @@ pub fn gather_record(
     site: &Site,
     settings: &IcSettings,
     rng: &mut Rng,
-    mut gather: impl FnMut(Vec3, &mut Rng) -> (Vec3, f32),
+    mut gather: impl FnMut(Vec3, &mut Rng) -> Incoming,
 ) -> Record {
     let (nt, np) = settings.strata();
     let (tf, pf) = (nt as f32, np as f32);
@@ -170,7 +197,9 @@ pub fn gather_record(
             let (sin_t, cos_t) = (sin2.sqrt(), (1.0 - sin2).max(0.0).sqrt());
             let phi = 2.0 * PI * (p as f32 + u.y) / pf;
             let local = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-            let (li, di) = gather(frame.to_world(local), rng);
+            let dir = frame.to_world(local);
+            let incoming = gather(dir, rng);
+            let (li, di) = (incoming.radiance, incoming.distance);
             let li = if li.is_finite() {
                 li.max(Vec3::ZERO)
             } else {
@@ -182,7 +211,11 @@ pub fn gather_record(
                 f32::INFINITY
             };
             inv_d += 1.0 / di;
-            d_min = d_min.min(di);
+            // The hit surface's normal on the side facing the record.
+            let facing = incoming.normal * -incoming.normal.dot(dir).signum();
+            if facing.dot(site.n) < SAME_SURFACE_COS {
+                d_min = d_min.min(di);
+            }
             l.push(li);
             d.push(di);
         }
@@ -494,7 +527,7 @@ pub fn build<P: Send>(
     seed: u64,
     bounds: (Vec3, f32),
     find: impl Fn(u32, u32, &mut Rng) -> Option<(Site, P)> + Sync,
-    gather: impl Fn(&P, Vec3, &mut Rng) -> (Vec3, f32) + Sync,
+    gather: impl Fn(&P, Vec3, &mut Rng) -> Incoming + Sync,
     check: impl Fn(f32) -> Result<()>,
 ) -> Result<(IrradianceCache, BuildInfo)> {
     settings.validate()?;
@@ -576,8 +609,10 @@ mod tests {
             footprint: 1e-3,
         };
         let mut rng = Rng::new(3);
-        let rec = gather_record(&site, &IcSettings::default(), &mut rng, |_, _| {
-            (Vec3::splat(2.0), 4.0)
+        let rec = gather_record(&site, &IcSettings::default(), &mut rng, |_, _| Incoming {
+            radiance: Vec3::splat(2.0),
+            distance: 4.0,
+            normal: Vec3::ZERO,
         });
         assert!((rec.e - Vec3::splat(2.0 * PI)).abs().max_element() < 1e-3);
         assert!((rec.r - 4.0).abs() < 1e-3);

@@ -9,7 +9,7 @@ use photon::camera::CameraRays;
 use photon::film::Image;
 use photon::integrator::photon::PhotonSettings;
 use photon::interaction::SurfaceHit;
-use photon::irradiance_cache::{build, gather_record, IcSettings, IrradianceCache, Site};
+use photon::irradiance_cache::{build, gather_record, IcSettings, Incoming, IrradianceCache, Site};
 use photon::light::Lights;
 use photon::material::eval_material;
 use photon::math::{Vec2, Vec3};
@@ -65,7 +65,7 @@ impl GlowBox {
         ))
     }
 
-    fn gather(&self, sh: &SurfaceHit, dir: Vec3) -> (Vec3, f32) {
+    fn gather(&self, sh: &SurfaceHit, dir: Vec3) -> Incoming {
         let ray: Ray = sh.spawn(dir);
         match self
             .accel
@@ -74,9 +74,13 @@ impl GlowBox {
             Some(hit) => {
                 let h = SurfaceHit::new(&self.scene, &ray, &hit);
                 let m = &self.scene.materials[h.material as usize];
-                (eval_material(&self.scene, m, h.uv).base_color, hit.t)
+                Incoming {
+                    radiance: eval_material(&self.scene, m, h.uv).base_color,
+                    distance: hit.t,
+                    normal: h.frame.n,
+                }
             }
-            None => (Vec3::ZERO, f32::INFINITY),
+            None => Incoming::NONE,
         }
     }
 
@@ -164,10 +168,14 @@ fn ceiling_record(p: Vec3, n: Vec3) -> photon::irradiance_cache::Record {
     let mut rng = Rng::new(5);
     gather_record(&site, &ic(0.1, 40_000), &mut rng, |d, _| {
         if d.z <= 0.0 {
-            return (Vec3::ZERO, f32::INFINITY);
+            return Incoming::NONE;
         }
         let t = (1.0 - p.z) / d.z;
-        (Vec3::splat(ceiling_radiance(p + t * d)), t)
+        Incoming {
+            radiance: Vec3::splat(ceiling_radiance(p + t * d)),
+            distance: t,
+            normal: Vec3::NEG_Z,
+        }
     })
 }
 

@@ -31,7 +31,7 @@ use crate::accel::{Ray, Visibility};
 use crate::bsdf::{BsdfSample, ViewedBsdf};
 use crate::camera::CameraRays;
 use crate::error::Result;
-use crate::irradiance_cache::{self, IcSettings, IrradianceCache, Site};
+use crate::irradiance_cache::{self, IcSettings, Incoming, IrradianceCache, Site};
 use crate::math::{max_component, Vec2, Vec3};
 use crate::render::{Progress, ProgressEvent};
 use crate::rng::Rng;
@@ -167,7 +167,7 @@ pub fn build_cache(
     };
     let gather = |s: &Shading, wi: Vec3, rng: &mut Rng| {
         if wi.dot(s.ng) <= 0.0 {
-            return (Vec3::ZERO, f32::INFINITY);
+            return Incoming::NONE;
         }
         match source {
             Source::Photon(maps) => photon::cache_gather(ctx, maps, s, wi, rng),

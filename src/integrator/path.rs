@@ -32,7 +32,7 @@ use super::{CameraSample, Context, LightPass, Passes};
 use crate::accel::{Ray, Visibility};
 use crate::bsdf::Bsdf;
 use crate::interaction::SurfaceHit;
-use crate::irradiance_cache::IrradianceCache;
+use crate::irradiance_cache::{Incoming, IrradianceCache};
 use crate::light::emitted_radiance;
 use crate::material::{eval_material, SurfaceMaterial};
 use crate::math::{max_component, Frame, Vec3};
@@ -160,11 +160,21 @@ pub fn trace_cached(
 }
 
 /// Radiance arriving along `ray` (a gather ray of an irradiance record) without the emission of
-/// the first surface it meets or the world it escapes to, and the distance of that surface.
-pub fn incident_radiance(ctx: &Context, ray: Ray, rng: &mut Rng) -> (Vec3, f32) {
+/// the first surface it meets or the world it escapes to, with that surface's distance and
+/// normal.
+pub fn incident_radiance(ctx: &Context, ray: Ray, rng: &mut Rng) -> Incoming {
     let out = trace_path(ctx, None, ray, rng, true);
-    let distance = if out.hit { out.depth } else { f32::INFINITY };
-    (out.radiance, distance)
+    if !out.hit {
+        return Incoming {
+            radiance: out.radiance,
+            ..Incoming::NONE
+        };
+    }
+    Incoming {
+        radiance: out.radiance,
+        distance: out.depth,
+        normal: out.normal,
+    }
 }
 
 fn trace_path(

@@ -83,7 +83,7 @@ use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
 use crate::error::{Error, Result};
 use crate::interaction::SurfaceHit;
-use crate::irradiance_cache::IrradianceCache;
+use crate::irradiance_cache::{Incoming, IrradianceCache};
 use crate::light::emitted_radiance;
 use crate::material::{eval_material, SurfaceMaterial};
 use crate::math::{max_component, Frame, Vec2, Vec3};
@@ -919,7 +919,7 @@ pub(crate) fn cache_gather(
     s: &Shading,
     wi: Vec3,
     rng: &mut Rng,
-) -> (Vec3, f32) {
+) -> Incoming {
     let mut p2 = Pass2 {
         ctx,
         maps,
@@ -928,15 +928,20 @@ pub(crate) fn cache_gather(
     };
     let ray = s.sh.spawn(wi);
     let Some(hit) = p2.intersect(&ray) else {
-        return (Vec3::ZERO, f32::INFINITY);
+        return Incoming::NONE;
     };
     let d = Shading::new(ctx, &ray, &hit);
+    let normal = d.frame.n;
     let mut unused = Vec3::ZERO;
-    let l = match p2.through_specular(d, Vec3::ZERO, false, &mut unused, rng) {
+    let radiance = match p2.through_specular(d, Vec3::ZERO, false, &mut unused, rng) {
         Some((d, beta)) => beta * p2.gather_estimate(&d),
         None => Vec3::ZERO,
     };
-    (l, hit.t * ray.direction.length())
+    Incoming {
+        radiance,
+        distance: hit.t * ray.direction.length(),
+        normal,
+    }
 }
 
 /// Pass 2 for one camera ray: specular surfaces are ray traced (as the path tracer does, with
