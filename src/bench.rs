@@ -52,8 +52,9 @@ pub struct BenchArgs {
     /// Samples per pixel of the path-traced reference (two halves with seeds 1 and 2).
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
-    /// Runs of each timed render; the fastest counts (renders are deterministic, so the image
-    /// is the same; on a shared machine the minimum is the least disturbed time).
+    /// Runs of each timed render, in rounds over all of a scene's renders; the fastest counts
+    /// (renders are deterministic, so the image is the same; on a shared machine the minimum is
+    /// the least disturbed time).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeats: u32,
     /// The relMSE whose time to reach the report tabulates per method.
@@ -296,13 +297,14 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
     let images = args.out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| io_error(&images, e))?;
     let name = stem(scene_path);
+    // Every (method, budget) render of the scene, with its options.
+    let mut jobs: Vec<(&String, u32, Vec<String>)> = Vec::new();
     for method in &args.methods {
         // Photon mapping has nothing to do in a scene without light.
         if method.starts_with("photon") && !scene_plan.anything_to_trace {
             continue;
         }
         for &budget in &args.budgets {
-            let output = images.join(format!("{name}-{method}-{budget}.exr"));
             let mut extra: Vec<String> = method_options(method)?
                 .iter()
                 .map(|s| s.to_string())
@@ -315,34 +317,49 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
                 "--caustic-photons".into(),
                 (budget as u64 * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
             ]);
-            let mut run = render_child(scene_path, &output, args.threads, size, &extra)?;
-            for _ in 1..args.repeats {
-                let again = render_child(scene_path, &output, args.threads, size, &extra)?;
-                if again.seconds < run.seconds {
-                    run = again;
-                }
-            }
-            let pixels = read_rgba(&output)?;
-            if pixels.len() != reference_pixels.len() {
-                return Err(Error::Internal(format!(
-                    "{} and its reference differ in size",
-                    output.display()
-                )));
-            }
-            let error = compare(&pixels, reference_pixels);
-            eprintln!(
-                "photon bench: {name} {method} budget {budget}: {:.2} s, relMSE {:.5}",
-                run.seconds, error.rel_mse
-            );
-            rows.push(Row {
-                scene: name.clone(),
-                method: method.clone(),
-                budget,
-                seconds: run.seconds,
-                peak_mib: run.peak_mib,
-                error,
-            });
+            jobs.push((method, budget, extra));
         }
+    }
+    let output = |method: &str, budget: u32| images.join(format!("{name}-{method}-{budget}.exr"));
+    // Repeats go round all the renders in turn, so that a slow spell of the shared machine
+    // falls on every method alike rather than on all the repeats of one; the fastest run counts.
+    let mut fastest: Vec<Option<ChildRun>> = jobs.iter().map(|_| None).collect();
+    let rounds = args.repeats.max(1);
+    for round in 1..=rounds {
+        if rounds > 1 {
+            eprintln!("photon bench: {name} round {round} of {rounds}");
+        }
+        for ((method, budget, extra), best) in jobs.iter().zip(&mut fastest) {
+            let out = output(method, *budget);
+            let run = render_child(scene_path, &out, args.threads, size, extra)?;
+            if best.as_ref().is_none_or(|b| run.seconds < b.seconds) {
+                *best = Some(run);
+            }
+        }
+    }
+    for ((method, budget, _), run) in jobs.iter().zip(fastest) {
+        let Some(run) = run else { continue };
+        let out = output(method, *budget);
+        let pixels = read_rgba(&out)?;
+        if pixels.len() != reference_pixels.len() {
+            return Err(Error::Internal(format!(
+                "{} and its reference differ in size",
+                out.display()
+            )));
+        }
+        let error = compare(&pixels, reference_pixels);
+        eprintln!(
+            "photon bench: {name} {method} budget {budget}: {:.2} s, relMSE {:.5}",
+            run.seconds, error.rel_mse
+        );
+        rows.push(Row {
+            scene: name.clone(),
+            method: (*method).clone(),
+            budget: *budget,
+            seconds: run.seconds,
+            peak_mib: run.peak_mib,
+            error,
+        });
     }
     Ok(SceneResult {
         analysis: analyse(rows, &name, args),

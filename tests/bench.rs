@@ -13,11 +13,22 @@ fn bench_writes_results_for_each_method_and_budget() {
         .arg("bench")
         .arg(scene_path("cornell_box.glb"))
         .args(["--budgets", "1,2", "--width", "16", "--height", "16"])
-        .args(["--reference-spp", "16", "--threads", "2", "--out"])
+        .args([
+            "--reference-spp",
+            "16",
+            "--threads",
+            "2",
+            "--repeats",
+            "2",
+            "--out",
+        ])
         .arg(&dir)
         .output()
         .expect("runs");
     assert_success(&result);
+    // Repeats go round all the renders: two rounds, one row per render.
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(stderr.contains("round 2 of 2"), "{stderr}");
     let csv = std::fs::read_to_string(dir.join("results.csv")).expect("results.csv");
     let rows: Vec<&str> = csv.lines().skip(1).collect();
     assert_eq!(rows.len(), 8, "{csv}");
