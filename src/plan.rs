@@ -477,31 +477,31 @@ fn pilot_shares(
         transparent_background: false,
     };
 
-    let height = if global {
-        ((PILOT_WIDTH as f32 / aspect).round() as u32).max(1)
-    } else {
-        0
-    };
-    let camera = CameraRays::new(&scene.camera, PILOT_WIDTH, height);
-    let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
-    let (mut sum, mut pixels) = (0.0f64, 0u32);
-    for y in 0..height {
-        for x in 0..PILOT_WIDTH {
-            let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
-            for _ in 0..PILOT_SPP {
-                let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
-                let passes = path::trace(&ctx, camera.ray(film), &mut rng).passes;
-                let pass = |p: LightPass| luminance(passes.0[p as usize]) as f64;
-                indirect += pass(LightPass::Indirect);
-                reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
-            }
-            if reflected > 0.0 {
-                sum += indirect / reflected;
-                pixels += 1;
+    let indirect = if global {
+        let height = ((PILOT_WIDTH as f32 / aspect).round() as u32).max(1);
+        let camera = CameraRays::new(&scene.camera, PILOT_WIDTH, height);
+        let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
+        let (mut sum, mut pixels) = (0.0f64, 0u32);
+        for y in 0..height {
+            for x in 0..PILOT_WIDTH {
+                let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
+                for _ in 0..PILOT_SPP {
+                    let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
+                    let passes = path::trace(&ctx, camera.ray(film), &mut rng).passes;
+                    let pass = |p: LightPass| luminance(passes.0[p as usize]) as f64;
+                    indirect += pass(LightPass::Indirect);
+                    reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
+                }
+                if reflected > 0.0 {
+                    sum += indirect / reflected;
+                    pixels += 1;
+                }
             }
         }
-    }
-    let indirect = (sum / pixels.max(1) as f64) as f32;
+        (sum / pixels.max(1) as f64) as f32
+    } else {
+        0.0
+    };
 
     let mut hard_caustic = 0.0;
     let emitters = Emitters::new(&ctx);
