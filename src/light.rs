@@ -80,8 +80,9 @@ pub struct Lights {
     select: Distribution1D,
     /// For each mesh, the index of its first triangle light (triangle lights are contiguous).
     mesh_first_light: Vec<Option<u32>>,
-    /// Some mesh emits (checked per camera sample by the photon method, so kept, not searched).
-    emitting_triangles: bool,
+    /// Some light can be met by a ray: an emitting mesh, the world or a sun with a disk
+    /// (checked per camera sample by the photon method, so kept, not searched).
+    hittable: bool,
     world: Option<u32>,
     environment: Option<EnvironmentLight>,
     suns: Vec<u32>,
@@ -246,10 +247,13 @@ impl Lights {
             sources.push(LightSource::World { radiance });
             power.push(PI * PI * luminance(radiance) * scene_radius * scene_radius);
         }
+        let soft_sun = suns.iter().any(
+            |&s| matches!(sources[s as usize], LightSource::Sun { cos_max, .. } if cos_max < 1.0),
+        );
         Lights {
+            hittable: mesh_first_light.iter().any(Option::is_some) || world.is_some() || soft_sun,
             sources,
             select: Distribution1D::new(&power),
-            emitting_triangles: mesh_first_light.iter().any(Option::is_some),
             mesh_first_light,
             world,
             environment,
@@ -263,9 +267,10 @@ impl Lights {
         self.select.is_empty()
     }
 
-    /// True when some mesh emits: its triangles are lights that rays can also hit.
-    pub fn has_emitting_triangles(&self) -> bool {
-        self.emitting_triangles
+    /// True when a ray can meet some light (an emitting mesh, the world, a sun with a disk),
+    /// so that BSDF sampling can find what light sampling also does.
+    pub fn hittable(&self) -> bool {
+        self.hittable
     }
 
     /// A point far enough along `dir` from `p` to be outside the scene: the end of shadow rays

@@ -768,11 +768,14 @@ impl Pass2<'_> {
 
     /// Direct light at `s` when no final-gather ray leaves it (its indirect light is cached):
     /// light sampling alone has unbounded variance where an emitting mesh meets the surface
-    /// at a concave corner (the 1/d² of nearby light samples), so with emitting triangles in
-    /// the scene one BSDF-sampled ray adds the emission it finds and both are MIS-weighted, as
-    /// in the path tracer. Scenes lit only by lamps and the world keep light sampling alone.
+    /// at a concave corner (the 1/d² of nearby light samples), and speckles where a small
+    /// opening shows the world (most of its samples blocked, the few through it weighted by
+    /// the inverse of the world's small share of the samples). So wherever a ray can meet a
+    /// light, one BSDF-sampled ray adds the emission it finds and both are MIS-weighted, as in
+    /// the path tracer. Scenes lit only by point, spot and sharp sun lamps keep light sampling
+    /// alone.
     fn direct_without_gather(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
-        if !self.ctx.lights.has_emitting_triangles() {
+        if !self.ctx.lights.hittable() {
             return self.direct(s, false, rng);
         }
         let mut l = self.direct(s, true, rng);
