@@ -8,7 +8,7 @@ use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
 use photon::passes::{render_in_passes, PassesResult};
-use photon::plan::{cache_pays_off, plan_for_image, plan_with_pilot, Quality};
+use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Quality};
 use photon::render::{Method, Progress, ProgressEvent, RenderSettings, RenderStats};
 use photon::scene::gltf::{load, LoadOptions};
 use photon::scene::{builtin, Projection, Scene};
@@ -235,6 +235,11 @@ struct RenderArgs {
     /// Largest radius an irradiance record covers, in pixels [default: 48].
     #[arg(long)]
     ic_max_spacing: Option<f32>,
+    /// Gather rays per pixel the irradiance cache may cost; the build stops before passing
+    /// them and points no record covers use plain final gathering [auto: the final gather's
+    /// rays at the render's samples per pixel; otherwise no limit].
+    #[arg(long, value_name = "RAYS")]
+    ic_ray_budget: Option<f32>,
 }
 
 impl RenderArgs {
@@ -247,6 +252,7 @@ impl RenderArgs {
             gather_rays: self.ic_gather_rays.unwrap_or(d.gather_rays),
             min_spacing: self.ic_min_spacing.unwrap_or(d.min_spacing),
             max_spacing: self.ic_max_spacing.unwrap_or(d.max_spacing),
+            max_rays_per_pixel: self.ic_ray_budget,
         };
         ic.validate()?;
         Ok(ic)
@@ -440,6 +446,19 @@ fn run_render(args: RenderArgs) -> Result<()> {
         (None, Some(_)) => TIME_LIMITED_MAX_SPP,
         (None, None) => plan.spp,
     };
+    let photon = if args.method == MethodArg::Auto {
+        // Explicit counts override the plan's, but maps the plan skips stay skipped.
+        let mut photon = args.photon_settings(&plan.photon)?;
+        if !plan.global_map.needed {
+            photon.global_photons = 0;
+        }
+        if !plan.caustic_map.needed {
+            photon.caustic_photons = 0;
+        }
+        photon
+    } else {
+        args.photon_settings(&PhotonSettings::default())?
+    };
     let settings = RenderSettings {
         width,
         height,
@@ -458,11 +477,14 @@ fn run_render(args: RenderArgs) -> Result<()> {
             MethodArg::IcRecords => Method::IcRecords,
         },
         irradiance_cache: IcSettings {
-            // Auto leaves the cache out where too few samples amortise it (`plan.rs`); a
-            // time-limited render, whose samples are not known in advance, keeps it.
-            enabled: match (args.method, args.irradiance_cache, time_limit) {
-                (MethodArg::Auto, None, None) => cache_pays_off(spp),
-                _ => ic_settings.enabled,
+            // Auto holds the cache to the rays final gathering would spend at this many samples
+            // (`plan.rs`); a time-limited render, whose samples are not known in advance, and
+            // the explicit methods build it whole.
+            max_rays_per_pixel: match (args.method, time_limit) {
+                (MethodArg::Auto, None) => ic_settings
+                    .max_rays_per_pixel
+                    .or(Some(cache_ray_budget(spp, photon.gather_rays))),
+                _ => ic_settings.max_rays_per_pixel,
             },
             ..ic_settings
         },
@@ -472,19 +494,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
             x1: r[2],
             y1: r[3],
         }),
-        photon: if args.method == MethodArg::Auto {
-            // Explicit counts override the plan's, but maps the plan skips stay skipped.
-            let mut photon = args.photon_settings(&plan.photon)?;
-            if !plan.global_map.needed {
-                photon.global_photons = 0;
-            }
-            if !plan.caustic_map.needed {
-                photon.caustic_photons = 0;
-            }
-            photon
-        } else {
-            args.photon_settings(&PhotonSettings::default())?
-        },
+        photon,
         light_passes: args.passes,
     };
 
@@ -614,12 +624,21 @@ fn summarise(
             json_line(serde_json::json!({
                 "stage": "cache", "fraction": 1.0, "message": "irradiance cache built",
                 "stats": {"records": c.records, "seconds": c.seconds,
-                          "strata": [c.strata.0, c.strata.1]}
+                          "strata": [c.strata.0, c.strata.1],
+                          "budget_reached": c.budget_reached}
             }));
         } else {
             eprintln!(
-                "photon: irradiance cache: {} records ({} x {} gather rays) in {:.3} s",
-                c.records, c.strata.0, c.strata.1, c.seconds
+                "photon: irradiance cache: {} records ({} x {} gather rays) in {:.3} s{}",
+                c.records,
+                c.strata.0,
+                c.strata.1,
+                c.seconds,
+                if c.budget_reached {
+                    ", stopped at its ray budget (other points gather)"
+                } else {
+                    ""
+                }
             );
         }
     }

@@ -41,6 +41,8 @@
 //! pixel pattern (every 32nd pixel, then every 16th, ... every pixel). The candidates of a level
 //! are tested in parallel against the read-only cache of the previous levels; uncovered ones
 //! compute a record from their own random stream; the new records are inserted in pixel order.
+//! A ray budget (`max_rays_per_pixel`) is checked per level, on the count of uncovered
+//! candidates before any of them gathers: the cache holds whole levels only.
 //! Rendering then only reads the cache. A shading point no record covers returns `None`, and the
 //! integrator computes that point without the cache (plain final gather or path tracing) and
 //! stores nothing, so the image never depends on thread timing.
@@ -66,6 +68,10 @@ pub struct IcSettings {
     pub min_spacing: f32,
     /// Largest radius a record covers, in pixels (default 48).
     pub max_spacing: f32,
+    /// Gather rays per pixel of the frame the whole cache may cost; the build stops before a
+    /// level whose new records would pass it, and points no record covers are shaded without
+    /// the cache (`None`: no limit).
+    pub max_rays_per_pixel: Option<f32>,
 }
 
 impl Default for IcSettings {
@@ -76,6 +82,7 @@ impl Default for IcSettings {
             gather_rays: 256,
             min_spacing: 3.0,
             max_spacing: 48.0,
+            max_rays_per_pixel: None,
         }
     }
 }
@@ -99,6 +106,13 @@ impl IcSettings {
             return Err(Error::Settings(format!(
                 "--ic-min-spacing ({lo}) and --ic-max-spacing ({hi}) must be positive with min <= max"
             )));
+        }
+        if let Some(budget) = self.max_rays_per_pixel {
+            if !(budget >= 0.0) {
+                return Err(Error::Settings(format!(
+                    "the cache's ray budget must be at least 0 rays per pixel, not {budget}"
+                )));
+            }
         }
         Ok(())
     }
@@ -486,6 +500,8 @@ pub struct BuildInfo {
     pub levels: u32,
     /// Candidate pixels examined over all levels.
     pub candidates: usize,
+    /// The build stopped early at `max_rays_per_pixel`.
+    pub budget_reached: bool,
 }
 
 /// Clamp a record's Rᵢ so that it covers between the minimum and maximum spacing in pixels, and
@@ -538,27 +554,43 @@ pub fn build<P: Send>(
         step /= 2;
     }
     let levels = step.trailing_zeros() + 1;
+    let budget = settings
+        .max_rays_per_pixel
+        .map_or(f64::INFINITY, |r| r as f64 * width as f64 * height as f64);
+    let mut rays_spent = 0.0;
     loop {
         check(info.levels as f32 / levels as f32)?;
         let (nx, ny) = (width.div_ceil(step), height.div_ceil(step));
         let cache_ref = &cache;
-        let new: Vec<Record> = (0..nx * ny)
+        // The level's uncovered sites first, so that its cost is known before any ray is
+        // gathered; each keeps its random stream for the gather.
+        let sites: Vec<(Site, P, Rng)> = (0..nx * ny)
             .into_par_iter()
             .filter_map(|i| {
                 let (x, y) = (i % nx * step, i / nx * step);
                 let mut rng = Rng::for_item(seed ^ 0x1c_ca5e, (y * width + x) as u64, 0);
                 let (site, data) = find(x, y, &mut rng)?;
-                if cache_ref.lookup(site.p, site.n).is_some() {
-                    return None;
-                }
+                let covered = cache_ref.lookup(site.p, site.n).is_some();
+                (!covered).then_some((site, data, rng))
+            })
+            .collect();
+        info.candidates += (nx * ny) as usize;
+        let cost = sites.len() as f64 * settings.gather_rays as f64;
+        if rays_spent + cost > budget {
+            info.budget_reached = true;
+            break;
+        }
+        rays_spent += cost;
+        let new: Vec<Record> = sites
+            .into_par_iter()
+            .map(|(site, data, mut rng)| {
                 let mut rec = gather_record(&site, settings, &mut rng, |dir, rng| {
                     gather(&data, dir, rng)
                 });
                 clamp_radius(&mut rec, settings);
-                Some(rec)
+                rec
             })
             .collect();
-        info.candidates += (nx * ny) as usize;
         info.levels += 1;
         for rec in new {
             cache.insert(rec);

@@ -223,6 +223,43 @@ fn gradients_match_finite_differences() {
 }
 
 #[test]
+fn a_ray_budget_keeps_the_first_levels_whole() {
+    let scene = GlowBox::new();
+    let full = scene.cache(&ic(0.2, 64));
+    let bounds = Lights::new(&scene.scene).scene_sphere();
+    let find = |x: u32, y: u32, _: &mut Rng| scene.site(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+    let gather = |sh: &SurfaceHit, dir: Vec3, _: &mut Rng| scene.gather(sh, dir);
+    let pixels = (SIZE * SIZE) as f32;
+    // A budget of a third of the full cache's rays.
+    let budget = full.len() as f32 * 64.0 / pixels / 3.0;
+    let settings = IcSettings {
+        max_rays_per_pixel: Some(budget),
+        ..ic(0.2, 64)
+    };
+    let (cache, info) =
+        build(SIZE, SIZE, &settings, 7, bounds, find, gather, |_| Ok(())).expect("build");
+    assert!(info.budget_reached && info.levels < 6, "{info:?}");
+    assert!(!cache.is_empty());
+    assert!(
+        cache.len() as f32 * 64.0 <= budget * pixels,
+        "{} records",
+        cache.len()
+    );
+    // Whole levels: the records are the full cache's first ones, bit for bit.
+    for (a, b) in cache.records().iter().zip(full.records()) {
+        assert_eq!(a, b);
+    }
+    // A zero budget builds nothing.
+    let none = IcSettings {
+        max_rays_per_pixel: Some(0.0),
+        ..ic(0.2, 64)
+    };
+    let (cache, info) =
+        build(SIZE, SIZE, &none, 7, bounds, find, gather, |_| Ok(())).expect("build");
+    assert!(cache.is_empty() && info.budget_reached && info.levels == 0);
+}
+
+#[test]
 fn record_count_grows_as_accuracy_tightens() {
     let scene = GlowBox::new();
     let coarse = scene.cache(&ic(0.2, 64)).len();

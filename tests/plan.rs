@@ -174,23 +174,37 @@ fn an_explicit_method_skips_the_photon_pilot() {
 }
 
 #[test]
-fn auto_builds_the_irradiance_cache_only_from_a_few_samples_per_pixel() {
+fn auto_holds_the_irradiance_cache_to_the_final_gathers_rays() {
+    // The Cornell box's corners need many records: at 1 spp they would cost far more rays than
+    // final gathering, so the build stops early; at 16 spp it completes. The furnace needs few
+    // records and completes even at 1 spp.
     let dir = temp_dir("auto-cache");
-    for (spp, cached) in [(1, false), (photon::plan::MIN_SPP_FOR_CACHE, true)] {
+    for (name, spp, stopped) in [
+        ("cornell_box.glb", 1, true),
+        ("cornell_box.glb", 16, false),
+        ("furnace.glb", 1, false),
+    ] {
         let result = photon()
             .arg("render")
-            .arg(scene_path("cornell_box.glb"))
-            .args(["--width", "16", "--height", "16", "--photons", "2000"])
+            .arg(scene_path(name))
+            .args(["--width", "96", "--height", "96", "--photons", "2000"])
             .args(["--spp", &spp.to_string(), "--progress", "json", "-o"])
-            .arg(dir.join(format!("{spp}.exr")))
+            .arg(dir.join(format!("{name}-{spp}.exr")))
             .output()
             .expect("runs");
         assert_success(&result);
         let stderr = String::from_utf8_lossy(&result.stderr);
-        let built = stderr
+        let cache = stderr
             .lines()
             .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-            .any(|v| v["stage"] == "cache");
-        assert_eq!(built, cached, "{spp} spp: {stderr}");
+            .find(|v| v["stage"] == "cache" && v["stats"].is_object())
+            .unwrap_or_else(|| panic!("{name} {spp} spp: no cache statistics in {stderr}"));
+        let records = cache["stats"]["records"].as_u64().expect("records");
+        assert!(records > 0, "{name} {spp} spp: no records");
+        assert_eq!(
+            cache["stats"]["budget_reached"].as_bool(),
+            Some(stopped),
+            "{name} {spp} spp: {records} records"
+        );
     }
 }

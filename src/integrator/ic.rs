@@ -69,6 +69,8 @@ pub struct IcInfo {
     pub seconds: f64,
     /// Strata per record (T × P).
     pub strata: (u32, u32),
+    /// The build stopped at its ray budget (`IcSettings::max_rays_per_pixel`).
+    pub budget_reached: bool,
 }
 
 /// ρ of a Lambertian opaque BSDF (the surfaces the cache serves), `None` for any other.
@@ -190,6 +192,7 @@ pub fn build_cache(
         records: built.records,
         seconds: start.elapsed().as_secs_f64(),
         strata: settings.strata(),
+        budget_reached: built.budget_reached,
     };
     Ok((cache, info))
 }
