@@ -439,7 +439,13 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let accel = (args.method == MethodArg::Auto).then(|| pool.install(|| Accel::new(&scene)));
     let pilot_build_seconds = start.elapsed().as_secs_f64();
-    let plan = plan_with_pilot(&scene, quality, width, height, accel.as_ref());
+    let plan = plan_with_pilot(
+        &scene,
+        quality,
+        width,
+        height,
+        accel.as_ref().map(|a| (a, args.spp)),
+    );
     let ic_settings = args.ic_settings()?;
     let spp = match (args.spp, time_limit) {
         (Some(spp), _) => spp,

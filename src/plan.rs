@@ -382,13 +382,26 @@ pub fn cache_ray_budget(spp: u32, gather_rays: u32) -> f32 {
     CACHE_RAYS_PER_GATHER_RAY * spp as f32 * gather_rays as f32
 }
 
-/// Photons of each of the caustic pilot's two passes (global, and aimed at the specular meshes).
+/// The pilots at full size: photons of each of the caustic pilot's two passes (global, and
+/// aimed at the specular meshes), and the path-traced image's width in pixels (the height
+/// follows the aspect ratio) and samples per pixel: 4096 paths for a square image.
 const PILOT_PHOTONS: u32 = 4096;
-
-/// The path-traced pilot image: width in pixels (the height follows the aspect ratio) and
-/// samples per pixel, about 3000 paths.
 const PILOT_WIDTH: u32 = 32;
 const PILOT_SPP: u32 = 4;
+
+/// The pilots shrink on small renders, to about this many of the render's camera samples per
+/// pilot path or photon, down to `MIN_PILOT_SCALE` of their full size: at full size they cost
+/// about a quarter of a 128-pixel render at 1 spp (the furnace: 0.05 s of 0.20 s). At a quarter
+/// (1024 paths and photons) the shares still decide every scene in scenes/ and the gallery as
+/// at full size (tests/plan.rs).
+const RENDER_SAMPLES_PER_PILOT_SAMPLE: f32 = 32.0;
+const MIN_PILOT_SCALE: f32 = 0.25;
+
+/// The fraction of the full pilots run for a render of `render_samples` camera samples.
+fn pilot_scale(render_samples: u64) -> f32 {
+    let full = (PILOT_WIDTH * PILOT_WIDTH * PILOT_SPP) as f32;
+    (render_samples as f32 / (RENDER_SAMPLES_PER_PILOT_SAMPLE * full)).clamp(MIN_PILOT_SCALE, 1.0)
+}
 
 /// Share of the pilot image's reflected light that is indirect (averaged over pixels) above
 /// which `auto` picks photon mapping with the irradiance cache. Measured with `photon bench`
@@ -418,6 +431,8 @@ struct PilotShares {
     /// through glass) or never (a point, spot or sun light). It finds the world's caustics by
     /// BSDF sampling, as it finds any sky light. Zero when no mesh is specular.
     hard_caustic: f32,
+    /// Photons of each caustic pilot pass.
+    photons: u32,
 }
 
 /// A test of whether the camera sees a surface point `p` (normal `n`) directly: inside the view
@@ -457,16 +472,16 @@ fn seen_by_camera<'a>(
     }
 }
 
-/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`: when
-/// `global`, a path-traced image of `PILOT_WIDTH` pixels across at `PILOT_SPP` (else the
-/// indirect share is 0); when `caustics`, `PILOT_PHOTONS` global and as many aimed caustic
-/// photons. Milliseconds; deterministic.
+/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`, at
+/// `scale` of their full size: when `global`, a path-traced image of `PILOT_WIDTH` pixels
+/// across at `PILOT_SPP` (else the indirect share is 0); when `caustics`, `PILOT_PHOTONS`
+/// global and as many aimed caustic photons. Milliseconds; deterministic.
 fn pilot_shares(
     scene: &Scene,
     accel: &Accel,
     aspect: f32,
-    global: bool,
-    caustics: bool,
+    scale: f32,
+    (global, caustics): (bool, bool),
 ) -> PilotShares {
     use crate::camera::CameraRays;
     use crate::integrator::photon::tracing::{trace_photon, Emitters, Pass};
@@ -484,13 +499,15 @@ fn pilot_shares(
         transparent_background: false,
     };
 
+    let width = (PILOT_WIDTH as f32 * scale.sqrt()).round().max(1.0) as u32;
+    let photon_count = (PILOT_PHOTONS as f32 * scale).round() as u32;
     let indirect = if global {
-        let height = ((PILOT_WIDTH as f32 / aspect).round() as u32).max(1);
-        let camera = CameraRays::new(&scene.camera, PILOT_WIDTH, height);
+        let height = ((width as f32 / aspect).round() as u32).max(1);
+        let camera = CameraRays::new(&scene.camera, width, height);
         let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
         let (mut sum, mut pixels) = (0.0f64, 0u32);
         for y in 0..height {
-            for x in 0..PILOT_WIDTH {
+            for x in 0..width {
                 let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
                 for _ in 0..PILOT_SPP {
                     let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
@@ -520,7 +537,7 @@ fn pilot_shares(
         };
         let mut rng = Rng::for_item(0x0f1a_7e57, 0, 0);
         let mut photons = Vec::new();
-        for _ in 0..PILOT_PHOTONS {
+        for _ in 0..photon_count {
             if let Some(e) = emitters.emit(&ctx, false, &mut rng) {
                 trace_photon(
                     &ctx,
@@ -535,7 +552,7 @@ fn pilot_shares(
         }
         let total = power(&photons);
         photons.clear();
-        for _ in 0..PILOT_PHOTONS {
+        for _ in 0..photon_count {
             if let Some(e) = emitters.emit(&ctx, true, &mut rng) {
                 if !matches!(lights.sources[e.light], LightSource::World { .. }) {
                     trace_photon(
@@ -557,6 +574,7 @@ fn pilot_shares(
     PilotShares {
         indirect,
         hard_caustic,
+        photons: photon_count,
     }
 }
 
@@ -567,19 +585,21 @@ pub fn plan(scene: &Scene, quality: Quality) -> Plan {
 
 /// The plan for an image of `width`×`height` pixels (which only the memory estimate uses).
 pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) -> Plan {
-    plan_with_pilot(scene, quality, width, height, Some(&Accel::new(scene)))
+    let accel = Accel::new(scene);
+    plan_with_pilot(scene, quality, width, height, Some((&accel, None)))
 }
 
-/// `plan_for_image`, with the photon pilot traced through `pilot`, the scene's BVH (built once
-/// and shared with the render: a second of start-up on a million triangles). Without it the auto
-/// method is not measured where it would need the pilot: for renders whose method is given
-/// explicitly.
+/// `plan_for_image`, with the pilots traced through `pilot`: the scene's BVH (built once and
+/// shared with the render: a second of start-up on a million triangles) and the render's
+/// samples per pixel when given (else the quality preset's), which size the pilots. Without it
+/// the auto method is not measured where it would need the pilots: for renders whose method is
+/// given explicitly.
 pub fn plan_with_pilot(
     scene: &Scene,
     quality: Quality,
     width: u32,
     height: u32,
-    pilot: Option<&Accel>,
+    pilot: Option<(&Accel, Option<u32>)>,
 ) -> Plan {
     let summary = summarise(scene);
     let anything_to_trace = summary.lights.any();
@@ -613,16 +633,24 @@ pub fn plan_with_pilot(
             Method::Path,
             "no caustics and no indirect light: nothing for photon maps to cache".into(),
         )
-    } else if let Some(accel) = pilot {
+    } else if let Some((accel, spp)) = pilot {
         let aspect = width as f32 / height.max(1) as f32;
-        let shares = pilot_shares(scene, accel, aspect, global_map.needed, caustic_map.needed);
+        let samples = width as u64 * height as u64 * spp.unwrap_or(quality.spp()) as u64;
+        let shares = pilot_shares(
+            scene,
+            accel,
+            aspect,
+            pilot_scale(samples),
+            (global_map.needed, caustic_map.needed),
+        );
         let percent = |x: f32| 100.0 * x;
         if shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS {
             (
                 Method::Photon,
                 format!(
-                    "caustics: {:.1} % of the light the camera sees on surfaces (a pilot of {PILOT_PHOTONS} photons) is focused from lamps or emitting meshes, which path tracing finds only by chance; the caustic map resolves it",
-                    percent(shares.hard_caustic)
+                    "caustics: {:.1} % of the light the camera sees on surfaces (a pilot of {} photons) is focused from lamps or emitting meshes, which path tracing finds only by chance; the caustic map resolves it",
+                    percent(shares.hard_caustic),
+                    shares.photons
                 ),
             )
         } else if global_map.needed && shares.indirect >= INDIRECT_SHARE_FOR_PHOTONS {

@@ -169,7 +169,7 @@ fn an_explicit_method_skips_the_photon_pilot() {
         p.method_reason
     );
     let accel = photon::accel::Accel::new(&scene);
-    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, Some(&accel));
+    let p = photon::plan::plan_with_pilot(&scene, Quality::Default, 64, 64, Some((&accel, None)));
     assert!(p.method_reason.contains("pilot"), "{}", p.method_reason);
 }
 
@@ -207,4 +207,52 @@ fn auto_holds_the_irradiance_cache_to_the_final_gathers_rays() {
             "{name} {spp} spp: {records} records"
         );
     }
+}
+
+#[test]
+fn the_smallest_pilots_choose_as_the_full_ones() {
+    // A 64 × 64 render at 1 spp runs the pilots at their smallest (a quarter of full size);
+    // every shipped scene must get the same method as from the full pilots.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut count = 0;
+    for dir in ["scenes", "scenes/gallery", "scenes/blender"] {
+        for entry in std::fs::read_dir(root.join(dir)).expect("scene folder") {
+            let path = entry.expect("entry").path();
+            if path.extension().and_then(|e| e.to_str()) != Some("glb") {
+                continue;
+            }
+            let scene = load(&path, &LoadOptions::default()).expect("scene loads");
+            let accel = photon::accel::Accel::new(&scene);
+            let full = photon::plan::plan_with_pilot(
+                &scene,
+                Quality::Default,
+                64,
+                64,
+                Some((&accel, None)),
+            );
+            let small = photon::plan::plan_with_pilot(
+                &scene,
+                Quality::Default,
+                64,
+                64,
+                Some((&accel, Some(1))),
+            );
+            println!(
+                "{}: {} | {}",
+                path.display(),
+                full.method_reason,
+                small.method_reason
+            );
+            assert_eq!(
+                full.method,
+                small.method,
+                "{}: full pilots: {}; smallest: {}",
+                path.display(),
+                full.method_reason,
+                small.method_reason
+            );
+            count += 1;
+        }
+    }
+    assert!(count >= 10, "{count} scenes");
 }
