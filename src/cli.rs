@@ -236,9 +236,10 @@ struct RenderArgs {
     #[arg(long)]
     ic_max_spacing: Option<f32>,
     /// Gather rays per pixel the irradiance cache may cost; the build stops before passing
-    /// them and points no record covers use plain final gathering [auto: the final gather's
-    /// rays at the render's samples per pixel; otherwise no limit].
-    #[arg(long, value_name = "RAYS")]
+    /// them and points no record covers are shaded as without the cache [auto: the final
+    /// gather's rays at the render's samples per pixel, unless --irradiance-cache is given or
+    /// a time limit leaves the samples open; otherwise no limit].
+    #[arg(long, value_name = "RAYS", allow_negative_numbers = true)]
     ic_ray_budget: Option<f32>,
 }
 
@@ -484,13 +485,18 @@ fn run_render(args: RenderArgs) -> Result<()> {
         },
         irradiance_cache: IcSettings {
             // Auto holds the cache to the rays final gathering would spend at this many samples
-            // (`plan.rs`); a time-limited render, whose samples are not known in advance, and
-            // the explicit methods build it whole.
-            max_rays_per_pixel: match (args.method, time_limit) {
-                (MethodArg::Auto, None) => ic_settings
-                    .max_rays_per_pixel
-                    .or(Some(cache_ray_budget(spp, photon.gather_rays))),
-                _ => ic_settings.max_rays_per_pixel,
+            // (`plan.rs`) unless the cache or its budget was asked for; a render whose samples
+            // are not known in advance (a time limit without --spp) and the explicit methods
+            // build it whole.
+            max_rays_per_pixel: match ic_settings.max_rays_per_pixel {
+                Some(budget) => Some(budget),
+                None if args.method == MethodArg::Auto
+                    && args.irradiance_cache.is_none()
+                    && (args.spp.is_some() || time_limit.is_none()) =>
+                {
+                    Some(cache_ray_budget(spp, photon.gather_rays))
+                }
+                None => None,
             },
             ..ic_settings
         },
@@ -641,7 +647,7 @@ fn summarise(
                 c.strata.1,
                 c.seconds,
                 if c.budget_reached {
-                    ", stopped at its ray budget (other points gather)"
+                    ", stopped at its ray budget (points no record covers are shaded without it)"
                 } else {
                     ""
                 }

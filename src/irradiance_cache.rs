@@ -110,7 +110,7 @@ impl IcSettings {
         if let Some(budget) = self.max_rays_per_pixel {
             if !(budget >= 0.0) {
                 return Err(Error::Settings(format!(
-                    "the cache's ray budget must be at least 0 rays per pixel, not {budget}"
+                    "--ic-ray-budget must be at least 0 rays per pixel, not {budget}"
                 )));
             }
         }
@@ -534,7 +534,8 @@ fn clamp_radius(rec: &mut Record, settings: &IcSettings) {
 /// `find(x, y, rng)` returns the site seen through pixel (x, y) with the caller's surface data
 /// `P`, `gather(data, direction, rng)` the radiance along a direction and its distance;
 /// `check` is called before each level and at the end, and stops the build on error
-/// (cancellation; `find` may return `None` meanwhile to finish a level quickly).
+/// (cancellation; `find` may return `None` and `gather` `Incoming::NONE` meanwhile to finish a
+/// level quickly).
 #[allow(clippy::too_many_arguments)]
 pub fn build<P: Send>(
     width: u32,
@@ -557,6 +558,8 @@ pub fn build<P: Send>(
     let budget = settings
         .max_rays_per_pixel
         .map_or(f64::INFINITY, |r| r as f64 * width as f64 * height as f64);
+    let (t, p) = settings.strata();
+    let rays_per_record = (t * p) as f64;
     let mut rays_spent = 0.0;
     loop {
         check(info.levels as f32 / levels as f32)?;
@@ -575,7 +578,7 @@ pub fn build<P: Send>(
             })
             .collect();
         info.candidates += (nx * ny) as usize;
-        let cost = sites.len() as f64 * settings.gather_rays as f64;
+        let cost = sites.len() as f64 * rays_per_record;
         if rays_spent + cost > budget {
             info.budget_reached = true;
             break;

@@ -635,7 +635,8 @@ pub fn plan_with_pilot(
         )
     } else if let Some((accel, spp)) = pilot {
         let aspect = width as f32 / height.max(1) as f32;
-        let samples = width as u64 * height as u64 * spp.unwrap_or(quality.spp()) as u64;
+        let samples =
+            (width as u64 * height as u64).saturating_mul(spp.unwrap_or(quality.spp()) as u64);
         let shares = pilot_shares(
             scene,
             accel,

@@ -230,33 +230,35 @@ fn a_ray_budget_keeps_the_first_levels_whole() {
     let find = |x: u32, y: u32, _: &mut Rng| scene.site(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
     let gather = |sh: &SurfaceHit, dir: Vec3, _: &mut Rng| scene.gather(sh, dir);
     let pixels = (SIZE * SIZE) as f32;
-    // A budget of a third of the full cache's rays.
-    let budget = full.len() as f32 * 64.0 / pixels / 3.0;
-    let settings = IcSettings {
-        max_rays_per_pixel: Some(budget),
-        ..ic(0.2, 64)
-    };
-    let (cache, info) =
-        build(SIZE, SIZE, &settings, 7, bounds, find, gather, |_| Ok(())).expect("build");
-    assert!(info.budget_reached && info.levels < 6, "{info:?}");
-    assert!(!cache.is_empty());
-    assert!(
-        cache.len() as f32 * 64.0 <= budget * pixels,
-        "{} records",
-        cache.len()
-    );
-    // Whole levels: the records are the full cache's first ones, bit for bit.
-    for (a, b) in cache.records().iter().zip(full.records()) {
-        assert_eq!(a, b);
+    let (t, p) = ic(0.2, 64).strata();
+    let rays_per_record = (t * p) as f32;
+    let full_budget = full.len() as f32 * rays_per_record / pixels;
+    // Budgets from none to the whole cache's: each build is a prefix of the whole cache, within
+    // its budget, and made of whole levels (one record count per number of levels built).
+    let mut count_at_levels = std::collections::HashMap::new();
+    let mut previous = 0;
+    for step in 0..=20 {
+        let budget = full_budget * step as f32 / 20.0;
+        let settings = IcSettings {
+            max_rays_per_pixel: Some(budget),
+            ..ic(0.2, 64)
+        };
+        let (cache, info) =
+            build(SIZE, SIZE, &settings, 7, bounds, find, gather, |_| Ok(())).expect("build");
+        assert_eq!(info.budget_reached, step < 20, "{info:?} at {budget}");
+        assert!(cache.len() as f32 * rays_per_record <= budget * pixels);
+        assert!(cache.len() >= previous);
+        previous = cache.len();
+        for (a, b) in cache.records().iter().zip(full.records()) {
+            assert_eq!(a, b);
+        }
+        let count = *count_at_levels.entry(info.levels).or_insert(cache.len());
+        assert_eq!(count, cache.len(), "{} levels", info.levels);
     }
-    // A zero budget builds nothing.
-    let none = IcSettings {
-        max_rays_per_pixel: Some(0.0),
-        ..ic(0.2, 64)
-    };
-    let (cache, info) =
-        build(SIZE, SIZE, &none, 7, bounds, find, gather, |_| Ok(())).expect("build");
-    assert!(cache.is_empty() && info.budget_reached && info.levels == 0);
+    assert_eq!(previous, full.len());
+    // Several levels were cut off at some budget, none at zero budget.
+    assert!(count_at_levels.len() >= 4, "{count_at_levels:?}");
+    assert_eq!(count_at_levels.get(&0), Some(&0));
 }
 
 #[test]
@@ -402,6 +404,8 @@ fn bad_cache_settings_exit_with_2() {
         ["--ic-gather-rays", "0"],
         ["--ic-min-spacing", "0"],
         ["--irradiance-cache", "maybe"],
+        ["--ic-ray-budget", "nan"],
+        ["--ic-ray-budget", "-5"],
     ] {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_photon"))
             .args(["render", "--width", "8", "--height", "8", "--spp", "1"])

@@ -366,11 +366,11 @@ fn passes_share_one_set_of_photon_maps() {
 }
 
 #[test]
-fn cached_shading_is_no_noisier_than_final_gathering_under_a_world_seen_through_windows() {
+fn cached_shading_under_a_world_seen_through_windows_is_free_of_speckles() {
     // The gallery's room lit by the sky and the sun through two windows: light sampling picks
     // the world rarely and the walls block most of those samples, so on cached surfaces the
     // few that pass through a window once made speckles (seed-to-seed relMSE 2.45× final
-    // gathering's at 4 spp; with the MIS-weighted BSDF ray 1.1×).
+    // gathering's at 4 spp; with the MIS-weighted BSDF ray 1.1×). Allowed: 1.5×.
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gallery/interior.glb");
     let scene = photon::scene::gltf::load(&path, &LoadOptions::default()).expect("interior");
     let noise = |cache: bool| {

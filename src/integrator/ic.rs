@@ -9,8 +9,9 @@
 //! gather rays but counts their global estimates for the other lobes only, f − ρ_d/π, and adds
 //! ρ_d/π · E from the cache (`CachedDiffuse`); the path tracer's cache mode serves Lambertian
 //! surfaces only. Metals, glass and glossy-only surfaces have no records. A record gathers *indirect* irradiance only: emission found
-//! by the gather rays is left out, since the shading point samples its lights separately
-//! (without MIS) when it reads the cache. Two gather sources:
+//! by the gather rays is left out, since the shading point samples its lights itself when it
+//! reads the cache (the photon renderer MIS-weights that light sample with one BSDF ray wherever
+//! a ray can meet a light; the path tracer's cache mode takes the light sample alone). Two gather sources:
 //! - `Source::Photon`: final gathering into the global photon map, as the photon renderer's own
 //!   gather rays do (`photon::cache_gather`: the global estimate behind specular surfaces);
 //! - `Source::Path`: path-traced rays (`path::incident_radiance`), so the cache is used and tested
@@ -168,7 +169,8 @@ pub fn build_cache(
         Some((site, s))
     };
     let gather = |s: &Shading, wi: Vec3, rng: &mut Rng| {
-        if wi.dot(s.ng) <= 0.0 {
+        // After a cancel the level's remaining records finish at once; the build then stops.
+        if wi.dot(s.ng) <= 0.0 || progress.cancel.load(Ordering::Relaxed) {
             return Incoming::NONE;
         }
         match source {
