@@ -463,3 +463,45 @@ fn no_fireflies_where_an_emitting_mesh_meets_a_cached_surface() {
         }
     }
 }
+
+#[test]
+fn path_cache_under_a_world_seen_through_windows_is_free_of_speckles() {
+    // The gallery's room lit by the sky and the sun through two windows (see the photon
+    // method's test of the same name): with the light sample alone on cached surfaces,
+    // path-cache's seed-to-seed relMSE at 4 spp was 0.55 of the path tracer's; with the
+    // MIS-weighted emission bounce, 0.30. Allowed: 0.4.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gallery/interior.glb");
+    let scene = photon::scene::gltf::load(&path, &LoadOptions::default()).expect("interior");
+    let cancel = AtomicBool::new(false);
+    let report = |_: &ProgressEvent| {};
+    let progress = Progress {
+        cancel: &cancel,
+        report: &report,
+    };
+    let noise = |method: Method| {
+        let settings = |seed| RenderSettings {
+            width: 48,
+            height: 48,
+            spp: 4,
+            seed,
+            method,
+            ..RenderSettings::default()
+        };
+        let (a, _) = render(&scene, &settings(1), &progress).expect("render");
+        let (b, _) = render(&scene, &settings(2), &progress).expect("render");
+        let mean = (a.mean_rgb() + b.mean_rgb()).element_sum() / 6.0;
+        (photon::metrics::compare(&a.rgba, &b.rgba).rel_mse, mean)
+    };
+    let ((cached, cached_mean), (path_traced, path_mean)) =
+        (noise(Method::PathCache), noise(Method::Path));
+    assert!(
+        cached < 0.4 * path_traced,
+        "seed-to-seed relMSE {cached} with the cache, {path_traced} path traced"
+    );
+    // MIS-weighting the light sample without the bounce would lose the bounce's share (−3.5 %
+    // in the mean); measured −1.1 %.
+    assert!(
+        (cached_mean / path_mean - 1.0).abs() < 0.025,
+        "mean {cached_mean} with the cache, {path_mean} path traced"
+    );
+}

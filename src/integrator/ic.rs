@@ -10,8 +10,8 @@
 //! ρ_d/π · E from the cache (`CachedDiffuse`); the path tracer's cache mode serves Lambertian
 //! surfaces only. Metals, glass and glossy-only surfaces have no records. A record gathers *indirect* irradiance only: emission found
 //! by the gather rays is left out, since the shading point samples its lights itself when it
-//! reads the cache (the photon renderer MIS-weights that light sample with one BSDF ray wherever
-//! a ray can meet a light; the path tracer's cache mode takes the light sample alone). Two gather sources:
+//! reads the cache (MIS-weighted with one BSDF ray that counts only emission, wherever a ray can
+//! meet a light). Two gather sources:
 //! - `Source::Photon`: final gathering into the global photon map, as the photon renderer's own
 //!   gather rays do (`photon::cache_gather`: the global estimate behind specular surfaces);
 //! - `Source::Path`: path-traced rays (`path::incident_radiance`), so the cache is used and tested

@@ -18,8 +18,10 @@
 //!
 //! With an irradiance cache (`--method path-cache`, see `ic`), the first surface that stores
 //! photons on the camera path (after specular ones only) takes its indirect light from the cache
-//! when it is Lambertian and a record covers it: emission + light sample (no MIS, no BSDF ray) +
-//! ρ/π · E, and the path ends; elsewhere the path goes on as usual. The records' gather rays
+//! when it is Lambertian and a record covers it: emission + light sample + ρ/π · E, then one
+//! BSDF-sampled bounce that adds only the emission it meets (MIS-weighted with the light
+//! sample; skipped when no light can be hit), and the path ends; elsewhere the path goes on as
+//! usual. The records' gather rays
 //! are paths too (`incident_radiance`), leaving out the emission of their first hit.
 //!
 //! Light passes (`super::LightPass`): each contribution goes to the pass given by the number of
@@ -202,6 +204,8 @@ fn trace_path(
     let mut absorption = Vec3::ZERO;
     // Still on the camera's specular chain, where cache records are placed.
     let mut on_chain = cache.is_some();
+    // The cache served the last surface: this bounce only adds the emission it meets.
+    let mut emission_only = false;
 
     for depth in 0..=ctx.max_depth {
         let visibility = if depth == 0 && !gather {
@@ -248,7 +252,7 @@ fn trace_path(
             };
             passes.add(light_pass(diffuse, subsurface), beta * le * w);
         }
-        if depth == ctx.max_depth {
+        if depth == ctx.max_depth || emission_only {
             break;
         }
 
@@ -343,7 +347,7 @@ fn trace_path(
                 if f != Vec3::ZERO && ls.li != Vec3::ZERO {
                     out.rays += 1;
                     if ctx.accel.unoccluded(scene, &sh.spawn_to(&ls.target)) {
-                        let w = if ls.delta || cached.is_some() {
+                        let w = if ls.delta {
                             1.0
                         } else {
                             power_heuristic(ls.pdf, bsdf_pdf)
@@ -357,7 +361,13 @@ fn trace_path(
 
         if let Some(indirect) = cached {
             passes.add(light_pass(diffuse + 2, subsurface), beta * indirect);
-            break;
+            // The light sample alone speckles where few of its samples reach a light (the world
+            // through a window): one BSDF-sampled bounce adds the emission it meets, MIS-weighted
+            // with it, wherever a ray can meet a light; then the path ends.
+            if !ctx.lights.hittable() {
+                break;
+            }
+            emission_only = true;
         }
 
         let Some(s) = bsdf.sample(rng.uniform(), rng.uniform2()) else {
