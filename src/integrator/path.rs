@@ -21,8 +21,8 @@
 //! when it is Lambertian and a record covers it: emission + light sample + ρ/π · E, then one
 //! BSDF-sampled bounce that adds only the emission it meets (MIS-weighted with the light
 //! sample; skipped when no light can be hit), and the path ends; elsewhere the path goes on as
-//! usual. The records' gather rays
-//! are paths too (`incident_radiance`), leaving out the emission of their first hit.
+//! usual. The records' gather rays are paths too (`incident_radiance`), leaving out the
+//! emission of their first hit.
 //!
 //! Light passes (`super::LightPass`): each contribution goes to the pass given by the number of
 //! non-delta vertices before it (a light sample counts its own vertex), or to Subsurface once
