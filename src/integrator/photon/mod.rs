@@ -36,8 +36,8 @@
 //! the global map, as `gather_ray` reads it but without emission), and direct light is one light
 //! sample, MIS-weighted with one BSDF ray that counts only emission wherever a ray can meet a
 //! light (`direct_without_gather`). A diffuse lobe under a glossy layer takes ρ_d/π × E from
-//! the cache while the gather rays still run and count their global estimates with f − ρ_d/π (emission as
-//! before). Other surfaces, and points no record covers, keep the plain gather rays. Cornell
+//! the cache while the gather rays still run and count their global estimates with f − ρ_d/π
+//! (emission as before). Other surfaces, and points no record covers, keep the plain gather rays. Cornell
 //! 96 × 96 against the 4096-spp path reference, wall time of `photon render` in one session:
 //! 256 spp 6.7 s relMSE 0.0011 (1991 records in 1.1 s; 64 spp 4.3 s 0.0028), vs the path
 //! tracer 256 spp 8.7 s 0.0020 and plain gather 64 spp × 4 rays 7.7 s 0.0031. At 640 × 480,
