@@ -13,7 +13,7 @@
 //! Masked and blended materials (glTF alphaMode) are decided during traversal: a triangle whose
 //! material needs an alpha test is accepted only where its texture's alpha says so.
 
-use crate::math::{Vec2, Vec3, Vec3A, Vec3Swizzles};
+use crate::math::{gamma, Vec2, Vec3, Vec3A, Vec3Swizzles};
 use crate::rng::hash_combine;
 use crate::scene::{AlphaMode, Scene};
 use obvhs::aabb::Aabb;
@@ -157,7 +157,6 @@ impl ShearedRay {
         // Reject t within its own rounding error of zero (pbrt-v4 §6.8.7): a ray that starts on
         // the surface — possible when the origin's error bound along the normal is zero, e.g. a
         // floor at exactly y = 0 — must not find that surface again at t ≈ 1e-9.
-        let gamma = crate::interaction::gamma;
         let max_x = ax.abs().max(bx.abs()).max(cx.abs());
         let max_y = ay.abs().max(by.abs()).max(cy.abs());
         let max_z = az.abs().max(bz.abs()).max(cz.abs());

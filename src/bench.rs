@@ -1,4 +1,4 @@
-//! `photon bench`: run time against error (issue 7). For each scene, a path-traced reference is
+//! `photon bench`: run time against error. For each scene, a path-traced reference is
 //! rendered once as two independent halves (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a
 //! hash of the scene file, the renderer version, the resolution and the samples) with the estimate
 //! of its own noise the halves give; then each method (path, photon map, photon map + irradiance
@@ -9,12 +9,12 @@
 //! time, both by log-log interpolation. Writes `OUT/results.csv`, `OUT/report.md`,
 //! `OUT/summary.json` and one log-log SVG plot of relMSE against time per scene.
 
-use crate::cli::{image_size, load_scene};
 use photon::error::{Error, Result};
 use photon::film::Image;
 use photon::image_io::{write_image, ExrLayout};
 use photon::metrics::{compare, ImageError};
 use photon::plan::{plan, Quality};
+use photon::scene::load::{image_size, load_scene};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

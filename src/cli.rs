@@ -5,21 +5,22 @@ use clap::{Parser, Subcommand, ValueEnum};
 use photon::accel::Accel;
 use photon::error::{Error, Result};
 use photon::image_io::{write_image, ExrLayout};
-use photon::integrator::photon::PhotonSettings;
+use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
-use photon::passes::{render_in_passes, PassesResult};
 use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Quality};
-use photon::render::{Method, Progress, ProgressEvent, RenderSettings, RenderStats};
-use photon::scene::gltf::{load, LoadOptions};
-use photon::scene::{builtin, Projection, Scene};
+use photon::progress::{Progress, ProgressEvent};
+use photon::render::{Method, RenderSettings, RenderStats};
+use photon::rounds::{render_in_rounds, RoundsResult};
+use photon::scene::load::{image_size, load_scene};
+use photon::scene::Projection;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-/// Samples per pixel of one pass when rendering under `--time-limit`.
-const TIME_LIMITED_PASS_SPP: u32 = 4;
+/// Samples per pixel of one round when rendering under `--time-limit`.
+const TIME_LIMITED_ROUND_SPP: u32 = 4;
 /// Upper bound on samples per pixel under `--time-limit` without `--spp`.
 const TIME_LIMITED_MAX_SPP: u32 = 65_536;
 
@@ -145,7 +146,7 @@ struct RenderArgs {
     /// Quality preset: samples per pixel and, for photon mapping, photon counts.
     #[arg(long, value_enum, default_value_t = QualityArg::Default)]
     quality: QualityArg,
-    /// Stop adding samples after this many seconds (rendering in passes; the first always completes).
+    /// Stop adding samples after this many seconds (rendering in rounds; the first always completes).
     #[arg(long, value_name = "SECONDS")]
     time_limit: Option<f64>,
     /// Maximum number of bounces.
@@ -167,7 +168,7 @@ struct RenderArgs {
     #[arg(long, value_name = "VIEW_LAYER")]
     exr_layer: Option<String>,
     /// With --exr-layer, also write the light-path passes (Emit, DiffDir, DiffInd, Caustic,
-    /// Subsurface; see `integrator::LightPass`), which add up to Combined.
+    /// Subsurface; see `light_pass::LightPass`), which add up to Combined.
     #[arg(long, requires = "exr_layer")]
     passes: bool,
     /// Render only this window of the frame (Blender's render region), in pixels from the
@@ -345,38 +346,6 @@ pub fn main() -> i32 {
     }
 }
 
-pub fn load_scene(path: Option<&Path>, camera: Option<String>) -> Result<Scene> {
-    let options = LoadOptions { camera };
-    match path {
-        Some(p) => load(p, &options),
-        None => builtin::cornell_box(&options),
-    }
-}
-
-/// Image size: the command line's, else the scene's stored resolution, else 640 wide; a missing
-/// side follows the aspect ratio of the stored resolution (or of the camera).
-pub fn image_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
-    let stored = (scene.render_settings.width, scene.render_settings.height);
-    // The frame's aspect ratio: the scene's stored resolution, else its camera's.
-    let aspect = match stored {
-        (Some(w), Some(h)) if w > 0 && h > 0 => Some(w as f32 / h as f32),
-        _ => scene.camera.aspect_ratio,
-    }
-    .filter(|a| a.is_finite() && *a > 0.0)
-    .unwrap_or(4.0 / 3.0);
-    let complete = |size: (Option<u32>, Option<u32>)| match size {
-        (Some(w), Some(h)) => Some((w, h)),
-        (Some(w), None) => Some((w, ((w as f32 / aspect).round() as u32).max(1))),
-        (None, Some(h)) => Some((((h as f32 * aspect).round() as u32).max(1), h)),
-        (None, None) => None,
-    };
-    // A size given on the command line wins as a whole: `--width` alone keeps the aspect ratio
-    // instead of pairing with the stored height.
-    complete((width, height))
-        .or_else(|| complete(stored))
-        .unwrap_or_else(|| (640, ((640.0 / aspect).round() as u32).max(1)))
-}
-
 /// Ctrl+C and SIGTERM set the flag; a second signal ends the process at once with 130.
 fn install_signal_handlers() -> Result<Arc<AtomicBool>> {
     let cancel = Arc::new(AtomicBool::new(false));
@@ -543,17 +512,17 @@ fn run_render(args: RenderArgs) -> Result<()> {
         cancel: &cancel,
         report: &report,
     };
-    let pass_spp = if time_limit.is_some() {
-        TIME_LIMITED_PASS_SPP
+    let round_spp = if time_limit.is_some() {
+        TIME_LIMITED_ROUND_SPP
     } else {
         settings.spp
     };
     let result = pool.install(|| {
-        render_in_passes(
+        render_in_rounds(
             &scene,
             accel.as_ref(),
             &settings,
-            pass_spp,
+            round_spp,
             time_limit,
             &progress,
         )
@@ -561,7 +530,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
-    let PassesResult {
+    let RoundsResult {
         image,
         mut stats,
         spp,

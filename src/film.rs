@@ -7,7 +7,7 @@
 //! belongs to exactly one pixel with weight 1, so pixels are independent, tiles render in parallel
 //! and images are bit-identical for any number of threads.
 
-use crate::integrator::Passes;
+use crate::light_pass::Passes;
 use crate::math::{Mat3, Vec2, Vec3};
 
 /// The Blackman–Harris pixel filter, sampled by table inversion.
@@ -87,7 +87,7 @@ pub struct Image {
     pub normal: Vec<Vec3>,
     /// Distance from the camera to the first surface; 1e10 for the background (Blender's Z).
     pub depth: Vec<f32>,
-    /// Radiance by light path (`integrator::LightPass`), filtered like `rgba`, so the passes
+    /// Radiance by light path (`light_pass::LightPass`), filtered like `rgba`, so the passes
     /// of a pixel add up to its colour (all zero for the debug views of the cache). Empty
     /// unless `RenderSettings::light_passes` asked for them.
     pub passes: Vec<Passes>,

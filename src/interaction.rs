@@ -7,14 +7,8 @@
 //! scales with the coordinates involved, which the reintersection test checks from 1e-4 to 1e5.
 
 use crate::accel::{hit_uv, interpolate, Hit, Ray};
-use crate::math::{Frame, Vec2, Vec3};
+use crate::math::{gamma, Frame, Vec2, Vec3};
 use crate::scene::Scene;
-
-/// γ_n = nε / (1 − nε) with ε = 2⁻²⁴, the bound on relative error after n rounded operations.
-pub const fn gamma(n: i32) -> f32 {
-    let e = f32::EPSILON * 0.5 * n as f32;
-    e / (1.0 - e)
-}
 
 /// Everything shading needs about a surface point.
 #[derive(Clone, Copy, Debug)]

@@ -141,8 +141,8 @@ pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) ->
     let b = square_to_triangle(u);
     let b0 = 1.0 - b.x - b.y;
     let p = v[0] * b0 + v[1] * b.x + v[2] * b.y;
-    let p_error = crate::interaction::gamma(6)
-        * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
+    let p_error =
+        crate::math::gamma(6) * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
     let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
     let uv = if m.uvs.is_empty() {
         Vec2::ZERO
@@ -524,7 +524,7 @@ fn sample_punctual(
     let q = p + wi * t;
     let target = LightPoint {
         p: q,
-        p_error: crate::interaction::gamma(8) * (q.abs() + position.abs()),
+        p_error: crate::math::gamma(8) * (q.abs() + position.abs()),
         n: (q - position) / radius,
     };
     let radiance_per_intensity = 1.0 / (PI * radius * radius);

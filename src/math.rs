@@ -99,6 +99,12 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     }
 }
 
+/// γ_n = nε / (1 − nε) with ε = 2⁻²⁴, the bound on relative error after n rounded operations.
+pub const fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5 * n as f32;
+    e / (1.0 - e)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,4 +1,4 @@
-//! The scene planner: "skip what a scene doesn't need" (DESIGN.md). Before rendering, `plan`
+//! The scene planner: "skip what a scene doesn't need". Before rendering, `plan`
 //! looks at the scene (materials by kind, lights by kind, bounds) and decides which passes are
 //! worth their cost, with the reason for each decision, the method `auto` uses, the sample and
 //! photon budgets of a quality preset, and an estimate of the memory the render needs.
@@ -25,7 +25,8 @@
 //!   (`INDIRECT_SHARE_FOR_PHOTONS`: the irradiance cache pays off), the path tracer otherwise.
 
 use crate::accel::Accel;
-use crate::integrator::photon::{bsdf_is_specular, classifying_bsdf, PhotonSettings};
+use crate::integrator::classify::{bsdf_is_specular, classifying_bsdf};
+use crate::integrator::photon::settings::PhotonSettings;
 use crate::math::Vec3;
 use crate::render::Method;
 use crate::scene::{Bounds, Light, Mesh, Scene};
@@ -484,9 +485,10 @@ fn pilot_shares(
     (global, caustics): (bool, bool),
 ) -> PilotShares {
     use crate::camera::CameraRays;
-    use crate::integrator::photon::tracing::{trace_photon, Emitters, Pass};
-    use crate::integrator::{path, Context, LightPass};
+    use crate::integrator::photon::tracing::{trace_photon, Emitters, MapKind};
+    use crate::integrator::{path, Context};
     use crate::light::{LightSource, Lights};
+    use crate::light_pass::LightPass;
     use crate::math::{luminance, Vec2};
     use crate::photon_map::Photon;
     use crate::rng::Rng;
@@ -543,7 +545,7 @@ fn pilot_shares(
                     &ctx,
                     e.ray,
                     e.power,
-                    Pass::Global,
+                    MapKind::Global,
                     16,
                     &mut rng,
                     &mut photons,
@@ -559,7 +561,7 @@ fn pilot_shares(
                         &ctx,
                         e.ray,
                         e.power,
-                        Pass::Caustic,
+                        MapKind::Caustic,
                         16,
                         &mut rng,
                         &mut photons,

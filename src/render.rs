@@ -10,16 +10,20 @@ use crate::accel::Accel;
 use crate::camera::CameraRays;
 use crate::error::{Error, Result};
 use crate::film::{Image, PixelFilter};
-use crate::integrator::ic::{self, CacheView, IcInfo, Source};
-use crate::integrator::photon::{self, PhotonInfo, PhotonMaps, PhotonSettings, View};
-use crate::integrator::{path, CameraSample, Context, Passes};
+use crate::integrator::cache::{self, CacheView, IcInfo, Source};
+use crate::integrator::photon::build::{build_maps, PhotonMaps};
+use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
+use crate::integrator::photon::shade::{self, View};
+use crate::integrator::{path, CameraSample, Context};
 use crate::irradiance_cache::{IcSettings, IrradianceCache};
 use crate::light::Lights;
+use crate::light_pass::Passes;
 use crate::math::{Vec2, Vec3};
+use crate::progress::{Progress, ProgressEvent};
 use crate::rng::Rng;
 use crate::scene::Scene;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 /// What to render. The command line and the Blender add-on map onto this struct.
@@ -138,35 +142,10 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples dropped because their radiance was NaN or infinite.
     pub nonfinite_samples: u64,
-    /// Pass 1 of the photon methods: what was traced and skipped.
+    /// Photon tracing of the photon methods: what was traced and skipped.
     pub photon: Option<PhotonInfo>,
     /// The irradiance cache, when one was built.
     pub irradiance_cache: Option<IcInfo>,
-}
-
-/// One progress report.
-#[derive(Clone, Debug)]
-pub struct ProgressEvent<'a> {
-    pub stage: &'a str,
-    /// Fraction of the stage done, in [0, 1].
-    pub fraction: f32,
-    pub message: String,
-}
-
-/// How the renderer talks back while it works: progress reports and the cancel flag.
-pub struct Progress<'a> {
-    pub cancel: &'a AtomicBool,
-    pub report: &'a (dyn Fn(&ProgressEvent) + Sync),
-}
-
-impl Progress<'_> {
-    pub(crate) fn check(&self) -> Result<()> {
-        if self.cancel.load(Ordering::Relaxed) {
-            Err(Error::Cancelled)
-        } else {
-            Ok(())
-        }
-    }
 }
 
 const TILE: u32 = 16;
@@ -180,21 +159,21 @@ pub fn render(
     let mut image = None;
     let stats = render_scheduled(scene, None, settings, progress, &mut |done| match done {
         None => Some((settings.seed, settings.spp)),
-        Some((pass, _)) => {
-            image = Some(pass);
+        Some((round, _)) => {
+            image = Some(round);
             None
         }
     })?;
-    Ok((image.expect("one pass rendered"), stats))
+    Ok((image.expect("one round rendered"), stats))
 }
 
-/// What a scheduled render does after its preparation: given the image of the pass just
+/// What a scheduled render does after its preparation: given the image of the round just
 /// rendered and its samples per pixel (`None` before the first), the seed and samples per pixel
-/// of the next pass, or `None` to finish.
+/// of the next round, or `None` to finish.
 pub type Schedule<'a> = dyn FnMut(Option<(Image, u32)>) -> Option<(u64, u32)> + 'a;
 
 /// Prepare once (BVH unless `accel` is the scene's already built, lights, photon maps and
-/// irradiance cache, built with `settings.seed`), then render the passes `schedule` asks for;
+/// irradiance cache, built with `settings.seed`), then render the rounds `schedule` asks for;
 /// the returned statistics cover all of them.
 pub fn render_scheduled(
     scene: &Scene,
@@ -256,16 +235,16 @@ pub fn render_scheduled(
     };
     let maps = match settings.method.photon_view() {
         Some(view) => {
-            let (maps, info) = photon::build_maps(&ctx, &settings.photon, settings.seed, progress)?;
+            let (maps, info) = build_maps(&ctx, &settings.photon, settings.seed, progress)?;
             stats.photon = Some(info);
             Some((maps, view))
         }
         None => None,
     };
-    let (maps, cache) = prepare_cache(&ctx, settings, maps, progress, &mut stats)?;
+    let cache = prepare_cache(&ctx, settings, &maps, progress, &mut stats)?;
     let integrator = match (&maps, &cache, settings.method.cache_view()) {
         (_, Some(cache), Some(view)) => Integrator::Cache(cache, view),
-        (Some((maps, view)), _, _) => Integrator::Photon(maps, *view),
+        (Some((maps, view)), cache, _) => Integrator::Photon(maps, cache.as_ref(), *view),
         _ => Integrator::Path,
     };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
@@ -277,40 +256,40 @@ pub fn render_scheduled(
                 "samples per pixel must be at least 1".into(),
             ));
         }
-        let pass_settings = RenderSettings {
+        let round_settings = RenderSettings {
             seed,
             spp,
             ..settings.clone()
         };
-        let pass = PassSetup {
+        let round = RoundSetup {
             ctx: &ctx,
             integrator,
             camera: &camera,
             filter: &filter,
-            settings: &pass_settings,
+            settings: &round_settings,
             window,
         };
-        let image = render_pass(&pass, progress, &mut stats)?;
+        let image = render_round(&round, progress, &mut stats)?;
         previous = Some((image, spp));
     }
     Ok(stats)
 }
 
-/// What every tile of one pass shares.
-struct PassSetup<'a> {
+/// What every tile of one round shares.
+struct RoundSetup<'a> {
     ctx: &'a Context<'a>,
     integrator: Integrator<'a>,
     camera: &'a CameraRays,
     filter: &'a PixelFilter,
-    /// The pass's seed and samples per pixel.
+    /// The round's seed and samples per pixel.
     settings: &'a RenderSettings,
     window: Region,
 }
 
 /// Render `settings.spp` samples per pixel of the window with `settings.seed`, adding the time,
 /// samples and rays to `stats`.
-fn render_pass(pass: &PassSetup, progress: &Progress, stats: &mut RenderStats) -> Result<Image> {
-    let (scene, settings, window) = (pass.ctx.scene, pass.settings, pass.window);
+fn render_round(round: &RoundSetup, progress: &Progress, stats: &mut RenderStats) -> Result<Image> {
+    let (scene, settings, window) = (round.ctx.scene, round.settings, round.window);
     let tiles_x = window.width().div_ceil(TILE);
     let tiles_y = window.height().div_ceil(TILE);
     let tile_count = (tiles_x * tiles_y) as u64;
@@ -326,7 +305,7 @@ fn render_pass(pass: &PassSetup, progress: &Progress, stats: &mut RenderStats) -
                 window.x0 + t % tiles_x * TILE,
                 window.y0 + t / tiles_x * TILE,
             );
-            let tile = render_tile(pass, tx, ty, progress, &rays, &nonfinite)?;
+            let tile = render_tile(round, tx, ty, progress, &rays, &nonfinite)?;
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
             (progress.report)(&ProgressEvent {
                 stage: "render",
@@ -386,7 +365,7 @@ struct TileResult {
 #[derive(Clone, Copy)]
 enum Integrator<'a> {
     Path,
-    Photon(&'a PhotonMaps, View),
+    Photon(&'a PhotonMaps, Option<&'a IrradianceCache>, View),
     Cache(&'a IrradianceCache, CacheView),
 }
 
@@ -394,8 +373,8 @@ impl Integrator<'_> {
     fn trace(self, ctx: &Context, ray: crate::accel::Ray, rng: &mut Rng) -> CameraSample {
         match self {
             Integrator::Path => path::trace(ctx, ray, rng),
-            Integrator::Photon(maps, view) => photon::trace(ctx, maps, view, ray, rng),
-            Integrator::Cache(cache, view) => ic::trace(ctx, cache, view, ray, rng),
+            Integrator::Photon(maps, cache, view) => shade::trace(ctx, maps, cache, view, ray, rng),
+            Integrator::Cache(cache, view) => cache::trace(ctx, cache, view, ray, rng),
         }
     }
 }
@@ -403,39 +382,34 @@ impl Integrator<'_> {
 /// The photon maps of a photon method and the view it renders.
 type Maps = Option<(PhotonMaps, View)>;
 
-/// Build the irradiance cache the method needs over the full frame: into the photon maps for
-/// the photon method (when enabled and a global map exists), on its own for the cache methods.
+/// Build the irradiance cache the method needs over the full frame: from the photon maps for
+/// the photon method (when enabled and a global map exists) and the photon cache views, from
+/// path-traced records for `path-cache`; `None` for the other methods.
 fn prepare_cache(
     ctx: &Context,
     settings: &RenderSettings,
-    mut maps: Maps,
+    maps: &Maps,
     progress: &Progress,
     stats: &mut RenderStats,
-) -> Result<(Maps, Option<IrradianceCache>)> {
+) -> Result<Option<IrradianceCache>> {
     let ic = &settings.irradiance_cache;
     let frame = (settings.width, settings.height);
     let view = settings.method.cache_view();
-    let source = match &maps {
-        Some((m, _)) if m.global.is_none() => return Ok((maps, None)),
+    let source = match maps {
+        Some((m, _)) if m.global.is_none() => return Ok(None),
         Some((m, _)) if view.is_some() || (settings.method == Method::Photon && ic.enabled) => {
             Source::Photon(m)
         }
         None if view.is_some() => Source::Path,
-        _ => return Ok((maps, None)),
+        _ => return Ok(None),
     };
-    let (cache, info) = ic::build_cache(ctx, source, ic, frame, settings.seed, progress)?;
+    let (cache, info) = cache::build_cache(ctx, source, ic, frame, settings.seed, progress)?;
     stats.irradiance_cache = Some(info);
-    match (&mut maps, view) {
-        (Some((m, _)), None) => {
-            m.cache = Some(cache);
-            Ok((maps, None))
-        }
-        _ => Ok((maps, Some(cache))),
-    }
+    Ok(Some(cache))
 }
 
 fn render_tile(
-    pass: &PassSetup,
+    round: &RoundSetup,
     x0: u32,
     y0: u32,
     progress: &Progress,
@@ -443,12 +417,12 @@ fn render_tile(
     nonfinite: &AtomicU64,
 ) -> Result<TileResult> {
     let (ctx, integrator, camera, filter, settings, window) = (
-        pass.ctx,
-        pass.integrator,
-        pass.camera,
-        pass.filter,
-        pass.settings,
-        &pass.window,
+        round.ctx,
+        round.integrator,
+        round.camera,
+        round.filter,
+        round.settings,
+        &round.window,
     );
     let x1 = (x0 + TILE).min(window.x1);
     let y1 = (y0 + TILE).min(window.y1);

@@ -7,13 +7,14 @@
 use photon::accel::{Accel, Ray, Visibility};
 use photon::camera::CameraRays;
 use photon::film::Image;
-use photon::integrator::photon::PhotonSettings;
+use photon::integrator::photon::settings::PhotonSettings;
 use photon::interaction::SurfaceHit;
 use photon::irradiance_cache::{build, gather_record, IcSettings, Incoming, IrradianceCache, Site};
 use photon::light::Lights;
 use photon::material::eval_material;
 use photon::math::{Vec2, Vec3};
-use photon::render::{render, Method, Progress, ProgressEvent, RenderSettings};
+use photon::progress::{Progress, ProgressEvent};
+use photon::render::{render, Method, RenderSettings};
 use photon::rng::Rng;
 use photon::scene::gltf::LoadOptions;
 use photon::scene::{builtin, Scene};

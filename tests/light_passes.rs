@@ -1,4 +1,4 @@
-//! The light-path passes (`integrator::LightPass`) on a small scene with a glass sphere, a
+//! The light-path passes (`light_pass::LightPass`) on a small scene with a glass sphere, a
 //! translucent one, a diffuse floor and wall and a spherical emitter in view: for the path and photon methods the passes
 //! add up to Combined per pixel and are non-negative, Emission is the emitter's radiance where the
 //! camera sees it, a one-bounce render has no Indirect light, and `--passes` names the EXR
@@ -9,11 +9,11 @@ mod scenes;
 
 use photon::film::Image;
 use photon::image_io::{write_image, ExrLayout, LIGHT_PASS_NAMES};
-use photon::integrator::photon::PhotonSettings;
-use photon::integrator::{LightPass, Passes};
+use photon::integrator::photon::settings::PhotonSettings;
+use photon::light_pass::{LightPass, Passes};
 use photon::math::Vec3;
-use photon::passes::render_in_passes;
 use photon::render::{render, Method, RenderSettings};
+use photon::rounds::render_in_rounds;
 use photon::scene::{Material, Projection, Scene, Subsurface};
 use std::sync::atomic::AtomicBool;
 
@@ -136,7 +136,7 @@ fn check_passes(image: &Image) {
 fn path_tracer_passes_add_up() {
     // In two passes of 8 samples (as under a time limit), so that merging keeps the sums.
     let result = scenes::with_progress(|p| {
-        render_in_passes(
+        render_in_rounds(
             &glass_scene(),
             None,
             &settings(Method::Path, 16),
@@ -146,7 +146,7 @@ fn path_tracer_passes_add_up() {
         )
     })
     .expect("render succeeds");
-    assert_eq!(result.passes, 2);
+    assert_eq!(result.rounds, 2);
     let image = result.image;
     check_passes(&image);
     // The path tracer's caustics are classified by their vertices: no Caustic pass.

@@ -9,7 +9,8 @@ use scenes::with_progress;
 
 use photon::accel::Accel;
 use photon::film::Image;
-use photon::integrator::photon::{build_maps, PhotonSettings};
+use photon::integrator::photon::build::build_maps;
+use photon::integrator::photon::settings::PhotonSettings;
 use photon::integrator::Context;
 use photon::light::Lights;
 use photon::math::Vec3;
@@ -216,7 +217,7 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
     // flux: for each kind of light, the total power of stored caustic photons with and without
     // aiming agrees within the Monte Carlo error (two glass spheres, one overlapping the other's
     // cone, so the mixture density matters).
-    use photon::integrator::photon::tracing::{trace_photon, Emitters, Pass};
+    use photon::integrator::photon::tracing::{trace_photon, Emitters, MapKind};
     use photon::rng::Rng;
     let glass = Material {
         name: "glass".into(),
@@ -306,7 +307,15 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
             for _ in 0..n {
                 let mut out = Vec::new();
                 if let Some(e) = emitters.emit(&ctx, aimed, &mut rng) {
-                    trace_photon(&ctx, e.ray, e.power, Pass::Caustic, 16, &mut rng, &mut out);
+                    trace_photon(
+                        &ctx,
+                        e.ray,
+                        e.power,
+                        MapKind::Caustic,
+                        16,
+                        &mut rng,
+                        &mut out,
+                    );
                 }
                 let v: f64 = out.iter().map(|p| p.power().x as f64).sum();
                 sum += v;
@@ -333,12 +342,12 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
 }
 
 #[test]
-fn passes_share_one_set_of_photon_maps() {
-    // A time-limited render in passes builds the photon maps once: the global pass reports
-    // its last batch once, however many passes run, and four passes of 2 spp give the image of
-    // the same passes again (deterministic).
-    use photon::passes::render_in_passes;
-    use photon::render::{Progress, ProgressEvent};
+fn rounds_share_one_set_of_photon_maps() {
+    // A time-limited render in rounds builds the photon maps once: global photon tracing
+    // reports its last batch once, however many rounds run, and four rounds of 2 spp give the
+    // image of the same rounds again (deterministic).
+    use photon::progress::{Progress, ProgressEvent};
+    use photon::rounds::render_in_rounds;
     use std::sync::atomic::AtomicBool;
     use std::sync::Mutex;
     let scene = builtin::cornell_box(&LoadOptions::default()).expect("cornell box");
@@ -354,14 +363,14 @@ fn passes_share_one_set_of_photon_maps() {
         cancel: &cancel,
         report: &report,
     };
-    let a = render_in_passes(&scene, None, &settings, 2, None, &progress).expect("render");
-    assert_eq!(a.passes, 4);
+    let a = render_in_rounds(&scene, None, &settings, 2, None, &progress).expect("render");
+    assert_eq!(a.rounds, 4);
     assert_eq!(
         *finished.lock().unwrap(),
         1,
-        "maps built once for four passes"
+        "maps built once for four rounds"
     );
-    let b = render_in_passes(&scene, None, &settings, 2, None, &progress).expect("render");
+    let b = render_in_rounds(&scene, None, &settings, 2, None, &progress).expect("render");
     assert_eq!(a.image.rgba, b.image.rgba);
 }
 

@@ -1,5 +1,5 @@
 //! The scene planner skips what each scene does not need; `photon info` prints the plan;
-//! `--time-limit` stops adding passes when the time is up.
+//! `--time-limit` stops adding rounds when the time is up.
 
 #[path = "support/binary.rs"]
 mod binary;
@@ -130,7 +130,7 @@ fn info_prints_the_plan() {
 }
 
 #[test]
-fn time_limit_stops_adding_passes() {
+fn time_limit_stops_adding_rounds() {
     let dir = temp_dir("time-limit");
     let out = dir.join("out.exr");
     let start = std::time::Instant::now();

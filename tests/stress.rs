@@ -8,7 +8,7 @@
 #[path = "support/scenes.rs"]
 mod scenes;
 
-use photon::integrator::photon::PhotonSettings;
+use photon::integrator::photon::settings::PhotonSettings;
 use photon::math::Vec3;
 use photon::render::{Method, RenderSettings};
 use photon::scene::{Light, Material, Mesh, Projection, Scene};

@@ -8,7 +8,7 @@ mod scenes;
 
 use scenes::with_progress;
 
-use photon::integrator::photon::PhotonSettings;
+use photon::integrator::photon::settings::PhotonSettings;
 use photon::math::Vec3;
 use photon::metrics::compare;
 use photon::plan::{plan_for_image, Quality};

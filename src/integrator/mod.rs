@@ -1,14 +1,30 @@
-//! Integrators: the algorithms that turn a camera ray into radiance. Chosen once per render.
-//! `path` is the unbiased reference (Kajiya 1986 with next-event estimation and MIS, Veach 1997);
-//! `photon` is Jensen's two-pass photon mapping with final gathering, and its debug views; `ic`
-//! connects Ward's irradiance cache to both.
+//! Integrators: the algorithms that turn a camera ray into radiance, chosen once per render.
+//!
+//! The core, which every integrator imports and which imports none of them:
+//! - `shading`: the shading point (hit → material → BSDF, frame, the side of the surface, the
+//!   medium a ray leaves into);
+//! - `classify`: which surfaces are specular, Lambertian, or store photons (shared with the
+//!   scene planner and photon tracing);
+//! - `direct`: the one direct-light sampler with MIS (Veach 1997, power heuristic);
+//! - `walk`: the one camera path walk (an explicit path state with escaped / emitted / advance /
+//!   roulette steps) and the one specular-chain follower.
+//!
+//! The integrators on top: `path` (the unbiased reference: Kajiya 1986 with next-event
+//! estimation and MIS), `photon` (Jensen 1996/2001 photon mapping with final gathering, its
+//! debug views and the subsurface diffusion mode), and `cache` (Ward 1988's irradiance cache
+//! wired to both, and its debug views).
 
-pub mod ic;
+pub mod cache;
+pub mod classify;
+pub mod direct;
 pub mod path;
 pub mod photon;
+pub mod shading;
+pub mod walk;
 
 use crate::accel::Accel;
 use crate::light::Lights;
+use crate::light_pass::Passes;
 use crate::math::Vec3;
 use crate::scene::Scene;
 
@@ -36,86 +52,7 @@ pub struct CameraSample {
     pub depth: f32,
     /// Rays traced for this sample (closest-hit and shadow), for statistics.
     pub rays: u32,
-    /// `radiance` split by light path (`LightPass`); the path and photon methods set both so
-    /// that the passes sum to `radiance`.
+    /// `radiance` split by light path (`crate::light_pass::LightPass`); every integrator sets
+    /// both so that the passes sum to `radiance`.
     pub passes: Passes,
-}
-
-/// The light-path passes, classified by the non-specular scattering vertices ("D" in Heckbert's
-/// notation, any non-delta lobe) between the camera and the light:
-/// - `Emission`: none (E S* L: emitters seen directly or through delta lobes only);
-/// - `Direct`: exactly one (E S* D S* L);
-/// - `Indirect`: two or more; for the photon method also final gathering, the irradiance cache
-///   and the global map's estimate;
-/// - `Caustic`: the photon method's caustic-map estimate (L S+ D E). The path tracer leaves it 0:
-///   its caustic paths are in `Direct` (one D vertex) or `Indirect` by the rule above;
-/// - `Subsurface`: light that entered a translucent material (the photon method's dipole term;
-///   everything after the path tracer's subsurface branch).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LightPass {
-    Emission,
-    Direct,
-    Indirect,
-    Caustic,
-    Subsurface,
-}
-
-impl LightPass {
-    pub const ALL: [LightPass; 5] = [
-        LightPass::Emission,
-        LightPass::Direct,
-        LightPass::Indirect,
-        LightPass::Caustic,
-        LightPass::Subsurface,
-    ];
-
-    /// The Emission / Direct / Indirect pass of light that met `diffuse` non-specular vertices.
-    pub fn after(diffuse: u32) -> LightPass {
-        match diffuse {
-            0 => LightPass::Emission,
-            1 => LightPass::Direct,
-            _ => LightPass::Indirect,
-        }
-    }
-}
-
-impl std::ops::AddAssign for Passes {
-    fn add_assign(&mut self, other: Passes) {
-        for (a, b) in self.0.iter_mut().zip(other.0) {
-            *a += b;
-        }
-    }
-}
-
-/// Radiance per `LightPass` (a fixed array: no allocation per sample).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Passes(pub [Vec3; 5]);
-
-impl Passes {
-    pub fn add(&mut self, pass: LightPass, v: Vec3) {
-        self.0[pass as usize] += v;
-    }
-
-    /// Add `other` × `beta`, moving its Emission / Direct / Indirect light `diffuse` non-specular
-    /// vertices further from the camera (`LightPass::after`).
-    pub fn add_after(&mut self, other: &Passes, beta: Vec3, diffuse: u32) {
-        for (i, &v) in other.0.iter().enumerate() {
-            let pass = match LightPass::ALL[i] {
-                LightPass::Emission => LightPass::after(diffuse),
-                LightPass::Direct => LightPass::after(diffuse + 1),
-                LightPass::Indirect => LightPass::Indirect,
-                p => p,
-            };
-            self.add(pass, beta * v);
-        }
-    }
-
-    /// Multiply every pass by `s`.
-    pub fn scale(&mut self, s: f32) {
-        self.0.iter_mut().for_each(|v| *v *= s);
-    }
-
-    pub fn total(&self) -> Vec3 {
-        self.0.iter().fold(Vec3::ZERO, |s, &v| s + v)
-    }
 }

@@ -16,7 +16,7 @@
 //! a cosine-sampled direction). T is the specular layer's transmission, as in the photon
 //! renderer, so both evaluate S = w T(ω_o) R_d(d) T(ω_i)/π.
 //!
-//! With an irradiance cache (`--method path-cache`, see `ic`), the first surface that stores
+//! With an irradiance cache (`--method path-cache`, see `super::cache`), the first surface that stores
 //! photons on the camera path (after specular ones only) takes its indirect light from the cache
 //! when it is Lambertian and a record covers it: emission + light sample + ρ/π · E, then one
 //! BSDF-sampled bounce that adds only the emission it meets (MIS-weighted with the light
@@ -24,22 +24,22 @@
 //! usual. The records' gather rays are paths too (`incident_radiance`), leaving out the
 //! emission of their first hit.
 //!
-//! Light passes (`super::LightPass`): each contribution goes to the pass given by the number of
+//! Light passes (`crate::light_pass::LightPass`): each contribution goes to the pass given by the number of
 //! non-delta vertices before it (a light sample counts its own vertex), or to Subsurface once
 //! the path took the subsurface branch; the cached term is Indirect. Caustic stays 0.
 
-use super::ic::lambertian_reflectance;
-use super::photon::tracing::stores_photons;
-use super::{CameraSample, Context, LightPass, Passes};
+use super::classify::{lambertian_reflectance, stores_photons};
+use super::direct::{sample_direct, Previous};
+use super::shading::Shading;
+use super::walk::{walk, Next, PathState, Scatter};
+use super::{CameraSample, Context};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::Bsdf;
 use crate::interaction::SurfaceHit;
 use crate::irradiance_cache::{Incoming, IrradianceCache};
-use crate::light::emitted_radiance;
-use crate::material::{eval_material, SurfaceMaterial};
-use crate::math::{max_component, Frame, Vec3};
+use crate::material::SurfaceMaterial;
+use crate::math::{Frame, Vec3};
 use crate::rng::Rng;
-use crate::sampling::{cosine_hemisphere_pdf, power_heuristic, square_to_cosine_hemisphere};
+use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use crate::subsurface::Dipole;
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -124,31 +124,108 @@ fn sample_exit(
     (pdf > 0.0 && weight.is_finite()).then_some((exit, weight))
 }
 
-/// The pass of light reaching the camera after `diffuse` non-specular vertices, `subsurface`
-/// when the path went through a translucent material (`LightPass`).
-fn light_pass(diffuse: u32, subsurface: bool) -> LightPass {
-    if subsurface {
-        LightPass::Subsurface
-    } else {
-        LightPass::after(diffuse)
+/// The path tracer's part in the walk: the subsurface branch, the cache on the camera's
+/// specular chain, and a light sample at every non-delta vertex.
+struct PathTracer<'a> {
+    cache: Option<&'a IrradianceCache>,
+    /// Still on the camera's specular chain, where cache records are placed.
+    on_chain: bool,
+}
+
+impl Scatter for PathTracer<'_> {
+    fn scatter(
+        &mut self,
+        ctx: &Context,
+        state: &mut PathState,
+        s: &mut Shading,
+        rng: &mut Rng,
+    ) -> Next {
+        let weight = s.surface.subsurface.weight;
+        if weight > 0.0 && s.opaque {
+            // Translucent surfaces are path traced: the cache holds no subsurface light.
+            self.on_chain = false;
+            if rng.uniform() < SUBSURFACE_BRANCH {
+                return subsurface_branch(ctx, state, s, rng);
+            }
+            s.bsdf = s.bsdf.without_subsurface(weight);
+            state.beta /= 1.0 - SUBSURFACE_BRANCH;
+        }
+
+        let mut cached = None;
+        if self.on_chain && stores_photons(&s.bsdf) {
+            self.on_chain = false;
+            if let (Some(cache), Some(rho)) =
+                (self.cache, lambertian_reflectance(&s.bsdf, s.opaque))
+            {
+                cached = cache.lookup(s.sh.p, s.frame.n).map(|e| rho * e * FRAC_1_PI);
+            }
+        }
+
+        let light_sampled = s.bsdf.has_non_delta();
+        if light_sampled {
+            state.light_sample(ctx, s, rng);
+        }
+
+        if let Some(indirect) = cached {
+            state.add(2, state.beta * indirect);
+            // The light sample alone speckles where few of its samples reach a light (the world
+            // through a window): one BSDF-sampled bounce adds the emission it meets, MIS-weighted
+            // with it, wherever a ray can meet a light; then the path ends.
+            if !ctx.lights.hittable() {
+                return Next::End;
+            }
+            state.emission_only = true;
+        }
+        Next::Continue { light_sampled }
     }
 }
 
-/// Russian roulette on the throughput: false when the path ends, else `beta` is reweighted.
-fn russian_roulette(beta: &mut Vec3, rng: &mut Rng) -> bool {
-    let q = max_component(*beta).min(1.0);
-    if q < 1.0 {
-        if rng.uniform() >= q {
-            return false;
+/// The subsurface branch at translucent `s`: leave the material at a point x_i found by a probe
+/// ray, sample a light there through the entry lobe, and continue from x_i along a
+/// cosine-sampled direction.
+fn subsurface_branch(ctx: &Context, state: &mut PathState, s: &Shading, rng: &mut Rng) -> Next {
+    let enter = s.surface.subsurface.weight * s.bsdf.base_transmittance() / SUBSURFACE_BRANCH;
+    let Some((exit, rd_over_pdf)) = sample_exit(ctx, &s.sh, &s.frame, &s.surface, rng) else {
+        return Next::End;
+    };
+    state.beta *= rd_over_pdf * enter;
+    state.subsurface = true;
+    let exit_frame = Frame::from_normal(exit.ng);
+    let transmit = |wi: Vec3| {
+        s.bsdf
+            .viewed_from(exit_frame.to_local(wi))
+            .base_transmittance()
+    };
+    let l = sample_direct(ctx, &exit, state.beta, true, rng, &mut state.rays, |wi| {
+        let cos = wi.dot(exit.ng);
+        if cos > 0.0 {
+            (
+                Vec3::splat(transmit(wi) * cos / PI),
+                cosine_hemisphere_pdf(cos),
+            )
+        } else {
+            (Vec3::ZERO, 0.0)
         }
-        *beta /= q;
+    });
+    state.add(0, l);
+    let local = square_to_cosine_hemisphere(rng.uniform2());
+    let wi = exit_frame.to_world(local).normalize();
+    state.beta *= transmit(wi);
+    if state.beta == Vec3::ZERO || !state.beta.is_finite() {
+        return Next::End;
     }
-    true
+    state.previous = Previous {
+        p: exit.p,
+        pdf: cosine_hemisphere_pdf(local.z),
+        delta: false,
+    };
+    state.ray = exit.spawn(wi);
+    Next::Moved
 }
 
 /// Trace one path from the camera ray and return its radiance and first-hit data.
 pub fn trace(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
-    trace_path(ctx, None, camera_ray, rng, false)
+    trace_cached(ctx, None, camera_ray, rng)
 }
 
 /// `trace`, reading indirect light at the first diffuse surface from `cache` (module header).
@@ -158,14 +235,22 @@ pub fn trace_cached(
     camera_ray: Ray,
     rng: &mut Rng,
 ) -> CameraSample {
-    trace_path(ctx, cache, camera_ray, rng, false)
+    let mut tracer = PathTracer {
+        cache,
+        on_chain: cache.is_some(),
+    };
+    walk(ctx, camera_ray, rng, false, &mut tracer)
 }
 
 /// Radiance arriving along `ray` (a gather ray of an irradiance record) without the emission of
 /// the first surface it meets or the world it escapes to, with that surface's distance and
 /// normal.
 pub fn incident_radiance(ctx: &Context, ray: Ray, rng: &mut Rng) -> Incoming {
-    let out = trace_path(ctx, None, ray, rng, true);
+    let mut tracer = PathTracer {
+        cache: None,
+        on_chain: false,
+    };
+    let out = walk(ctx, ray, rng, true, &mut tracer);
     if !out.hit {
         return Incoming {
             radiance: out.radiance,
@@ -177,231 +262,4 @@ pub fn incident_radiance(ctx: &Context, ray: Ray, rng: &mut Rng) -> Incoming {
         distance: out.depth,
         normal: out.normal,
     }
-}
-
-fn trace_path(
-    ctx: &Context,
-    cache: Option<&IrradianceCache>,
-    camera_ray: Ray,
-    rng: &mut Rng,
-    gather: bool,
-) -> CameraSample {
-    let scene = ctx.scene;
-    let mut out = CameraSample {
-        depth: 1e10,
-        ..CameraSample::default()
-    };
-    let mut passes = Passes::default();
-    // Non-specular vertices so far, and whether the path went through the subsurface branch.
-    let mut diffuse = 0u32;
-    let mut subsurface = false;
-    let mut beta = Vec3::ONE;
-    let mut ray = camera_ray;
-    // The previous bounce's sampling density and whether it was a delta lobe, for MIS.
-    let mut prev_pdf = 0.0f32;
-    let mut prev_delta = true;
-    let mut prev_p = ray.origin;
-    let mut absorption = Vec3::ZERO;
-    // Still on the camera's specular chain, where cache records are placed.
-    let mut on_chain = cache.is_some();
-    // The cache served the last surface: this bounce only adds the emission it meets.
-    let mut emission_only = false;
-
-    for depth in 0..=ctx.max_depth {
-        let visibility = if depth == 0 && !gather {
-            Visibility::Camera
-        } else {
-            Visibility::Secondary
-        };
-        out.rays += 1;
-        let Some(hit) = ctx.accel.intersect(scene, &ray, visibility) else {
-            if depth == 0 && (ctx.transparent_background || gather) {
-                break;
-            }
-            let pass = light_pass(diffuse, subsurface);
-            ctx.lights.escaped(ray.direction, |le, light_pdf| {
-                let w = if prev_delta {
-                    1.0
-                } else {
-                    power_heuristic(prev_pdf, light_pdf)
-                };
-                passes.add(pass, beta * le * w);
-            });
-            break;
-        };
-        if absorption != Vec3::ZERO {
-            beta *= (-absorption * (hit.t * ray.direction.length())).exp();
-        }
-        let sh = SurfaceHit::new(scene, &ray, &hit);
-        let wo = -ray.direction.normalize();
-        let material = &scene.materials[sh.material as usize];
-        let surface = eval_material(scene, material, sh.uv);
-        if depth == 0 {
-            out.hit = true;
-            out.albedo = surface.base_color;
-            out.normal = sh.frame.n;
-            out.depth = hit.t * ray.direction.length();
-        }
-
-        let le = emitted_radiance(scene, &sh, wo);
-        if le != Vec3::ZERO && !(gather && depth == 0) {
-            let w = if prev_delta {
-                1.0
-            } else {
-                power_heuristic(prev_pdf, ctx.lights.triangle_pdf(prev_p, &sh))
-            };
-            passes.add(light_pass(diffuse, subsurface), beta * le * w);
-        }
-        if depth == ctx.max_depth || emission_only {
-            break;
-        }
-
-        // Opaque surfaces scatter on the viewer's side: turn the frame to face `wo`. Transmissive
-        // ones keep the frame on the outside (winding) so the BSDF knows inside from outside.
-        let mut frame = sh.frame;
-        let opaque = surface.transmission <= 0.0;
-        let mut ng = sh.ng;
-        if opaque && wo.dot(ng) < 0.0 {
-            frame.n = -frame.n;
-            frame.t = -frame.t;
-            ng = -ng;
-        }
-        let mut bsdf = Bsdf::new(&surface).viewed_from(frame.to_local(wo));
-
-        let weight = surface.subsurface.weight;
-        if weight > 0.0 && opaque {
-            // Translucent surfaces are path traced: the cache holds no subsurface light.
-            on_chain = false;
-            if rng.uniform() < SUBSURFACE_BRANCH {
-                // The subsurface branch: leave the material at x_i, then the entry lobe there.
-                let enter = weight * bsdf.base_transmittance() / SUBSURFACE_BRANCH;
-                let Some((exit, rd_over_pdf)) = sample_exit(ctx, &sh, &frame, &surface, rng) else {
-                    break;
-                };
-                beta *= rd_over_pdf * enter;
-                subsurface = true;
-                let exit_frame = Frame::from_normal(exit.ng);
-                let transmit = |wi: Vec3| {
-                    bsdf.viewed_from(exit_frame.to_local(wi))
-                        .base_transmittance()
-                };
-                if let Some(ls) = ctx
-                    .lights
-                    .sample(scene, exit.p, rng.uniform(), rng.uniform2())
-                {
-                    let cos = ls.wi.dot(exit.ng);
-                    if cos > 0.0 && ls.li != Vec3::ZERO {
-                        out.rays += 1;
-                        if ctx.accel.unoccluded(scene, &exit.spawn_to(&ls.target)) {
-                            let w = if ls.delta {
-                                1.0
-                            } else {
-                                power_heuristic(ls.pdf, cosine_hemisphere_pdf(cos))
-                            };
-                            let f = transmit(ls.wi) * cos / PI;
-                            passes.add(LightPass::Subsurface, beta * ls.li * (f * w / ls.pdf));
-                        }
-                    }
-                }
-                let local = square_to_cosine_hemisphere(rng.uniform2());
-                let wi = exit_frame.to_world(local).normalize();
-                beta *= transmit(wi);
-                if beta == Vec3::ZERO || !beta.is_finite() {
-                    break;
-                }
-                prev_pdf = cosine_hemisphere_pdf(local.z);
-                prev_delta = false;
-                prev_p = exit.p;
-                ray = exit.spawn(wi);
-                if depth >= 3 && !russian_roulette(&mut beta, rng) {
-                    break;
-                }
-                continue;
-            }
-            bsdf = bsdf.without_subsurface(weight);
-            beta /= 1.0 - SUBSURFACE_BRANCH;
-        }
-
-        let mut cached = None;
-        if on_chain && stores_photons(&bsdf) {
-            on_chain = false;
-            if let (Some(cache), Some(rho)) = (cache, lambertian_reflectance(&bsdf, opaque)) {
-                cached = cache.lookup(sh.p, frame.n).map(|e| rho * e * FRAC_1_PI);
-            }
-        }
-
-        if bsdf.has_non_delta() {
-            if let Some(ls) = ctx
-                .lights
-                .sample(scene, sh.p, rng.uniform(), rng.uniform2())
-            {
-                let wi_local = frame.to_local(ls.wi);
-                // An opaque surface cannot be lit from behind its geometry, whatever the shading
-                // normal says (avoids light leaking through interpolated normals).
-                let geometric_ok = !opaque || ls.wi.dot(ng) > 0.0;
-                let (f, bsdf_pdf) = if geometric_ok {
-                    bsdf.eval_and_pdf(wi_local)
-                } else {
-                    (Vec3::ZERO, 0.0)
-                };
-                if f != Vec3::ZERO && ls.li != Vec3::ZERO {
-                    out.rays += 1;
-                    if ctx.accel.unoccluded(scene, &sh.spawn_to(&ls.target)) {
-                        let w = if ls.delta {
-                            1.0
-                        } else {
-                            power_heuristic(ls.pdf, bsdf_pdf)
-                        };
-                        let pass = light_pass(diffuse + 1, subsurface);
-                        passes.add(pass, beta * f * ls.li * (w / ls.pdf));
-                    }
-                }
-            }
-        }
-
-        if let Some(indirect) = cached {
-            passes.add(light_pass(diffuse + 2, subsurface), beta * indirect);
-            // The light sample alone speckles where few of its samples reach a light (the world
-            // through a window): one BSDF-sampled bounce adds the emission it meets, MIS-weighted
-            // with it, wherever a ray can meet a light; then the path ends.
-            if !ctx.lights.hittable() {
-                break;
-            }
-            emission_only = true;
-        }
-
-        let Some(s) = bsdf.sample(rng.uniform(), rng.uniform2()) else {
-            break;
-        };
-        let wi = frame.to_world(s.wi).normalize();
-        if opaque && wi.dot(ng) <= 0.0 {
-            break;
-        }
-        beta *= s.weight;
-        if beta == Vec3::ZERO || !beta.is_finite() {
-            break;
-        }
-        if !s.delta {
-            diffuse += 1;
-        }
-        prev_pdf = s.pdf;
-        prev_delta = s.delta;
-        prev_p = sh.p;
-        if s.transmitted {
-            // Entering the object when leaving against the outward normal.
-            absorption = if wi.dot(sh.ng) < 0.0 {
-                surface.absorption
-            } else {
-                Vec3::ZERO
-            };
-        }
-        ray = sh.spawn(wi);
-
-        if depth >= 3 && !russian_roulette(&mut beta, rng) {
-            break;
-        }
-    }
-    out.radiance = passes.total();
-    out.passes = passes;
-    out
 }

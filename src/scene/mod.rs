@@ -8,6 +8,7 @@
 
 pub mod builtin;
 pub mod gltf;
+pub mod load;
 pub mod texture;
 pub mod units;
 

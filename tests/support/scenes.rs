@@ -4,7 +4,8 @@
 
 use photon::film::Image;
 use photon::math::{Affine3A, Vec3};
-use photon::render::{render, Progress, ProgressEvent, RenderSettings, RenderStats};
+use photon::progress::{Progress, ProgressEvent};
+use photon::render::{render, RenderSettings, RenderStats};
 use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
 use std::sync::atomic::AtomicBool;
 

@@ -7,47 +7,22 @@
 //! Lambertian base gets, so a translucent surface under uniform light shows R_d E/π exactly as
 //! the diffuse surface it replaces). Light diffuses only within one material's samples.
 //!
-//! **Against Cycles' random walk** (`scenes/blender/subsurface.py`: a 1 m box, base colour
-//! (0.8, 0.5, 0.3), radius (1, 0.2, 0.1), on a white plane under a sun; 64 × 64, 64 spp,
-//! 1 M subsurface photons, ~10 500 samples on the box), over the box's pixels: Subsurface Scale
-//! 0.02 → relMSE 0.014, mean −0.8 % (R −3.6 %, G +1.0 %, B +3.8 %); scale 0.1 → relMSE 0.032,
-//! mean −9.9 % (R −21 %). The dipole assumes a flat semi-infinite medium: with red's mean free
-//! path at 0.1 m and α′ ≈ 0.99 the profile reaches 1/σ_tr ≈ 0.6 m, so much of the red kernel
-//! falls where the box has no surface (beyond its edges and into the air) and is lost, while the
-//! random walk keeps every path inside the volume until it leaves through some face. The short
-//! channels agree within a few percent; the dipole also reddens the shaded faces by diffusing
-//! straight through the box's corners (Euclidean distance, not a path inside the volume).
-//!
-//! The path tracer's probe-ray sampling of the same BSSRDF (`integrator::path`, 64 × 64, 2048
-//! spp, 14 s) gives over the box vs Cycles relMSE 0.0103, mean −1.7 % at scale 0.02 (at 256
-//! spp: −2.8 %; scale 0.1: −12.4 %); photons (4 M) vs that path image: relMSE 0.0062, photons
-//! +1.6 % (red +2.5 %: the probes stop at the radius holding 99 % of R_d and see only the
-//! material's own surface along three axes, the photon kernel reaches every sample).
-//!
-//! **Photons or irradiance points.** With `subsurface_points` > 0 the samples are instead
-//! Jensen & Buhler's points, uniform by area over the translucent triangles, with the entering
-//! irradiance from 4 shadow rays plus the global map's non-direct photons. On the scale-0.02
-//! scene (64 × 64, 64 spp, over the box vs Cycles): 1 M photons (10 500 samples, 0.5 s)
-//! relMSE 0.0140, mean −0.8 %; 4 M photons (42 000, 2.9 s) 0.0108, −0.2 %; 10 000 points
-//! (0.17 s) 0.0255, −3.6 %; 40 000 points (0.67 s) 0.0166, −3.1 %. The points are darker:
-//! the global map's k-nearest estimate of the indirect part loses light at the box's edges
-//! (the search disc reaches past the face) and its bias does not fall with more points. So
-//! photons are the default.
-//!
-//! **Speed** (same scene at scale 0.02, 64 × 64, 8 spp, 4 M photons → ~42 000 samples, 2 busy
-//! cores, `photon render --progress json` render_seconds): octree (accuracy 0.05) 0.53–1.02 s,
-//! brute force 15.1 s, the same render without the subsurface term 0.28 s; relMSE between the
-//! octree and brute-force images over the box 5e-7. On 40 000 samples in a unit square the
-//! octree evaluates 625 kernels per point instead of 40 000 (`tests/subsurface.rs`).
+//! The dipole assumes a flat semi-infinite medium, so on thick-kernel materials it loses light
+//! where the kernel reaches past the object's surface (measured against Cycles' random walk in
+//! `docs/bench/measurements.md`). With `subsurface_points` > 0 the samples are instead Jensen &
+//! Buhler's irradiance points, uniform by area over the translucent triangles; photons are the
+//! default.
 
-use super::tracing::{trace_subsurface_photon, Emitters};
-use super::{trace_pass, PhotonInfo, PhotonSettings, Shading, Stream, PLANE_TOLERANCE};
+use super::estimate::PLANE_TOLERANCE;
+use super::settings::{PhotonInfo, PhotonSettings};
+use super::tracing::{trace_photons, trace_subsurface_photon, Emitters, Stream};
 use crate::accel::{Hit, Ray};
 use crate::error::Result;
+use crate::integrator::shading::Shading;
 use crate::integrator::Context;
 use crate::math::Vec3;
 use crate::photon_map::{Neighbors, PhotonMap};
-use crate::render::Progress;
+use crate::progress::Progress;
 use crate::rng::Rng;
 use crate::sampling::{square_to_triangle, Distribution1D};
 use crate::scene::Scene;
@@ -224,7 +199,7 @@ pub fn build(
     let samples = if settings.subsurface_points > 0 {
         point_samples(ctx, global, settings, global_radius2, seed)
     } else {
-        trace_pass(
+        trace_photons(
             ctx,
             emitters,
             Stream {

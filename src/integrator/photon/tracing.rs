@@ -1,5 +1,5 @@
-//! Pass 1 of photon mapping: photon emission and tracing (Jensen 2000, "Photon tracing"; Jensen
-//! 2001, ch. 5). Photons leave the lights in proportion to their power, scatter with the same
+//! Photon tracing, the first half of photon mapping: photon emission and tracing (Jensen 2001,
+//! "Realistic Image Synthesis Using Photon Mapping", ch. 5). Photons leave the lights in proportion to their power, scatter with the same
 //! BSDFs as camera paths, survive by Russian roulette on the sampled weight (so stored powers stay
 //! nearly equal) and are stored at every hit on a surface that is not specular.
 //!
@@ -16,34 +16,33 @@
 //!   L(ω)·πR²/pdf(ω).
 //!
 //! Caustic photons are aimed (Jensen's projection maps, with bounding spheres): only photons
-//! whose first hit is a specular surface can start a caustic path, so the caustic pass draws
+//! whose first hit is a specular surface can start a caustic path, so caustic photon tracing draws
 //! directions (for the sun and the world, ray positions) towards the specular meshes' bounding
 //! spheres (`Targets`) and divides the power by that density instead. On glass_caustic this
 //! stores 441 677 of 500 000 emitted caustic photons instead of 25 600.
 
-use super::{is_specular, Shading, SPECULAR_ROUGHNESS};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::ViewedBsdf;
+use crate::error::{Error, Result};
+use crate::integrator::classify::{is_specular, stores_photons};
+use crate::integrator::shading::{transmittance, Shading};
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
 use crate::light::{sample_emitter_point, smoothstep, LightSource};
 use crate::math::{luminance, max_component, Frame, Vec2, Vec3};
 use crate::photon_map::Photon;
+use crate::progress::{Progress, ProgressEvent};
 use crate::rng::Rng;
 use crate::sampling::{
     square_to_cosine_hemisphere, square_to_disk, square_to_uniform_cone, square_to_uniform_sphere,
     uniform_cone_pdf, Distribution1D,
 };
 use crate::subsurface::Sample;
+use rayon::prelude::*;
 use std::f32::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// True when a photon arriving at this surface is stored and the renderer reads photon maps
-/// here ("diffuse" in Jensen's L(S|D)*E notation): some lobe is not a delta, and the surface is
-/// not a glossy-only one (no Lambertian part and roughness below `SPECULAR_ROUGHNESS`).
-pub fn stores_photons(bsdf: &ViewedBsdf) -> bool {
-    bsdf.has_non_delta()
-        && (bsdf.roughness() >= SPECULAR_ROUGHNESS || bsdf.diffuse_reflectance() != Vec3::ZERO)
-}
+/// Photons per work item of `trace_photons` (a batch has its own random stream).
+const BATCH: u32 = 4096;
 
 /// One emitted photon.
 pub struct Emitted {
@@ -119,7 +118,7 @@ impl Emitters {
             .sum()
     }
 
-    /// Emit one photon. `aimed` photons (the caustic pass) leave only towards the specular
+    /// Emit one photon. `aimed` photons (for the caustic map) leave only towards the specular
     /// meshes' bounding spheres (the parallel rays of the sun and the world: through them), and
     /// their power divides by that density instead.
     pub fn emit(&self, ctx: &Context, aimed: bool, rng: &mut Rng) -> Option<Emitted> {
@@ -355,9 +354,9 @@ impl Targets {
     }
 }
 
-/// Which photons a tracing pass keeps.
+/// Which photon map a photon is traced for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Pass {
+pub enum MapKind {
     /// Every photon at every storing hit (the global map; caustic photons included and flagged).
     Global,
     /// Only light → specular+ → diffuse photons; the path ends at the first storing hit.
@@ -370,7 +369,7 @@ pub fn trace_photon(
     ctx: &Context,
     ray: Ray,
     power: Vec3,
-    pass: Pass,
+    map: MapKind,
     max_bounces: u32,
     rng: &mut Rng,
     out: &mut Vec<Photon>,
@@ -383,12 +382,12 @@ pub fn trace_photon(
         rng,
         |s, power, bounce, caustic| {
             let photon = Photon::new(s.sh.p, power, s.wo, bounce, caustic).with_normal(s.ng);
-            match pass {
-                Pass::Global => {
+            match map {
+                MapKind::Global => {
                     out.push(photon);
                     true
                 }
-                Pass::Caustic => {
+                MapKind::Caustic => {
                     if caustic {
                         out.push(photon);
                     }
@@ -425,7 +424,7 @@ pub fn trace_subsurface_photon(
     });
 }
 
-/// The photon random walk shared by every pass: `store(shading, power, bounces, caustic)` is
+/// The photon random walk shared by every photon map and the subsurface samples: `store(shading, power, bounces, caustic)` is
 /// called at each hit on a surface that stores photons (`caustic`: only specular bounces so
 /// far) and returns whether the walk goes on.
 fn walk_photon(
@@ -443,9 +442,7 @@ fn walk_photon(
         let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary) else {
             return;
         };
-        if absorption != Vec3::ZERO {
-            power *= (-absorption * (hit.t * ray.direction.length())).exp();
-        }
+        power *= transmittance(absorption, &hit, &ray);
         let s = Shading::new(ctx, &ray, &hit);
         let storing = stores_photons(&s.bsdf);
         if storing && !store(&s, power, bounce, bounce > 0 && specular_path) {
@@ -454,13 +451,9 @@ fn walk_photon(
         if bounce == max_bounces {
             return;
         }
-        let Some(bs) = s.bsdf.sample(rng.uniform(), rng.uniform2()) else {
+        let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) else {
             return;
         };
-        let wi = s.frame.to_world(bs.wi).normalize();
-        if s.opaque && wi.dot(s.ng) <= 0.0 {
-            return;
-        }
         specular_path &= bs.delta || !storing;
         // Russian roulette on the scattering weight keeps the photon's power nearly constant.
         let q = max_component(bs.weight).min(1.0);
@@ -474,4 +467,66 @@ fn walk_photon(
         absorption = s.absorption_after(&bs, wi, absorption);
         ray = s.sh.spawn(wi);
     }
+}
+
+/// Which photons a tracing run emits: its name in progress messages, the tag that separates its
+/// random stream from the other runs', and whether its photons are aimed at the specular meshes.
+pub struct Stream<'a> {
+    pub label: &'a str,
+    pub tag: u64,
+    pub aimed: bool,
+    /// Bytes the run may store (what the memory budget leaves after the earlier runs).
+    pub budget_bytes: u64,
+}
+
+/// Trace `count` photons in parallel batches with `trace(ray, power, rng, out)` (power already
+/// divided by the count), concatenated in batch order.
+pub fn trace_photons<T: Send + Clone>(
+    ctx: &Context,
+    emitters: &Emitters,
+    stream: Stream,
+    count: u32,
+    seed: u64,
+    progress: &Progress,
+    trace: impl Fn(Ray, Vec3, &mut Rng, &mut Vec<T>) + Sync,
+) -> Result<Vec<T>> {
+    let batches = count.div_ceil(BATCH);
+    let done = AtomicU64::new(0);
+    let stored = AtomicU64::new(0);
+    // Batches are joined into one vector at the end: both exist for a moment.
+    let bytes_per_item = 2 * std::mem::size_of::<T>() as u64;
+    let scale = 1.0 / count.max(1) as f32;
+    let parts: Vec<Vec<T>> = (0..batches)
+        .into_par_iter()
+        .map(|b| {
+            progress.check()?;
+            let mut rng = Rng::for_item(seed ^ stream.tag, b as u64, 0);
+            let n = BATCH.min(count - b * BATCH);
+            let mut out = Vec::with_capacity(n as usize * 2);
+            for _ in 0..n {
+                if let Some(e) = emitters.emit(ctx, stream.aimed, &mut rng) {
+                    trace(e.ray, e.power * scale, &mut rng, &mut out);
+                }
+            }
+            // Partial sums never exceed the final count, so whether this fails does not depend
+            // on the order the batches finish in.
+            let total = stored.fetch_add(out.len() as u64, Ordering::Relaxed) + out.len() as u64;
+            if total * bytes_per_item > stream.budget_bytes {
+                return Err(Error::Settings(format!(
+                    "the {} photons need more than the {} MiB left of the photon memory limit \
+                     ({total} stored so far); emit fewer photons or raise --memory-limit",
+                    stream.label,
+                    stream.budget_bytes >> 20
+                )));
+            }
+            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
+            (progress.report)(&ProgressEvent {
+                stage: "photons",
+                fraction: finished as f32 / batches as f32,
+                message: format!("{} photons: batch {finished}/{batches}", stream.label),
+            });
+            Ok(out)
+        })
+        .collect::<Result<_>>()?;
+    Ok(parts.concat())
 }

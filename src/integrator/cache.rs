@@ -7,41 +7,36 @@
 //! with a diffuse lobe. A Lambertian surface takes all its indirect light from the cache. On a
 //! mixed one (diffuse under a glossy layer, Principled's default) the photon renderer keeps its
 //! gather rays but counts their global estimates for the other lobes only, f − ρ_d/π, and adds
-//! ρ_d/π · E from the cache (`CachedDiffuse`); the path tracer's cache mode serves Lambertian
-//! surfaces only. Metals, glass and glossy-only surfaces have no records. A record gathers *indirect* irradiance only: emission found
-//! by the gather rays is left out, since the shading point samples its lights itself when it
+//! ρ_d/π · E from the cache (`shading::CachedDiffuse`); the path tracer's cache mode serves
+//! Lambertian surfaces only. Metals, glass and glossy-only surfaces have no records. A record
+//! gathers *indirect* irradiance only: emission found by the gather rays is left out, since the shading point samples its lights itself when it
 //! reads the cache (MIS-weighted with one BSDF ray that counts only emission, wherever a ray can
 //! meet a light). Two gather sources:
 //! - `Source::Photon`: final gathering into the global photon map, as the photon renderer's own
-//!   gather rays do (`photon::cache_gather`: the global estimate behind specular surfaces);
+//!   gather rays do (`photon::shade::cache_gather`: the global estimate behind specular surfaces);
 //! - `Source::Path`: path-traced rays (`path::incident_radiance`), so the cache is used and tested
 //!   without photons (`--method path-cache`).
 //!
-//! The pre-pass covers the full frame even for a region render, so a region is still the crop
+//! The cache is built over the full frame even for a region render, so a region is still the crop
 //! of the full image bit for bit. Shading points no record covers fall back to the integrator's
 //! own estimate (see `irradiance_cache`).
-//!
-//! Measured (`photon bench scenes/cornell_box.glb --budgets 16,64,256 --methods
-//! path,photon,path-cache --width 96 --reference-spp 4096`, wall time, 2 busy cores):
-//! path-cache 256 spp 5.0 s relMSE 0.0011 (64 spp 2.4 s 0.0029), path 256 spp 6.9 s 0.0020.
 
-use super::photon::tracing::stores_photons;
-use super::photon::{self, PhotonMaps, Shading};
+use super::classify::diffuse_reflectance;
+use super::photon::build::PhotonMaps;
+use super::photon::shade::cache_gather;
+use super::shading::Shading;
+use super::walk::{follow_specular, Chain};
 use super::{path, CameraSample, Context};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::{BsdfSample, ViewedBsdf};
 use crate::camera::CameraRays;
 use crate::error::Result;
 use crate::irradiance_cache::{self, IcSettings, Incoming, IrradianceCache, Site};
-use crate::math::{max_component, Vec2, Vec3};
-use crate::render::{Progress, ProgressEvent};
+use crate::math::{Vec2, Vec3};
+use crate::progress::{Progress, ProgressEvent};
 use crate::rng::Rng;
 use std::f32::consts::PI;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
-
-/// Longest chain of specular surfaces followed from the camera to a cached surface.
-const MAX_CHAIN: u32 = 12;
 
 /// What a record's gather rays read.
 #[derive(Clone, Copy)]
@@ -74,71 +69,17 @@ pub struct IcInfo {
     pub budget_reached: bool,
 }
 
-/// ρ of a Lambertian opaque BSDF (the surfaces the cache serves), `None` for any other.
-pub fn lambertian_reflectance(bsdf: &ViewedBsdf, opaque: bool) -> Option<Vec3> {
-    let rho = bsdf.diffuse_reflectance();
-    (opaque && rho != Vec3::ZERO && max_component(bsdf.albedo() - rho) < 1e-4).then_some(rho)
-}
-
-/// ρ_d of the diffuse lobe of an opaque BSDF (Lambertian or under a glossy layer), `None` when
-/// it has none: the surfaces that get records.
-fn diffuse_reflectance(bsdf: &ViewedBsdf, opaque: bool) -> Option<Vec3> {
-    let rho = bsdf.diffuse_reflectance();
-    (opaque && rho != Vec3::ZERO).then_some(rho)
-}
-
-/// The cache's answer for the diffuse lobe at a shading point.
-#[derive(Clone, Copy, Debug)]
-pub struct CachedDiffuse {
-    /// ρ_d of the diffuse lobe (as seen from the viewer).
-    pub rho: Vec3,
-    /// Its reflected indirect radiance ρ_d/π · E.
-    pub radiance: Vec3,
-    /// The BSDF is that lobe alone.
-    pub lambertian: bool,
-}
-
-impl CachedDiffuse {
-    /// The weight f·cos/pdf of a BSDF sample without the diffuse lobe's part ρ_d/π·cos/pdf: a
-    /// gather ray's global estimate counted for the other lobes only.
-    pub fn non_diffuse_weight(&self, bs: &BsdfSample) -> Vec3 {
-        let diffuse = self.rho * (bs.wi.z.abs() / (PI * bs.pdf));
-        (bs.weight - diffuse).max(Vec3::ZERO)
-    }
-}
-
-/// The cached indirect light of the diffuse lobe at `s`, `None` when `s` has no diffuse lobe or no
-/// record covers it.
-pub fn cached_diffuse(cache: &IrradianceCache, s: &Shading) -> Option<CachedDiffuse> {
-    let rho = diffuse_reflectance(&s.bsdf, s.opaque)?;
-    let e = cache.lookup(s.sh.p, s.frame.n)?;
-    Some(CachedDiffuse {
-        rho,
-        radiance: rho * e * (1.0 / PI),
-        lambertian: lambertian_reflectance(&s.bsdf, s.opaque).is_some(),
-    })
-}
-
-/// Follow specular surfaces from `ray` to the first surface that stores photons; returns it with
-/// the path length to it.
-fn first_surface(ctx: &Context, mut ray: Ray, rng: &mut Rng) -> Option<(Shading, f32)> {
-    let mut length = 0.0;
-    for depth in 0..MAX_CHAIN {
-        let visibility = if depth == 0 {
-            Visibility::Camera
-        } else {
-            Visibility::Secondary
-        };
-        let hit = ctx.accel.intersect(ctx.scene, &ray, visibility)?;
-        length += hit.t * ray.direction.length();
-        let s = Shading::new(ctx, &ray, &hit);
-        if stores_photons(&s.bsdf) {
-            return Some((s, length));
-        }
-        let (_, wi) = s.sample(rng.uniform(), rng.uniform2())?;
-        ray = s.sh.spawn(wi);
-    }
-    None
+/// The first surface that stores photons seen along camera ray `ray` through specular ones
+/// (`walk::follow_specular`), with the path length to it.
+fn first_surface(ctx: &Context, ray: Ray, rng: &mut Rng) -> Option<(Shading, f32)> {
+    let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Camera)?;
+    let s = Shading::new(ctx, &ray, &hit);
+    let mut chain = Chain {
+        length: hit.t * ray.direction.length(),
+        ..Chain::new(Vec3::ZERO)
+    };
+    let s = follow_specular(ctx, s, &mut chain, rng, None)?;
+    Some((s, chain.length))
 }
 
 /// Build the cache over the full frame of `width` × `height` pixels.
@@ -174,7 +115,7 @@ pub fn build_cache(
             return Incoming::NONE;
         }
         match source {
-            Source::Photon(maps) => photon::cache_gather(ctx, maps, s, wi, rng),
+            Source::Photon(maps) => cache_gather(ctx, maps, s, wi, rng),
             Source::Path => path::incident_radiance(ctx, s.sh.spawn(wi), rng),
         }
     };

@@ -1,0 +1,429 @@
+//! Rendering with the photon maps (Jensen 2001, ch. 9, "Rendering"): the camera path is walked
+//! as the path tracer walks it (`walk::walk`, with light sampling on glossy surfaces) up to the
+//! first surface that stores photons, x, where the reflected radiance is decomposed as
+//!
+//! L(x) = Le + L_direct + L_specular + L_caustic + L_indirect:
+//! - **direct** (paths L D(x) E): one light sample with MIS against the BSDF-sampled gather rays,
+//!   which add the emission they hit with the complementary weight;
+//! - **specular** (E S* x): a delta lobe of x itself (a smooth coat) is traced to the next
+//!   surface that stores photons, which adds its emission and global estimate;
+//! - **caustics** (L S+ D(x)): the caustic map's estimate at x, cone-filtered;
+//! - **indirect** (L (S|D)* D S* D(x)): final gathering: `gather_rays` BSDF-sampled rays from x
+//!   (the first n² stratified); each follows specular surfaces without adding emission (L S+
+//!   paths arriving that way are caustics, already counted) and reads the global map at the
+//!   first surface that stores photons. The global map holds every stored photon, so its
+//!   estimate there is that surface's full reflected radiance.
+//!
+//! Each light path is counted once: by the first diffuse vertex from the eye it is direct,
+//! caustic (only specular vertices between it and the light) or indirect (some diffuse vertex
+//! between).
+//!
+//! **Irradiance cache** (`super::super::cache`): at a Lambertian opaque x, the indirect term is
+//! ρ/π × E interpolated from Ward's records, and direct light is one light sample,
+//! MIS-weighted with one BSDF ray that counts only emission wherever a ray can meet a light
+//! (`Gather::direct_without_gather`). A diffuse lobe under a glossy layer takes ρ_d/π × E from
+//! the cache while one gather ray per camera sample carries the rest of the BSDF (its global
+//! estimate counted with f − ρ_d/π). Other surfaces, and points no record covers, keep the
+//! plain gather rays.
+//!
+//! A final-gather hit on an opaque surface that is Lambertian, or whose glossy lobe is rough
+//! (`ROUGH_AS_DIFFUSE`), reads the nearest precomputed irradiance record (albedo/π × E) instead
+//! of a full estimate (`super::estimate`).
+//!
+//! Light passes, as seen from x: its light sample and the emission its gather rays find are
+//! Direct, emission through its delta lobes Emission, the global estimates and the cache
+//! Indirect, the caustic estimate Caustic, the dipole term Subsurface; glossy vertices on the
+//! camera path before x move Emission and Direct one step further (`Passes::add_after`).
+
+use super::build::PhotonMaps;
+use super::estimate::{nearest_irradiance, radiance_estimate};
+use crate::accel::{Hit, Ray, Visibility};
+use crate::integrator::classify::stores_photons;
+use crate::integrator::direct::Previous;
+use crate::integrator::shading::{transmittance, CachedDiffuse, Shading};
+use crate::integrator::walk::{follow_specular, walk, Chain, Next, PathState, Scatter};
+use crate::integrator::{CameraSample, Context};
+use crate::irradiance_cache::{Incoming, IrradianceCache};
+use crate::light::emitted_radiance;
+use crate::light_pass::{LightPass, Passes};
+use crate::math::{Vec2, Vec3};
+use crate::photon_map::Neighbors;
+use crate::rng::Rng;
+use std::f32::consts::PI;
+
+/// Perceptual roughness from which a final-gather hit's glossy lobe is shaded from the
+/// precomputed irradiance like its diffuse part (`Gather::gather_estimate`): Principled
+/// materials carry a specular layer (0.5 by default), so without this almost no Blender surface
+/// takes the fast path. Rough lobes blur the incident light nearly as a diffuse one does; below
+/// this the full estimate sees each photon's direction.
+const ROUGH_AS_DIFFUSE: f32 = 0.5;
+
+/// What the photon method shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// The full solution (direct + specular + caustics + final gather).
+    Full,
+    /// The global map's radiance estimate at the first surface that stores photons, plus
+    /// emission.
+    Global,
+    /// The caustic map's radiance estimate at the first surface that stores photons.
+    Caustic,
+    /// Photon positions: white dots for global photons, orange for caustic ones.
+    Photons,
+}
+
+/// Per-sample state of shading from the photon maps: the maps and cache it reads, the
+/// k-nearest buffer and the rays it traced.
+struct Gather<'a> {
+    ctx: &'a Context<'a>,
+    maps: &'a PhotonMaps,
+    cache: Option<&'a IrradianceCache>,
+    buf: Neighbors,
+    rays: u32,
+}
+
+impl<'a> Gather<'a> {
+    fn new(ctx: &'a Context<'a>, maps: &'a PhotonMaps, cache: Option<&'a IrradianceCache>) -> Self {
+        Gather {
+            ctx,
+            maps,
+            cache,
+            buf: Neighbors::default(),
+            rays: 0,
+        }
+    }
+
+    fn intersect(&mut self, ray: &Ray) -> Option<Hit> {
+        self.rays += 1;
+        self.ctx
+            .accel
+            .intersect(self.ctx.scene, ray, Visibility::Secondary)
+    }
+
+    /// Follow specular surfaces from `s` (`walk::follow_specular`), counting the rays.
+    fn follow(
+        &mut self,
+        s: Shading,
+        chain: &mut Chain,
+        rng: &mut Rng,
+        emission: Option<&mut Vec3>,
+    ) -> Option<Shading> {
+        let end = follow_specular(self.ctx, s, chain, rng, emission);
+        self.rays += chain.rays;
+        end
+    }
+
+    /// The global estimate at a final-gather hit: on opaque surfaces that are Lambertian or
+    /// whose glossy lobe is rough (`ROUGH_AS_DIFFUSE`), albedo(wo)/π × the nearest precomputed
+    /// irradiance when records exist (exact for Lambertian surfaces, and for any BSDF under
+    /// uniform incident light, by reciprocity); else the full estimate, whose photons keep
+    /// their directions for sharper lobes.
+    fn gather_estimate(&mut self, s: &Shading) -> Vec3 {
+        if let Some(irr) = &self.maps.irradiance {
+            if s.opaque && !s.bsdf.has_delta() {
+                let albedo = s.bsdf.albedo();
+                if s.bsdf.roughness() >= ROUGH_AS_DIFFUSE || s.is_opaque_lambertian() {
+                    let r2 = self.maps.global_radius2;
+                    if let Some(e) = nearest_irradiance(irr, r2, s) {
+                        return albedo * e * (1.0 / PI);
+                    }
+                }
+            }
+        }
+        self.global(s)
+    }
+
+    fn global(&mut self, s: &Shading) -> Vec3 {
+        let (maps, k) = (self.maps, self.maps.settings.k_global);
+        match &maps.global {
+            Some(m) => radiance_estimate(m, k, maps.global_radius2, false, s, &mut self.buf),
+            None => Vec3::ZERO,
+        }
+    }
+
+    fn caustic(&mut self, s: &Shading) -> Vec3 {
+        let (maps, k) = (self.maps, self.maps.settings.k_caustic);
+        match &maps.caustic {
+            Some(m) => radiance_estimate(m, k, maps.caustic_radius2, true, s, &mut self.buf),
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// One light sample at `s`, MIS-weighted against BSDF sampling when `mis` is set.
+    fn direct(&mut self, s: &Shading, mis: bool, rng: &mut Rng) -> Vec3 {
+        s.light_sample(self.ctx, Vec3::ONE, mis, rng, &mut self.rays)
+    }
+
+    /// A non-delta final-gather ray from `from` with BSDF density `pdf`: the emission it finds
+    /// (MIS-weighted against light sampling) and, with `estimate`, the global estimate behind
+    /// specular surfaces, returned apart (the irradiance cache replaces the diffuse lobe's share
+    /// of the second).
+    fn gather_ray(
+        &mut self,
+        from: Vec3,
+        ray: Ray,
+        pdf: f32,
+        absorption: Vec3,
+        estimate: bool,
+        rng: &mut Rng,
+    ) -> (Vec3, Vec3) {
+        let ctx = self.ctx;
+        let previous = Previous {
+            p: from,
+            pdf,
+            delta: false,
+        };
+        let Some(hit) = self.intersect(&ray) else {
+            let mut l = Vec3::ZERO;
+            ctx.lights
+                .escaped(ray.direction, |le, lpdf| l += le * previous.weight(lpdf));
+            return (l, Vec3::ZERO);
+        };
+        let t = transmittance(absorption, &hit, &ray);
+        let s = Shading::new(ctx, &ray, &hit);
+        let mut l = emitted_radiance(ctx.scene, &s.sh, s.wo);
+        if l != Vec3::ZERO {
+            l *= previous.weight_at(ctx, &s.sh);
+        }
+        if !estimate {
+            return (t * l, Vec3::ZERO);
+        }
+        let mut estimate = Vec3::ZERO;
+        let mut chain = Chain::new(absorption);
+        if let Some(d) = self.follow(s, &mut chain, rng, None) {
+            estimate = chain.beta * self.gather_estimate(&d);
+        }
+        (t * l, t * estimate)
+    }
+
+    /// Direct light at `s` when no final-gather ray leaves it (its indirect light is cached):
+    /// light sampling alone has unbounded variance where an emitting mesh meets the surface
+    /// at a concave corner (the 1/d² of nearby light samples), and speckles where a small
+    /// opening shows the world (most of its samples blocked, the few through it weighted by
+    /// the inverse of the world's small share of the samples). So wherever a ray can meet a
+    /// light, one BSDF-sampled ray adds the emission it finds and both are MIS-weighted, as in
+    /// the path tracer. Scenes lit only by point, spot and sharp sun lamps keep light sampling
+    /// alone.
+    fn direct_without_gather(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
+        if !self.ctx.lights.hittable() {
+            return self.direct(s, false, rng);
+        }
+        let mut l = self.direct(s, true, rng);
+        if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
+            if !bs.delta {
+                let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
+                let ray = s.sh.spawn(wi);
+                let (emission, _) = self.gather_ray(s.sh.p, ray, bs.pdf, absorption, false, rng);
+                l += bs.weight * emission;
+            }
+        }
+        l
+    }
+
+    /// Radiance along a ray that left a diffuse surface through a delta lobe: emission along the
+    /// specular chain and the global estimate at its end, returned apart (for the passes).
+    fn estimate_ray(&mut self, ray: Ray, absorption: Vec3, rng: &mut Rng) -> (Vec3, Vec3) {
+        let Some(hit) = self.intersect(&ray) else {
+            let mut l = Vec3::ZERO;
+            self.ctx.lights.escaped(ray.direction, |le, _| l += le);
+            return (l, Vec3::ZERO);
+        };
+        let t = transmittance(absorption, &hit, &ray);
+        let s = Shading::new(self.ctx, &ray, &hit);
+        let mut l = emitted_radiance(self.ctx.scene, &s.sh, s.wo);
+        let mut estimate = Vec3::ZERO;
+        let mut chain = Chain::new(absorption);
+        if let Some(d) = self.follow(s, &mut chain, rng, Some(&mut l)) {
+            estimate = chain.beta * self.global(&d);
+        }
+        (t * l, t * estimate)
+    }
+
+    /// Reflected radiance at a surface that stores photons: direct + caustics + final gather, by
+    /// pass as seen from `s` (module header).
+    fn shade(&mut self, s: &Shading, rng: &mut Rng) -> Passes {
+        let mut passes = Passes::default();
+        // Irradiance cache: a Lambertian surface takes its indirect light from the records and
+        // samples only the lights; on a mixed one the cache replaces the diffuse lobe's share
+        // of the gather rays' global estimates.
+        let cached: Option<CachedDiffuse> = self.cache.and_then(|c| s.cached_diffuse(c));
+        if let Some(d) = cached.filter(|d| d.lambertian) {
+            passes.add(LightPass::Direct, self.direct_without_gather(s, rng));
+            passes.add(LightPass::Caustic, self.caustic(s));
+            passes.add(LightPass::Indirect, d.radiance);
+            return passes;
+        }
+        // Where the cache serves the diffuse lobe, the gather rays carry only the rest of the
+        // BSDF (a glossy layer's indirect light and emission): one per camera sample, as the
+        // path tracer's bounce, instead of a full final gather.
+        let m = match cached {
+            Some(_) => self.maps.settings.gather_rays.min(1),
+            None => self.maps.settings.gather_rays,
+        };
+        passes.add(LightPass::Direct, self.direct(s, m > 0, rng));
+        passes.add(LightPass::Caustic, self.caustic(s));
+        if m == 0 {
+            passes.add(LightPass::Indirect, self.global(s));
+            return passes;
+        }
+        let n = (m as f32).sqrt() as u32;
+        // Sums over the gather rays by pass.
+        let mut sum = Passes::default();
+        for i in 0..m {
+            // Stratify the first n² directions on an n × n grid.
+            let u = if i < n * n {
+                let j = Vec2::new((i % n) as f32, (i / n) as f32);
+                ((j + rng.uniform2()) / n as f32).min(Vec2::splat(0.999_999_94))
+            } else {
+                rng.uniform2()
+            };
+            let Some((bs, wi)) = s.sample(rng.uniform(), u) else {
+                continue;
+            };
+            let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
+            let ray = s.sh.spawn(wi);
+            if bs.delta {
+                let (emission, estimate) = self.estimate_ray(ray, absorption, rng);
+                sum.add(LightPass::Emission, bs.weight * emission);
+                sum.add(LightPass::Indirect, bs.weight * estimate);
+            } else {
+                let (emission, estimate) =
+                    self.gather_ray(s.sh.p, ray, bs.pdf, absorption, true, rng);
+                let w = cached.map_or(bs.weight, |d| d.non_diffuse_weight(&bs));
+                sum.add(LightPass::Direct, bs.weight * emission);
+                sum.add(LightPass::Indirect, w * estimate);
+            }
+        }
+        sum.scale(1.0 / m as f32);
+        passes += sum;
+        passes.add(
+            LightPass::Indirect,
+            cached.map_or(Vec3::ZERO, |d| d.radiance),
+        );
+        passes
+    }
+
+    /// `shade`, where on a translucent surface the subsurface term replaces the subsurface
+    /// weight's share of the Lambertian part.
+    fn shade_full(&mut self, s: &Shading, rng: &mut Rng) -> Passes {
+        let sss = self.maps.subsurface.as_ref().and_then(|m| m.radiance(s));
+        match sss {
+            None => self.shade(s, rng),
+            Some(l) => {
+                let weight = s.surface.subsurface.weight;
+                let rest = Shading {
+                    bsdf: s.bsdf.without_subsurface(weight),
+                    ..*s
+                };
+                let mut passes = self.shade(&rest, rng);
+                passes.add(LightPass::Subsurface, l);
+                passes
+            }
+        }
+    }
+
+    /// Photon dots: the nearest photon within a small radius, white (global) or orange (caustic).
+    fn dots(&mut self, s: &Shading) -> Vec3 {
+        let maps = self.maps;
+        for (map, colour) in [
+            (&maps.caustic, Vec3::new(1.0, 0.5, 0.1)),
+            (&maps.global, Vec3::ONE),
+        ] {
+            if let Some(m) = map {
+                m.nearest(s.sh.p, 1, maps.dot_radius2, &mut self.buf);
+                if !self.buf.is_empty() {
+                    return colour;
+                }
+            }
+        }
+        Vec3::ZERO
+    }
+}
+
+/// The photon method's part in the camera walk: glossy surfaces are ray traced as the path
+/// tracer does (light sampling with MIS in the full view), and the first surface that stores
+/// photons is shaded by the view, which ends the path.
+struct PhotonCamera<'a> {
+    gather: Gather<'a>,
+    view: View,
+}
+
+impl Scatter for PhotonCamera<'_> {
+    fn counts_emission(&self) -> bool {
+        matches!(self.view, View::Full | View::Global)
+    }
+
+    fn scatter(
+        &mut self,
+        _: &Context,
+        state: &mut PathState,
+        s: &mut Shading,
+        rng: &mut Rng,
+    ) -> Next {
+        let g = &mut self.gather;
+        if stores_photons(&s.bsdf) {
+            let mut l = Passes::default();
+            match self.view {
+                View::Full => l = g.shade_full(s, rng),
+                View::Global => l.add(LightPass::Indirect, g.global(s)),
+                View::Caustic => l.add(LightPass::Caustic, g.caustic(s)),
+                View::Photons => l.add(LightPass::Indirect, g.dots(s)),
+            };
+            state.passes.add_after(&l, state.beta, state.diffuse);
+            return Next::End;
+        }
+        let light_sampled = self.view == View::Full && s.bsdf.has_non_delta();
+        if light_sampled {
+            let l = state.beta * g.direct(s, true, rng);
+            state.add(1, l);
+        }
+        Next::Continue { light_sampled }
+    }
+}
+
+/// One camera sample of the photon method's `view`, with the irradiance cache when given.
+pub fn trace(
+    ctx: &Context,
+    maps: &PhotonMaps,
+    cache: Option<&IrradianceCache>,
+    view: View,
+    camera_ray: Ray,
+    rng: &mut Rng,
+) -> CameraSample {
+    let mut camera = PhotonCamera {
+        gather: Gather::new(ctx, maps, cache),
+        view,
+    };
+    let mut out = walk(ctx, camera_ray, rng, false, &mut camera);
+    out.rays += camera.gather.rays;
+    out
+}
+
+/// Radiance arriving at `s` along `wi` for an irradiance-cache record, with the distance of the
+/// first hit: the global estimate behind specular surfaces, as a final-gather ray reads it, but
+/// without emission (the cached point samples its lights itself).
+pub fn cache_gather(
+    ctx: &Context,
+    maps: &PhotonMaps,
+    s: &Shading,
+    wi: Vec3,
+    rng: &mut Rng,
+) -> Incoming {
+    let mut gather = Gather::new(ctx, maps, None);
+    let ray = s.sh.spawn(wi);
+    let Some(hit) = gather.intersect(&ray) else {
+        return Incoming::NONE;
+    };
+    let d = Shading::new(ctx, &ray, &hit);
+    let normal = d.frame.n;
+    let mut chain = Chain::new(Vec3::ZERO);
+    let radiance = match gather.follow(d, &mut chain, rng, None) {
+        Some(d) => chain.beta * gather.gather_estimate(&d),
+        None => Vec3::ZERO,
+    };
+    Incoming {
+        radiance,
+        distance: hit.t * ray.direction.length(),
+        normal,
+    }
+}

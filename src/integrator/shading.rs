@@ -1,0 +1,153 @@
+//! The shading point: a surface hit turned into what every integrator shades with — the
+//! material evaluated there, its BSDF seen from the viewer, the shading frame and geometric
+//! normal on the right side of the surface, and the medium a ray leaves into.
+//!
+//! Sides: opaque surfaces scatter on the viewer's side, so their frame and `ng` are turned to
+//! face the viewer (a single-sided plane is lit and shaded from whichever side is looked at);
+//! transmissive surfaces keep the winding side, so the BSDF knows inside from outside. Media:
+//! inside a transmissive object a ray is attenuated by Beer–Lambert absorption.
+
+use super::classify::{diffuse_reflectance, is_lambertian, lambertian_reflectance};
+use super::direct::sample_direct;
+use super::Context;
+use crate::accel::{Hit, Ray};
+use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
+use crate::interaction::SurfaceHit;
+use crate::irradiance_cache::IrradianceCache;
+use crate::material::{eval_material, SurfaceMaterial};
+use crate::math::{Frame, Vec2, Vec3};
+use crate::rng::Rng;
+use std::f32::consts::PI;
+
+/// A surface hit prepared for shading (module header for the sides).
+#[derive(Clone, Copy)]
+pub struct Shading {
+    pub sh: SurfaceHit,
+    pub surface: SurfaceMaterial,
+    pub frame: Frame,
+    pub ng: Vec3,
+    pub opaque: bool,
+    /// The BSDF seen from `wo`.
+    pub bsdf: ViewedBsdf,
+    /// Unit direction towards the viewer (or where the photon came from).
+    pub wo: Vec3,
+    pub wo_local: Vec3,
+}
+
+/// Beer–Lambert transmittance along `ray` up to `hit` through a medium of absorption
+/// coefficient `absorption` (exactly one outside any medium).
+pub fn transmittance(absorption: Vec3, hit: &Hit, ray: &Ray) -> Vec3 {
+    if absorption == Vec3::ZERO {
+        Vec3::ONE
+    } else {
+        (-absorption * (hit.t * ray.direction.length())).exp()
+    }
+}
+
+impl Shading {
+    pub fn new(ctx: &Context, ray: &Ray, hit: &Hit) -> Shading {
+        let sh = SurfaceHit::new(ctx.scene, ray, hit);
+        let wo = -ray.direction.normalize();
+        let surface = eval_material(ctx.scene, &ctx.scene.materials[sh.material as usize], sh.uv);
+        let mut frame = sh.frame;
+        let opaque = surface.transmission <= 0.0;
+        let mut ng = sh.ng;
+        if opaque && wo.dot(ng) < 0.0 {
+            frame.n = -frame.n;
+            frame.t = -frame.t;
+            ng = -ng;
+        }
+        let wo_local = frame.to_local(wo);
+        Shading {
+            sh,
+            frame,
+            ng,
+            opaque,
+            bsdf: Bsdf::new(&surface).viewed_from(wo_local),
+            wo,
+            wo_local,
+            surface,
+        }
+    }
+
+    /// Absorption coefficient of the medium a ray leaving along `wi` by `bs` travels through,
+    /// `current` being the one it arrived in.
+    pub fn absorption_after(&self, bs: &BsdfSample, wi: Vec3, current: Vec3) -> Vec3 {
+        if !bs.transmitted {
+            current
+        } else if wi.dot(self.sh.ng) < 0.0 {
+            self.surface.absorption
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Sample the BSDF and turn the sample into a world direction; `None` when the path ends
+    /// (no sample, or an opaque surface's sample below its geometric surface).
+    pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<(BsdfSample, Vec3)> {
+        let bs = self.bsdf.sample(u_lobe, u)?;
+        let wi = self.frame.to_world(bs.wi).normalize();
+        if self.opaque && wi.dot(self.ng) <= 0.0 {
+            return None;
+        }
+        Some((bs, wi))
+    }
+
+    /// One light sample through this point's BSDF, times `beta`, MIS-weighted against BSDF
+    /// sampling when `mis` is set (`direct::sample_direct`). An opaque surface is never lit
+    /// from behind its geometry, whatever the shading normal says (no light leaking through
+    /// interpolated normals).
+    pub fn light_sample(
+        &self,
+        ctx: &Context,
+        beta: Vec3,
+        mis: bool,
+        rng: &mut Rng,
+        rays: &mut u32,
+    ) -> Vec3 {
+        sample_direct(ctx, &self.sh, beta, mis, rng, rays, |wi| {
+            if self.opaque && wi.dot(self.ng) <= 0.0 {
+                (Vec3::ZERO, 0.0)
+            } else {
+                self.bsdf.eval_and_pdf(self.frame.to_local(wi))
+            }
+        })
+    }
+
+    /// The irradiance cache's answer for this point's diffuse lobe; `None` when it has none or
+    /// no record covers the point.
+    pub fn cached_diffuse(&self, cache: &IrradianceCache) -> Option<CachedDiffuse> {
+        let rho = diffuse_reflectance(&self.bsdf, self.opaque)?;
+        let e = cache.lookup(self.sh.p, self.frame.n)?;
+        Some(CachedDiffuse {
+            rho,
+            radiance: rho * e * (1.0 / PI),
+            lambertian: lambertian_reflectance(&self.bsdf, self.opaque).is_some(),
+        })
+    }
+
+    /// True on an opaque surface that scatters as a Lambertian one.
+    pub fn is_opaque_lambertian(&self) -> bool {
+        self.opaque && is_lambertian(&self.bsdf)
+    }
+}
+
+/// The irradiance cache's answer for the diffuse lobe at a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct CachedDiffuse {
+    /// ρ_d of the diffuse lobe (as seen from the viewer).
+    pub rho: Vec3,
+    /// Its reflected indirect radiance ρ_d/π · E.
+    pub radiance: Vec3,
+    /// The BSDF is that lobe alone.
+    pub lambertian: bool,
+}
+
+impl CachedDiffuse {
+    /// The weight f·cos/pdf of a BSDF sample without the diffuse lobe's part ρ_d/π·cos/pdf: a
+    /// gather ray's estimate counted for the other lobes only.
+    pub fn non_diffuse_weight(&self, bs: &BsdfSample) -> Vec3 {
+        let diffuse = self.rho * (bs.wi.z.abs() / (PI * bs.pdf));
+        (bs.weight - diffuse).max(Vec3::ZERO)
+    }
+}

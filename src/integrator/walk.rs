@@ -1,0 +1,300 @@
+//! The camera path walk, written once for every integrator, and the specular-chain follower.
+//!
+//! `walk` is the loop of pbrt-v4's path integrator with Mitsuba 3's explicit loop state
+//! (`PathState`): find the next surface (or count the light of the world the ray escapes to),
+//! attenuate through the medium, record the first hit's AOVs, count emission (MIS-weighted
+//! against the light sample of the vertex before), then let the integrator decide at the surface
+//! (`Scatter`): end the path there with an estimate (the photon method at its first diffuse
+//! surface), move it itself (the path tracer's subsurface branch), or sample a light and hand
+//! back the BSDF to continue through; the walk samples it, advances the state and plays Russian
+//! roulette (pbrt-v4 §13.4: on the throughput, from the fourth bounce).
+//!
+//! `follow_specular` follows the surfaces the photon method ray traces (delta and glossy-only
+//! lobes, `classify::stores_photons` false) from a hit to the first surface that stores photons.
+
+use super::classify::stores_photons;
+use super::direct::Previous;
+use super::shading::{transmittance, Shading};
+use super::{CameraSample, Context};
+use crate::accel::{Ray, Visibility};
+use crate::bsdf::BsdfSample;
+use crate::light::emitted_radiance;
+use crate::light_pass::{LightPass, Passes};
+use crate::math::{max_component, Vec3};
+use crate::rng::Rng;
+
+/// Longest chain of specular surfaces `follow_specular` follows.
+pub const MAX_SPECULAR_CHAIN: u32 = 12;
+
+/// The state of one camera path between its vertices.
+pub struct PathState {
+    /// The ray to the next vertex.
+    pub ray: Ray,
+    /// Throughput from the camera to the next vertex.
+    pub beta: Vec3,
+    /// The vertex the ray left, for MIS.
+    pub previous: Previous,
+    /// Absorption coefficient of the medium the ray travels through.
+    pub absorption: Vec3,
+    /// Non-delta vertices so far.
+    pub diffuse: u32,
+    /// The path went through a translucent material (its light is `LightPass::Subsurface`).
+    pub subsurface: bool,
+    /// The next surface adds only its emission, then the walk ends.
+    pub emission_only: bool,
+    /// Radiance gathered so far, by light pass.
+    pub passes: Passes,
+    /// Rays traced so far (closest-hit and shadow).
+    pub rays: u32,
+}
+
+impl PathState {
+    fn new(ray: Ray) -> PathState {
+        PathState {
+            previous: Previous::camera(ray.origin),
+            ray,
+            beta: Vec3::ONE,
+            absorption: Vec3::ZERO,
+            diffuse: 0,
+            subsurface: false,
+            emission_only: false,
+            passes: Passes::default(),
+            rays: 0,
+        }
+    }
+
+    /// The pass of light reaching the camera through this path and `vertices` more non-delta
+    /// vertices (a light sample counts its own vertex).
+    pub fn pass(&self, vertices: u32) -> LightPass {
+        if self.subsurface {
+            LightPass::Subsurface
+        } else {
+            LightPass::after(self.diffuse + vertices)
+        }
+    }
+
+    /// Add `radiance` (already times `beta`) to the pass after `vertices` more vertices.
+    pub fn add(&mut self, vertices: u32, radiance: Vec3) {
+        self.passes.add(self.pass(vertices), radiance);
+    }
+
+    /// The ray left the scene: the world's light, MIS-weighted.
+    fn escaped(&mut self, ctx: &Context) {
+        let pass = self.pass(0);
+        let (beta, previous) = (self.beta, self.previous);
+        let passes = &mut self.passes;
+        ctx.lights.escaped(self.ray.direction, |le, light_pdf| {
+            passes.add(pass, beta * le * previous.weight(light_pdf));
+        });
+    }
+
+    /// The ray met `s`: its emission, MIS-weighted.
+    fn emitted(&mut self, ctx: &Context, s: &Shading) {
+        let le = emitted_radiance(ctx.scene, &s.sh, s.wo);
+        if le != Vec3::ZERO {
+            let w = self.previous.weight_at(ctx, &s.sh);
+            self.add(0, self.beta * le * w);
+        }
+    }
+
+    /// One light sample at `s` through its BSDF, MIS-weighted, added to the next vertex's pass.
+    pub fn light_sample(&mut self, ctx: &Context, s: &Shading, rng: &mut Rng) {
+        let l = s.light_sample(ctx, self.beta, true, rng, &mut self.rays);
+        self.add(1, l);
+    }
+
+    /// Continue from `s` along the BSDF sample `bs` (world direction `wi`); `light_sampled`:
+    /// light sampling ran at `s`, so emission the new ray meets is MIS-weighted. False when the
+    /// throughput vanished.
+    pub fn advance(&mut self, s: &Shading, bs: &BsdfSample, wi: Vec3, light_sampled: bool) -> bool {
+        self.beta *= bs.weight;
+        if self.beta == Vec3::ZERO || !self.beta.is_finite() {
+            return false;
+        }
+        if !bs.delta {
+            self.diffuse += 1;
+        }
+        self.previous = Previous {
+            p: s.sh.p,
+            pdf: bs.pdf,
+            delta: bs.delta || !light_sampled,
+        };
+        self.absorption = s.absorption_after(bs, wi, self.absorption);
+        self.ray = s.sh.spawn(wi);
+        true
+    }
+
+    /// Russian roulette on the throughput: false when the path ends, else `beta` is reweighted.
+    pub fn roulette(&mut self, rng: &mut Rng) -> bool {
+        let q = max_component(self.beta).min(1.0);
+        if q < 1.0 {
+            if rng.uniform() >= q {
+                return false;
+            }
+            self.beta /= q;
+        }
+        true
+    }
+}
+
+/// What an integrator decided at a surface.
+pub enum Next {
+    /// The path ends here.
+    End,
+    /// The integrator moved the path itself (`PathState::ray` and `previous` are set).
+    Moved,
+    /// Continue by sampling the shading point's BSDF (as the integrator left it);
+    /// `light_sampled`: the integrator sampled a light here.
+    Continue { light_sampled: bool },
+}
+
+/// An integrator's part in the walk.
+pub trait Scatter {
+    /// Whether emission met by the walk counts (debug views of one estimate leave it out).
+    fn counts_emission(&self) -> bool {
+        true
+    }
+
+    /// At surface `s`, after its emission counted: add what the integrator estimates here to
+    /// `state` and say how the path goes on (the integrator may change the BSDF it continues
+    /// with).
+    fn scatter(
+        &mut self,
+        ctx: &Context,
+        state: &mut PathState,
+        s: &mut Shading,
+        rng: &mut Rng,
+    ) -> Next;
+}
+
+/// Walk the path from `ray` (a camera ray, or with `gather` the gather ray of a cache record,
+/// which leaves out the emission of its first hit and the world it escapes to).
+pub fn walk(
+    ctx: &Context,
+    ray: Ray,
+    rng: &mut Rng,
+    gather: bool,
+    integrator: &mut impl Scatter,
+) -> CameraSample {
+    let mut out = CameraSample {
+        depth: 1e10,
+        ..CameraSample::default()
+    };
+    let emission = integrator.counts_emission();
+    let mut state = PathState::new(ray);
+    for depth in 0..=ctx.max_depth {
+        let visibility = if depth == 0 && !gather {
+            Visibility::Camera
+        } else {
+            Visibility::Secondary
+        };
+        let ray = state.ray;
+        state.rays += 1;
+        let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, visibility) else {
+            if emission && !(depth == 0 && (ctx.transparent_background || gather)) {
+                state.escaped(ctx);
+            }
+            break;
+        };
+        state.beta *= transmittance(state.absorption, &hit, &ray);
+        let mut s = Shading::new(ctx, &ray, &hit);
+        if depth == 0 {
+            out.hit = true;
+            out.albedo = s.surface.base_color;
+            out.normal = s.sh.frame.n;
+            out.depth = hit.t * ray.direction.length();
+        }
+        if emission && !(gather && depth == 0) {
+            state.emitted(ctx, &s);
+        }
+        if depth == ctx.max_depth || state.emission_only {
+            break;
+        }
+        let light_sampled = match integrator.scatter(ctx, &mut state, &mut s, rng) {
+            Next::End => break,
+            Next::Moved => {
+                if depth >= 3 && !state.roulette(rng) {
+                    break;
+                }
+                continue;
+            }
+            Next::Continue { light_sampled } => light_sampled,
+        };
+        let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) else {
+            break;
+        };
+        if !state.advance(&s, &bs, wi, light_sampled) {
+            break;
+        }
+        if depth >= 3 && !state.roulette(rng) {
+            break;
+        }
+    }
+    out.radiance = state.passes.total();
+    out.passes = state.passes;
+    out.rays = state.rays;
+    out
+}
+
+/// The throughput, medium and length of a specular chain as `follow_specular` walks it.
+#[derive(Clone, Copy, Debug)]
+pub struct Chain {
+    pub beta: Vec3,
+    pub absorption: Vec3,
+    /// Path length from the chain's start (plus whatever the caller started it with).
+    pub length: f32,
+    /// Closest-hit rays traced.
+    pub rays: u32,
+}
+
+impl Chain {
+    /// A chain starting in a medium of absorption `absorption`, with unit throughput.
+    pub fn new(absorption: Vec3) -> Chain {
+        Chain {
+            beta: Vec3::ONE,
+            absorption,
+            length: 0.0,
+            rays: 0,
+        }
+    }
+}
+
+/// Follow specular surfaces (sampling their BSDF) from `s` to the first surface that stores
+/// photons and return it, at most `MAX_SPECULAR_CHAIN` surfaces including `s`; with `emission`,
+/// add there the emission met on the way (× the chain's throughput, unweighted: nothing on a
+/// specular chain samples lights). `None` when the chain escapes, ends or runs too long.
+pub fn follow_specular(
+    ctx: &Context,
+    mut s: Shading,
+    chain: &mut Chain,
+    rng: &mut Rng,
+    mut emission: Option<&mut Vec3>,
+) -> Option<Shading> {
+    for _ in 0..MAX_SPECULAR_CHAIN {
+        if stores_photons(&s.bsdf) {
+            return Some(s);
+        }
+        let (bs, wi) = s.sample(rng.uniform(), rng.uniform2())?;
+        chain.beta *= bs.weight;
+        chain.absorption = s.absorption_after(&bs, wi, chain.absorption);
+        let ray = s.sh.spawn(wi);
+        chain.rays += 1;
+        let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary) else {
+            if let Some(le) = emission {
+                let beta = chain.beta;
+                ctx.lights.escaped(wi, |l, _| *le += beta * l);
+            }
+            return None;
+        };
+        chain.length += hit.t * ray.direction.length();
+        chain.beta *= transmittance(chain.absorption, &hit, &ray);
+        s = Shading::new(ctx, &ray, &hit);
+        if let Some(le) = emission.as_deref_mut() {
+            *le += chain.beta * emitted_radiance(ctx.scene, &s.sh, s.wo);
+        }
+        if chain.beta == Vec3::ZERO || !chain.beta.is_finite() {
+            return None;
+        }
+    }
+    None
+}
