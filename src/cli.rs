@@ -216,10 +216,6 @@ struct RenderArgs {
     /// Sum every subsurface sample instead of using the octree (for measurements).
     #[arg(long)]
     subsurface_brute_force: bool,
-    /// Jensen & Buhler's irradiance points over translucent surfaces instead of subsurface
-    /// photons (0: photons) [default: 0].
-    #[arg(long)]
-    subsurface_points: Option<u32>,
     /// Ward's irradiance cache for the photon method's indirect light on Lambertian surfaces
     /// (off: final gather rays at every shading point) [default: on].
     #[arg(long, value_enum)]
@@ -288,7 +284,6 @@ impl RenderArgs {
             subsurface_photons: self.subsurface_photons.unwrap_or(d.subsurface_photons),
             subsurface_accuracy: self.subsurface_accuracy.unwrap_or(d.subsurface_accuracy),
             subsurface_brute_force: self.subsurface_brute_force,
-            subsurface_points: self.subsurface_points.unwrap_or(d.subsurface_points),
             memory_limit_mib: self.memory_limit.unwrap_or_else(default_memory_limit_mib),
             ..d
         })

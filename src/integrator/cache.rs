@@ -78,7 +78,7 @@ fn first_surface(ctx: &Context, ray: Ray, rng: &mut Rng) -> Option<(Shading, f32
         length: hit.t * ray.direction.length(),
         ..Chain::new(Vec3::ZERO)
     };
-    let s = follow_specular(ctx, s, &mut chain, rng, None)?;
+    let s = follow_specular(ctx, s, &mut chain, rng, &mut 0, None)?;
     Some((s, chain.length))
 }
 

@@ -58,15 +58,6 @@ pub struct Previous {
 }
 
 impl Previous {
-    /// The vertex a camera ray leaves from: its emission counts in full.
-    pub fn camera(p: Vec3) -> Previous {
-        Previous {
-            p,
-            pdf: 0.0,
-            delta: true,
-        }
-    }
-
     /// Weight of emission the ray meets, which light sampling would have drawn with density
     /// `light_pdf` (solid angle).
     pub fn weight(&self, light_pdf: f32) -> f32 {

@@ -127,28 +127,23 @@ fn sample_exit(
 /// The path tracer's part in the walk: the subsurface branch, the cache on the camera's
 /// specular chain, and a light sample at every non-delta vertex.
 struct PathTracer<'a> {
+    ctx: &'a Context<'a>,
     cache: Option<&'a IrradianceCache>,
     /// Still on the camera's specular chain, where cache records are placed.
     on_chain: bool,
 }
 
 impl Scatter for PathTracer<'_> {
-    fn scatter(
-        &mut self,
-        ctx: &Context,
-        state: &mut PathState,
-        s: &mut Shading,
-        rng: &mut Rng,
-    ) -> Next {
+    fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
         let weight = s.surface.subsurface.weight;
         if weight > 0.0 && s.opaque {
             // Translucent surfaces are path traced: the cache holds no subsurface light.
             self.on_chain = false;
             if rng.uniform() < SUBSURFACE_BRANCH {
-                return subsurface_branch(ctx, state, s, rng);
+                return subsurface_branch(self.ctx, path, s, rng);
             }
             s.bsdf = s.bsdf.without_subsurface(weight);
-            state.beta /= 1.0 - SUBSURFACE_BRANCH;
+            path.beta /= 1.0 - SUBSURFACE_BRANCH;
         }
 
         let mut cached = None;
@@ -163,18 +158,18 @@ impl Scatter for PathTracer<'_> {
 
         let light_sampled = s.bsdf.has_non_delta();
         if light_sampled {
-            state.light_sample(ctx, s, rng);
+            path.light_sample(self.ctx, s, rng);
         }
 
         if let Some(indirect) = cached {
-            state.add(2, state.beta * indirect);
+            path.add(2, path.beta * indirect);
             // The light sample alone speckles where few of its samples reach a light (the world
             // through a window): one BSDF-sampled bounce adds the emission it meets, MIS-weighted
             // with it, wherever a ray can meet a light; then the path ends.
-            if !ctx.lights.hittable() {
+            if !self.ctx.lights.hittable() {
                 return Next::End;
             }
-            state.emission_only = true;
+            path.emission_only = true;
         }
         Next::Continue { light_sampled }
     }
@@ -236,6 +231,7 @@ pub fn trace_cached(
     rng: &mut Rng,
 ) -> CameraSample {
     let mut tracer = PathTracer {
+        ctx,
         cache,
         on_chain: cache.is_some(),
     };
@@ -247,6 +243,7 @@ pub fn trace_cached(
 /// normal.
 pub fn incident_radiance(ctx: &Context, ray: Ray, rng: &mut Rng) -> Incoming {
     let mut tracer = PathTracer {
+        ctx,
         cache: None,
         on_chain: false,
     };

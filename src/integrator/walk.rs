@@ -50,8 +50,14 @@ pub struct PathState {
 
 impl PathState {
     fn new(ray: Ray) -> PathState {
+        // Emission seen by the camera ray counts in full.
+        let previous = Previous {
+            p: ray.origin,
+            pdf: 0.0,
+            delta: true,
+        };
         PathState {
-            previous: Previous::camera(ray.origin),
+            previous,
             ray,
             beta: Vec3::ONE,
             absorption: Vec3::ZERO,
@@ -156,15 +162,9 @@ pub trait Scatter {
     }
 
     /// At surface `s`, after its emission counted: add what the integrator estimates here to
-    /// `state` and say how the path goes on (the integrator may change the BSDF it continues
+    /// `path` and say how the path goes on (the integrator may change the BSDF it continues
     /// with).
-    fn scatter(
-        &mut self,
-        ctx: &Context,
-        state: &mut PathState,
-        s: &mut Shading,
-        rng: &mut Rng,
-    ) -> Next;
+    fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next;
 }
 
 /// Walk the path from `ray` (a camera ray, or with `gather` the gather ray of a cache record,
@@ -210,7 +210,7 @@ pub fn walk(
         if depth == ctx.max_depth || state.emission_only {
             break;
         }
-        let light_sampled = match integrator.scatter(ctx, &mut state, &mut s, rng) {
+        let light_sampled = match integrator.scatter(&mut state, &mut s, rng) {
             Next::End => break,
             Next::Moved => {
                 if depth >= 3 && !state.roulette(rng) {
@@ -243,8 +243,6 @@ pub struct Chain {
     pub absorption: Vec3,
     /// Path length from the chain's start (plus whatever the caller started it with).
     pub length: f32,
-    /// Closest-hit rays traced.
-    pub rays: u32,
 }
 
 impl Chain {
@@ -254,7 +252,6 @@ impl Chain {
             beta: Vec3::ONE,
             absorption,
             length: 0.0,
-            rays: 0,
         }
     }
 }
@@ -262,12 +259,14 @@ impl Chain {
 /// Follow specular surfaces (sampling their BSDF) from `s` to the first surface that stores
 /// photons and return it, at most `MAX_SPECULAR_CHAIN` surfaces including `s`; with `emission`,
 /// add there the emission met on the way (× the chain's throughput, unweighted: nothing on a
-/// specular chain samples lights). `None` when the chain escapes, ends or runs too long.
+/// specular chain samples lights). Counts its rays in `rays`. `None` when the chain escapes,
+/// ends or runs too long.
 pub fn follow_specular(
     ctx: &Context,
     mut s: Shading,
     chain: &mut Chain,
     rng: &mut Rng,
+    rays: &mut u32,
     mut emission: Option<&mut Vec3>,
 ) -> Option<Shading> {
     for _ in 0..MAX_SPECULAR_CHAIN {
@@ -278,7 +277,7 @@ pub fn follow_specular(
         chain.beta *= bs.weight;
         chain.absorption = s.absorption_after(&bs, wi, chain.absorption);
         let ray = s.sh.spawn(wi);
-        chain.rays += 1;
+        *rays += 1;
         let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary) else {
             if let Some(le) = emission {
                 let beta = chain.beta;

@@ -114,16 +114,7 @@ pub fn build_maps(
         _ => None,
     };
     info.irradiance_seconds = start.elapsed().as_secs_f64();
-    let subsurface = subsurface::build(
-        ctx,
-        &emitters,
-        settings,
-        global.as_ref(),
-        sq(settings.global_radius),
-        seed,
-        progress,
-        &mut info,
-    )?;
+    let subsurface = subsurface::build(ctx, &emitters, settings, seed, progress, &mut info)?;
     Ok((
         PhotonMaps {
             global,

@@ -36,11 +36,6 @@ pub struct PhotonSettings {
     pub subsurface_accuracy: f32,
     /// Sum every subsurface sample instead of the octree (for tests and measurements).
     pub subsurface_brute_force: bool,
-    /// Jensen & Buhler's irradiance points instead of subsurface photons: this many points over
-    /// the translucent surfaces (default 0: photons).
-    pub subsurface_points: u32,
-    /// Shadow rays per irradiance point (default 4).
-    pub subsurface_light_samples: u32,
 }
 
 impl Default for PhotonSettings {
@@ -59,8 +54,6 @@ impl Default for PhotonSettings {
             subsurface_photons: 1_000_000,
             subsurface_accuracy: 0.05,
             subsurface_brute_force: false,
-            subsurface_points: 0,
-            subsurface_light_samples: 4,
         }
     }
 }

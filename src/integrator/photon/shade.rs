@@ -38,6 +38,7 @@
 use super::build::PhotonMaps;
 use super::estimate::{nearest_irradiance, radiance_estimate};
 use crate::accel::{Hit, Ray, Visibility};
+use crate::bsdf::BsdfSample;
 use crate::integrator::classify::stores_photons;
 use crate::integrator::direct::Previous;
 use crate::integrator::shading::{transmittance, CachedDiffuse, Shading};
@@ -100,19 +101,6 @@ impl<'a> Gather<'a> {
             .intersect(self.ctx.scene, ray, Visibility::Secondary)
     }
 
-    /// Follow specular surfaces from `s` (`walk::follow_specular`), counting the rays.
-    fn follow(
-        &mut self,
-        s: Shading,
-        chain: &mut Chain,
-        rng: &mut Rng,
-        emission: Option<&mut Vec3>,
-    ) -> Option<Shading> {
-        let end = follow_specular(self.ctx, s, chain, rng, emission);
-        self.rays += chain.rays;
-        end
-    }
-
     /// The global estimate at a final-gather hit: on opaque surfaces that are Lambertian or
     /// whose glossy lobe is rough (`ROUGH_AS_DIFFUSE`), albedo(wo)/π × the nearest precomputed
     /// irradiance when records exist (exact for Lambertian surfaces, and for any BSDF under
@@ -154,25 +142,28 @@ impl<'a> Gather<'a> {
         s.light_sample(self.ctx, Vec3::ONE, mis, rng, &mut self.rays)
     }
 
-    /// A non-delta final-gather ray from `from` with BSDF density `pdf`: the emission it finds
-    /// (MIS-weighted against light sampling) and, with `estimate`, the global estimate behind
-    /// specular surfaces, returned apart (the irradiance cache replaces the diffuse lobe's share
-    /// of the second).
+    /// A final-gather ray leaving `s` by the BSDF sample `bs` (world direction `wi`): the
+    /// emission it finds, MIS-weighted against light sampling, and with `estimate` the global
+    /// estimate at the first surface that stores photons behind specular ones, returned apart
+    /// (the passes and the irradiance cache treat them apart). A ray that left through a delta
+    /// lobe also counts the emission along the specular chain, and reads the full global
+    /// estimate.
     fn gather_ray(
         &mut self,
-        from: Vec3,
-        ray: Ray,
-        pdf: f32,
-        absorption: Vec3,
+        s: &Shading,
+        bs: &BsdfSample,
+        wi: Vec3,
         estimate: bool,
         rng: &mut Rng,
     ) -> (Vec3, Vec3) {
-        let ctx = self.ctx;
+        let absorption = s.absorption_after(bs, wi, Vec3::ZERO);
         let previous = Previous {
-            p: from,
-            pdf,
-            delta: false,
+            p: s.sh.p,
+            pdf: bs.pdf,
+            delta: bs.delta,
         };
+        let ray = s.sh.spawn(wi);
+        let ctx = self.ctx;
         let Some(hit) = self.intersect(&ray) else {
             let mut l = Vec3::ZERO;
             ctx.lights
@@ -180,20 +171,26 @@ impl<'a> Gather<'a> {
             return (l, Vec3::ZERO);
         };
         let t = transmittance(absorption, &hit, &ray);
-        let s = Shading::new(ctx, &ray, &hit);
-        let mut l = emitted_radiance(ctx.scene, &s.sh, s.wo);
+        // y: the surface the gather ray meets.
+        let y = Shading::new(ctx, &ray, &hit);
+        let mut l = emitted_radiance(ctx.scene, &y.sh, y.wo);
         if l != Vec3::ZERO {
-            l *= previous.weight_at(ctx, &s.sh);
+            l *= previous.weight_at(ctx, &y.sh);
         }
-        if !estimate {
-            return (t * l, Vec3::ZERO);
+        let mut e = Vec3::ZERO;
+        if estimate {
+            let mut chain = Chain::new(absorption);
+            let emission = previous.delta.then_some(&mut l);
+            if let Some(d) = follow_specular(self.ctx, y, &mut chain, rng, &mut self.rays, emission)
+            {
+                let at_end = match previous.delta {
+                    true => self.global(&d),
+                    false => self.gather_estimate(&d),
+                };
+                e = chain.beta * at_end;
+            }
         }
-        let mut estimate = Vec3::ZERO;
-        let mut chain = Chain::new(absorption);
-        if let Some(d) = self.follow(s, &mut chain, rng, None) {
-            estimate = chain.beta * self.gather_estimate(&d);
-        }
-        (t * l, t * estimate)
+        (t * l, t * e)
     }
 
     /// Direct light at `s` when no final-gather ray leaves it (its indirect light is cached):
@@ -211,32 +208,11 @@ impl<'a> Gather<'a> {
         let mut l = self.direct(s, true, rng);
         if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
             if !bs.delta {
-                let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
-                let ray = s.sh.spawn(wi);
-                let (emission, _) = self.gather_ray(s.sh.p, ray, bs.pdf, absorption, false, rng);
+                let (emission, _) = self.gather_ray(s, &bs, wi, false, rng);
                 l += bs.weight * emission;
             }
         }
         l
-    }
-
-    /// Radiance along a ray that left a diffuse surface through a delta lobe: emission along the
-    /// specular chain and the global estimate at its end, returned apart (for the passes).
-    fn estimate_ray(&mut self, ray: Ray, absorption: Vec3, rng: &mut Rng) -> (Vec3, Vec3) {
-        let Some(hit) = self.intersect(&ray) else {
-            let mut l = Vec3::ZERO;
-            self.ctx.lights.escaped(ray.direction, |le, _| l += le);
-            return (l, Vec3::ZERO);
-        };
-        let t = transmittance(absorption, &hit, &ray);
-        let s = Shading::new(self.ctx, &ray, &hit);
-        let mut l = emitted_radiance(self.ctx.scene, &s.sh, s.wo);
-        let mut estimate = Vec3::ZERO;
-        let mut chain = Chain::new(absorption);
-        if let Some(d) = self.follow(s, &mut chain, rng, Some(&mut l)) {
-            estimate = chain.beta * self.global(&d);
-        }
-        (t * l, t * estimate)
     }
 
     /// Reflected radiance at a surface that stores photons: direct + caustics + final gather, by
@@ -280,15 +256,11 @@ impl<'a> Gather<'a> {
             let Some((bs, wi)) = s.sample(rng.uniform(), u) else {
                 continue;
             };
-            let absorption = s.absorption_after(&bs, wi, Vec3::ZERO);
-            let ray = s.sh.spawn(wi);
+            let (emission, estimate) = self.gather_ray(s, &bs, wi, true, rng);
             if bs.delta {
-                let (emission, estimate) = self.estimate_ray(ray, absorption, rng);
                 sum.add(LightPass::Emission, bs.weight * emission);
                 sum.add(LightPass::Indirect, bs.weight * estimate);
             } else {
-                let (emission, estimate) =
-                    self.gather_ray(s.sh.p, ray, bs.pdf, absorption, true, rng);
                 let w = cached.map_or(bs.weight, |d| d.non_diffuse_weight(&bs));
                 sum.add(LightPass::Direct, bs.weight * emission);
                 sum.add(LightPass::Indirect, w * estimate);
@@ -353,13 +325,7 @@ impl Scatter for PhotonCamera<'_> {
         matches!(self.view, View::Full | View::Global)
     }
 
-    fn scatter(
-        &mut self,
-        _: &Context,
-        state: &mut PathState,
-        s: &mut Shading,
-        rng: &mut Rng,
-    ) -> Next {
+    fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
         let g = &mut self.gather;
         if stores_photons(&s.bsdf) {
             let mut l = Passes::default();
@@ -369,13 +335,13 @@ impl Scatter for PhotonCamera<'_> {
                 View::Caustic => l.add(LightPass::Caustic, g.caustic(s)),
                 View::Photons => l.add(LightPass::Indirect, g.dots(s)),
             };
-            state.passes.add_after(&l, state.beta, state.diffuse);
+            path.passes.add_after(&l, path.beta, path.diffuse);
             return Next::End;
         }
         let light_sampled = self.view == View::Full && s.bsdf.has_non_delta();
         if light_sampled {
-            let l = state.beta * g.direct(s, true, rng);
-            state.add(1, l);
+            let l = path.beta * g.direct(s, true, rng);
+            path.add(1, l);
         }
         Next::Continue { light_sampled }
     }
@@ -417,7 +383,7 @@ pub fn cache_gather(
     let d = Shading::new(ctx, &ray, &hit);
     let normal = d.frame.n;
     let mut chain = Chain::new(Vec3::ZERO);
-    let radiance = match gather.follow(d, &mut chain, rng, None) {
+    let radiance = match follow_specular(ctx, d, &mut chain, rng, &mut gather.rays, None) {
         Some(d) => chain.beta * gather.gather_estimate(&d),
         None => Vec3::ZERO,
     };

@@ -1,6 +1,6 @@
 //! The photon renderer's subsurface term ("diffusion photon mode", Jensen & Buhler 2002 §3 with
-//! photons as the irradiance samples, Jensen 2000 "Subsurface scattering"): a dedicated photon
-//! pass stores the flux entering each translucent surface (after the specular layer's Fresnel
+//! photons as the irradiance samples, Jensen 2000 "Subsurface scattering"): dedicated photon
+//! tracing stores the flux entering each translucent surface (after the specular layer's Fresnel
 //! transmission, times the subsurface weight), one octree of those samples per translucent
 //! material, and at a shading point x the radiance T(ω_o) M(x)/π, where M is the dipole
 //! exitance of `crate::subsurface` and T(ω_o) the layer's transmission out (the same factor a
@@ -9,25 +9,20 @@
 //!
 //! The dipole assumes a flat semi-infinite medium, so on thick-kernel materials it loses light
 //! where the kernel reaches past the object's surface (measured against Cycles' random walk in
-//! `docs/bench/measurements.md`). With `subsurface_points` > 0 the samples are instead Jensen &
-//! Buhler's irradiance points, uniform by area over the translucent triangles; photons are the
-//! default.
+//! `docs/bench/measurements.md`). Photons stand in for Jensen & Buhler's irradiance points:
+//! points over the surface with their irradiance from the global map measured darker at the
+//! object's edges (the same file).
 
-use super::estimate::PLANE_TOLERANCE;
 use super::settings::{PhotonInfo, PhotonSettings};
 use super::tracing::{trace_photons, trace_subsurface_photon, Emitters, Stream};
-use crate::accel::{Hit, Ray};
 use crate::error::Result;
 use crate::integrator::shading::Shading;
 use crate::integrator::Context;
 use crate::math::Vec3;
-use crate::photon_map::{Neighbors, PhotonMap};
+use crate::photon_map::Photon;
 use crate::progress::Progress;
-use crate::rng::Rng;
-use crate::sampling::{square_to_triangle, Distribution1D};
 use crate::scene::Scene;
 use crate::subsurface::{Dipole, Sample, SampleTree};
-use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
 
@@ -72,116 +67,13 @@ pub fn has_translucent(scene: &Scene) -> bool {
     })
 }
 
-/// Jensen & Buhler's irradiance samples instead of photons: `count` points uniformly over the
-/// translucent triangles (by area), each carrying the flux entering there,
-/// ΔΦ = w·T(ω_i)·E·A/count: direct light from `light_samples` shadow rays (MIS-free light
-/// sampling) plus indirect light from the global map's non-direct photons within `radius2`.
-fn point_samples(
-    ctx: &Context,
-    global: Option<&PhotonMap>,
-    settings: &PhotonSettings,
-    radius2: f32,
-    seed: u64,
-) -> Vec<(u32, Sample)> {
-    let scene = ctx.scene;
-    let mut triangles = Vec::new();
-    let mut areas = Vec::new();
-    for (mi, m) in scene.meshes.iter().enumerate() {
-        if !scene.materials[m.material as usize].is_translucent() {
-            continue;
-        }
-        for (ti, t) in m.indices.iter().enumerate() {
-            let [a, b, c] = t.map(|i| m.positions[i as usize]);
-            triangles.push((mi as u32, ti as u32, (b - a).cross(c - a)));
-            areas.push(0.5 * (b - a).cross(c - a).length());
-        }
-    }
-    let select = Distribution1D::new(&areas);
-    let total = select.total() as f32;
-    let count = settings.subsurface_points;
-    let share = total / count.max(1) as f32;
-    let k = settings.k_global as usize;
-    (0..count)
-        .into_par_iter()
-        .map_init(Neighbors::default, |buf, i| {
-            let mut rng = Rng::for_item(seed ^ 0x77e1_5a3d, i as u64, 0);
-            let (index, _) = select.sample(rng.uniform())?;
-            let (mesh, triangle, cross) = triangles[index];
-            let b = square_to_triangle(rng.uniform2());
-            let hit = Hit {
-                t: 1.0,
-                mesh,
-                triangle,
-                b1: b.x,
-                b2: b.y,
-            };
-            let direction = -cross.normalize_or_zero();
-            let ray = Ray {
-                origin: Vec3::ZERO,
-                direction,
-                t_max: f32::INFINITY,
-            };
-            let s = Shading::new(ctx, &ray, &hit);
-            let w = s.surface.subsurface.weight;
-            let enter = |wi: Vec3| {
-                w * s
-                    .bsdf
-                    .viewed_from(s.frame.to_local(wi))
-                    .base_transmittance()
-            };
-            let mut flux = Vec3::ZERO;
-            let m = settings.subsurface_light_samples.max(1);
-            for _ in 0..m {
-                let Some(ls) = ctx
-                    .lights
-                    .sample(scene, s.sh.p, rng.uniform(), rng.uniform2())
-                else {
-                    continue;
-                };
-                let cos = ls.wi.dot(s.ng);
-                if cos <= 0.0 || ls.li == Vec3::ZERO {
-                    continue;
-                }
-                if ctx.accel.unoccluded(scene, &s.sh.spawn_to(&ls.target)) {
-                    flux += ls.li * (enter(ls.wi) * cos / (ls.pdf * m as f32));
-                }
-            }
-            if let Some(map) = global {
-                map.nearest(s.sh.p, k, radius2, buf);
-                let r2 = buf.radius2;
-                let mut sum = Vec3::ZERO;
-                for nb in buf.iter() {
-                    let ph = &map.photons()[nb.index as usize];
-                    let off_plane = (ph.position() - s.sh.p).dot(s.ng).abs();
-                    if ph.is_direct()
-                        || ph.incoming().dot(s.ng) <= 0.0
-                        || off_plane > PLANE_TOLERANCE * r2.sqrt()
-                    {
-                        continue;
-                    }
-                    sum += ph.power() * enter(ph.incoming());
-                }
-                if r2 > 0.0 {
-                    flux += sum / (PI * r2);
-                }
-            }
-            let flux = flux * share;
-            let position = s.sh.p;
-            (flux.is_finite()).then_some((s.sh.material, Sample { position, flux }))
-        })
-        .flatten()
-        .collect()
-}
-
-/// Trace the subsurface photons (or compute the irradiance points) and build the octrees;
+/// Trace the subsurface photons and build the octrees;
 /// `None` (with the reason in `info`) when nothing is translucent or no samples are requested.
 #[allow(clippy::too_many_arguments)]
 pub fn build(
     ctx: &Context,
     emitters: &Emitters,
     settings: &PhotonSettings,
-    global: Option<&PhotonMap>,
-    global_radius2: f32,
     seed: u64,
     progress: &Progress,
     info: &mut PhotonInfo,
@@ -190,37 +82,31 @@ pub fn build(
         info.subsurface_skipped = Some("no translucent material".into());
         return Ok(None);
     }
-    if settings.subsurface_photons == 0 && settings.subsurface_points == 0 {
+    if settings.subsurface_photons == 0 {
         info.subsurface_skipped = Some("no subsurface photons requested".into());
         return Ok(None);
     }
     let start = Instant::now();
     let max = settings.max_photon_bounces;
-    let samples = if settings.subsurface_points > 0 {
-        point_samples(ctx, global, settings, global_radius2, seed)
-    } else {
-        trace_photons(
-            ctx,
-            emitters,
-            Stream {
-                label: "Subsurface",
-                tag: 0x5ab5_0f7e,
-                aimed: false,
-                budget_bytes: settings.memory_budget_bytes().saturating_sub(
-                    ((info.global_stored + info.caustic_stored)
-                        * std::mem::size_of::<crate::photon_map::Photon>())
-                        as u64,
-                ),
-            },
-            settings.subsurface_photons,
-            seed,
-            progress,
-            |ray, power, rng, out| trace_subsurface_photon(ctx, ray, power, max, rng, out),
-        )?
+    let stored = info.global_stored + info.caustic_stored;
+    let stream = Stream {
+        label: "Subsurface",
+        tag: 0x5ab5_0f7e,
+        aimed: false,
+        budget_bytes: settings
+            .memory_budget_bytes()
+            .saturating_sub((stored * std::mem::size_of::<Photon>()) as u64),
     };
-    if settings.subsurface_points == 0 {
-        info.subsurface_emitted = settings.subsurface_photons as u64;
-    }
+    let samples = trace_photons(
+        ctx,
+        emitters,
+        stream,
+        settings.subsurface_photons,
+        seed,
+        progress,
+        |ray, power, rng, out| trace_subsurface_photon(ctx, ray, power, max, rng, out),
+    )?;
+    info.subsurface_emitted = settings.subsurface_photons as u64;
     info.subsurface_stored = samples.len();
     let areas = material_areas(ctx.scene);
     let mut per_material: Vec<Vec<Sample>> = vec![Vec::new(); ctx.scene.materials.len()];
