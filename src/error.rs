@@ -1,6 +1,6 @@
 //! The one error type of Photon, and the exit code each kind of error maps to.
 //!
-//! Only `main` prints errors and chooses the process exit code (DESIGN.md, "Errors"):
+//! Only `main` prints errors and chooses the process exit code (docs/ARCHITECTURE.md, "Conventions"):
 //! 0 success, 1 internal failure, 2 bad input (scene or arguments), 130 cancelled.
 
 use std::path::PathBuf;
@@ -35,7 +35,7 @@ pub enum Error {
 }
 
 impl Error {
-    /// The process exit code DESIGN.md assigns to this error.
+    /// The process exit code docs/ARCHITECTURE.md assigns to this error.
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Scene { .. } | Error::Settings(_) => 2,

@@ -1,6 +1,6 @@
 //! Ward's irradiance cache (Ward, Rubinstein and Clear 1988, "A Ray Tracing Solution for Diffuse
-//! Interreflection") with Ward and Heckbert's gradients (1992, "Irradiance Gradients"), as in the
-//! seed notes' "Irradiance caching" section. Depends only on math: the caller supplies the
+//! Interreflection") with Ward and Heckbert's gradients (1992, "Irradiance Gradients"), as
+//! Jensen's course notes (2000) present them. Depends only on math: the caller supplies the
 //! radiance arriving along a direction through a closure, so the cache is tested on its own.
 //!
 //! **Records**: position xᵢ, normal Nᵢ, irradiance Eᵢ (RGB), the harmonic-mean distance Rᵢ to

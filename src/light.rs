@@ -3,7 +3,7 @@
 //! its power, with `sample_light` (a direction towards a light, for next-event estimation) and the
 //! matching densities for multiple importance sampling (Veach 1997, ch. 9).
 //!
-//! Units follow Cycles (DESIGN.md): triangle and world radiance as given, point and spot
+//! Units follow Cycles (docs/ARCHITECTURE.md): triangle and world radiance as given, point and spot
 //! intensity in W/sr, sun irradiance in W/m².
 //!
 //! An environment map (`EnvironmentLight`) is importance-sampled with a 2D piecewise-constant

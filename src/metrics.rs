@@ -1,4 +1,4 @@
-//! Image error metrics used to show accuracy (DESIGN.md, "How correctness is shown"):
+//! Image error metrics used to show accuracy (README.md, "How correctness is shown"):
 //! relMSE = mean((I − R)² / (R² + 0.01)) over pixels and RGB channels, RMSE, and the relative
 //! difference of the image means. R is the reference.
 

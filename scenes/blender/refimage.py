@@ -1,7 +1,7 @@
 """Image helpers shared by the reference scripts (scenes/blender/) and the tests (tests/blender/).
 
 No bpy here: reading and writing linear OpenEXR files with the `OpenEXR` PyPI package,
-the relMSE metric of DESIGN.md, and masks for "the lit region" of an image.
+the relMSE metric of README.md, and masks for "the lit region" of an image.
 Images are numpy float32 arrays of shape (height, width, channels), row 0 = top row.
 """
 
@@ -48,7 +48,7 @@ def write_exr(path, image: np.ndarray, names=None) -> None:
 
 
 def rel_mse(image: np.ndarray, reference: np.ndarray) -> float:
-    """relMSE = mean((I - R)^2 / (R^2 + 0.01)) over pixels and channels (DESIGN.md)."""
+    """relMSE = mean((I - R)^2 / (R^2 + 0.01)) over pixels and channels (README.md)."""
     if image.shape != reference.shape:
         raise ValueError(f"shape mismatch: image {image.shape} vs reference {reference.shape}")
     i = image.astype(np.float64)

@@ -3,7 +3,7 @@
 //! no behaviour beyond small lookups and `validate`. Only `scene::gltf` builds it from files;
 //! `scene::builtin` builds the embedded default Cornell box.
 //!
-//! Units are Cycles' units (DESIGN.md): radiance in W·m⁻²·sr⁻¹, point/spot intensity in W/sr,
+//! Units are Cycles' units (docs/ARCHITECTURE.md): radiance in W·m⁻²·sr⁻¹, point/spot intensity in W/sr,
 //! sun irradiance in W/m². Conversions from glTF's photometric units live in `scene::units`.
 
 pub mod builtin;

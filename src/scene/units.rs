@@ -1,4 +1,4 @@
-//! The one place where light units are converted (DESIGN.md, "Units are Cycles' units").
+//! The one place where light units are converted (docs/ARCHITECTURE.md, "Conventions").
 //!
 //! Blender's glTF exporter, in its default "Standard" lighting mode, writes punctual lights in
 //! photometric units with 683 lm/W: point and spot intensity in candela = W/sr × 683, sun
