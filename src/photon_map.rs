@@ -331,6 +331,19 @@ impl PhotonMap {
 
     /// Find the (at most) `k` photons nearest to `p` within squared distance `max_dist2`.
     pub fn nearest(&self, p: Vec3, k: usize, max_dist2: f32, out: &mut Neighbors) {
+        self.nearest_where(p, k, max_dist2, out, |_| true);
+    }
+
+    /// `nearest` among the photons `accept` takes: rejected photons never shrink the radius,
+    /// so the k found are the k nearest accepted ones (e.g. on the same side of a surface).
+    pub fn nearest_where(
+        &self,
+        p: Vec3,
+        k: usize,
+        max_dist2: f32,
+        out: &mut Neighbors,
+        accept: impl Fn(&Photon) -> bool,
+    ) {
         out.heap.clear();
         out.k = k;
         out.radius2 = max_dist2;
@@ -338,10 +351,12 @@ impl PhotonMap {
             return;
         }
         self.search(p, max_dist2, |index, dist2| {
-            out.offer(Neighbor {
-                dist2,
-                index: index as u32,
-            });
+            if accept(&self.photons[index]) {
+                out.offer(Neighbor {
+                    dist2,
+                    index: index as u32,
+                });
+            }
             out.radius2
         });
     }

@@ -7,7 +7,7 @@ Usage (from the repository root, after tests/setup_python.sh):
 
 Scenes: cornell, cornell_lambert (cornell.py); point_plane, sun_plane, spot_plane
 (lights_plane.py); principled_r05, principled_r10 (principled_plane.py); subsurface, subsurface_s02
-(subsurface.py). Takes about 15 minutes on 2 cores, almost all of it the Cornell boxes.
+(subsurface.py); room_thin, room_thick (window_room.py). Takes about 15 minutes on 2 cores, almost all of it the Cornell boxes.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import cornell  # noqa: E402
 import lights_plane  # noqa: E402
 import principled_plane  # noqa: E402
 import subsurface  # noqa: E402
+import window_room  # noqa: E402
 
 SCENES = {
     "cornell_lambert": (cornell.make, cornell.SAMPLES),
@@ -34,6 +35,8 @@ SCENES = {
     "principled_r10": (principled_plane.make, principled_plane.SAMPLES),
     "subsurface": (subsurface.make, subsurface.SAMPLES),
     "subsurface_s02": (subsurface.make, subsurface.SAMPLES),
+    "room_thin": (window_room.make, window_room.SAMPLES),
+    "room_thick": (window_room.make, window_room.SAMPLES),
 }
 
 

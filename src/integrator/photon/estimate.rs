@@ -41,7 +41,7 @@ pub fn precompute_irradiance(
             for &i in chunk {
                 let ph = &photons[i];
                 let (p, n) = (ph.position(), ph.normal());
-                map.nearest(p, k as usize, max_radius2, buf);
+                map.nearest_where(p, k as usize, max_radius2, buf, |q| same_side(q, n));
                 let r2 = buf.radius2;
                 let r = r2.sqrt();
                 let mut sum = Vec3::ZERO;
@@ -69,7 +69,16 @@ pub fn precompute_irradiance(
 /// normal test keeps photons on the far side of a thin or strongly curved object (the outside of
 /// a small sphere, seen from within) out of the estimate: without it light leaks through walls.
 pub fn on_surface(ph: &Photon, p: Vec3, n: Vec3, r: f32) -> bool {
-    (ph.position() - p).dot(n).abs() <= PLANE_TOLERANCE * r && ph.normal().dot(n) > 0.5
+    (ph.position() - p).dot(n).abs() <= PLANE_TOLERANCE * r && same_side(ph, n)
+}
+
+/// Whether photon `ph` was stored on the side of a surface with normal `n` (its recorded normal
+/// within ~60°). The k nearest photons are searched among these only: photons on the other face
+/// of a zero-thickness plane (a roof's sunlit top above a ceiling) or on a nearby perpendicular
+/// surface would otherwise shrink the radius until only a few same-side photons — a record's
+/// own photon always among them — fall inside it, and the estimate is too bright and blotchy.
+pub fn same_side(ph: &Photon, n: Vec3) -> bool {
+    ph.normal().dot(n) > 0.5
 }
 
 /// The nearest precomputed irradiance record to `s` whose normal agrees with the surface's
@@ -94,7 +103,7 @@ pub fn radiance_estimate(
     s: &Shading,
     buf: &mut Neighbors,
 ) -> Vec3 {
-    map.nearest(s.sh.p, k as usize, max_radius2, buf);
+    map.nearest_where(s.sh.p, k as usize, max_radius2, buf, |q| same_side(q, s.ng));
     if buf.is_empty() {
         return Vec3::ZERO;
     }
