@@ -1,9 +1,12 @@
 """The render engine "Photon": export the scene, run the photon binary, load its image.
 
-A thin `RenderEngine`: export and process handling live in export.py and runner.py. Every
-failure the user can act on (no binary, no camera, export failure, renderer error, unreadable
-image) ends as one `report({'ERROR'}, ...)` with the renderer's own message, never a traceback
-and never a silently black image. Esc (`test_break`) stops the child within a second; the
+A thin `RenderEngine`: export and process handling live in export.py and runner.py. Nothing is
+dropped silently: before exporting, every feature the export cannot carry (preflight.py), then
+every warning of the glTF exporter (from either export route) and of the renderer, is reported
+as a WARNING (Blender's info log; the console in background mode), and the final status line
+counts them. Every failure the user can act on (no binary, no camera, export failure, renderer
+error, unreadable image) ends as one `report({'ERROR'}, ...)` with the renderer's own message,
+never a traceback and never a silently black image. Esc (`test_break`) stops the child within a second; the
 temporary folder is always removed.
 """
 
@@ -13,7 +16,7 @@ from pathlib import Path
 
 import bpy
 
-from . import export, properties, runner
+from . import export, preflight, properties, runner
 
 ADDON_DIR = Path(__file__).resolve().parent
 
@@ -46,6 +49,7 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         self.timings = {"start": time.perf_counter()}
+        self.warnings = []
         try:
             self._render(depsgraph)
         except runner.Cancelled:
@@ -71,6 +75,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         if r.use_border:
             region = runner.border_region(width, height, r.border_min_x, r.border_max_x,
                                           r.border_min_y, r.border_max_y)
+        for message in preflight.unsupported_features(scene, depsgraph.objects):
+            self._warn(message)
         self._progress("export", 0.0, "exporting scene")
         with runner.temporary_folder() as folder:
             glb, exr = folder / "scene.glb", folder / "render.exr"
@@ -85,7 +91,11 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]
             self._load(exr, view_layer.name, width, height, opaque=not r.film_transparent)
-        self._final_stats(f"Photon: {summary(stats)}; {self._timing_summary()}")
+        line = f"Photon: {summary(stats)}; {self._timing_summary()}"
+        if self.warnings:
+            count = len(self.warnings)
+            line += f"; {count} warning{'s' if count > 1 else ''} (see the Info editor)"
+        self._final_stats(line)
 
     def _final_stats(self, line):
         """Show the final status line. Blender 4 also prints it in background mode (render farm
@@ -94,21 +104,33 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         if bpy.app.background and bpy.app.version >= (5, 0, 0):
             print(line, flush=True)
 
+    def _warn(self, message):
+        """Report `message` as a WARNING once per render."""
+        if message not in self.warnings:
+            self.warnings.append(message)
+            self.report({"WARNING"}, f"Photon: {message}")
+
     def _export(self, scene, folder, glb):
         if export.export_route() == "inprocess":
-            export.export_in_process(glb, __package__)
+            for message in export.export_in_process(glb, __package__):
+                self._warn(message)
             return
         snapshot = folder / "snapshot.blend"
         export.write_snapshot(scene, snapshot)
-        runner.run(export.child_command(snapshot, glb), None, self.test_break,
+        runner.run(export.child_command(snapshot, glb), self._on_export_event, self.test_break,
                    what="glTF export (background Blender)", cwd=str(folder))
         if not glb.is_file():
             raise export.ExportError(f"the background Blender export wrote no {glb.name}")
 
+    def _on_export_event(self, event):
+        """The background Blender's export prints only warnings as progress events."""
+        if "warning" in event:
+            self._warn(str(event["warning"]))
+
     def _on_event(self, event):
         self.timings.setdefault("first_progress", time.perf_counter())
         if "warning" in event:
-            self.report({"WARNING"}, f"Photon: {event['warning']}")
+            self._warn(str(event["warning"]))
             return
         stage = str(event.get("stage", ""))
         if stage == "done":
