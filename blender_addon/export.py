@@ -91,6 +91,10 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
         data = subsurface_extension(blender_material)
         if data:
             self._add(gltf_material, "PHOTON_material_subsurface", data)
+        if missing_base_color_image(blender_material):
+            pbr = gltf_material.pbr_metallic_roughness
+            if pbr is not None and pbr.base_color_texture is None:
+                pbr.base_color_factor = list(MISSING_IMAGE_COLOR)
 
     def gather_scene_hook(self, gltf_scene, blender_scene, export_settings):
         folder = Path(export_settings["gltf_filedirectory"])
@@ -117,6 +121,49 @@ def light_extension(obj) -> dict:
     return {"type": "area", "shape": light.shape, "size": size, "size_y": size_y,
             "power": power, "color": [float(c) for c in light.color],
             "visible_camera": bool(obj.visible_camera)}
+
+
+# What Blender and Cycles show for an image whose file is missing.
+MISSING_IMAGE_COLOR = (1.0, 0.0, 1.0, 1.0)
+
+
+def image_file_missing(image) -> bool:
+    """Whether `image` is a single file image (not packed, not generated) whose file does not
+    exist: the glTF exporter then drops the texture without a word."""
+    if image is None or image.source != "FILE" or image.packed_file is not None:
+        return False
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    return not os.path.isfile(path)
+
+
+def missing_base_color_image(material) -> bool:
+    """Warn (on LOG) about every image of `material`'s node tree whose file is missing, and
+    return whether one of them feeds the Principled BSDF's Base Color: the exporter then leaves
+    the base colour factor at its default, white, where Blender shows magenta."""
+    tree = getattr(material, "node_tree", None)
+    if tree is None:
+        return False
+    missing = [n for n in tree.nodes if n.type == "TEX_IMAGE" and image_file_missing(n.image)]
+    for node in missing:
+        LOG.warning(f"material '{material.name}': image '{node.image.name}' is missing (file "
+                    f"'{bpy.path.abspath(node.image.filepath, library=node.image.library)}' not "
+                    f"found); it renders magenta")
+    bsdf = _principled_bsdf(material)
+    if bsdf is None or not missing:
+        return False
+    feeding = _upstream_nodes(bsdf.inputs["Base Color"])
+    return any(node in feeding for node in missing)
+
+
+def _upstream_nodes(socket) -> list:
+    """The nodes linked, directly or not, into `socket` (within its tree)."""
+    found, stack = [], [socket]
+    while stack:
+        for link in stack.pop().links:
+            if link.from_node not in found:
+                found.append(link.from_node)
+                stack.extend(i for i in link.from_node.inputs if i.is_linked)
+    return found
 
 
 def subsurface_extension(material) -> dict:
