@@ -1,9 +1,12 @@
 """The render engine "Photon": export the scene, run the photon binary, load its image.
 
-A thin `RenderEngine`: export and process handling live in export.py and runner.py. Every
-failure the user can act on (no binary, no camera, export failure, renderer error, unreadable
-image) ends as one `report({'ERROR'}, ...)` with the renderer's own message, never a traceback
-and never a silently black image. Esc (`test_break`) stops the child within a second; the
+A thin `RenderEngine`: export and process handling live in export.py and runner.py. Nothing is
+dropped silently: before exporting, every feature the export cannot carry (preflight.py), then
+every warning of the glTF exporter (from either export route) and of the renderer, is reported
+as a WARNING (Blender's info log; the console in background mode), and the final status line
+counts them. Every failure the user can act on (no binary, no camera, export failure, renderer
+error, unreadable image) ends as one `report({'ERROR'}, ...)` with the renderer's own message,
+never a traceback and never a silently black image. Esc (`test_break`) stops the child within a second; the
 temporary folder is always removed.
 """
 
@@ -13,7 +16,7 @@ from pathlib import Path
 
 import bpy
 
-from . import export, properties, runner
+from . import export, preflight, properties, runner
 
 ADDON_DIR = Path(__file__).resolve().parent
 
@@ -46,6 +49,7 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         self.timings = {"start": time.perf_counter()}
+        self.warnings = []
         try:
             self._render(depsgraph)
         except runner.Cancelled:
@@ -71,6 +75,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         if r.use_border:
             region = runner.border_region(width, height, r.border_min_x, r.border_max_x,
                                           r.border_min_y, r.border_max_y)
+        for message in preflight.unsupported_features(scene, depsgraph.objects):
+            self._warn(message)
         self._progress("export", 0.0, "exporting scene")
         with runner.temporary_folder() as folder:
             glb, exr = folder / "scene.glb", folder / "render.exr"
@@ -84,8 +90,12 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             stats = runner.run(command, self._on_event, self.test_break)
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]
-            self._load(exr, view_layer.name, width, height)
-        self._final_stats(f"Photon: {summary(stats)}; {self._timing_summary()}")
+            self._load(exr, view_layer.name, width, height, opaque=not r.film_transparent)
+        line = f"Photon: {summary(stats)}; {self._timing_summary()}"
+        if self.warnings:
+            count = len(self.warnings)
+            line += f"; {count} warning{'s' if count > 1 else ''} (see the Info editor)"
+        self._final_stats(line)
 
     def _final_stats(self, line):
         """Show the final status line. Blender 4 also prints it in background mode (render farm
@@ -94,21 +104,33 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         if bpy.app.background and bpy.app.version >= (5, 0, 0):
             print(line, flush=True)
 
+    def _warn(self, message):
+        """Report `message` as a WARNING once per render."""
+        if message not in self.warnings:
+            self.warnings.append(message)
+            self.report({"WARNING"}, f"Photon: {message}")
+
     def _export(self, scene, folder, glb):
         if export.export_route() == "inprocess":
-            export.export_in_process(glb, __package__)
+            for message in export.export_in_process(glb, __package__):
+                self._warn(message)
             return
         snapshot = folder / "snapshot.blend"
         export.write_snapshot(scene, snapshot)
-        runner.run(export.child_command(snapshot, glb), None, self.test_break,
+        runner.run(export.child_command(snapshot, glb), self._on_export_event, self.test_break,
                    what="glTF export (background Blender)", cwd=str(folder))
         if not glb.is_file():
             raise export.ExportError(f"the background Blender export wrote no {glb.name}")
 
+    def _on_export_event(self, event):
+        """The background Blender's export prints only warnings as progress events."""
+        if "warning" in event:
+            self._warn(str(event["warning"]))
+
     def _on_event(self, event):
         self.timings.setdefault("first_progress", time.perf_counter())
         if "warning" in event:
-            self.report({"WARNING"}, f"Photon: {event['warning']}")
+            self._warn(str(event["warning"]))
             return
         stage = str(event.get("stage", ""))
         if stage == "done":
@@ -123,9 +145,12 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         self.update_progress(lo + (hi - lo) * min(max(fraction, 0.0), 1.0))
         self.update_stats("", f"Photon: {stage} {100 * fraction:.0f}% {message}".rstrip())
 
-    def _load(self, exr, layer_name, width, height):
+    def _load(self, exr, layer_name, width, height, opaque):
         """Fill the render result from the EXR, after checking that Blender's loader will find
-        the channels (it loads nothing, silently, when the names do not match)."""
+        the channels (it loads nothing, silently, when the names do not match). The renderer's
+        alpha is the geometry coverage; with an opaque film (Film > Transparent off) the
+        Combined alpha is set to 1 everywhere, as Cycles writes it, so that compositing over
+        the render shows no holes where the background is."""
         if not exr.is_file():
             raise runner.PhotonError("the renderer exited normally but wrote no image")
         wanted = f"{layer_name}.Combined.R"
@@ -139,6 +164,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         except RuntimeError as exc:
             self.end_result(result, cancel=True)
             raise runner.PhotonError(f"Blender could not load the rendered image: {exc}") from None
+        if opaque:
+            set_opaque_alpha(result.layers[0].passes.find_by_name("Combined", ""))
         self.end_result(result)
 
 
@@ -150,6 +177,15 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         parts = [f"{name} {t[key] - start:.2f} s" for name, key in
                  (("export", "exported"), ("first progress", "first_progress")) if key in t]
         return ", ".join(parts + [f"total {time.perf_counter() - start:.2f} s"])
+
+
+def set_opaque_alpha(combined):
+    """Alpha 1 in every pixel of a render pass holding RGBA."""
+    import numpy as np  # shipped with Blender; imported here so the module loads without it
+    rect = np.empty(len(combined.rect) * 4, dtype=np.float32)
+    combined.rect.foreach_get(rect)
+    rect[3::4] = 1.0
+    combined.rect.foreach_set(rect)
 
 
 def summary(stats: dict) -> str:

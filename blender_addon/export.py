@@ -12,6 +12,11 @@
 
 The environment variable PHOTON_EXPORT=inprocess|subprocess overrides the choice (for tests).
 
+Nothing the export drops is silent: `export_in_process` returns the warnings of the glTF
+exporter (its loggers) and of the hooks below (logger `photon.export`), and the child process
+prints them on stderr as JSON progress lines (`{"stage": "export", "warning": ...}`), which the
+engine turns into WARNING reports as it does for the renderer's own warnings.
+
 `glTF2ExportUserExtension` (re-exported by the add-on's top-level module, where the exporter
 looks for it) writes, always with required=False so that other viewers still open the file:
 PHOTON_light on light nodes (point/spot radius, sun angle, area lights, which the exporter drops),
@@ -26,6 +31,9 @@ standard library and numpy (shipped with Blender).
 
 from __future__ import annotations
 
+import contextlib
+import json
+import logging
 import math
 import os
 import struct
@@ -42,6 +50,15 @@ GLTF_EXPORT_ARGS = dict(
 
 # Name under which the child process registers this module so the exporter finds the hook.
 CHILD_MODULE = "photon_gltf_export"
+
+# The hooks' messages; collected with the glTF exporter's during an export.
+LOG = logging.getLogger("photon.export")
+# The glTF exporter's loggers (io_scene_gltf2.io.com.debug.Log).
+GLTF_LOGGERS = ("glTFImporter", "glTFImporter_errors")
+# Exporter warnings about what the hooks carry anyway: the area lights (PHOTON_light), and light
+# node trees, which the pre-flight report already names (preflight.light_features).
+CARRIED_BY_HOOKS = ("Unsupported light source AREA",
+                    "No quadratic light falloff node attached to emission strength property")
 
 
 class ExportError(Exception):
@@ -74,6 +91,10 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
         data = subsurface_extension(blender_material)
         if data:
             self._add(gltf_material, "PHOTON_material_subsurface", data)
+        if missing_base_color_image(blender_material):
+            pbr = gltf_material.pbr_metallic_roughness
+            if pbr is not None and pbr.base_color_texture is None:
+                pbr.base_color_factor = list(MISSING_IMAGE_COLOR)
 
     def gather_scene_hook(self, gltf_scene, blender_scene, export_settings):
         folder = Path(export_settings["gltf_filedirectory"])
@@ -100,6 +121,49 @@ def light_extension(obj) -> dict:
     return {"type": "area", "shape": light.shape, "size": size, "size_y": size_y,
             "power": power, "color": [float(c) for c in light.color],
             "visible_camera": bool(obj.visible_camera)}
+
+
+# What Blender and Cycles show for an image whose file is missing.
+MISSING_IMAGE_COLOR = (1.0, 0.0, 1.0, 1.0)
+
+
+def image_file_missing(image) -> bool:
+    """Whether `image` is a single file image (not packed, not generated) whose file does not
+    exist: the glTF exporter then drops the texture without a word."""
+    if image is None or image.source != "FILE" or image.packed_file is not None:
+        return False
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    return not os.path.isfile(path)
+
+
+def missing_base_color_image(material) -> bool:
+    """Warn (on LOG) about every image of `material`'s node tree whose file is missing, and
+    return whether one of them feeds the Principled BSDF's Base Color: the exporter then leaves
+    the base colour factor at its default, white, where Blender shows magenta."""
+    tree = getattr(material, "node_tree", None)
+    if tree is None:
+        return False
+    missing = [n for n in tree.nodes if n.type == "TEX_IMAGE" and image_file_missing(n.image)]
+    for node in missing:
+        LOG.warning(f"material '{material.name}': image '{node.image.name}' is missing (file "
+                    f"'{bpy.path.abspath(node.image.filepath, library=node.image.library)}' not "
+                    f"found); it renders magenta")
+    bsdf = _principled_bsdf(material)
+    if bsdf is None or not missing:
+        return False
+    feeding = _upstream_nodes(bsdf.inputs["Base Color"])
+    return any(node in feeding for node in missing)
+
+
+def _upstream_nodes(socket) -> list:
+    """The nodes linked, directly or not, into `socket` (within its tree)."""
+    found, stack = [], [socket]
+    while stack:
+        for link in stack.pop().links:
+            if link.from_node not in found:
+                found.append(link.from_node)
+                stack.extend(i for i in link.from_node.inputs if i.is_linked)
+    return found
 
 
 def subsurface_extension(material) -> dict:
@@ -166,20 +230,20 @@ def world_extension(world, folder: Path | None = None) -> dict:
 def environment_extension(node, folder: Path) -> dict:
     """The "environment" of PHOTON_world for an Environment Texture node: its image written to
     `folder` as a float EXR (linear RGB; 8-bit sRGB images are linearised as Cycles does), the
-    rotation of a Mapping node feeding its vector, and its interpolation. Empty (with a message
-    on the console) when the node has no image, the image has no pixels or the projection is not
+    rotation of a Mapping node feeding its vector, and its interpolation. Empty (with a warning
+    on LOG) when the node has no image, the image has no pixels or the projection is not
     equirectangular: the world is then black, as in Cycles."""
     image = node.image
     if image is None:
         return {}
     if node.projection != "EQUIRECTANGULAR":
-        print(f"Photon: world texture '{image.name}': only the equirectangular projection is "
-              f"supported, not {node.projection}; the world is black", flush=True)
+        LOG.warning(f"world texture '{image.name}': only the equirectangular projection is "
+                    f"supported, not {node.projection}; the world is black")
         return {}
     width, height = image.size
     if width == 0 or height == 0:
-        print(f"Photon: world texture '{image.name}' has no pixels (file missing? "
-              f"{image.filepath}); the world is black", flush=True)
+        LOG.warning(f"world texture '{image.name}' has no pixels (file missing? "
+                    f"{image.filepath}); the world is black")
         return {}
     import numpy as np  # shipped with Blender; imported here so the module loads without it
     pixels = np.empty(len(image.pixels), dtype=np.float32)
@@ -286,17 +350,50 @@ def export_route() -> str:
     return "inprocess" if bpy.app.background else "subprocess"
 
 
-def export_in_process(glb: Path, hook_module: str):
-    """Run Blender's glTF exporter on the current scene. `hook_module` is the name in sys.modules
-    that holds `glTF2ExportUserExtension`: the exporter only looks at enabled add-ons, so it is
-    listed there for the duration of the export if it is not already."""
+class _Collector(logging.Handler):
+    """Keeps the messages (WARNING and above) logged during an export, each once."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record):
+        text = record.getMessage().strip()
+        if record.name in GLTF_LOGGERS:
+            if text in CARRIED_BY_HOOKS:
+                return
+            text = f"glTF exporter: {text}"
+        if text and text not in self.messages:
+            self.messages.append(text)
+
+
+@contextlib.contextmanager
+def collected_warnings():
+    """Collect what the glTF exporter and the hooks warn about within the block."""
+    collector = _Collector()
+    loggers = [logging.getLogger(name) for name in (*GLTF_LOGGERS, LOG.name)]
+    for logger in loggers:
+        logger.addHandler(collector)
+    try:
+        yield collector.messages
+    finally:
+        for logger in loggers:
+            logger.removeHandler(collector)
+
+
+def export_in_process(glb: Path, hook_module: str) -> list[str]:
+    """Run Blender's glTF exporter on the current scene and return its warnings and the hooks'.
+    `hook_module` is the name in sys.modules that holds `glTF2ExportUserExtension`: the exporter
+    only looks at enabled add-ons, so it is listed there for the duration of the export if it is
+    not already."""
     prefs = bpy.context.preferences
     added = None
     if hook_module not in prefs.addons.keys():
         added = prefs.addons.new()
         added.module = hook_module
     try:
-        result = bpy.ops.export_scene.gltf(filepath=str(glb), **GLTF_EXPORT_ARGS)
+        with collected_warnings() as warnings:
+            result = bpy.ops.export_scene.gltf(filepath=str(glb), **GLTF_EXPORT_ARGS)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None
     finally:
@@ -304,6 +401,7 @@ def export_in_process(glb: Path, hook_module: str):
             prefs.addons.remove(added)
     if "FINISHED" not in result or not Path(glb).is_file():
         raise ExportError(f"glTF export did not write {glb} ({result})")
+    return warnings
 
 
 def child_command(snapshot: Path, glb: Path) -> list[str]:
@@ -328,10 +426,12 @@ def _child_main(argv: list[str]) -> int:
     sys.modules[CHILD_MODULE] = sys.modules[__name__]
     bpy.ops.wm.open_mainfile(filepath=snapshot)
     try:
-        export_in_process(Path(glb), CHILD_MODULE)
+        warnings = export_in_process(Path(glb), CHILD_MODULE)
     except ExportError as exc:
         print(f"photon-export: error: {exc}", file=sys.stderr, flush=True)
         return 2
+    for warning in warnings:  # read by runner.run as progress events
+        print(json.dumps({"stage": "export", "warning": warning}), file=sys.stderr, flush=True)
     return 0
 
 

@@ -980,7 +980,7 @@ fn truncated_glb_is_a_scene_error() {
 }
 
 #[test]
-fn missing_external_buffer_and_image_name_the_file() {
+fn missing_external_buffer_is_an_error_and_missing_image_is_magenta() {
     let dir = temp_dir("missing");
     let doc = triangle_doc();
     let text = serde_json::to_vec(&doc.finish_json(Some("gone.bin"))).unwrap();
@@ -997,9 +997,20 @@ fn missing_external_buffer_and_image_name_the_file() {
     std::fs::write(dir.join("b.bin"), &doc.bin).unwrap();
     let text = serde_json::to_vec(&doc.finish_json(Some("b.bin"))).unwrap();
     std::fs::write(dir.join("b.gltf"), text).unwrap();
-    assert_scene_error(
-        load(&dir.join("b.gltf"), &LoadOptions::default()),
-        &["image 'wood.png'"],
+    // A missing image is no error: it renders magenta (as in Blender and Cycles), with a
+    // warning naming the image and the file looked for.
+    let scene = load(&dir.join("b.gltf"), &LoadOptions::default()).unwrap();
+    assert_eq!(scene.textures.len(), 1);
+    assert_eq!(scene.textures[0].texels, vec![[255, 0, 255, 255]]);
+    assert_eq!((scene.textures[0].width, scene.textures[0].height), (1, 1));
+    let warning = scene
+        .warnings
+        .iter()
+        .find(|w| w.contains("image 'wood.png'"))
+        .unwrap_or_else(|| panic!("no warning names the image: {:?}", scene.warnings));
+    assert!(
+        warning.contains("not found") && warning.contains("magenta"),
+        "{warning}"
     );
     // From memory, external files cannot be resolved at all.
     let result = load_slice(&doc.glb(), "mem.glb", &LoadOptions::default());

@@ -975,8 +975,10 @@ impl Loader {
         Ok(slot)
     }
 
-    /// Decode a PNG or JPEG image to RGBA8.
-    fn decode_image(&self, image: &gltf::Image) -> Result<DecodedImage> {
+    /// Decode a PNG or JPEG image to RGBA8. An external image file that does not exist becomes
+    /// one magenta texel, with a warning naming the image: Blender and Cycles show missing
+    /// textures magenta so that they are noticed.
+    fn decode_image(&mut self, image: &gltf::Image) -> Result<DecodedImage> {
         let json = self
             .document
             .as_json()
@@ -1000,6 +1002,23 @@ impl Loader {
                     .ok_or_else(|| self.err(&label, "buffer view does not exist"))?;
                 let region = self.element_region(&view, 0, 1, view.length().max(1), &label)?;
                 region.map(|(bytes, _)| bytes.to_vec()).unwrap_or_default()
+            }
+            (None, Some(uri)) if !uri.starts_with("data:") => {
+                let file = self.resolve_file(uri, &label)?;
+                if !file.exists() {
+                    self.scene.warnings.push(format!(
+                        "{label}: file '{}' not found; it renders magenta (1, 0, 1), as in \
+                         Blender",
+                        file.display()
+                    ));
+                    return Ok(DecodedImage {
+                        name: label,
+                        width: 1,
+                        height: 1,
+                        texels: vec![[255, 0, 255, 255]],
+                    });
+                }
+                self.read_uri(uri, &label)?
             }
             (None, Some(uri)) => self.read_uri(uri, &label)?,
             (None, None) => return Err(self.err(&label, "has neither a URI nor a buffer view")),

@@ -1,0 +1,220 @@
+"""The pre-flight report: what in the scene the export cannot carry to Photon yet.
+
+`unsupported_features(scene, objects)` returns one message per feature, each naming the object,
+material, world, light or node concerned, so that a render never drops something silently. The
+engine reports each as a WARNING before exporting. A scene that Photon renders fully gives an
+empty list, so the rules below only flag what really changes the image:
+
+- shader nodes feeding a material's surface that Blender's glTF exporter does not map onto
+  glTF's metallic-roughness material (Principled BSDF, Emission, image textures and the few
+  helper nodes it follows), and world nodes other than Background and Environment Texture;
+- volumes: a material's or the world's Volume output linked, and Volume objects;
+- displacement linked into a material output;
+- hair: hair particle systems and Curves (hair) objects;
+- lights: an area light's spread below 180 degrees, a light node tree that changes the
+  emission, shadows turned off;
+- objects hidden from some ray types (Object > Visibility > Ray Visibility);
+- cameras: depth of field and panoramic projections; motion blur.
+"""
+
+from __future__ import annotations
+
+import math
+
+# Node types (`node.type`) on the way to a material's Surface that the glTF exporter follows
+# (or that only route links). MIX, MATH and MIX_SHADER are checked separately.
+MATERIAL_NODES = {
+    "OUTPUT_MATERIAL", "BSDF_PRINCIPLED", "EMISSION", "TEX_IMAGE", "NORMAL_MAP", "UVMAP",
+    "TEX_COORD", "MAPPING", "SEPARATE_COLOR", "SEPRGB", "VERTEX_COLOR", "ATTRIBUTE", "RGB",
+    "VALUE", "REROUTE", "GROUP", "GROUP_INPUT", "GROUP_OUTPUT", "ADD_SHADER",
+    "BSDF_TRANSPARENT", "LIGHT_PATH",
+}
+# The world nodes export.world_extension reads.
+WORLD_NODES = {"OUTPUT_WORLD", "BACKGROUND", "TEX_ENVIRONMENT", "MAPPING", "TEX_COORD",
+               "REROUTE"}
+RAY_VISIBILITY = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"),
+                  ("visible_glossy", "glossy"), ("visible_transmission", "transmission"),
+                  ("visible_shadow", "shadow"))
+
+
+def unsupported_features(scene, objects) -> list[str]:
+    """Messages for every feature of `scene` the export drops; `objects` are the objects being
+    rendered (the render depsgraph's objects)."""
+    messages: list[str] = []
+    materials = {}
+    for obj in objects:
+        messages += _object_features(obj)
+        for slot in getattr(obj, "material_slots", ()):
+            if slot.material is not None:
+                materials.setdefault(slot.material.name, slot.material)
+    for name in sorted(materials):
+        messages += material_features(materials[name])
+    if scene.world is not None:
+        messages += world_features(scene.world)
+    if scene.camera is not None:
+        messages += _camera_features(scene.camera)
+    if scene.render.use_motion_blur:
+        messages.append("motion blur (Render > Motion Blur) is not rendered")
+    return messages
+
+
+def _object_features(obj) -> list[str]:
+    messages = []
+    what = f"object '{obj.name}'"
+    if obj.type == "VOLUME":
+        messages.append(f"{what}: Volume objects are not exported; Photon renders no volumes")
+    elif obj.type == "CURVES":
+        messages.append(f"{what}: hair curves (Curves objects) are not exported")
+    elif obj.type == "LIGHT":
+        messages += light_features(obj)
+    for system in getattr(obj, "particle_systems", ()):
+        kind = system.settings.type
+        if kind == "HAIR":
+            messages.append(f"{what}: hair particle system '{system.name}' is not exported")
+        elif system.settings.render_type in ("OBJECT", "COLLECTION"):
+            messages.append(f"{what}: particle system '{system.name}' (instances of an "
+                            f"object or collection) is not exported")
+    if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
+        hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
+        if hidden:
+            messages.append(f"{what}: ray visibility is not exported (it is hidden from "
+                            f"{', '.join(hidden)} rays in Blender, visible to all in Photon)")
+    return messages
+
+
+def light_features(obj) -> list[str]:
+    light, messages = obj.data, []
+    what = f"light '{obj.name}'"
+    if light.type == "AREA" and light.spread < math.pi - 1e-4:
+        messages.append(f"{what}: spread {math.degrees(light.spread):.0f} degrees is not "
+                        f"exported; Photon's area lights emit over the full 180 degrees")
+    if light.use_nodes and light.node_tree is not None and _light_nodes_matter(light.node_tree):
+        messages.append(f"{what}: its shader nodes are not exported (only its colour and "
+                        f"power are)")
+    if not getattr(light, "use_shadow", True):
+        messages.append(f"{what}: 'Cast Shadow' off is not exported; it casts shadows in Photon")
+    return messages
+
+
+def _light_nodes_matter(tree) -> bool:
+    """Whether a light's node tree changes the light: anything but an Emission node with white
+    colour and strength 1 (the default tree) feeding the output."""
+    for node in tree.nodes:
+        if node.type == "OUTPUT_LIGHT" or node.type == "FRAME":
+            continue
+        if node.type != "EMISSION":
+            return True
+        color, strength = node.inputs["Color"], node.inputs["Strength"]
+        if color.is_linked or strength.is_linked:
+            return True
+        if any(abs(c - 1.0) > 1e-6 for c in color.default_value[:3]):
+            return True
+        if abs(strength.default_value - 1.0) > 1e-6:
+            return True
+    return False
+
+
+def material_features(material) -> list[str]:
+    """Messages for the parts of `material`'s node tree that the export drops."""
+    tree = material.node_tree if material.use_nodes else None
+    if tree is None:
+        return []
+    what = f"material '{material.name}'"
+    output = _active_output(tree, "OUTPUT_MATERIAL")
+    if output is None:
+        return []
+    messages = []
+    for node in _upstream(output.inputs["Surface"]):
+        reason = _material_node_reason(node)
+        if reason:
+            messages.append(f"{what}: {node.bl_label} node '{node.name}' {reason}")
+    if output.inputs["Volume"].is_linked:
+        node = output.inputs["Volume"].links[0].from_node
+        messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "
+                        f"renders no volumes")
+    displacement = output.inputs.get("Displacement")
+    if displacement is not None and displacement.is_linked:
+        messages.append(f"{what}: displacement ('{displacement.links[0].from_node.name}') is "
+                        f"not exported")
+    return messages
+
+
+def _material_node_reason(node) -> str:
+    """Why the exporter drops `node` ('' when it does not)."""
+    kind = node.type
+    if kind in MATERIAL_NODES:
+        return ""
+    if kind == "MIX" and getattr(node, "blend_type", "") == "MULTIPLY":
+        return ""  # a colour factor times a texture
+    if kind == "MATH" and node.operation == "MULTIPLY":
+        return ""  # a factor times a texture channel
+    if kind == "MIX_SHADER":
+        shaders = [s.links[0].from_node.type for s in node.inputs[1:3] if s.is_linked]
+        if sum(t not in ("BSDF_TRANSPARENT", "EMISSION") for t in shaders) <= 1:
+            return ""  # alpha (Transparent BSDF) or emission mixed in: the exporter maps both
+        return "mixes two shaders; the export keeps only one of them"
+    if kind == "MIX":
+        return f"(blend mode {node.blend_type}) is not exported; the material renders without it"
+    if kind == "MATH":
+        return (f"(operation {node.operation}) is not exported; the material renders "
+                f"without it")
+    return "is not exported; the material renders without it"
+
+
+def world_features(world) -> list[str]:
+    from .export import world_uses_nodes
+    if not world_uses_nodes(world):
+        return []
+    output = _active_output(world.node_tree, "OUTPUT_WORLD")
+    if output is None:
+        return []
+    what = f"world '{world.name}'"
+    messages = [f"{what}: {node.bl_label} node '{node.name}' is not exported; the world "
+                f"renders without it"
+                for node in _upstream(output.inputs["Surface"]) if node.type not in WORLD_NODES]
+    if output.inputs["Volume"].is_linked:
+        node = output.inputs["Volume"].links[0].from_node
+        messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "
+                        f"renders no volumes")
+    return messages
+
+
+def _camera_features(camera_object) -> list[str]:
+    camera, messages = camera_object.data, []
+    what = f"camera '{camera_object.name}'"
+    if camera.type == "PANO":
+        messages.append(f"{what}: panoramic cameras are not exported; Photon renders a "
+                        f"perspective view")
+    if camera.dof.use_dof:
+        messages.append(f"{what}: depth of field is not rendered")
+    return messages
+
+
+def _active_output(tree, kind):
+    """The output node Cycles uses: the active one among those of `kind` targeting all engines
+    or Cycles."""
+    outputs = [n for n in tree.nodes if n.type == kind and getattr(n, "target", "ALL")
+               in ("ALL", "CYCLES")]
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def _upstream(socket):
+    """Every node linked, directly or not, into `socket`, each once, in order of discovery;
+    group nodes are followed inside (from their Group Output) as well as to their inputs."""
+    seen, order, stack = set(), [], [socket]
+    while stack:
+        sock = stack.pop()
+        for link in sock.links:
+            if link.is_muted:
+                continue
+            node = link.from_node
+            if node.as_pointer() in seen:
+                continue
+            seen.add(node.as_pointer())
+            order.append(node)
+            stack.extend(i for i in node.inputs if i.is_linked)
+            if node.type == "GROUP" and node.node_tree is not None:
+                for inner in node.node_tree.nodes:
+                    if inner.type == "GROUP_OUTPUT":
+                        stack.extend(i for i in inner.inputs if i.is_linked)
+    return order

@@ -1,0 +1,146 @@
+"""Nothing the export drops is silent. Rendering through `bpy.ops.render.render()` with Photon,
+from both export routes (in process, and the background Blender the UI uses), every feature the
+export cannot carry gives one WARNING report naming the material, node or object, the glTF
+exporter's own warnings are reported too, and the final status line counts them; a scene that
+renders fully gives none. In background mode Blender prints reports ("Warning: ...") and the
+status line ("Fra:1 ... | Photon: ...") on stdout, which is what these tests read.
+
+The pre-flight rules not covered by the renders (Volume and Curves objects, lights, cameras)
+are checked on `preflight.unsupported_features` directly.
+"""
+
+import math
+import re
+
+import bpy
+import pytest
+
+from helpers import photon_binary
+
+ROUTES = ("inprocess", "subprocess")
+
+
+@pytest.fixture
+def scene(photon_addon, tmp_path):
+    photon_binary()
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    scene.render.engine = "PHOTON"
+    scene.render.resolution_x, scene.render.resolution_y = 32, 18
+    scene.render.resolution_percentage = 100
+    scene.photon.samples = 2
+    # The default scene carries everything; an area light too (through PHOTON_light, although
+    # the glTF exporter itself says "Unsupported light source AREA").
+    area = bpy.data.lights.new("Panel", "AREA")
+    area.energy = 50.0
+    obj = bpy.data.objects.new("Panel", area)
+    obj.location = (0.0, 0.0, 3.0)
+    scene.collection.objects.link(obj)
+    return scene
+
+
+def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
+    """Render; return the WARNING reports (without the "Photon: " prefix) and the final status
+    line."""
+    monkeypatch.setenv("PHOTON_EXPORT", route)
+    capfd.readouterr()
+    bpy.ops.render.render()
+    out = capfd.readouterr().out
+    warnings = re.findall(r"^Warning: Photon: (.*)$", out, flags=re.M)
+    status = [line for line in out.splitlines() if "| Photon:" in line]
+    assert status, out[-2000:]
+    return warnings, status[-1]
+
+
+def add_unsupported_features(scene):
+    """A Noise Texture into the cube's base colour, a second cube whose material has a volume
+    shader, and a hair particle system on the cube."""
+    cube = bpy.data.objects["Cube"]
+    tree = cube.active_material.node_tree
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.name = "Clouds"
+    tree.links.new(noise.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+
+    smoke = bpy.data.objects.new("Smoke", cube.data.copy())
+    smoke.location = (3.0, 0.0, 0.0)
+    scene.collection.objects.link(smoke)
+    fog = bpy.data.materials.new("Fog")
+    fog.use_nodes = True
+    nodes = fog.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    volume = nodes.new("ShaderNodeVolumePrincipled")
+    fog.node_tree.links.new(volume.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
+    smoke.data.materials.clear()
+    smoke.data.materials.append(fog)
+
+    cube.modifiers.new("Fur", "PARTICLE_SYSTEM")
+    cube.particle_systems[0].settings.type = "HAIR"
+    cube.particle_systems[0].settings.count = 50
+
+
+@pytest.mark.parametrize("route", ROUTES)
+def test_plain_scene_gives_no_warning(scene, capfd, monkeypatch, route):
+    warnings, status = render_warnings(capfd, route, monkeypatch)
+    assert warnings == [], warnings
+    assert "warning" not in status, status
+
+
+@pytest.mark.parametrize("route", ROUTES)
+def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, route):
+    add_unsupported_features(scene)
+    warnings, status = render_warnings(capfd, route, monkeypatch)
+    expected = {
+        "noise node": lambda w: "material 'Material'" in w and "Noise Texture node 'Clouds'" in w,
+        "volume": lambda w: "material 'Fog'" in w and "volume shader" in w,
+        "hair": lambda w: "object 'Cube'" in w and "hair particle system 'Fur'" in w,
+    }
+    for feature, matches in expected.items():
+        hits = [w for w in warnings if matches(w)]
+        assert len(hits) == 1, f"{feature}: {len(hits)} warnings in {warnings}"
+    assert len(warnings) == len(expected), warnings
+    assert "3 warnings" in status, status
+
+
+@pytest.mark.parametrize("route", ROUTES)
+def test_gltf_exporter_warnings_are_reported(scene, capfd, monkeypatch, route):
+    """An object whose mesh has no faces: the glTF exporter drops it with a warning, which the
+    background Blender route used to print to a discarded stdout."""
+    empty = bpy.data.objects.new("Nothing", bpy.data.meshes.new("NoFaces"))
+    scene.collection.objects.link(empty)
+    warnings, status = render_warnings(capfd, route, monkeypatch)
+    assert len(warnings) == 1, warnings
+    assert warnings[0].startswith("glTF exporter: ") and "'NoFaces'" in warnings[0], warnings
+    assert "1 warning " in status, status
+
+
+def messages_for(scene):
+    from blender_addon import preflight
+    return preflight.unsupported_features(scene, list(scene.objects))
+
+
+def test_other_rules(photon_addon):
+    """Volume and Curves objects, light settings and camera settings, one message each; the
+    default tree of a light with nodes and a full spread give none."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    assert messages_for(scene) == []
+
+    light = bpy.data.objects["Light"].data
+    light.use_nodes = True
+    assert messages_for(scene) == [], "a light's default node tree changes nothing"
+    light.node_tree.nodes["Emission"].inputs["Strength"].default_value = 2.0
+    area = bpy.data.lights.new("Narrow", "AREA")
+    area.spread = math.radians(30.0)
+    scene.collection.objects.link(bpy.data.objects.new("Narrow", area))
+    scene.collection.objects.link(bpy.data.objects.new("Cloud", bpy.data.volumes.new("Cloud")))
+    scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
+    scene.camera.data.dof.use_dof = True
+    bpy.data.objects["Cube"].visible_shadow = False
+
+    messages = messages_for(scene)
+    expected = ("light 'Light': its shader nodes", "light 'Narrow': spread 30 degrees",
+                "object 'Cloud': Volume objects", "object 'Fur': hair curves",
+                "camera 'Camera': depth of field", "object 'Cube': ray visibility")
+    for start in expected:
+        assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
+    assert len(messages) == len(expected), messages
