@@ -123,6 +123,34 @@ impl Image {
             .fold(Vec3::ZERO, |s, p| s + Vec3::new(p[0], p[1], p[2]));
         sum / self.rgba.len().max(1) as f32
     }
+
+    /// The sample-weighted average of this image (of `own_spp` samples per pixel) and `other`
+    /// (of `other_spp`): colour, AOVs and light passes averaged, depth the nearest.
+    pub fn merge(mut self, own_spp: u32, other: &Image, other_spp: u32) -> Image {
+        let total = (own_spp + other_spp) as f32;
+        let (a, b) = (own_spp as f32 / total, other_spp as f32 / total);
+        for (s, p) in self.rgba.iter_mut().zip(&other.rgba) {
+            for c in 0..4 {
+                s[c] = s[c] * a + p[c] * b;
+            }
+        }
+        for (s, p) in self.albedo.iter_mut().zip(&other.albedo) {
+            *s = *s * a + *p * b;
+        }
+        for (s, p) in self.normal.iter_mut().zip(&other.normal) {
+            *s = (*s * a + *p * b).normalize_or_zero();
+        }
+        for (s, p) in self.passes.iter_mut().zip(&other.passes) {
+            let mut p = *p;
+            p.scale(b);
+            s.scale(a);
+            *s += p;
+        }
+        for (s, p) in self.depth.iter_mut().zip(&other.depth) {
+            *s = s.min(*p);
+        }
+        self
+    }
 }
 
 #[cfg(test)]

@@ -36,7 +36,9 @@ pub struct Photon {
     /// Bits 0–1: kd split axis; bit 2 direct; bit 3 caustic; bits 4–7 bounces.
     flags: u8,
     normal: [u8; 2],
-    _pad: [u8; 3],
+    /// A precomputed-irradiance record's reach (`with_reach`); 0 for photons.
+    reach: [u8; 2],
+    _pad: u8,
 }
 
 impl Photon {
@@ -59,7 +61,8 @@ impl Photon {
             phi,
             flags,
             normal: [theta, phi],
-            _pad: [0; 3],
+            reach: [0; 2],
+            _pad: 0,
         }
     }
 
@@ -69,6 +72,19 @@ impl Photon {
         let (t, p) = encode_direction(n);
         self.normal = [t, p];
         self
+    }
+
+    /// This record's reach: the radius of the estimate it holds, as a fraction in [0, 1] of the
+    /// maximum search radius (quantised to 16 bits).
+    pub fn with_reach(mut self, fraction: f32) -> Photon {
+        let q = (fraction.clamp(0.0, 1.0) * u16::MAX as f32).round() as u16;
+        self.reach = q.to_le_bytes();
+        self
+    }
+
+    /// The fraction `with_reach` stored.
+    pub fn reach(&self) -> f32 {
+        u16::from_le_bytes(self.reach) as f32 / u16::MAX as f32
     }
 
     /// The recorded surface normal (quantised to two bytes).
@@ -291,6 +307,11 @@ impl Neighbors {
         self.heap.iter()
     }
 
+    /// The photon on the search circle when k were found (it set `radius2`), else `None`.
+    pub fn boundary(&self) -> Option<u32> {
+        self.heap.peek().filter(|_| self.is_full()).map(|n| n.index)
+    }
+
     fn offer(&mut self, n: Neighbor) {
         if self.heap.len() < self.k {
             self.heap.push(n);
@@ -440,7 +461,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn photon_is_twenty_bytes() {
+    fn photon_is_24_bytes() {
         assert_eq!(std::mem::size_of::<Photon>(), 24);
     }
 

@@ -28,7 +28,7 @@ use crate::accel::Accel;
 use crate::integrator::classify::{bsdf_is_specular, classifying_bsdf};
 use crate::integrator::photon::settings::PhotonSettings;
 use crate::math::Vec3;
-use crate::render::Method;
+use crate::render::{Method, GENERATION_SPP};
 use crate::scene::{Bounds, Light, Mesh, Scene};
 use std::fmt;
 
@@ -380,7 +380,8 @@ pub const CACHE_RAYS_PER_GATHER_RAY: f32 = 1.0;
 /// The irradiance cache's gather rays per pixel for `auto` at `spp` samples per pixel of
 /// `gather_rays` final-gather rays each.
 pub fn cache_ray_budget(spp: u32, gather_rays: u32) -> f32 {
-    CACHE_RAYS_PER_GATHER_RAY * spp as f32 * gather_rays as f32
+    // Each generation of `GENERATION_SPP` samples builds its own cache.
+    CACHE_RAYS_PER_GATHER_RAY * spp.min(GENERATION_SPP) as f32 * gather_rays as f32
 }
 
 /// The pilots at full size: photons of each of the caustic pilot's two passes (global, and

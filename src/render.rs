@@ -142,10 +142,13 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples dropped because their radiance was NaN or infinite.
     pub nonfinite_samples: u64,
-    /// Photon tracing of the photon methods: what was traced and skipped.
+    /// Photon tracing of the photon methods: what was traced and skipped (summed over the
+    /// generations).
     pub photon: Option<PhotonInfo>,
-    /// The irradiance cache, when one was built.
+    /// The irradiance cache, when one was built (summed over the generations).
     pub irradiance_cache: Option<IcInfo>,
+    /// Generations of photon maps and irradiance cache built (`GENERATION_SPP`).
+    pub generations: u32,
 }
 
 const TILE: u32 = 16;
@@ -233,22 +236,14 @@ pub fn render_scheduled(
         max_depth: settings.max_depth,
         transparent_background: scene.render_settings.transparent_film,
     };
-    let maps = match settings.method.photon_view() {
-        Some(view) => {
-            let (maps, info) = build_maps(&ctx, &settings.photon, settings.seed, progress)?;
-            stats.photon = Some(info);
-            Some((maps, view))
-        }
-        None => None,
-    };
-    let cache = prepare_cache(&ctx, settings, &maps, progress, &mut stats)?;
-    let integrator = match (&maps, &cache, settings.method.cache_view()) {
-        (_, Some(cache), Some(view)) => Integrator::Cache(cache, view),
-        (Some((maps, view)), cache, _) => Integrator::Photon(maps, cache.as_ref(), *view),
-        _ => Integrator::Path,
-    };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
     let filter = PixelFilter::default();
+    // Methods that read photon maps or an irradiance cache rebuild them every `GENERATION_SPP`
+    // samples per pixel with fresh random numbers and smaller radii (`for_generation`).
+    let progressive =
+        settings.method.photon_view().is_some() || settings.method.cache_view().is_some();
+    let mut done_spp = 0u32;
+    let mut prepared: Option<Prepared> = None;
     let mut previous = None;
     while let Some((seed, spp)) = schedule(previous.take()) {
         if spp == 0 {
@@ -256,21 +251,59 @@ pub fn render_scheduled(
                 "samples per pixel must be at least 1".into(),
             ));
         }
-        let round_settings = RenderSettings {
-            seed,
-            spp,
-            ..settings.clone()
-        };
-        let round = RoundSetup {
-            ctx: &ctx,
-            integrator,
-            camera: &camera,
-            filter: &filter,
-            settings: &round_settings,
-            window,
-        };
-        let image = render_round(&round, progress, &mut stats)?;
-        previous = Some((image, spp));
+        // The round, split where a generation ends: the first part keeps the round's seed.
+        let (mut image, mut image_spp, mut part_seed): (Option<Image>, u32, u64) = (None, 0, seed);
+        while image_spp < spp {
+            let generation = if progressive {
+                done_spp / GENERATION_SPP
+            } else {
+                0
+            };
+            let n = match progressive {
+                true => (spp - image_spp).min(GENERATION_SPP - done_spp % GENERATION_SPP),
+                false => spp,
+            };
+            if prepared
+                .as_ref()
+                .is_some_and(|p| p.generation != generation)
+            {
+                // Free the last generation's maps and cache before building the next.
+                prepared = None;
+            }
+            if prepared.is_none() {
+                let generation_settings = settings.for_generation(generation);
+                let built = prepare(&ctx, &generation_settings, generation, progress, &mut stats)?;
+                prepared = Some(built);
+            }
+            let p = prepared.as_ref().expect("prepared just above");
+            let integrator = match (&p.maps, &p.cache, settings.method.cache_view()) {
+                (_, Some(cache), Some(view)) => Integrator::Cache(cache, view),
+                (Some((maps, view)), cache, _) => Integrator::Photon(maps, cache.as_ref(), *view),
+                _ => Integrator::Path,
+            };
+            let round_settings = RenderSettings {
+                seed: part_seed,
+                spp: n,
+                ..settings.clone()
+            };
+            let round = RoundSetup {
+                ctx: &ctx,
+                integrator,
+                camera: &camera,
+                filter: &filter,
+                settings: &round_settings,
+                window,
+            };
+            let part = render_round(&round, progress, &mut stats)?;
+            image = Some(match image {
+                None => part,
+                Some(sum) => sum.merge(image_spp, &part, n),
+            });
+            image_spp += n;
+            done_spp += n;
+            part_seed = generation_seed(seed, done_spp);
+        }
+        previous = image.map(|image| (image, spp));
     }
     Ok(stats)
 }
@@ -379,8 +412,94 @@ impl Integrator<'_> {
     }
 }
 
+/// Samples per pixel rendered with one generation of photon maps and irradiance cache.
+pub const GENERATION_SPP: u32 = 64;
+
+/// Knaus & Zwicker's α (2011): each generation's squared radii are (g + α)/(g + 1) of the one
+/// before, so the bias falls while the variance added per generation stays bounded.
+const RADIUS_ALPHA: f32 = 2.0 / 3.0;
+
+/// The factor generation `g`'s squared radii get: Π_{j=1..g} (j + α)/(j + 1), 1 for g = 0.
+pub fn radius2_factor(generation: u32) -> f32 {
+    (1..=generation).fold(1.0, |f, j| f * (j as f32 + RADIUS_ALPHA) / (j as f32 + 1.0))
+}
+
+/// The seed of the samples after `done_spp` of a round whose first ones used `seed` (a
+/// generation boundary inside a round), or of generation `g`'s photon maps and cache.
+fn generation_seed(seed: u64, n: u32) -> u64 {
+    seed ^ (n as u64).wrapping_mul(0xd1b5_4a32_d192_ed03)
+}
+
+impl RenderSettings {
+    /// The settings of generation `generation` (module header of `rounds`): its own seed for
+    /// the photons and the cache, and with `radius2_factor`: fewer nearest photons in each
+    /// estimate and smaller maximum radii, and a cache with tighter accuracy and closer records.
+    pub fn for_generation(&self, generation: u32) -> RenderSettings {
+        if generation == 0 {
+            return self.clone();
+        }
+        let f = radius2_factor(generation);
+        let k = |k: u32| ((k as f32 * f).round() as u32).max(1);
+        let photon = PhotonSettings {
+            k_global: k(self.photon.k_global),
+            k_caustic: k(self.photon.k_caustic),
+            global_radius: self.photon.global_radius * f.sqrt(),
+            caustic_radius: self.photon.caustic_radius * f.sqrt(),
+            ..self.photon.clone()
+        };
+        let ic = &self.irradiance_cache;
+        let irradiance_cache = IcSettings {
+            accuracy: ic.accuracy * f.sqrt(),
+            min_spacing: (ic.min_spacing * f.sqrt()).max(0.5),
+            ..ic.clone()
+        };
+        RenderSettings {
+            seed: generation_seed(self.seed, generation.wrapping_mul(GENERATION_SPP)),
+            photon,
+            irradiance_cache,
+            ..self.clone()
+        }
+    }
+}
+
 /// The photon maps of a photon method and the view it renders.
 type Maps = Option<(PhotonMaps, View)>;
+
+/// What one generation renders with.
+struct Prepared {
+    generation: u32,
+    maps: Maps,
+    cache: Option<IrradianceCache>,
+}
+
+/// Build generation `generation`'s photon maps and irradiance cache with `settings` (already
+/// `for_generation`), adding their statistics to `stats`.
+fn prepare(
+    ctx: &Context,
+    settings: &RenderSettings,
+    generation: u32,
+    progress: &Progress,
+    stats: &mut RenderStats,
+) -> Result<Prepared> {
+    let maps = match settings.method.photon_view() {
+        Some(view) => {
+            let (maps, info) = build_maps(ctx, &settings.photon, settings.seed, progress)?;
+            stats
+                .photon
+                .get_or_insert_with(PhotonInfo::default)
+                .add(&info);
+            Some((maps, view))
+        }
+        None => None,
+    };
+    let cache = prepare_cache(ctx, settings, &maps, progress, stats)?;
+    stats.generations += 1;
+    Ok(Prepared {
+        generation,
+        maps,
+        cache,
+    })
+}
 
 /// Build the irradiance cache the method needs over the full frame: from the photon maps for
 /// the photon method (when enabled and a global map exists) and the photon cache views, from
@@ -404,7 +523,10 @@ fn prepare_cache(
         _ => return Ok(None),
     };
     let (cache, info) = cache::build_cache(ctx, source, ic, frame, settings.seed, progress)?;
-    stats.irradiance_cache = Some(info);
+    stats
+        .irradiance_cache
+        .get_or_insert_with(IcInfo::default)
+        .add(&info);
     Ok(Some(cache))
 }
 

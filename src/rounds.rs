@@ -3,8 +3,11 @@
 //! first round always completes). The same settings and number of completed rounds give the same
 //! image bit for bit; round 0 uses the caller's seed, so one round equals a plain render.
 //!
-//! The acceleration structure, photon maps and irradiance cache are built once, with the
-//! caller's seed, and shared by all rounds (`render::render_scheduled`).
+//! The acceleration structure is built once. Photon maps and irradiance caches are built per
+//! generation of `render::GENERATION_SPP` samples per pixel, whatever the rounds
+//! (`render::render_scheduled`): each generation traces fresh photons and places fresh records
+//! with smaller radii and a tighter cache (Knaus & Zwicker 2011's probabilistic progressive
+//! photon mapping), so the error of the photon methods keeps falling as samples accumulate.
 
 use crate::accel::Accel;
 use crate::error::Result;
@@ -51,7 +54,7 @@ pub fn render_in_rounds(
         if let Some((image, spp)) = finished {
             total = Some(match total.take() {
                 None => image,
-                Some(sum) => merge(sum, done_spp, &image, spp),
+                Some(sum) => sum.merge(done_spp, &image, spp),
             });
             done_spp += spp;
             rounds += 1;
@@ -71,31 +74,4 @@ pub fn render_in_rounds(
         rounds,
         spp: done_spp,
     })
-}
-
-/// Average `sum` (of `sum_spp` samples) with `round` (of `round_spp`), weighting by samples.
-fn merge(mut sum: Image, sum_spp: u32, round: &Image, round_spp: u32) -> Image {
-    let total = (sum_spp + round_spp) as f32;
-    let (a, b) = (sum_spp as f32 / total, round_spp as f32 / total);
-    for (s, p) in sum.rgba.iter_mut().zip(&round.rgba) {
-        for c in 0..4 {
-            s[c] = s[c] * a + p[c] * b;
-        }
-    }
-    for (s, p) in sum.albedo.iter_mut().zip(&round.albedo) {
-        *s = *s * a + *p * b;
-    }
-    for (s, p) in sum.normal.iter_mut().zip(&round.normal) {
-        *s = (*s * a + *p * b).normalize_or_zero();
-    }
-    for (s, p) in sum.passes.iter_mut().zip(&round.passes) {
-        let mut p = *p;
-        p.scale(b);
-        s.scale(a);
-        *s += p;
-    }
-    for (s, p) in sum.depth.iter_mut().zip(&round.depth) {
-        *s = s.min(*p);
-    }
-    sum
 }

@@ -69,6 +69,16 @@ pub struct IcInfo {
     pub budget_reached: bool,
 }
 
+impl IcInfo {
+    /// Add another generation's records and time.
+    pub fn add(&mut self, other: &IcInfo) {
+        self.records += other.records;
+        self.seconds += other.seconds;
+        self.strata = other.strata;
+        self.budget_reached |= other.budget_reached;
+    }
+}
+
 /// The first surface that stores photons seen along camera ray `ray` through specular ones
 /// (`walk::follow_specular`), with the path length to it.
 fn first_surface(ctx: &Context, ray: Ray, rng: &mut Rng) -> Option<(Shading, f32)> {

@@ -12,14 +12,20 @@
 //! stored as records in a kd-tree of their own; a final-gather hit reads the nearest record whose
 //! normal agrees instead of a full k-nearest estimate.
 
+use crate::accel::Visibility;
 use crate::integrator::shading::Shading;
-use crate::math::Vec3;
+use crate::integrator::Context;
+use crate::math::{Frame, Vec3};
 use crate::photon_map::{Neighbors, Photon, PhotonMap};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
 /// Photons further than this fraction of the search radius from the tangent plane are ignored.
 pub const PLANE_TOLERANCE: f32 = 0.25;
+
+/// How far from its photon a precomputed irradiance record serves, as a fraction of the radius
+/// of the estimate it holds (`nearest_irradiance`).
+const RECORD_REACH: f32 = 0.5;
 
 /// Christensen's precomputation: irradiance at every `stride`-th photon of `map` (in heap
 /// order, which is spatially well mixed) from its k nearest photons, counting only photons on
@@ -41,11 +47,15 @@ pub fn precompute_irradiance(
             for &i in chunk {
                 let ph = &photons[i];
                 let (p, n) = (ph.position(), ph.normal());
-                map.nearest_where(p, k as usize, max_radius2, buf, |q| same_side(q, n));
+                // Leave the record's own photon out: counting it would add one photon's power
+                // to every record (1/k of it, more as generations shrink k).
+                let others = |q: &Photon| same_side(q, n) && !std::ptr::eq(q, ph);
+                map.nearest_where(p, k as usize, max_radius2, buf, others);
                 let r2 = buf.radius2;
                 let r = r2.sqrt();
+                let boundary = buf.boundary();
                 let mut sum = Vec3::ZERO;
-                for nb in buf.iter() {
+                for nb in buf.iter().filter(|nb| Some(nb.index) != boundary) {
                     let q = &photons[nb.index as usize];
                     if on_surface(q, p, n, r) && q.incoming().dot(n) > 0.0 {
                         sum += q.power();
@@ -56,7 +66,8 @@ pub fn precompute_irradiance(
                 } else {
                     Vec3::ZERO
                 };
-                out.push(Photon::new(p, e, n, 0, false));
+                let reach = (r2 / max_radius2).sqrt();
+                out.push(Photon::new(p, e, n, 0, false).with_reach(reach));
             }
             out
         })
@@ -82,19 +93,87 @@ pub fn same_side(ph: &Photon, n: Vec3) -> bool {
 }
 
 /// The nearest precomputed irradiance record to `s` whose normal agrees with the surface's
-/// (cos > 0.9) and that lies near its tangent plane; `None` when there is none within
-/// `max_radius2`.
+/// (cos > 0.9), that lies near its tangent plane, and that reaches `s`: no further than
+/// `RECORD_REACH` times the radius of the estimate it holds. Records sit at photons, so they are
+/// as dense as the light; without the reach test a point in shadow next to a bright patch takes
+/// the patch's nearby records, and dim surfaces near bright ones come out too bright (+6 % on a
+/// window-lit room). `None` when no record qualifies within `max_radius2`.
 pub fn nearest_irradiance(map: &PhotonMap, max_radius2: f32, s: &Shading) -> Option<Vec3> {
     let accept = |rec: &Photon, dist2: f32| {
         let d = rec.position() - s.sh.p;
-        rec.incoming().dot(s.ng) >= 0.9 && d.dot(s.ng).abs() <= PLANE_TOLERANCE * dist2.sqrt()
+        let reach2 = max_radius2 * (RECORD_REACH * rec.reach()).powi(2);
+        dist2 <= reach2
+            && rec.incoming().dot(s.ng) >= 0.9
+            && d.dot(s.ng).abs() <= PLANE_TOLERANCE * dist2.sqrt()
     };
     map.nearest_accepted(s.sh.p, max_radius2, accept)
         .map(|(i, _)| map.photons()[i as usize].power())
 }
 
+/// Angular sectors of the disc around a shading point in which `Walls` looks for occluders.
+const SECTORS: usize = 8;
+
+/// How far the surface around a shading point is open in each of `SECTORS` directions of its
+/// tangent plane, up to the search radius: a photon beyond a wall (the other side of a thin
+/// occluder standing on the surface) lit a place the point does not see and must not count.
+pub struct Walls {
+    /// Open distance per sector, at most the search radius.
+    open: [f32; SECTORS],
+    frame: Frame,
+}
+
+impl Walls {
+    /// One short ray per sector from `s`, rising 2 % above its tangent plane so that it leaves
+    /// the surface itself; `rays` counts them.
+    pub fn around(ctx: &Context, s: &Shading, radius: f32, rays: &mut u32) -> Walls {
+        let frame = Frame::from_normal(s.ng);
+        let open = std::array::from_fn(|i| {
+            let angle = 2.0 * PI * (i as f32 + 0.5) / SECTORS as f32;
+            let along = frame.s * angle.cos() + frame.t * angle.sin();
+            let dir = (along + 0.02 * s.ng).normalize();
+            let mut ray = s.sh.spawn(dir);
+            ray.t_max = radius;
+            *rays += 1;
+            ctx.accel
+                .intersect(ctx.scene, &ray, Visibility::Secondary)
+                .map_or(radius, |hit| hit.t)
+        });
+        Walls { open, frame }
+    }
+
+    fn sector(&self, offset: Vec3) -> usize {
+        let angle = offset.dot(self.frame.t).atan2(offset.dot(self.frame.s));
+        let turn = angle.rem_euclid(2.0 * PI) / (2.0 * PI);
+        ((turn * SECTORS as f32) as usize).min(SECTORS - 1)
+    }
+
+    /// Whether a photon at `offset` from the shading point lies on its side of every wall.
+    fn sees(&self, offset: Vec3) -> bool {
+        offset.length() <= self.open[self.sector(offset)]
+    }
+
+    /// The area of the open part of the disc of radius `r`, weighted by the cone filter when
+    /// `cone` is set (∫ (1 − ρ/r) dA): πr² and πr²/3 without walls.
+    fn area(&self, r: f32, cone: bool) -> f32 {
+        let wedge = 2.0 * PI / SECTORS as f32;
+        self.open
+            .iter()
+            .map(|&o| {
+                let o = o.min(r);
+                match cone {
+                    true => wedge * (o * o / 2.0 - o * o * o / (3.0 * r)),
+                    false => wedge * o * o / 2.0,
+                }
+            })
+            .sum()
+    }
+}
+
 /// Radiance leaving `s` towards its viewer estimated from `map`: Σ f_r ΔΦ / (π r²), with a cone
-/// filter (k = 1, normalised by 1 − 2/3) when `cone` is set.
+/// filter (k = 1, normalised by 1 − 2/3) when `cone` is set. With `walls` (`Walls::around` `s`
+/// at the search radius, which the closure receives) photons behind a wall are left out and
+/// the area is the open part of the disc.
+#[allow(clippy::too_many_arguments)]
 pub fn radiance_estimate(
     map: &PhotonMap,
     k: u32,
@@ -102,6 +181,7 @@ pub fn radiance_estimate(
     cone: bool,
     s: &Shading,
     buf: &mut Neighbors,
+    walls: Option<&mut dyn FnMut(f32) -> Walls>,
 ) -> Vec3 {
     map.nearest_where(s.sh.p, k as usize, max_radius2, buf, |q| same_side(q, s.ng));
     if buf.is_empty() {
@@ -109,13 +189,23 @@ pub fn radiance_estimate(
     }
     let r2 = buf.radius2;
     let r = r2.sqrt();
+    // The k-th photon lies on the circle it defines: the k − 1 inside it estimate the density
+    // without bias, all k would overestimate it by k/(k − 1) (the cone filter gives it weight 0).
+    let boundary = buf.boundary().filter(|_| !cone);
     // Pure Lambertian opaque surfaces: f_r = ρ/π on the viewer's side, no per-photon BSDF call.
     let rho = s.bsdf.diffuse_reflectance();
     let lambert = s.is_opaque_lambertian();
     let mut sum = Vec3::ZERO;
-    for nb in buf.iter() {
+    let walls = walls.map(|around| around(r));
+    for nb in buf.iter().filter(|nb| Some(nb.index) != boundary) {
         let ph = &map.photons()[nb.index as usize];
         if !on_surface(ph, s.sh.p, s.ng, r) {
+            continue;
+        }
+        if walls
+            .as_ref()
+            .is_some_and(|w| !w.sees(ph.position() - s.sh.p))
+        {
             continue;
         }
         let wi = ph.incoming();
@@ -135,6 +225,14 @@ pub fn radiance_estimate(
         let w = if cone { 1.0 - nb.dist2.sqrt() / r } else { 1.0 };
         sum += f * ph.power() * w;
     }
-    let area = if cone { PI * r2 / 3.0 } else { PI * r2 };
-    sum / area
+    let area = match &walls {
+        Some(w) => w.area(r, cone),
+        None if cone => PI * r2 / 3.0,
+        None => PI * r2,
+    };
+    if area > 0.0 {
+        sum / area
+    } else {
+        Vec3::ZERO
+    }
 }

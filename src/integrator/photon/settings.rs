@@ -86,3 +86,26 @@ pub struct PhotonInfo {
     /// Tracing the subsurface photons and building their octrees.
     pub subsurface_seconds: f64,
 }
+
+impl PhotonInfo {
+    /// Add another generation's counts and times (the reasons for skipping stay the first's).
+    pub fn add(&mut self, other: &PhotonInfo) {
+        self.global_emitted += other.global_emitted;
+        self.global_stored += other.global_stored;
+        self.caustic_emitted += other.caustic_emitted;
+        self.caustic_stored += other.caustic_stored;
+        self.caustic_skipped = self
+            .caustic_skipped
+            .take()
+            .or(other.caustic_skipped.clone());
+        self.trace_seconds += other.trace_seconds;
+        self.kdtree_seconds += other.kdtree_seconds;
+        self.irradiance_records += other.irradiance_records;
+        self.irradiance_seconds += other.irradiance_seconds;
+        self.subsurface_emitted += other.subsurface_emitted;
+        self.subsurface_stored += other.subsurface_stored;
+        self.subsurface_skipped =
+            (self.subsurface_skipped.take()).or(other.subsurface_skipped.clone());
+        self.subsurface_seconds += other.subsurface_seconds;
+    }
+}

@@ -36,7 +36,7 @@
 //! camera path before x move Emission and Direct one step further (`Passes::add_after`).
 
 use super::build::PhotonMaps;
-use super::estimate::{nearest_irradiance, radiance_estimate};
+use super::estimate::{nearest_irradiance, radiance_estimate, Walls};
 use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::BsdfSample;
 use crate::integrator::classify::stores_photons;
@@ -124,7 +124,7 @@ impl<'a> Gather<'a> {
     fn global(&mut self, s: &Shading) -> Vec3 {
         let (maps, k) = (self.maps, self.maps.settings.k_global);
         match &maps.global {
-            Some(m) => radiance_estimate(m, k, maps.global_radius2, false, s, &mut self.buf),
+            Some(m) => radiance_estimate(m, k, maps.global_radius2, false, s, &mut self.buf, None),
             None => Vec3::ZERO,
         }
     }
@@ -132,7 +132,19 @@ impl<'a> Gather<'a> {
     fn caustic(&mut self, s: &Shading) -> Vec3 {
         let (maps, k) = (self.maps, self.maps.settings.k_caustic);
         match &maps.caustic {
-            Some(m) => radiance_estimate(m, k, maps.caustic_radius2, true, s, &mut self.buf),
+            Some(m) => {
+                let (ctx, rays) = (self.ctx, &mut self.rays);
+                let mut walls = |r: f32| Walls::around(ctx, s, r, rays);
+                radiance_estimate(
+                    m,
+                    k,
+                    maps.caustic_radius2,
+                    true,
+                    s,
+                    &mut self.buf,
+                    Some(&mut walls),
+                )
+            }
             None => Vec3::ZERO,
         }
     }
