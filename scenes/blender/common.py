@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import struct
 import sys
 import tempfile
 import time
@@ -166,6 +167,26 @@ def export_glb(path: Path):
     result = bpy.ops.export_scene.gltf(filepath=str(path), **GLTF_EXPORT_ARGS)
     if "FINISHED" not in result:
         raise RuntimeError(f"glTF export to {path} failed: {result}")
+
+
+def edit_glb_json(glb: Path, edit) -> None:
+    """Rewrite the JSON chunk of a .glb in place: `edit(doc)` changes the parsed document (to
+    add what Blender's exporter drops, as the add-on's export hooks do)."""
+    data = glb.read_bytes()
+    (json_len,) = struct.unpack_from("<I", data, 12)
+    doc = json.loads(data[20:20 + json_len])
+    rest = data[20 + json_len:]
+    edit(doc)
+    chunk = json.dumps(doc, separators=(",", ":")).encode()
+    chunk += b" " * (-len(chunk) % 4)
+    body = struct.pack("<II", len(chunk), 0x4E4F534A) + chunk + rest
+    glb.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)
+
+
+def add_extension_used(doc: dict, name: str) -> None:
+    used = doc.setdefault("extensionsUsed", [])
+    if name not in used:
+        used.append(name)
 
 
 def set_multilayer_exr(image_settings):

@@ -7,7 +7,7 @@ Usage (from the repository root, after tests/setup_python.sh):
 
 Scenes: cornell, cornell_lambert (cornell.py); point_plane, sun_plane, spot_plane
 (lights_plane.py); principled_r05, principled_r10 (principled_plane.py); subsurface, subsurface_s02
-(subsurface.py); room_thin, room_thick (window_room.py). Takes about 15 minutes on 2 cores, almost all of it the Cornell boxes.
+(subsurface.py); room_thin, room_thick (window_room.py); ring_open (open_ring.py). Takes about 15 minutes on 2 cores, almost all of it the Cornell boxes.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import cornell  # noqa: E402
 import lights_plane  # noqa: E402
+import open_ring  # noqa: E402
 import principled_plane  # noqa: E402
 import subsurface  # noqa: E402
 import window_room  # noqa: E402
@@ -37,6 +38,7 @@ SCENES = {
     "subsurface_s02": (subsurface.make, subsurface.SAMPLES),
     "room_thin": (window_room.make, window_room.SAMPLES),
     "room_thick": (window_room.make, window_room.SAMPLES),
+    "ring_open": (open_ring.make, open_ring.SAMPLES),
 }
 
 

@@ -13,8 +13,6 @@ Run:  .venv/bin/python scenes/blender/subsurface.py [OUT_DIR]
 
 from __future__ import annotations
 
-import json
-import struct
 import sys
 from pathlib import Path
 
@@ -47,21 +45,14 @@ def build(scale: float):
 
 
 def inject_subsurface(glb: Path, materials: dict[str, dict]) -> None:
-    """Add PHOTON_material_subsurface to the named materials of a .glb (JSON chunk rewritten)."""
-    data = glb.read_bytes()
-    (json_len,) = struct.unpack_from("<I", data, 12)
-    doc = json.loads(data[20:20 + json_len])
-    rest = data[20 + json_len:]
-    for mat in doc.get("materials", []):
-        if mat.get("name") in materials:
-            mat.setdefault("extensions", {})["PHOTON_material_subsurface"] = materials[mat["name"]]
-    used = doc.setdefault("extensionsUsed", [])
-    if "PHOTON_material_subsurface" not in used:
-        used.append("PHOTON_material_subsurface")
-    chunk = json.dumps(doc, separators=(",", ":")).encode()
-    chunk += b" " * (-len(chunk) % 4)
-    body = struct.pack("<II", len(chunk), 0x4E4F534A) + chunk + rest
-    glb.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)
+    """Add PHOTON_material_subsurface to the named materials of a .glb."""
+    def edit(doc):
+        for mat in doc.get("materials", []):
+            if mat.get("name") in materials:
+                ext = mat.setdefault("extensions", {})
+                ext["PHOTON_material_subsurface"] = materials[mat["name"]]
+        common.add_extension_used(doc, "PHOTON_material_subsurface")
+    common.edit_glb_json(glb, edit)
 
 
 def make(name: str, out_dir: Path, samples: int):

@@ -196,7 +196,9 @@ pub fn walk(
             }
             break;
         };
-        state.beta *= transmittance(state.absorption, &hit, &ray);
+        if state.absorption != Vec3::ZERO {
+            state.beta *= transmittance(state.absorption, &hit, &ray);
+        }
         let mut s = Shading::new(ctx, &ray, &hit);
         if depth == 0 {
             out.hit = true;
