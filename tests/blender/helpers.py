@@ -61,15 +61,17 @@ def _tail(text: str, lines: int = 40) -> str:
 
 
 def render_photon(name: str, width: int, height: int, spp: int, seed: int = 1,
-                  threads: int = THREADS, timeout: float = TIMEOUT) -> np.ndarray:
-    """Render scenes/blender/<name>.glb with Photon and return the RGB image (H, W, 3)."""
+                  threads: int = THREADS, timeout: float = TIMEOUT,
+                  extra: list[str] | None = None) -> np.ndarray:
+    """Render scenes/blender/<name>.glb with Photon (and the `extra` arguments) and return the
+    RGB image (H, W, 3)."""
     binary = photon_binary()
     glb = SCENES / f"{name}.glb"
     with tempfile.TemporaryDirectory(prefix=f"photon_{name}_") as tmp:
         out = Path(tmp) / f"{name}.exr"
         cmd = [str(binary), "render", str(glb), "-o", str(out), "--width", str(width),
                "--height", str(height), "--spp", str(spp), "--seed", str(seed),
-               "--threads", str(threads)]
+               "--threads", str(threads)] + (extra or [])
         t0 = time.perf_counter()
         try:
             proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
