@@ -90,7 +90,7 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             stats = runner.run(command, self._on_event, self.test_break)
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]
-            self._load(exr, view_layer.name, width, height, opaque=not r.film_transparent)
+            self._load(exr, view_layer.name, width, height)
         line = f"Photon: {summary(stats)}; {self._timing_summary()}"
         if self.warnings:
             count = len(self.warnings)
@@ -145,12 +145,9 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         self.update_progress(lo + (hi - lo) * min(max(fraction, 0.0), 1.0))
         self.update_stats("", f"Photon: {stage} {100 * fraction:.0f}% {message}".rstrip())
 
-    def _load(self, exr, layer_name, width, height, opaque):
+    def _load(self, exr, layer_name, width, height):
         """Fill the render result from the EXR, after checking that Blender's loader will find
-        the channels (it loads nothing, silently, when the names do not match). The renderer's
-        alpha is the geometry coverage; with an opaque film (Film > Transparent off) the
-        Combined alpha is set to 1 everywhere, as Cycles writes it, so that compositing over
-        the render shows no holes where the background is."""
+        the channels (it loads nothing, silently, when the names do not match)."""
         if not exr.is_file():
             raise runner.PhotonError("the renderer exited normally but wrote no image")
         wanted = f"{layer_name}.Combined.R"
@@ -164,8 +161,6 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         except RuntimeError as exc:
             self.end_result(result, cancel=True)
             raise runner.PhotonError(f"Blender could not load the rendered image: {exc}") from None
-        if opaque:
-            set_opaque_alpha(result.layers[0].passes.find_by_name("Combined", ""))
         self.end_result(result)
 
 
@@ -177,15 +172,6 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         parts = [f"{name} {t[key] - start:.2f} s" for name, key in
                  (("export", "exported"), ("first progress", "first_progress")) if key in t]
         return ", ".join(parts + [f"total {time.perf_counter() - start:.2f} s"])
-
-
-def set_opaque_alpha(combined):
-    """Alpha 1 in every pixel of a render pass holding RGBA."""
-    import numpy as np  # shipped with Blender; imported here so the module loads without it
-    rect = np.empty(len(combined.rect) * 4, dtype=np.float32)
-    combined.rect.foreach_get(rect)
-    rect[3::4] = 1.0
-    combined.rect.foreach_set(rect)
 
 
 def summary(stats: dict) -> str:

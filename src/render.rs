@@ -552,6 +552,10 @@ fn render_tile(
     let mut tile_passes = Vec::new();
     let mut tile_rays = 0u64;
     let mut tile_nonfinite = 0u64;
+    let alpha = |coverage: f32| match ctx.transparent_background {
+        true => coverage,
+        false => 1.0,
+    };
     for y in y0..y1 {
         for x in x0..x1 {
             progress.check()?;
@@ -588,7 +592,8 @@ fn render_tile(
             let c = sum / n;
             passes.scale(1.0 / n);
             pixels.push(PixelResult {
-                rgba: [c.x, c.y, c.z, coverage / n],
+                // Alpha as Cycles writes it: the coverage with a transparent film, else 1.
+                rgba: [c.x, c.y, c.z, alpha(coverage / n)],
                 albedo: albedo / n,
                 normal: normal.normalize_or_zero(),
                 depth: if coverage > 0.0 {

@@ -293,6 +293,15 @@ fn transparent_film_hides_the_world_but_keeps_its_light() {
     );
     assert_eq!(image.depth[0], 1e10);
     assert!((image.depth[8 * 16 + 8] - 4.0).abs() < 0.05);
+    // An opaque film is opaque everywhere, as Cycles writes it (compositing shows no holes).
+    scene.render_settings.transparent_film = false;
+    let image = render_with(&scene, &settings(16, 16));
+    assert!(image.rgba.iter().all(|p| p[3] == 1.0));
+    assert!(
+        image.rgba[0][0] > 0.5,
+        "the world is seen: {:?}",
+        image.rgba[0]
+    );
 }
 
 #[test]
