@@ -108,3 +108,17 @@ def describe(image: np.ndarray, ref: np.ndarray) -> str:
     r = ref.reshape(-1, 3).mean(axis=0)
     return (f"photon mean RGB {np.round(m, 5).tolist()}, cycles mean RGB {np.round(r, 5).tolist()}, "
             f"ratio {np.round(m / np.maximum(r, 1e-12), 4).tolist()}")
+
+
+def assert_matches_reference(name: str, spp: int, relmse_max: float, mean_tol: float):
+    """Render scenes/blender/<name>.glb at its reference's size and check it against the Cycles
+    reference: relMSE at most `relmse_max`, mean within `mean_tol` (relative)."""
+    ref, info = reference(name)
+    img = render_photon(name, info["width"], info["height"], spp)
+    err = rel_mse(img, ref)
+    ratio = float(img.mean() / ref.mean())
+    msg = (f"{name}: relMSE {err:.5f} (max {relmse_max}); mean ratio {ratio:.4f} "
+           f"(tolerance {mean_tol:.0%}); {describe(img, ref)}")
+    print(msg)
+    assert err <= relmse_max, msg
+    assert abs(ratio - 1.0) <= mean_tol, msg

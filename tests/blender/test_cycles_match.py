@@ -11,7 +11,8 @@ compares with what Cycles rendered from the same Blender scene:
 import numpy as np
 import pytest
 
-from helpers import describe, erode, lit_mask, luminance, reference, rel_mse, render_photon
+from helpers import (assert_matches_reference, describe, erode, lit_mask, luminance, reference,
+                     rel_mse, render_photon)
 
 CORNELL_SPP = 256
 PLANE_SPP = 64
@@ -22,14 +23,7 @@ PLANE_MEAN_TOL = 0.02
 
 @pytest.mark.parametrize("name", ["cornell_lambert", "cornell"])
 def test_cornell_matches_cycles(name):
-    ref, info = reference(name)
-    img = render_photon(name, info["width"], info["height"], CORNELL_SPP)
-    err = rel_mse(img, ref)
-    ratio = float(img.mean() / ref.mean())
-    msg = f"{name}: relMSE {err:.5f} (max {RELMSE_MAX}); mean ratio {ratio:.4f}; {describe(img, ref)}"
-    print(msg)
-    assert err <= RELMSE_MAX, msg
-    assert abs(ratio - 1.0) <= CORNELL_MEAN_TOL, msg
+    assert_matches_reference(name, CORNELL_SPP, RELMSE_MAX, CORNELL_MEAN_TOL)
 
 
 def _lit_region_check(name):

@@ -9,7 +9,7 @@ Photon's default render (`auto`: photon mapping with the irradiance cache) must 
 
 import pytest
 
-from helpers import describe, reference, rel_mse, render_photon
+from helpers import assert_matches_reference
 
 SPP = 64
 RELMSE_MAX = 0.01
@@ -18,12 +18,4 @@ MEAN_TOL = 0.02
 
 @pytest.mark.parametrize("name", ["room_thin", "room_thick"])
 def test_window_lit_room_matches_cycles(name):
-    ref, info = reference(name)
-    img = render_photon(name, info["width"], info["height"], SPP)
-    err = rel_mse(img, ref)
-    ratio = float(img.mean() / ref.mean())
-    msg = (f"{name}: relMSE {err:.5f} (max {RELMSE_MAX}); mean ratio {ratio:.4f} "
-           f"(tolerance {MEAN_TOL:.0%}); {describe(img, ref)}")
-    print(msg)
-    assert err <= RELMSE_MAX, msg
-    assert abs(ratio - 1.0) <= MEAN_TOL, msg
+    assert_matches_reference(name, SPP, RELMSE_MAX, MEAN_TOL)
