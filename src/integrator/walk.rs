@@ -38,6 +38,8 @@ pub struct PathState {
     pub absorption: Vec3,
     /// Non-delta vertices so far.
     pub diffuse: u32,
+    /// Bounces before the current vertex (0 at the camera ray's hit).
+    pub depth: u32,
     /// The path went through a translucent material (its light is `LightPass::Subsurface`).
     pub subsurface: bool,
     /// The next surface adds only its emission, then the walk ends.
@@ -62,6 +64,7 @@ impl PathState {
             beta: Vec3::ONE,
             absorption: Vec3::ZERO,
             diffuse: 0,
+            depth: 0,
             subsurface: false,
             emission_only: false,
             passes: Passes::default(),
@@ -212,6 +215,7 @@ pub fn walk(
         if depth == ctx.max_depth || state.emission_only {
             break;
         }
+        state.depth = depth;
         let light_sampled = match integrator.scatter(&mut state, &mut s, rng) {
             Next::End => break,
             Next::Moved => {

@@ -43,7 +43,8 @@ fn trace_map(
         MapKind::Global => (0x9b0a_1c5e_u64, settings.global_photons),
         MapKind::Caustic => (0x3c4f_77d1_u64, settings.caustic_photons),
     };
-    let max = settings.max_photon_bounces;
+    // Photons past the render's bounce limit could light nothing it counts.
+    let max = settings.max_photon_bounces.min(ctx.max_depth);
     let label = format!("{map:?}");
     let stream = Stream {
         label: &label,

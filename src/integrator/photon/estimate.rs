@@ -172,7 +172,8 @@ impl Walls {
 /// Radiance leaving `s` towards its viewer estimated from `map`: Σ f_r ΔΦ / (π r²), with a cone
 /// filter (k = 1, normalised by 1 − 2/3) when `cone` is set. With `walls` (`Walls::around` `s`
 /// at the search radius, which the closure receives) photons behind a wall are left out and
-/// the area is the open part of the disc.
+/// the area is the open part of the disc. With `max_bounces` only photons stored after at most
+/// that many bounces count (the render's bounce limit).
 #[allow(clippy::too_many_arguments)]
 pub fn radiance_estimate(
     map: &PhotonMap,
@@ -182,8 +183,10 @@ pub fn radiance_estimate(
     s: &Shading,
     buf: &mut Neighbors,
     walls: Option<&mut dyn FnMut(f32) -> Walls>,
+    max_bounces: Option<u32>,
 ) -> Vec3 {
-    map.nearest_where(s.sh.p, k as usize, max_radius2, buf, |q| same_side(q, s.ng));
+    let counts = |q: &Photon| same_side(q, s.ng) && max_bounces.is_none_or(|m| q.bounces() <= m);
+    map.nearest_where(s.sh.p, k as usize, max_radius2, buf, counts);
     if buf.is_empty() {
         return Vec3::ZERO;
     }

@@ -59,6 +59,9 @@ use std::f32::consts::PI;
 /// this the full estimate sees each photon's direction.
 const ROUGH_AS_DIFFUSE: f32 = 0.5;
 
+/// Photons record their bounces up to this count (`Photon::bounces` saturates there).
+const MAX_STORED_BOUNCES: u32 = 15;
+
 /// What the photon method shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum View {
@@ -81,6 +84,8 @@ struct Gather<'a> {
     cache: Option<&'a IrradianceCache>,
     buf: Neighbors,
     rays: u32,
+    /// Bounces on the camera path before the point being shaded.
+    depth: u32,
 }
 
 impl<'a> Gather<'a> {
@@ -91,6 +96,7 @@ impl<'a> Gather<'a> {
             cache,
             buf: Neighbors::default(),
             rays: 0,
+            depth: 0,
         }
     }
 
@@ -101,13 +107,27 @@ impl<'a> Gather<'a> {
             .intersect(self.ctx.scene, ray, Visibility::Secondary)
     }
 
+    /// The bounces a photon may have made before reaching a surface `after` bounces beyond the
+    /// shaded point for its light to stay within the render's bounce limit (`Context::max_depth`,
+    /// counting the camera path's bounces before that point): `Ok(None)` when every photon
+    /// counts, `Err(())` when none does.
+    fn bounce_limit(&self, after: u32) -> Result<Option<u32>, ()> {
+        let left = self.ctx.max_depth as i64 - self.depth as i64 - after as i64;
+        match left {
+            l if l < 0 => Err(()),
+            l if l >= MAX_STORED_BOUNCES as i64 => Ok(None),
+            l => Ok(Some(l as u32)),
+        }
+    }
+
     /// The global estimate at a final-gather hit: on opaque surfaces that are Lambertian or
     /// whose glossy lobe is rough (`ROUGH_AS_DIFFUSE`), albedo(wo)/π × the nearest precomputed
     /// irradiance when records exist (exact for Lambertian surfaces, and for any BSDF under
     /// uniform incident light, by reciprocity); else the full estimate, whose photons keep
-    /// their directions for sharper lobes.
+    /// their directions for sharper lobes. Records mix every bounce, so a bounce limit that
+    /// leaves some photons out takes the full estimate.
     fn gather_estimate(&mut self, s: &Shading) -> Vec3 {
-        if let Some(irr) = &self.maps.irradiance {
+        if let (Some(irr), Ok(None)) = (&self.maps.irradiance, self.bounce_limit(2)) {
             if s.opaque && !s.bsdf.has_delta() {
                 let albedo = s.bsdf.albedo();
                 if s.bsdf.roughness() >= ROUGH_AS_DIFFUSE || s.is_opaque_lambertian() {
@@ -118,35 +138,37 @@ impl<'a> Gather<'a> {
                 }
             }
         }
-        self.global(s)
+        self.global(s, 2)
     }
 
-    fn global(&mut self, s: &Shading) -> Vec3 {
+    /// The global map's estimate at `s`, `after` bounces beyond the shaded point (1: at it).
+    fn global(&mut self, s: &Shading, after: u32) -> Vec3 {
         let (maps, k) = (self.maps, self.maps.settings.k_global);
-        match &maps.global {
-            Some(m) => radiance_estimate(m, k, maps.global_radius2, false, s, &mut self.buf, None),
-            None => Vec3::ZERO,
-        }
+        let (Some(m), Ok(limit)) = (&maps.global, self.bounce_limit(after)) else {
+            return Vec3::ZERO;
+        };
+        radiance_estimate(
+            m,
+            k,
+            maps.global_radius2,
+            false,
+            s,
+            &mut self.buf,
+            None,
+            limit,
+        )
     }
 
+    /// The caustic map's estimate at the shaded point `s`, leaving out photons behind walls.
     fn caustic(&mut self, s: &Shading) -> Vec3 {
         let (maps, k) = (self.maps, self.maps.settings.k_caustic);
-        match &maps.caustic {
-            Some(m) => {
-                let (ctx, rays) = (self.ctx, &mut self.rays);
-                let mut walls = |r: f32| Walls::around(ctx, s, r, rays);
-                radiance_estimate(
-                    m,
-                    k,
-                    maps.caustic_radius2,
-                    true,
-                    s,
-                    &mut self.buf,
-                    Some(&mut walls),
-                )
-            }
-            None => Vec3::ZERO,
-        }
+        let (Some(m), Ok(limit)) = (&maps.caustic, self.bounce_limit(1)) else {
+            return Vec3::ZERO;
+        };
+        let (ctx, rays) = (self.ctx, &mut self.rays);
+        let mut walls = |r: f32| Walls::around(ctx, s, r, rays);
+        let r2 = maps.caustic_radius2;
+        radiance_estimate(m, k, r2, true, s, &mut self.buf, Some(&mut walls), limit)
     }
 
     /// One light sample at `s`, MIS-weighted against BSDF sampling when `mis` is set.
@@ -196,7 +218,7 @@ impl<'a> Gather<'a> {
             if let Some(d) = follow_specular(self.ctx, y, &mut chain, rng, &mut self.rays, emission)
             {
                 let at_end = match previous.delta {
-                    true => self.global(&d),
+                    true => self.global(&d, 2),
                     false => self.gather_estimate(&d),
                 };
                 e = chain.beta * at_end;
@@ -251,7 +273,7 @@ impl<'a> Gather<'a> {
         passes.add(LightPass::Direct, self.direct(s, m > 0, rng));
         passes.add(LightPass::Caustic, self.caustic(s));
         if m == 0 {
-            passes.add(LightPass::Indirect, self.global(s));
+            passes.add(LightPass::Indirect, self.global(s, 1));
             return passes;
         }
         let n = (m as f32).sqrt() as u32;
@@ -339,11 +361,12 @@ impl Scatter for PhotonCamera<'_> {
 
     fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
         let g = &mut self.gather;
+        g.depth = path.depth;
         if stores_photons(&s.bsdf) {
             let mut l = Passes::default();
             match self.view {
                 View::Full => l = g.shade_full(s, rng),
-                View::Global => l.add(LightPass::Indirect, g.global(s)),
+                View::Global => l.add(LightPass::Indirect, g.global(s, 1)),
                 View::Caustic => l.add(LightPass::Caustic, g.caustic(s)),
                 View::Photons => l.add(LightPass::Indirect, g.dots(s)),
             };
