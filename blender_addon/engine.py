@@ -41,7 +41,7 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
         if renderlayer.use_pass_normal:
             self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
-        if getattr(getattr(renderlayer, "cycles", None), "denoising_store_passes", False):
+        if renderlayer.photon.use_pass_denoising_data:
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
             self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
         for name in properties.enabled_light_passes(renderlayer):

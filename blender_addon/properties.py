@@ -79,7 +79,10 @@ def render_settings(props) -> RenderSettings:
 
 
 class PhotonViewLayerSettings(bpy.types.PropertyGroup):
-    """Light passes Blender has no view-layer toggle for (`view_layer.photon`)."""
+    """Passes Blender has no engine-independent view-layer toggle for (`view_layer.photon`)."""
+    use_pass_denoising_data: BoolProperty(
+        name="Denoising Data", description="Denoising Normal and Denoising Albedo, the "
+        "passes the compositor's Denoise node uses", default=False)
     use_pass_caustic: BoolProperty(
         name="Caustic", description="Photon mapping's caustic-map term (light focused by "
         "glass and mirrors onto diffuse surfaces; 0 with path tracing, whose caustics are in "

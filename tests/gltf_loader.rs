@@ -1124,13 +1124,104 @@ fn unsupported_required_extension_is_listed() {
 }
 
 #[test]
-fn webp_images_are_refused_by_name() {
+fn corrupt_webp_is_a_scene_error() {
     let doc = textured_doc(
         b"RIFF\x10\0\0\0WEBPVP8 fake",
         "image/webp",
         json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}),
     );
-    assert_scene_error(load_glb(&doc), &["image 'tex.png'", "image/webp"]);
+    assert_scene_error(
+        load_glb(&doc),
+        &["image 'tex.png'", "cannot decode the WebP image"],
+    );
+}
+
+#[test]
+fn other_image_formats_are_refused_by_name() {
+    let doc = textured_doc(
+        b"GIF89a\x01\0\x01\0",
+        "image/gif",
+        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}),
+    );
+    assert_scene_error(
+        load_glb(&doc),
+        &["image 'tex.png'", "image/gif", "PNG, JPEG and WebP"],
+    );
+}
+
+/// A lossless WebP of `width` x `height` RGBA texels.
+fn webp_bytes(width: u32, height: u32, rgba: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    image::codecs::webp::WebPEncoder::new_lossless(&mut out)
+        .encode(rgba, width, height, image::ExtendedColorType::Rgba8)
+        .unwrap();
+    out
+}
+
+/// The triangle fixture with texture 0 as Blender's exporter writes a WebP image without a
+/// fallback: no `source`, the image in `EXT_texture_webp`, the extension required.
+fn webp_doc(webp: &[u8]) -> Doc {
+    let mut doc = triangle_doc();
+    let view = doc.view(webp);
+    doc.json["images"] = json!([{"name": "Check", "bufferView": view, "mimeType": "image/webp"}]);
+    doc.json["textures"] = json!([{"extensions": {"EXT_texture_webp": {"source": 0}}}]);
+    doc.json["extensionsUsed"] = json!(["EXT_texture_webp"]);
+    doc.json["extensionsRequired"] = json!(["EXT_texture_webp"]);
+    doc.set_material(json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}));
+    doc
+}
+
+#[test]
+fn required_ext_texture_webp_is_read_and_decoded() {
+    let texels = [
+        [255, 0, 0, 255],
+        [0, 255, 0, 128],
+        [0, 0, 255, 255],
+        [10, 20, 30, 0],
+    ];
+    let webp = webp_bytes(2, 2, texels.as_flattened());
+    let scene = load_glb(&webp_doc(&webp)).unwrap();
+    let base = scene.materials[0].base_color_texture.unwrap();
+    let t = &scene.textures[base.texture as usize];
+    assert_eq!((t.width, t.height), (2, 2));
+    assert_eq!(t.texels, texels.to_vec());
+    assert!(t.srgb);
+}
+
+#[test]
+fn ext_texture_webp_is_preferred_to_the_fallback_source() {
+    let webp = webp_bytes(1, 1, &[0, 200, 0, 255]);
+    let png = png_bytes(
+        1,
+        1,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        &[200, 0, 0],
+    );
+    let mut doc = webp_doc(&webp);
+    let png_view = doc.view(&png);
+    doc.json["images"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"name": "Fallback", "bufferView": png_view, "mimeType": "image/png"}));
+    doc.json["textures"][0]["source"] = json!(1);
+    doc.json["extensionsRequired"] = json!([]);
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.textures.len(), 1);
+    assert_eq!(scene.textures[0].texels, vec![[0, 200, 0, 255]]);
+}
+
+#[test]
+fn ext_texture_webp_without_a_valid_source_is_a_scene_error() {
+    let webp = webp_bytes(1, 1, &[0, 200, 0, 255]);
+    let mut doc = webp_doc(&webp);
+    doc.json["textures"][0]["extensions"]["EXT_texture_webp"]["source"] = json!(3);
+    assert_scene_error(
+        load_glb(&doc),
+        &["texture 0 (EXT_texture_webp)", "'source' 3 is not an image"],
+    );
+    doc.json["textures"][0]["extensions"]["EXT_texture_webp"] = json!({});
+    assert_scene_error(load_glb(&doc), &["texture 0 (EXT_texture_webp)", "missing"]);
 }
 
 #[test]

@@ -40,6 +40,12 @@
 //!   as its total diffuse reflectance and `radius × scale` (scene units) as the mean free path
 //!   per channel (see `crate::subsurface`). Out-of-range values are refused with an error.
 //!
+//! # Images
+//!
+//! Textures are PNG, JPEG or WebP. A texture with `EXT_texture_webp` uses the extension's WebP
+//! image (its `source`) in place of the fallback, so the extension may be required (Blender's
+//! exporter requires it when it writes no PNG or JPEG fallback).
+//!
 //! # Limits and conventions
 //!
 //! Files that would exhaust memory are refused before allocating: accessors must fit in their
@@ -102,6 +108,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
     "KHR_texture_transform",
+    "EXT_texture_webp",
 ];
 
 /// Segments of the fan that approximates disk and ellipse area lights.
@@ -188,6 +195,7 @@ impl Loader {
             ));
         }
         check_attribute_indices(&root).map_err(|(object, m)| Error::scene(path, object, m))?;
+        use_webp_sources(&mut root).map_err(|(object, m)| Error::scene(path, object, m))?;
         // Everything left is supported here, even the extensions the gltf crate's validation does
         // not list as "enabled" (volume, specular); required-ness has been checked.
         root.extensions_required.clear();
@@ -975,7 +983,7 @@ impl Loader {
         Ok(slot)
     }
 
-    /// Decode a PNG or JPEG image to RGBA8. An external image file that does not exist becomes
+    /// Decode a PNG, JPEG or WebP image to RGBA8. An external image file that does not exist becomes
     /// one magenta texel, with a warning naming the image: Blender and Cycles show missing
     /// textures magenta so that they are noticed.
     fn decode_image(&mut self, image: &gltf::Image) -> Result<DecodedImage> {
@@ -1035,9 +1043,19 @@ impl Loader {
                 .unwrap_or_else(|| "unknown format".into());
             self.err(
                 &label,
-                format!("unsupported image format ({claimed}); Photon reads PNG and JPEG"),
+                format!("unsupported image format ({claimed}); Photon reads PNG, JPEG and WebP"),
             )
         })?;
+        if format == "image/webp" {
+            let (width, height, texels) = decode_webp(&encoded)
+                .map_err(|e| self.err(&label, format!("cannot decode the WebP image: {e}")))?;
+            return Ok(DecodedImage {
+                name: label.clone(),
+                width,
+                height,
+                texels,
+            });
+        }
         // Hand the bytes to the gltf crate's decoder (PNG and JPEG via the image crate) as a
         // data URI: it is the one way to reach it without reading files a second time.
         let uri = format!("data:{format};base64,{}", encode_base64(&encoded));
@@ -1614,15 +1632,63 @@ fn split_glb(bytes: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String
     Ok((json, bin))
 }
 
-/// The mime type of PNG or JPEG bytes, from their signature.
+/// Point each texture that has `EXT_texture_webp` at the extension's WebP image, which Photon
+/// decodes, so that the rest of the loader reads `source` only. A texture with neither a
+/// `source` nor the extension is left for validation to refuse.
+fn use_webp_sources(root: &mut gltf::json::Root) -> std::result::Result<(), (String, String)> {
+    let images = root.images.len();
+    for (index, texture) in root.textures.iter_mut().enumerate() {
+        let Some(webp) = texture
+            .extensions
+            .as_ref()
+            .and_then(|e| e.others.get("EXT_texture_webp"))
+        else {
+            continue;
+        };
+        let object = || format!("texture {index} (EXT_texture_webp)");
+        let source = webp.get("source").and_then(|s| s.as_u64()).ok_or_else(|| {
+            (
+                object(),
+                "'source' is missing or not an image index".to_string(),
+            )
+        })?;
+        if source >= images as u64 {
+            return Err((
+                object(),
+                format!("'source' {source} is not an image (the file has {images})"),
+            ));
+        }
+        texture.source = gltf::json::Index::new(source as u32);
+    }
+    Ok(())
+}
+
+/// The mime type of PNG, JPEG or WebP bytes, from their signature.
 fn sniff_image_format(bytes: &[u8]) -> Option<&'static str> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
         Some("image/png")
     } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
         Some("image/jpeg")
+    } else if bytes.len() >= 12 && bytes.starts_with(b"RIFF") && &bytes[8..12] == b"WEBP" {
+        Some("image/webp")
     } else {
         None
     }
+}
+
+/// WebP bytes as 8-bit RGBA, with the image crate (the gltf crate's decoder reads PNG and JPEG
+/// only).
+fn decode_webp(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[u8; 4]>), String> {
+    let image = image::load_from_memory_with_format(bytes, image::ImageFormat::WebP)
+        .map_err(|e| e.to_string())?
+        .into_rgba8();
+    let (width, height) = image.dimensions();
+    let texels = image
+        .into_raw()
+        .chunks_exact(4)
+        .map(|p| [p[0], p[1], p[2], p[3]])
+        .collect();
+    Ok((width, height, texels))
 }
 
 /// Any decoded glTF image as 8-bit RGBA (16-bit keeps the high byte; grey and RGB gain channels).

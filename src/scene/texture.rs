@@ -13,7 +13,7 @@ pub enum Wrap {
     ClampToEdge,
 }
 
-/// An image in memory. Row 0 is the top row of the image, as in PNG and JPEG files.
+/// An image in memory. Row 0 is the top row of the image, as in PNG, JPEG and WebP files.
 #[derive(Clone, Debug)]
 pub struct Texture {
     pub name: String,

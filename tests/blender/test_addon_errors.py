@@ -1,11 +1,13 @@
 """Failures during F12 with Photon end as a clear error from `bpy.ops.render.render()` carrying
 the add-on's message, not a Python traceback from inside the add-on, and no image is written:
-a missing binary, a scene the renderer rejects (a WebP texture), a renderer that fails, a scene without camera.
+a missing binary, a scene the renderer rejects (a NaN in the world's environment image), a
+renderer that fails, a scene without camera.
 """
 
 import os
 
 import bpy
+import numpy as np
 import pytest
 
 from addon import fake_binary
@@ -51,20 +53,22 @@ def test_binary_set_but_missing(small_scene, monkeypatch, tmp_path, capfd):
 
 
 def test_broken_scene(small_scene, capfd, binary_env, tmp_path):
-    """A WebP texture: the exporter writes it with EXT_texture_webp marked required, and the
-    renderer, which does not read WebP yet, refuses the file as bad input with its own message.
-    (A NaN vertex is no use here: the exporter writes it as 0.)"""
-    image = bpy.data.images.new("tex", 4, 4)
-    image.filepath_raw = str(tmp_path / "tex.webp")
-    image.file_format = "WEBP"
-    image.save()
-    tree = bpy.data.materials["Material"].node_tree
-    node = tree.nodes.new("ShaderNodeTexImage")
-    node.image = bpy.data.images.load(str(tmp_path / "tex.webp"))
-    tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    """An environment image with a NaN texel: the add-on writes the world's image as it is
+    (PHOTON_world), and the renderer refuses the file as bad input with its own message.
+    (A NaN vertex is no use here: the exporter writes it as 0. This used to be a WebP texture,
+    which the renderer now reads.)"""
+    rgba = np.full((4, 8, 4), 0.5, np.float32)
+    rgba[1, 2, 0] = np.nan
+    image = bpy.data.images.new("NaNSky", 8, 4, alpha=True, float_buffer=True)
+    image.pixels.foreach_set(rgba.ravel())
+    image.pack()
+    tree = small_scene.world.node_tree
+    env = tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = image
+    tree.links.new(env.outputs["Color"], tree.nodes["Background"].inputs["Color"])
     text = render_error(small_scene, capfd)
     assert "photon failed (exit code 2, bad input)" in text, text
-    assert "EXT_texture_webp" in text, text
+    assert "NaN or infinite" in text, text
 
 
 def test_renderer_error_message_is_shown(small_scene, monkeypatch, tmp_path, capfd):

@@ -35,7 +35,8 @@ def test_passes_are_loaded(photon_addon, tmp_path):
     scene = scenes_bpy.default_scene()
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = True
-    layer.cycles.denoising_store_passes = True
+    layer.cycles.denoising_store_passes = True  # for Cycles
+    layer.photon.use_pass_denoising_data = True  # for Photon (View Layer > Passes > Data)
     cycles = render_multilayer(scene, "CYCLES", tmp_path / "cycles.exr")
     photon = render_multilayer(scene, "PHOTON", tmp_path / "photon.exr")
     for name in PASSES:
