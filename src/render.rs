@@ -419,6 +419,9 @@ pub const GENERATION_SPP: u32 = 64;
 /// before, so the bias falls while the variance added per generation stays bounded.
 const RADIUS_ALPHA: f32 = 2.0 / 3.0;
 
+/// Most photons a generation traces, as a multiple of the first generation's.
+const MAX_PHOTON_GROWTH: f32 = 4.0;
+
 /// The factor generation `g`'s squared radii get: Π_{j=1..g} (j + α)/(j + 1), 1 for g = 0.
 pub fn radius2_factor(generation: u32) -> f32 {
     (1..=generation).fold(1.0, |f, j| f * (j as f32 + RADIUS_ALPHA) / (j as f32 + 1.0))
@@ -432,15 +435,23 @@ fn generation_seed(seed: u64, n: u32) -> u64 {
 
 impl RenderSettings {
     /// The settings of generation `generation` (module header of `rounds`): its own seed for
-    /// the photons and the cache, and with `radius2_factor`: fewer nearest photons in each
-    /// estimate and smaller maximum radii, and a cache with tighter accuracy and closer records.
+    /// the photons and the cache, and with `radius2_factor`: more photons (then fewer nearest
+    /// photons in each estimate) and smaller maximum radii, and a cache with tighter accuracy
+    /// and closer records.
     pub fn for_generation(&self, generation: u32) -> RenderSettings {
         if generation == 0 {
             return self.clone();
         }
         let f = radius2_factor(generation);
-        let k = |k: u32| ((k as f32 * f).round() as u32).max(1);
+        // The radii shrink by tracing more photons for the same k (k-nearest estimates with few
+        // photons are biased low next to bright patches); past `MAX_PHOTON_GROWTH` times the
+        // photons, k shrinks instead.
+        let grow = (1.0 / f).min(MAX_PHOTON_GROWTH);
+        let k = |k: u32| ((k as f32 * f * grow).round() as u32).max(1);
+        let n = |n: u32| (n as f32 * grow).round() as u32;
         let photon = PhotonSettings {
+            global_photons: n(self.photon.global_photons),
+            caustic_photons: n(self.photon.caustic_photons),
             k_global: k(self.photon.k_global),
             k_caustic: k(self.photon.k_caustic),
             global_radius: self.photon.global_radius * f.sqrt(),
