@@ -51,9 +51,15 @@ pub struct BenchArgs {
     /// Image height (default: from the scene camera's aspect ratio).
     #[arg(long)]
     height: Option<u32>,
-    /// Samples per pixel of the path-traced reference (two halves with seeds 1 and 2).
+    /// Samples per pixel of the reference (two halves with seeds 1 and 2).
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
+    /// How the reference is rendered: `path`, or `photon` for scenes whose caustics of small
+    /// lights the path tracer does not resolve (the photon method without the cache, with
+    /// `REFERENCE_PHOTONS` global and caustic photons per generation: consistent, so it
+    /// converges with the samples; it agrees with the path tracer where both converge).
+    #[arg(long, value_enum, default_value_t = ReferenceMethod::Path)]
+    reference_method: ReferenceMethod,
     /// Runs of each timed render, in rounds over all of a scene's renders; the fastest counts
     /// (renders are deterministic, so the image is the same; on a shared machine the minimum is
     /// the least disturbed time).
@@ -63,6 +69,16 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 0.01)]
     target_error: f64,
 }
+
+/// How `photon bench` renders its references.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReferenceMethod {
+    Path,
+    Photon,
+}
+
+/// Global and caustic photons per generation of a photon-method reference.
+const REFERENCE_PHOTONS: u32 = 1_000_000;
 
 /// The bench methods and the render options each adds. `photon` is pure final gathering,
 /// `photon-ic` takes the indirect light from Ward's irradiance cache; `auto` renders the planner's
@@ -222,8 +238,12 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
     let bytes = std::fs::read(scene).map_err(|e| io_error(scene, e))?;
     let refs = args.out.join("refs");
     std::fs::create_dir_all(&refs).map_err(|e| io_error(&refs, e))?;
+    let method = match args.reference_method {
+        ReferenceMethod::Path => "path",
+        ReferenceMethod::Photon => "photon",
+    };
     let key = format!(
-        "{}-{:016x}-v{}-{}x{}-{}spp",
+        "{}-{:016x}-v{}-{}x{}-{}spp-{method}",
         stem(scene),
         fnv1a(&bytes),
         env!("CARGO_PKG_VERSION"),
@@ -247,16 +267,23 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
     let mut halves = Vec::new();
     for seed in ["1", "2"] {
         let half = refs.join(format!("{key}.half{seed}.exr"));
-        let extra = [
-            "--method",
-            "path",
-            "--spp",
-            &half_spp.to_string(),
-            "--seed",
-            seed,
-        ];
+        let mut extra: Vec<String> = ["--method", method, "--spp", &half_spp.to_string()]
+            .into_iter()
+            .chain(["--seed", seed])
+            .map(String::from)
+            .collect();
+        if args.reference_method == ReferenceMethod::Photon {
+            let photons = REFERENCE_PHOTONS.to_string();
+            let options = ["--irradiance-cache", "off", "--photons", &photons];
+            extra.extend(
+                options
+                    .into_iter()
+                    .chain(["--caustic-photons", &photons])
+                    .map(String::from),
+            );
+        }
         // References are not timed: every core renders them, whatever `--threads` says.
-        render_child(scene, &half, 0, size, &extra.map(String::from))?;
+        render_child(scene, &half, 0, size, &extra)?;
         halves.push(read_rgba(&half)?);
         std::fs::remove_file(&half).map_err(|e| io_error(&half, e))?;
     }
@@ -617,7 +644,7 @@ fn csv(rows: &[Row]) -> String {
 
 fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
     let mut out = format!(
-        "# Photon benchmark\n\n{} px wide, reference: path tracer at {} spp; budget b = b spp, \
+        "# Photon benchmark\n\n{} px wide, reference: {} at {} spp; budget b = b spp, \
          {}·min(b, 64) global and {}·min(b, 64) caustic photons per generation of maps, {} \
          thread(s). Time is the wall time of the whole \
          render process, the fastest of {} run(s). \
@@ -628,6 +655,13 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
          and extrapolated beyond them with relMSE ∝ 1/t (which favours the fixed method); \
          verdict ok when auto's relMSE is at most {AUTO_TOLERANCE} times the best.\n",
         args.width,
+        match args.reference_method {
+            ReferenceMethod::Path => "the path tracer".to_string(),
+            ReferenceMethod::Photon => format!(
+                "the photon method without the cache ({REFERENCE_PHOTONS} global and caustic \
+                 photons per generation of 64 spp)"
+            ),
+        },
         args.reference_spp,
         GLOBAL_PHOTONS_PER_BUDGET,
         CAUSTIC_PHOTONS_PER_BUDGET,
@@ -765,6 +799,7 @@ fn summary(scenes: &[SceneResult], args: &BenchArgs) -> serde_json::Value {
         "auto_tolerance": AUTO_TOLERANCE,
         "width": args.width,
         "reference_spp": args.reference_spp,
+        "reference_method": format!("{:?}", args.reference_method).to_lowercase(),
         "threads": args.threads,
         "repeats": args.repeats,
         "budgets": args.budgets,

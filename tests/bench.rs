@@ -49,7 +49,7 @@ fn bench_writes_results_for_each_method_and_budget() {
         .collect();
     refs.sort();
     assert_eq!(refs.len(), 2, "{refs:?}");
-    assert!(refs[0].ends_with("-16spp.exr") && refs[1].ends_with("-16spp.noise.json"));
+    assert!(refs[0].ends_with("-16spp-path.exr") && refs[1].ends_with("-16spp-path.noise.json"));
     let cached: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(dir.join("refs").join(&refs[1])).expect("noise file"),
     )
@@ -122,4 +122,59 @@ fn an_unknown_bench_method_is_a_settings_error_naming_the_valid_ones() {
         "nothing renders on a bad method"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_photon_reference_converges_to_the_path_reference_where_both_converge() {
+    // The caustic-free furnace: the photon-method reference (consistent, so it converges) and
+    // the path-traced one must agree, and their files are kept apart by the method in the key.
+    let mean = |method: &str| -> f64 {
+        let dir = temp_dir(&format!("reference-{method}"));
+        let result = photon()
+            .arg("bench")
+            .arg(scene_path("furnace.glb"))
+            .args([
+                "--budgets",
+                "1",
+                "--methods",
+                "path",
+                "--width",
+                "16",
+                "--height",
+                "16",
+            ])
+            .args([
+                "--reference-spp",
+                "64",
+                "--reference-method",
+                method,
+                "--out",
+            ])
+            .arg(&dir)
+            .output()
+            .expect("runs");
+        assert_success(&result);
+        let refs: Vec<String> = std::fs::read_dir(dir.join("refs"))
+            .expect("refs")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        let exr = refs
+            .iter()
+            .find(|r| r.ends_with(".exr"))
+            .expect("reference EXR");
+        assert!(exr.ends_with(&format!("-64spp-{method}.exr")), "{refs:?}");
+        let csv = std::fs::read_to_string(dir.join("results.csv")).expect("csv");
+        // The path render's mean relative difference tells the reference's mean apart.
+        let row = csv.lines().nth(1).expect("a row");
+        row.rsplit(',')
+            .next()
+            .expect("last column")
+            .parse()
+            .expect("number")
+    };
+    let (path, photon_ref) = (mean("path"), mean("photon"));
+    assert!(
+        (path - photon_ref).abs() < 0.01,
+        "path render against a path reference {path:+.4}, against a photon reference {photon_ref:+.4}"
+    );
 }
