@@ -18,7 +18,7 @@
 //! caustic (only specular vertices between it and the light) or indirect (some diffuse vertex
 //! between).
 //!
-//! **Irradiance cache** (`super::super::cache`): at a Lambertian opaque x, the indirect term is
+//! **Irradiance cache** (`crate::integrator::cache`): at a Lambertian opaque x, the indirect term is
 //! ρ/π × E interpolated from Ward's records, and direct light is one light sample,
 //! MIS-weighted with one BSDF ray that counts only emission wherever a ray can meet a light
 //! (`Gather::direct_without_gather`). A diffuse lobe under a glossy layer takes ρ_d/π × E from
