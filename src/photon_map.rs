@@ -259,6 +259,16 @@ fn to_heap(p: &[Photon], heap: &mut [Photon], i: usize) {
     to_heap(&p[m + 1..], heap, 2 * i + 2);
 }
 
+/// Which of two halves photon `index` of a map belongs to (`PhotonMap::nearest_split`): a hash
+/// of the index, because the kd-tree's heap order puts left and right children, which lie on
+/// either side of their parent's plane, at odd and even indices.
+pub fn in_first_half(index: usize) -> bool {
+    let mut x = index as u64;
+    x = (x ^ (x >> 31)).wrapping_mul(0x7fb5_d329_728e_a185);
+    x = (x ^ (x >> 27)).wrapping_mul(0x81da_def4_bc2d_d44d);
+    (x ^ (x >> 33)) & 1 == 0
+}
+
 /// One neighbour found by `PhotonMap::nearest`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Neighbor {
@@ -380,6 +390,44 @@ impl PhotonMap {
             }
             out.radius2
         });
+    }
+
+    /// Two independent samples of the photons around `p` in one search: the `k` nearest to `p`
+    /// within `max_dist2` among the accepted photons of the first half (`in_first_half`) go to
+    /// `first`, and every accepted photon of the second half closer than the first half's k-th
+    /// to `second`. The halves are disjoint, so what the second half holds inside the radius is
+    /// independent of the radius itself.
+    pub fn nearest_split(
+        &self,
+        p: Vec3,
+        k: usize,
+        max_dist2: f32,
+        first: &mut Neighbors,
+        second: &mut Vec<Neighbor>,
+        accept: impl Fn(&Photon) -> bool,
+    ) {
+        first.heap.clear();
+        first.k = k;
+        first.radius2 = max_dist2;
+        second.clear();
+        if k == 0 {
+            return;
+        }
+        self.search(p, max_dist2, |index, dist2| {
+            if accept(&self.photons[index]) {
+                let n = Neighbor {
+                    dist2,
+                    index: index as u32,
+                };
+                match in_first_half(index) {
+                    true => first.offer(n),
+                    false => second.push(n),
+                }
+            }
+            first.radius2
+        });
+        let r2 = first.radius2;
+        second.retain(|n| n.dist2 < r2);
     }
 
     /// The photon nearest to `p` within squared distance `max_dist2` among those `accept`

@@ -135,8 +135,14 @@ pub fn scene(
 /// Inside a closed sphere whose surface has albedo ρ and emits Le, the radiance is Le / (1 − ρ)
 /// everywhere. Here ρ = 0.5 and Le = 0.5, so every pixel converges to 1.
 pub fn furnace() -> Scene {
-    let mut m = Material::diffuse("furnace", Vec3::splat(0.5));
-    m.emission = Vec3::splat(0.5);
+    furnace_with_albedo(0.5)
+}
+
+/// The closed furnace sphere with albedo `albedo` and emission 1 − `albedo`: its radiance is 1
+/// everywhere, a share `albedo`ⁿ of it from light that bounced more than n times.
+pub fn furnace_with_albedo(albedo: f32) -> Scene {
+    let mut m = Material::diffuse("furnace", Vec3::splat(albedo));
+    m.emission = Vec3::splat(1.0 - albedo);
     scene(
         vec![sphere(Vec3::ZERO, 1.0, 32, 64, true, 0)],
         vec![m],

@@ -43,8 +43,10 @@ fn trace_map(
         MapKind::Global => (0x9b0a_1c5e_u64, settings.global_photons),
         MapKind::Caustic => (0x3c4f_77d1_u64, settings.caustic_photons),
     };
-    // Photons past the render's bounce limit could light nothing it counts.
-    let max = settings.max_photon_bounces.min(ctx.max_depth);
+    // Photons bounce as far as the render's bounce limit (Blender's Max Bounces): photons past
+    // it could light nothing the render counts, and a lower cap of their own made the photon
+    // method darker than the path tracer wherever light bounces often (docs/bench/README.md).
+    let max = ctx.max_depth;
     let label = format!("{map:?}");
     let stream = Stream {
         label: &label,

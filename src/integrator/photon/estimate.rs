@@ -7,16 +7,16 @@
 //! when fewer are found), discarding photons off the tangent plane (more than `PLANE_TOLERANCE`
 //! of r away along the normal) and photons recorded on another side or surface (`on_surface`).
 //!
-//! Precomputed irradiance: after photon tracing, irradiance is estimated at every
-//! `irradiance_stride`-th global photon from its k nearest photons on the same surface side and
-//! stored as records in a kd-tree of their own; a final-gather hit reads the nearest record whose
-//! normal agrees instead of a full k-nearest estimate.
+//! Precomputed irradiance: after photon tracing, irradiance is estimated at about one global
+//! photon in `irradiance_stride` from nearby photons on the same surface side and stored as
+//! records in a kd-tree of their own; a final-gather hit reads the nearest record whose normal
+//! agrees instead of a full k-nearest estimate.
 
 use crate::accel::Visibility;
 use crate::integrator::shading::Shading;
 use crate::integrator::Context;
 use crate::math::{Frame, Vec3};
-use crate::photon_map::{Neighbors, Photon, PhotonMap};
+use crate::photon_map::{in_first_half, Neighbors, Photon, PhotonMap};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
@@ -27,11 +27,18 @@ pub const PLANE_TOLERANCE: f32 = 0.25;
 /// of the estimate it holds (`nearest_irradiance`).
 const RECORD_REACH: f32 = 0.5;
 
-/// Christensen's precomputation: irradiance at every `stride`-th photon of `map` (in heap
-/// order, which is spatially well mixed) from its k nearest photons, counting only photons on
-/// the same side of the same surface (normal within ~60°, within a quarter radius of the
-/// tangent plane, arriving from the normal's side). Each record is a photon whose `power` is the
-/// irradiance and whose `incoming` direction is the surface normal.
+/// Christensen's precomputation: irradiance at about one photon of `map` in `stride`, counting
+/// only photons on the same side of the same surface (normal within ~60°, within a quarter
+/// radius of the tangent plane, arriving from the normal's side). Each record is a photon whose
+/// `power` is the irradiance and whose `incoming` direction is the surface normal.
+///
+/// The map is split in two halves (`in_first_half`). The first half decides where records sit
+/// and how far each reaches (the radius of its k/2 nearest first-half photons); the second half
+/// alone gives the irradiance, from its photons inside that radius. Which record serves a point
+/// is then independent of the value it holds. With one set of photons for both, records whose
+/// estimate came out low (a large radius, a sparse neighbourhood) reached further and served
+/// more points, and the records read low by a bias proportional to 1/k that more photons never
+/// removed (docs/bench/README.md, "records").
 pub fn precompute_irradiance(
     map: &PhotonMap,
     stride: u32,
@@ -39,38 +46,47 @@ pub fn precompute_irradiance(
     max_radius2: f32,
 ) -> Vec<Photon> {
     let photons = map.photons();
-    let step = stride.max(1) as usize;
-    let ids: Vec<usize> = (0..photons.len()).step_by(step).collect();
+    // Records sit at first-half photons, so where they are (and which one serves a point)
+    // depends on the first half alone, like their reach; their irradiance on the second alone.
+    let step = (stride as usize / 2).max(1);
+    let ids: Vec<usize> = (0..photons.len())
+        .filter(|&i| in_first_half(i))
+        .step_by(step)
+        .collect();
+    let half_k = (k as usize).div_ceil(2);
     ids.par_chunks(1024)
-        .map_init(Neighbors::default, |buf, chunk| {
-            let mut out = Vec::with_capacity(chunk.len());
-            for &i in chunk {
-                let ph = &photons[i];
-                let (p, n) = (ph.position(), ph.normal());
-                // Leave the record's own photon out: counting it would add one photon's power
-                // to every record (1/k of it, more as generations shrink k).
-                let others = |q: &Photon| same_side(q, n) && !std::ptr::eq(q, ph);
-                map.nearest_where(p, k as usize, max_radius2, buf, others);
-                let r2 = buf.radius2;
-                let r = r2.sqrt();
-                let boundary = buf.boundary();
-                let mut sum = Vec3::ZERO;
-                for nb in buf.iter().filter(|nb| Some(nb.index) != boundary) {
-                    let q = &photons[nb.index as usize];
-                    if on_surface(q, p, n, r) && q.incoming().dot(n) > 0.0 {
-                        sum += q.power();
+        .map_init(
+            || (Neighbors::default(), Vec::new()),
+            |(first, second), chunk| {
+                let mut out = Vec::with_capacity(chunk.len());
+                for &i in chunk {
+                    let ph = &photons[i];
+                    let (p, n) = (ph.position(), ph.normal());
+                    // Leave the record's own photon out: counting it would add one photon's
+                    // power to every record (1/k of it, more as generations shrink k).
+                    let others = |q: &Photon| same_side(q, n) && !std::ptr::eq(q, ph);
+                    map.nearest_split(p, half_k, max_radius2, first, second, others);
+                    let r2 = first.radius2;
+                    let r = r2.sqrt();
+                    let mut sum = Vec3::ZERO;
+                    for nb in second.iter() {
+                        let q = &photons[nb.index as usize];
+                        if on_surface(q, p, n, r) && q.incoming().dot(n) > 0.0 {
+                            sum += q.power();
+                        }
                     }
+                    // The second half holds half of the photons.
+                    let e = if r2 > 0.0 {
+                        sum * (2.0 / (PI * r2))
+                    } else {
+                        Vec3::ZERO
+                    };
+                    let reach = (r2 / max_radius2).sqrt();
+                    out.push(Photon::new(p, e, n, 0, false).with_reach(reach));
                 }
-                let e = if r2 > 0.0 {
-                    sum / (PI * r2)
-                } else {
-                    Vec3::ZERO
-                };
-                let reach = (r2 / max_radius2).sqrt();
-                out.push(Photon::new(p, e, n, 0, false).with_reach(reach));
-            }
-            out
-        })
+                out
+            },
+        )
         .collect::<Vec<_>>()
         .concat()
 }
@@ -97,10 +113,9 @@ pub fn same_side(ph: &Photon, n: Vec3) -> bool {
 /// `RECORD_REACH` times the radius of the estimate it holds. Records sit at photons, so they are
 /// as dense as the light; without the reach test a point in shadow next to a bright patch takes
 /// the patch's nearby records, and dim surfaces near bright ones come out too bright (+6 % on a
-/// window-lit room). The reach has a bias of its own: a record whose estimate came out low (a
-/// large radius) reaches further and serves more points, so the records read about 1 % lower
-/// than full estimates on the window-lit rooms (Lambertian too). `None` when no record
-/// qualifies within `max_radius2`.
+/// window-lit room). The reach and the record's value come from disjoint photons
+/// (`precompute_irradiance`), so choosing by reach does not favour low values. `None` when no
+/// record qualifies within `max_radius2`.
 pub fn nearest_irradiance(map: &PhotonMap, max_radius2: f32, s: &Shading) -> Option<Vec3> {
     let accept = |rec: &Photon, dist2: f32| {
         let d = rec.position() - s.sh.p;

@@ -18,8 +18,6 @@ pub struct PhotonSettings {
     pub caustic_radius: f32,
     /// Final-gather rays per shading point (default 4; 0 reads the global map directly).
     pub gather_rays: u32,
-    /// Maximum bounces of a photon (default 16).
-    pub max_photon_bounces: u32,
     /// Precompute irradiance at every n-th global photon (Christensen 1999) and let final-gather
     /// hits on Lambertian surfaces read the nearest record; 0 computes a full estimate per hit.
     pub irradiance_stride: u32,
@@ -48,7 +46,6 @@ impl Default for PhotonSettings {
             global_radius: 0.1,
             caustic_radius: 0.02,
             gather_rays: 4,
-            max_photon_bounces: 16,
             irradiance_stride: 4,
             memory_limit_mib: 8192,
             subsurface_photons: 1_000_000,

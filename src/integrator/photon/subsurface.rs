@@ -87,7 +87,7 @@ pub fn build(
         return Ok(None);
     }
     let start = Instant::now();
-    let max = settings.max_photon_bounces;
+    let max = ctx.max_depth;
     let stored = info.global_stored + info.caustic_stored;
     let stream = Stream {
         label: "Subsurface",
