@@ -1,12 +1,14 @@
-//! `photon bench`: run time against error. For each scene, a path-traced reference is
-//! rendered once as two independent halves (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a
+//! `photon bench`: run time against error. For each scene, a reference (path-traced, or by the
+//! photon method for caustics of small lights) is rendered once as two independent halves (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a
 //! hash of the scene file, the renderer version, the resolution and the samples) with the estimate
 //! of its own noise the halves give; then each method (path, photon map, photon map + irradiance
 //! cache, auto) renders at a series of budgets (samples per pixel and photon counts scaled
 //! together). Every render runs as a child process of this binary, so its wall time and peak
 //! memory (the child's VmHWM) are its own. From the (time, relMSE) points it derives the time each
 //! method needs to reach a target error and judges auto against the best fixed method at auto's
-//! time, both by log-log interpolation. Writes `OUT/results.csv`, `OUT/report.md`,
+//! time, both by log-log interpolation. Each method's longest budget is rendered once more with
+//! another seed, which splits its error there into noise and bias (the part no number of samples
+//! at that budget removes). Writes `OUT/results.csv`, `OUT/report.md`,
 //! `OUT/summary.json` and one log-log SVG plot of relMSE against time per scene.
 
 use photon::error::{Error, Result};
@@ -76,6 +78,10 @@ pub enum ReferenceMethod {
     Path,
     Photon,
 }
+
+/// The seed of the second render that splits a method's error into noise and bias (the timed
+/// renders use the default seed, 0).
+const SECOND_SEED: u64 = 2;
 
 /// Global and caustic photons per generation of a photon-method reference.
 const REFERENCE_PHOTONS: u32 = 1_000_000;
@@ -315,6 +321,51 @@ struct SceneResult {
     /// Estimated relMSE of the reference itself.
     reference_noise: f64,
     analysis: Analysis,
+    biases: Vec<Bias>,
+}
+
+/// A method's error at its longest budget split into noise and bias, from a second render of
+/// that budget with another seed (`split_bias`).
+struct Bias {
+    method: String,
+    budget: u32,
+    /// relMSE of one render against the reference.
+    rel_mse: f64,
+    /// The relMSE one render owes to its own noise: half the two renders' difference.
+    noise: f64,
+    /// What is left of the two renders' mean's relMSE without its noise and the reference's:
+    /// the squared bias, which no number of samples at this budget's settings removes.
+    bias: f64,
+    /// The two renders' mean's relative difference of means against the reference.
+    mean_error: f64,
+}
+
+/// Split a method's error at one budget into noise and bias from two renders `a` and `b` with
+/// different seeds: their mean's relMSE is bias² + noise/2 + the reference's noise, and half
+/// their difference estimates the noise of one.
+fn split_bias(a: &[[f32; 4]], b: &[[f32; 4]], reference: &Reference) -> (f64, f64, f64, f64) {
+    let mean: Vec<[f32; 4]> = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| std::array::from_fn(|c| 0.5 * (p[c] + q[c])))
+        .collect();
+    // The difference of two independent renders has twice the variance of one; relMSE
+    // normalises by the reference, like every error the bench reports.
+    let difference: Vec<[f32; 4]> = a
+        .iter()
+        .zip(b)
+        .zip(&reference.pixels)
+        .map(|((p, q), r)| std::array::from_fn(|c| r[c] + p[c] - q[c]))
+        .collect();
+    let noise = compare(&difference, &reference.pixels).rel_mse / 2.0;
+    let total = compare(&mean, &reference.pixels);
+    let bias = (total.rel_mse - noise / 2.0 - reference.noise).max(0.0);
+    (
+        compare(a, &reference.pixels).rel_mse,
+        noise,
+        bias,
+        total.mean_relative_difference,
+    )
 }
 
 fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Result<SceneResult> {
@@ -391,10 +442,39 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
             error,
         });
     }
+    // Bias apart from noise: each method's longest budget once more with another seed.
+    let mut biases = Vec::new();
+    for method in &args.methods {
+        let longest = jobs
+            .iter()
+            .filter(|(m, _, _)| *m == method)
+            .max_by_key(|(_, budget, _)| *budget);
+        let Some((_, budget, extra)) = longest else {
+            continue;
+        };
+        let second = images.join(format!("{name}-{method}-{budget}-seed2.exr"));
+        let mut extra = extra.clone();
+        extra.extend(["--seed".into(), SECOND_SEED.to_string()]);
+        render_child(scene_path, &second, args.threads, size, &extra)?;
+        let (a, b) = (read_rgba(&output(method, *budget))?, read_rgba(&second)?);
+        let (rel_mse, noise, bias, mean_error) = split_bias(&a, &b, &reference);
+        eprintln!(
+            "photon bench: {name} {method} budget {budget}: noise {noise:.2e}, bias {bias:.2e}"
+        );
+        biases.push(Bias {
+            method: method.clone(),
+            budget: *budget,
+            rel_mse,
+            noise,
+            bias,
+            mean_error,
+        });
+    }
     Ok(SceneResult {
         analysis: analyse(rows, &name, args),
         name,
         reference_noise: reference.noise,
+        biases,
     })
 }
 
@@ -676,6 +756,7 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
         name: scene,
         reference_noise,
         analysis,
+        biases,
     } in scenes
     {
         let _ = write!(
@@ -698,6 +779,28 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
                 r.error.rel_mse,
                 100.0 * r.error.mean_relative_difference
             );
+        }
+        if !biases.is_empty() {
+            out.push_str(
+                "\n### Bias at the longest budget\n\nEach method's longest budget rendered \
+                 again with another seed: the noise is half the two renders' relMSE \
+                 difference, the bias what remains of their mean's relMSE without its noise \
+                 and the reference's (0 when within them).\n\n\
+                 | method | budget | relMSE | noise | bias (relMSE) | mean error |\n\
+                 |---|---:|---:|---:|---:|---:|\n",
+            );
+            for b in biases {
+                let _ = writeln!(
+                    out,
+                    "| {} | {} | {:.2e} | {:.2e} | {:.2e} | {:+.2} % |",
+                    b.method,
+                    b.budget,
+                    b.rel_mse,
+                    b.noise,
+                    b.bias,
+                    100.0 * b.mean_error
+                );
+            }
         }
         let _ = write!(
             out,
@@ -792,6 +895,14 @@ fn summary(scenes: &[SceneResult], args: &BenchArgs) -> serde_json::Value {
             "time_to_target": times,
             "auto_check": checks,
             "auto_ok_budgets": r.analysis.auto_checks.iter().filter(|c| c.ok()).count(),
+            "bias_at_longest_budget": r.biases.iter().map(|b| json!({
+                "method": b.method,
+                "budget": b.budget,
+                "rel_mse": b.rel_mse,
+                "noise_rel_mse": b.noise,
+                "bias_rel_mse": b.bias,
+                "mean_error": b.mean_error,
+            })).collect::<Vec<_>>(),
         })
     };
     json!({
@@ -933,6 +1044,31 @@ mod tests {
         (0..n)
             .map(|_| std::array::from_fn(|_| 1.0 + h * (2.0 * rng.uniform() - 1.0)))
             .collect()
+    }
+
+    #[test]
+    fn split_bias_separates_a_constant_offset_from_noise() {
+        // Two renders of a biased method: truth 1 + bias 0.1 + uniform noise of half-width
+        // 0.3. The noise of one is h²/3/1.01, the squared bias 0.1²/1.01.
+        let (n, h) = (40_000, 0.3);
+        let shift = |v: Vec<[f32; 4]>| -> Vec<[f32; 4]> {
+            v.into_iter().map(|p| p.map(|x| x + 0.1)).collect()
+        };
+        let (a, b) = (shift(noisy(n, h, 3)), shift(noisy(n, h, 4)));
+        let reference = Reference {
+            pixels: vec![[1.0; 4]; n],
+            noise: 0.0,
+        };
+        let (rel_mse, noise, bias, mean_error) = split_bias(&a, &b, &reference);
+        let expected_noise = h as f64 * h as f64 / 3.0 / 1.01;
+        let expected_bias = 0.01 / 1.01;
+        assert!((noise / expected_noise - 1.0).abs() < 0.05, "{noise}");
+        assert!((bias / expected_bias - 1.0).abs() < 0.1, "{bias}");
+        assert!((rel_mse / (expected_noise + expected_bias) - 1.0).abs() < 0.05);
+        assert!((mean_error - 0.1).abs() < 0.005, "{mean_error}");
+        // Without the offset the bias vanishes into the noise.
+        let (_, _, bias, _) = split_bias(&noisy(n, h, 5), &noisy(n, h, 6), &reference);
+        assert!(bias < 0.1 * expected_bias, "{bias}");
     }
 
     #[test]

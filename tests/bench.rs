@@ -100,6 +100,22 @@ fn bench_writes_results_for_each_method_and_budget() {
         assert!((check["ratio"].as_f64().expect("ratio") - ratio).abs() <= 1e-9 * ratio);
         assert_eq!(check["ok"].as_bool(), Some(ratio <= 1.25));
     }
+    // Each method's longest budget split into noise and bias.
+    let (_, bias_table) = report
+        .split_once("### Bias at the longest budget")
+        .expect("bias table");
+    let biases = scene["bias_at_longest_budget"].as_array().expect("biases");
+    assert_eq!(biases.len(), 4, "{summary}");
+    for b in biases {
+        let method = b["method"].as_str().expect("method");
+        assert_eq!(b["budget"], 2, "{summary}");
+        assert!(
+            bias_table.contains(&format!("\n| {method} | 2 | ")),
+            "{report}"
+        );
+        let (noise, bias) = (b["noise_rel_mse"].as_f64(), b["bias_rel_mse"].as_f64());
+        assert!(noise.is_some_and(|n| n > 0.0) && bias.is_some_and(|b| b >= 0.0));
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
