@@ -1,15 +1,16 @@
 //! `photon bench`: run time against error. For each scene, a reference (path-traced, or by the
-//! photon method for caustics of small lights) is rendered once as two independent halves (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a
-//! hash of the scene file, the renderer version, the resolution and the samples) with the estimate
-//! of its own noise the halves give; then each method (path, photon map, photon map + irradiance
-//! cache, auto) renders at a series of budgets (samples per pixel and photon counts scaled
-//! together). Every render runs as a child process of this binary, so its wall time and peak
-//! memory (the child's VmHWM) are its own. From the (time, relMSE) points it derives the time each
-//! method needs to reach a target error and judges auto against the best fixed method at auto's
-//! time, both by log-log interpolation. Each method's longest budget is rendered once more with
-//! another seed, which splits its error there into noise and bias (the part no number of samples
-//! at that budget removes). Writes `OUT/results.csv`, `OUT/report.md`,
-//! `OUT/summary.json` and one log-log SVG plot of relMSE against time per scene.
+//! photon method for caustics of small lights) is rendered once as two independent halves
+//! (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a hash of the scene file, the renderer
+//! version, the resolution and the samples) with the estimate of its own noise the halves give;
+//! then each method (path, photon map, photon map + irradiance cache, auto) renders at a series
+//! of budgets (samples per pixel and photon counts scaled together). Every render runs as a
+//! child process of this binary, so its wall time and peak memory (the child's VmHWM) are its
+//! own. From the (time, relMSE) points it derives the time each method needs to reach a target
+//! error and judges auto against the best fixed method at auto's time, both by log-log
+//! interpolation. Each method's longest budget is rendered once more with another seed, which
+//! splits its error there into noise and bias (the part no number of samples at that budget
+//! removes). Writes `OUT/results.csv`, `OUT/report.md`, `OUT/summary.json` and one log-log SVG
+//! plot of relMSE against time per scene.
 
 use photon::error::{Error, Result};
 use photon::film::Image;
