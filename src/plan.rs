@@ -436,6 +436,10 @@ struct PilotShares {
     /// through glass) or never (a point, spot or sun light). It finds the world's caustics by
     /// BSDF sampling, as it finds any sky light. Zero when no mesh is specular.
     hard_caustic: f32,
+    /// Share of the global pilot photons stored where the camera sees them directly; 1 when no
+    /// global pilot ran. Small when most of the light lands where the camera does not look (a
+    /// room lit by the sun through a window, the sun's photons spread over the ground outside).
+    seen: f32,
     /// Photons of each caustic pilot pass.
     photons: u32,
 }
@@ -465,9 +469,14 @@ fn seen_by_camera<'a>(
         if !(q.z < 0.0) || x.abs() > aspect || y.abs() > 1.0 {
             return false;
         }
-        // Lift p off its surface on the eye's side, then test the segment to the eye.
+        // A photon is stored on the side of its surface it arrived on (`n`): the eye must be
+        // on that side (the sunlit top of a zero-thickness roof is not the ceiling the camera
+        // sees). Lift p off its surface on that side, then test the segment to the eye.
         let eye = camera.to_world.transform_point3(eye);
-        let from = p + n * (lift * n.dot(eye - p).signum());
+        if n.dot(eye - p) <= 0.0 {
+            return false;
+        }
+        let from = p + n * lift;
         let ray = crate::accel::Ray {
             origin: from,
             direction: eye - from,
@@ -534,8 +543,10 @@ fn pilot_shares(
     };
 
     let mut hard_caustic = 0.0;
+    let mut seen_share = 1.0;
     let emitters = Emitters::new(&ctx);
-    if caustics && emitters.has_caustic_targets() {
+    let caustics = caustics && emitters.has_caustic_targets();
+    if global || caustics {
         let seen = seen_by_camera(scene, accel, aspect);
         let power = |photons: &[Photon]| -> f64 {
             let seen = photons.iter().filter(|p| seen(p.position(), p.normal()));
@@ -555,6 +566,21 @@ fn pilot_shares(
                     &mut photons,
                 );
             }
+        }
+        if !photons.is_empty() {
+            let in_view = photons
+                .iter()
+                .filter(|p| seen(p.position(), p.normal()))
+                .count();
+            seen_share = in_view as f32 / photons.len() as f32;
+        }
+        if !caustics {
+            return PilotShares {
+                indirect,
+                hard_caustic,
+                seen: seen_share,
+                photons: photon_count,
+            };
         }
         let total = power(&photons);
         photons.clear();
@@ -580,8 +606,22 @@ fn pilot_shares(
     PilotShares {
         indirect,
         hard_caustic,
+        seen: seen_share,
         photons: photon_count,
     }
+}
+
+/// Share of the global photons that should land where the camera sees them; a scene whose
+/// pilot shows fewer (`PilotShares::seen`) gets proportionally more global photons, up to
+/// `MAX_GLOBAL_PHOTON_BOOST` times the preset's. The global map's noise in what the camera sees
+/// follows the photons stored there: a window-lit room with 200 000 sun photons, most of them
+/// outside, rendered with a mean ±1.5 % off from one seed to the next (docs/bench/README.md).
+const SEEN_SHARE_FOR_FULL_PHOTONS: f32 = 0.1;
+const MAX_GLOBAL_PHOTON_BOOST: f32 = 8.0;
+
+/// How many times the preset's global photons a scene whose pilot saw `seen` of them gets.
+fn global_photon_boost(seen: f32) -> f32 {
+    (SEEN_SHARE_FOR_FULL_PHOTONS / seen.max(1e-6)).clamp(1.0, MAX_GLOBAL_PHOTON_BOOST)
 }
 
 /// The plan for a 640×480 image.
@@ -610,7 +650,7 @@ pub fn plan_with_pilot(
     let summary = summarise(scene);
     let anything_to_trace = summary.lights.any();
     let caustic_map = caustic_decision(&summary);
-    let global_map = global_decision(scene, &summary);
+    let mut global_map = global_decision(scene, &summary);
     let translucent = summary.materials.translucent;
     let subsurface = if translucent == 0 {
         Decision::new(false, "no translucent material")
@@ -624,6 +664,8 @@ pub fn plan_with_pilot(
             ),
         )
     };
+    // Global photons per preset photon, from the pilot's share seen by the camera.
+    let mut global_boost = 1.0;
     let (method, method_reason) = if !anything_to_trace {
         (
             Method::Path,
@@ -651,6 +693,13 @@ pub fn plan_with_pilot(
             (global_map.needed, caustic_map.needed),
         );
         let percent = |x: f32| 100.0 * x;
+        global_boost = global_photon_boost(shares.seen);
+        if global_boost > 1.0 {
+            global_map.reason += &format!(
+                "; {global_boost:.1}× the global photons: {:.1} % of a pilot's land where the camera looks",
+                percent(shares.seen)
+            );
+        }
         if shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS {
             (
                 Method::Photon,
@@ -688,7 +737,7 @@ pub fn plan_with_pilot(
     let scale = |count: u32| (count as f32 * quality.photon_scale()).round() as u32;
     let photon = PhotonSettings {
         global_photons: if global_map.needed {
-            scale(defaults.global_photons)
+            (scale(defaults.global_photons) as f32 * global_boost).round() as u32
         } else {
             0
         },
