@@ -20,6 +20,7 @@ engine turns into WARNING reports as it does for the renderer's own warnings.
 `glTF2ExportUserExtension` (re-exported by the add-on's top-level module, where the exporter
 looks for it) writes, always with required=False so that other viewers still open the file:
 PHOTON_light on light nodes (point/spot radius, sun angle, area lights, which the exporter drops),
+PHOTON_camera on camera nodes (lens shift and depth of field),
 PHOTON_material_subsurface on materials (the Principled BSDF's subsurface inputs), PHOTON_world
 (background colour x strength, or an equirectangular environment image written next to the .glb
 as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
@@ -86,6 +87,10 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             data = light_extension(blender_object)
             if data:
                 self._add(gltf_node, "PHOTON_light", data)
+        if blender_object is not None and blender_object.type == "CAMERA":
+            data = camera_extension(blender_object, bpy.context.scene)
+            if data:
+                self._add(gltf_node, "PHOTON_camera", data)
 
     def gather_material_hook(self, gltf_material, blender_material, export_settings):
         data = subsurface_extension(blender_material)
@@ -121,6 +126,48 @@ def light_extension(obj) -> dict:
     return {"type": "area", "shape": light.shape, "size": size, "size_y": size_y,
             "power": power, "color": [float(c) for c in light.color],
             "visible_camera": bool(obj.visible_camera)}
+
+
+def camera_extension(obj, scene) -> dict:
+    """PHOTON_camera for a camera object: the lens shift in units of the image height, and depth
+    of field as a thin lens (aperture radius, focus distance, blades, rotation, ratio), the way
+    Cycles derives them from Blender's camera. Empty for a centred pinhole camera."""
+    camera, data = obj.data, {}
+    r = scene.render
+    width = r.resolution_x * r.pixel_aspect_x
+    height = r.resolution_y * r.pixel_aspect_y
+    fit = camera.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if width >= height else "VERTICAL"
+    # Blender's shift is a fraction of the fitted image side; Photon's of the image height.
+    unit = width / height if fit == "HORIZONTAL" else 1.0
+    if camera.shift_x != 0.0 or camera.shift_y != 0.0:
+        data["shift"] = [float(camera.shift_x * unit), float(camera.shift_y * unit)]
+    dof = camera.dof
+    if dof.use_dof:
+        fstop = max(float(dof.aperture_fstop), 1e-5)
+        if camera.type == "ORTHO":
+            radius = 1.0 / (2.0 * fstop)
+        else:
+            radius = float(camera.lens) * 1e-3 / (2.0 * fstop)
+        data["dof"] = {"aperture_radius": radius,
+                       "focus_distance": max(focus_distance(obj), 1e-6),
+                       "blades": int(dof.aperture_blades),
+                       "rotation": float(dof.aperture_rotation),
+                       "ratio": float(dof.aperture_ratio)}
+    return data
+
+
+def focus_distance(obj) -> float:
+    """The camera's focus distance: to its focus object (bone heads are not followed) along the
+    camera axis, measured in the camera's unscaled frame as Cycles does, else the distance set."""
+    dof = obj.data.dof
+    target = dof.focus_object
+    if target is None:
+        return float(dof.focus_distance)
+    frame = obj.matrix_world.normalized()
+    local = frame.inverted() @ target.matrix_world.translation
+    return abs(float(local.z))
 
 
 # What Blender and Cycles show for an image whose file is missing.

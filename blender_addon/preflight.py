@@ -14,7 +14,7 @@ empty list, so the rules below only flag what really changes the image:
 - lights: an area light's spread below 180 degrees, a light node tree that changes the
   emission, shadows turned off;
 - objects hidden from some ray types (Object > Visibility > Ray Visibility);
-- cameras: depth of field and panoramic projections; motion blur.
+- cameras: panoramic projections, a depth-of-field focus on a bone; motion blur.
 """
 
 from __future__ import annotations
@@ -185,8 +185,10 @@ def _camera_features(camera_object) -> list[str]:
     if camera.type == "PANO":
         messages.append(f"{what}: panoramic cameras are not exported; Photon renders a "
                         f"perspective view")
-    if camera.dof.use_dof:
-        messages.append(f"{what}: depth of field is not rendered")
+    if camera.dof.use_dof and camera.dof.focus_object is not None and camera.dof.focus_subtarget:
+        messages.append(f"{what}: depth of field focuses on the origin of "
+                        f"'{camera.dof.focus_object.name}', not on its bone "
+                        f"'{camera.dof.focus_subtarget}'")
     return messages
 
 

@@ -1294,3 +1294,174 @@ fn garbage_never_panics() {
         }
     }
 }
+
+// ----- input checks: cameras, quantized attributes, sizes before allocation --------------------
+
+#[test]
+fn degenerate_cameras_are_refused() {
+    for (field, value) in [
+        ("yfov", json!(0.0)),
+        ("yfov", json!(-0.5)),
+        ("yfov", json!(4.0)),
+    ] {
+        let mut doc = triangle_doc();
+        doc.json["cameras"][0]["perspective"][field] = value;
+        assert_scene_error(load_glb(&doc), &["camera 0 'CameraData'", "yfov"]);
+    }
+    let mut doc = triangle_doc();
+    doc.json["cameras"][0]["perspective"]["aspectRatio"] = json!(0.0);
+    assert_scene_error(load_glb(&doc), &["aspectRatio"]);
+    let mut doc = triangle_doc();
+    doc.json["cameras"][0] = json!({"type": "orthographic",
+        "orthographic": {"xmag": 0.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0}});
+    assert_scene_error(load_glb(&doc), &["xmag"]);
+}
+
+impl Doc {
+    /// An accessor of integer components (`component_type` 5120–5123) holding `data`.
+    fn integers(
+        &mut self,
+        data: &[i32],
+        component_type: u32,
+        kind: &str,
+        normalized: bool,
+    ) -> usize {
+        let bytes: Vec<u8> = match component_type {
+            5120 | 5121 => data.iter().map(|&v| v as u8).collect(),
+            _ => data
+                .iter()
+                .flat_map(|&v| (v as u16).to_le_bytes())
+                .collect(),
+        };
+        let width = match kind {
+            "VEC2" => 2,
+            "VEC3" => 3,
+            _ => 4,
+        };
+        let view = self.view(&bytes);
+        let mut accessor = json!({"bufferView": view, "componentType": component_type,
+            "count": data.len() / width, "type": kind, "normalized": normalized});
+        if kind == "VEC3" {
+            let column = |i: usize, f: fn(i32, i32) -> i32| {
+                data.iter().skip(i).step_by(3).copied().reduce(f).unwrap()
+            };
+            accessor["min"] = json!([0, 1, 2].map(|i| column(i, i32::min)));
+            accessor["max"] = json!([0, 1, 2].map(|i| column(i, i32::max)));
+        }
+        self.push("accessors", accessor)
+    }
+
+    /// A one-triangle mesh whose POSITION is accessor `positions`, on a node with `node`'s fields.
+    fn quantized_triangle(&mut self, positions: usize, node: Value) {
+        let mesh = self.push(
+            "meshes",
+            json!({"name": "Q", "primitives": [{"attributes": {"POSITION": positions}}]}),
+        );
+        let mut node = node;
+        node["mesh"] = json!(mesh);
+        self.node(node, true);
+    }
+}
+
+#[test]
+fn integer_positions_without_mesh_quantization_are_refused() {
+    for component_type in [5121, 5123] {
+        let mut doc = Doc::new();
+        let positions = doc.integers(
+            &[0, 0, 0, 200, 0, 0, 0, 190, 0],
+            component_type,
+            "VEC3",
+            false,
+        );
+        doc.quantized_triangle(positions, json!({"name": "Room"}));
+        assert_scene_error(
+            load_glb(&doc),
+            &["POSITION", "KHR_mesh_quantization", "does not declare"],
+        );
+    }
+}
+
+#[test]
+fn quantized_positions_normals_and_uvs_are_dequantized() {
+    let mut doc = Doc::new();
+    doc.json["extensionsUsed"] = json!(["KHR_mesh_quantization"]);
+    doc.json["extensionsRequired"] = json!(["KHR_mesh_quantization"]);
+    // Unsigned shorts, not normalized, dequantized by the node's scale and translation.
+    let positions = doc.integers(&[0, 0, 0, 1000, 0, 0, 0, 1000, 0], 5123, "VEC3", false);
+    let normals = doc.integers(&[0, 0, 127, 0, 0, 127, 0, 0, 127], 5120, "VEC3", true);
+    let uvs = doc.integers(&[0, 0, 65535, 0, 0, 32768], 5123, "VEC2", true);
+    let mesh = doc.push(
+        "meshes",
+        json!({"name": "Q", "primitives": [{"attributes":
+            {"POSITION": positions, "NORMAL": normals, "TEXCOORD_0": uvs}}]}),
+    );
+    doc.node(
+        json!({"name": "Q", "mesh": mesh, "scale": [0.002, 0.002, 0.002],
+               "translation": [-1.0, 0.0, 0.0]}),
+        true,
+    );
+    let scene = load_glb(&doc).expect("a quantized file loads");
+    let mesh = &scene.meshes[0];
+    assert!(
+        close(mesh.positions[1], Vec3::new(1.0, 0.0, 0.0)),
+        "{:?}",
+        mesh.positions
+    );
+    assert!(
+        close(mesh.positions[2], Vec3::new(-1.0, 2.0, 0.0)),
+        "{:?}",
+        mesh.positions
+    );
+    assert!(close(mesh.normals[0], Vec3::Z), "{:?}", mesh.normals);
+    assert!((mesh.uvs[1].x - 1.0).abs() < 1e-6 && (mesh.uvs[2].y - 0.5).abs() < 1e-4);
+}
+
+#[test]
+fn normalized_byte_texture_coordinates_need_no_extension() {
+    let mut doc = triangle_doc();
+    let uvs = doc.integers(&[0, 0, 255, 0, 0, 255], 5121, "VEC2", true);
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uvs);
+    let scene = load_glb(&doc).expect("normalized unsigned byte UVs are core glTF");
+    assert_eq!(scene.meshes[0].uvs[1].x, 1.0);
+    // Signed normals without the extension are not.
+    let mut doc = triangle_doc();
+    let normals = doc.integers(&[0, 0, 127, 0, 0, 127, 0, 0, 127], 5120, "VEC3", true);
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(normals);
+    assert_scene_error(load_glb(&doc), &["NORMAL", "KHR_mesh_quantization"]);
+}
+
+#[test]
+fn instanced_triangle_totals_are_refused_before_any_geometry_is_read() {
+    // One mesh of 5 M (degenerate) triangles whose indices have no buffer view, instanced by 41
+    // nodes: 205 M triangles. Reading them would take gigabytes; the count alone refuses them.
+    let mut doc = triangle_doc();
+    let sparse_indices = doc.view(&0u32.to_le_bytes());
+    let sparse_values = doc.view(&1u32.to_le_bytes());
+    let indices = doc.push(
+        "accessors",
+        json!({"componentType": 5125, "count": 15_000_000, "type": "SCALAR",
+               "sparse": {"count": 1, "indices": {"bufferView": sparse_indices, "componentType": 5125},
+                          "values": {"bufferView": sparse_values}}}),
+    );
+    doc.json["meshes"][0]["primitives"][0]["indices"] = json!(indices);
+    for i in 0..40 {
+        doc.node(json!({"name": format!("Copy{i}"), "mesh": 0}), true);
+    }
+    let start = std::time::Instant::now();
+    assert_scene_error(
+        load_glb(&doc),
+        &["200000000 triangles", "refused before loading any geometry"],
+    );
+    assert!(start.elapsed().as_secs_f32() < 1.0, "{:?}", start.elapsed());
+}
+
+#[test]
+fn nan_node_transforms_are_refused() {
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["matrix"] =
+        json!([1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+    let mut text = serde_json::to_string(&doc.json).unwrap();
+    text = text.replacen("[1.0,0.0,0.0,0.0,0.0,1.0", "[1e39,0.0,0.0,0.0,0.0,1.0", 1);
+    doc.json = serde_json::from_str(&text).unwrap();
+    assert_scene_error(load_glb(&doc), &["TriNode"]);
+}

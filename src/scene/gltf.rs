@@ -33,6 +33,14 @@
 //!     is `color × power / (π × area)` with the area of the polygon actually built (Blender's
 //!     "normalize"). Defaults: SQUARE, size 1, power 10 W, white, `visible_camera` false.
 //!
+//! - `PHOTON_camera` on a camera node: `{"shift": [x, y], "dof": {"aperture_radius": r,
+//!   "focus_distance": d, "blades": n, "rotation": a, "ratio": q}}`. `shift` is Blender's lens
+//!   shift converted to units of the image height (the image window moves by `shift × image
+//!   height` in its plane; default 0). `dof` is a thin lens: aperture radius in scene units
+//!   (Blender's focal length / (2 × f-stop); 0 is a pinhole), the focus distance along the camera
+//!   axis (default 10), the number of polygon corners (below 3 round), the polygon's rotation in
+//!   radians and the anamorphic ratio (the aperture's x extent is divided by it; default 1).
+//!   Out-of-range values are refused with an error.
 //! - `PHOTON_material_subsurface` on a material: `{"weight": w, "radius": [r, g, b], "scale": s,
 //!   "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs (defaults: weight 0,
 //!   radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4, anisotropy 0). With weight > 0 the material
@@ -64,7 +72,7 @@
 use super::texture::Wrap;
 use super::{
     AlphaMode, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
-    SceneRenderSettings, Subsurface, Texture, TextureRef, World,
+    SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -108,6 +116,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
     "KHR_texture_transform",
+    "KHR_mesh_quantization",
     "EXT_texture_webp",
 ];
 
@@ -145,6 +154,8 @@ struct Loader {
     triangle_total: usize,
     vertex_total: usize,
     node_instances: usize,
+    /// The file declares KHR_mesh_quantization: vertex attributes may be stored as integers.
+    quantized: bool,
 }
 
 #[derive(Clone)]
@@ -199,6 +210,10 @@ impl Loader {
         // Everything left is supported here, even the extensions the gltf crate's validation does
         // not list as "enabled" (volume, specular); required-ness has been checked.
         root.extensions_required.clear();
+        let quantized = root
+            .extensions_used
+            .iter()
+            .any(|e| e == "KHR_mesh_quantization");
 
         let document = gltf::Document::from_json(root).map_err(|e| match e {
             gltf::Error::Validation(errors) => {
@@ -240,6 +255,8 @@ impl Loader {
                     to_world: Affine3A::IDENTITY,
                     projection: Projection::Perspective { yfov: 0.6981 },
                     aspect_ratio: None,
+                    shift: Vec2::ZERO,
+                    lens: None,
                 },
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
@@ -248,6 +265,7 @@ impl Loader {
             triangle_total: 0,
             vertex_total: 0,
             node_instances: 0,
+            quantized,
         };
         loader.load_buffers(blob)?;
         Ok(loader)
@@ -330,6 +348,7 @@ impl Loader {
             .or_else(|| document.scenes().next());
         let mut cameras = Vec::new();
         if let Some(gltf_scene) = &gltf_scene {
+            self.check_sizes(gltf_scene)?;
             for node in gltf_scene.nodes() {
                 let mut ancestors = Vec::new();
                 self.visit_node(&node, Mat4::IDENTITY, &mut ancestors, &mut cameras)?;
@@ -343,6 +362,122 @@ impl Loader {
             .validate()
             .map_err(|m| Error::scene(&self.path, "scene", m))?;
         Ok(self.scene)
+    }
+
+    /// Count what the scene's hierarchy instantiates (node instances, and triangles and
+    /// vertices from the accessors' counts) and refuse it when it is over a limit, before any
+    /// geometry is read or allocated.
+    fn check_sizes(&self, gltf_scene: &gltf::Scene) -> Result<()> {
+        let mut per_mesh: HashMap<usize, (usize, usize)> = HashMap::new();
+        for mesh in self.document.meshes() {
+            let (mut triangles, mut vertices) = (0usize, 0usize);
+            for primitive in mesh.primitives() {
+                let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
+                    continue;
+                };
+                self.check_accessor_fits(&positions)?;
+                if let Some(indices) = primitive.indices() {
+                    self.check_accessor_fits(&indices)?;
+                }
+                let count = primitive.indices().map_or(positions.count(), |a| a.count());
+                triangles = triangles.saturating_add(match primitive.mode() {
+                    Mode::Triangles => count / 3,
+                    Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),
+                    _ => 0,
+                });
+                vertices = vertices.saturating_add(positions.count());
+            }
+            per_mesh.insert(mesh.index(), (triangles, vertices));
+        }
+        let mut totals = SizeTotals::default();
+        for node in gltf_scene.nodes() {
+            self.count_node(&node, &per_mesh, &mut Vec::new(), &mut totals)?;
+        }
+        Ok(())
+    }
+
+    /// The checks `read_accessor` makes before allocating, without reading: the elements fit
+    /// in the buffer view, or a view-less accessor is not absurdly long.
+    fn check_accessor_fits(&self, accessor: &gltf::Accessor) -> Result<()> {
+        let object = named("accessor", accessor.index(), accessor.name());
+        let element_size = accessor.dimensions().multiplicity() * accessor.data_type().size();
+        match accessor.view() {
+            Some(view) => {
+                self.element_region(
+                    &view,
+                    accessor.offset(),
+                    accessor.count(),
+                    element_size,
+                    &object,
+                )?;
+            }
+            None if accessor.count() > MAX_VIEWLESS_ELEMENTS => {
+                return Err(self.err(
+                    &object,
+                    format!(
+                        "count {} without a buffer view is too large",
+                        accessor.count()
+                    ),
+                ));
+            }
+            None => {}
+        }
+        Ok(())
+    }
+
+    fn count_node(
+        &self,
+        node: &gltf::Node,
+        per_mesh: &HashMap<usize, (usize, usize)>,
+        ancestors: &mut Vec<usize>,
+        totals: &mut SizeTotals,
+    ) -> Result<()> {
+        let object = named("node", node.index(), node.name());
+        if ancestors.contains(&node.index()) {
+            return Err(self.err(object, "is its own ancestor (cycle in the node hierarchy)"));
+        }
+        if ancestors.len() >= MAX_NODE_DEPTH {
+            return Err(self.err(
+                object,
+                format!("node hierarchy deeper than {MAX_NODE_DEPTH}"),
+            ));
+        }
+        totals.instances += 1;
+        if totals.instances > MAX_NODE_INSTANCES {
+            return Err(self.err(
+                object,
+                format!("the hierarchy instances more than {MAX_NODE_INSTANCES} nodes"),
+            ));
+        }
+        if let Some(mesh) = node.mesh() {
+            let (triangles, vertices) = per_mesh.get(&mesh.index()).copied().unwrap_or_default();
+            totals.triangles = totals.triangles.saturating_add(triangles);
+            totals.vertices = totals.vertices.saturating_add(vertices);
+            if totals.triangles > MAX_TRIANGLES {
+                return Err(self.err(
+                    object,
+                    format!(
+                        "the scene instances more than Photon's limit of {MAX_TRIANGLES} \
+                         triangles (refused before loading any geometry)"
+                    ),
+                ));
+            }
+            if totals.vertices > MAX_VERTICES {
+                return Err(self.err(
+                    object,
+                    format!(
+                        "the scene instances more than Photon's limit of {MAX_VERTICES} \
+                         vertices (refused before loading any geometry)"
+                    ),
+                ));
+            }
+        }
+        ancestors.push(node.index());
+        for child in node.children() {
+            self.count_node(&child, per_mesh, ancestors, totals)?;
+        }
+        ancestors.pop();
+        Ok(())
     }
 
     fn visit_node(
@@ -377,10 +512,16 @@ impl Loader {
             self.add_mesh(node, &mesh, &world)?;
         }
         if let Some(camera) = node.camera() {
+            let mut converted = convert_camera(node, &camera, &world)
+                .map_err(|m| self.err(named("camera", camera.index(), camera.name()), m))?;
+            if let Some(extension) = node.extension_value("PHOTON_camera") {
+                read_camera_extension(extension, &mut converted)
+                    .map_err(|m| self.err(format!("{object} PHOTON_camera"), m))?;
+            }
             cameras.push(FoundCamera {
                 node_name: node.name().unwrap_or_default().to_string(),
                 camera_name: camera.name().unwrap_or_default().to_string(),
-                camera: convert_camera(node, &camera, &world),
+                camera: converted,
             });
         }
         self.add_lights(node, &world)?;
@@ -605,6 +746,18 @@ impl Loader {
                 format!("has {found} components per element, expected {components}"),
             ));
         }
+        check_attribute_type(
+            what,
+            accessor.data_type(),
+            accessor.normalized(),
+            self.quantized,
+        )
+        .map_err(|m| {
+            self.err(
+                format!("{object} {what} (accessor {})", accessor.index()),
+                m,
+            )
+        })?;
         self.read_accessor(accessor, component_as_f32)
     }
 
@@ -1374,6 +1527,14 @@ impl Loader {
     }
 }
 
+/// Running totals of `Loader::check_sizes`.
+#[derive(Default)]
+struct SizeTotals {
+    instances: usize,
+    triangles: usize,
+    vertices: usize,
+}
+
 /// Parameters of a `PHOTON_light` area light.
 struct AreaLight {
     shape: String,
@@ -1384,21 +1545,38 @@ struct AreaLight {
     visible_camera: bool,
 }
 
-fn convert_camera(node: &gltf::Node, camera: &gltf::Camera, world: &Mat4) -> Camera {
+fn convert_camera(
+    node: &gltf::Node,
+    camera: &gltf::Camera,
+    world: &Mat4,
+) -> std::result::Result<Camera, String> {
     let (_, rotation, translation) = world.to_scale_rotation_translation();
     let (projection, aspect_ratio) = match camera.projection() {
         gltf::camera::Projection::Perspective(p) => {
-            (Projection::Perspective { yfov: p.yfov() }, p.aspect_ratio())
+            let yfov = p.yfov();
+            if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
+                return Err(format!(
+                    "perspective yfov {yfov} is not an angle in (0, π) radians"
+                ));
+            }
+            (Projection::Perspective { yfov }, p.aspect_ratio())
         }
-        gltf::camera::Projection::Orthographic(o) => (
-            Projection::Orthographic {
-                xmag: o.xmag(),
-                ymag: o.ymag(),
-            },
-            (o.ymag() != 0.0).then(|| o.xmag() / o.ymag()),
-        ),
+        gltf::camera::Projection::Orthographic(o) => {
+            let (xmag, ymag) = (o.xmag(), o.ymag());
+            if !(xmag > 0.0 && ymag > 0.0 && xmag.is_finite() && ymag.is_finite()) {
+                return Err(format!(
+                    "orthographic xmag {xmag} and ymag {ymag} must be positive and finite"
+                ));
+            }
+            (Projection::Orthographic { xmag, ymag }, Some(xmag / ymag))
+        }
     };
-    Camera {
+    if let Some(a) = aspect_ratio {
+        if !(a > 0.0 && a.is_finite()) {
+            return Err(format!("aspectRatio {a} must be positive and finite"));
+        }
+    }
+    Ok(Camera {
         name: node
             .name()
             .or(camera.name())
@@ -1406,7 +1584,48 @@ fn convert_camera(node: &gltf::Node, camera: &gltf::Camera, world: &Mat4) -> Cam
         to_world: Affine3A::from_rotation_translation(rotation.normalize(), translation),
         projection,
         aspect_ratio,
+        shift: Vec2::ZERO,
+        lens: None,
+    })
+}
+
+/// `PHOTON_camera` (see the module documentation) applied to `camera`.
+fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Result<(), String> {
+    let number =
+        |object: &Value, key: &str, default: f32, ok: fn(f32) -> bool| match object.get(key) {
+            None => Ok(default),
+            Some(v) => match v.as_f64().map(|x| x as f32) {
+                Some(x) if x.is_finite() && ok(x) => Ok(x),
+                _ => Err(format!("'{key}' is out of range: {v}")),
+            },
+        };
+    if let Some(v) = value.get("shift") {
+        camera.shift = match v.as_array().map(Vec::as_slice) {
+            Some([x, y]) => match (x.as_f64(), y.as_f64()) {
+                (Some(x), Some(y)) => Vec2::new(x as f32, y as f32),
+                _ => return Err(format!("'shift' must be two numbers, found {v}")),
+            },
+            _ => return Err(format!("'shift' must be two numbers, found {v}")),
+        };
+        if !camera.shift.is_finite() {
+            return Err(format!("'shift' must be finite, found {v}"));
+        }
     }
+    if let Some(dof) = value.get("dof") {
+        let radius = number(dof, "aperture_radius", 0.0, |x| x >= 0.0)?;
+        let focus_distance = number(dof, "focus_distance", 10.0, |x| x > 0.0)?;
+        let blades = number(dof, "blades", 0.0, |x| (0.0..=1000.0).contains(&x))?;
+        let rotation = number(dof, "rotation", 0.0, |_| true)?;
+        let ratio = number(dof, "ratio", 1.0, |x| x > 0.0)?;
+        camera.lens = (radius > 0.0).then_some(ThinLens {
+            radius,
+            focus_distance,
+            blades: blades as u32,
+            rotation,
+            ratio,
+        });
+    }
+    Ok(())
 }
 
 /// A 40° perspective camera in front of the bounds (+Z side, slightly above), looking at their
@@ -1425,6 +1644,8 @@ fn framing_camera(bounds: Bounds) -> Camera {
         to_world: look_at(eye, center),
         projection: Projection::Perspective { yfov },
         aspect_ratio: None,
+        shift: Vec2::ZERO,
+        lens: None,
     }
 }
 
@@ -1546,6 +1767,49 @@ fn component_as_f32(bytes: &[u8], data_type: DataType, normalized: bool) -> f32 
         }
         _ => f32::NAN,
     }
+}
+
+/// Whether glTF lets vertex attribute `what` be stored with this component type: floats always;
+/// normalized unsigned bytes and shorts for texture coordinates; and with KHR_mesh_quantization
+/// (`quantized`) the integer types that extension lists (POSITION and TEXCOORD normalized or not,
+/// NORMAL and TANGENT normalized signed). Integers read as they are (normalized ones mapped to
+/// [0, 1] or [−1, 1]); the node transform then dequantizes them, as the extension intends.
+fn check_attribute_type(
+    what: &str,
+    data_type: DataType,
+    normalized: bool,
+    quantized: bool,
+) -> std::result::Result<(), String> {
+    use DataType::{F32, I16, I8, U16, U8};
+    let allowed = match (what, data_type) {
+        (_, F32) => !normalized,
+        ("TEXCOORD_0", U8 | U16) if normalized => true,
+        ("POSITION" | "TEXCOORD_0", I8 | U8 | I16 | U16) => quantized,
+        ("NORMAL" | "TANGENT", I8 | I16) => quantized && normalized,
+        _ => false,
+    };
+    if allowed {
+        return Ok(());
+    }
+    let kind = match data_type {
+        I8 => "signed bytes",
+        U8 => "unsigned bytes",
+        I16 => "signed shorts",
+        U16 => "unsigned shorts",
+        DataType::U32 => "unsigned 32-bit integers",
+        F32 => "floats",
+    };
+    let norm = if normalized { "normalized " } else { "" };
+    let quantizable = !matches!(data_type, F32 | DataType::U32);
+    Err(if quantizable && !quantized {
+        format!(
+            "is stored as {norm}{kind}, which glTF allows only with the KHR_mesh_quantization \
+             extension, and the file does not declare it (a broken exporter? read as numbers \
+             it would give garbage geometry)"
+        )
+    } else {
+        format!("cannot be stored as {norm}{kind} (glTF and KHR_mesh_quantization forbid it)")
+    })
 }
 
 /// One unsigned integer accessor component.

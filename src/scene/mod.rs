@@ -228,6 +228,26 @@ pub struct Camera {
     pub projection: Projection,
     /// Width / height the file asks for; `None` lets the image size decide.
     pub aspect_ratio: Option<f32>,
+    /// Blender's lens shift: the image window moves by this in its plane, in units of the
+    /// image height (our `PHOTON_camera` extension; zero without it).
+    pub shift: Vec2,
+    /// Depth of field; `None` is a pinhole.
+    pub lens: Option<ThinLens>,
+}
+
+/// A thin lens (Blender's depth of field as Cycles renders it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinLens {
+    /// Aperture radius in scene units (Cycles: focal length / (2 × f-stop)).
+    pub radius: f32,
+    /// Distance of the plane in focus along the camera axis.
+    pub focus_distance: f32,
+    /// Corners of the polygonal aperture; below 3 it is round.
+    pub blades: u32,
+    /// Rotation of the polygon's first corner from the camera's +x axis, in radians.
+    pub rotation: f32,
+    /// Anamorphic ratio: the aperture's x extent is divided by it.
+    pub ratio: f32,
 }
 
 /// What rays that leave the scene see.
@@ -493,6 +513,28 @@ impl Scene {
             }
             if !env.to_map.is_finite() || env.pixels.iter().any(|p| !p.is_finite()) {
                 return Err("environment image: a value is NaN or infinite".into());
+            }
+        }
+        if !self.camera.shift.is_finite() {
+            return Err(format!(
+                "camera '{}': lens shift is NaN or infinite",
+                self.camera.name
+            ));
+        }
+        if let Some(l) = &self.camera.lens {
+            let ok = l.radius.is_finite()
+                && l.radius >= 0.0
+                && l.focus_distance.is_finite()
+                && l.focus_distance > 0.0
+                && l.rotation.is_finite()
+                && l.ratio.is_finite()
+                && l.ratio > 0.0;
+            if !ok {
+                return Err(format!(
+                    "camera '{}': depth of field needs a finite aperture radius ≥ 0, focus \
+                     distance > 0 and ratio > 0",
+                    self.camera.name
+                ));
             }
         }
         if !self.camera.to_world.is_finite() {

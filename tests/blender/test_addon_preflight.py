@@ -134,13 +134,14 @@ def test_other_rules(photon_addon):
     scene.collection.objects.link(bpy.data.objects.new("Narrow", area))
     scene.collection.objects.link(bpy.data.objects.new("Cloud", bpy.data.volumes.new("Cloud")))
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
-    scene.camera.data.dof.use_dof = True
+    scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
+    scene.camera.data.type = "PANO"
     bpy.data.objects["Cube"].visible_shadow = False
 
     messages = messages_for(scene)
     expected = ("light 'Light': its shader nodes", "light 'Narrow': spread 30 degrees",
                 "object 'Cloud': Volume objects", "object 'Fur': hair curves",
-                "camera 'Camera': depth of field", "object 'Cube': ray visibility")
+                "camera 'Camera': panoramic", "object 'Cube': ray visibility")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use photon::film::Image;
-use photon::math::{Affine3A, Vec3};
+use photon::math::{Affine3A, Vec2, Vec3};
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{render, RenderSettings, RenderStats};
 use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
@@ -107,6 +107,8 @@ pub fn camera_looking_at(eye: Vec3, target: Vec3, projection: Projection) -> Cam
         to_world: Affine3A::from_cols(right.into(), true_up.into(), (-forward).into(), eye.into()),
         projection,
         aspect_ratio: None,
+        shift: Vec2::ZERO,
+        lens: None,
     }
 }
 
