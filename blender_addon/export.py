@@ -108,24 +108,111 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
 
 
 def light_extension(obj) -> dict:
-    """PHOTON_light for a light object."""
+    """PHOTON_light for a light object: its colour and power as Cycles combines them (the
+    light's colour x its blackbody colour when "Temperature" is on x the colour of the Emission
+    node of its node tree; power x 2^exposure x the node's strength), which the glTF exporter
+    gets wrong with a node tree (it keeps only the node's colour); plus what glTF cannot say:
+    point/spot radius, Cycles' exact spot cone (size and blend), sun angle, area lights."""
     light = obj.data
+    color, strength = light_tint(light)
+    scale = 2.0 ** float(getattr(light, "exposure", 0.0)) * strength
     if light.type in ("POINT", "SPOT"):
-        return {"radius": float(light.shadow_soft_size)}
+        data = {"radius": float(light.shadow_soft_size), "power": float(light.energy) * scale,
+                "color": color}
+        if light.type == "SPOT":
+            data["spot_size"] = float(light.spot_size)
+            data["spot_blend"] = float(light.spot_blend)
+        return data
     if light.type == "SUN":
-        return {"angle": float(light.angle)}
+        return {"angle": float(light.angle), "strength": float(light.energy) * scale,
+                "color": color}
     if light.type != "AREA":
         return {}
     size = float(light.size)
     size_y = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else size
-    power = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+    power = float(light.energy) * scale
     if not getattr(light, "normalize", True):
         # Without "normalize" Blender's power is per square metre; Photon always normalises.
         area = size * size_y * (math.pi / 4.0 if light.shape in ("DISK", "ELLIPSE") else 1.0)
         power *= area
     return {"type": "area", "shape": light.shape, "size": size, "size_y": size_y,
-            "power": power, "color": [float(c) for c in light.color],
+            "power": power, "color": color, "spread": float(light.spread),
             "visible_camera": bool(obj.visible_camera)}
+
+
+def light_tint(light) -> tuple[list[float], float]:
+    """(colour, strength factor) of a light as Cycles renders it: light.color x its blackbody
+    colour (when use_temperature is on) x the Emission node's colour, and the node's strength
+    (or the strength of a Light Falloff node's Quadratic output feeding it). What the node tree
+    does beyond that is named by `light_node_problems` (the pre-flight report)."""
+    color = [float(c) for c in light.color[:3]]
+    if getattr(light, "use_temperature", False):
+        color = [c * float(t) for c, t in zip(color, light.temperature_color[:3])]
+    emission = light_emission_node(light)
+    if emission is None:
+        return color, 1.0
+    node_color = emission.inputs["Color"]
+    if not node_color.is_linked:
+        color = [c * float(n) for c, n in zip(color, node_color.default_value[:3])]
+    strength_input = emission.inputs["Strength"]
+    strength = float(strength_input.default_value)
+    if strength_input.is_linked:
+        source = strength_input.links[0].from_node
+        falloff_strength = source.inputs.get("Strength") if source.type == "LIGHT_FALLOFF" else None
+        strength = 1.0
+        if falloff_strength is not None and not falloff_strength.is_linked:
+            strength = float(falloff_strength.default_value)
+    return color, strength
+
+
+def light_emission_node(light):
+    """The Emission node feeding the active Light Output of a light's node tree (Cycles uses the
+    tree when use_nodes is on); None without one."""
+    tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_LIGHT"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return None
+    node = output.inputs["Surface"].links[0].from_node
+    return node if node.type == "EMISSION" else None
+
+
+def light_node_problems(light) -> list[str]:
+    """What a light's node tree does that `light_tint` does not carry ([] for none)."""
+    tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    if tree is None:
+        return []
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_LIGHT"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return ["its node tree has no shader on the Light Output (Cycles renders it black)"]
+    emission = light_emission_node(light)
+    if emission is None:
+        node = output.inputs["Surface"].links[0].from_node
+        return [f"the {node.bl_label} node '{node.name}' on its output is not exported (only an "
+                f"Emission node is)"]
+    problems = []
+    if emission.inputs["Color"].is_linked:
+        node = emission.inputs["Color"].links[0].from_node
+        problems.append(f"the {node.bl_label} node '{node.name}' driving the emission colour "
+                        f"is not exported")
+    strength = emission.inputs["Strength"]
+    if strength.is_linked:
+        link = strength.links[0]
+        node = link.from_node
+        if node.type != "LIGHT_FALLOFF":
+            problems.append(f"the {node.bl_label} node '{node.name}' driving the emission "
+                            f"strength is not exported")
+        elif link.from_socket.name != "Quadratic":
+            problems.append(f"Light Falloff '{node.name}': its {link.from_socket.name} output "
+                            f"is not exported (only Quadratic, the physical falloff, is)")
+        elif node.inputs["Strength"].is_linked or node.inputs["Smooth"].is_linked \
+                or float(node.inputs["Smooth"].default_value) != 0.0:
+            problems.append(f"Light Falloff '{node.name}': a linked strength or a smooth "
+                            f"falloff is not exported")
+    return problems
 
 
 def camera_extension(obj, scene) -> dict:

@@ -11,15 +11,14 @@ empty list, so the rules below only flag what really changes the image:
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
 - hair: hair particle systems and Curves (hair) objects;
-- lights: an area light's spread below 180 degrees, a light node tree that changes the
-  emission, shadows turned off;
+- lights: what a light's node tree does beyond an Emission node's colour and strength (or a
+  Light Falloff's Quadratic strength), shadows turned off;
 - objects hidden from some ray types (Object > Visibility > Ray Visibility);
 - cameras: panoramic projections, a depth-of-field focus on a bone; motion blur.
 """
 
 from __future__ import annotations
 
-import math
 
 # Node types (`node.type`) on the way to a material's Surface that the glTF exporter follows
 # (or that only route links). MIX, MATH and MIX_SHADER are checked separately.
@@ -85,33 +84,11 @@ def _object_features(obj) -> list[str]:
 def light_features(obj) -> list[str]:
     light, messages = obj.data, []
     what = f"light '{obj.name}'"
-    if light.type == "AREA" and light.spread < math.pi - 1e-4:
-        messages.append(f"{what}: spread {math.degrees(light.spread):.0f} degrees is not "
-                        f"exported; Photon's area lights emit over the full 180 degrees")
-    if light.use_nodes and light.node_tree is not None and _light_nodes_matter(light.node_tree):
-        messages.append(f"{what}: its shader nodes are not exported (only its colour and "
-                        f"power are)")
+    from .export import light_node_problems
+    messages += [f"{what}: {problem}" for problem in light_node_problems(light)]
     if not getattr(light, "use_shadow", True):
         messages.append(f"{what}: 'Cast Shadow' off is not exported; it casts shadows in Photon")
     return messages
-
-
-def _light_nodes_matter(tree) -> bool:
-    """Whether a light's node tree changes the light: anything but an Emission node with white
-    colour and strength 1 (the default tree) feeding the output."""
-    for node in tree.nodes:
-        if node.type == "OUTPUT_LIGHT" or node.type == "FRAME":
-            continue
-        if node.type != "EMISSION":
-            return True
-        color, strength = node.inputs["Color"], node.inputs["Strength"]
-        if color.is_linked or strength.is_linked:
-            return True
-        if any(abs(c - 1.0) > 1e-6 for c in color.default_value[:3]):
-            return True
-        if abs(strength.default_value - 1.0) > 1e-6:
-            return True
-    return False
 
 
 def material_features(material) -> list[str]:

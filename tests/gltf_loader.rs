@@ -1465,3 +1465,73 @@ fn nan_node_transforms_are_refused() {
     doc.json = serde_json::from_str(&text).unwrap();
     assert_scene_error(load_glb(&doc), &["TriNode"]);
 }
+
+// ----- PHOTON_light: Cycles' colour and power, spot cone, spread -------------------------------
+
+#[test]
+fn photon_light_colour_and_power_replace_the_photometric_values() {
+    let mut doc = triangle_doc();
+    with_light(
+        &mut doc,
+        json!({"type": "spot", "intensity": 54351.4, "color": [1.0, 1.0, 1.0],
+               "spot": {"innerConeAngle": 0.1, "outerConeAngle": 0.6}}),
+        json!({"name": "Spot", "extensions": {"KHR_lights_punctual": {"light": 0},
+               "PHOTON_light": {"radius": 0.0, "power": 400.0, "color": [0.2, 0.4, 1.0],
+                                "spot_size": 1.2, "spot_blend": 0.25}}}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    let Light::Spot {
+        intensity,
+        cos_inner,
+        cos_outer,
+        ..
+    } = &scene.lights[0]
+    else {
+        panic!("not a spot")
+    };
+    let i = 400.0 / (4.0 * PI);
+    assert!(
+        close(*intensity, Vec3::new(0.2, 0.4, 1.0) * i),
+        "{intensity}"
+    );
+    let c = 0.6f32.cos();
+    assert!((cos_outer - c).abs() < 1e-6);
+    assert!(
+        (cos_inner - (c + 0.25 * (1.0 - c))).abs() < 1e-6,
+        "{cos_inner}"
+    );
+}
+
+#[test]
+fn photon_light_values_out_of_range_are_refused() {
+    for bad in [
+        json!({"power": -1.0, "color": [1, 1, 1]}),
+        json!({"color": [1, -1, 1]}),
+        json!({"spot_size": 4.0}),
+        json!({"spot_blend": 1.5}),
+    ] {
+        let mut doc = triangle_doc();
+        with_light(
+            &mut doc,
+            json!({"type": "spot", "intensity": 10.0, "spot": {"outerConeAngle": 0.6}}),
+            json!({"name": "Spot", "extensions": {"KHR_lights_punctual": {"light": 0},
+                   "PHOTON_light": bad}}),
+        );
+        assert_scene_error(load_glb(&doc), &["Spot", "PHOTON_light"]);
+    }
+    let doc = area_light_doc(json!({"type": "area", "spread": 4.0}), json!({}));
+    assert_scene_error(load_glb(&doc), &["AreaL", "spread"]);
+}
+
+#[test]
+fn area_light_spread_is_kept_on_its_mesh() {
+    let doc = area_light_doc(json!({"type": "area", "spread": 1.0}), json!({}));
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(
+        scene.meshes[area_light_index(&scene)].emission_spread,
+        Some(1.0)
+    );
+    let doc = area_light_doc(json!({"type": "area", "spread": PI}), json!({}));
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.meshes[area_light_index(&scene)].emission_spread, None);
+}

@@ -26,12 +26,20 @@
 //!   - with a directional light: `{"angle": a}`, the sun's angular diameter in radians (default 0);
 //!   - an area light (which the exporter drops): `{"type": "area", "shape": "SQUARE" |
 //!     "RECTANGLE" | "DISK" | "ELLIPSE", "size": x, "size_y": y, "power": watts, "color": [r, g,
-//!     b], "visible_camera": bool}`. It becomes a one-sided emissive mesh in the node's local XY
+//!     b], "visible_camera": bool, "spread": a}`. It becomes a one-sided emissive mesh in the node's local XY
 //!     plane, centred on the origin (disks and ellipses as a 32-segment fan), emitting along the
 //!     node's local −Z. `size` is the X extent (SQUARE, DISK: both), `size_y` the Y extent
 //!     (RECTANGLE, ELLIPSE; default `size`); the node's scale applies, as in Blender. Its radiance
 //!     is `color × power / (π × area)` with the area of the polygon actually built (Blender's
-//!     "normalize"). Defaults: SQUARE, size 1, power 10 W, white, `visible_camera` false.
+//!     "normalize"). `spread` (radians, in [0, π]) narrows the emission around the normal as
+//!     Cycles' spread does, keeping the power (`crate::light::spread_factor`). Defaults: SQUARE,
+//!     size 1, power 10 W, white, `visible_camera` false, spread π.
+//!   - with a point, spot or directional light, optional `"color": [r, g, b]` with `"power": W`
+//!     (point, spot) or `"strength": W/m²` (sun) replace the KHR light's colour and intensity:
+//!     the add-on writes Cycles' combination of the light's colour, blackbody temperature and
+//!     node-tree emission. A spot's optional `"spot_size"` (full cone angle, radians) and
+//!     `"spot_blend"` (0–1) give Cycles' exact cone, smoothstep((cos θ − cos(size/2)) /
+//!     ((1 − cos(size/2)) × blend)), in place of glTF's inner and outer angles.
 //!
 //! - `PHOTON_camera` on a camera node: `{"shift": [x, y], "dof": {"aperture_radius": r,
 //!   "focus_distance": d, "blades": n, "rotation": a, "ratio": q}}`. `shift` is Blender's lens
@@ -650,6 +658,7 @@ impl Loader {
                 indices,
                 material,
                 camera_visible: true,
+                emission_spread: None,
             };
             match normals {
                 Some(normals) => {
@@ -1272,35 +1281,81 @@ impl Loader {
                     .and_then(|e| e.get("visible_camera"))
                     .and_then(Value::as_bool)
                     .unwrap_or(false),
+                spread: number("spread", std::f32::consts::PI),
             };
             return self.add_area_light(node, world, &area, &object);
         }
         let Some(light) = node.light() else {
             return Ok(());
         };
-        let color = Vec3::from(light.color());
+        let object = format!("{object} PHOTON_light");
+        let checked = |key: &str, ok: fn(f32) -> bool| -> Result<Option<f32>> {
+            match extension.and_then(|e| e.get(key)) {
+                None => Ok(None),
+                Some(v) => match v.as_f64().map(|x| x as f32) {
+                    Some(x) if x.is_finite() && ok(x) => Ok(Some(x)),
+                    _ => Err(self.err(&object, format!("'{key}' is out of range: {v}"))),
+                },
+            }
+        };
+        // The extension's colour and power (Cycles' units) replace the photometric values.
+        let tint = match extension.and_then(|e| e.get("color")) {
+            None => None,
+            Some(v) => Some(
+                json_vec3(v)
+                    .filter(|c| c.is_finite() && c.min_element() >= 0.0)
+                    .ok_or_else(|| {
+                        self.err(&object, format!("'color' must be three numbers ≥ 0: {v}"))
+                    })?,
+            ),
+        };
+        let color = tint.unwrap_or_else(|| Vec3::from(light.color()));
+        let power = checked("power", |x| x >= 0.0)?.filter(|_| tint.is_some());
+        let intensity = match power {
+            Some(watts) => color * units::blender_point_power_to_intensity(watts),
+            None => color * units::candela_to_watts_per_sr(light.intensity()),
+        };
         let light = match light.kind() {
             gltf::khr_lights_punctual::Kind::Point => Light::Point {
                 position,
-                intensity: color * units::candela_to_watts_per_sr(light.intensity()),
+                intensity,
                 radius: number("radius", 0.0),
             },
             gltf::khr_lights_punctual::Kind::Spot {
                 inner_cone_angle,
                 outer_cone_angle,
-            } => Light::Spot {
-                position,
-                direction,
-                intensity: color * units::candela_to_watts_per_sr(light.intensity()),
-                cos_inner: inner_cone_angle.cos(),
-                cos_outer: outer_cone_angle.cos(),
-                radius: number("radius", 0.0),
-            },
-            gltf::khr_lights_punctual::Kind::Directional => Light::Sun {
-                direction,
-                irradiance: color * units::lux_to_watts_per_m2(light.intensity()),
-                angle: number("angle", 0.0),
-            },
+            } => {
+                // Cycles' cone: smoothstep((cos θ − cos(size/2)) / ((1 − cos(size/2)) × blend)).
+                let size = checked("spot_size", |x| x > 0.0 && x <= std::f32::consts::PI)?;
+                let blend = checked("spot_blend", |x| (0.0..=1.0).contains(&x))?;
+                let (cos_inner, cos_outer) = match size {
+                    Some(size) => {
+                        let cos_outer = (0.5 * size).cos();
+                        let blend = blend.unwrap_or(0.0);
+                        (cos_outer + (1.0 - cos_outer) * blend, cos_outer)
+                    }
+                    None => (inner_cone_angle.cos(), outer_cone_angle.cos()),
+                };
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                    radius: number("radius", 0.0),
+                }
+            }
+            gltf::khr_lights_punctual::Kind::Directional => {
+                let strength = checked("strength", |x| x >= 0.0)?.filter(|_| tint.is_some());
+                Light::Sun {
+                    direction,
+                    irradiance: match strength {
+                        Some(e) => color * e,
+                        None => color * units::lux_to_watts_per_m2(light.intensity()),
+                    },
+                    angle: number("angle", 0.0),
+                }
+            }
         };
         self.scene.lights.push(light);
         Ok(())
@@ -1367,6 +1422,13 @@ impl Loader {
                 format!("area light has zero or invalid area ({area})"),
             ));
         }
+        let spread = light.spread;
+        if !(0.0..=std::f32::consts::PI).contains(&spread) {
+            return Err(self.err(
+                format!("{object} PHOTON_light"),
+                format!("area light spread {spread} is not an angle in [0, π] radians"),
+            ));
+        }
         let normal = (linear.inverse().transpose() * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
         let name = node.name().unwrap_or("area light").to_string();
         let material = Material {
@@ -1389,6 +1451,8 @@ impl Loader {
             indices,
             material: (self.scene.materials.len() - 1) as u32,
             camera_visible: light.visible_camera,
+            // Narrower than a milliradian is a laser nothing would sample; Cycles clamps too.
+            emission_spread: (spread < std::f32::consts::PI).then_some(spread.max(1e-3)),
         });
         Ok(())
     }
@@ -1543,6 +1607,8 @@ struct AreaLight {
     power: f32,
     color: Vec3,
     visible_camera: bool,
+    /// Full spread angle in radians; π emits over the whole hemisphere.
+    spread: f32,
 }
 
 fn convert_camera(

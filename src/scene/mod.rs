@@ -32,6 +32,10 @@ pub struct Mesh {
     pub material: u32,
     /// Seen by camera rays. False for area-light geometry that Blender hides from the camera.
     pub camera_visible: bool,
+    /// Blender's area-light spread (full angle, radians, in (0, π)): the emission narrows
+    /// towards the normal as through a soft-box grid, the total power unchanged
+    /// (`crate::light::spread_factor`). `None` emits over the whole hemisphere.
+    pub emission_spread: Option<f32>,
 }
 
 /// How a material's alpha is used (glTF `alphaMode`).
@@ -433,6 +437,14 @@ impl Scene {
                     "mesh {mi} '{}': vertex normal is NaN or infinite",
                     m.name
                 ));
+            }
+            if let Some(spread) = m.emission_spread {
+                if !(spread > 0.0 && spread <= std::f32::consts::PI) {
+                    return Err(format!(
+                        "mesh {mi} '{}': emission spread {spread} is not in (0, π]",
+                        m.name
+                    ));
+                }
             }
             if m.uvs.iter().any(|p| !p.is_finite()) {
                 return Err(format!("mesh {mi} '{}': UV is NaN or infinite", m.name));

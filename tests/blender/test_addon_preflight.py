@@ -120,7 +120,8 @@ def messages_for(scene):
 
 def test_other_rules(photon_addon):
     """Volume and Curves objects, light settings and camera settings, one message each; the
-    default tree of a light with nodes and a full spread give none."""
+    default tree of a light with nodes, an Emission node's strength and an area light's
+    spread (all carried) give none."""
     bpy.ops.wm.read_factory_settings()
     scene = bpy.context.scene
     assert messages_for(scene) == []
@@ -129,8 +130,12 @@ def test_other_rules(photon_addon):
     light.use_nodes = True
     assert messages_for(scene) == [], "a light's default node tree changes nothing"
     light.node_tree.nodes["Emission"].inputs["Strength"].default_value = 2.0
+    assert messages_for(scene) == [], "an Emission node's strength and colour are carried"
+    tree = light.node_tree
+    tree.links.new(tree.nodes.new("ShaderNodeBlackbody").outputs["Color"],
+                   tree.nodes["Emission"].inputs["Color"])
     area = bpy.data.lights.new("Narrow", "AREA")
-    area.spread = math.radians(30.0)
+    area.spread = math.radians(30.0)  # carried (PHOTON_light spread): no message
     scene.collection.objects.link(bpy.data.objects.new("Narrow", area))
     scene.collection.objects.link(bpy.data.objects.new("Cloud", bpy.data.volumes.new("Cloud")))
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
@@ -139,7 +144,7 @@ def test_other_rules(photon_addon):
     bpy.data.objects["Cube"].visible_shadow = False
 
     messages = messages_for(scene)
-    expected = ("light 'Light': its shader nodes", "light 'Narrow': spread 30 degrees",
+    expected = ("light 'Light': the Blackbody node",
                 "object 'Cloud': Volume objects", "object 'Fur': hair curves",
                 "camera 'Camera': panoramic", "object 'Cube': ray visibility")
     for start in expected:

@@ -69,6 +69,7 @@ pub fn sphere(
         indices,
         material,
         camera_visible: true,
+        emission_spread: None,
     }
 }
 
@@ -89,6 +90,7 @@ pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         material,
         camera_visible: true,
+        emission_spread: None,
     }
 }
 
