@@ -515,6 +515,67 @@ def collected_warnings():
             logger.removeHandler(collector)
 
 
+@contextlib.contextmanager
+def render_visibility(scene):
+    """Within the block the viewport shows what a render shows, and is put back after it.
+
+    The glTF exporter reads the viewport's evaluated depsgraph: modifiers at their viewport
+    settings (a Subdivision Surface at its viewport level, render-only modifiers left out) and
+    without objects or collections disabled in viewports but enabled for rendering. Here every
+    modifier's viewport switch follows its render switch, Subdivision Surface and Multires take
+    their render levels, and objects and collections take their render visibility. Objects
+    only in collections excluded from the view layer or disabled for rendering (also through a
+    parent collection), which the exporter would still write, are disabled for rendering."""
+    saved = []
+
+    def assign(owner, attribute, value):
+        old = getattr(owner, attribute)
+        if old != value:
+            try:
+                setattr(owner, attribute, value)
+            except (AttributeError, TypeError, RuntimeError):  # linked, read-only data
+                return
+            saved.append((owner, attribute, old))
+
+    try:
+        for collection in scene.collection.children_recursive:
+            assign(collection, "hide_viewport", collection.hide_render)
+        rendered = rendered_objects(bpy.context.view_layer)
+        for obj in scene.objects:
+            if obj.name_full not in rendered:
+                assign(obj, "hide_render", True)
+            assign(obj, "hide_viewport", obj.hide_render)
+            for modifier in obj.modifiers:
+                assign(modifier, "show_viewport", modifier.show_render)
+                if modifier.type in ("SUBSURF", "MULTIRES"):
+                    assign(modifier, "levels", modifier.render_levels)
+        if saved:
+            bpy.context.view_layer.update()
+        yield
+    finally:
+        for owner, attribute, old in reversed(saved):
+            setattr(owner, attribute, old)
+        if saved:
+            bpy.context.view_layer.update()
+
+
+def rendered_objects(view_layer) -> set[str]:
+    """Names of the objects a render of `view_layer` can show: those in a collection that is
+    neither excluded from the view layer nor disabled for rendering, itself or through a
+    parent (the object's own render switch is not looked at)."""
+    found = set()
+    stack = [(view_layer.layer_collection, False)]
+    while stack:
+        layer, hidden = stack.pop()
+        if layer.exclude:
+            continue
+        hidden = hidden or layer.collection.hide_render
+        if not hidden:
+            found.update(obj.name_full for obj in layer.collection.objects)
+        stack.extend((child, hidden) for child in layer.children)
+    return found
+
+
 def export_in_process(glb: Path, hook_module: str) -> list[str]:
     """Run Blender's glTF exporter on the current scene and return its warnings and the hooks'.
     `hook_module` is the name in sys.modules that holds `glTF2ExportUserExtension`: the exporter
@@ -526,7 +587,7 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
         added = prefs.addons.new()
         added.module = hook_module
     try:
-        with collected_warnings() as warnings:
+        with collected_warnings() as warnings, render_visibility(bpy.context.scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **GLTF_EXPORT_ARGS)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None

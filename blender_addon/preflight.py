@@ -13,7 +13,8 @@ empty list, so the rules below only flag what really changes the image:
 - hair: hair particle systems and Curves (hair) objects;
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
   Light Falloff's Quadratic strength), shadows turned off;
-- objects hidden from some ray types (Object > Visibility > Ray Visibility);
+- objects hidden from some ray types (Object > Visibility > Ray Visibility), holdout objects
+  and collections, 'indirect only' collections;
 - cameras: panoramic projections, a depth-of-field focus on a bone; motion blur.
 """
 
@@ -36,9 +37,12 @@ RAY_VISIBILITY = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"),
                   ("visible_shadow", "shadow"))
 
 
-def unsupported_features(scene, objects) -> list[str]:
+def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     """Messages for every feature of `scene` the export drops; `objects` are the objects being
-    rendered (the render depsgraph's objects)."""
+    rendered (the render depsgraph's objects), `view_layer` the view layer rendered (default:
+    the scene's first)."""
+    if view_layer is None and len(scene.view_layers):
+        view_layer = scene.view_layers[0]
     messages: list[str] = []
     materials = {}
     for obj in objects:
@@ -52,6 +56,16 @@ def unsupported_features(scene, objects) -> list[str]:
         messages += world_features(scene.world)
     if scene.camera is not None:
         messages += _camera_features(scene.camera)
+    for layer_collection in _layer_collections(view_layer):
+        what = f"collection '{layer_collection.name}'"
+        if layer_collection.exclude:
+            continue
+        if layer_collection.holdout:
+            messages.append(f"{what}: holdout is not exported; its objects render as ordinary "
+                            f"objects")
+        if layer_collection.indirect_only:
+            messages.append(f"{what}: 'indirect only' is not exported; its objects are seen "
+                            f"directly too")
     if scene.render.use_motion_blur:
         messages.append("motion blur (Render > Motion Blur) is not rendered")
     return messages
@@ -73,6 +87,8 @@ def _object_features(obj) -> list[str]:
         elif system.settings.render_type in ("OBJECT", "COLLECTION"):
             messages.append(f"{what}: particle system '{system.name}' (instances of an "
                             f"object or collection) is not exported")
+    if getattr(obj, "is_holdout", False):
+        messages.append(f"{what}: holdout is not exported; it renders as an ordinary object")
     if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
         hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:
@@ -167,6 +183,20 @@ def _camera_features(camera_object) -> list[str]:
                         f"'{camera.dof.focus_object.name}', not on its bone "
                         f"'{camera.dof.focus_subtarget}'")
     return messages
+
+
+def _layer_collections(view_layer):
+    """Every layer collection of `view_layer` below its root, parents before children; none
+    below an excluded one."""
+    if view_layer is None:
+        return []
+    found, stack = [], list(view_layer.layer_collection.children)
+    while stack:
+        layer = stack.pop(0)
+        found.append(layer)
+        if not layer.exclude:
+            stack.extend(layer.children)
+    return found
 
 
 def _active_output(tree, kind):

@@ -150,3 +150,24 @@ def test_other_rules(photon_addon):
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages
+
+
+def test_holdout_and_indirect_only_are_named(photon_addon):
+    """Holdout objects and collections and 'indirect only' collections are not carried."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    bpy.data.objects["Cube"].is_holdout = True
+    for name in ("Held", "Indirect", "Gone"):
+        scene.collection.children.link(bpy.data.collections.new(name))
+    layers = scene.view_layers[0].layer_collection.children
+    layers["Held"].holdout = True
+    layers["Indirect"].indirect_only = True
+    layers["Gone"].exclude = True
+    layers["Gone"].holdout = True  # excluded: nothing of it renders, nothing to say
+    from blender_addon import preflight
+    messages = preflight.unsupported_features(scene, list(scene.objects), scene.view_layers[0])
+    expected = ("object 'Cube': holdout", "collection 'Held': holdout",
+                "collection 'Indirect': 'indirect only'")
+    for start in expected:
+        assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
+    assert len(messages) == len(expected), messages
