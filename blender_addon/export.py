@@ -20,7 +20,7 @@ engine turns into WARNING reports as it does for the renderer's own warnings.
 `glTF2ExportUserExtension` (re-exported by the add-on's top-level module, where the exporter
 looks for it) writes, always with required=False so that other viewers still open the file:
 PHOTON_light on light nodes (point/spot radius, sun angle, area lights, which the exporter drops),
-PHOTON_camera on camera nodes (lens shift and depth of field),
+PHOTON_camera on camera nodes (lens shift, depth of field, panoramic projections),
 PHOTON_material_subsurface on materials (the Principled BSDF's subsurface inputs), PHOTON_world
 (background colour x strength, or an equirectangular environment image written next to the .glb
 as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
@@ -230,6 +230,11 @@ def camera_extension(obj, scene) -> dict:
     unit = width / height if fit == "HORIZONTAL" else 1.0
     if camera.shift_x != 0.0 or camera.shift_y != 0.0:
         data["shift"] = [float(camera.shift_x * unit), float(camera.shift_y * unit)]
+    if camera.type == "PANO":
+        panorama = panorama_extension(camera, width, height)
+        if panorama:
+            data["panorama"] = panorama
+        return data
     dof = camera.dof
     if dof.use_dof:
         fstop = max(float(dof.aperture_fstop), 1e-5)
@@ -243,6 +248,31 @@ def camera_extension(obj, scene) -> dict:
                        "rotation": float(dof.aperture_rotation),
                        "ratio": float(dof.aperture_ratio)}
     return data
+
+
+# The panoramic projections PHOTON_camera carries (the others are named by the pre-flight).
+PANORAMAS = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID")
+
+
+def panorama_extension(camera, width: float, height: float) -> dict:
+    """The "panorama" of PHOTON_camera for a panoramic camera (Cycles' projection and its
+    parameters; the equisolid sensor fitted to an image of `width` x `height` as Cycles fits
+    it); empty for a projection Photon does not render."""
+    kind = camera.panorama_type
+    if kind == "EQUIRECTANGULAR":
+        return {"type": kind,
+                "longitude": [float(camera.longitude_min), float(camera.longitude_max)],
+                "latitude": [float(camera.latitude_min), float(camera.latitude_max)]}
+    if kind == "FISHEYE_EQUIDISTANT":
+        return {"type": kind, "fov": float(camera.fisheye_fov)}
+    if kind == "FISHEYE_EQUISOLID":
+        fit = camera.sensor_fit
+        horizontal = width > height if fit == "AUTO" else fit == "HORIZONTAL"
+        size = float(camera.sensor_height if fit == "VERTICAL" else camera.sensor_width)
+        sensor = [size, size * height / width] if horizontal else [size * width / height, size]
+        return {"type": kind, "lens": float(camera.fisheye_lens),
+                "fov": float(camera.fisheye_fov), "sensor": sensor}
+    return {}
 
 
 def focus_distance(obj) -> float:

@@ -15,7 +15,8 @@ empty list, so the rules below only flag what really changes the image:
   Light Falloff's Quadratic strength), shadows turned off;
 - objects hidden from some ray types (Object > Visibility > Ray Visibility), holdout objects
   and collections, 'indirect only' collections;
-- cameras: panoramic projections, a depth-of-field focus on a bone; motion blur.
+- cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
+  field with a panorama, a depth-of-field focus on a bone; motion blur.
 """
 
 from __future__ import annotations
@@ -175,9 +176,12 @@ def world_features(world) -> list[str]:
 def _camera_features(camera_object) -> list[str]:
     camera, messages = camera_object.data, []
     what = f"camera '{camera_object.name}'"
-    if camera.type == "PANO":
-        messages.append(f"{what}: panoramic cameras are not exported; Photon renders a "
-                        f"perspective view")
+    from .export import PANORAMAS
+    if camera.type == "PANO" and camera.panorama_type not in PANORAMAS:
+        messages.append(f"{what}: the {camera.panorama_type} panoramic projection is not "
+                        f"exported; Photon renders a perspective view")
+    elif camera.type == "PANO" and camera.dof.use_dof:
+        messages.append(f"{what}: depth of field is not rendered with a panoramic camera")
     if camera.dof.use_dof and camera.dof.focus_object is not None and camera.dof.focus_subtarget:
         messages.append(f"{what}: depth of field focuses on the origin of "
                         f"'{camera.dof.focus_object.name}', not on its bone "

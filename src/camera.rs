@@ -4,7 +4,9 @@
 //! aspect. Blender's lens shift moves the image window in its plane, and a thin lens (Blender's
 //! depth of field: aperture radius, focus distance, polygonal blades, anamorphic ratio) spreads
 //! ray origins over the aperture while rays through one film point meet on the focus plane, as
-//! Cycles' camera does.
+//! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant and equisolid
+//! fisheye) map the image onto directions around the camera; film positions a fisheye does not
+//! cover give a ray that sees nothing (`Ray::t_max` 0).
 
 use crate::accel::Ray;
 use crate::math::{Affine3A, Vec2, Vec3};
@@ -28,15 +30,21 @@ impl CameraRays {
         let half_height = match camera.projection {
             Projection::Perspective { yfov } => (0.5 * yfov).tan(),
             Projection::Orthographic { ymag, .. } => ymag,
+            _ => 1.0,
         };
+        let panoramic = camera.projection.is_panoramic();
         CameraRays {
             to_world: camera.to_world,
             projection: camera.projection,
             width: width as f32,
             height: height as f32,
             half_height,
-            shift: camera.shift * (2.0 * half_height),
-            lens: camera.lens.filter(|l| l.radius > 0.0),
+            shift: if panoramic {
+                Vec2::ZERO
+            } else {
+                camera.shift * (2.0 * half_height)
+            },
+            lens: camera.lens.filter(|l| l.radius > 0.0 && !panoramic),
         }
     }
 
@@ -71,23 +79,72 @@ impl CameraRays {
         self.to_world_ray(start, (focus - start).normalize())
     }
 
+    /// Origin and unit direction in camera space; a zero direction where the image shows
+    /// nothing (outside a fisheye's circle).
     fn camera_space_ray(&self, film: Vec2) -> (Vec3, Vec3) {
         let aspect = self.width / self.height;
         let x = (2.0 * film.x / self.width - 1.0) * aspect * self.half_height + self.shift.x;
         let y = (1.0 - 2.0 * film.y / self.height) * self.half_height + self.shift.y;
-        match self.projection {
-            Projection::Perspective { .. } => (Vec3::ZERO, Vec3::new(x, y, -1.0).normalize()),
-            Projection::Orthographic { .. } => (Vec3::new(x, y, 0.0), Vec3::NEG_Z),
-        }
+        // Image coordinates in [0, 1], v up, for the panoramas.
+        let (u, v) = (film.x / self.width, 1.0 - film.y / self.height);
+        let dir = match self.projection {
+            Projection::Perspective { .. } => Vec3::new(x, y, -1.0).normalize(),
+            Projection::Orthographic { .. } => return (Vec3::new(x, y, 0.0), Vec3::NEG_Z),
+            Projection::Equirectangular {
+                longitude,
+                latitude,
+            } => {
+                let lon = longitude.0 + u * (longitude.1 - longitude.0);
+                let lat = latitude.0 + v * (latitude.1 - latitude.0);
+                Vec3::new(lat.cos() * lon.sin(), lat.sin(), -lat.cos() * lon.cos())
+            }
+            Projection::FisheyeEquidistant { fov } => {
+                let p = Vec2::new(2.0 * u - 1.0, 2.0 * v - 1.0);
+                let r = p.length();
+                if r > 1.0 {
+                    Vec3::ZERO
+                } else {
+                    fisheye_direction(p, r, 0.5 * r * fov)
+                }
+            }
+            Projection::FisheyeEquisolid { lens, fov, sensor } => {
+                let p = Vec2::new((u - 0.5) * sensor.0, (v - 0.5) * sensor.1);
+                let r = p.length();
+                if r > 2.0 * lens * (0.25 * fov).sin() || r > 2.0 * lens {
+                    Vec3::ZERO
+                } else {
+                    fisheye_direction(p, r, 2.0 * (r / (2.0 * lens)).asin())
+                }
+            }
+        };
+        (Vec3::ZERO, dir)
     }
 
     fn to_world_ray(&self, origin: Vec3, dir: Vec3) -> Ray {
+        if dir == Vec3::ZERO {
+            return Ray {
+                origin: self.to_world.transform_point3(origin),
+                direction: self.to_world.transform_vector3(Vec3::NEG_Z).normalize(),
+                t_max: 0.0,
+            };
+        }
         Ray {
             origin: self.to_world.transform_point3(origin),
             direction: self.to_world.transform_vector3(dir).normalize(),
             t_max: f32::INFINITY,
         }
     }
+}
+
+/// The direction at angle `theta` from the camera's −Z, towards image position `p` (at
+/// distance `r` from the centre).
+fn fisheye_direction(p: Vec2, r: f32, theta: f32) -> Vec3 {
+    let (cos_phi, sin_phi) = if r > 0.0 {
+        (p.x / r, p.y / r)
+    } else {
+        (1.0, 0.0)
+    };
+    Vec3::new(cos_phi * theta.sin(), sin_phi * theta.sin(), -theta.cos())
 }
 
 /// A point of the aperture (camera-space x, y), uniform over its area: a disk without blades,

@@ -461,8 +461,11 @@ fn seen_by_camera<'a>(
             Projection::Orthographic { ymag, .. } => {
                 (q.x / ymag, q.y / ymag, q * Vec3::new(1.0, 1.0, 0.0))
             }
+            // A panorama may see any direction: only occlusion decides.
+            _ => (0.0, 0.0, Vec3::ZERO),
         };
-        if !(q.z < 0.0) || x.abs() > aspect || y.abs() > 1.0 {
+        let behind = !(q.z < 0.0) && !camera.projection.is_panoramic();
+        if behind || x.abs() > aspect || y.abs() > 1.0 {
             return false;
         }
         // Lift p off its surface on the eye's side, then test the segment to the eye.

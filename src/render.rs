@@ -589,6 +589,9 @@ fn render_tile(
                 } else {
                     camera.ray(film)
                 };
+                if ray.t_max <= 0.0 {
+                    continue; // outside a fisheye's image: black, as in Cycles
+                }
                 let sample = integrator.trace(ctx, ray, &mut rng);
                 tile_rays += sample.rays as u64;
                 if sample.radiance.is_finite() {

@@ -1535,3 +1535,60 @@ fn area_light_spread_is_kept_on_its_mesh() {
     let scene = load_glb(&doc).unwrap();
     assert_eq!(scene.meshes[area_light_index(&scene)].emission_spread, None);
 }
+
+#[test]
+fn photon_camera_panoramas_are_read_also_on_camera_less_nodes() {
+    let mut doc = triangle_doc();
+    doc.node(
+        json!({"name": "Pano", "translation": [0.0, 1.0, 0.0], "extensions": {"PHOTON_camera":
+            {"panorama": {"type": "EQUIRECTANGULAR", "longitude": [-1.0, 2.0]}}}}),
+        true,
+    );
+    let options = LoadOptions {
+        camera: Some("Pano".into()),
+    };
+    let scene = load_slice(&doc.glb(), "fixture.glb", &options).unwrap();
+    assert_eq!(
+        scene.camera.projection,
+        Projection::Equirectangular {
+            longitude: (-1.0, 2.0),
+            latitude: (-0.5 * PI, 0.5 * PI)
+        }
+    );
+    for bad in [
+        json!({"type": "MIRRORBALL"}),
+        json!({"type": "FISHEYE_EQUIDISTANT", "fov": 0.0}),
+        json!({"type": "FISHEYE_EQUISOLID", "sensor": [36.0, -1.0]}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.node(
+            json!({"name": "Pano", "extensions": {"PHOTON_camera": {"panorama": bad}}}),
+            true,
+        );
+        assert_scene_error(load_glb(&doc), &["Pano", "PHOTON_camera"]);
+    }
+}
+
+#[test]
+fn photon_camera_shift_and_lens_are_read_and_checked() {
+    let mut doc = triangle_doc();
+    doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": {"shift": [0.1, -0.2],
+        "dof": {"aperture_radius": 0.05, "focus_distance": 4.0, "blades": 6, "rotation": 0.2}}});
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.camera.shift, photon::math::Vec2::new(0.1, -0.2));
+    let lens = scene.camera.lens.expect("a thin lens");
+    assert_eq!(
+        (lens.radius, lens.focus_distance, lens.blades),
+        (0.05, 4.0, 6)
+    );
+    for bad in [
+        json!({"shift": [0.1]}),
+        json!({"dof": {"aperture_radius": -1.0}}),
+        json!({"dof": {"focus_distance": 0.0}}),
+        json!({"dof": {"ratio": 0.0}}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": bad});
+        assert_scene_error(load_glb(&doc), &["Camera", "PHOTON_camera"]);
+    }
+}

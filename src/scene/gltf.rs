@@ -48,7 +48,15 @@
 //!   (Blender's focal length / (2 × f-stop); 0 is a pinhole), the focus distance along the camera
 //!   axis (default 10), the number of polygon corners (below 3 round), the polygon's rotation in
 //!   radians and the anamorphic ratio (the aperture's x extent is divided by it; default 1).
-//!   Out-of-range values are refused with an error.
+//!   Out-of-range values are refused with an error. An optional `"panorama"` replaces the
+//!   projection with one of Cycles' panoramic cameras: `{"type": "EQUIRECTANGULAR",
+//!   "longitude": [min, max], "latitude": [min, max]}` (radians, left to right and bottom to
+//!   top, 0 along the camera's −Z; defaults the whole sphere), `{"type":
+//!   "FISHEYE_EQUIDISTANT", "fov": a}` or `{"type": "FISHEYE_EQUISOLID", "lens": mm, "fov": a,
+//!   "sensor": [width, height]}` (millimetres, the sensor as Cycles fits it to the image); see
+//!   `scene::Projection`. Panoramas ignore `shift` and `dof`. Blender's exporter drops
+//!   panoramic cameras but keeps their node: a node with a `panorama` and no glTF camera is a
+//!   camera too.
 //! - `PHOTON_material_subsurface` on a material: `{"weight": w, "radius": [r, g, b], "scale": s,
 //!   "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs (defaults: weight 0,
 //!   radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4, anisotropy 0). With weight > 0 the material
@@ -518,6 +526,29 @@ impl Loader {
         }
         if let Some(mesh) = node.mesh() {
             self.add_mesh(node, &mesh, &world)?;
+        }
+        let extension = node.extension_value("PHOTON_camera");
+        if node.camera().is_none() && extension.is_some_and(|e| e.get("panorama").is_some()) {
+            // Blender's exporter drops panoramic cameras and keeps their node.
+            let (_, rotation, translation) = world.to_scale_rotation_translation();
+            let name = node.name().unwrap_or("panoramic camera").to_string();
+            let mut camera = Camera {
+                name: name.clone(),
+                to_world: Affine3A::from_rotation_translation(rotation.normalize(), translation),
+                projection: Projection::Perspective { yfov: 0.6981 },
+                aspect_ratio: None,
+                shift: Vec2::ZERO,
+                lens: None,
+            };
+            if let Some(extension) = extension {
+                read_camera_extension(extension, &mut camera)
+                    .map_err(|m| self.err(format!("{object} PHOTON_camera"), m))?;
+            }
+            cameras.push(FoundCamera {
+                node_name: name.clone(),
+                camera_name: name,
+                camera,
+            });
         }
         if let Some(camera) = node.camera() {
             let mut converted = convert_camera(node, &camera, &world)
@@ -1677,6 +1708,9 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
             return Err(format!("'shift' must be finite, found {v}"));
         }
     }
+    if let Some(panorama) = value.get("panorama") {
+        camera.projection = read_panorama(panorama)?;
+    }
     if let Some(dof) = value.get("dof") {
         let radius = number(dof, "aperture_radius", 0.0, |x| x >= 0.0)?;
         let focus_distance = number(dof, "focus_distance", 10.0, |x| x > 0.0)?;
@@ -1692,6 +1726,46 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
         });
     }
     Ok(())
+}
+
+/// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.
+fn read_panorama(value: &Value) -> std::result::Result<Projection, String> {
+    let pair = |key: &str, default: (f32, f32), ok: fn(f32) -> bool| match value.get(key) {
+        None => Ok(default),
+        Some(v) => match v.as_array().map(Vec::as_slice) {
+            Some([a, b]) => match (a.as_f64(), b.as_f64()) {
+                (Some(a), Some(b)) if ok(a as f32) && ok(b as f32) => Ok((a as f32, b as f32)),
+                _ => Err(format!("'{key}' is out of range: {v}")),
+            },
+            _ => Err(format!("'{key}' must be two numbers, found {v}")),
+        },
+    };
+    let number = |key: &str, default: f32| match value.get(key) {
+        None => Ok(default),
+        Some(v) => match v.as_f64().map(|x| x as f32) {
+            Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+            _ => Err(format!("'{key}' must be a positive number, found {v}")),
+        },
+    };
+    let pi = std::f32::consts::PI;
+    match value.get("type").and_then(Value::as_str) {
+        Some("EQUIRECTANGULAR") => Ok(Projection::Equirectangular {
+            longitude: pair("longitude", (-pi, pi), |x| x.is_finite())?,
+            latitude: pair("latitude", (-0.5 * pi, 0.5 * pi), |x| x.is_finite())?,
+        }),
+        Some("FISHEYE_EQUIDISTANT") => Ok(Projection::FisheyeEquidistant {
+            fov: number("fov", pi)?,
+        }),
+        Some("FISHEYE_EQUISOLID") => Ok(Projection::FisheyeEquisolid {
+            lens: number("lens", 10.5)?,
+            fov: number("fov", pi)?,
+            sensor: pair("sensor", (36.0, 24.0), |x| x.is_finite() && x > 0.0)?,
+        }),
+        other => Err(format!(
+            "unknown panorama type {other:?} (EQUIRECTANGULAR, FISHEYE_EQUIDISTANT or \
+             FISHEYE_EQUISOLID)"
+        )),
+    }
 }
 
 /// A 40° perspective camera in front of the bounds (+Z side, slightly above), looking at their

@@ -221,6 +221,35 @@ pub enum Projection {
     Perspective { yfov: f32 },
     /// Half-width and half-height of the view in scene units (glTF xmag, ymag).
     Orthographic { xmag: f32, ymag: f32 },
+    /// Cycles' equirectangular panorama: longitude from `longitude.0` at the left edge to
+    /// `longitude.1` at the right (positive towards the camera's +X), latitude from
+    /// `latitude.0` at the bottom to `latitude.1` at the top; longitude and latitude 0 is the
+    /// camera's −Z. Radians.
+    Equirectangular {
+        longitude: (f32, f32),
+        latitude: (f32, f32),
+    },
+    /// Cycles' equidistant fisheye: the angle to the camera's −Z grows linearly with the
+    /// distance from the image centre, reaching `fov / 2` at the edges (an ellipse filling the
+    /// frame on a non-square image); nothing is seen outside it.
+    FisheyeEquidistant { fov: f32 },
+    /// Cycles' equisolid fisheye: a sensor of `sensor` (width, height) behind a lens of focal
+    /// length `lens` (same unit, millimetres), r = 2 f sin(θ/2), cut at θ = `fov / 2`.
+    FisheyeEquisolid {
+        lens: f32,
+        fov: f32,
+        sensor: (f32, f32),
+    },
+}
+
+impl Projection {
+    /// A panoramic projection (rays from one point in all directions the image covers).
+    pub fn is_panoramic(&self) -> bool {
+        !matches!(
+            self,
+            Projection::Perspective { .. } | Projection::Orthographic { .. }
+        )
+    }
 }
 
 /// The camera. Looks along its local −Z with +Y up, as glTF and Blender define.
@@ -548,6 +577,26 @@ impl Scene {
                     self.camera.name
                 ));
             }
+        }
+        let panorama_ok = match self.camera.projection {
+            Projection::Perspective { .. } | Projection::Orthographic { .. } => true,
+            Projection::Equirectangular {
+                longitude,
+                latitude,
+            } => [longitude.0, longitude.1, latitude.0, latitude.1]
+                .iter()
+                .all(|v| v.is_finite()),
+            Projection::FisheyeEquidistant { fov } => fov.is_finite() && fov > 0.0,
+            Projection::FisheyeEquisolid { lens, fov, sensor } => [lens, fov, sensor.0, sensor.1]
+                .iter()
+                .all(|v| v.is_finite() && *v > 0.0),
+        };
+        if !panorama_ok {
+            return Err(format!(
+                "camera '{}': panoramic projection parameters must be finite (and positive \
+                 for a fisheye)",
+                self.camera.name
+            ));
         }
         if !self.camera.to_world.is_finite() {
             return Err(format!(

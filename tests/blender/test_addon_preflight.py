@@ -141,12 +141,13 @@ def test_other_rules(photon_addon):
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
     scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
     scene.camera.data.type = "PANO"
+    scene.camera.data.panorama_type = "MIRRORBALL"
     bpy.data.objects["Cube"].visible_shadow = False
 
     messages = messages_for(scene)
     expected = ("light 'Light': the Blackbody node",
                 "object 'Cloud': Volume objects", "object 'Fur': hair curves",
-                "camera 'Camera': panoramic", "object 'Cube': ray visibility")
+                "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages

@@ -1,6 +1,7 @@
 """The camera as Cycles renders it (PHOTON_camera): depth of field (round and bladed apertures,
 a focus distance or a focus object), lens shift under each sensor fit, an orthographic camera
-with shift and depth of field. Each scene is rendered by Cycles and by Photon through the add-on
+with shift and depth of field, and the equirectangular, equidistant and equisolid fisheye
+panoramas. Each scene is rendered by Cycles and by Photon through the add-on
 at 48x32 (32x48 portrait): mean within 2 % and relMSE <= 0.01 (0.003 for depth of field).
 
 The scene: three boxes at 3, 6 and 10 m in front of the camera on a grey floor, a sun and a
@@ -83,3 +84,39 @@ def test_orthographic_shift_and_depth_of_field(tmp_path):
     cam.dof.focus_distance = 6.0
     cam.dof.aperture_fstop = 2.0  # orthographic: radius 1 / (2 f-stop) = 0.25 m
     compare("ortho shift + dof", scene, tmp_path)
+
+
+def panorama_scene(kind, width=48, height=32):
+    """The boxes seen by a panoramic camera in the middle of them, a little above the floor;
+    coloured boxes all around so that a turned or mirrored mapping shows."""
+    scene, _ = boxes_scene(width, height)
+    colours = [(0.9, 0.8, 0.1), (0.7, 0.1, 0.7), (0.1, 0.7, 0.7)]
+    for i, (x, y) in enumerate([(2.5, 1.0), (-2.5, -1.5), (0.5, -3.5)]):
+        mat = common.principled(f"Side{i}", colours[i])
+        common.box(f"Side{i}", (0.8, 0.8, 1.8), mat, (x, y, 0.0), 0.0)
+    cam = scene.camera
+    cam.location = (0.2, -1.2, 1.0)
+    cam.rotation_euler = (math.radians(80.0), 0.0, math.radians(25.0))
+    cam.data.type = "PANO"
+    cam.data.panorama_type = kind
+    return scene
+
+
+@pytest.mark.parametrize("kind, size", [("EQUIRECTANGULAR", (48, 32)),
+                                        ("FISHEYE_EQUIDISTANT", (48, 32)),
+                                        ("FISHEYE_EQUISOLID", (48, 32)),
+                                        ("FISHEYE_EQUISOLID", (32, 48))])
+def test_panoramic_cameras(tmp_path, kind, size):
+    """Blender's glTF exporter drops panoramic cameras; PHOTON_camera's panorama on the kept
+    node brings them back."""
+    scene = panorama_scene(kind, *size)
+    cam = scene.camera.data
+    if kind == "EQUIRECTANGULAR":
+        cam.longitude_min, cam.longitude_max = math.radians(-150.0), math.radians(120.0)
+        cam.latitude_min, cam.latitude_max = math.radians(-70.0), math.radians(80.0)
+    elif kind == "FISHEYE_EQUIDISTANT":
+        cam.fisheye_fov = math.radians(200.0)
+    else:
+        cam.fisheye_lens = 8.0
+        cam.fisheye_fov = math.radians(190.0)
+    compare(f"panorama {kind.lower()} {size[0]}x{size[1]}", scene, tmp_path)
