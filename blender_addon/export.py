@@ -21,6 +21,7 @@ engine turns into WARNING reports as it does for the renderer's own warnings.
 looks for it) writes, always with required=False so that other viewers still open the file:
 PHOTON_light on light nodes (point/spot radius, sun angle, area lights, which the exporter drops),
 PHOTON_camera on camera nodes (lens shift, depth of field, panoramic projections),
+PHOTON_object on mesh nodes (camera and shadow ray visibility),
 PHOTON_material_subsurface on materials (the Principled BSDF's subsurface inputs), PHOTON_world
 (background colour x strength, or an equirectangular environment image written next to the .glb
 as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
@@ -87,6 +88,10 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             data = light_extension(blender_object)
             if data:
                 self._add(gltf_node, "PHOTON_light", data)
+        if blender_object is not None and blender_object.type in GEOMETRY_TYPES:
+            data = visibility_extension(blender_object)
+            if data:
+                self._add(gltf_node, "PHOTON_object", data)
         if blender_object is not None and blender_object.type == "CAMERA":
             data = camera_extension(blender_object, bpy.context.scene)
             if data:
@@ -105,6 +110,20 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
         folder = Path(export_settings["gltf_filedirectory"])
         self._add(gltf_scene, "PHOTON_world", world_extension(blender_scene.world, folder))
         self._add(gltf_scene, "PHOTON_render", render_extension(blender_scene))
+
+
+# Object types the glTF exporter writes as meshes.
+GEOMETRY_TYPES = ("MESH", "CURVE", "SURFACE", "META", "FONT")
+
+
+def visibility_extension(obj) -> dict:
+    """PHOTON_object: the object's camera and shadow ray visibility when one is off (the
+    other ray types are named by the pre-flight report)."""
+    camera = bool(getattr(obj, "visible_camera", True))
+    shadow = bool(getattr(obj, "visible_shadow", True))
+    if camera and shadow:
+        return {}
+    return {"visible_camera": camera, "visible_shadow": shadow}
 
 
 def light_extension(obj) -> dict:

@@ -13,8 +13,9 @@ empty list, so the rules below only flag what really changes the image:
 - hair: hair particle systems and Curves (hair) objects;
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
   Light Falloff's Quadratic strength), shadows turned off;
-- objects hidden from some ray types (Object > Visibility > Ray Visibility), holdout objects
-  and collections, 'indirect only' collections;
+- objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
+  Visibility; camera and shadow visibility are carried), holdout objects and collections,
+  'indirect only' collections;
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
   field with a panorama, a depth-of-field focus on a bone; motion blur.
 """
@@ -33,9 +34,9 @@ MATERIAL_NODES = {
 # The world nodes export.world_extension reads.
 WORLD_NODES = {"OUTPUT_WORLD", "BACKGROUND", "TEX_ENVIRONMENT", "MAPPING", "TEX_COORD",
                "REROUTE"}
-RAY_VISIBILITY = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"),
-                  ("visible_glossy", "glossy"), ("visible_transmission", "transmission"),
-                  ("visible_shadow", "shadow"))
+# Ray visibility not carried (camera and shadow visibility are: PHOTON_object).
+RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
+                  ("visible_transmission", "transmission"))
 
 
 def unsupported_features(scene, objects, view_layer=None) -> list[str]:

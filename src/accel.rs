@@ -31,11 +31,13 @@ pub struct Ray {
     pub t_max: f32,
 }
 
-/// Which query a ray serves: camera rays skip geometry hidden from the camera.
+/// Which query a ray serves: camera rays skip geometry hidden from the camera, shadow rays
+/// (`Accel::unoccluded`) geometry that casts no shadows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Visibility {
     Camera,
     Secondary,
+    Shadow,
 }
 
 /// The closest intersection found.
@@ -51,6 +53,7 @@ pub struct Hit {
 
 const FLAG_ALPHA_TEST: u8 = 1;
 const FLAG_CAMERA_HIDDEN: u8 = 2;
+const FLAG_SHADOW_HIDDEN: u8 = 4;
 
 /// The acceleration structure over all scene triangles.
 pub struct Accel {
@@ -236,6 +239,9 @@ impl Accel {
             if !mesh.camera_visible {
                 flag |= FLAG_CAMERA_HIDDEN;
             }
+            if !mesh.casts_shadows {
+                flag |= FLAG_SHADOW_HIDDEN;
+            }
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let p = |k: usize| Vec3A::from(mesh.positions[idx[k] as usize]);
                 tris.push([p(0), p(1), p(2)]);
@@ -307,6 +313,9 @@ impl Accel {
             return true;
         }
         if flag & FLAG_CAMERA_HIDDEN != 0 && visibility == Visibility::Camera {
+            return false;
+        }
+        if flag & FLAG_SHADOW_HIDDEN != 0 && visibility == Visibility::Shadow {
             return false;
         }
         if flag & FLAG_ALPHA_TEST == 0 {
@@ -399,9 +408,7 @@ impl Accel {
         };
         bvh.ray_traverse_miss(bvh_ray, |_, slot| {
             match sheared.intersect(&self.vertices[slot], 0.0, ray.t_max) {
-                Some((t, b1, b2))
-                    if self.accepts(scene, slot, b1, b2, ray, Visibility::Secondary) =>
-                {
+                Some((t, b1, b2)) if self.accepts(scene, slot, b1, b2, ray, Visibility::Shadow) => {
                     t * k
                 }
                 _ => f32::INFINITY,

@@ -24,6 +24,7 @@ fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
         material: 0,
         camera_visible: true,
         emission_spread: None,
+        casts_shadows: true,
     };
     scenes::scene(
         vec![mesh],

@@ -1592,3 +1592,20 @@ fn photon_camera_shift_and_lens_are_read_and_checked() {
         assert_scene_error(load_glb(&doc), &["Camera", "PHOTON_camera"]);
     }
 }
+
+#[test]
+fn photon_object_ray_visibility_is_read_and_checked() {
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["extensions"] =
+        json!({"PHOTON_object": {"visible_camera": false, "visible_shadow": false}});
+    let scene = load_glb(&doc).unwrap();
+    assert!(!scene.meshes[0].camera_visible && !scene.meshes[0].casts_shadows);
+    let scene = load_glb(&triangle_doc()).unwrap();
+    assert!(scene.meshes[0].camera_visible && scene.meshes[0].casts_shadows);
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["extensions"] = json!({"PHOTON_object": {"visible_shadow": 0}});
+    assert_scene_error(
+        load_glb(&doc),
+        &["TriNode", "PHOTON_object", "visible_shadow"],
+    );
+}

@@ -142,6 +142,7 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
         material,
         camera_visible: true,
         emission_spread: None,
+        casts_shadows: true,
     }
 }
 

@@ -57,6 +57,10 @@
 //!   `scene::Projection`. Panoramas ignore `shift` and `dof`. Blender's exporter drops
 //!   panoramic cameras but keeps their node: a node with a `panorama` and no glTF camera is a
 //!   camera too.
+//! - `PHOTON_object` on a mesh node: `{"visible_camera": bool, "visible_shadow": bool}`
+//!   (default true), Blender's camera and shadow ray visibility: camera rays pass through an
+//!   object hidden from the camera, shadow rays (direct light) through one that casts no
+//!   shadows.
 //! - `PHOTON_material_subsurface` on a material: `{"weight": w, "radius": [r, g, b], "scale": s,
 //!   "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs (defaults: weight 0,
 //!   radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4, anisotropy 0). With weight > 0 the material
@@ -582,6 +586,20 @@ impl Loader {
         let linear = Mat3::from_mat4(*world);
         let normal_matrix = linear.inverse().transpose();
         let mirrored = linear.determinant() < 0.0;
+        let visibility = match node.extension_value("PHOTON_object") {
+            None => (true, true),
+            Some(v) => {
+                let flag = |key: &str| match v.get(key) {
+                    None => Ok(true),
+                    Some(Value::Bool(b)) => Ok(*b),
+                    Some(other) => Err(self.err(
+                        format!("{} PHOTON_object", named("node", node.index(), node.name())),
+                        format!("'{key}' must be true or false, found {other}"),
+                    )),
+                };
+                (flag("visible_camera")?, flag("visible_shadow")?)
+            }
+        };
         for primitive in mesh.primitives() {
             let object = format!("{mesh_name} primitive {}", primitive.index());
             let mode = primitive.mode();
@@ -675,6 +693,7 @@ impl Loader {
                 .collect();
 
             let material = self.material_index(primitive.material().index());
+            let (camera_visible, casts_shadows) = visibility;
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",
@@ -688,8 +707,9 @@ impl Loader {
                 tangents: world_tangents,
                 indices,
                 material,
-                camera_visible: true,
+                camera_visible,
                 emission_spread: None,
+                casts_shadows,
             };
             match normals {
                 Some(normals) => {
@@ -1484,6 +1504,7 @@ impl Loader {
             camera_visible: light.visible_camera,
             // Narrower than a milliradian is a laser nothing would sample; Cycles clamps too.
             emission_spread: (spread < std::f32::consts::PI).then_some(spread.max(1e-3)),
+            casts_shadows: true,
         });
         Ok(())
     }

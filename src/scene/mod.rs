@@ -36,6 +36,8 @@ pub struct Mesh {
     /// towards the normal as through a soft-box grid, the total power unchanged
     /// (`crate::light::spread_factor`). `None` emits over the whole hemisphere.
     pub emission_spread: Option<f32>,
+    /// Blocks shadow rays (direct light). False for objects Blender hides from shadow rays.
+    pub casts_shadows: bool,
 }
 
 /// How a material's alpha is used (glTF `alphaMode`).

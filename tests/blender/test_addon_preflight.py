@@ -142,7 +142,8 @@ def test_other_rules(photon_addon):
     scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
     scene.camera.data.type = "PANO"
     scene.camera.data.panorama_type = "MIRRORBALL"
-    bpy.data.objects["Cube"].visible_shadow = False
+    bpy.data.objects["Cube"].visible_shadow = False  # carried (PHOTON_object)
+    bpy.data.objects["Cube"].visible_glossy = False
 
     messages = messages_for(scene)
     expected = ("light 'Light': the Blackbody node",

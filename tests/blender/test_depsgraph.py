@@ -74,3 +74,14 @@ def test_render_only_modifier_and_visibility(tmp_path):
     compare("render-only modifier, render visibility", scene, tmp_path)
     assert not array.show_viewport and kept.hide_viewport, "viewport settings are put back"
     assert not bpy.data.objects["InExcluded"].hide_render, "render switches are put back"
+
+
+def test_camera_and_shadow_ray_visibility(tmp_path):
+    """A box hidden from the camera (its shadow and bounce light stay) and a box that casts
+    no shadow (PHOTON_object)."""
+    scene = lit_floor()
+    red = common.principled("Red", (0.8, 0.2, 0.1))
+    blue = common.principled("Blue", (0.1, 0.3, 0.8))
+    common.box("Unseen", (0.9, 0.9, 1.4), red, (-0.9, 0.4, 0.0), 15.0).visible_camera = False
+    common.box("NoShadow", (0.9, 0.9, 1.4), blue, (0.9, 0.2, 0.0), -10.0).visible_shadow = False
+    compare("camera / shadow visibility", scene, tmp_path)

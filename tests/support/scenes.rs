@@ -70,6 +70,7 @@ pub fn sphere(
         material,
         camera_visible: true,
         emission_spread: None,
+        casts_shadows: true,
     }
 }
 
@@ -91,6 +92,7 @@ pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
         material,
         camera_visible: true,
         emission_spread: None,
+        casts_shadows: true,
     }
 }
 
