@@ -173,6 +173,9 @@ def light_tint(light) -> tuple[list[float], float]:
     node_color = emission.inputs["Color"]
     if not node_color.is_linked:
         color = [c * float(n) for c, n in zip(color, node_color.default_value[:3])]
+    elif _blackbody_temperature(node_color) is not None:
+        blackbody = blackbody_color(light, _blackbody_temperature(node_color))
+        color = [c * b for c, b in zip(color, blackbody)]
     strength_input = emission.inputs["Strength"]
     strength = float(strength_input.default_value)
     if strength_input.is_linked:
@@ -182,6 +185,28 @@ def light_tint(light) -> tuple[list[float], float]:
         if falloff_strength is not None and not falloff_strength.is_linked:
             strength = float(falloff_strength.default_value)
     return color, strength
+
+
+def _blackbody_temperature(socket):
+    """The temperature of a Blackbody node (its input unlinked) linked into `socket`, else
+    None."""
+    if not socket.is_linked:
+        return None
+    node = socket.links[0].from_node
+    if node.type != "BLACKBODY" or node.inputs["Temperature"].is_linked:
+        return None
+    return float(node.inputs["Temperature"].default_value)
+
+
+def blackbody_color(light, kelvin: float) -> list[float]:
+    """Blender's blackbody colour of `kelvin`, read from the light's own temperature colour
+    (Light.temperature_color, Blender's table) by setting its temperature for a moment."""
+    saved = light.temperature, light.use_temperature
+    try:
+        light.temperature, light.use_temperature = kelvin, True  # the colour needs both
+        return [float(c) for c in light.temperature_color[:3]]
+    finally:
+        light.temperature, light.use_temperature = saved
 
 
 def light_emission_node(light):
@@ -213,7 +238,8 @@ def light_node_problems(light) -> list[str]:
         return [f"the {node.bl_label} node '{node.name}' on its output is not exported (only an "
                 f"Emission node is)"]
     problems = []
-    if emission.inputs["Color"].is_linked:
+    if emission.inputs["Color"].is_linked and \
+            _blackbody_temperature(emission.inputs["Color"]) is None:
         node = emission.inputs["Color"].links[0].from_node
         problems.append(f"the {node.bl_label} node '{node.name}' driving the emission colour "
                         f"is not exported")

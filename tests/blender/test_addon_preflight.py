@@ -132,7 +132,7 @@ def test_other_rules(photon_addon):
     light.node_tree.nodes["Emission"].inputs["Strength"].default_value = 2.0
     assert messages_for(scene) == [], "an Emission node's strength and colour are carried"
     tree = light.node_tree
-    tree.links.new(tree.nodes.new("ShaderNodeBlackbody").outputs["Color"],
+    tree.links.new(tree.nodes.new("ShaderNodeWavelength").outputs["Color"],
                    tree.nodes["Emission"].inputs["Color"])
     area = bpy.data.lights.new("Narrow", "AREA")
     area.spread = math.radians(30.0)  # carried (PHOTON_light spread): no message
@@ -146,7 +146,7 @@ def test_other_rules(photon_addon):
     bpy.data.objects["Cube"].visible_glossy = False
 
     messages = messages_for(scene)
-    expected = ("light 'Light': the Blackbody node",
+    expected = ("light 'Light': the Wavelength node",
                 "object 'Cloud': Volume objects", "object 'Fur': hair curves",
                 "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
     for start in expected:

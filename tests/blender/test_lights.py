@@ -103,3 +103,17 @@ def test_sun_temperature_and_node_strength(tmp_path):
     sun.use_nodes = True
     sun.node_tree.nodes["Emission"].inputs["Strength"].default_value = 1.5
     compare("sun 9000 K x node strength 1.5", scene, tmp_path)
+
+
+def test_blackbody_node_on_a_light(tmp_path):
+    """A Blackbody node (3500 K) feeding a light's Emission colour: Blender's blackbody colour,
+    read from the light's own temperature colour."""
+    scene = floor_scene()
+    light = point(500.0, (1.0, 1.0, 1.0))
+    light.use_nodes = True
+    tree = light.node_tree
+    blackbody = tree.nodes.new("ShaderNodeBlackbody")
+    blackbody.inputs["Temperature"].default_value = 3500.0
+    tree.links.new(blackbody.outputs["Color"], tree.nodes["Emission"].inputs["Color"])
+    compare("blackbody node 3500 K", scene, tmp_path)
+    assert light.temperature == 6500.0, "the light's temperature is put back"
