@@ -48,6 +48,9 @@ GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
     export_apply=True, export_current_frame=True, use_renderable=True, export_animations=False,
     use_active_scene=True,
+    # Instances of the depsgraph (Geometry Nodes "Instance on Points", particle systems that
+    # render objects): one node each, sharing the instanced mesh.
+    export_gn_mesh=True,
 )
 
 # Name under which the child process registers this module so the exporter finds the hook.
@@ -598,9 +601,11 @@ def render_visibility(scene):
     settings (a Subdivision Surface at its viewport level, render-only modifiers left out) and
     without objects or collections disabled in viewports but enabled for rendering. Here every
     modifier's viewport switch follows its render switch, Subdivision Surface and Multires take
-    their render levels, and objects and collections take their render visibility. Objects
-    only in collections excluded from the view layer or disabled for rendering (also through a
-    parent collection), which the exporter would still write, are disabled for rendering."""
+    their render levels, and rendered objects and collections are enabled in viewports.
+    Objects only in collections excluded from the view layer or disabled for rendering (also
+    through a parent collection), which the exporter would still write, are disabled for
+    rendering; their instances (particles, Geometry Nodes) are still exported, as Cycles renders
+    them."""
     saved = []
 
     def assign(owner, attribute, value):
@@ -613,13 +618,18 @@ def render_visibility(scene):
             saved.append((owner, attribute, old))
 
     try:
+        # Only ever enabled in viewports: an object disabled there is not evaluated, and the
+        # instances of it (particles, Geometry Nodes) would be lost with it. What must not
+        # render is disabled for rendering, which the exporter's filter reads.
         for collection in scene.collection.children_recursive:
-            assign(collection, "hide_viewport", collection.hide_render)
+            if not collection.hide_render:
+                assign(collection, "hide_viewport", False)
         rendered = rendered_objects(bpy.context.view_layer)
         for obj in scene.objects:
             if obj.name_full not in rendered:
                 assign(obj, "hide_render", True)
-            assign(obj, "hide_viewport", obj.hide_render)
+            if not obj.hide_render:
+                assign(obj, "hide_viewport", False)
             for modifier in obj.modifiers:
                 assign(modifier, "show_viewport", modifier.show_render)
                 if modifier.type in ("SUBSURF", "MULTIRES"):

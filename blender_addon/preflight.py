@@ -10,7 +10,8 @@ empty list, so the rules below only flag what really changes the image:
   helper nodes it follows), and world nodes other than Background and Environment Texture;
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
-- hair: hair particle systems and Curves (hair) objects;
+- hair and points: hair particle systems, particles rendered as halos or paths, Curves (hair)
+  and point cloud objects;
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
   Light Falloff's Quadratic strength), shadows turned off;
 - objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
@@ -80,15 +81,18 @@ def _object_features(obj) -> list[str]:
         messages.append(f"{what}: Volume objects are not exported; Photon renders no volumes")
     elif obj.type == "CURVES":
         messages.append(f"{what}: hair curves (Curves objects) are not exported")
+    elif obj.type == "POINTCLOUD":
+        messages.append(f"{what}: point clouds are not exported")
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):
         kind = system.settings.type
         if kind == "HAIR":
             messages.append(f"{what}: hair particle system '{system.name}' is not exported")
-        elif system.settings.render_type in ("OBJECT", "COLLECTION"):
-            messages.append(f"{what}: particle system '{system.name}' (instances of an "
-                            f"object or collection) is not exported")
+        elif system.settings.render_type not in ("OBJECT", "COLLECTION", "NONE"):
+            messages.append(f"{what}: particle system '{system.name}' rendered as "
+                            f"{system.settings.render_type} is not exported (objects and "
+                            f"collections are)")
     if getattr(obj, "is_holdout", False):
         messages.append(f"{what}: holdout is not exported; it renders as an ordinary object")
     if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):

@@ -85,3 +85,75 @@ def test_camera_and_shadow_ray_visibility(tmp_path):
     common.box("Unseen", (0.9, 0.9, 1.4), red, (-0.9, 0.4, 0.0), 15.0).visible_camera = False
     common.box("NoShadow", (0.9, 0.9, 1.4), blue, (0.9, 0.2, 0.0), -10.0).visible_shadow = False
     compare("camera / shadow visibility", scene, tmp_path)
+
+
+def _scatter_target():
+    """A small box to be instanced, kept out of the render (its collection is disabled for
+    rendering, as a scatter's source usually is)."""
+    source = bpy.data.collections.new("Source")
+    bpy.context.scene.collection.children.link(source)
+    source.hide_render = True
+    gold = common.principled("Gold", (0.9, 0.6, 0.1), roughness=0.4)
+    pebble = common.box("Pebble", (0.25, 0.25, 0.35), gold, (0.0, 0.0, 0.0), 0.0)
+    bpy.context.scene.collection.objects.unlink(pebble)
+    source.objects.link(pebble)
+    return pebble
+
+
+def test_geometry_nodes_instances_on_points(tmp_path):
+    """A Geometry Nodes scatter: a grid's points instance a box (Instance on Points)."""
+    scene = lit_floor()
+    pebble = _scatter_target()
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=3, size=2.4,
+                                    location=(0.0, 0.3, 0.01))
+    grid = bpy.context.active_object
+    modifier = grid.modifiers.new("Scatter", "NODES")
+    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
+    modifier.node_group = tree
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    group_in = tree.nodes.new("NodeGroupInput")
+    group_out = tree.nodes.new("NodeGroupOutput")
+    on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    info = tree.nodes.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value = pebble
+    rotate = tree.nodes.new("FunctionNodeRandomValue")
+    rotate.data_type = "FLOAT_VECTOR"
+    rotate.inputs["Max"].default_value = (0.0, 0.0, 3.0)
+    tree.links.new(group_in.outputs["Geometry"], on_points.inputs["Points"])
+    tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
+    tree.links.new(rotate.outputs["Value"], on_points.inputs["Rotation"])
+    tree.links.new(on_points.outputs["Instances"], group_out.inputs["Geometry"])
+    compare("geometry nodes instances on points", scene, tmp_path)
+
+
+@pytest.mark.parametrize("render_type", ["OBJECT", "COLLECTION"])
+def test_particle_system_rendering_objects(tmp_path, render_type):
+    """A particle system (emitter, rendered as an object or a collection) scattering a box
+    over a plane."""
+    scene = lit_floor()
+    pebble = _scatter_target()
+    grey = common.principled("Emitter", (0.6, 0.6, 0.6))
+    emitter = common.quad("Emitter", [(-1.2, -0.8, 0.01), (1.2, -0.8, 0.01),
+                                      (1.2, 1.4, 0.01), (-1.2, 1.4, 0.01)], grey)
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.count = 14
+    settings.frame_start = settings.frame_end = 1
+    settings.physics_type = "NO"
+    settings.render_type = render_type
+    settings.instance_object = pebble
+    if render_type == "COLLECTION":
+        # The usual set-up: the instanced collection excluded from the view layer.
+        rocks = bpy.data.collections.new("Rocks")
+        scene.collection.children.link(rocks)
+        blue = common.principled("Rock", (0.2, 0.3, 0.9), roughness=0.5)
+        rock = common.box("Rock", (0.2, 0.3, 0.25), blue, (0.0, 0.0, 0.0), 0.0)
+        scene.collection.objects.unlink(rock)
+        rocks.objects.link(rock)
+        scene.view_layers[0].layer_collection.children["Rocks"].exclude = True
+        settings.instance_collection = rocks
+    settings.particle_size = 1.0
+    settings.use_rotation_instance = True
+    emitter.show_instancer_for_render = True
+    compare(f"particle system rendering {render_type.lower()}", scene, tmp_path)
