@@ -133,7 +133,10 @@ pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
     if !material.double_sided && wo.dot(hit.ng) <= 0.0 {
         return Vec3::ZERO;
     }
-    let spread = scene.meshes[hit.mesh as usize].emission_spread;
+    let spread = scene
+        .meshes
+        .get(hit.mesh as usize)
+        .and_then(|m| m.emission_spread);
     material_emission(scene, material, hit.uv) * spread_factor(spread, wo.dot(hit.ng).abs())
 }
 

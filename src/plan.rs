@@ -219,7 +219,12 @@ fn material_traits(scene: &Scene, index: usize) -> Option<MaterialTraits> {
 }
 
 fn used_materials(scene: &Scene) -> Vec<usize> {
-    let mut used: Vec<usize> = scene.meshes.iter().map(|m| m.material as usize).collect();
+    let mut used: Vec<usize> = scene
+        .meshes
+        .iter()
+        .chain(&scene.prototypes)
+        .map(|m| m.material as usize)
+        .collect();
     used.sort_unstable();
     used.dedup();
     used
@@ -344,7 +349,7 @@ fn global_decision(scene: &Scene, summary: &SceneSummary) -> Decision {
             "no diffuse surface: indirect light has nothing to land on",
         );
     }
-    if let [mesh] = scene.meshes.as_slice() {
+    if let ([mesh], true) = (scene.meshes.as_slice(), scene.instances.is_empty()) {
         let self_lit = m.emissive > 0 || light_inside(scene, &summary.bounds);
         if !self_lit && is_convex(mesh) == Some(true) {
             return Decision::new(

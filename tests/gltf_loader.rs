@@ -284,7 +284,10 @@ fn count_lights(scene: &Scene) -> (usize, usize, usize) {
 fn cornell_box_has_walls_boxes_and_a_lamp() {
     let scene = load_built("cornell_box.glb");
     assert_eq!(scene.materials.len(), 4);
-    assert_eq!(scene.triangle_count(), 5 * 2 + 2 + 2 * 12);
+    // The two boxes share one mesh: stored once, placed twice.
+    assert_eq!(scene.triangle_count(), 5 * 2 + 2 + 12);
+    assert_eq!(scene.placed_triangle_count(), 5 * 2 + 2 + 2 * 12);
+    assert_eq!(scene.instances.len(), 2);
     assert!(scene.lights.is_empty());
     assert_eq!(
         scene.materials.iter().filter(|m| m.is_emissive()).count(),
@@ -438,9 +441,24 @@ fn hierarchy_transforms_are_flattened_to_world_space() {
         true,
     );
     let scene = load_glb(&doc).unwrap();
-    assert_eq!(scene.meshes.len(), 2, "the mesh is instanced twice");
-    let m = &scene.meshes[1];
+    assert_eq!(
+        scene.instances.len(),
+        2,
+        "the mesh is placed twice, stored once"
+    );
+    let (instance, prototype) = (&scene.instances[1], &scene.prototypes[0]);
+    let at = |i: usize| instance.to_world.transform_point3(prototype.positions[i]);
     // Vertex (1, 0, 0): scale → (2, 0, 0), translate → (2, 0, 1), rotate → (0, 2, 1), → (1, 4, 4).
+    assert!(close(at(1), Vec3::new(1.0, 4.0, 4.0)), "{:?}", at(1));
+    assert!(close(at(0), Vec3::new(1.0, 2.0, 4.0)));
+    assert!(close(
+        (instance.normal_matrix * prototype.normals[0]).normalize(),
+        Vec3::Z
+    ));
+    // Flattened (a node with its own ray visibility is never an instance): the same place.
+    doc.json["nodes"][child]["extensions"] = json!({"PHOTON_object": {"visible_shadow": true}});
+    let scene = load_glb(&doc).unwrap();
+    let m = &scene.meshes[scene.meshes.len() - 1];
     assert!(
         close(m.positions[1], Vec3::new(1.0, 4.0, 4.0)),
         "{:?}",
@@ -1444,8 +1462,13 @@ fn instanced_triangle_totals_are_refused_before_any_geometry_is_read() {
                           "values": {"bufferView": sparse_values}}}),
     );
     doc.json["meshes"][0]["primitives"][0]["indices"] = json!(indices);
+    // Copies with their own ray visibility are flattened, so each counts.
     for i in 0..40 {
-        doc.node(json!({"name": format!("Copy{i}"), "mesh": 0}), true);
+        doc.node(
+            json!({"name": format!("Copy{i}"), "mesh": 0,
+                   "extensions": {"PHOTON_object": {"visible_camera": true}}}),
+            true,
+        );
     }
     let start = std::time::Instant::now();
     assert_scene_error(

@@ -77,11 +77,19 @@
 //! # Limits and conventions
 //!
 //! Files that would exhaust memory are refused before allocating: accessors must fit in their
-//! buffer views, and a scene may hold at most `MAX_TRIANGLES` (200 M) triangles, `MAX_VERTICES`
-//! (400 M) vertices and `MAX_NODE_INSTANCES` (1 M) node instances after flattening. Only the
-//! default scene (or the first) is loaded; UV set 0 only. Under a mirroring transform the
-//! triangle winding is flipped and the tangent's w (bitangent sign) is negated, so both the
-//! geometric normal and the tangent frame keep their meaning.
+//! buffer views, and the hierarchy is counted before any geometry is read: at most
+//! `MAX_NODE_INSTANCES` (1 M) node instances, `MAX_TRIANGLES` (200 M) stored triangles and
+//! `MAX_VERTICES` (400 M) stored vertices. Only the default scene (or the first) is loaded; UV
+//! set 0 only. Vertex attributes must have the component types glTF allows (integers only
+//! with KHR_mesh_quantization, normalized UVs also without).
+//!
+//! A mesh placed by two or more nodes whose materials are plain (opaque, not emissive,
+//! translucent, transmissive or specular: roughness ≥ `INSTANCE_MIN_ROUGHNESS`) is stored once
+//! as a prototype (`Scene::prototypes`) and placed by `Scene::instances`, counted once against
+//! the limits. Copies under a mirroring or singular transform, or with their own
+//! `PHOTON_object`, and every other mesh are flattened to world space; under a mirroring
+//! transform the triangle winding is flipped and the tangent's w (bitangent sign) is negated,
+//! so both the geometric normal and the tangent frame keep their meaning.
 //!
 //! # Units
 //!
@@ -140,6 +148,10 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_texture_webp",
 ];
 
+/// Materials rougher than this (perceptual roughness) are never specular for the photon
+/// method's caustic aiming, so meshes made of them may be instanced.
+const INSTANCE_MIN_ROUGHNESS: f32 = 0.3;
+
 /// Segments of the fan that approximates disk and ellipse area lights.
 const AREA_LIGHT_SEGMENTS: usize = 32;
 
@@ -176,6 +188,10 @@ struct Loader {
     node_instances: usize,
     /// The file declares KHR_mesh_quantization: vertex attributes may be stored as integers.
     quantized: bool,
+    /// glTF meshes stored once as prototypes (`Scene::prototypes`) and placed by instances.
+    instanced_meshes: std::collections::HashSet<usize>,
+    /// Prototype indices of each instanced glTF mesh (one per primitive), once built.
+    prototype_ids: HashMap<usize, Vec<u32>>,
 }
 
 #[derive(Clone)]
@@ -267,6 +283,8 @@ impl Loader {
             texture_slots: HashMap::new(),
             scene: Scene {
                 meshes: Vec::new(),
+                prototypes: Vec::new(),
+                instances: Vec::new(),
                 materials: Vec::new(),
                 textures: Vec::new(),
                 lights: Vec::new(),
@@ -286,6 +304,8 @@ impl Loader {
             vertex_total: 0,
             node_instances: 0,
             quantized,
+            instanced_meshes: Default::default(),
+            prototype_ids: HashMap::new(),
         };
         loader.load_buffers(blob)?;
         Ok(loader)
@@ -387,7 +407,7 @@ impl Loader {
     /// Count what the scene's hierarchy instantiates (node instances, and triangles and
     /// vertices from the accessors' counts) and refuse it when it is over a limit, before any
     /// geometry is read or allocated.
-    fn check_sizes(&self, gltf_scene: &gltf::Scene) -> Result<()> {
+    fn check_sizes(&mut self, gltf_scene: &gltf::Scene) -> Result<()> {
         let mut per_mesh: HashMap<usize, (usize, usize)> = HashMap::new();
         for mesh in self.document.meshes() {
             let (mut triangles, mut vertices) = (0usize, 0usize);
@@ -409,11 +429,62 @@ impl Loader {
             }
             per_mesh.insert(mesh.index(), (triangles, vertices));
         }
+        // Meshes placed by two or more nodes, with materials nothing but the BVH needs to
+        // know about, become prototypes: stored once, placed by instances.
+        let mut uses: HashMap<usize, usize> = HashMap::new();
+        let mut visited = 0;
+        for node in gltf_scene.nodes() {
+            count_mesh_uses(&node, &mut uses, 0, &mut visited);
+        }
+        self.instanced_meshes = uses
+            .into_iter()
+            .filter(|&(mesh, n)| n >= 2 && self.instanceable(mesh))
+            .map(|(mesh, _)| mesh)
+            .collect();
         let mut totals = SizeTotals::default();
         for node in gltf_scene.nodes() {
             self.count_node(&node, &per_mesh, &mut Vec::new(), &mut totals)?;
         }
         Ok(())
+    }
+
+    /// Whether a glTF mesh may be a prototype: every primitive's material is opaque, neither
+    /// emissive nor translucent nor transmissive, and rough (never specular), so that only the
+    /// BVH and the shading point need its instances.
+    fn instanceable(&self, mesh_index: usize) -> bool {
+        let Some(mesh) = self.document.meshes().nth(mesh_index) else {
+            return false;
+        };
+        mesh.primitives().all(|p| {
+            let plain_default = Material::default();
+            let m = match p.material().index() {
+                Some(i) => match self.scene.materials.get(i) {
+                    Some(m) => m,
+                    None => return false,
+                },
+                None => &plain_default,
+            };
+            !m.is_emissive()
+                && !m.is_translucent()
+                && m.transmission == 0.0
+                && m.transmission_texture.is_none()
+                && m.alpha_mode == AlphaMode::Opaque
+                && m.roughness >= INSTANCE_MIN_ROUGHNESS
+                && m.metallic_roughness_texture.is_none()
+        })
+    }
+
+    /// Whether `node` places its mesh as an instance: an instanced mesh, a transform that is
+    /// invertible and not mirrored, no per-object ray visibility.
+    fn places_instance(&self, node: &gltf::Node, world: &Mat4) -> bool {
+        let Some(mesh) = node.mesh() else {
+            return false;
+        };
+        let det = Mat3::from_mat4(*world).determinant();
+        self.instanced_meshes.contains(&mesh.index())
+            && det > 0.0
+            && det.is_finite()
+            && node.extension_value("PHOTON_object").is_none()
     }
 
     /// The checks `read_accessor` makes before allocating, without reading: the elements fit
@@ -449,11 +520,13 @@ impl Loader {
         &self,
         node: &gltf::Node,
         per_mesh: &HashMap<usize, (usize, usize)>,
-        ancestors: &mut Vec<usize>,
+        ancestors: &mut Vec<(usize, Mat4)>,
         totals: &mut SizeTotals,
     ) -> Result<()> {
+        let parent = ancestors.last().map_or(Mat4::IDENTITY, |a| a.1);
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let object = named("node", node.index(), node.name());
-        if ancestors.contains(&node.index()) {
+        if ancestors.iter().any(|a| a.0 == node.index()) {
             return Err(self.err(object, "is its own ancestor (cycle in the node hierarchy)"));
         }
         if ancestors.len() >= MAX_NODE_DEPTH {
@@ -470,7 +543,14 @@ impl Loader {
             ));
         }
         if let Some(mesh) = node.mesh() {
-            let (triangles, vertices) = per_mesh.get(&mesh.index()).copied().unwrap_or_default();
+            let (mut triangles, mut vertices) =
+                per_mesh.get(&mesh.index()).copied().unwrap_or_default();
+            if world.is_finite() && self.places_instance(node, &world) {
+                // Stored once, however many instances place it.
+                if !totals.counted_prototypes.insert(mesh.index()) {
+                    (triangles, vertices) = (0, 0);
+                }
+            }
             totals.triangles = totals.triangles.saturating_add(triangles);
             totals.vertices = totals.vertices.saturating_add(vertices);
             if totals.triangles > MAX_TRIANGLES {
@@ -492,7 +572,7 @@ impl Loader {
                 ));
             }
         }
-        ancestors.push(node.index());
+        ancestors.push((node.index(), world));
         for child in node.children() {
             self.count_node(&child, per_mesh, ancestors, totals)?;
         }
@@ -529,7 +609,11 @@ impl Loader {
             return Err(self.err(object, "transform is NaN or infinite"));
         }
         if let Some(mesh) = node.mesh() {
-            self.add_mesh(node, &mesh, &world)?;
+            if self.places_instance(node, &world) {
+                self.add_instance(node, &mesh, &world)?;
+            } else {
+                self.add_mesh(node, &mesh, &world, false)?;
+            }
         }
         let extension = node.extension_value("PHOTON_camera");
         if node.camera().is_none() && extension.is_some_and(|e| e.get("panorama").is_some()) {
@@ -578,7 +662,32 @@ impl Loader {
 
     // ----- meshes -------------------------------------------------------------------------
 
-    fn add_mesh(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: &Mat4) -> Result<()> {
+    /// Place `mesh` by `world` as instances of its prototypes (built on first use).
+    fn add_instance(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: &Mat4) -> Result<()> {
+        if !self.prototype_ids.contains_key(&mesh.index()) {
+            let first = self.scene.prototypes.len() as u32;
+            self.add_mesh(node, mesh, &Mat4::IDENTITY, true)?;
+            let ids = (first..self.scene.prototypes.len() as u32).collect();
+            self.prototype_ids.insert(mesh.index(), ids);
+        }
+        let to_world = Affine3A::from_mat4(*world);
+        for &prototype in &self.prototype_ids[&mesh.index()] {
+            self.scene
+                .instances
+                .push(super::Instance::new(prototype, to_world));
+        }
+        Ok(())
+    }
+
+    /// Read `mesh`'s primitives placed by `world` into `Scene::meshes`, or with the identity
+    /// into `Scene::prototypes` when `prototype`.
+    fn add_mesh(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        world: &Mat4,
+        prototype: bool,
+    ) -> Result<()> {
         let mesh_name = mesh.name().map_or_else(
             || format!("mesh {}", mesh.index()),
             |n| format!("mesh '{n}'"),
@@ -725,7 +834,11 @@ impl Loader {
                 }
                 None => make_flat(&mut out),
             }
-            self.scene.meshes.push(out);
+            if prototype {
+                self.scene.prototypes.push(out);
+            } else {
+                self.scene.meshes.push(out);
+            }
         }
         Ok(())
     }
@@ -1643,12 +1756,35 @@ impl Loader {
     }
 }
 
+/// How many node instances place each mesh. Stops after `MAX_NODE_INSTANCES` nodes or at
+/// `MAX_NODE_DEPTH` (cycles and depth are refused by `Loader::count_node`, which walks the same
+/// hierarchy next).
+fn count_mesh_uses(
+    node: &gltf::Node,
+    uses: &mut HashMap<usize, usize>,
+    depth: usize,
+    visited: &mut usize,
+) {
+    *visited += 1;
+    if depth >= MAX_NODE_DEPTH || *visited > MAX_NODE_INSTANCES {
+        return;
+    }
+    if let Some(mesh) = node.mesh() {
+        *uses.entry(mesh.index()).or_default() += 1;
+    }
+    for child in node.children() {
+        count_mesh_uses(&child, uses, depth + 1, visited);
+    }
+}
+
 /// Running totals of `Loader::check_sizes`.
 #[derive(Default)]
 struct SizeTotals {
     instances: usize,
     triangles: usize,
     vertices: usize,
+    /// Instanced meshes whose triangles are counted already.
+    counted_prototypes: std::collections::HashSet<usize>,
 }
 
 /// Parameters of a `PHOTON_light` area light.

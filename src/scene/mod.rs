@@ -1,5 +1,6 @@
-//! The plain-data scene every part of Photon reads: world-space triangle meshes, materials,
-//! textures, lights, one camera and the world background. Structs of vectors with integer indices,
+//! The plain-data scene every part of Photon reads: world-space triangle meshes, prototype meshes
+//! placed by instances (each stored once), materials, textures, lights, one camera and the world
+//! background. Structs of vectors with integer indices,
 //! no behaviour beyond small lookups and `validate`. Only `scene::gltf` builds it from files;
 //! `scene::builtin` builds the embedded default Cornell box.
 //!
@@ -15,7 +16,7 @@ pub mod units;
 use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec4};
 pub use texture::{Texture, TextureRef};
 
-/// A triangle mesh already transformed to world space (instances are flattened).
+/// A triangle mesh: in world space in `Scene::meshes`, in object space in `Scene::prototypes`.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
     /// Name of the glTF node and mesh, for messages ("Cube/Cube.001 primitive 0").
@@ -38,6 +39,33 @@ pub struct Mesh {
     pub emission_spread: Option<f32>,
     /// Blocks shadow rays (direct light). False for objects Blender hides from shadow rays.
     pub casts_shadows: bool,
+}
+
+/// A placed copy of a prototype mesh (`Scene::prototypes`, in object space): the mesh is
+/// stored and put in a BVH once, whatever the number of its instances.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    /// Index into `Scene::prototypes`.
+    pub prototype: u32,
+    /// Object space → world space (not mirrored: mirrored copies are flattened).
+    pub to_world: Affine3A,
+    /// World space → object space (the inverse of `to_world`).
+    pub to_object: Affine3A,
+    /// Object-space normals → world space (inverse transpose of the linear part).
+    pub normal_matrix: Mat3,
+}
+
+impl Instance {
+    /// An instance of `prototype` placed by `to_world` (invertible, finite).
+    pub fn new(prototype: u32, to_world: Affine3A) -> Instance {
+        let linear = Mat3::from(to_world.matrix3);
+        Instance {
+            prototype,
+            to_world,
+            to_object: to_world.inverse(),
+            normal_matrix: linear.inverse().transpose(),
+        }
+    }
 }
 
 /// How a material's alpha is used (glTF `alphaMode`).
@@ -342,7 +370,12 @@ pub struct SceneRenderSettings {
 /// Everything there is to render.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// World-space meshes.
     pub meshes: Vec<Mesh>,
+    /// Object-space meshes placed by `instances` (plain opaque, non-emissive, non-translucent,
+    /// non-specular materials only, so lights, subsurface and caustic aiming never see them).
+    pub prototypes: Vec<Mesh>,
+    pub instances: Vec<Instance>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub lights: Vec<Light>,
@@ -351,6 +384,36 @@ pub struct Scene {
     pub render_settings: SceneRenderSettings,
     /// Non-fatal problems found while loading (skipped primitives, unsupported features).
     pub warnings: Vec<String>,
+}
+
+impl Mesh {
+    /// Bounds of the mesh's vertices (in its own space).
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::EMPTY;
+        for &p in &self.positions {
+            b.grow(p);
+        }
+        b
+    }
+}
+
+/// World bounds of `instance` from its prototype's object-space `local` bounds (the eight
+/// corners transformed).
+pub fn instance_bounds(instance: &Instance, local: Bounds) -> Bounds {
+    let mut b = Bounds::EMPTY;
+    if local.is_empty() {
+        return b;
+    }
+    for corner in 0..8 {
+        let pick = |bit: usize, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
+        let p = Vec3::new(
+            pick(0, local.min.x, local.max.x),
+            pick(1, local.min.y, local.max.y),
+            pick(2, local.min.z, local.max.z),
+        );
+        b.grow(instance.to_world.transform_point3(p));
+    }
+    b
 }
 
 /// Axis-aligned bounds.
@@ -397,17 +460,53 @@ impl Scene {
                 b.grow(p);
             }
         }
+        let local: Vec<Bounds> = self.prototypes.iter().map(Mesh::bounds).collect();
+        for instance in &self.instances {
+            let bounds = instance_bounds(instance, local[instance.prototype as usize]);
+            if !bounds.is_empty() {
+                b.grow(bounds.min);
+                b.grow(bounds.max);
+            }
+        }
         b
     }
 
+    /// Triangles placed in the scene, each instance counted.
+    pub fn placed_triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len()).sum::<usize>()
+            + self
+                .instances
+                .iter()
+                .map(|i| self.prototypes[i.prototype as usize].indices.len())
+                .sum::<usize>()
+    }
+
+    /// Triangles stored: world-space meshes and prototypes (each once).
     pub fn triangle_count(&self) -> usize {
-        self.meshes.iter().map(|m| m.indices.len()).sum()
+        self.meshes
+            .iter()
+            .chain(&self.prototypes)
+            .map(|m| m.indices.len())
+            .sum()
     }
 
     /// Check the invariants the renderer relies on; returns a description of the first problem.
     /// The glTF loader calls this, so a `Scene` it returns is always valid.
     pub fn validate(&self) -> Result<(), String> {
-        for (mi, m) in self.meshes.iter().enumerate() {
+        for (i, instance) in self.instances.iter().enumerate() {
+            if instance.prototype as usize >= self.prototypes.len() {
+                return Err(format!("instance {i}: prototype index out of range"));
+            }
+            if !instance.to_world.is_finite()
+                || !instance.to_object.is_finite()
+                || !instance.normal_matrix.is_finite()
+            {
+                return Err(format!(
+                    "instance {i}: transform is NaN, infinite or singular"
+                ));
+            }
+        }
+        for (mi, m) in self.meshes.iter().chain(&self.prototypes).enumerate() {
             let n = m.positions.len();
             if m.material as usize >= self.materials.len() {
                 return Err(format!(

@@ -124,6 +124,8 @@ pub fn scene(
     world: Vec3,
 ) -> Scene {
     Scene {
+        prototypes: Vec::new(),
+        instances: Vec::new(),
         meshes,
         materials,
         textures: Vec::new(),
