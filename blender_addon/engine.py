@@ -75,7 +75,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         if r.use_border:
             region = runner.border_region(width, height, r.border_min_x, r.border_max_x,
                                           r.border_min_y, r.border_max_y)
-        for message in preflight.unsupported_features(scene, depsgraph.objects):
+        objects, view_layer = depsgraph.objects, depsgraph.view_layer
+        for message in preflight.unsupported_features(scene, objects, view_layer):
             self._warn(message)
         self._progress("export", 0.0, "exporting scene")
         with runner.temporary_folder() as folder:

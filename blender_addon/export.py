@@ -20,6 +20,8 @@ engine turns into WARNING reports as it does for the renderer's own warnings.
 `glTF2ExportUserExtension` (re-exported by the add-on's top-level module, where the exporter
 looks for it) writes, always with required=False so that other viewers still open the file:
 PHOTON_light on light nodes (point/spot radius, sun angle, area lights, which the exporter drops),
+PHOTON_camera on camera nodes (lens shift, depth of field, panoramic projections),
+PHOTON_object on mesh nodes (camera and shadow ray visibility),
 PHOTON_material_subsurface on materials (the Principled BSDF's subsurface inputs), PHOTON_world
 (background colour x strength, or an equirectangular environment image written next to the .glb
 as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
@@ -46,6 +48,9 @@ GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
     export_apply=True, export_current_frame=True, use_renderable=True, export_animations=False,
     use_active_scene=True,
+    # Instances of the depsgraph (Geometry Nodes "Instance on Points", particle systems that
+    # render objects): one node each, sharing the instanced mesh.
+    export_gn_mesh=True,
 )
 
 # Name under which the child process registers this module so the exporter finds the hook.
@@ -86,6 +91,14 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             data = light_extension(blender_object)
             if data:
                 self._add(gltf_node, "PHOTON_light", data)
+        if blender_object is not None and blender_object.type in GEOMETRY_TYPES:
+            data = visibility_extension(blender_object)
+            if data:
+                self._add(gltf_node, "PHOTON_object", data)
+        if blender_object is not None and blender_object.type == "CAMERA":
+            data = camera_extension(blender_object, bpy.context.scene)
+            if data:
+                self._add(gltf_node, "PHOTON_camera", data)
 
     def gather_material_hook(self, gltf_material, blender_material, export_settings):
         data = subsurface_extension(blender_material)
@@ -102,25 +115,224 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
         self._add(gltf_scene, "PHOTON_render", render_extension(blender_scene))
 
 
+# Object types the glTF exporter writes as meshes.
+GEOMETRY_TYPES = ("MESH", "CURVE", "SURFACE", "META", "FONT")
+
+
+def visibility_extension(obj) -> dict:
+    """PHOTON_object: the object's camera and shadow ray visibility when one is off (the
+    other ray types are named by the pre-flight report)."""
+    camera = bool(getattr(obj, "visible_camera", True))
+    shadow = bool(getattr(obj, "visible_shadow", True))
+    if camera and shadow:
+        return {}
+    return {"visible_camera": camera, "visible_shadow": shadow}
+
+
 def light_extension(obj) -> dict:
-    """PHOTON_light for a light object."""
+    """PHOTON_light for a light object: its colour and power as Cycles combines them (the
+    light's colour x its blackbody colour when "Temperature" is on x the colour of the Emission
+    node of its node tree; power x 2^exposure x the node's strength), which the glTF exporter
+    gets wrong with a node tree (it keeps only the node's colour); plus what glTF cannot say:
+    point/spot radius, Cycles' exact spot cone (size and blend), sun angle, area lights."""
     light = obj.data
+    color, strength = light_tint(light)
+    scale = 2.0 ** float(getattr(light, "exposure", 0.0)) * strength
     if light.type in ("POINT", "SPOT"):
-        return {"radius": float(light.shadow_soft_size)}
+        data = {"radius": float(light.shadow_soft_size), "power": float(light.energy) * scale,
+                "color": color}
+        if light.type == "SPOT":
+            data["spot_size"] = float(light.spot_size)
+            data["spot_blend"] = float(light.spot_blend)
+        return data
     if light.type == "SUN":
-        return {"angle": float(light.angle)}
+        return {"angle": float(light.angle), "strength": float(light.energy) * scale,
+                "color": color}
     if light.type != "AREA":
         return {}
     size = float(light.size)
     size_y = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else size
-    power = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+    power = float(light.energy) * scale
     if not getattr(light, "normalize", True):
         # Without "normalize" Blender's power is per square metre; Photon always normalises.
         area = size * size_y * (math.pi / 4.0 if light.shape in ("DISK", "ELLIPSE") else 1.0)
         power *= area
     return {"type": "area", "shape": light.shape, "size": size, "size_y": size_y,
-            "power": power, "color": [float(c) for c in light.color],
+            "power": power, "color": color, "spread": float(light.spread),
             "visible_camera": bool(obj.visible_camera)}
+
+
+def light_tint(light) -> tuple[list[float], float]:
+    """(colour, strength factor) of a light as Cycles renders it: light.color x its blackbody
+    colour (when use_temperature is on) x the Emission node's colour, and the node's strength
+    (or the strength of a Light Falloff node's Quadratic output feeding it). What the node tree
+    does beyond that is named by `light_node_problems` (the pre-flight report)."""
+    color = [float(c) for c in light.color[:3]]
+    if getattr(light, "use_temperature", False):
+        color = [c * float(t) for c, t in zip(color, light.temperature_color[:3])]
+    emission = light_emission_node(light)
+    if emission is None:
+        return color, 1.0
+    node_color = emission.inputs["Color"]
+    if not node_color.is_linked:
+        color = [c * float(n) for c, n in zip(color, node_color.default_value[:3])]
+    elif _blackbody_temperature(node_color) is not None:
+        blackbody = blackbody_color(light, _blackbody_temperature(node_color))
+        color = [c * b for c, b in zip(color, blackbody)]
+    strength_input = emission.inputs["Strength"]
+    strength = float(strength_input.default_value)
+    if strength_input.is_linked:
+        source = strength_input.links[0].from_node
+        falloff_strength = source.inputs.get("Strength") if source.type == "LIGHT_FALLOFF" else None
+        strength = 1.0
+        if falloff_strength is not None and not falloff_strength.is_linked:
+            strength = float(falloff_strength.default_value)
+    return color, strength
+
+
+def _blackbody_temperature(socket):
+    """The temperature of a Blackbody node (its input unlinked) linked into `socket`, else
+    None."""
+    if not socket.is_linked:
+        return None
+    node = socket.links[0].from_node
+    if node.type != "BLACKBODY" or node.inputs["Temperature"].is_linked:
+        return None
+    return float(node.inputs["Temperature"].default_value)
+
+
+def blackbody_color(light, kelvin: float) -> list[float]:
+    """Blender's blackbody colour of `kelvin`, read from the light's own temperature colour
+    (Light.temperature_color, Blender's table) by setting its temperature for a moment."""
+    saved = light.temperature, light.use_temperature
+    try:
+        light.temperature, light.use_temperature = kelvin, True  # the colour needs both
+        return [float(c) for c in light.temperature_color[:3]]
+    finally:
+        light.temperature, light.use_temperature = saved
+
+
+def light_emission_node(light):
+    """The Emission node feeding the active Light Output of a light's node tree (Cycles uses the
+    tree when use_nodes is on); None without one."""
+    tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_LIGHT"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return None
+    node = output.inputs["Surface"].links[0].from_node
+    return node if node.type == "EMISSION" else None
+
+
+def light_node_problems(light) -> list[str]:
+    """What a light's node tree does that `light_tint` does not carry ([] for none)."""
+    tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    if tree is None:
+        return []
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_LIGHT"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return ["its node tree has no shader on the Light Output (Cycles renders it black)"]
+    emission = light_emission_node(light)
+    if emission is None:
+        node = output.inputs["Surface"].links[0].from_node
+        return [f"the {node.bl_label} node '{node.name}' on its output is not exported (only an "
+                f"Emission node is)"]
+    problems = []
+    if emission.inputs["Color"].is_linked and \
+            _blackbody_temperature(emission.inputs["Color"]) is None:
+        node = emission.inputs["Color"].links[0].from_node
+        problems.append(f"the {node.bl_label} node '{node.name}' driving the emission colour "
+                        f"is not exported")
+    strength = emission.inputs["Strength"]
+    if strength.is_linked:
+        link = strength.links[0]
+        node = link.from_node
+        if node.type != "LIGHT_FALLOFF":
+            problems.append(f"the {node.bl_label} node '{node.name}' driving the emission "
+                            f"strength is not exported")
+        elif link.from_socket.name != "Quadratic":
+            problems.append(f"Light Falloff '{node.name}': its {link.from_socket.name} output "
+                            f"is not exported (only Quadratic, the physical falloff, is)")
+        elif node.inputs["Strength"].is_linked or node.inputs["Smooth"].is_linked \
+                or float(node.inputs["Smooth"].default_value) != 0.0:
+            problems.append(f"Light Falloff '{node.name}': a linked strength or a smooth "
+                            f"falloff is not exported")
+    return problems
+
+
+def camera_extension(obj, scene) -> dict:
+    """PHOTON_camera for a camera object: the lens shift in units of the image height, and depth
+    of field as a thin lens (aperture radius, focus distance, blades, rotation, ratio), the way
+    Cycles derives them from Blender's camera. Empty for a centred pinhole camera."""
+    camera, data = obj.data, {}
+    r = scene.render
+    width = r.resolution_x * r.pixel_aspect_x
+    height = r.resolution_y * r.pixel_aspect_y
+    fit = camera.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if width >= height else "VERTICAL"
+    # Blender's shift is a fraction of the fitted image side; Photon's of the image height.
+    unit = width / height if fit == "HORIZONTAL" else 1.0
+    if camera.shift_x != 0.0 or camera.shift_y != 0.0:
+        data["shift"] = [float(camera.shift_x * unit), float(camera.shift_y * unit)]
+    if camera.type == "PANO":
+        panorama = panorama_extension(camera, width, height)
+        if panorama:
+            data["panorama"] = panorama
+        return data
+    dof = camera.dof
+    if dof.use_dof:
+        fstop = max(float(dof.aperture_fstop), 1e-5)
+        if camera.type == "ORTHO":
+            radius = 1.0 / (2.0 * fstop)
+        else:
+            radius = float(camera.lens) * 1e-3 / (2.0 * fstop)
+        data["dof"] = {"aperture_radius": radius,
+                       "focus_distance": max(focus_distance(obj), 1e-6),
+                       "blades": int(dof.aperture_blades),
+                       "rotation": float(dof.aperture_rotation),
+                       "ratio": float(dof.aperture_ratio)}
+    return data
+
+
+# The panoramic projections PHOTON_camera carries (the others are named by the pre-flight).
+PANORAMAS = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID")
+
+
+def panorama_extension(camera, width: float, height: float) -> dict:
+    """The "panorama" of PHOTON_camera for a panoramic camera (Cycles' projection and its
+    parameters; the equisolid sensor fitted to an image of `width` x `height` as Cycles fits
+    it); empty for a projection Photon does not render."""
+    kind = camera.panorama_type
+    if kind == "EQUIRECTANGULAR":
+        return {"type": kind,
+                "longitude": [float(camera.longitude_min), float(camera.longitude_max)],
+                "latitude": [float(camera.latitude_min), float(camera.latitude_max)]}
+    if kind == "FISHEYE_EQUIDISTANT":
+        return {"type": kind, "fov": float(camera.fisheye_fov)}
+    if kind == "FISHEYE_EQUISOLID":
+        fit = camera.sensor_fit
+        horizontal = width > height if fit == "AUTO" else fit == "HORIZONTAL"
+        size = float(camera.sensor_height if fit == "VERTICAL" else camera.sensor_width)
+        sensor = [size, size * height / width] if horizontal else [size * width / height, size]
+        return {"type": kind, "lens": float(camera.fisheye_lens),
+                "fov": float(camera.fisheye_fov), "sensor": sensor}
+    return {}
+
+
+def focus_distance(obj) -> float:
+    """The camera's focus distance: to its focus object (bone heads are not followed) along the
+    camera axis, measured in the camera's unscaled frame as Cycles does, else the distance set."""
+    dof = obj.data.dof
+    target = dof.focus_object
+    if target is None:
+        return float(dof.focus_distance)
+    frame = obj.matrix_world.normalized()
+    local = frame.inverted() @ target.matrix_world.translation
+    return abs(float(local.z))
 
 
 # What Blender and Cycles show for an image whose file is missing.
@@ -381,6 +593,74 @@ def collected_warnings():
             logger.removeHandler(collector)
 
 
+@contextlib.contextmanager
+def render_visibility(scene):
+    """Within the block the viewport shows what a render shows, and is put back after it.
+
+    The glTF exporter reads the viewport's evaluated depsgraph: modifiers at their viewport
+    settings (a Subdivision Surface at its viewport level, render-only modifiers left out) and
+    without objects or collections disabled in viewports but enabled for rendering. Here every
+    modifier's viewport switch follows its render switch, Subdivision Surface and Multires take
+    their render levels, and rendered objects and collections are enabled in viewports.
+    Objects only in collections excluded from the view layer or disabled for rendering (also
+    through a parent collection), which the exporter would still write, are disabled for
+    rendering; their instances (particles, Geometry Nodes) are still exported, as Cycles renders
+    them."""
+    saved = []
+
+    def assign(owner, attribute, value):
+        old = getattr(owner, attribute)
+        if old != value:
+            try:
+                setattr(owner, attribute, value)
+            except (AttributeError, TypeError, RuntimeError):  # linked, read-only data
+                return
+            saved.append((owner, attribute, old))
+
+    try:
+        # Only ever enabled in viewports: an object disabled there is not evaluated, and the
+        # instances of it (particles, Geometry Nodes) would be lost with it. What must not
+        # render is disabled for rendering, which the exporter's filter reads.
+        for collection in scene.collection.children_recursive:
+            if not collection.hide_render:
+                assign(collection, "hide_viewport", False)
+        rendered = rendered_objects(bpy.context.view_layer)
+        for obj in scene.objects:
+            if obj.name_full not in rendered:
+                assign(obj, "hide_render", True)
+            if not obj.hide_render:
+                assign(obj, "hide_viewport", False)
+            for modifier in obj.modifiers:
+                assign(modifier, "show_viewport", modifier.show_render)
+                if modifier.type in ("SUBSURF", "MULTIRES"):
+                    assign(modifier, "levels", modifier.render_levels)
+        if saved:
+            bpy.context.view_layer.update()
+        yield
+    finally:
+        for owner, attribute, old in reversed(saved):
+            setattr(owner, attribute, old)
+        if saved:
+            bpy.context.view_layer.update()
+
+
+def rendered_objects(view_layer) -> set[str]:
+    """Names of the objects a render of `view_layer` can show: those in a collection that is
+    neither excluded from the view layer nor disabled for rendering, itself or through a
+    parent (the object's own render switch is not looked at)."""
+    found = set()
+    stack = [(view_layer.layer_collection, False)]
+    while stack:
+        layer, hidden = stack.pop()
+        if layer.exclude:
+            continue
+        hidden = hidden or layer.collection.hide_render
+        if not hidden:
+            found.update(obj.name_full for obj in layer.collection.objects)
+        stack.extend((child, hidden) for child in layer.children)
+    return found
+
+
 def export_in_process(glb: Path, hook_module: str) -> list[str]:
     """Run Blender's glTF exporter on the current scene and return its warnings and the hooks'.
     `hook_module` is the name in sys.modules that holds `glTF2ExportUserExtension`: the exporter
@@ -392,7 +672,7 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
         added = prefs.addons.new()
         added.module = hook_module
     try:
-        with collected_warnings() as warnings:
+        with collected_warnings() as warnings, render_visibility(bpy.context.scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **GLTF_EXPORT_ARGS)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None

@@ -10,16 +10,19 @@ empty list, so the rules below only flag what really changes the image:
   helper nodes it follows), and world nodes other than Background and Environment Texture;
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
-- hair: hair particle systems and Curves (hair) objects;
-- lights: an area light's spread below 180 degrees, a light node tree that changes the
-  emission, shadows turned off;
-- objects hidden from some ray types (Object > Visibility > Ray Visibility);
-- cameras: depth of field and panoramic projections; motion blur.
+- hair and points: hair particle systems, particles rendered as halos or paths, Curves (hair)
+  and point cloud objects;
+- lights: what a light's node tree does beyond an Emission node's colour and strength (or a
+  Light Falloff's Quadratic strength), shadows turned off;
+- objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
+  Visibility; camera and shadow visibility are carried), holdout objects and collections,
+  'indirect only' collections;
+- cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
+  field with a panorama, a depth-of-field focus on a bone; motion blur.
 """
 
 from __future__ import annotations
 
-import math
 
 # Node types (`node.type`) on the way to a material's Surface that the glTF exporter follows
 # (or that only route links). MIX, MATH and MIX_SHADER are checked separately.
@@ -32,14 +35,17 @@ MATERIAL_NODES = {
 # The world nodes export.world_extension reads.
 WORLD_NODES = {"OUTPUT_WORLD", "BACKGROUND", "TEX_ENVIRONMENT", "MAPPING", "TEX_COORD",
                "REROUTE"}
-RAY_VISIBILITY = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"),
-                  ("visible_glossy", "glossy"), ("visible_transmission", "transmission"),
-                  ("visible_shadow", "shadow"))
+# Ray visibility not carried (camera and shadow visibility are: PHOTON_object).
+RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
+                  ("visible_transmission", "transmission"))
 
 
-def unsupported_features(scene, objects) -> list[str]:
+def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     """Messages for every feature of `scene` the export drops; `objects` are the objects being
-    rendered (the render depsgraph's objects)."""
+    rendered (the render depsgraph's objects), `view_layer` the view layer rendered (default:
+    the scene's first)."""
+    if view_layer is None and len(scene.view_layers):
+        view_layer = scene.view_layers[0]
     messages: list[str] = []
     materials = {}
     for obj in objects:
@@ -53,6 +59,16 @@ def unsupported_features(scene, objects) -> list[str]:
         messages += world_features(scene.world)
     if scene.camera is not None:
         messages += _camera_features(scene.camera)
+    for layer_collection in _layer_collections(view_layer):
+        what = f"collection '{layer_collection.name}'"
+        if layer_collection.exclude:
+            continue
+        if layer_collection.holdout:
+            messages.append(f"{what}: holdout is not exported; its objects render as ordinary "
+                            f"objects")
+        if layer_collection.indirect_only:
+            messages.append(f"{what}: 'indirect only' is not exported; its objects are seen "
+                            f"directly too")
     if scene.render.use_motion_blur:
         messages.append("motion blur (Render > Motion Blur) is not rendered")
     return messages
@@ -65,15 +81,20 @@ def _object_features(obj) -> list[str]:
         messages.append(f"{what}: Volume objects are not exported; Photon renders no volumes")
     elif obj.type == "CURVES":
         messages.append(f"{what}: hair curves (Curves objects) are not exported")
+    elif obj.type == "POINTCLOUD":
+        messages.append(f"{what}: point clouds are not exported")
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):
         kind = system.settings.type
         if kind == "HAIR":
             messages.append(f"{what}: hair particle system '{system.name}' is not exported")
-        elif system.settings.render_type in ("OBJECT", "COLLECTION"):
-            messages.append(f"{what}: particle system '{system.name}' (instances of an "
-                            f"object or collection) is not exported")
+        elif system.settings.render_type not in ("OBJECT", "COLLECTION", "NONE"):
+            messages.append(f"{what}: particle system '{system.name}' rendered as "
+                            f"{system.settings.render_type} is not exported (objects and "
+                            f"collections are)")
+    if getattr(obj, "is_holdout", False):
+        messages.append(f"{what}: holdout is not exported; it renders as an ordinary object")
     if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
         hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:
@@ -85,33 +106,11 @@ def _object_features(obj) -> list[str]:
 def light_features(obj) -> list[str]:
     light, messages = obj.data, []
     what = f"light '{obj.name}'"
-    if light.type == "AREA" and light.spread < math.pi - 1e-4:
-        messages.append(f"{what}: spread {math.degrees(light.spread):.0f} degrees is not "
-                        f"exported; Photon's area lights emit over the full 180 degrees")
-    if light.use_nodes and light.node_tree is not None and _light_nodes_matter(light.node_tree):
-        messages.append(f"{what}: its shader nodes are not exported (only its colour and "
-                        f"power are)")
+    from .export import light_node_problems
+    messages += [f"{what}: {problem}" for problem in light_node_problems(light)]
     if not getattr(light, "use_shadow", True):
         messages.append(f"{what}: 'Cast Shadow' off is not exported; it casts shadows in Photon")
     return messages
-
-
-def _light_nodes_matter(tree) -> bool:
-    """Whether a light's node tree changes the light: anything but an Emission node with white
-    colour and strength 1 (the default tree) feeding the output."""
-    for node in tree.nodes:
-        if node.type == "OUTPUT_LIGHT" or node.type == "FRAME":
-            continue
-        if node.type != "EMISSION":
-            return True
-        color, strength = node.inputs["Color"], node.inputs["Strength"]
-        if color.is_linked or strength.is_linked:
-            return True
-        if any(abs(c - 1.0) > 1e-6 for c in color.default_value[:3]):
-            return True
-        if abs(strength.default_value - 1.0) > 1e-6:
-            return True
-    return False
 
 
 def material_features(material) -> list[str]:
@@ -182,12 +181,31 @@ def world_features(world) -> list[str]:
 def _camera_features(camera_object) -> list[str]:
     camera, messages = camera_object.data, []
     what = f"camera '{camera_object.name}'"
-    if camera.type == "PANO":
-        messages.append(f"{what}: panoramic cameras are not exported; Photon renders a "
-                        f"perspective view")
-    if camera.dof.use_dof:
-        messages.append(f"{what}: depth of field is not rendered")
+    from .export import PANORAMAS
+    if camera.type == "PANO" and camera.panorama_type not in PANORAMAS:
+        messages.append(f"{what}: the {camera.panorama_type} panoramic projection is not "
+                        f"exported; Photon renders a perspective view")
+    elif camera.type == "PANO" and camera.dof.use_dof:
+        messages.append(f"{what}: depth of field is not rendered with a panoramic camera")
+    if camera.dof.use_dof and camera.dof.focus_object is not None and camera.dof.focus_subtarget:
+        messages.append(f"{what}: depth of field focuses on the origin of "
+                        f"'{camera.dof.focus_object.name}', not on its bone "
+                        f"'{camera.dof.focus_subtarget}'")
     return messages
+
+
+def _layer_collections(view_layer):
+    """Every layer collection of `view_layer` below its root, parents before children; none
+    below an excluded one."""
+    if view_layer is None:
+        return []
+    found, stack = [], list(view_layer.layer_collection.children)
+    while stack:
+        layer = stack.pop(0)
+        found.append(layer)
+        if not layer.exclude:
+            stack.extend(layer.children)
+    return found
 
 
 def _active_output(tree, kind):

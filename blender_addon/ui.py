@@ -4,9 +4,10 @@ explicit list of Blender's built-in panels whose settings Photon uses.
 Blender's panels list the engines they serve in `COMPAT_ENGINES`; a panel shows for Photon only
 if its class is named in `BUILTIN_PANELS` below (as Cycles and BlendLuxCore list theirs). What
 Photon ignores is left out, so it does not show: EEVEE's and Cycles' render settings, Simplify,
-Freestyle, Grease Pencil render settings, motion blur, depth of field, stereoscopy, light probes,
+Freestyle, Grease Pencil render settings, motion blur, stereoscopy, light probes,
 the light's EEVEE shadow settings, object shading and ray visibility, AOVs, Cryptomatte and the
-Particles tab (the export carries no particles; the pre-flight report warns about them). Photon's
+Particles tab (the export carries particles rendered as objects or collections, not hair;
+the pre-flight report warns about the rest). Photon's
 passes (Depth, Normal, Denoising Data and the light passes) have their own View Layer panel.
 A name missing from the running Blender is skipped (panels are renamed between versions).
 """
@@ -45,7 +46,7 @@ BUILTIN_PANELS = {
         DATA_PT_camera DATA_PT_camera_safe_areas DATA_PT_camera_safe_areas_center_cut
         DATA_PT_camera_background_image DATA_PT_camera_display
         DATA_PT_camera_display_composition_guides DATA_PT_camera_animation
-        DATA_PT_custom_props_camera
+        DATA_PT_custom_props_camera DATA_PT_camera_dof DATA_PT_camera_dof_aperture
     """,
     "light": """
         DATA_PT_context_light DATA_PT_preview DATA_PT_EEVEE_light NODE_DATA_PT_EEVEE_light

@@ -12,6 +12,13 @@
 //!
 //! Masked and blended materials (glTF alphaMode) are decided during traversal: a triangle whose
 //! material needs an alpha test is accepted only where its texture's alpha says so.
+//!
+//! Instances (`Scene::instances` of `Scene::prototypes`) form a second level: one BVH per
+//! prototype over its object-space triangles, and one over the instances' world bounds. A ray
+//! reaching an instance's box is carried into the prototype's space (same parameter t, the
+//! direction left unnormalised) and tested there, so a mesh is stored and built once however
+//! many times it is placed. Prototypes have plain opaque materials (see `Scene::prototypes`):
+//! no alpha test or visibility flags apply to them.
 
 use crate::math::{gamma, Vec2, Vec3, Vec3A, Vec3Swizzles};
 use crate::rng::hash_combine;
@@ -31,19 +38,27 @@ pub struct Ray {
     pub t_max: f32,
 }
 
-/// Which query a ray serves: camera rays skip geometry hidden from the camera.
+/// Which query a ray serves: camera rays skip geometry hidden from the camera, shadow rays
+/// (`Accel::unoccluded`) geometry that casts no shadows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Visibility {
     Camera,
     Secondary,
+    Shadow,
 }
+
+/// `Hit::instance` of a hit on a world-space mesh.
+pub const NO_INSTANCE: u32 = u32::MAX;
 
 /// The closest intersection found.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
+    /// Index into `Scene::meshes`, or into `Scene::prototypes` when `instance` is set.
     pub mesh: u32,
     pub triangle: u32,
+    /// Index into `Scene::instances`, or `NO_INSTANCE`.
+    pub instance: u32,
     /// Barycentric coordinates of vertices 1 and 2; vertex 0 has 1 − b1 − b2.
     pub b1: f32,
     pub b2: f32,
@@ -51,6 +66,7 @@ pub struct Hit {
 
 const FLAG_ALPHA_TEST: u8 = 1;
 const FLAG_CAMERA_HIDDEN: u8 = 2;
+const FLAG_SHADOW_HIDDEN: u8 = 4;
 
 /// The acceleration structure over all scene triangles.
 pub struct Accel {
@@ -63,6 +79,133 @@ pub struct Accel {
     /// (mesh, triangle) for each BVH primitive slot.
     ids: Vec<(u32, u32)>,
     flags: Vec<u8>,
+    instanced: Option<Instanced>,
+}
+
+/// The instances' level: a BVH over their world bounds (in the `Accel`'s BVH space) and one
+/// per prototype.
+struct Instanced {
+    top: CwBvh,
+    /// Instance index per slot of `top`.
+    slots: Vec<u32>,
+    /// Per prototype; `None` for one without triangles.
+    prototypes: Vec<Option<Prototype>>,
+}
+
+/// One prototype's BVH, in its own BVH space ((object − `center`) × `scale`).
+struct Prototype {
+    bvh: CwBvh,
+    center: Vec3,
+    scale: f32,
+    /// Object-space triangle vertices in BVH primitive order.
+    vertices: Vec<[Vec3A; 3]>,
+    /// Triangle index per slot.
+    triangles: Vec<u32>,
+}
+
+impl Prototype {
+    fn new(mesh: &crate::scene::Mesh) -> Option<Prototype> {
+        let tris: Vec<[Vec3A; 3]> = mesh
+            .indices
+            .iter()
+            .map(|idx| idx.map(|i| Vec3A::from(mesh.positions[i as usize])))
+            .collect();
+        let bounds = mesh.bounds();
+        if tris.is_empty() || bounds.is_empty() {
+            return None;
+        }
+        let (center, scale) = bvh_space(bounds);
+        let boxes: Vec<BvhTriangle> = tris
+            .iter()
+            .map(|v| BvhTriangle::new(v, center.into(), scale))
+            .collect();
+        let bvh = build(&boxes);
+        let order = &bvh.primitive_indices;
+        Some(Prototype {
+            center,
+            scale,
+            vertices: order.iter().map(|&i| tris[i as usize]).collect(),
+            triangles: order.to_vec(),
+            bvh,
+        })
+    }
+
+    /// The closest triangle along the object-space ray (`origin`, `dir`) with 0 < t < `t_max`:
+    /// (t, triangle, b1, b2). With `any`, the first one found.
+    fn intersect(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        any: bool,
+    ) -> Option<(f32, u32, f32, f32)> {
+        let length = dir.length();
+        if !(length > 0.0 && length.is_finite() && origin.is_finite()) {
+            return None;
+        }
+        let sheared = ShearedRay::new(origin, dir);
+        let k = length * self.scale;
+        let bvh_ray = BvhRay::new(
+            ((origin - self.center) * self.scale).into(),
+            (dir / length + Vec3::ZERO).into(),
+            0.0,
+            t_max * k,
+        );
+        let mut best: Option<(f32, u32, f32, f32)> = None;
+        if any {
+            self.bvh.ray_traverse_miss(bvh_ray, |_, slot| {
+                match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
+                    Some((t, b1, b2)) => {
+                        best = Some((t, self.triangles[slot], b1, b2));
+                        t * k
+                    }
+                    None => f32::INFINITY,
+                }
+            });
+        } else {
+            let mut hit = RayHit::none();
+            self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
+                let limit = best.map_or(t_max, |b| b.0).min(r.tmax / k);
+                match sheared.intersect(&self.vertices[slot], 0.0, limit) {
+                    Some((t, b1, b2)) => {
+                        best = Some((t, self.triangles[slot], b1, b2));
+                        t * k
+                    }
+                    None => f32::INFINITY,
+                }
+            });
+        }
+        best
+    }
+}
+
+/// The BVH space of `bounds`: its centre, and the scale that gives it a diagonal of
+/// `BVH_SPACE_SIZE`.
+fn bvh_space(bounds: crate::scene::Bounds) -> (Vec3, f32) {
+    let diagonal = bounds.diagonal();
+    let scale = if diagonal > 0.0 && diagonal.is_finite() {
+        BVH_SPACE_SIZE / diagonal
+    } else {
+        1.0
+    };
+    (bounds.center(), scale)
+}
+
+/// A CWBVH over `boxes`, with less search effort for large inputs (start-up time).
+fn build<T: Boundable>(boxes: &[T]) -> CwBvh {
+    let mut build_time = Duration::ZERO;
+    obvhs::cwbvh::builder::build_cwbvh(
+        boxes,
+        // Large scenes build faster with a lower search effort: on a 1 M-triangle scene
+        // (scenes/make_large.py) fast_build took 1.73 s instead of medium's 2.26 s, with
+        // no measurable change in traversal speed (examples/ray_throughput, loaded machine).
+        if boxes.len() > LARGE_SCENE_TRIANGLES {
+            BvhBuildParams::fast_build()
+        } else {
+            BvhBuildParams::medium_build()
+        },
+        &mut build_time,
+    )
 }
 
 /// Per-ray constants of the watertight test: the axis permutation and the shear.
@@ -236,6 +379,9 @@ impl Accel {
             if !mesh.camera_visible {
                 flag |= FLAG_CAMERA_HIDDEN;
             }
+            if !mesh.casts_shadows {
+                flag |= FLAG_SHADOW_HIDDEN;
+            }
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let p = |k: usize| Vec3A::from(mesh.positions[idx[k] as usize]);
                 tris.push([p(0), p(1), p(2)]);
@@ -244,7 +390,7 @@ impl Accel {
             }
         }
         let bounds = scene.bounds();
-        if tris.is_empty() || bounds.is_empty() {
+        if bounds.is_empty() {
             return Accel {
                 bvh: None,
                 center: Vec3::ZERO,
@@ -252,32 +398,27 @@ impl Accel {
                 vertices: Vec::new(),
                 ids: Vec::new(),
                 flags: Vec::new(),
+                instanced: None,
             };
         }
-        let mut build_time = Duration::ZERO;
-        let center = bounds.center();
-        let diagonal = bounds.diagonal();
-        let scale = if diagonal > 0.0 && diagonal.is_finite() {
-            BVH_SPACE_SIZE / diagonal
-        } else {
-            1.0
-        };
+        let (center, scale) = bvh_space(bounds);
+        let instanced = Instanced::new(scene, center, scale);
+        if tris.is_empty() {
+            return Accel {
+                bvh: None,
+                center,
+                scale,
+                vertices: Vec::new(),
+                ids: Vec::new(),
+                flags: Vec::new(),
+                instanced,
+            };
+        }
         let boxes: Vec<BvhTriangle> = tris
             .iter()
             .map(|v| BvhTriangle::new(v, center.into(), scale))
             .collect();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(
-            &boxes,
-            // Large scenes build faster with a lower search effort: on a 1 M-triangle scene
-            // (scenes/make_large.py) fast_build took 1.73 s instead of medium's 2.26 s, with
-            // no measurable change in traversal speed (examples/ray_throughput, loaded machine).
-            if tris.len() > LARGE_SCENE_TRIANGLES {
-                BvhBuildParams::fast_build()
-            } else {
-                BvhBuildParams::medium_build()
-            },
-            &mut build_time,
-        );
+        let bvh = build(&boxes);
         let order = &bvh.primitive_indices;
         let vertices = order.iter().map(|&i| tris[i as usize]).collect();
         let ids = order.iter().map(|&i| ids[i as usize]).collect();
@@ -289,6 +430,7 @@ impl Accel {
             vertices,
             ids,
             flags,
+            instanced,
         }
     }
 
@@ -307,6 +449,9 @@ impl Accel {
             return true;
         }
         if flag & FLAG_CAMERA_HIDDEN != 0 && visibility == Visibility::Camera {
+            return false;
+        }
+        if flag & FLAG_SHADOW_HIDDEN != 0 && visibility == Visibility::Shadow {
             return false;
         }
         if flag & FLAG_ALPHA_TEST == 0 {
@@ -362,49 +507,101 @@ impl Accel {
 
     /// The closest surface along `ray` with 0 < t < `ray.t_max`.
     pub fn intersect(&self, scene: &Scene, ray: &Ray, visibility: Visibility) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        let sheared = ShearedRay::new(ray.origin, ray.direction);
-        let mut best: Option<(usize, f32, f32, f32)> = None;
-        let mut hit = RayHit::none();
         let (bvh_ray, k) = self.bvh_ray(ray)?;
-        bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
-            let t_max = best.map_or(ray.t_max, |b| b.1).min(r.tmax / k);
-            match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
-                Some((t, b1, b2)) if self.accepts(scene, slot, b1, b2, ray, visibility) => {
-                    best = Some((slot, t, b1, b2));
-                    t * k
+        let mut found: Option<Hit> = None;
+        if let Some(bvh) = self.bvh.as_ref() {
+            let sheared = ShearedRay::new(ray.origin, ray.direction);
+            let mut best: Option<(usize, f32, f32, f32)> = None;
+            let mut hit = RayHit::none();
+            bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
+                let t_max = best.map_or(ray.t_max, |b| b.1).min(r.tmax / k);
+                match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
+                    Some((t, b1, b2)) if self.accepts(scene, slot, b1, b2, ray, visibility) => {
+                        best = Some((slot, t, b1, b2));
+                        t * k
+                    }
+                    _ => f32::INFINITY,
                 }
-                _ => f32::INFINITY,
+            });
+            if let Some((slot, t, b1, b2)) = best {
+                let (mesh, triangle) = self.ids[slot];
+                found = Some(Hit {
+                    t,
+                    mesh,
+                    triangle,
+                    instance: NO_INSTANCE,
+                    b1,
+                    b2,
+                });
             }
-        });
-        let (slot, t, b1, b2) = best?;
-        let (mesh, triangle) = self.ids[slot];
-        Some(Hit {
-            t,
-            mesh,
-            triangle,
-            b1,
-            b2,
-        })
+        }
+        if let Some(instanced) = &self.instanced {
+            let limit = found.map_or(ray.t_max, |h| h.t);
+            let mut top_ray = bvh_ray;
+            top_ray.tmax = limit * k;
+            let mut hit = RayHit::none();
+            instanced.top.ray_traverse(top_ray, &mut hit, |r, slot| {
+                let index = instanced.slots[slot];
+                let instance = &scene.instances[index as usize];
+                let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
+                    return f32::INFINITY;
+                };
+                let t_max = found.map_or(limit, |h| h.t).min(r.tmax / k);
+                let origin = instance.to_object.transform_point3(ray.origin);
+                let dir = instance.to_object.transform_vector3(ray.direction);
+                match prototype.intersect(origin, dir, t_max, false) {
+                    Some((t, triangle, b1, b2)) => {
+                        found = Some(Hit {
+                            t,
+                            mesh: instance.prototype,
+                            triangle,
+                            instance: index,
+                            b1,
+                            b2,
+                        });
+                        t * k
+                    }
+                    None => f32::INFINITY,
+                }
+            });
+        }
+        found
     }
 
     /// True when nothing blocks `ray` on 0 < t < `ray.t_max`.
     pub fn unoccluded(&self, scene: &Scene, ray: &Ray) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
-            return true;
-        };
-        let sheared = ShearedRay::new(ray.origin, ray.direction);
         let Some((bvh_ray, k)) = self.bvh_ray(ray) else {
             return true;
         };
-        bvh.ray_traverse_miss(bvh_ray, |_, slot| {
-            match sheared.intersect(&self.vertices[slot], 0.0, ray.t_max) {
-                Some((t, b1, b2))
-                    if self.accepts(scene, slot, b1, b2, ray, Visibility::Secondary) =>
-                {
-                    t * k
+        if let Some(bvh) = self.bvh.as_ref() {
+            let sheared = ShearedRay::new(ray.origin, ray.direction);
+            let clear = bvh.ray_traverse_miss(bvh_ray, |_, slot| {
+                match sheared.intersect(&self.vertices[slot], 0.0, ray.t_max) {
+                    Some((t, b1, b2))
+                        if self.accepts(scene, slot, b1, b2, ray, Visibility::Shadow) =>
+                    {
+                        t * k
+                    }
+                    _ => f32::INFINITY,
                 }
-                _ => f32::INFINITY,
+            });
+            if !clear {
+                return false;
+            }
+        }
+        let Some(instanced) = &self.instanced else {
+            return true;
+        };
+        instanced.top.ray_traverse_miss(bvh_ray, |_, slot| {
+            let instance = &scene.instances[instanced.slots[slot] as usize];
+            let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
+                return f32::INFINITY;
+            };
+            let origin = instance.to_object.transform_point3(ray.origin);
+            let dir = instance.to_object.transform_vector3(ray.direction);
+            match prototype.intersect(origin, dir, ray.t_max, true) {
+                Some((t, ..)) => t * k,
+                None => f32::INFINITY,
             }
         })
     }
@@ -412,6 +609,55 @@ impl Accel {
     /// Number of triangles in the structure.
     pub fn triangle_count(&self) -> usize {
         self.ids.len()
+    }
+}
+
+impl Instanced {
+    fn new(scene: &Scene, center: Vec3, scale: f32) -> Option<Instanced> {
+        if scene.instances.is_empty() {
+            return None;
+        }
+        let prototypes: Vec<Option<Prototype>> =
+            scene.prototypes.iter().map(Prototype::new).collect();
+        let local: Vec<crate::scene::Bounds> =
+            scene.prototypes.iter().map(|m| m.bounds()).collect();
+        let mut boxes = Vec::with_capacity(scene.instances.len());
+        let mut slots = Vec::with_capacity(scene.instances.len());
+        for (i, instance) in scene.instances.iter().enumerate() {
+            let b = crate::scene::instance_bounds(instance, local[instance.prototype as usize]);
+            if b.is_empty() || prototypes[instance.prototype as usize].is_none() {
+                continue;
+            }
+            let lo = (b.min - center) * scale;
+            let hi = (b.max - center) * scale;
+            let magnitude = b.min.abs().max(b.max.abs()) * scale + lo.abs().max(hi.abs());
+            let pad = (magnitude * 1e-6).max(Vec3::splat(1e-20));
+            boxes.push(BvhBox(Aabb::new((lo - pad).into(), (hi + pad).into())));
+            slots.push(i as u32);
+        }
+        if boxes.is_empty() {
+            return None;
+        }
+        let top = build(&boxes);
+        let slots = top
+            .primitive_indices
+            .iter()
+            .map(|&i| slots[i as usize])
+            .collect();
+        Some(Instanced {
+            top,
+            slots,
+            prototypes,
+        })
+    }
+}
+
+/// An instance's world bounds in BVH space.
+struct BvhBox(Aabb);
+
+impl Boundable for BvhBox {
+    fn aabb(&self) -> Aabb {
+        self.0
     }
 }
 
@@ -426,10 +672,19 @@ where
 
 /// UV at a hit, or zero when the mesh has none.
 pub fn hit_uv(scene: &Scene, hit: &Hit) -> Vec2 {
-    let mesh = &scene.meshes[hit.mesh as usize];
+    let mesh = hit_mesh(scene, hit);
     if mesh.uvs.is_empty() {
         return Vec2::ZERO;
     }
     let idx = mesh.indices[hit.triangle as usize];
     interpolate(idx.map(|i| mesh.uvs[i as usize]), hit.b1, hit.b2)
+}
+
+/// The mesh a hit is on: a world-space mesh, or the prototype of the instance hit.
+pub fn hit_mesh<'a>(scene: &'a Scene, hit: &Hit) -> &'a crate::scene::Mesh {
+    if hit.instance == NO_INSTANCE {
+        &scene.meshes[hit.mesh as usize]
+    } else {
+        &scene.prototypes[hit.mesh as usize]
+    }
 }

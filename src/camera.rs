@@ -1,10 +1,17 @@
 //! Primary rays: maps a continuous film position (pixels, origin at the top-left corner, y down)
 //! to a world-space ray through the scene camera. Perspective and orthographic, as glTF defines
-//! them; the vertical extent (yfov or ymag) is kept and the horizontal one follows the image aspect.
+//! them; the vertical extent (yfov or ymag) is kept and the horizontal one follows the image
+//! aspect. Blender's lens shift moves the image window in its plane, and a thin lens (Blender's
+//! depth of field: aperture radius, focus distance, polygonal blades, anamorphic ratio) spreads
+//! ray origins over the aperture while rays through one film point meet on the focus plane, as
+//! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant and equisolid
+//! fisheye) map the image onto directions around the camera; film positions a fisheye does not
+//! cover give a ray that sees nothing (`Ray::t_max` 0).
 
 use crate::accel::Ray;
 use crate::math::{Affine3A, Vec2, Vec3};
-use crate::scene::{Camera, Projection};
+use crate::sampling::{square_to_disk, square_to_triangle};
+use crate::scene::{Camera, Projection, ThinLens};
 
 pub struct CameraRays {
     to_world: Affine3A,
@@ -13,6 +20,9 @@ pub struct CameraRays {
     height: f32,
     /// Half-height of the image plane at distance 1 (perspective) or in scene units (orthographic).
     half_height: f32,
+    /// Offset of the image window in the image plane (same units as `half_height`).
+    shift: Vec2,
+    lens: Option<ThinLens>,
 }
 
 impl CameraRays {
@@ -20,13 +30,21 @@ impl CameraRays {
         let half_height = match camera.projection {
             Projection::Perspective { yfov } => (0.5 * yfov).tan(),
             Projection::Orthographic { ymag, .. } => ymag,
+            _ => 1.0,
         };
+        let panoramic = camera.projection.is_panoramic();
         CameraRays {
             to_world: camera.to_world,
             projection: camera.projection,
             width: width as f32,
             height: height as f32,
             half_height,
+            shift: if panoramic {
+                Vec2::ZERO
+            } else {
+                camera.shift * (2.0 * half_height)
+            },
+            lens: camera.lens.filter(|l| l.radius > 0.0 && !panoramic),
         }
     }
 
@@ -35,19 +53,205 @@ impl CameraRays {
         self.to_world.transform_vector3(Vec3::NEG_Z).normalize()
     }
 
-    /// The ray through film position `film` (in pixels).
+    /// Whether rays need a lens sample (`ray_through_lens`): the camera has an aperture.
+    pub fn has_lens(&self) -> bool {
+        self.lens.is_some()
+    }
+
+    /// The ray through film position `film` (in pixels) from the centre of the lens.
     pub fn ray(&self, film: Vec2) -> Ray {
-        let aspect = self.width / self.height;
-        let x = (2.0 * film.x / self.width - 1.0) * aspect * self.half_height;
-        let y = (1.0 - 2.0 * film.y / self.height) * self.half_height;
-        let (origin, dir) = match self.projection {
-            Projection::Perspective { .. } => (Vec3::ZERO, Vec3::new(x, y, -1.0).normalize()),
-            Projection::Orthographic { .. } => (Vec3::new(x, y, 0.0), Vec3::NEG_Z),
+        let (origin, dir) = self.camera_space_ray(film);
+        self.to_world_ray(origin, dir)
+    }
+
+    /// The ray through film position `film` from the point of the aperture that `u` (uniform in
+    /// the unit square) picks; the same as `ray` without an aperture.
+    pub fn ray_through_lens(&self, film: Vec2, u: Vec2) -> Ray {
+        let (origin, dir) = self.camera_space_ray(film);
+        let Some(lens) = &self.lens else {
+            return self.to_world_ray(origin, dir);
         };
+        // The point this ray meets on the plane in focus, at distance `focus_distance` along
+        // the camera axis.
+        let focus = origin + dir * (lens.focus_distance / -dir.z);
+        let on_lens = aperture_point(lens, u);
+        let start = origin + on_lens.extend(0.0);
+        self.to_world_ray(start, (focus - start).normalize())
+    }
+
+    /// Origin and unit direction in camera space; a zero direction where the image shows
+    /// nothing (outside a fisheye's circle).
+    fn camera_space_ray(&self, film: Vec2) -> (Vec3, Vec3) {
+        let aspect = self.width / self.height;
+        let x = (2.0 * film.x / self.width - 1.0) * aspect * self.half_height + self.shift.x;
+        let y = (1.0 - 2.0 * film.y / self.height) * self.half_height + self.shift.y;
+        // Image coordinates in [0, 1], v up, for the panoramas.
+        let (u, v) = (film.x / self.width, 1.0 - film.y / self.height);
+        let dir = match self.projection {
+            Projection::Perspective { .. } => Vec3::new(x, y, -1.0).normalize(),
+            Projection::Orthographic { .. } => return (Vec3::new(x, y, 0.0), Vec3::NEG_Z),
+            Projection::Equirectangular {
+                longitude,
+                latitude,
+            } => {
+                let lon = longitude.0 + u * (longitude.1 - longitude.0);
+                let lat = latitude.0 + v * (latitude.1 - latitude.0);
+                Vec3::new(lat.cos() * lon.sin(), lat.sin(), -lat.cos() * lon.cos())
+            }
+            Projection::FisheyeEquidistant { fov } => {
+                let p = Vec2::new(2.0 * u - 1.0, 2.0 * v - 1.0);
+                let r = p.length();
+                if r > 1.0 {
+                    Vec3::ZERO
+                } else {
+                    fisheye_direction(p, r, 0.5 * r * fov)
+                }
+            }
+            Projection::FisheyeEquisolid { lens, fov, sensor } => {
+                let p = Vec2::new((u - 0.5) * sensor.0, (v - 0.5) * sensor.1);
+                let r = p.length();
+                if r > 2.0 * lens * (0.25 * fov).sin() || r > 2.0 * lens {
+                    Vec3::ZERO
+                } else {
+                    fisheye_direction(p, r, 2.0 * (r / (2.0 * lens)).asin())
+                }
+            }
+        };
+        (Vec3::ZERO, dir)
+    }
+
+    fn to_world_ray(&self, origin: Vec3, dir: Vec3) -> Ray {
+        if dir == Vec3::ZERO {
+            return Ray {
+                origin: self.to_world.transform_point3(origin),
+                direction: self.to_world.transform_vector3(Vec3::NEG_Z).normalize(),
+                t_max: 0.0,
+            };
+        }
         Ray {
             origin: self.to_world.transform_point3(origin),
             direction: self.to_world.transform_vector3(dir).normalize(),
             t_max: f32::INFINITY,
+        }
+    }
+}
+
+/// The direction at angle `theta` from the camera's −Z, towards image position `p` (at
+/// distance `r` from the centre).
+fn fisheye_direction(p: Vec2, r: f32, theta: f32) -> Vec3 {
+    let (cos_phi, sin_phi) = if r > 0.0 {
+        (p.x / r, p.y / r)
+    } else {
+        (1.0, 0.0)
+    };
+    Vec3::new(cos_phi * theta.sin(), sin_phi * theta.sin(), -theta.cos())
+}
+
+/// A point of the aperture (camera-space x, y), uniform over its area: a disk without blades,
+/// else the regular polygon with `blades` corners inscribed in the disk, its first corner at
+/// `rotation` from the +x axis; x is divided by the anamorphic `ratio`.
+pub fn aperture_point(lens: &ThinLens, u: Vec2) -> Vec2 {
+    let unit = if lens.blades < 3 {
+        square_to_disk(u)
+    } else {
+        // Pick one of the polygon's triangles (all of equal area) with the first coordinate,
+        // reuse what is left of it, and place the point uniformly in that triangle.
+        let n = lens.blades as f32;
+        let scaled = u.x * n;
+        let k = scaled.floor().min(n - 1.0);
+        let u = Vec2::new(scaled - k, u.y);
+        let step = std::f32::consts::TAU / n;
+        let corner = |i: f32| {
+            let a = lens.rotation + i * step;
+            Vec2::new(a.cos(), a.sin())
+        };
+        let (a, b) = (corner(k), corner(k + 1.0));
+        let bary = square_to_triangle(u);
+        a * bary.x + b * bary.y
+    };
+    lens.radius * Vec2::new(unit.x / lens.ratio, unit.y)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lens(blades: u32, ratio: f32) -> ThinLens {
+        ThinLens {
+            radius: 2.0,
+            focus_distance: 5.0,
+            blades,
+            rotation: 0.3,
+            ratio,
+        }
+    }
+
+    /// Aperture points stay inside the disk (or polygon), are centred, and cover it evenly: the
+    /// mean of r² over a uniform disk of radius R is R²/2.
+    #[test]
+    fn aperture_points_cover_the_aperture_uniformly() {
+        for blades in [0, 3, 6] {
+            let l = lens(blades, 1.0);
+            let n = 64;
+            let (mut sum, mut r2) = (Vec2::ZERO, 0.0);
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    let p = aperture_point(&l, u);
+                    assert!(p.length() <= l.radius * 1.0001, "{p}");
+                    sum += p;
+                    r2 += p.length_squared();
+                }
+            }
+            let count = (n * n) as f32;
+            assert!(
+                (sum / count).length() < 0.02,
+                "{blades}: mean {}",
+                sum / count
+            );
+            // Uniform over a triangle (0, a, b) with |a| = |b| = R at angle θ, the mean of |p|²
+            // is R²(2 + cos θ)/6; over the disk R²/2.
+            let expected = if blades == 0 {
+                0.5 * l.radius * l.radius
+            } else {
+                let theta = std::f32::consts::TAU / blades as f32;
+                l.radius * l.radius * (2.0 + theta.cos()) / 6.0
+            };
+            let mean_r2 = r2 / count;
+            assert!(
+                (mean_r2 / expected - 1.0).abs() < 0.01,
+                "{blades}: {mean_r2} {expected}"
+            );
+        }
+        let squeezed = aperture_point(&lens(0, 2.0), Vec2::new(0.999, 0.5));
+        assert!(squeezed.x.abs() <= 1.0001, "{squeezed}");
+    }
+
+    /// Every ray through one film point meets the others on the plane in focus.
+    #[test]
+    fn rays_through_the_lens_meet_on_the_focus_plane() {
+        let camera = Camera {
+            name: "c".into(),
+            to_world: Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0)),
+            projection: Projection::Perspective { yfov: 0.8 },
+            aspect_ratio: None,
+            shift: Vec2::new(0.1, -0.2),
+            lens: Some(lens(5, 1.0)),
+        };
+        let rays = CameraRays::new(&camera, 40, 30);
+        let film = Vec2::new(7.3, 21.8);
+        let centre = rays.ray(film);
+        let focus_z = 3.0 - 5.0;
+        let at_focus = |r: &Ray| r.origin + r.direction * ((focus_z - r.origin.z) / r.direction.z);
+        let target = at_focus(&centre);
+        for u in [
+            Vec2::new(0.1, 0.9),
+            Vec2::new(0.7, 0.2),
+            Vec2::new(0.45, 0.55),
+        ] {
+            let r = rays.ray_through_lens(film, u);
+            assert!((r.origin - centre.origin).length() > 1e-3);
+            assert!((at_focus(&r) - target).length() < 1e-4, "{}", at_focus(&r));
         }
     }
 }

@@ -661,6 +661,14 @@ fn run_info(path: &Path, camera: Option<String>, quality: Quality) -> Result<()>
             format!("perspective, vertical fov {:.1} deg", yfov.to_degrees())
         }
         Projection::Orthographic { xmag, ymag } => format!("orthographic {xmag} x {ymag}"),
+        Projection::Equirectangular { .. } => "panoramic, equirectangular".to_string(),
+        Projection::FisheyeEquidistant { fov } => {
+            format!("panoramic, equidistant fisheye {:.1} deg", fov.to_degrees())
+        }
+        Projection::FisheyeEquisolid { lens, fov, .. } => format!(
+            "panoramic, equisolid fisheye {lens} mm, {:.1} deg",
+            fov.to_degrees()
+        ),
     };
     println!("camera: '{}', {projection}", scene.camera.name);
     println!("{}", plan_for_image(&scene, quality, width, height));

@@ -6,8 +6,8 @@
 //! γ₇·(|b0·p0| + |b1·p1| + |b2·p2|) (pbrt-v4 §6.8.5). There is no global epsilon: every offset
 //! scales with the coordinates involved, which the reintersection test checks from 1e-4 to 1e5.
 
-use crate::accel::{hit_uv, interpolate, Hit, Ray};
-use crate::math::{gamma, Frame, Vec2, Vec3};
+use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
+use crate::math::{gamma, Frame, Vec2, Vec3, Vec4};
 use crate::scene::Scene;
 
 /// Everything shading needs about a surface point.
@@ -32,9 +32,22 @@ impl SurfaceHit {
     /// Reconstruct the hit of `ray` on the scene: position with its error bound, normals, UV, and
     /// the shading frame (perturbed by the material's normal texture when the mesh has tangents).
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> SurfaceHit {
-        let mesh = &scene.meshes[hit.mesh as usize];
+        let mesh = hit_mesh(scene, hit);
+        let instance = scene.instances.get(hit.instance as usize);
         let idx = mesh.indices[hit.triangle as usize];
-        let p = idx.map(|i| mesh.positions[i as usize]);
+        // An instance's triangle is taken to world space first; everything below is the same.
+        let p = idx.map(|i| match instance {
+            Some(inst) => inst.to_world.transform_point3(mesh.positions[i as usize]),
+            None => mesh.positions[i as usize],
+        });
+        let to_world_normal = |n: Vec3| match instance {
+            Some(inst) => inst.normal_matrix * n,
+            None => n,
+        };
+        let to_world_tangent = |t: Vec4| match instance {
+            Some(inst) => inst.to_world.transform_vector3(t.truncate()).extend(t.w),
+            None => t,
+        };
         let (b1, b2) = (hit.b1, hit.b2);
         let b0 = 1.0 - b1 - b2;
         let pos = interpolate(p, b1, b2);
@@ -47,7 +60,12 @@ impl SurfaceHit {
             // Degenerate triangle: any normal facing the ray keeps shading finite.
             -ray.direction.normalize_or(Vec3::Z)
         };
-        let mut n = interpolate(idx.map(|i| mesh.normals[i as usize]), b1, b2).normalize_or(ng);
+        let mut n = interpolate(
+            idx.map(|i| to_world_normal(mesh.normals[i as usize])),
+            b1,
+            b2,
+        )
+        .normalize_or(ng);
         if n.dot(ng) < 0.0 {
             // Shading normals are stored per vertex and can face away from the winding normal
             // (flipped meshes); shading uses the side of the geometry.
@@ -57,7 +75,11 @@ impl SurfaceHit {
         let material = &scene.materials[mesh.material as usize];
         let frame = match (&material.normal_texture, mesh.tangents.is_empty()) {
             (Some(tex), false) => {
-                let t4 = interpolate(idx.map(|i| mesh.tangents[i as usize]), b1, b2);
+                let t4 = interpolate(
+                    idx.map(|i| to_world_tangent(mesh.tangents[i as usize])),
+                    b1,
+                    b2,
+                );
                 let base = Frame::from_normal_tangent(n, t4.truncate());
                 let bitangent_sign = if t4.w < 0.0 { -1.0 } else { 1.0 };
                 let texel = scene.textures[tex.texture as usize].sample(tex.apply(uv));
@@ -79,7 +101,12 @@ impl SurfaceHit {
             ng,
             frame,
             uv,
-            mesh: hit.mesh,
+            // Instances are never lights: their hits name no world-space mesh.
+            mesh: if instance.is_some() {
+                u32::MAX
+            } else {
+                hit.mesh
+            },
             triangle: hit.triangle,
             material: mesh.material,
             t: hit.t,

@@ -98,6 +98,32 @@ pub fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// Smallest spread an area light is given: narrower ones are lasers that nothing samples.
+const MIN_SPREAD: f32 = 1e-3;
+
+/// Cycles' area-light spread as a factor on the radiance towards a direction at cos a to the
+/// normal: a soft-box grid lets through (tan h − tan a) / (tan h − h) for a < h = spread/2, and
+/// nothing beyond. The cosine-weighted integral of the factor over the hemisphere is π, so the
+/// light's power is unchanged. 1 without a spread.
+pub fn spread_factor(spread: Option<f32>, cos: f32) -> f32 {
+    let Some(spread) = spread else {
+        return 1.0;
+    };
+    if cos <= 0.0 {
+        return 0.0;
+    }
+    let half = 0.5 * spread.max(MIN_SPREAD);
+    let tan_half = half.tan();
+    let tan_a = (1.0 - cos * cos).max(0.0).sqrt() / cos;
+    // tan h − h loses its digits for small h; its series h³/3 does not.
+    let normalize = if half > 0.05 {
+        1.0 / (tan_half - half)
+    } else {
+        3.0 / (half * half * half)
+    };
+    ((tan_half - tan_a) * normalize).max(0.0)
+}
+
 /// Emitted radiance of a surface towards `wo` (unit, pointing away from the surface).
 pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
     let material = &scene.materials[hit.material as usize];
@@ -107,7 +133,11 @@ pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
     if !material.double_sided && wo.dot(hit.ng) <= 0.0 {
         return Vec3::ZERO;
     }
-    material_emission(scene, material, hit.uv)
+    let spread = scene
+        .meshes
+        .get(hit.mesh as usize)
+        .and_then(|m| m.emission_spread);
+    material_emission(scene, material, hit.uv) * spread_factor(spread, wo.dot(hit.ng).abs())
 }
 
 /// A material's emitted radiance at texture coordinate `uv` (emission × emissive texture).
@@ -325,8 +355,12 @@ impl Lights {
                 if cos_l <= 0.0 {
                     return None;
                 }
+                let spread = spread_factor(scene.meshes[mesh as usize].emission_spread, cos_l);
+                if spread <= 0.0 {
+                    return None;
+                }
                 Some(LightSample {
-                    li: emitter.radiance,
+                    li: emitter.radiance * spread,
                     wi,
                     pdf: dist2 / (cos_l * area),
                     delta: false,
@@ -642,5 +676,33 @@ impl EnvironmentLight {
         let dir = self.map.to_map.transpose() * d;
         let pdf = pdf_image / (2.0 * PI * PI * sin_theta);
         (pdf > 0.0 && pdf.is_finite()).then(|| (dir, self.eval(dir), pdf))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The spread keeps the light's power: ∫ factor · cos dω over the hemisphere is π, for wide
+    /// and narrow spreads (the narrow ones through the series branch).
+    #[test]
+    fn spread_factor_keeps_the_power() {
+        for degrees in [170.0f32, 90.0, 30.0, 5.0, 1.0] {
+            let spread = Some(degrees.to_radians());
+            let half = 0.5 * degrees.to_radians();
+            let n = 200_000;
+            // Midpoint rule in θ over [0, h] (the factor is zero beyond).
+            let dtheta = half / n as f32;
+            let mut integral = 0.0f64;
+            for i in 0..n {
+                let theta = (i as f32 + 0.5) * dtheta;
+                let f = spread_factor(spread, theta.cos());
+                integral += (f * theta.cos() * theta.sin() * dtheta) as f64 * std::f64::consts::TAU;
+            }
+            let ratio = integral / std::f64::consts::PI;
+            assert!((ratio - 1.0).abs() < 2e-3, "{degrees}°: {ratio}");
+            assert_eq!(spread_factor(spread, (half * 1.01).cos()), 0.0);
+        }
+        assert_eq!(spread_factor(None, 0.3), 1.0);
     }
 }

@@ -219,7 +219,12 @@ fn material_traits(scene: &Scene, index: usize) -> Option<MaterialTraits> {
 }
 
 fn used_materials(scene: &Scene) -> Vec<usize> {
-    let mut used: Vec<usize> = scene.meshes.iter().map(|m| m.material as usize).collect();
+    let mut used: Vec<usize> = scene
+        .meshes
+        .iter()
+        .chain(&scene.prototypes)
+        .map(|m| m.material as usize)
+        .collect();
     used.sort_unstable();
     used.dedup();
     used
@@ -344,7 +349,7 @@ fn global_decision(scene: &Scene, summary: &SceneSummary) -> Decision {
             "no diffuse surface: indirect light has nothing to land on",
         );
     }
-    if let [mesh] = scene.meshes.as_slice() {
+    if let ([mesh], true) = (scene.meshes.as_slice(), scene.instances.is_empty()) {
         let self_lit = m.emissive > 0 || light_inside(scene, &summary.bounds);
         if !self_lit && is_convex(mesh) == Some(true) {
             return Decision::new(
@@ -465,8 +470,11 @@ fn seen_by_camera<'a>(
             Projection::Orthographic { ymag, .. } => {
                 (q.x / ymag, q.y / ymag, q * Vec3::new(1.0, 1.0, 0.0))
             }
+            // A panorama may see any direction: only occlusion decides.
+            _ => (0.0, 0.0, Vec3::ZERO),
         };
-        if !(q.z < 0.0) || x.abs() > aspect || y.abs() > 1.0 {
+        let behind = !(q.z < 0.0) && !camera.projection.is_panoramic();
+        if behind || x.abs() > aspect || y.abs() > 1.0 {
             return false;
         }
         // A photon is stored on the side of its surface it arrived on (`n`): the eye must be

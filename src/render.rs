@@ -583,7 +583,15 @@ fn render_tile(
                 let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
                 let offset = filter.sample(rng.uniform2());
                 let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-                let ray = camera.ray(film);
+                // A lens sample only with an aperture: pinhole cameras keep their streams.
+                let ray = if camera.has_lens() {
+                    camera.ray_through_lens(film, rng.uniform2())
+                } else {
+                    camera.ray(film)
+                };
+                if ray.t_max <= 0.0 {
+                    continue; // outside a fisheye's image: black, as in Cycles
+                }
                 let sample = integrator.trace(ctx, ray, &mut rng);
                 tile_rays += sample.rays as u64;
                 if sample.radiance.is_finite() {

@@ -23,6 +23,8 @@ fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
         indices: vec![[0, 1, 2]],
         material: 0,
         camera_visible: true,
+        emission_spread: None,
+        casts_shadows: true,
     };
     scenes::scene(
         vec![mesh],

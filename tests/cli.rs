@@ -226,3 +226,85 @@ fn a_width_or_height_alone_keeps_the_scenes_aspect_ratio() {
         assert_eq!((w, h), expected, "{flag} {value}");
     }
 }
+
+/// A one-triangle .gltf with its buffer in a data URI: `positions` (9 bytes as the accessor's
+/// `component_type`, or 36 bytes of floats for 5126) and a perspective camera of `yfov`.
+fn triangle_gltf(positions: &[u8], component_type: u32, yfov: f32) -> String {
+    const B64: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut data = String::new();
+    for chunk in positions.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for (i, shift) in [18, 12, 6, 0].into_iter().enumerate() {
+            data.push(if i <= chunk.len() {
+                B64[(n >> shift & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    let max = if component_type == 5126 { 1.0 } else { 200.0 };
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+        "nodes": [{{"mesh": 0, "name": "Room"}}, {{"camera": 0, "translation": [0, 0, 5]}}],
+        "cameras": [{{"type": "perspective", "perspective": {{"yfov": {yfov}, "znear": 0.1}}}}],
+        "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+        "accessors": [{{"bufferView": 0, "componentType": {component_type}, "count": 3,
+            "type": "VEC3", "min": [0, 0, 0], "max": [{max}, {max}, 0]}}],
+        "bufferViews": [{{"buffer": 0, "byteLength": {len}}}],
+        "buffers": [{{"byteLength": {len},
+            "uri": "data:application/octet-stream;base64,{data}"}}]}}"#,
+        len = positions.len()
+    )
+}
+
+#[test]
+fn a_zero_field_of_view_and_integer_positions_exit_with_2() {
+    let dir = temp_dir("input-checks");
+    let floats: Vec<u8> = [0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let good = dir.join("good.gltf");
+    std::fs::write(&good, triangle_gltf(&floats, 5126, 0.5)).unwrap();
+    let cases = [
+        ("yfov.gltf", triangle_gltf(&floats, 5126, 0.0), "yfov"),
+        (
+            "bytes.gltf",
+            triangle_gltf(&[0, 0, 0, 200, 0, 0, 0, 200, 0], 5121, 0.5),
+            "KHR_mesh_quantization",
+        ),
+    ];
+    let out = dir.join("o.exr");
+    let render = |scene: &Path| {
+        photon()
+            .args([
+                "render",
+                &scene.to_string_lossy(),
+                "-o",
+                &out.to_string_lossy(),
+            ])
+            .args(["--width", "8", "--height", "8", "--spp", "1"])
+            .output()
+            .unwrap()
+    };
+    assert_eq!(
+        render(&good).status.code(),
+        Some(0),
+        "the valid file renders"
+    );
+    std::fs::remove_file(&out).unwrap();
+    for (name, text, needle) in cases {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let result = render(&path);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{name}: {stderr}");
+        assert!(stderr.contains(needle), "{name}: {stderr}");
+        assert!(!out.exists(), "{name}: an image was written");
+    }
+}

@@ -284,7 +284,10 @@ fn count_lights(scene: &Scene) -> (usize, usize, usize) {
 fn cornell_box_has_walls_boxes_and_a_lamp() {
     let scene = load_built("cornell_box.glb");
     assert_eq!(scene.materials.len(), 4);
-    assert_eq!(scene.triangle_count(), 5 * 2 + 2 + 2 * 12);
+    // The two boxes share one mesh: stored once, placed twice.
+    assert_eq!(scene.triangle_count(), 5 * 2 + 2 + 12);
+    assert_eq!(scene.placed_triangle_count(), 5 * 2 + 2 + 2 * 12);
+    assert_eq!(scene.instances.len(), 2);
     assert!(scene.lights.is_empty());
     assert_eq!(
         scene.materials.iter().filter(|m| m.is_emissive()).count(),
@@ -438,9 +441,24 @@ fn hierarchy_transforms_are_flattened_to_world_space() {
         true,
     );
     let scene = load_glb(&doc).unwrap();
-    assert_eq!(scene.meshes.len(), 2, "the mesh is instanced twice");
-    let m = &scene.meshes[1];
+    assert_eq!(
+        scene.instances.len(),
+        2,
+        "the mesh is placed twice, stored once"
+    );
+    let (instance, prototype) = (&scene.instances[1], &scene.prototypes[0]);
+    let at = |i: usize| instance.to_world.transform_point3(prototype.positions[i]);
     // Vertex (1, 0, 0): scale → (2, 0, 0), translate → (2, 0, 1), rotate → (0, 2, 1), → (1, 4, 4).
+    assert!(close(at(1), Vec3::new(1.0, 4.0, 4.0)), "{:?}", at(1));
+    assert!(close(at(0), Vec3::new(1.0, 2.0, 4.0)));
+    assert!(close(
+        (instance.normal_matrix * prototype.normals[0]).normalize(),
+        Vec3::Z
+    ));
+    // Flattened (a node with its own ray visibility is never an instance): the same place.
+    doc.json["nodes"][child]["extensions"] = json!({"PHOTON_object": {"visible_shadow": true}});
+    let scene = load_glb(&doc).unwrap();
+    let m = &scene.meshes[scene.meshes.len() - 1];
     assert!(
         close(m.positions[1], Vec3::new(1.0, 4.0, 4.0)),
         "{:?}",
@@ -1293,4 +1311,324 @@ fn garbage_never_panics() {
             }
         }
     }
+}
+
+// ----- input checks: cameras, quantized attributes, sizes before allocation --------------------
+
+#[test]
+fn degenerate_cameras_are_refused() {
+    for (field, value) in [
+        ("yfov", json!(0.0)),
+        ("yfov", json!(-0.5)),
+        ("yfov", json!(4.0)),
+    ] {
+        let mut doc = triangle_doc();
+        doc.json["cameras"][0]["perspective"][field] = value;
+        assert_scene_error(load_glb(&doc), &["camera 0 'CameraData'", "yfov"]);
+    }
+    let mut doc = triangle_doc();
+    doc.json["cameras"][0]["perspective"]["aspectRatio"] = json!(0.0);
+    assert_scene_error(load_glb(&doc), &["aspectRatio"]);
+    let mut doc = triangle_doc();
+    doc.json["cameras"][0] = json!({"type": "orthographic",
+        "orthographic": {"xmag": 0.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0}});
+    assert_scene_error(load_glb(&doc), &["xmag"]);
+}
+
+impl Doc {
+    /// An accessor of integer components (`component_type` 5120–5123) holding `data`.
+    fn integers(
+        &mut self,
+        data: &[i32],
+        component_type: u32,
+        kind: &str,
+        normalized: bool,
+    ) -> usize {
+        let bytes: Vec<u8> = match component_type {
+            5120 | 5121 => data.iter().map(|&v| v as u8).collect(),
+            _ => data
+                .iter()
+                .flat_map(|&v| (v as u16).to_le_bytes())
+                .collect(),
+        };
+        let width = match kind {
+            "VEC2" => 2,
+            "VEC3" => 3,
+            _ => 4,
+        };
+        let view = self.view(&bytes);
+        let mut accessor = json!({"bufferView": view, "componentType": component_type,
+            "count": data.len() / width, "type": kind, "normalized": normalized});
+        if kind == "VEC3" {
+            let column = |i: usize, f: fn(i32, i32) -> i32| {
+                data.iter().skip(i).step_by(3).copied().reduce(f).unwrap()
+            };
+            accessor["min"] = json!([0, 1, 2].map(|i| column(i, i32::min)));
+            accessor["max"] = json!([0, 1, 2].map(|i| column(i, i32::max)));
+        }
+        self.push("accessors", accessor)
+    }
+
+    /// A one-triangle mesh whose POSITION is accessor `positions`, on a node with `node`'s fields.
+    fn quantized_triangle(&mut self, positions: usize, node: Value) {
+        let mesh = self.push(
+            "meshes",
+            json!({"name": "Q", "primitives": [{"attributes": {"POSITION": positions}}]}),
+        );
+        let mut node = node;
+        node["mesh"] = json!(mesh);
+        self.node(node, true);
+    }
+}
+
+#[test]
+fn integer_positions_without_mesh_quantization_are_refused() {
+    for component_type in [5121, 5123] {
+        let mut doc = Doc::new();
+        let positions = doc.integers(
+            &[0, 0, 0, 200, 0, 0, 0, 190, 0],
+            component_type,
+            "VEC3",
+            false,
+        );
+        doc.quantized_triangle(positions, json!({"name": "Room"}));
+        assert_scene_error(
+            load_glb(&doc),
+            &["POSITION", "KHR_mesh_quantization", "does not declare"],
+        );
+    }
+}
+
+#[test]
+fn quantized_positions_normals_and_uvs_are_dequantized() {
+    let mut doc = Doc::new();
+    doc.json["extensionsUsed"] = json!(["KHR_mesh_quantization"]);
+    doc.json["extensionsRequired"] = json!(["KHR_mesh_quantization"]);
+    // Unsigned shorts, not normalized, dequantized by the node's scale and translation.
+    let positions = doc.integers(&[0, 0, 0, 1000, 0, 0, 0, 1000, 0], 5123, "VEC3", false);
+    let normals = doc.integers(&[0, 0, 127, 0, 0, 127, 0, 0, 127], 5120, "VEC3", true);
+    let uvs = doc.integers(&[0, 0, 65535, 0, 0, 32768], 5123, "VEC2", true);
+    let mesh = doc.push(
+        "meshes",
+        json!({"name": "Q", "primitives": [{"attributes":
+            {"POSITION": positions, "NORMAL": normals, "TEXCOORD_0": uvs}}]}),
+    );
+    doc.node(
+        json!({"name": "Q", "mesh": mesh, "scale": [0.002, 0.002, 0.002],
+               "translation": [-1.0, 0.0, 0.0]}),
+        true,
+    );
+    let scene = load_glb(&doc).expect("a quantized file loads");
+    let mesh = &scene.meshes[0];
+    assert!(
+        close(mesh.positions[1], Vec3::new(1.0, 0.0, 0.0)),
+        "{:?}",
+        mesh.positions
+    );
+    assert!(
+        close(mesh.positions[2], Vec3::new(-1.0, 2.0, 0.0)),
+        "{:?}",
+        mesh.positions
+    );
+    assert!(close(mesh.normals[0], Vec3::Z), "{:?}", mesh.normals);
+    assert!((mesh.uvs[1].x - 1.0).abs() < 1e-6 && (mesh.uvs[2].y - 0.5).abs() < 1e-4);
+}
+
+#[test]
+fn normalized_byte_texture_coordinates_need_no_extension() {
+    let mut doc = triangle_doc();
+    let uvs = doc.integers(&[0, 0, 255, 0, 0, 255], 5121, "VEC2", true);
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uvs);
+    let scene = load_glb(&doc).expect("normalized unsigned byte UVs are core glTF");
+    assert_eq!(scene.meshes[0].uvs[1].x, 1.0);
+    // Signed normals without the extension are not.
+    let mut doc = triangle_doc();
+    let normals = doc.integers(&[0, 0, 127, 0, 0, 127, 0, 0, 127], 5120, "VEC3", true);
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(normals);
+    assert_scene_error(load_glb(&doc), &["NORMAL", "KHR_mesh_quantization"]);
+}
+
+#[test]
+fn instanced_triangle_totals_are_refused_before_any_geometry_is_read() {
+    // One mesh of 5 M (degenerate) triangles whose indices have no buffer view, instanced by 41
+    // nodes: 205 M triangles. Reading them would take gigabytes; the count alone refuses them.
+    let mut doc = triangle_doc();
+    let sparse_indices = doc.view(&0u32.to_le_bytes());
+    let sparse_values = doc.view(&1u32.to_le_bytes());
+    let indices = doc.push(
+        "accessors",
+        json!({"componentType": 5125, "count": 15_000_000, "type": "SCALAR",
+               "sparse": {"count": 1, "indices": {"bufferView": sparse_indices, "componentType": 5125},
+                          "values": {"bufferView": sparse_values}}}),
+    );
+    doc.json["meshes"][0]["primitives"][0]["indices"] = json!(indices);
+    // Copies with their own ray visibility are flattened, so each counts.
+    for i in 0..40 {
+        doc.node(
+            json!({"name": format!("Copy{i}"), "mesh": 0,
+                   "extensions": {"PHOTON_object": {"visible_camera": true}}}),
+            true,
+        );
+    }
+    let start = std::time::Instant::now();
+    assert_scene_error(
+        load_glb(&doc),
+        &["200000000 triangles", "refused before loading any geometry"],
+    );
+    assert!(start.elapsed().as_secs_f32() < 1.0, "{:?}", start.elapsed());
+}
+
+#[test]
+fn nan_node_transforms_are_refused() {
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["matrix"] =
+        json!([1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+    let mut text = serde_json::to_string(&doc.json).unwrap();
+    text = text.replacen("[1.0,0.0,0.0,0.0,0.0,1.0", "[1e39,0.0,0.0,0.0,0.0,1.0", 1);
+    doc.json = serde_json::from_str(&text).unwrap();
+    assert_scene_error(load_glb(&doc), &["TriNode"]);
+}
+
+// ----- PHOTON_light: Cycles' colour and power, spot cone, spread -------------------------------
+
+#[test]
+fn photon_light_colour_and_power_replace_the_photometric_values() {
+    let mut doc = triangle_doc();
+    with_light(
+        &mut doc,
+        json!({"type": "spot", "intensity": 54351.4, "color": [1.0, 1.0, 1.0],
+               "spot": {"innerConeAngle": 0.1, "outerConeAngle": 0.6}}),
+        json!({"name": "Spot", "extensions": {"KHR_lights_punctual": {"light": 0},
+               "PHOTON_light": {"radius": 0.0, "power": 400.0, "color": [0.2, 0.4, 1.0],
+                                "spot_size": 1.2, "spot_blend": 0.25}}}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    let Light::Spot {
+        intensity,
+        cos_inner,
+        cos_outer,
+        ..
+    } = &scene.lights[0]
+    else {
+        panic!("not a spot")
+    };
+    let i = 400.0 / (4.0 * PI);
+    assert!(
+        close(*intensity, Vec3::new(0.2, 0.4, 1.0) * i),
+        "{intensity}"
+    );
+    let c = 0.6f32.cos();
+    assert!((cos_outer - c).abs() < 1e-6);
+    assert!(
+        (cos_inner - (c + 0.25 * (1.0 - c))).abs() < 1e-6,
+        "{cos_inner}"
+    );
+}
+
+#[test]
+fn photon_light_values_out_of_range_are_refused() {
+    for bad in [
+        json!({"power": -1.0, "color": [1, 1, 1]}),
+        json!({"color": [1, -1, 1]}),
+        json!({"spot_size": 4.0}),
+        json!({"spot_blend": 1.5}),
+    ] {
+        let mut doc = triangle_doc();
+        with_light(
+            &mut doc,
+            json!({"type": "spot", "intensity": 10.0, "spot": {"outerConeAngle": 0.6}}),
+            json!({"name": "Spot", "extensions": {"KHR_lights_punctual": {"light": 0},
+                   "PHOTON_light": bad}}),
+        );
+        assert_scene_error(load_glb(&doc), &["Spot", "PHOTON_light"]);
+    }
+    let doc = area_light_doc(json!({"type": "area", "spread": 4.0}), json!({}));
+    assert_scene_error(load_glb(&doc), &["AreaL", "spread"]);
+}
+
+#[test]
+fn area_light_spread_is_kept_on_its_mesh() {
+    let doc = area_light_doc(json!({"type": "area", "spread": 1.0}), json!({}));
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(
+        scene.meshes[area_light_index(&scene)].emission_spread,
+        Some(1.0)
+    );
+    let doc = area_light_doc(json!({"type": "area", "spread": PI}), json!({}));
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.meshes[area_light_index(&scene)].emission_spread, None);
+}
+
+#[test]
+fn photon_camera_panoramas_are_read_also_on_camera_less_nodes() {
+    let mut doc = triangle_doc();
+    doc.node(
+        json!({"name": "Pano", "translation": [0.0, 1.0, 0.0], "extensions": {"PHOTON_camera":
+            {"panorama": {"type": "EQUIRECTANGULAR", "longitude": [-1.0, 2.0]}}}}),
+        true,
+    );
+    let options = LoadOptions {
+        camera: Some("Pano".into()),
+    };
+    let scene = load_slice(&doc.glb(), "fixture.glb", &options).unwrap();
+    assert_eq!(
+        scene.camera.projection,
+        Projection::Equirectangular {
+            longitude: (-1.0, 2.0),
+            latitude: (-0.5 * PI, 0.5 * PI)
+        }
+    );
+    for bad in [
+        json!({"type": "MIRRORBALL"}),
+        json!({"type": "FISHEYE_EQUIDISTANT", "fov": 0.0}),
+        json!({"type": "FISHEYE_EQUISOLID", "sensor": [36.0, -1.0]}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.node(
+            json!({"name": "Pano", "extensions": {"PHOTON_camera": {"panorama": bad}}}),
+            true,
+        );
+        assert_scene_error(load_glb(&doc), &["Pano", "PHOTON_camera"]);
+    }
+}
+
+#[test]
+fn photon_camera_shift_and_lens_are_read_and_checked() {
+    let mut doc = triangle_doc();
+    doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": {"shift": [0.1, -0.2],
+        "dof": {"aperture_radius": 0.05, "focus_distance": 4.0, "blades": 6, "rotation": 0.2}}});
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.camera.shift, photon::math::Vec2::new(0.1, -0.2));
+    let lens = scene.camera.lens.expect("a thin lens");
+    assert_eq!(
+        (lens.radius, lens.focus_distance, lens.blades),
+        (0.05, 4.0, 6)
+    );
+    for bad in [
+        json!({"shift": [0.1]}),
+        json!({"dof": {"aperture_radius": -1.0}}),
+        json!({"dof": {"focus_distance": 0.0}}),
+        json!({"dof": {"ratio": 0.0}}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": bad});
+        assert_scene_error(load_glb(&doc), &["Camera", "PHOTON_camera"]);
+    }
+}
+
+#[test]
+fn photon_object_ray_visibility_is_read_and_checked() {
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["extensions"] =
+        json!({"PHOTON_object": {"visible_camera": false, "visible_shadow": false}});
+    let scene = load_glb(&doc).unwrap();
+    assert!(!scene.meshes[0].camera_visible && !scene.meshes[0].casts_shadows);
+    let scene = load_glb(&triangle_doc()).unwrap();
+    assert!(scene.meshes[0].camera_visible && scene.meshes[0].casts_shadows);
+    let mut doc = triangle_doc();
+    doc.json["nodes"][0]["extensions"] = json!({"PHOTON_object": {"visible_shadow": 0}});
+    assert_scene_error(
+        load_glb(&doc),
+        &["TriNode", "PHOTON_object", "visible_shadow"],
+    );
 }

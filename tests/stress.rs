@@ -141,6 +141,8 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
             .collect(),
         material,
         camera_visible: true,
+        emission_spread: None,
+        casts_shadows: true,
     }
 }
 

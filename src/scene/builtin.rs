@@ -20,7 +20,7 @@ mod tests {
     #[test]
     fn embedded_cornell_box_loads() {
         let scene = cornell_box(&LoadOptions::default()).unwrap();
-        assert_eq!(scene.triangle_count(), 36);
+        assert_eq!(scene.placed_triangle_count(), 36);
         assert!(scene.materials.iter().any(|m| m.is_emissive()));
         assert_eq!(scene.render_settings.width, Some(256));
     }

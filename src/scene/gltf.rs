@@ -26,13 +26,41 @@
 //!   - with a directional light: `{"angle": a}`, the sun's angular diameter in radians (default 0);
 //!   - an area light (which the exporter drops): `{"type": "area", "shape": "SQUARE" |
 //!     "RECTANGLE" | "DISK" | "ELLIPSE", "size": x, "size_y": y, "power": watts, "color": [r, g,
-//!     b], "visible_camera": bool}`. It becomes a one-sided emissive mesh in the node's local XY
+//!     b], "visible_camera": bool, "spread": a}`. It becomes a one-sided emissive mesh in the node's local XY
 //!     plane, centred on the origin (disks and ellipses as a 32-segment fan), emitting along the
 //!     node's local −Z. `size` is the X extent (SQUARE, DISK: both), `size_y` the Y extent
 //!     (RECTANGLE, ELLIPSE; default `size`); the node's scale applies, as in Blender. Its radiance
 //!     is `color × power / (π × area)` with the area of the polygon actually built (Blender's
-//!     "normalize"). Defaults: SQUARE, size 1, power 10 W, white, `visible_camera` false.
+//!     "normalize"). `spread` (radians, in [0, π]) narrows the emission around the normal as
+//!     Cycles' spread does, keeping the power (`crate::light::spread_factor`). Defaults: SQUARE,
+//!     size 1, power 10 W, white, `visible_camera` false, spread π.
+//!   - with a point, spot or directional light, optional `"color": [r, g, b]` with `"power": W`
+//!     (point, spot) or `"strength": W/m²` (sun) replace the KHR light's colour and intensity:
+//!     the add-on writes Cycles' combination of the light's colour, blackbody temperature and
+//!     node-tree emission. A spot's optional `"spot_size"` (full cone angle, radians) and
+//!     `"spot_blend"` (0–1) give Cycles' exact cone, smoothstep((cos θ − cos(size/2)) /
+//!     ((1 − cos(size/2)) × blend)), in place of glTF's inner and outer angles.
 //!
+//! - `PHOTON_camera` on a camera node: `{"shift": [x, y], "dof": {"aperture_radius": r,
+//!   "focus_distance": d, "blades": n, "rotation": a, "ratio": q}}`. `shift` is Blender's lens
+//!   shift converted to units of the image height (the image window moves by `shift × image
+//!   height` in its plane; default 0). `dof` is a thin lens: aperture radius in scene units
+//!   (Blender's focal length / (2 × f-stop); 0 is a pinhole), the focus distance along the camera
+//!   axis (default 10), the number of polygon corners (below 3 round), the polygon's rotation in
+//!   radians and the anamorphic ratio (the aperture's x extent is divided by it; default 1).
+//!   Out-of-range values are refused with an error. An optional `"panorama"` replaces the
+//!   projection with one of Cycles' panoramic cameras: `{"type": "EQUIRECTANGULAR",
+//!   "longitude": [min, max], "latitude": [min, max]}` (radians, left to right and bottom to
+//!   top, 0 along the camera's −Z; defaults the whole sphere), `{"type":
+//!   "FISHEYE_EQUIDISTANT", "fov": a}` or `{"type": "FISHEYE_EQUISOLID", "lens": mm, "fov": a,
+//!   "sensor": [width, height]}` (millimetres, the sensor as Cycles fits it to the image); see
+//!   `scene::Projection`. Panoramas ignore `shift` and `dof`. Blender's exporter drops
+//!   panoramic cameras but keeps their node: a node with a `panorama` and no glTF camera is a
+//!   camera too.
+//! - `PHOTON_object` on a mesh node: `{"visible_camera": bool, "visible_shadow": bool}`
+//!   (default true), Blender's camera and shadow ray visibility: camera rays pass through an
+//!   object hidden from the camera, shadow rays (direct light) through one that casts no
+//!   shadows.
 //! - `PHOTON_material_subsurface` on a material: `{"weight": w, "radius": [r, g, b], "scale": s,
 //!   "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs (defaults: weight 0,
 //!   radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4, anisotropy 0). With weight > 0 the material
@@ -49,11 +77,19 @@
 //! # Limits and conventions
 //!
 //! Files that would exhaust memory are refused before allocating: accessors must fit in their
-//! buffer views, and a scene may hold at most `MAX_TRIANGLES` (200 M) triangles, `MAX_VERTICES`
-//! (400 M) vertices and `MAX_NODE_INSTANCES` (1 M) node instances after flattening. Only the
-//! default scene (or the first) is loaded; UV set 0 only. Under a mirroring transform the
-//! triangle winding is flipped and the tangent's w (bitangent sign) is negated, so both the
-//! geometric normal and the tangent frame keep their meaning.
+//! buffer views, and the hierarchy is counted before any geometry is read: at most
+//! `MAX_NODE_INSTANCES` (1 M) node instances, `MAX_TRIANGLES` (200 M) stored triangles and
+//! `MAX_VERTICES` (400 M) stored vertices. Only the default scene (or the first) is loaded; UV
+//! set 0 only. Vertex attributes must have the component types glTF allows (integers only
+//! with KHR_mesh_quantization, normalized UVs also without).
+//!
+//! A mesh placed by two or more nodes whose materials are plain (opaque, not emissive,
+//! translucent, transmissive or specular: roughness ≥ `INSTANCE_MIN_ROUGHNESS`) is stored once
+//! as a prototype (`Scene::prototypes`) and placed by `Scene::instances`, counted once against
+//! the limits. Copies under a mirroring or singular transform, or with their own
+//! `PHOTON_object`, and every other mesh are flattened to world space; under a mirroring
+//! transform the triangle winding is flipped and the tangent's w (bitangent sign) is negated,
+//! so both the geometric normal and the tangent frame keep their meaning.
 //!
 //! # Units
 //!
@@ -64,7 +100,7 @@
 use super::texture::Wrap;
 use super::{
     AlphaMode, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
-    SceneRenderSettings, Subsurface, Texture, TextureRef, World,
+    SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -108,8 +144,13 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
     "KHR_texture_transform",
+    "KHR_mesh_quantization",
     "EXT_texture_webp",
 ];
+
+/// Materials rougher than this (perceptual roughness) are never specular for the photon
+/// method's caustic aiming, so meshes made of them may be instanced.
+const INSTANCE_MIN_ROUGHNESS: f32 = 0.3;
 
 /// Segments of the fan that approximates disk and ellipse area lights.
 const AREA_LIGHT_SEGMENTS: usize = 32;
@@ -145,6 +186,12 @@ struct Loader {
     triangle_total: usize,
     vertex_total: usize,
     node_instances: usize,
+    /// The file declares KHR_mesh_quantization: vertex attributes may be stored as integers.
+    quantized: bool,
+    /// glTF meshes stored once as prototypes (`Scene::prototypes`) and placed by instances.
+    instanced_meshes: std::collections::HashSet<usize>,
+    /// Prototype indices of each instanced glTF mesh (one per primitive), once built.
+    prototype_ids: HashMap<usize, Vec<u32>>,
 }
 
 #[derive(Clone)]
@@ -199,6 +246,10 @@ impl Loader {
         // Everything left is supported here, even the extensions the gltf crate's validation does
         // not list as "enabled" (volume, specular); required-ness has been checked.
         root.extensions_required.clear();
+        let quantized = root
+            .extensions_used
+            .iter()
+            .any(|e| e == "KHR_mesh_quantization");
 
         let document = gltf::Document::from_json(root).map_err(|e| match e {
             gltf::Error::Validation(errors) => {
@@ -232,6 +283,8 @@ impl Loader {
             texture_slots: HashMap::new(),
             scene: Scene {
                 meshes: Vec::new(),
+                prototypes: Vec::new(),
+                instances: Vec::new(),
                 materials: Vec::new(),
                 textures: Vec::new(),
                 lights: Vec::new(),
@@ -240,6 +293,8 @@ impl Loader {
                     to_world: Affine3A::IDENTITY,
                     projection: Projection::Perspective { yfov: 0.6981 },
                     aspect_ratio: None,
+                    shift: Vec2::ZERO,
+                    lens: None,
                 },
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
@@ -248,6 +303,9 @@ impl Loader {
             triangle_total: 0,
             vertex_total: 0,
             node_instances: 0,
+            quantized,
+            instanced_meshes: Default::default(),
+            prototype_ids: HashMap::new(),
         };
         loader.load_buffers(blob)?;
         Ok(loader)
@@ -330,6 +388,7 @@ impl Loader {
             .or_else(|| document.scenes().next());
         let mut cameras = Vec::new();
         if let Some(gltf_scene) = &gltf_scene {
+            self.check_sizes(gltf_scene)?;
             for node in gltf_scene.nodes() {
                 let mut ancestors = Vec::new();
                 self.visit_node(&node, Mat4::IDENTITY, &mut ancestors, &mut cameras)?;
@@ -343,6 +402,182 @@ impl Loader {
             .validate()
             .map_err(|m| Error::scene(&self.path, "scene", m))?;
         Ok(self.scene)
+    }
+
+    /// Count what the scene's hierarchy instantiates (node instances, and triangles and
+    /// vertices from the accessors' counts) and refuse it when it is over a limit, before any
+    /// geometry is read or allocated.
+    fn check_sizes(&mut self, gltf_scene: &gltf::Scene) -> Result<()> {
+        let mut per_mesh: HashMap<usize, (usize, usize)> = HashMap::new();
+        for mesh in self.document.meshes() {
+            let (mut triangles, mut vertices) = (0usize, 0usize);
+            for primitive in mesh.primitives() {
+                let Some(positions) = primitive.get(&gltf::Semantic::Positions) else {
+                    continue;
+                };
+                self.check_accessor_fits(&positions)?;
+                if let Some(indices) = primitive.indices() {
+                    self.check_accessor_fits(&indices)?;
+                }
+                let count = primitive.indices().map_or(positions.count(), |a| a.count());
+                triangles = triangles.saturating_add(match primitive.mode() {
+                    Mode::Triangles => count / 3,
+                    Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),
+                    _ => 0,
+                });
+                vertices = vertices.saturating_add(positions.count());
+            }
+            per_mesh.insert(mesh.index(), (triangles, vertices));
+        }
+        // Meshes placed by two or more nodes, with materials nothing but the BVH needs to
+        // know about, become prototypes: stored once, placed by instances.
+        let mut uses: HashMap<usize, usize> = HashMap::new();
+        let mut visited = 0;
+        for node in gltf_scene.nodes() {
+            count_mesh_uses(&node, &mut uses, 0, &mut visited);
+        }
+        self.instanced_meshes = uses
+            .into_iter()
+            .filter(|&(mesh, n)| n >= 2 && self.instanceable(mesh))
+            .map(|(mesh, _)| mesh)
+            .collect();
+        let mut totals = SizeTotals::default();
+        for node in gltf_scene.nodes() {
+            self.count_node(&node, &per_mesh, &mut Vec::new(), &mut totals)?;
+        }
+        Ok(())
+    }
+
+    /// Whether a glTF mesh may be a prototype: every primitive's material is opaque, neither
+    /// emissive nor translucent nor transmissive, and rough (never specular), so that only the
+    /// BVH and the shading point need its instances.
+    fn instanceable(&self, mesh_index: usize) -> bool {
+        let Some(mesh) = self.document.meshes().nth(mesh_index) else {
+            return false;
+        };
+        mesh.primitives().all(|p| {
+            let plain_default = Material::default();
+            let m = match p.material().index() {
+                Some(i) => match self.scene.materials.get(i) {
+                    Some(m) => m,
+                    None => return false,
+                },
+                None => &plain_default,
+            };
+            !m.is_emissive()
+                && !m.is_translucent()
+                && m.transmission == 0.0
+                && m.transmission_texture.is_none()
+                && m.alpha_mode == AlphaMode::Opaque
+                && m.roughness >= INSTANCE_MIN_ROUGHNESS
+                && m.metallic_roughness_texture.is_none()
+        })
+    }
+
+    /// Whether `node` places its mesh as an instance: an instanced mesh, a transform that is
+    /// invertible and not mirrored, no per-object ray visibility.
+    fn places_instance(&self, node: &gltf::Node, world: &Mat4) -> bool {
+        let Some(mesh) = node.mesh() else {
+            return false;
+        };
+        let det = Mat3::from_mat4(*world).determinant();
+        self.instanced_meshes.contains(&mesh.index())
+            && det > 0.0
+            && det.is_finite()
+            && node.extension_value("PHOTON_object").is_none()
+    }
+
+    /// The checks `read_accessor` makes before allocating, without reading: the elements fit
+    /// in the buffer view, or a view-less accessor is not absurdly long.
+    fn check_accessor_fits(&self, accessor: &gltf::Accessor) -> Result<()> {
+        let object = named("accessor", accessor.index(), accessor.name());
+        let element_size = accessor.dimensions().multiplicity() * accessor.data_type().size();
+        match accessor.view() {
+            Some(view) => {
+                self.element_region(
+                    &view,
+                    accessor.offset(),
+                    accessor.count(),
+                    element_size,
+                    &object,
+                )?;
+            }
+            None if accessor.count() > MAX_VIEWLESS_ELEMENTS => {
+                return Err(self.err(
+                    &object,
+                    format!(
+                        "count {} without a buffer view is too large",
+                        accessor.count()
+                    ),
+                ));
+            }
+            None => {}
+        }
+        Ok(())
+    }
+
+    fn count_node(
+        &self,
+        node: &gltf::Node,
+        per_mesh: &HashMap<usize, (usize, usize)>,
+        ancestors: &mut Vec<(usize, Mat4)>,
+        totals: &mut SizeTotals,
+    ) -> Result<()> {
+        let parent = ancestors.last().map_or(Mat4::IDENTITY, |a| a.1);
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let object = named("node", node.index(), node.name());
+        if ancestors.iter().any(|a| a.0 == node.index()) {
+            return Err(self.err(object, "is its own ancestor (cycle in the node hierarchy)"));
+        }
+        if ancestors.len() >= MAX_NODE_DEPTH {
+            return Err(self.err(
+                object,
+                format!("node hierarchy deeper than {MAX_NODE_DEPTH}"),
+            ));
+        }
+        totals.instances += 1;
+        if totals.instances > MAX_NODE_INSTANCES {
+            return Err(self.err(
+                object,
+                format!("the hierarchy instances more than {MAX_NODE_INSTANCES} nodes"),
+            ));
+        }
+        if let Some(mesh) = node.mesh() {
+            let (mut triangles, mut vertices) =
+                per_mesh.get(&mesh.index()).copied().unwrap_or_default();
+            if world.is_finite() && self.places_instance(node, &world) {
+                // Stored once, however many instances place it.
+                if !totals.counted_prototypes.insert(mesh.index()) {
+                    (triangles, vertices) = (0, 0);
+                }
+            }
+            totals.triangles = totals.triangles.saturating_add(triangles);
+            totals.vertices = totals.vertices.saturating_add(vertices);
+            if totals.triangles > MAX_TRIANGLES {
+                return Err(self.err(
+                    object,
+                    format!(
+                        "the scene instances more than Photon's limit of {MAX_TRIANGLES} \
+                         triangles (refused before loading any geometry)"
+                    ),
+                ));
+            }
+            if totals.vertices > MAX_VERTICES {
+                return Err(self.err(
+                    object,
+                    format!(
+                        "the scene instances more than Photon's limit of {MAX_VERTICES} \
+                         vertices (refused before loading any geometry)"
+                    ),
+                ));
+            }
+        }
+        ancestors.push((node.index(), world));
+        for child in node.children() {
+            self.count_node(&child, per_mesh, ancestors, totals)?;
+        }
+        ancestors.pop();
+        Ok(())
     }
 
     fn visit_node(
@@ -374,13 +609,46 @@ impl Loader {
             return Err(self.err(object, "transform is NaN or infinite"));
         }
         if let Some(mesh) = node.mesh() {
-            self.add_mesh(node, &mesh, &world)?;
+            if self.places_instance(node, &world) {
+                self.add_instance(node, &mesh, &world)?;
+            } else {
+                self.add_mesh(node, &mesh, &world, false)?;
+            }
+        }
+        let extension = node.extension_value("PHOTON_camera");
+        if node.camera().is_none() && extension.is_some_and(|e| e.get("panorama").is_some()) {
+            // Blender's exporter drops panoramic cameras and keeps their node.
+            let (_, rotation, translation) = world.to_scale_rotation_translation();
+            let name = node.name().unwrap_or("panoramic camera").to_string();
+            let mut camera = Camera {
+                name: name.clone(),
+                to_world: Affine3A::from_rotation_translation(rotation.normalize(), translation),
+                projection: Projection::Perspective { yfov: 0.6981 },
+                aspect_ratio: None,
+                shift: Vec2::ZERO,
+                lens: None,
+            };
+            if let Some(extension) = extension {
+                read_camera_extension(extension, &mut camera)
+                    .map_err(|m| self.err(format!("{object} PHOTON_camera"), m))?;
+            }
+            cameras.push(FoundCamera {
+                node_name: name.clone(),
+                camera_name: name,
+                camera,
+            });
         }
         if let Some(camera) = node.camera() {
+            let mut converted = convert_camera(node, &camera, &world)
+                .map_err(|m| self.err(named("camera", camera.index(), camera.name()), m))?;
+            if let Some(extension) = node.extension_value("PHOTON_camera") {
+                read_camera_extension(extension, &mut converted)
+                    .map_err(|m| self.err(format!("{object} PHOTON_camera"), m))?;
+            }
             cameras.push(FoundCamera {
                 node_name: node.name().unwrap_or_default().to_string(),
                 camera_name: camera.name().unwrap_or_default().to_string(),
-                camera: convert_camera(node, &camera, &world),
+                camera: converted,
             });
         }
         self.add_lights(node, &world)?;
@@ -394,7 +662,32 @@ impl Loader {
 
     // ----- meshes -------------------------------------------------------------------------
 
-    fn add_mesh(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: &Mat4) -> Result<()> {
+    /// Place `mesh` by `world` as instances of its prototypes (built on first use).
+    fn add_instance(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: &Mat4) -> Result<()> {
+        if !self.prototype_ids.contains_key(&mesh.index()) {
+            let first = self.scene.prototypes.len() as u32;
+            self.add_mesh(node, mesh, &Mat4::IDENTITY, true)?;
+            let ids = (first..self.scene.prototypes.len() as u32).collect();
+            self.prototype_ids.insert(mesh.index(), ids);
+        }
+        let to_world = Affine3A::from_mat4(*world);
+        for &prototype in &self.prototype_ids[&mesh.index()] {
+            self.scene
+                .instances
+                .push(super::Instance::new(prototype, to_world));
+        }
+        Ok(())
+    }
+
+    /// Read `mesh`'s primitives placed by `world` into `Scene::meshes`, or with the identity
+    /// into `Scene::prototypes` when `prototype`.
+    fn add_mesh(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        world: &Mat4,
+        prototype: bool,
+    ) -> Result<()> {
         let mesh_name = mesh.name().map_or_else(
             || format!("mesh {}", mesh.index()),
             |n| format!("mesh '{n}'"),
@@ -402,6 +695,20 @@ impl Loader {
         let linear = Mat3::from_mat4(*world);
         let normal_matrix = linear.inverse().transpose();
         let mirrored = linear.determinant() < 0.0;
+        let visibility = match node.extension_value("PHOTON_object") {
+            None => (true, true),
+            Some(v) => {
+                let flag = |key: &str| match v.get(key) {
+                    None => Ok(true),
+                    Some(Value::Bool(b)) => Ok(*b),
+                    Some(other) => Err(self.err(
+                        format!("{} PHOTON_object", named("node", node.index(), node.name())),
+                        format!("'{key}' must be true or false, found {other}"),
+                    )),
+                };
+                (flag("visible_camera")?, flag("visible_shadow")?)
+            }
+        };
         for primitive in mesh.primitives() {
             let object = format!("{mesh_name} primitive {}", primitive.index());
             let mode = primitive.mode();
@@ -495,6 +802,7 @@ impl Loader {
                 .collect();
 
             let material = self.material_index(primitive.material().index());
+            let (camera_visible, casts_shadows) = visibility;
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",
@@ -508,7 +816,9 @@ impl Loader {
                 tangents: world_tangents,
                 indices,
                 material,
-                camera_visible: true,
+                camera_visible,
+                emission_spread: None,
+                casts_shadows,
             };
             match normals {
                 Some(normals) => {
@@ -524,7 +834,11 @@ impl Loader {
                 }
                 None => make_flat(&mut out),
             }
-            self.scene.meshes.push(out);
+            if prototype {
+                self.scene.prototypes.push(out);
+            } else {
+                self.scene.meshes.push(out);
+            }
         }
         Ok(())
     }
@@ -605,6 +919,18 @@ impl Loader {
                 format!("has {found} components per element, expected {components}"),
             ));
         }
+        check_attribute_type(
+            what,
+            accessor.data_type(),
+            accessor.normalized(),
+            self.quantized,
+        )
+        .map_err(|m| {
+            self.err(
+                format!("{object} {what} (accessor {})", accessor.index()),
+                m,
+            )
+        })?;
         self.read_accessor(accessor, component_as_f32)
     }
 
@@ -1119,35 +1445,81 @@ impl Loader {
                     .and_then(|e| e.get("visible_camera"))
                     .and_then(Value::as_bool)
                     .unwrap_or(false),
+                spread: number("spread", std::f32::consts::PI),
             };
             return self.add_area_light(node, world, &area, &object);
         }
         let Some(light) = node.light() else {
             return Ok(());
         };
-        let color = Vec3::from(light.color());
+        let object = format!("{object} PHOTON_light");
+        let checked = |key: &str, ok: fn(f32) -> bool| -> Result<Option<f32>> {
+            match extension.and_then(|e| e.get(key)) {
+                None => Ok(None),
+                Some(v) => match v.as_f64().map(|x| x as f32) {
+                    Some(x) if x.is_finite() && ok(x) => Ok(Some(x)),
+                    _ => Err(self.err(&object, format!("'{key}' is out of range: {v}"))),
+                },
+            }
+        };
+        // The extension's colour and power (Cycles' units) replace the photometric values.
+        let tint = match extension.and_then(|e| e.get("color")) {
+            None => None,
+            Some(v) => Some(
+                json_vec3(v)
+                    .filter(|c| c.is_finite() && c.min_element() >= 0.0)
+                    .ok_or_else(|| {
+                        self.err(&object, format!("'color' must be three numbers ≥ 0: {v}"))
+                    })?,
+            ),
+        };
+        let color = tint.unwrap_or_else(|| Vec3::from(light.color()));
+        let power = checked("power", |x| x >= 0.0)?.filter(|_| tint.is_some());
+        let intensity = match power {
+            Some(watts) => color * units::blender_point_power_to_intensity(watts),
+            None => color * units::candela_to_watts_per_sr(light.intensity()),
+        };
         let light = match light.kind() {
             gltf::khr_lights_punctual::Kind::Point => Light::Point {
                 position,
-                intensity: color * units::candela_to_watts_per_sr(light.intensity()),
+                intensity,
                 radius: number("radius", 0.0),
             },
             gltf::khr_lights_punctual::Kind::Spot {
                 inner_cone_angle,
                 outer_cone_angle,
-            } => Light::Spot {
-                position,
-                direction,
-                intensity: color * units::candela_to_watts_per_sr(light.intensity()),
-                cos_inner: inner_cone_angle.cos(),
-                cos_outer: outer_cone_angle.cos(),
-                radius: number("radius", 0.0),
-            },
-            gltf::khr_lights_punctual::Kind::Directional => Light::Sun {
-                direction,
-                irradiance: color * units::lux_to_watts_per_m2(light.intensity()),
-                angle: number("angle", 0.0),
-            },
+            } => {
+                // Cycles' cone: smoothstep((cos θ − cos(size/2)) / ((1 − cos(size/2)) × blend)).
+                let size = checked("spot_size", |x| x > 0.0 && x <= std::f32::consts::PI)?;
+                let blend = checked("spot_blend", |x| (0.0..=1.0).contains(&x))?;
+                let (cos_inner, cos_outer) = match size {
+                    Some(size) => {
+                        let cos_outer = (0.5 * size).cos();
+                        let blend = blend.unwrap_or(0.0);
+                        (cos_outer + (1.0 - cos_outer) * blend, cos_outer)
+                    }
+                    None => (inner_cone_angle.cos(), outer_cone_angle.cos()),
+                };
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                    radius: number("radius", 0.0),
+                }
+            }
+            gltf::khr_lights_punctual::Kind::Directional => {
+                let strength = checked("strength", |x| x >= 0.0)?.filter(|_| tint.is_some());
+                Light::Sun {
+                    direction,
+                    irradiance: match strength {
+                        Some(e) => color * e,
+                        None => color * units::lux_to_watts_per_m2(light.intensity()),
+                    },
+                    angle: number("angle", 0.0),
+                }
+            }
         };
         self.scene.lights.push(light);
         Ok(())
@@ -1214,6 +1586,13 @@ impl Loader {
                 format!("area light has zero or invalid area ({area})"),
             ));
         }
+        let spread = light.spread;
+        if !(0.0..=std::f32::consts::PI).contains(&spread) {
+            return Err(self.err(
+                format!("{object} PHOTON_light"),
+                format!("area light spread {spread} is not an angle in [0, π] radians"),
+            ));
+        }
         let normal = (linear.inverse().transpose() * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
         let name = node.name().unwrap_or("area light").to_string();
         let material = Material {
@@ -1236,6 +1615,9 @@ impl Loader {
             indices,
             material: (self.scene.materials.len() - 1) as u32,
             camera_visible: light.visible_camera,
+            // Narrower than a milliradian is a laser nothing would sample; Cycles clamps too.
+            emission_spread: (spread < std::f32::consts::PI).then_some(spread.max(1e-3)),
+            casts_shadows: true,
         });
         Ok(())
     }
@@ -1374,6 +1756,37 @@ impl Loader {
     }
 }
 
+/// How many node instances place each mesh. Stops after `MAX_NODE_INSTANCES` nodes or at
+/// `MAX_NODE_DEPTH` (cycles and depth are refused by `Loader::count_node`, which walks the same
+/// hierarchy next).
+fn count_mesh_uses(
+    node: &gltf::Node,
+    uses: &mut HashMap<usize, usize>,
+    depth: usize,
+    visited: &mut usize,
+) {
+    *visited += 1;
+    if depth >= MAX_NODE_DEPTH || *visited > MAX_NODE_INSTANCES {
+        return;
+    }
+    if let Some(mesh) = node.mesh() {
+        *uses.entry(mesh.index()).or_default() += 1;
+    }
+    for child in node.children() {
+        count_mesh_uses(&child, uses, depth + 1, visited);
+    }
+}
+
+/// Running totals of `Loader::check_sizes`.
+#[derive(Default)]
+struct SizeTotals {
+    instances: usize,
+    triangles: usize,
+    vertices: usize,
+    /// Instanced meshes whose triangles are counted already.
+    counted_prototypes: std::collections::HashSet<usize>,
+}
+
 /// Parameters of a `PHOTON_light` area light.
 struct AreaLight {
     shape: String,
@@ -1382,23 +1795,42 @@ struct AreaLight {
     power: f32,
     color: Vec3,
     visible_camera: bool,
+    /// Full spread angle in radians; π emits over the whole hemisphere.
+    spread: f32,
 }
 
-fn convert_camera(node: &gltf::Node, camera: &gltf::Camera, world: &Mat4) -> Camera {
+fn convert_camera(
+    node: &gltf::Node,
+    camera: &gltf::Camera,
+    world: &Mat4,
+) -> std::result::Result<Camera, String> {
     let (_, rotation, translation) = world.to_scale_rotation_translation();
     let (projection, aspect_ratio) = match camera.projection() {
         gltf::camera::Projection::Perspective(p) => {
-            (Projection::Perspective { yfov: p.yfov() }, p.aspect_ratio())
+            let yfov = p.yfov();
+            if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
+                return Err(format!(
+                    "perspective yfov {yfov} is not an angle in (0, π) radians"
+                ));
+            }
+            (Projection::Perspective { yfov }, p.aspect_ratio())
         }
-        gltf::camera::Projection::Orthographic(o) => (
-            Projection::Orthographic {
-                xmag: o.xmag(),
-                ymag: o.ymag(),
-            },
-            (o.ymag() != 0.0).then(|| o.xmag() / o.ymag()),
-        ),
+        gltf::camera::Projection::Orthographic(o) => {
+            let (xmag, ymag) = (o.xmag(), o.ymag());
+            if !(xmag > 0.0 && ymag > 0.0 && xmag.is_finite() && ymag.is_finite()) {
+                return Err(format!(
+                    "orthographic xmag {xmag} and ymag {ymag} must be positive and finite"
+                ));
+            }
+            (Projection::Orthographic { xmag, ymag }, Some(xmag / ymag))
+        }
     };
-    Camera {
+    if let Some(a) = aspect_ratio {
+        if !(a > 0.0 && a.is_finite()) {
+            return Err(format!("aspectRatio {a} must be positive and finite"));
+        }
+    }
+    Ok(Camera {
         name: node
             .name()
             .or(camera.name())
@@ -1406,6 +1838,90 @@ fn convert_camera(node: &gltf::Node, camera: &gltf::Camera, world: &Mat4) -> Cam
         to_world: Affine3A::from_rotation_translation(rotation.normalize(), translation),
         projection,
         aspect_ratio,
+        shift: Vec2::ZERO,
+        lens: None,
+    })
+}
+
+/// `PHOTON_camera` (see the module documentation) applied to `camera`.
+fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Result<(), String> {
+    let number =
+        |object: &Value, key: &str, default: f32, ok: fn(f32) -> bool| match object.get(key) {
+            None => Ok(default),
+            Some(v) => match v.as_f64().map(|x| x as f32) {
+                Some(x) if x.is_finite() && ok(x) => Ok(x),
+                _ => Err(format!("'{key}' is out of range: {v}")),
+            },
+        };
+    if let Some(v) = value.get("shift") {
+        camera.shift = match v.as_array().map(Vec::as_slice) {
+            Some([x, y]) => match (x.as_f64(), y.as_f64()) {
+                (Some(x), Some(y)) => Vec2::new(x as f32, y as f32),
+                _ => return Err(format!("'shift' must be two numbers, found {v}")),
+            },
+            _ => return Err(format!("'shift' must be two numbers, found {v}")),
+        };
+        if !camera.shift.is_finite() {
+            return Err(format!("'shift' must be finite, found {v}"));
+        }
+    }
+    if let Some(panorama) = value.get("panorama") {
+        camera.projection = read_panorama(panorama)?;
+    }
+    if let Some(dof) = value.get("dof") {
+        let radius = number(dof, "aperture_radius", 0.0, |x| x >= 0.0)?;
+        let focus_distance = number(dof, "focus_distance", 10.0, |x| x > 0.0)?;
+        let blades = number(dof, "blades", 0.0, |x| (0.0..=1000.0).contains(&x))?;
+        let rotation = number(dof, "rotation", 0.0, |_| true)?;
+        let ratio = number(dof, "ratio", 1.0, |x| x > 0.0)?;
+        camera.lens = (radius > 0.0).then_some(ThinLens {
+            radius,
+            focus_distance,
+            blades: blades as u32,
+            rotation,
+            ratio,
+        });
+    }
+    Ok(())
+}
+
+/// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.
+fn read_panorama(value: &Value) -> std::result::Result<Projection, String> {
+    let pair = |key: &str, default: (f32, f32), ok: fn(f32) -> bool| match value.get(key) {
+        None => Ok(default),
+        Some(v) => match v.as_array().map(Vec::as_slice) {
+            Some([a, b]) => match (a.as_f64(), b.as_f64()) {
+                (Some(a), Some(b)) if ok(a as f32) && ok(b as f32) => Ok((a as f32, b as f32)),
+                _ => Err(format!("'{key}' is out of range: {v}")),
+            },
+            _ => Err(format!("'{key}' must be two numbers, found {v}")),
+        },
+    };
+    let number = |key: &str, default: f32| match value.get(key) {
+        None => Ok(default),
+        Some(v) => match v.as_f64().map(|x| x as f32) {
+            Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+            _ => Err(format!("'{key}' must be a positive number, found {v}")),
+        },
+    };
+    let pi = std::f32::consts::PI;
+    match value.get("type").and_then(Value::as_str) {
+        Some("EQUIRECTANGULAR") => Ok(Projection::Equirectangular {
+            longitude: pair("longitude", (-pi, pi), |x| x.is_finite())?,
+            latitude: pair("latitude", (-0.5 * pi, 0.5 * pi), |x| x.is_finite())?,
+        }),
+        Some("FISHEYE_EQUIDISTANT") => Ok(Projection::FisheyeEquidistant {
+            fov: number("fov", pi)?,
+        }),
+        Some("FISHEYE_EQUISOLID") => Ok(Projection::FisheyeEquisolid {
+            lens: number("lens", 10.5)?,
+            fov: number("fov", pi)?,
+            sensor: pair("sensor", (36.0, 24.0), |x| x.is_finite() && x > 0.0)?,
+        }),
+        other => Err(format!(
+            "unknown panorama type {other:?} (EQUIRECTANGULAR, FISHEYE_EQUIDISTANT or \
+             FISHEYE_EQUISOLID)"
+        )),
     }
 }
 
@@ -1425,6 +1941,8 @@ fn framing_camera(bounds: Bounds) -> Camera {
         to_world: look_at(eye, center),
         projection: Projection::Perspective { yfov },
         aspect_ratio: None,
+        shift: Vec2::ZERO,
+        lens: None,
     }
 }
 
@@ -1546,6 +2064,49 @@ fn component_as_f32(bytes: &[u8], data_type: DataType, normalized: bool) -> f32 
         }
         _ => f32::NAN,
     }
+}
+
+/// Whether glTF lets vertex attribute `what` be stored with this component type: floats always;
+/// normalized unsigned bytes and shorts for texture coordinates; and with KHR_mesh_quantization
+/// (`quantized`) the integer types that extension lists (POSITION and TEXCOORD normalized or not,
+/// NORMAL and TANGENT normalized signed). Integers read as they are (normalized ones mapped to
+/// [0, 1] or [−1, 1]); the node transform then dequantizes them, as the extension intends.
+fn check_attribute_type(
+    what: &str,
+    data_type: DataType,
+    normalized: bool,
+    quantized: bool,
+) -> std::result::Result<(), String> {
+    use DataType::{F32, I16, I8, U16, U8};
+    let allowed = match (what, data_type) {
+        (_, F32) => !normalized,
+        ("TEXCOORD_0", U8 | U16) if normalized => true,
+        ("POSITION" | "TEXCOORD_0", I8 | U8 | I16 | U16) => quantized,
+        ("NORMAL" | "TANGENT", I8 | I16) => quantized && normalized,
+        _ => false,
+    };
+    if allowed {
+        return Ok(());
+    }
+    let kind = match data_type {
+        I8 => "signed bytes",
+        U8 => "unsigned bytes",
+        I16 => "signed shorts",
+        U16 => "unsigned shorts",
+        DataType::U32 => "unsigned 32-bit integers",
+        F32 => "floats",
+    };
+    let norm = if normalized { "normalized " } else { "" };
+    let quantizable = !matches!(data_type, F32 | DataType::U32);
+    Err(if quantizable && !quantized {
+        format!(
+            "is stored as {norm}{kind}, which glTF allows only with the KHR_mesh_quantization \
+             extension, and the file does not declare it (a broken exporter? read as numbers \
+             it would give garbage geometry)"
+        )
+    } else {
+        format!("cannot be stored as {norm}{kind} (glTF and KHR_mesh_quantization forbid it)")
+    })
 }
 
 /// One unsigned integer accessor component.

@@ -1,5 +1,6 @@
-//! The plain-data scene every part of Photon reads: world-space triangle meshes, materials,
-//! textures, lights, one camera and the world background. Structs of vectors with integer indices,
+//! The plain-data scene every part of Photon reads: world-space triangle meshes, prototype meshes
+//! placed by instances (each stored once), materials, textures, lights, one camera and the world
+//! background. Structs of vectors with integer indices,
 //! no behaviour beyond small lookups and `validate`. Only `scene::gltf` builds it from files;
 //! `scene::builtin` builds the embedded default Cornell box.
 //!
@@ -15,7 +16,7 @@ pub mod units;
 use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec4};
 pub use texture::{Texture, TextureRef};
 
-/// A triangle mesh already transformed to world space (instances are flattened).
+/// A triangle mesh: in world space in `Scene::meshes`, in object space in `Scene::prototypes`.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
     /// Name of the glTF node and mesh, for messages ("Cube/Cube.001 primitive 0").
@@ -32,6 +33,39 @@ pub struct Mesh {
     pub material: u32,
     /// Seen by camera rays. False for area-light geometry that Blender hides from the camera.
     pub camera_visible: bool,
+    /// Blender's area-light spread (full angle, radians, in (0, π)): the emission narrows
+    /// towards the normal as through a soft-box grid, the total power unchanged
+    /// (`crate::light::spread_factor`). `None` emits over the whole hemisphere.
+    pub emission_spread: Option<f32>,
+    /// Blocks shadow rays (direct light). False for objects Blender hides from shadow rays.
+    pub casts_shadows: bool,
+}
+
+/// A placed copy of a prototype mesh (`Scene::prototypes`, in object space): the mesh is
+/// stored and put in a BVH once, whatever the number of its instances.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    /// Index into `Scene::prototypes`.
+    pub prototype: u32,
+    /// Object space → world space (not mirrored: mirrored copies are flattened).
+    pub to_world: Affine3A,
+    /// World space → object space (the inverse of `to_world`).
+    pub to_object: Affine3A,
+    /// Object-space normals → world space (inverse transpose of the linear part).
+    pub normal_matrix: Mat3,
+}
+
+impl Instance {
+    /// An instance of `prototype` placed by `to_world` (invertible, finite).
+    pub fn new(prototype: u32, to_world: Affine3A) -> Instance {
+        let linear = Mat3::from(to_world.matrix3);
+        Instance {
+            prototype,
+            to_world,
+            to_object: to_world.inverse(),
+            normal_matrix: linear.inverse().transpose(),
+        }
+    }
 }
 
 /// How a material's alpha is used (glTF `alphaMode`).
@@ -217,6 +251,35 @@ pub enum Projection {
     Perspective { yfov: f32 },
     /// Half-width and half-height of the view in scene units (glTF xmag, ymag).
     Orthographic { xmag: f32, ymag: f32 },
+    /// Cycles' equirectangular panorama: longitude from `longitude.0` at the left edge to
+    /// `longitude.1` at the right (positive towards the camera's +X), latitude from
+    /// `latitude.0` at the bottom to `latitude.1` at the top; longitude and latitude 0 is the
+    /// camera's −Z. Radians.
+    Equirectangular {
+        longitude: (f32, f32),
+        latitude: (f32, f32),
+    },
+    /// Cycles' equidistant fisheye: the angle to the camera's −Z grows linearly with the
+    /// distance from the image centre, reaching `fov / 2` at the edges (an ellipse filling the
+    /// frame on a non-square image); nothing is seen outside it.
+    FisheyeEquidistant { fov: f32 },
+    /// Cycles' equisolid fisheye: a sensor of `sensor` (width, height) behind a lens of focal
+    /// length `lens` (same unit, millimetres), r = 2 f sin(θ/2), cut at θ = `fov / 2`.
+    FisheyeEquisolid {
+        lens: f32,
+        fov: f32,
+        sensor: (f32, f32),
+    },
+}
+
+impl Projection {
+    /// A panoramic projection (rays from one point in all directions the image covers).
+    pub fn is_panoramic(&self) -> bool {
+        !matches!(
+            self,
+            Projection::Perspective { .. } | Projection::Orthographic { .. }
+        )
+    }
 }
 
 /// The camera. Looks along its local −Z with +Y up, as glTF and Blender define.
@@ -228,6 +291,26 @@ pub struct Camera {
     pub projection: Projection,
     /// Width / height the file asks for; `None` lets the image size decide.
     pub aspect_ratio: Option<f32>,
+    /// Blender's lens shift: the image window moves by this in its plane, in units of the
+    /// image height (our `PHOTON_camera` extension; zero without it).
+    pub shift: Vec2,
+    /// Depth of field; `None` is a pinhole.
+    pub lens: Option<ThinLens>,
+}
+
+/// A thin lens (Blender's depth of field as Cycles renders it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinLens {
+    /// Aperture radius in scene units (Cycles: focal length / (2 × f-stop)).
+    pub radius: f32,
+    /// Distance of the plane in focus along the camera axis.
+    pub focus_distance: f32,
+    /// Corners of the polygonal aperture; below 3 it is round.
+    pub blades: u32,
+    /// Rotation of the polygon's first corner from the camera's +x axis, in radians.
+    pub rotation: f32,
+    /// Anamorphic ratio: the aperture's x extent is divided by it.
+    pub ratio: f32,
 }
 
 /// What rays that leave the scene see.
@@ -287,7 +370,12 @@ pub struct SceneRenderSettings {
 /// Everything there is to render.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// World-space meshes.
     pub meshes: Vec<Mesh>,
+    /// Object-space meshes placed by `instances` (plain opaque, non-emissive, non-translucent,
+    /// non-specular materials only, so lights, subsurface and caustic aiming never see them).
+    pub prototypes: Vec<Mesh>,
+    pub instances: Vec<Instance>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub lights: Vec<Light>,
@@ -296,6 +384,36 @@ pub struct Scene {
     pub render_settings: SceneRenderSettings,
     /// Non-fatal problems found while loading (skipped primitives, unsupported features).
     pub warnings: Vec<String>,
+}
+
+impl Mesh {
+    /// Bounds of the mesh's vertices (in its own space).
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::EMPTY;
+        for &p in &self.positions {
+            b.grow(p);
+        }
+        b
+    }
+}
+
+/// World bounds of `instance` from its prototype's object-space `local` bounds (the eight
+/// corners transformed).
+pub fn instance_bounds(instance: &Instance, local: Bounds) -> Bounds {
+    let mut b = Bounds::EMPTY;
+    if local.is_empty() {
+        return b;
+    }
+    for corner in 0..8 {
+        let pick = |bit: usize, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
+        let p = Vec3::new(
+            pick(0, local.min.x, local.max.x),
+            pick(1, local.min.y, local.max.y),
+            pick(2, local.min.z, local.max.z),
+        );
+        b.grow(instance.to_world.transform_point3(p));
+    }
+    b
 }
 
 /// Axis-aligned bounds.
@@ -342,17 +460,53 @@ impl Scene {
                 b.grow(p);
             }
         }
+        let local: Vec<Bounds> = self.prototypes.iter().map(Mesh::bounds).collect();
+        for instance in &self.instances {
+            let bounds = instance_bounds(instance, local[instance.prototype as usize]);
+            if !bounds.is_empty() {
+                b.grow(bounds.min);
+                b.grow(bounds.max);
+            }
+        }
         b
     }
 
+    /// Triangles placed in the scene, each instance counted.
+    pub fn placed_triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len()).sum::<usize>()
+            + self
+                .instances
+                .iter()
+                .map(|i| self.prototypes[i.prototype as usize].indices.len())
+                .sum::<usize>()
+    }
+
+    /// Triangles stored: world-space meshes and prototypes (each once).
     pub fn triangle_count(&self) -> usize {
-        self.meshes.iter().map(|m| m.indices.len()).sum()
+        self.meshes
+            .iter()
+            .chain(&self.prototypes)
+            .map(|m| m.indices.len())
+            .sum()
     }
 
     /// Check the invariants the renderer relies on; returns a description of the first problem.
     /// The glTF loader calls this, so a `Scene` it returns is always valid.
     pub fn validate(&self) -> Result<(), String> {
-        for (mi, m) in self.meshes.iter().enumerate() {
+        for (i, instance) in self.instances.iter().enumerate() {
+            if instance.prototype as usize >= self.prototypes.len() {
+                return Err(format!("instance {i}: prototype index out of range"));
+            }
+            if !instance.to_world.is_finite()
+                || !instance.to_object.is_finite()
+                || !instance.normal_matrix.is_finite()
+            {
+                return Err(format!(
+                    "instance {i}: transform is NaN, infinite or singular"
+                ));
+            }
+        }
+        for (mi, m) in self.meshes.iter().chain(&self.prototypes).enumerate() {
             let n = m.positions.len();
             if m.material as usize >= self.materials.len() {
                 return Err(format!(
@@ -413,6 +567,14 @@ impl Scene {
                     "mesh {mi} '{}': vertex normal is NaN or infinite",
                     m.name
                 ));
+            }
+            if let Some(spread) = m.emission_spread {
+                if !(spread > 0.0 && spread <= std::f32::consts::PI) {
+                    return Err(format!(
+                        "mesh {mi} '{}': emission spread {spread} is not in (0, π]",
+                        m.name
+                    ));
+                }
             }
             if m.uvs.iter().any(|p| !p.is_finite()) {
                 return Err(format!("mesh {mi} '{}': UV is NaN or infinite", m.name));
@@ -494,6 +656,48 @@ impl Scene {
             if !env.to_map.is_finite() || env.pixels.iter().any(|p| !p.is_finite()) {
                 return Err("environment image: a value is NaN or infinite".into());
             }
+        }
+        if !self.camera.shift.is_finite() {
+            return Err(format!(
+                "camera '{}': lens shift is NaN or infinite",
+                self.camera.name
+            ));
+        }
+        if let Some(l) = &self.camera.lens {
+            let ok = l.radius.is_finite()
+                && l.radius >= 0.0
+                && l.focus_distance.is_finite()
+                && l.focus_distance > 0.0
+                && l.rotation.is_finite()
+                && l.ratio.is_finite()
+                && l.ratio > 0.0;
+            if !ok {
+                return Err(format!(
+                    "camera '{}': depth of field needs a finite aperture radius ≥ 0, focus \
+                     distance > 0 and ratio > 0",
+                    self.camera.name
+                ));
+            }
+        }
+        let panorama_ok = match self.camera.projection {
+            Projection::Perspective { .. } | Projection::Orthographic { .. } => true,
+            Projection::Equirectangular {
+                longitude,
+                latitude,
+            } => [longitude.0, longitude.1, latitude.0, latitude.1]
+                .iter()
+                .all(|v| v.is_finite()),
+            Projection::FisheyeEquidistant { fov } => fov.is_finite() && fov > 0.0,
+            Projection::FisheyeEquisolid { lens, fov, sensor } => [lens, fov, sensor.0, sensor.1]
+                .iter()
+                .all(|v| v.is_finite() && *v > 0.0),
+        };
+        if !panorama_ok {
+            return Err(format!(
+                "camera '{}': panoramic projection parameters must be finite (and positive \
+                 for a fisheye)",
+                self.camera.name
+            ));
         }
         if !self.camera.to_world.is_finite() {
             return Err(format!(

@@ -14,7 +14,7 @@ ENGINE = "PHOTON"
 IGNORED = ["DATA_PT_lightprobe_bake", "DATA_PT_context_lightprobe",
            "VIEWLAYER_PT_layer_passes_cryptomatte", "VIEWLAYER_PT_layer_passes_aov",
            "VIEWLAYER_PT_layer_passes", "RENDER_PT_simplify", "RENDER_PT_freestyle",
-           "RENDER_PT_eevee_next_sampling", "CYCLES_RENDER_PT_sampling", "DATA_PT_camera_dof",
+           "RENDER_PT_eevee_next_sampling", "CYCLES_RENDER_PT_sampling",
            "DATA_PT_EEVEE_light_shadow", "OBJECT_PT_shading", "PARTICLE_PT_context_particles",
            "MATERIAL_PT_freestyle_line", "RENDER_PT_stereoscopy"]
 
@@ -53,7 +53,7 @@ def test_photon_is_in_exactly_the_listed_panels(photon_addon):
     # The settings Photon uses are there.
     for name in ("EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light",
                  "DATA_PT_lens", "RENDER_PT_format", "RENDER_PT_color_management",
-                 "VIEWLAYER_PT_layer", "PHYSICS_PT_cloth"):
+                 "VIEWLAYER_PT_layer", "PHYSICS_PT_cloth", "DATA_PT_camera_dof"):
         assert name in shown, name
 
 

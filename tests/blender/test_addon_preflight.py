@@ -120,7 +120,8 @@ def messages_for(scene):
 
 def test_other_rules(photon_addon):
     """Volume and Curves objects, light settings and camera settings, one message each; the
-    default tree of a light with nodes and a full spread give none."""
+    default tree of a light with nodes, an Emission node's strength and an area light's
+    spread (all carried) give none."""
     bpy.ops.wm.read_factory_settings()
     scene = bpy.context.scene
     assert messages_for(scene) == []
@@ -129,18 +130,46 @@ def test_other_rules(photon_addon):
     light.use_nodes = True
     assert messages_for(scene) == [], "a light's default node tree changes nothing"
     light.node_tree.nodes["Emission"].inputs["Strength"].default_value = 2.0
+    assert messages_for(scene) == [], "an Emission node's strength and colour are carried"
+    tree = light.node_tree
+    tree.links.new(tree.nodes.new("ShaderNodeWavelength").outputs["Color"],
+                   tree.nodes["Emission"].inputs["Color"])
     area = bpy.data.lights.new("Narrow", "AREA")
-    area.spread = math.radians(30.0)
+    area.spread = math.radians(30.0)  # carried (PHOTON_light spread): no message
     scene.collection.objects.link(bpy.data.objects.new("Narrow", area))
     scene.collection.objects.link(bpy.data.objects.new("Cloud", bpy.data.volumes.new("Cloud")))
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
-    scene.camera.data.dof.use_dof = True
-    bpy.data.objects["Cube"].visible_shadow = False
+    scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
+    scene.camera.data.type = "PANO"
+    scene.camera.data.panorama_type = "MIRRORBALL"
+    bpy.data.objects["Cube"].visible_shadow = False  # carried (PHOTON_object)
+    bpy.data.objects["Cube"].visible_glossy = False
 
     messages = messages_for(scene)
-    expected = ("light 'Light': its shader nodes", "light 'Narrow': spread 30 degrees",
+    expected = ("light 'Light': the Wavelength node",
                 "object 'Cloud': Volume objects", "object 'Fur': hair curves",
-                "camera 'Camera': depth of field", "object 'Cube': ray visibility")
+                "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
+    for start in expected:
+        assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
+    assert len(messages) == len(expected), messages
+
+
+def test_holdout_and_indirect_only_are_named(photon_addon):
+    """Holdout objects and collections and 'indirect only' collections are not carried."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    bpy.data.objects["Cube"].is_holdout = True
+    for name in ("Held", "Indirect", "Gone"):
+        scene.collection.children.link(bpy.data.collections.new(name))
+    layers = scene.view_layers[0].layer_collection.children
+    layers["Held"].holdout = True
+    layers["Indirect"].indirect_only = True
+    layers["Gone"].exclude = True
+    layers["Gone"].holdout = True  # excluded: nothing of it renders, nothing to say
+    from blender_addon import preflight
+    messages = preflight.unsupported_features(scene, list(scene.objects), scene.view_layers[0])
+    expected = ("object 'Cube': holdout", "collection 'Held': holdout",
+                "collection 'Indirect': 'indirect only'")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use photon::film::Image;
-use photon::math::{Affine3A, Vec3};
+use photon::math::{Affine3A, Vec2, Vec3};
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{render, RenderSettings, RenderStats};
 use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
@@ -69,6 +69,8 @@ pub fn sphere(
         indices,
         material,
         camera_visible: true,
+        emission_spread: None,
+        casts_shadows: true,
     }
 }
 
@@ -89,6 +91,8 @@ pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         material,
         camera_visible: true,
+        emission_spread: None,
+        casts_shadows: true,
     }
 }
 
@@ -107,6 +111,8 @@ pub fn camera_looking_at(eye: Vec3, target: Vec3, projection: Projection) -> Cam
         to_world: Affine3A::from_cols(right.into(), true_up.into(), (-forward).into(), eye.into()),
         projection,
         aspect_ratio: None,
+        shift: Vec2::ZERO,
+        lens: None,
     }
 }
 
@@ -118,6 +124,8 @@ pub fn scene(
     world: Vec3,
 ) -> Scene {
     Scene {
+        prototypes: Vec::new(),
+        instances: Vec::new(),
         meshes,
         materials,
         textures: Vec::new(),

@@ -27,7 +27,7 @@ use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::shading::{transmittance, Shading};
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
-use crate::light::{sample_emitter_point, smoothstep, LightSource};
+use crate::light::{sample_emitter_point, smoothstep, spread_factor, LightSource};
 use crate::math::{luminance, max_component, Frame, Vec2, Vec3};
 use crate::photon_map::Photon;
 use crate::progress::{Progress, ProgressEvent};
@@ -151,18 +151,30 @@ impl Emitters {
                     (true, false) => (n, 2.0),
                     _ => (n, 1.0),
                 };
-                let (dir, power) = match aim {
-                    None => (
+                let spread = ctx.scene.meshes[mesh as usize].emission_spread;
+                let (dir, power) = match (aim, spread) {
+                    (None, None) => (
                         Frame::from_normal(side).to_world(square_to_cosine_hemisphere(u2)),
                         emitter.radiance * (PI * area * sides),
                     ),
-                    Some(t) => {
+                    // A spread light: uniform directions in the cone it lights, weighted by
+                    // its spread factor.
+                    (None, Some(angle)) => {
+                        let cos_max = (0.5 * angle).cos().clamp(0.0, 1.0 - 1e-7);
+                        let dir =
+                            Frame::from_normal(side).to_world(square_to_uniform_cone(u2, cos_max));
+                        let cos = dir.dot(side);
+                        let weight = spread_factor(spread, cos) * cos / uniform_cone_pdf(cos_max);
+                        (dir, emitter.radiance * (weight * area * sides))
+                    }
+                    (Some(t), _) => {
                         let (dir, pdf) = t.sample_direction(q, rng.uniform(), u2)?;
                         let cos = dir.dot(side);
                         if cos <= 0.0 {
                             return None;
                         }
-                        (dir, emitter.radiance * (cos * area * sides / pdf))
+                        let weight = spread_factor(spread, cos) * cos / pdf;
+                        (dir, emitter.radiance * (weight * area * sides))
                     }
                 };
                 (ray(offset_origin(q, q_error, n, dir), dir), power)
