@@ -110,7 +110,7 @@ pub fn build_maps(
     let irradiance = match (&global, settings.irradiance_stride) {
         (Some(g), n) if n > 0 => {
             let records =
-                precompute_irradiance(g, n, settings.k_global, sq(settings.global_radius));
+                precompute_irradiance(ctx, g, n, settings.k_global, sq(settings.global_radius));
             info.irradiance_records = records.len();
             (!records.is_empty()).then(|| PhotonMap::build(records))
         }

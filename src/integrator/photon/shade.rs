@@ -26,9 +26,12 @@
 //! estimate counted with f − ρ_d/π). Other surfaces, and points no record covers, keep the
 //! plain gather rays.
 //!
-//! A final-gather hit on an opaque surface that is Lambertian, or whose glossy lobe is rough
-//! (`ROUGH_AS_DIFFUSE`), reads the nearest precomputed irradiance record (albedo/π × E) instead
-//! of a full estimate (`super::estimate`).
+//! A final-gather hit y on an opaque surface with a diffuse lobe reads that lobe's light from
+//! the nearest precomputed irradiance record (ρ_d/π × E, `super::estimate`) instead of a full
+//! estimate; a glossy layer over it is followed by one BSDF-sampled ray with Russian roulette
+//! (`Gather::glossy_rest`), so the photons' directions, which records do not keep, never enter
+//! as an approximation: shading y's glossy lobe as if its light came evenly from all
+//! directions is a bias that no number of photons removes.
 //!
 //! Light passes, as seen from x: its light sample and the emission its gather rays find are
 //! Direct, emission through its delta lobes Emission, the global estimates and the cache
@@ -39,25 +42,18 @@ use super::build::PhotonMaps;
 use super::estimate::{nearest_irradiance, radiance_estimate, Walls};
 use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::BsdfSample;
-use crate::integrator::classify::stores_photons;
-use crate::integrator::direct::Previous;
+use crate::integrator::classify::{diffuse_reflectance, stores_photons};
+use crate::integrator::direct::{sample_direct, Previous};
 use crate::integrator::shading::{transmittance, CachedDiffuse, Shading};
 use crate::integrator::walk::{follow_specular, walk, Chain, Next, PathState, Scatter};
 use crate::integrator::{CameraSample, Context};
 use crate::irradiance_cache::{Incoming, IrradianceCache};
 use crate::light::emitted_radiance;
 use crate::light_pass::{LightPass, Passes};
-use crate::math::{Vec2, Vec3};
+use crate::math::{max_component, Vec2, Vec3};
 use crate::photon_map::Neighbors;
 use crate::rng::Rng;
 use std::f32::consts::PI;
-
-/// Perceptual roughness from which a final-gather hit's glossy lobe is shaded from the
-/// precomputed irradiance like its diffuse part (`Gather::gather_estimate`): Principled
-/// materials carry a specular layer (0.5 by default), so without this almost no Blender surface
-/// takes the fast path. Rough lobes blur the incident light nearly as a diffuse one does; below
-/// this the full estimate sees each photon's direction.
-const ROUGH_AS_DIFFUSE: f32 = 0.5;
 
 /// Photons record their bounces up to this count (`Photon::bounces` saturates there).
 const MAX_STORED_BOUNCES: u32 = 15;
@@ -120,33 +116,99 @@ impl<'a> Gather<'a> {
         }
     }
 
-    /// The global estimate at a final-gather hit: on opaque surfaces that are Lambertian or
-    /// whose glossy lobe is rough (`ROUGH_AS_DIFFUSE`), albedo(wo)/π × the nearest precomputed
-    /// irradiance when records exist (exact for Lambertian surfaces, and for any BSDF under
-    /// uniform incident light, by reciprocity); else the full estimate, whose photons keep
-    /// their directions for sharper lobes. Records mix every bounce, so a bounce limit that
-    /// leaves some photons out takes the full estimate.
-    fn gather_estimate(&mut self, s: &Shading) -> Vec3 {
-        if let (Some(irr), Ok(None)) = (&self.maps.irradiance, self.bounce_limit(2)) {
-            if s.opaque && !s.bsdf.has_delta() {
-                let albedo = s.bsdf.albedo();
-                if s.bsdf.roughness() >= ROUGH_AS_DIFFUSE || s.is_opaque_lambertian() {
-                    let r2 = self.maps.global_radius2;
-                    if let Some(e) = nearest_irradiance(irr, r2, s) {
-                        return albedo * e * (1.0 / PI);
+    /// The global estimate at a final-gather hit `s`, `after` bounces beyond the shaded point.
+    /// On an opaque surface with a diffuse lobe and precomputed irradiance: that lobe's part from
+    /// the nearest record, ρ_d(wo)/π × E (exact for a Lambertian lobe), plus the other lobes by
+    /// `glossy_rest`. Elsewhere (metals, transmissive surfaces, no record near) the full
+    /// estimate, whose photons keep their directions. Records mix every bounce, so a bounce limit
+    /// that leaves some photons out takes the full estimate.
+    fn gather_estimate(&mut self, s: &Shading, after: u32, rng: &mut Rng) -> Vec3 {
+        if let (Some(irr), Ok(None)) = (&self.maps.irradiance, self.bounce_limit(after)) {
+            if let Some(rho) = diffuse_reflectance(&s.bsdf, s.opaque) {
+                if let Some(e) = nearest_irradiance(irr, self.maps.global_radius2, s) {
+                    let diffuse = rho * e * (1.0 / PI);
+                    if s.is_opaque_lambertian() {
+                        return diffuse;
                     }
+                    return diffuse + self.glossy_rest(s, rho, after, rng);
                 }
             }
         }
-        self.global(s, 2)
+        self.global(s, after)
     }
 
-    /// The global map's estimate at `s`, `after` bounces beyond the shaded point (1: at it).
+    /// The radiance the lobes of `s` other than its diffuse one (ρ_d = `rho`) reflect towards
+    /// its viewer, `after` bounces beyond the shaded point, as the path tracer finds it: one
+    /// light sample and one BSDF sample, MIS-weighted, both counting f − ρ_d/π only, the BSDF
+    /// sample continued to the gather estimate of the surface it meets (behind specular ones).
+    /// Computed with probability q, the glossy lobes' share of the albedo, and divided by it
+    /// (Russian roulette): on a Principled surface the glossy layer reflects a few per cent, and
+    /// this keeps its cost to that share of the gather hits.
+    fn glossy_rest(&mut self, s: &Shading, rho: Vec3, after: u32, rng: &mut Rng) -> Vec3 {
+        let albedo = max_component(s.bsdf.albedo());
+        let q = (max_component(s.bsdf.albedo() - rho) / albedo).min(1.0);
+        if !(q > 0.0) || rng.uniform() >= q || self.bounce_limit(after + 1).is_err() {
+            return Vec3::ZERO;
+        }
+        let ctx = self.ctx;
+        let glossy = |f: Vec3, cos: f32| (f - rho * (cos.abs() / PI)).max(Vec3::ZERO);
+        let mut l = sample_direct(ctx, &s.sh, Vec3::ONE, true, rng, &mut self.rays, |wi| {
+            if wi.dot(s.ng) <= 0.0 {
+                return (Vec3::ZERO, 0.0);
+            }
+            let local = s.frame.to_local(wi);
+            let (f, pdf) = s.bsdf.eval_and_pdf(local);
+            (glossy(f, local.z), pdf)
+        });
+        if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
+            let weight = match bs.delta {
+                true => bs.weight,
+                false => glossy(bs.weight * bs.pdf, bs.wi.z) / bs.pdf,
+            };
+            if weight != Vec3::ZERO {
+                l += weight * self.glossy_ray(s, &bs, wi, after, rng);
+            }
+        }
+        l / q
+    }
+
+    /// What a BSDF-sampled ray from a final-gather hit `s` brings back: the emission it meets,
+    /// MIS-weighted against `glossy_rest`'s light sample, and the gather estimate of the surface
+    /// that stores photons behind specular ones, `after` + 1 bounces beyond the shaded point.
+    fn glossy_ray(
+        &mut self,
+        s: &Shading,
+        bs: &BsdfSample,
+        wi: Vec3,
+        after: u32,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        let (ray, hit, previous) = match self.cast(s, bs, wi) {
+            Ok(met) => met,
+            Err(escaped) => return escaped,
+        };
+        let ctx = self.ctx;
+        let z = Shading::new(ctx, &ray, &hit);
+        let mut l = emitted_radiance(ctx.scene, &z.sh, z.wo);
+        if l != Vec3::ZERO {
+            l *= previous.weight_at(ctx, &z.sh);
+        }
+        let mut chain = Chain::new(Vec3::ZERO);
+        if let Some(d) = follow_specular(ctx, z, &mut chain, rng, &mut self.rays, Some(&mut l)) {
+            l += chain.beta * self.gather_estimate(&d, after + 1, rng);
+        }
+        l
+    }
+
+    /// The global map's estimate at `s`, `after` bounces beyond the shaded point (1: at it),
+    /// leaving out photons behind walls (as the precomputed irradiance does).
     fn global(&mut self, s: &Shading, after: u32) -> Vec3 {
         let (maps, k) = (self.maps, self.maps.settings.k_global);
         let (Some(m), Ok(limit)) = (&maps.global, self.bounce_limit(after)) else {
             return Vec3::ZERO;
         };
+        let (ctx, rays) = (self.ctx, &mut self.rays);
+        let mut walls = |r: f32| Walls::around(ctx, s, r, rays);
         radiance_estimate(
             m,
             k,
@@ -154,7 +216,7 @@ impl<'a> Gather<'a> {
             false,
             s,
             &mut self.buf,
-            None,
+            Some(&mut walls),
             limit,
         )
     }
@@ -176,6 +238,33 @@ impl<'a> Gather<'a> {
         s.light_sample(self.ctx, Vec3::ONE, mis, rng, &mut self.rays)
     }
 
+    /// The ray leaving `s` by the BSDF sample `bs` (world direction `wi`), the surface it meets
+    /// and the vertex it left (for the MIS weight of emission there); `Err` with the world's
+    /// emission, MIS-weighted against light sampling, when it meets none.
+    fn cast(
+        &mut self,
+        s: &Shading,
+        bs: &BsdfSample,
+        wi: Vec3,
+    ) -> Result<(Ray, Hit, Previous), Vec3> {
+        let previous = Previous {
+            p: s.sh.p,
+            pdf: bs.pdf,
+            delta: bs.delta,
+        };
+        let ray = s.sh.spawn(wi);
+        match self.intersect(&ray) {
+            Some(hit) => Ok((ray, hit, previous)),
+            None => {
+                let mut l = Vec3::ZERO;
+                self.ctx
+                    .lights
+                    .escaped(ray.direction, |le, lpdf| l += le * previous.weight(lpdf));
+                Err(l)
+            }
+        }
+    }
+
     /// A final-gather ray leaving `s` by the BSDF sample `bs` (world direction `wi`): the
     /// emission it finds, MIS-weighted against light sampling, and with `estimate` the global
     /// estimate at the first surface that stores photons behind specular ones, returned apart
@@ -191,19 +280,11 @@ impl<'a> Gather<'a> {
         rng: &mut Rng,
     ) -> (Vec3, Vec3) {
         let absorption = s.absorption_after(bs, wi, Vec3::ZERO);
-        let previous = Previous {
-            p: s.sh.p,
-            pdf: bs.pdf,
-            delta: bs.delta,
+        let (ray, hit, previous) = match self.cast(s, bs, wi) {
+            Ok(met) => met,
+            Err(escaped) => return (escaped, Vec3::ZERO),
         };
-        let ray = s.sh.spawn(wi);
         let ctx = self.ctx;
-        let Some(hit) = self.intersect(&ray) else {
-            let mut l = Vec3::ZERO;
-            ctx.lights
-                .escaped(ray.direction, |le, lpdf| l += le * previous.weight(lpdf));
-            return (l, Vec3::ZERO);
-        };
         let t = transmittance(absorption, &hit, &ray);
         // y: the surface the gather ray meets.
         let y = Shading::new(ctx, &ray, &hit);
@@ -219,7 +300,7 @@ impl<'a> Gather<'a> {
             {
                 let at_end = match previous.delta {
                     true => self.global(&d, 2),
-                    false => self.gather_estimate(&d),
+                    false => self.gather_estimate(&d, 2, rng),
                 };
                 e = chain.beta * at_end;
             }
@@ -419,7 +500,7 @@ pub fn cache_gather(
     let normal = d.frame.n;
     let mut chain = Chain::new(Vec3::ZERO);
     let radiance = match follow_specular(ctx, d, &mut chain, rng, &mut gather.rays, None) {
-        Some(d) => chain.beta * gather.gather_estimate(&d),
+        Some(d) => chain.beta * gather.gather_estimate(&d, 2, rng),
         None => Vec3::ZERO,
     };
     Incoming {
