@@ -459,8 +459,11 @@ impl RenderSettings {
             ..self.photon.clone()
         };
         let ic = &self.irradiance_cache;
+        // The cache's interpolation error grows with the accuracy (a record's reach) where
+        // irradiance changes fast, as at a room's edges: shrinking it with the squared radii
+        // rather than with the radii lowers it as fast as the maps' own blur.
         let irradiance_cache = IcSettings {
-            accuracy: ic.accuracy * f.sqrt(),
+            accuracy: ic.accuracy * f,
             min_spacing: (ic.min_spacing * f.sqrt()).max(0.5),
             ..ic.clone()
         };
