@@ -13,11 +13,13 @@
 //! agrees instead of a full k-nearest estimate.
 
 use crate::accel::{Ray, Visibility};
+use crate::error::Result;
 use crate::integrator::shading::Shading;
 use crate::integrator::Context;
 use crate::interaction::offset_origin;
 use crate::math::{Frame, Vec3};
 use crate::photon_map::{in_first_half, Neighbors, Photon, PhotonMap};
+use crate::progress::Progress;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
@@ -51,7 +53,8 @@ pub fn precompute_irradiance(
     stride: u32,
     k: u32,
     max_radius2: f32,
-) -> Vec<Photon> {
+    progress: &Progress,
+) -> Result<Vec<Photon>> {
     let photons = map.photons();
     // Records sit at first-half photons, so where they are (and which one serves a point)
     // depends on the first half alone, like their reach; their irradiance on the second alone.
@@ -61,11 +64,16 @@ pub fn precompute_irradiance(
         .step_by(step)
         .collect();
     let half_k = (k as usize).div_ceil(2);
-    ids.par_chunks(1024)
+    let records = ids
+        .par_chunks(256)
         .map_init(
             || (Neighbors::default(), Vec::new()),
             |(first, second), chunk| {
                 let mut out = Vec::with_capacity(chunk.len());
+                // A cancelled build skips the remaining chunks (each is a few milliseconds).
+                if progress.check().is_err() {
+                    return out;
+                }
                 for &i in chunk {
                     let ph = &photons[i];
                     let (p, n) = (ph.position(), ph.normal());
@@ -100,7 +108,9 @@ pub fn precompute_irradiance(
             },
         )
         .collect::<Vec<_>>()
-        .concat()
+        .concat();
+    progress.check()?;
+    Ok(records)
 }
 
 /// Whether photon `ph`, found within radius `r` of point `p` with normal `n`, lies on the same
