@@ -462,38 +462,3 @@ fn flags_describe_the_lobes() {
     );
     assert!(grey.viewed_from(view(1.0)).diffuse_reflectance().x < 0.5);
 }
-
-/// Run with `cargo test --release --test bsdf -- --ignored --nocapture` to time the sampler.
-#[test]
-#[ignore]
-fn time_ten_million_samples() {
-    let cases = [
-        (
-            "dielectric base r=0.5",
-            material(Vec3::splat(0.8), 0.0, 0.5, 0.0),
-        ),
-        (
-            "metal r=0.3",
-            material(Vec3::new(0.9, 0.6, 0.3), 1.0, 0.3, 0.0),
-        ),
-        ("rough glass r=0.3", material(Vec3::ONE, 0.0, 0.3, 1.0)),
-        ("smooth glass", material(Vec3::ONE, 0.0, 0.0, 1.0)),
-    ];
-    for (name, m) in cases {
-        let b = Bsdf::new(&m);
-        let mut rng = Rng::new(13);
-        let wo = Vec3::new(0.6, 0.0, 0.8);
-        let start = std::time::Instant::now();
-        let mut acc = Vec3::ZERO;
-        for _ in 0..10_000_000 {
-            if let Some(s) = b.viewed_from(wo).sample(rng.uniform(), rng.uniform2()) {
-                acc += s.weight;
-            }
-        }
-        println!(
-            "{name}: 10^7 samples in {:?} (mean weight {:?})",
-            start.elapsed(),
-            acc / 1e7
-        );
-    }
-}
