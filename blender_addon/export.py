@@ -51,6 +51,10 @@ GLTF_EXPORT_ARGS = dict(
     # Instances of the depsgraph (Geometry Nodes "Instance on Points", particle systems that
     # render objects): one node each, sharing the instanced mesh.
     export_gn_mesh=True,
+    # The frame's evaluated geometry, shape keys and armatures applied: the renderer reads
+    # neither morph targets nor skins, and with them the exporter writes the rest mesh (the
+    # shape keys' values and the pose only as glTF weights and joints).
+    export_morph=False, export_skins=False,
 )
 
 # Name under which the child process registers this module so the exporter finds the hook.
@@ -644,6 +648,50 @@ def render_visibility(scene):
             bpy.context.view_layer.update()
 
 
+# Name of the pass-through Geometry Nodes group that `shape_keys_applied` adds for an export.
+PASS_THROUGH = "Photon pass-through (export)"
+
+
+@contextlib.contextmanager
+def shape_keys_applied(scene):
+    """Within the block, mesh objects with shape keys and no modifier carry a pass-through
+    Geometry Nodes modifier (group input to group output), removed after it.
+
+    For a mesh object without modifiers, the glTF exporter writes the original mesh (so that
+    objects sharing a mesh share it in the file) and the shape keys only as morph targets,
+    which the renderer does not read: the frame's shape-key values would be lost. Any modifier
+    makes it write the evaluated mesh, shape keys applied."""
+    owners = [obj for obj in scene.objects
+              if obj.type == "MESH" and len(obj.modifiers) == 0 and obj.data.shape_keys
+              and not obj.hide_render]
+    added, group = [], None
+    try:
+        if owners:
+            group = bpy.data.node_groups.new(PASS_THROUGH, "GeometryNodeTree")
+            group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+            group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+            inputs = group.nodes.new("NodeGroupInput")
+            outputs = group.nodes.new("NodeGroupOutput")
+            group.links.new(inputs.outputs[0], outputs.inputs[0])
+        for obj in owners:
+            try:
+                modifier = obj.modifiers.new(PASS_THROUGH, "NODES")
+            except (RuntimeError, TypeError):  # linked data
+                continue
+            modifier.node_group = group
+            added.append((obj, modifier))
+        if added:
+            bpy.context.view_layer.update()
+        yield
+    finally:
+        for obj, modifier in added:
+            obj.modifiers.remove(modifier)
+        if group is not None:
+            bpy.data.node_groups.remove(group)
+        if added:
+            bpy.context.view_layer.update()
+
+
 def rendered_objects(view_layer) -> set[str]:
     """Names of the objects a render of `view_layer` can show: those in a collection that is
     neither excluded from the view layer nor disabled for rendering, itself or through a
@@ -672,7 +720,9 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
         added = prefs.addons.new()
         added.module = hook_module
     try:
-        with collected_warnings() as warnings, render_visibility(bpy.context.scene):
+        scene = bpy.context.scene
+        with collected_warnings() as warnings, render_visibility(scene), \
+                shape_keys_applied(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **GLTF_EXPORT_ARGS)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None
