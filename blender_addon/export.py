@@ -734,15 +734,24 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
     return warnings
 
 
-def child_command(snapshot: Path, glb: Path) -> list[str]:
+def child_command(snapshot: Path, glb: Path | None, autoexec: bool = False) -> list[str]:
     """The command that exports a snapshot .blend in a separate process: Blender itself, or the
-    Python interpreter when bpy runs as a module (bpy.app.binary_path is then empty)."""
+    Python interpreter when bpy runs as a module (bpy.app.binary_path is then empty). Without
+    `glb` the child serves an animation (`_serve`). `autoexec`: Python scripts and drivers in
+    the file may run (Blender's -y), as the user's session allows them."""
     script = str(Path(__file__).resolve())
+    target = [str(glb)] if glb is not None else ["--serve"]
     if bpy.app.binary_path:
         return [bpy.app.binary_path, "-b", "--factory-startup", "--python-exit-code", "1",
-                "--python", script,
-                "--", str(snapshot), str(glb)]
-    return [sys.executable, script, "--", str(snapshot), str(glb)]
+                *(["-y"] if autoexec else []), "--python", script,
+                "--", str(snapshot), *target]
+    return [sys.executable, script, "--", str(snapshot), *target,
+            *(["--autoexec"] if autoexec else [])]
+
+
+def scripts_may_run() -> bool:
+    """Whether the user's session runs Python drivers and scripts of blend files."""
+    return bool(bpy.context.preferences.filepaths.use_scripts_auto_execute)
 
 
 def write_snapshot(scene, path: Path):
@@ -751,17 +760,49 @@ def write_snapshot(scene, path: Path):
 
 
 def _child_main(argv: list[str]) -> int:
-    """Entry point of the child process: open the snapshot, export it."""
-    snapshot, glb = argv[argv.index("--") + 1:][:2]
+    """Entry point of the child process: open the snapshot, export it (or serve frames)."""
+    args = argv[argv.index("--") + 1:]
+    snapshot, target = args[:2]
     sys.modules[CHILD_MODULE] = sys.modules[__name__]
+    if "--autoexec" in args and not bpy.app.binary_path:  # Blender itself was given -y
+        bpy.context.preferences.filepaths.use_scripts_auto_execute = True
     bpy.ops.wm.open_mainfile(filepath=snapshot)
+    if target == "--serve":
+        return _serve()
     try:
-        warnings = export_in_process(Path(glb), CHILD_MODULE)
+        warnings = export_in_process(Path(target), CHILD_MODULE)
     except ExportError as exc:
         print(f"photon-export: error: {exc}", file=sys.stderr, flush=True)
         return 2
     for warning in warnings:  # read by runner.run as progress events
-        print(json.dumps({"stage": "export", "warning": warning}), file=sys.stderr, flush=True)
+        _emit(warning=warning)
+    return 0
+
+
+def _emit(**event):
+    print(json.dumps({"stage": "export", **event}), file=sys.stderr, flush=True)
+
+
+def _serve() -> int:
+    """Export one frame of the opened file per request line on stdin, `{"frame": F,
+    "subframe": S, "glb": PATH}`, each answered on stderr by its warnings and then
+    `{"exported": PATH}` or `{"error": MESSAGE}` (runner.Server). Ends when stdin closes.
+    One background Blender thus exports every frame of an animation: the frame's state comes
+    from `frame_set`, as in the user's session."""
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        request = json.loads(line)
+        scene = bpy.context.scene
+        scene.frame_set(int(request["frame"]), subframe=float(request.get("subframe", 0.0)))
+        try:
+            warnings = export_in_process(Path(request["glb"]), CHILD_MODULE)
+        except ExportError as exc:
+            _emit(error=str(exc))
+            continue
+        for warning in warnings:
+            _emit(warning=warning)
+        _emit(exported=request["glb"])
     return 0
 
 

@@ -5,7 +5,8 @@ rotation reading the frame) and stretches (a shape key whose value is keyframed)
 bar whose upper half an armature bends (a pose bone's rotation keyframed), frames 1-3.
 Photon through the add-on, in both export routes, writes three images; each matches Cycles'
 image of the same frame (mean within 2 %, relMSE <= 0.01) and not Cycles' image of another
-frame (so a frame exported in the state of another one fails).
+frame (so a frame exported in the state of another one fails). The UI route (background
+Blender) starts one exporting Blender for the whole animation, which sets each frame itself.
 """
 
 import math
@@ -104,13 +105,19 @@ def cycles_frames(photon_addon, tmp_path_factory):
 
 
 @pytest.mark.parametrize("route", ["inprocess", "subprocess"])
-def test_animation_renders_each_frame_as_cycles(cycles_frames, tmp_path, monkeypatch, route):
+def test_animation_renders_each_frame_as_cycles(photon_addon, cycles_frames, tmp_path,
+                                                 monkeypatch, route):
     photon_binary()
     monkeypatch.setenv("PHOTON_EXPORT", route)
     scene = animated_scene()
     common.configure_cycles(scene, CYCLES_SPP, seed=1, threads=scenes_bpy.THREADS)
     scene.photon.samples, scene.photon.seed, scene.photon.method = PHOTON_SPP, 1, "PATH"
+    starts = photon_addon.engine.ANIMATION_EXPORT.starts
     photon = render_animation(scene, "PHOTON", tmp_path)
+    # The UI route starts one background Blender for the whole animation, not one per frame,
+    # and it has ended with the render job; in process, none.
+    assert photon_addon.engine.ANIMATION_EXPORT.starts - starts == (route == "subprocess")
+    assert photon_addon.engine.ANIMATION_EXPORT._server is None
     # The frames really differ (the cube moves, turns and grows by a visible amount).
     assert rel_mse(cycles_frames[1], cycles_frames[3]) > 20 * RELMSE_MAX
     for frame in FRAMES:
