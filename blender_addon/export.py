@@ -807,4 +807,9 @@ def _serve() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(_child_main(sys.argv))
+    code = _child_main(sys.argv)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # Leave without the interpreter's shutdown: the bpy module can hang there (seen with a
+    # file holding Python drivers); the export is written and closed.
+    os._exit(code)
