@@ -10,6 +10,8 @@ never a traceback and never a silently black image. Esc (`test_break`) stops the
 temporary folder is always removed.
 """
 
+import shutil
+import tempfile
 import time
 import traceback
 from pathlib import Path
@@ -116,10 +118,21 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             for message in export.export_in_process(glb, __package__):
                 self._warn(message)
             return
-        snapshot = folder / "snapshot.blend"
-        export.write_snapshot(scene, snapshot)
-        runner.run(export.child_command(snapshot, glb), self._on_export_event, self.test_break,
-                   what="glTF export (background Blender)", cwd=str(folder))
+        if self.is_animation:
+            server = ANIMATION_EXPORT.server(scene)
+            try:
+                server.request({"frame": scene.frame_current, "subframe": scene.frame_subframe,
+                                "glb": str(glb)}, "exported", self._on_export_event,
+                               self.test_break)
+            except (runner.PhotonError, runner.Cancelled):
+                ANIMATION_EXPORT.close()
+                raise
+        else:
+            snapshot = folder / "snapshot.blend"
+            export.write_snapshot(scene, snapshot)
+            runner.run(export.child_command(snapshot, glb, export.scripts_may_run()),
+                       self._on_export_event, self.test_break,
+                       what="glTF export (background Blender)", cwd=str(folder))
         if not glb.is_file():
             raise export.ExportError(f"the background Blender export wrote no {glb.name}")
 
@@ -175,6 +188,51 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         return ", ".join(parts + [f"total {time.perf_counter() - start:.2f} s"])
 
 
+class AnimationExport:
+    """The background Blender that exports every frame of an animation rendered in the UI
+    route: started at the animation's first frame on a snapshot of the scene, asked for each
+    frame (it sets the frame itself, so its state is the frame's), ended when the render job
+    ends (render_complete / render_cancel handlers; a new job's render_init also ends a stale
+    one). One Blender start per animation instead of one per frame. `starts` counts them."""
+
+    def __init__(self):
+        self._server = None
+        self._folder = None
+        self.starts = 0
+
+    def server(self, scene) -> "runner.Server":
+        if self._server is not None and self._server.alive():
+            return self._server
+        self.close()
+        self._folder = Path(tempfile.mkdtemp(prefix="photon_animation_"))
+        snapshot = self._folder / "snapshot.blend"
+        export.write_snapshot(scene, snapshot)
+        self._server = runner.Server(
+            export.child_command(snapshot, None, export.scripts_may_run()),
+            what="glTF export (background Blender)", cwd=str(self._folder))
+        self.starts += 1
+        return self._server
+
+    def close(self, *_args):
+        if self._server is not None:
+            self._server.close()
+            self._server = None
+        if self._folder is not None:
+            shutil.rmtree(self._folder, ignore_errors=True)
+            self._folder = None
+
+
+ANIMATION_EXPORT = AnimationExport()
+
+
+@bpy.app.handlers.persistent
+def _end_animation_export(*_args):
+    ANIMATION_EXPORT.close()
+
+
+HANDLERS = ("render_init", "render_complete", "render_cancel")
+
+
 def summary(stats: dict) -> str:
     """One line for the status bar from the renderer's final statistics."""
     if not stats:
@@ -190,8 +248,15 @@ classes = (PhotonRenderEngine,)
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
+    for name in HANDLERS:
+        getattr(bpy.app.handlers, name).append(_end_animation_export)
 
 
 def unregister():
+    ANIMATION_EXPORT.close()
+    for name in HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if _end_animation_export in handlers:
+            handlers.remove(_end_animation_export)
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -51,6 +51,10 @@ GLTF_EXPORT_ARGS = dict(
     # Instances of the depsgraph (Geometry Nodes "Instance on Points", particle systems that
     # render objects): one node each, sharing the instanced mesh.
     export_gn_mesh=True,
+    # The frame's evaluated geometry, shape keys and armatures applied: the renderer reads
+    # neither morph targets nor skins, and with them the exporter writes the rest mesh (the
+    # shape keys' values and the pose only as glTF weights and joints).
+    export_morph=False, export_skins=False,
 )
 
 # Name under which the child process registers this module so the exporter finds the hook.
@@ -644,6 +648,50 @@ def render_visibility(scene):
             bpy.context.view_layer.update()
 
 
+# Name of the pass-through Geometry Nodes group that `shape_keys_applied` adds for an export.
+PASS_THROUGH = "Photon pass-through (export)"
+
+
+@contextlib.contextmanager
+def shape_keys_applied(scene):
+    """Within the block, mesh objects with shape keys and no modifier carry a pass-through
+    Geometry Nodes modifier (group input to group output), removed after it.
+
+    For a mesh object without modifiers, the glTF exporter writes the original mesh (so that
+    objects sharing a mesh share it in the file) and the shape keys only as morph targets,
+    which the renderer does not read: the frame's shape-key values would be lost. Any modifier
+    makes it write the evaluated mesh, shape keys applied."""
+    owners = [obj for obj in scene.objects
+              if obj.type == "MESH" and len(obj.modifiers) == 0 and obj.data.shape_keys
+              and not obj.hide_render]
+    added, group = [], None
+    try:
+        if owners:
+            group = bpy.data.node_groups.new(PASS_THROUGH, "GeometryNodeTree")
+            group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+            group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+            inputs = group.nodes.new("NodeGroupInput")
+            outputs = group.nodes.new("NodeGroupOutput")
+            group.links.new(inputs.outputs[0], outputs.inputs[0])
+        for obj in owners:
+            try:
+                modifier = obj.modifiers.new(PASS_THROUGH, "NODES")
+            except (RuntimeError, TypeError):  # linked data
+                continue
+            modifier.node_group = group
+            added.append((obj, modifier))
+        if added:
+            bpy.context.view_layer.update()
+        yield
+    finally:
+        for obj, modifier in added:
+            obj.modifiers.remove(modifier)
+        if group is not None:
+            bpy.data.node_groups.remove(group)
+        if added:
+            bpy.context.view_layer.update()
+
+
 def rendered_objects(view_layer) -> set[str]:
     """Names of the objects a render of `view_layer` can show: those in a collection that is
     neither excluded from the view layer nor disabled for rendering, itself or through a
@@ -672,7 +720,9 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
         added = prefs.addons.new()
         added.module = hook_module
     try:
-        with collected_warnings() as warnings, render_visibility(bpy.context.scene):
+        scene = bpy.context.scene
+        with collected_warnings() as warnings, render_visibility(scene), \
+                shape_keys_applied(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **GLTF_EXPORT_ARGS)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None
@@ -684,15 +734,24 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
     return warnings
 
 
-def child_command(snapshot: Path, glb: Path) -> list[str]:
+def child_command(snapshot: Path, glb: Path | None, autoexec: bool = False) -> list[str]:
     """The command that exports a snapshot .blend in a separate process: Blender itself, or the
-    Python interpreter when bpy runs as a module (bpy.app.binary_path is then empty)."""
+    Python interpreter when bpy runs as a module (bpy.app.binary_path is then empty). Without
+    `glb` the child serves an animation (`_serve`). `autoexec`: Python scripts and drivers in
+    the file may run (Blender's -y), as the user's session allows them."""
     script = str(Path(__file__).resolve())
+    target = [str(glb)] if glb is not None else ["--serve"]
     if bpy.app.binary_path:
         return [bpy.app.binary_path, "-b", "--factory-startup", "--python-exit-code", "1",
-                "--python", script,
-                "--", str(snapshot), str(glb)]
-    return [sys.executable, script, "--", str(snapshot), str(glb)]
+                *(["-y"] if autoexec else []), "--python", script,
+                "--", str(snapshot), *target]
+    return [sys.executable, script, "--", str(snapshot), *target,
+            *(["--autoexec"] if autoexec else [])]
+
+
+def scripts_may_run() -> bool:
+    """Whether the user's session runs Python drivers and scripts of blend files."""
+    return bool(bpy.context.preferences.filepaths.use_scripts_auto_execute)
 
 
 def write_snapshot(scene, path: Path):
@@ -701,19 +760,56 @@ def write_snapshot(scene, path: Path):
 
 
 def _child_main(argv: list[str]) -> int:
-    """Entry point of the child process: open the snapshot, export it."""
-    snapshot, glb = argv[argv.index("--") + 1:][:2]
+    """Entry point of the child process: open the snapshot, export it (or serve frames)."""
+    args = argv[argv.index("--") + 1:]
+    snapshot, target = args[:2]
     sys.modules[CHILD_MODULE] = sys.modules[__name__]
+    if "--autoexec" in args and not bpy.app.binary_path:  # Blender itself was given -y
+        bpy.context.preferences.filepaths.use_scripts_auto_execute = True
     bpy.ops.wm.open_mainfile(filepath=snapshot)
+    if target == "--serve":
+        return _serve()
     try:
-        warnings = export_in_process(Path(glb), CHILD_MODULE)
+        warnings = export_in_process(Path(target), CHILD_MODULE)
     except ExportError as exc:
         print(f"photon-export: error: {exc}", file=sys.stderr, flush=True)
         return 2
     for warning in warnings:  # read by runner.run as progress events
-        print(json.dumps({"stage": "export", "warning": warning}), file=sys.stderr, flush=True)
+        _emit(warning=warning)
+    return 0
+
+
+def _emit(**event):
+    print(json.dumps({"stage": "export", **event}), file=sys.stderr, flush=True)
+
+
+def _serve() -> int:
+    """Export one frame of the opened file per request line on stdin, `{"frame": F,
+    "subframe": S, "glb": PATH}`, each answered on stderr by its warnings and then
+    `{"exported": PATH}` or `{"error": MESSAGE}` (runner.Server). Ends when stdin closes.
+    One background Blender thus exports every frame of an animation: the frame's state comes
+    from `frame_set`, as in the user's session."""
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        request = json.loads(line)
+        scene = bpy.context.scene
+        scene.frame_set(int(request["frame"]), subframe=float(request.get("subframe", 0.0)))
+        try:
+            warnings = export_in_process(Path(request["glb"]), CHILD_MODULE)
+        except ExportError as exc:
+            _emit(error=str(exc))
+            continue
+        for warning in warnings:
+            _emit(warning=warning)
+        _emit(exported=request["glb"])
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(_child_main(sys.argv))
+    code = _child_main(sys.argv)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # Leave without the interpreter's shutdown: the bpy module can hang there (seen with a
+    # file holding Python drivers); the export is written and closed.
+    os._exit(code)

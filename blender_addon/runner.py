@@ -201,6 +201,77 @@ def run(command, on_event=None, should_cancel=None, *, what="photon", cwd=None,
     return stats
 
 
+class Server:
+    """A child process that answers requests: one JSON line on its stdin each, answered by JSON
+    progress lines on its stderr, the last one holding `done_key` (or `error`). Used for the
+    background Blender that exports every frame of an animation (export.py --serve). It ends
+    when its stdin closes (also when this process dies)."""
+
+    def __init__(self, command, *, what="server", cwd=None):
+        self.what = what
+        try:
+            self.proc = subprocess.Popen(command, stdin=subprocess.PIPE,
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                         cwd=cwd)
+        except OSError as exc:
+            raise PhotonError(f"cannot start {what} ({command[0]}): "
+                              f"{exc.strerror or exc}") from None
+        self.lines: queue.Queue = queue.Queue()
+        self.tail = collections.deque(maxlen=TAIL_LINES)
+        threading.Thread(target=_read_lines, args=(self.proc.stderr, self.lines),
+                         daemon=True).start()
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def request(self, message: dict, done_key: str, on_event=None, should_cancel=None, *,
+                poll_seconds=POLL_SECONDS) -> dict:
+        """Send `message` and return the answer's last event (the one holding `done_key`);
+        other events go to `on_event`. Raises PhotonError when the answer is an error or the
+        child ends, Cancelled (after ending the child) when `should_cancel()` turns true."""
+        try:
+            self.proc.stdin.write((json.dumps(message) + "\n").encode())
+            self.proc.stdin.flush()
+        except OSError:
+            pass  # the child has ended: reported below with its output
+        while True:
+            finished = self.proc.poll() is not None
+            while True:
+                try:
+                    line = self.lines.get(timeout=0.0 if not finished else 0.5)
+                except queue.Empty:
+                    break
+                event = _parse_event(line)
+                if event is None:
+                    if line.strip():
+                        self.tail.append(line)
+                    continue
+                if done_key in event:
+                    return event
+                if "error" in event:
+                    raise PhotonError(f"{self.what} failed: {event['error']}")
+                if on_event is not None:
+                    on_event(event)
+            if finished:
+                code = self.proc.returncode
+                raise PhotonError(_failure_message(self.what, code, self.tail))
+            if should_cancel is not None and should_cancel():
+                self.close()
+                raise Cancelled()
+            time.sleep(poll_seconds)
+
+    def close(self):
+        """End the child: close its stdin (it exits), then terminate or kill it if needed."""
+        try:
+            self.proc.stdin.close()
+        except OSError:
+            pass
+        try:
+            self.proc.wait(timeout=KILL_AFTER_SECONDS)
+        except subprocess.TimeoutExpired:
+            _stop(self.proc)
+
+
 def _read_lines(stream, lines: queue.Queue):
     for raw in stream:
         lines.put(raw.decode("utf-8", errors="replace").rstrip("\r\n"))

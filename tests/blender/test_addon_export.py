@@ -82,6 +82,37 @@ def test_background_blender_route_writes_the_same_file(lights_scene, tmp_path):
     assert doc == read_glb_json(inproc)
 
 
+@pytest.mark.parametrize("autoexec", [True, False])
+def test_background_blender_runs_python_drivers_as_the_session(photon_addon, tmp_path, autoexec):
+    """The background Blender of the UI route runs the file's Python drivers when the user's
+    session does (Blender's -y), and not otherwise: a driver that only Python can evaluate
+    (it calls str) turns the cube by 0.35 rad per frame; exported at frame 3."""
+    from blender_addon import export, runner
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    cube = bpy.data.objects["Cube"]
+    driver = cube.driver_add("rotation_euler", 2).driver
+    driver.type = "SCRIPTED"
+    driver.expression = "float(str(frame)) * 0.35"
+    scene.frame_current = 3
+    cube.rotation_euler.z = 0.0
+    saved = bpy.context.preferences.filepaths.use_scripts_auto_execute
+    bpy.context.preferences.filepaths.use_scripts_auto_execute = autoexec
+    try:
+        assert export.scripts_may_run() == autoexec
+        snapshot, glb = tmp_path / "snap.blend", tmp_path / "child.glb"
+        export.write_snapshot(scene, snapshot)
+        runner.run(export.child_command(snapshot, glb, export.scripts_may_run()), None, None,
+                   what="glTF export")
+    finally:
+        bpy.context.preferences.filepaths.use_scripts_auto_execute = saved
+    node = next(n for n in read_glb_json(glb)["nodes"] if n["name"] == "Cube")
+    # glTF is Y-up: Blender's rotation about Z is a rotation about glTF's -Y... its angle:
+    x, y, z, w = node.get("rotation", [0.0, 0.0, 0.0, 1.0])
+    angle = 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), w)
+    assert angle == pytest.approx(1.05 if autoexec else 0.0, abs=1e-4), node
+
+
 def test_world_without_nodes_uses_world_colour(photon_addon):
     """Blender 4: a world with use_nodes off renders its colour. Blender 5 always renders the
     node tree (World.use_nodes is deprecated), so there the Background node is read."""

@@ -198,3 +198,56 @@ def test_exr_channels(tmp_path):
     (tmp_path / "bad.exr").write_bytes(b"not an exr at all")
     with pytest.raises(runner.PhotonError, match="not an OpenEXR"):
         runner.exr_channels(tmp_path / "bad.exr")
+
+
+SERVER = """
+    for line in sys.stdin:
+        request = json.loads(line)
+        if request["frame"] == 3:
+            emit(stage="export", error="frame 3 cannot be exported")
+            continue
+        if request["frame"] == 4:
+            print("error: the server crashed", file=sys.stderr, flush=True)
+            sys.exit(1)
+        if request["frame"] == 5:
+            time.sleep(60)
+        emit(stage="export", warning=f"frame {request['frame']}: something dropped")
+        emit(stage="export", exported=request["frame"])
+"""
+
+
+def test_server_answers_requests_in_one_process(tmp_path):
+    """runner.Server (the background Blender exporting an animation's frames): each request
+    gets its answer, warnings go to on_event, an error answer raises PhotonError and the
+    server goes on; a crash raises PhotonError with the child's message."""
+    server = runner.Server([str(fake_binary(tmp_path / "server", SERVER))], what="export")
+    events = []
+    try:
+        for frame in (1, 2):
+            answer = server.request({"frame": frame}, "exported", events.append)
+            assert answer["exported"] == frame
+        assert [e["warning"] for e in events] == ["frame 1: something dropped",
+                                                  "frame 2: something dropped"]
+        with pytest.raises(runner.PhotonError, match="frame 3 cannot be exported"):
+            server.request({"frame": 3}, "exported")
+        assert server.alive()
+        assert server.request({"frame": 1}, "exported")["exported"] == 1
+        with pytest.raises(runner.PhotonError, match="the server crashed"):
+            server.request({"frame": 4}, "exported")
+        assert not server.alive()
+    finally:
+        server.close()
+
+
+def test_server_cancel_and_close(tmp_path):
+    """Cancelling a request ends the child within a second; close() ends an idle child."""
+    server = runner.Server([str(fake_binary(tmp_path / "server", SERVER))], what="export")
+    t0 = time.monotonic()
+    with pytest.raises(runner.Cancelled):
+        server.request({"frame": 5}, "exported", None, lambda: time.monotonic() - t0 > 0.3)
+    assert time.monotonic() - t0 < 1.5
+    assert not server.alive()
+    idle = runner.Server([str(fake_binary(tmp_path / "idle", SERVER))], what="export")
+    assert idle.alive()
+    idle.close()
+    assert not idle.alive()
