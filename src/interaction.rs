@@ -8,7 +8,8 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Frame, Vec2, Vec3, Vec4};
-use crate::scene::Scene;
+use crate::scene::nodes::ShadingInputs;
+use crate::scene::{Mesh, Scene};
 
 /// Everything shading needs about a surface point.
 #[derive(Clone, Copy, Debug)]
@@ -26,6 +27,8 @@ pub struct SurfaceHit {
     pub material: u32,
     /// Distance along the ray that found this hit (in units of the ray's direction).
     pub t: f32,
+    /// The intersection this point was reconstructed from.
+    pub hit: Hit,
 }
 
 impl SurfaceHit {
@@ -110,7 +113,22 @@ impl SurfaceHit {
             triangle: hit.triangle,
             material: mesh.material,
             t: hit.t,
+            hit: *hit,
         }
+    }
+
+    /// What a node tree reads at this point (`scene::nodes::ShadingInputs`).
+    pub fn node_inputs(&self, scene: &Scene) -> ShadingInputs {
+        let mesh = hit_mesh(scene, &self.hit);
+        node_inputs(
+            mesh,
+            self.hit.triangle,
+            self.hit.b1,
+            self.hit.b2,
+            self.p,
+            self.frame.n,
+            self.uv,
+        )
     }
 
     /// A ray leaving this surface in direction `dir`.
@@ -187,5 +205,45 @@ pub fn spawn_to(p: Vec3, p_error: Vec3, ng: Vec3, target: &LightPoint) -> Ray {
         origin,
         direction: end - origin,
         t_max: 1.0 - SHADOW_EPSILON,
+    }
+}
+
+/// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
+fn blender_axes(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, -v.z, v.y)
+}
+
+/// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
+/// `p`, unit world normal `n` and UV `uv` (glTF's, turned to Blender's v-up convention).
+pub fn node_inputs(
+    mesh: &Mesh,
+    triangle: u32,
+    b1: f32,
+    b2: f32,
+    p: Vec3,
+    n: Vec3,
+    uv: Vec2,
+) -> ShadingInputs {
+    let idx = mesh.indices[triangle as usize];
+    let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
+    let (object, generated) = match &mesh.object_space {
+        Some(space) => {
+            let o = space.to_object.transform_point3(stored);
+            (o, space.generated(o))
+        }
+        None => (blender_axes(p), blender_axes(p)),
+    };
+    let color = if mesh.colors.is_empty() {
+        Vec4::ONE
+    } else {
+        interpolate(idx.map(|i| mesh.colors[i as usize]), b1, b2)
+    };
+    ShadingInputs {
+        position: blender_axes(p),
+        normal: blender_axes(n),
+        uv: Vec2::new(uv.x, 1.0 - uv.y),
+        generated,
+        object,
+        color,
     }
 }

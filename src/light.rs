@@ -137,7 +137,12 @@ pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
         .meshes
         .get(hit.mesh as usize)
         .and_then(|m| m.emission_spread);
-    material_emission(scene, material, hit.uv) * spread_factor(spread, wo.dot(hit.ng).abs())
+    let emission = match &material.nodes {
+        // Emission is mixed exactly by Mix Shader nodes: the closure pick does not change it.
+        Some(program) => program.eval(&hit.node_inputs(scene), 0.5).emission,
+        None => material_emission(scene, material, hit.uv),
+    };
+    emission * spread_factor(spread, wo.dot(hit.ng).abs())
 }
 
 /// A material's emitted radiance at texture coordinate `uv` (emission × emissive texture).
@@ -180,9 +185,19 @@ pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) ->
         let t = idx.map(|i| m.uvs[i as usize]);
         t[0] * b0 + t[1] * b.x + t[2] * b.y
     };
+    let material = &scene.materials[m.material as usize];
+    let radiance = match &material.nodes {
+        Some(program) => {
+            let shading_n = crate::accel::interpolate(idx.map(|i| m.normals[i as usize]), b.x, b.y)
+                .normalize_or(n);
+            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, uv);
+            program.eval(&at, 0.5).emission
+        }
+        None => material_emission(scene, material, uv),
+    };
     EmitterPoint {
         point: LightPoint { p, p_error, n },
-        radiance: material_emission(scene, &scene.materials[m.material as usize], uv),
+        radiance,
     }
 }
 

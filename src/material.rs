@@ -1,9 +1,12 @@
 //! Material evaluation at a surface point: textures and factors resolved into the small plain
 //! `SurfaceMaterial` that shading reads (yocto-gl's `eval_material` habit), following the glTF
 //! 2.0 specification §3.9 (metallic-roughness) and the KHR_materials_transmission, _ior,
-//! _specular, _emissive_strength and _volume extensions.
+//! _specular, _emissive_strength and _volume extensions. A material with a Blender node tree
+//! (`scene::nodes`) is evaluated by its program instead, at the full shading point.
 
+use crate::interaction::SurfaceHit;
 use crate::math::{Vec2, Vec3, Vec4};
+use crate::scene::nodes::Closure;
 use crate::scene::{Material, Scene, Subsurface, TextureRef};
 
 /// A material's values at one point, with textures applied. Colours are linear RGB.
@@ -96,6 +99,39 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
             material.attenuation_distance,
         ),
         thin_walled: material.thickness <= 0.0,
+        subsurface: material.subsurface,
+    }
+}
+
+/// The material at surface point `sh`: its node tree when it has one (`u` in [0, 1) picks the
+/// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV.
+pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, u: f32) -> SurfaceMaterial {
+    let material = &scene.materials[sh.material as usize];
+    match &material.nodes {
+        None => eval_material(scene, material, sh.uv),
+        Some(program) => from_closure(material, &program.eval(&sh.node_inputs(scene), u)),
+    }
+}
+
+/// A node tree's closure as the material every integrator reads; the volume and subsurface
+/// come from the material (glTF extensions), and node materials are never thin-walled (Cycles
+/// has no such notion: every transmissive surface bounds a solid).
+pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
+    SurfaceMaterial {
+        base_color: c.base_color,
+        alpha: c.alpha,
+        metallic: c.metallic,
+        roughness: c.roughness,
+        transmission: c.transmission,
+        ior: c.ior,
+        specular: c.specular,
+        specular_color: c.specular_color,
+        emission: c.emission,
+        absorption: absorption_coefficient(
+            material.attenuation_color,
+            material.attenuation_distance,
+        ),
+        thin_walled: false,
         subsurface: material.subsurface,
     }
 }

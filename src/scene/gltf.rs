@@ -777,6 +777,28 @@ impl Loader {
                 }
                 None => Vec::new(),
             };
+            let colors = match primitive.get(&gltf::Semantic::Colors(0)) {
+                Some(a) => {
+                    let n = a.dimensions().multiplicity();
+                    let flat = self.read_float_attribute(&a, &object, "COLOR_0", n.clamp(3, 4))?;
+                    if n == 4 {
+                        flat.chunks_exact(4)
+                            .map(|c| Vec4::new(c[0], c[1], c[2], c[3]))
+                            .collect()
+                    } else {
+                        flat.chunks_exact(3)
+                            .map(|c| Vec4::new(c[0], c[1], c[2], 1.0))
+                            .collect()
+                    }
+                }
+                None => Vec::new(),
+            };
+            check_length(&colors, vertex_count)
+                .map_err(|m| self.err(&object, format!("COLOR_0 {m}")))?;
+            if colors.iter().any(|c: &Vec4| !c.is_finite()) {
+                return Err(self.err(&object, "a COLOR_0 value is NaN or infinite"));
+            }
+            let object_space = Some(self.object_space(node, &positions, world)?);
             check_length(&uvs, vertex_count)
                 .map_err(|m| self.err(&object, format!("TEXCOORD_0 {m}")))?;
             check_length(&tangents, vertex_count)
@@ -819,6 +841,8 @@ impl Loader {
                 camera_visible,
                 emission_spread: None,
                 casts_shadows,
+                colors,
+                object_space,
             };
             match normals {
                 Some(normals) => {
@@ -841,6 +865,59 @@ impl Loader {
             }
         }
         Ok(())
+    }
+
+    /// The Blender object of `node` for node trees: stored positions (placed by `world`) →
+    /// Blender object coordinates (glTF (x, y, z) is Blender (x, −z, y)), and the texture space
+    /// from `PHOTON_object`'s `texture_space` or else the bounds of `local` (object-space glTF
+    /// positions), as Blender's automatic texture space.
+    fn object_space(
+        &self,
+        node: &gltf::Node,
+        local: &[Vec3],
+        world: &Mat4,
+    ) -> Result<super::ObjectSpace> {
+        let axes = Affine3A::from_cols_array(&[
+            1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+        ]);
+        let inverse = world.inverse();
+        let to_object = if inverse.is_finite() {
+            axes * Affine3A::from_mat4(inverse)
+        } else {
+            axes
+        };
+        let mut bounds = Bounds::EMPTY;
+        for &p in local {
+            bounds.grow(axes.transform_point3(p));
+        }
+        let (mut location, mut size) = if bounds.is_empty() {
+            (Vec3::ZERO, Vec3::ONE)
+        } else {
+            (bounds.center(), 0.5 * (bounds.max - bounds.min))
+        };
+        let given = node
+            .extension_value("PHOTON_object")
+            .and_then(|v| v.get("texture_space"));
+        if let Some(space) = given {
+            let object = format!(
+                "{} PHOTON_object texture_space",
+                named("node", node.index(), node.name())
+            );
+            let read = |key: &str| {
+                space
+                    .get(key)
+                    .and_then(json_vec3)
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| self.err(&object, format!("'{key}' must be three numbers")))
+            };
+            location = read("location")?;
+            size = read("size")?;
+        }
+        Ok(super::ObjectSpace {
+            to_object,
+            texspace_location: location,
+            texspace_size: size,
+        })
     }
 
     /// The primitive's triangles as index triples (strips and fans converted), or `None` when
@@ -1192,6 +1269,31 @@ impl Loader {
         }
         if let Some(sss) = material.extension_value("PHOTON_material_subsurface") {
             out.subsurface = self.read_subsurface(sss, &object)?;
+        }
+        if let Some(tree) = material.extension_value("PHOTON_material_nodes") {
+            let mut warnings = Vec::new();
+            let program = super::nodes::compile(tree, &mut warnings)
+                .map_err(|m| self.err(format!("{object} PHOTON_material_nodes"), m))?;
+            if let Some(list) = tree.get("warnings").and_then(Value::as_array) {
+                warnings.extend(list.iter().filter_map(Value::as_str).map(str::to_string));
+            }
+            for w in warnings {
+                self.scene.warnings.push(format!("{object}: {w}"));
+            }
+            // Light sampling weighs emitters by this radiance: the tree's value at a default
+            // point, or 1 when the tree may emit there and is black at that point.
+            if program.emits {
+                let at = super::nodes::ShadingInputs::default();
+                let e = program.eval(&at, 0.5).emission;
+                out.emission = if e.max_element() > 0.0 && e.is_finite() {
+                    e
+                } else {
+                    Vec3::ONE
+                };
+            } else {
+                out.emission = Vec3::ZERO;
+            }
+            out.nodes = Some(std::sync::Arc::new(program));
         }
         Ok(out)
     }
@@ -1618,6 +1720,8 @@ impl Loader {
             // Narrower than a milliradian is a laser nothing would sample; Cycles clamps too.
             emission_spread: (spread < std::f32::consts::PI).then_some(spread.max(1e-3)),
             casts_shadows: true,
+            colors: Vec::new(),
+            object_space: None,
         });
         Ok(())
     }
@@ -2080,7 +2184,7 @@ fn check_attribute_type(
     use DataType::{F32, I16, I8, U16, U8};
     let allowed = match (what, data_type) {
         (_, F32) => !normalized,
-        ("TEXCOORD_0", U8 | U16) if normalized => true,
+        ("TEXCOORD_0" | "COLOR_0", U8 | U16) if normalized => true,
         ("POSITION" | "TEXCOORD_0", I8 | U8 | I16 | U16) => quantized,
         ("NORMAL" | "TANGENT", I8 | I16) => quantized && normalized,
         _ => false,
