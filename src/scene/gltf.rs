@@ -484,7 +484,9 @@ impl Loader {
         self.instanced_meshes.contains(&mesh.index())
             && det > 0.0
             && det.is_finite()
-            && node.extension_value("PHOTON_object").is_none()
+            && node.extension_value("PHOTON_object").is_none_or(|v| {
+                v.get("visible_camera").is_none() && v.get("visible_shadow").is_none()
+            })
     }
 
     /// The checks `read_accessor` makes before allocating, without reading: the elements fit
@@ -1270,7 +1272,19 @@ impl Loader {
         if let Some(sss) = material.extension_value("PHOTON_material_subsurface") {
             out.subsurface = self.read_subsurface(sss, &object)?;
         }
-        if let Some(tree) = material.extension_value("PHOTON_material_nodes") {
+        let nodes_extension = material.extension_value("PHOTON_material_nodes");
+        if let Some(list) = nodes_extension
+            .filter(|t| t.get("nodes").is_none())
+            .and_then(|t| t.get("warnings"))
+            .and_then(Value::as_array)
+        {
+            // The add-on could not describe the tree: what it names is lost (glTF's values
+            // are rendered).
+            for w in list.iter().filter_map(Value::as_str) {
+                self.scene.warnings.push(w.to_string());
+            }
+        }
+        if let Some(tree) = nodes_extension.filter(|t| t.get("nodes").is_some()) {
             let mut warnings = Vec::new();
             let program = super::nodes::compile(tree, &mut warnings)
                 .map_err(|m| self.err(format!("{object} PHOTON_material_nodes"), m))?;

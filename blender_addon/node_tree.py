@@ -1,0 +1,252 @@
+"""PHOTON_material_nodes: a material's shader node tree as the renderer evaluates it.
+
+`material_nodes(material)` walks the tree from the active Material Output's Surface and returns
+`(extension, problems)`:
+
+- `extension` is the JSON the renderer compiles (src/scene/nodes.rs, documented in
+  src/scene/gltf.rs): `{"nodes": [...], "output": {"node": i, "output": id}}`, the nodes in an
+  order where every link points to an earlier node. Node groups are flattened (a node inside a
+  group is named "Group/Node"), reroutes and muted nodes are followed, unconnected inputs are
+  written as constants (Blender's socket values), links carry the output's identifier, and only
+  the nodes reachable from the Surface are written. Colour Ramps are baked into 256 entries
+  with Blender's own `ColorRamp.evaluate`, so every interpolation mode matches.
+- `problems` names every node (or node setting, or linked input) the renderer cannot evaluate.
+  When there is one, `extension` is None: the material keeps the glTF path (Blender's exporter
+  and its metallic-roughness values) and the pre-flight report names what is lost, so nothing
+  is dropped without a word. `extension` is also None for trees glTF carries exactly (a lone
+  Principled BSDF with nothing linked into it), so such materials render as before.
+
+It needs no bpy import: it reads nodes through their attributes (and runs in the export child).
+"""
+
+from __future__ import annotations
+
+# Nodes the renderer evaluates, by bl_idname, with the settings it reads.
+SETTINGS = {
+    "ShaderNodeTexCoord": (),
+    "ShaderNodeUVMap": (),
+    "ShaderNodeVertexColor": (),
+    "ShaderNodeAttribute": (),
+    "ShaderNodeNewGeometry": (),
+    "ShaderNodeValue": (),
+    "ShaderNodeRGB": (),
+    "ShaderNodeMapping": ("vector_type",),
+    "ShaderNodeMath": ("operation", "use_clamp"),
+    "ShaderNodeMix": ("data_type", "blend_type", "clamp_factor", "clamp_result"),
+    "ShaderNodeValToRGB": (),
+    "ShaderNodeMapRange": ("data_type", "interpolation_type", "clamp"),
+    "ShaderNodeClamp": ("clamp_type",),
+    "ShaderNodeInvert": (),
+    "ShaderNodeSeparateXYZ": (),
+    "ShaderNodeCombineXYZ": (),
+    "ShaderNodeSeparateColor": ("mode",),
+    "ShaderNodeCombineColor": ("mode",),
+    "ShaderNodeTexChecker": (),
+    "ShaderNodeTexGradient": ("gradient_type",),
+    "ShaderNodeTexNoise": ("noise_type", "noise_dimensions", "normalize"),
+    "ShaderNodeBsdfPrincipled": (),
+    "ShaderNodeBsdfDiffuse": (),
+    "ShaderNodeBsdfGlossy": (),
+    "ShaderNodeBsdfAnisotropic": (),
+    "ShaderNodeBsdfGlass": (),
+    "ShaderNodeEmission": (),
+    "ShaderNodeBsdfTransparent": (),
+    "ShaderNodeBsdfTranslucent": (),
+    "ShaderNodeMixShader": (),
+    "ShaderNodeAddShader": (),
+}
+
+# Inputs the renderer reads, per node type (others must stay unlinked; their values are
+# ignored as glTF's path ignores them).
+READ_INPUTS = {
+    "ShaderNodeBsdfPrincipled": {"Base Color", "Metallic", "Roughness", "IOR", "Alpha",
+                                 "Specular IOR Level", "Specular Tint", "Transmission Weight",
+                                 "Emission Color", "Emission Strength"},
+    "ShaderNodeBsdfDiffuse": {"Color", "Roughness"},
+    "ShaderNodeBsdfGlossy": {"Color", "Roughness"},
+    "ShaderNodeBsdfAnisotropic": {"Color", "Roughness"},
+    "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR"},
+    "ShaderNodeBsdfTranslucent": {"Color"},
+    "ShaderNodeBsdfTransparent": {"Color"},
+}
+
+# Outputs the renderer provides where a node has more.
+READ_OUTPUTS = {
+    "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object"},
+    "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal"},
+}
+
+# Settings values the renderer does not evaluate.
+UNSUPPORTED_SETTINGS = {
+    ("ShaderNodeMix", "data_type"): {"ROTATION"},
+    ("ShaderNodeMapRange", "data_type"): {"FLOAT_VECTOR"},
+    ("ShaderNodeSeparateColor", "mode"): {"HSL"},
+    ("ShaderNodeCombineColor", "mode"): {"HSL"},
+    ("ShaderNodeTexNoise", "noise_type"): {"MULTIFRACTAL", "RIDGED_MULTIFRACTAL",
+                                           "HYBRID_MULTIFRACTAL", "HETERO_TERRAIN"},
+    ("ShaderNodeTexNoise", "noise_dimensions"): {"4D"},
+}
+
+RAMP_TABLE_SIZE = 256
+
+
+def _active_output(tree):
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+               and getattr(n, "target", "ALL") in ("ALL", "CYCLES")]
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def _group_output(tree):
+    outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
+    return next((n for n in outputs if getattr(n, "is_active_output", False)),
+                outputs[0] if outputs else None)
+
+
+def _value(socket):
+    v = getattr(socket, "default_value", None)
+    if v is None:
+        return None
+    try:
+        return [float(x) for x in v]
+    except TypeError:
+        return float(v)
+
+
+class _Walker:
+    def __init__(self, material_name: str):
+        self.what = f"material '{material_name}'"
+        self.nodes: list[dict] = []
+        self.index: dict[tuple, int] = {}
+        self.problems: list[str] = []
+        self.trivial = True
+
+    def source(self, socket, groups: tuple):
+        """Where input `socket` (inside the group path `groups`) takes its value from:
+        ("link", node, output socket, groups) or ("const", socket) for an unlinked one."""
+        while True:
+            links = [l for l in socket.links if not l.is_muted and l.is_valid]
+            if not links:
+                return ("const", socket)
+            link = links[0]
+            node, out = link.from_node, link.from_socket
+            if node.bl_idname == "NodeReroute":
+                socket = node.inputs[0]
+                continue
+            if node.mute:
+                passed = [l for l in node.internal_links if l.to_socket == out]
+                if not passed:
+                    return ("const", socket)
+                socket = passed[0].from_socket
+                continue
+            if node.bl_idname == "ShaderNodeGroup":
+                inner = _group_output(node.node_tree) if node.node_tree else None
+                match = None if inner is None else next(
+                    (s for s in inner.inputs if s.identifier == out.identifier), None)
+                if match is None:
+                    return ("const", socket)
+                socket, groups = match, groups + (node,)
+                continue
+            if node.bl_idname == "NodeGroupInput":
+                if not groups:
+                    return ("const", socket)
+                group = groups[-1]
+                match = next((s for s in group.inputs if s.identifier == out.identifier), None)
+                if match is None:
+                    return ("const", socket)
+                socket, groups = match, groups[:-1]
+                continue
+            return ("link", node, out, groups)
+
+    def node_name(self, node, groups):
+        return "/".join([g.name for g in groups] + [node.name])
+
+    def visit(self, node, groups) -> int | None:
+        """The index of `node` in the list (written after its inputs), None if unsupported."""
+        key = (tuple(g.as_pointer() for g in groups), node.as_pointer())
+        if key in self.index:
+            return self.index[key]
+        kind = node.bl_idname
+        name = self.node_name(node, groups)
+        if kind not in SETTINGS:
+            self.problems.append(f"{self.what}: {node.bl_label} node '{name}' is not evaluated "
+                                 f"by Photon")
+            self.index[key] = None
+            return None
+        entry = {"name": name, "type": kind}
+        for setting in SETTINGS[kind]:
+            value = getattr(node, setting, None)
+            if value is None:
+                continue
+            if value in UNSUPPORTED_SETTINGS.get((kind, setting), ()):
+                self.problems.append(f"{self.what}: {node.bl_label} node '{name}' with "
+                                     f"{setting} {value} is not evaluated by Photon")
+            entry[setting] = value if isinstance(value, (bool, str)) else float(value)
+        if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
+            entry["value"] = _value(node.outputs[0])
+        if kind == "ShaderNodeValToRGB":
+            ramp = node.color_ramp
+            entry["interpolation"] = "LINEAR"
+            entry["table"] = [list(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
+                              for i in range(RAMP_TABLE_SIZE)]
+        if kind == "ShaderNodeMix" and getattr(node, "factor_mode", "UNIFORM") != "UNIFORM":
+            self.problems.append(f"{self.what}: Mix node '{name}' with a non-uniform factor is "
+                                 f"not evaluated by Photon")
+        if kind not in ("ShaderNodeBsdfPrincipled",):
+            self.trivial = False
+        inputs = {}
+        read = READ_INPUTS.get(kind)
+        for socket in node.inputs:
+            if not socket.enabled:
+                continue
+            src = self.source(socket, groups)
+            if read is not None and socket.identifier not in read:
+                if src[0] == "link":
+                    self.problems.append(f"{self.what}: input '{socket.name}' of "
+                                         f"{node.bl_label} node '{name}' is linked; Photon "
+                                         f"does not evaluate it")
+                continue
+            if src[0] == "link":
+                _, from_node, out, from_groups = src
+                allowed = READ_OUTPUTS.get(from_node.bl_idname)
+                if allowed is not None and out.identifier not in allowed:
+                    self.problems.append(
+                        f"{self.what}: output '{out.name}' of {from_node.bl_label} node "
+                        f"'{self.node_name(from_node, from_groups)}' is not evaluated by Photon")
+                    continue
+                index = self.visit(from_node, from_groups)
+                if index is None:
+                    continue
+                inputs[socket.identifier] = {"node": index, "output": out.identifier}
+                self.trivial = False
+            else:
+                const = src[1]
+                if const.type == "SHADER" or (const.type == "VECTOR" and const.hide_value):
+                    continue  # implicit: no closure, or the texture's default coordinates
+                value = _value(const)
+                if value is not None:
+                    inputs[socket.identifier] = value
+        entry["inputs"] = inputs
+        self.nodes.append(entry)
+        self.index[key] = len(self.nodes) - 1
+        return self.index[key]
+
+
+def material_nodes(material):
+    """`(extension or None, problems)` for `material` (module docstring)."""
+    tree = material.node_tree if getattr(material, "use_nodes", False) else None
+    if tree is None:
+        return None, []
+    output = _active_output(tree)
+    if output is None:
+        return None, []
+    walker = _Walker(material.name)
+    src = walker.source(output.inputs["Surface"], ())
+    if src[0] != "link":
+        return None, []
+    _, node, out, groups = src
+    index = walker.visit(node, groups)
+    if walker.problems or index is None:
+        return None, walker.problems
+    if walker.trivial:
+        return None, []
+    return {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}, []

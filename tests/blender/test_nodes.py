@@ -1,0 +1,190 @@
+"""Shader node trees evaluated by Photon (PHOTON_material_nodes, issue 19), against Cycles.
+
+Each scene is built with bpy and rendered by Cycles and by Photon through the add-on at 32x32:
+
+- a texture wired into an Emission shader on a plane seen straight on (the image is the
+  texture's values themselves): Checker on Generated coordinates; Noise (fBm) on Object
+  coordinates through a Mapping and a Color Ramp; a Gradient on UV coordinates through Math,
+  Map Range and a Mix (Multiply) with vertex colours. relMSE <= 1e-3;
+- lit materials: a Checker into a Principled BSDF's Base Color, and a Mix Shader of a Diffuse
+  and a Glossy BSDF driven by a Noise texture, under a sun: mean within 2 %, relMSE <= 0.01.
+"""
+
+import math
+
+import bpy
+import pytest
+
+import common
+from cycles_compare import compare
+
+EMISSION_RELMSE_MAX = 1e-3
+SIZE = 32
+
+
+@pytest.fixture(autouse=True)
+def _addon(photon_addon, binary_env):
+    return photon_addon
+
+
+def node_material(name):
+    """A fresh scene (black world) and a node material without its Principled BSDF."""
+    common.reset_scene(SIZE, SIZE)
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    return mat, mat.node_tree
+
+
+def emission_into_output(tree, socket, strength=1.0):
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = strength
+    tree.links.new(socket, emission.inputs["Color"])
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    return emission
+
+
+def plane_scene(material, *, uv=False, colors=False):
+    """A 2 m plane facing a camera 3 m above it (the plane fills the view), in the scene
+    `node_material` reset."""
+    scene = bpy.context.scene
+    plane = common.quad("Plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], material)
+    mesh = plane.data
+    if uv:
+        layer = mesh.uv_layers.new(name="UVMap")
+        for loop, (u, v) in zip(mesh.loops, [(0, 0), (1, 0), (1, 1), (0, 1)]):
+            layer.data[loop.index].uv = (u, v)
+    if colors:
+        attribute = mesh.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+        corners = [(1.0, 0.2, 0.1, 1.0), (0.1, 1.0, 0.2, 1.0), (0.2, 0.1, 1.0, 1.0),
+                   (1.0, 1.0, 1.0, 1.0)]
+        for i, c in enumerate(corners):
+            attribute.data[i].color = c
+        mesh.color_attributes.active_color = attribute
+        mesh.color_attributes.render_color_index = 0
+    common.camera("Camera", (0.0, 0.0, 3.0), (0.0, 0.0, 0.0), 36.0)
+    return scene, plane
+
+
+def test_checker_on_generated_into_emission(tmp_path):
+    mat, tree = node_material("Checker")
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 3.0
+    checker.inputs["Color1"].default_value = (0.9, 0.3, 0.1, 1.0)
+    checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
+    emission_into_output(tree, checker.outputs["Color"], 2.0)
+    scene, _ = plane_scene(mat)
+    compare("checker emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
+def test_noise_mapping_color_ramp_into_emission(tmp_path):
+    mat, tree = node_material("Noise")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Location"].default_value = (0.3, -0.2, 0.1)
+    mapping.inputs["Rotation"].default_value = (0.2, 0.1, math.radians(30.0))
+    mapping.inputs["Scale"].default_value = (1.5, 1.0, 1.0)
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 2.5
+    noise.inputs["Detail"].default_value = 3.5
+    noise.inputs["Roughness"].default_value = 0.6
+    noise.inputs["Distortion"].default_value = 0.3
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].position = 0.35
+    ramp.color_ramp.elements[0].color = (0.05, 0.1, 0.4, 1.0)
+    ramp.color_ramp.elements[1].position = 0.7
+    ramp.color_ramp.elements[1].color = (1.0, 0.8, 0.2, 1.0)
+    middle = ramp.color_ramp.elements.new(0.5)
+    middle.color = (0.8, 0.1, 0.1, 1.0)
+    tree.links.new(coords.outputs["Object"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
+    emission_into_output(tree, ramp.outputs["Color"], 1.5)
+    scene, _ = plane_scene(mat)
+    compare("noise ramp emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
+def test_gradient_math_mix_vertex_colours_into_emission(tmp_path):
+    mat, tree = node_material("Gradient")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    gradient = tree.nodes.new("ShaderNodeTexGradient")
+    gradient.gradient_type = "EASING"
+    power = tree.nodes.new("ShaderNodeMath")
+    power.operation = "POWER"
+    power.inputs[1].default_value = 0.5
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    map_range.inputs["To Min"].default_value = 0.2
+    map_range.inputs["To Max"].default_value = 0.9
+    colors = tree.nodes.new("ShaderNodeVertexColor")
+    colors.layer_name = "Col"
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.blend_type = "MULTIPLY"
+    mix.inputs["Factor"].default_value = 1.0
+    group = bpy.data.node_groups.new("Scale", "ShaderNodeTree")
+    group.interface.new_socket("Value", in_out="INPUT", socket_type="NodeSocketFloat")
+    group.interface.new_socket("Value", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    g_in = group.nodes.new("NodeGroupInput")
+    g_out = group.nodes.new("NodeGroupOutput")
+    g_mul = group.nodes.new("ShaderNodeMath")
+    g_mul.operation = "MULTIPLY"
+    g_mul.inputs[1].default_value = 1.25
+    group.links.new(g_in.outputs[0], g_mul.inputs[0])
+    group.links.new(g_mul.outputs[0], g_out.inputs[0])
+    grouped = tree.nodes.new("ShaderNodeGroup")
+    grouped.node_tree = group
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(uv.outputs["UV"], gradient.inputs["Vector"])
+    tree.links.new(gradient.outputs["Fac"], power.inputs[0])
+    tree.links.new(power.outputs["Value"], grouped.inputs[0])
+    tree.links.new(grouped.outputs[0], map_range.inputs["Value"])
+    tree.links.new(map_range.outputs["Result"], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], mix.inputs["A"])
+    tree.links.new(colors.outputs["Color"], mix.inputs["B"])
+    emission_into_output(tree, mix.outputs["Result"], 1.0)
+    scene, _ = plane_scene(mat, uv=True, colors=True)
+    compare("gradient math mix emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
+def lit_scene(material):
+    scene, plane = plane_scene(material)
+    common.light("Sun", "SUN", (0, 0, 5), (25.0, 10.0, 30.0), energy=3.0)
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.2, 0.25, 0.3, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    return scene
+
+
+def test_checker_into_principled_base_color(tmp_path):
+    mat, tree = node_material("Lit checker")
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Roughness"].default_value = 0.6
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 4.0
+    checker.inputs["Color1"].default_value = (0.8, 0.2, 0.1, 1.0)
+    checker.inputs["Color2"].default_value = (0.1, 0.5, 0.8, 1.0)
+    tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    tree.links.new(bsdf.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    compare("checker principled", lit_scene(mat), tmp_path, photon_spp=128, cycles_spp=256)
+
+
+def test_mix_shader_of_diffuse_and_glossy_by_noise(tmp_path):
+    mat, tree = node_material("Mixed")
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.7, 0.3, 0.2, 1.0)
+    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+    glossy.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    glossy.inputs["Roughness"].default_value = 0.5
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 3.0
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(noise.outputs["Fac"], mix.inputs["Fac"])
+    tree.links.new(diffuse.outputs["BSDF"], mix.inputs[1])
+    tree.links.new(glossy.outputs["BSDF"], mix.inputs[2])
+    tree.links.new(mix.outputs["Shader"], tree.nodes["Material Output"].inputs["Surface"])
+    compare("mix shader", lit_scene(mat), tmp_path, photon_spp=256, cycles_spp=256)
