@@ -44,6 +44,12 @@ SETTINGS = {
     "ShaderNodeTexChecker": (),
     "ShaderNodeTexGradient": ("gradient_type",),
     "ShaderNodeTexNoise": ("noise_type", "noise_dimensions", "normalize"),
+    "ShaderNodeTexVoronoi": ("voronoi_dimensions", "feature", "distance", "normalize"),
+    "ShaderNodeTexWave": ("wave_type", "bands_direction", "rings_direction", "wave_profile"),
+    "ShaderNodeHueSaturation": (),
+    "ShaderNodeGamma": (),
+    "ShaderNodeBrightContrast": (),
+    "ShaderNodeVectorMath": ("operation",),
     "ShaderNodeBsdfPrincipled": (),
     "ShaderNodeBsdfDiffuse": (),
     "ShaderNodeBsdfGlossy": (),
@@ -74,6 +80,7 @@ READ_INPUTS = {
 READ_OUTPUTS = {
     "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object"},
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal"},
+    "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
 }
 
 # Settings values the renderer does not evaluate.
@@ -85,6 +92,19 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeTexNoise", "noise_type"): {"MULTIFRACTAL", "RIDGED_MULTIFRACTAL",
                                            "HYBRID_MULTIFRACTAL", "HETERO_TERRAIN"},
     ("ShaderNodeTexNoise", "noise_dimensions"): {"4D"},
+    ("ShaderNodeTexVoronoi", "voronoi_dimensions"): {"1D", "4D"},
+    ("ShaderNodeTexVoronoi", "feature"): {"DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"},
+    ("ShaderNodeVectorMath", "operation"): {"WRAP", "REFRACT", "FACEFORWARD", "POWER", "SIGN"},
+}
+
+# The Math operations the renderer evaluates (src/scene/nodes.rs `math_op`).
+MATH_OPS = {
+    "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT",
+    "INVERSE_SQRT", "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN",
+    "SIGN", "COMPARE", "SMOOTH_MIN", "SMOOTH_MAX", "ROUND", "FLOOR", "CEIL", "TRUNC", "FRACT",
+    "MODULO", "FLOORED_MODULO", "WRAP", "SNAP", "PINGPONG", "SINE", "COSINE", "TANGENT",
+    "ARCSINE", "ARCCOSINE", "ARCTANGENT", "ARCTAN2", "SINH", "COSH", "TANH", "RADIANS",
+    "DEGREES",
 }
 
 RAMP_TABLE_SIZE = 256
@@ -181,6 +201,9 @@ class _Walker:
                 self.problems.append(f"{self.what}: {node.bl_label} node '{name}' with "
                                      f"{setting} {value} is not evaluated by Photon")
             entry[setting] = value if isinstance(value, (bool, str)) else float(value)
+        if kind == "ShaderNodeMath" and node.operation not in MATH_OPS:
+            self.problems.append(f"{self.what}: Math node '{name}' with operation "
+                                 f"{node.operation} is not evaluated by Photon")
         if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
             entry["value"] = _value(node.outputs[0])
         if kind == "ShaderNodeValToRGB":

@@ -124,8 +124,9 @@ pub fn spread_factor(spread: Option<f32>, cos: f32) -> f32 {
     ((tan_half - tan_a) * normalize).max(0.0)
 }
 
-/// Emitted radiance of a surface towards `wo` (unit, pointing away from the surface).
-pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+/// Emitted radiance of a surface towards `wo` (unit, pointing away from the surface), whose
+/// material evaluated there emits `emission` (`SurfaceMaterial::emission`).
+pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3, emission: Vec3) -> Vec3 {
     let material = &scene.materials[hit.material as usize];
     if !material.is_emissive() {
         return Vec3::ZERO;
@@ -137,11 +138,6 @@ pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
         .meshes
         .get(hit.mesh as usize)
         .and_then(|m| m.emission_spread);
-    let emission = match &material.nodes {
-        // Emission is mixed exactly by Mix Shader nodes: the closure pick does not change it.
-        Some(program) => program.eval(&hit.node_inputs(scene), 0.5).emission,
-        None => material_emission(scene, material, hit.uv),
-    };
     emission * spread_factor(spread, wo.dot(hit.ng).abs())
 }
 

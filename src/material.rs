@@ -4,6 +4,7 @@
 //! _specular, _emissive_strength and _volume extensions. A material with a Blender node tree
 //! (`scene::nodes`) is evaluated by its program instead, at the full shading point.
 
+use crate::accel::{hit_mesh, interpolate};
 use crate::interaction::SurfaceHit;
 use crate::math::{Vec2, Vec3, Vec4};
 use crate::scene::nodes::Closure;
@@ -104,11 +105,22 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
 }
 
 /// The material at surface point `sh`: its node tree when it has one (`u` in [0, 1) picks the
-/// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV.
+/// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV with the base
+/// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1).
 pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, u: f32) -> SurfaceMaterial {
     let material = &scene.materials[sh.material as usize];
     match &material.nodes {
-        None => eval_material(scene, material, sh.uv),
+        None => {
+            let mut s = eval_material(scene, material, sh.uv);
+            let mesh = hit_mesh(scene, &sh.hit);
+            if !mesh.colors.is_empty() {
+                let idx = mesh.indices[sh.hit.triangle as usize];
+                let c = interpolate(idx.map(|i| mesh.colors[i as usize]), sh.hit.b1, sh.hit.b2);
+                s.base_color *= c.truncate();
+                s.alpha = (s.alpha * c.w).clamp(0.0, 1.0);
+            }
+            s
+        }
         Some(program) => from_closure(material, &program.eval(&sh.node_inputs(scene), u)),
     }
 }

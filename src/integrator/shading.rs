@@ -14,7 +14,7 @@ use crate::accel::{Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
 use crate::interaction::SurfaceHit;
 use crate::irradiance_cache::IrradianceCache;
-use crate::material::{eval_material, eval_surface, SurfaceMaterial};
+use crate::material::{eval_surface, SurfaceMaterial};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::rng::{hash_combine, Rng};
 use std::f32::consts::PI;
@@ -48,7 +48,8 @@ impl Shading {
     pub fn new(ctx: &Context, ray: &Ray, hit: &Hit) -> Shading {
         let sh = SurfaceHit::new(ctx.scene, ray, hit);
         let wo = -ray.direction.normalize();
-        let surface = if ctx.scene.materials[sh.material as usize].nodes.is_some() {
+        let material = &ctx.scene.materials[sh.material as usize];
+        let surface = if material.nodes.is_some() {
             // The closure pick of Mix and Add Shader nodes: a hash of the ray and the hit, so
             // it is deterministic and fresh for every path.
             let h = hash_combine(&[
@@ -59,7 +60,7 @@ impl Shading {
             ]);
             eval_surface(ctx.scene, &sh, (h >> 40) as f32 * (1.0 / 16_777_216.0))
         } else {
-            eval_material(ctx.scene, &ctx.scene.materials[sh.material as usize], sh.uv)
+            eval_surface(ctx.scene, &sh, 0.0)
         };
         let mut frame = sh.frame;
         let opaque = surface.transmission <= 0.0;

@@ -67,6 +67,27 @@
 //!   is translucent: the subsurface part replaces weight × the diffuse part, with the base colour
 //!   as its total diffuse reflectance and `radius × scale` (scene units) as the mean free path
 //!   per channel (see `crate::subsurface`). Out-of-range values are refused with an error.
+//! - `PHOTON_material_nodes` on a material: Blender's shader node tree as `crate::scene::nodes`
+//!   compiles it: `{"nodes": [node, ...], "output": {"node": i, "output": "BSDF"}}`. Each node is
+//!   `{"name": n, "type": bl_idname, "inputs": {identifier: value or link}, ...settings}` where a
+//!   value is a number or a list of 2–4 numbers (Blender's socket value), a link is
+//!   `{"node": j, "output": identifier}` with j earlier in the list, and the settings are the
+//!   node's own properties under Blender's names (`operation`, `blend_type`, `data_type`,
+//!   `gradient_type`, …; a Value or RGB node's `value`; a Color Ramp's `table` of 256 RGBA
+//!   entries sampled at i/255 and its `interpolation`). `output` is what feeds the active
+//!   Material Output's Surface (absent: black). When present the tree replaces the glTF values
+//!   at every shading point (volume, subsurface and alpha mode still come from glTF and the
+//!   other extensions). A malformed tree is refused with an error; a node type Photon does not
+//!   evaluate gives a warning and what it feeds reads the input's default. Without `nodes`,
+//!   `{"warnings": [...]}` lists what the add-on could not describe (the glTF values are
+//!   rendered); these go to the scene's warnings (`photon info`).
+//! - `PHOTON_object` may also carry `"texture_space": {"location": [x, y, z], "size": [x, y,
+//!   z]}`, the object's texture space in Blender object coordinates (Z up), which node trees'
+//!   Generated coordinates map to [0, 1]³ (default: the bounds of the mesh).
+//!
+//! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
+//! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree
+//! multiplies its base colour by them, as glTF specifies.
 //!
 //! # Images
 //!

@@ -33,9 +33,9 @@ use serde_json::Value;
 use std::f32::consts::PI;
 
 /// Registers (node outputs) a program may use; larger trees are refused.
-pub const MAX_REGISTERS: usize = 1024;
+pub const MAX_REGISTERS: usize = 256;
 /// Shader nodes a program may hold.
-pub const MAX_CLOSURES: usize = 64;
+pub const MAX_CLOSURES: usize = 32;
 
 /// What a node tree reads about the shading point, in Blender's axes (Z up).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -189,6 +189,12 @@ enum Op {
         dimensions: u8,
         normalize: bool,
     },
+    Voronoi(VoronoiKind),
+    Wave(WaveKind),
+    HueSaturation,
+    Gamma,
+    BrightContrast,
+    VectorMath(VectorOp),
     Principled,
     Diffuse,
     Glossy,
@@ -198,6 +204,72 @@ enum Op {
     Translucent,
     MixShader,
     AddShader,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum VoronoiFeature {
+    F1,
+    F2,
+    SmoothF1,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Metric {
+    Euclidean,
+    Manhattan,
+    Chebychev,
+    Minkowski,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct VoronoiKind {
+    dimensions: u8,
+    feature: VoronoiFeature,
+    metric: Metric,
+    normalize: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum WaveProfile {
+    Sine,
+    Saw,
+    Triangle,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct WaveKind {
+    bands: bool,
+    /// Bands: X, Y, Z, diagonal; rings: X, Y, Z, spherical.
+    direction: u8,
+    profile: WaveProfile,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum VectorOp {
+    Add,
+    Subtract,
+    Multiply,
+    Divide,
+    MultiplyAdd,
+    Cross,
+    Project,
+    Reflect,
+    Dot,
+    Distance,
+    Length,
+    Scale,
+    Normalize,
+    Absolute,
+    Minimum,
+    Maximum,
+    Floor,
+    Ceil,
+    Fraction,
+    Modulo,
+    Snap,
+    Sine,
+    Cosine,
+    Tangent,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -472,6 +544,63 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("Fac", Float), ("Color", Color)],
         ),
+        Op::Voronoi(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("W", Float, f(0.0)),
+                i("Scale", Float, f(5.0)),
+                i("Detail", Float, f(0.0)),
+                i("Roughness", Float, f(0.5)),
+                i("Lacunarity", Float, f(2.0)),
+                i("Smoothness", Float, f(1.0)),
+                i("Exponent", Float, f(0.5)),
+                i("Randomness", Float, f(1.0)),
+            ],
+            vec![("Distance", Float), ("Color", Color), ("Position", Vector)],
+        ),
+        Op::Wave(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Scale", Float, f(5.0)),
+                i("Distortion", Float, f(0.0)),
+                i("Detail", Float, f(2.0)),
+                i("Detail Scale", Float, f(1.0)),
+                i("Detail Roughness", Float, f(0.5)),
+                i("Phase Offset", Float, f(0.0)),
+            ],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::HueSaturation => (
+            vec![
+                i("Hue", Float, f(0.5)),
+                i("Saturation", Float, f(1.0)),
+                i("Value", Float, f(1.0)),
+                i("Fac", Float, f(1.0)),
+                i("Color", Color, grey),
+            ],
+            vec![("Color", Color)],
+        ),
+        Op::Gamma => (
+            vec![i("Color", Color, Vec4::ONE), i("Gamma", Float, f(1.0))],
+            vec![("Color", Color)],
+        ),
+        Op::BrightContrast => (
+            vec![
+                i("Color", Color, Vec4::ONE),
+                i("Bright", Float, f(0.0)),
+                i("Contrast", Float, f(0.0)),
+            ],
+            vec![("Color", Color)],
+        ),
+        Op::VectorMath(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Vector_001", Vector, Vec4::ZERO),
+                i("Vector_002", Vector, Vec4::ZERO),
+                i("Scale", Float, f(1.0)),
+            ],
+            vec![("Vector", Vector), ("Value", Float)],
+        ),
         Op::Principled => (
             vec![
                 i("Base Color", Color, grey),
@@ -632,8 +761,10 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             _ => return Err(bad("vector_type")),
         }),
         "Math" => Op::Math {
-            op: math_op(setting(node, "operation").unwrap_or("ADD"))
-                .ok_or_else(|| bad("operation"))?,
+            op: match math_op(setting(node, "operation").unwrap_or("ADD")) {
+                Some(op) => op,
+                None => return Ok(None),
+            },
             clamp: node
                 .get("use_clamp")
                 .and_then(Value::as_bool)
@@ -733,6 +864,89 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                     .unwrap_or(true),
             }
         }
+        "TexVoronoi" => {
+            let dimensions = match setting(node, "voronoi_dimensions").unwrap_or("3D") {
+                "2D" => 2,
+                "3D" => 3,
+                _ => return Ok(None),
+            };
+            let feature = match setting(node, "feature").unwrap_or("F1") {
+                "F1" => VoronoiFeature::F1,
+                "F2" => VoronoiFeature::F2,
+                "SMOOTH_F1" => VoronoiFeature::SmoothF1,
+                _ => return Ok(None),
+            };
+            let metric = match setting(node, "distance").unwrap_or("EUCLIDEAN") {
+                "EUCLIDEAN" => Metric::Euclidean,
+                "MANHATTAN" => Metric::Manhattan,
+                "CHEBYCHEV" => Metric::Chebychev,
+                "MINKOWSKI" => Metric::Minkowski,
+                _ => return Err(bad("distance")),
+            };
+            Op::Voronoi(VoronoiKind {
+                dimensions,
+                feature,
+                metric,
+                normalize: node
+                    .get("normalize")
+                    .and_then(Value::as_bool)
+                    .unwrap_or(false),
+            })
+        }
+        "TexWave" => {
+            let bands = setting(node, "wave_type").unwrap_or("BANDS") == "BANDS";
+            let direction = if bands {
+                setting(node, "bands_direction").unwrap_or("X")
+            } else {
+                setting(node, "rings_direction").unwrap_or("X")
+            };
+            Op::Wave(WaveKind {
+                bands,
+                direction: match direction {
+                    "X" => 0,
+                    "Y" => 1,
+                    "Z" => 2,
+                    "DIAGONAL" | "SPHERICAL" => 3,
+                    _ => return Err(bad("direction")),
+                },
+                profile: match setting(node, "wave_profile").unwrap_or("SIN") {
+                    "SIN" => WaveProfile::Sine,
+                    "SAW" => WaveProfile::Saw,
+                    "TRI" => WaveProfile::Triangle,
+                    _ => return Err(bad("wave_profile")),
+                },
+            })
+        }
+        "HueSaturation" => Op::HueSaturation,
+        "Gamma" => Op::Gamma,
+        "BrightContrast" => Op::BrightContrast,
+        "VectorMath" => Op::VectorMath(match setting(node, "operation").unwrap_or("ADD") {
+            "ADD" => VectorOp::Add,
+            "SUBTRACT" => VectorOp::Subtract,
+            "MULTIPLY" => VectorOp::Multiply,
+            "DIVIDE" => VectorOp::Divide,
+            "MULTIPLY_ADD" => VectorOp::MultiplyAdd,
+            "CROSS_PRODUCT" => VectorOp::Cross,
+            "PROJECT" => VectorOp::Project,
+            "REFLECT" => VectorOp::Reflect,
+            "DOT_PRODUCT" => VectorOp::Dot,
+            "DISTANCE" => VectorOp::Distance,
+            "LENGTH" => VectorOp::Length,
+            "SCALE" => VectorOp::Scale,
+            "NORMALIZE" => VectorOp::Normalize,
+            "ABSOLUTE" => VectorOp::Absolute,
+            "MINIMUM" => VectorOp::Minimum,
+            "MAXIMUM" => VectorOp::Maximum,
+            "FLOOR" => VectorOp::Floor,
+            "CEIL" => VectorOp::Ceil,
+            "FRACTION" => VectorOp::Fraction,
+            "MODULO" => VectorOp::Modulo,
+            "SNAP" => VectorOp::Snap,
+            "SINE" => VectorOp::Sine,
+            "COSINE" => VectorOp::Cosine,
+            "TANGENT" => VectorOp::Tangent,
+            _ => return Ok(None),
+        }),
         "BsdfPrincipled" => Op::Principled,
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
@@ -777,7 +991,10 @@ pub fn compile(ext: &Value, warnings: &mut CompileWarnings) -> Result<NodeProgra
         };
         let spec = spec(&op);
         let inputs = node.get("inputs");
-        let texture_vector = matches!(op, Op::Checker | Op::Gradient(_) | Op::Noise { .. });
+        let texture_vector = matches!(
+            op,
+            Op::Checker | Op::Gradient(_) | Op::Noise { .. } | Op::Voronoi(_) | Op::Wave(_)
+        );
         let mut ins = Vec::with_capacity(spec.inputs.len());
         for (id, ty, default) in &spec.inputs {
             let given = inputs.and_then(|i| i.get(id.as_str()));
@@ -1106,6 +1323,80 @@ fn run(instr: &Instr, at: &ShadingInputs, m: &mut Machine, u: &mut f32) {
             let (fac, color) = noise_texture(*dimensions, p, w, &params, distortion);
             m.regs[o] = splat(fac);
             m.regs[o + 1] = v3(color);
+        }
+        Op::Voronoi(kind) => {
+            let scale = get(m, 2).x;
+            let params = VoronoiParams {
+                scale,
+                detail: get(m, 3).x.clamp(0.0, 15.0),
+                roughness: get(m, 4).x.clamp(0.0, 1.0),
+                lacunarity: get(m, 5).x,
+                smoothness: (get(m, 6).x / 2.0).clamp(0.0, 0.5),
+                exponent: get(m, 7).x,
+                randomness: get(m, 8).x.clamp(0.0, 1.0),
+                kind: *kind,
+            };
+            let mut p = get(m, 0).truncate() * scale;
+            if kind.dimensions == 2 {
+                p.z = 0.0;
+            }
+            let (distance, color, position) = voronoi(&params, p);
+            m.regs[o] = splat(distance);
+            m.regs[o + 1] = v3(color);
+            m.regs[o + 2] = v3(position);
+        }
+        Op::Wave(kind) => {
+            let p = get(m, 0).truncate() * get(m, 1).x;
+            let fac = wave(
+                *kind,
+                p,
+                [
+                    get(m, 2).x,
+                    get(m, 3).x.clamp(0.0, 15.0),
+                    get(m, 4).x,
+                    get(m, 5).x,
+                    get(m, 6).x,
+                ],
+            );
+            m.regs[o] = splat(fac);
+            m.regs[o + 1] = splat(fac);
+        }
+        Op::HueSaturation => {
+            let (hue, sat, val, fac) = (get(m, 0).x, get(m, 1).x, get(m, 2).x, get(m, 3).x);
+            let input = get(m, 4);
+            let mut hsv = rgb_to_hsv(input.truncate());
+            hsv.x = (hsv.x + hue + 0.5) % 1.0;
+            hsv.y = (hsv.y * sat).clamp(0.0, 1.0);
+            hsv.z *= val;
+            let c = hsv_to_rgb(hsv);
+            let c = (fac * c + (1.0 - fac) * input.truncate()).max(Vec3::ZERO);
+            m.regs[o] = c.extend(input.w);
+        }
+        Op::Gamma => {
+            let c = get(m, 0);
+            let g = get(m, 1).x;
+            let p = |x: f32| if x > 0.0 { x.powf(g) } else { x };
+            m.regs[o] = Vec4::new(p(c.x), p(c.y), p(c.z), c.w);
+        }
+        Op::BrightContrast => {
+            let c = get(m, 0);
+            let (bright, contrast) = (get(m, 1).x, get(m, 2).x);
+            let a = 1.0 + contrast;
+            let b = bright - contrast * 0.5;
+            m.regs[o] = (a * c.truncate() + Vec3::splat(b))
+                .max(Vec3::ZERO)
+                .extend(c.w);
+        }
+        Op::VectorMath(op) => {
+            let (v, value) = vector_math(
+                *op,
+                get(m, 0).truncate(),
+                get(m, 1).truncate(),
+                get(m, 2).truncate(),
+                get(m, 3).x,
+            );
+            m.regs[o] = v3(v);
+            m.regs[o + 1] = splat(value);
         }
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
@@ -1872,6 +2163,308 @@ fn noise_texture(dimensions: u8, p: Vec3, w: f32, f: &Fractal, distortion: f32) 
         fbm(dimensions, p + masked(o), w + ow, f)
     };
     (value, Vec3::new(value, shifted(s1), shifted(s2)))
+}
+
+/// Blender's Vector Math node: the vector and the value outputs.
+fn vector_math(op: VectorOp, a: Vec3, b: Vec3, c: Vec3, scale: f32) -> (Vec3, f32) {
+    use VectorOp::*;
+    let per = |f: &dyn Fn(f32, f32) -> f32| Vec3::new(f(a.x, b.x), f(a.y, b.y), f(a.z, b.z));
+    match op {
+        Add => (a + b, 0.0),
+        Subtract => (a - b, 0.0),
+        Multiply => (a * b, 0.0),
+        Divide => (safe_divide3(a, b), 0.0),
+        MultiplyAdd => (a * b + c, 0.0),
+        Cross => (a.cross(b), 0.0),
+        Project => {
+            let len2 = b.length_squared();
+            let v = if len2 != 0.0 {
+                b * (a.dot(b) / len2)
+            } else {
+                Vec3::ZERO
+            };
+            (v, 0.0)
+        }
+        Reflect => {
+            let n = b.normalize_or_zero();
+            (a - 2.0 * a.dot(n) * n, 0.0)
+        }
+        Dot => (Vec3::ZERO, a.dot(b)),
+        Distance => (Vec3::ZERO, a.distance(b)),
+        Length => (Vec3::ZERO, a.length()),
+        Scale => (a * scale, 0.0),
+        Normalize => (a.normalize_or_zero(), 0.0),
+        Absolute => (a.abs(), 0.0),
+        Minimum => (a.min(b), 0.0),
+        Maximum => (a.max(b), 0.0),
+        Floor => (a.floor(), 0.0),
+        Ceil => (a.ceil(), 0.0),
+        Fraction => (a - a.floor(), 0.0),
+        Modulo => (per(&|x, y| if y != 0.0 { x % y } else { 0.0 }), 0.0),
+        Snap => (
+            per(&|x, y| if y != 0.0 { (x / y).floor() * y } else { 0.0 }),
+            0.0,
+        ),
+        Sine => (Vec3::new(a.x.sin(), a.y.sin(), a.z.sin()), 0.0),
+        Cosine => (Vec3::new(a.x.cos(), a.y.cos(), a.z.cos()), 0.0),
+        Tangent => (Vec3::new(a.x.tan(), a.y.tan(), a.z.tan()), 0.0),
+    }
+}
+
+/// Cycles' `svm_wave` on the scaled point; `detail` holds Distortion, Detail, Detail Scale,
+/// Detail Roughness and Phase Offset.
+fn wave(kind: WaveKind, p: Vec3, detail: [f32; 5]) -> f32 {
+    let [distortion, octaves, detail_scale, detail_roughness, phase] = detail;
+    let p = (p + Vec3::splat(0.000_001)) * 0.999_999;
+    let mut n = if kind.bands {
+        match kind.direction {
+            0 => p.x * 20.0,
+            1 => p.y * 20.0,
+            2 => p.z * 20.0,
+            _ => (p.x + p.y + p.z) * 10.0,
+        }
+    } else {
+        let rp = match kind.direction {
+            0 => p * Vec3::new(0.0, 1.0, 1.0),
+            1 => p * Vec3::new(1.0, 0.0, 1.0),
+            2 => p * Vec3::new(1.0, 1.0, 0.0),
+            _ => p,
+        };
+        rp.length() * 20.0
+    };
+    n += phase;
+    if distortion != 0.0 {
+        let f = Fractal {
+            detail: octaves,
+            roughness: detail_roughness,
+            lacunarity: 2.0,
+            normalize: true,
+        };
+        n += distortion * (fbm(3, p * detail_scale, 0.0, &f) * 2.0 - 1.0);
+    }
+    match kind.profile {
+        WaveProfile::Sine => 0.5 + 0.5 * (n - std::f32::consts::FRAC_PI_2).sin(),
+        WaveProfile::Saw => {
+            let n = n / (2.0 * PI);
+            n - n.floor()
+        }
+        WaveProfile::Triangle => {
+            let n = n / (2.0 * PI);
+            (n - (n + 0.5).floor()).abs() * 2.0
+        }
+    }
+}
+
+// ----- Voronoi as Blender defines it (Cycles' voronoi.h) -----------------------------------
+
+struct VoronoiParams {
+    scale: f32,
+    detail: f32,
+    roughness: f32,
+    lacunarity: f32,
+    smoothness: f32,
+    exponent: f32,
+    randomness: f32,
+    kind: VoronoiKind,
+}
+
+/// Jenkins' lookup3 `mix` of (a, b, c).
+fn lookup3_mix(mut a: u32, mut b: u32, mut c: u32) -> (u32, u32, u32) {
+    a = a.wrapping_sub(c);
+    a ^= c.rotate_left(4);
+    c = c.wrapping_add(b);
+    b = b.wrapping_sub(a);
+    b ^= a.rotate_left(6);
+    a = a.wrapping_add(c);
+    c = c.wrapping_sub(b);
+    c ^= b.rotate_left(8);
+    b = b.wrapping_add(a);
+    a = a.wrapping_sub(c);
+    a ^= c.rotate_left(16);
+    c = c.wrapping_add(b);
+    b = b.wrapping_sub(a);
+    b ^= a.rotate_left(19);
+    a = a.wrapping_add(c);
+    c = c.wrapping_sub(b);
+    c ^= b.rotate_left(4);
+    b = b.wrapping_add(a);
+    (a, b, c)
+}
+
+fn hash4(x: u32, y: u32, z: u32, w: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((4 << 2) + 13);
+    let (a, b, c) = lookup3_mix(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z));
+    lookup3_final(a.wrapping_add(w), b, c)
+}
+
+fn unit(h: u32) -> f32 {
+    h as f32 * (1.0 / 4_294_967_295.0)
+}
+
+/// `hash_float2_to_float2` (2D) or `hash_float3_to_float3` (3D): a cell's point offset.
+fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
+    let (x, y, z) = (c.x.to_bits(), c.y.to_bits(), c.z.to_bits());
+    if dimensions == 2 {
+        Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
+    } else {
+        Vec3::new(
+            unit(hash3(x, y, z)),
+            unit(hash4(x, y, z, 1f32.to_bits())),
+            unit(hash4(x, y, z, 2f32.to_bits())),
+        )
+    }
+}
+
+/// `hash_float2_to_float3` (2D) or `hash_float3_to_float3` (3D): a cell's colour.
+fn cell_color(dimensions: u8, c: Vec3) -> Vec3 {
+    let (x, y) = (c.x.to_bits(), c.y.to_bits());
+    if dimensions == 2 {
+        Vec3::new(
+            unit(hash2(x, y)),
+            unit(hash3(x, y, 1f32.to_bits())),
+            unit(hash3(x, y, 2f32.to_bits())),
+        )
+    } else {
+        cell_point(3, c)
+    }
+}
+
+fn voronoi_distance(metric: Metric, exponent: f32, a: Vec3, b: Vec3) -> f32 {
+    let d = (a - b).abs();
+    match metric {
+        Metric::Euclidean => a.distance(b),
+        Metric::Manhattan => d.x + d.y + d.z,
+        Metric::Chebychev => d.max_element(),
+        Metric::Minkowski => {
+            (d.x.powf(exponent) + d.y.powf(exponent) + d.z.powf(exponent)).powf(1.0 / exponent)
+        }
+    }
+}
+
+/// The cell offsets a search visits, in Cycles' order (z outermost, x innermost).
+fn cell_offsets(dimensions: u8, reach: i32) -> impl Iterator<Item = Vec3> {
+    let zr = if dimensions == 2 { 0 } else { reach };
+    (-zr..=zr).flat_map(move |k| {
+        (-reach..=reach).flat_map(move |j| {
+            (-reach..=reach).map(move |i| Vec3::new(i as f32, j as f32, k as f32))
+        })
+    })
+}
+
+/// One octave: (distance, colour, position).
+fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+    let dims = p.kind.dimensions;
+    let cell = coord.floor();
+    let local = coord - cell;
+    let metric = p.kind.metric;
+    match p.kind.feature {
+        VoronoiFeature::SmoothF1 if p.smoothness != 0.0 => {
+            let mut distance = 0.0f32;
+            let mut color = Vec3::ZERO;
+            let mut position = Vec3::ZERO;
+            let mut h = -1.0f32;
+            for offset in cell_offsets(dims, 2) {
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                h = if h == -1.0 {
+                    1.0
+                } else {
+                    smoothstep(0.0, 1.0, 0.5 + 0.5 * (distance - d) / p.smoothness)
+                };
+                let mut correction = p.smoothness * h * (1.0 - h);
+                distance = lerp(distance, d, h) - correction;
+                correction /= 1.0 + 3.0 * p.smoothness;
+                let c = cell_color(dims, cell + offset);
+                color = color.lerp(c, h) - Vec3::splat(correction);
+                position = position.lerp(point, h) - Vec3::splat(correction);
+            }
+            (distance, color, cell + position)
+        }
+        VoronoiFeature::F2 => {
+            let (mut d1, mut d2) = (f32::MAX, f32::MAX);
+            let (mut o1, mut o2) = (Vec3::ZERO, Vec3::ZERO);
+            let (mut p1, mut p2) = (Vec3::ZERO, Vec3::ZERO);
+            for offset in cell_offsets(dims, 1) {
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                if d < d1 {
+                    (d2, o2, p2) = (d1, o1, p1);
+                    (d1, o1, p1) = (d, offset, point);
+                } else if d < d2 {
+                    (d2, o2, p2) = (d, offset, point);
+                }
+            }
+            (d2, cell_color(dims, cell + o2), p2 + cell)
+        }
+        _ => {
+            let mut best = f32::MAX;
+            let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
+            for offset in cell_offsets(dims, 1) {
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                if d < best {
+                    (best, target_offset, target) = (d, offset, point);
+                }
+            }
+            (best, cell_color(dims, cell + target_offset), target + cell)
+        }
+    }
+}
+
+/// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
+fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+    let r = 0.5 + 0.5 * p.randomness;
+    let corner = if p.kind.dimensions == 2 {
+        Vec3::new(r, r, 0.0)
+    } else {
+        Vec3::splat(r)
+    };
+    let f2 = if p.kind.feature == VoronoiFeature::F2 {
+        2.0
+    } else {
+        1.0
+    };
+    let max_distance = voronoi_distance(p.kind.metric, p.exponent, Vec3::ZERO, corner) * f2;
+    let mut amplitude = 1.0f32;
+    let mut max_amplitude = 0.0f32;
+    let mut scale = 1.0f32;
+    let (mut distance, mut color, mut position) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+    let zero_input = p.detail == 0.0 || p.roughness == 0.0;
+    let octaves = p.detail.ceil() as i32;
+    for i in 0..=octaves {
+        let (d, c, pos) = voronoi_octave(p, coord * scale);
+        if zero_input {
+            max_amplitude = 1.0;
+            (distance, color, position) = (d, c, pos);
+            break;
+        }
+        if i as f32 <= p.detail {
+            max_amplitude += amplitude;
+            distance += d * amplitude;
+            color += c * amplitude;
+            position = position.lerp(pos / scale, amplitude);
+            scale *= p.lacunarity;
+            amplitude *= p.roughness;
+        } else {
+            let rmd = p.detail - p.detail.floor();
+            if rmd != 0.0 {
+                max_amplitude = lerp(max_amplitude, max_amplitude + amplitude, rmd);
+                distance = lerp(distance, distance + d * amplitude, rmd);
+                color = color.lerp(color + c * amplitude, rmd);
+                position = position.lerp(position.lerp(pos / scale, amplitude), rmd);
+            }
+        }
+    }
+    if p.kind.normalize {
+        distance /= max_amplitude * max_distance;
+        color /= max_amplitude;
+    }
+    let position = if p.scale != 0.0 {
+        position / p.scale
+    } else {
+        Vec3::ZERO
+    };
+    (distance, color, position)
 }
 
 #[cfg(test)]

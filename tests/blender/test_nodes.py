@@ -188,3 +188,48 @@ def test_mix_shader_of_diffuse_and_glossy_by_noise(tmp_path):
     tree.links.new(glossy.outputs["BSDF"], mix.inputs[2])
     tree.links.new(mix.outputs["Shader"], tree.nodes["Material Output"].inputs["Surface"])
     compare("mix shader", lit_scene(mat), tmp_path, photon_spp=256, cycles_spp=256)
+
+
+def test_voronoi_and_hue_saturation_into_emission(tmp_path):
+    mat, tree = node_material("Voronoi")
+    voronoi = tree.nodes.new("ShaderNodeTexVoronoi")
+    voronoi.feature = "SMOOTH_F1"
+    voronoi.inputs["Scale"].default_value = 4.0
+    voronoi.inputs["Detail"].default_value = 1.5
+    voronoi.inputs["Smoothness"].default_value = 0.6
+    voronoi.normalize = True
+    hue = tree.nodes.new("ShaderNodeHueSaturation")
+    hue.inputs["Hue"].default_value = 0.3
+    hue.inputs["Saturation"].default_value = 1.4
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.blend_type = "OVERLAY"
+    tree.links.new(voronoi.outputs["Color"], hue.inputs["Color"])
+    tree.links.new(voronoi.outputs["Distance"], mix.inputs["Factor"])
+    tree.links.new(hue.outputs["Color"], mix.inputs["A"])
+    mix.inputs["B"].default_value = (0.2, 0.6, 0.9, 1.0)
+    emission_into_output(tree, mix.outputs["Result"], 1.0)
+    scene, _ = plane_scene(mat)
+    compare("voronoi hue emission", scene, tmp_path, photon_spp=128, cycles_spp=512,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
+def test_wave_rings_with_distortion_into_emission(tmp_path):
+    mat, tree = node_material("Wave")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    wave = tree.nodes.new("ShaderNodeTexWave")
+    wave.wave_type = "RINGS"
+    wave.rings_direction = "SPHERICAL"
+    wave.wave_profile = "TRI"
+    wave.inputs["Scale"].default_value = 0.8
+    wave.inputs["Distortion"].default_value = 4.0
+    wave.inputs["Detail"].default_value = 2.5
+    contrast = tree.nodes.new("ShaderNodeBrightContrast")
+    contrast.inputs["Bright"].default_value = 0.1
+    contrast.inputs["Contrast"].default_value = 0.4
+    tree.links.new(coords.outputs["Object"], wave.inputs["Vector"])
+    tree.links.new(wave.outputs["Color"], contrast.inputs["Color"])
+    emission_into_output(tree, contrast.outputs["Color"], 1.0)
+    scene, _ = plane_scene(mat)
+    compare("wave emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
+            relmse_max=EMISSION_RELMSE_MAX)
