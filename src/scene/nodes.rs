@@ -385,10 +385,15 @@ fn const_value(v: &Value) -> Option<Vec4> {
     }
 }
 
+/// An input: its identifier, type and Blender's default value.
+type InputSpec = (String, Ty, Vec4);
+/// An output: its identifier and type.
+type OutputSpec = (&'static str, Ty);
+
 /// Input identifiers with their types and Blender's defaults, and output identifiers with types.
 struct Spec {
-    inputs: Vec<(String, Ty, Vec4)>,
-    outputs: Vec<(&'static str, Ty)>,
+    inputs: Vec<InputSpec>,
+    outputs: Vec<OutputSpec>,
 }
 
 fn f(x: f32) -> Vec4 {
@@ -399,7 +404,7 @@ fn spec(op: &Op) -> Spec {
     use Ty::*;
     let i = |n: &str, t: Ty, d: Vec4| (n.to_string(), t, d);
     let grey = Vec4::new(0.8, 0.8, 0.8, 1.0);
-    let (inputs, outputs): (Vec<(String, Ty, Vec4)>, Vec<(&'static str, Ty)>) = match op {
+    let (inputs, outputs): (Vec<InputSpec>, Vec<OutputSpec>) = match op {
         Op::TexCoord => (
             vec![],
             vec![
@@ -969,7 +974,7 @@ pub fn compile(ext: &Value, warnings: &mut CompileWarnings) -> Result<NodeProgra
         .and_then(Value::as_array)
         .ok_or("'nodes' must be an array")?;
     // Per node: (first register or closure slot, output names and types), or None when skipped.
-    let mut placed: Vec<Option<(u16, Vec<(&'static str, Ty)>)>> = Vec::with_capacity(nodes.len());
+    let mut placed: Vec<Option<(u16, Vec<OutputSpec>)>> = Vec::with_capacity(nodes.len());
     let mut instrs = Vec::new();
     let mut registers = 0usize;
     let mut closures = 0usize;
@@ -1576,7 +1581,7 @@ fn math(op: MathOp, a: f32, b: f32, c: f32) -> f32 {
                 a.powf(b)
             } else {
                 let fraction = b % 1.0;
-                if fraction > 0.999 || fraction < 0.001 {
+                if !(0.001..=0.999).contains(&fraction) {
                     let r = a.abs().powf(b.round());
                     if (b.round() as i64) % 2 != 0 {
                         -r
@@ -1868,20 +1873,18 @@ fn map_range(
             }
         }
         MapRangeKind::Smoothstep => {
-            let f = if from_min > from_max {
+            if from_min > from_max {
                 1.0 - smoothstep(from_max, from_min, value)
             } else {
                 smoothstep(from_min, from_max, value)
-            };
-            f
+            }
         }
         MapRangeKind::Smootherstep => {
-            let f = if from_min > from_max {
+            if from_min > from_max {
                 1.0 - smootherstep(from_max, from_min, value)
             } else {
                 smootherstep(from_min, from_max, value)
-            };
-            f
+            }
         }
     };
     let r = to_min + factor * (to_max - to_min);
