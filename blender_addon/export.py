@@ -115,7 +115,8 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
         data = subsurface_extension(blender_material)
         if data:
             self._add(gltf_material, "PHOTON_material_subsurface", data)
-        tree, problems = node_tree.material_nodes(blender_material)
+        folder = Path(export_settings["gltf_filedirectory"])
+        tree, problems = node_tree.material_nodes(blender_material, folder)
         if tree:
             self._add(gltf_material, "PHOTON_material_nodes", tree)
         elif problems:  # listed by `photon info`; the pre-flight report names them in Blender

@@ -45,6 +45,7 @@ SETTINGS = {
     "ShaderNodeTexGradient": ("gradient_type",),
     "ShaderNodeTexNoise": ("noise_type", "noise_dimensions", "normalize"),
     "ShaderNodeTexVoronoi": ("voronoi_dimensions", "feature", "distance", "normalize"),
+    "ShaderNodeTexImage": ("interpolation", "projection", "extension"),
     "ShaderNodeTexWave": ("wave_type", "bands_direction", "rings_direction", "wave_profile"),
     "ShaderNodeHueSaturation": (),
     "ShaderNodeGamma": (),
@@ -93,6 +94,7 @@ UNSUPPORTED_SETTINGS = {
                                            "HYBRID_MULTIFRACTAL", "HETERO_TERRAIN"},
     ("ShaderNodeTexNoise", "noise_dimensions"): {"4D"},
     ("ShaderNodeTexVoronoi", "voronoi_dimensions"): {"1D", "4D"},
+    ("ShaderNodeTexImage", "projection"): {"BOX", "SPHERE", "TUBE"},
     ("ShaderNodeTexVoronoi", "feature"): {"DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"},
     ("ShaderNodeVectorMath", "operation"): {"WRAP", "REFRACT", "FACEFORWARD", "POWER", "SIGN"},
 }
@@ -108,6 +110,29 @@ MATH_OPS = {
 }
 
 RAMP_TABLE_SIZE = 256
+
+# Image files the renderer decodes, by Blender's file_format, with their file extension.
+IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp"}
+# Colour spaces of image textures the renderer reads (sRGB decoded, or the values as they are).
+IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color", "Linear Rec.709": "Non-Color"}
+
+
+def _image_source(image):
+    """`(bytes or None, path or None, problem)`: where an image's encoded file is."""
+    import os
+    import bpy
+    if image.source != "FILE":
+        return None, None, f"is a {image.source.lower()} image"
+    if image.file_format not in IMAGE_FORMATS:
+        return None, None, f"is a {image.file_format} file (Photon reads PNG, JPEG and WebP)"
+    if image.colorspace_settings.name not in IMAGE_COLORSPACES:
+        return None, None, f"uses the colour space {image.colorspace_settings.name}"
+    if image.packed_file is not None:
+        return bytes(image.packed_file.data), None, ""
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    if not os.path.isfile(path):
+        return None, None, f"file '{path}' is missing"
+    return None, path, ""
 
 
 def _active_output(tree):
@@ -133,8 +158,10 @@ def _value(socket):
 
 
 class _Walker:
-    def __init__(self, material_name: str):
+    def __init__(self, material_name: str, folder=None):
         self.what = f"material '{material_name}'"
+        self.folder = folder
+        self.images: dict[str, str] = {}
         self.nodes: list[dict] = []
         self.index: dict[tuple, int] = {}
         self.problems: list[str] = []
@@ -177,6 +204,24 @@ class _Walker:
                 continue
             return ("link", node, out, groups)
 
+    def image_uri(self, image) -> str:
+        """The file name of `image` beside the .glb (written there when exporting)."""
+        if image.name in self.images:
+            return self.images[image.name]
+        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in image.name)
+        uri = f"photon_image_{len(self.images)}_{safe}.{IMAGE_FORMATS[image.file_format]}"
+        self.images[image.name] = uri
+        if self.folder is not None:
+            import shutil
+            from pathlib import Path
+            data, path, _ = _image_source(image)
+            target = Path(self.folder) / uri
+            if data is not None:
+                target.write_bytes(data)
+            else:
+                shutil.copyfile(path, target)
+        return uri
+
     def node_name(self, node, groups):
         return "/".join([g.name for g in groups] + [node.name])
 
@@ -201,6 +246,16 @@ class _Walker:
                 self.problems.append(f"{self.what}: {node.bl_label} node '{name}' with "
                                      f"{setting} {value} is not evaluated by Photon")
             entry[setting] = value if isinstance(value, (bool, str)) else float(value)
+        if kind == "ShaderNodeTexImage":
+            image = node.image
+            problem = "has no image" if image is None else _image_source(image)[2]
+            if problem:
+                self.problems.append(f"{self.what}: Image Texture node '{name}': the image "
+                                     f"{problem}; Photon does not evaluate it")
+            else:
+                entry["image"] = {"uri": self.image_uri(image),
+                                  "colorspace": IMAGE_COLORSPACES[
+                                      image.colorspace_settings.name]}
         if kind == "ShaderNodeMath" and node.operation not in MATH_OPS:
             self.problems.append(f"{self.what}: Math node '{name}' with operation "
                                  f"{node.operation} is not evaluated by Photon")
@@ -254,15 +309,16 @@ class _Walker:
         return self.index[key]
 
 
-def material_nodes(material):
-    """`(extension or None, problems)` for `material` (module docstring)."""
+def material_nodes(material, folder=None):
+    """`(extension or None, problems)` for `material` (module docstring). With `folder` (the
+    .glb's), the images of Image Texture nodes are written there."""
     tree = material.node_tree if getattr(material, "use_nodes", False) else None
     if tree is None:
         return None, []
     output = _active_output(tree)
     if output is None:
         return None, []
-    walker = _Walker(material.name)
+    walker = _Walker(material.name, folder)
     src = walker.source(output.inputs["Surface"], ())
     if src[0] != "link":
         return None, []

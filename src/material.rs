@@ -121,7 +121,10 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, u: f32) -> SurfaceMaterial {
             }
             s
         }
-        Some(program) => from_closure(material, &program.eval(&sh.node_inputs(scene), u)),
+        Some(program) => from_closure(
+            material,
+            &program.eval(&sh.node_inputs(scene), &scene.textures, u),
+        ),
     }
 }
 

@@ -50,7 +50,10 @@ pub fn classifying_bsdf(scene: &Scene, m: u32) -> Bsdf {
     let mut s = match &material.nodes {
         // A node tree: its value at a default point (texture coordinates 0), with the first
         // closure of each Mix Shader.
-        Some(program) => from_closure(material, &program.eval(&ShadingInputs::default(), 0.0)),
+        Some(program) => from_closure(
+            material,
+            &program.eval(&ShadingInputs::default(), &scene.textures, 0.0),
+        ),
         None => eval_material(scene, material, Vec2::ZERO),
     };
     if material.metallic_roughness_texture.is_some() {

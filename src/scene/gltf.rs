@@ -1307,7 +1307,8 @@ impl Loader {
         }
         if let Some(tree) = nodes_extension.filter(|t| t.get("nodes").is_some()) {
             let mut warnings = Vec::new();
-            let program = super::nodes::compile(tree, &mut warnings)
+            let tree = self.load_node_images(tree, &object)?;
+            let program = super::nodes::compile(&tree, self.scene.textures.len(), &mut warnings)
                 .map_err(|m| self.err(format!("{object} PHOTON_material_nodes"), m))?;
             if let Some(list) = tree.get("warnings").and_then(Value::as_array) {
                 warnings.extend(list.iter().filter_map(Value::as_str).map(str::to_string));
@@ -1319,7 +1320,7 @@ impl Loader {
             // point, or 1 when the tree may emit there and is black at that point.
             if program.emits {
                 let at = super::nodes::ShadingInputs::default();
-                let e = program.eval(&at, 0.5).emission;
+                let e = program.eval(&at, &self.scene.textures, 0.5).emission;
                 out.emission = if e.max_element() > 0.0 && e.is_finite() {
                     e
                 } else {
@@ -1331,6 +1332,63 @@ impl Loader {
             out.nodes = Some(std::sync::Arc::new(program));
         }
         Ok(out)
+    }
+
+    /// The tree of `PHOTON_material_nodes` with each Image Texture node's `image` (`{"uri":
+    /// file, "colorspace": "sRGB" | "Non-Color"}`, beside the glTF file) loaded as a texture
+    /// of the scene and named by its index in `texture`, with the node's `extension` (REPEAT,
+    /// EXTEND, CLIP, MIRROR) and `interpolation` (Closest or else bilinear) as its sampler.
+    fn load_node_images(&mut self, tree: &Value, object: &str) -> Result<Value> {
+        let mut tree = tree.clone();
+        let Some(nodes) = tree.get_mut("nodes").and_then(Value::as_array_mut) else {
+            return Ok(tree);
+        };
+        for node in nodes.iter_mut() {
+            let Some(image) = node.get("image").cloned() else {
+                continue;
+            };
+            let label = format!("{object} PHOTON_material_nodes image");
+            let uri = image
+                .get("uri")
+                .and_then(Value::as_str)
+                .ok_or_else(|| self.err(&label, "'uri' must be a string"))?;
+            let srgb = image.get("colorspace").and_then(Value::as_str) != Some("Non-Color");
+            let file = self.resolve_file(uri, &label)?;
+            let decoded = if file.exists() {
+                let bytes = std::fs::read(&file).map_err(|e| Error::io(&file, e))?;
+                self.decode_bytes(&bytes, format!("image '{uri}'"), None)?
+            } else {
+                self.scene.warnings.push(format!(
+                    "{object}: image file '{}' not found; it renders magenta (1, 0, 1), as in \
+                     Blender",
+                    file.display()
+                ));
+                DecodedImage {
+                    name: uri.to_string(),
+                    width: 1,
+                    height: 1,
+                    texels: vec![[255, 0, 255, 255]],
+                }
+            };
+            let wrap = match node.get("extension").and_then(Value::as_str) {
+                Some("EXTEND" | "CLIP") => Wrap::ClampToEdge,
+                Some("MIRROR") => Wrap::MirroredRepeat,
+                _ => Wrap::Repeat,
+            };
+            let bilinear = node.get("interpolation").and_then(Value::as_str) != Some("Closest");
+            node["texture"] = Value::from(self.scene.textures.len());
+            self.scene.textures.push(Texture {
+                name: decoded.name,
+                width: decoded.width,
+                height: decoded.height,
+                texels: decoded.texels,
+                srgb,
+                wrap_s: wrap,
+                wrap_t: wrap,
+                bilinear,
+            });
+        }
+        Ok(tree)
     }
 
     /// `PHOTON_material_subsurface`: every field optional (Blender's defaults), every value
@@ -1500,17 +1558,25 @@ impl Loader {
             .and_then(|u| u.strip_prefix("data:"))
             .and_then(|r| r.split(';').next())
             .map(str::to_string);
-        let format = sniff_image_format(&encoded).ok_or_else(|| {
-            let claimed = declared_mime
-                .or(data_mime)
-                .unwrap_or_else(|| "unknown format".into());
+        self.decode_bytes(&encoded, label, declared_mime.or(data_mime))
+    }
+
+    /// Decode an encoded PNG, JPEG or WebP image (`claimed`: the MIME type the file states).
+    fn decode_bytes(
+        &self,
+        encoded: &[u8],
+        label: String,
+        claimed: Option<String>,
+    ) -> Result<DecodedImage> {
+        let format = sniff_image_format(encoded).ok_or_else(|| {
+            let claimed = claimed.unwrap_or_else(|| "unknown format".into());
             self.err(
                 &label,
                 format!("unsupported image format ({claimed}); Photon reads PNG, JPEG and WebP"),
             )
         })?;
         if format == "image/webp" {
-            let (width, height, texels) = decode_webp(&encoded)
+            let (width, height, texels) = decode_webp(encoded)
                 .map_err(|e| self.err(&label, format!("cannot decode the WebP image: {e}")))?;
             return Ok(DecodedImage {
                 name: label.clone(),
@@ -1521,7 +1587,7 @@ impl Loader {
         }
         // Hand the bytes to the gltf crate's decoder (PNG and JPEG via the image crate) as a
         // data URI: it is the one way to reach it without reading files a second time.
-        let uri = format!("data:{format};base64,{}", encode_base64(&encoded));
+        let uri = format!("data:{format};base64,{}", encode_base64(encoded));
         let data = gltf::image::Data::from_source(
             gltf::image::Source::Uri {
                 uri: &uri,

@@ -28,6 +28,7 @@
 //! it picks one with probability ½, which halves their sum (approximate; exact when one side
 //! only emits, the common case).
 
+use super::texture::Texture;
 use crate::math::{Vec2, Vec3, Vec4};
 use serde_json::Value;
 use std::f32::consts::PI;
@@ -97,6 +98,8 @@ enum Src {
     Closure(u16),
     /// The implicit Generated coordinates of an unlinked texture Vector input.
     Generated,
+    /// The implicit UV of an unlinked Image Texture Vector input.
+    Uv,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -188,6 +191,12 @@ enum Op {
     Noise {
         dimensions: u8,
         normalize: bool,
+    },
+    /// An Image Texture: its texture in `Scene::textures`, and whether it is transparent black
+    /// outside [0, 1]² (Blender's Clip extension).
+    Image {
+        texture: u32,
+        clip: bool,
     },
     Voronoi(VoronoiKind),
     Wave(WaveKind),
@@ -549,6 +558,10 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("Fac", Float), ("Color", Color)],
         ),
+        Op::Image { .. } => (
+            vec![i("Vector", Vector, Vec4::ZERO)],
+            vec![("Color", Color), ("Alpha", Float)],
+        ),
         Op::Voronoi(_) => (
             vec![
                 i("Vector", Vector, Vec4::ZERO),
@@ -869,6 +882,19 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                     .unwrap_or(true),
             }
         }
+        "TexImage" => {
+            if setting(node, "projection").unwrap_or("FLAT") != "FLAT" {
+                return Ok(None);
+            }
+            Op::Image {
+                texture: node
+                    .get("texture")
+                    .and_then(Value::as_u64)
+                    .and_then(|t| u32::try_from(t).ok())
+                    .ok_or("Image Texture: no image")?,
+                clip: setting(node, "extension") == Some("CLIP"),
+            }
+        }
         "TexVoronoi" => {
             let dimensions = match setting(node, "voronoi_dimensions").unwrap_or("3D") {
                 "2D" => 2,
@@ -968,7 +994,12 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
 /// Compile the `PHOTON_material_nodes` extension of a material. Errors (a malformed tree: a link
 /// to a later node or a missing output, a value of the wrong kind) refuse the file; nodes the
 /// renderer cannot evaluate are replaced by their fallback with a warning in `warnings`.
-pub fn compile(ext: &Value, warnings: &mut CompileWarnings) -> Result<NodeProgram, String> {
+/// `textures` is the number of textures in the scene (Image Texture nodes name one of them).
+pub fn compile(
+    ext: &Value,
+    textures: usize,
+    warnings: &mut CompileWarnings,
+) -> Result<NodeProgram, String> {
     let nodes = ext
         .get("nodes")
         .and_then(Value::as_array)
@@ -994,6 +1025,13 @@ pub fn compile(ext: &Value, warnings: &mut CompileWarnings) -> Result<NodeProgra
                 continue;
             }
         };
+        if let Op::Image { texture, .. } = op {
+            if texture as usize >= textures {
+                return Err(format!(
+                    "node {index} '{name}': texture {texture} does not exist"
+                ));
+            }
+        }
         let spec = spec(&op);
         let inputs = node.get("inputs");
         let texture_vector = matches!(
@@ -1006,6 +1044,7 @@ pub fn compile(ext: &Value, warnings: &mut CompileWarnings) -> Result<NodeProgra
             let src = match given {
                 None if *ty == Ty::Shader => Src::Const(Vec4::ZERO),
                 None if texture_vector && id == "Vector" => Src::Generated,
+                None if matches!(op, Op::Image { .. }) && id == "Vector" => Src::Uv,
                 None => Src::Const(*default),
                 Some(v) if v.get("node").is_some() => {
                     let from = v
@@ -1140,14 +1179,14 @@ fn v3(v: Vec3) -> Vec4 {
 impl NodeProgram {
     /// Evaluate the program at a shading point. `u` in [0, 1) picks the BSDF of Mix and Add
     /// Shader nodes (module header).
-    pub fn eval(&self, at: &ShadingInputs, mut u: f32) -> Closure {
+    pub fn eval(&self, at: &ShadingInputs, textures: &[Texture], mut u: f32) -> Closure {
         // The register file lives on the stack; only what the program uses is written or read.
         let mut m = Machine {
             regs: [Vec4::ZERO; MAX_REGISTERS],
             closures: [Closure::BLACK; MAX_CLOSURES],
         };
         for instr in &self.instrs {
-            run(instr, at, &mut m, &mut u);
+            run(instr, at, textures, &mut m, &mut u);
         }
         match self.output {
             Src::Closure(c) => m.closures[c as usize],
@@ -1181,6 +1220,7 @@ fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
         }
         Src::Closure(_) => Vec4::ZERO,
         Src::Generated => v3(at.generated),
+        Src::Uv => Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
     }
 }
 
@@ -1191,7 +1231,7 @@ fn closure(m: &Machine, s: Src) -> Closure {
     }
 }
 
-fn run(instr: &Instr, at: &ShadingInputs, m: &mut Machine, u: &mut f32) {
+fn run(instr: &Instr, at: &ShadingInputs, textures: &[Texture], m: &mut Machine, u: &mut f32) {
     let ins = &instr.ins;
     let get = |m: &Machine, k: usize| load(m, at, ins[k]);
     let o = instr.out as usize;
@@ -1328,6 +1368,18 @@ fn run(instr: &Instr, at: &ShadingInputs, m: &mut Machine, u: &mut f32) {
             let (fac, color) = noise_texture(*dimensions, p, w, &params, distortion);
             m.regs[o] = splat(fac);
             m.regs[o + 1] = v3(color);
+        }
+        Op::Image { texture, clip } => {
+            let uv = get(m, 0);
+            let outside = !(0.0..=1.0).contains(&uv.x) || !(0.0..=1.0).contains(&uv.y);
+            // Blender's image rows go up from the bottom; Photon's from the top.
+            let c = match textures.get(*texture as usize) {
+                Some(_) if *clip && outside => Vec4::ZERO,
+                Some(t) => t.sample_encoded(Vec2::new(uv.x, 1.0 - uv.y)),
+                None => Vec4::new(1.0, 0.0, 1.0, 1.0),
+            };
+            m.regs[o] = c;
+            m.regs[o + 1] = splat(c.w);
         }
         Op::Voronoi(kind) => {
             let scale = get(m, 2).x;
@@ -2484,8 +2536,8 @@ mod tests {
 
     fn emission_of(tree: Value, at: &ShadingInputs) -> Vec3 {
         let mut w = Vec::new();
-        let program = compile(&tree, &mut w).expect("compiles");
-        program.eval(at, 0.5).emission
+        let program = compile(&tree, 0, &mut w).expect("compiles");
+        program.eval(at, &[], 0.5).emission
     }
 
     #[test]
@@ -2635,12 +2687,12 @@ mod tests {
             "output": {"node": 4, "output": "Shader"}
         });
         let mut w = Vec::new();
-        let p = compile(&tree, &mut w).unwrap();
+        let p = compile(&tree, 0, &mut w).unwrap();
         let at = ShadingInputs::default();
         let n = 10_000;
         let mut metal = 0;
         for i in 0..n {
-            let c = p.eval(&at, (i as f32 + 0.5) / n as f32);
+            let c = p.eval(&at, &[], (i as f32 + 0.5) / n as f32);
             assert_eq!(c.emission, Vec3::splat(2.0));
             if c.metallic == 1.0 {
                 assert_eq!(c.base_color, Vec3::new(0.0, 1.0, 0.0));
@@ -2660,18 +2712,18 @@ mod tests {
             {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Color": {"node": 1, "output": "Color"}}},
             {"name": "C", "type": "ShaderNodeRGB", "value": [1, 1, 1, 1]}
         ], "output": {"node": 0, "output": "Emission"}});
-        let e = compile(&forward, &mut w).unwrap_err();
+        let e = compile(&forward, 0, &mut w).unwrap_err();
         assert!(e.contains("not earlier"), "{e}");
         let value_as_shader = json!({"nodes": [
             {"name": "C", "type": "ShaderNodeRGB", "value": [1, 1, 1, 1]}
         ], "output": {"node": 0, "output": "Color"}});
-        assert!(compile(&value_as_shader, &mut w)
+        assert!(compile(&value_as_shader, 0, &mut w)
             .unwrap_err()
             .contains("shader output"));
-        assert!(compile(&json!({"nodes": 3}), &mut w).is_err());
+        assert!(compile(&json!({"nodes": 3}), 0, &mut w).is_err());
         let bad_ramp =
             json!({"nodes": [{"name": "R", "type": "ShaderNodeValToRGB", "table": [1]}]});
-        assert!(compile(&bad_ramp, &mut w)
+        assert!(compile(&bad_ramp, 0, &mut w)
             .unwrap_err()
             .contains("Color Ramp"));
     }
@@ -2684,11 +2736,14 @@ mod tests {
             {"name": "E", "type": "ShaderNodeEmission", "inputs": {
                 "Color": {"node": 0, "output": "Color"}, "Strength": 1.0}}
         ], "output": {"node": 1, "output": "Emission"}});
-        let p = compile(&tree, &mut w).unwrap();
+        let p = compile(&tree, 0, &mut w).unwrap();
         assert_eq!(w.len(), 1);
         assert!(w[0].contains("Magic"), "{w:?}");
         // The Emission colour's default (white) is used.
-        assert_eq!(p.eval(&ShadingInputs::default(), 0.5).emission, Vec3::ONE);
+        assert_eq!(
+            p.eval(&ShadingInputs::default(), &[], 0.5).emission,
+            Vec3::ONE
+        );
     }
 
     #[test]

@@ -233,3 +233,30 @@ def test_wave_rings_with_distortion_into_emission(tmp_path):
     scene, _ = plane_scene(mat)
     compare("wave emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
             relmse_max=EMISSION_RELMSE_MAX)
+
+
+def test_image_texture_repeated_into_emission(tmp_path):
+    """An 8x8 PNG (sRGB) through UV x 1.5 (repeat) and the Image Texture node, bilinear."""
+    mat, tree = node_material("Image")
+    image = bpy.data.images.new("Tiles", 8, 8)
+    pixels = []
+    for y in range(8):
+        for x in range(8):
+            pixels += [((x * 37 + y * 11) % 8) / 7.0, ((x * 5 + y * 23) % 8) / 7.0,
+                       ((x + y) % 2) * 0.8 + 0.1, 1.0]
+    image.pixels = pixels
+    image.filepath_raw = str(tmp_path / "tiles.png")
+    image.file_format = "PNG"
+    image.save()
+    image = bpy.data.images.load(str(tmp_path / "tiles.png"))
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Scale"].default_value = (1.5, 1.5, 1.0)
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    emission_into_output(tree, tex.outputs["Color"], 1.0)
+    scene, _ = plane_scene(mat, uv=True)
+    compare("image emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
+            relmse_max=EMISSION_RELMSE_MAX)
