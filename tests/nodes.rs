@@ -276,3 +276,23 @@ fn vertex_colours_multiply_a_plain_base_colour_and_feed_a_colour_attribute_node(
         "{red:?} vs {white:?}"
     );
 }
+
+#[test]
+fn what_the_add_on_could_not_describe_is_listed_by_info_and_not_repeated_by_render() {
+    let dir = temp_dir("notes");
+    let note = "material 'Old': Magic Texture node 'M' is not evaluated by Photon";
+    let material =
+        json!({"name": "Old", "extensions": {"PHOTON_material_nodes": {"warnings": [note]}}});
+    let scene = dir.join("notes.gltf");
+    std::fs::write(&scene, plane_gltf(material, None)).unwrap();
+    let info = photon()
+        .args(["info", &scene.to_string_lossy()])
+        .output()
+        .unwrap();
+    assert_success(&info);
+    assert!(String::from_utf8_lossy(&info.stdout).contains(note));
+    let out = dir.join("notes.exr");
+    let result = render(&scene, &out, 8);
+    assert_success(&result);
+    assert!(!String::from_utf8_lossy(&result.stderr).contains("Magic"));
+}

@@ -80,7 +80,7 @@
 //!   other extensions). A malformed tree is refused with an error; a node type Photon does not
 //!   evaluate gives a warning and what it feeds reads the input's default. Without `nodes`,
 //!   `{"warnings": [...]}` lists what the add-on could not describe (the glTF values are
-//!   rendered); these go to the scene's warnings (`photon info`).
+//!   rendered); these go to `Scene::export_notes`, which `photon info` lists.
 //! - `PHOTON_object` may also carry `"texture_space": {"location": [x, y, z], "size": [x, y,
 //!   z]}`, the object's texture space in Blender object coordinates (Z up), which node trees'
 //!   Generated coordinates map to [0, 1]³ (default: the bounds of the mesh).
@@ -105,10 +105,10 @@
 //! with KHR_mesh_quantization, normalized UVs also without).
 //!
 //! A mesh placed by two or more nodes whose materials are plain (opaque, not emissive,
-//! translucent, transmissive or specular: roughness ≥ `INSTANCE_MIN_ROUGHNESS`) is stored once
-//! as a prototype (`Scene::prototypes`) and placed by `Scene::instances`, counted once against
-//! the limits. Copies under a mirroring or singular transform, or with their own
-//! `PHOTON_object`, and every other mesh are flattened to world space; under a mirroring
+//! translucent, transmissive or specular: roughness ≥ `INSTANCE_MIN_ROUGHNESS`; no node
+//! tree) is stored once as a prototype (`Scene::prototypes`) and placed by
+//! `Scene::instances`, counted once against the limits. Copies under a mirroring or singular
+//! transform, or with their own `PHOTON_object` ray visibility, and every other mesh are flattened to world space; under a mirroring
 //! transform the triangle winding is flipped and the tangent's w (bitangent sign) is negated,
 //! so both the geometric normal and the tangent frame keep their meaning.
 //!
@@ -320,6 +320,7 @@ impl Loader {
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
                 warnings: Vec::new(),
+                export_notes: Vec::new(),
             },
             triangle_total: 0,
             vertex_total: 0,
@@ -492,6 +493,8 @@ impl Loader {
                 && m.alpha_mode == AlphaMode::Opaque
                 && m.roughness >= INSTANCE_MIN_ROUGHNESS
                 && m.metallic_roughness_texture.is_none()
+                // A node tree may be glossy or transmissive anywhere: kept out, to be safe.
+                && m.nodes.is_none()
         })
     }
 
@@ -1302,7 +1305,7 @@ impl Loader {
             // The add-on could not describe the tree: what it names is lost (glTF's values
             // are rendered).
             for w in list.iter().filter_map(Value::as_str) {
-                self.scene.warnings.push(w.to_string());
+                self.scene.export_notes.push(w.to_string());
             }
         }
         if let Some(tree) = nodes_extension.filter(|t| t.get("nodes").is_some()) {

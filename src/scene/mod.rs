@@ -418,6 +418,10 @@ pub struct Scene {
     pub render_settings: SceneRenderSettings,
     /// Non-fatal problems found while loading (skipped primitives, unsupported features).
     pub warnings: Vec<String>,
+    /// What the exporter could not carry, as the Blender add-on names it in the file (its
+    /// pre-flight report already showed each in Blender): `photon info` lists them with the
+    /// warnings; a render does not repeat them.
+    pub export_notes: Vec<String>,
 }
 
 impl Mesh {
