@@ -141,6 +141,7 @@ pub fn scene(
         },
         render_settings: SceneRenderSettings::default(),
         warnings: Vec::new(),
+        export_notes: Vec::new(),
     }
 }
 
