@@ -117,18 +117,44 @@ impl SurfaceHit {
         }
     }
 
-    /// What a node tree reads at this point (`scene::nodes::ShadingInputs`).
-    pub fn node_inputs(&self, scene: &Scene) -> ShadingInputs {
+    /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with
+    /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
+    /// else copies of the point).
+    pub fn node_inputs(&self, scene: &Scene, offsets: bool) -> [ShadingInputs; 3] {
         let mesh = hit_mesh(scene, &self.hit);
-        node_inputs(
-            mesh,
-            self.hit.triangle,
-            self.hit.b1,
-            self.hit.b2,
-            self.p,
-            self.frame.n,
-            self.uv,
-        )
+        let (tri, b1, b2) = (self.hit.triangle, self.hit.b1, self.hit.b2);
+        let here = node_inputs(mesh, tri, b1, b2, self.p, self.frame.n, self.uv);
+        if !offsets {
+            return [here; 3];
+        }
+        let instance = scene.instances.get(self.hit.instance as usize);
+        let idx = mesh.indices[tri as usize];
+        let w = idx.map(|i| match instance {
+            Some(inst) => inst.to_world.transform_point3(mesh.positions[i as usize]),
+            None => mesh.positions[i as usize],
+        });
+        let (e1, e2) = (w[1] - w[0], w[2] - w[0]);
+        let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let det = a * c - b * b;
+        // A step small against the surface's features, large against float precision.
+        let step = BUMP_STEP * self.p.abs().max_element().max(1.0);
+        let at = |d: Vec3| {
+            if !(det.abs() > 0.0 && det.is_finite()) {
+                return here;
+            }
+            // The barycentric step whose position step is d projected on the triangle.
+            let (r1, r2) = (d.dot(e1), d.dot(e2));
+            let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
+            let (nb1, nb2) = (b1 + db1, b2 + db2);
+            let uv = if mesh.uvs.is_empty() {
+                Vec2::ZERO
+            } else {
+                interpolate(idx.map(|i| mesh.uvs[i as usize]), nb1, nb2)
+            };
+            let p = self.p + db1 * e1 + db2 * e2;
+            node_inputs(mesh, tri, nb1, nb2, p, self.frame.n, uv)
+        };
+        [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
 
     /// A ray leaving this surface in direction `dir`.
@@ -207,6 +233,10 @@ pub fn spawn_to(p: Vec3, p_error: Vec3, ng: Vec3, target: &LightPoint) -> Ray {
         t_max: 1.0 - SHADOW_EPSILON,
     }
 }
+
+/// The step (relative to the coordinates' magnitude, at least 1) at which Bump nodes read
+/// their Height beside the shading point.
+const BUMP_STEP: f32 = 1e-4;
 
 /// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
 fn blender_axes(v: Vec3) -> Vec3 {

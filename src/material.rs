@@ -34,6 +34,9 @@ pub struct SurfaceMaterial {
     pub thin_walled: bool,
     /// Blender's subsurface inputs; translucent when `subsurface.weight > 0`.
     pub subsurface: Subsurface,
+    /// A shading normal a node tree gives (Bump, or a Normal input), unit, world space;
+    /// `None`: the surface's own.
+    pub normal: Option<Vec3>,
 }
 
 impl Default for SurfaceMaterial {
@@ -52,6 +55,7 @@ impl Default for SurfaceMaterial {
             absorption: Vec3::ZERO,
             thin_walled: false,
             subsurface: Subsurface::default(),
+            normal: None,
         }
     }
 }
@@ -101,6 +105,7 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
         ),
         thin_walled: material.thickness <= 0.0,
         subsurface: material.subsurface,
+        normal: None,
     }
 }
 
@@ -123,7 +128,11 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, u: f32) -> SurfaceMaterial {
         }
         Some(program) => from_closure(
             material,
-            &program.eval(&sh.node_inputs(scene), &scene.textures, u),
+            &program.eval(
+                &sh.node_inputs(scene, program.needs_offsets),
+                &scene.textures,
+                u,
+            ),
         ),
     }
 }
@@ -148,6 +157,10 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         ),
         thin_walled: false,
         subsurface: material.subsurface,
+        // Blender's (x, y, z) is glTF's (x, −z, y): back to the scene's axes.
+        normal: (c.normal != Vec3::ZERO)
+            .then(|| Vec3::new(c.normal.x, c.normal.z, -c.normal.y).normalize_or_zero())
+            .filter(|n| *n != Vec3::ZERO),
     }
 }
 

@@ -62,7 +62,12 @@ impl Shading {
         } else {
             eval_surface(ctx.scene, &sh, 0.0)
         };
-        let mut frame = sh.frame;
+        let mut frame = match surface.normal {
+            // A node tree's normal (Bump), on the side of the surface's own.
+            Some(n) if n.dot(sh.frame.n) < 0.0 => Frame::from_normal(-n),
+            Some(n) => Frame::from_normal(n),
+            None => sh.frame,
+        };
         let opaque = surface.transmission <= 0.0;
         let mut ng = sh.ng;
         if opaque && wo.dot(ng) < 0.0 {

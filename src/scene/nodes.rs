@@ -14,6 +14,11 @@
 //! and Perlin's improved noise, `rgb_ramp_lookup` over the 256-entry table the add-on bakes with
 //! Blender's own `ColorRamp.evaluate`), written here from those definitions.
 //!
+//! A Bump node's Height subtree is compiled three times: as is, and copies that read the
+//! shading point moved a small step along each surface tangent (`Instr::offset`), as Cycles'
+//! SVM evaluates it at P + dPdx and P + dPdy; the normal then follows Cycles'
+//! `svm_node_set_bump` with those steps as dPdx and dPdy.
+//!
 //! Shader nodes become Principled parameter sets (`Closure`): Diffuse BSDF → colour, metallic 0,
 //! specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy → metallic 1 with the
 //! colour as F0 (Blender's Glossy has no Fresnel: differs at grazing angles); Glass → transmission
@@ -69,6 +74,8 @@ pub struct Closure {
     pub alpha: f32,
     /// Emitted radiance (W·m⁻²·sr⁻¹).
     pub emission: Vec3,
+    /// Shading normal from a Normal input (Blender's axes, world); zero: the surface's own.
+    pub normal: Vec3,
 }
 
 impl Closure {
@@ -83,6 +90,7 @@ impl Closure {
         specular_color: Vec3::ZERO,
         alpha: 1.0,
         emission: Vec3::ZERO,
+        normal: Vec3::ZERO,
     };
 }
 
@@ -204,6 +212,9 @@ enum Op {
     Gamma,
     BrightContrast,
     VectorMath(VectorOp),
+    Bump {
+        invert: bool,
+    },
     Principled,
     Diffuse,
     Glossy,
@@ -356,6 +367,10 @@ struct Instr {
     op: Op,
     ins: Vec<Src>,
     out: u16,
+    /// Which shading point it reads: 0 the point itself, 1 and 2 the points a small step
+    /// along the two surface tangents (copies of a Bump node's Height subtree, as Cycles'
+    /// SVM evaluates it at P + dPdx and P + dPdy).
+    offset: u8,
 }
 
 /// A compiled node tree.
@@ -369,6 +384,9 @@ pub struct NodeProgram {
     pub emits: bool,
     /// True when some node reads the vertex colours.
     pub reads_color: bool,
+    /// True when the program reads the points a step away (it has a Bump node): `eval` then
+    /// needs all three `ShadingInputs`.
+    pub needs_offsets: bool,
 }
 
 /// What `compile` found that it could not evaluate: `(node name, message)`. The program
@@ -619,6 +637,16 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("Vector", Vector), ("Value", Float)],
         ),
+        Op::Bump { .. } => (
+            vec![
+                i("Strength", Float, f(1.0)),
+                i("Distance", Float, f(1.0)),
+                i("Filter Width", Float, f(0.1)),
+                i("Height", Float, f(1.0)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("Normal", Vector)],
+        ),
         Op::Principled => (
             vec![
                 i("Base Color", Color, grey),
@@ -631,11 +659,16 @@ fn spec(op: &Op) -> Spec {
                 i("Transmission Weight", Float, f(0.0)),
                 i("Emission Color", Color, Vec4::ONE),
                 i("Emission Strength", Float, f(0.0)),
+                i("Normal", Vector, Vec4::ZERO),
             ],
             vec![("BSDF", Shader)],
         ),
         Op::Diffuse | Op::Glossy => (
-            vec![i("Color", Color, grey), i("Roughness", Float, f(0.5))],
+            vec![
+                i("Color", Color, grey),
+                i("Roughness", Float, f(0.5)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
             vec![("BSDF", Shader)],
         ),
         Op::Glass => (
@@ -643,6 +676,7 @@ fn spec(op: &Op) -> Spec {
                 i("Color", Color, Vec4::ONE),
                 i("Roughness", Float, f(0.0)),
                 i("IOR", Float, f(1.5)),
+                i("Normal", Vector, Vec4::ZERO),
             ],
             vec![("BSDF", Shader)],
         ),
@@ -978,6 +1012,9 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             "TANGENT" => VectorOp::Tangent,
             _ => return Ok(None),
         }),
+        "Bump" => Op::Bump {
+            invert: node.get("invert").and_then(Value::as_bool).unwrap_or(false),
+        },
         "BsdfPrincipled" => Op::Principled,
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
@@ -1006,11 +1043,15 @@ pub fn compile(
         .ok_or("'nodes' must be an array")?;
     // Per node: (first register or closure slot, output names and types), or None when skipped.
     let mut placed: Vec<Option<(u16, Vec<OutputSpec>)>> = Vec::with_capacity(nodes.len());
-    let mut instrs = Vec::new();
+    let mut instrs: Vec<Instr> = Vec::new();
     let mut registers = 0usize;
     let mut closures = 0usize;
     let mut emits = false;
     let mut reads_color = false;
+    let mut needs_offsets = false;
+    // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
+    let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
+    let mut deps: Vec<Vec<usize>> = Vec::with_capacity(nodes.len());
     for (index, node) in nodes.iter().enumerate() {
         let name = setting(node, "name").unwrap_or("?").to_string();
         let kind = setting(node, "type").unwrap_or("?").to_string();
@@ -1022,6 +1063,8 @@ pub fn compile(
                      the input's default value instead"
                 ));
                 placed.push(None);
+                node_instr.push(None);
+                deps.push(Vec::new());
                 continue;
             }
         };
@@ -1039,6 +1082,7 @@ pub fn compile(
             Op::Checker | Op::Gradient(_) | Op::Noise { .. } | Op::Voronoi(_) | Op::Wave(_)
         );
         let mut ins = Vec::with_capacity(spec.inputs.len());
+        let mut reads = Vec::new();
         for (id, ty, default) in &spec.inputs {
             let given = inputs.and_then(|i| i.get(id.as_str()));
             let src = match given {
@@ -1066,6 +1110,7 @@ pub fn compile(
                             _ => Src::Const(*default),
                         },
                         Some((base, outs)) => {
+                            reads.push(from);
                             let k = outs.iter().position(|(n, _)| *n == output);
                             let Some(k) = k else {
                                 // An output the renderer does not provide (e.g. Texture
@@ -1121,11 +1166,88 @@ pub fn compile(
             _ => false,
         };
         reads_color |= matches!(op, Op::VertexColor | Op::Attribute);
+        if matches!(op, Op::Bump { .. }) {
+            // The Height subtree again at the two offset points; the heights there are the
+            // Bump's inputs 5 and 6.
+            let height = ins[3];
+            // Only what feeds Height: the nodes whose registers Height reads, and upstream.
+            let feeds_height = |n: usize, placed: &[Option<(u16, Vec<OutputSpec>)>]| {
+                placed[n].as_ref().is_some_and(|(b, o)| {
+                    let r = match height {
+                        Src::Reg(r) | Src::Gray(r) | Src::Average(r) => r,
+                        _ => return false,
+                    };
+                    *b <= r && r < *b + o.len() as u16
+                })
+            };
+            let roots: Vec<usize> = reads
+                .iter()
+                .copied()
+                .filter(|&n| feeds_height(n, &placed))
+                .collect();
+            let mut keep: Vec<usize> = Vec::new();
+            let mut stack = roots;
+            while let Some(n) = stack.pop() {
+                if !keep.contains(&n) {
+                    keep.push(n);
+                    stack.extend(deps[n].iter().copied());
+                }
+            }
+            keep.sort_unstable();
+            for offset in [1u8, 2] {
+                let mut moved: Vec<(u16, u16, u16)> = Vec::new(); // (old base, count, new base)
+                for &n in &keep {
+                    let Some(k) = node_instr[n] else { continue };
+                    let (old, outs) = placed[n].as_ref().expect("kept nodes are placed");
+                    let count = outs.len() as u16;
+                    let mut copy = instrs[k].clone();
+                    let remap = |r: u16, moved: &[(u16, u16, u16)]| {
+                        moved
+                            .iter()
+                            .find(|(b, c, _)| *b <= r && r < b + c)
+                            .map_or(r, |(b, _, nb)| nb + (r - b))
+                    };
+                    for s in copy.ins.iter_mut() {
+                        *s = match *s {
+                            Src::Reg(r) => Src::Reg(remap(r, &moved)),
+                            Src::Gray(r) => Src::Gray(remap(r, &moved)),
+                            Src::Average(r) => Src::Average(remap(r, &moved)),
+                            other => other,
+                        };
+                    }
+                    copy.out = registers as u16;
+                    copy.offset = offset;
+                    moved.push((*old, count, registers as u16));
+                    registers += count as usize;
+                    if registers > MAX_REGISTERS {
+                        return Err(format!("the tree needs more than {MAX_REGISTERS} values"));
+                    }
+                    instrs.push(copy);
+                }
+                let remap = |r: u16| {
+                    moved
+                        .iter()
+                        .find(|(b, c, _)| *b <= r && r < b + c)
+                        .map_or(r, |(b, _, nb)| nb + (r - b))
+                };
+                ins.push(match height {
+                    Src::Reg(r) => Src::Reg(remap(r)),
+                    Src::Gray(r) => Src::Gray(remap(r)),
+                    Src::Average(r) => Src::Average(remap(r)),
+                    other => other,
+                });
+            }
+        }
+        let needs = matches!(op, Op::Bump { .. });
         placed.push(Some((out as u16, spec.outputs.clone())));
+        node_instr.push(if shader { None } else { Some(instrs.len()) });
+        deps.push(reads);
+        needs_offsets |= needs;
         instrs.push(Instr {
             op,
             ins,
             out: out as u16,
+            offset: 0,
         });
     }
     let output = match ext.get("output") {
@@ -1154,6 +1276,7 @@ pub fn compile(
         output,
         emits,
         reads_color,
+        needs_offsets,
     })
 }
 
@@ -1179,7 +1302,9 @@ fn v3(v: Vec3) -> Vec4 {
 impl NodeProgram {
     /// Evaluate the program at a shading point. `u` in [0, 1) picks the BSDF of Mix and Add
     /// Shader nodes (module header).
-    pub fn eval(&self, at: &ShadingInputs, textures: &[Texture], mut u: f32) -> Closure {
+    /// `at` holds the shading point and, when `needs_offsets`, the points a small step along
+    /// its two tangents (else three copies of the point).
+    pub fn eval(&self, at: &[ShadingInputs; 3], textures: &[Texture], mut u: f32) -> Closure {
         // The register file lives on the stack; only what the program uses is written or read.
         let mut m = Machine {
             regs: [Vec4::ZERO; MAX_REGISTERS],
@@ -1231,7 +1356,14 @@ fn closure(m: &Machine, s: Src) -> Closure {
     }
 }
 
-fn run(instr: &Instr, at: &ShadingInputs, textures: &[Texture], m: &mut Machine, u: &mut f32) {
+fn run(
+    instr: &Instr,
+    points: &[ShadingInputs; 3],
+    textures: &[Texture],
+    m: &mut Machine,
+    u: &mut f32,
+) {
+    let at = &points[instr.offset as usize];
     let ins = &instr.ins;
     let get = |m: &Machine, k: usize| load(m, at, ins[k]);
     let o = instr.out as usize;
@@ -1455,6 +1587,32 @@ fn run(instr: &Instr, at: &ShadingInputs, textures: &[Texture], m: &mut Machine,
             m.regs[o] = v3(v);
             m.regs[o + 1] = splat(value);
         }
+        Op::Bump { invert } => {
+            let strength = get(m, 0).x.max(0.0);
+            let distance = if *invert { -get(m, 1).x } else { get(m, 1).x };
+            let given = get(m, 4).truncate();
+            let n = if given == Vec3::ZERO {
+                at.normal
+            } else {
+                given.normalize_or(at.normal)
+            };
+            let (hc, hx, hy) = (get(m, 3).x, get(m, 5).x, get(m, 6).x);
+            // Cycles' svm_node_set_bump with our steps as dPdx, dPdy: the normal of the
+            // surface displaced by distance × height.
+            let dx = points[1].position - points[0].position;
+            let dy = points[2].position - points[0].position;
+            let rx = dy.cross(n);
+            let ry = n.cross(dx);
+            let det = dx.dot(rx);
+            let surfgrad = (hx - hc) * rx + (hy - hc) * ry;
+            let out = (det.abs() * n - distance * det.signum() * surfgrad).normalize_or_zero();
+            let out = if out == Vec3::ZERO {
+                n
+            } else {
+                (strength * out + (1.0 - strength) * n).normalize_or(n)
+            };
+            m.regs[o] = v3(out);
+        }
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
             let tint = get(m, 6).truncate();
@@ -1468,12 +1626,14 @@ fn run(instr: &Instr, at: &ShadingInputs, textures: &[Texture], m: &mut Machine,
                 specular_color: 2.0 * level * tint,
                 transmission: get(m, 7).x.clamp(0.0, 1.0),
                 emission: get(m, 8).truncate() * get(m, 9).x,
+                normal: get(m, 10).truncate(),
             };
         }
         Op::Diffuse => {
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 roughness: 1.0,
+                normal: get(m, 2).truncate(),
                 ..Closure::BLACK
             };
         }
@@ -1482,6 +1642,7 @@ fn run(instr: &Instr, at: &ShadingInputs, textures: &[Texture], m: &mut Machine,
                 base_color: get(m, 0).truncate(),
                 metallic: 1.0,
                 roughness: get(m, 1).x.clamp(0.0, 1.0),
+                normal: get(m, 2).truncate(),
                 ..Closure::BLACK
             };
         }
@@ -1493,6 +1654,7 @@ fn run(instr: &Instr, at: &ShadingInputs, textures: &[Texture], m: &mut Machine,
                 transmission: 1.0,
                 specular: 1.0,
                 specular_color: Vec3::ONE,
+                normal: get(m, 3).truncate(),
                 ..Closure::BLACK
             };
         }
@@ -2537,7 +2699,7 @@ mod tests {
     fn emission_of(tree: Value, at: &ShadingInputs) -> Vec3 {
         let mut w = Vec::new();
         let program = compile(&tree, 0, &mut w).expect("compiles");
-        program.eval(at, &[], 0.5).emission
+        program.eval(&[*at; 3], &[], 0.5).emission
     }
 
     #[test]
@@ -2692,7 +2854,7 @@ mod tests {
         let n = 10_000;
         let mut metal = 0;
         for i in 0..n {
-            let c = p.eval(&at, &[], (i as f32 + 0.5) / n as f32);
+            let c = p.eval(&[at; 3], &[], (i as f32 + 0.5) / n as f32);
             assert_eq!(c.emission, Vec3::splat(2.0));
             if c.metallic == 1.0 {
                 assert_eq!(c.base_color, Vec3::new(0.0, 1.0, 0.0));
@@ -2741,9 +2903,40 @@ mod tests {
         assert!(w[0].contains("Magic"), "{w:?}");
         // The Emission colour's default (white) is used.
         assert_eq!(
-            p.eval(&ShadingInputs::default(), &[], 0.5).emission,
+            p.eval(&[ShadingInputs::default(); 3], &[], 0.5).emission,
             Vec3::ONE
         );
+    }
+
+    #[test]
+    fn bump_tilts_the_normal_against_the_height_gradient() {
+        // Height = world x: the gradient is +X, so with distance 1 the normal leans to −X by
+        // 45°; the Height subtree is copied for the two offset points.
+        let tree = json!({"nodes": [
+            {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+            {"name": "Sep", "type": "ShaderNodeSeparateXYZ",
+             "inputs": {"Vector": {"node": 0, "output": "Position"}}},
+            {"name": "Bump", "type": "ShaderNodeBump",
+             "inputs": {"Distance": 1.0, "Strength": 1.0,
+                        "Height": {"node": 1, "output": "X"}}},
+            {"name": "D", "type": "ShaderNodeBsdfDiffuse",
+             "inputs": {"Normal": {"node": 2, "output": "Normal"}}}
+        ], "output": {"node": 3, "output": "BSDF"}});
+        let mut w = Vec::new();
+        let p = compile(&tree, 0, &mut w).unwrap();
+        assert!(p.needs_offsets && w.is_empty());
+        let at = |x: f32, y: f32| ShadingInputs {
+            position: Vec3::new(x, y, 0.0),
+            normal: Vec3::Z,
+            ..ShadingInputs::default()
+        };
+        let e = 1e-3;
+        let c = p.eval(&[at(0.0, 0.0), at(e, 0.0), at(0.0, e)], &[], 0.5);
+        let want = Vec3::new(-1.0, 0.0, 1.0).normalize();
+        assert!((c.normal - want).length() < 1e-4, "{}", c.normal);
+        // Without offsets (all three points equal) the normal is the surface's.
+        let flat = p.eval(&[at(0.0, 0.0); 3], &[], 0.5);
+        assert!((flat.normal - Vec3::Z).length() < 1e-6);
     }
 
     #[test]

@@ -260,3 +260,26 @@ def test_image_texture_repeated_into_emission(tmp_path):
     scene, _ = plane_scene(mat, uv=True)
     compare("image emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
             relmse_max=EMISSION_RELMSE_MAX)
+
+
+def test_noise_bump_into_principled_normal(tmp_path):
+    """Noise heights through a Bump node into a Principled BSDF's Normal, under a low sun."""
+    mat, tree = node_material("Bumpy")
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Base Color"].default_value = (0.7, 0.6, 0.5, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.7
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 3.0
+    noise.inputs["Detail"].default_value = 1.0
+    bump = tree.nodes.new("ShaderNodeBump")
+    bump.inputs["Distance"].default_value = 0.3
+    bump.inputs["Strength"].default_value = 0.8
+    tree.links.new(noise.outputs["Fac"], bump.inputs["Height"])
+    tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    tree.links.new(bsdf.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    scene, _ = plane_scene(mat)
+    common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 30.0), energy=3.0)
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.1, 0.1, 0.12, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    compare("noise bump", scene, tmp_path, photon_spp=256, cycles_spp=256)
