@@ -12,27 +12,6 @@ use serde_json::{json, Value};
 use std::f32::consts::FRAC_1_SQRT_2;
 use std::path::Path;
 
-fn base64(bytes: &[u8]) -> String {
-    const B64: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for (i, shift) in [18, 12, 6, 0].into_iter().enumerate() {
-            out.push(if i <= chunk.len() {
-                B64[(n >> shift & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
-    out
-}
-
 /// A 2 × 2 plane in glTF's XZ plane facing +Y (Blender's XY plane facing +Z) with `material`,
 /// vertex colours `colors` (RGBA per corner) when given, seen from above by an orthographic
 /// camera that frames it exactly (image right = +X, image up = Blender +Y), under a 1 W/m² sun

@@ -1379,19 +1379,30 @@ impl Loader {
                 _ => Wrap::Repeat,
             };
             let bilinear = node.get("interpolation").and_then(Value::as_str) != Some("Closest");
-            node["texture"] = Value::from(self.scene.textures.len());
-            self.scene.textures.push(Texture {
-                name: decoded.name,
-                width: decoded.width,
-                height: decoded.height,
-                texels: decoded.texels,
-                srgb,
-                wrap_s: wrap,
-                wrap_t: wrap,
-                bilinear,
-            });
+            node["texture"] = Value::from(self.push_texture(decoded, srgb, [wrap; 2], bilinear));
         }
         Ok(tree)
+    }
+
+    /// Add a texture of `decoded` sampled with `wrap` (s, t) and `bilinear`; its index.
+    fn push_texture(
+        &mut self,
+        decoded: DecodedImage,
+        srgb: bool,
+        wrap: [Wrap; 2],
+        bilinear: bool,
+    ) -> u32 {
+        self.scene.textures.push(Texture {
+            name: decoded.name,
+            width: decoded.width,
+            height: decoded.height,
+            texels: decoded.texels,
+            srgb,
+            wrap_s: wrap[0],
+            wrap_t: wrap[1],
+            bilinear,
+        });
+        (self.scene.textures.len() - 1) as u32
     }
 
     /// `PHOTON_material_subsurface`: every field optional (Blender's defaults), every value
@@ -1492,17 +1503,15 @@ impl Loader {
             }
         };
         let sampler = texture.sampler();
-        let slot = self.scene.textures.len() as u32;
-        self.scene.textures.push(Texture {
-            name: decoded.name,
-            width: decoded.width,
-            height: decoded.height,
-            texels: decoded.texels,
+        let slot = self.push_texture(
+            decoded,
             srgb,
-            wrap_s: convert_wrap(sampler.wrap_s()),
-            wrap_t: convert_wrap(sampler.wrap_t()),
-            bilinear: sampler.mag_filter() != Some(gltf::texture::MagFilter::Nearest),
-        });
+            [
+                convert_wrap(sampler.wrap_s()),
+                convert_wrap(sampler.wrap_t()),
+            ],
+            sampler.mag_filter() != Some(gltf::texture::MagFilter::Nearest),
+        );
         self.texture_slots.insert((texture.index(), srgb), slot);
         Ok(slot)
     }
