@@ -46,6 +46,16 @@ def emission_into_output(tree, socket, strength=1.0):
     return emission
 
 
+def emission_matches(name, mat, tree, socket, tmp_path, *, strength=1.0, photon_spp=512,
+                     **plane):
+    """Wire `socket` into an Emission shader of `mat`, and compare the plane with Cycles at
+    512 spp: relMSE <= EMISSION_RELMSE_MAX."""
+    emission_into_output(tree, socket, strength)
+    scene, _ = plane_scene(mat, **plane)
+    compare(name, scene, tmp_path, photon_spp=photon_spp, cycles_spp=512,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
 def plane_scene(material, *, uv=False, colors=False):
     """A 2 m plane facing a camera 3 m above it (the plane fills the view), in the scene
     `node_material` reset."""
@@ -74,10 +84,8 @@ def test_checker_on_generated_into_emission(tmp_path):
     checker.inputs["Scale"].default_value = 3.0
     checker.inputs["Color1"].default_value = (0.9, 0.3, 0.1, 1.0)
     checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
-    emission_into_output(tree, checker.outputs["Color"], 2.0)
-    scene, _ = plane_scene(mat)
-    compare("checker emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
-            relmse_max=EMISSION_RELMSE_MAX)
+    emission_matches("checker emission", mat, tree, checker.outputs["Color"], tmp_path,
+                     strength=2.0)
 
 
 def test_noise_mapping_color_ramp_into_emission(tmp_path):
@@ -102,10 +110,8 @@ def test_noise_mapping_color_ramp_into_emission(tmp_path):
     tree.links.new(coords.outputs["Object"], mapping.inputs["Vector"])
     tree.links.new(mapping.outputs["Vector"], noise.inputs["Vector"])
     tree.links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
-    emission_into_output(tree, ramp.outputs["Color"], 1.5)
-    scene, _ = plane_scene(mat)
-    compare("noise ramp emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
-            relmse_max=EMISSION_RELMSE_MAX)
+    emission_matches("noise ramp emission", mat, tree, ramp.outputs["Color"], tmp_path,
+                     strength=1.5)
 
 
 def test_gradient_math_mix_vertex_colours_into_emission(tmp_path):
@@ -145,10 +151,8 @@ def test_gradient_math_mix_vertex_colours_into_emission(tmp_path):
     tree.links.new(map_range.outputs["Result"], reroute.inputs[0])
     tree.links.new(reroute.outputs[0], mix.inputs["A"])
     tree.links.new(colors.outputs["Color"], mix.inputs["B"])
-    emission_into_output(tree, mix.outputs["Result"], 1.0)
-    scene, _ = plane_scene(mat, uv=True, colors=True)
-    compare("gradient math mix emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
-            relmse_max=EMISSION_RELMSE_MAX)
+    emission_matches("gradient math mix emission", mat, tree, mix.outputs["Result"], tmp_path,
+                     strength=1.0, uv=True, colors=True)
 
 
 def lit_scene(material):
@@ -208,10 +212,8 @@ def test_voronoi_and_hue_saturation_into_emission(tmp_path):
     tree.links.new(voronoi.outputs["Distance"], mix.inputs["Factor"])
     tree.links.new(hue.outputs["Color"], mix.inputs["A"])
     mix.inputs["B"].default_value = (0.2, 0.6, 0.9, 1.0)
-    emission_into_output(tree, mix.outputs["Result"], 1.0)
-    scene, _ = plane_scene(mat)
-    compare("voronoi hue emission", scene, tmp_path, photon_spp=128, cycles_spp=512,
-            relmse_max=EMISSION_RELMSE_MAX)
+    emission_matches("voronoi hue emission", mat, tree, mix.outputs["Result"], tmp_path,
+                     strength=1.0, photon_spp=128)
 
 
 def test_wave_rings_with_distortion_into_emission(tmp_path):
@@ -229,10 +231,7 @@ def test_wave_rings_with_distortion_into_emission(tmp_path):
     contrast.inputs["Contrast"].default_value = 0.4
     tree.links.new(coords.outputs["Object"], wave.inputs["Vector"])
     tree.links.new(wave.outputs["Color"], contrast.inputs["Color"])
-    emission_into_output(tree, contrast.outputs["Color"], 1.0)
-    scene, _ = plane_scene(mat)
-    compare("wave emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
-            relmse_max=EMISSION_RELMSE_MAX)
+    emission_matches("wave emission", mat, tree, contrast.outputs["Color"], tmp_path, strength=1.0)
 
 
 def test_image_texture_repeated_into_emission(tmp_path):
@@ -256,10 +255,8 @@ def test_image_texture_repeated_into_emission(tmp_path):
     tex.image = image
     tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
     tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
-    emission_into_output(tree, tex.outputs["Color"], 1.0)
-    scene, _ = plane_scene(mat, uv=True)
-    compare("image emission", scene, tmp_path, photon_spp=512, cycles_spp=512,
-            relmse_max=EMISSION_RELMSE_MAX)
+    emission_matches("image emission", mat, tree, tex.outputs["Color"], tmp_path,
+                     strength=1.0, uv=True)
 
 
 def test_noise_bump_into_principled_normal(tmp_path):
