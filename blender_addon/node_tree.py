@@ -326,7 +326,8 @@ def material_nodes(material, folder=None):
     _, node, out, groups = src
     index = walker.visit(node, groups)
     if walker.problems or index is None:
-        return None, walker.problems
+        return None, [f"{p}; the material falls back to glTF's metallic-roughness values "
+                      f"(Blender's exporter)" for p in walker.problems]
     if walker.trivial:
         return None, []
     return {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}, []
