@@ -287,10 +287,12 @@ def test_noise_bump_into_principled_normal(tmp_path):
     compare("noise bump", scene, tmp_path, photon_spp=256, cycles_spp=256)
 
 
-def test_mixed_tree_noise_ramp_bump_mix_shader_vertex_colours(tmp_path):
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_mixed_tree_noise_ramp_bump_mix_shader_vertex_colours(tmp_path, method):
     """Many nodes at once, lit: Noise into a Color Ramp for the Base Color (multiplied by the
     vertex colours), the same Noise through a Bump for the Normal, and the Principled BSDF
-    mixed with a Glossy BSDF by a Voronoi distance."""
+    mixed with a Glossy BSDF by a Voronoi distance; by the path tracer and by photon mapping
+    (the tree serves photon tracing and gathering as well)."""
     mat, tree = node_material("Mixed tree")
     noise = tree.nodes.new("ShaderNodeTexNoise")
     noise.inputs["Scale"].default_value = 4.0
@@ -328,4 +330,5 @@ def test_mixed_tree_noise_ramp_bump_mix_shader_vertex_colours(tmp_path):
     bg = scene.world.node_tree.nodes["Background"]
     bg.inputs["Color"].default_value = (0.2, 0.25, 0.3, 1.0)
     bg.inputs["Strength"].default_value = 1.0
-    compare("mixed tree", scene, tmp_path, photon_spp=256, cycles_spp=256)
+    compare(f"mixed tree {method.lower()}", scene, tmp_path, photon_spp=256, cycles_spp=256,
+            method=method)
