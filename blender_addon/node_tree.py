@@ -52,6 +52,8 @@ SETTINGS = {
     "ShaderNodeBrightContrast": (),
     "ShaderNodeVectorMath": ("operation",),
     "ShaderNodeBump": ("invert",),
+    "ShaderNodeFresnel": (),
+    "ShaderNodeLayerWeight": (),
     "ShaderNodeBsdfPrincipled": (),
     "ShaderNodeBsdfDiffuse": (),
     "ShaderNodeBsdfGlossy": (),
@@ -80,8 +82,8 @@ READ_INPUTS = {
 
 # Outputs the renderer provides where a node has more.
 READ_OUTPUTS = {
-    "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object"},
-    "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal"},
+    "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
+    "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
 }
 

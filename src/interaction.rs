@@ -120,10 +120,19 @@ impl SurfaceHit {
     /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with
     /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
     /// else copies of the point).
-    pub fn node_inputs(&self, scene: &Scene, offsets: bool) -> [ShadingInputs; 3] {
+    /// `wo` is the unit direction towards the viewer: seen from behind its winding, the
+    /// surface's normal is turned to the viewer, as Cycles does.
+    pub fn node_inputs(&self, scene: &Scene, offsets: bool, wo: Vec3) -> [ShadingInputs; 3] {
         let mesh = hit_mesh(scene, &self.hit);
         let (tri, b1, b2) = (self.hit.triangle, self.hit.b1, self.hit.b2);
-        let here = node_inputs(mesh, tri, b1, b2, self.p, self.frame.n, self.uv);
+        let backfacing = wo.dot(self.ng) < 0.0;
+        let n = if backfacing {
+            -self.frame.n
+        } else {
+            self.frame.n
+        };
+        let view = View { wo, backfacing };
+        let here = node_inputs(mesh, tri, b1, b2, self.p, n, self.uv, view);
         if !offsets {
             return [here; 3];
         }
@@ -152,7 +161,7 @@ impl SurfaceHit {
                 interpolate(idx.map(|i| mesh.uvs[i as usize]), nb1, nb2)
             };
             let p = self.p + db1 * e1 + db2 * e2;
-            node_inputs(mesh, tri, nb1, nb2, p, self.frame.n, uv)
+            node_inputs(mesh, tri, nb1, nb2, p, n, uv, view)
         };
         [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
@@ -243,8 +252,19 @@ fn blender_axes(v: Vec3) -> Vec3 {
     Vec3::new(v.x, -v.z, v.y)
 }
 
+/// Where a shading point is seen from, for node trees.
+#[derive(Clone, Copy, Debug)]
+pub struct View {
+    /// Unit direction towards the viewer (world).
+    pub wo: Vec3,
+    /// Seen from behind the triangle's winding.
+    pub backfacing: bool,
+}
+
 /// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
-/// `p`, unit world normal `n` and UV `uv` (glTF's, turned to Blender's v-up convention).
+/// `p`, unit world normal `n` (facing the viewer) and UV `uv` (glTF's, turned to Blender's v-up
+/// convention), seen from `view`.
+#[allow(clippy::too_many_arguments)]
 pub fn node_inputs(
     mesh: &Mesh,
     triangle: u32,
@@ -253,15 +273,20 @@ pub fn node_inputs(
     p: Vec3,
     n: Vec3,
     uv: Vec2,
+    view: View,
 ) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
     let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
-    let (object, generated) = match &mesh.object_space {
+    let (object, generated, object_normal) = match &mesh.object_space {
         Some(space) => {
             let o = space.to_object.transform_point3(stored);
-            (o, space.generated(o))
+            // Normals go to object space by the inverse transpose (the stored positions of
+            // meshes with node trees are world positions: they are never instanced).
+            let linear = crate::math::Mat3::from(space.to_object.matrix3);
+            let on = (linear.inverse().transpose() * n).normalize_or(blender_axes(n));
+            (o, space.generated(o), on)
         }
-        None => (blender_axes(p), blender_axes(p)),
+        None => (blender_axes(p), blender_axes(p), blender_axes(n)),
     };
     let color = if mesh.colors.is_empty() {
         Vec4::ONE
@@ -275,5 +300,8 @@ pub fn node_inputs(
         generated,
         object,
         color,
+        object_normal,
+        incoming: blender_axes(view.wo),
+        backfacing: view.backfacing,
     }
 }

@@ -186,7 +186,12 @@ pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) ->
         Some(program) => {
             let shading_n = crate::accel::interpolate(idx.map(|i| m.normals[i as usize]), b.x, b.y)
                 .normalize_or(n);
-            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, uv);
+            // Seen head-on (emission does not depend on the view in the nodes evaluated).
+            let view = crate::interaction::View {
+                wo: shading_n,
+                backfacing: false,
+            };
+            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, uv, view);
             program.eval(&[at; 3], &scene.textures, 0.5).emission
         }
         None => material_emission(scene, material, uv),

@@ -112,7 +112,7 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
 /// The material at surface point `sh`: its node tree when it has one (`u` in [0, 1) picks the
 /// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV with the base
 /// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1).
-pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, u: f32) -> SurfaceMaterial {
+pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, wo: Vec3, u: f32) -> SurfaceMaterial {
     let material = &scene.materials[sh.material as usize];
     match &material.nodes {
         None => {
@@ -129,7 +129,7 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, u: f32) -> SurfaceMaterial {
         Some(program) => from_closure(
             material,
             &program.eval(
-                &sh.node_inputs(scene, program.needs_offsets),
+                &sh.node_inputs(scene, program.needs_offsets, wo),
                 &scene.textures,
                 u,
             ),

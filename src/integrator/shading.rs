@@ -58,9 +58,9 @@ impl Shading {
                 ray.direction.y.to_bits() as u64 | ((ray.direction.z.to_bits() as u64) << 32),
                 hit.triangle as u64 | ((hit.t.to_bits() as u64) << 32),
             ]);
-            eval_surface(ctx.scene, &sh, (h >> 40) as f32 * (1.0 / 16_777_216.0))
+            eval_surface(ctx.scene, &sh, wo, (h >> 40) as f32 * (1.0 / 16_777_216.0))
         } else {
-            eval_surface(ctx.scene, &sh, 0.0)
+            eval_surface(ctx.scene, &sh, wo, 0.0)
         };
         let mut frame = match surface.normal {
             // A node tree's normal (Bump), on the side of the surface's own.

@@ -58,6 +58,12 @@ pub struct ShadingInputs {
     pub object: Vec3,
     /// Vertex colour COLOR_0 (white when the mesh has none).
     pub color: Vec4,
+    /// The normal in object coordinates.
+    pub object_normal: Vec3,
+    /// Unit direction towards the viewer (world; Cycles' I).
+    pub incoming: Vec3,
+    /// Seen from behind the surface's winding (`normal` is then turned to the viewer).
+    pub backfacing: bool,
 }
 
 /// A shader node's result: Principled parameters and emission (see the module header).
@@ -215,6 +221,8 @@ enum Op {
     Bump {
         invert: bool,
     },
+    Fresnel,
+    LayerWeight,
     Principled,
     Diffuse,
     Glossy,
@@ -439,6 +447,7 @@ fn spec(op: &Op) -> Spec {
                 ("Normal", Vector),
                 ("UV", Vector),
                 ("Object", Vector),
+                ("Reflection", Vector),
             ],
         ),
         Op::UvMap => (vec![], vec![("UV", Vector)]),
@@ -458,6 +467,8 @@ fn spec(op: &Op) -> Spec {
                 ("Position", Vector),
                 ("Normal", Vector),
                 ("True Normal", Vector),
+                ("Incoming", Vector),
+                ("Backfacing", Float),
             ],
         ),
         Op::Value(_) => (vec![], vec![("Value", Float)]),
@@ -636,6 +647,14 @@ fn spec(op: &Op) -> Spec {
                 i("Scale", Float, f(1.0)),
             ],
             vec![("Vector", Vector), ("Value", Float)],
+        ),
+        Op::Fresnel => (
+            vec![i("IOR", Float, f(1.5)), i("Normal", Vector, Vec4::ZERO)],
+            vec![("Fac", Float)],
+        ),
+        Op::LayerWeight => (
+            vec![i("Blend", Float, f(0.5)), i("Normal", Vector, Vec4::ZERO)],
+            vec![("Fresnel", Float), ("Facing", Float)],
         ),
         Op::Bump { .. } => (
             vec![
@@ -1012,6 +1031,8 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             "TANGENT" => VectorOp::Tangent,
             _ => return Ok(None),
         }),
+        "Fresnel" => Op::Fresnel,
+        "LayerWeight" => Op::LayerWeight,
         "Bump" => Op::Bump {
             invert: node.get("invert").and_then(Value::as_bool).unwrap_or(false),
         },
@@ -1370,9 +1391,11 @@ fn run(
     match &instr.op {
         Op::TexCoord => {
             m.regs[o] = v3(at.generated);
-            m.regs[o + 1] = v3(at.normal);
+            m.regs[o + 1] = v3(at.object_normal);
             m.regs[o + 2] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0);
             m.regs[o + 3] = v3(at.object);
+            let (n, i) = (at.normal, at.incoming);
+            m.regs[o + 4] = v3(2.0 * n.dot(i) * n - i);
         }
         Op::UvMap => m.regs[o] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
         Op::VertexColor => {
@@ -1389,6 +1412,8 @@ fn run(
             m.regs[o] = v3(at.position);
             m.regs[o + 1] = v3(at.normal);
             m.regs[o + 2] = v3(at.normal);
+            m.regs[o + 3] = v3(at.incoming);
+            m.regs[o + 4] = splat(if at.backfacing { 1.0 } else { 0.0 });
         }
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
@@ -1587,6 +1612,27 @@ fn run(
             m.regs[o] = v3(v);
             m.regs[o + 1] = splat(value);
         }
+        Op::Fresnel => {
+            let n = normal_input(get(m, 1), at.normal);
+            let eta = get(m, 0).x.max(1e-5);
+            let eta = if at.backfacing { 1.0 / eta } else { eta };
+            m.regs[o] = splat(fresnel_dielectric_cos(at.incoming.dot(n), eta));
+        }
+        Op::LayerWeight => {
+            let n = normal_input(get(m, 1), at.normal);
+            let blend = get(m, 0).x;
+            let eta = (1.0 - blend).max(1e-5);
+            let eta = if at.backfacing { eta } else { 1.0 / eta };
+            let cos = at.incoming.dot(n);
+            m.regs[o] = splat(fresnel_dielectric_cos(cos, eta));
+            let mut facing = cos.abs();
+            if blend != 0.5 {
+                let b = blend.clamp(0.0, 1.0 - 1e-5);
+                let b = if b < 0.5 { 2.0 * b } else { 0.5 / (1.0 - b) };
+                facing = facing.powf(b);
+            }
+            m.regs[o + 1] = splat(1.0 - facing);
+        }
         Op::Bump { invert } => {
             let strength = get(m, 0).x.max(0.0);
             let distance = if *invert { -get(m, 1).x } else { get(m, 1).x };
@@ -1720,6 +1766,31 @@ fn is_black_bsdf(c: &Closure) -> bool {
 }
 
 // ----- node definitions --------------------------------------------------------------------
+
+/// A Normal input: the given vector, or the shading normal when it is unlinked (zero).
+fn normal_input(given: Vec4, normal: Vec3) -> Vec3 {
+    let g = given.truncate();
+    if g == Vec3::ZERO {
+        normal
+    } else {
+        g.normalize_or(normal)
+    }
+}
+
+/// Cycles' `fresnel_dielectric_cos`: unpolarised Fresnel reflectance at cosine `cos` for
+/// relative IOR `eta` (1 under total internal reflection).
+fn fresnel_dielectric_cos(cos: f32, eta: f32) -> f32 {
+    let c = cos.abs();
+    let g = eta * eta - 1.0 + c * c;
+    if g > 0.0 {
+        let g = g.sqrt();
+        let a = (g - c) / (g + c);
+        let b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+        0.5 * a * a * (1.0 + b * b)
+    } else {
+        1.0
+    }
+}
 
 /// Blender's Euler XYZ rotation (X first, then Y, then Z).
 fn euler_xyz(r: Vec3, v: Vec3) -> Vec3 {
