@@ -379,6 +379,8 @@ struct Instr {
     /// along the two surface tangents (copies of a Bump node's Height subtree, as Cycles'
     /// SVM evaluates it at P + dPdx and P + dPdy).
     offset: u8,
+    /// Bit k: output k is read by some instruction (unread outputs may be skipped).
+    used: u32,
 }
 
 /// A compiled node tree.
@@ -1269,6 +1271,7 @@ pub fn compile(
             ins,
             out: out as u16,
             offset: 0,
+            used: u32::MAX,
         });
     }
     let output = match ext.get("output") {
@@ -1290,6 +1293,23 @@ pub fn compile(
             }
         }
     };
+    // Which outputs are read: a texture skips the work of an output nobody reads.
+    let mut read = vec![false; registers];
+    for instr in &instrs {
+        for s in &instr.ins {
+            if let Src::Reg(r) | Src::Gray(r) | Src::Average(r) = *s {
+                read[r as usize] = true;
+            }
+        }
+    }
+    for instr in instrs.iter_mut() {
+        let outputs = spec(&instr.op).outputs;
+        if outputs.first().is_some_and(|o| o.1 != Ty::Shader) {
+            instr.used = (0..outputs.len())
+                .filter(|&k| read[instr.out as usize + k])
+                .fold(0, |mask, k| mask | 1 << k);
+        }
+    }
     Ok(NodeProgram {
         instrs,
         registers,
@@ -1522,7 +1542,8 @@ fn run(
                 normalize: *normalize,
             };
             let distortion = get(m, 8).x;
-            let (fac, color) = noise_texture(*dimensions, p, w, &params, distortion);
+            let color = instr.used & 2 != 0;
+            let (fac, color) = noise_texture(*dimensions, p, w, &params, distortion, color);
             m.regs[o] = splat(fac);
             m.regs[o + 1] = v3(color);
         }
@@ -2416,7 +2437,15 @@ fn offset(dimensions: u8, seed: f32) -> (Vec3, f32) {
 }
 
 /// The Noise Texture (FBM type): its Fac and Color outputs.
-fn noise_texture(dimensions: u8, p: Vec3, w: f32, f: &Fractal, distortion: f32) -> (f32, Vec3) {
+/// Without `color` the Color output is not computed (grey).
+fn noise_texture(
+    dimensions: u8,
+    p: Vec3,
+    w: f32,
+    f: &Fractal,
+    distortion: f32,
+    color: bool,
+) -> (f32, Vec3) {
     let (mut p, mut w) = (p, w);
     let masked = |v: Vec3| match dimensions {
         2 => Vec3::new(v.x, v.y, 0.0),
@@ -2441,6 +2470,9 @@ fn noise_texture(dimensions: u8, p: Vec3, w: f32, f: &Fractal, distortion: f32) 
         }
     }
     let value = fbm(dimensions, p, w, f);
+    if !color {
+        return (value, Vec3::splat(value));
+    }
     let (s1, s2) = match dimensions {
         1 => (1.0, 2.0),
         2 => (2.0, 3.0),

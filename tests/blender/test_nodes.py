@@ -366,3 +366,14 @@ def test_layer_weight_fresnel_and_reflection_on_a_sphere(tmp_path):
     # The sphere's silhouette against the plane jumps from -0.4 to 1: more samples there.
     emission_matches("view-dependent emission", mat, tree, mix.outputs["Result"], tmp_path,
                      strength=1.0, camera=False, photon_spp=2048, cycles_spp=2048)
+
+
+def test_noise_color_output_2d_into_emission(tmp_path):
+    """The Noise texture's Color output (two more fBm evaluations at Cycles' seeded offsets),
+    2D, with distortion."""
+    mat, tree = node_material("Noise colour")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.noise_dimensions = "2D"
+    noise.inputs["Scale"].default_value = 3.0
+    noise.inputs["Distortion"].default_value = 0.5
+    emission_matches("noise colour emission", mat, tree, noise.outputs["Color"], tmp_path)
