@@ -34,6 +34,7 @@ SETTINGS = {
     "ShaderNodeMath": ("operation", "use_clamp"),
     "ShaderNodeMix": ("data_type", "blend_type", "clamp_factor", "clamp_result"),
     "ShaderNodeValToRGB": (),
+    "ShaderNodeRGBCurve": (),
     "ShaderNodeMapRange": ("data_type", "interpolation_type", "clamp"),
     "ShaderNodeClamp": ("clamp_type",),
     "ShaderNodeInvert": (),
@@ -118,6 +119,21 @@ RAMP_TABLE_SIZE = 256
 IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp"}
 # Colour spaces of image textures the renderer reads (sRGB decoded, or the values as they are).
 IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color", "Linear Rec.709": "Non-Color"}
+
+
+def _baked_curves(mapping) -> dict:
+    """RGB Curves as Cycles bakes them: over the widest x range of the four curves, the
+    combined curve then each channel's, at RAMP_TABLE_SIZE points."""
+    curves = mapping.curves
+    min_x = min(0.0, *(c.points[0].location[0] for c in curves))
+    max_x = max(1.0, *(c.points[-1].location[0] for c in curves))
+    mapping.initialize()
+    table = []
+    for i in range(RAMP_TABLE_SIZE):
+        t = min_x + i / (RAMP_TABLE_SIZE - 1) * (max_x - min_x)
+        combined = mapping.evaluate(curves[3], t)
+        table.append([mapping.evaluate(curves[k], combined) for k in range(3)])
+    return {"table": table, "min_x": min_x, "max_x": max_x}
 
 
 def _image_source(image):
@@ -269,6 +285,8 @@ class _Walker:
             entry["interpolation"] = "LINEAR"
             entry["table"] = [list(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
                               for i in range(RAMP_TABLE_SIZE)]
+        if kind == "ShaderNodeRGBCurve":
+            entry.update(_baked_curves(node.mapping))
         if kind == "ShaderNodeMix" and getattr(node, "factor_mode", "UNIFORM") != "UNIFORM":
             self.problems.append(f"{self.what}: Mix node '{name}' with a non-uniform factor is "
                                  f"not evaluated by Photon")

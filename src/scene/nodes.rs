@@ -184,6 +184,13 @@ enum Op {
         table: Vec<Vec4>,
         interpolate: bool,
     },
+    /// RGB Curves: the curves baked over [min_x, min_x + range] (combined curve first, then
+    /// each channel's, as Cycles bakes them), read with linear extrapolation.
+    RgbCurves {
+        table: Vec<Vec4>,
+        min_x: f32,
+        range: f32,
+    },
     MapRange {
         kind: MapRangeKind,
         clamp: bool,
@@ -511,6 +518,10 @@ fn spec(op: &Op) -> Spec {
                 vec![(out, t)],
             )
         }
+        Op::RgbCurves { .. } => (
+            vec![i("Fac", Float, f(1.0)), i("Color", Color, Vec4::ONE)],
+            vec![("Color", Color)],
+        ),
         Op::ColorRamp { .. } => (
             vec![i("Fac", Float, f(0.5))],
             vec![("Color", Color), ("Alpha", Float)],
@@ -873,6 +884,25 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             Op::ColorRamp {
                 table,
                 interpolate: setting(node, "interpolation").unwrap_or("LINEAR") != "CONSTANT",
+            }
+        }
+        "RGBCurve" => {
+            let table: Option<Vec<Vec4>> = node
+                .get("table")
+                .and_then(Value::as_array)
+                .and_then(|a| a.iter().map(const_value).collect());
+            let table = table
+                .filter(|t| t.len() >= 2)
+                .ok_or("RGB Curves: 'table' must hold at least 2 RGB colours")?;
+            let min_x = node.get("min_x").and_then(number).unwrap_or(0.0);
+            let max_x = node.get("max_x").and_then(number).unwrap_or(1.0);
+            if max_x <= min_x {
+                return Err("RGB Curves: 'max_x' must exceed 'min_x'".into());
+            }
+            Op::RgbCurves {
+                table,
+                min_x,
+                range: max_x - min_x,
             }
         }
         "MapRange" => {
@@ -1472,6 +1502,21 @@ fn run(
                     c.extend(a.w)
                 }
             };
+        }
+        Op::RgbCurves {
+            table,
+            min_x,
+            range,
+        } => {
+            let fac = get(m, 0).x;
+            let c = get(m, 1);
+            let rel = (c.truncate() - Vec3::splat(*min_x)) / *range;
+            let curve = Vec3::new(
+                ramp_extrapolated(table, rel.x).x,
+                ramp_extrapolated(table, rel.y).y,
+                ramp_extrapolated(table, rel.z).z,
+            );
+            m.regs[o] = ((1.0 - fac) * c.truncate() + fac * curve).extend(c.w);
         }
         Op::ColorRamp { table, interpolate } => {
             let c = ramp_lookup(table, get(m, 0).x, *interpolate);
@@ -2142,6 +2187,18 @@ fn ramp_lookup(table: &[Vec4], fac: f32, interpolate: bool) -> Vec4 {
         table[i] * (1.0 - t) + table[i + 1] * t
     } else {
         table[i]
+    }
+}
+
+/// `ramp_lookup` with Cycles' linear extrapolation beyond [0, 1] (curves).
+fn ramp_extrapolated(table: &[Vec4], f: f32) -> Vec4 {
+    let n = table.len();
+    if f < 0.0 {
+        table[0] + (table[0] - table[1]) * (-f * (n - 1) as f32)
+    } else if f > 1.0 {
+        table[n - 1] + (table[n - 1] - table[n - 2]) * ((f - 1.0) * (n - 1) as f32)
+    } else {
+        ramp_lookup(table, f, true)
     }
 }
 
@@ -2858,6 +2915,12 @@ mod tests {
         );
         assert_eq!(ramp_lookup(&table, 7.0, true), table[2]);
         assert_eq!(ramp_lookup(&table, f32::NAN, true), table[0]);
+        // Curves extrapolate linearly beyond the table (one entry step per 1/(n − 1)).
+        assert_eq!(ramp_extrapolated(&table, -0.5), Vec4::splat(-1.0));
+        assert_eq!(
+            ramp_extrapolated(&table, 1.5),
+            Vec4::new(1.0, -1.0, -1.0, 1.0)
+        );
     }
 
     #[test]

@@ -377,3 +377,25 @@ def test_noise_color_output_2d_into_emission(tmp_path):
     noise.inputs["Scale"].default_value = 3.0
     noise.inputs["Distortion"].default_value = 0.5
     emission_matches("noise colour emission", mat, tree, noise.outputs["Color"], tmp_path)
+
+
+def test_rgb_curves_into_emission(tmp_path):
+    """A UV gradient through RGB Curves whose combined and red curves are bent."""
+    mat, tree = node_material("Curves")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    curves = tree.nodes.new("ShaderNodeRGBCurve")
+    curves.inputs["Fac"].default_value = 0.9
+    combined, red = curves.mapping.curves[3], curves.mapping.curves[0]
+    combined.points.new(0.3, 0.6)
+    red.points.new(0.5, 0.2)
+    red.points[0].location = (0.0, 0.1)
+    curves.mapping.update()
+    tree.links.new(uv.outputs["UV"], separate.inputs["Vector"])
+    tree.links.new(separate.outputs["X"], combine.inputs["Red"])
+    tree.links.new(separate.outputs["Y"], combine.inputs["Green"])
+    combine.inputs["Blue"].default_value = 0.5
+    tree.links.new(combine.outputs["Color"], curves.inputs["Color"])
+    emission_matches("rgb curves emission", mat, tree, curves.outputs["Color"], tmp_path,
+                     uv=True)
