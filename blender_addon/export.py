@@ -22,7 +22,9 @@ looks for it) writes, always with required=False so that other viewers still ope
 PHOTON_light on light nodes (point/spot radius, sun angle, area lights, which the exporter drops),
 PHOTON_camera on camera nodes (lens shift, depth of field, panoramic projections),
 PHOTON_object on mesh nodes (camera and shadow ray visibility),
-PHOTON_material_subsurface on materials (the Principled BSDF's subsurface inputs), PHOTON_world
+PHOTON_material_subsurface on materials (the Principled BSDF's subsurface inputs),
+PHOTON_material_nodes on materials whose node tree Photon evaluates (node_tree.py; the texture
+space of each object goes in PHOTON_object for Generated coordinates), PHOTON_world
 (background colour x strength, or an equirectangular environment image written next to the .glb
 as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
 are documented in the renderer's src/scene/gltf.rs.
@@ -43,6 +45,12 @@ import sys
 from pathlib import Path
 
 import bpy
+
+try:
+    from . import node_tree
+except ImportError:  # run as the child's script: the add-on's folder holds node_tree.py
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import node_tree
 
 GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
@@ -97,6 +105,9 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
                 self._add(gltf_node, "PHOTON_light", data)
         if blender_object is not None and blender_object.type in GEOMETRY_TYPES:
             data = visibility_extension(blender_object)
+            space = texture_space(blender_object)
+            if space and uses_node_materials(blender_object):
+                data["texture_space"] = space
             if data:
                 self._add(gltf_node, "PHOTON_object", data)
         if blender_object is not None and blender_object.type == "CAMERA":
@@ -108,6 +119,12 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
         data = subsurface_extension(blender_material)
         if data:
             self._add(gltf_material, "PHOTON_material_subsurface", data)
+        folder = Path(export_settings["gltf_filedirectory"])
+        tree, problems = node_tree.material_nodes(blender_material, folder)
+        if tree:
+            self._add(gltf_material, "PHOTON_material_nodes", tree)
+        elif problems:  # listed by `photon info`; the pre-flight report names them in Blender
+            self._add(gltf_material, "PHOTON_material_nodes", {"warnings": problems})
         if missing_base_color_image(blender_material):
             pbr = gltf_material.pbr_metallic_roughness
             if pbr is not None and pbr.base_color_texture is None:
@@ -121,6 +138,23 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
 
 # Object types the glTF exporter writes as meshes.
 GEOMETRY_TYPES = ("MESH", "CURVE", "SURFACE", "META", "FONT")
+
+
+def texture_space(obj) -> dict:
+    """The object's texture space (Generated coordinates map it to [0, 1]^3), in object
+    coordinates; empty for objects without one."""
+    data = getattr(obj, "data", None)
+    location = getattr(data, "texspace_location", None)
+    size = getattr(data, "texspace_size", None)
+    if location is None or size is None:
+        return {}
+    return {"location": [float(v) for v in location], "size": [float(v) for v in size]}
+
+
+def uses_node_materials(obj) -> bool:
+    """Whether one of the object's materials is written as PHOTON_material_nodes."""
+    return any(slot.material is not None and node_tree.material_nodes(slot.material)[0]
+               for slot in getattr(obj, "material_slots", ()))
 
 
 def visibility_extension(obj) -> dict:
@@ -709,6 +743,23 @@ def rendered_objects(view_layer) -> set[str]:
     return found
 
 
+def reads_vertex_colors(scene) -> bool:
+    """Whether a material of the scene is written as PHOTON_material_nodes and reads vertex
+    colours (a Color Attribute or Attribute node)."""
+    seen = set()
+    for obj in scene.objects:
+        for slot in getattr(obj, "material_slots", ()):
+            material = slot.material
+            if material is None or material.name in seen:
+                continue
+            seen.add(material.name)
+            tree = node_tree.material_nodes(material)[0]
+            if tree and any(n["type"] in ("ShaderNodeVertexColor", "ShaderNodeAttribute")
+                            for n in tree["nodes"]):
+                return True
+    return False
+
+
 def export_in_process(glb: Path, hook_module: str) -> list[str]:
     """Run Blender's glTF exporter on the current scene and return its warnings and the hooks'.
     `hook_module` is the name in sys.modules that holds `glTF2ExportUserExtension`: the exporter
@@ -721,9 +772,14 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
         added.module = hook_module
     try:
         scene = bpy.context.scene
+        args = dict(GLTF_EXPORT_ARGS)
+        if reads_vertex_colors(scene):
+            # The exporter writes COLOR_0 only for colours wired straight into Base Color;
+            # node trees Photon evaluates read the active colour attribute as COLOR_0.
+            args["export_vertex_color"] = "ACTIVE"
         with collected_warnings() as warnings, render_visibility(scene), \
                 shape_keys_applied(scene):
-            result = bpy.ops.export_scene.gltf(filepath=str(glb), **GLTF_EXPORT_ARGS)
+            result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None
     finally:

@@ -7,7 +7,9 @@ empty list, so the rules below only flag what really changes the image:
 
 - shader nodes feeding a material's surface that Blender's glTF exporter does not map onto
   glTF's metallic-roughness material (Principled BSDF, Emission, image textures and the few
-  helper nodes it follows), and world nodes other than Background and Environment Texture;
+  helper nodes it follows), unless the whole tree is one Photon evaluates itself (node_tree.py:
+  it is then exported as PHOTON_material_nodes and nothing is dropped), and world nodes other
+  than Background and Environment Texture;
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
 - hair and points: hair particle systems, particles rendered as halos or paths, Curves (hair)
@@ -123,7 +125,9 @@ def material_features(material) -> list[str]:
     if output is None:
         return []
     messages = []
-    for node in _upstream(output.inputs["Surface"]):
+    from .node_tree import material_nodes
+    evaluated = material_nodes(material)[0] is not None
+    for node in [] if evaluated else _upstream(output.inputs["Surface"]):
         reason = _material_node_reason(node)
         if reason:
             messages.append(f"{what}: {node.bl_label} node '{node.name}' {reason}")

@@ -672,7 +672,7 @@ fn run_info(path: &Path, camera: Option<String>, quality: Quality) -> Result<()>
     };
     println!("camera: '{}', {projection}", scene.camera.name);
     println!("{}", plan_for_image(&scene, quality, width, height));
-    for w in &scene.warnings {
+    for w in scene.warnings.iter().chain(&scene.export_notes) {
         println!("warning: {w}");
     }
     Ok(())

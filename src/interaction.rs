@@ -8,7 +8,8 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Frame, Vec2, Vec3, Vec4};
-use crate::scene::Scene;
+use crate::scene::nodes::ShadingInputs;
+use crate::scene::{Mesh, Scene};
 
 /// Everything shading needs about a surface point.
 #[derive(Clone, Copy, Debug)]
@@ -26,6 +27,8 @@ pub struct SurfaceHit {
     pub material: u32,
     /// Distance along the ray that found this hit (in units of the ray's direction).
     pub t: f32,
+    /// The intersection this point was reconstructed from.
+    pub hit: Hit,
 }
 
 impl SurfaceHit {
@@ -110,7 +113,57 @@ impl SurfaceHit {
             triangle: hit.triangle,
             material: mesh.material,
             t: hit.t,
+            hit: *hit,
         }
+    }
+
+    /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with
+    /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
+    /// else copies of the point).
+    /// `wo` is the unit direction towards the viewer: seen from behind its winding, the
+    /// surface's normal is turned to the viewer, as Cycles does.
+    pub fn node_inputs(&self, scene: &Scene, offsets: bool, wo: Vec3) -> [ShadingInputs; 3] {
+        let mesh = hit_mesh(scene, &self.hit);
+        let (tri, b1, b2) = (self.hit.triangle, self.hit.b1, self.hit.b2);
+        let backfacing = wo.dot(self.ng) < 0.0;
+        let n = if backfacing {
+            -self.frame.n
+        } else {
+            self.frame.n
+        };
+        let view = View { wo, backfacing };
+        let here = node_inputs(mesh, tri, b1, b2, self.p, n, self.uv, view);
+        if !offsets {
+            return [here; 3];
+        }
+        let instance = scene.instances.get(self.hit.instance as usize);
+        let idx = mesh.indices[tri as usize];
+        let w = idx.map(|i| match instance {
+            Some(inst) => inst.to_world.transform_point3(mesh.positions[i as usize]),
+            None => mesh.positions[i as usize],
+        });
+        let (e1, e2) = (w[1] - w[0], w[2] - w[0]);
+        let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let det = a * c - b * b;
+        // A step small against the surface's features, large against float precision.
+        let step = BUMP_STEP * self.p.abs().max_element().max(1.0);
+        let at = |d: Vec3| {
+            if !(det.abs() > 0.0 && det.is_finite()) {
+                return here;
+            }
+            // The barycentric step whose position step is d projected on the triangle.
+            let (r1, r2) = (d.dot(e1), d.dot(e2));
+            let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
+            let (nb1, nb2) = (b1 + db1, b2 + db2);
+            let uv = if mesh.uvs.is_empty() {
+                Vec2::ZERO
+            } else {
+                interpolate(idx.map(|i| mesh.uvs[i as usize]), nb1, nb2)
+            };
+            let p = self.p + db1 * e1 + db2 * e2;
+            node_inputs(mesh, tri, nb1, nb2, p, n, uv, view)
+        };
+        [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
 
     /// A ray leaving this surface in direction `dir`.
@@ -187,5 +240,68 @@ pub fn spawn_to(p: Vec3, p_error: Vec3, ng: Vec3, target: &LightPoint) -> Ray {
         origin,
         direction: end - origin,
         t_max: 1.0 - SHADOW_EPSILON,
+    }
+}
+
+/// The step (relative to the coordinates' magnitude, at least 1) at which Bump nodes read
+/// their Height beside the shading point.
+const BUMP_STEP: f32 = 1e-4;
+
+/// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
+fn blender_axes(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, -v.z, v.y)
+}
+
+/// Where a shading point is seen from, for node trees.
+#[derive(Clone, Copy, Debug)]
+pub struct View {
+    /// Unit direction towards the viewer (world).
+    pub wo: Vec3,
+    /// Seen from behind the triangle's winding.
+    pub backfacing: bool,
+}
+
+/// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
+/// `p`, unit world normal `n` (facing the viewer) and UV `uv` (glTF's, turned to Blender's v-up
+/// convention), seen from `view`.
+#[allow(clippy::too_many_arguments)]
+pub fn node_inputs(
+    mesh: &Mesh,
+    triangle: u32,
+    b1: f32,
+    b2: f32,
+    p: Vec3,
+    n: Vec3,
+    uv: Vec2,
+    view: View,
+) -> ShadingInputs {
+    let idx = mesh.indices[triangle as usize];
+    let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
+    let (object, generated, object_normal) = match &mesh.object_space {
+        Some(space) => {
+            let o = space.to_object.transform_point3(stored);
+            // Normals go to object space by the inverse transpose (the stored positions of
+            // meshes with node trees are world positions: they are never instanced).
+            let linear = crate::math::Mat3::from(space.to_object.matrix3);
+            let on = (linear.inverse().transpose() * n).normalize_or(blender_axes(n));
+            (o, space.generated(o), on)
+        }
+        None => (blender_axes(p), blender_axes(p), blender_axes(n)),
+    };
+    let color = if mesh.colors.is_empty() {
+        Vec4::ONE
+    } else {
+        interpolate(idx.map(|i| mesh.colors[i as usize]), b1, b2)
+    };
+    ShadingInputs {
+        position: blender_axes(p),
+        normal: blender_axes(n),
+        uv: Vec2::new(uv.x, 1.0 - uv.y),
+        generated,
+        object,
+        color,
+        object_normal,
+        incoming: blender_axes(view.wo),
+        backfacing: view.backfacing,
     }
 }

@@ -124,8 +124,9 @@ pub fn spread_factor(spread: Option<f32>, cos: f32) -> f32 {
     ((tan_half - tan_a) * normalize).max(0.0)
 }
 
-/// Emitted radiance of a surface towards `wo` (unit, pointing away from the surface).
-pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
+/// Emitted radiance of a surface towards `wo` (unit, pointing away from the surface), whose
+/// material evaluated there emits `emission` (`SurfaceMaterial::emission`).
+pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3, emission: Vec3) -> Vec3 {
     let material = &scene.materials[hit.material as usize];
     if !material.is_emissive() {
         return Vec3::ZERO;
@@ -137,7 +138,7 @@ pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
         .meshes
         .get(hit.mesh as usize)
         .and_then(|m| m.emission_spread);
-    material_emission(scene, material, hit.uv) * spread_factor(spread, wo.dot(hit.ng).abs())
+    emission * spread_factor(spread, wo.dot(hit.ng).abs())
 }
 
 /// A material's emitted radiance at texture coordinate `uv` (emission × emissive texture).
@@ -180,9 +181,24 @@ pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) ->
         let t = idx.map(|i| m.uvs[i as usize]);
         t[0] * b0 + t[1] * b.x + t[2] * b.y
     };
+    let material = &scene.materials[m.material as usize];
+    let radiance = match &material.nodes {
+        Some(program) => {
+            let shading_n = crate::accel::interpolate(idx.map(|i| m.normals[i as usize]), b.x, b.y)
+                .normalize_or(n);
+            // Seen head-on (emission does not depend on the view in the nodes evaluated).
+            let view = crate::interaction::View {
+                wo: shading_n,
+                backfacing: false,
+            };
+            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, uv, view);
+            program.eval(&[at; 3], &scene.textures, 0.5).emission
+        }
+        None => material_emission(scene, material, uv),
+    };
     EmitterPoint {
         point: LightPoint { p, p_error, n },
-        radiance: material_emission(scene, &scene.materials[m.material as usize], uv),
+        radiance,
     }
 }
 

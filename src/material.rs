@@ -1,9 +1,13 @@
 //! Material evaluation at a surface point: textures and factors resolved into the small plain
 //! `SurfaceMaterial` that shading reads (yocto-gl's `eval_material` habit), following the glTF
 //! 2.0 specification §3.9 (metallic-roughness) and the KHR_materials_transmission, _ior,
-//! _specular, _emissive_strength and _volume extensions.
+//! _specular, _emissive_strength and _volume extensions. A material with a Blender node tree
+//! (`scene::nodes`) is evaluated by its program instead, at the full shading point.
 
+use crate::accel::{hit_mesh, interpolate};
+use crate::interaction::SurfaceHit;
 use crate::math::{Vec2, Vec3, Vec4};
+use crate::scene::nodes::Closure;
 use crate::scene::{Material, Scene, Subsurface, TextureRef};
 
 /// A material's values at one point, with textures applied. Colours are linear RGB.
@@ -30,6 +34,9 @@ pub struct SurfaceMaterial {
     pub thin_walled: bool,
     /// Blender's subsurface inputs; translucent when `subsurface.weight > 0`.
     pub subsurface: Subsurface,
+    /// A shading normal a node tree gives (Bump, or a Normal input), unit, world space;
+    /// `None`: the surface's own.
+    pub normal: Option<Vec3>,
 }
 
 impl Default for SurfaceMaterial {
@@ -48,6 +55,7 @@ impl Default for SurfaceMaterial {
             absorption: Vec3::ZERO,
             thin_walled: false,
             subsurface: Subsurface::default(),
+            normal: None,
         }
     }
 }
@@ -97,6 +105,62 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
         ),
         thin_walled: material.thickness <= 0.0,
         subsurface: material.subsurface,
+        normal: None,
+    }
+}
+
+/// The material at surface point `sh`: its node tree when it has one (`u` in [0, 1) picks the
+/// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV with the base
+/// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1).
+pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, wo: Vec3, u: f32) -> SurfaceMaterial {
+    let material = &scene.materials[sh.material as usize];
+    match &material.nodes {
+        None => {
+            let mut s = eval_material(scene, material, sh.uv);
+            let mesh = hit_mesh(scene, &sh.hit);
+            if !mesh.colors.is_empty() {
+                let idx = mesh.indices[sh.hit.triangle as usize];
+                let c = interpolate(idx.map(|i| mesh.colors[i as usize]), sh.hit.b1, sh.hit.b2);
+                s.base_color *= c.truncate();
+                s.alpha = (s.alpha * c.w).clamp(0.0, 1.0);
+            }
+            s
+        }
+        Some(program) => from_closure(
+            material,
+            &program.eval(
+                &sh.node_inputs(scene, program.needs_offsets, wo),
+                &scene.textures,
+                u,
+            ),
+        ),
+    }
+}
+
+/// A node tree's closure as the material every integrator reads; the volume and subsurface
+/// come from the material (glTF extensions), and node materials are never thin-walled (Cycles
+/// has no such notion: every transmissive surface bounds a solid).
+pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
+    SurfaceMaterial {
+        base_color: c.base_color,
+        alpha: c.alpha,
+        metallic: c.metallic,
+        roughness: c.roughness,
+        transmission: c.transmission,
+        ior: c.ior,
+        specular: c.specular,
+        specular_color: c.specular_color,
+        emission: c.emission,
+        absorption: absorption_coefficient(
+            material.attenuation_color,
+            material.attenuation_distance,
+        ),
+        thin_walled: false,
+        subsurface: material.subsurface,
+        // Blender's (x, y, z) is glTF's (x, −z, y): back to the scene's axes.
+        normal: (c.normal != Vec3::ZERO)
+            .then(|| Vec3::new(c.normal.x, c.normal.z, -c.normal.y).normalize_or_zero())
+            .filter(|n| *n != Vec3::ZERO),
     }
 }
 

@@ -25,6 +25,8 @@ fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
         camera_visible: true,
         emission_spread: None,
         casts_shadows: true,
+        colors: Vec::new(),
+        object_space: None,
     };
     scenes::scene(
         vec![mesh],

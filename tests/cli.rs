@@ -230,23 +230,7 @@ fn a_width_or_height_alone_keeps_the_scenes_aspect_ratio() {
 /// A one-triangle .gltf with its buffer in a data URI: `positions` (9 bytes as the accessor's
 /// `component_type`, or 36 bytes of floats for 5126) and a perspective camera of `yfov`.
 fn triangle_gltf(positions: &[u8], component_type: u32, yfov: f32) -> String {
-    const B64: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut data = String::new();
-    for chunk in positions.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for (i, shift) in [18, 12, 6, 0].into_iter().enumerate() {
-            data.push(if i <= chunk.len() {
-                B64[(n >> shift & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
+    let data = base64(positions);
     let max = if component_type == 5126 { 1.0 } else { 200.0 };
     format!(
         r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],

@@ -143,6 +143,8 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
         camera_visible: true,
         emission_spread: None,
         casts_shadows: true,
+        colors: Vec::new(),
+        object_space: None,
     }
 }
 

@@ -7,8 +7,9 @@
 //! narrow enough that ray tracing them converges fast, while a photon estimate would blur them.
 
 use crate::bsdf::{Bsdf, ViewedBsdf};
-use crate::material::eval_material;
+use crate::material::{eval_material, from_closure};
 use crate::math::{max_component, Vec2, Vec3};
+use crate::scene::nodes::ShadingInputs;
 use crate::scene::Scene;
 
 /// Perceptual roughness below which a surface without Lambertian part counts as specular.
@@ -46,7 +47,15 @@ pub fn diffuse_reflectance(bsdf: &ViewedBsdf, opaque: bool) -> Option<Vec3> {
 /// texture coordinate 0, with roughness textures counted as smooth (a texture may reach 0).
 pub fn classifying_bsdf(scene: &Scene, m: u32) -> Bsdf {
     let material = &scene.materials[m as usize];
-    let mut s = eval_material(scene, material, Vec2::ZERO);
+    let mut s = match &material.nodes {
+        // A node tree: its value at a default point (texture coordinates 0), with the first
+        // closure of each Mix Shader.
+        Some(program) => from_closure(
+            material,
+            &program.eval(&[ShadingInputs::default(); 3], &scene.textures, 0.0),
+        ),
+        None => eval_material(scene, material, Vec2::ZERO),
+    };
     if material.metallic_roughness_texture.is_some() {
         s.roughness = 0.0;
     }

@@ -14,9 +14,9 @@ use crate::accel::{Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
 use crate::interaction::SurfaceHit;
 use crate::irradiance_cache::IrradianceCache;
-use crate::material::{eval_material, SurfaceMaterial};
+use crate::material::{eval_surface, SurfaceMaterial};
 use crate::math::{Frame, Vec2, Vec3};
-use crate::rng::Rng;
+use crate::rng::{hash_combine, Rng};
 use std::f32::consts::PI;
 
 /// A surface hit prepared for shading (module header for the sides).
@@ -48,8 +48,26 @@ impl Shading {
     pub fn new(ctx: &Context, ray: &Ray, hit: &Hit) -> Shading {
         let sh = SurfaceHit::new(ctx.scene, ray, hit);
         let wo = -ray.direction.normalize();
-        let surface = eval_material(ctx.scene, &ctx.scene.materials[sh.material as usize], sh.uv);
-        let mut frame = sh.frame;
+        let material = &ctx.scene.materials[sh.material as usize];
+        let surface = if material.nodes.is_some() {
+            // The closure pick of Mix and Add Shader nodes: a hash of the ray and the hit, so
+            // it is deterministic and fresh for every path.
+            let h = hash_combine(&[
+                ray.origin.x.to_bits() as u64 | ((ray.origin.y.to_bits() as u64) << 32),
+                ray.origin.z.to_bits() as u64 | ((ray.direction.x.to_bits() as u64) << 32),
+                ray.direction.y.to_bits() as u64 | ((ray.direction.z.to_bits() as u64) << 32),
+                hit.triangle as u64 | ((hit.t.to_bits() as u64) << 32),
+            ]);
+            eval_surface(ctx.scene, &sh, wo, (h >> 40) as f32 * (1.0 / 16_777_216.0))
+        } else {
+            eval_surface(ctx.scene, &sh, wo, 0.0)
+        };
+        let mut frame = match surface.normal {
+            // A node tree's normal (Bump), on the side of the surface's own.
+            Some(n) if n.dot(sh.frame.n) < 0.0 => Frame::from_normal(-n),
+            Some(n) => Frame::from_normal(n),
+            None => sh.frame,
+        };
         let opaque = surface.transmission <= 0.0;
         let mut ng = sh.ng;
         if opaque && wo.dot(ng) < 0.0 {

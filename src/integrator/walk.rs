@@ -99,7 +99,7 @@ impl PathState {
 
     /// The ray met `s`: its emission, MIS-weighted.
     fn emitted(&mut self, ctx: &Context, s: &Shading) {
-        let le = emitted_radiance(ctx.scene, &s.sh, s.wo);
+        let le = emitted_radiance(ctx.scene, &s.sh, s.wo, s.surface.emission);
         if le != Vec3::ZERO {
             let w = self.previous.weight_at(ctx, &s.sh);
             self.add(0, self.beta * le * w);
@@ -295,7 +295,7 @@ pub fn follow_specular(
         chain.beta *= transmittance(chain.absorption, &hit, &ray);
         s = Shading::new(ctx, &ray, &hit);
         if let Some(le) = emission.as_deref_mut() {
-            *le += chain.beta * emitted_radiance(ctx.scene, &s.sh, s.wo);
+            *le += chain.beta * emitted_radiance(ctx.scene, &s.sh, s.wo, s.surface.emission);
         }
         if chain.beta == Vec3::ZERO || !chain.beta.is_finite() {
             return None;

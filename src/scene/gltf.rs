@@ -67,6 +67,27 @@
 //!   is translucent: the subsurface part replaces weight × the diffuse part, with the base colour
 //!   as its total diffuse reflectance and `radius × scale` (scene units) as the mean free path
 //!   per channel (see `crate::subsurface`). Out-of-range values are refused with an error.
+//! - `PHOTON_material_nodes` on a material: Blender's shader node tree as `crate::scene::nodes`
+//!   compiles it: `{"nodes": [node, ...], "output": {"node": i, "output": "BSDF"}}`. Each node is
+//!   `{"name": n, "type": bl_idname, "inputs": {identifier: value or link}, ...settings}` where a
+//!   value is a number or a list of 2–4 numbers (Blender's socket value), a link is
+//!   `{"node": j, "output": identifier}` with j earlier in the list, and the settings are the
+//!   node's own properties under Blender's names (`operation`, `blend_type`, `data_type`,
+//!   `gradient_type`, …; a Value or RGB node's `value`; a Color Ramp's `table` of 256 RGBA
+//!   entries sampled at i/255 and its `interpolation`). `output` is what feeds the active
+//!   Material Output's Surface (absent: black). When present the tree replaces the glTF values
+//!   at every shading point (volume, subsurface and alpha mode still come from glTF and the
+//!   other extensions). A malformed tree is refused with an error; a node type Photon does not
+//!   evaluate gives a warning and what it feeds reads the input's default. Without `nodes`,
+//!   `{"warnings": [...]}` lists what the add-on could not describe (the glTF values are
+//!   rendered); these go to `Scene::export_notes`, which `photon info` lists.
+//! - `PHOTON_object` may also carry `"texture_space": {"location": [x, y, z], "size": [x, y,
+//!   z]}`, the object's texture space in Blender object coordinates (Z up), which node trees'
+//!   Generated coordinates map to [0, 1]³ (default: the bounds of the mesh).
+//!
+//! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
+//! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree
+//! multiplies its base colour by them, as glTF specifies.
 //!
 //! # Images
 //!
@@ -84,10 +105,10 @@
 //! with KHR_mesh_quantization, normalized UVs also without).
 //!
 //! A mesh placed by two or more nodes whose materials are plain (opaque, not emissive,
-//! translucent, transmissive or specular: roughness ≥ `INSTANCE_MIN_ROUGHNESS`) is stored once
-//! as a prototype (`Scene::prototypes`) and placed by `Scene::instances`, counted once against
-//! the limits. Copies under a mirroring or singular transform, or with their own
-//! `PHOTON_object`, and every other mesh are flattened to world space; under a mirroring
+//! translucent, transmissive or specular: roughness ≥ `INSTANCE_MIN_ROUGHNESS`; no node
+//! tree) is stored once as a prototype (`Scene::prototypes`) and placed by
+//! `Scene::instances`, counted once against the limits. Copies under a mirroring or singular
+//! transform, or with their own `PHOTON_object` ray visibility, and every other mesh are flattened to world space; under a mirroring
 //! transform the triangle winding is flipped and the tangent's w (bitangent sign) is negated,
 //! so both the geometric normal and the tangent frame keep their meaning.
 //!
@@ -299,6 +320,7 @@ impl Loader {
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
                 warnings: Vec::new(),
+                export_notes: Vec::new(),
             },
             triangle_total: 0,
             vertex_total: 0,
@@ -471,6 +493,8 @@ impl Loader {
                 && m.alpha_mode == AlphaMode::Opaque
                 && m.roughness >= INSTANCE_MIN_ROUGHNESS
                 && m.metallic_roughness_texture.is_none()
+                // A node tree may be glossy or transmissive anywhere: kept out, to be safe.
+                && m.nodes.is_none()
         })
     }
 
@@ -484,7 +508,9 @@ impl Loader {
         self.instanced_meshes.contains(&mesh.index())
             && det > 0.0
             && det.is_finite()
-            && node.extension_value("PHOTON_object").is_none()
+            && node.extension_value("PHOTON_object").is_none_or(|v| {
+                v.get("visible_camera").is_none() && v.get("visible_shadow").is_none()
+            })
     }
 
     /// The checks `read_accessor` makes before allocating, without reading: the elements fit
@@ -777,6 +803,28 @@ impl Loader {
                 }
                 None => Vec::new(),
             };
+            let colors = match primitive.get(&gltf::Semantic::Colors(0)) {
+                Some(a) => {
+                    let n = a.dimensions().multiplicity();
+                    let flat = self.read_float_attribute(&a, &object, "COLOR_0", n.clamp(3, 4))?;
+                    if n == 4 {
+                        flat.chunks_exact(4)
+                            .map(|c| Vec4::new(c[0], c[1], c[2], c[3]))
+                            .collect()
+                    } else {
+                        flat.chunks_exact(3)
+                            .map(|c| Vec4::new(c[0], c[1], c[2], 1.0))
+                            .collect()
+                    }
+                }
+                None => Vec::new(),
+            };
+            check_length(&colors, vertex_count)
+                .map_err(|m| self.err(&object, format!("COLOR_0 {m}")))?;
+            if colors.iter().any(|c: &Vec4| !c.is_finite()) {
+                return Err(self.err(&object, "a COLOR_0 value is NaN or infinite"));
+            }
+            let object_space = Some(self.object_space(node, &positions, world)?);
             check_length(&uvs, vertex_count)
                 .map_err(|m| self.err(&object, format!("TEXCOORD_0 {m}")))?;
             check_length(&tangents, vertex_count)
@@ -819,6 +867,8 @@ impl Loader {
                 camera_visible,
                 emission_spread: None,
                 casts_shadows,
+                colors,
+                object_space,
             };
             match normals {
                 Some(normals) => {
@@ -841,6 +891,59 @@ impl Loader {
             }
         }
         Ok(())
+    }
+
+    /// The Blender object of `node` for node trees: stored positions (placed by `world`) →
+    /// Blender object coordinates (glTF (x, y, z) is Blender (x, −z, y)), and the texture space
+    /// from `PHOTON_object`'s `texture_space` or else the bounds of `local` (object-space glTF
+    /// positions), as Blender's automatic texture space.
+    fn object_space(
+        &self,
+        node: &gltf::Node,
+        local: &[Vec3],
+        world: &Mat4,
+    ) -> Result<super::ObjectSpace> {
+        let axes = Affine3A::from_cols_array(&[
+            1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0,
+        ]);
+        let inverse = world.inverse();
+        let to_object = if inverse.is_finite() {
+            axes * Affine3A::from_mat4(inverse)
+        } else {
+            axes
+        };
+        let mut bounds = Bounds::EMPTY;
+        for &p in local {
+            bounds.grow(axes.transform_point3(p));
+        }
+        let (mut location, mut size) = if bounds.is_empty() {
+            (Vec3::ZERO, Vec3::ONE)
+        } else {
+            (bounds.center(), 0.5 * (bounds.max - bounds.min))
+        };
+        let given = node
+            .extension_value("PHOTON_object")
+            .and_then(|v| v.get("texture_space"));
+        if let Some(space) = given {
+            let object = format!(
+                "{} PHOTON_object texture_space",
+                named("node", node.index(), node.name())
+            );
+            let read = |key: &str| {
+                space
+                    .get(key)
+                    .and_then(json_vec3)
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| self.err(&object, format!("'{key}' must be three numbers")))
+            };
+            location = read("location")?;
+            size = read("size")?;
+        }
+        Ok(super::ObjectSpace {
+            to_object,
+            texspace_location: location,
+            texspace_size: size,
+        })
     }
 
     /// The primitive's triangles as index triples (strips and fans converted), or `None` when
@@ -1193,7 +1296,113 @@ impl Loader {
         if let Some(sss) = material.extension_value("PHOTON_material_subsurface") {
             out.subsurface = self.read_subsurface(sss, &object)?;
         }
+        let nodes_extension = material.extension_value("PHOTON_material_nodes");
+        if let Some(list) = nodes_extension
+            .filter(|t| t.get("nodes").is_none())
+            .and_then(|t| t.get("warnings"))
+            .and_then(Value::as_array)
+        {
+            // The add-on could not describe the tree: what it names is lost (glTF's values
+            // are rendered).
+            for w in list.iter().filter_map(Value::as_str) {
+                self.scene.export_notes.push(w.to_string());
+            }
+        }
+        if let Some(tree) = nodes_extension.filter(|t| t.get("nodes").is_some()) {
+            let mut warnings = Vec::new();
+            let tree = self.load_node_images(tree, &object)?;
+            let program = super::nodes::compile(&tree, self.scene.textures.len(), &mut warnings)
+                .map_err(|m| self.err(format!("{object} PHOTON_material_nodes"), m))?;
+            if let Some(list) = tree.get("warnings").and_then(Value::as_array) {
+                warnings.extend(list.iter().filter_map(Value::as_str).map(str::to_string));
+            }
+            for w in warnings {
+                self.scene.warnings.push(format!("{object}: {w}"));
+            }
+            // Light sampling weighs emitters by this radiance: the tree's value at a default
+            // point, or 1 when the tree may emit there and is black at that point.
+            if program.emits {
+                let at = super::nodes::ShadingInputs::default();
+                let e = program.eval(&[at; 3], &self.scene.textures, 0.5).emission;
+                out.emission = if e.max_element() > 0.0 && e.is_finite() {
+                    e
+                } else {
+                    Vec3::ONE
+                };
+            } else {
+                out.emission = Vec3::ZERO;
+            }
+            out.nodes = Some(std::sync::Arc::new(program));
+        }
         Ok(out)
+    }
+
+    /// The tree of `PHOTON_material_nodes` with each Image Texture node's `image` (`{"uri":
+    /// file, "colorspace": "sRGB" | "Non-Color"}`, beside the glTF file) loaded as a texture
+    /// of the scene and named by its index in `texture`, with the node's `extension` (REPEAT,
+    /// EXTEND, CLIP, MIRROR) and `interpolation` (Closest or else bilinear) as its sampler.
+    fn load_node_images(&mut self, tree: &Value, object: &str) -> Result<Value> {
+        let mut tree = tree.clone();
+        let Some(nodes) = tree.get_mut("nodes").and_then(Value::as_array_mut) else {
+            return Ok(tree);
+        };
+        for node in nodes.iter_mut() {
+            let Some(image) = node.get("image").cloned() else {
+                continue;
+            };
+            let label = format!("{object} PHOTON_material_nodes image");
+            let uri = image
+                .get("uri")
+                .and_then(Value::as_str)
+                .ok_or_else(|| self.err(&label, "'uri' must be a string"))?;
+            let srgb = image.get("colorspace").and_then(Value::as_str) != Some("Non-Color");
+            let file = self.resolve_file(uri, &label)?;
+            let decoded = if file.exists() {
+                let bytes = std::fs::read(&file).map_err(|e| Error::io(&file, e))?;
+                self.decode_bytes(&bytes, format!("image '{uri}'"), None)?
+            } else {
+                self.scene.warnings.push(format!(
+                    "{object}: image file '{}' not found; it renders magenta (1, 0, 1), as in \
+                     Blender",
+                    file.display()
+                ));
+                DecodedImage {
+                    name: uri.to_string(),
+                    width: 1,
+                    height: 1,
+                    texels: vec![[255, 0, 255, 255]],
+                }
+            };
+            let wrap = match node.get("extension").and_then(Value::as_str) {
+                Some("EXTEND" | "CLIP") => Wrap::ClampToEdge,
+                Some("MIRROR") => Wrap::MirroredRepeat,
+                _ => Wrap::Repeat,
+            };
+            let bilinear = node.get("interpolation").and_then(Value::as_str) != Some("Closest");
+            node["texture"] = Value::from(self.push_texture(decoded, srgb, [wrap; 2], bilinear));
+        }
+        Ok(tree)
+    }
+
+    /// Add a texture of `decoded` sampled with `wrap` (s, t) and `bilinear`; its index.
+    fn push_texture(
+        &mut self,
+        decoded: DecodedImage,
+        srgb: bool,
+        wrap: [Wrap; 2],
+        bilinear: bool,
+    ) -> u32 {
+        self.scene.textures.push(Texture {
+            name: decoded.name,
+            width: decoded.width,
+            height: decoded.height,
+            texels: decoded.texels,
+            srgb,
+            wrap_s: wrap[0],
+            wrap_t: wrap[1],
+            bilinear,
+        });
+        (self.scene.textures.len() - 1) as u32
     }
 
     /// `PHOTON_material_subsurface`: every field optional (Blender's defaults), every value
@@ -1294,17 +1503,15 @@ impl Loader {
             }
         };
         let sampler = texture.sampler();
-        let slot = self.scene.textures.len() as u32;
-        self.scene.textures.push(Texture {
-            name: decoded.name,
-            width: decoded.width,
-            height: decoded.height,
-            texels: decoded.texels,
+        let slot = self.push_texture(
+            decoded,
             srgb,
-            wrap_s: convert_wrap(sampler.wrap_s()),
-            wrap_t: convert_wrap(sampler.wrap_t()),
-            bilinear: sampler.mag_filter() != Some(gltf::texture::MagFilter::Nearest),
-        });
+            [
+                convert_wrap(sampler.wrap_s()),
+                convert_wrap(sampler.wrap_t()),
+            ],
+            sampler.mag_filter() != Some(gltf::texture::MagFilter::Nearest),
+        );
         self.texture_slots.insert((texture.index(), srgb), slot);
         Ok(slot)
     }
@@ -1363,17 +1570,25 @@ impl Loader {
             .and_then(|u| u.strip_prefix("data:"))
             .and_then(|r| r.split(';').next())
             .map(str::to_string);
-        let format = sniff_image_format(&encoded).ok_or_else(|| {
-            let claimed = declared_mime
-                .or(data_mime)
-                .unwrap_or_else(|| "unknown format".into());
+        self.decode_bytes(&encoded, label, declared_mime.or(data_mime))
+    }
+
+    /// Decode an encoded PNG, JPEG or WebP image (`claimed`: the MIME type the file states).
+    fn decode_bytes(
+        &self,
+        encoded: &[u8],
+        label: String,
+        claimed: Option<String>,
+    ) -> Result<DecodedImage> {
+        let format = sniff_image_format(encoded).ok_or_else(|| {
+            let claimed = claimed.unwrap_or_else(|| "unknown format".into());
             self.err(
                 &label,
                 format!("unsupported image format ({claimed}); Photon reads PNG, JPEG and WebP"),
             )
         })?;
         if format == "image/webp" {
-            let (width, height, texels) = decode_webp(&encoded)
+            let (width, height, texels) = decode_webp(encoded)
                 .map_err(|e| self.err(&label, format!("cannot decode the WebP image: {e}")))?;
             return Ok(DecodedImage {
                 name: label.clone(),
@@ -1384,7 +1599,7 @@ impl Loader {
         }
         // Hand the bytes to the gltf crate's decoder (PNG and JPEG via the image crate) as a
         // data URI: it is the one way to reach it without reading files a second time.
-        let uri = format!("data:{format};base64,{}", encode_base64(&encoded));
+        let uri = format!("data:{format};base64,{}", encode_base64(encoded));
         let data = gltf::image::Data::from_source(
             gltf::image::Source::Uri {
                 uri: &uri,
@@ -1618,6 +1833,8 @@ impl Loader {
             // Narrower than a milliradian is a laser nothing would sample; Cycles clamps too.
             emission_spread: (spread < std::f32::consts::PI).then_some(spread.max(1e-3)),
             casts_shadows: true,
+            colors: Vec::new(),
+            object_space: None,
         });
         Ok(())
     }
@@ -2080,7 +2297,7 @@ fn check_attribute_type(
     use DataType::{F32, I16, I8, U16, U8};
     let allowed = match (what, data_type) {
         (_, F32) => !normalized,
-        ("TEXCOORD_0", U8 | U16) if normalized => true,
+        ("TEXCOORD_0" | "COLOR_0", U8 | U16) if normalized => true,
         ("POSITION" | "TEXCOORD_0", I8 | U8 | I16 | U16) => quantized,
         ("NORMAL" | "TANGENT", I8 | I16) => quantized && normalized,
         _ => false,

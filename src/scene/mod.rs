@@ -10,6 +10,7 @@
 pub mod builtin;
 pub mod gltf;
 pub mod load;
+pub mod nodes;
 pub mod texture;
 pub mod units;
 
@@ -39,6 +40,35 @@ pub struct Mesh {
     pub emission_spread: Option<f32>,
     /// Blocks shadow rays (direct light). False for objects Blender hides from shadow rays.
     pub casts_shadows: bool,
+    /// Vertex colours COLOR_0 (linear RGBA), one per vertex; empty when the file has none.
+    pub colors: Vec<Vec4>,
+    /// The Blender object the mesh belongs to, for node trees' Object and Generated
+    /// coordinates; `None` reads world positions for both.
+    pub object_space: Option<ObjectSpace>,
+}
+
+/// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
+/// axes, Z up) and the object's texture space, which Generated coordinates map to [0, 1]³.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObjectSpace {
+    /// Stored positions (world space for `Scene::meshes`, object space for prototypes, both in
+    /// glTF's axes) → Blender object coordinates.
+    pub to_object: Affine3A,
+    /// Texture space centre and half size (Blender's `texspace_location`, `texspace_size`).
+    pub texspace_location: Vec3,
+    pub texspace_size: Vec3,
+}
+
+impl ObjectSpace {
+    /// Generated coordinates of object-space point `p`: (p − location) / (2 size) + ½.
+    pub fn generated(&self, p: Vec3) -> Vec3 {
+        let size = Vec3::select(
+            self.texspace_size.cmpeq(Vec3::ZERO),
+            Vec3::ONE,
+            self.texspace_size,
+        );
+        (p - self.texspace_location) / (2.0 * size) + Vec3::splat(0.5)
+    }
 }
 
 /// A placed copy of a prototype mesh (`Scene::prototypes`, in object space): the mesh is
@@ -116,6 +146,9 @@ pub struct Material {
     pub thickness: f32,
     /// Blender's Principled subsurface inputs (our `PHOTON_material_subsurface` extension).
     pub subsurface: Subsurface,
+    /// The Blender node tree (our `PHOTON_material_nodes` extension), compiled: when present
+    /// it replaces every factor and texture above at each shading point (`crate::material`).
+    pub nodes: Option<std::sync::Arc<nodes::NodeProgram>>,
 }
 
 /// Blender's Principled BSDF subsurface inputs. The material is translucent when `weight > 0`:
@@ -179,6 +212,7 @@ impl Default for Material {
             attenuation_distance: f32::INFINITY,
             thickness: 0.0,
             subsurface: Subsurface::default(),
+            nodes: None,
         }
     }
 }
@@ -208,7 +242,7 @@ impl Material {
 
     /// True when the material emits light (some texel may be black, but the factor is not).
     pub fn is_emissive(&self) -> bool {
-        self.emission.max_element() > 0.0
+        self.emission.max_element() > 0.0 || self.nodes.as_ref().is_some_and(|n| n.emits)
     }
 }
 
@@ -384,6 +418,10 @@ pub struct Scene {
     pub render_settings: SceneRenderSettings,
     /// Non-fatal problems found while loading (skipped primitives, unsupported features).
     pub warnings: Vec<String>,
+    /// What the exporter could not carry, as the Blender add-on names it in the file (its
+    /// pre-flight report already showed each in Blender): `photon info` lists them with the
+    /// warnings; a render does not repeat them.
+    pub export_notes: Vec<String>,
 }
 
 impl Mesh {
@@ -526,6 +564,13 @@ impl Scene {
                     "mesh {mi} '{}': {} UVs for {n} positions",
                     m.name,
                     m.uvs.len()
+                ));
+            }
+            if !m.colors.is_empty() && m.colors.len() != n {
+                return Err(format!(
+                    "mesh {mi} '{}': {} vertex colours for {n} positions",
+                    m.name,
+                    m.colors.len()
                 ));
             }
             if !m.tangents.is_empty() && m.tangents.len() != n {

@@ -108,6 +108,31 @@ impl Texture {
 
     /// Linear RGBA at texture coordinate `uv` (glTF: (0,0) is the top-left of the image).
     pub fn sample(&self, uv: Vec2) -> Vec4 {
+        self.filter(uv, |x, y| self.texel(x, y))
+    }
+
+    /// RGBA at `uv` as Cycles' Image Texture node reads an 8-bit image: the stored (encoded)
+    /// values filtered, then sRGB-decoded when the image is sRGB.
+    pub fn sample_encoded(&self, uv: Vec2) -> Vec4 {
+        let raw = |x: u32, y: u32| {
+            let t = self.texels[(y as usize) * self.width as usize + x as usize];
+            Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32) / 255.0
+        };
+        let c = self.filter(uv, raw);
+        if self.srgb {
+            Vec4::new(
+                srgb_to_linear(c.x),
+                srgb_to_linear(c.y),
+                srgb_to_linear(c.z),
+                c.w,
+            )
+        } else {
+            c
+        }
+    }
+
+    /// Filter the texels `texel` returns at `uv` (nearest or bilinear, with the wrap modes).
+    fn filter(&self, uv: Vec2, texel: impl Fn(u32, u32) -> Vec4) -> Vec4 {
         if self.width == 0 || self.height == 0 || !uv.is_finite() {
             return Vec4::ONE;
         }
@@ -116,7 +141,7 @@ impl Texture {
         if !self.bilinear {
             let xi = wrap((x + 0.5).floor() as i64, self.width, self.wrap_s);
             let yi = wrap((y + 0.5).floor() as i64, self.height, self.wrap_t);
-            return self.texel(xi, yi);
+            return texel(xi, yi);
         }
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
@@ -125,8 +150,8 @@ impl Texture {
         let xb = wrap(x0 + 1, self.width, self.wrap_s);
         let ya = wrap(y0, self.height, self.wrap_t);
         let yb = wrap(y0 + 1, self.height, self.wrap_t);
-        let top = self.texel(xa, ya) * (1.0 - fx) + self.texel(xb, ya) * fx;
-        let bottom = self.texel(xa, yb) * (1.0 - fx) + self.texel(xb, yb) * fx;
+        let top = texel(xa, ya) * (1.0 - fx) + texel(xb, ya) * fx;
+        let bottom = texel(xa, yb) * (1.0 - fx) + texel(xb, yb) * fx;
         top * (1.0 - fy) + bottom * fy
     }
 }

@@ -71,6 +71,8 @@ pub fn sphere(
         camera_visible: true,
         emission_spread: None,
         casts_shadows: true,
+        colors: Vec::new(),
+        object_space: None,
     }
 }
 
@@ -93,6 +95,8 @@ pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
         camera_visible: true,
         emission_spread: None,
         casts_shadows: true,
+        colors: Vec::new(),
+        object_space: None,
     }
 }
 
@@ -137,6 +141,7 @@ pub fn scene(
         },
         render_settings: SceneRenderSettings::default(),
         warnings: Vec::new(),
+        export_notes: Vec::new(),
     }
 }
 

@@ -189,7 +189,7 @@ impl<'a> Gather<'a> {
         };
         let ctx = self.ctx;
         let z = Shading::new(ctx, &ray, &hit);
-        let mut l = emitted_radiance(ctx.scene, &z.sh, z.wo);
+        let mut l = emitted_radiance(ctx.scene, &z.sh, z.wo, z.surface.emission);
         if l != Vec3::ZERO {
             l *= previous.weight_at(ctx, &z.sh);
         }
@@ -288,7 +288,7 @@ impl<'a> Gather<'a> {
         let t = transmittance(absorption, &hit, &ray);
         // y: the surface the gather ray meets.
         let y = Shading::new(ctx, &ray, &hit);
-        let mut l = emitted_radiance(ctx.scene, &y.sh, y.wo);
+        let mut l = emitted_radiance(ctx.scene, &y.sh, y.wo, y.surface.emission);
         if l != Vec3::ZERO {
             l *= previous.weight_at(ctx, &y.sh);
         }

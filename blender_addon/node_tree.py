@@ -1,0 +1,353 @@
+"""PHOTON_material_nodes: a material's shader node tree as the renderer evaluates it.
+
+`material_nodes(material)` walks the tree from the active Material Output's Surface and returns
+`(extension, problems)`:
+
+- `extension` is the JSON the renderer compiles (src/scene/nodes.rs, documented in
+  src/scene/gltf.rs): `{"nodes": [...], "output": {"node": i, "output": id}}`, the nodes in an
+  order where every link points to an earlier node. Node groups are flattened (a node inside a
+  group is named "Group/Node"), reroutes and muted nodes are followed, unconnected inputs are
+  written as constants (Blender's socket values), links carry the output's identifier, and only
+  the nodes reachable from the Surface are written. Colour Ramps are baked into 256 entries
+  with Blender's own `ColorRamp.evaluate`, so every interpolation mode matches.
+- `problems` names every node (or node setting, or linked input) the renderer cannot evaluate.
+  When there is one, `extension` is None: the material keeps the glTF path (Blender's exporter
+  and its metallic-roughness values) and the pre-flight report names what is lost, so nothing
+  is dropped without a word. `extension` is also None for trees glTF carries exactly (a lone
+  Principled BSDF with nothing linked into it), so such materials render as before.
+
+It needs no bpy import: it reads nodes through their attributes (and runs in the export child).
+"""
+
+from __future__ import annotations
+
+# Nodes the renderer evaluates, by bl_idname, with the settings it reads.
+SETTINGS = {
+    "ShaderNodeTexCoord": (),
+    "ShaderNodeUVMap": (),
+    "ShaderNodeVertexColor": (),
+    "ShaderNodeAttribute": (),
+    "ShaderNodeNewGeometry": (),
+    "ShaderNodeValue": (),
+    "ShaderNodeRGB": (),
+    "ShaderNodeMapping": ("vector_type",),
+    "ShaderNodeMath": ("operation", "use_clamp"),
+    "ShaderNodeMix": ("data_type", "blend_type", "clamp_factor", "clamp_result"),
+    "ShaderNodeValToRGB": (),
+    "ShaderNodeRGBCurve": (),
+    "ShaderNodeMapRange": ("data_type", "interpolation_type", "clamp"),
+    "ShaderNodeClamp": ("clamp_type",),
+    "ShaderNodeInvert": (),
+    "ShaderNodeSeparateXYZ": (),
+    "ShaderNodeCombineXYZ": (),
+    "ShaderNodeSeparateColor": ("mode",),
+    "ShaderNodeCombineColor": ("mode",),
+    "ShaderNodeTexChecker": (),
+    "ShaderNodeTexGradient": ("gradient_type",),
+    "ShaderNodeTexNoise": ("noise_type", "noise_dimensions", "normalize"),
+    "ShaderNodeTexVoronoi": ("voronoi_dimensions", "feature", "distance", "normalize"),
+    "ShaderNodeTexImage": ("interpolation", "projection", "extension"),
+    "ShaderNodeTexWave": ("wave_type", "bands_direction", "rings_direction", "wave_profile"),
+    "ShaderNodeHueSaturation": (),
+    "ShaderNodeGamma": (),
+    "ShaderNodeBrightContrast": (),
+    "ShaderNodeVectorMath": ("operation",),
+    "ShaderNodeBump": ("invert",),
+    "ShaderNodeFresnel": (),
+    "ShaderNodeLayerWeight": (),
+    "ShaderNodeBsdfPrincipled": (),
+    "ShaderNodeBsdfDiffuse": (),
+    "ShaderNodeBsdfGlossy": (),
+    "ShaderNodeBsdfAnisotropic": (),
+    "ShaderNodeBsdfGlass": (),
+    "ShaderNodeEmission": (),
+    "ShaderNodeBsdfTransparent": (),
+    "ShaderNodeBsdfTranslucent": (),
+    "ShaderNodeMixShader": (),
+    "ShaderNodeAddShader": (),
+}
+
+# Inputs the renderer reads, per node type (others must stay unlinked; their values are
+# ignored as glTF's path ignores them).
+READ_INPUTS = {
+    "ShaderNodeBsdfPrincipled": {"Base Color", "Metallic", "Roughness", "IOR", "Alpha",
+                                 "Specular IOR Level", "Specular Tint", "Transmission Weight",
+                                 "Emission Color", "Emission Strength", "Normal"},
+    "ShaderNodeBsdfDiffuse": {"Color", "Roughness", "Normal"},
+    "ShaderNodeBsdfGlossy": {"Color", "Roughness", "Normal"},
+    "ShaderNodeBsdfAnisotropic": {"Color", "Roughness", "Normal"},
+    "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR", "Normal"},
+    "ShaderNodeBsdfTranslucent": {"Color"},
+    "ShaderNodeBsdfTransparent": {"Color"},
+}
+
+# Outputs the renderer provides where a node has more.
+READ_OUTPUTS = {
+    "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
+    "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
+    "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
+}
+
+# Settings values the renderer does not evaluate.
+UNSUPPORTED_SETTINGS = {
+    ("ShaderNodeMix", "data_type"): {"ROTATION"},
+    ("ShaderNodeMapRange", "data_type"): {"FLOAT_VECTOR"},
+    ("ShaderNodeSeparateColor", "mode"): {"HSL"},
+    ("ShaderNodeCombineColor", "mode"): {"HSL"},
+    ("ShaderNodeTexNoise", "noise_type"): {"MULTIFRACTAL", "RIDGED_MULTIFRACTAL",
+                                           "HYBRID_MULTIFRACTAL", "HETERO_TERRAIN"},
+    ("ShaderNodeTexNoise", "noise_dimensions"): {"4D"},
+    ("ShaderNodeTexVoronoi", "voronoi_dimensions"): {"1D", "4D"},
+    ("ShaderNodeTexImage", "projection"): {"BOX", "SPHERE", "TUBE"},
+    ("ShaderNodeTexVoronoi", "feature"): {"DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"},
+    ("ShaderNodeVectorMath", "operation"): {"WRAP", "REFRACT", "FACEFORWARD", "POWER", "SIGN"},
+}
+
+# The Math operations the renderer evaluates (src/scene/nodes.rs `math_op`).
+MATH_OPS = {
+    "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT",
+    "INVERSE_SQRT", "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN",
+    "SIGN", "COMPARE", "SMOOTH_MIN", "SMOOTH_MAX", "ROUND", "FLOOR", "CEIL", "TRUNC", "FRACT",
+    "MODULO", "FLOORED_MODULO", "WRAP", "SNAP", "PINGPONG", "SINE", "COSINE", "TANGENT",
+    "ARCSINE", "ARCCOSINE", "ARCTANGENT", "ARCTAN2", "SINH", "COSH", "TANH", "RADIANS",
+    "DEGREES",
+}
+
+RAMP_TABLE_SIZE = 256
+
+# Image files the renderer decodes, by Blender's file_format, with their file extension.
+IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp"}
+# Colour spaces of image textures the renderer reads (sRGB decoded, or the values as they are).
+IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color", "Linear Rec.709": "Non-Color"}
+
+
+def _baked_curves(mapping) -> dict:
+    """RGB Curves as Cycles bakes them: over the widest x range of the four curves, the
+    combined curve then each channel's, at RAMP_TABLE_SIZE points."""
+    curves = mapping.curves
+    min_x = min(0.0, *(c.points[0].location[0] for c in curves))
+    max_x = max(1.0, *(c.points[-1].location[0] for c in curves))
+    mapping.initialize()
+    table = []
+    for i in range(RAMP_TABLE_SIZE):
+        t = min_x + i / (RAMP_TABLE_SIZE - 1) * (max_x - min_x)
+        combined = mapping.evaluate(curves[3], t)
+        table.append([mapping.evaluate(curves[k], combined) for k in range(3)])
+    return {"table": table, "min_x": min_x, "max_x": max_x}
+
+
+def _image_source(image):
+    """`(bytes or None, path or None, problem)`: where an image's encoded file is."""
+    import os
+    import bpy
+    if image.source != "FILE":
+        return None, None, f"is a {image.source.lower()} image"
+    if image.file_format not in IMAGE_FORMATS:
+        return None, None, f"is a {image.file_format} file (Photon reads PNG, JPEG and WebP)"
+    if image.colorspace_settings.name not in IMAGE_COLORSPACES:
+        return None, None, f"uses the colour space {image.colorspace_settings.name}"
+    if image.packed_file is not None:
+        return bytes(image.packed_file.data), None, ""
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    if not os.path.isfile(path):
+        return None, None, f"file '{path}' is missing"
+    return None, path, ""
+
+
+def _active_output(tree):
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+               and getattr(n, "target", "ALL") in ("ALL", "CYCLES")]
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def _group_output(tree):
+    outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
+    return next((n for n in outputs if getattr(n, "is_active_output", False)),
+                outputs[0] if outputs else None)
+
+
+def _value(socket):
+    v = getattr(socket, "default_value", None)
+    if v is None:
+        return None
+    try:
+        return [float(x) for x in v]
+    except TypeError:
+        return float(v)
+
+
+class _Walker:
+    def __init__(self, material_name: str, folder=None):
+        self.what = f"material '{material_name}'"
+        self.folder = folder
+        self.images: dict[str, str] = {}
+        self.nodes: list[dict] = []
+        self.index: dict[tuple, int] = {}
+        self.problems: list[str] = []
+        self.trivial = True
+
+    def source(self, socket, groups: tuple):
+        """Where input `socket` (inside the group path `groups`) takes its value from:
+        ("link", node, output socket, groups) or ("const", socket) for an unlinked one."""
+        while True:
+            links = [l for l in socket.links if not l.is_muted and l.is_valid]
+            if not links:
+                return ("const", socket)
+            link = links[0]
+            node, out = link.from_node, link.from_socket
+            if node.bl_idname == "NodeReroute":
+                socket = node.inputs[0]
+                continue
+            if node.mute:
+                passed = [l for l in node.internal_links if l.to_socket == out]
+                if not passed:
+                    return ("const", socket)
+                socket = passed[0].from_socket
+                continue
+            if node.bl_idname == "ShaderNodeGroup":
+                inner = _group_output(node.node_tree) if node.node_tree else None
+                match = None if inner is None else next(
+                    (s for s in inner.inputs if s.identifier == out.identifier), None)
+                if match is None:
+                    return ("const", socket)
+                socket, groups = match, groups + (node,)
+                continue
+            if node.bl_idname == "NodeGroupInput":
+                if not groups:
+                    return ("const", socket)
+                group = groups[-1]
+                match = next((s for s in group.inputs if s.identifier == out.identifier), None)
+                if match is None:
+                    return ("const", socket)
+                socket, groups = match, groups[:-1]
+                continue
+            return ("link", node, out, groups)
+
+    def image_uri(self, image) -> str:
+        """The file name of `image` beside the .glb (written there when exporting)."""
+        if image.name in self.images:
+            return self.images[image.name]
+        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in image.name)
+        uri = f"photon_image_{len(self.images)}_{safe}.{IMAGE_FORMATS[image.file_format]}"
+        self.images[image.name] = uri
+        if self.folder is not None:
+            import shutil
+            from pathlib import Path
+            data, path, _ = _image_source(image)
+            target = Path(self.folder) / uri
+            if data is not None:
+                target.write_bytes(data)
+            else:
+                shutil.copyfile(path, target)
+        return uri
+
+    def node_name(self, node, groups):
+        return "/".join([g.name for g in groups] + [node.name])
+
+    def visit(self, node, groups) -> int | None:
+        """The index of `node` in the list (written after its inputs), None if unsupported."""
+        key = (tuple(g.as_pointer() for g in groups), node.as_pointer())
+        if key in self.index:
+            return self.index[key]
+        kind = node.bl_idname
+        name = self.node_name(node, groups)
+        if kind not in SETTINGS:
+            self.problems.append(f"{self.what}: {node.bl_label} node '{name}' is not evaluated "
+                                 f"by Photon")
+            self.index[key] = None
+            return None
+        entry = {"name": name, "type": kind}
+        for setting in SETTINGS[kind]:
+            value = getattr(node, setting, None)
+            if value is None:
+                continue
+            if value in UNSUPPORTED_SETTINGS.get((kind, setting), ()):
+                self.problems.append(f"{self.what}: {node.bl_label} node '{name}' with "
+                                     f"{setting} {value} is not evaluated by Photon")
+            entry[setting] = value if isinstance(value, (bool, str)) else float(value)
+        if kind == "ShaderNodeTexImage":
+            image = node.image
+            problem = "has no image" if image is None else _image_source(image)[2]
+            if problem:
+                self.problems.append(f"{self.what}: Image Texture node '{name}': the image "
+                                     f"{problem}; Photon does not evaluate it")
+            else:
+                entry["image"] = {"uri": self.image_uri(image),
+                                  "colorspace": IMAGE_COLORSPACES[
+                                      image.colorspace_settings.name]}
+        if kind == "ShaderNodeMath" and node.operation not in MATH_OPS:
+            self.problems.append(f"{self.what}: Math node '{name}' with operation "
+                                 f"{node.operation} is not evaluated by Photon")
+        if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
+            entry["value"] = _value(node.outputs[0])
+        if kind == "ShaderNodeValToRGB":
+            ramp = node.color_ramp
+            entry["interpolation"] = "LINEAR"
+            entry["table"] = [list(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
+                              for i in range(RAMP_TABLE_SIZE)]
+        if kind == "ShaderNodeRGBCurve":
+            entry.update(_baked_curves(node.mapping))
+        if kind == "ShaderNodeMix" and getattr(node, "factor_mode", "UNIFORM") != "UNIFORM":
+            self.problems.append(f"{self.what}: Mix node '{name}' with a non-uniform factor is "
+                                 f"not evaluated by Photon")
+        if kind not in ("ShaderNodeBsdfPrincipled",):
+            self.trivial = False
+        inputs = {}
+        read = READ_INPUTS.get(kind)
+        for socket in node.inputs:
+            if not socket.enabled:
+                continue
+            src = self.source(socket, groups)
+            if read is not None and socket.identifier not in read:
+                if src[0] == "link":
+                    self.problems.append(f"{self.what}: input '{socket.name}' of "
+                                         f"{node.bl_label} node '{name}' is linked; Photon "
+                                         f"does not evaluate it")
+                continue
+            if src[0] == "link":
+                _, from_node, out, from_groups = src
+                allowed = READ_OUTPUTS.get(from_node.bl_idname)
+                if allowed is not None and out.identifier not in allowed:
+                    self.problems.append(
+                        f"{self.what}: output '{out.name}' of {from_node.bl_label} node "
+                        f"'{self.node_name(from_node, from_groups)}' is not evaluated by Photon")
+                    continue
+                index = self.visit(from_node, from_groups)
+                if index is None:
+                    continue
+                inputs[socket.identifier] = {"node": index, "output": out.identifier}
+                self.trivial = False
+            else:
+                const = src[1]
+                if const.type == "SHADER" or (const.type == "VECTOR" and const.hide_value):
+                    continue  # implicit: no closure, or the texture's default coordinates
+                value = _value(const)
+                if value is not None:
+                    inputs[socket.identifier] = value
+        entry["inputs"] = inputs
+        self.nodes.append(entry)
+        self.index[key] = len(self.nodes) - 1
+        return self.index[key]
+
+
+def material_nodes(material, folder=None):
+    """`(extension or None, problems)` for `material` (module docstring). With `folder` (the
+    .glb's), the images of Image Texture nodes are written there."""
+    tree = material.node_tree if getattr(material, "use_nodes", False) else None
+    if tree is None:
+        return None, []
+    output = _active_output(tree)
+    if output is None:
+        return None, []
+    walker = _Walker(material.name, folder)
+    src = walker.source(output.inputs["Surface"], ())
+    if src[0] != "link":
+        return None, []
+    _, node, out, groups = src
+    index = walker.visit(node, groups)
+    if walker.problems or index is None:
+        return None, [f"{p}; the material falls back to glTF's metallic-roughness values "
+                      f"(Blender's exporter)" for p in walker.problems]
+    if walker.trivial:
+        return None, []
+    return {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}, []

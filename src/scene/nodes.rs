@@ -1,0 +1,3138 @@
+//! Blender shader node trees, compiled once into a flat program and evaluated per shading point.
+//!
+//! The add-on writes each material's node tree as the `PHOTON_material_nodes` glTF extension
+//! (documented in `scene::gltf`): groups flattened, reroutes followed, only the nodes reachable
+//! from the active Material Output's Surface, in an order where every link points to an earlier
+//! node. `compile` turns it into a `NodeProgram` as Cycles' SVM does (intern/cycles/kernel/svm):
+//! a linear list of instructions over a small register file (one `Vec4` per node output) and a
+//! small closure array, with unconnected inputs as constants and socket type conversions
+//! (colour → float by Rec. 709 luminance, vector → float by the average) decided at compile
+//! time. `NodeProgram::eval` runs it on the stack, allocating nothing.
+//!
+//! Texture and converter nodes follow Blender's definitions (the manual and Cycles' kernel:
+//! `svm_checker`, `svm_gradient`, `svm_math`, `svm_mix`, `noise_fbm` with Jenkins' lookup3 hash
+//! and Perlin's improved noise, `rgb_ramp_lookup` over the 256-entry table the add-on bakes with
+//! Blender's own `ColorRamp.evaluate`), written here from those definitions.
+//!
+//! A Bump node's Height subtree is compiled three times: as is, and copies that read the
+//! shading point moved a small step along each surface tangent (`Instr::offset`), as Cycles'
+//! SVM evaluates it at P + dPdx and P + dPdy; the normal then follows Cycles'
+//! `svm_node_set_bump` with those steps as dPdx and dPdy.
+//!
+//! Shader nodes become Principled parameter sets (`Closure`): Diffuse BSDF → colour, metallic 0,
+//! specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy → metallic 1 with the
+//! colour as F0 (Blender's Glossy has no Fresnel: differs at grazing angles); Glass → transmission
+//! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
+//! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
+//! the colour); Translucent → fully rough transmission with IOR 1 (an approximation of diffuse
+//! transmission). Mix Shader mixes emission exactly and picks one BSDF per shading point with
+//! probability given by the factor, as Cycles samples one closure by its weight: the BSDF is
+//! linear in its closures, so every integrator (path tracing, photon tracing and gathering,
+//! caches) gets the exact mixture in expectation, where interpolating parameters would not be
+//! exact (a metal and a dielectric of different colours). Add Shader sums emission; of two BSDFs
+//! it picks one with probability ½, which halves their sum (approximate; exact when one side
+//! only emits, the common case).
+
+use super::texture::Texture;
+use crate::math::{Vec2, Vec3, Vec4};
+use serde_json::Value;
+use std::f32::consts::PI;
+
+/// Registers (node outputs) a program may use; larger trees are refused.
+pub const MAX_REGISTERS: usize = 256;
+/// Shader nodes a program may hold.
+pub const MAX_CLOSURES: usize = 32;
+
+/// What a node tree reads about the shading point, in Blender's axes (Z up).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ShadingInputs {
+    /// World position.
+    pub position: Vec3,
+    /// Unit shading normal (world).
+    pub normal: Vec3,
+    /// UV map 0, in Blender's convention (v up: glTF's 1 − v).
+    pub uv: Vec2,
+    /// Generated coordinates: the object's texture space mapped to [0, 1]³.
+    pub generated: Vec3,
+    /// Object-space position.
+    pub object: Vec3,
+    /// Vertex colour COLOR_0 (white when the mesh has none).
+    pub color: Vec4,
+    /// The normal in object coordinates.
+    pub object_normal: Vec3,
+    /// Unit direction towards the viewer (world; Cycles' I).
+    pub incoming: Vec3,
+    /// Seen from behind the surface's winding (`normal` is then turned to the viewer).
+    pub backfacing: bool,
+}
+
+/// A shader node's result: Principled parameters and emission (see the module header).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Closure {
+    pub base_color: Vec3,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub transmission: f32,
+    pub ior: f32,
+    /// glTF's specularFactor and specularColorFactor (Blender's 2 × level × tint).
+    pub specular: f32,
+    pub specular_color: Vec3,
+    pub alpha: f32,
+    /// Emitted radiance (W·m⁻²·sr⁻¹).
+    pub emission: Vec3,
+    /// Shading normal from a Normal input (Blender's axes, world); zero: the surface's own.
+    pub normal: Vec3,
+}
+
+impl Closure {
+    /// No BSDF and no emission (an unlinked Surface: black).
+    pub const BLACK: Closure = Closure {
+        base_color: Vec3::ZERO,
+        metallic: 0.0,
+        roughness: 1.0,
+        transmission: 0.0,
+        ior: 1.5,
+        specular: 0.0,
+        specular_color: Vec3::ZERO,
+        alpha: 1.0,
+        emission: Vec3::ZERO,
+        normal: Vec3::ZERO,
+    };
+}
+
+/// How an input reads its value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Src {
+    Const(Vec4),
+    Reg(u16),
+    /// A colour read as a float (Rec. 709 luminance, as Cycles' default colour space).
+    Gray(u16),
+    /// A vector read as a float (the average of its components).
+    Average(u16),
+    Closure(u16),
+    /// The implicit Generated coordinates of an unlinked texture Vector input.
+    Generated,
+    /// The implicit UV of an unlinked Image Texture Vector input.
+    Uv,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Ty {
+    Float,
+    Vector,
+    Color,
+    Shader,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum MappingKind {
+    Point,
+    Texture,
+    Vector,
+    Normal,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum MixData {
+    Float,
+    Vector,
+    Color,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum MapRangeKind {
+    Linear,
+    Stepped,
+    Smoothstep,
+    Smootherstep,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum GradientKind {
+    Linear,
+    Quadratic,
+    Easing,
+    Diagonal,
+    Radial,
+    QuadraticSphere,
+    Spherical,
+}
+
+/// One node's operation with its settings.
+#[derive(Clone, Debug, PartialEq)]
+enum Op {
+    TexCoord,
+    UvMap,
+    /// Color Attribute and Attribute (COLOR_0).
+    VertexColor,
+    Attribute,
+    Geometry,
+    Value(f32),
+    Rgb(Vec4),
+    Mapping(MappingKind),
+    Math {
+        op: MathOp,
+        clamp: bool,
+    },
+    Mix {
+        data: MixData,
+        blend: Blend,
+        clamp_factor: bool,
+        clamp_result: bool,
+    },
+    ColorRamp {
+        table: Vec<Vec4>,
+        interpolate: bool,
+    },
+    /// RGB Curves: the curves baked over [min_x, min_x + range] (combined curve first, then
+    /// each channel's, as Cycles bakes them), read with linear extrapolation.
+    RgbCurves {
+        table: Vec<Vec4>,
+        min_x: f32,
+        range: f32,
+    },
+    MapRange {
+        kind: MapRangeKind,
+        clamp: bool,
+    },
+    Clamp {
+        range: bool,
+    },
+    Invert,
+    SeparateXyz,
+    CombineXyz,
+    SeparateColor {
+        hsv: bool,
+    },
+    CombineColor {
+        hsv: bool,
+    },
+    Checker,
+    Gradient(GradientKind),
+    Noise {
+        dimensions: u8,
+        normalize: bool,
+    },
+    /// An Image Texture: its texture in `Scene::textures`, and whether it is transparent black
+    /// outside [0, 1]² (Blender's Clip extension).
+    Image {
+        texture: u32,
+        clip: bool,
+    },
+    Voronoi(VoronoiKind),
+    Wave(WaveKind),
+    HueSaturation,
+    Gamma,
+    BrightContrast,
+    VectorMath(VectorOp),
+    Bump {
+        invert: bool,
+    },
+    Fresnel,
+    LayerWeight,
+    Principled,
+    Diffuse,
+    Glossy,
+    Glass,
+    Emission,
+    Transparent,
+    Translucent,
+    MixShader,
+    AddShader,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum VoronoiFeature {
+    F1,
+    F2,
+    SmoothF1,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Metric {
+    Euclidean,
+    Manhattan,
+    Chebychev,
+    Minkowski,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct VoronoiKind {
+    dimensions: u8,
+    feature: VoronoiFeature,
+    metric: Metric,
+    normalize: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum WaveProfile {
+    Sine,
+    Saw,
+    Triangle,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct WaveKind {
+    bands: bool,
+    /// Bands: X, Y, Z, diagonal; rings: X, Y, Z, spherical.
+    direction: u8,
+    profile: WaveProfile,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum VectorOp {
+    Add,
+    Subtract,
+    Multiply,
+    Divide,
+    MultiplyAdd,
+    Cross,
+    Project,
+    Reflect,
+    Dot,
+    Distance,
+    Length,
+    Scale,
+    Normalize,
+    Absolute,
+    Minimum,
+    Maximum,
+    Floor,
+    Ceil,
+    Fraction,
+    Modulo,
+    Snap,
+    Sine,
+    Cosine,
+    Tangent,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum MathOp {
+    Add,
+    Subtract,
+    Multiply,
+    Divide,
+    MultiplyAdd,
+    Power,
+    Logarithm,
+    Sqrt,
+    InverseSqrt,
+    Absolute,
+    Exponent,
+    Minimum,
+    Maximum,
+    LessThan,
+    GreaterThan,
+    Sign,
+    Compare,
+    SmoothMin,
+    SmoothMax,
+    Round,
+    Floor,
+    Ceil,
+    Trunc,
+    Fraction,
+    Modulo,
+    FlooredModulo,
+    Wrap,
+    Snap,
+    PingPong,
+    Sine,
+    Cosine,
+    Tangent,
+    Arcsine,
+    Arccosine,
+    Arctangent,
+    Arctan2,
+    Sinh,
+    Cosh,
+    Tanh,
+    Radians,
+    Degrees,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Blend {
+    Mix,
+    Add,
+    Multiply,
+    Subtract,
+    Screen,
+    Divide,
+    Difference,
+    Exclusion,
+    Darken,
+    Lighten,
+    Overlay,
+    Dodge,
+    Burn,
+    Hue,
+    Saturation,
+    Value,
+    Color,
+    SoftLight,
+    LinearLight,
+}
+
+/// One instruction: an operation, where its inputs come from, and the first register (or the
+/// closure slot, for shader nodes) its outputs go to.
+#[derive(Clone, Debug, PartialEq)]
+struct Instr {
+    op: Op,
+    ins: Vec<Src>,
+    out: u16,
+    /// Which shading point it reads: 0 the point itself, 1 and 2 the points a small step
+    /// along the two surface tangents (copies of a Bump node's Height subtree, as Cycles'
+    /// SVM evaluates it at P + dPdx and P + dPdy).
+    offset: u8,
+    /// Bit k: output k is read by some instruction (unread outputs may be skipped).
+    used: u32,
+}
+
+/// A compiled node tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeProgram {
+    instrs: Vec<Instr>,
+    registers: usize,
+    closures: usize,
+    output: Src,
+    /// True when some node emits (the material is a light candidate).
+    pub emits: bool,
+    /// True when some node reads the vertex colours.
+    pub reads_color: bool,
+    /// True when the program reads the points a step away (it has a Bump node): `eval` then
+    /// needs all three `ShadingInputs`.
+    pub needs_offsets: bool,
+}
+
+/// What `compile` found that it could not evaluate: `(node name, message)`. The program
+/// replaces such a node by its fallback (named in the message).
+pub type CompileWarnings = Vec<String>;
+
+fn number(v: &Value) -> Option<f32> {
+    v.as_f64().map(|x| x as f32).filter(|x| x.is_finite())
+}
+
+fn const_value(v: &Value) -> Option<Vec4> {
+    if let Some(x) = number(v) {
+        return Some(Vec4::new(x, x, x, 1.0));
+    }
+    let a = v.as_array()?;
+    let c: Option<Vec<f32>> = a.iter().map(number).collect();
+    let c = c?;
+    match c.len() {
+        2 => Some(Vec4::new(c[0], c[1], 0.0, 1.0)),
+        3 => Some(Vec4::new(c[0], c[1], c[2], 1.0)),
+        4 => Some(Vec4::new(c[0], c[1], c[2], c[3])),
+        _ => None,
+    }
+}
+
+/// An input: its identifier, type and Blender's default value.
+type InputSpec = (String, Ty, Vec4);
+/// An output: its identifier and type.
+type OutputSpec = (&'static str, Ty);
+
+/// Input identifiers with their types and Blender's defaults, and output identifiers with types.
+struct Spec {
+    inputs: Vec<InputSpec>,
+    outputs: Vec<OutputSpec>,
+}
+
+fn f(x: f32) -> Vec4 {
+    Vec4::new(x, x, x, 1.0)
+}
+
+fn spec(op: &Op) -> Spec {
+    use Ty::*;
+    let i = |n: &str, t: Ty, d: Vec4| (n.to_string(), t, d);
+    let grey = Vec4::new(0.8, 0.8, 0.8, 1.0);
+    let (inputs, outputs): (Vec<InputSpec>, Vec<OutputSpec>) = match op {
+        Op::TexCoord => (
+            vec![],
+            vec![
+                ("Generated", Vector),
+                ("Normal", Vector),
+                ("UV", Vector),
+                ("Object", Vector),
+                ("Reflection", Vector),
+            ],
+        ),
+        Op::UvMap => (vec![], vec![("UV", Vector)]),
+        Op::VertexColor => (vec![], vec![("Color", Color), ("Alpha", Float)]),
+        Op::Attribute => (
+            vec![],
+            vec![
+                ("Color", Color),
+                ("Vector", Vector),
+                ("Fac", Float),
+                ("Alpha", Float),
+            ],
+        ),
+        Op::Geometry => (
+            vec![],
+            vec![
+                ("Position", Vector),
+                ("Normal", Vector),
+                ("True Normal", Vector),
+                ("Incoming", Vector),
+                ("Backfacing", Float),
+            ],
+        ),
+        Op::Value(_) => (vec![], vec![("Value", Float)]),
+        Op::Rgb(_) => (vec![], vec![("Color", Color)]),
+        Op::Mapping(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Location", Vector, Vec4::ZERO),
+                i("Rotation", Vector, Vec4::ZERO),
+                i("Scale", Vector, Vec4::ONE),
+            ],
+            vec![("Vector", Vector)],
+        ),
+        Op::Math { .. } => (
+            vec![
+                i("Value", Float, f(0.5)),
+                i("Value_001", Float, f(0.5)),
+                i("Value_002", Float, f(0.5)),
+            ],
+            vec![("Value", Float)],
+        ),
+        Op::Mix { data, .. } => {
+            let (suffix, t, out) = match data {
+                MixData::Float => ("Float", Float, "Result_Float"),
+                MixData::Vector => ("Vector", Vector, "Result_Vector"),
+                MixData::Color => ("Color", Color, "Result_Color"),
+            };
+            let (a, b) = match data {
+                MixData::Color => (Vec4::new(0.5, 0.5, 0.5, 1.0), Vec4::new(0.5, 0.5, 0.5, 1.0)),
+                _ => (Vec4::ZERO, Vec4::ZERO),
+            };
+            (
+                vec![
+                    i("Factor_Float", Float, f(0.5)),
+                    i(&format!("A_{suffix}"), t, a),
+                    i(&format!("B_{suffix}"), t, b),
+                ],
+                vec![(out, t)],
+            )
+        }
+        Op::RgbCurves { .. } => (
+            vec![i("Fac", Float, f(1.0)), i("Color", Color, Vec4::ONE)],
+            vec![("Color", Color)],
+        ),
+        Op::ColorRamp { .. } => (
+            vec![i("Fac", Float, f(0.5))],
+            vec![("Color", Color), ("Alpha", Float)],
+        ),
+        Op::MapRange { .. } => (
+            vec![
+                i("Value", Float, f(1.0)),
+                i("From Min", Float, f(0.0)),
+                i("From Max", Float, f(1.0)),
+                i("To Min", Float, f(0.0)),
+                i("To Max", Float, f(1.0)),
+                i("Steps", Float, f(4.0)),
+            ],
+            vec![("Result", Float)],
+        ),
+        Op::Clamp { .. } => (
+            vec![
+                i("Value", Float, f(1.0)),
+                i("Min", Float, f(0.0)),
+                i("Max", Float, f(1.0)),
+            ],
+            vec![("Result", Float)],
+        ),
+        Op::Invert => (
+            vec![i("Fac", Float, f(1.0)), i("Color", Color, Vec4::ZERO)],
+            vec![("Color", Color)],
+        ),
+        Op::SeparateXyz => (
+            vec![i("Vector", Vector, Vec4::ZERO)],
+            vec![("X", Float), ("Y", Float), ("Z", Float)],
+        ),
+        Op::CombineXyz => (
+            vec![
+                i("X", Float, f(0.0)),
+                i("Y", Float, f(0.0)),
+                i("Z", Float, f(0.0)),
+            ],
+            vec![("Vector", Vector)],
+        ),
+        Op::SeparateColor { .. } => (
+            vec![i("Color", Color, grey)],
+            vec![("Red", Float), ("Green", Float), ("Blue", Float)],
+        ),
+        Op::CombineColor { .. } => (
+            vec![
+                i("Red", Float, f(0.0)),
+                i("Green", Float, f(0.0)),
+                i("Blue", Float, f(0.0)),
+            ],
+            vec![("Color", Color)],
+        ),
+        Op::Checker => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Color1", Color, grey),
+                i("Color2", Color, Vec4::new(0.2, 0.2, 0.2, 1.0)),
+                i("Scale", Float, f(5.0)),
+            ],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::Gradient(_) => (
+            vec![i("Vector", Vector, Vec4::ZERO)],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::Noise { .. } => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("W", Float, f(0.0)),
+                i("Scale", Float, f(5.0)),
+                i("Detail", Float, f(2.0)),
+                i("Roughness", Float, f(0.5)),
+                i("Lacunarity", Float, f(2.0)),
+                i("Offset", Float, f(0.0)),
+                i("Gain", Float, f(1.0)),
+                i("Distortion", Float, f(0.0)),
+            ],
+            vec![("Fac", Float), ("Color", Color)],
+        ),
+        Op::Image { .. } => (
+            vec![i("Vector", Vector, Vec4::ZERO)],
+            vec![("Color", Color), ("Alpha", Float)],
+        ),
+        Op::Voronoi(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("W", Float, f(0.0)),
+                i("Scale", Float, f(5.0)),
+                i("Detail", Float, f(0.0)),
+                i("Roughness", Float, f(0.5)),
+                i("Lacunarity", Float, f(2.0)),
+                i("Smoothness", Float, f(1.0)),
+                i("Exponent", Float, f(0.5)),
+                i("Randomness", Float, f(1.0)),
+            ],
+            vec![("Distance", Float), ("Color", Color), ("Position", Vector)],
+        ),
+        Op::Wave(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Scale", Float, f(5.0)),
+                i("Distortion", Float, f(0.0)),
+                i("Detail", Float, f(2.0)),
+                i("Detail Scale", Float, f(1.0)),
+                i("Detail Roughness", Float, f(0.5)),
+                i("Phase Offset", Float, f(0.0)),
+            ],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::HueSaturation => (
+            vec![
+                i("Hue", Float, f(0.5)),
+                i("Saturation", Float, f(1.0)),
+                i("Value", Float, f(1.0)),
+                i("Fac", Float, f(1.0)),
+                i("Color", Color, grey),
+            ],
+            vec![("Color", Color)],
+        ),
+        Op::Gamma => (
+            vec![i("Color", Color, Vec4::ONE), i("Gamma", Float, f(1.0))],
+            vec![("Color", Color)],
+        ),
+        Op::BrightContrast => (
+            vec![
+                i("Color", Color, Vec4::ONE),
+                i("Bright", Float, f(0.0)),
+                i("Contrast", Float, f(0.0)),
+            ],
+            vec![("Color", Color)],
+        ),
+        Op::VectorMath(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Vector_001", Vector, Vec4::ZERO),
+                i("Vector_002", Vector, Vec4::ZERO),
+                i("Scale", Float, f(1.0)),
+            ],
+            vec![("Vector", Vector), ("Value", Float)],
+        ),
+        Op::Fresnel => (
+            vec![i("IOR", Float, f(1.5)), i("Normal", Vector, Vec4::ZERO)],
+            vec![("Fac", Float)],
+        ),
+        Op::LayerWeight => (
+            vec![i("Blend", Float, f(0.5)), i("Normal", Vector, Vec4::ZERO)],
+            vec![("Fresnel", Float), ("Facing", Float)],
+        ),
+        Op::Bump { .. } => (
+            vec![
+                i("Strength", Float, f(1.0)),
+                i("Distance", Float, f(1.0)),
+                i("Filter Width", Float, f(0.1)),
+                i("Height", Float, f(1.0)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("Normal", Vector)],
+        ),
+        Op::Principled => (
+            vec![
+                i("Base Color", Color, grey),
+                i("Metallic", Float, f(0.0)),
+                i("Roughness", Float, f(0.5)),
+                i("IOR", Float, f(1.5)),
+                i("Alpha", Float, f(1.0)),
+                i("Specular IOR Level", Float, f(0.5)),
+                i("Specular Tint", Color, Vec4::ONE),
+                i("Transmission Weight", Float, f(0.0)),
+                i("Emission Color", Color, Vec4::ONE),
+                i("Emission Strength", Float, f(0.0)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("BSDF", Shader)],
+        ),
+        Op::Diffuse | Op::Glossy => (
+            vec![
+                i("Color", Color, grey),
+                i("Roughness", Float, f(0.5)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("BSDF", Shader)],
+        ),
+        Op::Glass => (
+            vec![
+                i("Color", Color, Vec4::ONE),
+                i("Roughness", Float, f(0.0)),
+                i("IOR", Float, f(1.5)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("BSDF", Shader)],
+        ),
+        Op::Emission => (
+            vec![i("Color", Color, Vec4::ONE), i("Strength", Float, f(1.0))],
+            vec![("Emission", Shader)],
+        ),
+        Op::Transparent | Op::Translucent => {
+            (vec![i("Color", Color, Vec4::ONE)], vec![("BSDF", Shader)])
+        }
+        Op::MixShader => (
+            vec![
+                i("Fac", Float, f(0.5)),
+                i("Shader", Shader, Vec4::ZERO),
+                i("Shader_001", Shader, Vec4::ZERO),
+            ],
+            vec![("Shader", Shader)],
+        ),
+        Op::AddShader => (
+            vec![
+                i("Shader", Shader, Vec4::ZERO),
+                i("Shader_001", Shader, Vec4::ZERO),
+            ],
+            vec![("Shader", Shader)],
+        ),
+    };
+    Spec { inputs, outputs }
+}
+
+fn setting<'a>(node: &'a Value, key: &str) -> Option<&'a str> {
+    node.get(key).and_then(Value::as_str)
+}
+
+fn math_op(name: &str) -> Option<MathOp> {
+    use MathOp::*;
+    Some(match name {
+        "ADD" => Add,
+        "SUBTRACT" => Subtract,
+        "MULTIPLY" => Multiply,
+        "DIVIDE" => Divide,
+        "MULTIPLY_ADD" => MultiplyAdd,
+        "POWER" => Power,
+        "LOGARITHM" => Logarithm,
+        "SQRT" => Sqrt,
+        "INVERSE_SQRT" => InverseSqrt,
+        "ABSOLUTE" => Absolute,
+        "EXPONENT" => Exponent,
+        "MINIMUM" => Minimum,
+        "MAXIMUM" => Maximum,
+        "LESS_THAN" => LessThan,
+        "GREATER_THAN" => GreaterThan,
+        "SIGN" => Sign,
+        "COMPARE" => Compare,
+        "SMOOTH_MIN" => SmoothMin,
+        "SMOOTH_MAX" => SmoothMax,
+        "ROUND" => Round,
+        "FLOOR" => Floor,
+        "CEIL" => Ceil,
+        "TRUNC" => Trunc,
+        "FRACT" => Fraction,
+        "MODULO" => Modulo,
+        "FLOORED_MODULO" => FlooredModulo,
+        "WRAP" => Wrap,
+        "SNAP" => Snap,
+        "PINGPONG" => PingPong,
+        "SINE" => Sine,
+        "COSINE" => Cosine,
+        "TANGENT" => Tangent,
+        "ARCSINE" => Arcsine,
+        "ARCCOSINE" => Arccosine,
+        "ARCTANGENT" => Arctangent,
+        "ARCTAN2" => Arctan2,
+        "SINH" => Sinh,
+        "COSH" => Cosh,
+        "TANH" => Tanh,
+        "RADIANS" => Radians,
+        "DEGREES" => Degrees,
+        _ => return None,
+    })
+}
+
+fn blend_mode(name: &str) -> Option<Blend> {
+    use Blend::*;
+    Some(match name {
+        "MIX" => Mix,
+        "ADD" => Add,
+        "MULTIPLY" => Multiply,
+        "SUBTRACT" => Subtract,
+        "SCREEN" => Screen,
+        "DIVIDE" => Divide,
+        "DIFFERENCE" => Difference,
+        "EXCLUSION" => Exclusion,
+        "DARKEN" => Darken,
+        "LIGHTEN" => Lighten,
+        "OVERLAY" => Overlay,
+        "DODGE" => Dodge,
+        "BURN" => Burn,
+        "HUE" => Hue,
+        "SATURATION" => Saturation,
+        "VALUE" => Value,
+        "COLOR" => Color,
+        "SOFT_LIGHT" => SoftLight,
+        "LINEAR_LIGHT" => LinearLight,
+        _ => return None,
+    })
+}
+
+/// The operation of one exported node. `Ok(None)`: a node type the renderer does not evaluate.
+fn parse_op(node: &Value) -> Result<Option<Op>, String> {
+    let kind = setting(node, "type").ok_or("a node has no 'type'")?;
+    let kind = kind.strip_prefix("ShaderNode").unwrap_or(kind);
+    let bad = |what: &str| format!("{kind}: unknown {what}");
+    Ok(Some(match kind {
+        "TexCoord" => Op::TexCoord,
+        "UVMap" => Op::UvMap,
+        "VertexColor" => Op::VertexColor,
+        "Attribute" => Op::Attribute,
+        "NewGeometry" => Op::Geometry,
+        "Value" => Op::Value(
+            node.get("value")
+                .and_then(number)
+                .ok_or("Value: 'value' must be a number")?,
+        ),
+        "RGB" => Op::Rgb(
+            node.get("value")
+                .and_then(const_value)
+                .ok_or("RGB: 'value' must be a colour")?,
+        ),
+        "Mapping" => Op::Mapping(match setting(node, "vector_type").unwrap_or("POINT") {
+            "POINT" => MappingKind::Point,
+            "TEXTURE" => MappingKind::Texture,
+            "VECTOR" => MappingKind::Vector,
+            "NORMAL" => MappingKind::Normal,
+            _ => return Err(bad("vector_type")),
+        }),
+        "Math" => Op::Math {
+            op: match math_op(setting(node, "operation").unwrap_or("ADD")) {
+                Some(op) => op,
+                None => return Ok(None),
+            },
+            clamp: node
+                .get("use_clamp")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
+        },
+        "Mix" => Op::Mix {
+            data: match setting(node, "data_type").unwrap_or("FLOAT") {
+                "FLOAT" => MixData::Float,
+                "VECTOR" => MixData::Vector,
+                "RGBA" => MixData::Color,
+                _ => return Ok(None),
+            },
+            blend: blend_mode(setting(node, "blend_type").unwrap_or("MIX"))
+                .ok_or_else(|| bad("blend_type"))?,
+            clamp_factor: node
+                .get("clamp_factor")
+                .and_then(Value::as_bool)
+                .unwrap_or(true),
+            clamp_result: node
+                .get("clamp_result")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
+        },
+        "ValToRGB" => {
+            let table: Option<Vec<Vec4>> = node
+                .get("table")
+                .and_then(Value::as_array)
+                .map(|a| a.iter().map(const_value).collect::<Option<Vec<Vec4>>>())
+                .unwrap_or(None);
+            let table = table
+                .filter(|t| t.len() >= 2)
+                .ok_or("Color Ramp: 'table' must hold at least 2 RGBA colours")?;
+            Op::ColorRamp {
+                table,
+                interpolate: setting(node, "interpolation").unwrap_or("LINEAR") != "CONSTANT",
+            }
+        }
+        "RGBCurve" => {
+            let table: Option<Vec<Vec4>> = node
+                .get("table")
+                .and_then(Value::as_array)
+                .and_then(|a| a.iter().map(const_value).collect());
+            let table = table
+                .filter(|t| t.len() >= 2)
+                .ok_or("RGB Curves: 'table' must hold at least 2 RGB colours")?;
+            let min_x = node.get("min_x").and_then(number).unwrap_or(0.0);
+            let max_x = node.get("max_x").and_then(number).unwrap_or(1.0);
+            if max_x <= min_x {
+                return Err("RGB Curves: 'max_x' must exceed 'min_x'".into());
+            }
+            Op::RgbCurves {
+                table,
+                min_x,
+                range: max_x - min_x,
+            }
+        }
+        "MapRange" => {
+            if setting(node, "data_type").unwrap_or("FLOAT") != "FLOAT" {
+                return Ok(None);
+            }
+            Op::MapRange {
+                kind: match setting(node, "interpolation_type").unwrap_or("LINEAR") {
+                    "LINEAR" => MapRangeKind::Linear,
+                    "STEPPED" => MapRangeKind::Stepped,
+                    "SMOOTHSTEP" => MapRangeKind::Smoothstep,
+                    "SMOOTHERSTEP" => MapRangeKind::Smootherstep,
+                    _ => return Err(bad("interpolation_type")),
+                },
+                clamp: node.get("clamp").and_then(Value::as_bool).unwrap_or(true),
+            }
+        }
+        "Clamp" => Op::Clamp {
+            range: setting(node, "clamp_type").unwrap_or("MINMAX") == "RANGE",
+        },
+        "Invert" => Op::Invert,
+        "SeparateXYZ" => Op::SeparateXyz,
+        "CombineXYZ" => Op::CombineXyz,
+        "SeparateColor" | "CombineColor" => {
+            let hsv = match setting(node, "mode").unwrap_or("RGB") {
+                "RGB" => false,
+                "HSV" => true,
+                _ => return Ok(None),
+            };
+            if kind == "SeparateColor" {
+                Op::SeparateColor { hsv }
+            } else {
+                Op::CombineColor { hsv }
+            }
+        }
+        "TexChecker" => Op::Checker,
+        "TexGradient" => Op::Gradient(match setting(node, "gradient_type").unwrap_or("LINEAR") {
+            "LINEAR" => GradientKind::Linear,
+            "QUADRATIC" => GradientKind::Quadratic,
+            "EASING" => GradientKind::Easing,
+            "DIAGONAL" => GradientKind::Diagonal,
+            "RADIAL" => GradientKind::Radial,
+            "QUADRATIC_SPHERE" => GradientKind::QuadraticSphere,
+            "SPHERICAL" => GradientKind::Spherical,
+            _ => return Err(bad("gradient_type")),
+        }),
+        "TexNoise" => {
+            if setting(node, "noise_type").unwrap_or("FBM") != "FBM" {
+                return Ok(None);
+            }
+            let dimensions = match setting(node, "noise_dimensions").unwrap_or("3D") {
+                "1D" => 1,
+                "2D" => 2,
+                "3D" => 3,
+                _ => return Ok(None),
+            };
+            Op::Noise {
+                dimensions,
+                normalize: node
+                    .get("normalize")
+                    .and_then(Value::as_bool)
+                    .unwrap_or(true),
+            }
+        }
+        "TexImage" => {
+            if setting(node, "projection").unwrap_or("FLAT") != "FLAT" {
+                return Ok(None);
+            }
+            Op::Image {
+                texture: node
+                    .get("texture")
+                    .and_then(Value::as_u64)
+                    .and_then(|t| u32::try_from(t).ok())
+                    .ok_or("Image Texture: no image")?,
+                clip: setting(node, "extension") == Some("CLIP"),
+            }
+        }
+        "TexVoronoi" => {
+            let dimensions = match setting(node, "voronoi_dimensions").unwrap_or("3D") {
+                "2D" => 2,
+                "3D" => 3,
+                _ => return Ok(None),
+            };
+            let feature = match setting(node, "feature").unwrap_or("F1") {
+                "F1" => VoronoiFeature::F1,
+                "F2" => VoronoiFeature::F2,
+                "SMOOTH_F1" => VoronoiFeature::SmoothF1,
+                _ => return Ok(None),
+            };
+            let metric = match setting(node, "distance").unwrap_or("EUCLIDEAN") {
+                "EUCLIDEAN" => Metric::Euclidean,
+                "MANHATTAN" => Metric::Manhattan,
+                "CHEBYCHEV" => Metric::Chebychev,
+                "MINKOWSKI" => Metric::Minkowski,
+                _ => return Err(bad("distance")),
+            };
+            Op::Voronoi(VoronoiKind {
+                dimensions,
+                feature,
+                metric,
+                normalize: node
+                    .get("normalize")
+                    .and_then(Value::as_bool)
+                    .unwrap_or(false),
+            })
+        }
+        "TexWave" => {
+            let bands = setting(node, "wave_type").unwrap_or("BANDS") == "BANDS";
+            let direction = if bands {
+                setting(node, "bands_direction").unwrap_or("X")
+            } else {
+                setting(node, "rings_direction").unwrap_or("X")
+            };
+            Op::Wave(WaveKind {
+                bands,
+                direction: match direction {
+                    "X" => 0,
+                    "Y" => 1,
+                    "Z" => 2,
+                    "DIAGONAL" | "SPHERICAL" => 3,
+                    _ => return Err(bad("direction")),
+                },
+                profile: match setting(node, "wave_profile").unwrap_or("SIN") {
+                    "SIN" => WaveProfile::Sine,
+                    "SAW" => WaveProfile::Saw,
+                    "TRI" => WaveProfile::Triangle,
+                    _ => return Err(bad("wave_profile")),
+                },
+            })
+        }
+        "HueSaturation" => Op::HueSaturation,
+        "Gamma" => Op::Gamma,
+        "BrightContrast" => Op::BrightContrast,
+        "VectorMath" => Op::VectorMath(match setting(node, "operation").unwrap_or("ADD") {
+            "ADD" => VectorOp::Add,
+            "SUBTRACT" => VectorOp::Subtract,
+            "MULTIPLY" => VectorOp::Multiply,
+            "DIVIDE" => VectorOp::Divide,
+            "MULTIPLY_ADD" => VectorOp::MultiplyAdd,
+            "CROSS_PRODUCT" => VectorOp::Cross,
+            "PROJECT" => VectorOp::Project,
+            "REFLECT" => VectorOp::Reflect,
+            "DOT_PRODUCT" => VectorOp::Dot,
+            "DISTANCE" => VectorOp::Distance,
+            "LENGTH" => VectorOp::Length,
+            "SCALE" => VectorOp::Scale,
+            "NORMALIZE" => VectorOp::Normalize,
+            "ABSOLUTE" => VectorOp::Absolute,
+            "MINIMUM" => VectorOp::Minimum,
+            "MAXIMUM" => VectorOp::Maximum,
+            "FLOOR" => VectorOp::Floor,
+            "CEIL" => VectorOp::Ceil,
+            "FRACTION" => VectorOp::Fraction,
+            "MODULO" => VectorOp::Modulo,
+            "SNAP" => VectorOp::Snap,
+            "SINE" => VectorOp::Sine,
+            "COSINE" => VectorOp::Cosine,
+            "TANGENT" => VectorOp::Tangent,
+            _ => return Ok(None),
+        }),
+        "Fresnel" => Op::Fresnel,
+        "LayerWeight" => Op::LayerWeight,
+        "Bump" => Op::Bump {
+            invert: node.get("invert").and_then(Value::as_bool).unwrap_or(false),
+        },
+        "BsdfPrincipled" => Op::Principled,
+        "BsdfDiffuse" => Op::Diffuse,
+        "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
+        "BsdfGlass" => Op::Glass,
+        "Emission" => Op::Emission,
+        "BsdfTransparent" => Op::Transparent,
+        "BsdfTranslucent" => Op::Translucent,
+        "MixShader" => Op::MixShader,
+        "AddShader" => Op::AddShader,
+        _ => return Ok(None),
+    }))
+}
+
+/// Compile the `PHOTON_material_nodes` extension of a material. Errors (a malformed tree: a link
+/// to a later node or a missing output, a value of the wrong kind) refuse the file; nodes the
+/// renderer cannot evaluate are replaced by their fallback with a warning in `warnings`.
+/// `textures` is the number of textures in the scene (Image Texture nodes name one of them).
+pub fn compile(
+    ext: &Value,
+    textures: usize,
+    warnings: &mut CompileWarnings,
+) -> Result<NodeProgram, String> {
+    let nodes = ext
+        .get("nodes")
+        .and_then(Value::as_array)
+        .ok_or("'nodes' must be an array")?;
+    // Per node: (first register or closure slot, output names and types), or None when skipped.
+    let mut placed: Vec<Option<(u16, Vec<OutputSpec>)>> = Vec::with_capacity(nodes.len());
+    let mut instrs: Vec<Instr> = Vec::new();
+    let mut registers = 0usize;
+    let mut closures = 0usize;
+    let mut emits = false;
+    let mut reads_color = false;
+    let mut needs_offsets = false;
+    // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
+    let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
+    let mut deps: Vec<Vec<usize>> = Vec::with_capacity(nodes.len());
+    for (index, node) in nodes.iter().enumerate() {
+        let name = setting(node, "name").unwrap_or("?").to_string();
+        let kind = setting(node, "type").unwrap_or("?").to_string();
+        let op = match parse_op(node).map_err(|m| format!("node {index} '{name}': {m}"))? {
+            Some(op) => op,
+            None => {
+                warnings.push(format!(
+                    "node '{name}' ({kind}) is not evaluated by Photon; what it feeds reads \
+                     the input's default value instead"
+                ));
+                placed.push(None);
+                node_instr.push(None);
+                deps.push(Vec::new());
+                continue;
+            }
+        };
+        if let Op::Image { texture, .. } = op {
+            if texture as usize >= textures {
+                return Err(format!(
+                    "node {index} '{name}': texture {texture} does not exist"
+                ));
+            }
+        }
+        let spec = spec(&op);
+        let inputs = node.get("inputs");
+        let texture_vector = matches!(
+            op,
+            Op::Checker | Op::Gradient(_) | Op::Noise { .. } | Op::Voronoi(_) | Op::Wave(_)
+        );
+        let mut ins = Vec::with_capacity(spec.inputs.len());
+        let mut reads = Vec::new();
+        for (id, ty, default) in &spec.inputs {
+            let given = inputs.and_then(|i| i.get(id.as_str()));
+            let src = match given {
+                None if *ty == Ty::Shader => Src::Const(Vec4::ZERO),
+                None if texture_vector && id == "Vector" => Src::Generated,
+                None if matches!(op, Op::Image { .. }) && id == "Vector" => Src::Uv,
+                None => Src::Const(*default),
+                Some(v) if v.get("node").is_some() => {
+                    let from = v
+                        .get("node")
+                        .and_then(Value::as_u64)
+                        .map(|n| n as usize)
+                        .filter(|&n| n < index)
+                        .ok_or_else(|| {
+                            format!(
+                                "node {index} '{name}': input '{id}' links to a node that is \
+                                 not earlier in the list"
+                            )
+                        })?;
+                    let output = setting(v, "output").unwrap_or("");
+                    match &placed[from] {
+                        None => match ty {
+                            Ty::Shader => Src::Const(Vec4::ZERO),
+                            _ if texture_vector && id == "Vector" => Src::Generated,
+                            _ => Src::Const(*default),
+                        },
+                        Some((base, outs)) => {
+                            reads.push(from);
+                            let k = outs.iter().position(|(n, _)| *n == output);
+                            let Some(k) = k else {
+                                // An output the renderer does not provide (e.g. Texture
+                                // Coordinate's Camera): fall back to the input's default.
+                                warnings.push(format!(
+                                    "node '{name}': input '{id}' reads output '{output}' of \
+                                     node {from}, which Photon does not provide; the input's \
+                                     default is used"
+                                ));
+                                ins.push(Src::Const(*default));
+                                continue;
+                            };
+                            let (from_ty, reg) = (outs[k].1, base + k as u16);
+                            match (from_ty, *ty) {
+                                (Ty::Shader, Ty::Shader) => Src::Closure(reg),
+                                (Ty::Shader, _) | (_, Ty::Shader) => {
+                                    return Err(format!(
+                                        "node {index} '{name}': input '{id}' links a shader \
+                                         and a value"
+                                    ))
+                                }
+                                (Ty::Color, Ty::Float) => Src::Gray(reg),
+                                (Ty::Vector, Ty::Float) => Src::Average(reg),
+                                _ => Src::Reg(reg),
+                            }
+                        }
+                    }
+                }
+                Some(v) => Src::Const(const_value(v).ok_or_else(|| {
+                    format!("node {index} '{name}': input '{id}' is not a number or a vector")
+                })?),
+            };
+            ins.push(src);
+        }
+        let shader = spec.outputs.first().is_some_and(|o| o.1 == Ty::Shader);
+        let out = if shader {
+            closures += 1;
+            closures - 1
+        } else {
+            registers += spec.outputs.len();
+            registers - spec.outputs.len()
+        };
+        if registers > MAX_REGISTERS || closures > MAX_CLOSURES {
+            return Err(format!(
+                "the tree needs more than {MAX_REGISTERS} values or {MAX_CLOSURES} shaders"
+            ));
+        }
+        // A light candidate unless its emission inputs are constant black.
+        let black = |k: usize| matches!(ins[k], Src::Const(v) if v.truncate() == Vec3::ZERO);
+        emits |= match op {
+            Op::Emission => !black(0) && !black(1),
+            Op::Principled => !black(8) && !black(9),
+            _ => false,
+        };
+        reads_color |= matches!(op, Op::VertexColor | Op::Attribute);
+        if matches!(op, Op::Bump { .. }) {
+            // The Height subtree again at the two offset points; the heights there are the
+            // Bump's inputs 5 and 6.
+            let height = ins[3];
+            // Only what feeds Height: the nodes whose registers Height reads, and upstream.
+            let feeds_height = |n: usize, placed: &[Option<(u16, Vec<OutputSpec>)>]| {
+                placed[n].as_ref().is_some_and(|(b, o)| {
+                    let r = match height {
+                        Src::Reg(r) | Src::Gray(r) | Src::Average(r) => r,
+                        _ => return false,
+                    };
+                    *b <= r && r < *b + o.len() as u16
+                })
+            };
+            let roots: Vec<usize> = reads
+                .iter()
+                .copied()
+                .filter(|&n| feeds_height(n, &placed))
+                .collect();
+            let mut keep: Vec<usize> = Vec::new();
+            let mut stack = roots;
+            while let Some(n) = stack.pop() {
+                if !keep.contains(&n) {
+                    keep.push(n);
+                    stack.extend(deps[n].iter().copied());
+                }
+            }
+            keep.sort_unstable();
+            for offset in [1u8, 2] {
+                let mut moved: Vec<(u16, u16, u16)> = Vec::new(); // (old base, count, new base)
+                for &n in &keep {
+                    let Some(k) = node_instr[n] else { continue };
+                    let (old, outs) = placed[n].as_ref().expect("kept nodes are placed");
+                    let count = outs.len() as u16;
+                    let mut copy = instrs[k].clone();
+                    let remap = |r: u16, moved: &[(u16, u16, u16)]| {
+                        moved
+                            .iter()
+                            .find(|(b, c, _)| *b <= r && r < b + c)
+                            .map_or(r, |(b, _, nb)| nb + (r - b))
+                    };
+                    for s in copy.ins.iter_mut() {
+                        *s = match *s {
+                            Src::Reg(r) => Src::Reg(remap(r, &moved)),
+                            Src::Gray(r) => Src::Gray(remap(r, &moved)),
+                            Src::Average(r) => Src::Average(remap(r, &moved)),
+                            other => other,
+                        };
+                    }
+                    copy.out = registers as u16;
+                    copy.offset = offset;
+                    moved.push((*old, count, registers as u16));
+                    registers += count as usize;
+                    if registers > MAX_REGISTERS {
+                        return Err(format!("the tree needs more than {MAX_REGISTERS} values"));
+                    }
+                    instrs.push(copy);
+                }
+                let remap = |r: u16| {
+                    moved
+                        .iter()
+                        .find(|(b, c, _)| *b <= r && r < b + c)
+                        .map_or(r, |(b, _, nb)| nb + (r - b))
+                };
+                ins.push(match height {
+                    Src::Reg(r) => Src::Reg(remap(r)),
+                    Src::Gray(r) => Src::Gray(remap(r)),
+                    Src::Average(r) => Src::Average(remap(r)),
+                    other => other,
+                });
+            }
+        }
+        let needs = matches!(op, Op::Bump { .. });
+        placed.push(Some((out as u16, spec.outputs.clone())));
+        node_instr.push(if shader { None } else { Some(instrs.len()) });
+        deps.push(reads);
+        needs_offsets |= needs;
+        instrs.push(Instr {
+            op,
+            ins,
+            out: out as u16,
+            offset: 0,
+            used: u32::MAX,
+        });
+    }
+    let output = match ext.get("output") {
+        None | Some(Value::Null) => Src::Const(Vec4::ZERO),
+        Some(v) => {
+            let from = v
+                .get("node")
+                .and_then(Value::as_u64)
+                .map(|n| n as usize)
+                .filter(|&n| n < nodes.len())
+                .ok_or("'output' must name a node of the list")?;
+            let name = setting(v, "output").unwrap_or("");
+            match &placed[from] {
+                None => Src::Const(Vec4::ZERO),
+                Some((base, outs)) => match outs.iter().position(|(n, _)| *n == name) {
+                    Some(k) if outs[k].1 == Ty::Shader => Src::Closure(base + k as u16),
+                    _ => return Err(format!("'output' must be a shader output, found '{name}'")),
+                },
+            }
+        }
+    };
+    // Which outputs are read: a texture skips the work of an output nobody reads.
+    let mut read = vec![false; registers];
+    for instr in &instrs {
+        for s in &instr.ins {
+            if let Src::Reg(r) | Src::Gray(r) | Src::Average(r) = *s {
+                read[r as usize] = true;
+            }
+        }
+    }
+    for instr in instrs.iter_mut() {
+        let outputs = spec(&instr.op).outputs;
+        if outputs.first().is_some_and(|o| o.1 != Ty::Shader) {
+            instr.used = (0..outputs.len())
+                .filter(|&k| read[instr.out as usize + k])
+                .fold(0, |mask, k| mask | 1 << k);
+        }
+    }
+    Ok(NodeProgram {
+        instrs,
+        registers,
+        closures,
+        output,
+        emits,
+        reads_color,
+        needs_offsets,
+    })
+}
+
+// ----- evaluation --------------------------------------------------------------------------
+
+struct Machine {
+    regs: [Vec4; MAX_REGISTERS],
+    closures: [Closure; MAX_CLOSURES],
+}
+
+fn gray(c: Vec4) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+fn splat(x: f32) -> Vec4 {
+    Vec4::new(x, x, x, 1.0)
+}
+
+fn v3(v: Vec3) -> Vec4 {
+    v.extend(1.0)
+}
+
+impl NodeProgram {
+    /// Evaluate the program at a shading point. `u` in [0, 1) picks the BSDF of Mix and Add
+    /// Shader nodes (module header).
+    /// `at` holds the shading point and, when `needs_offsets`, the points a small step along
+    /// its two tangents (else three copies of the point).
+    pub fn eval(&self, at: &[ShadingInputs; 3], textures: &[Texture], mut u: f32) -> Closure {
+        // The register file lives on the stack; only what the program uses is written or read.
+        let mut m = Machine {
+            regs: [Vec4::ZERO; MAX_REGISTERS],
+            closures: [Closure::BLACK; MAX_CLOSURES],
+        };
+        for instr in &self.instrs {
+            run(instr, at, textures, &mut m, &mut u);
+        }
+        match self.output {
+            Src::Closure(c) => m.closures[c as usize],
+            _ => Closure::BLACK,
+        }
+    }
+
+    /// Number of instructions (for tests and `photon info`).
+    pub fn len(&self) -> usize {
+        self.instrs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.instrs.is_empty()
+    }
+
+    /// Registers and closure slots the program uses.
+    pub fn size(&self) -> (usize, usize) {
+        (self.registers, self.closures)
+    }
+}
+
+fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
+    match s {
+        Src::Const(v) => v,
+        Src::Reg(r) => m.regs[r as usize],
+        Src::Gray(r) => splat(gray(m.regs[r as usize])),
+        Src::Average(r) => {
+            let v = m.regs[r as usize];
+            splat((v.x + v.y + v.z) / 3.0)
+        }
+        Src::Closure(_) => Vec4::ZERO,
+        Src::Generated => v3(at.generated),
+        Src::Uv => Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
+    }
+}
+
+fn closure(m: &Machine, s: Src) -> Closure {
+    match s {
+        Src::Closure(c) => m.closures[c as usize],
+        _ => Closure::BLACK,
+    }
+}
+
+fn run(
+    instr: &Instr,
+    points: &[ShadingInputs; 3],
+    textures: &[Texture],
+    m: &mut Machine,
+    u: &mut f32,
+) {
+    let at = &points[instr.offset as usize];
+    let ins = &instr.ins;
+    let get = |m: &Machine, k: usize| load(m, at, ins[k]);
+    let o = instr.out as usize;
+    match &instr.op {
+        Op::TexCoord => {
+            m.regs[o] = v3(at.generated);
+            m.regs[o + 1] = v3(at.object_normal);
+            m.regs[o + 2] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0);
+            m.regs[o + 3] = v3(at.object);
+            let (n, i) = (at.normal, at.incoming);
+            m.regs[o + 4] = v3(2.0 * n.dot(i) * n - i);
+        }
+        Op::UvMap => m.regs[o] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
+        Op::VertexColor => {
+            m.regs[o] = at.color;
+            m.regs[o + 1] = splat(at.color.w);
+        }
+        Op::Attribute => {
+            m.regs[o] = at.color.truncate().extend(1.0);
+            m.regs[o + 1] = at.color.truncate().extend(1.0);
+            m.regs[o + 2] = splat(gray(at.color));
+            m.regs[o + 3] = splat(at.color.w);
+        }
+        Op::Geometry => {
+            m.regs[o] = v3(at.position);
+            m.regs[o + 1] = v3(at.normal);
+            m.regs[o + 2] = v3(at.normal);
+            m.regs[o + 3] = v3(at.incoming);
+            m.regs[o + 4] = splat(if at.backfacing { 1.0 } else { 0.0 });
+        }
+        Op::Value(v) => m.regs[o] = splat(*v),
+        Op::Rgb(c) => m.regs[o] = *c,
+        Op::Mapping(kind) => {
+            let v = get(m, 0).truncate();
+            let loc = get(m, 1).truncate();
+            let rot = get(m, 2).truncate();
+            let scale = get(m, 3).truncate();
+            m.regs[o] = v3(mapping(*kind, v, loc, rot, scale));
+        }
+        Op::Math { op, clamp } => {
+            let r = math(*op, get(m, 0).x, get(m, 1).x, get(m, 2).x);
+            m.regs[o] = splat(if *clamp { r.clamp(0.0, 1.0) } else { r });
+        }
+        Op::Mix {
+            data,
+            blend,
+            clamp_factor,
+            clamp_result,
+        } => {
+            let mut t = get(m, 0).x;
+            if *clamp_factor {
+                t = t.clamp(0.0, 1.0);
+            }
+            let (a, b) = (get(m, 1), get(m, 2));
+            m.regs[o] = match data {
+                MixData::Float => splat(a.x + (b.x - a.x) * t),
+                MixData::Vector => v3(a.truncate().lerp(b.truncate(), t)),
+                MixData::Color => {
+                    let c = mix_color(*blend, t, a.truncate(), b.truncate());
+                    let c = if *clamp_result {
+                        c.clamp(Vec3::ZERO, Vec3::ONE)
+                    } else {
+                        c
+                    };
+                    c.extend(a.w)
+                }
+            };
+        }
+        Op::RgbCurves {
+            table,
+            min_x,
+            range,
+        } => {
+            let fac = get(m, 0).x;
+            let c = get(m, 1);
+            let rel = (c.truncate() - Vec3::splat(*min_x)) / *range;
+            let curve = Vec3::new(
+                ramp_extrapolated(table, rel.x).x,
+                ramp_extrapolated(table, rel.y).y,
+                ramp_extrapolated(table, rel.z).z,
+            );
+            m.regs[o] = ((1.0 - fac) * c.truncate() + fac * curve).extend(c.w);
+        }
+        Op::ColorRamp { table, interpolate } => {
+            let c = ramp_lookup(table, get(m, 0).x, *interpolate);
+            m.regs[o] = c;
+            m.regs[o + 1] = splat(c.w);
+        }
+        Op::MapRange { kind, clamp } => {
+            let [v, a, b, c, d, steps] = [0, 1, 2, 3, 4, 5].map(|k| get(m, k).x);
+            m.regs[o] = splat(map_range(*kind, *clamp, v, a, b, c, d, steps));
+        }
+        Op::Clamp { range } => {
+            let (v, lo, hi) = (get(m, 0).x, get(m, 1).x, get(m, 2).x);
+            let r = if *range && lo > hi {
+                v.clamp(hi, lo)
+            } else {
+                v.max(lo).min(hi)
+            };
+            m.regs[o] = splat(r);
+        }
+        Op::Invert => {
+            let t = get(m, 0).x;
+            let c = get(m, 1);
+            let inv = Vec3::ONE - c.truncate();
+            m.regs[o] = c.truncate().lerp(inv, t).extend(c.w);
+        }
+        Op::SeparateXyz => {
+            let v = get(m, 0);
+            m.regs[o] = splat(v.x);
+            m.regs[o + 1] = splat(v.y);
+            m.regs[o + 2] = splat(v.z);
+        }
+        Op::CombineXyz => {
+            m.regs[o] = Vec4::new(get(m, 0).x, get(m, 1).x, get(m, 2).x, 1.0);
+        }
+        Op::SeparateColor { hsv } => {
+            let c = get(m, 0).truncate();
+            let c = if *hsv { rgb_to_hsv(c) } else { c };
+            m.regs[o] = splat(c.x);
+            m.regs[o + 1] = splat(c.y);
+            m.regs[o + 2] = splat(c.z);
+        }
+        Op::CombineColor { hsv } => {
+            let c = Vec3::new(get(m, 0).x, get(m, 1).x, get(m, 2).x);
+            m.regs[o] = v3(if *hsv { hsv_to_rgb(c) } else { c });
+        }
+        Op::Checker => {
+            let p = get(m, 0).truncate() * get(m, 3).x;
+            let fac = checker(p);
+            m.regs[o] = if fac == 1.0 { get(m, 1) } else { get(m, 2) };
+            m.regs[o + 1] = splat(fac);
+        }
+        Op::Gradient(kind) => {
+            let fac = gradient(*kind, get(m, 0).truncate());
+            m.regs[o] = splat(fac);
+            m.regs[o + 1] = splat(fac);
+        }
+        Op::Noise {
+            dimensions,
+            normalize,
+        } => {
+            let scale = get(m, 2).x;
+            let p = get(m, 0).truncate() * scale;
+            let w = get(m, 1).x * scale;
+            let params = Fractal {
+                detail: get(m, 3).x.clamp(0.0, 15.0),
+                roughness: get(m, 4).x.max(0.0),
+                lacunarity: get(m, 5).x,
+                normalize: *normalize,
+            };
+            let distortion = get(m, 8).x;
+            let color = instr.used & 2 != 0;
+            let (fac, color) = noise_texture(*dimensions, p, w, &params, distortion, color);
+            m.regs[o] = splat(fac);
+            m.regs[o + 1] = v3(color);
+        }
+        Op::Image { texture, clip } => {
+            let uv = get(m, 0);
+            let outside = !(0.0..=1.0).contains(&uv.x) || !(0.0..=1.0).contains(&uv.y);
+            // Blender's image rows go up from the bottom; Photon's from the top.
+            let c = match textures.get(*texture as usize) {
+                Some(_) if *clip && outside => Vec4::ZERO,
+                Some(t) => t.sample_encoded(Vec2::new(uv.x, 1.0 - uv.y)),
+                None => Vec4::new(1.0, 0.0, 1.0, 1.0),
+            };
+            m.regs[o] = c;
+            m.regs[o + 1] = splat(c.w);
+        }
+        Op::Voronoi(kind) => {
+            let scale = get(m, 2).x;
+            let params = VoronoiParams {
+                scale,
+                detail: get(m, 3).x.clamp(0.0, 15.0),
+                roughness: get(m, 4).x.clamp(0.0, 1.0),
+                lacunarity: get(m, 5).x,
+                smoothness: (get(m, 6).x / 2.0).clamp(0.0, 0.5),
+                exponent: get(m, 7).x,
+                randomness: get(m, 8).x.clamp(0.0, 1.0),
+                kind: *kind,
+            };
+            let mut p = get(m, 0).truncate() * scale;
+            if kind.dimensions == 2 {
+                p.z = 0.0;
+            }
+            let (distance, color, position) = voronoi(&params, p);
+            m.regs[o] = splat(distance);
+            m.regs[o + 1] = v3(color);
+            m.regs[o + 2] = v3(position);
+        }
+        Op::Wave(kind) => {
+            let p = get(m, 0).truncate() * get(m, 1).x;
+            let fac = wave(
+                *kind,
+                p,
+                [
+                    get(m, 2).x,
+                    get(m, 3).x.clamp(0.0, 15.0),
+                    get(m, 4).x,
+                    get(m, 5).x,
+                    get(m, 6).x,
+                ],
+            );
+            m.regs[o] = splat(fac);
+            m.regs[o + 1] = splat(fac);
+        }
+        Op::HueSaturation => {
+            let (hue, sat, val, fac) = (get(m, 0).x, get(m, 1).x, get(m, 2).x, get(m, 3).x);
+            let input = get(m, 4);
+            let mut hsv = rgb_to_hsv(input.truncate());
+            hsv.x = (hsv.x + hue + 0.5) % 1.0;
+            hsv.y = (hsv.y * sat).clamp(0.0, 1.0);
+            hsv.z *= val;
+            let c = hsv_to_rgb(hsv);
+            let c = (fac * c + (1.0 - fac) * input.truncate()).max(Vec3::ZERO);
+            m.regs[o] = c.extend(input.w);
+        }
+        Op::Gamma => {
+            let c = get(m, 0);
+            let g = get(m, 1).x;
+            let p = |x: f32| if x > 0.0 { x.powf(g) } else { x };
+            m.regs[o] = Vec4::new(p(c.x), p(c.y), p(c.z), c.w);
+        }
+        Op::BrightContrast => {
+            let c = get(m, 0);
+            let (bright, contrast) = (get(m, 1).x, get(m, 2).x);
+            let a = 1.0 + contrast;
+            let b = bright - contrast * 0.5;
+            m.regs[o] = (a * c.truncate() + Vec3::splat(b))
+                .max(Vec3::ZERO)
+                .extend(c.w);
+        }
+        Op::VectorMath(op) => {
+            let (v, value) = vector_math(
+                *op,
+                get(m, 0).truncate(),
+                get(m, 1).truncate(),
+                get(m, 2).truncate(),
+                get(m, 3).x,
+            );
+            m.regs[o] = v3(v);
+            m.regs[o + 1] = splat(value);
+        }
+        Op::Fresnel => {
+            let n = normal_input(get(m, 1), at.normal);
+            let eta = get(m, 0).x.max(1e-5);
+            let eta = if at.backfacing { 1.0 / eta } else { eta };
+            m.regs[o] = splat(fresnel_dielectric_cos(at.incoming.dot(n), eta));
+        }
+        Op::LayerWeight => {
+            let n = normal_input(get(m, 1), at.normal);
+            let blend = get(m, 0).x;
+            let eta = (1.0 - blend).max(1e-5);
+            let eta = if at.backfacing { eta } else { 1.0 / eta };
+            let cos = at.incoming.dot(n);
+            m.regs[o] = splat(fresnel_dielectric_cos(cos, eta));
+            let mut facing = cos.abs();
+            if blend != 0.5 {
+                let b = blend.clamp(0.0, 1.0 - 1e-5);
+                let b = if b < 0.5 { 2.0 * b } else { 0.5 / (1.0 - b) };
+                facing = facing.powf(b);
+            }
+            m.regs[o + 1] = splat(1.0 - facing);
+        }
+        Op::Bump { invert } => {
+            let strength = get(m, 0).x.max(0.0);
+            let distance = if *invert { -get(m, 1).x } else { get(m, 1).x };
+            let given = get(m, 4).truncate();
+            let n = if given == Vec3::ZERO {
+                at.normal
+            } else {
+                given.normalize_or(at.normal)
+            };
+            let (hc, hx, hy) = (get(m, 3).x, get(m, 5).x, get(m, 6).x);
+            // Cycles' svm_node_set_bump with our steps as dPdx, dPdy: the normal of the
+            // surface displaced by distance × height.
+            let dx = points[1].position - points[0].position;
+            let dy = points[2].position - points[0].position;
+            let rx = dy.cross(n);
+            let ry = n.cross(dx);
+            let det = dx.dot(rx);
+            let surfgrad = (hx - hc) * rx + (hy - hc) * ry;
+            let out = (det.abs() * n - distance * det.signum() * surfgrad).normalize_or_zero();
+            let out = if out == Vec3::ZERO {
+                n
+            } else {
+                (strength * out + (1.0 - strength) * n).normalize_or(n)
+            };
+            m.regs[o] = v3(out);
+        }
+        Op::Principled => {
+            let level = get(m, 5).x.max(0.0);
+            let tint = get(m, 6).truncate();
+            m.closures[o] = Closure {
+                base_color: get(m, 0).truncate(),
+                metallic: get(m, 1).x.clamp(0.0, 1.0),
+                roughness: get(m, 2).x.clamp(0.0, 1.0),
+                ior: get(m, 3).x,
+                alpha: get(m, 4).x.clamp(0.0, 1.0),
+                specular: 1.0,
+                specular_color: 2.0 * level * tint,
+                transmission: get(m, 7).x.clamp(0.0, 1.0),
+                emission: get(m, 8).truncate() * get(m, 9).x,
+                normal: get(m, 10).truncate(),
+            };
+        }
+        Op::Diffuse => {
+            m.closures[o] = Closure {
+                base_color: get(m, 0).truncate(),
+                roughness: 1.0,
+                normal: get(m, 2).truncate(),
+                ..Closure::BLACK
+            };
+        }
+        Op::Glossy => {
+            m.closures[o] = Closure {
+                base_color: get(m, 0).truncate(),
+                metallic: 1.0,
+                roughness: get(m, 1).x.clamp(0.0, 1.0),
+                normal: get(m, 2).truncate(),
+                ..Closure::BLACK
+            };
+        }
+        Op::Glass => {
+            m.closures[o] = Closure {
+                base_color: get(m, 0).truncate(),
+                roughness: get(m, 1).x.clamp(0.0, 1.0),
+                ior: get(m, 2).x,
+                transmission: 1.0,
+                specular: 1.0,
+                specular_color: Vec3::ONE,
+                normal: get(m, 3).truncate(),
+                ..Closure::BLACK
+            };
+        }
+        Op::Emission => {
+            m.closures[o] = Closure {
+                emission: get(m, 0).truncate() * get(m, 1).x,
+                ..Closure::BLACK
+            };
+        }
+        Op::Transparent | Op::Translucent => {
+            let transparent = matches!(instr.op, Op::Transparent);
+            m.closures[o] = Closure {
+                base_color: get(m, 0).truncate(),
+                roughness: if transparent { 0.0 } else { 1.0 },
+                ior: 1.0,
+                transmission: 1.0,
+                ..Closure::BLACK
+            };
+        }
+        Op::MixShader => {
+            let t = get(m, 0).x.clamp(0.0, 1.0);
+            let (a, b) = (closure(m, ins[1]), closure(m, ins[2]));
+            let emission = a.emission.lerp(b.emission, t);
+            // Pick A with probability 1 − t, and stretch u back to [0, 1) for later picks.
+            let mut picked = if *u < 1.0 - t {
+                *u /= (1.0 - t).max(1e-12);
+                a
+            } else {
+                *u = (*u - (1.0 - t)) / t.max(1e-12);
+                b
+            };
+            *u = u.clamp(0.0, 0.999_999_94);
+            picked.emission = emission;
+            m.closures[o] = picked;
+        }
+        Op::AddShader => {
+            let (a, b) = (closure(m, ins[0]), closure(m, ins[1]));
+            let emission = a.emission + b.emission;
+            let a_bsdf = !is_black_bsdf(&a);
+            let b_bsdf = !is_black_bsdf(&b);
+            let mut picked = match (a_bsdf, b_bsdf) {
+                (true, false) => a,
+                (false, true) => b,
+                _ => {
+                    if *u < 0.5 {
+                        *u *= 2.0;
+                        a
+                    } else {
+                        *u = 2.0 * *u - 1.0;
+                        b
+                    }
+                }
+            };
+            *u = u.clamp(0.0, 0.999_999_94);
+            picked.emission = emission;
+            m.closures[o] = picked;
+        }
+    }
+}
+
+fn is_black_bsdf(c: &Closure) -> bool {
+    c.base_color == Vec3::ZERO && c.specular_color == Vec3::ZERO && c.transmission == 0.0
+}
+
+// ----- node definitions --------------------------------------------------------------------
+
+/// A Normal input: the given vector, or the shading normal when it is unlinked (zero).
+fn normal_input(given: Vec4, normal: Vec3) -> Vec3 {
+    let g = given.truncate();
+    if g == Vec3::ZERO {
+        normal
+    } else {
+        g.normalize_or(normal)
+    }
+}
+
+/// Cycles' `fresnel_dielectric_cos`: unpolarised Fresnel reflectance at cosine `cos` for
+/// relative IOR `eta` (1 under total internal reflection).
+fn fresnel_dielectric_cos(cos: f32, eta: f32) -> f32 {
+    let c = cos.abs();
+    let g = eta * eta - 1.0 + c * c;
+    if g > 0.0 {
+        let g = g.sqrt();
+        let a = (g - c) / (g + c);
+        let b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+        0.5 * a * a * (1.0 + b * b)
+    } else {
+        1.0
+    }
+}
+
+/// Blender's Euler XYZ rotation (X first, then Y, then Z).
+fn euler_xyz(r: Vec3, v: Vec3) -> Vec3 {
+    let (sx, cx) = r.x.sin_cos();
+    let (sy, cy) = r.y.sin_cos();
+    let (sz, cz) = r.z.sin_cos();
+    let v = Vec3::new(v.x, cx * v.y - sx * v.z, sx * v.y + cx * v.z);
+    let v = Vec3::new(cy * v.x + sy * v.z, v.y, -sy * v.x + cy * v.z);
+    Vec3::new(cz * v.x - sz * v.y, sz * v.x + cz * v.y, v.z)
+}
+
+/// The inverse of `euler_xyz`.
+fn euler_xyz_inverse(r: Vec3, v: Vec3) -> Vec3 {
+    let (sx, cx) = r.x.sin_cos();
+    let (sy, cy) = r.y.sin_cos();
+    let (sz, cz) = r.z.sin_cos();
+    let v = Vec3::new(cz * v.x + sz * v.y, -sz * v.x + cz * v.y, v.z);
+    let v = Vec3::new(cy * v.x - sy * v.z, v.y, sy * v.x + cy * v.z);
+    Vec3::new(v.x, cx * v.y + sx * v.z, -sx * v.y + cx * v.z)
+}
+
+fn safe_divide3(a: Vec3, b: Vec3) -> Vec3 {
+    let d = |x: f32, y: f32| if y != 0.0 { x / y } else { 0.0 };
+    Vec3::new(d(a.x, b.x), d(a.y, b.y), d(a.z, b.z))
+}
+
+/// The Mapping node (Cycles' `svm_mapping`).
+fn mapping(kind: MappingKind, v: Vec3, loc: Vec3, rot: Vec3, scale: Vec3) -> Vec3 {
+    match kind {
+        MappingKind::Point => euler_xyz(rot, v * scale) + loc,
+        MappingKind::Texture => safe_divide3(euler_xyz_inverse(rot, v - loc), scale),
+        MappingKind::Vector => euler_xyz(rot, v * scale),
+        MappingKind::Normal => euler_xyz(rot, safe_divide3(v, scale)).normalize_or_zero(),
+    }
+}
+
+/// Blender's Math node, with its safe definitions (division by zero gives 0, and so on).
+fn math(op: MathOp, a: f32, b: f32, c: f32) -> f32 {
+    use MathOp::*;
+    let safe_div = |x: f32, y: f32| if y != 0.0 { x / y } else { 0.0 };
+    let safe_mod = |x: f32, y: f32| if y != 0.0 { x % y } else { 0.0 };
+    let floored_mod = |x: f32, y: f32| {
+        if y != 0.0 {
+            x - (x / y).floor() * y
+        } else {
+            0.0
+        }
+    };
+    let smoothmin = |a: f32, b: f32, c: f32| {
+        if c != 0.0 {
+            let h = (c - (a - b).abs()).max(0.0) / c;
+            a.min(b) - h * h * h * c * (1.0 / 6.0)
+        } else {
+            a.min(b)
+        }
+    };
+    let wrap = |v: f32, max: f32, min: f32| {
+        let range = max - min;
+        if range != 0.0 {
+            v - range * ((v - min) / range).floor()
+        } else {
+            min
+        }
+    };
+    match op {
+        Add => a + b,
+        Subtract => a - b,
+        Multiply => a * b,
+        Divide => safe_div(a, b),
+        MultiplyAdd => a * b + c,
+        Power => {
+            if a >= 0.0 {
+                a.powf(b)
+            } else {
+                let fraction = b % 1.0;
+                if !(0.001..=0.999).contains(&fraction) {
+                    let r = a.abs().powf(b.round());
+                    if (b.round() as i64) % 2 != 0 {
+                        -r
+                    } else {
+                        r
+                    }
+                } else {
+                    0.0
+                }
+            }
+        }
+        Logarithm => {
+            if a > 0.0 && b > 0.0 {
+                safe_div(a.ln(), b.ln())
+            } else {
+                0.0
+            }
+        }
+        Sqrt => {
+            if a > 0.0 {
+                a.sqrt()
+            } else {
+                0.0
+            }
+        }
+        InverseSqrt => {
+            if a > 0.0 {
+                1.0 / a.sqrt()
+            } else {
+                0.0
+            }
+        }
+        Absolute => a.abs(),
+        Exponent => a.exp(),
+        Minimum => a.min(b),
+        Maximum => a.max(b),
+        LessThan => (a < b) as u8 as f32,
+        GreaterThan => (a > b) as u8 as f32,
+        Sign => {
+            if a > 0.0 {
+                1.0
+            } else if a < 0.0 {
+                -1.0
+            } else {
+                0.0
+            }
+        }
+        Compare => ((a - b).abs() <= c.max(1e-5)) as u8 as f32,
+        SmoothMin => smoothmin(a, b, c),
+        SmoothMax => -smoothmin(-a, -b, c),
+        Round => (a + 0.5).floor(),
+        Floor => a.floor(),
+        Ceil => a.ceil(),
+        Trunc => a.trunc(),
+        Fraction => a - a.floor(),
+        Modulo => safe_mod(a, b),
+        FlooredModulo => floored_mod(a, b),
+        Wrap => wrap(a, b, c),
+        Snap => {
+            if b != 0.0 {
+                (a / b).floor() * b
+            } else {
+                0.0
+            }
+        }
+        PingPong => {
+            if b != 0.0 {
+                (floored_mod(a - b, 2.0 * b) - b).abs()
+            } else {
+                0.0
+            }
+        }
+        Sine => a.sin(),
+        Cosine => a.cos(),
+        Tangent => a.tan(),
+        Arcsine => {
+            if (-1.0..=1.0).contains(&a) {
+                a.asin()
+            } else {
+                0.0
+            }
+        }
+        Arccosine => {
+            if (-1.0..=1.0).contains(&a) {
+                a.acos()
+            } else {
+                0.0
+            }
+        }
+        Arctangent => a.atan(),
+        Arctan2 => a.atan2(b),
+        Sinh => a.sinh(),
+        Cosh => a.cosh(),
+        Tanh => a.tanh(),
+        Radians => a * (PI / 180.0),
+        Degrees => a * (180.0 / PI),
+    }
+}
+
+fn rgb_to_hsv(c: Vec3) -> Vec3 {
+    let cmax = c.max_element();
+    let cmin = c.min_element();
+    let delta = cmax - cmin;
+    let v = cmax;
+    let s = if cmax != 0.0 { delta / cmax } else { 0.0 };
+    if s == 0.0 {
+        return Vec3::new(0.0, 0.0, v);
+    }
+    let cv = (Vec3::splat(cmax) - c) / delta;
+    let h = if c.x == cmax {
+        cv.z - cv.y
+    } else if c.y == cmax {
+        2.0 + cv.x - cv.z
+    } else {
+        4.0 + cv.y - cv.x
+    };
+    let mut h = h / 6.0;
+    if h < 0.0 {
+        h += 1.0;
+    }
+    Vec3::new(h, s, v)
+}
+
+fn hsv_to_rgb(hsv: Vec3) -> Vec3 {
+    let (mut h, s, v) = (hsv.x, hsv.y, hsv.z);
+    if s == 0.0 {
+        return Vec3::splat(v);
+    }
+    if h == 1.0 {
+        h = 0.0;
+    }
+    h *= 6.0;
+    let i = h.floor();
+    let f = h - i;
+    let p = v * (1.0 - s);
+    let q = v * (1.0 - s * f);
+    let t = v * (1.0 - s * (1.0 - f));
+    match i as i32 {
+        0 => Vec3::new(v, t, p),
+        1 => Vec3::new(q, v, p),
+        2 => Vec3::new(p, v, t),
+        3 => Vec3::new(p, q, v),
+        4 => Vec3::new(t, p, v),
+        _ => Vec3::new(v, p, q),
+    }
+}
+
+/// The Mix node's colour blend modes (Cycles' `svm_mix`, Blender's `ramp_blend`).
+fn mix_color(blend: Blend, t: f32, a: Vec3, b: Vec3) -> Vec3 {
+    use Blend::*;
+    let tm = 1.0 - t;
+    let per = |f: &dyn Fn(f32, f32) -> f32| Vec3::new(f(a.x, b.x), f(a.y, b.y), f(a.z, b.z));
+    match blend {
+        Mix => a.lerp(b, t),
+        Add => a + t * b,
+        Multiply => a * (Vec3::splat(tm) + t * b),
+        Subtract => a - t * b,
+        Screen => Vec3::ONE - (Vec3::splat(tm) + t * (Vec3::ONE - b)) * (Vec3::ONE - a),
+        Divide => per(&|x, y| if y != 0.0 { tm * x + t * x / y } else { x }),
+        Difference => a.lerp((a - b).abs(), t),
+        Exclusion => a.lerp(a + b - 2.0 * a * b, t).max(Vec3::ZERO),
+        Darken => a.lerp(a.min(b), t),
+        Lighten => a.lerp(a.max(b), t),
+        Overlay => per(&|x, y| {
+            if x < 0.5 {
+                x * (tm + 2.0 * t * y)
+            } else {
+                1.0 - (tm + 2.0 * t * (1.0 - y)) * (1.0 - x)
+            }
+        }),
+        Dodge => per(&|x, y| {
+            if x != 0.0 {
+                let tmp = 1.0 - t * y;
+                if tmp <= 0.0 {
+                    1.0
+                } else {
+                    let r = x / tmp;
+                    if r > 1.0 {
+                        1.0
+                    } else {
+                        r
+                    }
+                }
+            } else {
+                x
+            }
+        }),
+        Burn => per(&|x, y| {
+            let tmp = tm + t * y;
+            if tmp <= 0.0 {
+                0.0
+            } else {
+                let r = 1.0 - (1.0 - x) / tmp;
+                r.clamp(0.0, 1.0)
+            }
+        }),
+        Hue => {
+            let hb = rgb_to_hsv(b);
+            if hb.y != 0.0 {
+                let ha = rgb_to_hsv(a);
+                let c = hsv_to_rgb(Vec3::new(hb.x, ha.y, ha.z));
+                a.lerp(c, t)
+            } else {
+                a
+            }
+        }
+        Saturation => {
+            let ha = rgb_to_hsv(a);
+            if ha.y != 0.0 {
+                let hb = rgb_to_hsv(b);
+                hsv_to_rgb(Vec3::new(ha.x, tm * ha.y + t * hb.y, ha.z))
+            } else {
+                a
+            }
+        }
+        Value => {
+            let ha = rgb_to_hsv(a);
+            let hb = rgb_to_hsv(b);
+            hsv_to_rgb(Vec3::new(ha.x, ha.y, tm * ha.z + t * hb.z))
+        }
+        Color => {
+            let hb = rgb_to_hsv(b);
+            if hb.y != 0.0 {
+                let ha = rgb_to_hsv(a);
+                let c = hsv_to_rgb(Vec3::new(hb.x, hb.y, ha.z));
+                a.lerp(c, t)
+            } else {
+                a
+            }
+        }
+        SoftLight => {
+            let scr = Vec3::ONE - (Vec3::ONE - b) * (Vec3::ONE - a);
+            tm * a + t * ((Vec3::ONE - a) * b * a + a * scr)
+        }
+        LinearLight => a + t * (2.0 * b - Vec3::ONE),
+    }
+}
+
+/// Cycles' `rgb_ramp_lookup` over the baked table (linear interpolation between entries, or
+/// the entry below for Constant).
+fn ramp_lookup(table: &[Vec4], fac: f32, interpolate: bool) -> Vec4 {
+    let n = table.len();
+    let fac = if fac.is_finite() {
+        fac.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let x = fac * (n - 1) as f32;
+    let i = (x as usize).min(n - 1);
+    let t = x - i as f32;
+    if interpolate && t > 0.0 && i + 1 < n {
+        table[i] * (1.0 - t) + table[i + 1] * t
+    } else {
+        table[i]
+    }
+}
+
+/// `ramp_lookup` with Cycles' linear extrapolation beyond [0, 1] (curves).
+fn ramp_extrapolated(table: &[Vec4], f: f32) -> Vec4 {
+    let n = table.len();
+    if f < 0.0 {
+        table[0] + (table[0] - table[1]) * (-f * (n - 1) as f32)
+    } else if f > 1.0 {
+        table[n - 1] + (table[n - 1] - table[n - 2]) * ((f - 1.0) * (n - 1) as f32)
+    } else {
+        ramp_lookup(table, f, true)
+    }
+}
+
+fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
+    if edge0 == edge1 {
+        return if x < edge0 { 0.0 } else { 1.0 };
+    }
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// The Map Range node (float), Cycles' `svm_node_map_range`.
+#[allow(clippy::too_many_arguments)]
+fn map_range(
+    kind: MapRangeKind,
+    clamp: bool,
+    value: f32,
+    from_min: f32,
+    from_max: f32,
+    to_min: f32,
+    to_max: f32,
+    steps: f32,
+) -> f32 {
+    if from_max == from_min {
+        return 0.0;
+    }
+    let factor = match kind {
+        MapRangeKind::Linear => (value - from_min) / (from_max - from_min),
+        MapRangeKind::Stepped => {
+            let f = (value - from_min) / (from_max - from_min);
+            if steps > 0.0 {
+                (f * (steps + 1.0)).floor() / steps
+            } else {
+                0.0
+            }
+        }
+        MapRangeKind::Smoothstep => {
+            if from_min > from_max {
+                1.0 - smoothstep(from_max, from_min, value)
+            } else {
+                smoothstep(from_min, from_max, value)
+            }
+        }
+        MapRangeKind::Smootherstep => {
+            if from_min > from_max {
+                1.0 - smootherstep(from_max, from_min, value)
+            } else {
+                smootherstep(from_min, from_max, value)
+            }
+        }
+    };
+    let r = to_min + factor * (to_max - to_min);
+    if clamp && matches!(kind, MapRangeKind::Linear | MapRangeKind::Stepped) {
+        if to_min > to_max {
+            r.clamp(to_max, to_min)
+        } else {
+            r.clamp(to_min, to_max)
+        }
+    } else {
+        r
+    }
+}
+
+fn smootherstep(edge0: f32, edge1: f32, x: f32) -> f32 {
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+/// Cycles' `svm_checker`: 1 on the cells of Color1, 0 on those of Color2.
+pub fn checker(p: Vec3) -> f32 {
+    let p = (p + Vec3::splat(0.000_001)) * 0.999_999;
+    let xi = (p.x.floor() as i32).abs();
+    let yi = (p.y.floor() as i32).abs();
+    let zi = (p.z.floor() as i32).abs();
+    if (xi % 2 == yi % 2) == (zi % 2 == 1) {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+/// Cycles' `svm_gradient`, clamped to [0, 1].
+fn gradient(kind: GradientKind, p: Vec3) -> f32 {
+    let (x, y, z) = (p.x, p.y, p.z);
+    let r = match kind {
+        GradientKind::Linear => x,
+        GradientKind::Quadratic => {
+            let r = x.max(0.0);
+            r * r
+        }
+        GradientKind::Easing => {
+            let r = x.clamp(0.0, 1.0);
+            let t = r * r;
+            3.0 * t - 2.0 * t * r
+        }
+        GradientKind::Diagonal => (x + y) * 0.5,
+        GradientKind::Radial => y.atan2(x) / (2.0 * PI) + 0.5,
+        GradientKind::QuadraticSphere => {
+            let r = (0.999_999 - (x * x + y * y + z * z).sqrt()).max(0.0);
+            r * r
+        }
+        GradientKind::Spherical => (0.999_999 - (x * x + y * y + z * z).sqrt()).max(0.0),
+    };
+    r.clamp(0.0, 1.0)
+}
+
+// ----- Perlin noise as Blender defines it ----------------------------------------------------
+
+/// Jenkins' lookup3 `final` mix of (a, b, c), returning c.
+fn lookup3_final(mut a: u32, mut b: u32, mut c: u32) -> u32 {
+    c ^= b;
+    c = c.wrapping_sub(b.rotate_left(14));
+    a ^= c;
+    a = a.wrapping_sub(c.rotate_left(11));
+    b ^= a;
+    b = b.wrapping_sub(a.rotate_left(25));
+    c ^= b;
+    c = c.wrapping_sub(b.rotate_left(16));
+    a ^= c;
+    a = a.wrapping_sub(c.rotate_left(4));
+    b ^= a;
+    b = b.wrapping_sub(a.rotate_left(14));
+    c ^= b;
+    c.wrapping_sub(b.rotate_left(24))
+}
+
+const LOOKUP3_SEED: u32 = 0xdead_beef;
+
+fn hash1(x: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((1 << 2) + 13);
+    lookup3_final(s.wrapping_add(x), s, s)
+}
+
+fn hash2(x: u32, y: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((2 << 2) + 13);
+    lookup3_final(s.wrapping_add(x), s.wrapping_add(y), s)
+}
+
+fn hash3(x: u32, y: u32, z: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
+    lookup3_final(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z))
+}
+
+/// `hash_float2_to_float`: the hash of two floats' bits mapped to [0, 1].
+fn hash_float2(x: f32, y: f32) -> f32 {
+    hash2(x.to_bits(), y.to_bits()) as f32 * (1.0 / 4_294_967_295.0)
+}
+
+fn hash_float(x: f32) -> f32 {
+    hash1(x.to_bits()) as f32 * (1.0 / 4_294_967_295.0)
+}
+
+fn fade(t: f32) -> f32 {
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+fn negate_if(v: f32, condition: u32) -> f32 {
+    if condition != 0 {
+        -v
+    } else {
+        v
+    }
+}
+
+fn floorfrac(x: f32) -> (i32, f32) {
+    let f = x.floor();
+    (f as i32, x - f)
+}
+
+fn grad1(hash: u32, x: f32) -> f32 {
+    let h = hash & 15;
+    let g = 1.0 + (h & 7) as f32;
+    negate_if(g, h & 8) * x
+}
+
+fn grad2(hash: u32, x: f32, y: f32) -> f32 {
+    let h = hash & 7;
+    let (u, v) = if h < 4 { (x, 2.0 * y) } else { (y, 2.0 * x) };
+    negate_if(u, h & 1) + negate_if(v, h & 2)
+}
+
+fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
+    let h = hash & 15;
+    let u = if h < 8 { x } else { y };
+    let vt = if h == 12 || h == 14 { x } else { z };
+    let v = if h < 4 { y } else { vt };
+    negate_if(u, h & 1) + negate_if(v, h & 2)
+}
+
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    (1.0 - t) * a + t * b
+}
+
+fn perlin1(x: f32) -> f32 {
+    let (xi, fx) = floorfrac(x);
+    let u = fade(fx);
+    lerp(
+        grad1(hash1(xi as u32), fx),
+        grad1(hash1(xi.wrapping_add(1) as u32), fx - 1.0),
+        u,
+    )
+}
+
+fn perlin2(x: f32, y: f32) -> f32 {
+    let (xi, fx) = floorfrac(x);
+    let (yi, fy) = floorfrac(y);
+    let (u, v) = (fade(fx), fade(fy));
+    let h = |dx: i32, dy: i32| hash2(xi.wrapping_add(dx) as u32, yi.wrapping_add(dy) as u32);
+    let v0 = grad2(h(0, 0), fx, fy);
+    let v1 = grad2(h(1, 0), fx - 1.0, fy);
+    let v2 = grad2(h(0, 1), fx, fy - 1.0);
+    let v3 = grad2(h(1, 1), fx - 1.0, fy - 1.0);
+    let x1 = 1.0 - u;
+    (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
+}
+
+fn perlin3(x: f32, y: f32, z: f32) -> f32 {
+    let (xi, fx) = floorfrac(x);
+    let (yi, fy) = floorfrac(y);
+    let (zi, fz) = floorfrac(z);
+    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+    let g = |dx: i32, dy: i32, dz: i32| {
+        let h = hash3(
+            xi.wrapping_add(dx) as u32,
+            yi.wrapping_add(dy) as u32,
+            zi.wrapping_add(dz) as u32,
+        );
+        grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
+    };
+    let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
+    z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
+        + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
+}
+
+/// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
+fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
+    let m = |x: f32| x % 100_000.0;
+    match dimensions {
+        1 => 0.25 * perlin1(m(w)),
+        2 => 0.6616 * perlin2(m(p.x), m(p.y)),
+        _ => 0.9820 * perlin3(m(p.x), m(p.y), m(p.z)),
+    }
+}
+
+struct Fractal {
+    detail: f32,
+    roughness: f32,
+    lacunarity: f32,
+    normalize: bool,
+}
+
+/// Cycles' `noise_fbm`.
+fn fbm(dimensions: u8, p: Vec3, w: f32, f: &Fractal) -> f32 {
+    let mut fscale = 1.0f32;
+    let mut amp = 1.0f32;
+    let mut maxamp = 0.0f32;
+    let mut sum = 0.0f32;
+    let octaves = f.detail as i32;
+    for _ in 0..=octaves {
+        let t = snoise(dimensions, fscale * p, fscale * w);
+        sum += t * amp;
+        maxamp += amp;
+        amp *= f.roughness;
+        fscale *= f.lacunarity;
+    }
+    let rmd = f.detail - f.detail.floor();
+    if rmd != 0.0 {
+        let t = snoise(dimensions, fscale * p, fscale * w);
+        let sum2 = sum + t * amp;
+        if f.normalize {
+            lerp(
+                0.5 * sum / maxamp + 0.5,
+                0.5 * sum2 / (maxamp + amp) + 0.5,
+                rmd,
+            )
+        } else {
+            lerp(sum, sum2, rmd)
+        }
+    } else if f.normalize {
+        0.5 * sum / maxamp + 0.5
+    } else {
+        sum
+    }
+}
+
+/// Cycles' random offsets that seed the distortion and colour channels.
+fn offset(dimensions: u8, seed: f32) -> (Vec3, f32) {
+    if dimensions == 1 {
+        return (Vec3::ZERO, 100.0 + hash_float(seed) * 100.0);
+    }
+    let c = |k: f32| 100.0 + hash_float2(seed, k) * 100.0;
+    (Vec3::new(c(0.0), c(1.0), c(2.0)), 0.0)
+}
+
+/// The Noise Texture (FBM type): its Fac and Color outputs.
+/// Without `color` the Color output is not computed (grey).
+fn noise_texture(
+    dimensions: u8,
+    p: Vec3,
+    w: f32,
+    f: &Fractal,
+    distortion: f32,
+    color: bool,
+) -> (f32, Vec3) {
+    let (mut p, mut w) = (p, w);
+    let masked = |v: Vec3| match dimensions {
+        2 => Vec3::new(v.x, v.y, 0.0),
+        _ => v,
+    };
+    p = masked(p);
+    if distortion != 0.0 {
+        match dimensions {
+            1 => w += snoise(1, p, w + offset(1, 0.0).1) * distortion,
+            _ => {
+                let mut d = Vec3::ZERO;
+                for (k, seed) in [0.0f32, 1.0, 2.0]
+                    .iter()
+                    .enumerate()
+                    .take(dimensions as usize)
+                {
+                    d[k] =
+                        snoise(dimensions, p + masked(offset(dimensions, *seed).0), w) * distortion;
+                }
+                p += d;
+            }
+        }
+    }
+    let value = fbm(dimensions, p, w, f);
+    if !color {
+        return (value, Vec3::splat(value));
+    }
+    let (s1, s2) = match dimensions {
+        1 => (1.0, 2.0),
+        2 => (2.0, 3.0),
+        _ => (3.0, 4.0),
+    };
+    let shifted = |seed: f32| {
+        let (o, ow) = offset(dimensions, seed);
+        fbm(dimensions, p + masked(o), w + ow, f)
+    };
+    (value, Vec3::new(value, shifted(s1), shifted(s2)))
+}
+
+/// Blender's Vector Math node: the vector and the value outputs.
+fn vector_math(op: VectorOp, a: Vec3, b: Vec3, c: Vec3, scale: f32) -> (Vec3, f32) {
+    use VectorOp::*;
+    let per = |f: &dyn Fn(f32, f32) -> f32| Vec3::new(f(a.x, b.x), f(a.y, b.y), f(a.z, b.z));
+    match op {
+        Add => (a + b, 0.0),
+        Subtract => (a - b, 0.0),
+        Multiply => (a * b, 0.0),
+        Divide => (safe_divide3(a, b), 0.0),
+        MultiplyAdd => (a * b + c, 0.0),
+        Cross => (a.cross(b), 0.0),
+        Project => {
+            let len2 = b.length_squared();
+            let v = if len2 != 0.0 {
+                b * (a.dot(b) / len2)
+            } else {
+                Vec3::ZERO
+            };
+            (v, 0.0)
+        }
+        Reflect => {
+            let n = b.normalize_or_zero();
+            (a - 2.0 * a.dot(n) * n, 0.0)
+        }
+        Dot => (Vec3::ZERO, a.dot(b)),
+        Distance => (Vec3::ZERO, a.distance(b)),
+        Length => (Vec3::ZERO, a.length()),
+        Scale => (a * scale, 0.0),
+        Normalize => (a.normalize_or_zero(), 0.0),
+        Absolute => (a.abs(), 0.0),
+        Minimum => (a.min(b), 0.0),
+        Maximum => (a.max(b), 0.0),
+        Floor => (a.floor(), 0.0),
+        Ceil => (a.ceil(), 0.0),
+        Fraction => (a - a.floor(), 0.0),
+        Modulo => (per(&|x, y| if y != 0.0 { x % y } else { 0.0 }), 0.0),
+        Snap => (
+            per(&|x, y| if y != 0.0 { (x / y).floor() * y } else { 0.0 }),
+            0.0,
+        ),
+        Sine => (Vec3::new(a.x.sin(), a.y.sin(), a.z.sin()), 0.0),
+        Cosine => (Vec3::new(a.x.cos(), a.y.cos(), a.z.cos()), 0.0),
+        Tangent => (Vec3::new(a.x.tan(), a.y.tan(), a.z.tan()), 0.0),
+    }
+}
+
+/// Cycles' `svm_wave` on the scaled point; `detail` holds Distortion, Detail, Detail Scale,
+/// Detail Roughness and Phase Offset.
+fn wave(kind: WaveKind, p: Vec3, detail: [f32; 5]) -> f32 {
+    let [distortion, octaves, detail_scale, detail_roughness, phase] = detail;
+    let p = (p + Vec3::splat(0.000_001)) * 0.999_999;
+    let mut n = if kind.bands {
+        match kind.direction {
+            0 => p.x * 20.0,
+            1 => p.y * 20.0,
+            2 => p.z * 20.0,
+            _ => (p.x + p.y + p.z) * 10.0,
+        }
+    } else {
+        let rp = match kind.direction {
+            0 => p * Vec3::new(0.0, 1.0, 1.0),
+            1 => p * Vec3::new(1.0, 0.0, 1.0),
+            2 => p * Vec3::new(1.0, 1.0, 0.0),
+            _ => p,
+        };
+        rp.length() * 20.0
+    };
+    n += phase;
+    if distortion != 0.0 {
+        let f = Fractal {
+            detail: octaves,
+            roughness: detail_roughness,
+            lacunarity: 2.0,
+            normalize: true,
+        };
+        n += distortion * (fbm(3, p * detail_scale, 0.0, &f) * 2.0 - 1.0);
+    }
+    match kind.profile {
+        WaveProfile::Sine => 0.5 + 0.5 * (n - std::f32::consts::FRAC_PI_2).sin(),
+        WaveProfile::Saw => {
+            let n = n / (2.0 * PI);
+            n - n.floor()
+        }
+        WaveProfile::Triangle => {
+            let n = n / (2.0 * PI);
+            (n - (n + 0.5).floor()).abs() * 2.0
+        }
+    }
+}
+
+// ----- Voronoi as Blender defines it (Cycles' voronoi.h) -----------------------------------
+
+struct VoronoiParams {
+    scale: f32,
+    detail: f32,
+    roughness: f32,
+    lacunarity: f32,
+    smoothness: f32,
+    exponent: f32,
+    randomness: f32,
+    kind: VoronoiKind,
+}
+
+/// Jenkins' lookup3 `mix` of (a, b, c).
+fn lookup3_mix(mut a: u32, mut b: u32, mut c: u32) -> (u32, u32, u32) {
+    a = a.wrapping_sub(c);
+    a ^= c.rotate_left(4);
+    c = c.wrapping_add(b);
+    b = b.wrapping_sub(a);
+    b ^= a.rotate_left(6);
+    a = a.wrapping_add(c);
+    c = c.wrapping_sub(b);
+    c ^= b.rotate_left(8);
+    b = b.wrapping_add(a);
+    a = a.wrapping_sub(c);
+    a ^= c.rotate_left(16);
+    c = c.wrapping_add(b);
+    b = b.wrapping_sub(a);
+    b ^= a.rotate_left(19);
+    a = a.wrapping_add(c);
+    c = c.wrapping_sub(b);
+    c ^= b.rotate_left(4);
+    b = b.wrapping_add(a);
+    (a, b, c)
+}
+
+fn hash4(x: u32, y: u32, z: u32, w: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((4 << 2) + 13);
+    let (a, b, c) = lookup3_mix(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z));
+    lookup3_final(a.wrapping_add(w), b, c)
+}
+
+fn unit(h: u32) -> f32 {
+    h as f32 * (1.0 / 4_294_967_295.0)
+}
+
+/// `hash_float2_to_float2` (2D) or `hash_float3_to_float3` (3D): a cell's point offset.
+fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
+    let (x, y, z) = (c.x.to_bits(), c.y.to_bits(), c.z.to_bits());
+    if dimensions == 2 {
+        Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
+    } else {
+        Vec3::new(
+            unit(hash3(x, y, z)),
+            unit(hash4(x, y, z, 1f32.to_bits())),
+            unit(hash4(x, y, z, 2f32.to_bits())),
+        )
+    }
+}
+
+/// `hash_float2_to_float3` (2D) or `hash_float3_to_float3` (3D): a cell's colour.
+fn cell_color(dimensions: u8, c: Vec3) -> Vec3 {
+    let (x, y) = (c.x.to_bits(), c.y.to_bits());
+    if dimensions == 2 {
+        Vec3::new(
+            unit(hash2(x, y)),
+            unit(hash3(x, y, 1f32.to_bits())),
+            unit(hash3(x, y, 2f32.to_bits())),
+        )
+    } else {
+        cell_point(3, c)
+    }
+}
+
+fn voronoi_distance(metric: Metric, exponent: f32, a: Vec3, b: Vec3) -> f32 {
+    let d = (a - b).abs();
+    match metric {
+        Metric::Euclidean => a.distance(b),
+        Metric::Manhattan => d.x + d.y + d.z,
+        Metric::Chebychev => d.max_element(),
+        Metric::Minkowski => {
+            (d.x.powf(exponent) + d.y.powf(exponent) + d.z.powf(exponent)).powf(1.0 / exponent)
+        }
+    }
+}
+
+/// The cell offsets a search visits, in Cycles' order (z outermost, x innermost).
+fn cell_offsets(dimensions: u8, reach: i32) -> impl Iterator<Item = Vec3> {
+    let zr = if dimensions == 2 { 0 } else { reach };
+    (-zr..=zr).flat_map(move |k| {
+        (-reach..=reach).flat_map(move |j| {
+            (-reach..=reach).map(move |i| Vec3::new(i as f32, j as f32, k as f32))
+        })
+    })
+}
+
+/// One octave: (distance, colour, position).
+fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+    let dims = p.kind.dimensions;
+    let cell = coord.floor();
+    let local = coord - cell;
+    let metric = p.kind.metric;
+    match p.kind.feature {
+        VoronoiFeature::SmoothF1 if p.smoothness != 0.0 => {
+            let mut distance = 0.0f32;
+            let mut color = Vec3::ZERO;
+            let mut position = Vec3::ZERO;
+            let mut h = -1.0f32;
+            for offset in cell_offsets(dims, 2) {
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                h = if h == -1.0 {
+                    1.0
+                } else {
+                    smoothstep(0.0, 1.0, 0.5 + 0.5 * (distance - d) / p.smoothness)
+                };
+                let mut correction = p.smoothness * h * (1.0 - h);
+                distance = lerp(distance, d, h) - correction;
+                correction /= 1.0 + 3.0 * p.smoothness;
+                let c = cell_color(dims, cell + offset);
+                color = color.lerp(c, h) - Vec3::splat(correction);
+                position = position.lerp(point, h) - Vec3::splat(correction);
+            }
+            (distance, color, cell + position)
+        }
+        VoronoiFeature::F2 => {
+            let (mut d1, mut d2) = (f32::MAX, f32::MAX);
+            let (mut o1, mut o2) = (Vec3::ZERO, Vec3::ZERO);
+            let (mut p1, mut p2) = (Vec3::ZERO, Vec3::ZERO);
+            for offset in cell_offsets(dims, 1) {
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                if d < d1 {
+                    (d2, o2, p2) = (d1, o1, p1);
+                    (d1, o1, p1) = (d, offset, point);
+                } else if d < d2 {
+                    (d2, o2, p2) = (d, offset, point);
+                }
+            }
+            (d2, cell_color(dims, cell + o2), p2 + cell)
+        }
+        _ => {
+            let mut best = f32::MAX;
+            let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
+            for offset in cell_offsets(dims, 1) {
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                if d < best {
+                    (best, target_offset, target) = (d, offset, point);
+                }
+            }
+            (best, cell_color(dims, cell + target_offset), target + cell)
+        }
+    }
+}
+
+/// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
+fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+    let r = 0.5 + 0.5 * p.randomness;
+    let corner = if p.kind.dimensions == 2 {
+        Vec3::new(r, r, 0.0)
+    } else {
+        Vec3::splat(r)
+    };
+    let f2 = if p.kind.feature == VoronoiFeature::F2 {
+        2.0
+    } else {
+        1.0
+    };
+    let max_distance = voronoi_distance(p.kind.metric, p.exponent, Vec3::ZERO, corner) * f2;
+    let mut amplitude = 1.0f32;
+    let mut max_amplitude = 0.0f32;
+    let mut scale = 1.0f32;
+    let (mut distance, mut color, mut position) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+    let zero_input = p.detail == 0.0 || p.roughness == 0.0;
+    let octaves = p.detail.ceil() as i32;
+    for i in 0..=octaves {
+        let (d, c, pos) = voronoi_octave(p, coord * scale);
+        if zero_input {
+            max_amplitude = 1.0;
+            (distance, color, position) = (d, c, pos);
+            break;
+        }
+        if i as f32 <= p.detail {
+            max_amplitude += amplitude;
+            distance += d * amplitude;
+            color += c * amplitude;
+            position = position.lerp(pos / scale, amplitude);
+            scale *= p.lacunarity;
+            amplitude *= p.roughness;
+        } else {
+            let rmd = p.detail - p.detail.floor();
+            if rmd != 0.0 {
+                max_amplitude = lerp(max_amplitude, max_amplitude + amplitude, rmd);
+                distance = lerp(distance, distance + d * amplitude, rmd);
+                color = color.lerp(color + c * amplitude, rmd);
+                position = position.lerp(position.lerp(pos / scale, amplitude), rmd);
+            }
+        }
+    }
+    if p.kind.normalize {
+        distance /= max_amplitude * max_distance;
+        color /= max_amplitude;
+    }
+    let position = if p.scale != 0.0 {
+        position / p.scale
+    } else {
+        Vec3::ZERO
+    };
+    (distance, color, position)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn at_generated(p: Vec3) -> ShadingInputs {
+        ShadingInputs {
+            generated: p,
+            ..ShadingInputs::default()
+        }
+    }
+
+    fn emission_of(tree: Value, at: &ShadingInputs) -> Vec3 {
+        let mut w = Vec::new();
+        let program = compile(&tree, 0, &mut w).expect("compiles");
+        program.eval(&[*at; 3], &[], 0.5).emission
+    }
+
+    #[test]
+    fn checker_alternates_cells_as_cycles() {
+        assert_eq!(checker(Vec3::new(0.5, 0.5, 0.5)), 0.0);
+        assert_eq!(checker(Vec3::new(1.5, 0.5, 0.5)), 1.0);
+        assert_eq!(checker(Vec3::new(0.5, 1.5, 0.5)), 1.0);
+        assert_eq!(checker(Vec3::new(1.5, 1.5, 0.5)), 0.0);
+        assert_eq!(checker(Vec3::new(0.5, 0.5, 1.5)), 1.0);
+        // Negative cells mirror: |floor(−0.5)| = 1.
+        assert_eq!(checker(Vec3::new(-0.5, 0.5, 0.5)), 1.0);
+    }
+
+    #[test]
+    fn gradient_kinds_at_known_points() {
+        let p = Vec3::new(0.25, 0.75, 0.0);
+        assert_eq!(gradient(GradientKind::Linear, p), 0.25);
+        assert_eq!(gradient(GradientKind::Quadratic, p), 0.0625);
+        assert_eq!(gradient(GradientKind::Diagonal, p), 0.5);
+        assert!((gradient(GradientKind::Easing, p) - 0.15625).abs() < 1e-6);
+        assert!((gradient(GradientKind::Radial, Vec3::new(0.0, 1.0, 0.0)) - 0.75).abs() < 1e-6);
+        assert_eq!(
+            gradient(GradientKind::Linear, Vec3::new(2.0, 0.0, 0.0)),
+            1.0
+        );
+        assert!(
+            (gradient(GradientKind::Spherical, Vec3::new(0.5, 0.0, 0.0)) - 0.499_999).abs() < 1e-6
+        );
+    }
+
+    #[test]
+    fn math_ops_follow_blender() {
+        assert_eq!(math(MathOp::Divide, 1.0, 0.0, 0.0), 0.0);
+        assert_eq!(math(MathOp::Power, -2.0, 3.0, 0.0), -8.0);
+        assert_eq!(math(MathOp::Power, -2.0, 0.5, 0.0), 0.0);
+        assert_eq!(math(MathOp::FlooredModulo, -1.0, 3.0, 0.0), 2.0);
+        assert_eq!(math(MathOp::Modulo, -1.0, 3.0, 0.0), -1.0);
+        assert_eq!(math(MathOp::Wrap, 1.25, 1.0, 0.0), 0.25);
+        assert_eq!(math(MathOp::PingPong, 1.5, 1.0, 0.0), 0.5);
+        assert_eq!(math(MathOp::Sqrt, -4.0, 0.0, 0.0), 0.0);
+        assert_eq!(math(MathOp::Compare, 1.0, 1.05, 0.1), 1.0);
+        assert_eq!(math(MathOp::Round, -0.5, 0.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn color_ramp_interpolates_the_table_as_cycles() {
+        let table = vec![Vec4::ZERO, Vec4::ONE, Vec4::new(1.0, 0.0, 0.0, 1.0)];
+        assert_eq!(ramp_lookup(&table, 0.25, true), Vec4::splat(0.5));
+        assert_eq!(ramp_lookup(&table, 0.25, false), Vec4::ZERO);
+        assert_eq!(
+            ramp_lookup(&table, 0.75, true),
+            Vec4::new(1.0, 0.5, 0.5, 1.0)
+        );
+        assert_eq!(ramp_lookup(&table, 7.0, true), table[2]);
+        assert_eq!(ramp_lookup(&table, f32::NAN, true), table[0]);
+        // Curves extrapolate linearly beyond the table (one entry step per 1/(n − 1)).
+        assert_eq!(ramp_extrapolated(&table, -0.5), Vec4::splat(-1.0));
+        assert_eq!(
+            ramp_extrapolated(&table, 1.5),
+            Vec4::new(1.0, -1.0, -1.0, 1.0)
+        );
+    }
+
+    #[test]
+    fn noise_is_in_range_and_matches_known_structure() {
+        let f = Fractal {
+            detail: 2.0,
+            roughness: 0.5,
+            lacunarity: 2.0,
+            normalize: true,
+        };
+        // Perlin noise is zero at lattice points: one octave of normalized fBm gives 0.5 there.
+        let one = Fractal { detail: 0.0, ..f };
+        assert!((fbm(3, Vec3::new(3.0, -2.0, 7.0), 0.0, &one) - 0.5).abs() < 1e-6);
+        let mut lo = f32::MAX;
+        let mut hi = f32::MIN;
+        for i in 0..2000 {
+            let p = Vec3::new(i as f32 * 0.137, i as f32 * 0.071, i as f32 * 0.029);
+            let v = fbm(3, p, 0.0, &f);
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        assert!(lo > 0.0 && hi < 1.0 && hi - lo > 0.3, "{lo} {hi}");
+        // Continuity: nearby points give nearby values.
+        let a = fbm(3, Vec3::new(0.3, 0.4, 0.5), 0.0, &f);
+        let b = fbm(3, Vec3::new(0.3001, 0.4, 0.5), 0.0, &f);
+        assert!((a - b).abs() < 1e-3);
+    }
+
+    #[test]
+    fn checker_tree_into_emission() {
+        let tree = json!({
+            "nodes": [
+                {"name": "Checker", "type": "ShaderNodeTexChecker",
+                 "inputs": {"Color1": [1.0, 0.0, 0.0, 1.0], "Color2": [0.0, 0.0, 1.0, 1.0],
+                            "Scale": 2.0}},
+                {"name": "Emission", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"node": 0, "output": "Color"}, "Strength": 3.0}}
+            ],
+            "output": {"node": 1, "output": "Emission"}
+        });
+        let e = emission_of(tree.clone(), &at_generated(Vec3::new(0.1, 0.1, 0.1)));
+        assert_eq!(e, Vec3::new(0.0, 0.0, 3.0));
+        let e = emission_of(tree, &at_generated(Vec3::new(0.6, 0.1, 0.1)));
+        assert_eq!(e, Vec3::new(3.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn math_and_conversions_in_a_tree() {
+        // Separate the UV, multiply u by v, feed the float into a colour (float → colour).
+        let tree = json!({
+            "nodes": [
+                {"name": "UV", "type": "ShaderNodeUVMap"},
+                {"name": "Sep", "type": "ShaderNodeSeparateXYZ",
+                 "inputs": {"Vector": {"node": 0, "output": "UV"}}},
+                {"name": "Mul", "type": "ShaderNodeMath", "operation": "MULTIPLY",
+                 "inputs": {"Value": {"node": 1, "output": "X"},
+                            "Value_001": {"node": 1, "output": "Y"}}},
+                {"name": "Col", "type": "ShaderNodeRGB", "value": [0.0, 1.0, 0.0, 1.0]},
+                {"name": "Gray", "type": "ShaderNodeMath", "operation": "ADD",
+                 "inputs": {"Value": {"node": 3, "output": "Color"}, "Value_001": 0.0}},
+                {"name": "Sum", "type": "ShaderNodeMath", "operation": "ADD",
+                 "inputs": {"Value": {"node": 2, "output": "Value"},
+                            "Value_001": {"node": 4, "output": "Value"}}},
+                {"name": "Emission", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"node": 5, "output": "Value"}}}
+            ],
+            "output": {"node": 6, "output": "Emission"}
+        });
+        let at = ShadingInputs {
+            uv: Vec2::new(0.5, 0.25),
+            ..ShadingInputs::default()
+        };
+        let e = emission_of(tree, &at);
+        assert!(
+            (e - Vec3::splat(0.125 + 0.7152)).abs().max_element() < 1e-6,
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn mix_shader_picks_by_factor_and_mixes_emission() {
+        let tree = json!({
+            "nodes": [
+                {"name": "D", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": [1.0, 0.0, 0.0, 1.0]}},
+                {"name": "G", "type": "ShaderNodeBsdfGlossy", "inputs": {"Color": [0.0, 1.0, 0.0, 1.0], "Roughness": 0.2}},
+                {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": 2.0}},
+                {"name": "M", "type": "ShaderNodeMixShader", "inputs": {"Fac": 0.25,
+                    "Shader": {"node": 0, "output": "BSDF"}, "Shader_001": {"node": 1, "output": "BSDF"}}},
+                {"name": "A", "type": "ShaderNodeAddShader", "inputs": {
+                    "Shader": {"node": 3, "output": "Shader"}, "Shader_001": {"node": 2, "output": "Emission"}}}
+            ],
+            "output": {"node": 4, "output": "Shader"}
+        });
+        let mut w = Vec::new();
+        let p = compile(&tree, 0, &mut w).unwrap();
+        let at = ShadingInputs::default();
+        let n = 10_000;
+        let mut metal = 0;
+        for i in 0..n {
+            let c = p.eval(&[at; 3], &[], (i as f32 + 0.5) / n as f32);
+            assert_eq!(c.emission, Vec3::splat(2.0));
+            if c.metallic == 1.0 {
+                assert_eq!(c.base_color, Vec3::new(0.0, 1.0, 0.0));
+                metal += 1;
+            } else {
+                assert_eq!(c.base_color, Vec3::new(1.0, 0.0, 0.0));
+                assert_eq!(c.specular_color, Vec3::ZERO);
+            }
+        }
+        assert_eq!(metal, n / 4);
+    }
+
+    #[test]
+    fn invalid_programs_are_refused_with_a_reason() {
+        let mut w = Vec::new();
+        let forward = json!({"nodes": [
+            {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Color": {"node": 1, "output": "Color"}}},
+            {"name": "C", "type": "ShaderNodeRGB", "value": [1, 1, 1, 1]}
+        ], "output": {"node": 0, "output": "Emission"}});
+        let e = compile(&forward, 0, &mut w).unwrap_err();
+        assert!(e.contains("not earlier"), "{e}");
+        let value_as_shader = json!({"nodes": [
+            {"name": "C", "type": "ShaderNodeRGB", "value": [1, 1, 1, 1]}
+        ], "output": {"node": 0, "output": "Color"}});
+        assert!(compile(&value_as_shader, 0, &mut w)
+            .unwrap_err()
+            .contains("shader output"));
+        assert!(compile(&json!({"nodes": 3}), 0, &mut w).is_err());
+        let bad_ramp =
+            json!({"nodes": [{"name": "R", "type": "ShaderNodeValToRGB", "table": [1]}]});
+        assert!(compile(&bad_ramp, 0, &mut w)
+            .unwrap_err()
+            .contains("Color Ramp"));
+    }
+
+    #[test]
+    fn unknown_nodes_warn_and_fall_back() {
+        let mut w = Vec::new();
+        let tree = json!({"nodes": [
+            {"name": "Magic", "type": "ShaderNodeTexMagic"},
+            {"name": "E", "type": "ShaderNodeEmission", "inputs": {
+                "Color": {"node": 0, "output": "Color"}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let p = compile(&tree, 0, &mut w).unwrap();
+        assert_eq!(w.len(), 1);
+        assert!(w[0].contains("Magic"), "{w:?}");
+        // The Emission colour's default (white) is used.
+        assert_eq!(
+            p.eval(&[ShadingInputs::default(); 3], &[], 0.5).emission,
+            Vec3::ONE
+        );
+    }
+
+    #[test]
+    fn bump_tilts_the_normal_against_the_height_gradient() {
+        // Height = world x: the gradient is +X, so with distance 1 the normal leans to −X by
+        // 45°; the Height subtree is copied for the two offset points.
+        let tree = json!({"nodes": [
+            {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+            {"name": "Sep", "type": "ShaderNodeSeparateXYZ",
+             "inputs": {"Vector": {"node": 0, "output": "Position"}}},
+            {"name": "Bump", "type": "ShaderNodeBump",
+             "inputs": {"Distance": 1.0, "Strength": 1.0,
+                        "Height": {"node": 1, "output": "X"}}},
+            {"name": "D", "type": "ShaderNodeBsdfDiffuse",
+             "inputs": {"Normal": {"node": 2, "output": "Normal"}}}
+        ], "output": {"node": 3, "output": "BSDF"}});
+        let mut w = Vec::new();
+        let p = compile(&tree, 0, &mut w).unwrap();
+        assert!(p.needs_offsets && w.is_empty());
+        let at = |x: f32, y: f32| ShadingInputs {
+            position: Vec3::new(x, y, 0.0),
+            normal: Vec3::Z,
+            ..ShadingInputs::default()
+        };
+        let e = 1e-3;
+        let c = p.eval(&[at(0.0, 0.0), at(e, 0.0), at(0.0, e)], &[], 0.5);
+        let want = Vec3::new(-1.0, 0.0, 1.0).normalize();
+        assert!((c.normal - want).length() < 1e-4, "{}", c.normal);
+        // Without offsets (all three points equal) the normal is the surface's.
+        let flat = p.eval(&[at(0.0, 0.0); 3], &[], 0.5);
+        assert!((flat.normal - Vec3::Z).length() < 1e-6);
+    }
+
+    #[test]
+    fn mapping_point_and_texture_are_inverse() {
+        let (loc, rot, scale) = (
+            Vec3::new(0.3, -1.0, 2.0),
+            Vec3::new(0.4, 0.9, -1.2),
+            Vec3::new(2.0, 0.5, 3.0),
+        );
+        let v = Vec3::new(0.7, 0.2, -0.4);
+        let p = mapping(MappingKind::Point, v, loc, rot, scale);
+        let back = mapping(MappingKind::Texture, p, loc, rot, scale);
+        assert!((back - v).length() < 1e-5);
+        // A 90° turn about Z takes X to Y.
+        let r = euler_xyz(Vec3::new(0.0, 0.0, PI / 2.0), Vec3::X);
+        assert!((r - Vec3::Y).length() < 1e-6);
+    }
+
+    #[test]
+    fn mix_color_blend_modes() {
+        let a = Vec3::new(0.2, 0.4, 0.6);
+        let b = Vec3::new(0.5, 0.5, 0.5);
+        assert!((mix_color(Blend::Multiply, 1.0, a, b) - a * 0.5).length() < 1e-6);
+        assert!((mix_color(Blend::Add, 0.5, a, b) - (a + 0.25)).length() < 1e-6);
+        assert!(
+            (mix_color(Blend::Screen, 1.0, a, b) - (Vec3::ONE - 0.5 * (Vec3::ONE - a))).length()
+                < 1e-6
+        );
+        assert!((mix_color(Blend::Mix, 0.5, a, b) - (a + b) * 0.5).length() < 1e-6);
+        let c = Vec3::new(0.8, 0.2, 0.1);
+        assert!((hsv_to_rgb(rgb_to_hsv(c)) - c).length() < 1e-6);
+    }
+}

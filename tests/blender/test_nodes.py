@@ -1,0 +1,401 @@
+"""Shader node trees evaluated by Photon (PHOTON_material_nodes, issue 19), against Cycles.
+
+Each scene is built with bpy and rendered by Cycles and by Photon through the add-on at 32x32:
+
+- a texture wired into an Emission shader on a plane seen straight on (the image is the
+  texture's values themselves): Checker on Generated coordinates; Noise (fBm) on Object
+  coordinates through a Mapping and a Color Ramp; a Gradient on UV coordinates through Math,
+  Map Range and a Mix (Multiply) with vertex colours. relMSE <= 1e-3;
+- lit materials under a sun: a Checker into a Principled BSDF's Base Color; a Mix Shader of a
+  Diffuse and a Glossy BSDF driven by a Noise texture; a Noise through a Bump into the Normal;
+  one tree mixing many (Noise, Color Ramp, vertex colours, Bump, Voronoi, Mix Shader): mean
+  within 2 %, relMSE <= 0.01.
+
+Also: Voronoi with Hue/Saturation and an Overlay Mix, Wave rings into Bright/Contrast, an 8x8
+PNG through the Image Texture node, and Layer Weight, Fresnel and Reflection coordinates on a
+smooth sphere, wired into Emission (relMSE <= 1e-3).
+"""
+
+import math
+
+import bpy
+import pytest
+
+import common
+from cycles_compare import compare
+
+EMISSION_RELMSE_MAX = 1e-3
+SIZE = 32
+
+
+@pytest.fixture(autouse=True)
+def _addon(photon_addon, binary_env):
+    return photon_addon
+
+
+def node_material(name):
+    """A fresh scene (black world) and a node material without its Principled BSDF."""
+    common.reset_scene(SIZE, SIZE)
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    return mat, mat.node_tree
+
+
+def emission_into_output(tree, socket, strength=1.0):
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = strength
+    tree.links.new(socket, emission.inputs["Color"])
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    return emission
+
+
+def emission_matches(name, mat, tree, socket, tmp_path, *, strength=1.0, photon_spp=512,
+                     cycles_spp=512, **plane):
+    """Wire `socket` into an Emission shader of `mat`, and compare the plane with Cycles:
+    relMSE <= EMISSION_RELMSE_MAX."""
+    emission_into_output(tree, socket, strength)
+    scene, _ = plane_scene(mat, **plane)
+    compare(name, scene, tmp_path, photon_spp=photon_spp, cycles_spp=cycles_spp,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
+def plane_scene(material, *, uv=False, colors=False, camera=True):
+    """A 2 m plane facing a camera 3 m above it (the plane fills the view), in the scene
+    `node_material` reset."""
+    scene = bpy.context.scene
+    plane = common.quad("Plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], material)
+    mesh = plane.data
+    if uv:
+        layer = mesh.uv_layers.new(name="UVMap")
+        for loop, (u, v) in zip(mesh.loops, [(0, 0), (1, 0), (1, 1), (0, 1)]):
+            layer.data[loop.index].uv = (u, v)
+    if colors:
+        attribute = mesh.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+        corners = [(1.0, 0.2, 0.1, 1.0), (0.1, 1.0, 0.2, 1.0), (0.2, 0.1, 1.0, 1.0),
+                   (1.0, 1.0, 1.0, 1.0)]
+        for i, c in enumerate(corners):
+            attribute.data[i].color = c
+        mesh.color_attributes.active_color = attribute
+        mesh.color_attributes.render_color_index = 0
+    if camera:
+        common.camera("Camera", (0.0, 0.0, 3.0), (0.0, 0.0, 0.0), 36.0)
+    return scene, plane
+
+
+def test_checker_on_generated_into_emission(tmp_path):
+    mat, tree = node_material("Checker")
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 3.0
+    checker.inputs["Color1"].default_value = (0.9, 0.3, 0.1, 1.0)
+    checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
+    emission_matches("checker emission", mat, tree, checker.outputs["Color"], tmp_path,
+                     strength=2.0)
+
+
+def test_noise_mapping_color_ramp_into_emission(tmp_path):
+    mat, tree = node_material("Noise")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Location"].default_value = (0.3, -0.2, 0.1)
+    mapping.inputs["Rotation"].default_value = (0.2, 0.1, math.radians(30.0))
+    mapping.inputs["Scale"].default_value = (1.5, 1.0, 1.0)
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 2.5
+    noise.inputs["Detail"].default_value = 3.5
+    noise.inputs["Roughness"].default_value = 0.6
+    noise.inputs["Distortion"].default_value = 0.3
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].position = 0.35
+    ramp.color_ramp.elements[0].color = (0.05, 0.1, 0.4, 1.0)
+    ramp.color_ramp.elements[1].position = 0.7
+    ramp.color_ramp.elements[1].color = (1.0, 0.8, 0.2, 1.0)
+    middle = ramp.color_ramp.elements.new(0.5)
+    middle.color = (0.8, 0.1, 0.1, 1.0)
+    tree.links.new(coords.outputs["Object"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
+    emission_matches("noise ramp emission", mat, tree, ramp.outputs["Color"], tmp_path,
+                     strength=1.5)
+
+
+def test_gradient_math_mix_vertex_colours_into_emission(tmp_path):
+    mat, tree = node_material("Gradient")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    gradient = tree.nodes.new("ShaderNodeTexGradient")
+    gradient.gradient_type = "EASING"
+    power = tree.nodes.new("ShaderNodeMath")
+    power.operation = "POWER"
+    power.inputs[1].default_value = 0.5
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    map_range.inputs["To Min"].default_value = 0.2
+    map_range.inputs["To Max"].default_value = 0.9
+    colors = tree.nodes.new("ShaderNodeVertexColor")
+    colors.layer_name = "Col"
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.blend_type = "MULTIPLY"
+    mix.inputs["Factor"].default_value = 1.0
+    group = bpy.data.node_groups.new("Scale", "ShaderNodeTree")
+    group.interface.new_socket("Value", in_out="INPUT", socket_type="NodeSocketFloat")
+    group.interface.new_socket("Value", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    g_in = group.nodes.new("NodeGroupInput")
+    g_out = group.nodes.new("NodeGroupOutput")
+    g_mul = group.nodes.new("ShaderNodeMath")
+    g_mul.operation = "MULTIPLY"
+    g_mul.inputs[1].default_value = 1.25
+    group.links.new(g_in.outputs[0], g_mul.inputs[0])
+    group.links.new(g_mul.outputs[0], g_out.inputs[0])
+    grouped = tree.nodes.new("ShaderNodeGroup")
+    grouped.node_tree = group
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(uv.outputs["UV"], gradient.inputs["Vector"])
+    tree.links.new(gradient.outputs["Fac"], power.inputs[0])
+    tree.links.new(power.outputs["Value"], grouped.inputs[0])
+    tree.links.new(grouped.outputs[0], map_range.inputs["Value"])
+    tree.links.new(map_range.outputs["Result"], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], mix.inputs["A"])
+    tree.links.new(colors.outputs["Color"], mix.inputs["B"])
+    emission_matches("gradient math mix emission", mat, tree, mix.outputs["Result"], tmp_path,
+                     strength=1.0, uv=True, colors=True)
+
+
+def lit_scene(material):
+    scene, plane = plane_scene(material)
+    common.light("Sun", "SUN", (0, 0, 5), (25.0, 10.0, 30.0), energy=3.0)
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.2, 0.25, 0.3, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    return scene
+
+
+def test_checker_into_principled_base_color(tmp_path):
+    mat, tree = node_material("Lit checker")
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Roughness"].default_value = 0.6
+    checker = tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 4.0
+    checker.inputs["Color1"].default_value = (0.8, 0.2, 0.1, 1.0)
+    checker.inputs["Color2"].default_value = (0.1, 0.5, 0.8, 1.0)
+    tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    tree.links.new(bsdf.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    compare("checker principled", lit_scene(mat), tmp_path, photon_spp=128, cycles_spp=256)
+
+
+def test_mix_shader_of_diffuse_and_glossy_by_noise(tmp_path):
+    mat, tree = node_material("Mixed")
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.7, 0.3, 0.2, 1.0)
+    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+    glossy.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    glossy.inputs["Roughness"].default_value = 0.5
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 3.0
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(noise.outputs["Fac"], mix.inputs["Fac"])
+    tree.links.new(diffuse.outputs["BSDF"], mix.inputs[1])
+    tree.links.new(glossy.outputs["BSDF"], mix.inputs[2])
+    tree.links.new(mix.outputs["Shader"], tree.nodes["Material Output"].inputs["Surface"])
+    compare("mix shader", lit_scene(mat), tmp_path, photon_spp=256, cycles_spp=256)
+
+
+def test_voronoi_and_hue_saturation_into_emission(tmp_path):
+    mat, tree = node_material("Voronoi")
+    voronoi = tree.nodes.new("ShaderNodeTexVoronoi")
+    voronoi.feature = "SMOOTH_F1"
+    voronoi.inputs["Scale"].default_value = 4.0
+    voronoi.inputs["Detail"].default_value = 1.5
+    voronoi.inputs["Smoothness"].default_value = 0.6
+    voronoi.normalize = True
+    hue = tree.nodes.new("ShaderNodeHueSaturation")
+    hue.inputs["Hue"].default_value = 0.3
+    hue.inputs["Saturation"].default_value = 1.4
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.blend_type = "OVERLAY"
+    tree.links.new(voronoi.outputs["Color"], hue.inputs["Color"])
+    tree.links.new(voronoi.outputs["Distance"], mix.inputs["Factor"])
+    tree.links.new(hue.outputs["Color"], mix.inputs["A"])
+    mix.inputs["B"].default_value = (0.2, 0.6, 0.9, 1.0)
+    emission_matches("voronoi hue emission", mat, tree, mix.outputs["Result"], tmp_path,
+                     strength=1.0, photon_spp=128)
+
+
+def test_wave_rings_with_distortion_into_emission(tmp_path):
+    mat, tree = node_material("Wave")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    wave = tree.nodes.new("ShaderNodeTexWave")
+    wave.wave_type = "RINGS"
+    wave.rings_direction = "SPHERICAL"
+    wave.wave_profile = "TRI"
+    wave.inputs["Scale"].default_value = 0.8
+    wave.inputs["Distortion"].default_value = 4.0
+    wave.inputs["Detail"].default_value = 2.5
+    contrast = tree.nodes.new("ShaderNodeBrightContrast")
+    contrast.inputs["Bright"].default_value = 0.1
+    contrast.inputs["Contrast"].default_value = 0.4
+    tree.links.new(coords.outputs["Object"], wave.inputs["Vector"])
+    tree.links.new(wave.outputs["Color"], contrast.inputs["Color"])
+    emission_matches("wave emission", mat, tree, contrast.outputs["Color"], tmp_path, strength=1.0)
+
+
+def test_image_texture_repeated_into_emission(tmp_path):
+    """An 8x8 PNG (sRGB) through UV x 1.5 (repeat) and the Image Texture node, bilinear."""
+    mat, tree = node_material("Image")
+    image = bpy.data.images.new("Tiles", 8, 8)
+    pixels = []
+    for y in range(8):
+        for x in range(8):
+            pixels += [((x * 37 + y * 11) % 8) / 7.0, ((x * 5 + y * 23) % 8) / 7.0,
+                       ((x + y) % 2) * 0.8 + 0.1, 1.0]
+    image.pixels = pixels
+    image.filepath_raw = str(tmp_path / "tiles.png")
+    image.file_format = "PNG"
+    image.save()
+    image = bpy.data.images.load(str(tmp_path / "tiles.png"))
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Scale"].default_value = (1.5, 1.5, 1.0)
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    emission_matches("image emission", mat, tree, tex.outputs["Color"], tmp_path,
+                     strength=1.0, uv=True)
+
+
+def test_noise_bump_into_principled_normal(tmp_path):
+    """Noise heights through a Bump node into a Principled BSDF's Normal, under a low sun."""
+    mat, tree = node_material("Bumpy")
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Base Color"].default_value = (0.7, 0.6, 0.5, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.7
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 3.0
+    noise.inputs["Detail"].default_value = 1.0
+    bump = tree.nodes.new("ShaderNodeBump")
+    bump.inputs["Distance"].default_value = 0.3
+    bump.inputs["Strength"].default_value = 0.8
+    tree.links.new(noise.outputs["Fac"], bump.inputs["Height"])
+    tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    tree.links.new(bsdf.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    scene, _ = plane_scene(mat)
+    common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 30.0), energy=3.0)
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.1, 0.1, 0.12, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    compare("noise bump", scene, tmp_path, photon_spp=256, cycles_spp=256)
+
+
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_mixed_tree_noise_ramp_bump_mix_shader_vertex_colours(tmp_path, method):
+    """Many nodes at once, lit: Noise into a Color Ramp for the Base Color (multiplied by the
+    vertex colours), the same Noise through a Bump for the Normal, and the Principled BSDF
+    mixed with a Glossy BSDF by a Voronoi distance; by the path tracer and by photon mapping
+    (the tree serves photon tracing and gathering as well)."""
+    mat, tree = node_material("Mixed tree")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 4.0
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.1, 0.3, 0.05, 1.0)
+    ramp.color_ramp.elements[1].color = (0.9, 0.8, 0.6, 1.0)
+    colors = tree.nodes.new("ShaderNodeVertexColor")
+    colors.layer_name = "Col"
+    tint = tree.nodes.new("ShaderNodeMix")
+    tint.data_type = "RGBA"
+    tint.blend_type = "MULTIPLY"
+    tint.inputs["Factor"].default_value = 1.0
+    bump = tree.nodes.new("ShaderNodeBump")
+    bump.inputs["Distance"].default_value = 0.2
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Roughness"].default_value = 0.6
+    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+    glossy.inputs["Roughness"].default_value = 0.3
+    voronoi = tree.nodes.new("ShaderNodeTexVoronoi")
+    voronoi.inputs["Scale"].default_value = 3.0
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    links = tree.links
+    links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
+    links.new(ramp.outputs["Color"], tint.inputs["A"])
+    links.new(colors.outputs["Color"], tint.inputs["B"])
+    links.new(tint.outputs["Result"], bsdf.inputs["Base Color"])
+    links.new(noise.outputs["Fac"], bump.inputs["Height"])
+    links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    links.new(voronoi.outputs["Distance"], mix.inputs["Fac"])
+    links.new(bsdf.outputs["BSDF"], mix.inputs[1])
+    links.new(glossy.outputs["BSDF"], mix.inputs[2])
+    links.new(mix.outputs["Shader"], tree.nodes["Material Output"].inputs["Surface"])
+    scene, _ = plane_scene(mat, colors=True)
+    common.light("Sun", "SUN", (0, 0, 5), (35.0, 0.0, 30.0), energy=3.0)
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.2, 0.25, 0.3, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    compare(f"mixed tree {method.lower()}", scene, tmp_path, photon_spp=256, cycles_spp=256,
+            method=method)
+
+
+def test_layer_weight_fresnel_and_reflection_on_a_sphere(tmp_path):
+    """View-dependent inputs on a smooth sphere: Layer Weight (Facing) and Fresnel mix colours,
+    plus the Reflection coordinates through a Separate XYZ, wired into Emission."""
+    mat, tree = node_material("Rim")
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=0.9)
+    sphere = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    sphere.data.materials.append(mat)
+    weight = tree.nodes.new("ShaderNodeLayerWeight")
+    weight.inputs["Blend"].default_value = 0.3
+    fresnel = tree.nodes.new("ShaderNodeFresnel")
+    fresnel.inputs["IOR"].default_value = 1.8
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    combine = tree.nodes.new("ShaderNodeCombineXYZ")
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.blend_type = "ADD"
+    links = tree.links
+    links.new(coords.outputs["Reflection"], separate.inputs["Vector"])
+    links.new(weight.outputs["Facing"], combine.inputs["X"])
+    links.new(fresnel.outputs["Fac"], combine.inputs["Y"])
+    links.new(separate.outputs["Z"], combine.inputs["Z"])
+    links.new(combine.outputs["Vector"], mix.inputs["A"])
+    links.new(weight.outputs["Fresnel"], mix.inputs["Factor"])
+    mix.inputs["B"].default_value = (0.1, 0.1, 0.3, 1.0)
+    common.camera("Camera", (0.0, 0.0, 3.0), (0.0, 0.0, 0.0), 40.0)
+    # The sphere's silhouette against the plane jumps from -0.4 to 1: more samples there.
+    emission_matches("view-dependent emission", mat, tree, mix.outputs["Result"], tmp_path,
+                     strength=1.0, camera=False, photon_spp=2048, cycles_spp=2048)
+
+
+def test_noise_color_output_2d_into_emission(tmp_path):
+    """The Noise texture's Color output (two more fBm evaluations at Cycles' seeded offsets),
+    2D, with distortion."""
+    mat, tree = node_material("Noise colour")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.noise_dimensions = "2D"
+    noise.inputs["Scale"].default_value = 3.0
+    noise.inputs["Distortion"].default_value = 0.5
+    emission_matches("noise colour emission", mat, tree, noise.outputs["Color"], tmp_path)
+
+
+def test_rgb_curves_into_emission(tmp_path):
+    """A UV gradient through RGB Curves whose combined and red curves are bent."""
+    mat, tree = node_material("Curves")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    curves = tree.nodes.new("ShaderNodeRGBCurve")
+    curves.inputs["Fac"].default_value = 0.9
+    combined, red = curves.mapping.curves[3], curves.mapping.curves[0]
+    combined.points.new(0.3, 0.6)
+    red.points.new(0.5, 0.2)
+    red.points[0].location = (0.0, 0.1)
+    curves.mapping.update()
+    tree.links.new(uv.outputs["UV"], separate.inputs["Vector"])
+    tree.links.new(separate.outputs["X"], combine.inputs["Red"])
+    tree.links.new(separate.outputs["Y"], combine.inputs["Green"])
+    combine.inputs["Blue"].default_value = 0.5
+    tree.links.new(combine.outputs["Color"], curves.inputs["Color"])
+    emission_matches("rgb curves emission", mat, tree, curves.outputs["Color"], tmp_path,
+                     uv=True)
