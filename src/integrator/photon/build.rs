@@ -110,8 +110,7 @@ pub fn build_maps(
     let irradiance = match (&global, settings.irradiance_stride) {
         (Some(g), n) if n > 0 => {
             let max_radius2 = sq(settings.global_radius);
-            let records =
-                precompute_irradiance(ctx, g, n, settings.k_global, max_radius2, progress)?;
+            let records = precompute_irradiance(g, n, settings.k_global, max_radius2, progress)?;
             info.irradiance_records = records.len();
             (!records.is_empty()).then(|| PhotonMap::build(records))
         }

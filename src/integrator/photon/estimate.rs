@@ -12,11 +12,10 @@
 //! records in a kd-tree of their own; a final-gather hit reads the nearest record whose normal
 //! agrees instead of a full k-nearest estimate.
 
-use crate::accel::{Ray, Visibility};
+use crate::accel::Visibility;
 use crate::error::Result;
 use crate::integrator::shading::Shading;
 use crate::integrator::Context;
-use crate::interaction::offset_origin;
 use crate::math::{Frame, Vec3};
 use crate::photon_map::{in_first_half, Neighbors, Photon, PhotonMap};
 use crate::progress::Progress;
@@ -35,11 +34,6 @@ const RECORD_REACH: f32 = 0.5;
 /// radius of the tangent plane, arriving from the normal's side). Each record is a photon whose
 /// `power` is the irradiance and whose `incoming` direction is the surface normal.
 ///
-/// The irradiance counts the photons, and the area, of the part of the disc the record's photon
-/// sees (`Walls::at_photon`): next to a wall standing on the surface (a room's corners, a box on
-/// the floor) the disc reaches behind the wall, where no photon of this surface lies, and
-/// dividing by the whole disc read such places too dark, by up to half at the wall.
-///
 /// The map is split in two halves (`in_first_half`). The first half decides where records sit
 /// and how far each reaches (the radius of its k/2 nearest first-half photons); the second half
 /// alone gives the irradiance, from its photons inside that radius. Which record serves a point
@@ -48,7 +42,6 @@ const RECORD_REACH: f32 = 0.5;
 /// more points, and the records read low by a bias proportional to 1/k that more photons never
 /// removed (docs/bench/README.md, "records").
 pub fn precompute_irradiance(
-    ctx: &Context,
     map: &PhotonMap,
     stride: u32,
     k: u32,
@@ -83,21 +76,16 @@ pub fn precompute_irradiance(
                     map.nearest_split(p, half_k, max_radius2, first, second, others);
                     let r2 = first.radius2;
                     let r = r2.sqrt();
-                    let walls = (r > 0.0).then(|| Walls::at_photon(ctx, p, n, r));
                     let mut sum = Vec3::ZERO;
                     for nb in second.iter() {
                         let q = &photons[nb.index as usize];
-                        if on_surface(q, p, n, r)
-                            && q.incoming().dot(n) > 0.0
-                            && walls.as_ref().is_some_and(|w| w.sees(q.position() - p))
-                        {
+                        if on_surface(q, p, n, r) && q.incoming().dot(n) > 0.0 {
                             sum += q.power();
                         }
                     }
                     // The second half holds half of the photons.
-                    let area = walls.map_or(0.0, |w| w.area(r, false));
-                    let e = if area > 0.0 {
-                        sum * (2.0 / area)
+                    let e = if r2 > 0.0 {
+                        sum * (2.0 / (PI * r2))
                     } else {
                         Vec3::ZERO
                     };
@@ -150,9 +138,6 @@ pub fn nearest_irradiance(map: &PhotonMap, max_radius2: f32, s: &Shading) -> Opt
         .map(|(i, _)| map.photons()[i as usize].power())
 }
 
-/// Relative error assumed for a stored photon's position when rays leave it (`Walls::at_photon`).
-const PHOTON_POSITION_ERROR: f32 = 1e-5;
-
 /// Angular sectors of the disc around a shading point in which `Walls` looks for occluders.
 const SECTORS: usize = 8;
 
@@ -169,30 +154,14 @@ impl Walls {
     /// One short ray per sector from `s`, rising 2 % above its tangent plane so that it leaves
     /// the surface itself; `rays` counts them.
     pub fn around(ctx: &Context, s: &Shading, radius: f32, rays: &mut u32) -> Walls {
-        *rays += SECTORS as u32;
-        Walls::cast(ctx, s.ng, 0.02, radius, |dir| s.sh.spawn(dir))
-    }
-
-    /// The same from a stored photon at `p` with normal `n`. A photon keeps neither its
-    /// position's error bound nor its exact normal (directions are stored in two bytes, about a
-    /// degree apart), so the rays leave from `PHOTON_POSITION_ERROR` × the position's largest
-    /// coordinate above the surface and rise 5 % above the tangent plane.
-    pub fn at_photon(ctx: &Context, p: Vec3, n: Vec3, radius: f32) -> Walls {
-        let error = Vec3::splat(PHOTON_POSITION_ERROR * p.abs().max_element().max(1.0));
-        Walls::cast(ctx, n, 0.05, radius, |dir| Ray {
-            origin: offset_origin(p, error, n, dir),
-            direction: dir,
-            t_max: f32::INFINITY,
-        })
-    }
-
-    fn cast(ctx: &Context, n: Vec3, rise: f32, radius: f32, spawn: impl Fn(Vec3) -> Ray) -> Walls {
-        let frame = Frame::from_normal(n);
+        let frame = Frame::from_normal(s.ng);
         let open = std::array::from_fn(|i| {
             let angle = 2.0 * PI * (i as f32 + 0.5) / SECTORS as f32;
             let along = frame.s * angle.cos() + frame.t * angle.sin();
-            let mut ray = spawn((along + rise * n).normalize());
+            let dir = (along + 0.02 * s.ng).normalize();
+            let mut ray = s.sh.spawn(dir);
             ray.t_max = radius;
+            *rays += 1;
             ctx.accel
                 .intersect(ctx.scene, &ray, Visibility::Secondary)
                 .map_or(radius, |hit| hit.t)

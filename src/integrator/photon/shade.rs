@@ -55,6 +55,11 @@ use crate::photon_map::Neighbors;
 use crate::rng::Rng;
 use std::f32::consts::PI;
 
+/// Least probability with which a final-gather hit traces its glossy layer (`glossy_rest`):
+/// below it the rare traced layers, weighted by 1/q, add more noise than the rays save
+/// (docs/bench/measurements.md, "Glossy layers at final-gather hits").
+const MIN_GLOSSY_PROBABILITY: f32 = 0.25;
+
 /// Photons record their bounces up to this count (`Photon::bounces` saturates there).
 const MAX_STORED_BOUNCES: u32 = 15;
 
@@ -141,13 +146,17 @@ impl<'a> Gather<'a> {
     /// its viewer, `after` bounces beyond the shaded point, as the path tracer finds it: one
     /// light sample and one BSDF sample, MIS-weighted, both counting f − ρ_d/π only, the BSDF
     /// sample continued to the gather estimate of the surface it meets (behind specular ones).
-    /// Computed with probability q, the glossy lobes' share of the albedo, and divided by it
-    /// (Russian roulette): on a Principled surface the glossy layer reflects a few per cent, and
-    /// this keeps its cost to that share of the gather hits.
+    /// Computed with probability q, the glossy lobes' share of the albedo but at least
+    /// `MIN_GLOSSY_PROBABILITY`, and divided by it (Russian roulette): on a Principled surface
+    /// the glossy layer reflects a few per cent, and this keeps its cost to a fraction of the
+    /// gather hits.
     fn glossy_rest(&mut self, s: &Shading, rho: Vec3, after: u32, rng: &mut Rng) -> Vec3 {
-        let albedo = max_component(s.bsdf.albedo());
-        let q = (max_component(s.bsdf.albedo() - rho) / albedo).min(1.0);
-        if !(q > 0.0) || rng.uniform() >= q || self.bounce_limit(after + 1).is_err() {
+        let share = max_component(s.bsdf.albedo() - rho) / max_component(s.bsdf.albedo());
+        if !(share > 0.0) {
+            return Vec3::ZERO;
+        }
+        let q = share.clamp(MIN_GLOSSY_PROBABILITY, 1.0);
+        if rng.uniform() >= q || self.bounce_limit(after + 1).is_err() {
             return Vec3::ZERO;
         }
         let ctx = self.ctx;
@@ -200,15 +209,12 @@ impl<'a> Gather<'a> {
         l
     }
 
-    /// The global map's estimate at `s`, `after` bounces beyond the shaded point (1: at it),
-    /// leaving out photons behind walls (as the precomputed irradiance does).
+    /// The global map's estimate at `s`, `after` bounces beyond the shaded point (1: at it).
     fn global(&mut self, s: &Shading, after: u32) -> Vec3 {
         let (maps, k) = (self.maps, self.maps.settings.k_global);
         let (Some(m), Ok(limit)) = (&maps.global, self.bounce_limit(after)) else {
             return Vec3::ZERO;
         };
-        let (ctx, rays) = (self.ctx, &mut self.rays);
-        let mut walls = |r: f32| Walls::around(ctx, s, r, rays);
         radiance_estimate(
             m,
             k,
@@ -216,7 +222,7 @@ impl<'a> Gather<'a> {
             false,
             s,
             &mut self.buf,
-            Some(&mut walls),
+            None,
             limit,
         )
     }
