@@ -150,6 +150,14 @@ impl Shading {
     }
 }
 
+/// A BSDF value or sample weight without its diffuse lobe's part: `weight` is f·|cos θ|/`pdf`
+/// for direction cosine `cos`, the diffuse lobe's ρ_d/π·|cos θ|/`pdf` (`pdf` 1 for f·|cos θ|
+/// itself).
+pub fn without_diffuse(weight: Vec3, rho: Vec3, cos: f32, pdf: f32) -> Vec3 {
+    let diffuse = rho * (cos.abs() / (PI * pdf));
+    (weight - diffuse).max(Vec3::ZERO)
+}
+
 /// The irradiance cache's answer for the diffuse lobe at a shading point.
 #[derive(Clone, Copy, Debug)]
 pub struct CachedDiffuse {
@@ -165,7 +173,6 @@ impl CachedDiffuse {
     /// The weight f·cos/pdf of a BSDF sample without the diffuse lobe's part ρ_d/π·cos/pdf: a
     /// gather ray's estimate counted for the other lobes only.
     pub fn non_diffuse_weight(&self, bs: &BsdfSample) -> Vec3 {
-        let diffuse = self.rho * (bs.wi.z.abs() / (PI * bs.pdf));
-        (bs.weight - diffuse).max(Vec3::ZERO)
+        without_diffuse(bs.weight, self.rho, bs.wi.z, bs.pdf)
     }
 }

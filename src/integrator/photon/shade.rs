@@ -44,7 +44,7 @@ use crate::accel::{Hit, Ray, Visibility};
 use crate::bsdf::BsdfSample;
 use crate::integrator::classify::{diffuse_reflectance, stores_photons};
 use crate::integrator::direct::{sample_direct, Previous};
-use crate::integrator::shading::{transmittance, CachedDiffuse, Shading};
+use crate::integrator::shading::{transmittance, without_diffuse, CachedDiffuse, Shading};
 use crate::integrator::walk::{follow_specular, walk, Chain, Next, PathState, Scatter};
 use crate::integrator::{CameraSample, Context};
 use crate::irradiance_cache::{Incoming, IrradianceCache};
@@ -160,19 +160,18 @@ impl<'a> Gather<'a> {
             return Vec3::ZERO;
         }
         let ctx = self.ctx;
-        let glossy = |f: Vec3, cos: f32| (f - rho * (cos.abs() / PI)).max(Vec3::ZERO);
         let mut l = sample_direct(ctx, &s.sh, Vec3::ONE, true, rng, &mut self.rays, |wi| {
             if wi.dot(s.ng) <= 0.0 {
                 return (Vec3::ZERO, 0.0);
             }
             let local = s.frame.to_local(wi);
             let (f, pdf) = s.bsdf.eval_and_pdf(local);
-            (glossy(f, local.z), pdf)
+            (without_diffuse(f, rho, local.z, 1.0), pdf)
         });
         if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
             let weight = match bs.delta {
                 true => bs.weight,
-                false => glossy(bs.weight * bs.pdf, bs.wi.z) / bs.pdf,
+                false => without_diffuse(bs.weight, rho, bs.wi.z, bs.pdf),
             };
             if weight != Vec3::ZERO {
                 l += weight * self.glossy_ray(s, &bs, wi, after, rng);
