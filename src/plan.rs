@@ -449,14 +449,23 @@ struct PilotShares {
     photons: u32,
 }
 
-/// A test of whether the camera sees a surface point `p` (normal `n`) directly: inside the view
-/// of an image of aspect ratio `aspect` and unoccluded.
+/// Most smooth transmissive surfaces (`seen_by_camera`) a segment to the eye may cross.
+const MAX_GLASS_CROSSINGS: u32 = 8;
+
+/// A test of whether the camera sees a surface point `p` (normal `n`): inside the view of an
+/// image of aspect ratio `aspect`, and nothing but smooth transmissive surfaces (glass, which
+/// the renderers ray trace and never estimate from photons) on the straight segment to the eye.
+/// A caustic under a glass cube is seen through the cube; the segment ignores the refraction,
+/// which moves where it is seen, not whether.
 fn seen_by_camera<'a>(
-    scene: &'a Scene,
-    accel: &'a Accel,
+    ctx: &'a crate::integrator::Context<'a>,
     aspect: f32,
 ) -> impl Fn(Vec3, Vec3) -> bool + 'a {
+    use crate::accel::Visibility;
+    use crate::integrator::classify::stores_photons;
+    use crate::integrator::shading::Shading;
     use crate::scene::Projection;
+    let (scene, accel) = (ctx.scene, ctx.accel);
     let camera = &scene.camera;
     let to_camera = camera.to_world.inverse();
     let lift = 1e-4 * scene.bounds().diagonal().max(1e-6);
@@ -484,13 +493,24 @@ fn seen_by_camera<'a>(
         if n.dot(eye - p) <= 0.0 {
             return false;
         }
-        let from = p + n * lift;
-        let ray = crate::accel::Ray {
-            origin: from,
-            direction: eye - from,
-            t_max: 1.0 - 1e-4,
-        };
-        accel.unoccluded(scene, &ray)
+        let mut from = p + n * lift;
+        for _ in 0..=MAX_GLASS_CROSSINGS {
+            let ray = crate::accel::Ray {
+                origin: from,
+                direction: eye - from,
+                t_max: 1.0 - 1e-4,
+            };
+            let Some(hit) = accel.intersect(scene, &ray, Visibility::Camera) else {
+                return true;
+            };
+            let s = Shading::new(ctx, &ray, &hit);
+            if s.opaque || stores_photons(&s.bsdf) {
+                return false;
+            }
+            // Past the glass surface, on towards the eye.
+            from = s.sh.spawn(ray.direction).origin;
+        }
+        false
     }
 }
 
@@ -555,7 +575,7 @@ fn pilot_shares(
     let emitters = Emitters::new(&ctx);
     let caustics = caustics && emitters.has_caustic_targets();
     if global || caustics {
-        let seen = seen_by_camera(scene, accel, aspect);
+        let seen = seen_by_camera(&ctx, aspect);
         let power = |photons: &[Photon]| -> f64 {
             let seen = photons.iter().filter(|p| seen(p.position(), p.normal()));
             seen.map(|p| luminance(p.power()) as f64).sum()

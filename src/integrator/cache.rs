@@ -107,7 +107,12 @@ pub fn build_cache(
         if progress.cancel.load(Ordering::Relaxed) {
             return None;
         }
-        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+        // A site anywhere in the middle half of its pixel, not at its centre: where an edge of
+        // the scene runs exactly through pixel centres (the Cornell box's corners, seen from its
+        // axis, make a 45° diagonal), centre sites sit on both surfaces at once, half of their
+        // gather rays start on the far side of the other surface and leave the room, and the
+        // record, reading half the irradiance, darkened a band of its own width along the edge.
+        let film = Vec2::new(x as f32, y as f32) + 0.25 + 0.5 * rng.uniform2();
         let (ray, next) = (camera.ray(film), camera.ray(film + Vec2::X));
         let (s, length) = first_surface(ctx, ray, rng)?;
         diffuse_reflectance(&s.bsdf, s.opaque)?;
