@@ -125,8 +125,9 @@ pub fn same_side(ph: &Photon, n: Vec3) -> bool {
 /// the patch's nearby records, and dim surfaces near bright ones come out too bright (+6 % on a
 /// window-lit room). The reach and the record's value come from disjoint photons
 /// (`precompute_irradiance`), so choosing by reach does not favour low values. `None` when no
-/// record qualifies within `max_radius2`.
-pub fn nearest_irradiance(map: &PhotonMap, max_radius2: f32, s: &Shading) -> Option<Vec3> {
+/// record qualifies within `max_radius2`. With the irradiance, the radius of the estimate the
+/// record holds.
+pub fn nearest_irradiance(map: &PhotonMap, max_radius2: f32, s: &Shading) -> Option<(Vec3, f32)> {
     let accept = |rec: &Photon, dist2: f32| {
         let d = rec.position() - s.sh.p;
         let reach2 = max_radius2 * (RECORD_REACH * rec.reach()).powi(2);
@@ -135,7 +136,10 @@ pub fn nearest_irradiance(map: &PhotonMap, max_radius2: f32, s: &Shading) -> Opt
             && d.dot(s.ng).abs() <= PLANE_TOLERANCE * dist2.sqrt()
     };
     map.nearest_accepted(s.sh.p, max_radius2, accept)
-        .map(|(i, _)| map.photons()[i as usize].power())
+        .map(|(i, _)| {
+            let record = &map.photons()[i as usize];
+            (record.power(), record.reach() * max_radius2.sqrt())
+        })
 }
 
 /// Angular sectors of the disc around a shading point in which `Walls` looks for occluders.

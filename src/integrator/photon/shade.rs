@@ -60,6 +60,10 @@ use std::f32::consts::PI;
 /// (docs/bench/measurements.md, "Glossy layers at final-gather hits").
 const MIN_GLOSSY_PROBABILITY: f32 = 0.25;
 
+/// A final-gather hit nearer to the point that gathers than this many times the radius of its
+/// estimate is traced one bounce further (`Gather::gather_estimate`).
+const SHORT_GATHER: f32 = 1.0;
+
 /// Photons record their bounces up to this count (`Photon::bounces` saturates there).
 const MAX_STORED_BOUNCES: u32 = 15;
 
@@ -127,19 +131,44 @@ impl<'a> Gather<'a> {
     /// `glossy_rest`. Elsewhere (metals, transmissive surfaces, no record near) the full
     /// estimate, whose photons keep their directions. Records mix every bounce, so a bounce limit
     /// that leaves some photons out takes the full estimate.
-    fn gather_estimate(&mut self, s: &Shading, after: u32, rng: &mut Rng) -> Vec3 {
-        if let (Some(irr), Ok(None)) = (&self.maps.irradiance, self.bounce_limit(after)) {
-            if let Some(rho) = diffuse_reflectance(&s.bsdf, s.opaque) {
-                if let Some(e) = nearest_irradiance(irr, self.maps.global_radius2, s) {
-                    let diffuse = rho * e * (1.0 / PI);
-                    if s.is_opaque_lambertian() {
-                        return diffuse;
-                    }
-                    return diffuse + self.glossy_rest(s, rho, after, rng);
-                }
+    ///
+    /// A hit closer to the point that gathers (`distance` along the ray) than `SHORT_GATHER`
+    /// times the radius its estimate spans is traced one bounce further instead
+    /// (`traced_bounce`): seen from so near, the estimate's blur spans a wide cone of directions,
+    /// and next to an edge its disc reaches past the surface, so it reads low wherever surfaces
+    /// meet (a room's corners and edges), a bias that shrinks only as slowly as the radii.
+    fn gather_estimate(&mut self, s: &Shading, after: u32, distance: f32, rng: &mut Rng) -> Vec3 {
+        let record = match (&self.maps.irradiance, self.bounce_limit(after)) {
+            (Some(irr), Ok(None)) => diffuse_reflectance(&s.bsdf, s.opaque).and_then(|rho| {
+                nearest_irradiance(irr, self.maps.global_radius2, s).map(|(e, r)| (rho, e, r))
+            }),
+            _ => None,
+        };
+        let radius = record.map_or(self.maps.global_radius2.sqrt(), |(_, _, r)| r);
+        if distance < SHORT_GATHER * radius && self.bounce_limit(after + 1).is_ok() {
+            return self.traced_bounce(s, after, rng);
+        }
+        if let Some((rho, e, _)) = record {
+            let diffuse = rho * e * (1.0 / PI);
+            if s.is_opaque_lambertian() {
+                return diffuse;
             }
+            return diffuse + self.glossy_rest(s, rho, after, rng);
         }
         self.global(s, after)
+    }
+
+    /// The radiance a final-gather hit `s`, `after` bounces beyond the shaded point, reflects
+    /// towards its viewer, traced as the shaded point itself is shaded: a light sample, the
+    /// caustic estimate, and one BSDF-sampled gather ray to the gather estimate of the surface
+    /// it meets (Jensen 2001, §9.3.4: final-gather rays that end close by are traced further).
+    fn traced_bounce(&mut self, s: &Shading, after: u32, rng: &mut Rng) -> Vec3 {
+        let mut l = self.direct(s, true, rng) + self.caustic(s, after);
+        if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
+            let (emission, estimate) = self.gather_ray(s, &bs, wi, true, after, rng);
+            l += bs.weight * (emission + estimate);
+        }
+        l
     }
 
     /// The radiance the lobes of `s` other than its diffuse one (ρ_d = `rho`) reflect towards
@@ -201,9 +230,12 @@ impl<'a> Gather<'a> {
         if l != Vec3::ZERO {
             l *= previous.weight_at(ctx, &z.sh);
         }
-        let mut chain = Chain::new(Vec3::ZERO);
+        let mut chain = Chain {
+            length: hit.t * ray.direction.length(),
+            ..Chain::new(Vec3::ZERO)
+        };
         if let Some(d) = follow_specular(ctx, z, &mut chain, rng, &mut self.rays, Some(&mut l)) {
-            l += chain.beta * self.gather_estimate(&d, after + 1, rng);
+            l += chain.beta * self.gather_estimate(&d, after + 1, chain.length, rng);
         }
         l
     }
@@ -226,10 +258,11 @@ impl<'a> Gather<'a> {
         )
     }
 
-    /// The caustic map's estimate at the shaded point `s`, leaving out photons behind walls.
-    fn caustic(&mut self, s: &Shading) -> Vec3 {
+    /// The caustic map's estimate at `s`, `after` bounces beyond the shaded point (1: at it),
+    /// leaving out photons behind walls.
+    fn caustic(&mut self, s: &Shading, after: u32) -> Vec3 {
         let (maps, k) = (self.maps, self.maps.settings.k_caustic);
-        let (Some(m), Ok(limit)) = (&maps.caustic, self.bounce_limit(1)) else {
+        let (Some(m), Ok(limit)) = (&maps.caustic, self.bounce_limit(after)) else {
             return Vec3::ZERO;
         };
         let (ctx, rays) = (self.ctx, &mut self.rays);
@@ -275,13 +308,14 @@ impl<'a> Gather<'a> {
     /// estimate at the first surface that stores photons behind specular ones, returned apart
     /// (the passes and the irradiance cache treat them apart). A ray that left through a delta
     /// lobe also counts the emission along the specular chain, and reads the full global
-    /// estimate.
+    /// estimate. `s` lies `after` bounces beyond the shaded point (1: it is the shaded point).
     fn gather_ray(
         &mut self,
         s: &Shading,
         bs: &BsdfSample,
         wi: Vec3,
         estimate: bool,
+        after: u32,
         rng: &mut Rng,
     ) -> (Vec3, Vec3) {
         let absorption = s.absorption_after(bs, wi, Vec3::ZERO);
@@ -299,13 +333,16 @@ impl<'a> Gather<'a> {
         }
         let mut e = Vec3::ZERO;
         if estimate {
-            let mut chain = Chain::new(absorption);
+            let mut chain = Chain {
+                length: hit.t * ray.direction.length(),
+                ..Chain::new(absorption)
+            };
             let emission = previous.delta.then_some(&mut l);
             if let Some(d) = follow_specular(self.ctx, y, &mut chain, rng, &mut self.rays, emission)
             {
                 let at_end = match previous.delta {
-                    true => self.global(&d, 2),
-                    false => self.gather_estimate(&d, 2, rng),
+                    true => self.global(&d, after + 1),
+                    false => self.gather_estimate(&d, after + 1, chain.length, rng),
                 };
                 e = chain.beta * at_end;
             }
@@ -328,7 +365,7 @@ impl<'a> Gather<'a> {
         let mut l = self.direct(s, true, rng);
         if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
             if !bs.delta {
-                let (emission, _) = self.gather_ray(s, &bs, wi, false, rng);
+                let (emission, _) = self.gather_ray(s, &bs, wi, false, 1, rng);
                 l += bs.weight * emission;
             }
         }
@@ -345,7 +382,7 @@ impl<'a> Gather<'a> {
         let cached: Option<CachedDiffuse> = self.cache.and_then(|c| s.cached_diffuse(c));
         if let Some(d) = cached.filter(|d| d.lambertian) {
             passes.add(LightPass::Direct, self.direct_without_gather(s, rng));
-            passes.add(LightPass::Caustic, self.caustic(s));
+            passes.add(LightPass::Caustic, self.caustic(s, 1));
             passes.add(LightPass::Indirect, d.radiance);
             return passes;
         }
@@ -357,7 +394,7 @@ impl<'a> Gather<'a> {
             None => self.maps.settings.gather_rays,
         };
         passes.add(LightPass::Direct, self.direct(s, m > 0, rng));
-        passes.add(LightPass::Caustic, self.caustic(s));
+        passes.add(LightPass::Caustic, self.caustic(s, 1));
         if m == 0 {
             passes.add(LightPass::Indirect, self.global(s, 1));
             return passes;
@@ -376,7 +413,7 @@ impl<'a> Gather<'a> {
             let Some((bs, wi)) = s.sample(rng.uniform(), u) else {
                 continue;
             };
-            let (emission, estimate) = self.gather_ray(s, &bs, wi, true, rng);
+            let (emission, estimate) = self.gather_ray(s, &bs, wi, true, 1, rng);
             if bs.delta {
                 sum.add(LightPass::Emission, bs.weight * emission);
                 sum.add(LightPass::Indirect, bs.weight * estimate);
@@ -453,7 +490,7 @@ impl Scatter for PhotonCamera<'_> {
             match self.view {
                 View::Full => l = g.shade_full(s, rng),
                 View::Global => l.add(LightPass::Indirect, g.global(s, 1)),
-                View::Caustic => l.add(LightPass::Caustic, g.caustic(s)),
+                View::Caustic => l.add(LightPass::Caustic, g.caustic(s, 1)),
                 View::Photons => l.add(LightPass::Indirect, g.dots(s)),
             };
             path.passes.add_after(&l, path.beta, path.diffuse);
@@ -503,9 +540,12 @@ pub fn cache_gather(
     };
     let d = Shading::new(ctx, &ray, &hit);
     let normal = d.frame.n;
-    let mut chain = Chain::new(Vec3::ZERO);
+    let mut chain = Chain {
+        length: hit.t * ray.direction.length(),
+        ..Chain::new(Vec3::ZERO)
+    };
     let radiance = match follow_specular(ctx, d, &mut chain, rng, &mut gather.rays, None) {
-        Some(d) => chain.beta * gather.gather_estimate(&d, 2, rng),
+        Some(d) => chain.beta * gather.gather_estimate(&d, 2, chain.length, rng),
         None => Vec3::ZERO,
     };
     Incoming {
