@@ -145,7 +145,9 @@ impl<'a> Gather<'a> {
             _ => None,
         };
         let radius = record.map_or(self.maps.global_radius2.sqrt(), |(_, _, r)| r);
-        if distance < SHORT_GATHER * radius && self.bounce_limit(after + 1).is_ok() {
+        // Without a global map the method renders no indirect diffuse light at all.
+        let traced = self.maps.global.is_some() && self.bounce_limit(after + 1).is_ok();
+        if traced && distance < SHORT_GATHER * radius {
             return self.traced_bounce(s, after, rng);
         }
         if let Some((rho, e, _)) = record {
