@@ -170,6 +170,18 @@ def test_world_preview_renders_with_photon(captured):
     assert (pixels[:, :, 3] == 1.0).all()
 
 
+@pytest.mark.parametrize("kind", ["POINT", "SPOT", "SUN", "AREA"])
+def test_light_preview_renders_with_photon(captured, kind):
+    """The light preview (the light over a floor) of every light type: Photon's image, lit."""
+    light = bpy.data.lights["Light"]
+    light.type = kind
+    pixels, run = generate_preview(light, captured)
+    assert_preview_is_photons_image(pixels, run)
+    lit = float(run["image"][:, :, :3].mean())
+    print(f"{kind} light preview: mean {lit:.4f}")
+    assert lit > 0.05, f"the {kind} light's preview is dark: mean {lit}"
+
+
 def test_preview_writer_renders_the_scene_as_the_export(photon_addon, tmp_path):
     """The factory scene through preview.write_scene renders as through the glTF export."""
     from blender_addon import preview, runner
