@@ -139,6 +139,19 @@ def test_material_preview_renders_with_photon(captured):
     assert red[0] > 2 * red[2] and blue[2] > 2 * blue[0], means
 
 
+@pytest.mark.parametrize("shape", ["FLAT", "CUBE", "HAIR", "SHADERBALL", "CLOTH", "FLUID"])
+def test_every_preview_shape_renders(captured, shape):
+    """The other preview shapes (the shader ball holds curves and text): Photon's image, with
+    the shape covering part of it."""
+    material = bpy.data.materials.new(shape)
+    material.use_nodes = True
+    material.preview_render_type = shape
+    pixels, run = generate_preview(material, captured)
+    assert_preview_is_photons_image(pixels, run)
+    coverage = float((pixels[:, :, 3] > 0.5).mean())
+    assert coverage > 0.1, f"{shape}: the shape covers {coverage:.2f} of the preview"
+
+
 def test_material_preview_matches_cycles(captured):
     """Photon's preview of a red material next to Cycles' (the preview scene's own Cycles
     settings): Blender's preview scene (its lights, camera and the floor hidden from the
