@@ -1,6 +1,8 @@
 """The render engine "Photon": export the scene, run the photon binary, load its image.
 
-A thin `RenderEngine`: export and process handling live in export.py and runner.py. Nothing is
+A thin `RenderEngine`: export and process handling live in export.py and runner.py; material,
+world and light previews (`is_preview`, on Blender's preview scene, in a job thread where the
+glTF exporter cannot run) are written by preview.py and path traced quickly. Nothing is
 dropped silently: before exporting, every feature the export cannot carry (preflight.py), then
 every warning of the glTF exporter (from either export route) and of the renderer, is reported
 as a WARNING (Blender's info log; the console in background mode), and the final status line
