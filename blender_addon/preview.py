@@ -90,7 +90,7 @@ def camera_hiding_bsdf(material) -> str | None:
     """The name of `material`'s Principled BSDF when it takes its Alpha from 1 − Light Path's
     Is Camera Ray (Math Subtract): invisible to camera rays, opaque to all others. Blender's
     material preview hides its floor so. None otherwise."""
-    bsdf = export._principled_bsdf(material)
+    bsdf = export.principled_bsdf(material)
     alpha = bsdf.inputs.get("Alpha") if bsdf is not None else None
     if alpha is None or not alpha.is_linked:
         return None
@@ -109,7 +109,7 @@ def camera_hiding_bsdf(material) -> str | None:
 def fallback_material(material) -> dict:
     """glTF metallic-roughness values for `material`, used where no node tree is written: the
     unlinked inputs of its Principled BSDF, else its viewport display values."""
-    bsdf = export._principled_bsdf(material)
+    bsdf = export.principled_bsdf(material)
     if bsdf is None:
         return {"pbrMetallicRoughness": {
             "baseColorFactor": [float(c) for c in material.diffuse_color],
