@@ -172,6 +172,28 @@ def test_material_preview_matches_cycles(captured):
     assert abs(ratio - 1.0) < 0.04 and difference.max() < 0.03, (ratio, difference)
 
 
+def test_image_textured_material_preview(captured, tmp_path):
+    """An Image Texture (a PNG file) into the Base Color: the node tree's image is written
+    beside the preview scene and read, so the sphere shows the texture's green where the
+    Principled BSDF's own Base Color is grey."""
+    path = tmp_path / "green.png"
+    image = bpy.data.images.new("Green", 4, 4)
+    image.pixels.foreach_set(np.tile([0.05, 0.8, 0.05, 1.0], 16).astype(np.float32))
+    image.filepath_raw, image.file_format = str(path), "PNG"
+    image.save()
+    image.source = "FILE"
+    material = bpy.data.materials.new("Textured")
+    material.use_nodes = True
+    tree = material.node_tree
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    tree.links.new(texture.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    pixels, run = generate_preview(material, captured)
+    assert_preview_is_photons_image(pixels, run)
+    sphere = pixels[pixels[:, :, 3] > 0.99, :3].mean(axis=0)
+    assert sphere[1] > 1.5 * sphere[0] and sphere[1] > 1.5 * sphere[2], sphere
+
+
 def test_world_preview_renders_with_photon(captured):
     world = bpy.context.scene.world
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.1, 0.4, 0.05, 1.0)
