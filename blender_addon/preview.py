@@ -83,7 +83,8 @@ def camera_projection(camera, width: float, height: float) -> dict:
     half = math.atan(0.5 * sensor / float(camera.lens))
     yfov = 2.0 * math.atan(math.tan(half) / aspect) if horizontal else 2.0 * half
     return {"type": "perspective", "perspective": {
-        "yfov": yfov, "aspectRatio": aspect, "znear": float(camera.clip_start)}}
+        "yfov": yfov, "aspectRatio": aspect, "znear": float(camera.clip_start),
+        "zfar": float(camera.clip_end)}}
 
 
 def camera_hiding_bsdf(material) -> str | None:
