@@ -114,9 +114,12 @@ def assert_preview_is_photons_image(pixels, run):
     assert command[0] == "render" and command[1].endswith("scene.gltf"), command
     assert command[command.index("--method") + 1] == "path", command
     assert pixels.shape == image.shape, (pixels.shape, image.shape)
-    colour = np.abs(pixels[:, :, :3] - srgb(image[:, :, :3]))
+    # Where the coverage is partial, Blender converts the premultiplied colour its own way.
+    whole = (image[:, :, 3] > 0.999) | (image[:, :, 3] < 0.001)
+    colour = np.abs(pixels[whole, :3] - srgb(image[whole, :3]))
     alpha = np.abs(pixels[:, :, 3] - image[:, :, 3])
-    assert colour.mean() < 0.005 and alpha.max() < 0.01, \
+    print(f"preview vs sRGB(Photon): mean |colour| {colour.mean():.5f} on {whole.mean():.2f} of the pixels")
+    assert colour.mean() < 0.002 and alpha.max() < 0.01, \
         f"preview differs from Photon's image: mean |colour| {colour.mean():.4f}, " \
         f"max |alpha| {alpha.max():.4f}"
 
@@ -192,6 +195,28 @@ def test_image_textured_material_preview(captured, tmp_path):
     assert_preview_is_photons_image(pixels, run)
     sphere = pixels[pixels[:, :, 3] > 0.99, :3].mean(axis=0)
     assert sphere[1] > 1.5 * sphere[0] and sphere[1] > 1.5 * sphere[2], sphere
+
+
+def test_fallback_material_preview(captured):
+    """A tree with a node Photon does not evaluate (Magic Texture into the Base Color) falls
+    back to the Principled BSDF's unlinked values: here an orange emission of strength 4,
+    which lights the sphere orange (the linked Base Color reads as grey)."""
+    material = bpy.data.materials.new("Magic")
+    material.use_nodes = True
+    tree = material.node_tree
+    bsdf = tree.nodes["Principled BSDF"]
+    magic = tree.nodes.new("ShaderNodeTexMagic")
+    tree.links.new(magic.outputs["Color"], bsdf.inputs["Base Color"])
+    bsdf.inputs["Emission Color"].default_value = (1.0, 0.3, 0.0, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = 4.0
+    pixels, run = generate_preview(material, captured)
+    assert_preview_is_photons_image(pixels, run)
+    gltf = json.loads(next(captured.parent.glob("done_Magic/scene.gltf")).read_text())
+    written = next(m for m in gltf["materials"] if m["name"] == "Magic")
+    assert "PHOTON_material_nodes" not in written.get("extensions", {}), written
+    image = run["image"]
+    sphere = image[image[:, :, 3] > 0.99, :3].mean(axis=0)
+    assert sphere[0] > 3.0 and sphere[0] > 2.5 * sphere[2], sphere
 
 
 def test_world_preview_renders_with_photon(captured):
