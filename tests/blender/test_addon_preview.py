@@ -1,17 +1,19 @@
-"""Material and world previews (`bl_use_preview`) render with Photon.
+"""Material, world and light previews (`bl_use_preview`) render with Photon.
 
 Blender renders a preview in a job thread on its own preview scene; the add-on writes that
-scene with preview.py and runs the renderer. Here previews are started as the Material and
-World tabs start them, with `bpy.ops.ed.lib_id_generate_preview()` on the material or world,
-and read back from `preview.image_pixels_float` (display values: the scene's view transform,
-set to Standard so they are the sRGB encoding of the render). $PHOTON_BINARY is wrapped by a
-script that runs it and keeps a copy of each run's scene and image, so the tests check that
-the preview's pixels are Photon's image, and that they follow the material's colour.
+scene with preview.py and runs the renderer. Here previews are started as the Material, World
+and Light tabs start them, with `bpy.ops.ed.lib_id_generate_preview()` on the material, world
+or light, and read back from `preview.image_pixels_float` (display values: the scene's view
+transform, set to Standard so they are the sRGB encoding of the render). $PHOTON_BINARY is
+wrapped by a script that runs it and keeps a copy of each run's scene and image, so the tests
+check that the preview's pixels are Photon's image, that they follow the material's colour
+(plain, textured, or through the fallback values of a tree Photon does not evaluate), that
+every preview shape and light type renders, and that a material's preview agrees with Cycles'.
 
 The writer itself is checked on the factory scene (cube, point light, camera): written by
 preview.write_scene from the depsgraph and rendered with the renderer, it must match the F12
-render of the same scene (Blender's glTF exporter); and its cameras' field of view must be the
-glTF exporter's for every sensor fit and image orientation.
+render of the same scene (Blender's glTF exporter); and its cameras must be the glTF
+exporter's for every sensor fit and image orientation.
 """
 
 from __future__ import annotations
