@@ -1,6 +1,8 @@
 """The render engine "Photon": export the scene, run the photon binary, load its image.
 
-A thin `RenderEngine`: export and process handling live in export.py and runner.py. Nothing is
+A thin `RenderEngine`: export and process handling live in export.py and runner.py; material,
+world and light previews (`is_preview`, on Blender's preview scene, in a job thread where the
+glTF exporter cannot run) are written by preview.py and path traced quickly. Nothing is
 dropped silently: before exporting, every feature the export cannot carry (preflight.py), then
 every warning of the glTF exporter (from either export route) and of the renderer, is reported
 as a WARNING (Blender's info log; the console in background mode), and the final status line
@@ -18,9 +20,14 @@ from pathlib import Path
 
 import bpy
 
-from . import export, preflight, properties, runner
+from . import export, preflight, preview, properties, runner
 
 ADDON_DIR = Path(__file__).resolve().parent
+
+# Material, world and light previews: a quick path-traced image (its noise is what a preview of
+# that size tolerates; the preview scene's small area lights need no photon maps).
+PREVIEW_SETTINGS = runner.RenderSettings(method="path", quality="preview", samples=16,
+                                         max_bounces=8)
 
 # Share of the progress bar given to each stage of the renderer's progress protocol.
 STAGES = {"export": (0.0, 0.05), "load": (0.05, 0.1), "build": (0.1, 0.15), "render": (0.15, 1.0)}
@@ -29,7 +36,7 @@ STAGES = {"export": (0.0, 0.05), "load": (0.05, 0.1), "build": (0.1, 0.15), "ren
 class PhotonRenderEngine(bpy.types.RenderEngine):
     bl_idname = "PHOTON"
     bl_label = "Photon"
-    bl_use_preview = False
+    bl_use_preview = True
     bl_use_postprocess = True
     bl_use_shading_nodes_custom = False
     bl_use_eevee_viewport = True
@@ -53,7 +60,10 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         self.timings = {"start": time.perf_counter()}
         self.warnings = []
         try:
-            self._render(depsgraph)
+            if self.is_preview:
+                self._render_preview(depsgraph)
+            else:
+                self._render(depsgraph)
         except runner.Cancelled:
             self.update_stats("", "Photon: cancelled")
         except (runner.PhotonError, export.ExportError) as exc:
@@ -99,6 +109,23 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             count = len(self.warnings)
             line += f"; {count} warning{'s' if count > 1 else ''} (see the Info editor)"
         self._final_stats(line)
+
+    def _render_preview(self, depsgraph):
+        """A material, world or light preview: Blender's preview scene written by preview.py
+        (the glTF exporter cannot run in the preview job), rendered with PREVIEW_SETTINGS. No
+        pre-flight report here: the F12 render of the scene gives it."""
+        scene, layer = depsgraph.scene, depsgraph.view_layer.name
+        if scene.camera is None:
+            raise runner.PhotonError("the preview scene has no camera")
+        binary = runner.find_binary(properties.preference_binary(bpy.context), ADDON_DIR)
+        width, height = self.resolution_x, self.resolution_y
+        with runner.temporary_folder() as folder:
+            gltf, exr = preview.write_scene(depsgraph, folder), folder / "render.exr"
+            command = runner.render_command(binary, gltf, exr, width=width, height=height,
+                                            settings=PREVIEW_SETTINGS, camera=scene.camera.name,
+                                            view_layer=layer)
+            runner.run(command, None, self.test_break)
+            self._load(exr, layer, width, height)
 
     def _final_stats(self, line):
         """Show the final status line. Blender 4 also prints it in background mode (render farm

@@ -398,7 +398,7 @@ def missing_base_color_image(material) -> bool:
         LOG.warning(f"material '{material.name}': image '{node.image.name}' is missing (file "
                     f"'{bpy.path.abspath(node.image.filepath, library=node.image.library)}' not "
                     f"found); it renders magenta")
-    bsdf = _principled_bsdf(material)
+    bsdf = principled_bsdf(material)
     if bsdf is None or not missing:
         return False
     feeding = _upstream_nodes(bsdf.inputs["Base Color"])
@@ -420,7 +420,7 @@ def subsurface_extension(material) -> dict:
     """PHOTON_material_subsurface: the subsurface inputs of the material's Principled BSDF (the
     one feeding the output, else the first), which the glTF exporter drops; empty when the
     weight is 0 or there is no Principled BSDF."""
-    bsdf = _principled_bsdf(material)
+    bsdf = principled_bsdf(material)
     if bsdf is None:
         return {}
     def value(name, default):
@@ -439,7 +439,9 @@ def subsurface_extension(material) -> dict:
             "anisotropy": float(value("Subsurface Anisotropy", 0.0))}
 
 
-def _principled_bsdf(material):
+def principled_bsdf(material):
+    """The material's Principled BSDF feeding the active output's Surface, else its first one;
+    None without one."""
     tree = getattr(material, "node_tree", None)
     if tree is None:
         return None

@@ -177,9 +177,10 @@ def _value(socket):
 
 
 class _Walker:
-    def __init__(self, material_name: str, folder=None):
+    def __init__(self, material_name: str, folder=None, unlinked=frozenset()):
         self.what = f"material '{material_name}'"
         self.folder = folder
+        self.unlinked = unlinked
         self.images: dict[str, str] = {}
         self.nodes: list[dict] = []
         self.index: dict[tuple, int] = {}
@@ -298,6 +299,8 @@ class _Walker:
             if not socket.enabled:
                 continue
             src = self.source(socket, groups)
+            if (name, socket.identifier) in self.unlinked:
+                src = ("const", socket)
             if read is not None and socket.identifier not in read:
                 if src[0] == "link":
                     self.problems.append(f"{self.what}: input '{socket.name}' of "
@@ -330,16 +333,18 @@ class _Walker:
         return self.index[key]
 
 
-def material_nodes(material, folder=None):
+def material_nodes(material, folder=None, *, keep_trivial=False, unlinked=frozenset()):
     """`(extension or None, problems)` for `material` (module docstring). With `folder` (the
-    .glb's), the images of Image Texture nodes are written there."""
+    .glb's), the images of Image Texture nodes are written there. `keep_trivial`: describe a
+    tree glTF carries exactly too (the preview writer, preview.py, has no glTF material).
+    `unlinked`: inputs, as (node name, input identifier), read as their unlinked values."""
     tree = material.node_tree if getattr(material, "use_nodes", False) else None
     if tree is None:
         return None, []
     output = _active_output(tree)
     if output is None:
         return None, []
-    walker = _Walker(material.name, folder)
+    walker = _Walker(material.name, folder, unlinked)
     src = walker.source(output.inputs["Surface"], ())
     if src[0] != "link":
         return None, []
@@ -348,6 +353,6 @@ def material_nodes(material, folder=None):
     if walker.problems or index is None:
         return None, [f"{p}; the material falls back to glTF's metallic-roughness values "
                       f"(Blender's exporter)" for p in walker.problems]
-    if walker.trivial:
+    if walker.trivial and not keep_trivial:
         return None, []
     return {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}, []

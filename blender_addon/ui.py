@@ -232,9 +232,25 @@ class VIEWLAYER_PT_photon_light_passes(PhotonPanel, bpy.types.Panel):
         col.prop(layer.photon, "use_pass_subsurface")
 
 
+class WORLD_PT_photon_preview(PhotonPanel, bpy.types.Panel):
+    """The world's preview, rendered by Photon (engine.py, preview.py). Blender's only world
+    preview panel is Cycles' own; the material's and the light's (MATERIAL_PT_preview,
+    DATA_PT_preview) are listed above."""
+    bl_label = "Preview"
+    bl_context = "world"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.world is not None and super().poll(context)
+
+    def draw(self, context):
+        self.layout.template_preview(context.world)
+
+
 classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_photons, RENDER_PT_photon_film,
            VIEWLAYER_PT_photon_passes, VIEWLAYER_PT_photon_data_passes,
-           VIEWLAYER_PT_photon_light_passes)
+           VIEWLAYER_PT_photon_light_passes, WORLD_PT_photon_preview)
 
 
 def builtin_panels():

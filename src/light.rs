@@ -36,6 +36,8 @@ pub enum LightSource {
         intensity: Vec3,
         radius: f32,
     },
+    /// A spot: a point light (or sphere, as `Point`) within the cone `cos_outer`..`cos_inner`
+    /// around `direction`, evaluated along each light sample's ray.
     Spot {
         position: Vec3,
         direction: Vec3,
@@ -406,8 +408,14 @@ impl Lights {
                 radius,
             } => {
                 let (wi, scale, pdf, target) = sample_punctual(position, radius, p, u)?;
-                // The cone is evaluated from the light's centre, as for a point.
-                let from_light = (p - position).normalize_or_zero();
+                // As Cycles: the cone is evaluated along the sampled ray, from the sampled point
+                // of the sphere, which widens it by about the radius (radius 0: from the
+                // centre).
+                let from_light = if radius > 0.0 {
+                    -wi
+                } else {
+                    (p - position).normalize_or_zero()
+                };
                 let falloff = smoothstep(cos_outer, cos_inner, from_light.dot(direction));
                 if falloff <= 0.0 {
                     return None;

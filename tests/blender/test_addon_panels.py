@@ -2,7 +2,7 @@
 join ~300 by a name rule, light-probe baking and Cryptomatte included), the panels for settings
 Photon ignores stay hidden, unregistering removes Photon from every panel, and Photon's View
 Layer panel draws its pass toggles (Depth, Normal, Denoising Data, the light passes) on
-properties that exist.
+properties that exist; the material, light and world previews show.
 """
 
 import types
@@ -53,7 +53,9 @@ def test_photon_is_in_exactly_the_listed_panels(photon_addon):
     # The settings Photon uses are there.
     for name in ("EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light",
                  "DATA_PT_lens", "RENDER_PT_format", "RENDER_PT_color_management",
-                 "VIEWLAYER_PT_layer", "PHYSICS_PT_cloth", "DATA_PT_camera_dof"):
+                 "VIEWLAYER_PT_layer", "PHYSICS_PT_cloth", "DATA_PT_camera_dof",
+                 # Previews (test_addon_preview.py renders them).
+                 "MATERIAL_PT_preview", "DATA_PT_preview", "WORLD_PT_photon_preview"):
         assert name in shown, name
 
 
@@ -78,6 +80,9 @@ class Recorder:
         return self
 
     row = column
+
+    def template_preview(self, id_block, **_):
+        self.props.append((id_block, "preview", None))
 
     def prop(self, data, name, text=None, **_):
         assert hasattr(data, name), f"{data!r} has no property {name}"
@@ -109,6 +114,9 @@ def test_view_layer_panel_draws_the_pass_toggles(photon_addon):
         (layer, "use_pass_diffuse_indirect"), (layer.photon, "use_pass_caustic"),
         (layer.photon, "use_pass_subsurface")]
     assert drawn(ui.RENDER_PT_photon_film, context) == [(scene.render, "film_transparent")]
+    world_context = types.SimpleNamespace(world=scene.world, engine=ENGINE)
+    assert ui.WORLD_PT_photon_preview.poll(world_context)
+    assert drawn(ui.WORLD_PT_photon_preview, world_context) == [(scene.world, "preview")]
     # The toggles drive the passes the engine registers.
     layer.use_pass_z = True
     layer.photon.use_pass_denoising_data = True

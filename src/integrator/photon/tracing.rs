@@ -180,7 +180,8 @@ impl Emitters {
                 (ray(offset_origin(q, q_error, n, dir), dir), power)
             }
             // Photons leave point and spot lights from their centre whatever their radius: the
-            // radius only softens shadows, which the photon maps do not resolve.
+            // radius only softens shadows, which the photon maps do not resolve, and widens a
+            // spot's cone (direct light, `Lights::sample`), which the photons leave out.
             LightSource::Point {
                 position,
                 intensity,
