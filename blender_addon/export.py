@@ -453,28 +453,156 @@ def _principled_bsdf(material):
 
 
 def world_extension(world, folder: Path | None = None) -> dict:
-    """PHOTON_world: the Background colour and strength feeding the world output, or the world's
-    viewport colour when it does not use nodes; black without a world. When an Environment
-    Texture feeds the Background's colour and `folder` is given, its image is written there as
-    a float EXR and described in "environment" (see `environment_extension`)."""
+    """PHOTON_world (see `world_description`)."""
+    return world_description(world, folder)[0]
+
+
+def world_problems(world) -> list[str]:
+    """What of `world`'s node tree PHOTON_world does not carry, one message each (for the
+    pre-flight report)."""
+    return world_description(world)[1]
+
+
+def world_description(world, folder: Path | None = None) -> tuple[dict, list[str]]:
+    """PHOTON_world for `world`, and the list of what it could not carry.
+
+    Without nodes the world's viewport colour; without a world black. With nodes, the shader
+    feeding the active World Output's Surface, read as a weighted sum of backgrounds:
+    Background (and Emission) nodes whose colour is a constant, an Environment Texture
+    (written into `folder` as a float EXR, see `environment_extension`) or a Nishita Sky
+    Texture (its settings, evaluated by the renderer), mixed by Mix Shader (a constant factor)
+    and Add Shader nodes. A Mix Shader whose factor is a Light Path node's "Is Camera Ray"
+    gives camera rays another background than the rest: the tree is read once for each, and
+    when they differ the camera's goes under "camera". One background of weight 1 is written
+    as before ({"color", "strength"[, "environment" | "sky"]}), several under "mix" with their
+    weights. Anything else is named in the problems and left out (a Background's colour fed by
+    another node keeps its own colour value)."""
+    black = {"color": [0.0, 0.0, 0.0], "strength": 1.0}
     if world is None:
-        return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
-    if world_uses_nodes(world):
-        background = _world_background(world.node_tree)
-        if background is not None:
-            color_input = background.inputs["Color"]
-            color = [float(c) for c in color_input.default_value[:3]]
-            data = {"color": color, "strength": float(background.inputs["Strength"].default_value)}
-            texture = color_input.links[0].from_node if color_input.is_linked else None
-            if texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment":
-                data["color"] = [0.0, 0.0, 0.0]  # what Cycles shows without a usable image
-                if folder is not None:
-                    environment = environment_extension(texture, folder)
-                    if environment:
-                        data["environment"] = environment
-            return data
-        return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
-    return {"color": [float(c) for c in world.color[:3]], "strength": 1.0}
+        return black, []
+    if not world_uses_nodes(world):
+        return {"color": [float(c) for c in world.color[:3]], "strength": 1.0}, []
+    problems: list[str] = []
+    written: dict[str, dict] = {}  # environment images already written, by node name
+    outputs = [n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    surface = output.inputs.get("Surface") if output is not None else None
+    if surface is None or not surface.is_linked:
+        return black, []
+    views = [_world_shader(surface.links[0].from_node, 1.0, camera, folder, written, problems)
+             for camera in (False, True)]
+    # Each problem was found twice, once per view.
+    problems = list(dict.fromkeys(problems))
+    lighting, seen_by_camera = (_background_json(v) for v in views)
+    data = lighting or black
+    if seen_by_camera != lighting:
+        data = {**data, "camera": seen_by_camera or black}
+    return data, [f"world '{world.name}': {p}" for p in problems]
+
+
+def _background_json(layers: list[tuple[float, dict]]) -> dict:
+    """One background as PHOTON_world writes it; empty for none."""
+    layers = [(w, layer) for w, layer in layers if w != 0.0]
+    if not layers:
+        return {}
+    if len(layers) == 1 and layers[0][0] == 1.0:
+        return layers[0][1]
+    return {"mix": [{"weight": w, **layer} for w, layer in layers]}
+
+
+def _linked_node(socket):
+    """The node feeding `socket` past reroutes and muted links; None when unlinked."""
+    while socket is not None and socket.is_linked:
+        link = socket.links[0]
+        if link.is_muted:
+            return None
+        node = link.from_node
+        if node.bl_idname != "NodeReroute":
+            return node
+        socket = node.inputs[0]
+    return None
+
+
+def _world_shader(node, weight, camera, folder, written, problems) -> list[tuple[float, dict]]:
+    """The backgrounds `node` (a world shader) adds up to, each with its weight, as a ray that
+    is (`camera`) or is not a camera ray sees them."""
+    if node is None or weight == 0.0:
+        return []
+    kind = node.bl_idname
+    if kind in ("ShaderNodeBackground", "ShaderNodeEmission"):
+        return [(weight, _world_background_layer(node, folder, written, problems))]
+    if kind == "ShaderNodeAddShader":
+        return [layer for socket in node.inputs[:2] for layer in
+                _world_shader(_linked_node(socket), weight, camera, folder, written, problems)]
+    if kind == "ShaderNodeMixShader":
+        factor = _mix_factor(node, camera, problems)
+        parts = ((node.inputs[1], 1.0 - factor), (node.inputs[2], factor))
+        return [layer for socket, share in parts for layer in
+                _world_shader(_linked_node(socket), weight * share, camera, folder, written,
+                              problems)]
+    problems.append(f"{node.bl_label} node '{node.name}' is not exported; the world renders "
+                    f"without it")
+    return []
+
+
+def _mix_factor(node, camera: bool, problems) -> float:
+    """A Mix Shader's factor in [0, 1]: its value, or for a Light Path node's "Is Camera Ray"
+    whether the ray is a camera ray."""
+    socket = node.inputs["Fac"]
+    source = _linked_node(socket)
+    if source is None:
+        return min(max(float(socket.default_value), 0.0), 1.0)
+    link = socket.links[0]
+    while link.from_node.bl_idname == "NodeReroute":
+        link = link.from_node.inputs[0].links[0]
+    if source.bl_idname == "ShaderNodeLightPath" and link.from_socket.name == "Is Camera Ray":
+        return 1.0 if camera else 0.0
+    problems.append(f"Mix Shader '{node.name}': its factor comes from {source.bl_label} "
+                    f"'{source.name}', which is not exported; the factor's own value "
+                    f"{float(socket.default_value):.3g} is used")
+    return min(max(float(socket.default_value), 0.0), 1.0)
+
+
+def _world_background_layer(node, folder, written, problems) -> dict:
+    """One Background (or Emission) node: its colour and strength, or the Environment or Sky
+    Texture feeding its colour."""
+    color_input, strength_input = node.inputs["Color"], node.inputs["Strength"]
+    layer = {"color": [float(c) for c in color_input.default_value[:3]],
+             "strength": float(strength_input.default_value)}
+    if strength_input.is_linked:
+        problems.append(f"{node.bl_label} '{node.name}': a linked Strength is not exported; its "
+                        f"value {layer['strength']:.3g} is used")
+    texture = _linked_node(color_input)
+    if texture is None:
+        return layer
+    if texture.bl_idname == "ShaderNodeTexEnvironment":
+        layer["color"] = [0.0, 0.0, 0.0]  # what Cycles shows without a usable image
+        if folder is not None:
+            if texture.name not in written:
+                written[texture.name] = environment_extension(texture, folder)
+            if written[texture.name]:
+                layer["environment"] = written[texture.name]
+        return layer
+    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type == "NISHITA":
+        layer["color"] = [0.0, 0.0, 0.0]
+        layer["sky"] = sky_extension(texture)
+        return layer
+    what = (f"the {texture.sky_type} sky model" if texture.bl_idname == "ShaderNodeTexSky"
+            else f"{texture.bl_label} node '{texture.name}'")
+    problems.append(f"{what} feeding '{node.name}' is not exported; the background renders its "
+                    f"own colour")
+    return layer
+
+
+def sky_extension(node) -> dict:
+    """The "sky" of PHOTON_world for a Sky Texture node of the Nishita model: its settings
+    (radians, metres, factors) and the rotation of a Mapping node feeding its vector."""
+    return {"type": "NISHITA", "sun_disc": bool(node.sun_disc),
+            "sun_size": float(node.sun_size), "sun_intensity": float(node.sun_intensity),
+            "sun_elevation": float(node.sun_elevation),
+            "sun_rotation": float(node.sun_rotation), "altitude": float(node.altitude),
+            "air": float(node.air_density), "dust": float(node.dust_density),
+            "ozone": float(node.ozone_density), "rotation": _mapping_rotation(node)}
 
 
 def environment_extension(node, folder: Path) -> dict:
@@ -506,11 +634,11 @@ def environment_extension(node, folder: Path) -> dict:
     safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in image.name)
     uri = f"world_{safe}.exr"
     write_exr_rgb(folder / uri, np.ascontiguousarray(rgb, dtype=np.float32))
-    return {"uri": uri, "rotation": _environment_rotation(node),
+    return {"uri": uri, "rotation": _mapping_rotation(node),
             "interpolation": "closest" if node.interpolation == "Closest" else "linear"}
 
 
-def _environment_rotation(node) -> list[float]:
+def _mapping_rotation(node) -> list[float]:
     """Euler XYZ rotation (radians) applied to the lookup direction, read from a Mapping node
     feeding the texture's Vector (Point, Vector and Normal types rotate the direction, Texture
     inverts; location and scale are ignored);
@@ -565,18 +693,6 @@ def world_uses_nodes(world) -> bool:
     if world.node_tree is None:
         return False
     return bpy.app.version >= (5, 0, 0) or world.use_nodes
-
-
-def _world_background(tree):
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
-    active = [n for n in outputs if n.is_active_output] or outputs
-    for out in active:
-        surface = out.inputs.get("Surface")
-        if surface is not None and surface.is_linked:
-            node = surface.links[0].from_node
-            if node.bl_idname == "ShaderNodeBackground":
-                return node
-    return None
 
 
 def render_extension(scene) -> dict:

@@ -8,8 +8,10 @@ empty list, so the rules below only flag what really changes the image:
 - shader nodes feeding a material's surface that Blender's glTF exporter does not map onto
   glTF's metallic-roughness material (Principled BSDF, Emission, image textures and the few
   helper nodes it follows), unless the whole tree is one Photon evaluates itself (node_tree.py:
-  it is then exported as PHOTON_material_nodes and nothing is dropped), and world nodes other
-  than Background and Environment Texture;
+  it is then exported as PHOTON_material_nodes and nothing is dropped), and what of the world's
+  node tree PHOTON_world does not carry (export.world_problems: anything but Background,
+  Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
+  Ray" factor and Add Shader);
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
 - hair and points: hair particle systems, particles rendered as halos or paths, Curves (hair)
@@ -34,9 +36,6 @@ MATERIAL_NODES = {
     "VALUE", "REROUTE", "GROUP", "GROUP_INPUT", "GROUP_OUTPUT", "ADD_SHADER",
     "BSDF_TRANSPARENT", "LIGHT_PATH",
 }
-# The world nodes export.world_extension reads.
-WORLD_NODES = {"OUTPUT_WORLD", "BACKGROUND", "TEX_ENVIRONMENT", "MAPPING", "TEX_COORD",
-               "REROUTE"}
 # Ray visibility not carried (camera and shadow visibility are: PHOTON_object).
 RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
                   ("visible_transmission", "transmission"))
@@ -165,16 +164,14 @@ def _material_node_reason(node) -> str:
 
 
 def world_features(world) -> list[str]:
-    from .export import world_uses_nodes
+    from .export import world_problems, world_uses_nodes
     if not world_uses_nodes(world):
         return []
     output = _active_output(world.node_tree, "OUTPUT_WORLD")
     if output is None:
         return []
     what = f"world '{world.name}'"
-    messages = [f"{what}: {node.bl_label} node '{node.name}' is not exported; the world "
-                f"renders without it"
-                for node in _upstream(output.inputs["Surface"]) if node.type not in WORLD_NODES]
+    messages = world_problems(world)
     if output.inputs["Volume"].is_linked:
         node = output.inputs["Volume"].links[0].from_node
         messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "

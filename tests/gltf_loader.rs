@@ -364,7 +364,10 @@ fn materials_scene_has_glass_metal_texture_sun_and_world() {
         assert!((angle - 0.0092).abs() < 1e-6);
         assert!(direction.y < 0.0, "the sun shines downwards");
     }
-    assert!(close(scene.world.color, Vec3::new(0.2, 0.25, 0.35)));
+    assert!(close(
+        scene.world.background.color,
+        Vec3::new(0.2, 0.25, 0.35)
+    ));
 }
 
 #[test]
@@ -966,7 +969,10 @@ fn world_and_render_extensions_are_read() {
         "PHOTON_render": {"width": 640, "height": 480, "film_transparent": true}
     });
     let scene = load_glb(&doc).unwrap();
-    assert!(close(scene.world.color, Vec3::new(1.0, 0.5, 2.0)));
+    assert!(close(
+        scene.world.background.color,
+        Vec3::new(1.0, 0.5, 2.0)
+    ));
     assert_eq!(scene.render_settings.width, Some(640));
     assert_eq!(scene.render_settings.height, Some(480));
     assert!(scene.render_settings.transparent_film);
