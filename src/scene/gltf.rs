@@ -18,6 +18,17 @@
 //!   u = 0.5 − atan2(d.y, d.x)/2π and the row θ = acos(d.z)/π from the top. `rotation` (radians,
 //!   default 0) is the Euler XYZ rotation of a Mapping node (Point type) applied to d before the
 //!   lookup; `interpolation` defaults to linear (bilinear, wrapping around in u).
+//!   In place of `environment`, `sky` is Blender's Sky Texture in its Nishita model
+//!   (`crate::scene::sky`): `{"type": "NISHITA", "sun_elevation": e, "sun_rotation": r,
+//!   "sun_size": a, "sun_intensity": i, "sun_disc": bool, "altitude": m, "air": f, "dust": f,
+//!   "ozone": f, "rotation": [x, y, z]}` (radians and metres; defaults Blender's: 15°, 0,
+//!   0.545°, 1, true, 0, 1, 1, 1; `rotation` as for `environment`). It is baked × `strength`
+//!   into a 1024 × 512 environment map, and its sun disc becomes a sun light. Several
+//!   backgrounds are summed with `"mix": [{"weight": w, "color": ..., "strength": s,
+//!   "environment" | "sky": ...}, ...]` (in place of the fields above); their maps are resampled
+//!   onto the finest one. `"camera": {...}` (the same fields, `mix` included) is what camera
+//!   rays that leave the scene see instead of the rest (Blender's Light Path "Is Camera Ray");
+//!   a sky's sun there is not drawn. Out-of-range values are refused with an error.
 //! - `PHOTON_render` on a scene: `{"width": w, "height": h, "film_transparent": bool}`, the
 //!   render resolution and whether the background is transparent in the image.
 //! - `PHOTON_light` on a node:
