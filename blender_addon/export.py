@@ -47,10 +47,11 @@ from pathlib import Path
 import bpy
 
 try:
-    from . import node_tree
+    from . import node_tree, points_curves
 except ImportError:  # run as the child's script: the add-on's folder holds node_tree.py
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import node_tree
+    import points_curves
 
 GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
@@ -894,7 +895,7 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             # node trees Photon evaluates read the active colour attribute as COLOR_0.
             args["export_vertex_color"] = "ACTIVE"
         with collected_warnings() as warnings, render_visibility(scene), \
-                shape_keys_applied(scene):
+                shape_keys_applied(scene), points_curves.as_meshes(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None

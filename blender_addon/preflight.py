@@ -14,8 +14,8 @@ empty list, so the rules below only flag what really changes the image:
   Ray" factor and Add Shader);
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
-- hair and points: hair particle systems, particles rendered as halos or paths, Curves (hair)
-  and point cloud objects;
+- hair particle systems and particles rendered as halos or paths (Curves objects and point
+  clouds are carried: points_curves.py);
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
   Light Falloff's Quadratic strength), shadows turned off;
 - objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
@@ -80,10 +80,6 @@ def _object_features(obj) -> list[str]:
     what = f"object '{obj.name}'"
     if obj.type == "VOLUME":
         messages.append(f"{what}: Volume objects are not exported; Photon renders no volumes")
-    elif obj.type == "CURVES":
-        messages.append(f"{what}: hair curves (Curves objects) are not exported")
-    elif obj.type == "POINTCLOUD":
-        messages.append(f"{what}: point clouds are not exported")
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):

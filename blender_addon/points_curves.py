@@ -1,0 +1,134 @@
+"""Point clouds and hair curves as meshes the glTF exporter writes, for the time of an export.
+
+Cycles renders a point cloud's points as spheres of their radius and a Curves object's curves
+(hair) as round tubes of their radius; the glTF exporter writes neither. Within
+`as_meshes(scene)` each rendered Point Cloud and Curves object carries one more Geometry Nodes
+modifier (removed afterwards) that turns its points into instances of one sphere mesh, scaled
+by each point's radius, and its curves into a tube mesh swept along them (a circle profile
+scaled by the curve's radius), both with the first material of the object's evaluated
+geometry. The exporter writes
+instances as nodes sharing one mesh (its depsgraph-instance export), so the renderer stores the
+sphere once and places it per point (its two-level BVH).
+
+The sphere and the tube are polygons inscribed in the true shapes; both are enlarged so that
+their mean projected size is the true one: a convex body's mean projected area is a quarter of
+its surface area (Cauchy), and a regular n-gon's mean width is its perimeter over π.
+
+This file runs inside the add-on and as the export child's script: it imports only bpy and the
+standard library.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+
+import bpy
+
+# Name of the Geometry Nodes group added for an export.
+GROUP_NAME = "Photon points and curves"
+# Object types whose geometry the group converts.
+CONVERTED_TYPES = ("POINTCLOUD", "CURVES")
+# Subdivisions of the icosphere standing for a point (5: 5120 triangles, stored once).
+SPHERE_SUBDIVISIONS = 5
+# Its scale: the icosphere of 5 subdivisions (an icosahedron's edges halved four times, the
+# vertices pushed onto the unit sphere) has 0.99881 of the sphere's surface area.
+SPHERE_SCALE = 1.0 / math.sqrt(0.99881)
+# Sides of a hair's tube.
+TUBE_SIDES = 8
+
+
+def tube_profile_radius(sides: int = TUBE_SIDES) -> float:
+    """Circumradius of a regular `sides`-gon whose mean width is that of the unit circle (2)."""
+    return math.pi / (sides * math.sin(math.pi / sides))
+
+
+def _build_group():
+    group = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    material_socket = group.interface.new_socket("Material", in_out="INPUT",
+                                                 socket_type="NodeSocketMaterial")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = group.nodes, group.links
+    group_in, group_out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    parts = nodes.new("GeometryNodeSeparateComponents")
+    links.new(group_in.outputs["Geometry"], parts.inputs["Geometry"])
+    join = nodes.new("GeometryNodeJoinGeometry")
+
+    def finished(socket):
+        """`socket`'s mesh shaded smooth with the object's material."""
+        smooth = nodes.new("GeometryNodeSetShadeSmooth")
+        links.new(socket, smooth.inputs["Geometry"])
+        material = nodes.new("GeometryNodeSetMaterial")
+        links.new(smooth.outputs["Geometry"], material.inputs["Geometry"])
+        links.new(group_in.outputs["Material"], material.inputs["Material"])
+        return material.outputs["Geometry"]
+
+    # Points: one sphere, instanced on every point and scaled by its radius.
+    sphere = nodes.new("GeometryNodeMeshIcoSphere")
+    sphere.inputs["Subdivisions"].default_value = SPHERE_SUBDIVISIONS
+    sphere.inputs["Radius"].default_value = 1.0
+    scale = nodes.new("GeometryNodeTransform")
+    links.new(sphere.outputs["Mesh"], scale.inputs["Geometry"])
+    scale.inputs["Scale"].default_value = (SPHERE_SCALE,) * 3
+    on_points = nodes.new("GeometryNodeInstanceOnPoints")
+    links.new(parts.outputs["Point Cloud"], on_points.inputs["Points"])
+    links.new(finished(scale.outputs["Geometry"]), on_points.inputs["Instance"])
+    links.new(nodes.new("GeometryNodeInputRadius").outputs[0], on_points.inputs["Scale"])
+
+    # Curves: a tube swept along each, its profile scaled by the curve's radius.
+    profile = nodes.new("GeometryNodeCurvePrimitiveCircle")
+    profile.inputs["Resolution"].default_value = TUBE_SIDES
+    profile.inputs["Radius"].default_value = tube_profile_radius()
+    tube = nodes.new("GeometryNodeCurveToMesh")
+    links.new(parts.outputs["Curve"], tube.inputs["Curve"])
+    links.new(profile.outputs["Curve"], tube.inputs["Profile Curve"])
+    links.new(nodes.new("GeometryNodeInputRadius").outputs[0], tube.inputs["Scale"])
+    # As an instance: the exporter writes a Curves object's instances, not its own geometry.
+    tube_instance = nodes.new("GeometryNodeGeometryToInstance")
+    links.new(finished(tube.outputs["Mesh"]), tube_instance.inputs["Geometry"])
+
+    for socket in (parts.outputs["Mesh"], parts.outputs["Instances"],
+                   on_points.outputs["Instances"], tube_instance.outputs["Instances"]):
+        links.new(socket, join.inputs["Geometry"])
+    links.new(join.outputs["Geometry"], group_out.inputs["Geometry"])
+    return group, material_socket.identifier
+
+
+def _first_material(obj):
+    """The first material of `obj`'s evaluated geometry, which Cycles renders its points and
+    curves with (geometry made by Geometry Nodes has only the materials its nodes set; without
+    any Cycles uses its default surface, and so does the export: no material)."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    return next((m for m in getattr(evaluated.data, "materials", ()) if m is not None), None)
+
+
+@contextlib.contextmanager
+def as_meshes(scene):
+    """Within the block, the rendered Point Cloud and Curves objects of `scene` carry the
+    conversion modifier (see the module documentation); it and its group are removed after."""
+    owners = [obj for obj in scene.objects if obj.type in CONVERTED_TYPES and not obj.hide_render]
+    added, group = [], None
+    try:
+        if owners:
+            group, material_input = _build_group()
+        for obj in owners:
+            try:
+                modifier = obj.modifiers.new(GROUP_NAME, "NODES")
+            except (RuntimeError, TypeError):  # linked data
+                continue
+            material = _first_material(obj)
+            modifier.node_group = group
+            if material is not None:
+                modifier[material_input] = material
+            added.append((obj, modifier))
+        if added:
+            bpy.context.view_layer.update()
+        yield
+    finally:
+        for obj, modifier in added:
+            obj.modifiers.remove(modifier)
+        if group is not None:
+            bpy.data.node_groups.remove(group)
+        if added:
+            bpy.context.view_layer.update()
