@@ -815,32 +815,19 @@ def shape_keys_applied(scene):
     owners = [obj for obj in scene.objects
               if obj.type == "MESH" and len(obj.modifiers) == 0 and obj.data.shape_keys
               and not obj.hide_render]
-    added, group = [], None
-    try:
-        if owners:
-            group = bpy.data.node_groups.new(PASS_THROUGH, "GeometryNodeTree")
-            group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-            group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-            inputs = group.nodes.new("NodeGroupInput")
-            outputs = group.nodes.new("NodeGroupOutput")
-            group.links.new(inputs.outputs[0], outputs.inputs[0])
-        for obj in owners:
-            try:
-                modifier = obj.modifiers.new(PASS_THROUGH, "NODES")
-            except (RuntimeError, TypeError):  # linked data
-                continue
-            modifier.node_group = group
-            added.append((obj, modifier))
+
+    def pass_through():
+        group = bpy.data.node_groups.new(PASS_THROUGH, "GeometryNodeTree")
+        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        group.links.new(group.nodes.new("NodeGroupInput").outputs[0],
+                        group.nodes.new("NodeGroupOutput").inputs[0])
+        return group, None
+
+    with points_curves.node_modifier_added(owners, pass_through) as added:
         if added:
             bpy.context.view_layer.update()
         yield
-    finally:
-        for obj, modifier in added:
-            obj.modifiers.remove(modifier)
-        if group is not None:
-            bpy.data.node_groups.remove(group)
-        if added:
-            bpy.context.view_layer.update()
 
 
 def rendered_objects(view_layer) -> set[str]:

@@ -108,25 +108,37 @@ def as_meshes(scene):
     """Within the block, the rendered Point Cloud and Curves objects of `scene` carry the
     conversion modifier (see the module documentation); it and its group are removed after."""
     owners = [obj for obj in scene.objects if obj.type in CONVERTED_TYPES and not obj.hide_render]
-    added, group = [], None
-    try:
-        if owners:
-            group, material_input = _build_group()
-        for obj in owners:
-            try:
-                modifier = obj.modifiers.new(GROUP_NAME, "NODES")
-            except (RuntimeError, TypeError):  # linked data
-                continue
-            material = _first_material(obj)
-            modifier.node_group = group
-            if material is not None:
-                modifier[material_input] = material
-            added.append((obj, modifier))
+    # Read before the modifier changes the evaluated geometry.
+    materials = {obj.name: _first_material(obj) for obj in owners}
+    with node_modifier_added(owners, _build_group) as added:
+        for obj, modifier, material_input in added:
+            if materials[obj.name] is not None:
+                modifier[material_input] = materials[obj.name]
         if added:
             bpy.context.view_layer.update()
         yield
+
+
+@contextlib.contextmanager
+def node_modifier_added(objects, build_group):
+    """Within the block each of `objects` (but linked ones) carries one more Geometry Nodes
+    modifier whose group `build_group()` makes (once, returning the group and the identifier
+    of its second input, or None); yields [(object, modifier, identifier)]. The modifiers and
+    the group are removed afterwards and the view layer updated."""
+    added, group = [], None
+    try:
+        if objects:
+            group, identifier = build_group()
+        for obj in objects:
+            try:
+                modifier = obj.modifiers.new(group.name, "NODES")
+            except (RuntimeError, TypeError):  # linked data
+                continue
+            modifier.node_group = group
+            added.append((obj, modifier, identifier))
+        yield added
     finally:
-        for obj, modifier in added:
+        for obj, modifier, _ in added:
             obj.modifiers.remove(modifier)
         if group is not None:
             bpy.data.node_groups.remove(group)

@@ -120,9 +120,9 @@ def messages_for(scene):
 
 
 def test_other_rules(photon_addon):
-    """Volume objects (Curves objects are carried), light settings and camera settings, one message each; the
-    default tree of a light with nodes, an Emission node's strength and an area light's
-    spread (all carried) give none."""
+    """Volume objects (Curves objects are carried), light settings and camera settings, one
+    message each; the default tree of a light with nodes, an Emission node's strength and an
+    area light's spread (all carried) give none."""
     bpy.ops.wm.read_factory_settings()
     scene = bpy.context.scene
     assert messages_for(scene) == []
