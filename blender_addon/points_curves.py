@@ -8,7 +8,8 @@ by each point's radius, and its curves into a tube mesh swept along them (a circ
 scaled by the curve's radius), both with the first material of the object's evaluated
 geometry. The exporter writes
 instances as nodes sharing one mesh (its depsgraph-instance export), so the renderer stores the
-sphere once and places it per point (its two-level BVH).
+sphere once and places it per point (its two-level BVH). Hair particle systems are first
+turned into such Curves objects (`hair_particles_as_curves`, Cycles' strand radius).
 
 The sphere and the tube are polygons inscribed in the true shapes; both are enlarged so that
 their mean projected size is the true one: a convex body's mean projected area is a quarter of
@@ -106,17 +107,105 @@ def _first_material(obj):
 @contextlib.contextmanager
 def as_meshes(scene):
     """Within the block, the rendered Point Cloud and Curves objects of `scene` carry the
-    conversion modifier (see the module documentation); it and its group are removed after."""
-    owners = [obj for obj in scene.objects if obj.type in CONVERTED_TYPES and not obj.hide_render]
-    # Read before the modifier changes the evaluated geometry.
-    materials = {obj.name: _first_material(obj) for obj in owners}
-    with node_modifier_added(owners, _build_group) as added:
-        for obj, modifier, material_input in added:
-            if materials[obj.name] is not None:
-                modifier[material_input] = materials[obj.name]
-        if added:
-            bpy.context.view_layer.update()
+    conversion modifier (see the module documentation), and every hair particle system shown
+    in renders has a Curves object of its strands (`hair_particles_as_curves`) that carries
+    it too; all of it is removed after."""
+    with hair_particles_as_curves(scene):
+        owners = [obj for obj in scene.objects
+                  if obj.type in CONVERTED_TYPES and not obj.hide_render]
+        # Read before the modifier changes the evaluated geometry.
+        materials = {obj.name: _first_material(obj) for obj in owners}
+        with node_modifier_added(owners, _build_group) as added:
+            for obj, modifier, material_input in added:
+                if materials[obj.name] is not None:
+                    modifier[material_input] = materials[obj.name]
+            if added:
+                bpy.context.view_layer.update()
+            yield
+
+
+def hair_radius(settings, fraction: float, last: bool) -> float:
+    """Radius of a particle hair at `fraction` of its length, as Cycles reads the particle
+    settings: half of Radius Scale × the root or tip diameter, between them by the strand
+    shape (negative: thinner sooner), zero at the tip with Close Tip."""
+    if last and settings.use_close_tip:
+        return 0.0
+    half = 0.5 * settings.radius_scale
+    root, tip = half * settings.root_radius, half * settings.tip_radius
+    t = 1.0 - fraction
+    shape = settings.shape
+    if shape < 0.0:
+        t = t ** (1.0 + shape)
+    elif shape > 0.0:
+        t = t ** (1.0 / (1.0 - shape))
+    return t * (root - tip) + tip
+
+
+@contextlib.contextmanager
+def hair_particles_as_curves(scene):
+    """Within the block, each hair particle system rendered as strands (Path) on a rendered mesh
+    object has a Curves object (world space, the system's material) holding its strands as Cycles
+    renders them: the children in their render amount (and the parents only without children
+    or with "Parents" on), 2^(render steps) segments, the
+    radius of `hair_radius`. Read from the viewport's particle paths with the display settings
+    set to the render ones for the time of the reading."""
+    made = []
+    try:
+        for obj in [o for o in scene.objects if o.type == "MESH" and not o.hide_render]:
+            for modifier in obj.modifiers:
+                if modifier.type != "PARTICLE_SYSTEM" or not modifier.show_render:
+                    continue
+                system = modifier.particle_system
+                if system.settings.type == "HAIR" and system.settings.render_type == "PATH":
+                    made.append(_strands(scene, obj, system))
         yield
+    finally:
+        for curves_object in made:
+            data = curves_object.data
+            bpy.data.objects.remove(curves_object)
+            bpy.data.hair_curves.remove(data)
+
+
+def _strands(scene, obj, system):
+    settings = system.settings
+    shown = ("display_step", "display_percentage", "child_percent")
+    kept = {name: getattr(settings, name) for name in shown}
+    try:
+        settings.display_step = settings.render_step
+        settings.display_percentage = 100
+        settings.child_percent = settings.rendered_child_count
+        bpy.context.view_layer.update()
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        psys = evaluated.particle_systems[system.name]
+        keys = (1 << settings.render_step) + 1
+        parents, children = len(psys.particles), len(psys.child_particles)
+        # With children, the parents are rendered only when asked to ("Parents" in Render).
+        first = parents if children and not settings.use_parent_particles else 0
+        strands = [[tuple(psys.co_hair(object=evaluated, particle_no=i, step=k))
+                    for k in range(keys)] for i in range(first, parents + children)]
+    finally:
+        for name, value in kept.items():
+            setattr(settings, name, value)
+        bpy.context.view_layer.update()
+    curves = bpy.data.hair_curves.new(f"{obj.name} {system.name}")
+    curves.add_curves([keys] * len(strands))
+    positions, radii = [], []
+    for strand in strands:
+        lengths = [0.0]
+        for a, b in zip(strand, strand[1:]):
+            lengths.append(lengths[-1] + math.dist(a, b))
+        total = lengths[-1] or 1.0
+        for k, (point, length) in enumerate(zip(strand, lengths)):
+            positions.extend(point)
+            radii.append(hair_radius(settings, length / total, k == keys - 1))
+    curves.position_data.foreach_set("vector", positions)
+    curves.attributes.new("radius", "FLOAT", "POINT").data.foreach_set("value", radii)
+    slot = settings.material - 1
+    if 0 <= slot < len(obj.material_slots) and obj.material_slots[slot].material is not None:
+        curves.materials.append(obj.material_slots[slot].material)
+    curves_object = bpy.data.objects.new(curves.name, curves)
+    scene.collection.objects.link(curves_object)
+    return curves_object
 
 
 @contextlib.contextmanager

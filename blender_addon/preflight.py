@@ -14,7 +14,7 @@ empty list, so the rules below only flag what really changes the image:
   Ray" factor and Add Shader);
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
-- hair particle systems and particles rendered as halos or paths (Curves objects and point
+- particles rendered as halos or paths (hair particle systems, Curves objects and point
   clouds are carried: points_curves.py);
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
   Light Falloff's Quadratic strength), shadows turned off;
@@ -83,10 +83,10 @@ def _object_features(obj) -> list[str]:
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):
-        kind = system.settings.type
-        if kind == "HAIR":
-            messages.append(f"{what}: hair particle system '{system.name}' is not exported")
-        elif system.settings.render_type not in ("OBJECT", "COLLECTION", "NONE"):
+        # Objects and collections go as instances, hair strands (PATH) as tubes.
+        carried = ("OBJECT", "COLLECTION", "NONE", "PATH" if system.settings.type == "HAIR"
+                   else "OBJECT")
+        if system.settings.render_type not in carried:
             messages.append(f"{what}: particle system '{system.name}' rendered as "
                             f"{system.settings.render_type} is not exported (objects and "
                             f"collections are)")

@@ -54,8 +54,8 @@ def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
 
 def add_unsupported_features(scene):
     """A Magic Texture (a node Photon does not evaluate yet: Noise, for one, it does) into the
-    cube's base colour, a second cube whose material has a volume shader, and a hair particle
-    system on the cube."""
+    cube's base colour, a second cube whose material has a volume shader, and a particle
+    system on the cube rendered as halos (hair particles are carried: points_curves.py)."""
     cube = bpy.data.objects["Cube"]
     tree = cube.active_material.node_tree
     noise = tree.nodes.new("ShaderNodeTexMagic")
@@ -74,8 +74,10 @@ def add_unsupported_features(scene):
     smoke.data.materials.clear()
     smoke.data.materials.append(fog)
 
-    cube.modifiers.new("Fur", "PARTICLE_SYSTEM")
-    cube.particle_systems[0].settings.type = "HAIR"
+    cube.modifiers.new("Sparks", "PARTICLE_SYSTEM")
+    cube.particle_systems[0].name = "Sparks"
+    cube.particle_systems[0].settings.type = "EMITTER"
+    cube.particle_systems[0].settings.render_type = "HALO"
     cube.particle_systems[0].settings.count = 50
 
 
@@ -93,7 +95,7 @@ def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, r
     expected = {
         "magic node": lambda w: "material 'Material'" in w and "Magic Texture node 'Clouds'" in w,
         "volume": lambda w: "material 'Fog'" in w and "volume shader" in w,
-        "hair": lambda w: "object 'Cube'" in w and "hair particle system 'Fur'" in w,
+        "halos": lambda w: "object 'Cube'" in w and "'Sparks' rendered as HALO" in w,
     }
     for feature, matches in expected.items():
         hits = [w for w in warnings if matches(w)]

@@ -100,3 +100,28 @@ def test_hair_curves_as_tubes(tmp_path, shape):
     scene.cycles_curves.shape = shape
     hair("Fur", common.principled("Brown", (0.5, 0.3, 0.15), roughness=0.6))
     compare(f"hair curves ({shape.lower()})", scene, tmp_path)
+
+
+def test_hair_particles_as_tubes(tmp_path):
+    """A hair particle system on a patch of the floor (parents and interpolated children, a
+    root-to-tip taper with a strand shape), read as Cycles reads it."""
+    scene = lit_floor()
+    grey = common.principled("Patch", (0.5, 0.5, 0.5))
+    patch = common.quad("Patch", [(-0.8, -0.8, 0.01), (0.8, -0.8, 0.01), (0.8, 0.8, 0.01),
+                                  (-0.8, 0.8, 0.01)], grey)
+    patch.data.materials.append(common.principled("Fur", (0.6, 0.25, 0.1), roughness=0.6))
+    patch.modifiers.new("Fur", "PARTICLE_SYSTEM")
+    settings = patch.particle_systems[0].settings
+    settings.type = "HAIR"
+    settings.count = 60
+    settings.hair_length = 0.7
+    settings.material = 2
+    settings.child_type = "INTERPOLATED"
+    settings.rendered_child_count = 3
+    settings.radius_scale = 0.04
+    settings.root_radius = 1.0
+    settings.tip_radius = 0.3
+    settings.shape = -0.3
+    settings.use_close_tip = False
+    patch.particle_systems[0].seed = 4
+    compare("hair particles", scene, tmp_path)
