@@ -45,6 +45,7 @@ import sys
 from pathlib import Path
 
 import bpy
+import mathutils
 
 try:
     from . import node_tree, points_curves
@@ -322,6 +323,9 @@ def camera_extension(obj, scene) -> dict:
         if panorama:
             data["panorama"] = panorama
         return data
+    poses = SHUTTER_POSES.get(obj.name)
+    if poses:
+        data["motion"] = poses
     dof = camera.dof
     if dof.use_dof:
         fstop = max(float(dof.aperture_fstop), 1e-5)
@@ -335,6 +339,48 @@ def camera_extension(obj, scene) -> dict:
                        "rotation": float(dof.aperture_rotation),
                        "ratio": float(dof.aperture_ratio)}
     return data
+
+
+# The camera's poses over the shutter, by object name, while `shutter_poses_recorded` runs.
+SHUTTER_POSES: dict[str, list[list[float]]] = {}
+# Blender (x, y, z) is glTF (x, z, −y).
+Z_UP_TO_Y_UP = mathutils.Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
+
+
+def shutter_times(scene) -> list[float]:
+    """Frame times of the shutter's opening, middle and closing, as Cycles places them: the
+    shutter (in frames) centred on the frame, starting or ending at it."""
+    r = scene.render
+    length = float(r.motion_blur_shutter)
+    start = {"START": 0.0, "END": -length}.get(r.motion_blur_position, -0.5 * length)
+    frame = scene.frame_current + scene.frame_subframe
+    return [frame + start + k * 0.5 * length for k in range(3)]
+
+
+@contextlib.contextmanager
+def shutter_poses_recorded(scene):
+    """Within the block, SHUTTER_POSES holds, with Render > Motion Blur on, the scene camera's
+    world matrices at `shutter_times` (glTF axes, column-major, scale removed) when they
+    differ; PHOTON_camera carries them as "motion". The frame is put back afterwards."""
+    camera = scene.camera
+    if not scene.render.use_motion_blur or camera is None:
+        yield
+        return
+    frame, subframe = scene.frame_current, scene.frame_subframe
+    poses = []
+    try:
+        for t in shutter_times(scene):
+            scene.frame_set(math.floor(t), subframe=t - math.floor(t))
+            m = Z_UP_TO_Y_UP @ camera.matrix_world.normalized()
+            poses.append([float(m[row][col]) for col in range(4) for row in range(4)])
+    finally:
+        scene.frame_set(frame, subframe=subframe)
+    if any(p != poses[0] for p in poses):
+        SHUTTER_POSES[camera.name] = poses
+    try:
+        yield
+    finally:
+        SHUTTER_POSES.clear()
 
 
 # The panoramic projections PHOTON_camera carries (the others are named by the pre-flight).
@@ -882,7 +928,8 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             # node trees Photon evaluates read the active colour attribute as COLOR_0.
             args["export_vertex_color"] = "ACTIVE"
         with collected_warnings() as warnings, render_visibility(scene), \
-                shape_keys_applied(scene), points_curves.as_meshes(scene):
+                shape_keys_applied(scene), points_curves.as_meshes(scene), \
+                shutter_poses_recorded(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None

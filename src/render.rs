@@ -586,12 +586,15 @@ fn render_tile(
                 let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
                 let offset = filter.sample(rng.uniform2());
                 let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-                // A lens sample only with an aperture: pinhole cameras keep their streams.
-                let ray = if camera.has_lens() {
-                    camera.ray_through_lens(film, rng.uniform2())
+                // A lens sample only with an aperture and a moment only for a moving camera:
+                // still pinhole cameras keep their streams.
+                let lens = if camera.has_lens() {
+                    rng.uniform2()
                 } else {
-                    camera.ray(film)
+                    Vec2::ZERO
                 };
+                let time = camera.moves().then(|| rng.uniform());
+                let ray = camera.sample_ray(film, lens, time);
                 if ray.t_max <= 0.0 {
                     continue; // outside a fisheye's image: black, as in Cycles
                 }

@@ -1623,6 +1623,40 @@ fn photon_camera_shift_and_lens_are_read_and_checked() {
 }
 
 #[test]
+fn photon_camera_motion_is_read_and_checked() {
+    let still = [
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    let mut moved = still;
+    moved[12] = 2.0; // translation x, column-major
+    moved[0] = 3.0; // a scale, which a camera pose drops
+    let mut doc = triangle_doc();
+    doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": {"motion": [still, moved]}});
+    let scene = load_glb(&doc).unwrap();
+    let motion = &scene.camera.motion;
+    assert_eq!(motion.len(), 2);
+    assert_eq!(
+        motion[1].translation,
+        photon::math::Vec3A::new(2.0, 0.0, 0.0)
+    );
+    assert!(motion[1]
+        .matrix3
+        .x_axis
+        .abs_diff_eq(photon::math::Vec3A::X, 1e-6));
+    let (nan, singular) = (vec![f64::NAN; 16], vec![0.0; 16]);
+    for bad in [
+        json!({"motion": [still]}),
+        json!({"motion": [still, [1.0, 2.0]]}),
+        json!({"motion": [still, nan]}),
+        json!({"motion": [still, singular]}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": bad});
+        assert_scene_error(load_glb(&doc), &["Camera", "PHOTON_camera"]);
+    }
+}
+
+#[test]
 fn photon_object_ray_visibility_is_read_and_checked() {
     let mut doc = triangle_doc();
     doc.json["nodes"][0]["extensions"] =

@@ -67,7 +67,11 @@
 //!   "sensor": [width, height]}` (millimetres, the sensor as Cycles fits it to the image); see
 //!   `scene::Projection`. Panoramas ignore `shift` and `dof`. Blender's exporter drops
 //!   panoramic cameras but keeps their node: a node with a `panorama` and no glTF camera is a
-//!   camera too.
+//!   camera too. An optional `"motion": [m0, m1, ...]` (two or more column-major 4 × 4 world
+//!   matrices, glTF axes) gives the camera's poses at evenly spaced moments from the shutter's
+//!   opening to its closing (Blender's motion blur): each camera sample takes a uniform moment
+//!   and the pose interpolated there (translation linearly, rotation by slerp), as Cycles
+//!   blurs camera motion.
 //! - `PHOTON_object` on a mesh node: `{"visible_camera": bool, "visible_shadow": bool}`
 //!   (default true), Blender's camera and shadow ray visibility: camera rays pass through an
 //!   object hidden from the camera, shadow rays (direct light) through one that casts no
@@ -332,6 +336,7 @@ impl Loader {
                     aspect_ratio: None,
                     shift: Vec2::ZERO,
                     lens: None,
+                    motion: Vec::new(),
                 },
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
@@ -669,6 +674,7 @@ impl Loader {
                 aspect_ratio: None,
                 shift: Vec2::ZERO,
                 lens: None,
+                motion: Vec::new(),
             };
             if let Some(extension) = extension {
                 read_camera_extension(extension, &mut camera)
@@ -2201,6 +2207,7 @@ fn convert_camera(
         aspect_ratio,
         shift: Vec2::ZERO,
         lens: None,
+        motion: Vec::new(),
     })
 }
 
@@ -2229,6 +2236,16 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
     if let Some(panorama) = value.get("panorama") {
         camera.projection = read_panorama(panorama)?;
     }
+    if let Some(v) = value.get("motion") {
+        let poses = v
+            .as_array()
+            .filter(|p| p.len() >= 2)
+            .ok_or_else(|| format!("'motion' must be a list of two or more matrices, found {v}"))?;
+        camera.motion = poses
+            .iter()
+            .map(read_pose)
+            .collect::<std::result::Result<_, _>>()?;
+    }
     if let Some(dof) = value.get("dof") {
         let radius = number(dof, "aperture_radius", 0.0, |x| x >= 0.0)?;
         let focus_distance = number(dof, "focus_distance", 10.0, |x| x > 0.0)?;
@@ -2244,6 +2261,30 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
         });
     }
     Ok(())
+}
+
+/// One pose of `PHOTON_camera`'s "motion": 16 numbers, a column-major world matrix, its scale
+/// removed (cameras are rigid).
+fn read_pose(value: &Value) -> std::result::Result<Affine3A, String> {
+    let numbers: Vec<f32> = value
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|x| x.as_f64().map(|x| x as f32))
+                .collect()
+        })
+        .unwrap_or_default();
+    let bad = || format!("a 'motion' pose must be 16 finite numbers, found {value}");
+    let array: [f32; 16] = numbers.try_into().map_err(|_| bad())?;
+    let matrix = Mat4::from_cols_array(&array);
+    if !matrix.is_finite() || matrix.determinant().abs() < 1e-12 {
+        return Err(bad());
+    }
+    let (_, rotation, translation) = matrix.to_scale_rotation_translation();
+    Ok(Affine3A::from_rotation_translation(
+        rotation.normalize(),
+        translation,
+    ))
 }
 
 /// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.
@@ -2304,6 +2345,7 @@ fn framing_camera(bounds: Bounds) -> Camera {
         aspect_ratio: None,
         shift: Vec2::ZERO,
         lens: None,
+        motion: Vec::new(),
     }
 }
 

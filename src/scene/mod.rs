@@ -331,6 +331,10 @@ pub struct Camera {
     pub shift: Vec2,
     /// Depth of field; `None` is a pinhole.
     pub lens: Option<ThinLens>,
+    /// Camera space to world space (rigid) at evenly spaced moments from the shutter's opening
+    /// to its closing (Blender's motion blur; our `PHOTON_camera` "motion"); empty: the camera
+    /// stays at `to_world`.
+    pub motion: Vec<Affine3A>,
 }
 
 /// A thin lens (Blender's depth of field as Cycles renders it).
@@ -806,6 +810,12 @@ impl Scene {
                     return Err("environment image: a value is NaN or infinite".into());
                 }
             }
+        }
+        if self.camera.motion.iter().any(|m| !m.is_finite()) {
+            return Err(format!(
+                "camera '{}': a motion pose is NaN or infinite",
+                self.camera.name
+            ));
         }
         if !self.camera.shift.is_finite() {
             return Err(format!(
