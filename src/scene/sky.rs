@@ -340,8 +340,8 @@ fn angle_between(a: Vec3, b: Vec3) -> f32 {
 }
 
 impl NishitaSky {
-    /// Tabulate the sky for `settings` (about 30 M scattering samples, spread over rayon's
-    /// threads).
+    /// Tabulate the sky for `settings`: 256 × 128 view rays of 32 steps, each step with a ray
+    /// to the sun, spread over rayon's threads.
     pub fn new(settings: &NishitaSettings) -> NishitaSky {
         // Blender lets the sun go round: bring the elevation into [−π/2, π/2] (flipping the
         // rotation when it passes the zenith) and the rotation into Cycles' form.
