@@ -146,20 +146,25 @@ def hair_particles_as_curves(scene):
     """Within the block, each hair particle system rendered as strands (Path) on a rendered mesh
     object has a Curves object (world space, the system's material) holding its strands as Cycles
     renders them: the children in their render amount (and the parents only without children
-    or with "Parents" on), 2^(render steps) segments, the
-    radius of `hair_radius`. Read from the viewport's particle paths with the display settings
-    set to the render ones for the time of the reading."""
-    made = []
+    or with "Parents" on), 2^(render steps) segments, the radius of `hair_radius`. Read from
+    the viewport's particle paths with the display settings set to the render ones for the time
+    of the reading. An emitter whose only particles are such strands and that is not shown in
+    renders (Show Emitter off) is hidden from the export, as Cycles hides it."""
+    made, hidden = [], []
     try:
         for obj in [o for o in scene.objects if o.type == "MESH" and not o.hide_render]:
-            for modifier in obj.modifiers:
-                if modifier.type != "PARTICLE_SYSTEM" or not modifier.show_render:
-                    continue
-                system = modifier.particle_system
-                if system.settings.type == "HAIR" and system.settings.render_type == "PATH":
-                    made.append(_strands(scene, obj, system))
+            systems = [m.particle_system for m in obj.modifiers
+                       if m.type == "PARTICLE_SYSTEM" and m.show_render]
+            strands = [s for s in systems
+                       if s.settings.type == "HAIR" and s.settings.render_type == "PATH"]
+            made += [_strands(scene, obj, system) for system in strands]
+            if strands and len(strands) == len(systems) and not obj.show_instancer_for_render:
+                obj.hide_render = True
+                hidden.append(obj)
         yield
     finally:
+        for obj in hidden:
+            obj.hide_render = False
         for curves_object in made:
             data = curves_object.data
             bpy.data.objects.remove(curves_object)

@@ -102,13 +102,16 @@ def test_hair_curves_as_tubes(tmp_path, shape):
     compare(f"hair curves ({shape.lower()})", scene, tmp_path)
 
 
-def test_hair_particles_as_tubes(tmp_path):
-    """A hair particle system on a patch of the floor (parents and interpolated children, a
-    root-to-tip taper with a strand shape), read as Cycles reads it."""
+@pytest.mark.parametrize("show_emitter", [True, False])
+def test_hair_particles_as_tubes(tmp_path, show_emitter):
+    """A hair particle system on a raised patch (parents and interpolated children, a
+    root-to-tip taper with a strand shape), read as Cycles reads it; with Show Emitter off the
+    patch is not rendered."""
     scene = lit_floor()
-    grey = common.principled("Patch", (0.5, 0.5, 0.5))
-    patch = common.quad("Patch", [(-0.8, -0.8, 0.01), (0.8, -0.8, 0.01), (0.8, 0.8, 0.01),
-                                  (-0.8, 0.8, 0.01)], grey)
+    blue = common.principled("Patch", (0.05, 0.1, 0.5))
+    patch = common.quad("Patch", [(-0.8, -0.8, 0.1), (0.8, -0.8, 0.1), (0.8, 0.8, 0.1),
+                                  (-0.8, 0.8, 0.1)], blue)
+    patch.show_instancer_for_render = show_emitter
     patch.data.materials.append(common.principled("Fur", (0.6, 0.25, 0.1), roughness=0.6))
     patch.modifiers.new("Fur", "PARTICLE_SYSTEM")
     settings = patch.particle_systems[0].settings
@@ -124,4 +127,5 @@ def test_hair_particles_as_tubes(tmp_path):
     settings.shape = -0.3
     settings.use_close_tip = False
     patch.particle_systems[0].seed = 4
-    compare("hair particles", scene, tmp_path)
+    compare(f"hair particles (emitter {'shown' if show_emitter else 'hidden'})", scene,
+            tmp_path)
