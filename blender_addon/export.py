@@ -107,6 +107,8 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
                 self._add(gltf_node, "PHOTON_light", data)
         if blender_object is not None and blender_object.type in GEOMETRY_TYPES:
             data = visibility_extension(blender_object)
+            if blender_object.name in SHUTTER_POSES:
+                data["motion"] = SHUTTER_POSES[blender_object.name]
             space = texture_space(blender_object)
             if space and uses_node_materials(blender_object):
                 data["texture_space"] = space
@@ -341,7 +343,8 @@ def camera_extension(obj, scene) -> dict:
     return data
 
 
-# The camera's poses over the shutter, by object name, while `shutter_poses_recorded` runs.
+# World matrices over the shutter (the camera's and moving objects'), by object name, while
+# `shutter_poses_recorded` runs.
 SHUTTER_POSES: dict[str, list[list[float]]] = {}
 # Blender (x, y, z) is glTF (x, z, −y).
 Z_UP_TO_Y_UP = mathutils.Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
@@ -359,24 +362,31 @@ def shutter_times(scene) -> list[float]:
 
 @contextlib.contextmanager
 def shutter_poses_recorded(scene):
-    """Within the block, SHUTTER_POSES holds, with Render > Motion Blur on, the scene camera's
-    world matrices at `shutter_times` (glTF axes, column-major, scale removed) when they
-    differ; PHOTON_camera carries them as "motion". The frame is put back afterwards."""
-    camera = scene.camera
-    if not scene.render.use_motion_blur or camera is None:
+    """Within the block, SHUTTER_POSES holds, with Render > Motion Blur on, the world matrices
+    (glTF axes, column-major) at `shutter_times` of the scene camera (scale removed) and of
+    every rendered object the glTF exporter writes as a mesh, for those whose matrices differ;
+    PHOTON_camera and PHOTON_object carry them as "motion". The frame is put back afterwards."""
+    if not scene.render.use_motion_blur:
         yield
         return
+    objects = [obj for obj in scene.objects
+               if obj == scene.camera or (obj.type in GEOMETRY_TYPES and not obj.hide_render)]
     frame, subframe = scene.frame_current, scene.frame_subframe
-    poses = []
+    poses = {obj.name: [] for obj in objects}
     try:
         for t in shutter_times(scene):
             scene.frame_set(math.floor(t), subframe=t - math.floor(t))
-            m = Z_UP_TO_Y_UP @ camera.matrix_world.normalized()
-            poses.append([float(m[row][col]) for col in range(4) for row in range(4)])
+            for obj in objects:
+                # A camera node keeps Blender's camera axes; mesh nodes hold their vertices in
+                # glTF axes, so their matrices change axes on both sides.
+                if obj == scene.camera:
+                    m = Z_UP_TO_Y_UP @ obj.matrix_world.normalized()
+                else:
+                    m = Z_UP_TO_Y_UP @ obj.matrix_world @ Z_UP_TO_Y_UP.inverted()
+                poses[obj.name].append([float(m[r][c]) for c in range(4) for r in range(4)])
     finally:
         scene.frame_set(frame, subframe=subframe)
-    if any(p != poses[0] for p in poses):
-        SHUTTER_POSES[camera.name] = poses
+    SHUTTER_POSES.update({name: p for name, p in poses.items() if any(q != p[0] for q in p)})
     try:
         yield
     finally:

@@ -22,8 +22,8 @@ empty list, so the rules below only flag what really changes the image:
   Visibility; camera and shadow visibility are carried), holdout objects and collections,
   'indirect only' collections;
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
-  field with a panorama, a depth-of-field focus on a bone; with motion blur on, animated
-  objects (only the camera's motion is blurred).
+  field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
+  objects (armatures, animated shape keys: only transforms are blurred).
 """
 
 from __future__ import annotations
@@ -72,24 +72,24 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
             messages.append(f"{what}: 'indirect only' is not exported; its objects are seen "
                             f"directly too")
     if scene.render.use_motion_blur:
-        moving = [obj.name for obj in objects if obj.type != "CAMERA" and _animated(obj)]
-        if moving:
-            listed = ", ".join(f"'{name}'" for name in sorted(moving)[:3])
-            more = f" and {len(moving) - 3} more" if len(moving) > 3 else ""
-            messages.append(f"motion blur: objects are rendered where they are at the frame, "
-                            f"not blurred (animated: {listed}{more}); the camera's motion is "
-                            f"blurred")
+        deforming = [obj.name for obj in objects if _deforms(obj)]
+        if deforming:
+            listed = ", ".join(f"'{name}'" for name in sorted(deforming)[:3])
+            more = f" and {len(deforming) - 3} more" if len(deforming) > 3 else ""
+            messages.append(f"motion blur: deformation is not blurred (armatures or animated "
+                            f"shape keys: {listed}{more}); moving objects and the camera are")
     return messages
 
 
-def _animated(obj) -> bool:
-    """Whether `obj` or a parent has keyframes or drivers (a sign that it moves)."""
-    while obj is not None:
-        data = obj.animation_data
-        if data is not None and (data.action is not None or len(data.drivers)):
-            return True
-        obj = obj.parent
-    return False
+def _deforms(obj) -> bool:
+    """Whether `obj`'s geometry changes with time: an armature modifier, or shape keys with
+    keyframes or drivers."""
+    obj = getattr(obj, "original", obj)  # the depsgraph's copy has its shape keys applied
+    if any(m.type == "ARMATURE" for m in getattr(obj, "modifiers", ())):
+        return True
+    keys = getattr(getattr(obj, "data", None), "shape_keys", None)
+    data = keys.animation_data if keys is not None else None
+    return data is not None and (data.action is not None or len(data.drivers) > 0)
 
 
 def _object_features(obj) -> list[str]:

@@ -8,7 +8,7 @@ Freestyle, Grease Pencil render settings, stereoscopy, light probes,
 the light's EEVEE shadow settings, object shading and ray visibility, AOVs, Cryptomatte and the
 Particles tab (not listed yet, though the export carries particles rendered as objects or
 collections and hair strands; the pre-flight report warns about the rest). Motion blur has
-Photon's own panel: Photon blurs the camera's motion only. Photon's
+Photon's own panel: Photon blurs the camera's and objects' motion, not deformation. Photon's
 passes (Depth, Normal, Denoising Data and the light passes) have their own View Layer panel.
 A name missing from the running Blender is skipped (panels are renamed between versions).
 """
@@ -194,8 +194,8 @@ class RENDER_PT_photon_film(PhotonPanel, bpy.types.Panel):
 
 
 class RENDER_PT_photon_motion_blur(PhotonPanel, bpy.types.Panel):
-    """Blender's motion blur settings Photon reads: it blurs the camera's motion over the
-    shutter (objects are rendered where they are at the frame)."""
+    """Blender's motion blur settings Photon reads: it blurs the camera's and the objects'
+    motion over the shutter (not deformation)."""
     bl_label = "Motion Blur"
     bl_options = {"DEFAULT_CLOSED"}
 
@@ -208,7 +208,7 @@ class RENDER_PT_photon_motion_blur(PhotonPanel, bpy.types.Panel):
         col.active = render.use_motion_blur
         col.prop(render, "motion_blur_position", text="Position")
         col.prop(render, "motion_blur_shutter")
-        col.label(text="Camera motion only")
+        col.label(text="Deformation is not blurred")
 
 
 class VIEWLAYER_PT_photon_passes(PhotonPanel, bpy.types.Panel):

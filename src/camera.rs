@@ -9,15 +9,15 @@
 //! cover give a ray that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
 //! is open (Blender's motion blur) is placed, per sample, at the pose of a moment within it.
 
-use crate::accel::Ray;
-use crate::math::{Affine3A, Quat, Vec2, Vec3};
+use crate::accel::{Ray, FRAME_TIME};
+use crate::math::{interpolate_transform, Affine3A, Vec2, Vec3};
 use crate::sampling::{square_to_disk, square_to_triangle};
 use crate::scene::{Camera, Projection, ThinLens};
 
 pub struct CameraRays {
     to_world: Affine3A,
-    /// Rotation and position at evenly spaced moments of the shutter; empty: still.
-    poses: Vec<(Quat, Vec3)>,
+    /// Camera space to world space at evenly spaced moments of the shutter; empty: still.
+    poses: Vec<Affine3A>,
     projection: Projection,
     width: f32,
     height: f32,
@@ -38,14 +38,7 @@ impl CameraRays {
         let panoramic = camera.projection.is_panoramic();
         CameraRays {
             to_world: camera.to_world,
-            poses: camera
-                .motion
-                .iter()
-                .map(|m| {
-                    let (_, rotation, translation) = m.to_scale_rotation_translation();
-                    (rotation, translation)
-                })
-                .collect(),
+            poses: camera.motion.clone(),
             projection: camera.projection,
             width: width as f32,
             height: height as f32,
@@ -81,35 +74,28 @@ impl CameraRays {
     }
 
     /// One camera sample's ray: through film position `film`, from the aperture point `lens`
-    /// (uniform in the unit square) picks (ignored without an aperture), with the camera where it is at `time` ∈ [0, 1]
-    /// of the shutter (ignored for a still camera; `None`: at `to_world`).
+    /// (uniform in the unit square) picks (ignored without an aperture), at moment `time` ∈
+    /// [0, 1] of the shutter (the camera where it is then; `None`: the frame, the camera at
+    /// `to_world`).
     pub fn sample_ray(&self, film: Vec2, lens: Vec2, time: Option<f32>) -> Ray {
         let to_world = match time {
-            Some(t) if self.moves() => self.pose_at(t),
+            Some(t) if self.moves() => interpolate_transform(&self.poses, t),
             _ => self.to_world,
+        };
+        let at = |ray: Ray| Ray {
+            time: time.unwrap_or(FRAME_TIME),
+            ..ray
         };
         let (origin, dir) = self.camera_space_ray(film);
         let Some(thin_lens) = &self.lens else {
-            return self.to_world_ray(&to_world, origin, dir);
+            return at(self.to_world_ray(&to_world, origin, dir));
         };
         // The point this ray meets on the plane in focus, at distance `focus_distance` along
         // the camera axis.
         let focus = origin + dir * (thin_lens.focus_distance / -dir.z);
         let on_lens = aperture_point(thin_lens, lens);
         let start = origin + on_lens.extend(0.0);
-        self.to_world_ray(&to_world, start, (focus - start).normalize())
-    }
-
-    /// The camera's pose at `time` ∈ [0, 1] of the shutter: between the two nearest poses,
-    /// the position interpolated linearly and the rotation spherically (Cycles' decomposed
-    /// motion transforms).
-    fn pose_at(&self, time: f32) -> Affine3A {
-        let last = self.poses.len() - 1;
-        let x = time.clamp(0.0, 1.0) * last as f32;
-        let i = (x.floor() as usize).min(last.saturating_sub(1));
-        let f = x - i as f32;
-        let ((r0, t0), (r1, t1)) = (self.poses[i], self.poses[(i + 1).min(last)]);
-        Affine3A::from_rotation_translation(r0.slerp(r1, f), t0.lerp(t1, f))
+        at(self.to_world_ray(&to_world, start, (focus - start).normalize()))
     }
 
     /// Origin and unit direction in camera space; a zero direction where the image shows
@@ -159,12 +145,14 @@ impl CameraRays {
                 origin: to_world.transform_point3(origin),
                 direction: to_world.transform_vector3(Vec3::NEG_Z).normalize(),
                 t_max: 0.0,
+                time: FRAME_TIME,
             };
         }
         Ray {
             origin: to_world.transform_point3(origin),
             direction: to_world.transform_vector3(dir).normalize(),
             t_max: f32::INFINITY,
+            time: FRAME_TIME,
         }
     }
 }
@@ -208,6 +196,7 @@ pub fn aperture_point(lens: &ThinLens, u: Vec2) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Quat;
 
     fn lens(blades: u32, ratio: f32) -> ThinLens {
         ThinLens {

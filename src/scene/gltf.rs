@@ -99,6 +99,12 @@
 //! - `PHOTON_object` may also carry `"texture_space": {"location": [x, y, z], "size": [x, y,
 //!   z]}`, the object's texture space in Blender object coordinates (Z up), which node trees'
 //!   Generated coordinates map to [0, 1]³ (default: the bounds of the mesh).
+//! - `PHOTON_object` may also carry `"motion": [m0, m1, ...]`: two or more column-major 4 × 4
+//!   world matrices (glTF axes) of the node at evenly spaced moments from the shutter's opening
+//!   to its closing (Blender's motion blur). Its mesh becomes a prototype placed by an instance
+//!   that each ray meets where it is at the ray's moment (`scene::Instance::motion`); a mesh
+//!   that cannot be instanced (emissive, specular, transmissive or translucent materials, a
+//!   node tree) stays at the node's own transform, with a warning.
 //!
 //! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
 //! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree
@@ -479,9 +485,17 @@ impl Loader {
         for node in gltf_scene.nodes() {
             count_mesh_uses(&node, &mut uses, 0, &mut visited);
         }
+        // So do meshes of nodes that move while the shutter is open: an instance is placed
+        // per ray, at the ray's moment.
+        let moving: std::collections::HashSet<usize> = self
+            .document
+            .nodes()
+            .filter(|n| moves(n))
+            .filter_map(|n| n.mesh().map(|m| m.index()))
+            .collect();
         self.instanced_meshes = uses
             .into_iter()
-            .filter(|&(mesh, n)| n >= 2 && self.instanceable(mesh))
+            .filter(|&(mesh, n)| (n >= 2 || moving.contains(&mesh)) && self.instanceable(mesh))
             .map(|(mesh, _)| mesh)
             .collect();
         let mut totals = SizeTotals::default();
@@ -659,6 +673,12 @@ impl Loader {
             if self.places_instance(node, &world) {
                 self.add_instance(node, &mesh, &world)?;
             } else {
+                if moves(node) {
+                    self.scene.warnings.push(format!(
+                        "{object}: motion blur is not rendered for it (only meshes of opaque, \
+                         rough, non-emissive materials are placed per moment)"
+                    ));
+                }
                 self.add_mesh(node, &mesh, &world, false)?;
             }
         }
@@ -719,10 +739,20 @@ impl Loader {
             self.prototype_ids.insert(mesh.index(), ids);
         }
         let to_world = Affine3A::from_mat4(*world);
+        let motion = match node
+            .extension_value("PHOTON_object")
+            .and_then(|v| v.get("motion"))
+        {
+            None => Vec::new(),
+            Some(poses) => read_poses(poses).map_err(|m| {
+                let object = named("node", node.index(), node.name());
+                self.err(format!("{object} PHOTON_object"), m)
+            })?,
+        };
         for &prototype in &self.prototype_ids[&mesh.index()] {
-            self.scene
-                .instances
-                .push(super::Instance::new(prototype, to_world));
+            let mut instance = super::Instance::new(prototype, to_world);
+            instance.motion.clone_from(&motion);
+            self.scene.instances.push(instance);
         }
         Ok(())
     }
@@ -2237,14 +2267,14 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
         camera.projection = read_panorama(panorama)?;
     }
     if let Some(v) = value.get("motion") {
-        let poses = v
-            .as_array()
-            .filter(|p| p.len() >= 2)
-            .ok_or_else(|| format!("'motion' must be a list of two or more matrices, found {v}"))?;
-        camera.motion = poses
-            .iter()
-            .map(read_pose)
-            .collect::<std::result::Result<_, _>>()?;
+        // Cameras are rigid: the scale goes.
+        camera.motion = read_poses(v)?
+            .into_iter()
+            .map(|m| {
+                let (_, rotation, translation) = m.to_scale_rotation_translation();
+                Affine3A::from_rotation_translation(rotation.normalize(), translation)
+            })
+            .collect();
     }
     if let Some(dof) = value.get("dof") {
         let radius = number(dof, "aperture_radius", 0.0, |x| x >= 0.0)?;
@@ -2263,28 +2293,39 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
     Ok(())
 }
 
-/// One pose of `PHOTON_camera`'s "motion": 16 numbers, a column-major world matrix, its scale
-/// removed (cameras are rigid).
-fn read_pose(value: &Value) -> std::result::Result<Affine3A, String> {
-    let numbers: Vec<f32> = value
+/// A "motion" of `PHOTON_camera` or `PHOTON_object`: two or more poses, each 16 numbers (a
+/// column-major world matrix, glTF axes), finite and invertible.
+fn read_poses(value: &Value) -> std::result::Result<Vec<Affine3A>, String> {
+    let poses = value
         .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|x| x.as_f64().map(|x| x as f32))
-                .collect()
+        .filter(|p| p.len() >= 2)
+        .ok_or_else(|| format!("'motion' must be a list of two or more matrices, found {value}"))?;
+    poses
+        .iter()
+        .map(|pose| {
+            let numbers: Vec<f32> = pose
+                .as_array()
+                .map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_f64().map(|x| x as f32))
+                        .collect()
+                })
+                .unwrap_or_default();
+            let bad = || format!("a 'motion' pose must be 16 finite numbers, found {pose}");
+            let array: [f32; 16] = numbers.try_into().map_err(|_| bad())?;
+            let matrix = Mat4::from_cols_array(&array);
+            if !matrix.is_finite() || matrix.determinant().abs() < 1e-12 {
+                return Err(bad());
+            }
+            Ok(Affine3A::from_mat4(matrix))
         })
-        .unwrap_or_default();
-    let bad = || format!("a 'motion' pose must be 16 finite numbers, found {value}");
-    let array: [f32; 16] = numbers.try_into().map_err(|_| bad())?;
-    let matrix = Mat4::from_cols_array(&array);
-    if !matrix.is_finite() || matrix.determinant().abs() < 1e-12 {
-        return Err(bad());
-    }
-    let (_, rotation, translation) = matrix.to_scale_rotation_translation();
-    Ok(Affine3A::from_rotation_translation(
-        rotation.normalize(),
-        translation,
-    ))
+        .collect()
+}
+
+/// Whether `node` moves while the shutter is open (`PHOTON_object` "motion").
+fn moves(node: &gltf::Node) -> bool {
+    node.extension_value("PHOTON_object")
+        .is_some_and(|v| v.get("motion").is_some())
 }
 
 /// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.

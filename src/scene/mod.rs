@@ -84,6 +84,10 @@ pub struct Instance {
     pub to_object: Affine3A,
     /// Object-space normals → world space (inverse transpose of the linear part).
     pub normal_matrix: Mat3,
+    /// Object space → world space at evenly spaced moments from the shutter's opening to its
+    /// closing (Blender's motion blur; our `PHOTON_object` "motion"); empty: still at
+    /// `to_world`.
+    pub motion: Vec<Affine3A>,
 }
 
 impl Instance {
@@ -95,6 +99,36 @@ impl Instance {
             to_world,
             to_object: to_world.inverse(),
             normal_matrix: linear.inverse().transpose(),
+            motion: Vec::new(),
+        }
+    }
+
+    /// Object space → world space at `time` ∈ [0, 1] of the shutter.
+    pub fn to_world_at(&self, time: f32) -> Affine3A {
+        if self.motion.is_empty() {
+            self.to_world
+        } else {
+            crate::math::interpolate_transform(&self.motion, time)
+        }
+    }
+
+    /// World space → object space at `time`.
+    pub fn to_object_at(&self, time: f32) -> Affine3A {
+        if self.motion.is_empty() {
+            self.to_object
+        } else {
+            self.to_world_at(time).inverse()
+        }
+    }
+
+    /// Object-space normals → world space at `time`.
+    pub fn normal_matrix_at(&self, time: f32) -> Mat3 {
+        if self.motion.is_empty() {
+            self.normal_matrix
+        } else {
+            Mat3::from(self.to_world_at(time).matrix3)
+                .inverse()
+                .transpose()
         }
     }
 }
@@ -541,22 +575,44 @@ impl Mesh {
 }
 
 /// World bounds of `instance` from its prototype's object-space `local` bounds (the eight
-/// corners transformed).
+/// corners transformed); for a moving instance, of every place it takes while the shutter is
+/// open (sampled finely between its poses, then widened by the largest step between samples).
 pub fn instance_bounds(instance: &Instance, local: Bounds) -> Bounds {
     let mut b = Bounds::EMPTY;
     if local.is_empty() {
         return b;
     }
-    for corner in 0..8 {
-        let pick = |bit: usize, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
-        let p = Vec3::new(
-            pick(0, local.min.x, local.max.x),
-            pick(1, local.min.y, local.max.y),
-            pick(2, local.min.z, local.max.z),
-        );
-        b.grow(instance.to_world.transform_point3(p));
+    let corners = |to_world: Affine3A, b: &mut Bounds| {
+        for corner in 0..8 {
+            let pick = |bit: usize, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
+            let p = Vec3::new(
+                pick(0, local.min.x, local.max.x),
+                pick(1, local.min.y, local.max.y),
+                pick(2, local.min.z, local.max.z),
+            );
+            b.grow(to_world.transform_point3(p));
+        }
+    };
+    corners(instance.to_world, &mut b);
+    if instance.motion.is_empty() {
+        return b;
     }
-    b
+    const STEPS: usize = 64;
+    let mut step = 0.0f32;
+    let mut previous = instance.to_world_at(0.0);
+    for i in 0..=STEPS {
+        let pose = instance.to_world_at(i as f32 / STEPS as f32);
+        corners(pose, &mut b);
+        for corner in [local.min, local.max] {
+            let moved = pose.transform_point3(corner) - previous.transform_point3(corner);
+            step = step.max(moved.length());
+        }
+        previous = pose;
+    }
+    Bounds {
+        min: b.min - Vec3::splat(step),
+        max: b.max + Vec3::splat(step),
+    }
 }
 
 /// Axis-aligned bounds.
@@ -624,6 +680,11 @@ impl Scene {
                 .sum::<usize>()
     }
 
+    /// Whether some instance moves while the shutter is open (`Instance::motion`).
+    pub fn has_motion(&self) -> bool {
+        self.instances.iter().any(|i| !i.motion.is_empty())
+    }
+
     /// Triangles stored: world-space meshes and prototypes (each once).
     pub fn triangle_count(&self) -> usize {
         self.meshes
@@ -642,6 +703,7 @@ impl Scene {
             }
             if !instance.to_world.is_finite()
                 || !instance.to_object.is_finite()
+                || instance.motion.iter().any(|m| !m.is_finite())
                 || !instance.normal_matrix.is_finite()
             {
                 return Err(format!(

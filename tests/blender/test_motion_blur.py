@@ -1,7 +1,8 @@
-"""Camera motion blur as Cycles renders it (PHOTON_camera "motion"): a camera sliding and
-turning while the shutter is open, its poses at the shutter's opening, middle and closing
-exported, each sample taking a moment within it. Rendered by Cycles and by Photon through the
-add-on at 48x32: mean within 2 % and relMSE <= 0.01, and further from a still camera's image.
+"""Motion blur as Cycles renders it (PHOTON_camera and PHOTON_object "motion"): a camera, and
+objects, sliding, turning and growing while the shutter is open, their poses at the shutter's
+opening, middle and closing exported, each sample taking a moment within it. Rendered by Cycles
+and by Photon through the add-on at 48x32: mean within 2 % and relMSE <= 0.01, and further from
+the unblurred image.
 """
 
 import math
@@ -46,26 +47,59 @@ def sliding_camera_scene(position):
     return scene
 
 
-@pytest.mark.parametrize("position", ["CENTER", "START"])
-def test_camera_motion_blur(tmp_path, position):
-    scene = sliding_camera_scene(position)
-    img, ref = compare(f"camera motion blur ({position.lower()})", scene, tmp_path)
+def compare_blurred(name, scene, tmp_path):
+    """`compare`, then check that Photon's image without motion blur is more than 3 times
+    further from Cycles' blurred one."""
+    img, ref = compare(name, scene, tmp_path)
     scene.render.use_motion_blur = False
     still = scenes_bpy.render(scene, "PHOTON", tmp_path / "still.exr", 256)
     away = rel_mse(still, ref)
-    print(f"still camera against Cycles' blurred image: relMSE {away:.5f}")
+    print(f"{name}: unblurred against Cycles' blurred image: relMSE {away:.5f}")
     assert away > 3 * rel_mse(img, ref), away
 
 
-def test_moving_objects_are_named_by_the_preflight():
-    """With motion blur on, a keyframed object is named (it is not blurred); the camera's own
-    keys are not (its motion is)."""
+@pytest.mark.parametrize("position", ["CENTER", "START"])
+def test_camera_motion_blur(tmp_path, position):
+    scene = sliding_camera_scene(position)
+    compare_blurred(f"camera motion blur ({position.lower()})", scene, tmp_path)
+
+
+def test_deforming_objects_are_named_by_the_preflight():
+    """With motion blur on, an object whose shape keys are animated is named (deformation is
+    not blurred); keyframed transforms, the camera's and a box's, are not (they are)."""
     from blender_addon import preflight
     scene = sliding_camera_scene("CENTER")
-    assert preflight.unsupported_features(scene, scene.objects) == []
     box = scene.objects["Box1"]
     box.keyframe_insert("location", frame=1)
+    assert preflight.unsupported_features(scene, scene.objects) == []
+    box.shape_key_add(name="Basis")
+    key = box.shape_key_add(name="Taller")
+    key.keyframe_insert("value", frame=1)
     messages = preflight.unsupported_features(scene, scene.objects)
     assert len(messages) == 1 and "'Box1'" in messages[0] and "motion blur" in messages[0]
     scene.render.use_motion_blur = False
     assert preflight.unsupported_features(scene, scene.objects) == []
+
+
+@pytest.mark.parametrize("position", ["CENTER", "END"])
+def test_object_motion_blur(tmp_path, position):
+    """A still camera; the middle box slides 2 m sideways and turns 60° per frame, the left one
+    grows by half: both blurred over the shutter as Cycles blurs them."""
+    scene = sliding_camera_scene(position)
+    camera = scene.objects["Camera"]
+    camera.animation_data_clear()
+    camera.location.x, camera.rotation_euler.z = 0.0, 0.0
+    slide = [(1, "location", (1.0, 0.5, 0.0)), (2, "location", (-1.0, 0.5, 0.0)),
+             (1, "rotation_euler", (0.0, 0.0, 0.0)),
+             (2, "rotation_euler", (0.0, 0.0, math.radians(60.0)))]
+    grow = [(1, "scale", (1.0, 1.0, 1.0)), (2, "scale", (1.5, 1.5, 1.5))]
+    for name, keys in (("Box1", slide), ("Box0", grow)):
+        box = scene.objects[name]
+        for frame, path, value in keys:
+            setattr(box, path, value)
+            box.keyframe_insert(path, frame=frame)
+        for fcurve in box.animation_data.action.fcurves:
+            for key in fcurve.keyframe_points:
+                key.interpolation = "LINEAR"
+    scene.frame_set(1, subframe=0.5)
+    compare_blurred(f"object motion blur ({position.lower()})", scene, tmp_path)
