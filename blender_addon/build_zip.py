@@ -30,9 +30,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-FILES = ("__init__.py", "engine.py", "export.py", "node_tree.py", "preflight.py", "preview.py",
-         "properties.py",
-         "runner.py", "ui.py", "README.md")
+FILES = ("__init__.py", "engine.py", "export.py", "node_tree.py", "points_curves.py",
+         "preflight.py", "preview.py", "properties.py", "runner.py", "ui.py", "README.md")
 
 
 def blender_platform() -> str:

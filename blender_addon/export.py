@@ -45,12 +45,14 @@ import sys
 from pathlib import Path
 
 import bpy
+import mathutils
 
 try:
-    from . import node_tree
+    from . import node_tree, points_curves
 except ImportError:  # run as the child's script: the add-on's folder holds node_tree.py
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import node_tree
+    import points_curves
 
 GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
@@ -105,6 +107,8 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
                 self._add(gltf_node, "PHOTON_light", data)
         if blender_object is not None and blender_object.type in GEOMETRY_TYPES:
             data = visibility_extension(blender_object)
+            if blender_object.name in SHUTTER_POSES:
+                data["motion"] = SHUTTER_POSES[blender_object.name]
             space = texture_space(blender_object)
             if space and uses_node_materials(blender_object):
                 data["texture_space"] = space
@@ -321,6 +325,9 @@ def camera_extension(obj, scene) -> dict:
         if panorama:
             data["panorama"] = panorama
         return data
+    poses = SHUTTER_POSES.get(obj.name)
+    if poses:
+        data["motion"] = poses
     dof = camera.dof
     if dof.use_dof:
         fstop = max(float(dof.aperture_fstop), 1e-5)
@@ -334,6 +341,56 @@ def camera_extension(obj, scene) -> dict:
                        "rotation": float(dof.aperture_rotation),
                        "ratio": float(dof.aperture_ratio)}
     return data
+
+
+# World matrices over the shutter (the camera's and moving objects'), by object name, while
+# `shutter_poses_recorded` runs.
+SHUTTER_POSES: dict[str, list[list[float]]] = {}
+# Blender (x, y, z) is glTF (x, z, −y).
+Z_UP_TO_Y_UP = mathutils.Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
+
+
+def shutter_times(scene) -> list[float]:
+    """Frame times of the shutter's opening, middle and closing, as Cycles places them: the
+    shutter (in frames) centred on the frame, starting or ending at it."""
+    r = scene.render
+    length = float(r.motion_blur_shutter)
+    start = {"START": 0.0, "END": -length}.get(r.motion_blur_position, -0.5 * length)
+    frame = scene.frame_current + scene.frame_subframe
+    return [frame + start + k * 0.5 * length for k in range(3)]
+
+
+@contextlib.contextmanager
+def shutter_poses_recorded(scene):
+    """Within the block, SHUTTER_POSES holds, with Render > Motion Blur on, the world matrices
+    (glTF axes, column-major) at `shutter_times` of the scene camera (scale removed) and of
+    every rendered object the glTF exporter writes as a mesh, for those whose matrices differ;
+    PHOTON_camera and PHOTON_object carry them as "motion". The frame is put back afterwards."""
+    if not scene.render.use_motion_blur:
+        yield
+        return
+    objects = [obj for obj in scene.objects
+               if obj == scene.camera or (obj.type in GEOMETRY_TYPES and not obj.hide_render)]
+    frame, subframe = scene.frame_current, scene.frame_subframe
+    poses = {obj.name: [] for obj in objects}
+    try:
+        for t in shutter_times(scene):
+            scene.frame_set(math.floor(t), subframe=t - math.floor(t))
+            for obj in objects:
+                # A camera node keeps Blender's camera axes; mesh nodes hold their vertices in
+                # glTF axes, so their matrices change axes on both sides.
+                if obj == scene.camera:
+                    m = Z_UP_TO_Y_UP @ obj.matrix_world.normalized()
+                else:
+                    m = Z_UP_TO_Y_UP @ obj.matrix_world @ Z_UP_TO_Y_UP.inverted()
+                poses[obj.name].append([float(m[r][c]) for c in range(4) for r in range(4)])
+    finally:
+        scene.frame_set(frame, subframe=subframe)
+    SHUTTER_POSES.update({name: p for name, p in poses.items() if any(q != p[0] for q in p)})
+    try:
+        yield
+    finally:
+        SHUTTER_POSES.clear()
 
 
 # The panoramic projections PHOTON_camera carries (the others are named by the pre-flight).
@@ -455,28 +512,156 @@ def principled_bsdf(material):
 
 
 def world_extension(world, folder: Path | None = None) -> dict:
-    """PHOTON_world: the Background colour and strength feeding the world output, or the world's
-    viewport colour when it does not use nodes; black without a world. When an Environment
-    Texture feeds the Background's colour and `folder` is given, its image is written there as
-    a float EXR and described in "environment" (see `environment_extension`)."""
+    """PHOTON_world (see `world_description`)."""
+    return world_description(world, folder)[0]
+
+
+def world_problems(world) -> list[str]:
+    """What of `world`'s node tree PHOTON_world does not carry, one message each (for the
+    pre-flight report)."""
+    return world_description(world)[1]
+
+
+def world_description(world, folder: Path | None = None) -> tuple[dict, list[str]]:
+    """PHOTON_world for `world`, and the list of what it could not carry.
+
+    Without nodes the world's viewport colour; without a world black. With nodes, the shader
+    feeding the active World Output's Surface, read as a weighted sum of backgrounds:
+    Background (and Emission) nodes whose colour is a constant, an Environment Texture
+    (written into `folder` as a float EXR, see `environment_extension`) or a Nishita Sky
+    Texture (its settings, evaluated by the renderer), mixed by Mix Shader (a constant factor)
+    and Add Shader nodes. A Mix Shader whose factor is a Light Path node's "Is Camera Ray"
+    gives camera rays another background than the rest: the tree is read once for each, and
+    when they differ the camera's goes under "camera". One background of weight 1 is written
+    as before ({"color", "strength"[, "environment" | "sky"]}), several under "mix" with their
+    weights. Anything else is named in the problems and left out (a Background's colour fed by
+    another node keeps its own colour value)."""
+    black = {"color": [0.0, 0.0, 0.0], "strength": 1.0}
     if world is None:
-        return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
-    if world_uses_nodes(world):
-        background = _world_background(world.node_tree)
-        if background is not None:
-            color_input = background.inputs["Color"]
-            color = [float(c) for c in color_input.default_value[:3]]
-            data = {"color": color, "strength": float(background.inputs["Strength"].default_value)}
-            texture = color_input.links[0].from_node if color_input.is_linked else None
-            if texture is not None and texture.bl_idname == "ShaderNodeTexEnvironment":
-                data["color"] = [0.0, 0.0, 0.0]  # what Cycles shows without a usable image
-                if folder is not None:
-                    environment = environment_extension(texture, folder)
-                    if environment:
-                        data["environment"] = environment
-            return data
-        return {"color": [0.0, 0.0, 0.0], "strength": 1.0}
-    return {"color": [float(c) for c in world.color[:3]], "strength": 1.0}
+        return black, []
+    if not world_uses_nodes(world):
+        return {"color": [float(c) for c in world.color[:3]], "strength": 1.0}, []
+    problems: list[str] = []
+    written: dict[str, dict] = {}  # environment images already written, by node name
+    outputs = [n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    surface = output.inputs.get("Surface") if output is not None else None
+    if surface is None or not surface.is_linked:
+        return black, []
+    views = [_world_shader(surface.links[0].from_node, 1.0, camera, folder, written, problems)
+             for camera in (False, True)]
+    # Each problem was found twice, once per view.
+    problems = list(dict.fromkeys(problems))
+    lighting, seen_by_camera = (_background_json(v) for v in views)
+    data = lighting or black
+    if seen_by_camera != lighting:
+        data = {**data, "camera": seen_by_camera or black}
+    return data, [f"world '{world.name}': {p}" for p in problems]
+
+
+def _background_json(layers: list[tuple[float, dict]]) -> dict:
+    """One background as PHOTON_world writes it; empty for none."""
+    layers = [(w, layer) for w, layer in layers if w != 0.0]
+    if not layers:
+        return {}
+    if len(layers) == 1 and layers[0][0] == 1.0:
+        return layers[0][1]
+    return {"mix": [{"weight": w, **layer} for w, layer in layers]}
+
+
+def _linked_node(socket):
+    """The node feeding `socket` past reroutes and muted links; None when unlinked."""
+    while socket is not None and socket.is_linked:
+        link = socket.links[0]
+        if link.is_muted:
+            return None
+        node = link.from_node
+        if node.bl_idname != "NodeReroute":
+            return node
+        socket = node.inputs[0]
+    return None
+
+
+def _world_shader(node, weight, camera, folder, written, problems) -> list[tuple[float, dict]]:
+    """The backgrounds `node` (a world shader) adds up to, each with its weight, as a ray that
+    is (`camera`) or is not a camera ray sees them."""
+    if node is None or weight == 0.0:
+        return []
+    kind = node.bl_idname
+    if kind in ("ShaderNodeBackground", "ShaderNodeEmission"):
+        return [(weight, _world_background_layer(node, folder, written, problems))]
+    if kind == "ShaderNodeAddShader":
+        return [layer for socket in node.inputs[:2] for layer in
+                _world_shader(_linked_node(socket), weight, camera, folder, written, problems)]
+    if kind == "ShaderNodeMixShader":
+        factor = _mix_factor(node, camera, problems)
+        parts = ((node.inputs[1], 1.0 - factor), (node.inputs[2], factor))
+        return [layer for socket, share in parts for layer in
+                _world_shader(_linked_node(socket), weight * share, camera, folder, written,
+                              problems)]
+    problems.append(f"{node.bl_label} node '{node.name}' is not exported; the world renders "
+                    f"without it")
+    return []
+
+
+def _mix_factor(node, camera: bool, problems) -> float:
+    """A Mix Shader's factor in [0, 1]: its value, or for a Light Path node's "Is Camera Ray"
+    whether the ray is a camera ray."""
+    socket = node.inputs["Fac"]
+    source = _linked_node(socket)
+    if source is None:
+        return min(max(float(socket.default_value), 0.0), 1.0)
+    link = socket.links[0]
+    while link.from_node.bl_idname == "NodeReroute":
+        link = link.from_node.inputs[0].links[0]
+    if source.bl_idname == "ShaderNodeLightPath" and link.from_socket.name == "Is Camera Ray":
+        return 1.0 if camera else 0.0
+    problems.append(f"Mix Shader '{node.name}': its factor comes from {source.bl_label} "
+                    f"'{source.name}', which is not exported; the factor's own value "
+                    f"{float(socket.default_value):.3g} is used")
+    return min(max(float(socket.default_value), 0.0), 1.0)
+
+
+def _world_background_layer(node, folder, written, problems) -> dict:
+    """One Background (or Emission) node: its colour and strength, or the Environment or Sky
+    Texture feeding its colour."""
+    color_input, strength_input = node.inputs["Color"], node.inputs["Strength"]
+    layer = {"color": [float(c) for c in color_input.default_value[:3]],
+             "strength": float(strength_input.default_value)}
+    if strength_input.is_linked:
+        problems.append(f"{node.bl_label} '{node.name}': a linked Strength is not exported; its "
+                        f"value {layer['strength']:.3g} is used")
+    texture = _linked_node(color_input)
+    if texture is None:
+        return layer
+    if texture.bl_idname == "ShaderNodeTexEnvironment":
+        layer["color"] = [0.0, 0.0, 0.0]  # what Cycles shows without a usable image
+        if folder is not None:
+            if texture.name not in written:
+                written[texture.name] = environment_extension(texture, folder)
+            if written[texture.name]:
+                layer["environment"] = written[texture.name]
+        return layer
+    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type == "NISHITA":
+        layer["color"] = [0.0, 0.0, 0.0]
+        layer["sky"] = sky_extension(texture)
+        return layer
+    what = (f"the {texture.sky_type} sky model" if texture.bl_idname == "ShaderNodeTexSky"
+            else f"{texture.bl_label} node '{texture.name}'")
+    problems.append(f"{what} feeding '{node.name}' is not exported; the background renders its "
+                    f"own colour")
+    return layer
+
+
+def sky_extension(node) -> dict:
+    """The "sky" of PHOTON_world for a Sky Texture node of the Nishita model: its settings
+    (radians, metres, factors) and the rotation of a Mapping node feeding its vector."""
+    return {"type": "NISHITA", "sun_disc": bool(node.sun_disc),
+            "sun_size": float(node.sun_size), "sun_intensity": float(node.sun_intensity),
+            "sun_elevation": float(node.sun_elevation),
+            "sun_rotation": float(node.sun_rotation), "altitude": float(node.altitude),
+            "air": float(node.air_density), "dust": float(node.dust_density),
+            "ozone": float(node.ozone_density), "rotation": _mapping_rotation(node)}
 
 
 def environment_extension(node, folder: Path) -> dict:
@@ -508,11 +693,11 @@ def environment_extension(node, folder: Path) -> dict:
     safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in image.name)
     uri = f"world_{safe}.exr"
     write_exr_rgb(folder / uri, np.ascontiguousarray(rgb, dtype=np.float32))
-    return {"uri": uri, "rotation": _environment_rotation(node),
+    return {"uri": uri, "rotation": _mapping_rotation(node),
             "interpolation": "closest" if node.interpolation == "Closest" else "linear"}
 
 
-def _environment_rotation(node) -> list[float]:
+def _mapping_rotation(node) -> list[float]:
     """Euler XYZ rotation (radians) applied to the lookup direction, read from a Mapping node
     feeding the texture's Vector (Point, Vector and Normal types rotate the direction, Texture
     inverts; location and scale are ignored);
@@ -567,18 +752,6 @@ def world_uses_nodes(world) -> bool:
     if world.node_tree is None:
         return False
     return bpy.app.version >= (5, 0, 0) or world.use_nodes
-
-
-def _world_background(tree):
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
-    active = [n for n in outputs if n.is_active_output] or outputs
-    for out in active:
-        surface = out.inputs.get("Surface")
-        if surface is not None and surface.is_linked:
-            node = surface.links[0].from_node
-            if node.bl_idname == "ShaderNodeBackground":
-                return node
-    return None
 
 
 def render_extension(scene) -> dict:
@@ -700,32 +873,19 @@ def shape_keys_applied(scene):
     owners = [obj for obj in scene.objects
               if obj.type == "MESH" and len(obj.modifiers) == 0 and obj.data.shape_keys
               and not obj.hide_render]
-    added, group = [], None
-    try:
-        if owners:
-            group = bpy.data.node_groups.new(PASS_THROUGH, "GeometryNodeTree")
-            group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-            group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-            inputs = group.nodes.new("NodeGroupInput")
-            outputs = group.nodes.new("NodeGroupOutput")
-            group.links.new(inputs.outputs[0], outputs.inputs[0])
-        for obj in owners:
-            try:
-                modifier = obj.modifiers.new(PASS_THROUGH, "NODES")
-            except (RuntimeError, TypeError):  # linked data
-                continue
-            modifier.node_group = group
-            added.append((obj, modifier))
+
+    def pass_through():
+        group = bpy.data.node_groups.new(PASS_THROUGH, "GeometryNodeTree")
+        group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        group.links.new(group.nodes.new("NodeGroupInput").outputs[0],
+                        group.nodes.new("NodeGroupOutput").inputs[0])
+        return group, None
+
+    with points_curves.node_modifier_added(owners, pass_through) as added:
         if added:
             bpy.context.view_layer.update()
         yield
-    finally:
-        for obj, modifier in added:
-            obj.modifiers.remove(modifier)
-        if group is not None:
-            bpy.data.node_groups.remove(group)
-        if added:
-            bpy.context.view_layer.update()
 
 
 def rendered_objects(view_layer) -> set[str]:
@@ -780,7 +940,8 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             # node trees Photon evaluates read the active colour attribute as COLOR_0.
             args["export_vertex_color"] = "ACTIVE"
         with collected_warnings() as warnings, render_visibility(scene), \
-                shape_keys_applied(scene):
+                shape_keys_applied(scene), points_curves.as_meshes(scene), \
+                shutter_poses_recorded(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None

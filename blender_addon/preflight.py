@@ -8,19 +8,22 @@ empty list, so the rules below only flag what really changes the image:
 - shader nodes feeding a material's surface that Blender's glTF exporter does not map onto
   glTF's metallic-roughness material (Principled BSDF, Emission, image textures and the few
   helper nodes it follows), unless the whole tree is one Photon evaluates itself (node_tree.py:
-  it is then exported as PHOTON_material_nodes and nothing is dropped), and world nodes other
-  than Background and Environment Texture;
+  it is then exported as PHOTON_material_nodes and nothing is dropped), and what of the world's
+  node tree PHOTON_world does not carry (export.world_problems: anything but Background,
+  Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
+  Ray" factor and Add Shader);
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output;
-- hair and points: hair particle systems, particles rendered as halos or paths, Curves (hair)
-  and point cloud objects;
+- particles rendered as halos or paths (hair particle systems, Curves objects and point
+  clouds are carried: points_curves.py);
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
   Light Falloff's Quadratic strength), shadows turned off;
 - objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
   Visibility; camera and shadow visibility are carried), holdout objects and collections,
   'indirect only' collections;
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
-  field with a panorama, a depth-of-field focus on a bone; motion blur.
+  field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
+  objects (armatures, animated shape keys: only transforms are blurred).
 """
 
 from __future__ import annotations
@@ -34,9 +37,6 @@ MATERIAL_NODES = {
     "VALUE", "REROUTE", "GROUP", "GROUP_INPUT", "GROUP_OUTPUT", "ADD_SHADER",
     "BSDF_TRANSPARENT", "LIGHT_PATH",
 }
-# The world nodes export.world_extension reads.
-WORLD_NODES = {"OUTPUT_WORLD", "BACKGROUND", "TEX_ENVIRONMENT", "MAPPING", "TEX_COORD",
-               "REROUTE"}
 # Ray visibility not carried (camera and shadow visibility are: PHOTON_object).
 RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
                   ("visible_transmission", "transmission"))
@@ -72,8 +72,24 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
             messages.append(f"{what}: 'indirect only' is not exported; its objects are seen "
                             f"directly too")
     if scene.render.use_motion_blur:
-        messages.append("motion blur (Render > Motion Blur) is not rendered")
+        deforming = [obj.name for obj in objects if _deforms(obj)]
+        if deforming:
+            listed = ", ".join(f"'{name}'" for name in sorted(deforming)[:3])
+            more = f" and {len(deforming) - 3} more" if len(deforming) > 3 else ""
+            messages.append(f"motion blur: deformation is not blurred (armatures or animated "
+                            f"shape keys: {listed}{more}); moving objects and the camera are")
     return messages
+
+
+def _deforms(obj) -> bool:
+    """Whether `obj`'s geometry changes with time: an armature modifier, or shape keys with
+    keyframes or drivers."""
+    obj = getattr(obj, "original", obj)  # the depsgraph's copy has its shape keys applied
+    if any(m.type == "ARMATURE" for m in getattr(obj, "modifiers", ())):
+        return True
+    keys = getattr(getattr(obj, "data", None), "shape_keys", None)
+    data = keys.animation_data if keys is not None else None
+    return data is not None and (data.action is not None or len(data.drivers) > 0)
 
 
 def _object_features(obj) -> list[str]:
@@ -81,17 +97,13 @@ def _object_features(obj) -> list[str]:
     what = f"object '{obj.name}'"
     if obj.type == "VOLUME":
         messages.append(f"{what}: Volume objects are not exported; Photon renders no volumes")
-    elif obj.type == "CURVES":
-        messages.append(f"{what}: hair curves (Curves objects) are not exported")
-    elif obj.type == "POINTCLOUD":
-        messages.append(f"{what}: point clouds are not exported")
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):
-        kind = system.settings.type
-        if kind == "HAIR":
-            messages.append(f"{what}: hair particle system '{system.name}' is not exported")
-        elif system.settings.render_type not in ("OBJECT", "COLLECTION", "NONE"):
+        # Objects and collections go as instances, hair strands (PATH) as tubes.
+        carried = ("OBJECT", "COLLECTION", "NONE", "PATH" if system.settings.type == "HAIR"
+                   else "OBJECT")
+        if system.settings.render_type not in carried:
             messages.append(f"{what}: particle system '{system.name}' rendered as "
                             f"{system.settings.render_type} is not exported (objects and "
                             f"collections are)")
@@ -165,16 +177,14 @@ def _material_node_reason(node) -> str:
 
 
 def world_features(world) -> list[str]:
-    from .export import world_uses_nodes
+    from .export import world_problems, world_uses_nodes
     if not world_uses_nodes(world):
         return []
     output = _active_output(world.node_tree, "OUTPUT_WORLD")
     if output is None:
         return []
     what = f"world '{world.name}'"
-    messages = [f"{what}: {node.bl_label} node '{node.name}' is not exported; the world "
-                f"renders without it"
-                for node in _upstream(output.inputs["Surface"]) if node.type not in WORLD_NODES]
+    messages = world_problems(world)
     if output.inputs["Volume"].is_linked:
         node = output.inputs["Volume"].links[0].from_node
         messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "

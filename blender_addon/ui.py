@@ -4,10 +4,11 @@ explicit list of Blender's built-in panels whose settings Photon uses.
 Blender's panels list the engines they serve in `COMPAT_ENGINES`; a panel shows for Photon only
 if its class is named in `BUILTIN_PANELS` below (as Cycles and BlendLuxCore list theirs). What
 Photon ignores is left out, so it does not show: EEVEE's and Cycles' render settings, Simplify,
-Freestyle, Grease Pencil render settings, motion blur, stereoscopy, light probes,
+Freestyle, Grease Pencil render settings, stereoscopy, light probes,
 the light's EEVEE shadow settings, object shading and ray visibility, AOVs, Cryptomatte and the
-Particles tab (the export carries particles rendered as objects or collections, not hair;
-the pre-flight report warns about the rest). Photon's
+Particles tab (not listed yet, though the export carries particles rendered as objects or
+collections and hair strands; the pre-flight report warns about the rest). Motion blur has
+Photon's own panel: Photon blurs the camera's and objects' motion, not deformation. Photon's
 passes (Depth, Normal, Denoising Data and the light passes) have their own View Layer panel.
 A name missing from the running Blender is skipped (panels are renamed between versions).
 """
@@ -192,6 +193,24 @@ class RENDER_PT_photon_film(PhotonPanel, bpy.types.Panel):
         col.prop(context.scene.render, "film_transparent", text="Transparent")
 
 
+class RENDER_PT_photon_motion_blur(PhotonPanel, bpy.types.Panel):
+    """Blender's motion blur settings Photon reads: it blurs the camera's and the objects'
+    motion over the shutter (not deformation)."""
+    bl_label = "Motion Blur"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.render, "use_motion_blur", text="")
+
+    def draw(self, context):
+        render = context.scene.render
+        col = _split(self.layout)
+        col.active = render.use_motion_blur
+        col.prop(render, "motion_blur_position", text="Position")
+        col.prop(render, "motion_blur_shutter")
+        col.label(text="Deformation is not blurred")
+
+
 class VIEWLAYER_PT_photon_passes(PhotonPanel, bpy.types.Panel):
     """The passes Photon writes besides Combined."""
     bl_label = "Passes"
@@ -249,7 +268,7 @@ class WORLD_PT_photon_preview(PhotonPanel, bpy.types.Panel):
 
 
 classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_photons, RENDER_PT_photon_film,
-           VIEWLAYER_PT_photon_passes, VIEWLAYER_PT_photon_data_passes,
+           RENDER_PT_photon_motion_blur, VIEWLAYER_PT_photon_passes, VIEWLAYER_PT_photon_data_passes,
            VIEWLAYER_PT_photon_light_passes, WORLD_PT_photon_preview)
 
 

@@ -36,7 +36,13 @@ pub struct Ray {
     /// Not necessarily unit length; `t` is measured in units of `direction`.
     pub direction: Vec3,
     pub t_max: f32,
+    /// The moment within the shutter, in [0, 1], at which moving instances are met
+    /// (`Instance::motion`); rays spawned from a surface keep their path's moment.
+    pub time: f32,
 }
+
+/// `Ray::time` of rays in a scene without motion (and of its camera's still pose).
+pub const FRAME_TIME: f32 = 0.5;
 
 /// Which query a ray serves: camera rays skip geometry hidden from the camera, shadow rays
 /// (`Accel::unoccluded`) geometry that casts no shadows.
@@ -547,8 +553,9 @@ impl Accel {
                     return f32::INFINITY;
                 };
                 let t_max = found.map_or(limit, |h| h.t).min(r.tmax / k);
-                let origin = instance.to_object.transform_point3(ray.origin);
-                let dir = instance.to_object.transform_vector3(ray.direction);
+                let to_object = instance.to_object_at(ray.time);
+                let origin = to_object.transform_point3(ray.origin);
+                let dir = to_object.transform_vector3(ray.direction);
                 match prototype.intersect(origin, dir, t_max, false) {
                     Some((t, triangle, b1, b2)) => {
                         found = Some(Hit {
@@ -597,8 +604,9 @@ impl Accel {
             let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
                 return f32::INFINITY;
             };
-            let origin = instance.to_object.transform_point3(ray.origin);
-            let dir = instance.to_object.transform_vector3(ray.direction);
+            let to_object = instance.to_object_at(ray.time);
+            let origin = to_object.transform_point3(ray.origin);
+            let dir = to_object.transform_vector3(ray.direction);
             match prototype.intersect(origin, dir, ray.t_max, true) {
                 Some((t, ..)) => t * k,
                 None => f32::INFINITY,

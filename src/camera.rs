@@ -6,15 +6,18 @@
 //! ray origins over the aperture while rays through one film point meet on the focus plane, as
 //! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant and equisolid
 //! fisheye) map the image onto directions around the camera; film positions a fisheye does not
-//! cover give a ray that sees nothing (`Ray::t_max` 0).
+//! cover give a ray that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
+//! is open (Blender's motion blur) is placed, per sample, at the pose of a moment within it.
 
-use crate::accel::Ray;
-use crate::math::{Affine3A, Vec2, Vec3};
+use crate::accel::{Ray, FRAME_TIME};
+use crate::math::{interpolate_transform, Affine3A, Vec2, Vec3};
 use crate::sampling::{square_to_disk, square_to_triangle};
 use crate::scene::{Camera, Projection, ThinLens};
 
 pub struct CameraRays {
     to_world: Affine3A,
+    /// Camera space to world space at evenly spaced moments of the shutter; empty: still.
+    poses: Vec<Affine3A>,
     projection: Projection,
     width: f32,
     height: f32,
@@ -35,6 +38,7 @@ impl CameraRays {
         let panoramic = camera.projection.is_panoramic();
         CameraRays {
             to_world: camera.to_world,
+            poses: camera.motion.clone(),
             projection: camera.projection,
             width: width as f32,
             height: height as f32,
@@ -53,30 +57,45 @@ impl CameraRays {
         self.to_world.transform_vector3(Vec3::NEG_Z).normalize()
     }
 
-    /// Whether rays need a lens sample (`ray_through_lens`): the camera has an aperture.
+    /// Whether rays need a lens sample (`sample_ray`): the camera has an aperture.
     pub fn has_lens(&self) -> bool {
         self.lens.is_some()
+    }
+
+    /// Whether the camera moves while the shutter is open (rays need a moment: `sample_ray`).
+    pub fn moves(&self) -> bool {
+        !self.poses.is_empty()
     }
 
     /// The ray through film position `film` (in pixels) from the centre of the lens.
     pub fn ray(&self, film: Vec2) -> Ray {
         let (origin, dir) = self.camera_space_ray(film);
-        self.to_world_ray(origin, dir)
+        self.to_world_ray(&self.to_world, origin, dir)
     }
 
-    /// The ray through film position `film` from the point of the aperture that `u` (uniform in
-    /// the unit square) picks; the same as `ray` without an aperture.
-    pub fn ray_through_lens(&self, film: Vec2, u: Vec2) -> Ray {
+    /// One camera sample's ray: through film position `film`, from the aperture point `lens`
+    /// (uniform in the unit square) picks (ignored without an aperture), at moment `time` ∈
+    /// [0, 1] of the shutter (the camera where it is then; `None`: the frame, the camera at
+    /// `to_world`).
+    pub fn sample_ray(&self, film: Vec2, lens: Vec2, time: Option<f32>) -> Ray {
+        let to_world = match time {
+            Some(t) if self.moves() => interpolate_transform(&self.poses, t),
+            _ => self.to_world,
+        };
+        let at = |ray: Ray| Ray {
+            time: time.unwrap_or(FRAME_TIME),
+            ..ray
+        };
         let (origin, dir) = self.camera_space_ray(film);
-        let Some(lens) = &self.lens else {
-            return self.to_world_ray(origin, dir);
+        let Some(thin_lens) = &self.lens else {
+            return at(self.to_world_ray(&to_world, origin, dir));
         };
         // The point this ray meets on the plane in focus, at distance `focus_distance` along
         // the camera axis.
-        let focus = origin + dir * (lens.focus_distance / -dir.z);
-        let on_lens = aperture_point(lens, u);
+        let focus = origin + dir * (thin_lens.focus_distance / -dir.z);
+        let on_lens = aperture_point(thin_lens, lens);
         let start = origin + on_lens.extend(0.0);
-        self.to_world_ray(start, (focus - start).normalize())
+        at(self.to_world_ray(&to_world, start, (focus - start).normalize()))
     }
 
     /// Origin and unit direction in camera space; a zero direction where the image shows
@@ -120,18 +139,20 @@ impl CameraRays {
         (Vec3::ZERO, dir)
     }
 
-    fn to_world_ray(&self, origin: Vec3, dir: Vec3) -> Ray {
+    fn to_world_ray(&self, to_world: &Affine3A, origin: Vec3, dir: Vec3) -> Ray {
         if dir == Vec3::ZERO {
             return Ray {
-                origin: self.to_world.transform_point3(origin),
-                direction: self.to_world.transform_vector3(Vec3::NEG_Z).normalize(),
+                origin: to_world.transform_point3(origin),
+                direction: to_world.transform_vector3(Vec3::NEG_Z).normalize(),
                 t_max: 0.0,
+                time: FRAME_TIME,
             };
         }
         Ray {
-            origin: self.to_world.transform_point3(origin),
-            direction: self.to_world.transform_vector3(dir).normalize(),
+            origin: to_world.transform_point3(origin),
+            direction: to_world.transform_vector3(dir).normalize(),
             t_max: f32::INFINITY,
+            time: FRAME_TIME,
         }
     }
 }
@@ -175,6 +196,7 @@ pub fn aperture_point(lens: &ThinLens, u: Vec2) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Quat;
 
     fn lens(blades: u32, ratio: f32) -> ThinLens {
         ThinLens {
@@ -227,6 +249,45 @@ mod tests {
         assert!(squeezed.x.abs() <= 1.0001, "{squeezed}");
     }
 
+    /// A moving camera is at its first pose when the shutter opens, its last when it closes,
+    /// and between them halfway: the position at the midpoint, the rotation half-turned.
+    #[test]
+    fn moving_camera_interpolates_its_poses() {
+        let open = Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.0));
+        let close = Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(0.4),
+            Vec3::new(2.0, 0.0, 0.0),
+        );
+        let camera = Camera {
+            name: "c".into(),
+            to_world: open,
+            projection: Projection::Perspective { yfov: 0.8 },
+            aspect_ratio: None,
+            shift: Vec2::ZERO,
+            lens: None,
+            motion: vec![open, close],
+        };
+        let rays = CameraRays::new(&camera, 40, 30);
+        assert!(rays.moves());
+        let centre = Vec2::new(20.0, 15.0);
+        let at = |t: f32| rays.sample_ray(centre, Vec2::ZERO, Some(t));
+        assert!(at(0.0).origin.abs_diff_eq(Vec3::ZERO, 1e-6));
+        assert!(at(1.0).origin.abs_diff_eq(Vec3::new(2.0, 0.0, 0.0), 1e-6));
+        let middle = at(0.5);
+        assert!(middle.origin.abs_diff_eq(Vec3::new(1.0, 0.0, 0.0), 1e-6));
+        let turned = Quat::from_rotation_y(0.2) * Vec3::NEG_Z;
+        assert!(
+            middle.direction.abs_diff_eq(turned, 1e-5),
+            "{}",
+            middle.direction
+        );
+        // Without a moment the camera stays where the file puts it.
+        assert!(rays
+            .sample_ray(centre, Vec2::ZERO, None)
+            .origin
+            .abs_diff_eq(Vec3::ZERO, 1e-6));
+    }
+
     /// Every ray through one film point meets the others on the plane in focus.
     #[test]
     fn rays_through_the_lens_meet_on_the_focus_plane() {
@@ -237,6 +298,7 @@ mod tests {
             aspect_ratio: None,
             shift: Vec2::new(0.1, -0.2),
             lens: Some(lens(5, 1.0)),
+            motion: Vec::new(),
         };
         let rays = CameraRays::new(&camera, 40, 30);
         let film = Vec2::new(7.3, 21.8);
@@ -249,7 +311,7 @@ mod tests {
             Vec2::new(0.7, 0.2),
             Vec2::new(0.45, 0.55),
         ] {
-            let r = rays.ray_through_lens(film, u);
+            let r = rays.sample_ray(film, u, None);
             assert!((r.origin - centre.origin).length() > 1e-3);
             assert!((at_focus(&r) - target).length() < 1e-4, "{}", at_focus(&r));
         }

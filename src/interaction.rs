@@ -7,7 +7,7 @@
 //! scales with the coordinates involved, which the reintersection test checks from 1e-4 to 1e5.
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
-use crate::math::{gamma, Frame, Vec2, Vec3, Vec4};
+use crate::math::{gamma, Affine3A, Frame, Mat3, Vec2, Vec3, Vec4};
 use crate::scene::nodes::ShadingInputs;
 use crate::scene::{Mesh, Scene};
 
@@ -29,6 +29,8 @@ pub struct SurfaceHit {
     pub t: f32,
     /// The intersection this point was reconstructed from.
     pub hit: Hit,
+    /// The moment within the shutter of the ray that found it, kept by rays spawned here.
+    pub time: f32,
 }
 
 impl SurfaceHit {
@@ -38,17 +40,22 @@ impl SurfaceHit {
         let mesh = hit_mesh(scene, hit);
         let instance = scene.instances.get(hit.instance as usize);
         let idx = mesh.indices[hit.triangle as usize];
-        // An instance's triangle is taken to world space first; everything below is the same.
+        // An instance's triangle is taken to world space first (where it is at the ray's
+        // moment); everything below is the same.
+        let (to_world, normal_matrix) = match instance {
+            Some(inst) => (inst.to_world_at(ray.time), inst.normal_matrix_at(ray.time)),
+            None => (Affine3A::IDENTITY, Mat3::IDENTITY),
+        };
         let p = idx.map(|i| match instance {
-            Some(inst) => inst.to_world.transform_point3(mesh.positions[i as usize]),
+            Some(_) => to_world.transform_point3(mesh.positions[i as usize]),
             None => mesh.positions[i as usize],
         });
         let to_world_normal = |n: Vec3| match instance {
-            Some(inst) => inst.normal_matrix * n,
+            Some(_) => normal_matrix * n,
             None => n,
         };
         let to_world_tangent = |t: Vec4| match instance {
-            Some(inst) => inst.to_world.transform_vector3(t.truncate()).extend(t.w),
+            Some(_) => to_world.transform_vector3(t.truncate()).extend(t.w),
             None => t,
         };
         let (b1, b2) = (hit.b1, hit.b2);
@@ -114,6 +121,7 @@ impl SurfaceHit {
             material: mesh.material,
             t: hit.t,
             hit: *hit,
+            time: ray.time,
         }
     }
 
@@ -139,7 +147,9 @@ impl SurfaceHit {
         let instance = scene.instances.get(self.hit.instance as usize);
         let idx = mesh.indices[tri as usize];
         let w = idx.map(|i| match instance {
-            Some(inst) => inst.to_world.transform_point3(mesh.positions[i as usize]),
+            Some(inst) => inst
+                .to_world_at(self.time)
+                .transform_point3(mesh.positions[i as usize]),
             None => mesh.positions[i as usize],
         });
         let (e1, e2) = (w[1] - w[0], w[2] - w[0]);
@@ -172,12 +182,16 @@ impl SurfaceHit {
             origin: offset_origin(self.p, self.p_error, self.ng, dir),
             direction: dir,
             t_max: f32::INFINITY,
+            time: self.time,
         }
     }
 
     /// A shadow ray from this surface towards a point on a light (see `spawn_to`).
     pub fn spawn_to(&self, target: &LightPoint) -> Ray {
-        spawn_to(self.p, self.p_error, self.ng, target)
+        Ray {
+            time: self.time,
+            ..spawn_to(self.p, self.p_error, self.ng, target)
+        }
     }
 }
 
@@ -240,6 +254,7 @@ pub fn spawn_to(p: Vec3, p_error: Vec3, ng: Vec3, target: &LightPoint) -> Ray {
         origin,
         direction: end - origin,
         t_max: 1.0 - SHADOW_EPSILON,
+        time: crate::accel::FRAME_TIME,
     }
 }
 

@@ -285,10 +285,11 @@ impl Lights {
             }
         }
         let mut world = None;
-        let environment = scene.world.environment.as_ref().map(EnvironmentLight::new);
+        let background = &scene.world.background;
+        let environment = background.environment.as_ref().map(EnvironmentLight::new);
         let radiance = match &environment {
             Some(env) => env.average,
-            None => scene.world.color,
+            None => background.color,
         };
         if luminance(radiance) > 0.0 {
             world = Some(sources.len() as u32);
@@ -646,42 +647,14 @@ impl EnvironmentLight {
         }
     }
 
-    /// Image coordinates (u across, t down from the top, both in [0, 1]) of a scene direction,
-    /// and sin θ (from x and y, which stay accurate near the poles).
-    fn to_image(&self, dir: Vec3) -> (Vec2, f32) {
-        let d = (self.map.to_map * dir).normalize_or_zero();
-        let sin_theta = d.x.hypot(d.y);
-        let u = 0.5 - d.y.atan2(d.x) / (2.0 * PI);
-        let u = (u - u.floor()).min(1.0 - f32::EPSILON);
-        (Vec2::new(u, sin_theta.atan2(d.z) / PI), sin_theta)
-    }
-
     /// Radiance arriving from direction `dir` (scene space, towards the environment).
     pub fn eval(&self, dir: Vec3) -> Vec3 {
-        let (p, _) = self.to_image(dir);
-        let (w, h) = (self.map.width as usize, self.map.height as usize);
-        let px = &self.map.pixels;
-        if self.map.closest {
-            let x = ((p.x * w as f32) as usize).min(w - 1);
-            let y = ((p.y * h as f32) as usize).min(h - 1);
-            return px[y * w + x];
-        }
-        // Bilinear between pixel centres, wrapping around in u and clamped at the poles.
-        let fx = p.x * w as f32 - 0.5;
-        let fy = (p.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (ax, ay) = (fx - x0, fy - y0);
-        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
-        let x1 = (x0 + 1) % w;
-        let y0 = y0 as usize;
-        let y1 = (y0 + 1).min(h - 1);
-        let row = |y: usize| px[y * w + x0] * (1.0 - ax) + px[y * w + x1] * ax;
-        row(y0) * (1.0 - ay) + row(y1) * ay
+        self.map.radiance(dir)
     }
 
     /// Solid-angle density with which `sample` picks `dir`.
     pub fn pdf(&self, dir: Vec3) -> f32 {
-        let (p, sin_theta) = self.to_image(dir);
+        let (p, sin_theta) = self.map.to_image(dir);
         if sin_theta <= 0.0 {
             return 0.0;
         }

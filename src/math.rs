@@ -105,6 +105,22 @@ pub const fn gamma(n: i32) -> f32 {
     e / (1.0 - e)
 }
 
+/// The transform at `time` ∈ [0, 1] along `poses` (taken at evenly spaced moments, at least
+/// one): between the two nearest, scale and translation interpolated linearly and rotation
+/// spherically, as Cycles interpolates decomposed motion transforms.
+pub fn interpolate_transform(poses: &[Affine3A], time: f32) -> Affine3A {
+    let last = poses.len().saturating_sub(1);
+    if last == 0 {
+        return poses.first().copied().unwrap_or(Affine3A::IDENTITY);
+    }
+    let x = time.clamp(0.0, 1.0) * last as f32;
+    let i = (x.floor() as usize).min(last - 1);
+    let f = x - i as f32;
+    let (s0, r0, t0) = poses[i].to_scale_rotation_translation();
+    let (s1, r1, t1) = poses[i + 1].to_scale_rotation_translation();
+    Affine3A::from_scale_rotation_translation(s0.lerp(s1, f), r0.slerp(r1, f), t0.lerp(t1, f))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -507,6 +507,7 @@ fn seen_by_camera<'a>(
                 origin: from,
                 direction: eye - from,
                 t_max: 1.0 - 1e-4,
+                time: crate::accel::FRAME_TIME,
             };
             let Some(hit) = accel.intersect(scene, &ray, Visibility::Camera) else {
                 return true;

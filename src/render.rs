@@ -293,6 +293,7 @@ pub fn render_scheduled(
                 filter: &filter,
                 settings: &round_settings,
                 window,
+                moving: camera.moves() || ctx.scene.has_motion(),
             };
             let part = render_round(&round, progress, &mut stats)?;
             image = Some(match image {
@@ -317,6 +318,9 @@ struct RoundSetup<'a> {
     /// The round's seed and samples per pixel.
     settings: &'a RenderSettings,
     window: Region,
+    /// Something moves while the shutter is open (the camera or an instance): samples take a
+    /// moment within it.
+    moving: bool,
 }
 
 /// Render `settings.spp` samples per pixel of the window with `settings.seed`, adding the time,
@@ -586,12 +590,15 @@ fn render_tile(
                 let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
                 let offset = filter.sample(rng.uniform2());
                 let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-                // A lens sample only with an aperture: pinhole cameras keep their streams.
-                let ray = if camera.has_lens() {
-                    camera.ray_through_lens(film, rng.uniform2())
+                // A lens sample only with an aperture and a moment only when something moves:
+                // still scenes seen by pinhole cameras keep their streams.
+                let lens = if camera.has_lens() {
+                    rng.uniform2()
                 } else {
-                    camera.ray(film)
+                    Vec2::ZERO
                 };
+                let time = round.moving.then(|| rng.uniform());
+                let ray = camera.sample_ray(film, lens, time);
                 if ray.t_max <= 0.0 {
                     continue; // outside a fisheye's image: black, as in Cycles
                 }

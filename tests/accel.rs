@@ -66,6 +66,7 @@ fn barycentrics_reproduce_the_aimed_point() {
             origin,
             direction: target - origin,
             t_max: f32::INFINITY,
+            time: photon::accel::FRAME_TIME,
         };
         let hit = accel
             .intersect(&scene, &ray, Visibility::Secondary)
@@ -97,6 +98,7 @@ fn spawned_rays_never_hit_the_surface_they_leave() {
                 origin,
                 direction: target - origin,
                 t_max: f32::INFINITY,
+                time: photon::accel::FRAME_TIME,
             };
             // Aimed at an interior point: it must hit, at every scale (a miss here once hid a
             // library epsilon that made scenes at 1e-4 invisible).
@@ -155,11 +157,13 @@ fn shadow_rays_between_two_surfaces_reach_at_every_scale() {
                 origin: from,
                 direction: -Vec3::Y,
                 t_max: f32::INFINITY,
+                time: photon::accel::FRAME_TIME,
             };
             let up = Ray {
                 origin: from,
                 direction: Vec3::Y,
                 t_max: f32::INFINITY,
+                time: photon::accel::FRAME_TIME,
             };
             let Some(a) = accel.intersect(&scene, &down, Visibility::Secondary) else {
                 panic!("down miss at scale {scale} from {from:?}")
@@ -194,6 +198,7 @@ fn masked_alpha_lets_rays_through_where_alpha_is_below_the_cutoff() {
         origin: Vec3::new(0.0, 0.0, 1.0),
         direction: -Vec3::Z,
         t_max: f32::INFINITY,
+        time: photon::accel::FRAME_TIME,
     };
     for (alpha, mode, visible) in [
         (0.3, photon::scene::AlphaMode::Mask { cutoff: 0.5 }, false),
@@ -231,6 +236,7 @@ fn geometry_hidden_from_the_camera_is_seen_by_other_rays() {
         origin: Vec3::new(0.0, 0.0, 1.0),
         direction: -Vec3::Z,
         t_max: f32::INFINITY,
+        time: photon::accel::FRAME_TIME,
     };
     assert!(accel.intersect(&scene, &ray, Visibility::Camera).is_none());
     assert!(accel
@@ -280,6 +286,7 @@ fn bvh_agrees_with_brute_force_at_grazing_angles_in_large_scenes() {
             origin,
             direction: (target - origin).normalize(),
             t_max: f32::INFINITY,
+            time: photon::accel::FRAME_TIME,
         };
         let bvh = accel
             .intersect(&scene, &ray, Visibility::Secondary)
@@ -348,6 +355,7 @@ fn rays_leaving_a_surface_on_a_coordinate_plane_do_not_hit_it_again() {
                 0.1 * (rng.uniform() - 0.5),
             ),
             t_max: f32::INFINITY,
+            time: photon::accel::FRAME_TIME,
         };
         let Some(hit) = accel.intersect(&scene, &down, Visibility::Secondary) else {
             continue;

@@ -1,6 +1,8 @@
 //! The environment-map light: its importance sampler against its density (chi-square, and the
 //! density integrates to 1), radiance lookups in Blender's orientation, the world light built
-//! from a loaded scene, and the loader's errors for missing or broken environment images.
+//! from a loaded scene, and the loader's errors for missing or broken environment images; the
+//! worlds PHOTON_world builds from several backgrounds: a Nishita sky (a baked map and a sun),
+//! a weighted mix, and what camera rays see instead.
 
 mod common;
 
@@ -10,7 +12,7 @@ use photon::light::{EnvironmentLight, Lights};
 use photon::math::{Mat3, Vec2, Vec3};
 use photon::rng::Rng;
 use photon::scene::gltf::{load, LoadOptions};
-use photon::scene::Environment;
+use photon::scene::{Environment, Light, Scene};
 use serde_json::json;
 use std::f32::consts::PI;
 use std::path::PathBuf;
@@ -174,6 +176,7 @@ fn environment_image_loads_and_lights_the_scene() {
     let scene = load(&path, &LoadOptions::default()).unwrap();
     let env = scene
         .world
+        .background
         .environment
         .as_ref()
         .expect("environment loaded");
@@ -221,5 +224,152 @@ fn missing_or_broken_environment_images_are_scene_errors() {
         json!({"uri": "ok.exr", "interpolation": "cubic"}),
     ));
     assert!(interp.contains("interpolation"), "{interp}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A .gltf with no geometry whose PHOTON_world is `world`.
+fn world_doc(dir: &std::path::Path, world: serde_json::Value) -> PathBuf {
+    let doc = json!({
+        "asset": {"version": "2.0"}, "scene": 0, "extensionsUsed": ["PHOTON_world"],
+        "scenes": [{"nodes": [], "extensions": {"PHOTON_world": world}}]
+    });
+    let path = dir.join("world.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    path
+}
+
+fn load_world(dir: &std::path::Path, world: serde_json::Value) -> Scene {
+    load(&world_doc(dir, world), &LoadOptions::default()).unwrap()
+}
+
+/// Blender (x, y, z) as a glTF direction.
+fn from_blender(x: f32, y: f32, z: f32) -> Vec3 {
+    Vec3::new(x, z, -y)
+}
+
+#[test]
+fn nishita_sky_becomes_a_map_and_a_sun() {
+    let dir = temp_dir("sky");
+    let sky = json!({"type": "NISHITA", "sun_elevation": 0.5, "sun_rotation": 1.2,
+                     "sun_size": 0.02, "sun_intensity": 1.0, "sun_disc": true});
+    let scene = load_world(&dir, json!({"strength": 0.1, "sky": sky}));
+    let env = scene
+        .world
+        .background
+        .environment
+        .as_ref()
+        .expect("a baked sky");
+    assert_eq!((env.width, env.height), (1024, 512));
+    // The sun: where Blender puts it (rotation turns it from +Y towards +X), 0.02 rad wide.
+    let [Light::Sun {
+        direction,
+        irradiance,
+        angle,
+    }] = scene.lights[..]
+    else {
+        panic!("one sun expected: {:?}", scene.lights);
+    };
+    let (e, r) = (0.5f32, 1.2f32);
+    let to_sun = from_blender(e.cos() * r.sin(), e.cos() * r.cos(), e.sin());
+    assert!(
+        (-direction).dot(to_sun) > 0.99999,
+        "{direction} vs {to_sun}"
+    );
+    assert!((angle - 0.02).abs() < 1e-6 && irradiance.min_element() > 0.0);
+    // Whiter and brighter than the sky: the sun outshines the whole sky on a level surface.
+    let sky_on_ground: Vec3 = (0..64 * 32)
+        .map(|i| {
+            let (u, v) = ((i % 64) as f32 + 0.5, (i / 64) as f32 + 0.5);
+            let (theta, phi) = (0.5 * PI * v / 32.0, 2.0 * PI * u / 64.0);
+            let d = from_blender(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            );
+            env.radiance(d) * theta.cos() * theta.sin() * (0.5 * PI / 32.0) * (2.0 * PI / 64.0)
+        })
+        .sum();
+    assert!(
+        irradiance.y * e.sin() > sky_on_ground.y,
+        "{irradiance} {sky_on_ground}"
+    );
+    // The zenith is blue; far below the horizon it is black.
+    let zenith = env.radiance(Vec3::Y);
+    assert!(zenith.z > zenith.x && zenith.x > 0.0, "{zenith}");
+    assert_eq!(env.radiance(-Vec3::Y), Vec3::ZERO);
+
+    let no_disc = load_world(
+        &dir,
+        json!({"sky": {"sun_elevation": 0.5, "sun_disc": false}}),
+    );
+    assert!(no_disc.lights.is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn mixed_backgrounds_add_up_with_their_weights() {
+    let dir = temp_dir("mix");
+    let constants = load_world(
+        &dir,
+        json!({"mix": [{"weight": 0.25, "color": [1.0, 0.0, 0.0], "strength": 2.0},
+                       {"weight": 0.75, "color": [0.0, 1.0, 1.0]}]}),
+    );
+    assert_eq!(constants.world.background.color, Vec3::new(0.5, 0.75, 0.75));
+    assert!(constants.world.background.environment.is_none());
+    assert!(constants.world.camera_background.is_none());
+
+    // A constant under a sky: added to every direction of the map, below the horizon too.
+    let sky = json!({"sun_elevation": 0.3, "sun_disc": false});
+    let scene = load_world(
+        &dir,
+        json!({"mix": [{"weight": 0.5, "sky": sky, "strength": 0.2},
+                       {"weight": 0.5, "color": [0.2, 0.4, 0.6]}]}),
+    );
+    let env = scene.world.background.environment.as_ref().unwrap();
+    let below = env.radiance(-Vec3::Y);
+    assert!(
+        (below - Vec3::new(0.1, 0.2, 0.3)).abs().max_element() < 1e-6,
+        "{below}"
+    );
+    let alone = load_world(&dir, json!({"sky": sky, "strength": 0.1}));
+    let up = from_blender(0.3, 0.2, 0.9).normalize();
+    let expected = alone.world.background.radiance(up) + Vec3::new(0.1, 0.2, 0.3);
+    let got = scene.world.background.radiance(up);
+    assert!(
+        (got - expected).abs().max_element() < 1e-4 * expected.max_element(),
+        "{got}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn camera_rays_may_see_another_background() {
+    let dir = temp_dir("camera");
+    let scene = load_world(
+        &dir,
+        json!({"color": [0.1, 0.2, 0.3], "camera": {"color": [1.0, 1.0, 1.0], "strength": 0.5}}),
+    );
+    assert_eq!(scene.world.background.color, Vec3::new(0.1, 0.2, 0.3));
+    let seen = scene.world.camera_background.as_ref().unwrap();
+    assert_eq!(seen.radiance(Vec3::X), Vec3::splat(0.5));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_sky_settings_are_scene_errors() {
+    let dir = temp_dir("badsky");
+    for (sky, needle) in [
+        (json!({"type": "PREETHAM"}), "unknown sky type"),
+        (json!({"dust": -1.0}), "'dust'"),
+        (json!({"sun_size": 4.0}), "'sun_size'"),
+        (json!({"rotation": [0.0, 1.0]}), "'rotation'"),
+    ] {
+        let message = load_error(&world_doc(&dir, json!({"sky": sky})));
+        assert!(message.contains(needle), "{message}");
+    }
+    let mix = load_error(&world_doc(&dir, json!({"mix": {"color": [1, 1, 1]}})));
+    assert!(mix.contains("'mix' must be a list"), "{mix}");
+    let weight = load_error(&world_doc(&dir, json!({"mix": [{"weight": "half"}]})));
+    assert!(weight.contains("'weight'"), "{weight}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -364,7 +364,10 @@ fn materials_scene_has_glass_metal_texture_sun_and_world() {
         assert!((angle - 0.0092).abs() < 1e-6);
         assert!(direction.y < 0.0, "the sun shines downwards");
     }
-    assert!(close(scene.world.color, Vec3::new(0.2, 0.25, 0.35)));
+    assert!(close(
+        scene.world.background.color,
+        Vec3::new(0.2, 0.25, 0.35)
+    ));
 }
 
 #[test]
@@ -966,7 +969,10 @@ fn world_and_render_extensions_are_read() {
         "PHOTON_render": {"width": 640, "height": 480, "film_transparent": true}
     });
     let scene = load_glb(&doc).unwrap();
-    assert!(close(scene.world.color, Vec3::new(1.0, 0.5, 2.0)));
+    assert!(close(
+        scene.world.background.color,
+        Vec3::new(1.0, 0.5, 2.0)
+    ));
     assert_eq!(scene.render_settings.width, Some(640));
     assert_eq!(scene.render_settings.height, Some(480));
     assert!(scene.render_settings.transparent_film);
@@ -1609,6 +1615,40 @@ fn photon_camera_shift_and_lens_are_read_and_checked() {
         json!({"dof": {"aperture_radius": -1.0}}),
         json!({"dof": {"focus_distance": 0.0}}),
         json!({"dof": {"ratio": 0.0}}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": bad});
+        assert_scene_error(load_glb(&doc), &["Camera", "PHOTON_camera"]);
+    }
+}
+
+#[test]
+fn photon_camera_motion_is_read_and_checked() {
+    let still = [
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    let mut moved = still;
+    moved[12] = 2.0; // translation x, column-major
+    moved[0] = 3.0; // a scale, which a camera pose drops
+    let mut doc = triangle_doc();
+    doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": {"motion": [still, moved]}});
+    let scene = load_glb(&doc).unwrap();
+    let motion = &scene.camera.motion;
+    assert_eq!(motion.len(), 2);
+    assert_eq!(
+        motion[1].translation,
+        photon::math::Vec3A::new(2.0, 0.0, 0.0)
+    );
+    assert!(motion[1]
+        .matrix3
+        .x_axis
+        .abs_diff_eq(photon::math::Vec3A::X, 1e-6));
+    let (nan, singular) = (vec![f64::NAN; 16], vec![0.0; 16]);
+    for bad in [
+        json!({"motion": [still]}),
+        json!({"motion": [still, [1.0, 2.0]]}),
+        json!({"motion": [still, nan]}),
+        json!({"motion": [still, singular]}),
     ] {
         let mut doc = triangle_doc();
         doc.json["nodes"][1]["extensions"] = json!({"PHOTON_camera": bad});

@@ -215,6 +215,73 @@ fn mirrored_emissive_and_visibility_copies_stay_flattened() {
     );
 }
 
+/// A node that moves while the shutter is open (PHOTON_object "motion") is an instance even
+/// when its mesh is placed once: rays meet it where it is at their moment, and its bounds cover
+/// its whole path. A moving mesh that cannot be instanced (a mirror) stays put, with a warning.
+#[test]
+fn moving_nodes_are_met_where_they_are_at_the_ray_moment() {
+    use photon::accel::{Accel, Ray, Visibility};
+    use photon::math::Vec3;
+    let pose = |x: f32| {
+        json!([1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, x, 0.0, 0.0, 1.0])
+    };
+    let moving = json!({"extensions": {"PHOTON_object": {
+        "motion": [pose(0.0), pose(2.0), pose(4.0)]}}});
+    let scene = load(&grid_glb(4, std::slice::from_ref(&moving), false, grey()));
+    assert_eq!(
+        (scene.instances.len(), scene.instances[0].motion.len()),
+        (1, 3)
+    );
+    let bounds = scene.bounds();
+    assert!(bounds.min.x <= -0.5 && bounds.max.x >= 4.5, "{bounds:?}");
+    let accel = Accel::new(&scene);
+    // Straight down onto the grid's plane (z ≈ 0) at x = 3.
+    let down = |time: f32| Ray {
+        origin: Vec3::new(3.0, 0.0, 2.0),
+        direction: Vec3::NEG_Z,
+        t_max: f32::INFINITY,
+        time,
+    };
+    let on_grid = |time: f32| {
+        accel
+            .intersect(&scene, &down(time), Visibility::Camera)
+            .is_some_and(|h| h.instance == 0)
+    };
+    assert!(
+        !on_grid(0.0),
+        "at the opening the grid spans x in [-0.5, 0.5]"
+    );
+    assert!(
+        on_grid(0.75),
+        "at 3/4 of the shutter it is centred on x = 3"
+    );
+    assert!(!on_grid(0.25));
+    // Shadow rays down to z = −0.3, above the floor (z = −0.5).
+    assert!(!accel.unoccluded(
+        &scene,
+        &Ray {
+            t_max: 2.3,
+            ..down(0.75)
+        }
+    ));
+    assert!(accel.unoccluded(
+        &scene,
+        &Ray {
+            t_max: 2.3,
+            ..down(0.0)
+        }
+    ));
+
+    let mirror = json!({"pbrMetallicRoughness": {"metallicFactor": 1.0, "roughnessFactor": 0.05}});
+    let scene = load(&grid_glb(4, &[moving], false, mirror));
+    assert!(scene.instances.is_empty());
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("motion blur")),
+        "{:?}",
+        scene.warnings
+    );
+}
+
 /// Peak resident memory of this process (Linux), in bytes.
 fn peak_rss() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;

@@ -399,7 +399,7 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
     setups.push(("emissive quad".into(), quad));
     let mut world = setups[0].1.clone();
     world.lights.clear();
-    world.world.color = Vec3::ONE;
+    world.world.background.color = Vec3::ONE;
     setups.push(("uniform world".into(), world));
     for (light, scene) in setups {
         let accel = Accel::new(&scene);

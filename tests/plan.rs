@@ -99,7 +99,7 @@ fn a_scene_without_lights_has_nothing_to_trace() {
         m.emission = photon::math::Vec3::ZERO;
     }
     s.lights.clear();
-    s.world.color = photon::math::Vec3::ZERO;
+    s.world.background.color = photon::math::Vec3::ZERO;
     let p = plan(&s, Quality::Default);
     assert!(!p.anything_to_trace);
     assert!(!p.caustic_map.needed && !p.global_map.needed);

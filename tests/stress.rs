@@ -311,7 +311,7 @@ fn cases() -> Vec<Case> {
     // Under a sky (a point light's shadow rays cannot pass glass in any path tracer).
     let sky = |mut scene: Scene| {
         scene.lights.clear();
-        scene.world.color = Vec3::ONE;
+        scene.world.background.color = Vec3::ONE;
         scene
     };
     cases.push(Case {

@@ -4,8 +4,8 @@
 The scenes the course notes show, built procedurally (standard library only, deterministic):
 the Cornell box with a glass and a mirror sphere, a caustic on a glossy floor, a metal ring's
 cardioid caustic, a cognac glass with liquid, a sphereflake, a glass cube caustic, a fractal
-Cornell box, an interior lit by the sun through windows with a pool outside (the Mies house idea)
-and a translucent bust. The Cornell box with two boxes and the glass-sphere caustic are
+Cornell box, an interior lit by the sun through windows with a pool outside (the Mies house idea),
+the same room under Blender's Nishita sky at 2 pm and 7 pm, and a translucent bust. The Cornell box with two boxes and the glass-sphere caustic are
 `scenes/cornell_box.glb` and `scenes/glass_caustic.glb`.
 
 Usage: python3 scenes/gallery/build_gallery.py
@@ -304,6 +304,38 @@ def fractal_cornell():
 
 def interior():
     """A room lit by the sun through two windows, a pool of water outside (the Mies house)."""
+    g = interior_room()
+    g.punctual("Sun", "directional", [1.0, 0.93, 0.85], 5.0 * bs.LUMENS_PER_WATT, [0, 10, 10],
+               target=[0.6, 0, -2.0], photon={"angle": 0.0092})
+    g.scene_extension("PHOTON_world", {"color": [0.45, 0.6, 0.9], "strength": 0.8})
+    g.camera("Camera", [2.4, 1.4, -2.6], [-0.3, 0.9, 2.0], 60.0, 1.0)
+    bs.render_settings(g, 256, 256)
+    g.write("interior.glb")
+
+
+def interior_sky(name, elevation_deg, rotation_deg):
+    """The Mies house room lit by Blender's sky (a Nishita Sky Texture at Background strength
+    0.05, as the add-on exports it) with the sun at `elevation_deg` and turned `rotation_deg`
+    from Blender's +Y (the windows face Blender's −Y, glTF's +Z)."""
+    g = interior_room()
+    g.scene_extension("PHOTON_world", {"strength": 0.05, "sky": {
+        "type": "NISHITA", "sun_elevation": math.radians(elevation_deg),
+        "sun_rotation": math.radians(rotation_deg)}})
+    g.camera("Camera", [2.4, 1.4, -2.6], [-0.3, 0.9, 2.0], 60.0, 1.0)
+    bs.render_settings(g, 256, 256)
+    g.write(name)
+
+
+def interior_2pm():
+    interior_sky("interior_2pm.glb", 50.0, 200.0)
+
+
+def interior_7pm():
+    interior_sky("interior_7pm.glb", 9.0, 235.0)
+
+
+def interior_room():
+    """The room, its windows, the terrace and the pool, without lights or camera."""
     g = Gltf()
     wall = g.material("Wall", base=(0.8, 0.78, 0.74), roughness=1.0, lambert=True)
     wood = g.material("Floor", base=(0.45, 0.3, 0.18), roughness=0.5)
@@ -338,12 +370,7 @@ def interior():
         g.node(name, mesh=g.mesh(name, geometry, material))
     g.node("Sofa", mesh=g.mesh("Sofa", cube(), wall), translation=[-1.2, 0.3, -1.8],
            scale=[1.8, 0.6, 0.8])
-    g.punctual("Sun", "directional", [1.0, 0.93, 0.85], 5.0 * bs.LUMENS_PER_WATT, [0, 10, 10],
-               target=[0.6, 0, -2.0], photon={"angle": 0.0092})
-    g.scene_extension("PHOTON_world", {"color": [0.45, 0.6, 0.9], "strength": 0.8})
-    g.camera("Camera", [2.4, 1.4, -2.6], [-0.3, 0.9, 2.0], 60.0, 1.0)
-    bs.render_settings(g, 256, 256)
-    g.write("interior.glb")
+    return g
 
 
 def translucent_bust():
@@ -380,7 +407,7 @@ def translucent_bust():
 
 
 SCENES = [cornell_spheres, glossy_caustic, metal_ring, cognac_glass, sphereflake, glass_cube,
-          fractal_cornell, interior, translucent_bust]
+          fractal_cornell, interior, interior_2pm, interior_7pm, translucent_bust]
 
 if __name__ == "__main__":
     for build in SCENES:

@@ -42,6 +42,10 @@ SCENES = [
     ("glass_cube", "scenes/gallery/glass_cube.glb", "Glass cube caustic", "photon"),
     ("fractal_cornell", "scenes/gallery/fractal_cornell.glb", "Fractal Cornell box", "path"),
     ("interior", "scenes/gallery/interior.glb", "Sunlit interior with a pool outside", "photon"),
+    ("interior_2pm", "scenes/gallery/interior_2pm.glb",
+     "The same room under Blender's Nishita sky, 2 pm", "photon"),
+    ("interior_7pm", "scenes/gallery/interior_7pm.glb",
+     "The same room under Blender's Nishita sky, 7 pm", "photon"),
     ("translucent_bust", "scenes/gallery/translucent_bust.glb", "Translucent marble bust", "path"),
 ]
 

@@ -89,6 +89,7 @@ fn sample_exit(
         origin: centre + axis * half,
         direction: -axis,
         t_max: 2.0 * half,
+        time: sh.time,
     };
     let end = centre - axis * half;
     while hits.len() < MAX_PROBE_HITS {

@@ -195,7 +195,13 @@ pub fn walk(
         state.rays += 1;
         let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, visibility) else {
             if emission && !(depth == 0 && (ctx.transparent_background || gather)) {
-                state.escaped(ctx);
+                match &ctx.scene.world.camera_background {
+                    // No light sample precedes a camera ray: nothing to weigh against.
+                    Some(seen) if visibility == Visibility::Camera => {
+                        state.add(0, seen.radiance(ray.direction));
+                    }
+                    _ => state.escaped(ctx),
+                }
             }
             break;
         };

@@ -18,6 +18,17 @@
 //!   u = 0.5 − atan2(d.y, d.x)/2π and the row θ = acos(d.z)/π from the top. `rotation` (radians,
 //!   default 0) is the Euler XYZ rotation of a Mapping node (Point type) applied to d before the
 //!   lookup; `interpolation` defaults to linear (bilinear, wrapping around in u).
+//!   In place of `environment`, `sky` is Blender's Sky Texture in its Nishita model
+//!   (`crate::scene::sky`): `{"type": "NISHITA", "sun_elevation": e, "sun_rotation": r,
+//!   "sun_size": a, "sun_intensity": i, "sun_disc": bool, "altitude": m, "air": f, "dust": f,
+//!   "ozone": f, "rotation": [x, y, z]}` (radians and metres; defaults Blender's: 15°, 0,
+//!   0.545°, 1, true, 0, 1, 1, 1; `rotation` as for `environment`). It is baked × `strength`
+//!   into a 1024 × 512 environment map, and its sun disc becomes a sun light. Several
+//!   backgrounds are summed with `"mix": [{"weight": w, "color": ..., "strength": s,
+//!   "environment" | "sky": ...}, ...]` (in place of the fields above); their maps are resampled
+//!   onto the finest one. `"camera": {...}` (the same fields, `mix` included) is what camera
+//!   rays that leave the scene see instead of the rest (Blender's Light Path "Is Camera Ray");
+//!   a sky's sun there is not drawn. Out-of-range values are refused with an error.
 //! - `PHOTON_render` on a scene: `{"width": w, "height": h, "film_transparent": bool}`, the
 //!   render resolution and whether the background is transparent in the image.
 //! - `PHOTON_light` on a node:
@@ -56,7 +67,11 @@
 //!   "sensor": [width, height]}` (millimetres, the sensor as Cycles fits it to the image); see
 //!   `scene::Projection`. Panoramas ignore `shift` and `dof`. Blender's exporter drops
 //!   panoramic cameras but keeps their node: a node with a `panorama` and no glTF camera is a
-//!   camera too.
+//!   camera too. An optional `"motion": [m0, m1, ...]` (two or more column-major 4 × 4 world
+//!   matrices, glTF axes) gives the camera's poses at evenly spaced moments from the shutter's
+//!   opening to its closing (Blender's motion blur): each camera sample takes a uniform moment
+//!   and the pose interpolated there (translation linearly, rotation by slerp), as Cycles
+//!   blurs camera motion.
 //! - `PHOTON_object` on a mesh node: `{"visible_camera": bool, "visible_shadow": bool}`
 //!   (default true), Blender's camera and shadow ray visibility: camera rays pass through an
 //!   object hidden from the camera, shadow rays (direct light) through one that casts no
@@ -84,6 +99,12 @@
 //! - `PHOTON_object` may also carry `"texture_space": {"location": [x, y, z], "size": [x, y,
 //!   z]}`, the object's texture space in Blender object coordinates (Z up), which node trees'
 //!   Generated coordinates map to [0, 1]³ (default: the bounds of the mesh).
+//! - `PHOTON_object` may also carry `"motion": [m0, m1, ...]`: two or more column-major 4 × 4
+//!   world matrices (glTF axes) of the node at evenly spaced moments from the shutter's opening
+//!   to its closing (Blender's motion blur). Its mesh becomes a prototype placed by an instance
+//!   that each ray meets where it is at the ray's moment (`scene::Instance::motion`); a mesh
+//!   that cannot be instanced (emissive, specular, transmissive or translucent materials, a
+//!   node tree) stays at the node's own transform, with a warning.
 //!
 //! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
 //! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree
@@ -120,11 +141,12 @@
 
 use super::texture::Wrap;
 use super::{
-    AlphaMode, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
+    AlphaMode, Background, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
     SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
+use crate::scene::sky::{NishitaSettings, NishitaSky};
 use crate::scene::units;
 use gltf::accessor::DataType;
 use gltf::mesh::Mode;
@@ -175,6 +197,10 @@ const INSTANCE_MIN_ROUGHNESS: f32 = 0.3;
 
 /// Segments of the fan that approximates disk and ellipse area lights.
 const AREA_LIGHT_SEGMENTS: usize = 32;
+
+/// Width of the environment map a sky is baked into (height half of it): 0.35° pixels, each
+/// the mean of 3 × 3 lookups of the sky's own table.
+const SKY_MAP_WIDTH: u32 = 1024;
 
 /// Load a `.glb` or `.gltf` file.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
@@ -316,6 +342,7 @@ impl Loader {
                     aspect_ratio: None,
                     shift: Vec2::ZERO,
                     lens: None,
+                    motion: Vec::new(),
                 },
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
@@ -458,9 +485,17 @@ impl Loader {
         for node in gltf_scene.nodes() {
             count_mesh_uses(&node, &mut uses, 0, &mut visited);
         }
+        // So do meshes of nodes that move while the shutter is open: an instance is placed
+        // per ray, at the ray's moment.
+        let moving: std::collections::HashSet<usize> = self
+            .document
+            .nodes()
+            .filter(|n| moves(n))
+            .filter_map(|n| n.mesh().map(|m| m.index()))
+            .collect();
         self.instanced_meshes = uses
             .into_iter()
-            .filter(|&(mesh, n)| n >= 2 && self.instanceable(mesh))
+            .filter(|&(mesh, n)| (n >= 2 || moving.contains(&mesh)) && self.instanceable(mesh))
             .map(|(mesh, _)| mesh)
             .collect();
         let mut totals = SizeTotals::default();
@@ -638,6 +673,12 @@ impl Loader {
             if self.places_instance(node, &world) {
                 self.add_instance(node, &mesh, &world)?;
             } else {
+                if moves(node) {
+                    self.scene.warnings.push(format!(
+                        "{object}: motion blur is not rendered for it (only meshes of opaque, \
+                         rough, non-emissive materials are placed per moment)"
+                    ));
+                }
                 self.add_mesh(node, &mesh, &world, false)?;
             }
         }
@@ -653,6 +694,7 @@ impl Loader {
                 aspect_ratio: None,
                 shift: Vec2::ZERO,
                 lens: None,
+                motion: Vec::new(),
             };
             if let Some(extension) = extension {
                 read_camera_extension(extension, &mut camera)
@@ -697,10 +739,20 @@ impl Loader {
             self.prototype_ids.insert(mesh.index(), ids);
         }
         let to_world = Affine3A::from_mat4(*world);
+        let motion = match node
+            .extension_value("PHOTON_object")
+            .and_then(|v| v.get("motion"))
+        {
+            None => Vec::new(),
+            Some(poses) => read_poses(poses).map_err(|m| {
+                let object = named("node", node.index(), node.name());
+                self.err(format!("{object} PHOTON_object"), m)
+            })?,
+        };
         for &prototype in &self.prototype_ids[&mesh.index()] {
-            self.scene
-                .instances
-                .push(super::Instance::new(prototype, to_world));
+            let mut instance = super::Instance::new(prototype, to_world);
+            instance.motion.clone_from(&motion);
+            self.scene.instances.push(instance);
         }
         Ok(())
     }
@@ -1872,12 +1924,6 @@ impl Loader {
             }
             pixels.push(c.max(Vec3::ZERO));
         }
-        let rotation = match env.get("rotation") {
-            None => Vec3::ZERO,
-            Some(v) => json_vec3(v).filter(|r| r.is_finite()).ok_or_else(|| {
-                self.err(object, format!("'rotation' must be [x, y, z], found {v}"))
-            })?,
-        };
         let closest = match env.get("interpolation").and_then(Value::as_str) {
             None | Some("linear") => false,
             Some("closest") => true,
@@ -1888,28 +1934,162 @@ impl Loader {
                 ))
             }
         };
-        // Blender's XYZ Euler rotation (X first), after the glTF Y-up to Blender Z-up change:
-        // Blender (x, y, z) = glTF (x, −z, y).
-        let euler = Mat3::from_rotation_z(rotation.z)
-            * Mat3::from_rotation_y(rotation.y)
-            * Mat3::from_rotation_x(rotation.x);
-        let y_up_to_z_up = Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
+        let euler = self.mapping_rotation(env, object)?;
         Ok(Environment {
             width,
             height,
             pixels: pixels.into(),
-            to_map: euler * y_up_to_z_up,
+            to_map: euler * Environment::Y_UP_TO_Z_UP,
             closest,
         })
     }
 
+    /// The `sky` of a PHOTON_world background: Blender's Sky Texture (Nishita) baked × `strength`
+    /// into an environment map, and its sun disc as a sun light (in scene directions).
+    fn load_sky(&self, sky: &Value, strength: f32) -> Result<(Environment, Option<Light>)> {
+        let object = "scene PHOTON_world sky";
+        match sky.get("type").and_then(Value::as_str) {
+            None | Some("NISHITA") => {}
+            Some(other) => {
+                return Err(self.err(object, format!("unknown sky type '{other}' (NISHITA)")))
+            }
+        }
+        let defaults = NishitaSettings::default();
+        let number = |key: &str, default: f32, valid: fn(f32) -> bool| -> Result<f32> {
+            match sky.get(key) {
+                None => Ok(default),
+                Some(v) => v
+                    .as_f64()
+                    .map(|x| x as f32)
+                    .filter(|&x| x.is_finite() && valid(x))
+                    .ok_or_else(|| self.err(object, format!("'{key}' is out of range: {v}"))),
+            }
+        };
+        let any = |_: f32| true;
+        let non_negative = |x: f32| x >= 0.0;
+        let settings = NishitaSettings {
+            sun_elevation: number("sun_elevation", defaults.sun_elevation, any)?,
+            sun_rotation: number("sun_rotation", defaults.sun_rotation, any)?,
+            sun_size: number("sun_size", defaults.sun_size, |x| {
+                (0.0..=std::f32::consts::PI).contains(&x)
+            })?,
+            sun_intensity: number("sun_intensity", defaults.sun_intensity, non_negative)?,
+            sun_disc: sky
+                .get("sun_disc")
+                .and_then(Value::as_bool)
+                .unwrap_or(defaults.sun_disc),
+            altitude: number("altitude", defaults.altitude, any)?,
+            air: number("air", defaults.air, non_negative)?,
+            dust: number("dust", defaults.dust, non_negative)?,
+            ozone: number("ozone", defaults.ozone, non_negative)?,
+        };
+        let rotation = self.mapping_rotation(sky, object)?;
+        let to_map = rotation * Environment::Y_UP_TO_Z_UP;
+        let model = NishitaSky::new(&settings);
+        let map = Environment::bake(SKY_MAP_WIDTH, SKY_MAP_WIDTH / 2, to_map, 3, |d| {
+            model.sky_radiance(d) * strength
+        });
+        let sun = model.sun().map(|sun| Light::Sun {
+            direction: -(to_map.transpose() * sun.direction),
+            irradiance: sun.irradiance * strength,
+            angle: sun.angle,
+        });
+        Ok((map, sun))
+    }
+
+    /// The rotation of a Mapping node (`"rotation": [x, y, z]`, Blender's Euler XYZ, radians)
+    /// applied to directions in Blender's frame before a world texture's lookup.
+    fn mapping_rotation(&self, texture: &Value, object: &str) -> Result<Mat3> {
+        let rotation = match texture.get("rotation") {
+            None => Vec3::ZERO,
+            Some(v) => json_vec3(v).filter(|r| r.is_finite()).ok_or_else(|| {
+                self.err(object, format!("'rotation' must be [x, y, z], found {v}"))
+            })?,
+        };
+        // X first, then Y, then Z.
+        Ok(Mat3::from_rotation_z(rotation.z)
+            * Mat3::from_rotation_y(rotation.y)
+            * Mat3::from_rotation_x(rotation.x))
+    }
+
+    /// A background of PHOTON_world (the whole extension, its `camera`, or an entry of `mix`):
+    /// a constant colour, an environment image or a sky, each × `strength` × `weight`; a `mix`
+    /// sums its entries. Several maps are resampled onto one (the finest) with the constant
+    /// colours added. Returns the background and the suns of its skies.
+    fn read_background(&self, world: &Value, object: &str) -> Result<(Background, Vec<Light>)> {
+        let factor = |layer: &Value, key: &str| -> Result<f32> {
+            match layer.get(key) {
+                None => Ok(1.0),
+                Some(v) => v
+                    .as_f64()
+                    .map(|x| x as f32)
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| self.err(object, format!("'{key}' must be a number: {v}"))),
+            }
+        };
+        let layers: Vec<&Value> = match world.get("mix") {
+            None => vec![world],
+            Some(Value::Array(entries)) => entries.iter().collect(),
+            Some(v) => return Err(self.err(object, format!("'mix' must be a list, found {v}"))),
+        };
+        let mut color = Vec3::ZERO;
+        let mut maps = Vec::new();
+        let mut suns = Vec::new();
+        for layer in layers {
+            let strength = factor(layer, "strength")? * factor(layer, "weight")?;
+            if let Some(env) = layer.get("environment") {
+                maps.push(self.load_environment(env, strength)?);
+            } else if let Some(sky) = layer.get("sky") {
+                let (map, sun) = self.load_sky(sky, strength)?;
+                maps.push(map);
+                suns.extend(sun);
+            } else {
+                let c = match layer.get("color") {
+                    None => Vec3::ZERO,
+                    Some(v) => json_vec3(v).filter(|c| c.is_finite()).ok_or_else(|| {
+                        self.err(object, format!("'color' must be [r, g, b], found {v}"))
+                    })?,
+                };
+                color += c * strength;
+            }
+        }
+        let environment = match maps.len() {
+            0 => None,
+            1 => maps.pop().map(|mut map| {
+                if color != Vec3::ZERO {
+                    map.pixels = map.pixels.iter().map(|&p| p + color).collect();
+                }
+                map
+            }),
+            _ => {
+                let finest = maps
+                    .iter()
+                    .max_by_key(|m| m.width * m.height)
+                    .expect("a map");
+                let to_map = Environment::Y_UP_TO_Z_UP;
+                let back = to_map.transpose();
+                let (w, h) = (finest.width, finest.height);
+                let mut sum = Environment::bake(w, h, to_map, 1, |d| {
+                    let dir = back * d;
+                    maps.iter().map(|m| m.radiance(dir)).sum::<Vec3>() + color
+                });
+                sum.pixels = sum.pixels.iter().map(|p| p.max(Vec3::ZERO)).collect();
+                Some(sum)
+            }
+        };
+        Ok((Background { color, environment }, suns))
+    }
+
     fn read_scene_extensions(&mut self, gltf_scene: &gltf::Scene) -> Result<()> {
         if let Some(world) = gltf_scene.extension_value("PHOTON_world") {
-            let color = world.get("color").and_then(json_vec3).unwrap_or(Vec3::ZERO);
-            let strength = world.get("strength").and_then(Value::as_f64).unwrap_or(1.0) as f32;
-            self.scene.world.color = color * strength;
-            if let Some(env) = world.get("environment") {
-                self.scene.world.environment = Some(self.load_environment(env, strength)?);
+            let (background, suns) = self.read_background(world, "scene PHOTON_world")?;
+            self.scene.world.background = background;
+            self.scene.lights.extend(suns);
+            if let Some(camera) = world.get("camera") {
+                // A sky's sun disc seen only by the camera is not drawn (see the README).
+                let object = "scene PHOTON_world camera";
+                let (seen, _suns) = self.read_background(camera, object)?;
+                self.scene.world.camera_background = Some(seen);
             }
         }
         if let Some(render) = gltf_scene.extension_value("PHOTON_render") {
@@ -2057,6 +2237,7 @@ fn convert_camera(
         aspect_ratio,
         shift: Vec2::ZERO,
         lens: None,
+        motion: Vec::new(),
     })
 }
 
@@ -2085,6 +2266,16 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
     if let Some(panorama) = value.get("panorama") {
         camera.projection = read_panorama(panorama)?;
     }
+    if let Some(v) = value.get("motion") {
+        // Cameras are rigid: the scale goes.
+        camera.motion = read_poses(v)?
+            .into_iter()
+            .map(|m| {
+                let (_, rotation, translation) = m.to_scale_rotation_translation();
+                Affine3A::from_rotation_translation(rotation.normalize(), translation)
+            })
+            .collect();
+    }
     if let Some(dof) = value.get("dof") {
         let radius = number(dof, "aperture_radius", 0.0, |x| x >= 0.0)?;
         let focus_distance = number(dof, "focus_distance", 10.0, |x| x > 0.0)?;
@@ -2100,6 +2291,41 @@ fn read_camera_extension(value: &Value, camera: &mut Camera) -> std::result::Res
         });
     }
     Ok(())
+}
+
+/// A "motion" of `PHOTON_camera` or `PHOTON_object`: two or more poses, each 16 numbers (a
+/// column-major world matrix, glTF axes), finite and invertible.
+fn read_poses(value: &Value) -> std::result::Result<Vec<Affine3A>, String> {
+    let poses = value
+        .as_array()
+        .filter(|p| p.len() >= 2)
+        .ok_or_else(|| format!("'motion' must be a list of two or more matrices, found {value}"))?;
+    poses
+        .iter()
+        .map(|pose| {
+            let numbers: Vec<f32> = pose
+                .as_array()
+                .map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_f64().map(|x| x as f32))
+                        .collect()
+                })
+                .unwrap_or_default();
+            let bad = || format!("a 'motion' pose must be 16 finite numbers, found {pose}");
+            let array: [f32; 16] = numbers.try_into().map_err(|_| bad())?;
+            let matrix = Mat4::from_cols_array(&array);
+            if !matrix.is_finite() || matrix.determinant().abs() < 1e-12 {
+                return Err(bad());
+            }
+            Ok(Affine3A::from_mat4(matrix))
+        })
+        .collect()
+}
+
+/// Whether `node` moves while the shutter is open (`PHOTON_object` "motion").
+fn moves(node: &gltf::Node) -> bool {
+    node.extension_value("PHOTON_object")
+        .is_some_and(|v| v.get("motion").is_some())
 }
 
 /// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.
@@ -2160,6 +2386,7 @@ fn framing_camera(bounds: Bounds) -> Camera {
         aspect_ratio: None,
         shift: Vec2::ZERO,
         lens: None,
+        motion: Vec::new(),
     }
 }
 

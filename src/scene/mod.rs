@@ -11,6 +11,7 @@ pub mod builtin;
 pub mod gltf;
 pub mod load;
 pub mod nodes;
+pub mod sky;
 pub mod texture;
 pub mod units;
 
@@ -83,6 +84,10 @@ pub struct Instance {
     pub to_object: Affine3A,
     /// Object-space normals → world space (inverse transpose of the linear part).
     pub normal_matrix: Mat3,
+    /// Object space → world space at evenly spaced moments from the shutter's opening to its
+    /// closing (Blender's motion blur; our `PHOTON_object` "motion"); empty: still at
+    /// `to_world`.
+    pub motion: Vec<Affine3A>,
 }
 
 impl Instance {
@@ -94,6 +99,36 @@ impl Instance {
             to_world,
             to_object: to_world.inverse(),
             normal_matrix: linear.inverse().transpose(),
+            motion: Vec::new(),
+        }
+    }
+
+    /// Object space → world space at `time` ∈ [0, 1] of the shutter.
+    pub fn to_world_at(&self, time: f32) -> Affine3A {
+        if self.motion.is_empty() {
+            self.to_world
+        } else {
+            crate::math::interpolate_transform(&self.motion, time)
+        }
+    }
+
+    /// World space → object space at `time`.
+    pub fn to_object_at(&self, time: f32) -> Affine3A {
+        if self.motion.is_empty() {
+            self.to_object
+        } else {
+            self.to_world_at(time).inverse()
+        }
+    }
+
+    /// Object-space normals → world space at `time`.
+    pub fn normal_matrix_at(&self, time: f32) -> Mat3 {
+        if self.motion.is_empty() {
+            self.normal_matrix
+        } else {
+            Mat3::from(self.to_world_at(time).matrix3)
+                .inverse()
+                .transpose()
         }
     }
 }
@@ -330,6 +365,10 @@ pub struct Camera {
     pub shift: Vec2,
     /// Depth of field; `None` is a pinhole.
     pub lens: Option<ThinLens>,
+    /// Camera space to world space (rigid) at evenly spaced moments from the shutter's opening
+    /// to its closing (Blender's motion blur; our `PHOTON_camera` "motion"); empty: the camera
+    /// stays at `to_world`.
+    pub motion: Vec<Affine3A>,
 }
 
 /// A thin lens (Blender's depth of field as Cycles renders it).
@@ -348,30 +387,42 @@ pub struct ThinLens {
 }
 
 /// What rays that leave the scene see.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct World {
-    /// Constant background radiance (Blender world colour × strength); unused when
-    /// `environment` is set.
-    pub color: Vec3,
-    /// An equirectangular environment image (Blender's Environment Texture).
-    pub environment: Option<Environment>,
-}
-
-impl Default for World {
-    fn default() -> Self {
-        World {
-            color: Vec3::ZERO,
-            environment: None,
-        }
-    }
+    /// What lights the scene, and what every ray that escapes sees unless `camera_background`
+    /// says otherwise.
+    pub background: Background,
+    /// What camera rays that escape see instead (Blender's Light Path "Is Camera Ray" choosing
+    /// between two backgrounds); `None`: the same as every other ray.
+    pub camera_background: Option<Background>,
 }
 
 impl World {
     /// The background emits light (a non-black colour or an environment image).
     pub fn emits(&self) -> bool {
-        match &self.environment {
+        match &self.background.environment {
             Some(env) => env.pixels.iter().any(|p| p.max_element() > 0.0),
-            None => self.color.max_element() > 0.0,
+            None => self.background.color.max_element() > 0.0,
+        }
+    }
+}
+
+/// A background: a constant radiance, or an environment map that replaces it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Background {
+    /// Constant radiance (Blender world colour × strength); unused when `environment` is set.
+    pub color: Vec3,
+    /// An equirectangular environment image (Blender's Environment Texture, or a sky baked
+    /// into one).
+    pub environment: Option<Environment>,
+}
+
+impl Background {
+    /// Radiance arriving from scene direction `dir`.
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        match &self.environment {
+            Some(env) => env.radiance(dir),
+            None => self.color,
         }
     }
 }
@@ -391,6 +442,94 @@ pub struct Environment {
     pub to_map: Mat3,
     /// Nearest-pixel lookups (Blender's "Closest") instead of bilinear ("Linear").
     pub closest: bool,
+}
+
+impl Environment {
+    /// Rotation from glTF's Y-up frame to Blender's Z-up frame: Blender (x, y, z) = glTF
+    /// (x, −z, y).
+    pub const Y_UP_TO_Z_UP: Mat3 = Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
+
+    /// A `width` × `height` map whose pixels are `radiance` (a function of the unit direction in
+    /// the map's Blender frame) averaged over `samples` × `samples` directions spread over each
+    /// pixel, so that what the map integrates to is kept. Rows are filled in parallel.
+    pub fn bake(
+        width: u32,
+        height: u32,
+        to_map: Mat3,
+        samples: u32,
+        radiance: impl Fn(Vec3) -> Vec3 + Sync,
+    ) -> Environment {
+        use rayon::prelude::*;
+        let (w, h, n) = (width as usize, height as usize, samples.max(1));
+        let mut pixels = vec![Vec3::ZERO; w * h];
+        pixels.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, pixel) in row.iter_mut().enumerate() {
+                let mut sum = Vec3::ZERO;
+                let mut weight = 0.0;
+                for i in 0..n {
+                    for j in 0..n {
+                        let u = (x as f32 + (i as f32 + 0.5) / n as f32) / w as f32;
+                        let t = (y as f32 + (j as f32 + 0.5) / n as f32) / h as f32;
+                        let (theta, phi) = (
+                            std::f32::consts::PI * t,
+                            std::f32::consts::PI * (1.0 - 2.0 * u),
+                        );
+                        // Weighted by sin θ, each sample's share of the pixel's solid angle.
+                        let sin_theta = theta.sin();
+                        let d =
+                            Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), theta.cos());
+                        sum += radiance(d) * sin_theta;
+                        weight += sin_theta;
+                    }
+                }
+                // Samples lie inside the pixel, never on a pole: the weight is positive.
+                *pixel = sum / weight;
+            }
+        });
+        Environment {
+            width,
+            height,
+            pixels: pixels.into(),
+            to_map,
+            closest: false,
+        }
+    }
+
+    /// Image coordinates (u across, t down from the top, both in [0, 1]) of a scene direction,
+    /// and sin θ (from x and y, which stay accurate near the poles).
+    pub fn to_image(&self, dir: Vec3) -> (Vec2, f32) {
+        let d = (self.to_map * dir).normalize_or_zero();
+        let sin_theta = d.x.hypot(d.y);
+        let u = 0.5 - d.y.atan2(d.x) / (2.0 * std::f32::consts::PI);
+        let u = (u - u.floor()).min(1.0 - f32::EPSILON);
+        (
+            Vec2::new(u, sin_theta.atan2(d.z) / std::f32::consts::PI),
+            sin_theta,
+        )
+    }
+
+    /// Radiance arriving from scene direction `dir` (towards the environment).
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        let (p, _) = self.to_image(dir);
+        let (w, h) = (self.width as usize, self.height as usize);
+        let px = &self.pixels;
+        if self.closest {
+            let x = ((p.x * w as f32) as usize).min(w - 1);
+            let y = ((p.y * h as f32) as usize).min(h - 1);
+            return px[y * w + x];
+        }
+        // Bilinear between pixel centres, wrapping around in u and clamped at the poles.
+        let fx = p.x * w as f32 - 0.5;
+        let fy = (p.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (ax, ay) = (fx - x0, fy - y0);
+        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let x1 = (x0 + 1) % w;
+        let y0 = y0 as usize;
+        let y1 = (y0 + 1).min(h - 1);
+        let row = |y: usize| px[y * w + x0] * (1.0 - ax) + px[y * w + x1] * ax;
+        row(y0) * (1.0 - ay) + row(y1) * ay
+    }
 }
 
 /// Render settings a scene file may carry (our `PHOTON_render` extension); the command line wins.
@@ -436,22 +575,44 @@ impl Mesh {
 }
 
 /// World bounds of `instance` from its prototype's object-space `local` bounds (the eight
-/// corners transformed).
+/// corners transformed); for a moving instance, of every place it takes while the shutter is
+/// open (sampled finely between its poses, then widened by the largest step between samples).
 pub fn instance_bounds(instance: &Instance, local: Bounds) -> Bounds {
     let mut b = Bounds::EMPTY;
     if local.is_empty() {
         return b;
     }
-    for corner in 0..8 {
-        let pick = |bit: usize, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
-        let p = Vec3::new(
-            pick(0, local.min.x, local.max.x),
-            pick(1, local.min.y, local.max.y),
-            pick(2, local.min.z, local.max.z),
-        );
-        b.grow(instance.to_world.transform_point3(p));
+    let corners = |to_world: Affine3A, b: &mut Bounds| {
+        for corner in 0..8 {
+            let pick = |bit: usize, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
+            let p = Vec3::new(
+                pick(0, local.min.x, local.max.x),
+                pick(1, local.min.y, local.max.y),
+                pick(2, local.min.z, local.max.z),
+            );
+            b.grow(to_world.transform_point3(p));
+        }
+    };
+    corners(instance.to_world, &mut b);
+    if instance.motion.is_empty() {
+        return b;
     }
-    b
+    const STEPS: usize = 64;
+    let mut step = 0.0f32;
+    let mut previous = instance.to_world_at(0.0);
+    for i in 0..=STEPS {
+        let pose = instance.to_world_at(i as f32 / STEPS as f32);
+        corners(pose, &mut b);
+        for corner in [local.min, local.max] {
+            let moved = pose.transform_point3(corner) - previous.transform_point3(corner);
+            step = step.max(moved.length());
+        }
+        previous = pose;
+    }
+    Bounds {
+        min: b.min - Vec3::splat(step),
+        max: b.max + Vec3::splat(step),
+    }
 }
 
 /// Axis-aligned bounds.
@@ -519,6 +680,11 @@ impl Scene {
                 .sum::<usize>()
     }
 
+    /// Whether some instance moves while the shutter is open (`Instance::motion`).
+    pub fn has_motion(&self) -> bool {
+        self.instances.iter().any(|i| !i.motion.is_empty())
+    }
+
     /// Triangles stored: world-space meshes and prototypes (each once).
     pub fn triangle_count(&self) -> usize {
         self.meshes
@@ -537,6 +703,7 @@ impl Scene {
             }
             if !instance.to_world.is_finite()
                 || !instance.to_object.is_finite()
+                || instance.motion.iter().any(|m| !m.is_finite())
                 || !instance.normal_matrix.is_finite()
             {
                 return Err(format!(
@@ -691,16 +858,26 @@ impl Scene {
                 return Err(format!("light {i}: a parameter is NaN or infinite"));
             }
         }
-        if !self.world.color.is_finite() {
-            return Err("world colour is NaN or infinite".into());
+        for background in
+            std::iter::once(&self.world.background).chain(self.world.camera_background.as_ref())
+        {
+            if !background.color.is_finite() {
+                return Err("world colour is NaN or infinite".into());
+            }
+            if let Some(env) = &background.environment {
+                if env.pixels.len() != env.width as usize * env.height as usize || env.width == 0 {
+                    return Err("environment image: pixel count does not match its size".into());
+                }
+                if !env.to_map.is_finite() || env.pixels.iter().any(|p| !p.is_finite()) {
+                    return Err("environment image: a value is NaN or infinite".into());
+                }
+            }
         }
-        if let Some(env) = &self.world.environment {
-            if env.pixels.len() != env.width as usize * env.height as usize || env.width == 0 {
-                return Err("environment image: pixel count does not match its size".into());
-            }
-            if !env.to_map.is_finite() || env.pixels.iter().any(|p| !p.is_finite()) {
-                return Err("environment image: a value is NaN or infinite".into());
-            }
+        if self.camera.motion.iter().any(|m| !m.is_finite()) {
+            return Err(format!(
+                "camera '{}': a motion pose is NaN or infinite",
+                self.camera.name
+            ));
         }
         if !self.camera.shift.is_finite() {
             return Err(format!(

@@ -248,3 +248,46 @@ def test_byte_srgb_environment_is_linearised(photon_addon, tmp_path):
     # Bytes store 0.5 as 128/255 and 0.2 as 51/255.
     assert r[0, 0] == pytest.approx(srgb(128 / 255), rel=1e-4) and r[0, 1] == pytest.approx(1.0)
     assert b[0, 1] == pytest.approx(srgb(51 / 255), rel=1e-4)
+
+
+@pytest.mark.skipif(bpy.app.version >= (5, 0, 0), reason="Blender 5 has no Nishita sky model")
+def test_background_route_carries_sky_hair_points_and_camera_motion(photon_addon, tmp_path):
+    """A Nishita sky, a moving camera with motion blur on, a Point Cloud, a Curves object and a
+    hair particle system: both export routes write the same file, with the sky's settings, the
+    camera's three shutter poses, one sphere mesh placed per point and the tube meshes; the
+    temporary modifiers, objects and node groups are gone afterwards."""
+    import test_motion_blur
+    import test_points_curves
+    import common
+    from blender_addon import export, runner
+    scene = test_motion_blur.sliding_camera_scene("CENTER")
+    tree = scene.world.node_tree
+    sky = tree.nodes.new("ShaderNodeTexSky")
+    sky.sun_elevation = math.radians(30.0)
+    tree.links.new(sky.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    material = common.principled("Fur", (0.5, 0.3, 0.2))
+    test_points_curves.point_cloud("Cloud", 12, material)
+    test_points_curves.hair("Strands", material, strands=10)
+    floor = bpy.data.objects["Floor"]
+    floor.modifiers.new("Grass", "PARTICLE_SYSTEM")
+    floor.particle_systems[0].settings.type = "HAIR"
+    floor.particle_systems[0].settings.count = 20
+    groups, objects = len(bpy.data.node_groups), len(bpy.data.objects)
+
+    inproc, child, snapshot = tmp_path / "a.glb", tmp_path / "b.glb", tmp_path / "snap.blend"
+    export.export_in_process(inproc, "blender_addon")
+    export.write_snapshot(scene, snapshot)
+    runner.run(export.child_command(snapshot, child), None, None, what="glTF export")
+    doc = read_glb_json(inproc)
+    assert doc == read_glb_json(child)
+    world = doc["scenes"][doc.get("scene", 0)]["extensions"]["PHOTON_world"]
+    assert world["sky"]["sun_elevation"] == pytest.approx(math.radians(30.0))
+    motion = nodes_by_name(doc)["Camera"]["extensions"]["PHOTON_camera"]["motion"]
+    assert len(motion) == 3 and motion[0] != motion[2]
+    meshes = [doc["meshes"][n["mesh"]]["name"] for n in doc["nodes"] if "mesh" in n]
+    spheres = [n for n in doc["nodes"] if n.get("name") == "GN Instance" and "scale" in n]
+    assert len(spheres) >= 12, meshes
+    assert len(meshes) >= 3 + 1 + 12 + 2, meshes  # floor, boxes, spheres, two tube meshes
+    assert (len(bpy.data.node_groups), len(bpy.data.objects)) == (groups, objects)
+    assert not any(m.name == "Photon points and curves" for o in bpy.data.objects
+                   for m in o.modifiers)

@@ -65,8 +65,8 @@ def test_zip_contents(tmp_path):
         names = set(z.namelist())
         manifest = tomllib.loads(z.read("blender_manifest.toml").decode())
         mode = z.getinfo("bin/photon").external_attr >> 16
-    assert {"__init__.py", "engine.py", "export.py", "node_tree.py", "preflight.py", "runner.py",
-            "properties.py", "ui.py", "bin/photon"} <= names
+    assert {"__init__.py", "engine.py", "export.py", "node_tree.py", "points_curves.py",
+            "preflight.py", "runner.py", "properties.py", "ui.py", "bin/photon"} <= names
     assert manifest["id"] == "photon_render"
     assert manifest["blender_version_min"] == "4.2.0"
     assert manifest["platforms"] == [build_zip.blender_platform()]

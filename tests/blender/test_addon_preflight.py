@@ -5,7 +5,7 @@ exporter's own warnings are reported too, and the final status line counts them;
 renders fully gives none. In background mode Blender prints reports ("Warning: ...") and the
 status line ("Fra:1 ... | Photon: ...") on stdout, which is what these tests read.
 
-The pre-flight rules not covered by the renders (Volume and Curves objects, lights, cameras)
+The pre-flight rules not covered by the renders (Volume objects, lights, cameras)
 are checked on `preflight.unsupported_features` directly.
 """
 
@@ -54,8 +54,8 @@ def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
 
 def add_unsupported_features(scene):
     """A Magic Texture (a node Photon does not evaluate yet: Noise, for one, it does) into the
-    cube's base colour, a second cube whose material has a volume shader, and a hair particle
-    system on the cube."""
+    cube's base colour, a second cube whose material has a volume shader, and a particle
+    system on the cube rendered as halos (hair particles are carried: points_curves.py)."""
     cube = bpy.data.objects["Cube"]
     tree = cube.active_material.node_tree
     noise = tree.nodes.new("ShaderNodeTexMagic")
@@ -74,8 +74,10 @@ def add_unsupported_features(scene):
     smoke.data.materials.clear()
     smoke.data.materials.append(fog)
 
-    cube.modifiers.new("Fur", "PARTICLE_SYSTEM")
-    cube.particle_systems[0].settings.type = "HAIR"
+    cube.modifiers.new("Sparks", "PARTICLE_SYSTEM")
+    cube.particle_systems[0].name = "Sparks"
+    cube.particle_systems[0].settings.type = "EMITTER"
+    cube.particle_systems[0].settings.render_type = "HALO"
     cube.particle_systems[0].settings.count = 50
 
 
@@ -93,7 +95,7 @@ def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, r
     expected = {
         "magic node": lambda w: "material 'Material'" in w and "Magic Texture node 'Clouds'" in w,
         "volume": lambda w: "material 'Fog'" in w and "volume shader" in w,
-        "hair": lambda w: "object 'Cube'" in w and "hair particle system 'Fur'" in w,
+        "halos": lambda w: "object 'Cube'" in w and "'Sparks' rendered as HALO" in w,
     }
     for feature, matches in expected.items():
         hits = [w for w in warnings if matches(w)]
@@ -120,9 +122,9 @@ def messages_for(scene):
 
 
 def test_other_rules(photon_addon):
-    """Volume and Curves objects, light settings and camera settings, one message each; the
-    default tree of a light with nodes, an Emission node's strength and an area light's
-    spread (all carried) give none."""
+    """Volume objects (Curves objects are carried), light settings and camera settings, one
+    message each; the default tree of a light with nodes, an Emission node's strength and an
+    area light's spread (all carried) give none."""
     bpy.ops.wm.read_factory_settings()
     scene = bpy.context.scene
     assert messages_for(scene) == []
@@ -139,6 +141,7 @@ def test_other_rules(photon_addon):
     area.spread = math.radians(30.0)  # carried (PHOTON_light spread): no message
     scene.collection.objects.link(bpy.data.objects.new("Narrow", area))
     scene.collection.objects.link(bpy.data.objects.new("Cloud", bpy.data.volumes.new("Cloud")))
+    # Carried as tubes (points_curves.py): no message.
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
     scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
     scene.camera.data.type = "PANO"
@@ -148,7 +151,7 @@ def test_other_rules(photon_addon):
 
     messages = messages_for(scene)
     expected = ("light 'Light': the Wavelength node",
-                "object 'Cloud': Volume objects", "object 'Fur': hair curves",
+                "object 'Cloud': Volume objects",
                 "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)

@@ -6,7 +6,9 @@ use photon::film::Image;
 use photon::math::{Affine3A, Vec2, Vec3};
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{render, RenderSettings, RenderStats};
-use photon::scene::{Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World};
+use photon::scene::{
+    Background, Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World,
+};
 use std::sync::atomic::AtomicBool;
 
 /// Run `f` with a progress sink that is never cancelled and reports nothing.
@@ -117,6 +119,7 @@ pub fn camera_looking_at(eye: Vec3, target: Vec3, projection: Projection) -> Cam
         aspect_ratio: None,
         shift: Vec2::ZERO,
         lens: None,
+        motion: Vec::new(),
     }
 }
 
@@ -136,8 +139,11 @@ pub fn scene(
         lights,
         camera,
         world: World {
-            color: world,
-            environment: None,
+            background: Background {
+                color: world,
+                environment: None,
+            },
+            camera_background: None,
         },
         render_settings: SceneRenderSettings::default(),
         warnings: Vec::new(),

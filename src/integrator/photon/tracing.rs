@@ -21,7 +21,7 @@
 //! spheres (`Targets`) and divides the power by that density instead. On glass_caustic this
 //! stores 441 677 of 500 000 emitted caustic photons instead of 25 600.
 
-use crate::accel::{Ray, Visibility};
+use crate::accel::{Ray, Visibility, FRAME_TIME};
 use crate::error::{Error, Result};
 use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::shading::{transmittance, Shading};
@@ -61,6 +61,8 @@ pub struct Emitters {
     radius: f32,
     /// Where caustic photons are aimed; `None` when no mesh is specular.
     targets: Option<Targets>,
+    /// Some instance moves while the shutter is open: each photon takes a moment within it.
+    motion: bool,
 }
 
 /// RGB flux of a light (for textured emitters, of the emission factor).
@@ -101,6 +103,7 @@ impl Emitters {
             center,
             radius,
             targets: Targets::new(ctx),
+            motion: ctx.scene.has_motion(),
         }
     }
 
@@ -125,10 +128,17 @@ impl Emitters {
         let aim = if aimed { self.targets.as_ref() } else { None };
         let (index, pmf) = self.select.sample(rng.uniform())?;
         let (u1, u2) = (rng.uniform2(), rng.uniform2());
+        // A moment only with motion: still scenes keep their photon streams.
+        let time = if self.motion {
+            rng.uniform()
+        } else {
+            FRAME_TIME
+        };
         let ray = |origin, direction| Ray {
             origin,
             direction,
             t_max: f32::INFINITY,
+            time,
         };
         let (r, power) = match ctx.lights.sources[index] {
             LightSource::Triangle {

@@ -1,0 +1,240 @@
+"""Point clouds and hair curves as meshes the glTF exporter writes, for the time of an export.
+
+Cycles renders a point cloud's points as spheres of their radius and a Curves object's curves
+(hair) as round tubes of their radius; the glTF exporter writes neither. Within
+`as_meshes(scene)` each rendered Point Cloud and Curves object carries one more Geometry Nodes
+modifier (removed afterwards) that turns its points into instances of one sphere mesh, scaled
+by each point's radius, and its curves into a tube mesh swept along them (a circle profile
+scaled by the curve's radius), both with the first material of the object's evaluated
+geometry. The exporter writes
+instances as nodes sharing one mesh (its depsgraph-instance export), so the renderer stores the
+sphere once and places it per point (its two-level BVH). Hair particle systems are first
+turned into such Curves objects (`hair_particles_as_curves`, Cycles' strand radius).
+
+The sphere and the tube are polygons inscribed in the true shapes; both are enlarged so that
+their mean projected size is the true one: a convex body's mean projected area is a quarter of
+its surface area (Cauchy), and a regular n-gon's mean width is its perimeter over π.
+
+This file runs inside the add-on and as the export child's script: it imports only bpy and the
+standard library.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+
+import bpy
+
+# Name of the Geometry Nodes group added for an export.
+GROUP_NAME = "Photon points and curves"
+# Object types whose geometry the group converts.
+CONVERTED_TYPES = ("POINTCLOUD", "CURVES")
+# Subdivisions of the icosphere standing for a point (5: 5120 triangles, stored once).
+SPHERE_SUBDIVISIONS = 5
+# Its scale: the icosphere of 5 subdivisions (an icosahedron's edges halved four times, the
+# vertices pushed onto the unit sphere) has 0.99881 of the sphere's surface area.
+SPHERE_SCALE = 1.0 / math.sqrt(0.99881)
+# Sides of a hair's tube.
+TUBE_SIDES = 8
+
+
+def tube_profile_radius(sides: int = TUBE_SIDES) -> float:
+    """Circumradius of a regular `sides`-gon whose mean width is that of the unit circle (2)."""
+    return math.pi / (sides * math.sin(math.pi / sides))
+
+
+def _build_group():
+    group = bpy.data.node_groups.new(GROUP_NAME, "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    material_socket = group.interface.new_socket("Material", in_out="INPUT",
+                                                 socket_type="NodeSocketMaterial")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = group.nodes, group.links
+    group_in, group_out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    parts = nodes.new("GeometryNodeSeparateComponents")
+    links.new(group_in.outputs["Geometry"], parts.inputs["Geometry"])
+    join = nodes.new("GeometryNodeJoinGeometry")
+
+    def finished(socket):
+        """`socket`'s mesh shaded smooth with the object's material."""
+        smooth = nodes.new("GeometryNodeSetShadeSmooth")
+        links.new(socket, smooth.inputs["Geometry"])
+        material = nodes.new("GeometryNodeSetMaterial")
+        links.new(smooth.outputs["Geometry"], material.inputs["Geometry"])
+        links.new(group_in.outputs["Material"], material.inputs["Material"])
+        return material.outputs["Geometry"]
+
+    # Points: one sphere, instanced on every point and scaled by its radius.
+    sphere = nodes.new("GeometryNodeMeshIcoSphere")
+    sphere.inputs["Subdivisions"].default_value = SPHERE_SUBDIVISIONS
+    sphere.inputs["Radius"].default_value = 1.0
+    scale = nodes.new("GeometryNodeTransform")
+    links.new(sphere.outputs["Mesh"], scale.inputs["Geometry"])
+    scale.inputs["Scale"].default_value = (SPHERE_SCALE,) * 3
+    on_points = nodes.new("GeometryNodeInstanceOnPoints")
+    links.new(parts.outputs["Point Cloud"], on_points.inputs["Points"])
+    links.new(finished(scale.outputs["Geometry"]), on_points.inputs["Instance"])
+    links.new(nodes.new("GeometryNodeInputRadius").outputs[0], on_points.inputs["Scale"])
+
+    # Curves: a tube swept along each, its profile scaled by the curve's radius.
+    profile = nodes.new("GeometryNodeCurvePrimitiveCircle")
+    profile.inputs["Resolution"].default_value = TUBE_SIDES
+    profile.inputs["Radius"].default_value = tube_profile_radius()
+    tube = nodes.new("GeometryNodeCurveToMesh")
+    links.new(parts.outputs["Curve"], tube.inputs["Curve"])
+    links.new(profile.outputs["Curve"], tube.inputs["Profile Curve"])
+    links.new(nodes.new("GeometryNodeInputRadius").outputs[0], tube.inputs["Scale"])
+    # As an instance: the exporter writes a Curves object's instances, not its own geometry.
+    tube_instance = nodes.new("GeometryNodeGeometryToInstance")
+    links.new(finished(tube.outputs["Mesh"]), tube_instance.inputs["Geometry"])
+
+    for socket in (parts.outputs["Mesh"], parts.outputs["Instances"],
+                   on_points.outputs["Instances"], tube_instance.outputs["Instances"]):
+        links.new(socket, join.inputs["Geometry"])
+    links.new(join.outputs["Geometry"], group_out.inputs["Geometry"])
+    return group, material_socket.identifier
+
+
+def _first_material(obj):
+    """The first material of `obj`'s evaluated geometry, which Cycles renders its points and
+    curves with (geometry made by Geometry Nodes has only the materials its nodes set; without
+    any Cycles uses its default surface, and so does the export: no material)."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    return next((m for m in getattr(evaluated.data, "materials", ()) if m is not None), None)
+
+
+@contextlib.contextmanager
+def as_meshes(scene):
+    """Within the block, the rendered Point Cloud and Curves objects of `scene` carry the
+    conversion modifier (see the module documentation), and every hair particle system shown
+    in renders has a Curves object of its strands (`hair_particles_as_curves`) that carries
+    it too; all of it is removed after."""
+    with hair_particles_as_curves(scene):
+        owners = [obj for obj in scene.objects
+                  if obj.type in CONVERTED_TYPES and not obj.hide_render]
+        # Read before the modifier changes the evaluated geometry.
+        materials = {obj.name: _first_material(obj) for obj in owners}
+        with node_modifier_added(owners, _build_group) as added:
+            for obj, modifier, material_input in added:
+                if materials[obj.name] is not None:
+                    modifier[material_input] = materials[obj.name]
+            if added:
+                bpy.context.view_layer.update()
+            yield
+
+
+def hair_radius(settings, fraction: float, last: bool) -> float:
+    """Radius of a particle hair at `fraction` of its length, as Cycles reads the particle
+    settings: half of Radius Scale × the root or tip diameter, between them by the strand
+    shape (negative: thinner sooner), zero at the tip with Close Tip."""
+    if last and settings.use_close_tip:
+        return 0.0
+    half = 0.5 * settings.radius_scale
+    root, tip = half * settings.root_radius, half * settings.tip_radius
+    t = 1.0 - fraction
+    shape = settings.shape
+    if shape < 0.0:
+        t = t ** (1.0 + shape)
+    elif shape > 0.0:
+        t = t ** (1.0 / (1.0 - shape))
+    return t * (root - tip) + tip
+
+
+@contextlib.contextmanager
+def hair_particles_as_curves(scene):
+    """Within the block, each hair particle system rendered as strands (Path) on a rendered mesh
+    object has a Curves object (world space, the system's material) holding its strands as Cycles
+    renders them: the children in their render amount (and the parents only without children
+    or with "Parents" on), 2^(render steps) segments, the radius of `hair_radius`. Read from
+    the viewport's particle paths with the display settings set to the render ones for the time
+    of the reading. An emitter whose only particles are such strands and that is not shown in
+    renders (Show Emitter off) is hidden from the export, as Cycles hides it."""
+    made, hidden = [], []
+    try:
+        for obj in [o for o in scene.objects if o.type == "MESH" and not o.hide_render]:
+            systems = [m.particle_system for m in obj.modifiers
+                       if m.type == "PARTICLE_SYSTEM" and m.show_render]
+            strands = [s for s in systems
+                       if s.settings.type == "HAIR" and s.settings.render_type == "PATH"]
+            made += [_strands(scene, obj, system) for system in strands]
+            if strands and len(strands) == len(systems) and not obj.show_instancer_for_render:
+                obj.hide_render = True
+                hidden.append(obj)
+        yield
+    finally:
+        for obj in hidden:
+            obj.hide_render = False
+        for curves_object in made:
+            data = curves_object.data
+            bpy.data.objects.remove(curves_object)
+            bpy.data.hair_curves.remove(data)
+
+
+def _strands(scene, obj, system):
+    settings = system.settings
+    shown = ("display_step", "display_percentage", "child_percent")
+    kept = {name: getattr(settings, name) for name in shown}
+    try:
+        settings.display_step = settings.render_step
+        settings.display_percentage = 100
+        settings.child_percent = settings.rendered_child_count
+        bpy.context.view_layer.update()
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        psys = evaluated.particle_systems[system.name]
+        keys = (1 << settings.render_step) + 1
+        parents, children = len(psys.particles), len(psys.child_particles)
+        # With children, the parents are rendered only when asked to ("Parents" in Render).
+        first = parents if children and not settings.use_parent_particles else 0
+        strands = [[tuple(psys.co_hair(object=evaluated, particle_no=i, step=k))
+                    for k in range(keys)] for i in range(first, parents + children)]
+    finally:
+        for name, value in kept.items():
+            setattr(settings, name, value)
+        bpy.context.view_layer.update()
+    curves = bpy.data.hair_curves.new(f"{obj.name} {system.name}")
+    curves.add_curves([keys] * len(strands))
+    positions, radii = [], []
+    for strand in strands:
+        lengths = [0.0]
+        for a, b in zip(strand, strand[1:]):
+            lengths.append(lengths[-1] + math.dist(a, b))
+        total = lengths[-1] or 1.0
+        for k, (point, length) in enumerate(zip(strand, lengths)):
+            positions.extend(point)
+            radii.append(hair_radius(settings, length / total, k == keys - 1))
+    curves.position_data.foreach_set("vector", positions)
+    curves.attributes.new("radius", "FLOAT", "POINT").data.foreach_set("value", radii)
+    slot = settings.material - 1
+    if 0 <= slot < len(obj.material_slots) and obj.material_slots[slot].material is not None:
+        curves.materials.append(obj.material_slots[slot].material)
+    curves_object = bpy.data.objects.new(curves.name, curves)
+    scene.collection.objects.link(curves_object)
+    return curves_object
+
+
+@contextlib.contextmanager
+def node_modifier_added(objects, build_group):
+    """Within the block each of `objects` (but linked ones) carries one more Geometry Nodes
+    modifier whose group `build_group()` makes (once, returning the group and the identifier
+    of its second input, or None); yields [(object, modifier, identifier)]. The modifiers and
+    the group are removed afterwards and the view layer updated."""
+    added, group = [], None
+    try:
+        if objects:
+            group, identifier = build_group()
+        for obj in objects:
+            try:
+                modifier = obj.modifiers.new(group.name, "NODES")
+            except (RuntimeError, TypeError):  # linked data
+                continue
+            modifier.node_group = group
+            added.append((obj, modifier, identifier))
+        yield added
+    finally:
+        for obj, modifier, _ in added:
+            obj.modifiers.remove(modifier)
+        if group is not None:
+            bpy.data.node_groups.remove(group)
+        if added:
+            bpy.context.view_layer.update()
