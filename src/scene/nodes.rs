@@ -11,8 +11,10 @@
 //!
 //! Texture and converter nodes follow Blender's definitions (the manual and Cycles' kernel:
 //! `svm_checker`, `svm_gradient`, `svm_math`, `svm_mix`, `noise_fbm` with Jenkins' lookup3 hash
-//! and Perlin's improved noise, `rgb_ramp_lookup` over the 256-entry table the add-on bakes with
-//! Blender's own `ColorRamp.evaluate`), written here from those definitions.
+//! and Perlin's improved noise, `svm_magic`, `svm_brick` with its integer noise, the White
+//! Noise's hashes of the coordinates' bits, Cycles' piecewise black-body fit,
+//! `rgb_ramp_lookup` over the 256-entry table the add-on bakes with Blender's own
+//! `ColorRamp.evaluate`), written here from those definitions.
 //!
 //! A Bump node's Height subtree is compiled three times: as is, and copies that read the
 //! shading point moved a small step along each surface tangent (`Instr::offset`), as Cycles'
@@ -221,6 +223,16 @@ enum Op {
     },
     Voronoi(VoronoiKind),
     Wave(WaveKind),
+    /// White Noise: 1 to 4 dimensions.
+    WhiteNoise {
+        dimensions: u8,
+    },
+    /// Magic: its turbulence depth.
+    Magic {
+        depth: u8,
+    },
+    Brick(BrickLayout),
+    Blackbody,
     HueSaturation,
     Gamma,
     BrightContrast,
@@ -277,6 +289,15 @@ struct WaveKind {
     /// Bands: X, Y, Z, diagonal; rings: X, Y, Z, spherical.
     direction: u8,
     profile: WaveProfile,
+}
+
+/// The Brick texture's settings (node properties, not sockets).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BrickLayout {
+    offset: f32,
+    offset_frequency: i32,
+    squash: f32,
+    squash_frequency: i32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -629,6 +650,37 @@ fn spec(op: &Op) -> Spec {
                 i("Phase Offset", Float, f(0.0)),
             ],
             vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::WhiteNoise { .. } => (
+            vec![i("Vector", Vector, Vec4::ZERO), i("W", Float, f(0.0))],
+            vec![("Value", Float), ("Color", Color)],
+        ),
+        Op::Magic { .. } => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Scale", Float, f(5.0)),
+                i("Distortion", Float, f(1.0)),
+            ],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::Brick(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Color1", Color, grey),
+                i("Color2", Color, Vec4::new(0.2, 0.2, 0.2, 1.0)),
+                i("Mortar", Color, Vec4::new(0.0, 0.0, 0.0, 1.0)),
+                i("Scale", Float, f(5.0)),
+                i("Mortar Size", Float, f(0.02)),
+                i("Mortar Smooth", Float, f(0.1)),
+                i("Bias", Float, f(0.0)),
+                i("Brick Width", Float, f(0.5)),
+                i("Row Height", Float, f(0.25)),
+            ],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::Blackbody => (
+            vec![i("Temperature", Float, f(1500.0))],
+            vec![("Color", Color)],
         ),
         Op::HueSaturation => (
             vec![
@@ -1033,6 +1085,31 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                 },
             })
         }
+        "TexWhiteNoise" => Op::WhiteNoise {
+            dimensions: match setting(node, "noise_dimensions").unwrap_or("3D") {
+                "1D" => 1,
+                "2D" => 2,
+                "3D" => 3,
+                "4D" => 4,
+                _ => return Err(bad("noise_dimensions")),
+            },
+        },
+        "TexMagic" => Op::Magic {
+            depth: node
+                .get("turbulence_depth")
+                .and_then(number)
+                .map_or(2, |d| d.clamp(0.0, 10.0) as u8),
+        },
+        "TexBrick" => {
+            let float = |key: &str, default: f32| node.get(key).and_then(number).unwrap_or(default);
+            Op::Brick(BrickLayout {
+                offset: float("offset", 0.5),
+                offset_frequency: float("offset_frequency", 2.0) as i32,
+                squash: float("squash", 1.0),
+                squash_frequency: float("squash_frequency", 2.0) as i32,
+            })
+        }
+        "Blackbody" => Op::Blackbody,
         "HueSaturation" => Op::HueSaturation,
         "Gamma" => Op::Gamma,
         "BrightContrast" => Op::BrightContrast,
@@ -1132,7 +1209,13 @@ pub fn compile(
         let inputs = node.get("inputs");
         let texture_vector = matches!(
             op,
-            Op::Checker | Op::Gradient(_) | Op::Noise { .. } | Op::Voronoi(_) | Op::Wave(_)
+            Op::Checker
+                | Op::Gradient(_)
+                | Op::Noise { .. }
+                | Op::Voronoi(_)
+                | Op::Wave(_)
+                | Op::Magic { .. }
+                | Op::Brick(_)
         );
         let mut ins = Vec::with_capacity(spec.inputs.len());
         let mut reads = Vec::new();
@@ -1641,6 +1724,30 @@ fn run(
             m.regs[o] = splat(fac);
             m.regs[o + 1] = splat(fac);
         }
+        Op::WhiteNoise { dimensions } => {
+            let (value, color) = white_noise(*dimensions, get(m, 0).truncate(), get(m, 1).x);
+            m.regs[o] = splat(value);
+            m.regs[o + 1] = v3(color);
+        }
+        Op::Magic { depth } => {
+            let c = magic(get(m, 0).truncate(), get(m, 1).x, *depth, get(m, 2).x);
+            m.regs[o] = v3(c);
+            m.regs[o + 1] = splat((c.x + c.y + c.z) / 3.0);
+        }
+        Op::Brick(layout) => {
+            let p = get(m, 0).truncate() * get(m, 4).x;
+            let [size, smooth, bias, width, height] = [5, 6, 7, 8, 9].map(|k| get(m, k).x);
+            let (tint, mortar) = brick(layout, p, [size, smooth, bias, width, height]);
+            let (c1, c2, mortar_color) = (get(m, 1), get(m, 2), get(m, 3));
+            let brick_color = if mortar != 1.0 {
+                c1.truncate().lerp(c2.truncate(), tint)
+            } else {
+                c1.truncate()
+            };
+            m.regs[o] = v3(brick_color.lerp(mortar_color.truncate(), mortar));
+            m.regs[o + 1] = splat(mortar);
+        }
+        Op::Blackbody => m.regs[o] = v3(blackbody(get(m, 0).x).max(Vec3::ZERO)),
         Op::HueSaturation => {
             let (hue, sat, val, fac) = (get(m, 0).x, get(m, 1).x, get(m, 2).x, get(m, 3).x);
             let input = get(m, 4);
@@ -2588,6 +2695,158 @@ fn vector_math(op: VectorOp, a: Vec3, b: Vec3, c: Vec3, scale: f32) -> (Vec3, f3
     }
 }
 
+/// `hash_floatN_to_float` and `hash_floatN_to_float3` of the White Noise texture: the value
+/// and colour of the hash of the point's (and W's) bits, 1D reading W only, 2D x and y.
+fn white_noise(dimensions: u8, p: Vec3, w: f32) -> (f32, Vec3) {
+    let (x, y, z, w) = (p.x.to_bits(), p.y.to_bits(), p.z.to_bits(), w.to_bits());
+    let (one, two) = (1f32.to_bits(), 2f32.to_bits());
+    let hashes = match dimensions {
+        1 => [hash1(w), hash2(w, one), hash2(w, two)],
+        2 => [hash2(x, y), hash3(x, y, one), hash3(x, y, two)],
+        3 => [hash3(x, y, z), hash4(x, y, z, one), hash4(x, y, z, two)],
+        _ => [hash4(x, y, z, w), hash4(z, x, w, y), hash4(w, z, y, x)],
+    };
+    let [a, b, c] = hashes.map(unit);
+    (a, Vec3::new(a, b, c))
+}
+
+/// Cycles' `svm_magic`: Blender's Magic texture, `depth` rounds of sines and cosines feeding
+/// each other, the coordinates first wrapped to one period (2π) to keep precision.
+fn magic(p: Vec3, scale: f32, depth: u8, distortion: f32) -> Vec3 {
+    let wrap = |v: f32| v % (2.0 * PI);
+    let (px, py, pz) = (wrap(p.x), wrap(p.y), wrap(p.z));
+    let mut x = ((px + py + pz) * 5.0 * scale).sin();
+    let mut y = ((-px + py - pz) * 5.0 * scale).cos();
+    let mut z = -((-px - py + pz) * 5.0 * scale).cos();
+    let d = distortion;
+    if depth > 0 {
+        x *= d;
+        y *= d;
+        z *= d;
+        y = -(x - y + z).cos() * d;
+        // Each further round rewrites one channel from the three.
+        for round in 2..=depth.min(10) {
+            match round {
+                2 => x = (x - y - z).cos() * d,
+                3 => z = (-x - y - z).sin() * d,
+                4 => x = -(-x + y - z).cos() * d,
+                5 => y = -(-x + y + z).sin() * d,
+                6 => y = -(-x + y + z).cos() * d,
+                7 => x = (x + y + z).cos() * d,
+                8 => z = (x + y - z).sin() * d,
+                9 => x = -(-x - y + z).cos() * d,
+                _ => y = -(x - y + z).sin() * d,
+            }
+        }
+    }
+    if d != 0.0 {
+        x /= 2.0 * d;
+        y /= 2.0 * d;
+        z /= 2.0 * d;
+    }
+    Vec3::new(0.5 - x, 0.5 - y, 0.5 - z)
+}
+
+/// The integer noise of Blender's Brick texture (a brick's tint), in [0, 1).
+fn brick_noise(n: u32) -> f32 {
+    let n = n.wrapping_add(1013) & 0x7fff_ffff;
+    let n = (n >> 13) ^ n;
+    let nn = n
+        .wrapping_mul(
+            n.wrapping_mul(n)
+                .wrapping_mul(60493)
+                .wrapping_add(19_990_303),
+        )
+        .wrapping_add(1_376_312_589)
+        & 0x7fff_ffff;
+    0.5 * (nn as f32 / 1_073_741_824.0)
+}
+
+/// Cycles' `svm_brick` on the scaled point: the brick's tint (bias added, in [0, 1]) and the
+/// mortar factor. `sizes` holds Mortar Size, Mortar Smooth, Bias, Brick Width, Row Height.
+/// Every `offset_frequency`-th row is shifted by `offset` bricks and every
+/// `squash_frequency`-th row's bricks are `squash` times as wide.
+fn brick(layout: &BrickLayout, p: Vec3, sizes: [f32; 5]) -> (f32, f32) {
+    let [mortar_size, mortar_smooth, bias, mut width, row_height] = sizes;
+    let row = (p.y / row_height).floor() as i32;
+    let mut offset = 0.0;
+    if layout.offset_frequency != 0 && layout.squash_frequency != 0 {
+        if row % layout.squash_frequency == 0 {
+            width *= layout.squash;
+        }
+        if row % layout.offset_frequency == 0 {
+            offset = width * layout.offset;
+        }
+    }
+    let column = ((p.x + offset) / width).floor() as i32;
+    let x = (p.x + offset) - width * column as f32;
+    let y = p.y - row_height * row as f32;
+    let id = (row.wrapping_shl(16)).wrapping_add(column & 0xffff) as u32;
+    let tint = (brick_noise(id) + bias).clamp(0.0, 1.0);
+    let edge = x.min(y).min((width - x).min(row_height - y));
+    let mortar = if edge >= mortar_size {
+        0.0
+    } else if mortar_smooth == 0.0 {
+        1.0
+    } else {
+        let t = ((1.0 - edge / mortar_size) / mortar_smooth).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    };
+    (tint, mortar)
+}
+
+/// Fits of the black-body colour in Rec.709 (Cycles' `blackbody_table_r/g/b`, fitted to
+/// Planck's law normalised to unit luminance), per temperature interval: R and G as
+/// a/T + b·T + c, B as ((a·T + b)·T + c)·T + d.
+const BLACKBODY_R: [[f32; 3]; 7] = [
+    [1.619191e3, -2.0501092e-3, 5.029958],
+    [2.4884546e3, -1.1133091e-3, 3.2262154],
+    [3.341432e3, -4.865512e-4, 1.7648677],
+    [4.0946174e3, -1.2744658e-4, 7.257316e-1],
+    [4.6702803e3, 2.912582e-5, 1.2670344e-1],
+    [4.595092e3, 2.8749564e-5, 1.5034503e-1],
+    [3.7871746e3, 9.359078e-6, 3.9907587e-1],
+];
+const BLACKBODY_G: [[f32; 3]; 7] = [
+    [-4.8899976e2, 6.0433074e-4, -7.558075e-2],
+    [-7.5599426e2, 3.167301e-4, 4.7830614e-1],
+    [-1.0236398e3, 1.2022347e-4, 9.366623e-1],
+    [-1.2657131e3, 4.873409e-6, 1.270545],
+    [-1.4252933e3, -4.0115043e-5, 1.4397278],
+    [-1.1755482e3, -2.1637805e-5, 1.3040802],
+    [-5.0079956e2, -4.59832e-6, 1.0909877],
+];
+const BLACKBODY_B: [[f32; 4]; 7] = [
+    [5.9694534e-11, -4.857429e-8, -9.706223e-5, -4.0793614e-3],
+    [2.4043037e-11, 5.5502106e-8, -1.9850371e-4, 2.8931286e-2],
+    [-1.40949735e-11, 1.8987897e-7, -3.5663284e-4, 9.107678e-2],
+    [-3.6146086e-11, 2.8482202e-7, -4.932113e-4, 1.5672344e-1],
+    [-1.9707574e-11, 1.7535935e-7, -2.5054283e-4, -2.2278327e-2],
+    [-1.6199795e-13, -1.64216e-8, 3.8621627e-4, -7.380774e-1],
+    [6.726503e-13, -2.730788e-8, 4.2409825e-4, -7.5233567e-1],
+];
+
+/// The Blackbody node's colour at `t` kelvin (Rec.709, unit luminance, may be negative
+/// outside the gamut): Cycles' piecewise fit over 800–12000 K, constant beyond.
+fn blackbody(t: f32) -> Vec3 {
+    if t >= 12000.0 {
+        return Vec3::new(0.826_295_5, 0.994_508, 1.566_307_7);
+    }
+    if t < 800.0 || t.is_nan() {
+        return Vec3::new(5.413_294_5, -0.203_193_9, -0.082_253_52);
+    }
+    let i = [965.0, 1167.0, 1449.0, 1902.0, 3315.0, 6365.0]
+        .iter()
+        .filter(|&&edge| t >= edge)
+        .count();
+    let (r, g, b) = (BLACKBODY_R[i], BLACKBODY_G[i], BLACKBODY_B[i]);
+    Vec3::new(
+        r[0] / t + r[1] * t + r[2],
+        g[0] / t + g[1] * t + g[2],
+        ((b[0] * t + b[1]) * t + b[2]) * t + b[3],
+    )
+}
+
 /// Cycles' `svm_wave` on the scaled point; `detail` holds Distortion, Detail, Detail Scale,
 /// Detail Roughness and Phase Offset.
 fn wave(kind: WaveKind, p: Vec3, detail: [f32; 5]) -> f32 {
@@ -2863,6 +3122,65 @@ mod tests {
     }
 
     #[test]
+    fn blackbody_matches_cycles_values() {
+        // Values of Cycles' fit at 6500 K and 3315 K, and its constants past both ends.
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 2e-4;
+        assert!(close(
+            blackbody(6500.0),
+            Vec3::new(1.042_552, 0.984_052_5, 1.035_271_5)
+        ));
+        assert!(close(
+            blackbody(3315.0),
+            Vec3::new(1.631_801, 0.877_736, 0.355_867)
+        ));
+        assert_eq!(blackbody(20000.0), blackbody(12000.0));
+        assert_eq!(blackbody(100.0).x, 5.413_294_5);
+        // Nearly continuous across the fit's intervals.
+        for edge in [965.0, 1167.0, 1449.0, 1902.0, 3315.0, 6365.0] {
+            let jump = (blackbody(edge - 0.01) - blackbody(edge))
+                .abs()
+                .max_element();
+            assert!(jump < 5e-3, "{edge}: {jump}");
+        }
+    }
+
+    #[test]
+    fn brick_tints_stay_in_range_and_mortar_lines_the_bricks() {
+        let layout = BrickLayout {
+            offset: 0.5,
+            offset_frequency: 2,
+            squash: 1.0,
+            squash_frequency: 2,
+        };
+        let sizes = [0.02, 0.0, 0.0, 0.5, 0.25];
+        let mut tints = Vec::new();
+        for i in 0..200 {
+            let p = Vec3::new(i as f32 * 0.37 - 30.0, i as f32 * 0.11 - 10.0, 0.0);
+            let (tint, _) = brick(&layout, p, sizes);
+            assert!((0.0..1.0).contains(&tint));
+            tints.push(tint);
+        }
+        assert!(tints.iter().any(|&t| t != tints[0]), "bricks differ");
+        // Inside a brick no mortar; on its edge (hard mortar) full mortar.
+        assert_eq!(brick(&layout, Vec3::new(0.25, 0.35, 0.0), sizes).1, 0.0);
+        assert_eq!(brick(&layout, Vec3::new(0.01, 0.35, 0.0), sizes).1, 1.0);
+        // Row 0 is shifted by half a brick: its x = 0.25 is an edge.
+        assert_eq!(brick(&layout, Vec3::new(0.25, 0.1, 0.0), sizes).1, 1.0);
+    }
+
+    #[test]
+    fn white_noise_colour_starts_with_its_value_and_magic_without_distortion_is_grey() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        for d in 1..=4 {
+            let (v, c) = white_noise(d, p, 0.5);
+            assert_eq!(v, c.x);
+            assert!((0.0..=1.0).contains(&v) && c.y != c.z);
+        }
+        assert_ne!(white_noise(3, p, 0.0).0, white_noise(2, p, 0.0).0);
+        assert_eq!(magic(p, 5.0, 4, 0.0), Vec3::splat(0.5));
+    }
+
+    #[test]
     fn checker_alternates_cells_as_cycles() {
         assert_eq!(checker(Vec3::new(0.5, 0.5, 0.5)), 0.0);
         assert_eq!(checker(Vec3::new(1.5, 0.5, 0.5)), 1.0);
@@ -3060,13 +3378,13 @@ mod tests {
     fn unknown_nodes_warn_and_fall_back() {
         let mut w = Vec::new();
         let tree = json!({"nodes": [
-            {"name": "Magic", "type": "ShaderNodeTexMagic"},
+            {"name": "Gabor", "type": "ShaderNodeTexGabor"},
             {"name": "E", "type": "ShaderNodeEmission", "inputs": {
                 "Color": {"node": 0, "output": "Color"}, "Strength": 1.0}}
         ], "output": {"node": 1, "output": "Emission"}});
         let p = compile(&tree, 0, &mut w).unwrap();
         assert_eq!(w.len(), 1);
-        assert!(w[0].contains("Magic"), "{w:?}");
+        assert!(w[0].contains("Gabor"), "{w:?}");
         // The Emission colour's default (white) is used.
         assert_eq!(
             p.eval(&[ShadingInputs::default(); 3], &[], 0.5).emission,

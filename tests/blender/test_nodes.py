@@ -13,7 +13,8 @@ Each scene is built with bpy and rendered by Cycles and by Photon through the ad
 
 Also: Voronoi with Hue/Saturation and an Overlay Mix, Wave rings into Bright/Contrast, an 8x8
 PNG through the Image Texture node, and Layer Weight, Fresnel and Reflection coordinates on a
-smooth sphere, wired into Emission (relMSE <= 1e-3).
+smooth sphere, wired into Emission (relMSE <= 1e-3); White Noise (1D to 4D) on floored
+coordinates, Magic, Brick and Blackbody, each wired into Emission (relMSE <= 1e-3).
 """
 
 import math
@@ -399,3 +400,76 @@ def test_rgb_curves_into_emission(tmp_path):
     tree.links.new(combine.outputs["Color"], curves.inputs["Color"])
     emission_matches("rgb curves emission", mat, tree, curves.outputs["Color"], tmp_path,
                      uv=True)
+
+
+@pytest.mark.parametrize("dimensions", ["1D", "2D", "3D", "4D"])
+def test_white_noise_on_cells_into_emission(tmp_path, dimensions):
+    """White Noise on floored Object coordinates (one hashed colour per cell, so the image
+    does not depend on where in a pixel the samples fall), W from the cell's x."""
+    mat, tree = node_material(f"White noise {dimensions}")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    scale = tree.nodes.new("ShaderNodeVectorMath")
+    scale.operation = "SCALE"
+    scale.inputs["Scale"].default_value = 3.0
+    floor = tree.nodes.new("ShaderNodeVectorMath")
+    floor.operation = "FLOOR"
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    noise = tree.nodes.new("ShaderNodeTexWhiteNoise")
+    noise.noise_dimensions = dimensions
+    tree.links.new(coords.outputs["Object"], scale.inputs[0])
+    tree.links.new(scale.outputs["Vector"], floor.inputs[0])
+    tree.links.new(floor.outputs["Vector"], separate.inputs["Vector"])
+    for socket in noise.inputs:  # only the enabled ones are found by name
+        source = floor.outputs["Vector"] if socket.type == "VECTOR" else separate.outputs["X"]
+        tree.links.new(source, socket)
+    emission_matches(f"white noise {dimensions} emission", mat, tree, noise.outputs["Color"],
+                     tmp_path)
+
+
+def test_magic_into_emission(tmp_path):
+    """The Magic texture on its default (Generated) coordinates, depth 5, distortion 2.5."""
+    mat, tree = node_material("Magic")
+    magic = tree.nodes.new("ShaderNodeTexMagic")
+    magic.turbulence_depth = 5
+    magic.inputs["Scale"].default_value = 1.5
+    magic.inputs["Distortion"].default_value = 2.5
+    emission_matches("magic emission", mat, tree, magic.outputs["Color"], tmp_path,
+                     photon_spp=1024, cycles_spp=1024)
+
+
+def test_brick_into_emission(tmp_path):
+    """The Brick texture on Object coordinates: offset rows, squashed rows, smooth mortar,
+    biased tints between two colours."""
+    mat, tree = node_material("Brick")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    brick = tree.nodes.new("ShaderNodeTexBrick")
+    brick.offset = 0.3
+    brick.offset_frequency = 2
+    brick.squash = 1.6
+    brick.squash_frequency = 3
+    brick.inputs["Color1"].default_value = (0.8, 0.3, 0.1, 1.0)
+    brick.inputs["Color2"].default_value = (0.3, 0.1, 0.05, 1.0)
+    brick.inputs["Mortar"].default_value = (0.7, 0.7, 0.65, 1.0)
+    brick.inputs["Scale"].default_value = 1.5
+    brick.inputs["Mortar Size"].default_value = 0.05
+    brick.inputs["Mortar Smooth"].default_value = 0.4
+    brick.inputs["Bias"].default_value = 0.1
+    tree.links.new(coords.outputs["Object"], brick.inputs["Vector"])
+    emission_matches("brick emission", mat, tree, brick.outputs["Color"], tmp_path)
+
+
+def test_blackbody_of_a_gradient_into_emission(tmp_path):
+    """Blackbody colours from 700 K to 13000 K along the plane (UV x mapped by Map Range),
+    past both ends of Cycles' fit."""
+    mat, tree = node_material("Blackbody")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    map_range.inputs["To Min"].default_value = 700.0
+    map_range.inputs["To Max"].default_value = 13000.0
+    blackbody = tree.nodes.new("ShaderNodeBlackbody")
+    tree.links.new(uv.outputs["UV"], separate.inputs["Vector"])
+    tree.links.new(separate.outputs["X"], map_range.inputs["Value"])
+    tree.links.new(map_range.outputs["Result"], blackbody.inputs["Temperature"])
+    emission_matches("blackbody emission", mat, tree, blackbody.outputs["Color"], tmp_path,
+                     strength=0.5, uv=True)
