@@ -57,6 +57,7 @@ SETTINGS = {
     "ShaderNodeBrightContrast": (),
     "ShaderNodeVectorMath": ("operation",),
     "ShaderNodeBump": ("invert",),
+    "ShaderNodeNormalMap": ("space",),
     "ShaderNodeFresnel": (),
     "ShaderNodeLayerWeight": (),
     "ShaderNodeBsdfPrincipled": (),
@@ -180,9 +181,25 @@ def _value(socket):
         return float(v)
 
 
+def _active_uv_maps(material) -> set[str]:
+    """The active UV maps of the meshes that use `material` (the glTF exporter computes their
+    tangents, TANGENT, on the active UV map)."""
+    import bpy
+    return {mesh.uv_layers.active.name for mesh in bpy.data.meshes
+            if mesh.uv_layers.active is not None
+            and any(m is not None and m.name == material.name for m in mesh.materials)}
+
+
+def uses_tangents(extension) -> bool:
+    """Whether a tree (`material_nodes`' extension) has a Normal Map node in tangent space."""
+    return any(n["type"] == "ShaderNodeNormalMap" and n.get("space", "TANGENT") == "TANGENT"
+               for n in extension["nodes"])
+
+
 class _Walker:
-    def __init__(self, material_name: str, folder=None):
-        self.what = f"material '{material_name}'"
+    def __init__(self, material, folder=None):
+        self.material = material
+        self.what = f"material '{material.name}'"
         self.folder = folder
         self.images: dict[str, str] = {}
         self.nodes: list[dict] = []
@@ -291,6 +308,12 @@ class _Walker:
                               for i in range(RAMP_TABLE_SIZE)]
         if kind == "ShaderNodeRGBCurve":
             entry.update(_baked_curves(node.mapping))
+        if kind == "ShaderNodeNormalMap" and node.space == "TANGENT" and node.uv_map:
+            others = {m for m in _active_uv_maps(self.material) if m != node.uv_map}
+            if others:
+                self.problems.append(f"{self.what}: Normal Map node '{name}' reads UV map "
+                                     f"'{node.uv_map}', but Photon has tangents only for the "
+                                     f"active UV map ('{sorted(others)[0]}')")
         if kind == "ShaderNodeMix" and getattr(node, "factor_mode", "UNIFORM") != "UNIFORM":
             self.problems.append(f"{self.what}: Mix node '{name}' with a non-uniform factor is "
                                  f"not evaluated by Photon")
@@ -343,7 +366,7 @@ def material_nodes(material, folder=None):
     output = _active_output(tree)
     if output is None:
         return None, []
-    walker = _Walker(material.name, folder)
+    walker = _Walker(material, folder)
     src = walker.source(output.inputs["Surface"], ())
     if src[0] != "link":
         return None, []

@@ -7,7 +7,7 @@
 //! scales with the coordinates involved, which the reintersection test checks from 1e-4 to 1e5.
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
-use crate::math::{gamma, Frame, Vec2, Vec3, Vec4};
+use crate::math::{gamma, Frame, Mat3, Vec2, Vec3, Vec4};
 use crate::scene::nodes::ShadingInputs;
 use crate::scene::{Mesh, Scene};
 
@@ -249,8 +249,12 @@ const BUMP_STEP: f32 = 1e-4;
 
 /// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
 fn blender_axes(v: Vec3) -> Vec3 {
-    Vec3::new(v.x, -v.z, v.y)
+    BLENDER_AXES * v
 }
+
+/// `blender_axes` as a matrix (its columns: the images of x, y, z).
+const BLENDER_AXES: Mat3 =
+    Mat3::from_cols(Vec3::X, Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, -1.0, 0.0));
 
 /// Where a shading point is seen from, for node trees.
 #[derive(Clone, Copy, Debug)]
@@ -277,16 +281,28 @@ pub fn node_inputs(
 ) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
     let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
-    let (object, generated, object_normal) = match &mesh.object_space {
+    let (object, generated, object_normal, object_to_world_normal) = match &mesh.object_space {
         Some(space) => {
             let o = space.to_object.transform_point3(stored);
             // Normals go to object space by the inverse transpose (the stored positions of
-            // meshes with node trees are world positions: they are never instanced).
-            let linear = crate::math::Mat3::from(space.to_object.matrix3);
+            // meshes with node trees are world positions: they are never instanced), and back
+            // by the transpose.
+            let linear = Mat3::from(space.to_object.matrix3);
             let on = (linear.inverse().transpose() * n).normalize_or(blender_axes(n));
-            (o, space.generated(o), on)
+            (o, space.generated(o), on, BLENDER_AXES * linear.transpose())
         }
-        None => (blender_axes(p), blender_axes(p), blender_axes(n)),
+        None => (
+            blender_axes(p),
+            blender_axes(p),
+            blender_axes(n),
+            Mat3::IDENTITY,
+        ),
+    };
+    let tangent = if mesh.tangents.is_empty() {
+        Vec4::ZERO
+    } else {
+        let t = interpolate(idx.map(|i| mesh.tangents[i as usize]), b1, b2);
+        blender_axes(t.truncate()).extend(if t.w < 0.0 { -1.0 } else { 1.0 })
     };
     let color = if mesh.colors.is_empty() {
         Vec4::ONE
@@ -303,5 +319,7 @@ pub fn node_inputs(
         object_normal,
         incoming: blender_axes(view.wo),
         backfacing: view.backfacing,
+        tangent,
+        object_to_world_normal,
     }
 }

@@ -1332,6 +1332,9 @@ impl Loader {
             } else {
                 out.emission = Vec3::ZERO;
             }
+            // The tree's own Normal Map nodes replace the glTF normal texture Blender's
+            // exporter writes for them.
+            out.normal_texture = None;
             out.nodes = Some(std::sync::Arc::new(program));
         }
         Ok(out)

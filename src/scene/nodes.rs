@@ -36,7 +36,7 @@
 //! only emits, the common case).
 
 use super::texture::Texture;
-use crate::math::{Vec2, Vec3, Vec4};
+use crate::math::{Mat3, Vec2, Vec3, Vec4};
 use serde_json::Value;
 use std::f32::consts::PI;
 
@@ -66,6 +66,23 @@ pub struct ShadingInputs {
     pub incoming: Vec3,
     /// Seen from behind the surface's winding (`normal` is then turned to the viewer).
     pub backfacing: bool,
+    /// The mesh's tangent for UV map 0 (world, Blender's axes, not normalised) with the
+    /// bitangent sign in `w` (Blender's: bitangent = w × normal × tangent); zero when the mesh
+    /// has none.
+    pub tangent: Vec4,
+    /// Object-space normals to world space (Blender's axes; not normalising).
+    pub object_to_world_normal: Mat3,
+}
+
+/// The Normal Map node's spaces (Blender's `space`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum NormalMapSpace {
+    Tangent,
+    Object,
+    World,
+    /// Blender's own object and world conventions: y and z negated.
+    BlenderObject,
+    BlenderWorld,
 }
 
 /// A shader node's result: Principled parameters and emission (see the module header).
@@ -240,6 +257,7 @@ enum Op {
     Bump {
         invert: bool,
     },
+    NormalMap(NormalMapSpace),
     Fresnel,
     LayerWeight,
     Principled,
@@ -731,6 +749,13 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("Normal", Vector)],
         ),
+        Op::NormalMap(_) => (
+            vec![
+                i("Strength", Float, f(1.0)),
+                i("Color", Color, Vec4::new(0.5, 0.5, 1.0, 1.0)),
+            ],
+            vec![("Normal", Vector)],
+        ),
         Op::Principled => (
             vec![
                 i("Base Color", Color, grey),
@@ -1145,6 +1170,14 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
         "Bump" => Op::Bump {
             invert: node.get("invert").and_then(Value::as_bool).unwrap_or(false),
         },
+        "NormalMap" => Op::NormalMap(match setting(node, "space").unwrap_or("TANGENT") {
+            "TANGENT" => NormalMapSpace::Tangent,
+            "OBJECT" => NormalMapSpace::Object,
+            "WORLD" => NormalMapSpace::World,
+            "BLENDER_OBJECT" => NormalMapSpace::BlenderObject,
+            "BLENDER_WORLD" => NormalMapSpace::BlenderWorld,
+            _ => return Err(bad("space")),
+        }),
         "BsdfPrincipled" => Op::Principled,
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
@@ -1832,6 +1865,9 @@ fn run(
             };
             m.regs[o] = v3(out);
         }
+        Op::NormalMap(space) => {
+            m.regs[o] = v3(normal_map(*space, get(m, 1).truncate(), get(m, 0).x, at));
+        }
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
             let tint = get(m, 6).truncate();
@@ -1947,6 +1983,46 @@ fn normal_input(given: Vec4, normal: Vec3) -> Vec3 {
         normal
     } else {
         g.normalize_or(normal)
+    }
+}
+
+/// Cycles' `svm_node_normal_map`: the colour (each channel 0.5 ↦ 0) as a normal in `space`,
+/// world space out, blended with the shading normal by `strength`. In tangent space the
+/// colour's x, y, z weigh the tangent, the bitangent and the interpolated normal, on the
+/// winding's side (turned to the viewer afterwards, as Cycles does).
+fn normal_map(space: NormalMapSpace, color: Vec3, strength: f32, at: &ShadingInputs) -> Vec3 {
+    let c = 2.0 * (color - Vec3::splat(0.5));
+    let n = match space {
+        NormalMapSpace::Tangent => {
+            if at.tangent == Vec4::ZERO {
+                return at.normal;
+            }
+            let winding = if at.backfacing { -at.normal } else { at.normal };
+            let tangent = at.tangent.truncate();
+            let bitangent = at.tangent.w * winding.cross(tangent);
+            let n = (c.x * tangent + c.y * bitangent + c.z * winding).normalize_or_zero();
+            if at.backfacing {
+                -n
+            } else {
+                n
+            }
+        }
+        NormalMapSpace::Object => (at.object_to_world_normal * c).normalize_or_zero(),
+        NormalMapSpace::BlenderObject => {
+            (at.object_to_world_normal * Vec3::new(c.x, -c.y, -c.z)).normalize_or_zero()
+        }
+        NormalMapSpace::World => c.normalize_or_zero(),
+        NormalMapSpace::BlenderWorld => Vec3::new(c.x, -c.y, -c.z).normalize_or_zero(),
+    };
+    let n = if strength != 1.0 {
+        (at.normal + (n - at.normal) * strength.max(0.0)).normalize_or_zero()
+    } else {
+        n
+    };
+    if n == Vec3::ZERO {
+        at.normal
+    } else {
+        n
     }
 }
 
@@ -3119,6 +3195,47 @@ mod tests {
         let mut w = Vec::new();
         let program = compile(&tree, 0, &mut w).expect("compiles");
         program.eval(&[*at; 3], &[], 0.5).emission
+    }
+
+    #[test]
+    fn normal_map_weighs_tangent_bitangent_and_normal() {
+        let at = ShadingInputs {
+            normal: Vec3::Z,
+            tangent: Vec4::new(0.0, 1.0, 0.0, -1.0),
+            ..ShadingInputs::default()
+        };
+        let flat = Vec3::new(0.5, 0.5, 1.0);
+        assert_eq!(normal_map(NormalMapSpace::Tangent, flat, 1.0, &at), Vec3::Z);
+        // Bitangent = sign × N × T = −(Z × Y) = +X.
+        let n = normal_map(NormalMapSpace::Tangent, Vec3::new(0.5, 1.0, 0.5), 1.0, &at);
+        assert!((n - Vec3::X).length() < 1e-6, "{n}");
+        let n = normal_map(NormalMapSpace::Tangent, Vec3::new(1.0, 0.5, 0.5), 1.0, &at);
+        assert!((n - Vec3::Y).length() < 1e-6, "{n}");
+        // Seen from behind, the map is applied on the winding's side and turned to the viewer.
+        let behind = ShadingInputs {
+            normal: -Vec3::Z,
+            backfacing: true,
+            ..at
+        };
+        let n = normal_map(
+            NormalMapSpace::Tangent,
+            Vec3::new(1.0, 0.5, 0.5),
+            1.0,
+            &behind,
+        );
+        assert!((n + Vec3::Y).length() < 1e-6, "{n}");
+        // Strength 0 keeps the shading normal; no tangents: the shading normal.
+        let n = normal_map(NormalMapSpace::World, Vec3::new(1.0, 0.5, 0.5), 0.0, &at);
+        assert!((n - Vec3::Z).length() < 1e-6);
+        let none = ShadingInputs {
+            tangent: Vec4::ZERO,
+            ..at
+        };
+        let tilted = Vec3::new(1.0, 0.5, 0.5);
+        assert_eq!(
+            normal_map(NormalMapSpace::Tangent, tilted, 1.0, &none),
+            Vec3::Z
+        );
     }
 
     #[test]

@@ -14,7 +14,8 @@ Each scene is built with bpy and rendered by Cycles and by Photon through the ad
 Also: Voronoi with Hue/Saturation and an Overlay Mix, Wave rings into Bright/Contrast, an 8x8
 PNG through the Image Texture node, and Layer Weight, Fresnel and Reflection coordinates on a
 smooth sphere, wired into Emission (relMSE <= 1e-3); White Noise (1D to 4D) on floored
-coordinates, Magic, Brick and Blackbody, each wired into Emission (relMSE <= 1e-3).
+coordinates, Magic, Brick and Blackbody, and the Normal Map node (tangent, object and
+Blender world spaces) as 0.5 N + 0.5, each wired into Emission (relMSE <= 1e-3).
 """
 
 import math
@@ -473,3 +474,35 @@ def test_blackbody_of_a_gradient_into_emission(tmp_path):
     tree.links.new(map_range.outputs["Result"], blackbody.inputs["Temperature"])
     emission_matches("blackbody emission", mat, tree, blackbody.outputs["Color"], tmp_path,
                      strength=0.5, uv=True)
+
+
+@pytest.mark.parametrize("space", ["TANGENT", "OBJECT", "BLENDER_WORLD"])
+def test_normal_map_into_emission(tmp_path, space):
+    """A Normal Map node's output, as 0.5 N + 0.5, on a tilted plane whose UV map is rotated
+    by 30 degrees (so its tangents follow no axis); the colour varies over the UV map and the
+    strength is 0.7 (blended with the surface normal, as Cycles does)."""
+    mat, tree = node_material(f"Normal map {space}")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Location"].default_value = (0.3, 0.3, 0.9)
+    mapping.inputs["Scale"].default_value = (0.4, 0.4, 0.0)
+    normal_map = tree.nodes.new("ShaderNodeNormalMap")
+    normal_map.space = space
+    normal_map.inputs["Strength"].default_value = 0.7
+    half = tree.nodes.new("ShaderNodeVectorMath")
+    half.operation = "MULTIPLY_ADD"
+    half.inputs[1].default_value = (0.5, 0.5, 0.5)
+    half.inputs[2].default_value = (0.5, 0.5, 0.5)
+    tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], normal_map.inputs["Color"])
+    tree.links.new(normal_map.outputs["Normal"], half.inputs[0])
+    emission_into_output(tree, half.outputs["Vector"])
+    scene, plane = plane_scene(mat)
+    layer = plane.data.uv_layers.new(name="UVMap")
+    turn = math.radians(30.0)
+    for loop, (u, v) in zip(plane.data.loops, [(0, 0), (1, 0), (1, 1), (0, 1)]):
+        layer.data[loop.index].uv = (u * math.cos(turn) - v * math.sin(turn),
+                                     u * math.sin(turn) + v * math.cos(turn))
+    plane.rotation_euler = (math.radians(20.0), math.radians(-10.0), math.radians(15.0))
+    compare(f"normal map {space.lower()} emission", scene, tmp_path, photon_spp=256,
+            cycles_spp=256, relmse_max=EMISSION_RELMSE_MAX)
