@@ -13,7 +13,11 @@
 - `problems` names every node (or node setting, or linked input) the renderer cannot evaluate.
   When there is one, `extension` is None: the material keeps the glTF path (Blender's exporter
   and its metallic-roughness values) and the pre-flight report names what is lost, so nothing
-  is dropped without a word. `extension` is also None for trees glTF carries exactly (a lone
+  is dropped without a word. What feeds the Material Output's Displacement is written as
+  `extension["displacement"]`, a tree of the same form whose output is the normal Cycles'
+  "Bump Only" method gives (a Bump node of distance 1 over the displacement's component along
+  the normal); other displacement methods are problems. `extension` is also None for trees
+  glTF carries exactly (a lone
   Principled BSDF with nothing linked into it), so such materials render as before.
 
 It needs no bpy import: it reads nodes through their attributes (and runs in the export child).
@@ -58,6 +62,7 @@ SETTINGS = {
     "ShaderNodeVectorMath": ("operation",),
     "ShaderNodeBump": ("invert",),
     "ShaderNodeNormalMap": ("space",),
+    "ShaderNodeDisplacement": ("space",),
     "ShaderNodeFresnel": (),
     "ShaderNodeLayerWeight": (),
     "ShaderNodeBsdfPrincipled": (),
@@ -372,9 +377,50 @@ def material_nodes(material, folder=None):
         return None, []
     _, node, out, groups = src
     index = walker.visit(node, groups)
-    if walker.problems or index is None:
+    displacement, problems = _displacement_as_bump(material, output, walker)
+    problems = walker.problems + problems
+    if problems or index is None:
         return None, [f"{p}; the material falls back to glTF's metallic-roughness values "
-                      f"(Blender's exporter)" for p in walker.problems]
-    if walker.trivial:
+                      f"(Blender's exporter)" for p in problems]
+    if walker.trivial and displacement is None:
         return None, []
-    return {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}, []
+    extension = {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}
+    if displacement is not None:
+        extension["displacement"] = displacement
+    return extension, []
+
+
+def _displacement_as_bump(material, output, surface):
+    """`(tree or None, problems)`: what feeds the Material Output's Displacement, as Cycles'
+    "Bump Only" method renders it: the displacement vector's component along the normal as
+    the height of a Bump node (distance 1), whose normal the surface then reads. The tree's
+    output is that normal. `surface` is the surface's walker (images are shared)."""
+    socket = output.inputs.get("Displacement")
+    if socket is None:
+        return None, []
+    walker = _Walker(material, surface.folder)
+    walker.images = surface.images
+    src = walker.source(socket, ())
+    if src[0] != "link":
+        return None, []
+    method = getattr(material, "displacement_method", "BUMP")
+    if method != "BUMP":
+        return None, [f"{walker.what}: displacement method {method} moves the surface; Photon "
+                      f"renders displacement as bump only"]
+    _, node, out, groups = src
+    index = walker.visit(node, groups)
+    if walker.problems or index is None:
+        return None, walker.problems
+    geometry = len(walker.nodes)
+    walker.nodes += [
+        {"name": "Displacement as bump/Geometry", "type": "ShaderNodeNewGeometry",
+         "inputs": {}},
+        {"name": "Displacement as bump/Height", "type": "ShaderNodeVectorMath",
+         "operation": "DOT_PRODUCT",
+         "inputs": {"Vector": {"node": index, "output": out.identifier},
+                    "Vector_001": {"node": geometry, "output": "Normal"}}},
+        {"name": "Displacement as bump/Bump", "type": "ShaderNodeBump", "invert": False,
+         "inputs": {"Strength": 1.0, "Distance": 1.0,
+                    "Height": {"node": geometry + 1, "output": "Value"}}},
+    ]
+    return {"nodes": walker.nodes, "output": {"node": geometry + 2, "output": "Normal"}}, []

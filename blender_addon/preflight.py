@@ -11,7 +11,8 @@ empty list, so the rules below only flag what really changes the image:
   it is then exported as PHOTON_material_nodes and nothing is dropped), and world nodes other
   than Background and Environment Texture;
 - volumes: a material's or the world's Volume output linked, and Volume objects;
-- displacement linked into a material output;
+- displacement linked into a material output (unless Photon evaluates the tree and its
+  displacement as bump: node_tree.py);
 - hair and points: hair particle systems, particles rendered as halos or paths, Curves (hair)
   and point cloud objects;
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
@@ -126,7 +127,8 @@ def material_features(material) -> list[str]:
         return []
     messages = []
     from .node_tree import material_nodes
-    evaluated = material_nodes(material)[0] is not None
+    extension = material_nodes(material)[0]
+    evaluated = extension is not None
     for node in [] if evaluated else _upstream(output.inputs["Surface"]):
         reason = _material_node_reason(node)
         if reason:
@@ -136,7 +138,8 @@ def material_features(material) -> list[str]:
         messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "
                         f"renders no volumes")
     displacement = output.inputs.get("Displacement")
-    if displacement is not None and displacement.is_linked:
+    if displacement is not None and displacement.is_linked and not (
+            evaluated and "displacement" in extension):
         messages.append(f"{what}: displacement ('{displacement.links[0].from_node.name}') is "
                         f"not exported")
     return messages

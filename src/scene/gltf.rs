@@ -75,7 +75,10 @@
 //!   node's own properties under Blender's names (`operation`, `blend_type`, `data_type`,
 //!   `gradient_type`, …; a Value or RGB node's `value`; a Color Ramp's `table` of 256 RGBA
 //!   entries sampled at i/255 and its `interpolation`). `output` is what feeds the active
-//!   Material Output's Surface (absent: black). When present the tree replaces the glTF values
+//!   Material Output's Surface (absent: black). `displacement`, when present, is a tree of the
+//!   same form whose `output` is a vector: the shading normal bumped by what feeds the Material
+//!   Output's Displacement (Cycles' "Bump Only"), which the surface tree then reads as its
+//!   normal. When present the tree replaces the glTF values
 //!   at every shading point (volume, subsurface and alpha mode still come from glTF and the
 //!   other extensions). A malformed tree is refused with an error; a node type Photon does not
 //!   evaluate gives a warning and what it feeds reads the input's default. Without `nodes`,

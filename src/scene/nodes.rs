@@ -258,6 +258,10 @@ enum Op {
         invert: bool,
     },
     NormalMap(NormalMapSpace),
+    /// The Displacement node: its height along the normal, in object or world space.
+    Displacement {
+        object_space: bool,
+    },
     Fresnel,
     LayerWeight,
     Principled,
@@ -443,6 +447,9 @@ pub struct NodeProgram {
     /// True when the program reads the points a step away (it has a Bump node): `eval` then
     /// needs all three `ShadingInputs`.
     pub needs_offsets: bool,
+    /// The Material Output's Displacement as Cycles' "bump only" method: a program whose
+    /// output is the bumped normal, which the surface tree then reads as the shading normal.
+    displacement: Option<Box<NodeProgram>>,
 }
 
 /// What `compile` found that it could not evaluate: `(node name, message)`. The program
@@ -748,6 +755,15 @@ fn spec(op: &Op) -> Spec {
                 i("Normal", Vector, Vec4::ZERO),
             ],
             vec![("Normal", Vector)],
+        ),
+        Op::Displacement { .. } => (
+            vec![
+                i("Height", Float, f(0.0)),
+                i("Midlevel", Float, f(0.5)),
+                i("Scale", Float, f(1.0)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("Displacement", Vector)],
         ),
         Op::NormalMap(_) => (
             vec![
@@ -1178,6 +1194,13 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             "BLENDER_WORLD" => NormalMapSpace::BlenderWorld,
             _ => return Err(bad("space")),
         }),
+        "Displacement" => Op::Displacement {
+            object_space: match setting(node, "space").unwrap_or("OBJECT") {
+                "OBJECT" => true,
+                "WORLD" => false,
+                _ => return Err(bad("space")),
+            },
+        },
         "BsdfPrincipled" => Op::Principled,
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
@@ -1195,10 +1218,30 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
 /// to a later node or a missing output, a value of the wrong kind) refuse the file; nodes the
 /// renderer cannot evaluate are replaced by their fallback with a warning in `warnings`.
 /// `textures` is the number of textures in the scene (Image Texture nodes name one of them).
+/// A `displacement` tree (same form, its `output` a vector: the bumped normal) is compiled
+/// alongside; the surface tree then reads its normal (`NodeProgram::eval`).
 pub fn compile(
     ext: &Value,
     textures: usize,
     warnings: &mut CompileWarnings,
+) -> Result<NodeProgram, String> {
+    let mut program = compile_tree(ext, textures, warnings, Ty::Shader)?;
+    if let Some(tree) = ext.get("displacement").filter(|d| !d.is_null()) {
+        let normal = compile_tree(tree, textures, warnings, Ty::Vector)
+            .map_err(|m| format!("displacement: {m}"))?;
+        program.needs_offsets |= normal.needs_offsets;
+        program.reads_color |= normal.reads_color;
+        program.displacement = Some(Box::new(normal));
+    }
+    Ok(program)
+}
+
+/// One tree whose `output` is of type `output_type` (a shader, or a vector).
+fn compile_tree(
+    ext: &Value,
+    textures: usize,
+    warnings: &mut CompileWarnings,
+    output_type: Ty,
 ) -> Result<NodeProgram, String> {
     let nodes = ext
         .get("nodes")
@@ -1433,14 +1476,29 @@ pub fn compile(
             match &placed[from] {
                 None => Src::Const(Vec4::ZERO),
                 Some((base, outs)) => match outs.iter().position(|(n, _)| *n == name) {
-                    Some(k) if outs[k].1 == Ty::Shader => Src::Closure(base + k as u16),
-                    _ => return Err(format!("'output' must be a shader output, found '{name}'")),
+                    Some(k) if outs[k].1 == output_type && output_type == Ty::Shader => {
+                        Src::Closure(base + k as u16)
+                    }
+                    Some(k) if outs[k].1 == output_type => Src::Reg(base + k as u16),
+                    _ => {
+                        return Err(format!(
+                            "'output' must be a {} output, found '{name}'",
+                            if output_type == Ty::Shader {
+                                "shader"
+                            } else {
+                                "vector"
+                            }
+                        ))
+                    }
                 },
             }
         }
     };
     // Which outputs are read: a texture skips the work of an output nobody reads.
     let mut read = vec![false; registers];
+    if let Src::Reg(r) = output {
+        read[r as usize] = true;
+    }
     for instr in &instrs {
         for s in &instr.ins {
             if let Src::Reg(r) | Src::Gray(r) | Src::Average(r) = *s {
@@ -1464,6 +1522,7 @@ pub fn compile(
         emits,
         reads_color,
         needs_offsets,
+        displacement: None,
     })
 }
 
@@ -1472,6 +1531,15 @@ pub fn compile(
 struct Machine {
     regs: [Vec4; MAX_REGISTERS],
     closures: [Closure; MAX_CLOSURES],
+}
+
+impl Machine {
+    fn new() -> Machine {
+        Machine {
+            regs: [Vec4::ZERO; MAX_REGISTERS],
+            closures: [Closure::BLACK; MAX_CLOSURES],
+        }
+    }
 }
 
 fn gray(c: Vec4) -> f32 {
@@ -1491,19 +1559,43 @@ impl NodeProgram {
     /// Shader nodes (module header).
     /// `at` holds the shading point and, when `needs_offsets`, the points a small step along
     /// its two tangents (else three copies of the point).
+    /// With a displacement tree, its bumped normal is the shading normal the surface tree
+    /// reads, and the normal of its BSDFs whose Normal input is unlinked (Cycles sets the
+    /// shading point's N before evaluating the surface).
     pub fn eval(&self, at: &[ShadingInputs; 3], textures: &[Texture], mut u: f32) -> Closure {
-        // The register file lives on the stack; only what the program uses is written or read.
-        let mut m = Machine {
-            regs: [Vec4::ZERO; MAX_REGISTERS],
-            closures: [Closure::BLACK; MAX_CLOSURES],
+        let Some(displacement) = &self.displacement else {
+            return self.eval_closure(at, textures, &mut u);
         };
+        let n = displacement.eval_vector(at, textures);
+        let bumped = at.map(|mut point| {
+            point.normal = n;
+            point
+        });
+        let mut c = self.eval_closure(&bumped, textures, &mut u);
+        if c.normal == Vec3::ZERO {
+            c.normal = n;
+        }
+        c
+    }
+
+    fn eval_closure(&self, at: &[ShadingInputs; 3], textures: &[Texture], u: &mut f32) -> Closure {
+        // The register file lives on the stack; only what the program uses is written or read.
+        let mut m = Machine::new();
         for instr in &self.instrs {
-            run(instr, at, textures, &mut m, &mut u);
+            run(instr, at, textures, &mut m, u);
         }
-        match self.output {
-            Src::Closure(c) => m.closures[c as usize],
-            _ => Closure::BLACK,
+        closure(&m, self.output)
+    }
+
+    /// A vector-output program's value (the displacement tree's normal, unit).
+    fn eval_vector(&self, at: &[ShadingInputs; 3], textures: &[Texture]) -> Vec3 {
+        let mut m = Machine::new();
+        for instr in &self.instrs {
+            run(instr, at, textures, &mut m, &mut 0.5);
         }
+        load(&m, &at[0], self.output)
+            .truncate()
+            .normalize_or(at[0].normal)
     }
 
     /// Number of instructions (for tests and `photon info`).
@@ -1864,6 +1956,19 @@ fn run(
                 (strength * out + (1.0 - strength) * n).normalize_or(n)
             };
             m.regs[o] = v3(out);
+        }
+        Op::Displacement { object_space } => {
+            let n = normal_input(get(m, 3), at.normal);
+            let height = (get(m, 0).x - get(m, 1).x) * get(m, 2).x;
+            let direction = if *object_space {
+                // Cycles: the normal to object space (normalised), scaled, and back as a
+                // direction, so the object's scale scales the displacement.
+                let to_object = at.object_to_world_normal.inverse();
+                to_object.transpose() * (to_object * n).normalize_or_zero()
+            } else {
+                n
+            };
+            m.regs[o] = v3(direction * height);
         }
         Op::NormalMap(space) => {
             m.regs[o] = v3(normal_map(*space, get(m, 1).truncate(), get(m, 0).x, at));
@@ -3195,6 +3300,46 @@ mod tests {
         let mut w = Vec::new();
         let program = compile(&tree, 0, &mut w).expect("compiles");
         program.eval(&[*at; 3], &[], 0.5).emission
+    }
+
+    #[test]
+    fn displacement_bumps_the_normal_the_surface_reads() {
+        // Height = x along the normal, as the add-on writes "Bump Only": the normal tilts to
+        // (−1, 0, 1)/√2, and the surface's Geometry Normal (into Emission) reads it.
+        let displacement = json!({"nodes": [
+            {"name": "G", "type": "ShaderNodeNewGeometry"},
+            {"name": "X", "type": "ShaderNodeSeparateXYZ",
+             "inputs": {"Vector": {"node": 0, "output": "Position"}}},
+            {"name": "D", "type": "ShaderNodeDisplacement", "space": "WORLD",
+             "inputs": {"Height": {"node": 1, "output": "X"}, "Midlevel": 0.0, "Scale": 1.0}},
+            {"name": "N", "type": "ShaderNodeNewGeometry"},
+            {"name": "H", "type": "ShaderNodeVectorMath", "operation": "DOT_PRODUCT",
+             "inputs": {"Vector": {"node": 2, "output": "Displacement"},
+                        "Vector_001": {"node": 3, "output": "Normal"}}},
+            {"name": "B", "type": "ShaderNodeBump", "inputs": {
+                "Strength": 1.0, "Distance": 1.0, "Height": {"node": 4, "output": "Value"}}}
+        ], "output": {"node": 5, "output": "Normal"}});
+        let tree = json!({"nodes": [
+            {"name": "G", "type": "ShaderNodeNewGeometry"},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": "Normal"}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}, "displacement": displacement});
+        let mut w = Vec::new();
+        let program = compile(&tree, 0, &mut w).expect("compiles");
+        assert!(w.is_empty() && program.needs_offsets, "{w:?}");
+        let here = ShadingInputs {
+            normal: Vec3::Z,
+            ..ShadingInputs::default()
+        };
+        let step = |d: Vec3| ShadingInputs {
+            position: d,
+            ..here
+        };
+        let at = [here, step(Vec3::X * 1e-3), step(Vec3::Y * 1e-3)];
+        let c = program.eval(&at, &[], 0.5);
+        let expected = Vec3::new(-1.0, 0.0, 1.0).normalize();
+        assert!((c.emission - expected).length() < 1e-3, "{}", c.emission);
+        assert!((c.normal - expected).length() < 1e-3, "{}", c.normal);
     }
 
     #[test]

@@ -15,7 +15,9 @@ Also: Voronoi with Hue/Saturation and an Overlay Mix, Wave rings into Bright/Con
 PNG through the Image Texture node, and Layer Weight, Fresnel and Reflection coordinates on a
 smooth sphere, wired into Emission (relMSE <= 1e-3); White Noise (1D to 4D) on floored
 coordinates, Magic, Brick and Blackbody, and the Normal Map node (tangent, object and
-Blender world spaces) as 0.5 N + 0.5, each wired into Emission (relMSE <= 1e-3).
+Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Displacement
+(object and world space, as bump) seen through Geometry Normal, each wired into Emission
+(relMSE <= 1e-3).
 """
 
 import math
@@ -505,4 +507,34 @@ def test_normal_map_into_emission(tmp_path, space):
                                      u * math.sin(turn) + v * math.cos(turn))
     plane.rotation_euler = (math.radians(20.0), math.radians(-10.0), math.radians(15.0))
     compare(f"normal map {space.lower()} emission", scene, tmp_path, photon_spp=256,
+            cycles_spp=256, relmse_max=EMISSION_RELMSE_MAX)
+
+
+@pytest.mark.parametrize("space", ["OBJECT", "WORLD"])
+def test_displacement_as_bump_into_emission(tmp_path, space):
+    """A Noise texture into the Material Output's Displacement (Displacement node, Bump Only:
+    Blender's default method), on a tilted and scaled plane, seen through the surface's
+    Geometry Normal as 0.5 N + 0.5 in an Emission shader: the surface tree reads the bumped
+    normal, as in Cycles."""
+    mat, tree = node_material(f"Displaced {space}")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 2.0
+    noise.inputs["Detail"].default_value = 0.0
+    displacement = tree.nodes.new("ShaderNodeDisplacement")
+    displacement.space = space
+    displacement.inputs["Scale"].default_value = 0.15
+    geometry = tree.nodes.new("ShaderNodeNewGeometry")
+    half = tree.nodes.new("ShaderNodeVectorMath")
+    half.operation = "MULTIPLY_ADD"
+    half.inputs[1].default_value = (0.5, 0.5, 0.5)
+    half.inputs[2].default_value = (0.5, 0.5, 0.5)
+    tree.links.new(noise.outputs["Fac"], displacement.inputs["Height"])
+    tree.links.new(displacement.outputs["Displacement"],
+                   tree.nodes["Material Output"].inputs["Displacement"])
+    tree.links.new(geometry.outputs["Normal"], half.inputs[0])
+    emission_into_output(tree, half.outputs["Vector"])
+    scene, plane = plane_scene(mat)
+    plane.rotation_euler = (math.radians(20.0), math.radians(-10.0), 0.0)
+    plane.scale = (1.0, 1.0, 2.0)
+    compare(f"displacement {space.lower()} emission", scene, tmp_path, photon_spp=256,
             cycles_spp=256, relmse_max=EMISSION_RELMSE_MAX)
