@@ -32,6 +32,7 @@ SETTINGS = {
     "ShaderNodeVertexColor": (),
     "ShaderNodeAttribute": (),
     "ShaderNodeNewGeometry": (),
+    "ShaderNodeLightPath": (),
     "ShaderNodeValue": (),
     "ShaderNodeRGB": (),
     "ShaderNodeMapping": ("vector_type",),
@@ -96,6 +97,8 @@ READ_OUTPUTS = {
     "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
+    # What every integrator can tell (photon tracing and gathering have no camera-path depth).
+    "ShaderNodeLightPath": {"Is Camera Ray"},
 }
 
 # Settings values the renderer does not evaluate.

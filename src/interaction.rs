@@ -120,18 +120,16 @@ impl SurfaceHit {
     /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with
     /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
     /// else copies of the point).
-    /// `wo` is the unit direction towards the viewer: seen from behind its winding, the
-    /// surface's normal is turned to the viewer, as Cycles does.
-    pub fn node_inputs(&self, scene: &Scene, offsets: bool, wo: Vec3) -> [ShadingInputs; 3] {
+    /// Seen from behind its winding (`view`), the surface's normal is turned to the viewer, as
+    /// Cycles does.
+    pub fn node_inputs(&self, scene: &Scene, offsets: bool, view: View) -> [ShadingInputs; 3] {
         let mesh = hit_mesh(scene, &self.hit);
         let (tri, b1, b2) = (self.hit.triangle, self.hit.b1, self.hit.b2);
-        let backfacing = wo.dot(self.ng) < 0.0;
-        let n = if backfacing {
+        let n = if view.backfacing {
             -self.frame.n
         } else {
             self.frame.n
         };
-        let view = View { wo, backfacing };
         let here = node_inputs(mesh, tri, b1, b2, self.p, n, self.uv, view);
         if !offsets {
             return [here; 3];
@@ -263,6 +261,19 @@ pub struct View {
     pub wo: Vec3,
     /// Seen from behind the triangle's winding.
     pub backfacing: bool,
+    /// By a camera ray (Light Path's Is Camera Ray).
+    pub camera: bool,
+}
+
+impl View {
+    /// Surface point `sh` seen along unit direction `wo` (towards the viewer).
+    pub fn new(sh: &SurfaceHit, wo: Vec3, camera: bool) -> View {
+        View {
+            wo,
+            backfacing: wo.dot(sh.ng) < 0.0,
+            camera,
+        }
+    }
 }
 
 /// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
@@ -319,6 +330,7 @@ pub fn node_inputs(
         object_normal,
         incoming: blender_axes(view.wo),
         backfacing: view.backfacing,
+        camera_ray: view.camera,
         tangent,
         object_to_world_normal,
     }

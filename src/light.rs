@@ -190,6 +190,7 @@ pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) ->
             let view = crate::interaction::View {
                 wo: shading_n,
                 backfacing: false,
+                camera: false,
             };
             let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, uv, view);
             program.eval(&[at; 3], &scene.textures, 0.5).emission

@@ -66,6 +66,9 @@ pub struct ShadingInputs {
     pub incoming: Vec3,
     /// Seen from behind the surface's winding (`normal` is then turned to the viewer).
     pub backfacing: bool,
+    /// Seen by a camera ray (Light Path's Is Camera Ray; photons, gather and bounce rays,
+    /// light sampling: not).
+    pub camera_ray: bool,
     /// The mesh's tangent for UV map 0 (world, Blender's axes, not normalised) with the
     /// bitangent sign in `w` (Blender's: bitangent = w × normal × tangent); zero when the mesh
     /// has none.
@@ -186,6 +189,8 @@ enum Op {
     VertexColor,
     Attribute,
     Geometry,
+    /// Light Path: only what every integrator can tell (Is Camera Ray).
+    LightPath,
     Value(f32),
     Rgb(Vec4),
     Mapping(MappingKind),
@@ -526,6 +531,7 @@ fn spec(op: &Op) -> Spec {
                 ("Backfacing", Float),
             ],
         ),
+        Op::LightPath => (vec![], vec![("Is Camera Ray", Float)]),
         Op::Value(_) => (vec![], vec![("Value", Float)]),
         Op::Rgb(_) => (vec![], vec![("Color", Color)]),
         Op::Mapping(_) => (
@@ -920,6 +926,7 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
         "VertexColor" => Op::VertexColor,
         "Attribute" => Op::Attribute,
         "NewGeometry" => Op::Geometry,
+        "LightPath" => Op::LightPath,
         "Value" => Op::Value(
             node.get("value")
                 .and_then(number)
@@ -1673,6 +1680,7 @@ fn run(
             m.regs[o + 3] = v3(at.incoming);
             m.regs[o + 4] = splat(if at.backfacing { 1.0 } else { 0.0 });
         }
+        Op::LightPath => m.regs[o] = splat(if at.camera_ray { 1.0 } else { 0.0 }),
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
         Op::Mapping(kind) => {

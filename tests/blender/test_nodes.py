@@ -17,7 +17,8 @@ smooth sphere, wired into Emission (relMSE <= 1e-3); White Noise (1D to 4D) on f
 coordinates, Magic, Brick and Blackbody, and the Normal Map node (tangent, object and
 Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Displacement
 (object and world space, as bump) seen through Geometry Normal, each wired into Emission
-(relMSE <= 1e-3).
+(relMSE <= 1e-3); Light Path's Is Camera Ray choosing a lamp's colour (lit criterion, path
+tracer and photon mapping).
 """
 
 import math
@@ -538,3 +539,28 @@ def test_displacement_as_bump_into_emission(tmp_path, space):
     plane.scale = (1.0, 1.0, 2.0)
     compare(f"displacement {space.lower()} emission", scene, tmp_path, photon_spp=256,
             cycles_spp=256, relmse_max=EMISSION_RELMSE_MAX)
+
+
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_light_path_camera_ray_into_emission(tmp_path, method):
+    """An emitting quad whose colour is Mix(orange, blue) by Light Path's Is Camera Ray, over
+    a diffuse floor: the camera sees it blue, the floor is lit orange (the light reaching it
+    is not seen by a camera ray), lit criterion (mean within 2 %, relMSE <= 0.01); by the path
+    tracer and by photon mapping (photons are not camera rays)."""
+    mat, tree = node_material("Camera only blue")
+    light_path = tree.nodes.new("ShaderNodeLightPath")
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.inputs["A"].default_value = (1.0, 0.4, 0.1, 1.0)
+    mix.inputs["B"].default_value = (0.1, 0.3, 1.0, 1.0)
+    tree.links.new(light_path.outputs["Is Camera Ray"], mix.inputs["Factor"])
+    emission_into_output(tree, mix.outputs["Result"], strength=6.0)
+    floor = bpy.data.materials.new("Floor")
+    if bpy.app.version < (5, 0, 0):
+        floor.use_nodes = True
+    floor.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 1.0
+    scene, _ = plane_scene(floor)
+    common.quad("Lamp", [(-0.3, -0.3, 0.6), (-0.3, 0.3, 0.6), (0.3, 0.3, 0.6), (0.3, -0.3, 0.6)],
+                mat)
+    compare(f"light path camera ray {method.lower()}", scene, tmp_path, photon_spp=256,
+            cycles_spp=512, method=method)

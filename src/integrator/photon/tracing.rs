@@ -455,7 +455,7 @@ fn walk_photon(
             return;
         };
         power *= transmittance(absorption, &hit, &ray);
-        let s = Shading::new(ctx, &ray, &hit);
+        let s = Shading::new(ctx, &ray, &hit, false);
         let storing = stores_photons(&s.bsdf);
         if storing && !store(&s, power, bounce, bounce > 0 && specular_path) {
             return;
