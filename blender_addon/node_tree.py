@@ -192,10 +192,37 @@ def _value(socket):
 def _active_uv_maps(material) -> set[str]:
     """The active UV maps of the meshes that use `material` (the glTF exporter computes their
     tangents, TANGENT, on the active UV map)."""
+    return {mesh.uv_layers.active.name for mesh in _material_meshes(material)
+            if mesh.uv_layers.active is not None}
+
+
+# UV maps the renderer reads (src/scene/nodes.rs UV_SETS): TEXCOORD_0 to _3.
+UV_SETS = 4
+
+
+def _material_meshes(material):
     import bpy
-    return {mesh.uv_layers.active.name for mesh in bpy.data.meshes
-            if mesh.uv_layers.active is not None
-            and any(m is not None and m.name == material.name for m in mesh.materials)}
+    return [mesh for mesh in bpy.data.meshes
+            if any(m is not None and m.name == material.name for m in mesh.materials)]
+
+
+def _uv_set(material, name: str):
+    """`(TEXCOORD index or None, problem)` of the UV map `name` ('' for the render UV map,
+    Cycles' default) in the meshes using `material`: Blender's exporter writes a mesh's UV
+    maps in order as TEXCOORD_0, _1, …"""
+    sets = set()
+    for mesh in _material_meshes(material):
+        names = [layer.name for layer in mesh.uv_layers]
+        wanted = name or next((l.name for l in mesh.uv_layers if l.active_render), None)
+        if wanted in names:
+            sets.add(names.index(wanted))
+    if len(sets) > 1:
+        return None, (f"reads UV map '{name or 'the render UV map'}', which is not the same "
+                      f"TEXCOORD in every mesh using the material")
+    index = sets.pop() if sets else 0
+    if index >= UV_SETS:
+        return None, f"reads UV map {index + 1}; Photon reads the first {UV_SETS}"
+    return index, ""
 
 
 def uses_tangents(extension) -> bool:
@@ -316,6 +343,12 @@ class _Walker:
                               for i in range(RAMP_TABLE_SIZE)]
         if kind == "ShaderNodeRGBCurve":
             entry.update(_baked_curves(node.mapping))
+        if kind in ("ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeTexImage"):
+            uv_set, problem = _uv_set(self.material, getattr(node, "uv_map", ""))
+            if problem:
+                self.problems.append(f"{self.what}: {node.bl_label} node '{name}' {problem}")
+            elif uv_set:
+                entry["uv_set"] = uv_set
         if kind == "ShaderNodeNormalMap" and node.space == "TANGENT" and node.uv_map:
             others = {m for m in _active_uv_maps(self.material) if m != node.uv_map}
             if others:

@@ -8,7 +8,7 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Frame, Mat3, Vec2, Vec3, Vec4};
-use crate::scene::nodes::ShadingInputs;
+use crate::scene::nodes::{ShadingInputs, UV_SETS};
 use crate::scene::{Mesh, Scene};
 
 /// Everything shading needs about a surface point.
@@ -130,7 +130,7 @@ impl SurfaceHit {
         } else {
             self.frame.n
         };
-        let here = node_inputs(mesh, tri, b1, b2, self.p, n, self.uv, view);
+        let here = node_inputs(mesh, tri, b1, b2, self.p, n, view);
         if !offsets {
             return [here; 3];
         }
@@ -153,13 +153,8 @@ impl SurfaceHit {
             let (r1, r2) = (d.dot(e1), d.dot(e2));
             let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
             let (nb1, nb2) = (b1 + db1, b2 + db2);
-            let uv = if mesh.uvs.is_empty() {
-                Vec2::ZERO
-            } else {
-                interpolate(idx.map(|i| mesh.uvs[i as usize]), nb1, nb2)
-            };
             let p = self.p + db1 * e1 + db2 * e2;
-            node_inputs(mesh, tri, nb1, nb2, p, n, uv, view)
+            node_inputs(mesh, tri, nb1, nb2, p, n, view)
         };
         [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
@@ -277,9 +272,8 @@ impl View {
 }
 
 /// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
-/// `p`, unit world normal `n` (facing the viewer) and UV `uv` (glTF's, turned to Blender's v-up
-/// convention), seen from `view`.
-#[allow(clippy::too_many_arguments)]
+/// `p` and unit world normal `n` (facing the viewer), seen from `view`. UVs are turned to
+/// Blender's v-up convention.
 pub fn node_inputs(
     mesh: &Mesh,
     triangle: u32,
@@ -287,10 +281,19 @@ pub fn node_inputs(
     b2: f32,
     p: Vec3,
     n: Vec3,
-    uv: Vec2,
     view: View,
 ) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
+    let mut uv = [Vec2::ZERO; UV_SETS];
+    for (out, set) in uv
+        .iter_mut()
+        .zip(std::iter::once(&mesh.uvs).chain(&mesh.extra_uvs))
+    {
+        if !set.is_empty() {
+            let t = interpolate(idx.map(|i| set[i as usize]), b1, b2);
+            *out = Vec2::new(t.x, 1.0 - t.y);
+        }
+    }
     let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
     let (object, generated, object_normal, object_to_world_normal) = match &mesh.object_space {
         Some(space) => {
@@ -323,7 +326,7 @@ pub fn node_inputs(
     ShadingInputs {
         position: blender_axes(p),
         normal: blender_axes(n),
-        uv: Vec2::new(uv.x, 1.0 - uv.y),
+        uv,
         generated,
         object,
         color,

@@ -192,7 +192,7 @@ pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) ->
                 backfacing: false,
                 camera: false,
             };
-            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, uv, view);
+            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, view);
             program.eval(&[at; 3], &scene.textures, 0.5).emission
         }
         None => material_emission(scene, material, uv),

@@ -104,7 +104,7 @@
 //! buffer views, and the hierarchy is counted before any geometry is read: at most
 //! `MAX_NODE_INSTANCES` (1 M) node instances, `MAX_TRIANGLES` (200 M) stored triangles and
 //! `MAX_VERTICES` (400 M) stored vertices. Only the default scene (or the first) is loaded; UV
-//! set 0 only. Vertex attributes must have the component types glTF allows (integers only
+//! set 0 only for glTF's textures (node trees read `TEXCOORD_0` to `_3`). Vertex attributes must have the component types glTF allows (integers only
 //! with KHR_mesh_quantization, normalized UVs also without).
 //!
 //! A mesh placed by two or more nodes whose materials are plain (opaque, not emissive,
@@ -206,6 +206,9 @@ struct Loader {
     images: HashMap<usize, DecodedImage>,
     /// Scene texture index per (glTF texture index, sRGB).
     texture_slots: HashMap<(usize, bool), u32>,
+    /// The current material's textures that read a UV set other than 0: warned about unless
+    /// the material's node tree replaces them.
+    uv_set_warnings: Vec<String>,
     scene: Scene,
     triangle_total: usize,
     vertex_total: usize,
@@ -305,6 +308,7 @@ impl Loader {
             default_material: None,
             images: HashMap::new(),
             texture_slots: HashMap::new(),
+            uv_set_warnings: Vec::new(),
             scene: Scene {
                 meshes: Vec::new(),
                 prototypes: Vec::new(),
@@ -797,6 +801,21 @@ impl Loader {
                 }
                 None => Vec::new(),
             };
+            let mut extra_uvs = Vec::new();
+            for set in 1..super::nodes::UV_SETS as u32 {
+                let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set)) else {
+                    break;
+                };
+                let label = format!("TEXCOORD_{set}");
+                let flat = self.read_float_attribute(&a, &object, &label, 2)?;
+                let uvs: Vec<Vec2> = flat
+                    .chunks_exact(2)
+                    .map(|c| Vec2::new(c[0], c[1]))
+                    .collect();
+                check_length(&uvs, vertex_count)
+                    .map_err(|m| self.err(&object, format!("{label} {m}")))?;
+                extra_uvs.push(uvs);
+            }
             let tangents = match primitive.get(&gltf::Semantic::Tangents) {
                 Some(a) => {
                     let flat = self.read_float_attribute(&a, &object, "TANGENT", 4)?;
@@ -864,6 +883,7 @@ impl Loader {
                 positions: world_positions,
                 normals: Vec::new(),
                 uvs,
+                extra_uvs,
                 tangents: world_tangents,
                 indices,
                 material,
@@ -1336,10 +1356,13 @@ impl Loader {
                 out.emission = Vec3::ZERO;
             }
             // The tree's own Normal Map nodes replace the glTF normal texture Blender's
-            // exporter writes for them.
+            // exporter writes for them, and its UV maps the glTF textures'.
             out.normal_texture = None;
+            self.uv_set_warnings.clear();
             out.nodes = Some(std::sync::Arc::new(program));
         }
+        let uv_set_warnings = std::mem::take(&mut self.uv_set_warnings);
+        self.scene.warnings.extend(uv_set_warnings);
         Ok(out)
     }
 
@@ -1444,7 +1467,7 @@ impl Loader {
 
     fn warn_tex_coord(&mut self, tex_coord: u32, object: &str) {
         if tex_coord != 0 {
-            self.scene.warnings.push(format!(
+            self.uv_set_warnings.push(format!(
                 "{object}: texture uses TEXCOORD_{tex_coord}; Photon reads UV set 0 only"
             ));
         }
@@ -1832,6 +1855,7 @@ impl Loader {
             normals: vec![normal; positions.len()],
             positions,
             uvs: Vec::new(),
+            extra_uvs: Vec::new(),
             tangents: Vec::new(),
             indices,
             material: (self.scene.materials.len() - 1) as u32,
@@ -2183,6 +2207,7 @@ fn make_flat(mesh: &mut Mesh) {
     let mut positions = Vec::with_capacity(mesh.indices.len() * 3);
     let mut normals = Vec::with_capacity(mesh.indices.len() * 3);
     let mut uvs = Vec::new();
+    let mut extra_uvs = vec![Vec::new(); mesh.extra_uvs.len()];
     let mut tangents = Vec::new();
     let mut indices = Vec::with_capacity(mesh.indices.len());
     for (t, tri) in mesh.indices.iter().enumerate() {
@@ -2194,6 +2219,11 @@ fn make_flat(mesh: &mut Mesh) {
             if let Some(&uv) = mesh.uvs.get(i as usize) {
                 uvs.push(uv);
             }
+            for (set, out) in mesh.extra_uvs.iter().zip(extra_uvs.iter_mut()) {
+                if let Some(&uv) = set.get(i as usize) {
+                    out.push(uv);
+                }
+            }
             if let Some(&tangent) = mesh.tangents.get(i as usize) {
                 tangents.push(tangent);
             }
@@ -2204,6 +2234,7 @@ fn make_flat(mesh: &mut Mesh) {
     mesh.positions = positions;
     mesh.normals = normals;
     mesh.uvs = uvs;
+    mesh.extra_uvs = extra_uvs;
     mesh.tangents = tangents;
     mesh.indices = indices;
 }

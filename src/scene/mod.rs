@@ -27,6 +27,9 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// UV set 0; empty when the file has none.
     pub uvs: Vec<Vec2>,
+    /// UV sets 1, 2, … (`TEXCOORD_1` …, up to `nodes::UV_SETS` in all), which node trees read;
+    /// each empty when the file has none.
+    pub extra_uvs: Vec<Vec<Vec2>>,
     /// Tangents (xyz, w = bitangent sign); empty when the file has none.
     pub tangents: Vec<Vec4>,
     pub indices: Vec<[u32; 3]>,
@@ -559,11 +562,14 @@ impl Scene {
                     m.normals.len()
                 ));
             }
-            if !m.uvs.is_empty() && m.uvs.len() != n {
+            if let Some(uvs) = std::iter::once(&m.uvs)
+                .chain(&m.extra_uvs)
+                .find(|uvs| !uvs.is_empty() && uvs.len() != n)
+            {
                 return Err(format!(
                     "mesh {mi} '{}': {} UVs for {n} positions",
                     m.name,
-                    m.uvs.len()
+                    uvs.len()
                 ));
             }
             if !m.colors.is_empty() && m.colors.len() != n {

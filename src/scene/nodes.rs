@@ -40,6 +40,10 @@ use crate::math::{Mat3, Vec2, Vec3, Vec4};
 use serde_json::Value;
 use std::f32::consts::PI;
 
+/// UV maps node trees read (`TEXCOORD_0` …).
+pub const UV_SETS: usize = 4;
+const _: () = assert!(UV_SETS == 4, "ShadingInputs::uv holds UV_SETS maps");
+
 /// Registers (node outputs) a program may use; larger trees are refused.
 pub const MAX_REGISTERS: usize = 256;
 /// Shader nodes a program may hold.
@@ -52,8 +56,10 @@ pub struct ShadingInputs {
     pub position: Vec3,
     /// Unit shading normal (world).
     pub normal: Vec3,
-    /// UV map 0, in Blender's convention (v up: glTF's 1 − v).
-    pub uv: Vec2,
+    /// The UV maps (`TEXCOORD_n`), in Blender's convention (v up: glTF's 1 − v); zero where
+    /// the mesh has none. (`UV_SETS` long: the literal works around a rustc internal error
+    /// with a named constant here.)
+    pub uv: [Vec2; 4],
     /// Generated coordinates: the object's texture space mapped to [0, 1]³.
     pub generated: Vec3,
     /// Object-space position.
@@ -134,8 +140,8 @@ enum Src {
     Closure(u16),
     /// The implicit Generated coordinates of an unlinked texture Vector input.
     Generated,
-    /// The implicit UV of an unlinked Image Texture Vector input.
-    Uv,
+    /// The implicit UV (this UV map) of an unlinked Image Texture Vector input.
+    Uv(u8),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -183,8 +189,14 @@ enum GradientKind {
 /// One node's operation with its settings.
 #[derive(Clone, Debug, PartialEq)]
 enum Op {
-    TexCoord,
-    UvMap,
+    /// Texture Coordinate; its UV output reads this UV map (the mesh's default, Blender's
+    /// active render UV map, which the add-on names).
+    TexCoord {
+        uv_set: u8,
+    },
+    UvMap {
+        uv_set: u8,
+    },
     /// Color Attribute and Attribute (COLOR_0).
     VertexColor,
     Attribute,
@@ -242,6 +254,7 @@ enum Op {
     Image {
         texture: u32,
         clip: bool,
+        uv_set: u8,
     },
     Voronoi(VoronoiKind),
     Wave(WaveKind),
@@ -500,7 +513,7 @@ fn spec(op: &Op) -> Spec {
     let i = |n: &str, t: Ty, d: Vec4| (n.to_string(), t, d);
     let grey = Vec4::new(0.8, 0.8, 0.8, 1.0);
     let (inputs, outputs): (Vec<InputSpec>, Vec<OutputSpec>) = match op {
-        Op::TexCoord => (
+        Op::TexCoord { .. } => (
             vec![],
             vec![
                 ("Generated", Vector),
@@ -510,7 +523,7 @@ fn spec(op: &Op) -> Spec {
                 ("Reflection", Vector),
             ],
         ),
-        Op::UvMap => (vec![], vec![("UV", Vector)]),
+        Op::UvMap { .. } => (vec![], vec![("UV", Vector)]),
         Op::VertexColor => (vec![], vec![("Color", Color), ("Alpha", Float)]),
         Op::Attribute => (
             vec![],
@@ -915,14 +928,28 @@ fn blend_mode(name: &str) -> Option<Blend> {
     })
 }
 
+/// The UV map a node reads (`uv_set`, the `TEXCOORD_n` the add-on resolved its name to; 0
+/// when absent).
+fn uv_set(node: &Value) -> Result<u8, String> {
+    match node.get("uv_set").and_then(Value::as_u64) {
+        None => Ok(0),
+        Some(n) if (n as usize) < UV_SETS => Ok(n as u8),
+        Some(n) => Err(format!("uv_set {n}: Photon reads {UV_SETS} UV maps")),
+    }
+}
+
 /// The operation of one exported node. `Ok(None)`: a node type the renderer does not evaluate.
 fn parse_op(node: &Value) -> Result<Option<Op>, String> {
     let kind = setting(node, "type").ok_or("a node has no 'type'")?;
     let kind = kind.strip_prefix("ShaderNode").unwrap_or(kind);
     let bad = |what: &str| format!("{kind}: unknown {what}");
     Ok(Some(match kind {
-        "TexCoord" => Op::TexCoord,
-        "UVMap" => Op::UvMap,
+        "TexCoord" => Op::TexCoord {
+            uv_set: uv_set(node)?,
+        },
+        "UVMap" => Op::UvMap {
+            uv_set: uv_set(node)?,
+        },
         "VertexColor" => Op::VertexColor,
         "Attribute" => Op::Attribute,
         "NewGeometry" => Op::Geometry,
@@ -1078,6 +1105,7 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                     .and_then(|t| u32::try_from(t).ok())
                     .ok_or("Image Texture: no image")?,
                 clip: setting(node, "extension") == Some("CLIP"),
+                uv_set: uv_set(node)?,
             }
         }
         "TexVoronoi" => {
@@ -1307,7 +1335,10 @@ fn compile_tree(
             let src = match given {
                 None if *ty == Ty::Shader => Src::Const(Vec4::ZERO),
                 None if texture_vector && id == "Vector" => Src::Generated,
-                None if matches!(op, Op::Image { .. }) && id == "Vector" => Src::Uv,
+                None if id == "Vector" && matches!(op, Op::Image { .. }) => match op {
+                    Op::Image { uv_set, .. } => Src::Uv(uv_set),
+                    _ => Src::Const(*default),
+                },
                 None => Src::Const(*default),
                 Some(v) if v.get("node").is_some() => {
                     let from = v
@@ -1631,8 +1662,13 @@ fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
         }
         Src::Closure(_) => Vec4::ZERO,
         Src::Generated => v3(at.generated),
-        Src::Uv => Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
+        Src::Uv(set) => uv_value(at, set),
     }
+}
+
+fn uv_value(at: &ShadingInputs, set: u8) -> Vec4 {
+    let uv = at.uv[set as usize];
+    Vec4::new(uv.x, uv.y, 0.0, 1.0)
 }
 
 fn closure(m: &Machine, s: Src) -> Closure {
@@ -1654,15 +1690,15 @@ fn run(
     let get = |m: &Machine, k: usize| load(m, at, ins[k]);
     let o = instr.out as usize;
     match &instr.op {
-        Op::TexCoord => {
+        Op::TexCoord { uv_set } => {
             m.regs[o] = v3(at.generated);
             m.regs[o + 1] = v3(at.object_normal);
-            m.regs[o + 2] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0);
+            m.regs[o + 2] = uv_value(at, *uv_set);
             m.regs[o + 3] = v3(at.object);
             let (n, i) = (at.normal, at.incoming);
             m.regs[o + 4] = v3(2.0 * n.dot(i) * n - i);
         }
-        Op::UvMap => m.regs[o] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
+        Op::UvMap { uv_set } => m.regs[o] = uv_value(at, *uv_set),
         Op::VertexColor => {
             m.regs[o] = at.color;
             m.regs[o + 1] = splat(at.color.w);
@@ -1808,7 +1844,7 @@ fn run(
             m.regs[o] = splat(fac);
             m.regs[o + 1] = v3(color);
         }
-        Op::Image { texture, clip } => {
+        Op::Image { texture, clip, .. } => {
             let uv = get(m, 0);
             let outside = !(0.0..=1.0).contains(&uv.x) || !(0.0..=1.0).contains(&uv.y);
             // Blender's image rows go up from the bottom; Photon's from the top.
@@ -3560,7 +3596,7 @@ mod tests {
         // Separate the UV, multiply u by v, feed the float into a colour (float → colour).
         let tree = json!({
             "nodes": [
-                {"name": "UV", "type": "ShaderNodeUVMap"},
+                {"name": "UV", "type": "ShaderNodeUVMap", "uv_set": 2},
                 {"name": "Sep", "type": "ShaderNodeSeparateXYZ",
                  "inputs": {"Vector": {"node": 0, "output": "UV"}}},
                 {"name": "Mul", "type": "ShaderNodeMath", "operation": "MULTIPLY",
@@ -3578,7 +3614,7 @@ mod tests {
             "output": {"node": 6, "output": "Emission"}
         });
         let at = ShadingInputs {
-            uv: Vec2::new(0.5, 0.25),
+            uv: [Vec2::ZERO, Vec2::ONE, Vec2::new(0.5, 0.25), Vec2::ONE],
             ..ShadingInputs::default()
         };
         let e = emission_of(tree, &at);

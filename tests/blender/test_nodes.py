@@ -18,7 +18,7 @@ coordinates, Magic, Brick and Blackbody, and the Normal Map node (tangent, objec
 Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Displacement
 (object and world space, as bump) seen through Geometry Normal, each wired into Emission
 (relMSE <= 1e-3); Light Path's Is Camera Ray choosing a lamp's colour (lit criterion, path
-tracer and photon mapping).
+tracer and photon mapping); three UV maps read by name and by default (the render map).
 """
 
 import math
@@ -564,3 +564,43 @@ def test_light_path_camera_ray_into_emission(tmp_path, method):
                 mat)
     compare(f"light path camera ray {method.lower()}", scene, tmp_path, photon_spp=256,
             cycles_spp=512, method=method)
+
+
+def test_uv_maps_other_than_the_first_into_emission(tmp_path):
+    """Three UV maps, the second the render one (Cycles' default): a UV Map node naming the
+    third, the Texture Coordinate's UV (the render map) and an Image Texture's default
+    coordinates (the render map) into a colour."""
+    mat, tree = node_material("UV maps")
+    third = tree.nodes.new("ShaderNodeUVMap")
+    third.uv_map = "Third"
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    split_third = tree.nodes.new("ShaderNodeSeparateXYZ")
+    split_render = tree.nodes.new("ShaderNodeSeparateXYZ")
+    image = bpy.data.images.new("Ramp", 4, 4)
+    image.pixels = [v for y in range(4) for x in range(4) for v in (x / 3, y / 3, 0.5, 1.0)]
+    image.filepath_raw = str(tmp_path / "ramp.png")
+    image.file_format = "PNG"
+    image.save()
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.load(str(tmp_path / "ramp.png"))
+    tex.extension = "EXTEND"
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    tree.links.new(third.outputs["UV"], split_third.inputs["Vector"])
+    tree.links.new(coords.outputs["UV"], split_render.inputs["Vector"])
+    tree.links.new(split_third.outputs["X"], combine.inputs["Red"])
+    tree.links.new(split_render.outputs["Y"], combine.inputs["Green"])
+    tree.links.new(combine.outputs["Color"], mix.inputs["A"])
+    tree.links.new(tex.outputs["Color"], mix.inputs["B"])
+    emission_into_output(tree, mix.outputs["Result"])
+    scene, plane = plane_scene(mat, uv=True)
+    corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    for name, place in [("Second", lambda u, v: (0.8 * v + 0.1, 0.9 - 0.7 * u)),
+                        ("Third", lambda u, v: (u * u, 0.5))]:
+        layer = plane.data.uv_layers.new(name=name)
+        for loop, (u, v) in zip(plane.data.loops, corners):
+            layer.data[loop.index].uv = place(u, v)
+    plane.data.uv_layers["Second"].active_render = True
+    compare("uv maps emission", scene, tmp_path, photon_spp=256, cycles_spp=256,
+            relmse_max=EMISSION_RELMSE_MAX)
