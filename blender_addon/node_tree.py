@@ -129,7 +129,7 @@ MATH_OPS = {
 RAMP_TABLE_SIZE = 256
 
 # Image files the renderer decodes, by Blender's file_format, with their file extension.
-IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp"}
+IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp", "OPEN_EXR": "exr"}
 # Colour spaces of image textures the renderer reads (sRGB decoded, or the values as they are).
 IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color", "Linear Rec.709": "Non-Color"}
 
@@ -156,7 +156,8 @@ def _image_source(image):
     if image.source != "FILE":
         return None, None, f"is a {image.source.lower()} image"
     if image.file_format not in IMAGE_FORMATS:
-        return None, None, f"is a {image.file_format} file (Photon reads PNG, JPEG and WebP)"
+        return None, None, (f"is a {image.file_format} file (Photon reads PNG, JPEG, WebP and "
+                            f"OpenEXR)")
     if image.colorspace_settings.name not in IMAGE_COLORSPACES:
         return None, None, f"uses the colour space {image.colorspace_settings.name}"
     if image.packed_file is not None:

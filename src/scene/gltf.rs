@@ -96,7 +96,9 @@
 //!
 //! Textures are PNG, JPEG or WebP. A texture with `EXT_texture_webp` uses the extension's WebP
 //! image (its `source`) in place of the fallback, so the extension may be required (Blender's
-//! exporter requires it when it writes no PNG or JPEG fallback).
+//! exporter requires it when it writes no PNG or JPEG fallback). 16-bit PNGs keep their 16 bits
+//! (decoded to linear floats when loaded); node trees' Image Texture nodes also read OpenEXR
+//! files (linear floats).
 //!
 //! # Limits and conventions
 //!
@@ -121,13 +123,13 @@
 //! point/spot candela and sun lux are converted by `scene::units`. Material emission
 //! (`emissiveFactor × KHR_materials_emissive_strength`) is already radiance.
 
-use super::texture::Wrap;
+use super::texture::{Texels, Wrap};
 use super::{
     AlphaMode, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
     SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
-use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
+use crate::math::{srgb_to_linear, Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use crate::scene::units;
 use gltf::accessor::DataType;
 use gltf::mesh::Mode;
@@ -226,7 +228,9 @@ struct DecodedImage {
     name: String,
     width: u32,
     height: u32,
-    texels: Vec<[u8; 4]>,
+    /// As stored: `Texels::Linear` holds 16-bit and float values still sRGB-encoded when the
+    /// texture is (`push_texture` decodes them).
+    texels: Texels,
 }
 
 /// A camera found while walking the node tree.
@@ -1388,7 +1392,18 @@ impl Loader {
             let file = self.resolve_file(uri, &label)?;
             let decoded = if file.exists() {
                 let bytes = std::fs::read(&file).map_err(|e| Error::io(&file, e))?;
-                self.decode_bytes(&bytes, format!("image '{uri}'"), None)?
+                if bytes.starts_with(&EXR_MAGIC) {
+                    // Float images (OpenEXR): linear values, as Cycles reads them.
+                    let (width, height, texels) = crate::image_io::read_exr_rgba(&file)?;
+                    DecodedImage {
+                        name: uri.to_string(),
+                        width,
+                        height,
+                        texels: Texels::Linear(texels),
+                    }
+                } else {
+                    self.decode_bytes(&bytes, format!("image '{uri}'"), None)?
+                }
             } else {
                 self.scene.warnings.push(format!(
                     "{object}: image file '{}' not found; it renders magenta (1, 0, 1), as in \
@@ -1399,7 +1414,7 @@ impl Loader {
                     name: uri.to_string(),
                     width: 1,
                     height: 1,
-                    texels: vec![[255, 0, 255, 255]],
+                    texels: Texels::Bytes(vec![[255, 0, 255, 255]]),
                 }
             };
             let wrap = match node.get("extension").and_then(Value::as_str) {
@@ -1421,11 +1436,22 @@ impl Loader {
         wrap: [Wrap; 2],
         bilinear: bool,
     ) -> u32 {
+        let texels = match decoded.texels {
+            Texels::Linear(values) if srgb => Texels::Linear(
+                values
+                    .into_iter()
+                    .map(|[r, g, b, a]| {
+                        [srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a]
+                    })
+                    .collect(),
+            ),
+            texels => texels,
+        };
         self.scene.textures.push(Texture {
             name: decoded.name,
             width: decoded.width,
             height: decoded.height,
-            texels: decoded.texels,
+            texels,
             srgb,
             wrap_s: wrap[0],
             wrap_t: wrap[1],
@@ -1585,7 +1611,7 @@ impl Loader {
                         name: label,
                         width: 1,
                         height: 1,
-                        texels: vec![[255, 0, 255, 255]],
+                        texels: Texels::Bytes(vec![[255, 0, 255, 255]]),
                     });
                 }
                 self.read_uri(uri, &label)?
@@ -1623,7 +1649,7 @@ impl Loader {
                 name: label.clone(),
                 width,
                 height,
-                texels,
+                texels: Texels::Bytes(texels),
             });
         }
         // Hand the bytes to the gltf crate's decoder (PNG and JPEG via the image crate) as a
@@ -1638,7 +1664,7 @@ impl Loader {
             &[],
         )
         .map_err(|e| self.err(&label, format!("cannot decode the {format} image: {e}")))?;
-        let texels = to_rgba8(&data).ok_or_else(|| {
+        let texels = to_texels(&data).ok_or_else(|| {
             self.err(
                 &label,
                 format!("unsupported pixel format {:?}", data.format),
@@ -2479,6 +2505,9 @@ fn use_webp_sources(root: &mut gltf::json::Root) -> std::result::Result<(), (Str
 }
 
 /// The mime type of PNG, JPEG or WebP bytes, from their signature.
+/// The first bytes of an OpenEXR file.
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
 fn sniff_image_format(bytes: &[u8]) -> Option<&'static str> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
         Some("image/png")
@@ -2507,7 +2536,9 @@ fn decode_webp(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[u8; 4]>), St
 }
 
 /// Any decoded glTF image as 8-bit RGBA (16-bit keeps the high byte; grey and RGB gain channels).
-fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<[u8; 4]>> {
+/// The decoder's pixels as texels: 8-bit ones as bytes, 16-bit ones as floats in [0, 1] (still
+/// encoded: `push_texture` decodes sRGB). Grey and grey-alpha images are spread to RGBA.
+fn to_texels(data: &gltf::image::Data) -> Option<Texels> {
     use gltf::image::Format;
     let (channels, bytes_per_channel) = match data.format {
         Format::R8 => (1, 1),
@@ -2526,30 +2557,35 @@ fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<[u8; 4]>> {
         return None;
     }
     // 16-bit samples are stored in native byte order by the decoder.
-    let sample = |p: &[u8], c: usize| -> u8 {
+    let sample = |p: &[u8], c: usize| -> f32 {
         if bytes_per_channel == 2 {
-            (u16::from_ne_bytes([p[2 * c], p[2 * c + 1]]) >> 8) as u8
+            u16::from_ne_bytes([p[2 * c], p[2 * c + 1]]) as f32 / 65535.0
         } else {
-            p[c]
+            p[c] as f32 / 255.0
         }
     };
-    Some(
-        data.pixels
-            .chunks_exact(pixel_size)
-            .map(|p| match channels {
-                1 => {
-                    let g = sample(p, 0);
-                    [g, g, g, 255]
-                }
-                2 => {
-                    let g = sample(p, 0);
-                    [g, g, g, sample(p, 1)]
-                }
-                3 => [sample(p, 0), sample(p, 1), sample(p, 2), 255],
-                _ => [sample(p, 0), sample(p, 1), sample(p, 2), sample(p, 3)],
-            })
-            .collect(),
-    )
+    let rgba = |p: &[u8]| match channels {
+        1 => {
+            let g = sample(p, 0);
+            [g, g, g, 1.0]
+        }
+        2 => {
+            let g = sample(p, 0);
+            [g, g, g, sample(p, 1)]
+        }
+        3 => [sample(p, 0), sample(p, 1), sample(p, 2), 1.0],
+        _ => [sample(p, 0), sample(p, 1), sample(p, 2), sample(p, 3)],
+    };
+    let pixels = data.pixels.chunks_exact(pixel_size);
+    Some(if bytes_per_channel == 1 {
+        Texels::Bytes(
+            pixels
+                .map(|p| rgba(p).map(|v| (v * 255.0).round() as u8))
+                .collect(),
+        )
+    } else {
+        Texels::Linear(pixels.map(rgba).collect())
+    })
 }
 
 const BASE64_ALPHABET: &[u8; 64] =
@@ -2647,7 +2683,7 @@ mod tests {
     }
 
     #[test]
-    fn sixteen_bit_images_keep_the_high_byte() {
+    fn sixteen_bit_images_keep_their_sixteen_bits() {
         let data = gltf::image::Data {
             pixels: [0x1234u16, 0xABCD, 0xFFFF]
                 .iter()
@@ -2657,6 +2693,20 @@ mod tests {
             width: 1,
             height: 1,
         };
-        assert_eq!(to_rgba8(&data).unwrap(), vec![[0x12, 0xAB, 0xFF, 255]]);
+        let Some(Texels::Linear(texels)) = to_texels(&data) else {
+            panic!("16-bit texels are kept as floats");
+        };
+        let expected = [0x1234 as f32 / 65535.0, 0xABCD as f32 / 65535.0, 1.0, 1.0];
+        assert_eq!(texels, vec![expected]);
+        let bytes = gltf::image::Data {
+            pixels: vec![0x12, 0xAB],
+            format: gltf::image::Format::R8G8,
+            width: 1,
+            height: 1,
+        };
+        assert!(matches!(
+            to_texels(&bytes),
+            Some(Texels::Bytes(t)) if t == vec![[0x12, 0x12, 0x12, 0xAB]]
+        ));
     }
 }

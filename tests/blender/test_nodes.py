@@ -18,7 +18,8 @@ coordinates, Magic, Brick and Blackbody, and the Normal Map node (tangent, objec
 Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Displacement
 (object and world space, as bump) seen through Geometry Normal, each wired into Emission
 (relMSE <= 1e-3); Light Path's Is Camera Ray choosing a lamp's colour (lit criterion, path
-tracer and photon mapping); three UV maps read by name and by default (the render map).
+tracer and photon mapping); three UV maps read by name and by default (the render map); a
+16-bit PNG and an OpenEXR image.
 """
 
 import math
@@ -604,3 +605,49 @@ def test_uv_maps_other_than_the_first_into_emission(tmp_path):
     plane.data.uv_layers["Second"].active_render = True
     compare("uv maps emission", scene, tmp_path, photon_spp=256, cycles_spp=256,
             relmse_max=EMISSION_RELMSE_MAX)
+
+
+def write_png16(path, width, height, rgb):
+    """A 16-bit RGB PNG of `rgb(x, y)` in [0, 1] (row 0 at the top), written by hand: Blender
+    saves images at 8 bits unless rendering."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+    rows = b"".join(
+        b"\0" + b"".join(struct.pack(">3H", *(round(65535 * c) for c in rgb(x, y)))
+                         for x in range(width))
+        for y in range(height))
+    header = struct.pack(">2I5B", width, height, 16, 2, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+                     + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("kind", ["png16", "exr"])
+def test_wide_images_into_emission(tmp_path, kind):
+    """Images 8 bits cannot hold, through the Image Texture node (Non-Color, bilinear): a
+    16-bit PNG of values below 0.01 (8 bits would round them to 0, 1/255 or 2/255), and an
+    OpenEXR of values up to 4."""
+    mat, tree = node_material(f"Wide {kind}")
+    size = 8
+    if kind == "png16":
+        path = tmp_path / "dark.png"
+        write_png16(path, size, size, lambda x, y: (0.01 * x / 7, 0.01 * y / 7, 0.003))
+        strength = 60.0
+    else:
+        path = tmp_path / "bright.exr"
+        image = bpy.data.images.new("Bright", size, size, float_buffer=True)
+        image.pixels = [v for y in range(size) for x in range(size)
+                        for v in (4.0 * x / 7, 0.5 + y / 7, 0.25, 1.0)]
+        image.filepath_raw = str(path)
+        image.file_format = "OPEN_EXR"
+        image.save()
+        strength = 0.5
+    image = bpy.data.images.load(str(path))
+    image.colorspace_settings.name = "Non-Color"
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    emission_matches(f"{kind} image emission", mat, tree, tex.outputs["Color"], tmp_path,
+                     strength=strength, uv=True)
