@@ -144,7 +144,8 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
 pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
     SurfaceMaterial {
         base_color: c.base_color,
-        alpha: c.alpha,
+        // A tree's alpha is a Transparent closure picked with probability 1 − alpha.
+        alpha: 1.0,
         metallic: c.metallic,
         roughness: c.roughness,
         transmission: c.transmission,

@@ -21,7 +21,8 @@
 //! SVM evaluates it at P + dPdx and P + dPdy; the normal then follows Cycles'
 //! `svm_node_set_bump` with those steps as dPdx and dPdy.
 //!
-//! Shader nodes become Principled parameter sets (`Closure`): Diffuse BSDF → colour, metallic 0,
+//! Shader nodes become Principled parameter sets (`Closure`); a Principled BSDF's Alpha below 1
+//! mixes it with a Transparent BSDF by alpha, as Cycles does. Diffuse BSDF → colour, metallic 0,
 //! specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy → metallic 1 with the
 //! colour as F0 (Blender's Glossy has no Fresnel: differs at grazing angles); Glass → transmission
 //! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
@@ -105,7 +106,6 @@ pub struct Closure {
     /// glTF's specularFactor and specularColorFactor (Blender's 2 × level × tint).
     pub specular: f32,
     pub specular_color: Vec3,
-    pub alpha: f32,
     /// Emitted radiance (W·m⁻²·sr⁻¹).
     pub emission: Vec3,
     /// Shading normal from a Normal input (Blender's axes, world); zero: the surface's own.
@@ -122,7 +122,6 @@ impl Closure {
         ior: 1.5,
         specular: 0.0,
         specular_color: Vec3::ZERO,
-        alpha: 1.0,
         emission: Vec3::ZERO,
         normal: Vec3::ZERO,
     };
@@ -2020,17 +2019,24 @@ fn run(
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
             let tint = get(m, 6).truncate();
-            m.closures[o] = Closure {
+            let principled = Closure {
                 base_color: get(m, 0).truncate(),
                 metallic: get(m, 1).x.clamp(0.0, 1.0),
                 roughness: get(m, 2).x.clamp(0.0, 1.0),
                 ior: get(m, 3).x,
-                alpha: get(m, 4).x.clamp(0.0, 1.0),
                 specular: 1.0,
                 specular_color: 2.0 * level * tint,
                 transmission: get(m, 7).x.clamp(0.0, 1.0),
                 emission: get(m, 8).truncate() * get(m, 9).x,
                 normal: get(m, 10).truncate(),
+            };
+            // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
+            // Transparent BSDF by 1 − alpha.
+            let alpha = get(m, 4).x.clamp(0.0, 1.0);
+            m.closures[o] = if alpha < 1.0 {
+                mix_closures(u, alpha, transparent(Vec3::ONE), principled)
+            } else {
+                principled
             };
         }
         Op::Diffuse => {
@@ -2068,31 +2074,17 @@ fn run(
                 ..Closure::BLACK
             };
         }
-        Op::Transparent | Op::Translucent => {
-            let transparent = matches!(instr.op, Op::Transparent);
+        Op::Transparent => m.closures[o] = transparent(get(m, 0).truncate()),
+        Op::Translucent => {
             m.closures[o] = Closure {
-                base_color: get(m, 0).truncate(),
-                roughness: if transparent { 0.0 } else { 1.0 },
-                ior: 1.0,
-                transmission: 1.0,
-                ..Closure::BLACK
+                roughness: 1.0,
+                ..transparent(get(m, 0).truncate())
             };
         }
         Op::MixShader => {
             let t = get(m, 0).x.clamp(0.0, 1.0);
             let (a, b) = (closure(m, ins[1]), closure(m, ins[2]));
-            let emission = a.emission.lerp(b.emission, t);
-            // Pick A with probability 1 − t, and stretch u back to [0, 1) for later picks.
-            let mut picked = if *u < 1.0 - t {
-                *u /= (1.0 - t).max(1e-12);
-                a
-            } else {
-                *u = (*u - (1.0 - t)) / t.max(1e-12);
-                b
-            };
-            *u = u.clamp(0.0, 0.999_999_94);
-            picked.emission = emission;
-            m.closures[o] = picked;
+            m.closures[o] = mix_closures(u, t, a, b);
         }
         Op::AddShader => {
             let (a, b) = (closure(m, ins[0]), closure(m, ins[1]));
@@ -2117,6 +2109,33 @@ fn run(
             m.closures[o] = picked;
         }
     }
+}
+
+/// The Transparent BSDF tinted by `color`: smooth transmission at IOR 1 (a straight pass).
+fn transparent(color: Vec3) -> Closure {
+    Closure {
+        base_color: color,
+        roughness: 0.0,
+        ior: 1.0,
+        transmission: 1.0,
+        ..Closure::BLACK
+    }
+}
+
+/// Mix Shader: `a` with probability 1 − t, else `b` (`u` picks, and is stretched back to
+/// [0, 1) for later picks), with their emissions mixed exactly.
+fn mix_closures(u: &mut f32, t: f32, a: Closure, b: Closure) -> Closure {
+    let emission = a.emission.lerp(b.emission, t);
+    let mut picked = if *u < 1.0 - t {
+        *u /= (1.0 - t).max(1e-12);
+        a
+    } else {
+        *u = (*u - (1.0 - t)) / t.max(1e-12);
+        b
+    };
+    *u = u.clamp(0.0, 0.999_999_94);
+    picked.emission = emission;
+    picked
 }
 
 fn is_black_bsdf(c: &Closure) -> bool {

@@ -19,7 +19,8 @@ Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Dis
 (object and world space, as bump) seen through Geometry Normal, each wired into Emission
 (relMSE <= 1e-3); Light Path's Is Camera Ray choosing a lamp's colour (lit criterion, path
 tracer and photon mapping); three UV maps read by name and by default (the render map); a
-16-bit PNG and an OpenEXR image.
+16-bit PNG and an OpenEXR image; a Principled BSDF's Alpha from a gradient over an emitting
+plane.
 """
 
 import math
@@ -651,3 +652,33 @@ def test_wide_images_into_emission(tmp_path, kind):
     tex.image = image
     emission_matches(f"{kind} image emission", mat, tree, tex.outputs["Color"], tmp_path,
                      strength=strength, uv=True)
+
+
+def test_principled_alpha_from_a_tree(tmp_path):
+    """A Principled BSDF whose Alpha is a UV gradient (emission red, base colour black) above
+    a blue-emitting plane, in a black world: the camera sees alpha x red + (1 - alpha) x
+    blue, as Cycles mixes the BSDF with a Transparent BSDF by alpha."""
+    mat, tree = node_material("Fading")
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    bsdf.inputs["Emission Color"].default_value = (1.0, 0.1, 0.05, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = 1.0
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    gradient = tree.nodes.new("ShaderNodeTexGradient")
+    tree.links.new(uv.outputs["UV"], gradient.inputs["Vector"])
+    tree.links.new(gradient.outputs["Fac"], bsdf.inputs["Alpha"])
+    tree.links.new(bsdf.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    below, below_tree = bpy.data.materials.new("Below"), None
+    if bpy.app.version < (5, 0, 0):
+        below.use_nodes = True
+    below_tree = below.node_tree
+    below_tree.nodes.remove(below_tree.nodes["Principled BSDF"])
+    emission = below_tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (0.1, 0.3, 1.0, 1.0)
+    below_tree.links.new(emission.outputs["Emission"],
+                         below_tree.nodes["Material Output"].inputs["Surface"])
+    scene, _ = plane_scene(mat, uv=True)
+    common.quad("Below", [(-2, -2, -0.5), (2, -2, -0.5), (2, 2, -0.5), (-2, 2, -0.5)], below)
+    compare("principled alpha", scene, tmp_path, photon_spp=1024, cycles_spp=1024,
+            relmse_max=EMISSION_RELMSE_MAX)
