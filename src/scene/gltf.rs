@@ -2228,41 +2228,35 @@ fn look_at(eye: Vec3, target: Vec3) -> Affine3A {
 }
 
 /// Split every triangle's vertices apart and give them the face normal (a mesh without normals
-/// is flat shaded in glTF).
+/// is flat shaded in glTF); every per-vertex attribute follows its vertex.
 fn make_flat(mesh: &mut Mesh) {
-    let mut positions = Vec::with_capacity(mesh.indices.len() * 3);
-    let mut normals = Vec::with_capacity(mesh.indices.len() * 3);
-    let mut uvs = Vec::new();
-    let mut extra_uvs = vec![Vec::new(); mesh.extra_uvs.len()];
-    let mut tangents = Vec::new();
-    let mut indices = Vec::with_capacity(mesh.indices.len());
-    for (t, tri) in mesh.indices.iter().enumerate() {
-        let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
-        let normal = (b - a).cross(c - a).normalize_or_zero();
-        for &i in tri {
-            positions.push(mesh.positions[i as usize]);
-            normals.push(normal);
-            if let Some(&uv) = mesh.uvs.get(i as usize) {
-                uvs.push(uv);
-            }
-            for (set, out) in mesh.extra_uvs.iter().zip(extra_uvs.iter_mut()) {
-                if let Some(&uv) = set.get(i as usize) {
-                    out.push(uv);
-                }
-            }
-            if let Some(&tangent) = mesh.tangents.get(i as usize) {
-                tangents.push(tangent);
-            }
+    let corners: Vec<u32> = mesh.indices.iter().flatten().copied().collect();
+    fn spread<T: Copy>(values: &[T], corners: &[u32]) -> Vec<T> {
+        if values.is_empty() {
+            return Vec::new();
         }
-        let first = (3 * t) as u32;
-        indices.push([first, first + 1, first + 2]);
+        corners.iter().map(|&i| values[i as usize]).collect()
     }
-    mesh.positions = positions;
-    mesh.normals = normals;
-    mesh.uvs = uvs;
-    mesh.extra_uvs = extra_uvs;
-    mesh.tangents = tangents;
-    mesh.indices = indices;
+    mesh.normals = mesh
+        .indices
+        .iter()
+        .flat_map(|tri| {
+            let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
+            [(b - a).cross(c - a).normalize_or_zero(); 3]
+        })
+        .collect();
+    mesh.positions = spread(&mesh.positions, &corners);
+    mesh.uvs = spread(&mesh.uvs, &corners);
+    mesh.extra_uvs = mesh
+        .extra_uvs
+        .iter()
+        .map(|set| spread(set, &corners))
+        .collect();
+    mesh.tangents = spread(&mesh.tangents, &corners);
+    mesh.colors = spread(&mesh.colors, &corners);
+    mesh.indices = (0..mesh.indices.len() as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect();
 }
 
 fn check_length<T>(values: &[T], vertex_count: usize) -> std::result::Result<(), String> {
@@ -2680,6 +2674,27 @@ mod tests {
         glb.extend(2u32.to_le_bytes());
         glb.extend(1000u32.to_le_bytes());
         assert!(split_glb(&glb).unwrap_err().contains("truncated"));
+    }
+
+    #[test]
+    fn flat_meshes_keep_every_attribute_per_corner() {
+        let mut mesh = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE],
+            uvs: vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE],
+            extra_uvs: vec![vec![Vec2::ONE, Vec2::ZERO, Vec2::X, Vec2::Y]],
+            colors: vec![Vec4::X, Vec4::Y, Vec4::Z, Vec4::W],
+            indices: vec![[0, 1, 2], [2, 1, 3]],
+            ..Mesh::default()
+        };
+        make_flat(&mut mesh);
+        assert_eq!(mesh.positions.len(), 6);
+        assert_eq!(mesh.normals.len(), 6);
+        assert_eq!(mesh.indices, vec![[0, 1, 2], [3, 4, 5]]);
+        assert_eq!(mesh.colors[3], Vec4::Z);
+        assert_eq!(mesh.uvs[5], Vec2::ONE);
+        assert_eq!(mesh.extra_uvs[0][4], Vec2::ZERO);
+        assert!(mesh.tangents.is_empty());
+        assert_eq!(mesh.normals[0], Vec3::Z);
     }
 
     #[test]
