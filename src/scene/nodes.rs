@@ -1551,6 +1551,7 @@ fn compile_tree(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
+
     Ok(NodeProgram {
         instrs,
         registers,

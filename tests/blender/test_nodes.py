@@ -20,7 +20,7 @@ Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Dis
 (relMSE <= 1e-3); Light Path's Is Camera Ray choosing a lamp's colour (lit criterion, path
 tracer and photon mapping); three UV maps read by name and by default (the render map); a
 16-bit PNG and an OpenEXR image; a Principled BSDF's Alpha from a gradient over an emitting
-plane.
+plane; a lamp whose emission depends on the view (Layer Weight) lighting a floor.
 """
 
 import math
@@ -543,27 +543,43 @@ def test_displacement_as_bump_into_emission(tmp_path, space):
             cycles_spp=256, relmse_max=EMISSION_RELMSE_MAX)
 
 
+def colour_mix_lamp(name, factor_node, factor_output, a, b, strength):
+    """A node material emitting Mix(a, b) by `factor_node`'s `factor_output` (a new node of
+    that type)."""
+    mat, tree = node_material(name)
+    factor = tree.nodes.new(factor_node)
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.inputs["A"].default_value = a
+    mix.inputs["B"].default_value = b
+    tree.links.new(factor.outputs[factor_output], mix.inputs["Factor"])
+    emission_into_output(tree, mix.outputs["Result"], strength=strength)
+    return mat, factor
+
+
+def lamp_over_floor(lamp, half_size, height):
+    """A square of material `lamp` (2 half_size wide, at `height`) over a diffuse floor
+    filling the view."""
+    floor = bpy.data.materials.new("Floor")
+    if bpy.app.version < (5, 0, 0):
+        floor.use_nodes = True
+    floor.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 1.0
+    scene, _ = plane_scene(floor)
+    h = half_size
+    common.quad("Lamp", [(-h, -h, height), (-h, h, height), (h, h, height), (h, -h, height)],
+                lamp)
+    return scene
+
+
 @pytest.mark.parametrize("method", ["PATH", "PHOTON"])
 def test_light_path_camera_ray_into_emission(tmp_path, method):
     """An emitting quad whose colour is Mix(orange, blue) by Light Path's Is Camera Ray, over
     a diffuse floor: the camera sees it blue, the floor is lit orange (the light reaching it
     is not seen by a camera ray), lit criterion (mean within 2 %, relMSE <= 0.01); by the path
     tracer and by photon mapping (photons are not camera rays)."""
-    mat, tree = node_material("Camera only blue")
-    light_path = tree.nodes.new("ShaderNodeLightPath")
-    mix = tree.nodes.new("ShaderNodeMix")
-    mix.data_type = "RGBA"
-    mix.inputs["A"].default_value = (1.0, 0.4, 0.1, 1.0)
-    mix.inputs["B"].default_value = (0.1, 0.3, 1.0, 1.0)
-    tree.links.new(light_path.outputs["Is Camera Ray"], mix.inputs["Factor"])
-    emission_into_output(tree, mix.outputs["Result"], strength=6.0)
-    floor = bpy.data.materials.new("Floor")
-    if bpy.app.version < (5, 0, 0):
-        floor.use_nodes = True
-    floor.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 1.0
-    scene, _ = plane_scene(floor)
-    common.quad("Lamp", [(-0.3, -0.3, 0.6), (-0.3, 0.3, 0.6), (0.3, 0.3, 0.6), (0.3, -0.3, 0.6)],
-                mat)
+    mat, _ = colour_mix_lamp("Camera only blue", "ShaderNodeLightPath", "Is Camera Ray",
+                             (1.0, 0.4, 0.1, 1.0), (0.1, 0.3, 1.0, 1.0), 6.0)
+    scene = lamp_over_floor(mat, 0.3, 0.6)
     compare(f"light path camera ray {method.lower()}", scene, tmp_path, photon_spp=256,
             cycles_spp=512, method=method)
 
@@ -682,3 +698,14 @@ def test_principled_alpha_from_a_tree(tmp_path):
     common.quad("Below", [(-2, -2, -0.5), (2, -2, -0.5), (2, 2, -0.5), (-2, 2, -0.5)], below)
     compare("principled alpha", scene, tmp_path, photon_spp=1024, cycles_spp=1024,
             relmse_max=EMISSION_RELMSE_MAX)
+
+
+def test_view_dependent_lamp_lights_a_floor(tmp_path):
+    """A lamp whose emission depends on the view (Layer Weight's Facing mixes two colours):
+    light sampling evaluates it as seen from the shaded floor point, as Cycles does (it was
+    evaluated head-on before), and the camera sees it from above. Lit criterion."""
+    mat, weight = colour_mix_lamp("Rim lamp", "ShaderNodeLayerWeight", "Facing",
+                                  (1.0, 0.3, 0.1, 1.0), (0.1, 0.4, 1.0, 1.0), 5.0)
+    weight.inputs["Blend"].default_value = 0.5
+    scene = lamp_over_floor(mat, 0.4, 0.4)
+    compare("view-dependent lamp", scene, tmp_path, photon_spp=256, cycles_spp=512)

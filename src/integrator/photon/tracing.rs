@@ -137,7 +137,7 @@ impl Emitters {
                 area,
                 two_sided,
             } => {
-                let emitter = sample_emitter_point(ctx.scene, mesh, triangle, u1);
+                let emitter = sample_emitter_point(ctx.scene, mesh, triangle, u1, None);
                 let LightPoint {
                     p: q,
                     p_error: q_error,
