@@ -98,7 +98,7 @@ READ_OUTPUTS = {
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
     # What every integrator can tell (photon tracing has no camera-path depth, and no lobe).
-    "ShaderNodeLightPath": {"Is Camera Ray"},
+    "ShaderNodeLightPath": {"Is Camera Ray", "Ray Length"},
 }
 
 # Settings values the renderer does not evaluate.

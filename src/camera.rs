@@ -237,6 +237,7 @@ mod tests {
             aspect_ratio: None,
             shift: Vec2::new(0.1, -0.2),
             lens: Some(lens(5, 1.0)),
+            near_clip: 0.0,
         };
         let rays = CameraRays::new(&camera, 40, 30);
         let film = Vec2::new(7.3, 21.8);

@@ -258,15 +258,19 @@ pub struct View {
     pub backfacing: bool,
     /// By a camera ray (Light Path's Is Camera Ray).
     pub camera: bool,
+    /// The distance the ray travelled to the point (Light Path's Ray Length).
+    pub ray_length: f32,
 }
 
 impl View {
-    /// Surface point `sh` seen along unit direction `wo` (towards the viewer).
-    pub fn new(sh: &SurfaceHit, wo: Vec3, camera: bool) -> View {
+    /// Surface point `sh` seen along unit direction `wo` (towards the viewer) by a ray that
+    /// travelled `ray_length`.
+    pub fn new(sh: &SurfaceHit, wo: Vec3, camera: bool, ray_length: f32) -> View {
         View {
             wo,
             backfacing: wo.dot(sh.ng) < 0.0,
             camera,
+            ray_length,
         }
     }
 }
@@ -334,6 +338,7 @@ pub fn node_inputs(
         incoming: blender_axes(view.wo),
         backfacing: view.backfacing,
         camera_ray: view.camera,
+        ray_length: view.ray_length,
         tangent,
         object_to_world_normal,
     }

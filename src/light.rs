@@ -165,8 +165,8 @@ pub struct EmitterPoint {
 
 /// Draw a point uniformly on triangle `triangle` of mesh `mesh` with `u`: the one routine both
 /// light sampling and photon emission use. A node tree's emission is evaluated as seen from
-/// `seen_from` (light sampling: the shaded point, as Cycles evaluates a sampled emitter), or
-/// head-on (photons leave in a direction drawn afterwards).
+/// `seen_from` (light sampling: the shaded point and its distance, as Cycles evaluates a sampled
+/// emitter), or head-on at distance 0 (photons leave in a direction drawn afterwards).
 pub fn sample_emitter_point(
     scene: &Scene,
     mesh: u32,
@@ -201,12 +201,14 @@ pub fn sample_emitter_point(
                         wo,
                         backfacing: wo.dot(n) < 0.0,
                         camera: false,
+                        ray_length: o.distance(p),
                     }
                 }
                 None => crate::interaction::View {
                     wo: shading_n,
                     backfacing: false,
                     camera: false,
+                    ray_length: 0.0,
                 },
             };
             let facing = if view.backfacing {

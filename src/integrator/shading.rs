@@ -49,6 +49,11 @@ impl Shading {
     pub fn new(ctx: &Context, ray: &Ray, hit: &Hit, camera: bool) -> Shading {
         let sh = SurfaceHit::new(ctx.scene, ray, hit);
         let wo = -ray.direction.normalize();
+        // Cycles starts camera rays on the near clip plane: Ray Length counts from there.
+        let mut length = hit.t * ray.direction.length();
+        if camera {
+            length -= ctx.scene.camera.near_clip_distance(-wo);
+        }
         let material = &ctx.scene.materials[sh.material as usize];
         let surface = if material.nodes.is_some() {
             // The closure pick of Mix and Add Shader nodes: a hash of the ray and the hit, so
@@ -60,9 +65,9 @@ impl Shading {
                 hit.triangle as u64 | ((hit.t.to_bits() as u64) << 32),
             ]);
             let u = (h >> 40) as f32 * (1.0 / 16_777_216.0);
-            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera), u)
+            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera, length), u)
         } else {
-            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera), 0.0)
+            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera, length), 0.0)
         };
         let mut frame = match surface.normal {
             // A node tree's normal (Bump), on the side of the surface's own.

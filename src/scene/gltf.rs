@@ -327,6 +327,7 @@ impl Loader {
                     aspect_ratio: None,
                     shift: Vec2::ZERO,
                     lens: None,
+                    near_clip: 0.0,
                 },
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
@@ -664,6 +665,7 @@ impl Loader {
                 aspect_ratio: None,
                 shift: Vec2::ZERO,
                 lens: None,
+                near_clip: 0.0,
             };
             if let Some(extension) = extension {
                 read_camera_extension(extension, &mut camera)
@@ -2078,6 +2080,15 @@ fn convert_camera(
     world: &Mat4,
 ) -> std::result::Result<Camera, String> {
     let (_, rotation, translation) = world.to_scale_rotation_translation();
+    let near_clip = match camera.projection() {
+        gltf::camera::Projection::Perspective(p) => p.znear(),
+        gltf::camera::Projection::Orthographic(o) => o.znear(),
+    };
+    let near_clip = if near_clip.is_finite() && near_clip > 0.0 {
+        near_clip
+    } else {
+        0.0
+    };
     let (projection, aspect_ratio) = match camera.projection() {
         gltf::camera::Projection::Perspective(p) => {
             let yfov = p.yfov();
@@ -2113,6 +2124,7 @@ fn convert_camera(
         aspect_ratio,
         shift: Vec2::ZERO,
         lens: None,
+        near_clip,
     })
 }
 
@@ -2216,6 +2228,7 @@ fn framing_camera(bounds: Bounds) -> Camera {
         aspect_ratio: None,
         shift: Vec2::ZERO,
         lens: None,
+        near_clip: 0.0,
     }
 }
 

@@ -14,7 +14,7 @@ pub mod nodes;
 pub mod texture;
 pub mod units;
 
-use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec4};
+use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 pub use texture::{Texture, TextureRef};
 
 /// A triangle mesh: in world space in `Scene::meshes`, in object space in `Scene::prototypes`.
@@ -333,6 +333,31 @@ pub struct Camera {
     pub shift: Vec2,
     /// Depth of field; `None` is a pinhole.
     pub lens: Option<ThinLens>,
+    /// Blender's clip start (glTF `znear`): Cycles starts camera rays on this plane, so its
+    /// Light Path Ray Length is measured from there. Zero when the file gives none.
+    pub near_clip: f32,
+}
+
+impl Camera {
+    /// How far along unit camera-ray direction `dir` the near clip plane lies (Cycles'
+    /// `nearclip × z_inv`; panoramas: the clip distance itself).
+    pub fn near_clip_distance(&self, dir: Vec3) -> f32 {
+        if self.near_clip <= 0.0 {
+            return 0.0;
+        }
+        match self.projection {
+            Projection::Perspective { .. } | Projection::Orthographic { .. } => {
+                let forward = -self.to_world.z_axis.normalize_or(Vec3A::Z);
+                let cos = Vec3A::from(dir).dot(forward);
+                if cos > 0.0 {
+                    self.near_clip / cos
+                } else {
+                    0.0
+                }
+            }
+            _ => self.near_clip,
+        }
+    }
 }
 
 /// A thin lens (Blender's depth of field as Cycles renders it).
@@ -757,5 +782,29 @@ impl Scene {
             ));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn near_clip_distance_grows_off_axis_as_cycles_z_inv() {
+        // Camera at the origin looking down −Z (glTF's convention), clip start 0.5.
+        let mut camera = Camera {
+            name: "c".into(),
+            to_world: Affine3A::IDENTITY,
+            projection: Projection::Perspective { yfov: 1.0 },
+            aspect_ratio: None,
+            shift: Vec2::ZERO,
+            lens: None,
+            near_clip: 0.5,
+        };
+        assert!((camera.near_clip_distance(-Vec3::Z) - 0.5).abs() < 1e-6);
+        let off_axis = Vec3::new(0.6, 0.0, -0.8);
+        assert!((camera.near_clip_distance(off_axis) - 0.5 / 0.8).abs() < 1e-6);
+        camera.near_clip = 0.0;
+        assert_eq!(camera.near_clip_distance(off_axis), 0.0);
     }
 }

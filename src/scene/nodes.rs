@@ -76,6 +76,10 @@ pub struct ShadingInputs {
     /// Seen by a camera ray (Light Path's Is Camera Ray; photons, gather and bounce rays,
     /// light sampling: not).
     pub camera_ray: bool,
+    /// The distance the ray travelled to the point (Light Path's Ray Length: a camera ray's
+    /// from the near clip plane, as in Cycles; for an emitter sampled as a light, its distance
+    /// to the shaded point; 0 where photons leave it).
+    pub ray_length: f32,
     /// The mesh's tangent for UV map 0 (world, Blender's axes, not normalised) with the
     /// bitangent sign in `w` (Blender's: bitangent = w × normal × tangent); zero when the mesh
     /// has none.
@@ -200,7 +204,7 @@ enum Op {
     VertexColor,
     Attribute,
     Geometry,
-    /// Light Path: only what every integrator can tell (Is Camera Ray).
+    /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
     LightPath,
     Value(f32),
     Rgb(Vec4),
@@ -543,7 +547,10 @@ fn spec(op: &Op) -> Spec {
                 ("Backfacing", Float),
             ],
         ),
-        Op::LightPath => (vec![], vec![("Is Camera Ray", Float)]),
+        Op::LightPath => (
+            vec![],
+            vec![("Is Camera Ray", Float), ("Ray Length", Float)],
+        ),
         Op::Value(_) => (vec![], vec![("Value", Float)]),
         Op::Rgb(_) => (vec![], vec![("Color", Color)]),
         Op::Mapping(_) => (
@@ -1551,6 +1558,18 @@ fn compile_tree(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
+    if emits
+        && instrs
+            .iter()
+            .any(|i| i.op == Op::LightPath && i.used & 2 != 0)
+    {
+        warnings.push(
+            "Light Path's Ray Length in a tree that emits: photons leaving the surface read \
+             it as 0, so photon mapping's light from it may differ (path tracing and light \
+             sampling read the true distance)"
+                .to_string(),
+        );
+    }
 
     Ok(NodeProgram {
         instrs,
@@ -1729,7 +1748,10 @@ fn run(
             m.regs[o + 3] = v3(at.incoming);
             m.regs[o + 4] = splat(if at.backfacing { 1.0 } else { 0.0 });
         }
-        Op::LightPath => m.regs[o] = splat(if at.camera_ray { 1.0 } else { 0.0 }),
+        Op::LightPath => {
+            m.regs[o] = splat(if at.camera_ray { 1.0 } else { 0.0 });
+            m.regs[o + 1] = splat(at.ray_length);
+        }
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
         Op::Mapping(kind) => {

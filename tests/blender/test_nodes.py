@@ -20,7 +20,8 @@ Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Dis
 (relMSE <= 1e-3); Light Path's Is Camera Ray choosing a lamp's colour (lit criterion, path
 tracer and photon mapping); three UV maps read by name and by default (the render map); a
 16-bit PNG and an OpenEXR image; a Principled BSDF's Alpha from a gradient over an emitting
-plane; a lamp whose emission depends on the view (Layer Weight) lighting a floor.
+plane; a lamp whose emission depends on the view (Layer Weight) lighting a floor; Light Path's
+Ray Length into a lamp's emission.
 """
 
 import math
@@ -709,3 +710,21 @@ def test_view_dependent_lamp_lights_a_floor(tmp_path):
     weight.inputs["Blend"].default_value = 0.5
     scene = lamp_over_floor(mat, 0.4, 0.4)
     compare("view-dependent lamp", scene, tmp_path, photon_spp=256, cycles_spp=512)
+
+
+def test_light_path_ray_length_into_emission(tmp_path):
+    """Light Path's Ray Length through a Map Range into a lamp's Emission, over a diffuse
+    floor: the camera sees the lamp by its distance from the near clip plane (Cycles starts
+    camera rays there), the floor is lit by it at the floor point's distance (light sampling
+    and bounces). Lit criterion; a warning says photons would read 0."""
+    mat, tree = node_material("Distance")
+    light_path = tree.nodes.new("ShaderNodeLightPath")
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    map_range.inputs["From Min"].default_value = 0.3
+    map_range.inputs["From Max"].default_value = 3.5
+    map_range.inputs["To Min"].default_value = 0.1
+    tree.links.new(light_path.outputs["Ray Length"], map_range.inputs["Value"])
+    emission_into_output(tree, map_range.outputs["Result"], strength=2.0)
+    scene = lamp_over_floor(mat, 0.4, 0.5)
+    scene.camera.data.clip_start = 0.5
+    compare("light path ray length", scene, tmp_path, photon_spp=256, cycles_spp=512)

@@ -119,6 +119,7 @@ pub fn camera_looking_at(eye: Vec3, target: Vec3, projection: Projection) -> Cam
         aspect_ratio: None,
         shift: Vec2::ZERO,
         lens: None,
+        near_clip: 0.0,
     }
 }
 
