@@ -905,10 +905,9 @@ def rendered_objects(view_layer) -> set[str]:
     return found
 
 
-def reads_vertex_colors(scene) -> bool:
-    """Whether a material of the scene is written as PHOTON_material_nodes and reads vertex
-    colours (a Color Attribute or Attribute node)."""
-    seen = set()
+def node_trees(scene) -> list[dict]:
+    """The PHOTON_material_nodes trees of the scene's materials (those written)."""
+    seen, trees = set(), []
     for obj in scene.objects:
         for slot in getattr(obj, "material_slots", ()):
             material = slot.material
@@ -916,10 +915,15 @@ def reads_vertex_colors(scene) -> bool:
                 continue
             seen.add(material.name)
             tree = node_tree.material_nodes(material)[0]
-            if tree and any(n["type"] in ("ShaderNodeVertexColor", "ShaderNodeAttribute")
-                            for n in tree["nodes"]):
-                return True
-    return False
+            if tree:
+                trees.append(tree)
+    return trees
+
+
+def reads_vertex_colors(trees) -> bool:
+    """Whether a tree reads vertex colours (a Color Attribute or Attribute node)."""
+    return any(n["type"] in ("ShaderNodeVertexColor", "ShaderNodeAttribute")
+               for tree in trees for n in tree["nodes"])
 
 
 def export_in_process(glb: Path, hook_module: str) -> list[str]:
@@ -935,10 +939,15 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
     try:
         scene = bpy.context.scene
         args = dict(GLTF_EXPORT_ARGS)
-        if reads_vertex_colors(scene):
+        trees = node_trees(scene)
+        if reads_vertex_colors(trees):
             # The exporter writes COLOR_0 only for colours wired straight into Base Color;
             # node trees Photon evaluates read the active colour attribute as COLOR_0.
             args["export_vertex_color"] = "ACTIVE"
+        if any(node_tree.uses_tangents(tree) for tree in trees):
+            # Normal Map nodes in tangent space read the meshes' tangents (MikkTSpace, as
+            # Cycles computes them).
+            args["export_tangents"] = True
         with collected_warnings() as warnings, render_visibility(scene), \
                 shape_keys_applied(scene), points_curves.as_meshes(scene), \
                 shutter_poses_recorded(scene):

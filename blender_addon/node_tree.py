@@ -13,7 +13,11 @@
 - `problems` names every node (or node setting, or linked input) the renderer cannot evaluate.
   When there is one, `extension` is None: the material keeps the glTF path (Blender's exporter
   and its metallic-roughness values) and the pre-flight report names what is lost, so nothing
-  is dropped without a word. `extension` is also None for trees glTF carries exactly (a lone
+  is dropped without a word. What feeds the Material Output's Displacement is written as
+  `extension["displacement"]`, a tree of the same form whose output is the normal Cycles'
+  "Bump Only" method gives (a Bump node of distance 1 over the displacement's component along
+  the normal); other displacement methods are problems. `extension` is also None for trees
+  glTF carries exactly (a lone
   Principled BSDF with nothing linked into it), so such materials render as before.
 
 It needs no bpy import: it reads nodes through their attributes (and runs in the export child).
@@ -28,6 +32,7 @@ SETTINGS = {
     "ShaderNodeVertexColor": (),
     "ShaderNodeAttribute": (),
     "ShaderNodeNewGeometry": (),
+    "ShaderNodeLightPath": (),
     "ShaderNodeValue": (),
     "ShaderNodeRGB": (),
     "ShaderNodeMapping": ("vector_type",),
@@ -48,11 +53,17 @@ SETTINGS = {
     "ShaderNodeTexVoronoi": ("voronoi_dimensions", "feature", "distance", "normalize"),
     "ShaderNodeTexImage": ("interpolation", "projection", "extension"),
     "ShaderNodeTexWave": ("wave_type", "bands_direction", "rings_direction", "wave_profile"),
+    "ShaderNodeTexWhiteNoise": ("noise_dimensions",),
+    "ShaderNodeTexMagic": ("turbulence_depth",),
+    "ShaderNodeTexBrick": ("offset", "offset_frequency", "squash", "squash_frequency"),
+    "ShaderNodeBlackbody": (),
     "ShaderNodeHueSaturation": (),
     "ShaderNodeGamma": (),
     "ShaderNodeBrightContrast": (),
     "ShaderNodeVectorMath": ("operation",),
     "ShaderNodeBump": ("invert",),
+    "ShaderNodeNormalMap": ("space",),
+    "ShaderNodeDisplacement": ("space",),
     "ShaderNodeFresnel": (),
     "ShaderNodeLayerWeight": (),
     "ShaderNodeBsdfPrincipled": (),
@@ -86,6 +97,8 @@ READ_OUTPUTS = {
     "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
+    # What every integrator can tell (photon tracing has no camera-path depth, and no lobe).
+    "ShaderNodeLightPath": {"Is Camera Ray", "Ray Length"},
 }
 
 # Settings values the renderer does not evaluate.
@@ -116,7 +129,7 @@ MATH_OPS = {
 RAMP_TABLE_SIZE = 256
 
 # Image files the renderer decodes, by Blender's file_format, with their file extension.
-IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp"}
+IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp", "OPEN_EXR": "exr"}
 # Colour spaces of image textures the renderer reads (sRGB decoded, or the values as they are).
 IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color", "Linear Rec.709": "Non-Color"}
 
@@ -143,7 +156,8 @@ def _image_source(image):
     if image.source != "FILE":
         return None, None, f"is a {image.source.lower()} image"
     if image.file_format not in IMAGE_FORMATS:
-        return None, None, f"is a {image.file_format} file (Photon reads PNG, JPEG and WebP)"
+        return None, None, (f"is a {image.file_format} file (Photon reads PNG, JPEG, WebP and "
+                            f"OpenEXR)")
     if image.colorspace_settings.name not in IMAGE_COLORSPACES:
         return None, None, f"uses the colour space {image.colorspace_settings.name}"
     if image.packed_file is not None:
@@ -176,9 +190,52 @@ def _value(socket):
         return float(v)
 
 
+def _active_uv_maps(material) -> set[str]:
+    """The active UV maps of the meshes that use `material` (the glTF exporter computes their
+    tangents, TANGENT, on the active UV map)."""
+    return {mesh.uv_layers.active.name for mesh in _material_meshes(material)
+            if mesh.uv_layers.active is not None}
+
+
+# UV maps the renderer reads (src/scene/nodes.rs UV_SETS): TEXCOORD_0 to _3.
+UV_SETS = 4
+
+
+def _material_meshes(material):
+    import bpy
+    return [mesh for mesh in bpy.data.meshes
+            if any(m is not None and m.name == material.name for m in mesh.materials)]
+
+
+def _uv_set(material, name: str):
+    """`(TEXCOORD index or None, problem)` of the UV map `name` ('' for the render UV map,
+    Cycles' default) in the meshes using `material`: Blender's exporter writes a mesh's UV
+    maps in order as TEXCOORD_0, _1, …"""
+    sets = set()
+    for mesh in _material_meshes(material):
+        names = [layer.name for layer in mesh.uv_layers]
+        wanted = name or next((l.name for l in mesh.uv_layers if l.active_render), None)
+        if wanted in names:
+            sets.add(names.index(wanted))
+    if len(sets) > 1:
+        return None, (f"reads UV map '{name or 'the render UV map'}', which is not the same "
+                      f"TEXCOORD in every mesh using the material")
+    index = sets.pop() if sets else 0
+    if index >= UV_SETS:
+        return None, f"reads UV map {index + 1}; Photon reads the first {UV_SETS}"
+    return index, ""
+
+
+def uses_tangents(extension) -> bool:
+    """Whether a tree (`material_nodes`' extension) has a Normal Map node in tangent space."""
+    return any(n["type"] == "ShaderNodeNormalMap" and n.get("space", "TANGENT") == "TANGENT"
+               for n in extension["nodes"])
+
+
 class _Walker:
-    def __init__(self, material_name: str, folder=None, unlinked=frozenset()):
-        self.what = f"material '{material_name}'"
+    def __init__(self, material, folder=None, unlinked=frozenset()):
+        self.material = material
+        self.what = f"material '{material.name}'"
         self.folder = folder
         self.unlinked = unlinked
         self.images: dict[str, str] = {}
@@ -288,6 +345,18 @@ class _Walker:
                               for i in range(RAMP_TABLE_SIZE)]
         if kind == "ShaderNodeRGBCurve":
             entry.update(_baked_curves(node.mapping))
+        if kind in ("ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeTexImage"):
+            uv_set, problem = _uv_set(self.material, getattr(node, "uv_map", ""))
+            if problem:
+                self.problems.append(f"{self.what}: {node.bl_label} node '{name}' {problem}")
+            elif uv_set:
+                entry["uv_set"] = uv_set
+        if kind == "ShaderNodeNormalMap" and node.space == "TANGENT" and node.uv_map:
+            others = {m for m in _active_uv_maps(self.material) if m != node.uv_map}
+            if others:
+                self.problems.append(f"{self.what}: Normal Map node '{name}' reads UV map "
+                                     f"'{node.uv_map}', but Photon has tangents only for the "
+                                     f"active UV map ('{sorted(others)[0]}')")
         if kind == "ShaderNodeMix" and getattr(node, "factor_mode", "UNIFORM") != "UNIFORM":
             self.problems.append(f"{self.what}: Mix node '{name}' with a non-uniform factor is "
                                  f"not evaluated by Photon")
@@ -344,15 +413,56 @@ def material_nodes(material, folder=None, *, keep_trivial=False, unlinked=frozen
     output = _active_output(tree)
     if output is None:
         return None, []
-    walker = _Walker(material.name, folder, unlinked)
+    walker = _Walker(material, folder, unlinked)
     src = walker.source(output.inputs["Surface"], ())
     if src[0] != "link":
         return None, []
     _, node, out, groups = src
     index = walker.visit(node, groups)
-    if walker.problems or index is None:
+    displacement, problems = _displacement_as_bump(material, output, walker)
+    problems = walker.problems + problems
+    if problems or index is None:
         return None, [f"{p}; the material falls back to glTF's metallic-roughness values "
-                      f"(Blender's exporter)" for p in walker.problems]
-    if walker.trivial and not keep_trivial:
+                      f"(Blender's exporter)" for p in problems]
+    if walker.trivial and displacement is None and not keep_trivial:
         return None, []
-    return {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}, []
+    extension = {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}
+    if displacement is not None:
+        extension["displacement"] = displacement
+    return extension, []
+
+
+def _displacement_as_bump(material, output, surface):
+    """`(tree or None, problems)`: what feeds the Material Output's Displacement, as Cycles'
+    "Bump Only" method renders it: the displacement vector's component along the normal as
+    the height of a Bump node (distance 1), whose normal the surface then reads. The tree's
+    output is that normal. `surface` is the surface's walker (images are shared)."""
+    socket = output.inputs.get("Displacement")
+    if socket is None:
+        return None, []
+    walker = _Walker(material, surface.folder, surface.unlinked)
+    walker.images = surface.images
+    src = walker.source(socket, ())
+    if src[0] != "link":
+        return None, []
+    method = getattr(material, "displacement_method", "BUMP")
+    if method != "BUMP":
+        return None, [f"{walker.what}: displacement method {method} moves the surface; Photon "
+                      f"renders displacement as bump only"]
+    _, node, out, groups = src
+    index = walker.visit(node, groups)
+    if walker.problems or index is None:
+        return None, walker.problems
+    geometry = len(walker.nodes)
+    walker.nodes += [
+        {"name": "Displacement as bump/Geometry", "type": "ShaderNodeNewGeometry",
+         "inputs": {}},
+        {"name": "Displacement as bump/Height", "type": "ShaderNodeVectorMath",
+         "operation": "DOT_PRODUCT",
+         "inputs": {"Vector": {"node": index, "output": out.identifier},
+                    "Vector_001": {"node": geometry, "output": "Normal"}}},
+        {"name": "Displacement as bump/Bump", "type": "ShaderNodeBump", "invert": False,
+         "inputs": {"Strength": 1.0, "Distance": 1.0,
+                    "Height": {"node": geometry + 1, "output": "Value"}}},
+    ]
+    return {"nodes": walker.nodes, "output": {"node": geometry + 2, "output": "Normal"}}, []

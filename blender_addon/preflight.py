@@ -13,7 +13,8 @@ empty list, so the rules below only flag what really changes the image:
   Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
   Ray" factor and Add Shader);
 - volumes: a material's or the world's Volume output linked, and Volume objects;
-- displacement linked into a material output;
+- displacement linked into a material output (unless Photon evaluates the tree and its
+  displacement as bump: node_tree.py);
 - particles rendered as halos or paths (hair particle systems, Curves objects and point
   clouds are carried: points_curves.py);
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
@@ -138,7 +139,8 @@ def material_features(material) -> list[str]:
         return []
     messages = []
     from .node_tree import material_nodes
-    evaluated = material_nodes(material)[0] is not None
+    extension = material_nodes(material)[0]
+    evaluated = extension is not None
     for node in [] if evaluated else _upstream(output.inputs["Surface"]):
         reason = _material_node_reason(node)
         if reason:
@@ -148,7 +150,8 @@ def material_features(material) -> list[str]:
         messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "
                         f"renders no volumes")
     displacement = output.inputs.get("Displacement")
-    if displacement is not None and displacement.is_linked:
+    if displacement is not None and displacement.is_linked and not (
+            evaluated and "displacement" in extension):
         messages.append(f"{what}: displacement ('{displacement.links[0].from_node.name}') is "
                         f"not exported")
     return messages

@@ -299,6 +299,7 @@ mod tests {
             shift: Vec2::new(0.1, -0.2),
             lens: Some(lens(5, 1.0)),
             motion: Vec::new(),
+            near_clip: 0.0,
         };
         let rays = CameraRays::new(&camera, 40, 30);
         let film = Vec2::new(7.3, 21.8);

@@ -8,7 +8,7 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Vec2, Vec3, Vec4};
-use crate::scene::nodes::ShadingInputs;
+use crate::scene::nodes::{ShadingInputs, UV_SETS};
 use crate::scene::{Mesh, Scene};
 
 /// Everything shading needs about a surface point.
@@ -128,19 +128,17 @@ impl SurfaceHit {
     /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with
     /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
     /// else copies of the point).
-    /// `wo` is the unit direction towards the viewer: seen from behind its winding, the
-    /// surface's normal is turned to the viewer, as Cycles does.
-    pub fn node_inputs(&self, scene: &Scene, offsets: bool, wo: Vec3) -> [ShadingInputs; 3] {
+    /// Seen from behind its winding (`view`), the surface's normal is turned to the viewer, as
+    /// Cycles does.
+    pub fn node_inputs(&self, scene: &Scene, offsets: bool, view: View) -> [ShadingInputs; 3] {
         let mesh = hit_mesh(scene, &self.hit);
         let (tri, b1, b2) = (self.hit.triangle, self.hit.b1, self.hit.b2);
-        let backfacing = wo.dot(self.ng) < 0.0;
-        let n = if backfacing {
+        let n = if view.backfacing {
             -self.frame.n
         } else {
             self.frame.n
         };
-        let view = View { wo, backfacing };
-        let here = node_inputs(mesh, tri, b1, b2, self.p, n, self.uv, view);
+        let here = node_inputs(mesh, tri, b1, b2, self.p, n, view);
         if !offsets {
             return [here; 3];
         }
@@ -165,13 +163,8 @@ impl SurfaceHit {
             let (r1, r2) = (d.dot(e1), d.dot(e2));
             let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
             let (nb1, nb2) = (b1 + db1, b2 + db2);
-            let uv = if mesh.uvs.is_empty() {
-                Vec2::ZERO
-            } else {
-                interpolate(idx.map(|i| mesh.uvs[i as usize]), nb1, nb2)
-            };
             let p = self.p + db1 * e1 + db2 * e2;
-            node_inputs(mesh, tri, nb1, nb2, p, n, uv, view)
+            node_inputs(mesh, tri, nb1, nb2, p, n, view)
         };
         [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
@@ -264,8 +257,12 @@ const BUMP_STEP: f32 = 1e-4;
 
 /// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
 fn blender_axes(v: Vec3) -> Vec3 {
-    Vec3::new(v.x, -v.z, v.y)
+    BLENDER_AXES * v
 }
+
+/// `blender_axes` as a matrix (its columns: the images of x, y, z).
+const BLENDER_AXES: Mat3 =
+    Mat3::from_cols(Vec3::X, Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, -1.0, 0.0));
 
 /// Where a shading point is seen from, for node trees.
 #[derive(Clone, Copy, Debug)]
@@ -274,12 +271,28 @@ pub struct View {
     pub wo: Vec3,
     /// Seen from behind the triangle's winding.
     pub backfacing: bool,
+    /// By a camera ray (Light Path's Is Camera Ray).
+    pub camera: bool,
+    /// The distance the ray travelled to the point (Light Path's Ray Length).
+    pub ray_length: f32,
+}
+
+impl View {
+    /// Surface point `sh` seen along unit direction `wo` (towards the viewer) by a ray that
+    /// travelled `ray_length`.
+    pub fn new(sh: &SurfaceHit, wo: Vec3, camera: bool, ray_length: f32) -> View {
+        View {
+            wo,
+            backfacing: wo.dot(sh.ng) < 0.0,
+            camera,
+            ray_length,
+        }
+    }
 }
 
 /// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
-/// `p`, unit world normal `n` (facing the viewer) and UV `uv` (glTF's, turned to Blender's v-up
-/// convention), seen from `view`.
-#[allow(clippy::too_many_arguments)]
+/// `p` and unit world normal `n` (facing the viewer), seen from `view`. UVs are turned to
+/// Blender's v-up convention.
 pub fn node_inputs(
     mesh: &Mesh,
     triangle: u32,
@@ -287,21 +300,42 @@ pub fn node_inputs(
     b2: f32,
     p: Vec3,
     n: Vec3,
-    uv: Vec2,
     view: View,
 ) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
+    let mut uv = [Vec2::ZERO; UV_SETS];
+    for (out, set) in uv
+        .iter_mut()
+        .zip(std::iter::once(&mesh.uvs).chain(&mesh.extra_uvs))
+    {
+        if !set.is_empty() {
+            let t = interpolate(idx.map(|i| set[i as usize]), b1, b2);
+            *out = Vec2::new(t.x, 1.0 - t.y);
+        }
+    }
     let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
-    let (object, generated, object_normal) = match &mesh.object_space {
+    let (object, generated, object_normal, object_to_world_normal) = match &mesh.object_space {
         Some(space) => {
             let o = space.to_object.transform_point3(stored);
             // Normals go to object space by the inverse transpose (the stored positions of
-            // meshes with node trees are world positions: they are never instanced).
-            let linear = crate::math::Mat3::from(space.to_object.matrix3);
+            // meshes with node trees are world positions: they are never instanced), and back
+            // by the transpose.
+            let linear = Mat3::from(space.to_object.matrix3);
             let on = (linear.inverse().transpose() * n).normalize_or(blender_axes(n));
-            (o, space.generated(o), on)
+            (o, space.generated(o), on, BLENDER_AXES * linear.transpose())
         }
-        None => (blender_axes(p), blender_axes(p), blender_axes(n)),
+        None => (
+            blender_axes(p),
+            blender_axes(p),
+            blender_axes(n),
+            Mat3::IDENTITY,
+        ),
+    };
+    let tangent = if mesh.tangents.is_empty() {
+        Vec4::ZERO
+    } else {
+        let t = interpolate(idx.map(|i| mesh.tangents[i as usize]), b1, b2);
+        blender_axes(t.truncate()).extend(if t.w < 0.0 { -1.0 } else { 1.0 })
     };
     let color = if mesh.colors.is_empty() {
         Vec4::ONE
@@ -311,12 +345,16 @@ pub fn node_inputs(
     ShadingInputs {
         position: blender_axes(p),
         normal: blender_axes(n),
-        uv: Vec2::new(uv.x, 1.0 - uv.y),
+        uv,
         generated,
         object,
         color,
         object_normal,
         incoming: blender_axes(view.wo),
         backfacing: view.backfacing,
+        camera_ray: view.camera,
+        ray_length: view.ray_length,
+        tangent,
+        object_to_world_normal,
     }
 }

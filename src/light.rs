@@ -166,8 +166,16 @@ pub struct EmitterPoint {
 }
 
 /// Draw a point uniformly on triangle `triangle` of mesh `mesh` with `u`: the one routine both
-/// light sampling and photon emission use.
-pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) -> EmitterPoint {
+/// light sampling and photon emission use. A node tree's emission is evaluated as seen from
+/// `seen_from` (light sampling: the shaded point and its distance, as Cycles evaluates a sampled
+/// emitter), or head-on at distance 0 (photons leave in a direction drawn afterwards).
+pub fn sample_emitter_point(
+    scene: &Scene,
+    mesh: u32,
+    triangle: u32,
+    u: Vec2,
+    seen_from: Option<Vec3>,
+) -> EmitterPoint {
     let m = &scene.meshes[mesh as usize];
     let idx = m.indices[triangle as usize];
     let v = idx.map(|i| m.positions[i as usize]);
@@ -188,12 +196,29 @@ pub fn sample_emitter_point(scene: &Scene, mesh: u32, triangle: u32, u: Vec2) ->
         Some(program) => {
             let shading_n = crate::accel::interpolate(idx.map(|i| m.normals[i as usize]), b.x, b.y)
                 .normalize_or(n);
-            // Seen head-on (emission does not depend on the view in the nodes evaluated).
-            let view = crate::interaction::View {
-                wo: shading_n,
-                backfacing: false,
+            let view = match seen_from {
+                Some(o) => {
+                    let wo = (o - p).normalize_or(shading_n);
+                    crate::interaction::View {
+                        wo,
+                        backfacing: wo.dot(n) < 0.0,
+                        camera: false,
+                        ray_length: o.distance(p),
+                    }
+                }
+                None => crate::interaction::View {
+                    wo: shading_n,
+                    backfacing: false,
+                    camera: false,
+                    ray_length: 0.0,
+                },
             };
-            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, shading_n, uv, view);
+            let facing = if view.backfacing {
+                -shading_n
+            } else {
+                shading_n
+            };
+            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view);
             program.eval(&[at; 3], &scene.textures, 0.5).emission
         }
         None => material_emission(scene, material, uv),
@@ -358,7 +383,7 @@ impl Lights {
                 if area <= 0.0 {
                     return None;
                 }
-                let emitter = sample_emitter_point(scene, mesh, triangle, u);
+                let emitter = sample_emitter_point(scene, mesh, triangle, u, Some(p));
                 let (q, n) = (emitter.point.p, emitter.point.n);
                 let d = q - p;
                 let dist2 = d.length_squared();

@@ -5,7 +5,7 @@
 //! (`scene::nodes`) is evaluated by its program instead, at the full shading point.
 
 use crate::accel::{hit_mesh, interpolate};
-use crate::interaction::SurfaceHit;
+use crate::interaction::{SurfaceHit, View};
 use crate::math::{Vec2, Vec3, Vec4};
 use crate::scene::nodes::Closure;
 use crate::scene::{Material, Scene, Subsurface, TextureRef};
@@ -109,10 +109,11 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
     }
 }
 
-/// The material at surface point `sh`: its node tree when it has one (`u` in [0, 1) picks the
+/// The material at surface point `sh` seen from `view`: its node tree when it has one (`u` in
+/// [0, 1) picks the
 /// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV with the base
 /// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1).
-pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, wo: Vec3, u: f32) -> SurfaceMaterial {
+pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> SurfaceMaterial {
     let material = &scene.materials[sh.material as usize];
     match &material.nodes {
         None => {
@@ -129,7 +130,7 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, wo: Vec3, u: f32) -> Surface
         Some(program) => from_closure(
             material,
             &program.eval(
-                &sh.node_inputs(scene, program.needs_offsets, wo),
+                &sh.node_inputs(scene, program.needs_offsets, view),
                 &scene.textures,
                 u,
             ),
@@ -143,7 +144,8 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, wo: Vec3, u: f32) -> Surface
 pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
     SurfaceMaterial {
         base_color: c.base_color,
-        alpha: c.alpha,
+        // A tree's alpha is a Transparent closure picked with probability 1 − alpha.
+        alpha: 1.0,
         metallic: c.metallic,
         roughness: c.roughness,
         transmission: c.transmission,

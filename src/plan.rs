@@ -512,7 +512,7 @@ fn seen_by_camera<'a>(
             let Some(hit) = accel.intersect(scene, &ray, Visibility::Camera) else {
                 return true;
             };
-            let s = Shading::new(ctx, &ray, &hit);
+            let s = Shading::new(ctx, &ray, &hit, false);
             if s.opaque || stores_photons(&s.bsdf) {
                 return false;
             }

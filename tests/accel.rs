@@ -19,6 +19,7 @@ fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
         positions: v.to_vec(),
         normals: vec![n; 3],
         uvs: Vec::new(),
+        extra_uvs: Vec::new(),
         tangents: Vec::new(),
         indices: vec![[0, 1, 2]],
         material: 0,

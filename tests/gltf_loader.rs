@@ -5,6 +5,7 @@
 use photon::error::Error;
 use photon::math::{Vec3, Vec4};
 use photon::scene::gltf::{load, load_slice, LoadOptions};
+use photon::scene::texture::Texels;
 use photon::scene::{Light, Projection, Scene};
 use serde_json::{json, Value};
 use std::f32::consts::PI;
@@ -710,14 +711,17 @@ fn textures_are_created_per_colour_space_with_sampler_and_transform() {
     assert_eq!(base.transform, [2.0, 0.0, 0.5, 0.0, 3.0, 0.0]);
     let t = &scene.textures[0];
     assert_eq!((t.width, t.height), (2, 1));
-    assert_eq!(t.texels, vec![[255, 0, 0, 255], [0, 0, 255, 255]]);
+    assert_eq!(
+        t.texels,
+        Texels::Bytes(vec![[255, 0, 0, 255], [0, 0, 255, 255]])
+    );
     assert_eq!(t.wrap_s, photon::scene::texture::Wrap::ClampToEdge);
     assert_eq!(t.wrap_t, photon::scene::texture::Wrap::MirroredRepeat);
     assert!(!t.bilinear);
 }
 
 #[test]
-fn sixteen_bit_grey_png_becomes_rgba8() {
+fn sixteen_bit_grey_png_keeps_sixteen_bits_decoded_to_linear() {
     let png = png_bytes(
         1,
         1,
@@ -731,7 +735,12 @@ fn sixteen_bit_grey_png_becomes_rgba8() {
         json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}),
     );
     let scene = load_glb(&doc).unwrap();
-    assert_eq!(scene.textures[0].texels, vec![[0xAB, 0xAB, 0xAB, 255]]);
+    // Base colour is sRGB: decoded when loaded, from all 16 bits.
+    let grey = photon::math::srgb_to_linear(0xABCD as f32 / 65535.0);
+    assert_eq!(
+        scene.textures[0].texels,
+        Texels::Linear(vec![[grey, grey, grey, 1.0]])
+    );
 }
 
 #[test]
@@ -753,7 +762,7 @@ fn gltf_with_external_buffer_and_image_loads_from_disk() {
     let text = serde_json::to_vec(&doc.finish_json(Some("scene.bin"))).unwrap();
     std::fs::write(dir.join("scene.gltf"), text).unwrap();
     let scene = load(&dir.join("scene.gltf"), &LoadOptions::default()).unwrap();
-    assert_eq!(scene.textures[0].texels, vec![[1, 2, 3, 4]]);
+    assert_eq!(scene.textures[0].texels, Texels::Bytes(vec![[1, 2, 3, 4]]));
     assert_eq!(scene.triangle_count(), 1);
 
     // The same document with the buffer as a data URI loads from memory.
@@ -1025,7 +1034,10 @@ fn missing_external_buffer_is_an_error_and_missing_image_is_magenta() {
     // warning naming the image and the file looked for.
     let scene = load(&dir.join("b.gltf"), &LoadOptions::default()).unwrap();
     assert_eq!(scene.textures.len(), 1);
-    assert_eq!(scene.textures[0].texels, vec![[255, 0, 255, 255]]);
+    assert_eq!(
+        scene.textures[0].texels,
+        Texels::Bytes(vec![[255, 0, 255, 255]])
+    );
     assert_eq!((scene.textures[0].width, scene.textures[0].height), (1, 1));
     let warning = scene
         .warnings
@@ -1208,7 +1220,7 @@ fn required_ext_texture_webp_is_read_and_decoded() {
     let base = scene.materials[0].base_color_texture.unwrap();
     let t = &scene.textures[base.texture as usize];
     assert_eq!((t.width, t.height), (2, 2));
-    assert_eq!(t.texels, texels.to_vec());
+    assert_eq!(t.texels, Texels::Bytes(texels.to_vec()));
     assert!(t.srgb);
 }
 
@@ -1232,7 +1244,10 @@ fn ext_texture_webp_is_preferred_to_the_fallback_source() {
     doc.json["extensionsRequired"] = json!([]);
     let scene = load_glb(&doc).unwrap();
     assert_eq!(scene.textures.len(), 1);
-    assert_eq!(scene.textures[0].texels, vec![[0, 200, 0, 255]]);
+    assert_eq!(
+        scene.textures[0].texels,
+        Texels::Bytes(vec![[0, 200, 0, 255]])
+    );
 }
 
 #[test]

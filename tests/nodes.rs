@@ -84,7 +84,7 @@ fn checker_material(emission_input: &str) -> Value {
                 {"name": "Checker", "type": "ShaderNodeTexChecker",
                  "inputs": {"Color1": [0.9, 0.3, 0.1, 1.0], "Color2": [0.05, 0.2, 0.6, 1.0],
                             "Scale": 3.0}},
-                {"name": "Magic", "type": "ShaderNodeTexMagic"},
+                {"name": "Gabor", "type": "ShaderNodeTexGabor"},
                 {"name": "Emission", "type": "ShaderNodeEmission",
                  "inputs": {"Color": {"node": 0, "output": emission_input}, "Strength": 2.0}}
             ],
@@ -161,7 +161,7 @@ fn unknown_nodes_are_listed_by_photon_info_and_the_fac_output_converts() {
     let text =
         String::from_utf8_lossy(&info.stdout).to_string() + &String::from_utf8_lossy(&info.stderr);
     assert!(
-        text.contains("material 'Board'") && text.contains("Magic"),
+        text.contains("material 'Board'") && text.contains("Gabor"),
         "photon info does not name the node it cannot evaluate: {text}"
     );
     let out = dir.join("fac.exr");
@@ -259,7 +259,7 @@ fn vertex_colours_multiply_a_plain_base_colour_and_feed_a_colour_attribute_node(
 #[test]
 fn what_the_add_on_could_not_describe_is_listed_by_info_and_not_repeated_by_render() {
     let dir = temp_dir("notes");
-    let note = "material 'Old': Magic Texture node 'M' is not evaluated by Photon";
+    let note = "material 'Old': Gabor Texture node 'M' is not evaluated by Photon";
     let material =
         json!({"name": "Old", "extensions": {"PHOTON_material_nodes": {"warnings": [note]}}});
     let scene = dir.join("notes.gltf");
@@ -273,5 +273,5 @@ fn what_the_add_on_could_not_describe_is_listed_by_info_and_not_repeated_by_rend
     let out = dir.join("notes.exr");
     let result = render(&scene, &out, 8);
     assert_success(&result);
-    assert!(!String::from_utf8_lossy(&result.stderr).contains("Magic"));
+    assert!(!String::from_utf8_lossy(&result.stderr).contains("Gabor"));
 }

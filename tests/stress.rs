@@ -135,6 +135,7 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
         normals: vec![if n == Vec3::ZERO { Vec3::Y } else { n }; positions.len()],
         positions,
         uvs: Vec::new(),
+        extra_uvs: Vec::new(),
         tangents: Vec::new(),
         indices: (0..tris.len() as u32)
             .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])

@@ -83,7 +83,7 @@ impl IcInfo {
 /// (`walk::follow_specular`), with the path length to it.
 fn first_surface(ctx: &Context, ray: Ray, rng: &mut Rng) -> Option<(Shading, f32)> {
     let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Camera)?;
-    let s = Shading::new(ctx, &ray, &hit);
+    let s = Shading::new(ctx, &ray, &hit, true);
     let mut chain = Chain {
         length: hit.t * ray.direction.length(),
         ..Chain::new(Vec3::ZERO)

@@ -12,7 +12,7 @@ use super::direct::sample_direct;
 use super::Context;
 use crate::accel::{Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
-use crate::interaction::SurfaceHit;
+use crate::interaction::{SurfaceHit, View};
 use crate::irradiance_cache::IrradianceCache;
 use crate::material::{eval_surface, SurfaceMaterial};
 use crate::math::{Frame, Vec2, Vec3};
@@ -45,9 +45,15 @@ pub fn transmittance(absorption: Vec3, hit: &Hit, ray: &Ray) -> Vec3 {
 }
 
 impl Shading {
-    pub fn new(ctx: &Context, ray: &Ray, hit: &Hit) -> Shading {
+    /// `camera`: `ray` is a camera ray (node trees' Light Path reads it).
+    pub fn new(ctx: &Context, ray: &Ray, hit: &Hit, camera: bool) -> Shading {
         let sh = SurfaceHit::new(ctx.scene, ray, hit);
         let wo = -ray.direction.normalize();
+        // Cycles starts camera rays on the near clip plane: Ray Length counts from there.
+        let mut length = hit.t * ray.direction.length();
+        if camera {
+            length -= ctx.scene.camera.near_clip_distance(-wo);
+        }
         let material = &ctx.scene.materials[sh.material as usize];
         let surface = if material.nodes.is_some() {
             // The closure pick of Mix and Add Shader nodes: a hash of the ray and the hit, so
@@ -58,9 +64,10 @@ impl Shading {
                 ray.direction.y.to_bits() as u64 | ((ray.direction.z.to_bits() as u64) << 32),
                 hit.triangle as u64 | ((hit.t.to_bits() as u64) << 32),
             ]);
-            eval_surface(ctx.scene, &sh, wo, (h >> 40) as f32 * (1.0 / 16_777_216.0))
+            let u = (h >> 40) as f32 * (1.0 / 16_777_216.0);
+            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera, length), u)
         } else {
-            eval_surface(ctx.scene, &sh, wo, 0.0)
+            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera, length), 0.0)
         };
         let mut frame = match surface.normal {
             // A node tree's normal (Bump), on the side of the surface's own.

@@ -208,7 +208,7 @@ pub fn walk(
         if state.absorption != Vec3::ZERO {
             state.beta *= transmittance(state.absorption, &hit, &ray);
         }
-        let mut s = Shading::new(ctx, &ray, &hit);
+        let mut s = Shading::new(ctx, &ray, &hit, visibility == Visibility::Camera);
         if depth == 0 {
             out.hit = true;
             out.albedo = s.surface.base_color;
@@ -299,7 +299,7 @@ pub fn follow_specular(
         };
         chain.length += hit.t * ray.direction.length();
         chain.beta *= transmittance(chain.absorption, &hit, &ray);
-        s = Shading::new(ctx, &ray, &hit);
+        s = Shading::new(ctx, &ray, &hit, false);
         if let Some(le) = emission.as_deref_mut() {
             *le += chain.beta * emitted_radiance(ctx.scene, &s.sh, s.wo, s.surface.emission);
         }

@@ -90,7 +90,10 @@
 //!   node's own properties under Blender's names (`operation`, `blend_type`, `data_type`,
 //!   `gradient_type`, …; a Value or RGB node's `value`; a Color Ramp's `table` of 256 RGBA
 //!   entries sampled at i/255 and its `interpolation`). `output` is what feeds the active
-//!   Material Output's Surface (absent: black). When present the tree replaces the glTF values
+//!   Material Output's Surface (absent: black). `displacement`, when present, is a tree of the
+//!   same form whose `output` is a vector: the shading normal bumped by what feeds the Material
+//!   Output's Displacement (Cycles' "Bump Only"), which the surface tree then reads as its
+//!   normal. When present the tree replaces the glTF values
 //!   at every shading point (volume, subsurface and alpha mode still come from glTF and the
 //!   other extensions). A malformed tree is refused with an error; a node type Photon does not
 //!   evaluate gives a warning and what it feeds reads the input's default. Without `nodes`,
@@ -114,7 +117,9 @@
 //!
 //! Textures are PNG, JPEG or WebP. A texture with `EXT_texture_webp` uses the extension's WebP
 //! image (its `source`) in place of the fallback, so the extension may be required (Blender's
-//! exporter requires it when it writes no PNG or JPEG fallback).
+//! exporter requires it when it writes no PNG or JPEG fallback). 16-bit PNGs keep their 16 bits
+//! (decoded to linear floats when loaded); node trees' Image Texture nodes also read OpenEXR
+//! files (linear floats).
 //!
 //! # Limits and conventions
 //!
@@ -122,7 +127,7 @@
 //! buffer views, and the hierarchy is counted before any geometry is read: at most
 //! `MAX_NODE_INSTANCES` (1 M) node instances, `MAX_TRIANGLES` (200 M) stored triangles and
 //! `MAX_VERTICES` (400 M) stored vertices. Only the default scene (or the first) is loaded; UV
-//! set 0 only. Vertex attributes must have the component types glTF allows (integers only
+//! set 0 only for glTF's textures (node trees read `TEXCOORD_0` to `_3`). Vertex attributes must have the component types glTF allows (integers only
 //! with KHR_mesh_quantization, normalized UVs also without).
 //!
 //! A mesh placed by two or more nodes whose materials are plain (opaque, not emissive,
@@ -139,13 +144,13 @@
 //! point/spot candela and sun lux are converted by `scene::units`. Material emission
 //! (`emissiveFactor × KHR_materials_emissive_strength`) is already radiance.
 
-use super::texture::Wrap;
+use super::texture::{Texels, Wrap};
 use super::{
     AlphaMode, Background, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
     SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
-use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
+use crate::math::{srgb_to_linear, Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use crate::scene::sky::{NishitaSettings, NishitaSky};
 use crate::scene::units;
 use gltf::accessor::DataType;
@@ -229,6 +234,9 @@ struct Loader {
     images: HashMap<usize, DecodedImage>,
     /// Scene texture index per (glTF texture index, sRGB).
     texture_slots: HashMap<(usize, bool), u32>,
+    /// The current material's textures that read a UV set other than 0: warned about unless
+    /// the material's node tree replaces them.
+    uv_set_warnings: Vec<String>,
     scene: Scene,
     triangle_total: usize,
     vertex_total: usize,
@@ -246,7 +254,9 @@ struct DecodedImage {
     name: String,
     width: u32,
     height: u32,
-    texels: Vec<[u8; 4]>,
+    /// As stored: `Texels::Linear` holds 16-bit and float values still sRGB-encoded when the
+    /// texture is (`push_texture` decodes them).
+    texels: Texels,
 }
 
 /// A camera found while walking the node tree.
@@ -328,6 +338,7 @@ impl Loader {
             default_material: None,
             images: HashMap::new(),
             texture_slots: HashMap::new(),
+            uv_set_warnings: Vec::new(),
             scene: Scene {
                 meshes: Vec::new(),
                 prototypes: Vec::new(),
@@ -343,6 +354,7 @@ impl Loader {
                     shift: Vec2::ZERO,
                     lens: None,
                     motion: Vec::new(),
+                    near_clip: 0.0,
                 },
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),
@@ -695,6 +707,7 @@ impl Loader {
                 shift: Vec2::ZERO,
                 lens: None,
                 motion: Vec::new(),
+                near_clip: 0.0,
             };
             if let Some(extension) = extension {
                 read_camera_extension(extension, &mut camera)
@@ -846,6 +859,21 @@ impl Loader {
                 }
                 None => Vec::new(),
             };
+            let mut extra_uvs = Vec::new();
+            for set in 1..super::nodes::UV_SETS as u32 {
+                let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set)) else {
+                    break;
+                };
+                let label = format!("TEXCOORD_{set}");
+                let flat = self.read_float_attribute(&a, &object, &label, 2)?;
+                let uvs: Vec<Vec2> = flat
+                    .chunks_exact(2)
+                    .map(|c| Vec2::new(c[0], c[1]))
+                    .collect();
+                check_length(&uvs, vertex_count)
+                    .map_err(|m| self.err(&object, format!("{label} {m}")))?;
+                extra_uvs.push(uvs);
+            }
             let tangents = match primitive.get(&gltf::Semantic::Tangents) {
                 Some(a) => {
                     let flat = self.read_float_attribute(&a, &object, "TANGENT", 4)?;
@@ -913,6 +941,7 @@ impl Loader {
                 positions: world_positions,
                 normals: Vec::new(),
                 uvs,
+                extra_uvs,
                 tangents: world_tangents,
                 indices,
                 material,
@@ -1384,8 +1413,14 @@ impl Loader {
             } else {
                 out.emission = Vec3::ZERO;
             }
+            // The tree's own Normal Map nodes replace the glTF normal texture Blender's
+            // exporter writes for them, and its UV maps the glTF textures'.
+            out.normal_texture = None;
+            self.uv_set_warnings.clear();
             out.nodes = Some(std::sync::Arc::new(program));
         }
+        let uv_set_warnings = std::mem::take(&mut self.uv_set_warnings);
+        self.scene.warnings.extend(uv_set_warnings);
         Ok(out)
     }
 
@@ -1411,7 +1446,18 @@ impl Loader {
             let file = self.resolve_file(uri, &label)?;
             let decoded = if file.exists() {
                 let bytes = std::fs::read(&file).map_err(|e| Error::io(&file, e))?;
-                self.decode_bytes(&bytes, format!("image '{uri}'"), None)?
+                if bytes.starts_with(&EXR_MAGIC) {
+                    // Float images (OpenEXR): linear values, as Cycles reads them.
+                    let (width, height, texels) = crate::image_io::read_exr_rgba(&file)?;
+                    DecodedImage {
+                        name: uri.to_string(),
+                        width,
+                        height,
+                        texels: Texels::Linear(texels),
+                    }
+                } else {
+                    self.decode_bytes(&bytes, format!("image '{uri}'"), None)?
+                }
             } else {
                 self.scene.warnings.push(format!(
                     "{object}: image file '{}' not found; it renders magenta (1, 0, 1), as in \
@@ -1422,7 +1468,7 @@ impl Loader {
                     name: uri.to_string(),
                     width: 1,
                     height: 1,
-                    texels: vec![[255, 0, 255, 255]],
+                    texels: Texels::Bytes(vec![[255, 0, 255, 255]]),
                 }
             };
             let wrap = match node.get("extension").and_then(Value::as_str) {
@@ -1444,11 +1490,22 @@ impl Loader {
         wrap: [Wrap; 2],
         bilinear: bool,
     ) -> u32 {
+        let texels = match decoded.texels {
+            Texels::Linear(values) if srgb => Texels::Linear(
+                values
+                    .into_iter()
+                    .map(|[r, g, b, a]| {
+                        [srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b), a]
+                    })
+                    .collect(),
+            ),
+            texels => texels,
+        };
         self.scene.textures.push(Texture {
             name: decoded.name,
             width: decoded.width,
             height: decoded.height,
-            texels: decoded.texels,
+            texels,
             srgb,
             wrap_s: wrap[0],
             wrap_t: wrap[1],
@@ -1490,7 +1547,7 @@ impl Loader {
 
     fn warn_tex_coord(&mut self, tex_coord: u32, object: &str) {
         if tex_coord != 0 {
-            self.scene.warnings.push(format!(
+            self.uv_set_warnings.push(format!(
                 "{object}: texture uses TEXCOORD_{tex_coord}; Photon reads UV set 0 only"
             ));
         }
@@ -1608,7 +1665,7 @@ impl Loader {
                         name: label,
                         width: 1,
                         height: 1,
-                        texels: vec![[255, 0, 255, 255]],
+                        texels: Texels::Bytes(vec![[255, 0, 255, 255]]),
                     });
                 }
                 self.read_uri(uri, &label)?
@@ -1646,7 +1703,7 @@ impl Loader {
                 name: label.clone(),
                 width,
                 height,
-                texels,
+                texels: Texels::Bytes(texels),
             });
         }
         // Hand the bytes to the gltf crate's decoder (PNG and JPEG via the image crate) as a
@@ -1661,7 +1718,7 @@ impl Loader {
             &[],
         )
         .map_err(|e| self.err(&label, format!("cannot decode the {format} image: {e}")))?;
-        let texels = to_rgba8(&data).ok_or_else(|| {
+        let texels = to_texels(&data).ok_or_else(|| {
             self.err(
                 &label,
                 format!("unsupported pixel format {:?}", data.format),
@@ -1878,6 +1935,7 @@ impl Loader {
             normals: vec![normal; positions.len()],
             positions,
             uvs: Vec::new(),
+            extra_uvs: Vec::new(),
             tangents: Vec::new(),
             indices,
             material: (self.scene.materials.len() - 1) as u32,
@@ -2202,6 +2260,15 @@ fn convert_camera(
     world: &Mat4,
 ) -> std::result::Result<Camera, String> {
     let (_, rotation, translation) = world.to_scale_rotation_translation();
+    let near_clip = match camera.projection() {
+        gltf::camera::Projection::Perspective(p) => p.znear(),
+        gltf::camera::Projection::Orthographic(o) => o.znear(),
+    };
+    let near_clip = if near_clip.is_finite() && near_clip > 0.0 {
+        near_clip
+    } else {
+        0.0
+    };
     let (projection, aspect_ratio) = match camera.projection() {
         gltf::camera::Projection::Perspective(p) => {
             let yfov = p.yfov();
@@ -2238,6 +2305,7 @@ fn convert_camera(
         shift: Vec2::ZERO,
         lens: None,
         motion: Vec::new(),
+        near_clip,
     })
 }
 
@@ -2387,6 +2455,7 @@ fn framing_camera(bounds: Bounds) -> Camera {
         shift: Vec2::ZERO,
         lens: None,
         motion: Vec::new(),
+        near_clip: 0.0,
     }
 }
 
@@ -2399,34 +2468,35 @@ fn look_at(eye: Vec3, target: Vec3) -> Affine3A {
 }
 
 /// Split every triangle's vertices apart and give them the face normal (a mesh without normals
-/// is flat shaded in glTF).
+/// is flat shaded in glTF); every per-vertex attribute follows its vertex.
 fn make_flat(mesh: &mut Mesh) {
-    let mut positions = Vec::with_capacity(mesh.indices.len() * 3);
-    let mut normals = Vec::with_capacity(mesh.indices.len() * 3);
-    let mut uvs = Vec::new();
-    let mut tangents = Vec::new();
-    let mut indices = Vec::with_capacity(mesh.indices.len());
-    for (t, tri) in mesh.indices.iter().enumerate() {
-        let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
-        let normal = (b - a).cross(c - a).normalize_or_zero();
-        for &i in tri {
-            positions.push(mesh.positions[i as usize]);
-            normals.push(normal);
-            if let Some(&uv) = mesh.uvs.get(i as usize) {
-                uvs.push(uv);
-            }
-            if let Some(&tangent) = mesh.tangents.get(i as usize) {
-                tangents.push(tangent);
-            }
+    let corners: Vec<u32> = mesh.indices.iter().flatten().copied().collect();
+    fn spread<T: Copy>(values: &[T], corners: &[u32]) -> Vec<T> {
+        if values.is_empty() {
+            return Vec::new();
         }
-        let first = (3 * t) as u32;
-        indices.push([first, first + 1, first + 2]);
+        corners.iter().map(|&i| values[i as usize]).collect()
     }
-    mesh.positions = positions;
-    mesh.normals = normals;
-    mesh.uvs = uvs;
-    mesh.tangents = tangents;
-    mesh.indices = indices;
+    mesh.normals = mesh
+        .indices
+        .iter()
+        .flat_map(|tri| {
+            let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
+            [(b - a).cross(c - a).normalize_or_zero(); 3]
+        })
+        .collect();
+    mesh.positions = spread(&mesh.positions, &corners);
+    mesh.uvs = spread(&mesh.uvs, &corners);
+    mesh.extra_uvs = mesh
+        .extra_uvs
+        .iter()
+        .map(|set| spread(set, &corners))
+        .collect();
+    mesh.tangents = spread(&mesh.tangents, &corners);
+    mesh.colors = spread(&mesh.colors, &corners);
+    mesh.indices = (0..mesh.indices.len() as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect();
 }
 
 fn check_length<T>(values: &[T], vertex_count: usize) -> std::result::Result<(), String> {
@@ -2669,6 +2739,9 @@ fn use_webp_sources(root: &mut gltf::json::Root) -> std::result::Result<(), (Str
 }
 
 /// The mime type of PNG, JPEG or WebP bytes, from their signature.
+/// The first bytes of an OpenEXR file.
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
 fn sniff_image_format(bytes: &[u8]) -> Option<&'static str> {
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
         Some("image/png")
@@ -2697,7 +2770,9 @@ fn decode_webp(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<[u8; 4]>), St
 }
 
 /// Any decoded glTF image as 8-bit RGBA (16-bit keeps the high byte; grey and RGB gain channels).
-fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<[u8; 4]>> {
+/// The decoder's pixels as texels: 8-bit ones as bytes, 16-bit ones as floats in [0, 1] (still
+/// encoded: `push_texture` decodes sRGB). Grey and grey-alpha images are spread to RGBA.
+fn to_texels(data: &gltf::image::Data) -> Option<Texels> {
     use gltf::image::Format;
     let (channels, bytes_per_channel) = match data.format {
         Format::R8 => (1, 1),
@@ -2716,30 +2791,35 @@ fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<[u8; 4]>> {
         return None;
     }
     // 16-bit samples are stored in native byte order by the decoder.
-    let sample = |p: &[u8], c: usize| -> u8 {
+    let sample = |p: &[u8], c: usize| -> f32 {
         if bytes_per_channel == 2 {
-            (u16::from_ne_bytes([p[2 * c], p[2 * c + 1]]) >> 8) as u8
+            u16::from_ne_bytes([p[2 * c], p[2 * c + 1]]) as f32 / 65535.0
         } else {
-            p[c]
+            p[c] as f32 / 255.0
         }
     };
-    Some(
-        data.pixels
-            .chunks_exact(pixel_size)
-            .map(|p| match channels {
-                1 => {
-                    let g = sample(p, 0);
-                    [g, g, g, 255]
-                }
-                2 => {
-                    let g = sample(p, 0);
-                    [g, g, g, sample(p, 1)]
-                }
-                3 => [sample(p, 0), sample(p, 1), sample(p, 2), 255],
-                _ => [sample(p, 0), sample(p, 1), sample(p, 2), sample(p, 3)],
-            })
-            .collect(),
-    )
+    let rgba = |p: &[u8]| match channels {
+        1 => {
+            let g = sample(p, 0);
+            [g, g, g, 1.0]
+        }
+        2 => {
+            let g = sample(p, 0);
+            [g, g, g, sample(p, 1)]
+        }
+        3 => [sample(p, 0), sample(p, 1), sample(p, 2), 1.0],
+        _ => [sample(p, 0), sample(p, 1), sample(p, 2), sample(p, 3)],
+    };
+    let pixels = data.pixels.chunks_exact(pixel_size);
+    Some(if bytes_per_channel == 1 {
+        Texels::Bytes(
+            pixels
+                .map(|p| rgba(p).map(|v| (v * 255.0).round() as u8))
+                .collect(),
+        )
+    } else {
+        Texels::Linear(pixels.map(rgba).collect())
+    })
 }
 
 const BASE64_ALPHABET: &[u8; 64] =
@@ -2837,7 +2917,28 @@ mod tests {
     }
 
     #[test]
-    fn sixteen_bit_images_keep_the_high_byte() {
+    fn flat_meshes_keep_every_attribute_per_corner() {
+        let mut mesh = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE],
+            uvs: vec![Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE],
+            extra_uvs: vec![vec![Vec2::ONE, Vec2::ZERO, Vec2::X, Vec2::Y]],
+            colors: vec![Vec4::X, Vec4::Y, Vec4::Z, Vec4::W],
+            indices: vec![[0, 1, 2], [2, 1, 3]],
+            ..Mesh::default()
+        };
+        make_flat(&mut mesh);
+        assert_eq!(mesh.positions.len(), 6);
+        assert_eq!(mesh.normals.len(), 6);
+        assert_eq!(mesh.indices, vec![[0, 1, 2], [3, 4, 5]]);
+        assert_eq!(mesh.colors[3], Vec4::Z);
+        assert_eq!(mesh.uvs[5], Vec2::ONE);
+        assert_eq!(mesh.extra_uvs[0][4], Vec2::ZERO);
+        assert!(mesh.tangents.is_empty());
+        assert_eq!(mesh.normals[0], Vec3::Z);
+    }
+
+    #[test]
+    fn sixteen_bit_images_keep_their_sixteen_bits() {
         let data = gltf::image::Data {
             pixels: [0x1234u16, 0xABCD, 0xFFFF]
                 .iter()
@@ -2847,6 +2948,20 @@ mod tests {
             width: 1,
             height: 1,
         };
-        assert_eq!(to_rgba8(&data).unwrap(), vec![[0x12, 0xAB, 0xFF, 255]]);
+        let Some(Texels::Linear(texels)) = to_texels(&data) else {
+            panic!("16-bit texels are kept as floats");
+        };
+        let expected = [0x1234 as f32 / 65535.0, 0xABCD as f32 / 65535.0, 1.0, 1.0];
+        assert_eq!(texels, vec![expected]);
+        let bytes = gltf::image::Data {
+            pixels: vec![0x12, 0xAB],
+            format: gltf::image::Format::R8G8,
+            width: 1,
+            height: 1,
+        };
+        assert!(matches!(
+            to_texels(&bytes),
+            Some(Texels::Bytes(t)) if t == vec![[0x12, 0x12, 0x12, 0xAB]]
+        ));
     }
 }

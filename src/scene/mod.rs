@@ -15,7 +15,7 @@ pub mod sky;
 pub mod texture;
 pub mod units;
 
-use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec4};
+use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 pub use texture::{Texture, TextureRef};
 
 /// A triangle mesh: in world space in `Scene::meshes`, in object space in `Scene::prototypes`.
@@ -28,6 +28,9 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// UV set 0; empty when the file has none.
     pub uvs: Vec<Vec2>,
+    /// UV sets 1, 2, … (`TEXCOORD_1` …, up to `nodes::UV_SETS` in all), which node trees read;
+    /// each empty when the file has none.
+    pub extra_uvs: Vec<Vec<Vec2>>,
     /// Tangents (xyz, w = bitangent sign); empty when the file has none.
     pub tangents: Vec<Vec4>,
     pub indices: Vec<[u32; 3]>,
@@ -369,6 +372,31 @@ pub struct Camera {
     /// to its closing (Blender's motion blur; our `PHOTON_camera` "motion"); empty: the camera
     /// stays at `to_world`.
     pub motion: Vec<Affine3A>,
+    /// Blender's clip start (glTF `znear`): Cycles starts camera rays on this plane, so its
+    /// Light Path Ray Length is measured from there. Zero when the file gives none.
+    pub near_clip: f32,
+}
+
+impl Camera {
+    /// How far along unit camera-ray direction `dir` the near clip plane lies (Cycles'
+    /// `nearclip × z_inv`; panoramas: the clip distance itself).
+    pub fn near_clip_distance(&self, dir: Vec3) -> f32 {
+        if self.near_clip <= 0.0 {
+            return 0.0;
+        }
+        match self.projection {
+            Projection::Perspective { .. } | Projection::Orthographic { .. } => {
+                let forward = -self.to_world.z_axis.normalize_or(Vec3A::Z);
+                let cos = Vec3A::from(dir).dot(forward);
+                if cos > 0.0 {
+                    self.near_clip / cos
+                } else {
+                    0.0
+                }
+            }
+            _ => self.near_clip,
+        }
+    }
 }
 
 /// A thin lens (Blender's depth of field as Cycles renders it).
@@ -726,11 +754,14 @@ impl Scene {
                     m.normals.len()
                 ));
             }
-            if !m.uvs.is_empty() && m.uvs.len() != n {
+            if let Some(uvs) = std::iter::once(&m.uvs)
+                .chain(&m.extra_uvs)
+                .find(|uvs| !uvs.is_empty() && uvs.len() != n)
+            {
                 return Err(format!(
                     "mesh {mi} '{}': {} UVs for {n} positions",
                     m.name,
-                    m.uvs.len()
+                    uvs.len()
                 ));
             }
             if !m.colors.is_empty() && m.colors.len() != n {
@@ -928,5 +959,29 @@ impl Scene {
             ));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn near_clip_distance_grows_off_axis_as_cycles_z_inv() {
+        // Camera at the origin looking down −Z (glTF's convention), clip start 0.5.
+        let mut camera = Camera {
+            name: "c".into(),
+            to_world: Affine3A::IDENTITY,
+            projection: Projection::Perspective { yfov: 1.0 },
+            aspect_ratio: None,
+            shift: Vec2::ZERO,
+            lens: None,
+            near_clip: 0.5,
+        };
+        assert!((camera.near_clip_distance(-Vec3::Z) - 0.5).abs() < 1e-6);
+        let off_axis = Vec3::new(0.6, 0.0, -0.8);
+        assert!((camera.near_clip_distance(off_axis) - 0.5 / 0.8).abs() < 1e-6);
+        camera.near_clip = 0.0;
+        assert_eq!(camera.near_clip_distance(off_axis), 0.0);
     }
 }

@@ -7,19 +7,22 @@
 //! a linear list of instructions over a small register file (one `Vec4` per node output) and a
 //! small closure array, with unconnected inputs as constants and socket type conversions
 //! (colour → float by Rec. 709 luminance, vector → float by the average) decided at compile
-//! time. `NodeProgram::eval` runs it on the stack, allocating nothing.
+//! time. `NodeProgram::eval` runs it on a per-thread register file, allocating nothing.
 //!
 //! Texture and converter nodes follow Blender's definitions (the manual and Cycles' kernel:
 //! `svm_checker`, `svm_gradient`, `svm_math`, `svm_mix`, `noise_fbm` with Jenkins' lookup3 hash
-//! and Perlin's improved noise, `rgb_ramp_lookup` over the 256-entry table the add-on bakes with
-//! Blender's own `ColorRamp.evaluate`), written here from those definitions.
+//! and Perlin's improved noise, `svm_magic`, `svm_brick` with its integer noise, the White
+//! Noise's hashes of the coordinates' bits, Cycles' piecewise black-body fit,
+//! `rgb_ramp_lookup` over the 256-entry table the add-on bakes with Blender's own
+//! `ColorRamp.evaluate`), written here from those definitions.
 //!
 //! A Bump node's Height subtree is compiled three times: as is, and copies that read the
 //! shading point moved a small step along each surface tangent (`Instr::offset`), as Cycles'
 //! SVM evaluates it at P + dPdx and P + dPdy; the normal then follows Cycles'
 //! `svm_node_set_bump` with those steps as dPdx and dPdy.
 //!
-//! Shader nodes become Principled parameter sets (`Closure`): Diffuse BSDF → colour, metallic 0,
+//! Shader nodes become Principled parameter sets (`Closure`); a Principled BSDF's Alpha below 1
+//! mixes it with a Transparent BSDF by alpha, as Cycles does. Diffuse BSDF → colour, metallic 0,
 //! specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy → metallic 1 with the
 //! colour as F0 (Blender's Glossy has no Fresnel: differs at grazing angles); Glass → transmission
 //! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
@@ -34,9 +37,13 @@
 //! only emits, the common case).
 
 use super::texture::Texture;
-use crate::math::{Vec2, Vec3, Vec4};
+use crate::math::{Mat3, Vec2, Vec3, Vec4};
 use serde_json::Value;
 use std::f32::consts::PI;
+
+/// UV maps node trees read (`TEXCOORD_0` …).
+pub const UV_SETS: usize = 4;
+const _: () = assert!(UV_SETS == 4, "ShadingInputs::uv holds UV_SETS maps");
 
 /// Registers (node outputs) a program may use; larger trees are refused.
 pub const MAX_REGISTERS: usize = 256;
@@ -50,8 +57,10 @@ pub struct ShadingInputs {
     pub position: Vec3,
     /// Unit shading normal (world).
     pub normal: Vec3,
-    /// UV map 0, in Blender's convention (v up: glTF's 1 − v).
-    pub uv: Vec2,
+    /// The UV maps (`TEXCOORD_n`), in Blender's convention (v up: glTF's 1 − v); zero where
+    /// the mesh has none. (`UV_SETS` long: the literal works around a rustc internal error
+    /// with a named constant here.)
+    pub uv: [Vec2; 4],
     /// Generated coordinates: the object's texture space mapped to [0, 1]³.
     pub generated: Vec3,
     /// Object-space position.
@@ -64,6 +73,30 @@ pub struct ShadingInputs {
     pub incoming: Vec3,
     /// Seen from behind the surface's winding (`normal` is then turned to the viewer).
     pub backfacing: bool,
+    /// Seen by a camera ray (Light Path's Is Camera Ray; photons, gather and bounce rays,
+    /// light sampling: not).
+    pub camera_ray: bool,
+    /// The distance the ray travelled to the point (Light Path's Ray Length: a camera ray's
+    /// from the near clip plane, as in Cycles; for an emitter sampled as a light, its distance
+    /// to the shaded point; 0 where photons leave it).
+    pub ray_length: f32,
+    /// The mesh's tangent for UV map 0 (world, Blender's axes, not normalised) with the
+    /// bitangent sign in `w` (Blender's: bitangent = w × normal × tangent); zero when the mesh
+    /// has none.
+    pub tangent: Vec4,
+    /// Object-space normals to world space (Blender's axes; not normalising).
+    pub object_to_world_normal: Mat3,
+}
+
+/// The Normal Map node's spaces (Blender's `space`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum NormalMapSpace {
+    Tangent,
+    Object,
+    World,
+    /// Blender's own object and world conventions: y and z negated.
+    BlenderObject,
+    BlenderWorld,
 }
 
 /// A shader node's result: Principled parameters and emission (see the module header).
@@ -77,7 +110,6 @@ pub struct Closure {
     /// glTF's specularFactor and specularColorFactor (Blender's 2 × level × tint).
     pub specular: f32,
     pub specular_color: Vec3,
-    pub alpha: f32,
     /// Emitted radiance (W·m⁻²·sr⁻¹).
     pub emission: Vec3,
     /// Shading normal from a Normal input (Blender's axes, world); zero: the surface's own.
@@ -94,7 +126,6 @@ impl Closure {
         ior: 1.5,
         specular: 0.0,
         specular_color: Vec3::ZERO,
-        alpha: 1.0,
         emission: Vec3::ZERO,
         normal: Vec3::ZERO,
     };
@@ -112,8 +143,8 @@ enum Src {
     Closure(u16),
     /// The implicit Generated coordinates of an unlinked texture Vector input.
     Generated,
-    /// The implicit UV of an unlinked Image Texture Vector input.
-    Uv,
+    /// The implicit UV (this UV map) of an unlinked Image Texture Vector input.
+    Uv(u8),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -161,12 +192,20 @@ enum GradientKind {
 /// One node's operation with its settings.
 #[derive(Clone, Debug, PartialEq)]
 enum Op {
-    TexCoord,
-    UvMap,
+    /// Texture Coordinate; its UV output reads this UV map (the mesh's default, Blender's
+    /// active render UV map, which the add-on names).
+    TexCoord {
+        uv_set: u8,
+    },
+    UvMap {
+        uv_set: u8,
+    },
     /// Color Attribute and Attribute (COLOR_0).
     VertexColor,
     Attribute,
     Geometry,
+    /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
+    LightPath,
     Value(f32),
     Rgb(Vec4),
     Mapping(MappingKind),
@@ -218,15 +257,31 @@ enum Op {
     Image {
         texture: u32,
         clip: bool,
+        uv_set: u8,
     },
     Voronoi(VoronoiKind),
     Wave(WaveKind),
+    /// White Noise: 1 to 4 dimensions.
+    WhiteNoise {
+        dimensions: u8,
+    },
+    /// Magic: its turbulence depth.
+    Magic {
+        depth: u8,
+    },
+    Brick(BrickLayout),
+    Blackbody,
     HueSaturation,
     Gamma,
     BrightContrast,
     VectorMath(VectorOp),
     Bump {
         invert: bool,
+    },
+    NormalMap(NormalMapSpace),
+    /// The Displacement node: its height along the normal, in object or world space.
+    Displacement {
+        object_space: bool,
     },
     Fresnel,
     LayerWeight,
@@ -277,6 +332,15 @@ struct WaveKind {
     /// Bands: X, Y, Z, diagonal; rings: X, Y, Z, spherical.
     direction: u8,
     profile: WaveProfile,
+}
+
+/// The Brick texture's settings (node properties, not sockets).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BrickLayout {
+    offset: f32,
+    offset_frequency: i32,
+    squash: f32,
+    squash_frequency: i32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -404,6 +468,9 @@ pub struct NodeProgram {
     /// True when the program reads the points a step away (it has a Bump node): `eval` then
     /// needs all three `ShadingInputs`.
     pub needs_offsets: bool,
+    /// The Material Output's Displacement as Cycles' "bump only" method: a program whose
+    /// output is the bumped normal, which the surface tree then reads as the shading normal.
+    displacement: Option<Box<NodeProgram>>,
 }
 
 /// What `compile` found that it could not evaluate: `(node name, message)`. The program
@@ -449,7 +516,7 @@ fn spec(op: &Op) -> Spec {
     let i = |n: &str, t: Ty, d: Vec4| (n.to_string(), t, d);
     let grey = Vec4::new(0.8, 0.8, 0.8, 1.0);
     let (inputs, outputs): (Vec<InputSpec>, Vec<OutputSpec>) = match op {
-        Op::TexCoord => (
+        Op::TexCoord { .. } => (
             vec![],
             vec![
                 ("Generated", Vector),
@@ -459,7 +526,7 @@ fn spec(op: &Op) -> Spec {
                 ("Reflection", Vector),
             ],
         ),
-        Op::UvMap => (vec![], vec![("UV", Vector)]),
+        Op::UvMap { .. } => (vec![], vec![("UV", Vector)]),
         Op::VertexColor => (vec![], vec![("Color", Color), ("Alpha", Float)]),
         Op::Attribute => (
             vec![],
@@ -479,6 +546,10 @@ fn spec(op: &Op) -> Spec {
                 ("Incoming", Vector),
                 ("Backfacing", Float),
             ],
+        ),
+        Op::LightPath => (
+            vec![],
+            vec![("Is Camera Ray", Float), ("Ray Length", Float)],
         ),
         Op::Value(_) => (vec![], vec![("Value", Float)]),
         Op::Rgb(_) => (vec![], vec![("Color", Color)]),
@@ -630,6 +701,37 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("Color", Color), ("Fac", Float)],
         ),
+        Op::WhiteNoise { .. } => (
+            vec![i("Vector", Vector, Vec4::ZERO), i("W", Float, f(0.0))],
+            vec![("Value", Float), ("Color", Color)],
+        ),
+        Op::Magic { .. } => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Scale", Float, f(5.0)),
+                i("Distortion", Float, f(1.0)),
+            ],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::Brick(_) => (
+            vec![
+                i("Vector", Vector, Vec4::ZERO),
+                i("Color1", Color, grey),
+                i("Color2", Color, Vec4::new(0.2, 0.2, 0.2, 1.0)),
+                i("Mortar", Color, Vec4::new(0.0, 0.0, 0.0, 1.0)),
+                i("Scale", Float, f(5.0)),
+                i("Mortar Size", Float, f(0.02)),
+                i("Mortar Smooth", Float, f(0.1)),
+                i("Bias", Float, f(0.0)),
+                i("Brick Width", Float, f(0.5)),
+                i("Row Height", Float, f(0.25)),
+            ],
+            vec![("Color", Color), ("Fac", Float)],
+        ),
+        Op::Blackbody => (
+            vec![i("Temperature", Float, f(1500.0))],
+            vec![("Color", Color)],
+        ),
         Op::HueSaturation => (
             vec![
                 i("Hue", Float, f(0.5)),
@@ -676,6 +778,22 @@ fn spec(op: &Op) -> Spec {
                 i("Filter Width", Float, f(0.1)),
                 i("Height", Float, f(1.0)),
                 i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("Normal", Vector)],
+        ),
+        Op::Displacement { .. } => (
+            vec![
+                i("Height", Float, f(0.0)),
+                i("Midlevel", Float, f(0.5)),
+                i("Scale", Float, f(1.0)),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("Displacement", Vector)],
+        ),
+        Op::NormalMap(_) => (
+            vec![
+                i("Strength", Float, f(1.0)),
+                i("Color", Color, Vec4::new(0.5, 0.5, 1.0, 1.0)),
             ],
             vec![("Normal", Vector)],
         ),
@@ -816,17 +934,32 @@ fn blend_mode(name: &str) -> Option<Blend> {
     })
 }
 
+/// The UV map a node reads (`uv_set`, the `TEXCOORD_n` the add-on resolved its name to; 0
+/// when absent).
+fn uv_set(node: &Value) -> Result<u8, String> {
+    match node.get("uv_set").and_then(Value::as_u64) {
+        None => Ok(0),
+        Some(n) if (n as usize) < UV_SETS => Ok(n as u8),
+        Some(n) => Err(format!("uv_set {n}: Photon reads {UV_SETS} UV maps")),
+    }
+}
+
 /// The operation of one exported node. `Ok(None)`: a node type the renderer does not evaluate.
 fn parse_op(node: &Value) -> Result<Option<Op>, String> {
     let kind = setting(node, "type").ok_or("a node has no 'type'")?;
     let kind = kind.strip_prefix("ShaderNode").unwrap_or(kind);
     let bad = |what: &str| format!("{kind}: unknown {what}");
     Ok(Some(match kind {
-        "TexCoord" => Op::TexCoord,
-        "UVMap" => Op::UvMap,
+        "TexCoord" => Op::TexCoord {
+            uv_set: uv_set(node)?,
+        },
+        "UVMap" => Op::UvMap {
+            uv_set: uv_set(node)?,
+        },
         "VertexColor" => Op::VertexColor,
         "Attribute" => Op::Attribute,
         "NewGeometry" => Op::Geometry,
+        "LightPath" => Op::LightPath,
         "Value" => Op::Value(
             node.get("value")
                 .and_then(number)
@@ -978,6 +1111,7 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                     .and_then(|t| u32::try_from(t).ok())
                     .ok_or("Image Texture: no image")?,
                 clip: setting(node, "extension") == Some("CLIP"),
+                uv_set: uv_set(node)?,
             }
         }
         "TexVoronoi" => {
@@ -1033,6 +1167,31 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                 },
             })
         }
+        "TexWhiteNoise" => Op::WhiteNoise {
+            dimensions: match setting(node, "noise_dimensions").unwrap_or("3D") {
+                "1D" => 1,
+                "2D" => 2,
+                "3D" => 3,
+                "4D" => 4,
+                _ => return Err(bad("noise_dimensions")),
+            },
+        },
+        "TexMagic" => Op::Magic {
+            depth: node
+                .get("turbulence_depth")
+                .and_then(number)
+                .map_or(2, |d| d.clamp(0.0, 10.0) as u8),
+        },
+        "TexBrick" => {
+            let float = |key: &str, default: f32| node.get(key).and_then(number).unwrap_or(default);
+            Op::Brick(BrickLayout {
+                offset: float("offset", 0.5),
+                offset_frequency: float("offset_frequency", 2.0) as i32,
+                squash: float("squash", 1.0),
+                squash_frequency: float("squash_frequency", 2.0) as i32,
+            })
+        }
+        "Blackbody" => Op::Blackbody,
         "HueSaturation" => Op::HueSaturation,
         "Gamma" => Op::Gamma,
         "BrightContrast" => Op::BrightContrast,
@@ -1068,6 +1227,21 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
         "Bump" => Op::Bump {
             invert: node.get("invert").and_then(Value::as_bool).unwrap_or(false),
         },
+        "NormalMap" => Op::NormalMap(match setting(node, "space").unwrap_or("TANGENT") {
+            "TANGENT" => NormalMapSpace::Tangent,
+            "OBJECT" => NormalMapSpace::Object,
+            "WORLD" => NormalMapSpace::World,
+            "BLENDER_OBJECT" => NormalMapSpace::BlenderObject,
+            "BLENDER_WORLD" => NormalMapSpace::BlenderWorld,
+            _ => return Err(bad("space")),
+        }),
+        "Displacement" => Op::Displacement {
+            object_space: match setting(node, "space").unwrap_or("OBJECT") {
+                "OBJECT" => true,
+                "WORLD" => false,
+                _ => return Err(bad("space")),
+            },
+        },
         "BsdfPrincipled" => Op::Principled,
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
@@ -1085,10 +1259,30 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
 /// to a later node or a missing output, a value of the wrong kind) refuse the file; nodes the
 /// renderer cannot evaluate are replaced by their fallback with a warning in `warnings`.
 /// `textures` is the number of textures in the scene (Image Texture nodes name one of them).
+/// A `displacement` tree (same form, its `output` a vector: the bumped normal) is compiled
+/// alongside; the surface tree then reads its normal (`NodeProgram::eval`).
 pub fn compile(
     ext: &Value,
     textures: usize,
     warnings: &mut CompileWarnings,
+) -> Result<NodeProgram, String> {
+    let mut program = compile_tree(ext, textures, warnings, Ty::Shader)?;
+    if let Some(tree) = ext.get("displacement").filter(|d| !d.is_null()) {
+        let normal = compile_tree(tree, textures, warnings, Ty::Vector)
+            .map_err(|m| format!("displacement: {m}"))?;
+        program.needs_offsets |= normal.needs_offsets;
+        program.reads_color |= normal.reads_color;
+        program.displacement = Some(Box::new(normal));
+    }
+    Ok(program)
+}
+
+/// One tree whose `output` is of type `output_type` (a shader, or a vector).
+fn compile_tree(
+    ext: &Value,
+    textures: usize,
+    warnings: &mut CompileWarnings,
+    output_type: Ty,
 ) -> Result<NodeProgram, String> {
     let nodes = ext
         .get("nodes")
@@ -1132,7 +1326,13 @@ pub fn compile(
         let inputs = node.get("inputs");
         let texture_vector = matches!(
             op,
-            Op::Checker | Op::Gradient(_) | Op::Noise { .. } | Op::Voronoi(_) | Op::Wave(_)
+            Op::Checker
+                | Op::Gradient(_)
+                | Op::Noise { .. }
+                | Op::Voronoi(_)
+                | Op::Wave(_)
+                | Op::Magic { .. }
+                | Op::Brick(_)
         );
         let mut ins = Vec::with_capacity(spec.inputs.len());
         let mut reads = Vec::new();
@@ -1141,7 +1341,10 @@ pub fn compile(
             let src = match given {
                 None if *ty == Ty::Shader => Src::Const(Vec4::ZERO),
                 None if texture_vector && id == "Vector" => Src::Generated,
-                None if matches!(op, Op::Image { .. }) && id == "Vector" => Src::Uv,
+                None if id == "Vector" && matches!(op, Op::Image { .. }) => match op {
+                    Op::Image { uv_set, .. } => Src::Uv(uv_set),
+                    _ => Src::Const(*default),
+                },
                 None => Src::Const(*default),
                 Some(v) if v.get("node").is_some() => {
                     let from = v
@@ -1317,14 +1520,29 @@ pub fn compile(
             match &placed[from] {
                 None => Src::Const(Vec4::ZERO),
                 Some((base, outs)) => match outs.iter().position(|(n, _)| *n == name) {
-                    Some(k) if outs[k].1 == Ty::Shader => Src::Closure(base + k as u16),
-                    _ => return Err(format!("'output' must be a shader output, found '{name}'")),
+                    Some(k) if outs[k].1 == output_type && output_type == Ty::Shader => {
+                        Src::Closure(base + k as u16)
+                    }
+                    Some(k) if outs[k].1 == output_type => Src::Reg(base + k as u16),
+                    _ => {
+                        return Err(format!(
+                            "'output' must be a {} output, found '{name}'",
+                            if output_type == Ty::Shader {
+                                "shader"
+                            } else {
+                                "vector"
+                            }
+                        ))
+                    }
                 },
             }
         }
     };
     // Which outputs are read: a texture skips the work of an output nobody reads.
     let mut read = vec![false; registers];
+    if let Src::Reg(r) = output {
+        read[r as usize] = true;
+    }
     for instr in &instrs {
         for s in &instr.ins {
             if let Src::Reg(r) | Src::Gray(r) | Src::Average(r) = *s {
@@ -1340,6 +1558,19 @@ pub fn compile(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
+    if emits
+        && instrs
+            .iter()
+            .any(|i| i.op == Op::LightPath && i.used & 2 != 0)
+    {
+        warnings.push(
+            "Light Path's Ray Length in a tree that emits: photons leaving the surface read \
+             it as 0, so photon mapping's light from it may differ (path tracing and light \
+             sampling read the true distance)"
+                .to_string(),
+        );
+    }
+
     Ok(NodeProgram {
         instrs,
         registers,
@@ -1348,6 +1579,7 @@ pub fn compile(
         emits,
         reads_color,
         needs_offsets,
+        displacement: None,
     })
 }
 
@@ -1356,6 +1588,27 @@ pub fn compile(
 struct Machine {
     regs: [Vec4; MAX_REGISTERS],
     closures: [Closure; MAX_CLOSURES],
+}
+
+impl Machine {
+    /// Run `program` on this thread's register file (one per thread, reused: clearing the
+    /// registers and closures the program uses costs far less than a fresh 6 KB file), and
+    /// return what `run` reads off it. Nothing is allocated per shading point.
+    fn with<R>(program: &NodeProgram, run: impl FnOnce(&mut Machine) -> R) -> R {
+        thread_local! {
+            static MACHINE: std::cell::RefCell<Box<Machine>> =
+                std::cell::RefCell::new(Box::new(Machine {
+                    regs: [Vec4::ZERO; MAX_REGISTERS],
+                    closures: [Closure::BLACK; MAX_CLOSURES],
+                }));
+        }
+        MACHINE.with(|cell| {
+            let mut m = cell.borrow_mut();
+            m.regs[..program.registers].fill(Vec4::ZERO);
+            m.closures[..program.closures].fill(Closure::BLACK);
+            run(&mut m)
+        })
+    }
 }
 
 fn gray(c: Vec4) -> f32 {
@@ -1375,19 +1628,44 @@ impl NodeProgram {
     /// Shader nodes (module header).
     /// `at` holds the shading point and, when `needs_offsets`, the points a small step along
     /// its two tangents (else three copies of the point).
+    /// With a displacement tree, its bumped normal is the shading normal the surface tree
+    /// reads, and the normal of its BSDFs whose Normal input is unlinked (Cycles sets the
+    /// shading point's N before evaluating the surface).
     pub fn eval(&self, at: &[ShadingInputs; 3], textures: &[Texture], mut u: f32) -> Closure {
-        // The register file lives on the stack; only what the program uses is written or read.
-        let mut m = Machine {
-            regs: [Vec4::ZERO; MAX_REGISTERS],
-            closures: [Closure::BLACK; MAX_CLOSURES],
+        let Some(displacement) = &self.displacement else {
+            return self.eval_closure(at, textures, &mut u);
         };
-        for instr in &self.instrs {
-            run(instr, at, textures, &mut m, &mut u);
+        let n = displacement.eval_vector(at, textures);
+        let bumped = at.map(|mut point| {
+            point.normal = n;
+            point
+        });
+        let mut c = self.eval_closure(&bumped, textures, &mut u);
+        if c.normal == Vec3::ZERO {
+            c.normal = n;
         }
-        match self.output {
-            Src::Closure(c) => m.closures[c as usize],
-            _ => Closure::BLACK,
-        }
+        c
+    }
+
+    fn eval_closure(&self, at: &[ShadingInputs; 3], textures: &[Texture], u: &mut f32) -> Closure {
+        Machine::with(self, |m| {
+            for instr in &self.instrs {
+                run(instr, at, textures, m, u);
+            }
+            closure(m, self.output)
+        })
+    }
+
+    /// A vector-output program's value (the displacement tree's normal, unit).
+    fn eval_vector(&self, at: &[ShadingInputs; 3], textures: &[Texture]) -> Vec3 {
+        Machine::with(self, |m| {
+            for instr in &self.instrs {
+                run(instr, at, textures, m, &mut 0.5);
+            }
+            load(m, &at[0], self.output)
+                .truncate()
+                .normalize_or(at[0].normal)
+        })
     }
 
     /// Number of instructions (for tests and `photon info`).
@@ -1416,8 +1694,13 @@ fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
         }
         Src::Closure(_) => Vec4::ZERO,
         Src::Generated => v3(at.generated),
-        Src::Uv => Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
+        Src::Uv(set) => uv_value(at, set),
     }
+}
+
+fn uv_value(at: &ShadingInputs, set: u8) -> Vec4 {
+    let uv = at.uv[set as usize];
+    Vec4::new(uv.x, uv.y, 0.0, 1.0)
 }
 
 fn closure(m: &Machine, s: Src) -> Closure {
@@ -1439,15 +1722,15 @@ fn run(
     let get = |m: &Machine, k: usize| load(m, at, ins[k]);
     let o = instr.out as usize;
     match &instr.op {
-        Op::TexCoord => {
+        Op::TexCoord { uv_set } => {
             m.regs[o] = v3(at.generated);
             m.regs[o + 1] = v3(at.object_normal);
-            m.regs[o + 2] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0);
+            m.regs[o + 2] = uv_value(at, *uv_set);
             m.regs[o + 3] = v3(at.object);
             let (n, i) = (at.normal, at.incoming);
             m.regs[o + 4] = v3(2.0 * n.dot(i) * n - i);
         }
-        Op::UvMap => m.regs[o] = Vec4::new(at.uv.x, at.uv.y, 0.0, 1.0),
+        Op::UvMap { uv_set } => m.regs[o] = uv_value(at, *uv_set),
         Op::VertexColor => {
             m.regs[o] = at.color;
             m.regs[o + 1] = splat(at.color.w);
@@ -1464,6 +1747,10 @@ fn run(
             m.regs[o + 2] = v3(at.normal);
             m.regs[o + 3] = v3(at.incoming);
             m.regs[o + 4] = splat(if at.backfacing { 1.0 } else { 0.0 });
+        }
+        Op::LightPath => {
+            m.regs[o] = splat(if at.camera_ray { 1.0 } else { 0.0 });
+            m.regs[o + 1] = splat(at.ray_length);
         }
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
@@ -1592,7 +1879,7 @@ fn run(
             m.regs[o] = splat(fac);
             m.regs[o + 1] = v3(color);
         }
-        Op::Image { texture, clip } => {
+        Op::Image { texture, clip, .. } => {
             let uv = get(m, 0);
             let outside = !(0.0..=1.0).contains(&uv.x) || !(0.0..=1.0).contains(&uv.y);
             // Blender's image rows go up from the bottom; Photon's from the top.
@@ -1641,6 +1928,30 @@ fn run(
             m.regs[o] = splat(fac);
             m.regs[o + 1] = splat(fac);
         }
+        Op::WhiteNoise { dimensions } => {
+            let (value, color) = white_noise(*dimensions, get(m, 0).truncate(), get(m, 1).x);
+            m.regs[o] = splat(value);
+            m.regs[o + 1] = v3(color);
+        }
+        Op::Magic { depth } => {
+            let c = magic(get(m, 0).truncate(), get(m, 1).x, *depth, get(m, 2).x);
+            m.regs[o] = v3(c);
+            m.regs[o + 1] = splat((c.x + c.y + c.z) / 3.0);
+        }
+        Op::Brick(layout) => {
+            let p = get(m, 0).truncate() * get(m, 4).x;
+            let [size, smooth, bias, width, height] = [5, 6, 7, 8, 9].map(|k| get(m, k).x);
+            let (tint, mortar) = brick(layout, p, [size, smooth, bias, width, height]);
+            let (c1, c2, mortar_color) = (get(m, 1), get(m, 2), get(m, 3));
+            let brick_color = if mortar != 1.0 {
+                c1.truncate().lerp(c2.truncate(), tint)
+            } else {
+                c1.truncate()
+            };
+            m.regs[o] = v3(brick_color.lerp(mortar_color.truncate(), mortar));
+            m.regs[o + 1] = splat(mortar);
+        }
+        Op::Blackbody => m.regs[o] = v3(blackbody(get(m, 0).x).max(Vec3::ZERO)),
         Op::HueSaturation => {
             let (hue, sat, val, fac) = (get(m, 0).x, get(m, 1).x, get(m, 2).x, get(m, 3).x);
             let input = get(m, 4);
@@ -1725,20 +2036,43 @@ fn run(
             };
             m.regs[o] = v3(out);
         }
+        Op::Displacement { object_space } => {
+            let n = normal_input(get(m, 3), at.normal);
+            let height = (get(m, 0).x - get(m, 1).x) * get(m, 2).x;
+            let direction = if *object_space {
+                // Cycles: the normal to object space (normalised), scaled, and back as a
+                // direction, so the object's scale scales the displacement.
+                let to_object = at.object_to_world_normal.inverse();
+                to_object.transpose() * (to_object * n).normalize_or_zero()
+            } else {
+                n
+            };
+            m.regs[o] = v3(direction * height);
+        }
+        Op::NormalMap(space) => {
+            m.regs[o] = v3(normal_map(*space, get(m, 1).truncate(), get(m, 0).x, at));
+        }
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
             let tint = get(m, 6).truncate();
-            m.closures[o] = Closure {
+            let principled = Closure {
                 base_color: get(m, 0).truncate(),
                 metallic: get(m, 1).x.clamp(0.0, 1.0),
                 roughness: get(m, 2).x.clamp(0.0, 1.0),
                 ior: get(m, 3).x,
-                alpha: get(m, 4).x.clamp(0.0, 1.0),
                 specular: 1.0,
                 specular_color: 2.0 * level * tint,
                 transmission: get(m, 7).x.clamp(0.0, 1.0),
                 emission: get(m, 8).truncate() * get(m, 9).x,
                 normal: get(m, 10).truncate(),
+            };
+            // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
+            // Transparent BSDF by 1 − alpha.
+            let alpha = get(m, 4).x.clamp(0.0, 1.0);
+            m.closures[o] = if alpha < 1.0 {
+                mix_closures(u, alpha, transparent(Vec3::ONE), principled)
+            } else {
+                principled
             };
         }
         Op::Diffuse => {
@@ -1776,31 +2110,17 @@ fn run(
                 ..Closure::BLACK
             };
         }
-        Op::Transparent | Op::Translucent => {
-            let transparent = matches!(instr.op, Op::Transparent);
+        Op::Transparent => m.closures[o] = transparent(get(m, 0).truncate()),
+        Op::Translucent => {
             m.closures[o] = Closure {
-                base_color: get(m, 0).truncate(),
-                roughness: if transparent { 0.0 } else { 1.0 },
-                ior: 1.0,
-                transmission: 1.0,
-                ..Closure::BLACK
+                roughness: 1.0,
+                ..transparent(get(m, 0).truncate())
             };
         }
         Op::MixShader => {
             let t = get(m, 0).x.clamp(0.0, 1.0);
             let (a, b) = (closure(m, ins[1]), closure(m, ins[2]));
-            let emission = a.emission.lerp(b.emission, t);
-            // Pick A with probability 1 − t, and stretch u back to [0, 1) for later picks.
-            let mut picked = if *u < 1.0 - t {
-                *u /= (1.0 - t).max(1e-12);
-                a
-            } else {
-                *u = (*u - (1.0 - t)) / t.max(1e-12);
-                b
-            };
-            *u = u.clamp(0.0, 0.999_999_94);
-            picked.emission = emission;
-            m.closures[o] = picked;
+            m.closures[o] = mix_closures(u, t, a, b);
         }
         Op::AddShader => {
             let (a, b) = (closure(m, ins[0]), closure(m, ins[1]));
@@ -1827,6 +2147,33 @@ fn run(
     }
 }
 
+/// The Transparent BSDF tinted by `color`: smooth transmission at IOR 1 (a straight pass).
+fn transparent(color: Vec3) -> Closure {
+    Closure {
+        base_color: color,
+        roughness: 0.0,
+        ior: 1.0,
+        transmission: 1.0,
+        ..Closure::BLACK
+    }
+}
+
+/// Mix Shader: `a` with probability 1 − t, else `b` (`u` picks, and is stretched back to
+/// [0, 1) for later picks), with their emissions mixed exactly.
+fn mix_closures(u: &mut f32, t: f32, a: Closure, b: Closure) -> Closure {
+    let emission = a.emission.lerp(b.emission, t);
+    let mut picked = if *u < 1.0 - t {
+        *u /= (1.0 - t).max(1e-12);
+        a
+    } else {
+        *u = (*u - (1.0 - t)) / t.max(1e-12);
+        b
+    };
+    *u = u.clamp(0.0, 0.999_999_94);
+    picked.emission = emission;
+    picked
+}
+
 fn is_black_bsdf(c: &Closure) -> bool {
     c.base_color == Vec3::ZERO && c.specular_color == Vec3::ZERO && c.transmission == 0.0
 }
@@ -1840,6 +2187,46 @@ fn normal_input(given: Vec4, normal: Vec3) -> Vec3 {
         normal
     } else {
         g.normalize_or(normal)
+    }
+}
+
+/// Cycles' `svm_node_normal_map`: the colour (each channel 0.5 ↦ 0) as a normal in `space`,
+/// world space out, blended with the shading normal by `strength`. In tangent space the
+/// colour's x, y, z weigh the tangent, the bitangent and the interpolated normal, on the
+/// winding's side (turned to the viewer afterwards, as Cycles does).
+fn normal_map(space: NormalMapSpace, color: Vec3, strength: f32, at: &ShadingInputs) -> Vec3 {
+    let c = 2.0 * (color - Vec3::splat(0.5));
+    let n = match space {
+        NormalMapSpace::Tangent => {
+            if at.tangent == Vec4::ZERO {
+                return at.normal;
+            }
+            let winding = if at.backfacing { -at.normal } else { at.normal };
+            let tangent = at.tangent.truncate();
+            let bitangent = at.tangent.w * winding.cross(tangent);
+            let n = (c.x * tangent + c.y * bitangent + c.z * winding).normalize_or_zero();
+            if at.backfacing {
+                -n
+            } else {
+                n
+            }
+        }
+        NormalMapSpace::Object => (at.object_to_world_normal * c).normalize_or_zero(),
+        NormalMapSpace::BlenderObject => {
+            (at.object_to_world_normal * Vec3::new(c.x, -c.y, -c.z)).normalize_or_zero()
+        }
+        NormalMapSpace::World => c.normalize_or_zero(),
+        NormalMapSpace::BlenderWorld => Vec3::new(c.x, -c.y, -c.z).normalize_or_zero(),
+    };
+    let n = if strength != 1.0 {
+        (at.normal + (n - at.normal) * strength.max(0.0)).normalize_or_zero()
+    } else {
+        n
+    };
+    if n == Vec3::ZERO {
+        at.normal
+    } else {
+        n
     }
 }
 
@@ -2588,6 +2975,158 @@ fn vector_math(op: VectorOp, a: Vec3, b: Vec3, c: Vec3, scale: f32) -> (Vec3, f3
     }
 }
 
+/// `hash_floatN_to_float` and `hash_floatN_to_float3` of the White Noise texture: the value
+/// and colour of the hash of the point's (and W's) bits, 1D reading W only, 2D x and y.
+fn white_noise(dimensions: u8, p: Vec3, w: f32) -> (f32, Vec3) {
+    let (x, y, z, w) = (p.x.to_bits(), p.y.to_bits(), p.z.to_bits(), w.to_bits());
+    let (one, two) = (1f32.to_bits(), 2f32.to_bits());
+    let hashes = match dimensions {
+        1 => [hash1(w), hash2(w, one), hash2(w, two)],
+        2 => [hash2(x, y), hash3(x, y, one), hash3(x, y, two)],
+        3 => [hash3(x, y, z), hash4(x, y, z, one), hash4(x, y, z, two)],
+        _ => [hash4(x, y, z, w), hash4(z, x, w, y), hash4(w, z, y, x)],
+    };
+    let [a, b, c] = hashes.map(unit);
+    (a, Vec3::new(a, b, c))
+}
+
+/// Cycles' `svm_magic`: Blender's Magic texture, `depth` rounds of sines and cosines feeding
+/// each other, the coordinates first wrapped to one period (2π) to keep precision.
+fn magic(p: Vec3, scale: f32, depth: u8, distortion: f32) -> Vec3 {
+    let wrap = |v: f32| v % (2.0 * PI);
+    let (px, py, pz) = (wrap(p.x), wrap(p.y), wrap(p.z));
+    let mut x = ((px + py + pz) * 5.0 * scale).sin();
+    let mut y = ((-px + py - pz) * 5.0 * scale).cos();
+    let mut z = -((-px - py + pz) * 5.0 * scale).cos();
+    let d = distortion;
+    if depth > 0 {
+        x *= d;
+        y *= d;
+        z *= d;
+        y = -(x - y + z).cos() * d;
+        // Each further round rewrites one channel from the three.
+        for round in 2..=depth.min(10) {
+            match round {
+                2 => x = (x - y - z).cos() * d,
+                3 => z = (-x - y - z).sin() * d,
+                4 => x = -(-x + y - z).cos() * d,
+                5 => y = -(-x + y + z).sin() * d,
+                6 => y = -(-x + y + z).cos() * d,
+                7 => x = (x + y + z).cos() * d,
+                8 => z = (x + y - z).sin() * d,
+                9 => x = -(-x - y + z).cos() * d,
+                _ => y = -(x - y + z).sin() * d,
+            }
+        }
+    }
+    if d != 0.0 {
+        x /= 2.0 * d;
+        y /= 2.0 * d;
+        z /= 2.0 * d;
+    }
+    Vec3::new(0.5 - x, 0.5 - y, 0.5 - z)
+}
+
+/// The integer noise of Blender's Brick texture (a brick's tint), in [0, 1).
+fn brick_noise(n: u32) -> f32 {
+    let n = n.wrapping_add(1013) & 0x7fff_ffff;
+    let n = (n >> 13) ^ n;
+    let nn = n
+        .wrapping_mul(
+            n.wrapping_mul(n)
+                .wrapping_mul(60493)
+                .wrapping_add(19_990_303),
+        )
+        .wrapping_add(1_376_312_589)
+        & 0x7fff_ffff;
+    0.5 * (nn as f32 / 1_073_741_824.0)
+}
+
+/// Cycles' `svm_brick` on the scaled point: the brick's tint (bias added, in [0, 1]) and the
+/// mortar factor. `sizes` holds Mortar Size, Mortar Smooth, Bias, Brick Width, Row Height.
+/// Every `offset_frequency`-th row is shifted by `offset` bricks and every
+/// `squash_frequency`-th row's bricks are `squash` times as wide.
+fn brick(layout: &BrickLayout, p: Vec3, sizes: [f32; 5]) -> (f32, f32) {
+    let [mortar_size, mortar_smooth, bias, mut width, row_height] = sizes;
+    let row = (p.y / row_height).floor() as i32;
+    let mut offset = 0.0;
+    if layout.offset_frequency != 0 && layout.squash_frequency != 0 {
+        if row % layout.squash_frequency == 0 {
+            width *= layout.squash;
+        }
+        if row % layout.offset_frequency == 0 {
+            offset = width * layout.offset;
+        }
+    }
+    let column = ((p.x + offset) / width).floor() as i32;
+    let x = (p.x + offset) - width * column as f32;
+    let y = p.y - row_height * row as f32;
+    let id = (row.wrapping_shl(16)).wrapping_add(column & 0xffff) as u32;
+    let tint = (brick_noise(id) + bias).clamp(0.0, 1.0);
+    let edge = x.min(y).min((width - x).min(row_height - y));
+    let mortar = if edge >= mortar_size {
+        0.0
+    } else if mortar_smooth == 0.0 {
+        1.0
+    } else {
+        let t = ((1.0 - edge / mortar_size) / mortar_smooth).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    };
+    (tint, mortar)
+}
+
+/// Fits of the black-body colour in Rec.709 (Cycles' `blackbody_table_r/g/b`, fitted to
+/// Planck's law normalised to unit luminance), per temperature interval: R and G as
+/// a/T + b·T + c, B as ((a·T + b)·T + c)·T + d.
+const BLACKBODY_R: [[f32; 3]; 7] = [
+    [1.619191e3, -2.0501092e-3, 5.029958],
+    [2.4884546e3, -1.1133091e-3, 3.2262154],
+    [3.341432e3, -4.865512e-4, 1.7648677],
+    [4.0946174e3, -1.2744658e-4, 7.257316e-1],
+    [4.6702803e3, 2.912582e-5, 1.2670344e-1],
+    [4.595092e3, 2.8749564e-5, 1.5034503e-1],
+    [3.7871746e3, 9.359078e-6, 3.9907587e-1],
+];
+const BLACKBODY_G: [[f32; 3]; 7] = [
+    [-4.8899976e2, 6.0433074e-4, -7.558075e-2],
+    [-7.5599426e2, 3.167301e-4, 4.7830614e-1],
+    [-1.0236398e3, 1.2022347e-4, 9.366623e-1],
+    [-1.2657131e3, 4.873409e-6, 1.270545],
+    [-1.4252933e3, -4.0115043e-5, 1.4397278],
+    [-1.1755482e3, -2.1637805e-5, 1.3040802],
+    [-5.0079956e2, -4.59832e-6, 1.0909877],
+];
+const BLACKBODY_B: [[f32; 4]; 7] = [
+    [5.9694534e-11, -4.857429e-8, -9.706223e-5, -4.0793614e-3],
+    [2.4043037e-11, 5.5502106e-8, -1.9850371e-4, 2.8931286e-2],
+    [-1.40949735e-11, 1.8987897e-7, -3.5663284e-4, 9.107678e-2],
+    [-3.6146086e-11, 2.8482202e-7, -4.932113e-4, 1.5672344e-1],
+    [-1.9707574e-11, 1.7535935e-7, -2.5054283e-4, -2.2278327e-2],
+    [-1.6199795e-13, -1.64216e-8, 3.8621627e-4, -7.380774e-1],
+    [6.726503e-13, -2.730788e-8, 4.2409825e-4, -7.5233567e-1],
+];
+
+/// The Blackbody node's colour at `t` kelvin (Rec.709, unit luminance, may be negative
+/// outside the gamut): Cycles' piecewise fit over 800–12000 K, constant beyond.
+fn blackbody(t: f32) -> Vec3 {
+    if t >= 12000.0 {
+        return Vec3::new(0.826_295_5, 0.994_508, 1.566_307_7);
+    }
+    if t < 800.0 || t.is_nan() {
+        return Vec3::new(5.413_294_5, -0.203_193_9, -0.082_253_52);
+    }
+    let i = [965.0, 1167.0, 1449.0, 1902.0, 3315.0, 6365.0]
+        .iter()
+        .filter(|&&edge| t >= edge)
+        .count();
+    let (r, g, b) = (BLACKBODY_R[i], BLACKBODY_G[i], BLACKBODY_B[i]);
+    Vec3::new(
+        r[0] / t + r[1] * t + r[2],
+        g[0] / t + g[1] * t + g[2],
+        ((b[0] * t + b[1]) * t + b[2]) * t + b[3],
+    )
+}
+
 /// Cycles' `svm_wave` on the scaled point; `detail` holds Distortion, Detail, Detail Scale,
 /// Detail Roughness and Phase Offset.
 fn wave(kind: WaveKind, p: Vec3, detail: [f32; 5]) -> f32 {
@@ -2863,6 +3402,146 @@ mod tests {
     }
 
     #[test]
+    fn displacement_bumps_the_normal_the_surface_reads() {
+        // Height = x along the normal, as the add-on writes "Bump Only": the normal tilts to
+        // (−1, 0, 1)/√2, and the surface's Geometry Normal (into Emission) reads it.
+        let displacement = json!({"nodes": [
+            {"name": "G", "type": "ShaderNodeNewGeometry"},
+            {"name": "X", "type": "ShaderNodeSeparateXYZ",
+             "inputs": {"Vector": {"node": 0, "output": "Position"}}},
+            {"name": "D", "type": "ShaderNodeDisplacement", "space": "WORLD",
+             "inputs": {"Height": {"node": 1, "output": "X"}, "Midlevel": 0.0, "Scale": 1.0}},
+            {"name": "N", "type": "ShaderNodeNewGeometry"},
+            {"name": "H", "type": "ShaderNodeVectorMath", "operation": "DOT_PRODUCT",
+             "inputs": {"Vector": {"node": 2, "output": "Displacement"},
+                        "Vector_001": {"node": 3, "output": "Normal"}}},
+            {"name": "B", "type": "ShaderNodeBump", "inputs": {
+                "Strength": 1.0, "Distance": 1.0, "Height": {"node": 4, "output": "Value"}}}
+        ], "output": {"node": 5, "output": "Normal"}});
+        let tree = json!({"nodes": [
+            {"name": "G", "type": "ShaderNodeNewGeometry"},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": "Normal"}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}, "displacement": displacement});
+        let mut w = Vec::new();
+        let program = compile(&tree, 0, &mut w).expect("compiles");
+        assert!(w.is_empty() && program.needs_offsets, "{w:?}");
+        let here = ShadingInputs {
+            normal: Vec3::Z,
+            ..ShadingInputs::default()
+        };
+        let step = |d: Vec3| ShadingInputs {
+            position: d,
+            ..here
+        };
+        let at = [here, step(Vec3::X * 1e-3), step(Vec3::Y * 1e-3)];
+        let c = program.eval(&at, &[], 0.5);
+        let expected = Vec3::new(-1.0, 0.0, 1.0).normalize();
+        assert!((c.emission - expected).length() < 1e-3, "{}", c.emission);
+        assert!((c.normal - expected).length() < 1e-3, "{}", c.normal);
+    }
+
+    #[test]
+    fn normal_map_weighs_tangent_bitangent_and_normal() {
+        let at = ShadingInputs {
+            normal: Vec3::Z,
+            tangent: Vec4::new(0.0, 1.0, 0.0, -1.0),
+            ..ShadingInputs::default()
+        };
+        let flat = Vec3::new(0.5, 0.5, 1.0);
+        assert_eq!(normal_map(NormalMapSpace::Tangent, flat, 1.0, &at), Vec3::Z);
+        // Bitangent = sign × N × T = −(Z × Y) = +X.
+        let n = normal_map(NormalMapSpace::Tangent, Vec3::new(0.5, 1.0, 0.5), 1.0, &at);
+        assert!((n - Vec3::X).length() < 1e-6, "{n}");
+        let n = normal_map(NormalMapSpace::Tangent, Vec3::new(1.0, 0.5, 0.5), 1.0, &at);
+        assert!((n - Vec3::Y).length() < 1e-6, "{n}");
+        // Seen from behind, the map is applied on the winding's side and turned to the viewer.
+        let behind = ShadingInputs {
+            normal: -Vec3::Z,
+            backfacing: true,
+            ..at
+        };
+        let n = normal_map(
+            NormalMapSpace::Tangent,
+            Vec3::new(1.0, 0.5, 0.5),
+            1.0,
+            &behind,
+        );
+        assert!((n + Vec3::Y).length() < 1e-6, "{n}");
+        // Strength 0 keeps the shading normal; no tangents: the shading normal.
+        let n = normal_map(NormalMapSpace::World, Vec3::new(1.0, 0.5, 0.5), 0.0, &at);
+        assert!((n - Vec3::Z).length() < 1e-6);
+        let none = ShadingInputs {
+            tangent: Vec4::ZERO,
+            ..at
+        };
+        let tilted = Vec3::new(1.0, 0.5, 0.5);
+        assert_eq!(
+            normal_map(NormalMapSpace::Tangent, tilted, 1.0, &none),
+            Vec3::Z
+        );
+    }
+
+    #[test]
+    fn blackbody_matches_cycles_values() {
+        // Values of Cycles' fit at 6500 K and 3315 K, and its constants past both ends.
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 2e-4;
+        assert!(close(
+            blackbody(6500.0),
+            Vec3::new(1.042_552, 0.984_052_5, 1.035_271_5)
+        ));
+        assert!(close(
+            blackbody(3315.0),
+            Vec3::new(1.631_801, 0.877_736, 0.355_867)
+        ));
+        assert_eq!(blackbody(20000.0), blackbody(12000.0));
+        assert_eq!(blackbody(100.0).x, 5.413_294_5);
+        // Nearly continuous across the fit's intervals.
+        for edge in [965.0, 1167.0, 1449.0, 1902.0, 3315.0, 6365.0] {
+            let jump = (blackbody(edge - 0.01) - blackbody(edge))
+                .abs()
+                .max_element();
+            assert!(jump < 5e-3, "{edge}: {jump}");
+        }
+    }
+
+    #[test]
+    fn brick_tints_stay_in_range_and_mortar_lines_the_bricks() {
+        let layout = BrickLayout {
+            offset: 0.5,
+            offset_frequency: 2,
+            squash: 1.0,
+            squash_frequency: 2,
+        };
+        let sizes = [0.02, 0.0, 0.0, 0.5, 0.25];
+        let mut tints = Vec::new();
+        for i in 0..200 {
+            let p = Vec3::new(i as f32 * 0.37 - 30.0, i as f32 * 0.11 - 10.0, 0.0);
+            let (tint, _) = brick(&layout, p, sizes);
+            assert!((0.0..1.0).contains(&tint));
+            tints.push(tint);
+        }
+        assert!(tints.iter().any(|&t| t != tints[0]), "bricks differ");
+        // Inside a brick no mortar; on its edge (hard mortar) full mortar.
+        assert_eq!(brick(&layout, Vec3::new(0.25, 0.35, 0.0), sizes).1, 0.0);
+        assert_eq!(brick(&layout, Vec3::new(0.01, 0.35, 0.0), sizes).1, 1.0);
+        // Row 0 is shifted by half a brick: its x = 0.25 is an edge.
+        assert_eq!(brick(&layout, Vec3::new(0.25, 0.1, 0.0), sizes).1, 1.0);
+    }
+
+    #[test]
+    fn white_noise_colour_starts_with_its_value_and_magic_without_distortion_is_grey() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        for d in 1..=4 {
+            let (v, c) = white_noise(d, p, 0.5);
+            assert_eq!(v, c.x);
+            assert!((0.0..=1.0).contains(&v) && c.y != c.z);
+        }
+        assert_ne!(white_noise(3, p, 0.0).0, white_noise(2, p, 0.0).0);
+        assert_eq!(magic(p, 5.0, 4, 0.0), Vec3::splat(0.5));
+    }
+
+    #[test]
     fn checker_alternates_cells_as_cycles() {
         assert_eq!(checker(Vec3::new(0.5, 0.5, 0.5)), 0.0);
         assert_eq!(checker(Vec3::new(1.5, 0.5, 0.5)), 1.0);
@@ -2972,7 +3651,7 @@ mod tests {
         // Separate the UV, multiply u by v, feed the float into a colour (float → colour).
         let tree = json!({
             "nodes": [
-                {"name": "UV", "type": "ShaderNodeUVMap"},
+                {"name": "UV", "type": "ShaderNodeUVMap", "uv_set": 2},
                 {"name": "Sep", "type": "ShaderNodeSeparateXYZ",
                  "inputs": {"Vector": {"node": 0, "output": "UV"}}},
                 {"name": "Mul", "type": "ShaderNodeMath", "operation": "MULTIPLY",
@@ -2990,7 +3669,7 @@ mod tests {
             "output": {"node": 6, "output": "Emission"}
         });
         let at = ShadingInputs {
-            uv: Vec2::new(0.5, 0.25),
+            uv: [Vec2::ZERO, Vec2::ONE, Vec2::new(0.5, 0.25), Vec2::ONE],
             ..ShadingInputs::default()
         };
         let e = emission_of(tree, &at);
@@ -3060,13 +3739,13 @@ mod tests {
     fn unknown_nodes_warn_and_fall_back() {
         let mut w = Vec::new();
         let tree = json!({"nodes": [
-            {"name": "Magic", "type": "ShaderNodeTexMagic"},
+            {"name": "Gabor", "type": "ShaderNodeTexGabor"},
             {"name": "E", "type": "ShaderNodeEmission", "inputs": {
                 "Color": {"node": 0, "output": "Color"}, "Strength": 1.0}}
         ], "output": {"node": 1, "output": "Emission"}});
         let p = compile(&tree, 0, &mut w).unwrap();
         assert_eq!(w.len(), 1);
-        assert!(w[0].contains("Magic"), "{w:?}");
+        assert!(w[0].contains("Gabor"), "{w:?}");
         // The Emission colour's default (white) is used.
         assert_eq!(
             p.eval(&[ShadingInputs::default(); 3], &[], 0.5).emission,

@@ -1,6 +1,7 @@
 //! Image textures: 8-bit RGBA texels, decoded to linear on lookup (sRGB for colour textures,
-//! as glTF requires for base colour and emission), bilinear filtering with glTF wrap modes, and
-//! KHR_texture_transform applied to UVs.
+//! as glTF requires for base colour and emission), or 16-bit and float texels converted to
+//! linear floats when loaded (as Cycles converts every image but 8-bit ones); bilinear
+//! filtering with glTF wrap modes, and KHR_texture_transform applied to UVs.
 
 use crate::math::{srgb_to_linear, Vec2, Vec4};
 use std::sync::OnceLock;
@@ -13,14 +14,24 @@ pub enum Wrap {
     ClampToEdge,
 }
 
+/// An image's texels, row by row.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texels {
+    /// 8-bit RGBA, sRGB-encoded when the texture is (`Texture::srgb`).
+    Bytes(Vec<[u8; 4]>),
+    /// Linear RGBA (16-bit and float images, decoded when loaded).
+    Linear(Vec<[f32; 4]>),
+}
+
 /// An image in memory. Row 0 is the top row of the image, as in PNG, JPEG and WebP files.
 #[derive(Clone, Debug)]
 pub struct Texture {
     pub name: String,
     pub width: u32,
     pub height: u32,
-    pub texels: Vec<[u8; 4]>,
-    /// True when RGB is sRGB-encoded (colour data); alpha is always linear.
+    pub texels: Texels,
+    /// True when RGB is sRGB-encoded (colour data; 8-bit texels only, the others are decoded
+    /// already); alpha is always linear.
     pub srgb: bool,
     pub wrap_s: Wrap,
     pub wrap_t: Wrap,
@@ -91,8 +102,15 @@ fn wrap(i: i64, n: u32, mode: Wrap) -> u32 {
 }
 
 impl Texture {
+    fn index(&self, x: u32, y: u32) -> usize {
+        (y as usize) * self.width as usize + x as usize
+    }
+
     fn texel(&self, x: u32, y: u32) -> Vec4 {
-        let t = self.texels[(y as usize) * self.width as usize + x as usize];
+        let t = match &self.texels {
+            Texels::Bytes(texels) => texels[self.index(x, y)],
+            Texels::Linear(texels) => return Vec4::from(texels[self.index(x, y)]),
+        };
         if self.srgb {
             let lut = srgb_table();
             Vec4::new(
@@ -111,11 +129,15 @@ impl Texture {
         self.filter(uv, |x, y| self.texel(x, y))
     }
 
-    /// RGBA at `uv` as Cycles' Image Texture node reads an 8-bit image: the stored (encoded)
-    /// values filtered, then sRGB-decoded when the image is sRGB.
+    /// RGBA at `uv` as Cycles' Image Texture node reads an image: an 8-bit one's stored
+    /// (encoded) values filtered, then sRGB-decoded when the image is sRGB; the linear values of
+    /// the others filtered.
     pub fn sample_encoded(&self, uv: Vec2) -> Vec4 {
+        let Texels::Bytes(texels) = &self.texels else {
+            return self.sample(uv);
+        };
         let raw = |x: u32, y: u32| {
-            let t = self.texels[(y as usize) * self.width as usize + x as usize];
+            let t = texels[self.index(x, y)];
             Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32) / 255.0
         };
         let c = self.filter(uv, raw);
@@ -165,12 +187,12 @@ mod tests {
             name: "checker".into(),
             width: 2,
             height: 2,
-            texels: vec![
+            texels: Texels::Bytes(vec![
                 [255, 0, 0, 255],
                 [0, 255, 0, 255],
                 [0, 0, 255, 255],
                 [255, 255, 255, 0],
-            ],
+            ]),
             srgb: false,
             wrap_s: Wrap::Repeat,
             wrap_t: Wrap::Repeat,
@@ -194,7 +216,7 @@ mod tests {
     fn srgb_texels_are_decoded() {
         let mut t = checker();
         t.srgb = true;
-        t.texels = vec![[188, 188, 188, 255]; 4];
+        t.texels = Texels::Bytes(vec![[188, 188, 188, 255]; 4]);
         let v = t.sample(Vec2::new(0.3, 0.6));
         assert!((v.x - 0.5029).abs() < 1e-3 && (v.w - 1.0).abs() < 1e-6);
     }

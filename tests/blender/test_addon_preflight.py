@@ -53,14 +53,14 @@ def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
 
 
 def add_unsupported_features(scene):
-    """A Magic Texture (a node Photon does not evaluate yet: Noise, for one, it does) into the
+    """A Gabor Texture (a node Photon does not evaluate yet: Noise, for one, it does) into the
     cube's base colour, a second cube whose material has a volume shader, and a particle
     system on the cube rendered as halos (hair particles are carried: points_curves.py)."""
     cube = bpy.data.objects["Cube"]
     tree = cube.active_material.node_tree
-    noise = tree.nodes.new("ShaderNodeTexMagic")
+    noise = tree.nodes.new("ShaderNodeTexGabor")
     noise.name = "Clouds"
-    tree.links.new(noise.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    tree.links.new(noise.outputs["Value"], tree.nodes["Principled BSDF"].inputs["Base Color"])
 
     smoke = bpy.data.objects.new("Smoke", cube.data.copy())
     smoke.location = (3.0, 0.0, 0.0)
@@ -93,7 +93,7 @@ def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, r
     add_unsupported_features(scene)
     warnings, status = render_warnings(capfd, route, monkeypatch)
     expected = {
-        "magic node": lambda w: "material 'Material'" in w and "Magic Texture node 'Clouds'" in w,
+        "gabor node": lambda w: "material 'Material'" in w and "Gabor Texture node 'Clouds'" in w,
         "volume": lambda w: "material 'Fog'" in w and "volume shader" in w,
         "halos": lambda w: "object 'Cube'" in w and "'Sparks' rendered as HALO" in w,
     }

@@ -13,7 +13,15 @@ Each scene is built with bpy and rendered by Cycles and by Photon through the ad
 
 Also: Voronoi with Hue/Saturation and an Overlay Mix, Wave rings into Bright/Contrast, an 8x8
 PNG through the Image Texture node, and Layer Weight, Fresnel and Reflection coordinates on a
-smooth sphere, wired into Emission (relMSE <= 1e-3).
+smooth sphere, wired into Emission (relMSE <= 1e-3); White Noise (1D to 4D) on floored
+coordinates, Magic, Brick and Blackbody, and the Normal Map node (tangent, object and
+Blender world spaces) as 0.5 N + 0.5, and a Noise into the Material Output's Displacement
+(object and world space, as bump) seen through Geometry Normal, each wired into Emission
+(relMSE <= 1e-3); Light Path's Is Camera Ray choosing a lamp's colour (lit criterion, path
+tracer and photon mapping); three UV maps read by name and by default (the render map); a
+16-bit PNG and an OpenEXR image; a Principled BSDF's Alpha from a gradient over an emitting
+plane; a lamp whose emission depends on the view (Layer Weight) lighting a floor; Light Path's
+Ray Length into a lamp's emission.
 """
 
 import math
@@ -399,3 +407,324 @@ def test_rgb_curves_into_emission(tmp_path):
     tree.links.new(combine.outputs["Color"], curves.inputs["Color"])
     emission_matches("rgb curves emission", mat, tree, curves.outputs["Color"], tmp_path,
                      uv=True)
+
+
+@pytest.mark.parametrize("dimensions", ["1D", "2D", "3D", "4D"])
+def test_white_noise_on_cells_into_emission(tmp_path, dimensions):
+    """White Noise on floored Object coordinates (one hashed colour per cell, so the image
+    does not depend on where in a pixel the samples fall), W from the cell's x."""
+    mat, tree = node_material(f"White noise {dimensions}")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    scale = tree.nodes.new("ShaderNodeVectorMath")
+    scale.operation = "SCALE"
+    scale.inputs["Scale"].default_value = 3.0
+    floor = tree.nodes.new("ShaderNodeVectorMath")
+    floor.operation = "FLOOR"
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    noise = tree.nodes.new("ShaderNodeTexWhiteNoise")
+    noise.noise_dimensions = dimensions
+    tree.links.new(coords.outputs["Object"], scale.inputs[0])
+    tree.links.new(scale.outputs["Vector"], floor.inputs[0])
+    tree.links.new(floor.outputs["Vector"], separate.inputs["Vector"])
+    for socket in noise.inputs:  # only the enabled ones are found by name
+        source = floor.outputs["Vector"] if socket.type == "VECTOR" else separate.outputs["X"]
+        tree.links.new(source, socket)
+    emission_matches(f"white noise {dimensions} emission", mat, tree, noise.outputs["Color"],
+                     tmp_path)
+
+
+def test_magic_into_emission(tmp_path):
+    """The Magic texture on its default (Generated) coordinates, depth 5, distortion 2.5."""
+    mat, tree = node_material("Magic")
+    magic = tree.nodes.new("ShaderNodeTexMagic")
+    magic.turbulence_depth = 5
+    magic.inputs["Scale"].default_value = 1.5
+    magic.inputs["Distortion"].default_value = 2.5
+    emission_matches("magic emission", mat, tree, magic.outputs["Color"], tmp_path,
+                     photon_spp=1024, cycles_spp=1024)
+
+
+def test_brick_into_emission(tmp_path):
+    """The Brick texture on Object coordinates: offset rows, squashed rows, smooth mortar,
+    biased tints between two colours."""
+    mat, tree = node_material("Brick")
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    brick = tree.nodes.new("ShaderNodeTexBrick")
+    brick.offset = 0.3
+    brick.offset_frequency = 2
+    brick.squash = 1.6
+    brick.squash_frequency = 3
+    brick.inputs["Color1"].default_value = (0.8, 0.3, 0.1, 1.0)
+    brick.inputs["Color2"].default_value = (0.3, 0.1, 0.05, 1.0)
+    brick.inputs["Mortar"].default_value = (0.7, 0.7, 0.65, 1.0)
+    brick.inputs["Scale"].default_value = 1.5
+    brick.inputs["Mortar Size"].default_value = 0.05
+    brick.inputs["Mortar Smooth"].default_value = 0.4
+    brick.inputs["Bias"].default_value = 0.1
+    tree.links.new(coords.outputs["Object"], brick.inputs["Vector"])
+    emission_matches("brick emission", mat, tree, brick.outputs["Color"], tmp_path)
+
+
+def test_blackbody_of_a_gradient_into_emission(tmp_path):
+    """Blackbody colours from 700 K to 13000 K along the plane (UV x mapped by Map Range),
+    past both ends of Cycles' fit."""
+    mat, tree = node_material("Blackbody")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    map_range.inputs["To Min"].default_value = 700.0
+    map_range.inputs["To Max"].default_value = 13000.0
+    blackbody = tree.nodes.new("ShaderNodeBlackbody")
+    tree.links.new(uv.outputs["UV"], separate.inputs["Vector"])
+    tree.links.new(separate.outputs["X"], map_range.inputs["Value"])
+    tree.links.new(map_range.outputs["Result"], blackbody.inputs["Temperature"])
+    emission_matches("blackbody emission", mat, tree, blackbody.outputs["Color"], tmp_path,
+                     strength=0.5, uv=True)
+
+
+@pytest.mark.parametrize("space", ["TANGENT", "OBJECT", "BLENDER_WORLD"])
+def test_normal_map_into_emission(tmp_path, space):
+    """A Normal Map node's output, as 0.5 N + 0.5, on a tilted plane whose UV map is rotated
+    by 30 degrees (so its tangents follow no axis); the colour varies over the UV map and the
+    strength is 0.7 (blended with the surface normal, as Cycles does)."""
+    mat, tree = node_material(f"Normal map {space}")
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Location"].default_value = (0.3, 0.3, 0.9)
+    mapping.inputs["Scale"].default_value = (0.4, 0.4, 0.0)
+    normal_map = tree.nodes.new("ShaderNodeNormalMap")
+    normal_map.space = space
+    normal_map.inputs["Strength"].default_value = 0.7
+    half = tree.nodes.new("ShaderNodeVectorMath")
+    half.operation = "MULTIPLY_ADD"
+    half.inputs[1].default_value = (0.5, 0.5, 0.5)
+    half.inputs[2].default_value = (0.5, 0.5, 0.5)
+    tree.links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], normal_map.inputs["Color"])
+    tree.links.new(normal_map.outputs["Normal"], half.inputs[0])
+    emission_into_output(tree, half.outputs["Vector"])
+    scene, plane = plane_scene(mat)
+    layer = plane.data.uv_layers.new(name="UVMap")
+    turn = math.radians(30.0)
+    for loop, (u, v) in zip(plane.data.loops, [(0, 0), (1, 0), (1, 1), (0, 1)]):
+        layer.data[loop.index].uv = (u * math.cos(turn) - v * math.sin(turn),
+                                     u * math.sin(turn) + v * math.cos(turn))
+    plane.rotation_euler = (math.radians(20.0), math.radians(-10.0), math.radians(15.0))
+    compare(f"normal map {space.lower()} emission", scene, tmp_path, photon_spp=256,
+            cycles_spp=256, relmse_max=EMISSION_RELMSE_MAX)
+
+
+@pytest.mark.parametrize("space", ["OBJECT", "WORLD"])
+def test_displacement_as_bump_into_emission(tmp_path, space):
+    """A Noise texture into the Material Output's Displacement (Displacement node, Bump Only:
+    Blender's default method), on a tilted and scaled plane, seen through the surface's
+    Geometry Normal as 0.5 N + 0.5 in an Emission shader: the surface tree reads the bumped
+    normal, as in Cycles."""
+    mat, tree = node_material(f"Displaced {space}")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 2.0
+    noise.inputs["Detail"].default_value = 0.0
+    displacement = tree.nodes.new("ShaderNodeDisplacement")
+    displacement.space = space
+    displacement.inputs["Scale"].default_value = 0.15
+    geometry = tree.nodes.new("ShaderNodeNewGeometry")
+    half = tree.nodes.new("ShaderNodeVectorMath")
+    half.operation = "MULTIPLY_ADD"
+    half.inputs[1].default_value = (0.5, 0.5, 0.5)
+    half.inputs[2].default_value = (0.5, 0.5, 0.5)
+    tree.links.new(noise.outputs["Fac"], displacement.inputs["Height"])
+    tree.links.new(displacement.outputs["Displacement"],
+                   tree.nodes["Material Output"].inputs["Displacement"])
+    tree.links.new(geometry.outputs["Normal"], half.inputs[0])
+    emission_into_output(tree, half.outputs["Vector"])
+    scene, plane = plane_scene(mat)
+    plane.rotation_euler = (math.radians(20.0), math.radians(-10.0), 0.0)
+    plane.scale = (1.0, 1.0, 2.0)
+    compare(f"displacement {space.lower()} emission", scene, tmp_path, photon_spp=256,
+            cycles_spp=256, relmse_max=EMISSION_RELMSE_MAX)
+
+
+def colour_mix_lamp(name, factor_node, factor_output, a, b, strength):
+    """A node material emitting Mix(a, b) by `factor_node`'s `factor_output` (a new node of
+    that type)."""
+    mat, tree = node_material(name)
+    factor = tree.nodes.new(factor_node)
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.inputs["A"].default_value = a
+    mix.inputs["B"].default_value = b
+    tree.links.new(factor.outputs[factor_output], mix.inputs["Factor"])
+    emission_into_output(tree, mix.outputs["Result"], strength=strength)
+    return mat, factor
+
+
+def lamp_over_floor(lamp, half_size, height):
+    """A square of material `lamp` (2 half_size wide, at `height`) over a diffuse floor
+    filling the view."""
+    floor = bpy.data.materials.new("Floor")
+    if bpy.app.version < (5, 0, 0):
+        floor.use_nodes = True
+    floor.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 1.0
+    scene, _ = plane_scene(floor)
+    h = half_size
+    common.quad("Lamp", [(-h, -h, height), (-h, h, height), (h, h, height), (h, -h, height)],
+                lamp)
+    return scene
+
+
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_light_path_camera_ray_into_emission(tmp_path, method):
+    """An emitting quad whose colour is Mix(orange, blue) by Light Path's Is Camera Ray, over
+    a diffuse floor: the camera sees it blue, the floor is lit orange (the light reaching it
+    is not seen by a camera ray), lit criterion (mean within 2 %, relMSE <= 0.01); by the path
+    tracer and by photon mapping (photons are not camera rays)."""
+    mat, _ = colour_mix_lamp("Camera only blue", "ShaderNodeLightPath", "Is Camera Ray",
+                             (1.0, 0.4, 0.1, 1.0), (0.1, 0.3, 1.0, 1.0), 6.0)
+    scene = lamp_over_floor(mat, 0.3, 0.6)
+    compare(f"light path camera ray {method.lower()}", scene, tmp_path, photon_spp=256,
+            cycles_spp=512, method=method)
+
+
+def test_uv_maps_other_than_the_first_into_emission(tmp_path):
+    """Three UV maps, the second the render one (Cycles' default): a UV Map node naming the
+    third, the Texture Coordinate's UV (the render map) and an Image Texture's default
+    coordinates (the render map) into a colour."""
+    mat, tree = node_material("UV maps")
+    third = tree.nodes.new("ShaderNodeUVMap")
+    third.uv_map = "Third"
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    split_third = tree.nodes.new("ShaderNodeSeparateXYZ")
+    split_render = tree.nodes.new("ShaderNodeSeparateXYZ")
+    image = bpy.data.images.new("Ramp", 4, 4)
+    image.pixels = [v for y in range(4) for x in range(4) for v in (x / 3, y / 3, 0.5, 1.0)]
+    image.filepath_raw = str(tmp_path / "ramp.png")
+    image.file_format = "PNG"
+    image.save()
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.load(str(tmp_path / "ramp.png"))
+    tex.extension = "EXTEND"
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    tree.links.new(third.outputs["UV"], split_third.inputs["Vector"])
+    tree.links.new(coords.outputs["UV"], split_render.inputs["Vector"])
+    tree.links.new(split_third.outputs["X"], combine.inputs["Red"])
+    tree.links.new(split_render.outputs["Y"], combine.inputs["Green"])
+    tree.links.new(combine.outputs["Color"], mix.inputs["A"])
+    tree.links.new(tex.outputs["Color"], mix.inputs["B"])
+    emission_into_output(tree, mix.outputs["Result"])
+    scene, plane = plane_scene(mat, uv=True)
+    corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    for name, place in [("Second", lambda u, v: (0.8 * v + 0.1, 0.9 - 0.7 * u)),
+                        ("Third", lambda u, v: (u * u, 0.5))]:
+        layer = plane.data.uv_layers.new(name=name)
+        for loop, (u, v) in zip(plane.data.loops, corners):
+            layer.data[loop.index].uv = place(u, v)
+    plane.data.uv_layers["Second"].active_render = True
+    compare("uv maps emission", scene, tmp_path, photon_spp=256, cycles_spp=256,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
+def write_png16(path, width, height, rgb):
+    """A 16-bit RGB PNG of `rgb(x, y)` in [0, 1] (row 0 at the top), written by hand: Blender
+    saves images at 8 bits unless rendering."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+    rows = b"".join(
+        b"\0" + b"".join(struct.pack(">3H", *(round(65535 * c) for c in rgb(x, y)))
+                         for x in range(width))
+        for y in range(height))
+    header = struct.pack(">2I5B", width, height, 16, 2, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+                     + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("kind", ["png16", "exr"])
+def test_wide_images_into_emission(tmp_path, kind):
+    """Images 8 bits cannot hold, through the Image Texture node (Non-Color, bilinear): a
+    16-bit PNG of values below 0.01 (8 bits would round them to 0, 1/255 or 2/255), and an
+    OpenEXR of values up to 4."""
+    mat, tree = node_material(f"Wide {kind}")
+    size = 8
+    if kind == "png16":
+        path = tmp_path / "dark.png"
+        write_png16(path, size, size, lambda x, y: (0.01 * x / 7, 0.01 * y / 7, 0.003))
+        strength = 60.0
+    else:
+        path = tmp_path / "bright.exr"
+        image = bpy.data.images.new("Bright", size, size, float_buffer=True)
+        image.pixels = [v for y in range(size) for x in range(size)
+                        for v in (4.0 * x / 7, 0.5 + y / 7, 0.25, 1.0)]
+        image.filepath_raw = str(path)
+        image.file_format = "OPEN_EXR"
+        image.save()
+        strength = 0.5
+    image = bpy.data.images.load(str(path))
+    image.colorspace_settings.name = "Non-Color"
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    emission_matches(f"{kind} image emission", mat, tree, tex.outputs["Color"], tmp_path,
+                     strength=strength, uv=True)
+
+
+def test_principled_alpha_from_a_tree(tmp_path):
+    """A Principled BSDF whose Alpha is a UV gradient (emission red, base colour black) above
+    a blue-emitting plane, in a black world: the camera sees alpha x red + (1 - alpha) x
+    blue, as Cycles mixes the BSDF with a Transparent BSDF by alpha."""
+    mat, tree = node_material("Fading")
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    bsdf.inputs["Emission Color"].default_value = (1.0, 0.1, 0.05, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = 1.0
+    uv = tree.nodes.new("ShaderNodeUVMap")
+    gradient = tree.nodes.new("ShaderNodeTexGradient")
+    tree.links.new(uv.outputs["UV"], gradient.inputs["Vector"])
+    tree.links.new(gradient.outputs["Fac"], bsdf.inputs["Alpha"])
+    tree.links.new(bsdf.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    below, below_tree = bpy.data.materials.new("Below"), None
+    if bpy.app.version < (5, 0, 0):
+        below.use_nodes = True
+    below_tree = below.node_tree
+    below_tree.nodes.remove(below_tree.nodes["Principled BSDF"])
+    emission = below_tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (0.1, 0.3, 1.0, 1.0)
+    below_tree.links.new(emission.outputs["Emission"],
+                         below_tree.nodes["Material Output"].inputs["Surface"])
+    scene, _ = plane_scene(mat, uv=True)
+    common.quad("Below", [(-2, -2, -0.5), (2, -2, -0.5), (2, 2, -0.5), (-2, 2, -0.5)], below)
+    compare("principled alpha", scene, tmp_path, photon_spp=1024, cycles_spp=1024,
+            relmse_max=EMISSION_RELMSE_MAX)
+
+
+def test_view_dependent_lamp_lights_a_floor(tmp_path):
+    """A lamp whose emission depends on the view (Layer Weight's Facing mixes two colours):
+    light sampling evaluates it as seen from the shaded floor point, as Cycles does (it was
+    evaluated head-on before), and the camera sees it from above. Lit criterion."""
+    mat, weight = colour_mix_lamp("Rim lamp", "ShaderNodeLayerWeight", "Facing",
+                                  (1.0, 0.3, 0.1, 1.0), (0.1, 0.4, 1.0, 1.0), 5.0)
+    weight.inputs["Blend"].default_value = 0.5
+    scene = lamp_over_floor(mat, 0.4, 0.4)
+    compare("view-dependent lamp", scene, tmp_path, photon_spp=256, cycles_spp=512)
+
+
+def test_light_path_ray_length_into_emission(tmp_path):
+    """Light Path's Ray Length through a Map Range into a lamp's Emission, over a diffuse
+    floor: the camera sees the lamp by its distance from the near clip plane (Cycles starts
+    camera rays there), the floor is lit by it at the floor point's distance (light sampling
+    and bounces). Lit criterion; a warning says photons would read 0."""
+    mat, tree = node_material("Distance")
+    light_path = tree.nodes.new("ShaderNodeLightPath")
+    map_range = tree.nodes.new("ShaderNodeMapRange")
+    map_range.inputs["From Min"].default_value = 0.3
+    map_range.inputs["From Max"].default_value = 3.5
+    map_range.inputs["To Min"].default_value = 0.1
+    tree.links.new(light_path.outputs["Ray Length"], map_range.inputs["Value"])
+    emission_into_output(tree, map_range.outputs["Result"], strength=2.0)
+    scene = lamp_over_floor(mat, 0.4, 0.5)
+    scene.camera.data.clip_start = 0.5
+    compare("light path ray length", scene, tmp_path, photon_spp=256, cycles_spp=512)

@@ -67,6 +67,7 @@ pub fn sphere(
         positions,
         normals,
         uvs: Vec::new(),
+        extra_uvs: Vec::new(),
         tangents: Vec::new(),
         indices,
         material,
@@ -91,6 +92,7 @@ pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
         ],
         normals: vec![Vec3::Y; 4],
         uvs: Vec::new(),
+        extra_uvs: Vec::new(),
         tangents: Vec::new(),
         indices: vec![[0, 1, 2], [0, 2, 3]],
         material,
@@ -120,6 +122,7 @@ pub fn camera_looking_at(eye: Vec3, target: Vec3, projection: Projection) -> Cam
         shift: Vec2::ZERO,
         lens: None,
         motion: Vec::new(),
+        near_clip: 0.0,
     }
 }
 

@@ -227,7 +227,7 @@ impl<'a> Gather<'a> {
             Err(escaped) => return escaped,
         };
         let ctx = self.ctx;
-        let z = Shading::new(ctx, &ray, &hit);
+        let z = Shading::new(ctx, &ray, &hit, false);
         let mut l = emitted_radiance(ctx.scene, &z.sh, z.wo, z.surface.emission);
         if l != Vec3::ZERO {
             l *= previous.weight_at(ctx, &z.sh);
@@ -328,7 +328,7 @@ impl<'a> Gather<'a> {
         let ctx = self.ctx;
         let t = transmittance(absorption, &hit, &ray);
         // y: the surface the gather ray meets.
-        let y = Shading::new(ctx, &ray, &hit);
+        let y = Shading::new(ctx, &ray, &hit, false);
         let mut l = emitted_radiance(ctx.scene, &y.sh, y.wo, y.surface.emission);
         if l != Vec3::ZERO {
             l *= previous.weight_at(ctx, &y.sh);
@@ -540,7 +540,7 @@ pub fn cache_gather(
     let Some(hit) = gather.intersect(&ray) else {
         return Incoming::NONE;
     };
-    let d = Shading::new(ctx, &ray, &hit);
+    let d = Shading::new(ctx, &ray, &hit, false);
     let normal = d.frame.n;
     let mut chain = Chain {
         length: hit.t * ray.direction.length(),

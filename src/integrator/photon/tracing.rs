@@ -147,7 +147,7 @@ impl Emitters {
                 area,
                 two_sided,
             } => {
-                let emitter = sample_emitter_point(ctx.scene, mesh, triangle, u1);
+                let emitter = sample_emitter_point(ctx.scene, mesh, triangle, u1, None);
                 let LightPoint {
                     p: q,
                     p_error: q_error,
@@ -466,7 +466,7 @@ fn walk_photon(
             return;
         };
         power *= transmittance(absorption, &hit, &ray);
-        let s = Shading::new(ctx, &ray, &hit);
+        let s = Shading::new(ctx, &ray, &hit, false);
         let storing = stores_photons(&s.bsdf);
         if storing && !store(&s, power, bounce, bounce > 0 && specular_path) {
             return;
