@@ -266,6 +266,7 @@ mod tests {
             shift: Vec2::ZERO,
             lens: None,
             motion: vec![open, close],
+            near_clip: 0.0,
         };
         let rays = CameraRays::new(&camera, 40, 30);
         assert!(rays.moves());

@@ -976,6 +976,7 @@ mod tests {
             aspect_ratio: None,
             shift: Vec2::ZERO,
             lens: None,
+            motion: Vec::new(),
             near_clip: 0.5,
         };
         assert!((camera.near_clip_distance(-Vec3::Z) - 0.5).abs() < 1e-6);
