@@ -200,21 +200,21 @@ def test_image_textured_material_preview(captured, tmp_path):
 
 
 def test_fallback_material_preview(captured):
-    """A tree with a node Photon does not evaluate (Magic Texture into the Base Color) falls
+    """A tree with a node Photon does not evaluate (Gabor Texture into the Base Color) falls
     back to the Principled BSDF's unlinked values: here an orange emission of strength 4,
     which lights the sphere orange (the linked Base Color reads as grey)."""
-    material = bpy.data.materials.new("Magic")
+    material = bpy.data.materials.new("Gabor")
     material.use_nodes = True
     tree = material.node_tree
     bsdf = tree.nodes["Principled BSDF"]
-    magic = tree.nodes.new("ShaderNodeTexMagic")
-    tree.links.new(magic.outputs["Color"], bsdf.inputs["Base Color"])
+    gabor = tree.nodes.new("ShaderNodeTexGabor")
+    tree.links.new(gabor.outputs["Value"], bsdf.inputs["Base Color"])
     bsdf.inputs["Emission Color"].default_value = (1.0, 0.3, 0.0, 1.0)
     bsdf.inputs["Emission Strength"].default_value = 4.0
     pixels, run = generate_preview(material, captured)
     assert_preview_is_photons_image(pixels, run)
-    gltf = json.loads(next(captured.parent.glob("done_Magic/scene.gltf")).read_text())
-    written = next(m for m in gltf["materials"] if m["name"] == "Magic")
+    gltf = json.loads(next(captured.parent.glob("done_Gabor/scene.gltf")).read_text())
+    written = next(m for m in gltf["materials"] if m["name"] == "Gabor")
     assert "PHOTON_material_nodes" not in written.get("extensions", {}), written
     image = run["image"]
     sphere = image[image[:, :, 3] > 0.99, :3].mean(axis=0)
