@@ -29,8 +29,9 @@
 //! w = 1/(‖x−xᵢ‖/Rᵢ + √(1−N·Nᵢ)) > 1/a, a the accuracy; records in front of x
 //! ((x − xᵢ)·(N + Nᵢ)/2 < 0, with a small tolerance) are skipped. The sums use w − 1/a, which
 //! falls to zero at the edge of a record's validity, so coverage boundaries leave no seams. Rᵢ is clamped so that a record
-//! covers between `min_spacing` and `max_spacing` pixels (a·Rᵢ in pixel footprints at xᵢ):
-//! this stops record explosions in corners and splotches from far-seeing records.
+//! covers between `min_spacing` and `max_spacing` pixels (a·Rᵢ in pixel footprints at xᵢ),
+//! and at most `MAX_FRAME_SHARE` of the frame's larger side: this stops record explosions in
+//! corners and splotches from far-seeing records, at any image size.
 //!
 //! **Spatial index**: a loose octree; a record lives in the deepest node at least as large as its
 //! validity radius a·Rᵢ. Each node also keeps the box bounding the validity spheres of its
@@ -66,7 +67,8 @@ pub struct IcSettings {
     /// to zero, records 1.5 px apart cost 40–60 % more records than 3 px for no lower error;
     /// `photon-ic` at 4–64 spp on the Cornell box, furnace, interior and fractal Cornell box).
     pub min_spacing: f32,
-    /// Largest radius a record covers, in pixels (default 48).
+    /// Largest radius a record covers, in pixels (default 48; `build` lowers it on frames
+    /// under 640 pixels, `MAX_FRAME_SHARE`).
     pub max_spacing: f32,
     /// Gather rays per pixel of the frame the whole cache may cost; the build stops before a
     /// level whose new records would pass it, and points no record covers are shaded without
@@ -530,6 +532,13 @@ fn clamp_radius(rec: &mut Record, settings: &IcSettings) {
     }
 }
 
+/// Largest radius a record covers as a share of the frame's larger side: 48 pixels of a
+/// 640-pixel frame. A record whose rays missed small, distant geometry sees nothing near and
+/// reaches as far as it may; on a 48-pixel render the 48-pixel bound let one such record cover
+/// the frame, and the glass cube's floor, lit only through the cube, got half its indirect
+/// light (docs/bench/measurements.md, "The irradiance cache on an open floor").
+const MAX_FRAME_SHARE: f32 = 0.075;
+
 /// Place records over a `width` × `height` image, coarse to fine (see the module header).
 /// `find(x, y, rng)` returns the site seen through pixel (x, y) with the caller's surface data
 /// `P`, `gather(data, direction, rng)` the radiance along a direction and its distance;
@@ -548,6 +557,14 @@ pub fn build<P: Send>(
     check: impl Fn(f32) -> Result<()>,
 ) -> Result<(IrradianceCache, BuildInfo)> {
     settings.validate()?;
+    let frame_bound = MAX_FRAME_SHARE * width.max(height) as f32;
+    let settings = &IcSettings {
+        max_spacing: settings
+            .max_spacing
+            .min(frame_bound)
+            .max(settings.min_spacing),
+        ..settings.clone()
+    };
     let mut cache = IrradianceCache::new(bounds.0, bounds.1, settings.accuracy);
     let mut info = BuildInfo::default();
     let mut step = 32u32;
