@@ -191,13 +191,15 @@ fn an_explicit_method_skips_the_photon_pilot() {
 fn auto_holds_the_irradiance_cache_to_the_final_gathers_rays() {
     // The Cornell box's corners need many records: at 1 spp they would cost far more rays than
     // final gathering, so the build stops early; at 16 spp it completes, and so it does at 1 spp
-    // when the cache is asked for. The furnace needs few records and completes even at 1 spp.
+    // when the cache is asked for. The furnace needs few records and completes at 2 spp (at this
+    // 96-pixel size its records, held to 7.5 % of the frame, number 269; 1 spp's budget holds
+    // about 140).
     let dir = temp_dir("auto-cache");
     for (name, spp, asked, stopped) in [
         ("cornell_box.glb", 1, false, true),
         ("cornell_box.glb", 16, false, false),
         ("cornell_box.glb", 1, true, false),
-        ("furnace.glb", 1, false, false),
+        ("furnace.glb", 2, false, false),
     ] {
         let asked_for: &[&str] = if asked {
             &["--irradiance-cache", "on"]
