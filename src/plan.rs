@@ -437,11 +437,11 @@ struct PilotShares {
     indirect: f32,
     /// Power of the caustic photons (light → specular+ → diffuse) of lights other than the
     /// world, as a fraction of the global photons' power, both counted where the camera sees
-    /// them directly: the caustics a path tracer finds only by chance (a small light seen
+    /// them (`seen_by_camera`: directly or through slabs of glass): the caustics a path tracer finds only by chance (a small light seen
     /// through glass) or never (a point, spot or sun light). It finds the world's caustics by
     /// BSDF sampling, as it finds any sky light. Zero when no mesh is specular.
     hard_caustic: f32,
-    /// Share of the global pilot photons stored where the camera sees them directly; 1 when no
+    /// Share of the global pilot photons stored where the camera sees them; 1 when no
     /// global pilot ran. Small when most of the light lands where the camera does not look (a
     /// room lit by the sun through a window, the sun's photons spread over the ground outside).
     seen: f32,
