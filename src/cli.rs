@@ -561,6 +561,7 @@ fn summarise(
                     "global_emitted": p.global_emitted, "global_stored": p.global_stored,
                     "caustic_emitted": p.caustic_emitted, "caustic_stored": p.caustic_stored,
                     "caustic_skipped": p.caustic_skipped, "trace_seconds": p.trace_seconds,
+                    "guided": p.guided, "guide_seconds": p.guide_seconds,
                     "kdtree_seconds": p.kdtree_seconds, "photons_per_second": rate,
                     "irradiance_records": p.irradiance_records,
                     "irradiance_seconds": p.irradiance_seconds,
@@ -586,6 +587,12 @@ fn summarise(
                 p.irradiance_records,
                 p.irradiance_seconds
             );
+            if p.guided {
+                eprintln!(
+                    "photon: photons guided towards what the camera's paths meet (pilots {:.3} s)",
+                    p.guide_seconds
+                );
+            }
             if p.subsurface_stored > 0 {
                 eprintln!(
                     "photon: subsurface: {} photons emitted / {} samples on translucent surfaces, built with their octrees in {:.3} s",

@@ -586,7 +586,8 @@ fn pilot_shares(
 
     let mut hard_caustic = 0.0;
     let mut seen_share = 1.0;
-    let emitters = Emitters::new(&ctx);
+    // Guided as the render's photons are, so that `seen` counts what the render will store.
+    let emitters = Emitters::guided(&ctx, aspect, 0x0f1a_7e58);
     let caustics = caustics && emitters.has_caustic_targets();
     if global || caustics {
         let seen = seen_by_camera(&ctx, aspect);

@@ -501,7 +501,13 @@ fn prepare(
 ) -> Result<Prepared> {
     let maps = match settings.method.photon_view() {
         Some(view) => {
-            let (maps, info) = build_maps(ctx, &settings.photon, settings.seed, progress)?;
+            let (maps, info) = build_maps(
+                ctx,
+                &settings.photon,
+                settings.width as f32 / settings.height as f32,
+                settings.seed,
+                progress,
+            )?;
             stats
                 .photon
                 .get_or_insert_with(PhotonInfo::default)

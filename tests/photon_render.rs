@@ -43,23 +43,33 @@ fn photon_settings(size: u32, spp: u32, photons: u32) -> RenderSettings {
     }
 }
 
+/// A rendering context over `scene` with `max_depth` bounces and an opaque film.
+fn context<'a>(
+    scene: &'a Scene,
+    accel: &'a Accel,
+    lights: &'a Lights,
+    max_depth: u32,
+) -> Context<'a> {
+    Context {
+        scene,
+        accel,
+        lights,
+        max_depth,
+        transparent_background: false,
+    }
+}
+
 /// The photon maps of `scene` from `global_photons` photons, with the default settings
 /// otherwise (seed 3, 64 bounces).
 fn photon_maps(scene: &Scene, global_photons: u32) -> (PhotonMaps, PhotonInfo) {
     let accel = Accel::new(scene);
     let lights = Lights::new(scene);
-    let ctx = Context {
-        scene,
-        accel: &accel,
-        lights: &lights,
-        max_depth: 64,
-        transparent_background: false,
-    };
+    let ctx = context(scene, &accel, &lights, 64);
     let settings = PhotonSettings {
         global_photons,
         ..PhotonSettings::default()
     };
-    with_progress(|p| build_maps(&ctx, &settings, 3, p)).expect("photons")
+    with_progress(|p| build_maps(&ctx, &settings, 1.0, 3, p)).expect("photons")
 }
 
 #[test]
@@ -404,13 +414,7 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
     for (light, scene) in setups {
         let accel = Accel::new(&scene);
         let lights = Lights::new(&scene);
-        let ctx = Context {
-            scene: &scene,
-            accel: &accel,
-            lights: &lights,
-            max_depth: 16,
-            transparent_background: false,
-        };
+        let ctx = context(&scene, &accel, &lights, 16);
         let emitters = Emitters::new(&ctx);
         assert!(emitters.has_caustic_targets());
         let n = 120_000;
@@ -540,5 +544,70 @@ fn the_cache_keeps_the_indirect_light_of_an_open_floor() {
     assert!(
         (with / without - 1.0).abs() < 0.1,
         "indirect light with the cache {with}, without {without}"
+    );
+}
+
+#[test]
+fn guided_photons_bring_the_same_light_into_a_window_lit_room() {
+    // The room with thick walls lit by a sun through its window (scenes/blender/window_room.py):
+    // uniform sun photons mostly land on the walls' outsides. Guided photons (emitted where
+    // they reach what the camera's paths meet) must bring the same power into the room, within
+    // noise, and far more of the photons must get in.
+    use photon::integrator::photon::tracing::{trace_photon, Emitters, MapKind};
+    use photon::rng::Rng;
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/blender/room_thick.glb");
+    let scene = photon::scene::load::load_scene(Some(&path), None).expect("window-lit room");
+    let accel = Accel::new(&scene);
+    let lights = Lights::new(&scene);
+    let ctx = context(&scene, &accel, &lights, 16);
+    // The interior in glTF axes (Blender's z up is glTF's y): x, z in [-2, 2], y in [0, 2.5];
+    // the walls' outer faces lie 0.2 m beyond it.
+    let inside = |p: Vec3| p.x.abs() < 2.1 && p.z.abs() < 2.1 && p.y > -0.1 && p.y < 2.6;
+    let n = 40_000;
+    // (mean power into the room per photon, its standard error, photons that got in)
+    let flux = |emitters: &Emitters| -> (f64, f64, u32) {
+        let mut rng = Rng::for_item(11, 0, 0);
+        let (mut sum, mut sum2, mut entered) = (0.0f64, 0.0f64, 0);
+        let mut out = Vec::new();
+        for _ in 0..n {
+            out.clear();
+            if let Some(e) = emitters.emit(&ctx, false, &mut rng) {
+                trace_photon(
+                    &ctx,
+                    e.ray,
+                    e.power,
+                    MapKind::Global,
+                    16,
+                    &mut rng,
+                    &mut out,
+                );
+            }
+            let v: f64 = out
+                .iter()
+                .filter(|p| inside(p.position()))
+                .map(|p| p.power().y as f64)
+                .sum();
+            entered += u32::from(v > 0.0);
+            sum += v;
+            sum2 += v * v;
+        }
+        let mean = sum / n as f64;
+        let sigma = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+        (mean, sigma, entered)
+    };
+    let uniform = Emitters::new(&ctx);
+    let guided = Emitters::guided(&ctx, 1.0, 3);
+    assert!(guided.is_guided(), "the sun's photons are not guided");
+    let (plain, plain_sigma, plain_in) = flux(&uniform);
+    let (aimed, aimed_sigma, aimed_in) = flux(&guided);
+    let sigma = (plain_sigma * plain_sigma + aimed_sigma * aimed_sigma).sqrt();
+    assert!(
+        (plain - aimed).abs() < 4.0 * sigma,
+        "power into the room: uniform {plain} (σ {plain_sigma}), guided {aimed} (σ {aimed_sigma})"
+    );
+    assert!(
+        aimed_in > 4 * plain_in,
+        "guiding did not bring the photons in: {aimed_in} of {n} guided, {plain_in} uniform"
     );
 }

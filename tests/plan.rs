@@ -281,13 +281,14 @@ fn the_smallest_pilots_choose_as_the_full_ones() {
 }
 
 #[test]
-fn a_room_lit_through_a_window_gets_more_global_photons() {
-    // Most of a sun's photons land outside a window-lit room (on its roof and the ground),
-    // where the camera inside does not look: the global map inside was so sparse that the
-    // image's mean moved by ±1.5 % from one seed to the next. The pilot measures the share the
-    // camera sees and the plan traces more photons, for thin and thick walls alike (the sunlit
-    // top of a zero-thickness roof is not the ceiling the camera sees). A Cornell box, whose
-    // photons all land in view, keeps the preset's count.
+fn a_room_lit_through_a_window_keeps_its_photons_where_the_camera_looks() {
+    // Emitted uniformly, most of a sun's photons land outside a window-lit room (on its walls'
+    // outsides), where the camera inside does not look: the pilot saw 7 % of them in view, and
+    // the plan traced 3.5 times the preset's photons for the room to be lit by enough. Guided
+    // emission sends them through the window: the guided pilot sees enough of them, and the
+    // preset's count serves, for thin and thick walls alike (the sunlit top of a
+    // zero-thickness roof is not the ceiling the camera sees). So does a Cornell box, whose
+    // photons all land in view.
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let preset = photon::integrator::photon::settings::PhotonSettings::default().global_photons;
     let global_photons = |path: std::path::PathBuf| {
@@ -297,14 +298,12 @@ fn a_room_lit_through_a_window_gets_more_global_photons() {
             photon::plan::plan_with_pilot(&scene, Quality::Default, 48, 48, Some((&accel, None)));
         (p.photon.global_photons, p.global_map.reason)
     };
-    for room in ["room_thin.glb", "room_thick.glb"] {
+    for room in ["room_thin.glb", "room_thick.glb", "../cornell_box.glb"] {
         let (photons, reason) = global_photons(root.join("scenes/blender").join(room));
-        assert!(photons >= 2 * preset, "{room}: {photons} ({reason})");
+        assert_eq!(photons, preset, "{room}: {reason}");
         assert!(
-            reason.contains("where the camera looks"),
+            !reason.contains("where the camera looks"),
             "{room}: {reason}"
         );
     }
-    let (photons, reason) = global_photons(root.join("scenes/cornell_box.glb"));
-    assert_eq!(photons, preset, "{reason}");
 }

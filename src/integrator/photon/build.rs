@@ -65,15 +65,24 @@ fn trace_map(
     )
 }
 
-/// Trace the photons and build the maps, the precomputed irradiance and the subsurface samples.
+/// Trace the photons and build the maps, the precomputed irradiance and the subsurface samples
+/// for an image of aspect ratio `aspect` (width / height), which guides the photons
+/// (`super::guide`).
 pub fn build_maps(
     ctx: &Context,
     settings: &PhotonSettings,
+    aspect: f32,
     seed: u64,
     progress: &Progress,
 ) -> Result<(PhotonMaps, PhotonInfo)> {
-    let emitters = Emitters::new(ctx);
-    let mut info = PhotonInfo::default();
+    let start = Instant::now();
+    let emitters = Emitters::guided(ctx, aspect, seed);
+    let guide_seconds = start.elapsed().as_secs_f64();
+    let mut info = PhotonInfo {
+        guided: emitters.is_guided(),
+        guide_seconds,
+        ..PhotonInfo::default()
+    };
     let start = Instant::now();
     let global = trace_map(ctx, &emitters, settings, MapKind::Global, 0, seed, progress)?;
     info.global_emitted = settings.global_photons as u64;

@@ -2,6 +2,7 @@
 //! "Realistic Image Synthesis Using Photon Mapping"), split by job:
 //! - `settings`: the settings and the statistics of photon tracing;
 //! - `tracing`: photon emission and the photon random walk;
+//! - `guide`: guided emission, towards what the render reads (Peter & Pietrek 1998);
 //! - `estimate`: density estimation from the maps and Christensen's precomputed irradiance;
 //! - `subsurface`: the diffusion photon mode for translucent materials (Jensen & Buhler 2002);
 //! - `build`: tracing the photons into the maps everything else reads;
@@ -12,6 +13,7 @@
 
 pub mod build;
 pub mod estimate;
+pub mod guide;
 pub mod settings;
 pub mod shade;
 pub mod subsurface;

@@ -72,6 +72,10 @@ pub struct PhotonInfo {
     /// Why the caustic map was skipped, if it was.
     pub caustic_skipped: Option<String>,
     pub trace_seconds: f64,
+    /// Some light's photons were guided (`super::guide`), and the pilots that guided them took
+    /// `guide_seconds`.
+    pub guided: bool,
+    pub guide_seconds: f64,
     pub kdtree_seconds: f64,
     /// Precomputed irradiance records (Christensen 1999) and the time they took.
     pub irradiance_records: usize,
@@ -96,6 +100,8 @@ impl PhotonInfo {
             .take()
             .or(other.caustic_skipped.clone());
         self.trace_seconds += other.trace_seconds;
+        self.guided |= other.guided;
+        self.guide_seconds += other.guide_seconds;
         self.kdtree_seconds += other.kdtree_seconds;
         self.irradiance_records += other.irradiance_records;
         self.irradiance_seconds += other.irradiance_seconds;
