@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use photon::accel::Accel;
 use photon::error::{Error, Result};
+use photon::film::FilterSettings;
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
@@ -175,6 +176,10 @@ struct RenderArgs {
     /// top-left corner, X1 and Y1 exclusive; the image has the window's size.
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
     region: Option<Vec<u32>>,
+    /// Pixel filter TYPE[:WIDTH]: blackman-harris, gaussian or box, with Blender's width in
+    /// pixels (Cycles' definitions) [default: the scene's, else blackman-harris:1.5].
+    #[arg(long, value_name = "TYPE[:WIDTH]")]
+    filter: Option<String>,
     /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
     #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     method: MethodArg,
@@ -364,6 +369,11 @@ fn json_line(value: serde_json::Value) {
 }
 
 fn run_render(args: RenderArgs) -> Result<()> {
+    let filter = args
+        .filter
+        .as_deref()
+        .map(FilterSettings::parse)
+        .transpose()?;
     let cancel = install_signal_handlers()?;
     let mode = match args.progress {
         ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
@@ -471,6 +481,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }),
         photon,
         light_passes: args.passes,
+        filter,
     };
 
     let bar = (mode == ProgressMode::Bar).then(|| {

@@ -9,7 +9,7 @@
 use crate::accel::Accel;
 use crate::camera::CameraRays;
 use crate::error::{Error, Result};
-use crate::film::{Image, PixelFilter};
+use crate::film::{FilterSettings, Image, PixelFilter};
 use crate::integrator::cache::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::build::{build_maps, PhotonMaps};
 use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
@@ -47,6 +47,9 @@ pub struct RenderSettings {
     pub region: Option<Region>,
     /// Keep the light-path passes (`Image::passes`); off, they are summed but not stored.
     pub light_passes: bool,
+    /// The pixel filter; `None`: the scene's (`SceneRenderSettings::filter`), else Blender's
+    /// default (Blackman–Harris, 1.5 px).
+    pub filter: Option<FilterSettings>,
 }
 
 /// A window of the frame in pixels, top-left origin, `x1` and `y1` exclusive.
@@ -127,6 +130,7 @@ impl Default for RenderSettings {
             irradiance_cache: IcSettings::default(),
             region: None,
             light_passes: false,
+            filter: None,
         }
     }
 }
@@ -237,7 +241,12 @@ pub fn render_scheduled(
         transparent_background: scene.render_settings.transparent_film,
     };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
-    let filter = PixelFilter::default();
+    let filter = PixelFilter::new(
+        &settings
+            .filter
+            .or(scene.render_settings.filter)
+            .unwrap_or_default(),
+    );
     // Methods that read photon maps or an irradiance cache rebuild them every `GENERATION_SPP`
     // samples per pixel with fresh random numbers and smaller radii (`for_generation`).
     let progressive =
