@@ -39,7 +39,8 @@ pub struct BenchArgs {
     /// Budgets: samples per pixel; photon counts scale with them.
     #[arg(long, value_delimiter = ',', default_values_t = [1, 4, 16])]
     budgets: Vec<u32>,
-    /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto [default: all].
+    /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto, path-random
+    /// (the path tracer with independent random numbers) [default: all but path-random].
     #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
     /// Worker threads of each timed render (0: one per core); references use every core.
@@ -93,8 +94,9 @@ const REFERENCE_PHOTONS: u32 = 1_000_000;
 
 /// The bench methods and the render options each adds. `photon` is pure final gathering,
 /// `photon-ic` takes the indirect light from Ward's irradiance cache; `auto` renders the planner's
-/// choice with the same budget, so the bench judges the choice.
-const METHODS: [(&str, &[&str]); 4] = [
+/// choice with the same budget, so the bench judges the choice. `path-random` is the path tracer
+/// with independent random numbers instead of its Sobol points (not run unless asked for).
+const METHODS: [(&str, &[&str]); 5] = [
     ("path", &["--method", "path"]),
     (
         "photon",
@@ -105,7 +107,11 @@ const METHODS: [(&str, &[&str]); 4] = [
         &["--method", "photon", "--irradiance-cache", "on"],
     ),
     ("auto", &["--method", "auto"]),
+    ("path-random", &["--method", "path", "--sampler", "random"]),
 ];
+
+/// The methods run without `--methods`.
+const DEFAULT_METHODS: [&str; 4] = ["path", "photon", "photon-ic", "auto"];
 
 /// The render options of the bench method `name`; unknown names are a settings error.
 fn method_options(name: &str) -> Result<&'static [&'static str]> {
@@ -1006,7 +1012,7 @@ fn svg_plot(scene: &str, rows: &[Row]) -> String {
 
 pub fn run_bench(mut args: BenchArgs) -> Result<()> {
     if args.methods.is_empty() {
-        args.methods = METHODS.iter().map(|(n, _)| n.to_string()).collect();
+        args.methods = DEFAULT_METHODS.iter().map(|n| n.to_string()).collect();
     }
     for method in &args.methods {
         method_options(method)?;

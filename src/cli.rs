@@ -10,7 +10,7 @@ use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
 use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Quality};
 use photon::progress::{Progress, ProgressEvent};
-use photon::render::{Method, RenderSettings, RenderStats};
+use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
 use photon::scene::load::{image_size, load_scene};
 use photon::scene::Projection;
@@ -121,6 +121,15 @@ enum MethodArg {
     IcRecords,
 }
 
+/// The path tracer's sampler (`--sampler`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SamplerArg {
+    /// Owen-scrambled Sobol points, each pixel randomised on its own.
+    Sobol,
+    /// Independent pseudo-random numbers (PCG32).
+    Random,
+}
+
 /// A switch (`on` / `off`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum OnOff {
@@ -180,6 +189,10 @@ struct RenderArgs {
     /// pixels (Cycles' definitions) [default: the scene's, else blackman-harris:1.5].
     #[arg(long, value_name = "TYPE[:WIDTH]")]
     filter: Option<String>,
+    /// Numbers of the path tracer's camera paths: Owen-scrambled Sobol points or independent
+    /// random numbers (the photon and cache methods always use random numbers).
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    sampler: SamplerArg,
     /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
     #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     method: MethodArg,
@@ -482,6 +495,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
         photon,
         light_passes: args.passes,
         filter,
+        sampler: match args.sampler {
+            SamplerArg::Sobol => Sampler::Sobol,
+            SamplerArg::Random => Sampler::Random,
+        },
     };
 
     let bar = (mode == ProgressMode::Bar).then(|| {
