@@ -33,17 +33,34 @@ pub fn sobol_first(index: u32) -> u32 {
     index.reverse_bits()
 }
 
-/// Sobol's second dimension at `index`, as a 32-bit fraction.
-pub fn sobol_second(index: u32) -> u32 {
-    let (mut x, mut i, mut k) = (0u32, index, 0usize);
-    while i != 0 {
-        if i & 1 != 0 {
-            x ^= SECOND_DIMENSION[k];
+/// The XOR of the direction numbers each byte of an index selects: `BYTE_TABLES[b][v]` is the
+/// sum of `SECOND_DIMENSION[8b + k]` over the bits k set in v.
+const BYTE_TABLES: [[u32; 256]; 4] = {
+    let mut tables = [[0u32; 256]; 4];
+    let mut b = 0;
+    while b < 4 {
+        let mut v = 0;
+        while v < 256 {
+            let mut x = 0u32;
+            let mut k = 0;
+            while k < 8 {
+                if v & (1 << k) != 0 {
+                    x ^= SECOND_DIMENSION[8 * b + k];
+                }
+                k += 1;
+            }
+            tables[b][v] = x;
+            v += 1;
         }
-        i >>= 1;
-        k += 1;
+        b += 1;
     }
-    x
+    tables
+};
+
+/// Sobol's second dimension at `index`, as a 32-bit fraction (one table per byte of the index).
+pub fn sobol_second(index: u32) -> u32 {
+    let byte = |b: usize| BYTE_TABLES[b][(index >> (8 * b)) as usize & 0xff];
+    byte(0) ^ byte(1) ^ byte(2) ^ byte(3)
 }
 
 /// A seeded permutation of 32-bit integers in which bit k of the result depends only on bits
@@ -82,8 +99,9 @@ pub fn sample_2d(index: u32, seeds: Seeds) -> (u32, u32) {
         y: sy,
     } = seeds;
     let i = owen_scramble(index, shuffle);
+    // Scrambling the first dimension undoes its bit reversal: rev(LK(rev(rev(i)))).
     (
-        owen_scramble(sobol_first(i), sx),
+        laine_karras(i, sx).reverse_bits(),
         owen_scramble(sobol_second(i), sy),
     )
 }
@@ -91,7 +109,7 @@ pub fn sample_2d(index: u32, seeds: Seeds) -> (u32, u32) {
 /// Point `index` of the Owen-scrambled van der Corput sequence of the dimension `seeds`, as a
 /// 32-bit fraction: the first 2^m indices fall one in each interval of length 2^−m.
 pub fn sample_1d(index: u32, seeds: Seeds) -> u32 {
-    owen_scramble(sobol_first(owen_scramble(index, seeds.shuffle)), seeds.x)
+    laine_karras(owen_scramble(index, seeds.shuffle), seeds.x).reverse_bits()
 }
 
 #[cfg(test)]
@@ -115,6 +133,18 @@ mod tests {
                 (0.125, 0.625)
             ]
         );
+    }
+
+    #[test]
+    fn the_byte_tables_give_the_matrix_product() {
+        let direct = |index: u32| {
+            (0..32)
+                .filter(|k| index & (1 << k) != 0)
+                .fold(0, |x, k| x ^ SECOND_DIMENSION[k])
+        };
+        for index in [0u32, 1, 2, 3, 255, 256, 0x1234_5678, 0xdead_beef, u32::MAX] {
+            assert_eq!(sobol_second(index), direct(index), "{index:#x}");
+        }
     }
 
     #[test]
