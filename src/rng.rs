@@ -9,7 +9,7 @@
 //! tracer's camera paths draw from the second, everything else from the first.
 
 use crate::math::Vec2;
-use crate::sobol::{sample_1d, sample_2d, Seeds};
+use crate::sobol::{sample_1d, sample_2d, sample_3d, Seeds};
 
 /// 64-bit finaliser from SplitMix64: a bijective mix of all input bits.
 pub fn hash64(mut x: u64) -> u64 {
@@ -99,6 +99,7 @@ impl Rng {
             shuffle: a as u32,
             x: (a >> 32) as u32,
             y: b as u32,
+            z: (b >> 32) as u32,
         }
     }
 
@@ -143,6 +144,25 @@ impl Rng {
         }
         let x = self.uniform();
         Vec2::new(x, self.uniform())
+    }
+
+    /// A number and a pair drawn together: `uniform()` then `uniform2()` of a PCG stream, or one
+    /// Sobol triple, stratified jointly (`sobol::sample_3d`): for a choice and the 2D sample
+    /// made after it (a light and a point on it, a lobe and a direction).
+    pub fn uniform3(&mut self) -> (f32, Vec2) {
+        if let Source::Sobol {
+            pixel,
+            index,
+            dimension,
+        } = &mut self.source
+        {
+            let seeds = Self::dimension_seeds(*pixel, *dimension);
+            *dimension += 1;
+            let (c, (x, y)) = sample_3d(*index, seeds);
+            return (fraction(c), Vec2::new(fraction(x), fraction(y)));
+        }
+        let c = self.uniform();
+        (c, self.uniform2())
     }
 
     /// Uniform integer in [0, n).

@@ -28,14 +28,23 @@ const SECOND_DIMENSION: [u32; 32] = {
     v
 };
 
-/// Sobol's first dimension at `index` (the van der Corput sequence), as a 32-bit fraction.
-pub fn sobol_first(index: u32) -> u32 {
-    index.reverse_bits()
-}
+/// Direction numbers of Sobol's third dimension (primitive polynomial x² + x + 1, initial
+/// numbers m = 1, 3 as in Joe and Kuo's table): v_k = v_(k−1) ⊕ v_(k−2) ⊕ v_(k−2)/4.
+const THIRD_DIMENSION: [u32; 32] = {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    v[1] = 3 << 30;
+    let mut k = 2;
+    while k < 32 {
+        v[k] = v[k - 1] ^ v[k - 2] ^ (v[k - 2] >> 2);
+        k += 1;
+    }
+    v
+};
 
-/// The XOR of the direction numbers each byte of an index selects: `BYTE_TABLES[b][v]` is the
-/// sum of `SECOND_DIMENSION[8b + k]` over the bits k set in v.
-const BYTE_TABLES: [[u32; 256]; 4] = {
+/// The XOR of the direction numbers each byte of an index selects: `table[b][v]` is the sum of
+/// `directions[8b + k]` over the bits k set in v.
+const fn byte_tables(directions: &[u32; 32]) -> [[u32; 256]; 4] {
     let mut tables = [[0u32; 256]; 4];
     let mut b = 0;
     while b < 4 {
@@ -45,7 +54,7 @@ const BYTE_TABLES: [[u32; 256]; 4] = {
             let mut k = 0;
             while k < 8 {
                 if v & (1 << k) != 0 {
-                    x ^= SECOND_DIMENSION[8 * b + k];
+                    x ^= directions[8 * b + k];
                 }
                 k += 1;
             }
@@ -55,12 +64,30 @@ const BYTE_TABLES: [[u32; 256]; 4] = {
         b += 1;
     }
     tables
-};
+}
 
-/// Sobol's second dimension at `index`, as a 32-bit fraction (one table per byte of the index).
-pub fn sobol_second(index: u32) -> u32 {
-    let byte = |b: usize| BYTE_TABLES[b][(index >> (8 * b)) as usize & 0xff];
+const SECOND_TABLES: [[u32; 256]; 4] = byte_tables(&SECOND_DIMENSION);
+const THIRD_TABLES: [[u32; 256]; 4] = byte_tables(&THIRD_DIMENSION);
+
+/// The product of a generator matrix (as byte tables) with `index`.
+fn generate(tables: &[[u32; 256]; 4], index: u32) -> u32 {
+    let byte = |b: usize| tables[b][(index >> (8 * b)) as usize & 0xff];
     byte(0) ^ byte(1) ^ byte(2) ^ byte(3)
+}
+
+/// Sobol's first dimension at `index` (the van der Corput sequence), as a 32-bit fraction.
+pub fn sobol_first(index: u32) -> u32 {
+    index.reverse_bits()
+}
+
+/// Sobol's second dimension at `index`, as a 32-bit fraction.
+pub fn sobol_second(index: u32) -> u32 {
+    generate(&SECOND_TABLES, index)
+}
+
+/// Sobol's third dimension at `index`, as a 32-bit fraction.
+pub fn sobol_third(index: u32) -> u32 {
+    generate(&THIRD_TABLES, index)
 }
 
 /// A seeded permutation of 32-bit integers in which bit k of the result depends only on bits
@@ -88,6 +115,7 @@ pub struct Seeds {
     pub shuffle: u32,
     pub x: u32,
     pub y: u32,
+    pub z: u32,
 }
 
 /// Point `index` of the Owen-scrambled (0, 2)-sequence of the dimension pair `seeds`, as two
@@ -97,12 +125,29 @@ pub fn sample_2d(index: u32, seeds: Seeds) -> (u32, u32) {
         shuffle,
         x: sx,
         y: sy,
+        ..
     } = seeds;
     let i = owen_scramble(index, shuffle);
     // Scrambling the first dimension undoes its bit reversal: rev(LK(rev(rev(i)))).
     (
         laine_karras(i, sx).reverse_bits(),
         owen_scramble(sobol_second(i), sy),
+    )
+}
+
+/// Point `index` of the Owen-scrambled first three Sobol dimensions of the dimension triple
+/// `seeds`, as a number (the third dimension) and a pair (the first two, a (0, 2)-sequence):
+/// a choice and the 2D sample that follows it — a light and a point on it, a BSDF lobe and a
+/// direction — stratified together (the three form a (1, 3)-sequence), as Cycles draws them
+/// from one 4D Sobol point.
+pub fn sample_3d(index: u32, seeds: Seeds) -> (u32, (u32, u32)) {
+    let i = owen_scramble(index, seeds.shuffle);
+    (
+        owen_scramble(sobol_third(i), seeds.z),
+        (
+            laine_karras(i, seeds.x).reverse_bits(),
+            owen_scramble(sobol_second(i), seeds.y),
+        ),
     )
 }
 
@@ -137,13 +182,14 @@ mod tests {
 
     #[test]
     fn the_byte_tables_give_the_matrix_product() {
-        let direct = |index: u32| {
+        let direct = |v: &[u32; 32], index: u32| {
             (0..32)
                 .filter(|k| index & (1 << k) != 0)
-                .fold(0, |x, k| x ^ SECOND_DIMENSION[k])
+                .fold(0, |x, k| x ^ v[k])
         };
         for index in [0u32, 1, 2, 3, 255, 256, 0x1234_5678, 0xdead_beef, u32::MAX] {
-            assert_eq!(sobol_second(index), direct(index), "{index:#x}");
+            assert_eq!(sobol_second(index), direct(&SECOND_DIMENSION, index));
+            assert_eq!(sobol_third(index), direct(&THIRD_DIMENSION, index));
         }
     }
 

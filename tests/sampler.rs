@@ -1,5 +1,5 @@
 //! The path tracer's Sobol sampler (`Rng::sobol`, `photon::sobol`): the first 2^m samples of a
-//! pixel are stratified in every dimension and every pair, its numbers are uniform over pixels,
+//! pixel are stratified in every dimension, every pair and jointly in every triple, its numbers are uniform over pixels,
 //! dimensions are independent of each other, and an integral converges faster than with
 //! independent random numbers.
 
@@ -12,15 +12,12 @@ use photon::rng::Rng;
 /// Chi-square tests in this file (for the Šidák correction).
 const NUM_TESTS: usize = 3;
 
-/// The pairs one sample of a camera path draws, with numbers drawn between them: a pair (the
-/// pixel filter), a number (a light choice), a pair (the light point), a number (a lobe), a
-/// pair (the BSDF direction).
+/// The pairs one sample of a camera path draws: the pixel filter's, the light point's (with
+/// its light choice) and the BSDF direction's (with its lobe).
 fn draws(rng: &mut Rng) -> [Vec2; 3] {
     let filter = rng.uniform2();
-    rng.uniform();
-    let light = rng.uniform2();
-    rng.uniform();
-    [filter, light, rng.uniform2()]
+    let light = rng.uniform3().1;
+    [filter, light, rng.uniform3().1]
 }
 
 /// Whether `points` put exactly one point in every elementary interval 2^−a × 2^−(m−a) of the
@@ -48,36 +45,54 @@ fn is_stratified(values: &[f32], m: u32) -> bool {
     cells.iter().all(|&c| c == 1)
 }
 
+/// Whether the points (c, p) put exactly 2^t points in every elementary box
+/// 2^−a × 2^−b × 2^−c of the unit cube with a + b + c = m − t (a (t, m, 3)-net).
+fn is_net_3d(points: &[(f32, Vec2)], m: u32, t: u32) -> bool {
+    let k = m - t;
+    (0..=k).all(|a| {
+        (0..=k - a).all(|b| {
+            let c = k - a - b;
+            let (na, nb, nc) = (1usize << a, 1usize << b, 1usize << c);
+            let mut cells = vec![0u32; na * nb * nc];
+            let bin = |v: f32, n: usize| ((v * n as f32) as usize).min(n - 1);
+            for (u, p) in points {
+                cells[(bin(*u, na) * nb + bin(p.x, nb)) * nc + bin(p.y, nc)] += 1;
+            }
+            cells.iter().all(|&n| n == 1 << t)
+        })
+    })
+}
+
 #[test]
 fn the_first_power_of_two_samples_of_a_pixel_are_stratified_in_every_dimension() {
     for pixel in 0..64u64 {
         for m in [2u32, 4, 6, 8] {
             let n = 1u32 << m;
-            let (mut filter, mut light, mut bsdf) = (vec![], vec![], vec![]);
-            let (mut choice, mut roulette) = (vec![], vec![]);
+            let (mut filter, mut light, mut bsdf, mut roulette) = (vec![], vec![], vec![], vec![]);
             for i in 0..n {
                 let mut rng = Rng::sobol(7, pixel, i);
                 filter.push(rng.uniform2());
-                choice.push(rng.uniform());
-                light.push(rng.uniform2());
+                light.push(rng.uniform3());
+                bsdf.push(rng.uniform3());
                 roulette.push(rng.uniform());
-                bsdf.push(rng.uniform2());
             }
-            for (name, pairs) in [("filter", &filter), ("light", &light), ("bsdf", &bsdf)] {
-                assert!(is_net(pairs, m), "pixel {pixel}, {n} samples: {name} pair");
+            assert!(is_net(&filter, m), "pixel {pixel}, {n} samples: filter");
+            for (name, triples) in [("light", &light), ("bsdf", &bsdf)] {
+                let pairs: Vec<Vec2> = triples.iter().map(|t| t.1).collect();
+                let choices: Vec<f32> = triples.iter().map(|t| t.0).collect();
+                assert!(is_net(&pairs, m), "pixel {pixel}, {n} samples: {name} pair");
+                assert!(is_stratified(&choices, m), "{pixel}, {n}: {name} choice");
+                assert!(is_net_3d(triples, m, 1), "{pixel}, {n}: {name} jointly");
             }
-            for (name, values) in [("choice", &choice), ("roulette", &roulette)] {
-                assert!(
-                    is_stratified(values, m),
-                    "pixel {pixel}, {n} samples: {name}"
-                );
-            }
+            assert!(is_stratified(&roulette, m), "{pixel}, {n}: roulette");
         }
     }
     // Independent random numbers are not: the check has something to find.
     let mut rng = Rng::new(1);
     let random: Vec<Vec2> = (0..64).map(|_| rng.uniform2()).collect();
     assert!(!is_net(&random, 6));
+    let random: Vec<(f32, Vec2)> = (0..64).map(|_| rng.uniform3()).collect();
+    assert!(!is_net_3d(&random, 6, 1));
 }
 
 #[test]
@@ -109,8 +124,7 @@ fn dimensions_are_independent_of_each_other() {
         for i in 0..64 {
             let mut rng = Rng::sobol(11, pixel, i);
             let a = rng.uniform2().x;
-            rng.uniform();
-            let b = rng.uniform2().x;
+            let b = rng.uniform3().1.x;
             let (x, y) = (
                 ((a * bins as f32) as usize).min(bins - 1),
                 ((b * bins as f32) as usize).min(bins - 1),
@@ -130,6 +144,7 @@ fn dimensions_are_independent_of_each_other() {
                 shuffle: pixel as u32,
                 x: x ^ pixel as u32,
                 y: 0,
+                z: 0,
             };
             let f = |x: u32| (x >> 8) as f32 / 16_777_216.0;
             let a = f(photon::sobol::sample_1d(i, seeds(1)));
