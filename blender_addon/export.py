@@ -754,13 +754,25 @@ def world_uses_nodes(world) -> bool:
     return bpy.app.version >= (5, 0, 0) or world.use_nodes
 
 
+def film_filter(scene) -> dict:
+    """Cycles' pixel filter (Render > Film > Pixel Filter): its type and width in pixels. Blender
+    gives Cycles a 1-px box whatever the width field says, so a box is written 1 px wide;
+    without the Cycles add-on's settings, Blender's default (Blackman-Harris, 1.5 px)."""
+    cycles = getattr(scene, "cycles", None)
+    kind = getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS")
+    width = 1.0 if kind == "BOX" else float(getattr(cycles, "filter_width", 1.5))
+    return {"type": kind, "width": width}
+
+
 def render_extension(scene) -> dict:
-    """PHOTON_render: the final image size (resolution x percentage) and transparent film."""
+    """PHOTON_render: the final image size (resolution x percentage), transparent film and the
+    pixel filter."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
     return {"width": max(1, int(r.resolution_x * scale)),
             "height": max(1, int(r.resolution_y * scale)),
-            "film_transparent": bool(r.film_transparent)}
+            "film_transparent": bool(r.film_transparent),
+            "filter": film_filter(scene)}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -191,6 +191,13 @@ class RENDER_PT_photon_film(PhotonPanel, bpy.types.Panel):
     def draw(self, context):
         col = _split(self.layout)
         col.prop(context.scene.render, "film_transparent", text="Transparent")
+        # Cycles' pixel filter, which Photon reads (export.film_filter); the width of a box is
+        # always 1 px, as Cycles' own panel shows by hiding it.
+        cycles = getattr(context.scene, "cycles", None)
+        if cycles is not None:
+            col.prop(cycles, "pixel_filter_type", text="Pixel Filter")
+            if cycles.pixel_filter_type != "BOX":
+                col.prop(cycles, "filter_width", text="Width")
 
 
 class RENDER_PT_photon_motion_blur(PhotonPanel, bpy.types.Panel):

@@ -13,7 +13,7 @@
 //! plot of relMSE against time per scene.
 
 use photon::error::{Error, Result};
-use photon::film::Image;
+use photon::film::{FilterSettings, Image};
 use photon::image_io::{write_image, ExrLayout};
 use photon::metrics::{compare, ImageError};
 use photon::plan::{plan, Quality};
@@ -39,7 +39,8 @@ pub struct BenchArgs {
     /// Budgets: samples per pixel; photon counts scale with them.
     #[arg(long, value_delimiter = ',', default_values_t = [1, 4, 16])]
     budgets: Vec<u32>,
-    /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto [default: all].
+    /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto, path-random
+    /// (the path tracer with independent random numbers) [default: all but path-random].
     #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
     /// Worker threads of each timed render (0: one per core); references use every core.
@@ -68,6 +69,10 @@ pub struct BenchArgs {
     /// the least disturbed time).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeats: u32,
+    /// Pixel filter of every render and of the reference, TYPE[:WIDTH] as `photon render
+    /// --filter` [default: the scene's, else blackman-harris:1.5].
+    #[arg(long, value_name = "TYPE[:WIDTH]")]
+    filter: Option<String>,
     /// The relMSE whose time to reach the report tabulates per method.
     #[arg(long, default_value_t = 0.01)]
     target_error: f64,
@@ -89,8 +94,9 @@ const REFERENCE_PHOTONS: u32 = 1_000_000;
 
 /// The bench methods and the render options each adds. `photon` is pure final gathering,
 /// `photon-ic` takes the indirect light from Ward's irradiance cache; `auto` renders the planner's
-/// choice with the same budget, so the bench judges the choice.
-const METHODS: [(&str, &[&str]); 4] = [
+/// choice with the same budget, so the bench judges the choice. `path-random` is the path tracer
+/// with independent random numbers instead of its Sobol points (not run unless asked for).
+const METHODS: [(&str, &[&str]); 5] = [
     ("path", &["--method", "path"]),
     (
         "photon",
@@ -101,7 +107,11 @@ const METHODS: [(&str, &[&str]); 4] = [
         &["--method", "photon", "--irradiance-cache", "on"],
     ),
     ("auto", &["--method", "auto"]),
+    ("path-random", &["--method", "path", "--sampler", "random"]),
 ];
+
+/// The methods run without `--methods`.
+const DEFAULT_METHODS: [&str; 4] = ["path", "photon", "photon-ic", "auto"];
 
 /// The render options of the bench method `name`; unknown names are a settings error.
 fn method_options(name: &str) -> Result<&'static [&'static str]> {
@@ -164,6 +174,7 @@ fn render_child(
     output: &Path,
     threads: usize,
     size: (u32, u32),
+    filter: Option<&str>,
     extra: &[String],
 ) -> Result<ChildRun> {
     let exe = std::env::current_exe()
@@ -182,6 +193,7 @@ fn render_child(
             &size.1.to_string(),
         ])
         .args(extra)
+        .args(filter.iter().flat_map(|f| ["--filter", f]))
         .output()
         .map_err(|e| Error::Internal(format!("cannot run a child render: {e}")))?;
     let seconds = start.elapsed().as_secs_f64();
@@ -249,8 +261,17 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
         ReferenceMethod::Path => "path",
         ReferenceMethod::Photon => "photon",
     };
+    // The scene's own filter is part of its bytes; one given on the command line is named.
+    let filter = args
+        .filter
+        .as_deref()
+        .map(FilterSettings::parse)
+        .transpose()?
+        .map_or_else(String::new, |f| {
+            format!("-{}", f.to_string().replace(':', ""))
+        });
     let key = format!(
-        "{}-{:016x}-v{}-{}x{}-{}spp-{method}",
+        "{}-{:016x}-v{}-{}x{}-{}spp-{method}{filter}",
         stem(scene),
         fnv1a(&bytes),
         env!("CARGO_PKG_VERSION"),
@@ -290,7 +311,7 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
             );
         }
         // References are not timed: every core renders them, whatever `--threads` says.
-        render_child(scene, &half, 0, size, &extra)?;
+        render_child(scene, &half, 0, size, args.filter.as_deref(), &extra)?;
         halves.push(read_rgba(&half)?);
         std::fs::remove_file(&half).map_err(|e| io_error(&half, e))?;
     }
@@ -413,7 +434,8 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
         }
         for ((method, budget, extra), best) in jobs.iter().zip(&mut fastest) {
             let out = output(method, *budget);
-            let run = render_child(scene_path, &out, args.threads, size, extra)?;
+            let filter = args.filter.as_deref();
+            let run = render_child(scene_path, &out, args.threads, size, filter, extra)?;
             if best.as_ref().is_none_or(|b| run.seconds < b.seconds) {
                 *best = Some(run);
             }
@@ -456,7 +478,8 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
         let second = images.join(format!("{name}-{method}-{budget}-seed2.exr"));
         let mut extra = extra.clone();
         extra.extend(["--seed".into(), SECOND_SEED.to_string()]);
-        render_child(scene_path, &second, args.threads, size, &extra)?;
+        let filter = args.filter.as_deref();
+        render_child(scene_path, &second, args.threads, size, filter, &extra)?;
         let (a, b) = (read_rgba(&output(method, *budget))?, read_rgba(&second)?);
         let (rel_mse, noise, bias, mean_error) = split_bias(&a, &b, &reference);
         eprintln!(
@@ -989,7 +1012,7 @@ fn svg_plot(scene: &str, rows: &[Row]) -> String {
 
 pub fn run_bench(mut args: BenchArgs) -> Result<()> {
     if args.methods.is_empty() {
-        args.methods = METHODS.iter().map(|(n, _)| n.to_string()).collect();
+        args.methods = DEFAULT_METHODS.iter().map(|n| n.to_string()).collect();
     }
     for method in &args.methods {
         method_options(method)?;
@@ -1011,6 +1034,9 @@ pub fn run_bench(mut args: BenchArgs) -> Result<()> {
             "--target-error {} must be a positive relMSE",
             args.target_error
         )));
+    }
+    if let Some(filter) = &args.filter {
+        FilterSettings::parse(filter)?;
     }
     std::fs::create_dir_all(&args.out).map_err(|e| io_error(&args.out, e))?;
     let mut rows = Vec::new();

@@ -4,12 +4,13 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use photon::accel::Accel;
 use photon::error::{Error, Result};
+use photon::film::FilterSettings;
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
 use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Quality};
 use photon::progress::{Progress, ProgressEvent};
-use photon::render::{Method, RenderSettings, RenderStats};
+use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
 use photon::scene::load::{image_size, load_scene};
 use photon::scene::Projection;
@@ -120,6 +121,15 @@ enum MethodArg {
     IcRecords,
 }
 
+/// The path tracer's sampler (`--sampler`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SamplerArg {
+    /// Owen-scrambled Sobol points, each pixel randomised on its own.
+    Sobol,
+    /// Independent pseudo-random numbers (PCG32).
+    Random,
+}
+
 /// A switch (`on` / `off`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum OnOff {
@@ -175,6 +185,14 @@ struct RenderArgs {
     /// top-left corner, X1 and Y1 exclusive; the image has the window's size.
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
     region: Option<Vec<u32>>,
+    /// Pixel filter TYPE[:WIDTH]: blackman-harris, gaussian or box, with Blender's width in
+    /// pixels (Cycles' definitions) [default: the scene's, else blackman-harris:1.5].
+    #[arg(long, value_name = "TYPE[:WIDTH]")]
+    filter: Option<String>,
+    /// Numbers of the path tracer's camera paths: Owen-scrambled Sobol points or independent
+    /// random numbers (the photon and cache methods always use random numbers).
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    sampler: SamplerArg,
     /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
     #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     method: MethodArg,
@@ -364,6 +382,11 @@ fn json_line(value: serde_json::Value) {
 }
 
 fn run_render(args: RenderArgs) -> Result<()> {
+    let filter = args
+        .filter
+        .as_deref()
+        .map(FilterSettings::parse)
+        .transpose()?;
     let cancel = install_signal_handlers()?;
     let mode = match args.progress {
         ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
@@ -471,6 +494,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }),
         photon,
         light_passes: args.passes,
+        filter,
+        sampler: match args.sampler {
+            SamplerArg::Sobol => Sampler::Sobol,
+            SamplerArg::Random => Sampler::Random,
+        },
     };
 
     let bar = (mode == ProgressMode::Bar).then(|| {

@@ -1,24 +1,170 @@
 //! The image being rendered: per-pixel sums of filtered samples, and the pixel filter.
 //!
-//! Like Cycles, Photon importance-samples its pixel filter (Blackman–Harris, sampled separably in
-//! x and y by an inverse-CDF table) instead of splatting. Blender's "1.5 px" filter width is, in
-//! Cycles, a window twice that wide: Cycles doubles the width for Blackman–Harris before building
-//! its table (intern/cycles/scene/film.cpp), so samples spread over ±1.5 px. Every sample
-//! belongs to exactly one pixel with weight 1, so pixels are independent, tiles render in parallel
-//! and images are bit-identical for any number of threads.
+//! Like Cycles, Photon importance-samples its pixel filter (separably in x and y, by inverting
+//! its tabulated CDF) instead of splatting. The three filters are Blender's (Render Properties →
+//! Film → Pixel Filter) with Cycles' definitions (intern/cycles/scene/film.cpp): a Blender width
+//! w is a window Cycles widens before building its table — Blackman–Harris over 2w (samples
+//! within ±w), Gaussian over 3w (samples within ±1.5w, exp(−8x²/w²), a standard deviation of
+//! w/4), Box over w (uniform within ±w/2; Blender always gives Cycles a 1-px box). Every sample
+//! belongs to exactly one pixel with weight 1, so pixels are independent, tiles render in
+//! parallel and images are bit-identical for any number of threads.
 
+use crate::error::{Error, Result};
 use crate::light_pass::Passes;
 use crate::math::{Mat3, Vec2, Vec3};
 
-/// The Blackman–Harris pixel filter, sampled by table inversion.
+/// Blender's pixel filter types (Cycles' `FilterType`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FilterKind {
+    /// Blender's default: the 4-term Blackman–Harris window.
+    #[default]
+    BlackmanHarris,
+    /// A Gaussian of standard deviation width/4, cut at ±1.5 width.
+    Gaussian,
+    /// Uniform over the width.
+    Box,
+}
+
+/// A pixel filter as Blender sets it: a type and a width in pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterSettings {
+    pub kind: FilterKind,
+    /// Blender's "Width" in pixels.
+    pub width: f32,
+}
+
+impl Default for FilterSettings {
+    /// Blender's default filter: Blackman–Harris, 1.5 px.
+    fn default() -> Self {
+        FilterSettings {
+            kind: FilterKind::BlackmanHarris,
+            width: 1.5,
+        }
+    }
+}
+
+impl FilterSettings {
+    /// Narrowest and widest filter Blender's Width field accepts, in pixels.
+    pub const MIN_WIDTH: f32 = 0.01;
+    pub const MAX_WIDTH: f32 = 10.0;
+
+    /// A filter of `kind` and `width` pixels; widths outside Blender's range are refused.
+    pub fn new(kind: FilterKind, width: f32) -> Result<Self> {
+        if !(Self::MIN_WIDTH..=Self::MAX_WIDTH).contains(&width) {
+            return Err(Error::Settings(format!(
+                "pixel filter width {width} is outside Blender's range {}..{} px",
+                Self::MIN_WIDTH,
+                Self::MAX_WIDTH
+            )));
+        }
+        Ok(FilterSettings { kind, width })
+    }
+
+    /// Parse `TYPE[:WIDTH]` (`blackman-harris`, `gaussian` or `box`; Blender's enum names and
+    /// `_` for `-` also read); without a width, Blender's default for the type (1.5 px, box 1 px).
+    pub fn parse(text: &str) -> Result<Self> {
+        let (name, width) = match text.split_once(':') {
+            Some((name, width)) => (name, Some(width)),
+            None => (text, None),
+        };
+        let kind = FilterKind::from_name(name).ok_or_else(|| {
+            Error::Settings(format!(
+                "unknown pixel filter '{name}' (valid: blackman-harris, gaussian, box, \
+                 optionally with :WIDTH in pixels)"
+            ))
+        })?;
+        let width = match width {
+            None => kind.default_width(),
+            Some(w) => w.trim().parse::<f32>().map_err(|_| {
+                Error::Settings(format!("pixel filter width '{w}' is not a number"))
+            })?,
+        };
+        Self::new(kind, width)
+    }
+
+    /// The half-width of the window samples fall in, in pixels.
+    pub fn radius(&self) -> f32 {
+        0.5 * self.table_width()
+    }
+
+    /// The width Cycles builds its table over (see the module documentation).
+    fn table_width(&self) -> f32 {
+        match self.kind {
+            FilterKind::BlackmanHarris => 2.0 * self.width,
+            FilterKind::Gaussian => 3.0 * self.width,
+            FilterKind::Box => self.width,
+        }
+    }
+
+    /// The filter's (unnormalised) weight at offset `x` pixels from the pixel centre; zero
+    /// outside `radius()`.
+    pub fn weight(&self, x: f32) -> f32 {
+        let table = self.table_width();
+        if x.abs() > 0.5 * table {
+            return 0.0;
+        }
+        match self.kind {
+            FilterKind::BlackmanHarris => PixelFilter::blackman_harris(table, x).max(0.0),
+            FilterKind::Gaussian => {
+                let v = x * 6.0 / table;
+                (-2.0 * v * v).exp()
+            }
+            FilterKind::Box => 1.0,
+        }
+    }
+}
+
+impl std::fmt::Display for FilterSettings {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(f, "{}:{}", self.kind.name(), self.width)
+    }
+}
+
+impl FilterKind {
+    /// The command line's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            FilterKind::BlackmanHarris => "blackman-harris",
+            FilterKind::Gaussian => "gaussian",
+            FilterKind::Box => "box",
+        }
+    }
+
+    /// The kind named `name`: the command line's names or Blender's enum identifiers
+    /// (`BLACKMAN_HARRIS`, `GAUSSIAN`, `BOX`), in any case.
+    pub fn from_name(name: &str) -> Option<FilterKind> {
+        match name.trim().to_ascii_lowercase().replace('_', "-").as_str() {
+            "blackman-harris" => Some(FilterKind::BlackmanHarris),
+            "gaussian" => Some(FilterKind::Gaussian),
+            "box" => Some(FilterKind::Box),
+            _ => None,
+        }
+    }
+
+    /// Blender's width for a filter of this kind: 1.5 px, and 1 px for the box, the width
+    /// Blender always gives Cycles for it.
+    pub fn default_width(self) -> f32 {
+        match self {
+            FilterKind::Box => 1.0,
+            _ => 1.5,
+        }
+    }
+}
+
+/// A pixel filter ready for sampling: its CDF on a fine grid, inverted exactly (the density
+/// piecewise constant over `STEPS` cells). Cycles instead interpolates an inverse-CDF table of
+/// 1024 evenly spaced CDF values, which puts a few too many samples in the filter's far tails
+/// (where the inverse CDF is steep); this sampler follows the filter itself.
 pub struct PixelFilter {
-    /// Inverse CDF: `inverse_cdf[i]` is the offset (in pixels) at CDF value i / (N − 1).
-    inverse_cdf: Vec<f32>,
+    /// Half-width of the window, in pixels.
+    radius: f32,
+    /// `cdf[i]`: the share of the filter left of −radius + 2·radius·i / STEPS; `cdf[STEPS]` = 1.
+    cdf: Vec<f32>,
 }
 
 impl PixelFilter {
-    /// Blender's default filter width in pixels (Render Properties → Film → Pixel Filter).
-    pub const DEFAULT_WIDTH: f32 = 1.5;
+    /// Grid cells of the CDF.
+    const STEPS: usize = 4096;
 
     /// The 4-term Blackman–Harris window over [−width/2, width/2].
     pub fn blackman_harris(width: f32, x: f32) -> f32 {
@@ -26,51 +172,45 @@ impl PixelFilter {
         0.35875 - 0.48829 * a.cos() + 0.14128 * (2.0 * a).cos() - 0.01168 * (3.0 * a).cos()
     }
 
-    /// The filter Blender calls `blender_width` pixels wide: a Blackman–Harris window over
-    /// [−width, width] (see the module documentation).
-    pub fn new(blender_width: f32) -> Self {
-        let width = 2.0 * blender_width;
-        const STEPS: usize = 1024;
-        const TABLE: usize = 256;
-        // Cumulative integral of the window on a fine grid.
-        let mut cdf = Vec::with_capacity(STEPS + 1);
-        cdf.push(0.0f64);
-        for i in 0..STEPS {
-            let x = -0.5 * width + width * (i as f32 + 0.5) / STEPS as f32;
-            let value = Self::blackman_harris(width, x).max(0.0) as f64;
-            cdf.push(cdf[i] + value);
+    /// The sampler of `settings`.
+    pub fn new(settings: &FilterSettings) -> Self {
+        let radius = settings.radius();
+        let cell = 2.0 * radius as f64 / Self::STEPS as f64;
+        // Cumulative integral of the window, each cell weighted by its midpoint's value.
+        let mut sums = Vec::with_capacity(Self::STEPS + 1);
+        sums.push(0.0f64);
+        for i in 0..Self::STEPS {
+            let x = -radius as f64 + cell * (i as f64 + 0.5);
+            sums.push(sums[i] + settings.weight(x as f32) as f64);
         }
-        let total = cdf[STEPS];
-        let mut inverse_cdf = Vec::with_capacity(TABLE);
-        let mut j = 0;
-        for k in 0..TABLE {
-            let target = total * k as f64 / (TABLE - 1) as f64;
-            while j < STEPS - 1 && cdf[j + 1] < target {
-                j += 1;
-            }
-            let span = (cdf[j + 1] - cdf[j]).max(1e-30);
-            let frac = ((target - cdf[j]) / span).clamp(0.0, 1.0);
-            inverse_cdf.push(-0.5 * width + width * (j as f32 + frac as f32) / STEPS as f32);
-        }
-        PixelFilter { inverse_cdf }
+        let total = sums[Self::STEPS].max(1e-300);
+        let mut cdf: Vec<f32> = sums.iter().map(|s| (s / total) as f32).collect();
+        cdf[Self::STEPS] = 1.0;
+        PixelFilter { radius, cdf }
     }
 
-    fn lookup(&self, u: f32) -> f32 {
-        let x = u * (self.inverse_cdf.len() - 1) as f32;
-        let i = (x as usize).min(self.inverse_cdf.len() - 2);
-        let f = x - i as f32;
-        self.inverse_cdf[i] * (1.0 - f) + self.inverse_cdf[i + 1] * f
+    /// The offset (pixels) at CDF value `u` ∈ [0, 1] along one axis.
+    pub fn sample_1d(&self, u: f32) -> f32 {
+        // The cell whose CDF interval holds u (cells of zero weight are never chosen).
+        let j = (self.cdf.partition_point(|&c| c <= u).max(1) - 1).min(Self::STEPS - 1);
+        let span = self.cdf[j + 1] - self.cdf[j];
+        let frac = if span > 0.0 {
+            ((u - self.cdf[j]) / span).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        -self.radius + 2.0 * self.radius * (j as f32 + frac) / Self::STEPS as f32
     }
 
     /// Offset from the pixel centre, distributed as the filter.
     pub fn sample(&self, u: Vec2) -> Vec2 {
-        Vec2::new(self.lookup(u.x), self.lookup(u.y))
+        Vec2::new(self.sample_1d(u.x), self.sample_1d(u.y))
     }
 }
 
 impl Default for PixelFilter {
     fn default() -> Self {
-        Self::new(Self::DEFAULT_WIDTH)
+        Self::new(&FilterSettings::default())
     }
 }
 
@@ -158,29 +298,39 @@ mod tests {
     use super::*;
 
     #[test]
-    fn filter_samples_follow_the_window() {
-        // Blender's 1.5 px filter is a Blackman–Harris window over [−1.5, 1.5] px.
-        let f = PixelFilter::default();
-        let (half, bins, n) = (1.5f32, 30, 300_000);
-        let window = |x: f32| PixelFilter::blackman_harris(2.0 * half, x);
-        let mut hist = vec![0usize; bins];
-        for i in 0..n {
-            let x = f.lookup((i as f32 + 0.5) / n as f32);
-            assert!(x.abs() <= half + 1e-6);
-            hist[(((x + half) / (2.0 * half) * bins as f32) as usize).min(bins - 1)] += 1;
+    fn filter_names_and_widths_parse_as_blender_names_them() {
+        let f = FilterSettings::parse("gaussian:3").unwrap();
+        assert_eq!((f.kind, f.width), (FilterKind::Gaussian, 3.0));
+        assert_eq!(FilterSettings::parse("BOX").unwrap().width, 1.0);
+        let bh = FilterSettings::parse("blackman_harris").unwrap();
+        assert_eq!(bh, FilterSettings::default());
+        assert_eq!(FilterSettings::parse(&bh.to_string()).unwrap(), bh);
+        for bad in [
+            "mitchell",
+            "box:",
+            "gaussian:wide",
+            "box:0",
+            "gaussian:-1",
+            "box:nan",
+        ] {
+            assert!(FilterSettings::parse(bad).is_err(), "{bad}");
         }
-        let steps = 1000;
-        let dx = 2.0 * half / steps as f32;
-        let norm: f32 = (0..steps)
-            .map(|i| window(-half + (i as f32 + 0.5) * dx) * dx)
-            .sum();
-        for (b, &count) in hist.iter().enumerate() {
-            let width = 2.0 * half / bins as f32;
-            let expected = window(-half + (b as f32 + 0.5) * width) / norm * width;
-            assert!(
-                (count as f32 / n as f32 - expected).abs() < 0.002,
-                "bin {b}"
-            );
+    }
+
+    #[test]
+    fn samples_stay_within_each_filters_support() {
+        for (kind, width, radius) in [
+            (FilterKind::BlackmanHarris, 1.5, 1.5),
+            (FilterKind::Gaussian, 3.0, 4.5),
+            (FilterKind::Box, 1.0, 0.5),
+        ] {
+            let settings = FilterSettings::new(kind, width).unwrap();
+            assert_eq!(settings.radius(), radius);
+            let f = PixelFilter::new(&settings);
+            // The ends of the window, to within a cell of the table.
+            assert!((f.sample_1d(0.0) + radius).abs() < 5e-3, "{kind:?}");
+            assert!((f.sample_1d(1.0) - radius).abs() < 5e-3, "{kind:?}");
+            assert!(f.sample_1d(0.5).abs() < 1e-3, "{kind:?}");
         }
     }
 }

@@ -27,4 +27,5 @@ pub mod rng;
 pub mod rounds;
 pub mod sampling;
 pub mod scene;
+pub mod sobol;
 pub mod subsurface;

@@ -2,14 +2,15 @@
 //! tiles rendered in parallel with rayon, reports progress, honours cancellation and counts
 //! non-finite samples (which never reach the film).
 //!
-//! Determinism: each camera sample draws from its own random stream, seeded by (seed, pixel,
-//! sample index), and each sample lands in exactly one pixel (see `film`), so the image is
-//! bit-identical for any number of threads.
+//! Determinism: each camera sample draws from its own stream, seeded by (seed, pixel, sample
+//! index) — the path tracer's a sample of the pixel's scrambled Sobol sequence, the other
+//! methods' a PCG32 stream — and each sample lands in exactly one pixel (see `film`), so the
+//! image is bit-identical for any number of threads.
 
 use crate::accel::Accel;
 use crate::camera::CameraRays;
 use crate::error::{Error, Result};
-use crate::film::{Image, PixelFilter};
+use crate::film::{FilterSettings, Image, PixelFilter};
 use crate::integrator::cache::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::build::{build_maps, PhotonMaps};
 use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
@@ -47,6 +48,23 @@ pub struct RenderSettings {
     pub region: Option<Region>,
     /// Keep the light-path passes (`Image::passes`); off, they are summed but not stored.
     pub light_passes: bool,
+    /// Where the path tracer's camera paths draw their numbers from.
+    pub sampler: Sampler,
+    /// The pixel filter; `None`: the scene's (`SceneRenderSettings::filter`), else Blender's
+    /// default (Blackman–Harris, 1.5 px).
+    pub filter: Option<FilterSettings>,
+}
+
+/// Where the path tracer's camera paths draw their numbers from (pixel position, lens, moment,
+/// light choice and point, BSDF lobe and direction, Russian roulette, subsurface probes). The
+/// photon and cache methods draw from PCG32 streams whatever this says.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Sampler {
+    /// Owen-scrambled Sobol points, each pixel and dimension randomised on its own (`sobol`).
+    #[default]
+    Sobol,
+    /// Independent PCG32 numbers (`rng`).
+    Random,
 }
 
 /// A window of the frame in pixels, top-left origin, `x1` and `y1` exclusive.
@@ -127,6 +145,8 @@ impl Default for RenderSettings {
             irradiance_cache: IcSettings::default(),
             region: None,
             light_passes: false,
+            filter: None,
+            sampler: Sampler::default(),
         }
     }
 }
@@ -237,7 +257,12 @@ pub fn render_scheduled(
         transparent_background: scene.render_settings.transparent_film,
     };
     let camera = CameraRays::new(&scene.camera, settings.width, settings.height);
-    let filter = PixelFilter::default();
+    let filter = PixelFilter::new(
+        &settings
+            .filter
+            .or(scene.render_settings.filter)
+            .unwrap_or_default(),
+    );
     // Methods that read photon maps or an irradiance cache rebuild them every `GENERATION_SPP`
     // samples per pixel with fresh random numbers and smaller radii (`for_generation`).
     let progressive =
@@ -593,7 +618,10 @@ fn render_tile(
             // samples that hit something (1e10 when none did), never mixed with the background.
             let mut depth_sum = 0.0f32;
             for s in 0..settings.spp {
-                let mut rng = Rng::for_item(settings.seed, pixel_index, s as u64);
+                let mut rng = match (integrator, settings.sampler) {
+                    (Integrator::Path, Sampler::Sobol) => Rng::sobol(settings.seed, pixel_index, s),
+                    _ => Rng::for_item(settings.seed, pixel_index, s as u64),
+                };
                 let offset = filter.sample(rng.uniform2());
                 let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
                 // A lens sample only with an aperture and a moment only when something moves:

@@ -105,6 +105,11 @@ fn bad_arguments_and_missing_files_exit_with_2() {
             "info".into(),
             dir.join("missing.gltf").to_string_lossy().into(),
         ],
+        // Pixel filters Blender does not have, or widths outside its range.
+        vec!["render".into(), "--filter".into(), "mitchell".into()],
+        vec!["render".into(), "--filter".into(), "gaussian:0".into()],
+        vec!["render".into(), "--filter".into(), "box:wide".into()],
+        vec!["bench".into(), "--filter".into(), "lanczos".into()],
         // The light-path passes need Blender's multilayer naming.
         vec![
             "render".into(),

@@ -3,6 +3,7 @@
 //! `Error::Scene` naming the object at fault, never a panic.
 
 use photon::error::Error;
+use photon::film::{FilterKind, FilterSettings};
 use photon::math::{Vec3, Vec4};
 use photon::scene::gltf::{load, load_slice, LoadOptions};
 use photon::scene::texture::Texels;
@@ -985,6 +986,34 @@ fn world_and_render_extensions_are_read() {
     assert_eq!(scene.render_settings.width, Some(640));
     assert_eq!(scene.render_settings.height, Some(480));
     assert!(scene.render_settings.transparent_film);
+    assert_eq!(scene.render_settings.filter, None);
+}
+
+#[test]
+fn the_pixel_filter_is_read_and_bad_ones_are_refused() {
+    let with_filter = |filter: Value| {
+        let mut doc = triangle_doc();
+        doc.json["scenes"][0]["extensions"] = json!({"PHOTON_render": {"filter": filter}});
+        load_glb(&doc)
+    };
+    let scene = with_filter(json!({"type": "GAUSSIAN", "width": 3.0})).unwrap();
+    let gaussian = FilterSettings::new(FilterKind::Gaussian, 3.0).unwrap();
+    assert_eq!(scene.render_settings.filter, Some(gaussian));
+    let scene = with_filter(json!({"type": "BOX"})).unwrap();
+    let box_filter = FilterSettings::new(FilterKind::Box, 1.0).unwrap();
+    assert_eq!(scene.render_settings.filter, Some(box_filter));
+    assert_scene_error(
+        with_filter(json!({"type": "MITCHELL", "width": 1.0})),
+        &["PHOTON_render filter", "MITCHELL"],
+    );
+    assert_scene_error(
+        with_filter(json!({"type": "GAUSSIAN", "width": 0.0})),
+        &["PHOTON_render filter", "width 0"],
+    );
+    assert_scene_error(
+        with_filter(json!({"type": "BOX", "width": "wide"})),
+        &["PHOTON_render filter", "must be a number"],
+    );
 }
 
 // ----- bad input ----------------------------------------------------------------------------

@@ -21,10 +21,8 @@ pub fn sample_direct(
     rays: &mut u32,
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
-    let Some(ls) = ctx
-        .lights
-        .sample(ctx.scene, at.p, rng.uniform(), rng.uniform2())
-    else {
+    let (choice, point) = rng.uniform3();
+    let Some(ls) = ctx.lights.sample(ctx.scene, at.p, choice, point) else {
         return Vec3::ZERO;
     };
     if ls.li == Vec3::ZERO {

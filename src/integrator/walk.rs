@@ -232,7 +232,8 @@ pub fn walk(
             }
             Next::Continue { light_sampled } => light_sampled,
         };
-        let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) else {
+        let (lobe, direction) = rng.uniform3();
+        let Some((bs, wi)) = s.sample(lobe, direction) else {
             break;
         };
         if !state.advance(&s, &bs, wi, light_sampled) {
@@ -285,7 +286,8 @@ pub fn follow_specular(
         if stores_photons(&s.bsdf) {
             return Some(s);
         }
-        let (bs, wi) = s.sample(rng.uniform(), rng.uniform2())?;
+        let (lobe, direction) = rng.uniform3();
+        let (bs, wi) = s.sample(lobe, direction)?;
         chain.beta *= bs.weight;
         chain.absorption = s.absorption_after(&bs, wi, chain.absorption);
         let ray = s.sh.spawn(wi);

@@ -29,8 +29,11 @@
 //!   onto the finest one. `"camera": {...}` (the same fields, `mix` included) is what camera
 //!   rays that leave the scene see instead of the rest (Blender's Light Path "Is Camera Ray");
 //!   a sky's sun there is not drawn. Out-of-range values are refused with an error.
-//! - `PHOTON_render` on a scene: `{"width": w, "height": h, "film_transparent": bool}`, the
-//!   render resolution and whether the background is transparent in the image.
+//! - `PHOTON_render` on a scene: `{"width": w, "height": h, "film_transparent": bool, "filter":
+//!   {"type": "BLACKMAN_HARRIS" | "GAUSSIAN" | "BOX", "width": px}}`, the render resolution,
+//!   whether the background is transparent in the image, and Cycles' pixel filter (Blender's
+//!   width; the default width of the type when it is missing). Unknown types and widths outside
+//!   0.01–10 px are refused.
 //! - `PHOTON_light` on a node:
 //!   - with a KHR_lights_punctual point or spot light: `{"radius": r}`, Blender's soft-shadow
 //!     radius in metres (default 0);
@@ -150,6 +153,7 @@ use super::{
     SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
+use crate::film::{FilterKind, FilterSettings};
 use crate::math::{srgb_to_linear, Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use crate::scene::sky::{NishitaSettings, NishitaSky};
 use crate::scene::units;
@@ -2163,6 +2167,10 @@ impl Loader {
                     },
                 }
             };
+            let filter = match render.get("filter") {
+                None => None,
+                Some(filter) => Some(self.read_filter(filter)?),
+            };
             self.scene.render_settings = SceneRenderSettings {
                 width: dimension("width")?,
                 height: dimension("height")?,
@@ -2170,9 +2178,33 @@ impl Loader {
                     .get("film_transparent")
                     .and_then(Value::as_bool)
                     .unwrap_or(false),
+                filter,
             };
         }
         Ok(())
+    }
+
+    /// `PHOTON_render`'s `filter`: Cycles' pixel filter type and Blender's width.
+    fn read_filter(&self, filter: &Value) -> Result<FilterSettings> {
+        let object = "scene PHOTON_render filter";
+        let name = filter.get("type").and_then(Value::as_str).unwrap_or("");
+        let kind = FilterKind::from_name(name).ok_or_else(|| {
+            self.err(
+                object,
+                format!("'type' must be BLACKMAN_HARRIS, GAUSSIAN or BOX, found {name:?}"),
+            )
+        })?;
+        let width = match filter.get("width") {
+            None => kind.default_width(),
+            Some(w) => w
+                .as_f64()
+                .ok_or_else(|| self.err(object, format!("'width' must be a number, found {w}")))?
+                as f32,
+        };
+        FilterSettings::new(kind, width).map_err(|e| match e {
+            Error::Settings(message) => self.err(object, message),
+            e => e,
+        })
     }
 
     fn choose_camera(

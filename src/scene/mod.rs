@@ -566,6 +566,8 @@ pub struct SceneRenderSettings {
     pub width: Option<u32>,
     pub height: Option<u32>,
     pub transparent_film: bool,
+    /// Blender's pixel filter (Cycles' film settings); `None`: Blender's default.
+    pub filter: Option<crate::film::FilterSettings>,
 }
 
 /// Everything there is to render.

@@ -41,6 +41,7 @@ def lights_scene(photon_addon):
     scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2.0
     scene.render.resolution_percentage = 50
     scene.render.film_transparent = True
+    scene.cycles.pixel_filter_type, scene.cycles.filter_width = "GAUSSIAN", 2.5
     return scene
 
 
@@ -58,7 +59,8 @@ def check_extensions(doc: dict):
     ext = doc["scenes"][doc.get("scene", 0)]["extensions"]
     assert ext["PHOTON_world"]["color"] == pytest.approx([0.2, 0.3, 0.4])
     assert ext["PHOTON_world"]["strength"] == pytest.approx(2.0)
-    assert ext["PHOTON_render"] == {"width": 960, "height": 540, "film_transparent": True}
+    assert ext["PHOTON_render"] == {"width": 960, "height": 540, "film_transparent": True,
+                                    "filter": {"type": "GAUSSIAN", "width": 2.5}}
 
 
 def test_hooks_write_photon_extensions(lights_scene, tmp_path):

@@ -113,7 +113,12 @@ def test_view_layer_panel_draws_the_pass_toggles(photon_addon):
         (layer, "use_pass_emit"), (layer, "use_pass_diffuse_direct"),
         (layer, "use_pass_diffuse_indirect"), (layer.photon, "use_pass_caustic"),
         (layer.photon, "use_pass_subsurface")]
-    assert drawn(ui.RENDER_PT_photon_film, context) == [(scene.render, "film_transparent")]
+    assert drawn(ui.RENDER_PT_photon_film, context) == [
+        (scene.render, "film_transparent"), (scene.cycles, "pixel_filter_type"),
+        (scene.cycles, "filter_width")]
+    scene.cycles.pixel_filter_type = "BOX"
+    assert drawn(ui.RENDER_PT_photon_film, context) == [
+        (scene.render, "film_transparent"), (scene.cycles, "pixel_filter_type")]
     world_context = types.SimpleNamespace(world=scene.world, engine=ENGINE)
     assert ui.WORLD_PT_photon_preview.poll(world_context)
     assert drawn(ui.WORLD_PT_photon_preview, world_context) == [(scene.world, "preview")]
