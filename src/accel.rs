@@ -17,8 +17,9 @@
 //! prototype over its object-space triangles, and one over the instances' world bounds. A ray
 //! reaching an instance's box is carried into the prototype's space (same parameter t, the
 //! direction left unnormalised) and tested there, so a mesh is stored and built once however
-//! many times it is placed. Prototypes have plain opaque materials (see `Scene::prototypes`):
-//! no alpha test or visibility flags apply to them.
+//! many times it is placed. A prototype's material may need the alpha test, and an instance's
+//! object may be hidden from camera or shadow rays: both are decided per triangle as for
+//! world-space meshes.
 
 use crate::math::{gamma, Vec2, Vec3, Vec3A, Vec3Swizzles};
 use crate::rng::hash_combine;
@@ -107,10 +108,12 @@ struct Prototype {
     vertices: Vec<[Vec3A; 3]>,
     /// Triangle index per slot.
     triangles: Vec<u32>,
+    /// Its material needs the alpha test (`FLAG_ALPHA_TEST` or 0).
+    flag: u8,
 }
 
 impl Prototype {
-    fn new(mesh: &crate::scene::Mesh) -> Option<Prototype> {
+    fn new(scene: &Scene, mesh: &crate::scene::Mesh) -> Option<Prototype> {
         let tris: Vec<[Vec3A; 3]> = mesh
             .indices
             .iter()
@@ -132,18 +135,20 @@ impl Prototype {
             scale,
             vertices: order.iter().map(|&i| tris[i as usize]).collect(),
             triangles: order.to_vec(),
+            flag: alpha_flag(&scene.materials[mesh.material as usize]),
             bvh,
         })
     }
 
-    /// The closest triangle along the object-space ray (`origin`, `dir`) with 0 < t < `t_max`:
-    /// (t, triangle, b1, b2). With `any`, the first one found.
+    /// The closest triangle along the object-space ray (`origin`, `dir`) with 0 < t < `t_max`
+    /// that `accepts` (triangle, b1, b2): (t, triangle, b1, b2). With `any`, the first one found.
     fn intersect(
         &self,
         origin: Vec3,
         dir: Vec3,
         t_max: f32,
         any: bool,
+        mut accepts: impl FnMut(u32, f32, f32) -> bool,
     ) -> Option<(f32, u32, f32, f32)> {
         let length = dir.length();
         if !(length > 0.0 && length.is_finite() && origin.is_finite()) {
@@ -161,11 +166,11 @@ impl Prototype {
         if any {
             self.bvh.ray_traverse_miss(bvh_ray, |_, slot| {
                 match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
-                    Some((t, b1, b2)) => {
+                    Some((t, b1, b2)) if accepts(self.triangles[slot], b1, b2) => {
                         best = Some((t, self.triangles[slot], b1, b2));
                         t * k
                     }
-                    None => f32::INFINITY,
+                    _ => f32::INFINITY,
                 }
             });
         } else {
@@ -173,11 +178,11 @@ impl Prototype {
             self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
                 let limit = best.map_or(t_max, |b| b.0).min(r.tmax / k);
                 match sheared.intersect(&self.vertices[slot], 0.0, limit) {
-                    Some((t, b1, b2)) => {
+                    Some((t, b1, b2)) if accepts(self.triangles[slot], b1, b2) => {
                         best = Some((t, self.triangles[slot], b1, b2));
                         t * k
                     }
-                    None => f32::INFINITY,
+                    _ => f32::INFINITY,
                 }
             });
         }
@@ -375,13 +380,7 @@ impl Accel {
         let mut ids = Vec::with_capacity(scene.triangle_count());
         let mut flags = Vec::with_capacity(scene.triangle_count());
         for (mi, mesh) in scene.meshes.iter().enumerate() {
-            let material = &scene.materials[mesh.material as usize];
-            let mut flag = 0;
-            if material.alpha_mode != AlphaMode::Opaque
-                && (material.base_color.w < 1.0 || material.base_color_texture.is_some())
-            {
-                flag |= FLAG_ALPHA_TEST;
-            }
+            let mut flag = alpha_flag(&scene.materials[mesh.material as usize]);
             if !mesh.camera_visible {
                 flag |= FLAG_CAMERA_HIDDEN;
             }
@@ -454,41 +453,16 @@ impl Accel {
         if flag == 0 {
             return true;
         }
-        if flag & FLAG_CAMERA_HIDDEN != 0 && visibility == Visibility::Camera {
-            return false;
-        }
-        if flag & FLAG_SHADOW_HIDDEN != 0 && visibility == Visibility::Shadow {
-            return false;
-        }
-        if flag & FLAG_ALPHA_TEST == 0 {
-            return true;
-        }
         let (mi, ti) = self.ids[slot];
-        let mesh = &scene.meshes[mi as usize];
-        let material = &scene.materials[mesh.material as usize];
-        let mut alpha = material.base_color.w;
-        if let (Some(tex), false) = (&material.base_color_texture, mesh.uvs.is_empty()) {
-            let idx = mesh.indices[ti as usize];
-            let uv = mesh.uvs[idx[0] as usize] * (1.0 - b1 - b2)
-                + mesh.uvs[idx[1] as usize] * b1
-                + mesh.uvs[idx[2] as usize] * b2;
-            alpha *= scene.textures[tex.texture as usize].sample(tex.apply(uv)).w;
-        }
-        match material.alpha_mode {
-            AlphaMode::Opaque => true,
-            AlphaMode::Mask { cutoff } => alpha >= cutoff,
-            // Stochastic transparency with a hash of the ray and triangle, so the decision is
-            // deterministic and the same for a shadow ray and a closest-hit ray along the same line.
-            AlphaMode::Blend => {
-                let h = hash_combine(&[
-                    ray.origin.x.to_bits() as u64 | ((ray.origin.y.to_bits() as u64) << 32),
-                    ray.origin.z.to_bits() as u64 | ((ray.direction.x.to_bits() as u64) << 32),
-                    ray.direction.y.to_bits() as u64 | ((ray.direction.z.to_bits() as u64) << 32),
-                    self.ids[slot].0 as u64 | ((self.ids[slot].1 as u64) << 32),
-                ]);
-                ((h >> 40) as f32 * (1.0 / 16_777_216.0)) < alpha
-            }
-        }
+        accepts(
+            scene,
+            &scene.meshes[mi as usize],
+            flag,
+            (ti, b1, b2),
+            (ray.origin, ray.direction),
+            mi as u64 | ((ti as u64) << 32),
+            visibility,
+        )
     }
 
     /// The ray in BVH space with a unit direction, and the factor k with t_bvh = k · t_world.
@@ -556,7 +530,21 @@ impl Accel {
                 let to_object = instance.to_object_at(ray.time);
                 let origin = to_object.transform_point3(ray.origin);
                 let dir = to_object.transform_vector3(ray.direction);
-                match prototype.intersect(origin, dir, t_max, false) {
+                let flag = instance_flag(prototype, instance);
+                let mesh = &scene.prototypes[instance.prototype as usize];
+                let accept = |ti: u32, b1, b2| {
+                    flag == 0
+                        || accepts(
+                            scene,
+                            mesh,
+                            flag,
+                            (ti, b1, b2),
+                            (origin, dir),
+                            index as u64 | ((ti as u64) << 32),
+                            visibility,
+                        )
+                };
+                match prototype.intersect(origin, dir, t_max, false, accept) {
                     Some((t, triangle, b1, b2)) => {
                         found = Some(Hit {
                             t,
@@ -600,14 +588,29 @@ impl Accel {
             return true;
         };
         instanced.top.ray_traverse_miss(bvh_ray, |_, slot| {
-            let instance = &scene.instances[instanced.slots[slot] as usize];
+            let index = instanced.slots[slot];
+            let instance = &scene.instances[index as usize];
             let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
                 return f32::INFINITY;
             };
             let to_object = instance.to_object_at(ray.time);
             let origin = to_object.transform_point3(ray.origin);
             let dir = to_object.transform_vector3(ray.direction);
-            match prototype.intersect(origin, dir, ray.t_max, true) {
+            let flag = instance_flag(prototype, instance);
+            let mesh = &scene.prototypes[instance.prototype as usize];
+            let accept = |ti: u32, b1, b2| {
+                flag == 0
+                    || accepts(
+                        scene,
+                        mesh,
+                        flag,
+                        (ti, b1, b2),
+                        (origin, dir),
+                        index as u64 | ((ti as u64) << 32),
+                        Visibility::Shadow,
+                    )
+            };
+            match prototype.intersect(origin, dir, ray.t_max, true, accept) {
                 Some((t, ..)) => t * k,
                 None => f32::INFINITY,
             }
@@ -625,8 +628,11 @@ impl Instanced {
         if scene.instances.is_empty() {
             return None;
         }
-        let prototypes: Vec<Option<Prototype>> =
-            scene.prototypes.iter().map(Prototype::new).collect();
+        let prototypes: Vec<Option<Prototype>> = scene
+            .prototypes
+            .iter()
+            .map(|m| Prototype::new(scene, m))
+            .collect();
         let local: Vec<crate::scene::Bounds> =
             scene.prototypes.iter().map(|m| m.bounds()).collect();
         let mut boxes = Vec::with_capacity(scene.instances.len());
@@ -666,6 +672,79 @@ struct BvhBox(Aabb);
 impl Boundable for BvhBox {
     fn aabb(&self) -> Aabb {
         self.0
+    }
+}
+
+/// The flags of `prototype`'s triangles as placed by `instance`: its material's alpha test
+/// and the placing object's ray visibility.
+fn instance_flag(prototype: &Prototype, instance: &crate::scene::Instance) -> u8 {
+    let mut flag = prototype.flag;
+    if !instance.camera_visible {
+        flag |= FLAG_CAMERA_HIDDEN;
+    }
+    if !instance.casts_shadows {
+        flag |= FLAG_SHADOW_HIDDEN;
+    }
+    flag
+}
+
+/// `FLAG_ALPHA_TEST` when `material`'s alpha can hide parts of its surface, else 0.
+fn alpha_flag(material: &crate::scene::Material) -> u8 {
+    if material.alpha_mode != AlphaMode::Opaque
+        && (material.base_color.w < 1.0 || material.base_color_texture.is_some())
+    {
+        FLAG_ALPHA_TEST
+    } else {
+        0
+    }
+}
+
+/// Whether a ray (`line`: origin and direction, in the mesh's space) for `visibility` may stop
+/// on `mesh` (whose flags are `flag`) at `at` = (triangle, b1, b2): the visibility flags, then
+/// the material's alpha. `id` names the triangle for the stochastic transparency of blended
+/// materials, so the decision is deterministic and the same for a shadow ray and a closest-hit
+/// ray along the same line.
+fn accepts(
+    scene: &Scene,
+    mesh: &crate::scene::Mesh,
+    flag: u8,
+    at: (u32, f32, f32),
+    line: (Vec3, Vec3),
+    id: u64,
+    visibility: Visibility,
+) -> bool {
+    if flag & FLAG_CAMERA_HIDDEN != 0 && visibility == Visibility::Camera {
+        return false;
+    }
+    if flag & FLAG_SHADOW_HIDDEN != 0 && visibility == Visibility::Shadow {
+        return false;
+    }
+    if flag & FLAG_ALPHA_TEST == 0 {
+        return true;
+    }
+    let (ti, b1, b2) = at;
+    let material = &scene.materials[mesh.material as usize];
+    let mut alpha = material.base_color.w;
+    if let (Some(tex), false) = (&material.base_color_texture, mesh.uvs.is_empty()) {
+        let idx = mesh.indices[ti as usize];
+        let uv = mesh.uvs[idx[0] as usize] * (1.0 - b1 - b2)
+            + mesh.uvs[idx[1] as usize] * b1
+            + mesh.uvs[idx[2] as usize] * b2;
+        alpha *= scene.textures[tex.texture as usize].sample(tex.apply(uv)).w;
+    }
+    match material.alpha_mode {
+        AlphaMode::Opaque => true,
+        AlphaMode::Mask { cutoff } => alpha >= cutoff,
+        AlphaMode::Blend => {
+            let (origin, direction) = line;
+            let h = hash_combine(&[
+                origin.x.to_bits() as u64 | ((origin.y.to_bits() as u64) << 32),
+                origin.z.to_bits() as u64 | ((direction.x.to_bits() as u64) << 32),
+                direction.y.to_bits() as u64 | ((direction.z.to_bits() as u64) << 32),
+                id,
+            ]);
+            ((h >> 40) as f32 * (1.0 / 16_777_216.0)) < alpha
+        }
     }
 }
 

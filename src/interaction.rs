@@ -138,11 +138,12 @@ impl SurfaceHit {
         } else {
             self.frame.n
         };
-        let here = node_inputs(mesh, tri, b1, b2, self.p, n, view);
+        let instance = scene.instances.get(self.hit.instance as usize);
+        let placed = instance.map(|inst| Mat3::from(inst.to_world_at(self.time).matrix3));
+        let here = node_inputs(mesh, tri, b1, b2, self.p, n, view, placed);
         if !offsets {
             return [here; 3];
         }
-        let instance = scene.instances.get(self.hit.instance as usize);
         let idx = mesh.indices[tri as usize];
         let w = idx.map(|i| match instance {
             Some(inst) => inst
@@ -164,7 +165,7 @@ impl SurfaceHit {
             let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
             let (nb1, nb2) = (b1 + db1, b2 + db2);
             let p = self.p + db1 * e1 + db2 * e2;
-            node_inputs(mesh, tri, nb1, nb2, p, n, view)
+            node_inputs(mesh, tri, nb1, nb2, p, n, view, placed)
         };
         [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
@@ -291,8 +292,10 @@ impl View {
 }
 
 /// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
-/// `p` and unit world normal `n` (facing the viewer), seen from `view`. UVs are turned to
-/// Blender's v-up convention.
+/// `p` and unit world normal `n` (facing the viewer), seen from `view`. `placed` is the linear
+/// part of the instance's object-to-world transform at that moment when `mesh` is a prototype
+/// (`None` for a world-space mesh). UVs are turned to Blender's v-up convention.
+#[allow(clippy::too_many_arguments)]
 pub fn node_inputs(
     mesh: &Mesh,
     triangle: u32,
@@ -301,6 +304,7 @@ pub fn node_inputs(
     p: Vec3,
     n: Vec3,
     view: View,
+    placed: Option<Mat3>,
 ) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
     let mut uv = [Vec2::ZERO; UV_SETS];
@@ -317,12 +321,17 @@ pub fn node_inputs(
     let (object, generated, object_normal, object_to_world_normal) = match &mesh.object_space {
         Some(space) => {
             let o = space.to_object.transform_point3(stored);
-            // Normals go to object space by the inverse transpose (the stored positions of
-            // meshes with node trees are world positions: they are never instanced), and back
-            // by the transpose.
+            // Normals go from world to the stored positions' space (by the transpose of an
+            // instance's linear part, which takes its normals out by the inverse transpose),
+            // then to object space by the inverse transpose, and back by the transposes.
+            let (stored_n, stored_to_world) = match placed {
+                Some(m) => (m.transpose() * n, m.inverse().transpose()),
+                None => (n, Mat3::IDENTITY),
+            };
             let linear = Mat3::from(space.to_object.matrix3);
-            let on = (linear.inverse().transpose() * n).normalize_or(blender_axes(n));
-            (o, space.generated(o), on, BLENDER_AXES * linear.transpose())
+            let on = (linear.inverse().transpose() * stored_n).normalize_or(blender_axes(n));
+            let to_world = BLENDER_AXES * stored_to_world * linear.transpose();
+            (o, space.generated(o), on, to_world)
         }
         None => (
             blender_axes(p),

@@ -23,7 +23,7 @@ pub fn sample_direct(
 ) -> Vec3 {
     let Some(ls) = ctx
         .lights
-        .sample(ctx.scene, at.p, rng.uniform(), rng.uniform2())
+        .sample(ctx.scene, at.p, at.time, rng.uniform(), rng.uniform2())
     else {
         return Vec3::ZERO;
     };
@@ -73,7 +73,7 @@ impl Previous {
         if self.delta {
             1.0
         } else {
-            power_heuristic(self.pdf, ctx.lights.triangle_pdf(self.p, hit))
+            power_heuristic(self.pdf, ctx.lights.triangle_pdf(ctx.scene, self.p, hit))
         }
     }
 }

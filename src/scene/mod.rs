@@ -91,6 +91,10 @@ pub struct Instance {
     /// closing (Blender's motion blur; our `PHOTON_object` "motion"); empty: still at
     /// `to_world`.
     pub motion: Vec<Affine3A>,
+    /// Seen by camera rays (Blender's camera ray visibility of the placing object).
+    pub camera_visible: bool,
+    /// Blocks shadow rays (Blender's shadow ray visibility of the placing object).
+    pub casts_shadows: bool,
 }
 
 impl Instance {
@@ -103,6 +107,8 @@ impl Instance {
             to_object: to_world.inverse(),
             normal_matrix: linear.inverse().transpose(),
             motion: Vec::new(),
+            camera_visible: true,
+            casts_shadows: true,
         }
     }
 
@@ -573,8 +579,9 @@ pub struct SceneRenderSettings {
 pub struct Scene {
     /// World-space meshes.
     pub meshes: Vec<Mesh>,
-    /// Object-space meshes placed by `instances` (plain opaque, non-emissive, non-translucent,
-    /// non-specular materials only, so lights, subsurface and caustic aiming never see them).
+    /// Object-space meshes placed by `instances`, of any material: lights (`crate::light`),
+    /// photon emission, subsurface and caustic aiming see each instance where it is at a
+    /// ray's or photon's moment.
     pub prototypes: Vec<Mesh>,
     pub instances: Vec<Instance>,
     pub materials: Vec<Material>,

@@ -27,7 +27,7 @@ use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::shading::{transmittance, Shading};
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
-use crate::light::{sample_emitter_point, smoothstep, spread_factor, LightSource};
+use crate::light::{smoothstep, spread_factor, EmitterSample, LightSource};
 use crate::math::{luminance, max_component, Frame, Vec2, Vec3};
 use crate::photon_map::Photon;
 use crate::progress::{Progress, ProgressEvent};
@@ -36,6 +36,7 @@ use crate::sampling::{
     square_to_cosine_hemisphere, square_to_disk, square_to_uniform_cone, square_to_uniform_sphere,
     uniform_cone_pdf, Distribution1D,
 };
+use crate::scene::{instance_bounds, Bounds, Scene};
 use crate::subsurface::Sample;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -75,6 +76,16 @@ fn light_flux(ctx: &Context, source: &LightSource, radius: f32) -> Vec3 {
             ..
         } => {
             let m = &ctx.scene.meshes[mesh as usize];
+            let sides = if two_sided { 2.0 } else { 1.0 };
+            ctx.scene.materials[m.material as usize].emission * (PI * area * sides)
+        }
+        LightSource::Instance {
+            instance,
+            area,
+            two_sided,
+        } => {
+            let prototype = ctx.scene.instances[instance as usize].prototype;
+            let m = &ctx.scene.prototypes[prototype as usize];
             let sides = if two_sided { 2.0 } else { 1.0 };
             ctx.scene.materials[m.material as usize].emission * (PI * area * sides)
         }
@@ -126,7 +137,7 @@ impl Emitters {
     /// their power divides by that density instead.
     pub fn emit(&self, ctx: &Context, aimed: bool, rng: &mut Rng) -> Option<Emitted> {
         let aim = if aimed { self.targets.as_ref() } else { None };
-        let (index, pmf) = self.select.sample(rng.uniform())?;
+        let (index, pmf, u_pick) = self.select.sample_remapped(rng.uniform())?;
         let (u1, u2) = (rng.uniform2(), rng.uniform2());
         // A moment only with motion: still scenes keep their photon streams.
         let time = if self.motion {
@@ -141,13 +152,15 @@ impl Emitters {
             time,
         };
         let (r, power) = match ctx.lights.sources[index] {
-            LightSource::Triangle {
-                mesh,
-                triangle,
-                area,
-                two_sided,
-            } => {
-                let emitter = sample_emitter_point(ctx.scene, mesh, triangle, u1, None);
+            LightSource::Triangle { .. } | LightSource::Instance { .. } => {
+                let EmitterSample {
+                    emitter,
+                    area,
+                    two_sided,
+                    spread,
+                } = ctx
+                    .lights
+                    .sample_emitter(ctx.scene, index, u_pick, u1, time, None)?;
                 let LightPoint {
                     p: q,
                     p_error: q_error,
@@ -161,7 +174,6 @@ impl Emitters {
                     (true, false) => (n, 2.0),
                     _ => (n, 1.0),
                 };
-                let spread = ctx.scene.meshes[mesh as usize].emission_spread;
                 let (dir, power) = match (aim, spread) {
                     (None, None) => (
                         Frame::from_normal(side).to_world(square_to_cosine_hemisphere(u2)),
@@ -290,11 +302,50 @@ struct Targets {
     spheres: Vec<(Vec3, f32)>,
 }
 
+/// More specular instances than this are aimed at as one sphere around them all: every photon
+/// sums the density of every sphere.
+const MAX_INSTANCE_TARGETS: usize = 64;
+
+/// Bounding spheres of the instances of specular prototypes (of every place a moving one takes
+/// while the shutter is open), or one around them all when there are many.
+fn instance_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
+    let specular: Vec<bool> = scene
+        .prototypes
+        .iter()
+        .map(|m| !m.positions.is_empty() && is_specular(scene, m.material))
+        .collect();
+    let local: Vec<Bounds> = scene.prototypes.iter().map(|m| m.bounds()).collect();
+    let boxes: Vec<Bounds> = scene
+        .instances
+        .iter()
+        .filter(|i| specular[i.prototype as usize])
+        .map(|i| instance_bounds(i, local[i.prototype as usize]))
+        .filter(|b| !b.is_empty())
+        .collect();
+    let sphere = |b: &Bounds| {
+        let centre = b.center();
+        let radius = 0.5 * b.diagonal();
+        (
+            centre,
+            radius * 1.001 + 1e-6 * centre.abs().max_element() + 1e-20,
+        )
+    };
+    if boxes.len() <= MAX_INSTANCE_TARGETS {
+        return boxes.iter().map(sphere).collect();
+    }
+    let mut all = Bounds::EMPTY;
+    for b in &boxes {
+        all.grow(b.min);
+        all.grow(b.max);
+    }
+    vec![sphere(&all)]
+}
+
 impl Targets {
     /// The specular meshes' bounding spheres; `None` when there is no specular mesh.
     fn new(ctx: &Context) -> Option<Targets> {
         let scene = ctx.scene;
-        let spheres: Vec<(Vec3, f32)> = scene
+        let mut spheres: Vec<(Vec3, f32)> = scene
             .meshes
             .iter()
             .filter(|m| !m.positions.is_empty() && is_specular(scene, m.material))
@@ -316,6 +367,7 @@ impl Targets {
                 )
             })
             .collect();
+        spheres.extend(instance_spheres(scene));
         (!spheres.is_empty()).then_some(Targets { spheres })
     }
 
