@@ -106,6 +106,9 @@ struct Prototype {
     scale: f32,
     /// Object-space triangle vertices in BVH primitive order.
     vertices: Vec<[Vec3A; 3]>,
+    /// A deforming mesh's (`Mesh::deformation`) triangle vertices at each step, in BVH
+    /// primitive order; its BVH bounds each triangle at every step. Empty: still.
+    steps: Vec<Vec<[Vec3A; 3]>>,
     /// Triangle index per slot.
     triangles: Vec<u32>,
     /// Its material needs the alpha test (`FLAG_ALPHA_TEST` or 0).
@@ -124,15 +127,37 @@ impl Prototype {
             return None;
         }
         let (center, scale) = bvh_space(bounds);
+        let steps: Vec<Vec<[Vec3A; 3]>> = mesh
+            .deformation
+            .iter()
+            .map(|step| {
+                mesh.indices
+                    .iter()
+                    .map(|idx| idx.map(|i| Vec3A::from(step[i as usize])))
+                    .collect()
+            })
+            .collect();
         let boxes: Vec<BvhTriangle> = tris
             .iter()
-            .map(|v| BvhTriangle::new(v, center.into(), scale))
+            .enumerate()
+            .map(|(t, v)| {
+                let mut b = BvhTriangle::new(v, center.into(), scale);
+                for step in &steps {
+                    b.0 =
+                        b.0.union(&BvhTriangle::new(&step[t], center.into(), scale).0);
+                }
+                b
+            })
             .collect();
         let bvh = build(&boxes);
         let order = &bvh.primitive_indices;
         Some(Prototype {
             center,
             scale,
+            steps: steps
+                .iter()
+                .map(|step| order.iter().map(|&i| step[i as usize]).collect())
+                .collect(),
             vertices: order.iter().map(|&i| tris[i as usize]).collect(),
             triangles: order.to_vec(),
             flag: alpha_flag(&scene.materials[mesh.material as usize]),
@@ -140,13 +165,31 @@ impl Prototype {
         })
     }
 
-    /// The closest triangle along the object-space ray (`origin`, `dir`) with 0 < t < `t_max`
-    /// that `accepts` (triangle, b1, b2): (t, triangle, b1, b2). With `any`, the first one found.
+    /// The vertices of the triangle in BVH slot `slot` at `time` (linearly between the two
+    /// nearest deformation steps, as `Mesh::triangle_at`).
+    #[inline]
+    fn triangle(&self, slot: usize, time: f32) -> [Vec3A; 3] {
+        let last = self.steps.len().saturating_sub(1);
+        if last == 0 {
+            return self.vertices[slot];
+        }
+        let x = time.clamp(0.0, 1.0) * last as f32;
+        let k = (x.floor() as usize).min(last - 1);
+        let f = x - k as f32;
+        let (a, b) = (&self.steps[k][slot], &self.steps[k + 1][slot]);
+        [0, 1, 2].map(|i| a[i].lerp(b[i], f))
+    }
+
+    /// The closest triangle along the object-space ray (`origin`, `dir`) at moment `time` with
+    /// 0 < t < `t_max` that `accepts` (triangle, b1, b2): (t, triangle, b1, b2). With `any`,
+    /// the first one found.
+    #[allow(clippy::too_many_arguments)]
     fn intersect(
         &self,
         origin: Vec3,
         dir: Vec3,
         t_max: f32,
+        time: f32,
         any: bool,
         mut accepts: impl FnMut(u32, f32, f32) -> bool,
     ) -> Option<(f32, u32, f32, f32)> {
@@ -165,7 +208,7 @@ impl Prototype {
         let mut best: Option<(f32, u32, f32, f32)> = None;
         if any {
             self.bvh.ray_traverse_miss(bvh_ray, |_, slot| {
-                match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
+                match sheared.intersect(&self.triangle(slot, time), 0.0, t_max) {
                     Some((t, b1, b2)) if accepts(self.triangles[slot], b1, b2) => {
                         best = Some((t, self.triangles[slot], b1, b2));
                         t * k
@@ -177,7 +220,7 @@ impl Prototype {
             let mut hit = RayHit::none();
             self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
                 let limit = best.map_or(t_max, |b| b.0).min(r.tmax / k);
-                match sheared.intersect(&self.vertices[slot], 0.0, limit) {
+                match sheared.intersect(&self.triangle(slot, time), 0.0, limit) {
                     Some((t, b1, b2)) if accepts(self.triangles[slot], b1, b2) => {
                         best = Some((t, self.triangles[slot], b1, b2));
                         t * k
@@ -544,7 +587,7 @@ impl Accel {
                             visibility,
                         )
                 };
-                match prototype.intersect(origin, dir, t_max, false, accept) {
+                match prototype.intersect(origin, dir, t_max, ray.time, false, accept) {
                     Some((t, triangle, b1, b2)) => {
                         found = Some(Hit {
                             t,
@@ -610,7 +653,7 @@ impl Accel {
                         Visibility::Shadow,
                     )
             };
-            match prototype.intersect(origin, dir, ray.t_max, true, accept) {
+            match prototype.intersect(origin, dir, ray.t_max, ray.time, true, accept) {
                 Some((t, ..)) => t * k,
                 None => f32::INFINITY,
             }

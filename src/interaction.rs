@@ -7,7 +7,7 @@
 //! scales with the coordinates involved, which the reintersection test checks from 1e-4 to 1e5.
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
-use crate::math::{gamma, Affine3A, Frame, Mat3, Vec2, Vec3, Vec4};
+use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
 use crate::scene::nodes::{ShadingInputs, UV_SETS};
 use crate::scene::{Mesh, Scene};
 
@@ -46,17 +46,36 @@ impl SurfaceHit {
             Some(inst) => (inst.to_world_at(ray.time), inst.normal_matrix_at(ray.time)),
             None => (Affine3A::IDENTITY, Mat3::IDENTITY),
         };
-        let p = idx.map(|i| match instance {
-            Some(_) => to_world.transform_point3(mesh.positions[i as usize]),
-            None => mesh.positions[i as usize],
-        });
-        let to_world_normal = |n: Vec3| match instance {
-            Some(_) => normal_matrix * n,
-            None => n,
+        let place = |q: Vec3| match instance {
+            Some(_) => to_world.transform_point3(q),
+            None => q,
         };
-        let to_world_tangent = |t: Vec4| match instance {
-            Some(_) => to_world.transform_vector3(t.truncate()).extend(t.w),
-            None => t,
+        let p = mesh.triangle_at(hit.triangle, ray.time).map(place);
+        // A deforming mesh's normals and tangents, stored for the frame, turn with the
+        // triangle: by the rotation taking its normal at the frame to its normal now.
+        let bend = if mesh.deformation.is_empty() {
+            None
+        } else {
+            let rest = idx.map(|i| place(mesh.positions[i as usize]));
+            let n0 = (rest[1] - rest[0])
+                .cross(rest[2] - rest[0])
+                .normalize_or_zero();
+            let n1 = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            (n0 != Vec3::ZERO && n1 != Vec3::ZERO).then(|| Quat::from_rotation_arc(n0, n1))
+        };
+        let to_world_normal = |n: Vec3| {
+            let n = match instance {
+                Some(_) => normal_matrix * n,
+                None => n,
+            };
+            bend.map_or(n, |q| q * n)
+        };
+        let to_world_tangent = |t: Vec4| {
+            let v = match instance {
+                Some(_) => to_world.transform_vector3(t.truncate()),
+                None => t.truncate(),
+            };
+            bend.map_or(v, |q| q * v).extend(t.w)
         };
         let (b1, b2) = (hit.b1, hit.b2);
         let b0 = 1.0 - b1 - b2;
@@ -144,12 +163,9 @@ impl SurfaceHit {
         if !offsets {
             return [here; 3];
         }
-        let idx = mesh.indices[tri as usize];
-        let w = idx.map(|i| match instance {
-            Some(inst) => inst
-                .to_world_at(self.time)
-                .transform_point3(mesh.positions[i as usize]),
-            None => mesh.positions[i as usize],
+        let w = mesh.triangle_at(tri, self.time).map(|q| match instance {
+            Some(inst) => inst.to_world_at(self.time).transform_point3(q),
+            None => q,
         });
         let (e1, e2) = (w[1] - w[0], w[2] - w[0]);
         let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));

@@ -195,8 +195,9 @@ pub struct EmitterSample {
 }
 
 /// Draw a point uniformly on triangle `triangle` of mesh `m` with `u`: the one routine both
-/// light sampling and photon emission use. `placed` takes a prototype's triangle to world
-/// space (an instance at the sample's moment; `None` for a world-space mesh). A node tree's
+/// light sampling and photon emission use. `placed` takes a prototype's triangle, deformed as
+/// at moment `time`, to world space (an instance at that moment; `None` for a world-space
+/// mesh). A node tree's
 /// emission is evaluated as seen from `seen_from` (light sampling: the shaded point and its
 /// distance, as Cycles evaluates a sampled emitter), or head-on at distance 0 (photons leave
 /// in a direction drawn afterwards).
@@ -205,13 +206,14 @@ pub fn sample_emitter_point(
     m: &Mesh,
     triangle: u32,
     placed: Option<Affine3A>,
+    time: f32,
     u: Vec2,
     seen_from: Option<Vec3>,
 ) -> EmitterPoint {
     let idx = m.indices[triangle as usize];
-    let v = idx.map(|i| match placed {
-        Some(to_world) => to_world.transform_point3(m.positions[i as usize]),
-        None => m.positions[i as usize],
+    let v = m.triangle_at(triangle, time).map(|q| match placed {
+        Some(to_world) => to_world.transform_point3(q),
+        None => q,
     });
     let b = square_to_triangle(u);
     let b0 = 1.0 - b.x - b.y;
@@ -472,7 +474,7 @@ impl Lights {
             } => {
                 let m = &scene.meshes[mesh as usize];
                 (area > 0.0).then(|| EmitterSample {
-                    emitter: sample_emitter_point(scene, m, triangle, None, u, seen_from),
+                    emitter: sample_emitter_point(scene, m, triangle, None, time, u, seen_from),
                     area,
                     two_sided,
                     spread: m.emission_spread,
@@ -490,9 +492,9 @@ impl Lights {
                     .sample(u_pick)?;
                 let m = &scene.prototypes[prototype];
                 let to_world = instance.to_world_at(time);
-                let area = triangle_areas(m, Some((triangle as u32, to_world)))[0];
-                let emitter =
-                    sample_emitter_point(scene, m, triangle as u32, Some(to_world), u, seen_from);
+                let area = triangle_areas(m, Some((triangle as u32, to_world, time)))[0];
+                let (triangle, placed) = (triangle as u32, Some(to_world));
+                let emitter = sample_emitter_point(scene, m, triangle, placed, time, u, seen_from);
                 (area > 0.0 && pmf > 0.0).then_some(EmitterSample {
                     emitter,
                     area: area / pmf,
@@ -670,7 +672,7 @@ impl Lights {
             return 0.0;
         };
         let mesh = &scene.prototypes[instance.prototype as usize];
-        let placed = (hit.triangle, instance.to_world_at(hit.time));
+        let placed = (hit.triangle, instance.to_world_at(hit.time), hit.time);
         let area = triangle_areas(mesh, Some(placed))[0];
         let d = hit.p - p;
         let dist2 = d.length_squared();
@@ -740,14 +742,11 @@ impl Lights {
     }
 }
 
-/// Areas of `mesh`'s triangles in its own space (`placed`: `None`), or of one triangle placed by
-/// a transform (`Some((triangle, to_world))`); non-finite areas count as zero.
-fn triangle_areas(mesh: &Mesh, placed: Option<(u32, Affine3A)>) -> Vec<f32> {
-    let area = |idx: [u32; 3], to_world: Option<Affine3A>| {
-        let p = idx.map(|i| {
-            let q = mesh.positions[i as usize];
-            to_world.map_or(q, |m| m.transform_point3(q))
-        });
+/// Areas of `mesh`'s triangles in its own space (`placed`: `None`), or of one triangle,
+/// deformed as at a moment and placed by a transform (`Some((triangle, to_world, time))`);
+/// non-finite areas count as zero.
+fn triangle_areas(mesh: &Mesh, placed: Option<(u32, Affine3A, f32)>) -> Vec<f32> {
+    let area = |p: [Vec3; 3]| {
         let a = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
         if a.is_finite() {
             a
@@ -756,8 +755,13 @@ fn triangle_areas(mesh: &Mesh, placed: Option<(u32, Affine3A)>) -> Vec<f32> {
         }
     };
     match placed {
-        None => mesh.indices.iter().map(|&idx| area(idx, None)).collect(),
-        Some((triangle, to_world)) => vec![area(mesh.indices[triangle as usize], Some(to_world))],
+        None => (mesh.indices.iter())
+            .map(|idx| area(idx.map(|i| mesh.positions[i as usize])))
+            .collect(),
+        Some((triangle, to_world, time)) => {
+            let p = mesh.triangle_at(triangle, time);
+            vec![area(p.map(|q| to_world.transform_point3(q)))]
+        }
     }
 }
 

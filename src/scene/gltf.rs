@@ -672,7 +672,7 @@ impl Loader {
             if self.places_instance(node, &world) {
                 self.add_instance(node, &mesh, &world, &motion)?;
             } else {
-                if !motion.is_empty() {
+                if !motion.is_empty() || moves(node) {
                     self.scene.warnings.push(format!(
                         "{object}: motion blur is not rendered for it (a mirrored or singular \
                          transform: only unmirrored objects are placed per moment)"
@@ -794,6 +794,18 @@ impl Loader {
         let normal_matrix = linear.inverse().transpose();
         let mirrored = linear.determinant() < 0.0;
         let visibility = self.visibility(node)?;
+        let deform = match node
+            .extension_value("PHOTON_object")
+            .and_then(|v| v.get("deform"))
+        {
+            Some(value) if prototype => Some(read_deform(value).map_err(|m| {
+                self.err(
+                    format!("{} PHOTON_object", named("node", node.index(), node.name())),
+                    m,
+                )
+            })?),
+            _ => None,
+        };
         for primitive in mesh.primitives() {
             let object = format!("{mesh_name} primitive {}", primitive.index());
             let mode = primitive.mode();
@@ -944,6 +956,7 @@ impl Loader {
                 casts_shadows,
                 colors,
                 object_space,
+                deformation: Vec::new(),
             };
             match normals {
                 Some(normals) => {
@@ -960,6 +973,15 @@ impl Loader {
                 None => make_flat(&mut out),
             }
             if prototype {
+                if let Some((frame, steps)) = &deform {
+                    match deformation_of(&positions, frame, steps) {
+                        Some(deformation) => out.deformation = deformation,
+                        None => self.scene.warnings.push(format!(
+                            "{object}: its deformation is not blurred (its vertices are not \
+                             those of PHOTON_object's \"deform\" frame)"
+                        )),
+                    }
+                }
                 self.scene.prototypes.push(out);
             } else {
                 self.scene.meshes.push(out);
@@ -1939,6 +1961,7 @@ impl Loader {
             casts_shadows: true,
             colors: Vec::new(),
             object_space: None,
+            deformation: Vec::new(),
         });
         Ok(())
     }
@@ -2391,10 +2414,72 @@ fn read_poses(value: &Value) -> std::result::Result<Vec<Affine3A>, String> {
         .collect()
 }
 
-/// Whether `node` moves while the shutter is open (`PHOTON_object` "motion").
+/// Whether `node` moves or deforms while the shutter is open (`PHOTON_object` "motion" or
+/// "deform").
 fn moves(node: &gltf::Node) -> bool {
     node.extension_value("PHOTON_object")
-        .is_some_and(|v| v.get("motion").is_some())
+        .is_some_and(|v| v.get("motion").is_some() || v.get("deform").is_some())
+}
+
+/// `PHOTON_object`'s "deform": the positions of the object's vertices at the frame, and at
+/// two or more steps of the shutter, each base64 little-endian f32 triples (glTF axes, object
+/// space).
+fn read_deform(value: &Value) -> std::result::Result<(Vec<Vec3>, Vec<Vec<Vec3>>), String> {
+    let positions = |v: &Value| -> std::result::Result<Vec<Vec3>, String> {
+        let bytes = v
+            .as_str()
+            .and_then(decode_base64)
+            .filter(|b| b.len() % 12 == 0)
+            .ok_or("'deform' positions must be base64 of little-endian float triples")?;
+        let floats: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let out: Vec<Vec3> = floats.chunks_exact(3).map(Vec3::from_slice).collect();
+        match out.iter().all(|p| p.is_finite()) {
+            true => Ok(out),
+            false => Err("a 'deform' position is NaN or infinite".into()),
+        }
+    };
+    let frame = positions(value.get("frame").ok_or("'deform' needs its 'frame'")?)?;
+    let steps = value
+        .get("steps")
+        .and_then(Value::as_array)
+        .filter(|s| s.len() >= 2)
+        .ok_or("'deform' needs 'steps', a list of two or more")?
+        .iter()
+        .map(positions)
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    if steps.iter().any(|s| s.len() != frame.len()) {
+        return Err("every 'deform' step must hold as many positions as 'frame'".into());
+    }
+    Ok((frame, steps))
+}
+
+/// A primitive's deformation: each of its vertices (`positions`) found by its exact position
+/// among the object's vertices at the frame, then its place at each step; `None` when a
+/// vertex is not among them.
+fn deformation_of(
+    positions: &[Vec3],
+    frame: &[Vec3],
+    steps: &[Vec<Vec3>],
+) -> Option<Vec<Vec<Vec3>>> {
+    // −0.0 + 0.0 is +0.0: both zeros are one key.
+    let key = |p: Vec3| (p + Vec3::ZERO).to_array().map(f32::to_bits);
+    let mut index: HashMap<[u32; 3], usize> = HashMap::with_capacity(frame.len());
+    for (i, &p) in frame.iter().enumerate() {
+        index.entry(key(p)).or_insert(i);
+    }
+    let found: Vec<usize> = positions
+        .iter()
+        .map(|&p| index.get(&key(p)).copied())
+        .collect::<Option<_>>()?;
+    Some(
+        steps
+            .iter()
+            .map(|step| found.iter().map(|&i| step[i]).collect())
+            .collect(),
+    )
 }
 
 /// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.

@@ -67,19 +67,24 @@ def test_camera_motion_blur(tmp_path, position):
     compare_blurred(f"camera motion blur ({position.lower()})", scene, tmp_path)
 
 
-def test_deforming_objects_are_named_by_the_preflight():
-    """With motion blur on, an object whose shape keys are animated is named (deformation is
-    not blurred); keyframed transforms, the camera's and a box's, are not (they are)."""
+def test_deforming_curves_are_named_by_the_preflight():
+    """With motion blur on, a curve object whose shape keys are animated is named (only
+    meshes' deformation is blurred); a mesh with animated shape keys and keyframed transforms,
+    the camera's and a box's, are not (they are blurred)."""
     from blender_addon import preflight
     scene = sliding_camera_scene("CENTER")
     box = scene.objects["Box1"]
     box.keyframe_insert("location", frame=1)
-    assert preflight.unsupported_features(scene, scene.objects) == []
     box.shape_key_add(name="Basis")
-    key = box.shape_key_add(name="Taller")
-    key.keyframe_insert("value", frame=1)
+    box.shape_key_add(name="Taller").keyframe_insert("value", frame=1)
+    assert preflight.unsupported_features(scene, scene.objects) == []
+    curve = bpy.data.objects.new("Wire", bpy.data.curves.new("Wire", "CURVE"))
+    curve.data.splines.new("POLY").points.add(1)
+    scene.collection.objects.link(curve)
+    curve.shape_key_add(name="Basis")
+    curve.shape_key_add(name="Bent").keyframe_insert("value", frame=1)
     messages = preflight.unsupported_features(scene, scene.objects)
-    assert len(messages) == 1 and "'Box1'" in messages[0] and "motion blur" in messages[0]
+    assert len(messages) == 1 and "'Wire'" in messages[0] and "motion blur" in messages[0]
     scene.render.use_motion_blur = False
     assert preflight.unsupported_features(scene, scene.objects) == []
 
@@ -207,3 +212,25 @@ def test_moving_geometry_nodes_instances_are_blurred(tmp_path):
                    for k, path, value in SLIDE])
     scene.frame_set(1, subframe=0.5)
     compare_blurred("moving geometry nodes instances", scene, tmp_path)
+
+
+def test_shape_key_deformation_is_blurred(tmp_path):
+    """The middle box's shape key, keyed from 0 to 1 over a frame, stretches its top 1.2 m
+    sideways and 0.6 m up: the vertices are exported at the shutter's steps and interpolated
+    at each sample's moment, as Cycles' deformation blur does."""
+    scene = still_camera_scene()
+    box = scene.objects["Box1"]
+    box.shape_key_add(name="Basis")
+    key = box.shape_key_add(name="Lean")
+    for vertex in key.data:
+        if vertex.co.z > 0.5:
+            vertex.co.x += 1.2
+            vertex.co.z += 0.6
+    for frame, value in ((1, 0.0), (2, 1.0)):
+        key.value = value
+        key.keyframe_insert("value", frame=frame)
+    for fcurve in box.data.shape_keys.animation_data.action.fcurves:
+        for point in fcurve.keyframe_points:
+            point.interpolation = "LINEAR"
+    scene.frame_set(1, subframe=0.5)
+    compare_blurred("shape key deformation", scene, tmp_path)
