@@ -363,6 +363,20 @@ def shutter_times(scene) -> list[float]:
     return [frame + start + k * 0.5 * length for k in range(3)]
 
 
+def instances_in_their_instancers() -> dict:
+    """The depsgraph's instances (particles, Geometry Nodes) now: their matrices relative to
+    the object instancing them, rounded to 1e-5, by (instancer name, persistent id)."""
+    placed = {}
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for instance in depsgraph.object_instances:
+        if not instance.is_instance or instance.parent is None:
+            continue
+        relative = instance.parent.matrix_world.inverted_safe() @ instance.matrix_world
+        key = (instance.parent.name, tuple(instance.persistent_id))
+        placed[key] = tuple(round(x, 5) for row in relative for x in row)
+    return placed
+
+
 # Deforming meshes' vertex positions over the shutter, by object name, while
 # `shutter_poses_recorded` runs: PHOTON_object's "deform".
 DEFORM_STEPS: dict[str, dict] = {}
@@ -447,9 +461,11 @@ def shutter_poses_recorded(scene):
                if obj == scene.camera or (obj.type in GEOMETRY_TYPES and not obj.hide_render)]
     frame, subframe = scene.frame_current, scene.frame_subframe
     poses = {obj.name: [] for obj in objects}
+    carried = []
     try:
         for t in shutter_times(scene):
             scene.frame_set(math.floor(t), subframe=t - math.floor(t))
+            carried.append(instances_in_their_instancers())
             for obj in objects:
                 # A camera node keeps Blender's camera axes; mesh nodes hold their vertices in
                 # glTF axes, so their matrices change axes on both sides.
@@ -462,6 +478,11 @@ def shutter_poses_recorded(scene):
         scene.frame_set(frame, subframe=subframe)
     SHUTTER_POSES.update({name: p for name, p in poses.items() if any(q != p[0] for q in p)})
     DEFORM_STEPS.update(deformation_recorded(scene, objects))
+    for name in sorted({name for placed in carried[1:] for (name, _), m in placed.items()
+                        if carried[0].get((name, _)) != m}):
+        LOG.warning(f"object '{name}': its instances (particles, Geometry Nodes) move within "
+                    f"the shutter on their own; only the motion of '{name}' carrying them is "
+                    f"blurred")
     try:
         yield
     finally:

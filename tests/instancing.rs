@@ -393,3 +393,101 @@ fn fifty_thousand_instances_of_twenty_thousand_triangles() {
     assert!(total.as_secs_f32() < 60.0, "{total:?}");
     assert!(rss < 2 << 30, "peak RSS {rss} bytes");
 }
+
+/// Standard base64 of `bytes` (for PHOTON_object "deform").
+fn base64(bytes: &[u8]) -> String {
+    const TABLE: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(TABLE[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+/// A node whose mesh deforms while the shutter is open (PHOTON_object "deform": its vertices
+/// at the frame and at three steps, here the grid sliding 0, 2 and 4 m along x) is a
+/// prototype whose triangles rays meet where they are at their moment; malformed steps are
+/// refused.
+#[test]
+fn deforming_meshes_are_met_where_their_vertices_are_at_the_ray_moment() {
+    use photon::accel::{Accel, Ray, Visibility};
+    use photon::math::Vec3;
+    let n = 4;
+    // The grid's vertices as `grid_glb` writes them (in a different order: found by position).
+    let mut frame = Vec::new();
+    for j in (0..=n).rev() {
+        for i in 0..=n {
+            let (x, y) = (i as f32 / n as f32 - 0.5, j as f32 / n as f32 - 0.5);
+            frame.push([x, y, 0.1 * ((6.0 * x).sin() * (5.0 * y).cos())]);
+        }
+    }
+    let encode = |dx: f32| {
+        let bytes: Vec<u8> = frame
+            .iter()
+            .flat_map(|p| [p[0] + dx, p[1], p[2]])
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        base64(&bytes)
+    };
+    let deform = json!({"frame": encode(0.0), "steps": [encode(0.0), encode(2.0), encode(4.0)]});
+    let node = json!({"extensions": {"PHOTON_object": {"deform": deform}}});
+    let scene = load(&grid_glb(n, std::slice::from_ref(&node), false, grey()));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!((scene.instances.len(), scene.prototypes.len()), (1, 1));
+    assert_eq!(scene.prototypes[0].deformation.len(), 3);
+    assert!(scene.has_motion());
+    let bounds = scene.bounds();
+    assert!(bounds.min.x <= -0.5 && bounds.max.x >= 4.5, "{bounds:?}");
+    let accel = Accel::new(&scene);
+    let on_grid = |time: f32| {
+        let ray = Ray {
+            origin: Vec3::new(3.0, 0.0, 2.0),
+            direction: Vec3::NEG_Z,
+            t_max: f32::INFINITY,
+            time,
+        };
+        accel
+            .intersect(&scene, &ray, Visibility::Camera)
+            .is_some_and(|h| h.instance == 0)
+    };
+    assert!(!on_grid(0.0) && !on_grid(0.25) && on_grid(0.75) && !on_grid(1.0));
+
+    // Steps of another length, too few steps, bad base64: refused.
+    for bad in [
+        json!({"frame": encode(0.0), "steps": [encode(0.0), base64(&[0; 12])]}),
+        json!({"frame": encode(0.0), "steps": [encode(0.0)]}),
+        json!({"frame": "not base64!", "steps": [encode(0.0), encode(1.0)]}),
+    ] {
+        let node = json!({"extensions": {"PHOTON_object": {"deform": bad}}});
+        let result = load_slice(
+            &grid_glb(n, &[node], false, grey()),
+            "deform.glb",
+            &LoadOptions::default(),
+        );
+        assert!(
+            result
+                .as_ref()
+                .is_err_and(|e| e.to_string().contains("deform")),
+            "{:?}",
+            result.err()
+        );
+    }
+    // Vertices that are not the frame's: kept still, with a warning.
+    let moved = json!({"frame": encode(0.5), "steps": [encode(0.0), encode(1.0)]});
+    let node = json!({"extensions": {"PHOTON_object": {"deform": moved}}});
+    let scene = load(&grid_glb(n, &[node], false, grey()));
+    assert!(scene.prototypes[0].deformation.is_empty());
+    assert!(scene.warnings.iter().any(|w| w.contains("deformation")));
+}

@@ -179,10 +179,9 @@ def test_moving_objects_of_any_material_are_blurred(tmp_path, material):
     compare_blurred(f"moving {material.__name__} box", scene, tmp_path)
 
 
-def test_moving_geometry_nodes_instances_are_blurred(tmp_path):
-    """A Geometry Nodes scatter (boxes instanced on a grid's points) whose object slides and
-    turns: its instances move with it."""
-    scene = still_camera_scene()
+def scatter(scene, moving_points=False):
+    """A grid whose Geometry Nodes instance a gold box on its points (the box's collection
+    disabled for rendering); with `moving_points`, the points rise with the scene time."""
     for name in ("Box0", "Box1", "Box2"):
         bpy.data.objects.remove(scene.objects[name])
     source = bpy.data.collections.new("Source")
@@ -205,13 +204,45 @@ def test_moving_geometry_nodes_instances_are_blurred(tmp_path):
     on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
     info = tree.nodes.new("GeometryNodeObjectInfo")
     info.inputs["Object"].default_value = pebble
-    tree.links.new(group_in.outputs["Geometry"], on_points.inputs["Points"])
+    points = group_in.outputs["Geometry"]
+    if moving_points:
+        time = tree.nodes.new("GeometryNodeInputSceneTime")
+        rise = tree.nodes.new("ShaderNodeCombineXYZ")
+        lift = tree.nodes.new("GeometryNodeSetPosition")
+        tree.links.new(time.outputs["Seconds"], rise.inputs["Z"])
+        tree.links.new(rise.outputs["Vector"], lift.inputs["Offset"])
+        tree.links.new(points, lift.inputs["Geometry"])
+        points = lift.outputs["Geometry"]
+    tree.links.new(points, on_points.inputs["Points"])
     tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
     tree.links.new(on_points.outputs["Instances"], group_out.inputs["Geometry"])
+    return grid
+
+
+def test_moving_geometry_nodes_instances_are_blurred(tmp_path):
+    """A Geometry Nodes scatter (boxes instanced on a grid's points) whose object slides and
+    turns: its instances move with it."""
+    scene = still_camera_scene()
+    grid = scatter(scene)
     animate(grid, [(k, path, value if path != "location" else (value[0], 0.5, 0.01))
                    for k, path, value in SLIDE])
     scene.frame_set(1, subframe=0.5)
     compare_blurred("moving geometry nodes instances", scene, tmp_path)
+
+
+def test_instances_moving_on_their_own_are_named(tmp_path):
+    """Instances that move within the shutter relative to the object instancing them (points
+    rising with the scene time) are named by the export's warnings: only the instancer's own
+    motion is carried."""
+    from blender_addon import export
+    scene = still_camera_scene()
+    scatter(scene, moving_points=True)
+    scene.frame_set(1, subframe=0.5)
+    warnings = export.export_in_process(tmp_path / "rising.glb", "blender_addon")
+    assert any("'Grid'" in w and "on their own" in w for w in warnings), warnings
+    scene.render.use_motion_blur = False
+    warnings = export.export_in_process(tmp_path / "still.glb", "blender_addon")
+    assert not any("on their own" in w for w in warnings), warnings
 
 
 def test_shape_key_deformation_is_blurred(tmp_path):
