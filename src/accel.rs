@@ -19,7 +19,9 @@
 //! direction left unnormalised) and tested there, so a mesh is stored and built once however
 //! many times it is placed. A prototype's material may need the alpha test, and an instance's
 //! object may be hidden from camera or shadow rays: both are decided per triangle as for
-//! world-space meshes.
+//! world-space meshes. A deforming prototype (`Mesh::deformation`, Cycles' deformation blur)
+//! bounds each triangle over all its steps and is tested with the triangle interpolated at the
+//! ray's moment.
 
 use crate::math::{gamma, Vec2, Vec3, Vec3A, Vec3Swizzles};
 use crate::rng::hash_combine;
@@ -565,29 +567,9 @@ impl Accel {
             let mut hit = RayHit::none();
             instanced.top.ray_traverse(top_ray, &mut hit, |r, slot| {
                 let index = instanced.slots[slot];
-                let instance = &scene.instances[index as usize];
-                let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
-                    return f32::INFINITY;
-                };
                 let t_max = found.map_or(limit, |h| h.t).min(r.tmax / k);
-                let to_object = instance.to_object_at(ray.time);
-                let origin = to_object.transform_point3(ray.origin);
-                let dir = to_object.transform_vector3(ray.direction);
-                let flag = instance_flag(prototype, instance);
-                let mesh = &scene.prototypes[instance.prototype as usize];
-                let accept = |ti: u32, b1, b2| {
-                    flag == 0
-                        || accepts(
-                            scene,
-                            mesh,
-                            flag,
-                            (ti, b1, b2),
-                            (origin, dir),
-                            index as u64 | ((ti as u64) << 32),
-                            visibility,
-                        )
-                };
-                match prototype.intersect(origin, dir, t_max, ray.time, false, accept) {
+                let instance = &scene.instances[index as usize];
+                match instanced.intersect(scene, index, ray, t_max, false, visibility) {
                     Some((t, triangle, b1, b2)) => {
                         found = Some(Hit {
                             t,
@@ -632,28 +614,7 @@ impl Accel {
         };
         instanced.top.ray_traverse_miss(bvh_ray, |_, slot| {
             let index = instanced.slots[slot];
-            let instance = &scene.instances[index as usize];
-            let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
-                return f32::INFINITY;
-            };
-            let to_object = instance.to_object_at(ray.time);
-            let origin = to_object.transform_point3(ray.origin);
-            let dir = to_object.transform_vector3(ray.direction);
-            let flag = instance_flag(prototype, instance);
-            let mesh = &scene.prototypes[instance.prototype as usize];
-            let accept = |ti: u32, b1, b2| {
-                flag == 0
-                    || accepts(
-                        scene,
-                        mesh,
-                        flag,
-                        (ti, b1, b2),
-                        (origin, dir),
-                        index as u64 | ((ti as u64) << 32),
-                        Visibility::Shadow,
-                    )
-            };
-            match prototype.intersect(origin, dir, ray.t_max, ray.time, true, accept) {
+            match instanced.intersect(scene, index, ray, ray.t_max, true, Visibility::Shadow) {
                 Some((t, ..)) => t * k,
                 None => f32::INFINITY,
             }
@@ -667,6 +628,40 @@ impl Accel {
 }
 
 impl Instanced {
+    /// `ray` (world space) against instance `index`'s prototype where the instance is at the
+    /// ray's moment, up to `t_max`: (t, triangle, b1, b2) as `Prototype::intersect`, with the
+    /// alpha test and the instance's ray visibility for `visibility`.
+    fn intersect(
+        &self,
+        scene: &Scene,
+        index: u32,
+        ray: &Ray,
+        t_max: f32,
+        any: bool,
+        visibility: Visibility,
+    ) -> Option<(f32, u32, f32, f32)> {
+        let instance = &scene.instances[index as usize];
+        let prototype = self.prototypes[instance.prototype as usize].as_ref()?;
+        let to_object = instance.to_object_at(ray.time);
+        let origin = to_object.transform_point3(ray.origin);
+        let dir = to_object.transform_vector3(ray.direction);
+        let flag = instance_flag(prototype, instance);
+        let mesh = &scene.prototypes[instance.prototype as usize];
+        let accept = |ti: u32, b1, b2| {
+            flag == 0
+                || accepts(
+                    scene,
+                    mesh,
+                    flag,
+                    (ti, b1, b2),
+                    (origin, dir),
+                    index as u64 | ((ti as u64) << 32),
+                    visibility,
+                )
+        };
+        prototype.intersect(origin, dir, t_max, ray.time, any, accept)
+    }
+
     fn new(scene: &Scene, center: Vec3, scale: f32) -> Option<Instanced> {
         if scene.instances.is_empty() {
             return None;

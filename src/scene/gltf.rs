@@ -109,6 +109,13 @@
 //!   its material; the node's descendants without poses of their own move with it (Geometry
 //!   Nodes and particle instances under a moving object). A node under a mirroring or
 //!   singular transform stays at its own transform, with a warning.
+//! - `PHOTON_object` may also carry `"deform": {"frame": b64, "steps": [b64, ...]}`, a
+//!   deforming mesh (Cycles' deformation blur): its object's vertices at the frame and at two
+//!   or more evenly spaced moments from the shutter's opening to its closing, each base64 of
+//!   little-endian f32 triples in object space (glTF axes). The mesh becomes a prototype
+//!   (`scene::Mesh::deformation`); each glTF vertex is found by its exact position among the
+//!   frame's (a primitive with a vertex not found stays still, with a warning). Malformed
+//!   data is refused with an error.
 //!
 //! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
 //! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree

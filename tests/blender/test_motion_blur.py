@@ -194,28 +194,7 @@ def scatter(scene, moving_points=False):
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=3, y_subdivisions=2, size=1.2,
                                     location=(0.0, 0.5, 0.01))
     grid = bpy.context.active_object
-    modifier = grid.modifiers.new("Scatter", "NODES")
-    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
-    modifier.node_group = tree
-    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    group_in = tree.nodes.new("NodeGroupInput")
-    group_out = tree.nodes.new("NodeGroupOutput")
-    on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
-    info = tree.nodes.new("GeometryNodeObjectInfo")
-    info.inputs["Object"].default_value = pebble
-    points = group_in.outputs["Geometry"]
-    if moving_points:
-        time = tree.nodes.new("GeometryNodeInputSceneTime")
-        rise = tree.nodes.new("ShaderNodeCombineXYZ")
-        lift = tree.nodes.new("GeometryNodeSetPosition")
-        tree.links.new(time.outputs["Seconds"], rise.inputs["Z"])
-        tree.links.new(rise.outputs["Vector"], lift.inputs["Offset"])
-        tree.links.new(points, lift.inputs["Geometry"])
-        points = lift.outputs["Geometry"]
-    tree.links.new(points, on_points.inputs["Points"])
-    tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
-    tree.links.new(on_points.outputs["Instances"], group_out.inputs["Geometry"])
+    scenes_bpy.instance_on_points(grid, pebble, rise_with_time=moving_points)
     return grid
 
 
