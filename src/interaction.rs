@@ -130,7 +130,7 @@ impl SurfaceHit {
             ng,
             frame,
             uv,
-            // Instances are never lights: their hits name no world-space mesh.
+            // Hits on instances name no world-space mesh (lights find them by `hit.instance`).
             mesh: if instance.is_some() {
                 u32::MAX
             } else {
