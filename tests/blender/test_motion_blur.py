@@ -244,3 +244,31 @@ def test_shape_key_deformation_is_blurred(tmp_path):
             point.interpolation = "LINEAR"
     scene.frame_set(1, subframe=0.5)
     compare_blurred("shape key deformation", scene, tmp_path)
+
+
+def test_armature_deformation_is_blurred(tmp_path):
+    """The middle box's top, bound to a bone that bends 100° about the x axis over a frame:
+    an armature deformation blurred over the shutter as Cycles blurs it."""
+    scene = still_camera_scene()
+    box = scene.objects["Box1"]
+    rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+    scene.collection.objects.link(rig)
+    rig.location = box.location
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode="EDIT")
+    bone = rig.data.edit_bones.new("Top")
+    bone.head, bone.tail = (0.0, 0.0, 0.5), (0.0, 0.0, 1.0)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    group = box.vertex_groups.new(name="Top")
+    group.add([v.index for v in box.data.vertices if v.co.z > 0.5], 1.0, "REPLACE")
+    box.modifiers.new("Armature", "ARMATURE").object = rig
+    pose = rig.pose.bones["Top"]
+    pose.rotation_mode = "XYZ"
+    for frame, angle in ((1, 0.0), (2, 100.0)):
+        pose.rotation_euler = (math.radians(angle), 0.0, 0.0)
+        pose.keyframe_insert("rotation_euler", frame=frame)
+    for fcurve in rig.animation_data.action.fcurves:
+        for point in fcurve.keyframe_points:
+            point.interpolation = "LINEAR"
+    scene.frame_set(1, subframe=0.5)
+    compare_blurred("armature deformation", scene, tmp_path)
