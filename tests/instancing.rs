@@ -59,7 +59,7 @@ fn grid_glb(n: usize, placements: &[Value], copies: bool, material: Value) -> Ve
     let vertex_count = (n + 1) * (n + 1);
     let mut doc = json!({
         "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": []}],
-        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensionsUsed": ["KHR_lights_punctual", "PHOTON_material_nodes"],
         "extensions": {"KHR_lights_punctual": {"lights": [
             {"type": "directional", "intensity": 2049.0}]}},
         "materials": [material, {"pbrMetallicRoughness":
@@ -217,8 +217,24 @@ fn assert_renders_alike(
     }
 }
 
+/// A node tree emitting a Checker Texture of the Texture Coordinate node's `output` (object
+/// coordinates or normals, which instances must read in their own object space).
+fn checker_on(output: &str) -> Value {
+    json!({"extensions": {"PHOTON_material_nodes": {
+        "nodes": [
+            {"name": "Coords", "type": "ShaderNodeTexCoord"},
+            {"name": "Checker", "type": "ShaderNodeTexChecker",
+             "inputs": {"Vector": {"node": 0, "output": output}, "Scale": 2.5,
+                        "Color1": [0.9, 0.3, 0.1, 1.0], "Color2": [0.05, 0.2, 0.6, 1.0]}},
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 1, "output": "Color"}, "Strength": 2.0}}
+        ],
+        "output": {"node": 2, "output": "Emission"}
+    }}})
+}
+
 /// Any material may be a prototype: glossy, emissive (sampled as a light where each instance
-/// is) and alpha-blended meshes render as their flattened copies, and a copy hidden from the
+/// is), alpha-blended and node-tree meshes render as their flattened copies, and a copy hidden from the
 /// camera stays hidden. Mirrored copies are flattened.
 #[test]
 fn instances_of_any_material_render_as_their_copies() {
@@ -241,6 +257,8 @@ fn instances_of_any_material_render_as_their_copies() {
             json!({"alphaMode": "BLEND", "pbrMetallicRoughness":
                 {"baseColorFactor": [0.2, 0.6, 0.9, 0.5], "roughnessFactor": 0.5}}),
         ),
+        ("node tree (object)", checker_on("Object")),
+        ("node tree (normal)", checker_on("Normal")),
     ];
     for (name, material) in materials {
         let instanced = load(&grid_glb(12, &places, false, material.clone()));
@@ -248,6 +266,11 @@ fn instances_of_any_material_render_as_their_copies() {
         assert_eq!(
             (instanced.prototypes.len(), instanced.instances.len()),
             (1, 7),
+            "{name}"
+        );
+        assert_eq!(
+            instanced.materials[0].nodes.is_some(),
+            name.starts_with("node tree"),
             "{name}"
         );
         let methods: &[Method] = if name == "emissive" {
