@@ -383,8 +383,8 @@ DEFORM_STEPS: dict[str, dict] = {}
 
 
 def deform_step_count(obj) -> int:
-    """The moments at which Cycles samples `obj`'s deformation: 2^(steps - 1) * 2 + 1 for the
-    object's motion blur steps (Object > Motion Blur > Steps; 3 by default)."""
+    """The moments at which Cycles samples `obj`'s motion and deformation: 2^(steps - 1) * 2 + 1
+    for the object's motion blur steps (Object > Motion Blur > Steps; 3 by default)."""
     steps = max(1, int(getattr(getattr(obj, "cycles", None), "motion_steps", 1)))
     return (2 << (steps - 1)) + 1
 
@@ -449,8 +449,10 @@ def deformation_recorded(scene, objects) -> dict[str, dict]:
 @contextlib.contextmanager
 def shutter_poses_recorded(scene):
     """Within the block, SHUTTER_POSES holds, with Render > Motion Blur on, the world matrices
-    (glTF axes, column-major) at `shutter_times` of the scene camera (scale removed) and of
-    every rendered object the glTF exporter writes as a mesh, for those whose matrices differ;
+    (glTF axes, column-major) at `shutter_times` of the scene camera (scale removed) and, at
+    their motion steps (`deform_step_count`) evenly spread over the shutter, of every rendered
+    object the glTF exporter writes as a mesh with its Motion Blur switch on (Object > Motion
+    Blur, as Cycles reads it), for those whose matrices differ;
     PHOTON_camera and PHOTON_object carry them as "motion". DEFORM_STEPS holds the deforming
     meshes' vertices over the shutter (`deformation_recorded`), PHOTON_object's "deform". The
     frame is put back afterwards."""
@@ -458,22 +460,30 @@ def shutter_poses_recorded(scene):
         yield
         return
     objects = [obj for obj in scene.objects
-               if obj == scene.camera or (obj.type in GEOMETRY_TYPES and not obj.hide_render)]
+               if obj == scene.camera or (obj.type in GEOMETRY_TYPES and not obj.hide_render
+                                          and getattr(obj.cycles, "use_motion_blur", True))]
+    # Objects take their own motion steps as in Cycles, the camera three.
+    step_counts = {obj.name: 3 if obj == scene.camera else deform_step_count(obj)
+                   for obj in objects}
+    times = shutter_times(scene)
     frame, subframe = scene.frame_current, scene.frame_subframe
     poses = {obj.name: [] for obj in objects}
     carried = []
     try:
-        for t in shutter_times(scene):
-            scene.frame_set(math.floor(t), subframe=t - math.floor(t))
-            carried.append(instances_in_their_instancers())
-            for obj in objects:
-                # A camera node keeps Blender's camera axes; mesh nodes hold their vertices in
-                # glTF axes, so their matrices change axes on both sides.
-                if obj == scene.camera:
-                    m = Z_UP_TO_Y_UP @ obj.matrix_world.normalized()
-                else:
-                    m = Z_UP_TO_Y_UP @ obj.matrix_world @ Z_UP_TO_Y_UP.inverted()
-                poses[obj.name].append([float(m[r][c]) for c in range(4) for r in range(4)])
+        for n in sorted(set(step_counts.values())):
+            for k in range(n):
+                t = times[0] + (times[-1] - times[0]) * k / (n - 1)
+                scene.frame_set(math.floor(t), subframe=t - math.floor(t))
+                carried.append(instances_in_their_instancers())
+                for obj in (obj for obj in objects if step_counts[obj.name] == n):
+                    # A camera node keeps Blender's camera axes; mesh nodes hold their vertices
+                    # in glTF axes, so their matrices change axes on both sides.
+                    if obj == scene.camera:
+                        m = Z_UP_TO_Y_UP @ obj.matrix_world.normalized()
+                    else:
+                        m = Z_UP_TO_Y_UP @ obj.matrix_world @ Z_UP_TO_Y_UP.inverted()
+                    poses[obj.name].append([float(m[r][c]) for c in range(4)
+                                            for r in range(4)])
     finally:
         scene.frame_set(frame, subframe=subframe)
     SHUTTER_POSES.update({name: p for name, p in poses.items() if any(q != p[0] for q in p)})

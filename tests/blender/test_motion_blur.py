@@ -272,3 +272,24 @@ def test_armature_deformation_is_blurred(tmp_path):
             point.interpolation = "LINEAR"
     scene.frame_set(1, subframe=0.5)
     compare_blurred("armature deformation", scene, tmp_path)
+
+
+def test_object_motion_steps_and_switch_are_read(tmp_path):
+    """An object's Motion Blur steps (2: five poses over the shutter) and its Motion Blur
+    switch (off: exported still), as Cycles reads them."""
+    from blender_addon import export
+    import json
+    import struct
+    scene = still_camera_scene()
+    for name in ("Box0", "Box1"):
+        animate(scene.objects[name], SLIDE)
+    scene.objects["Box0"].cycles.motion_steps = 2
+    scene.objects["Box1"].cycles.use_motion_blur = False
+    scene.frame_set(1, subframe=0.5)
+    glb = tmp_path / "steps.glb"
+    export.export_in_process(glb, "blender_addon")
+    data = glb.read_bytes()
+    doc = json.loads(data[20:20 + struct.unpack("<I", data[12:16])[0]])
+    motion = {node["name"]: node.get("extensions", {}).get("PHOTON_object", {}).get("motion")
+              for node in doc["nodes"]}
+    assert len(motion["Box0"]) == 5 and motion["Box1"] is None, motion
