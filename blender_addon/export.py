@@ -426,13 +426,15 @@ def deformation_recorded(scene, objects) -> dict[str, dict]:
     start, end = times[0], times[-1]
     frame, subframe = scene.frame_current, scene.frame_subframe
     steps = {obj.name: [] for obj in deforming}
+    counts = {obj.name: deform_step_count(obj) for obj in deforming}
     try:
-        for obj in deforming:
-            n = deform_step_count(obj)
+        for n in sorted(set(counts.values())):
             for k in range(n):
                 t = start + (end - start) * k / (n - 1)
                 scene.frame_set(math.floor(t), subframe=t - math.floor(t))
-                steps[obj.name].append(evaluated_positions(obj))
+                for obj in deforming:
+                    if counts[obj.name] == n:
+                        steps[obj.name].append(evaluated_positions(obj))
     finally:
         scene.frame_set(frame, subframe=subframe)
     out = {}
