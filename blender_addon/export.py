@@ -49,11 +49,12 @@ import bpy
 import mathutils
 
 try:
-    from . import node_tree, points_curves
+    from . import node_tree, points_curves, preflight
 except ImportError:  # run as the child's script: the add-on's folder holds node_tree.py
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import node_tree
     import points_curves
+    import preflight
 
 GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
@@ -392,7 +393,6 @@ def deform_step_count(obj) -> int:
 def deforms_with_blur(obj) -> bool:
     """Whether `obj` is a mesh whose deformation (armature, animated shape keys) is blurred:
     Cycles' Object > Motion Blur and its Deformation switch on."""
-    from . import preflight
     cycles = getattr(obj, "cycles", None)
     return (obj.type == "MESH" and preflight.deforms(obj)
             and getattr(cycles, "use_motion_blur", True)
