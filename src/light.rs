@@ -307,7 +307,7 @@ impl Lights {
             .map(|mesh| {
                 scene.materials[mesh.material as usize]
                     .is_emissive()
-                    .then(|| Distribution1D::new(&triangle_areas(mesh, None)))
+                    .then(|| Distribution1D::new(&triangle_areas(mesh)))
             })
             .collect();
         let mut instance_light = Vec::new();
@@ -492,7 +492,7 @@ impl Lights {
                     .sample(u_pick)?;
                 let m = &scene.prototypes[prototype];
                 let to_world = instance.to_world_at(time);
-                let area = triangle_areas(m, Some((triangle as u32, to_world, time)))[0];
+                let area = placed_area(m, triangle as u32, to_world, time);
                 let (triangle, placed) = (triangle as u32, Some(to_world));
                 let emitter = sample_emitter_point(scene, m, triangle, placed, time, u, seen_from);
                 (area > 0.0 && pmf > 0.0).then_some(EmitterSample {
@@ -672,8 +672,7 @@ impl Lights {
             return 0.0;
         };
         let mesh = &scene.prototypes[instance.prototype as usize];
-        let placed = (hit.triangle, instance.to_world_at(hit.time), hit.time);
-        let area = triangle_areas(mesh, Some(placed))[0];
+        let area = placed_area(mesh, hit.triangle, instance.to_world_at(hit.time), hit.time);
         let d = hit.p - p;
         let dist2 = d.length_squared();
         let cos_l = (d.normalize_or_zero().dot(hit.ng)).abs();
@@ -742,27 +741,29 @@ impl Lights {
     }
 }
 
-/// Areas of `mesh`'s triangles in its own space (`placed`: `None`), or of one triangle,
-/// deformed as at a moment and placed by a transform (`Some((triangle, to_world, time))`);
-/// non-finite areas count as zero.
-fn triangle_areas(mesh: &Mesh, placed: Option<(u32, Affine3A, f32)>) -> Vec<f32> {
-    let area = |p: [Vec3; 3]| {
-        let a = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-        if a.is_finite() {
-            a
-        } else {
-            0.0
-        }
-    };
-    match placed {
-        None => (mesh.indices.iter())
-            .map(|idx| area(idx.map(|i| mesh.positions[i as usize])))
-            .collect(),
-        Some((triangle, to_world, time)) => {
-            let p = mesh.triangle_at(triangle, time);
-            vec![area(p.map(|q| to_world.transform_point3(q)))]
-        }
+/// Area of the triangle `p`; zero when not finite.
+fn area(p: [Vec3; 3]) -> f32 {
+    let a = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+    if a.is_finite() {
+        a
+    } else {
+        0.0
     }
+}
+
+/// Areas of `mesh`'s triangles in its own space.
+fn triangle_areas(mesh: &Mesh) -> Vec<f32> {
+    (mesh.indices.iter())
+        .map(|idx| area(idx.map(|i| mesh.positions[i as usize])))
+        .collect()
+}
+
+/// Area of `mesh`'s triangle `triangle` deformed as at `time` and placed by `to_world`.
+fn placed_area(mesh: &Mesh, triangle: u32, to_world: Affine3A, time: f32) -> f32 {
+    area(
+        mesh.triangle_at(triangle, time)
+            .map(|q| to_world.transform_point3(q)),
+    )
 }
 
 /// Direction towards a point or spot light seen from `p`, with the factor that turns its
