@@ -75,13 +75,22 @@ impl SurfaceHit {
                 Some(_) => to_world.transform_vector3(t.truncate()),
                 None => t.truncate(),
             };
-            bend.map_or(v, |q| q * v).extend(t.w)
+            let w = match instance {
+                Some(inst) if inst.mirrored => -t.w,
+                _ => t.w,
+            };
+            bend.map_or(v, |q| q * v).extend(w)
         };
         let (b1, b2) = (hit.b1, hit.b2);
         let b0 = 1.0 - b1 - b2;
         let pos = interpolate(p, b1, b2);
         let p_error = gamma(7) * ((b0 * p[0]).abs() + (b1 * p[1]).abs() + (b2 * p[2]).abs());
-        let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+        let mut cross = (p[1] - p[0]).cross(p[2] - p[0]);
+        if instance.is_some_and(|inst| inst.mirrored) {
+            // A flattened mirrored copy reverses its winding to keep the geometric normal's
+            // side; so does a mirrored instance.
+            cross = -cross;
+        }
         let len = cross.length();
         let ng = if len > 0.0 && len.is_finite() {
             cross / len

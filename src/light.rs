@@ -220,7 +220,11 @@ pub fn sample_emitter_point(
     let p = v[0] * b0 + v[1] * b.x + v[2] * b.y;
     let p_error =
         crate::math::gamma(6) * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
-    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    let mut n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    if placed.is_some_and(|to_world| to_world.matrix3.determinant() < 0.0) {
+        // A mirrored instance keeps the side of its winding, as `SurfaceHit::new` does.
+        n = -n;
+    }
     let uv = if m.uvs.is_empty() {
         Vec2::ZERO
     } else {

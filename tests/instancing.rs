@@ -1,7 +1,8 @@
 //! Real instancing: a glTF mesh placed by several nodes is stored and put in a BVH once
 //! (`Scene::prototypes`, `Scene::instances`, the two-level `Accel`). Renders of instanced
 //! scenes must match the same scenes with every copy flattened, whatever the material (glossy,
-//! emissive, alpha-blended; per-object visibility kept); mirrored copies stay flattened; and
+//! emissive, alpha-blended; per-object visibility kept); still mirrored copies stay flattened,
+//! moving ones are mirrored instances; and
 //! 50,000 instances of a 20,000-triangle mesh
 //! load and render at 96×64 in seconds and little memory.
 
@@ -297,7 +298,8 @@ fn instances_of_any_material_render_as_their_copies() {
 
 /// A node that moves while the shutter is open (PHOTON_object "motion") is an instance even
 /// when its mesh is placed once: rays meet it where it is at their moment, and its bounds cover
-/// its whole path. A mirrored moving node cannot be instanced: it stays put, with a warning.
+/// its whole path. A moving mirrored node is a mirrored instance; a singular one stays put,
+/// with a warning.
 #[test]
 fn moving_nodes_are_met_where_they_are_at_the_ray_moment() {
     use photon::accel::{Accel, Ray, Visibility};
@@ -352,10 +354,31 @@ fn moving_nodes_are_met_where_they_are_at_the_ray_moment() {
         }
     ));
 
-    // A mirrored moving node stays put, with a warning.
-    let mut mirrored = moving.clone();
-    mirrored["scale"] = json!([-1.0, 1.0, 1.0]);
-    let scene = load(&grid_glb(4, &[mirrored], false, grey()));
+    // A moving mirrored node is a mirrored instance that renders as its flattened still copy
+    // (here its poses are all the same mirrored transform), also as a one-sided emitter.
+    let mirror =
+        json!([-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 1.0]);
+    let still = json!({"matrix": mirror.clone()});
+    let mut moving_mirror = still.clone();
+    moving_mirror["extensions"] = json!({"PHOTON_object": {"motion": [mirror, mirror]}});
+    let emissive = json!({"emissiveFactor": [1.0, 0.6, 0.3],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}});
+    for (name, material) in [("grey", grey()), ("one-sided emitter", emissive)] {
+        let instanced = load(&grid_glb(
+            12,
+            &[moving_mirror.clone()],
+            false,
+            material.clone(),
+        ));
+        let flat = load(&grid_glb(12, std::slice::from_ref(&still), false, material));
+        assert!(instanced.instances.len() == 1 && instanced.instances[0].mirrored);
+        assert!(flat.instances.is_empty());
+        assert_renders_alike(name, &instanced, &flat, &[Method::Path], 0.01);
+    }
+    // A singular moving node stays put, with a warning.
+    let mut singular = moving.clone();
+    singular["scale"] = json!([0.0, 1.0, 1.0]);
+    let scene = load(&grid_glb(4, &[singular], false, grey()));
     assert!(scene.instances.is_empty());
     assert!(
         scene.warnings.iter().any(|w| w.contains("motion blur")),

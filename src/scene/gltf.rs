@@ -107,7 +107,7 @@
 //!   to its closing (Blender's motion blur). Its mesh becomes a prototype placed by an instance
 //!   that each ray meets where it is at the ray's moment (`scene::Instance::motion`), whatever
 //!   its material; the node's descendants without poses of their own move with it (Geometry
-//!   Nodes and particle instances under a moving object). A node under a mirroring or
+//!   Nodes and particle instances under a moving object), mirrored or not. A node under a
 //!   singular transform stays at its own transform, with a warning.
 //! - `PHOTON_object` may also carry `"deform": {"frame": b64, "steps": [b64, ...]}`, a
 //!   deforming mesh (Cycles' deformation blur): its object's vertices at the frame and at two
@@ -140,8 +140,9 @@
 //!
 //! A mesh placed by two or more nodes, whatever its materials, is stored once as a prototype
 //! (`Scene::prototypes`) and placed by `Scene::instances` (each with its node's
-//! `PHOTON_object` ray visibility), counted once against the limits. Copies under a mirroring
-//! or singular transform and every other mesh are flattened to world space; under a mirroring
+//! `PHOTON_object` ray visibility), counted once against the limits. Still copies under a
+//! mirroring or singular transform and every other mesh are flattened to world space (a
+//! moving mirrored copy is a mirrored instance: `scene::Instance::mirrored`); under a mirroring
 //! transform the triangle winding is flipped and the tangent's w (bitangent sign) is negated,
 //! so both the geometric normal and the tangent frame keep their meaning.
 //!
@@ -530,13 +531,16 @@ impl Loader {
     }
 
     /// Whether `node` places its mesh as an instance: an instanced mesh and a transform that
-    /// is invertible and not mirrored.
-    fn places_instance(&self, node: &gltf::Node, world: &Mat4) -> bool {
+    /// is invertible and, unless the node `moving`, not mirrored (still mirrored copies are
+    /// flattened, moving ones are mirrored instances).
+    fn places_instance(&self, node: &gltf::Node, world: &Mat4, moving: bool) -> bool {
         let Some(mesh) = node.mesh() else {
             return false;
         };
         let det = Mat3::from_mat4(*world).determinant();
-        self.instanced_meshes.contains(&mesh.index()) && det > 0.0 && det.is_finite()
+        self.instanced_meshes.contains(&mesh.index())
+            && det.is_finite()
+            && (det > 0.0 || (moving && det < 0.0))
     }
 
     /// The checks `read_accessor` makes before allocating, without reading: the elements fit
@@ -597,7 +601,8 @@ impl Loader {
         if let Some(mesh) = node.mesh() {
             let (mut triangles, mut vertices) =
                 per_mesh.get(&mesh.index()).copied().unwrap_or_default();
-            if world.is_finite() && self.places_instance(node, &world) {
+            // Moving mirrored nodes are counted as flattened: an upper bound.
+            if world.is_finite() && self.places_instance(node, &world, false) {
                 // Stored once, however many instances place it.
                 if !totals.counted_prototypes.insert(mesh.index()) {
                     (triangles, vertices) = (0, 0);
@@ -676,13 +681,13 @@ impl Loader {
                 .collect(),
         };
         if let Some(mesh) = node.mesh() {
-            if self.places_instance(node, &world) {
+            if self.places_instance(node, &world, !motion.is_empty()) {
                 self.add_instance(node, &mesh, &world, &motion)?;
             } else {
                 if !motion.is_empty() || moves(node) {
                     self.scene.warnings.push(format!(
-                        "{object}: motion blur is not rendered for it (a mirrored or singular \
-                         transform: only unmirrored objects are placed per moment)"
+                        "{object}: motion blur is not rendered for it (a singular transform: \
+                         only invertible ones are placed per moment)"
                     ));
                 }
                 self.add_mesh(node, &mesh, &world, false)?;

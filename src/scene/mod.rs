@@ -87,7 +87,8 @@ impl ObjectSpace {
 pub struct Instance {
     /// Index into `Scene::prototypes`.
     pub prototype: u32,
-    /// Object space → world space (not mirrored: mirrored copies are flattened).
+    /// Object space → world space (mirrored only for moving copies: still mirrored copies are
+    /// flattened).
     pub to_world: Affine3A,
     /// World space → object space (the inverse of `to_world`).
     pub to_object: Affine3A,
@@ -97,6 +98,9 @@ pub struct Instance {
     /// closing (Blender's motion blur; our `PHOTON_object` "motion"); empty: still at
     /// `to_world`.
     pub motion: Vec<Affine3A>,
+    /// `to_world` mirrors (negative determinant): the triangles' winding normals and the
+    /// tangents' handedness are flipped in world space, as for a flattened mirrored copy.
+    pub mirrored: bool,
     /// Seen by camera rays (Blender's camera ray visibility of the placing object).
     pub camera_visible: bool,
     /// Blocks shadow rays (Blender's shadow ray visibility of the placing object).
@@ -113,6 +117,7 @@ impl Instance {
             to_object: to_world.inverse(),
             normal_matrix: linear.inverse().transpose(),
             motion: Vec::new(),
+            mirrored: linear.determinant() < 0.0,
             camera_visible: true,
             casts_shadows: true,
         }
