@@ -24,7 +24,8 @@ empty list, so the rules below only flag what really changes the image:
   'indirect only' collections;
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
   field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
-  objects (armatures, animated shape keys: only transforms are blurred).
+  objects other than meshes (armatures, animated shape keys of curves, surfaces, text:
+  meshes' deformation is blurred).
 """
 
 from __future__ import annotations
@@ -73,16 +74,19 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
             messages.append(f"{what}: 'indirect only' is not exported; its objects are seen "
                             f"directly too")
     if scene.render.use_motion_blur:
-        deforming = [obj.name for obj in objects if _deforms(obj)]
+        # Meshes' deformation is exported (export.deformation_recorded); other objects' not.
+        deforming = [obj.name for obj in objects
+                     if getattr(obj, "type", "") != "MESH" and deforms(obj)]
         if deforming:
             listed = ", ".join(f"'{name}'" for name in sorted(deforming)[:3])
             more = f" and {len(deforming) - 3} more" if len(deforming) > 3 else ""
-            messages.append(f"motion blur: deformation is not blurred (armatures or animated "
-                            f"shape keys: {listed}{more}); moving objects and the camera are")
+            messages.append(f"motion blur: the deformation of objects other than meshes is not "
+                            f"blurred (armatures or animated shape keys: {listed}{more}); "
+                            f"meshes' deformation, moving objects and the camera are")
     return messages
 
 
-def _deforms(obj) -> bool:
+def deforms(obj) -> bool:
     """Whether `obj`'s geometry changes with time: an armature modifier, or shape keys with
     keyframes or drivers."""
     obj = getattr(obj, "original", obj)  # the depsgraph's copy has its shape keys applied

@@ -8,8 +8,9 @@ Freestyle, Grease Pencil render settings, stereoscopy, light probes,
 the light's EEVEE shadow settings, object shading and ray visibility, AOVs, Cryptomatte and the
 Particles tab (not listed yet, though the export carries particles rendered as objects or
 collections and hair strands; the pre-flight report warns about the rest). Motion blur has
-Photon's own panel: Photon blurs the camera's and objects' motion, not deformation. Photon's
-passes (Depth, Normal, Denoising Data and the light passes) have their own View Layer panel.
+Photon's own panel: Photon blurs the camera's and objects' motion and meshes' deformation.
+Photon's passes (Depth, Normal, Denoising Data and the light passes) have their own View Layer
+panel.
 A name missing from the running Blender is skipped (panels are renamed between versions).
 """
 
@@ -202,7 +203,8 @@ class RENDER_PT_photon_film(PhotonPanel, bpy.types.Panel):
 
 class RENDER_PT_photon_motion_blur(PhotonPanel, bpy.types.Panel):
     """Blender's motion blur settings Photon reads: it blurs the camera's and the objects'
-    motion over the shutter (not deformation)."""
+    motion and meshes' deformation over the shutter (each object's Motion Blur steps and
+    Deformation switch in its Object properties, as in Cycles)."""
     bl_label = "Motion Blur"
     bl_options = {"DEFAULT_CLOSED"}
 
@@ -215,7 +217,6 @@ class RENDER_PT_photon_motion_blur(PhotonPanel, bpy.types.Panel):
         col.active = render.use_motion_blur
         col.prop(render, "motion_blur_position", text="Position")
         col.prop(render, "motion_blur_shutter")
-        col.label(text="Deformation is not blurred")
 
 
 class VIEWLAYER_PT_photon_passes(PhotonPanel, bpy.types.Panel):

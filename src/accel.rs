@@ -17,8 +17,11 @@
 //! prototype over its object-space triangles, and one over the instances' world bounds. A ray
 //! reaching an instance's box is carried into the prototype's space (same parameter t, the
 //! direction left unnormalised) and tested there, so a mesh is stored and built once however
-//! many times it is placed. Prototypes have plain opaque materials (see `Scene::prototypes`):
-//! no alpha test or visibility flags apply to them.
+//! many times it is placed. A prototype's material may need the alpha test, and an instance's
+//! object may be hidden from camera or shadow rays: both are decided per triangle as for
+//! world-space meshes. A deforming prototype (`Mesh::deformation`, Cycles' deformation blur)
+//! bounds each triangle over all its steps and is tested with the triangle interpolated at the
+//! ray's moment.
 
 use crate::math::{gamma, Vec2, Vec3, Vec3A, Vec3Swizzles};
 use crate::rng::hash_combine;
@@ -105,12 +108,17 @@ struct Prototype {
     scale: f32,
     /// Object-space triangle vertices in BVH primitive order.
     vertices: Vec<[Vec3A; 3]>,
+    /// A deforming mesh's (`Mesh::deformation`) triangle vertices at each step, in BVH
+    /// primitive order; its BVH bounds each triangle at every step. Empty: still.
+    steps: Vec<Vec<[Vec3A; 3]>>,
     /// Triangle index per slot.
     triangles: Vec<u32>,
+    /// Its material needs the alpha test (`FLAG_ALPHA_TEST` or 0).
+    flag: u8,
 }
 
 impl Prototype {
-    fn new(mesh: &crate::scene::Mesh) -> Option<Prototype> {
+    fn new(scene: &Scene, mesh: &crate::scene::Mesh) -> Option<Prototype> {
         let tris: Vec<[Vec3A; 3]> = mesh
             .indices
             .iter()
@@ -121,29 +129,71 @@ impl Prototype {
             return None;
         }
         let (center, scale) = bvh_space(bounds);
+        let steps: Vec<Vec<[Vec3A; 3]>> = mesh
+            .deformation
+            .iter()
+            .map(|step| {
+                mesh.indices
+                    .iter()
+                    .map(|idx| idx.map(|i| Vec3A::from(step[i as usize])))
+                    .collect()
+            })
+            .collect();
         let boxes: Vec<BvhTriangle> = tris
             .iter()
-            .map(|v| BvhTriangle::new(v, center.into(), scale))
+            .enumerate()
+            .map(|(t, v)| {
+                let mut b = BvhTriangle::new(v, center.into(), scale);
+                for step in &steps {
+                    b.0 =
+                        b.0.union(&BvhTriangle::new(&step[t], center.into(), scale).0);
+                }
+                b
+            })
             .collect();
         let bvh = build(&boxes);
         let order = &bvh.primitive_indices;
         Some(Prototype {
             center,
             scale,
+            steps: steps
+                .iter()
+                .map(|step| order.iter().map(|&i| step[i as usize]).collect())
+                .collect(),
             vertices: order.iter().map(|&i| tris[i as usize]).collect(),
             triangles: order.to_vec(),
+            flag: alpha_flag(&scene.materials[mesh.material as usize]),
             bvh,
         })
     }
 
-    /// The closest triangle along the object-space ray (`origin`, `dir`) with 0 < t < `t_max`:
-    /// (t, triangle, b1, b2). With `any`, the first one found.
+    /// The vertices of the triangle in BVH slot `slot` at `time` (linearly between the two
+    /// nearest deformation steps, as `Mesh::triangle_at`).
+    #[inline]
+    fn triangle(&self, slot: usize, time: f32) -> [Vec3A; 3] {
+        let last = self.steps.len().saturating_sub(1);
+        if last == 0 {
+            return self.vertices[slot];
+        }
+        let x = time.clamp(0.0, 1.0) * last as f32;
+        let k = (x.floor() as usize).min(last - 1);
+        let f = x - k as f32;
+        let (a, b) = (&self.steps[k][slot], &self.steps[k + 1][slot]);
+        [0, 1, 2].map(|i| a[i].lerp(b[i], f))
+    }
+
+    /// The closest triangle along the object-space ray (`origin`, `dir`) at moment `time` with
+    /// 0 < t < `t_max` that `accepts` (triangle, b1, b2): (t, triangle, b1, b2). With `any`,
+    /// the first one found.
+    #[allow(clippy::too_many_arguments)]
     fn intersect(
         &self,
         origin: Vec3,
         dir: Vec3,
         t_max: f32,
+        time: f32,
         any: bool,
+        mut accepts: impl FnMut(u32, f32, f32) -> bool,
     ) -> Option<(f32, u32, f32, f32)> {
         let length = dir.length();
         if !(length > 0.0 && length.is_finite() && origin.is_finite()) {
@@ -160,24 +210,24 @@ impl Prototype {
         let mut best: Option<(f32, u32, f32, f32)> = None;
         if any {
             self.bvh.ray_traverse_miss(bvh_ray, |_, slot| {
-                match sheared.intersect(&self.vertices[slot], 0.0, t_max) {
-                    Some((t, b1, b2)) => {
+                match sheared.intersect(&self.triangle(slot, time), 0.0, t_max) {
+                    Some((t, b1, b2)) if accepts(self.triangles[slot], b1, b2) => {
                         best = Some((t, self.triangles[slot], b1, b2));
                         t * k
                     }
-                    None => f32::INFINITY,
+                    _ => f32::INFINITY,
                 }
             });
         } else {
             let mut hit = RayHit::none();
             self.bvh.ray_traverse(bvh_ray, &mut hit, |r, slot| {
                 let limit = best.map_or(t_max, |b| b.0).min(r.tmax / k);
-                match sheared.intersect(&self.vertices[slot], 0.0, limit) {
-                    Some((t, b1, b2)) => {
+                match sheared.intersect(&self.triangle(slot, time), 0.0, limit) {
+                    Some((t, b1, b2)) if accepts(self.triangles[slot], b1, b2) => {
                         best = Some((t, self.triangles[slot], b1, b2));
                         t * k
                     }
-                    None => f32::INFINITY,
+                    _ => f32::INFINITY,
                 }
             });
         }
@@ -375,13 +425,7 @@ impl Accel {
         let mut ids = Vec::with_capacity(scene.triangle_count());
         let mut flags = Vec::with_capacity(scene.triangle_count());
         for (mi, mesh) in scene.meshes.iter().enumerate() {
-            let material = &scene.materials[mesh.material as usize];
-            let mut flag = 0;
-            if material.alpha_mode != AlphaMode::Opaque
-                && (material.base_color.w < 1.0 || material.base_color_texture.is_some())
-            {
-                flag |= FLAG_ALPHA_TEST;
-            }
+            let mut flag = alpha_flag(&scene.materials[mesh.material as usize]);
             if !mesh.camera_visible {
                 flag |= FLAG_CAMERA_HIDDEN;
             }
@@ -454,41 +498,16 @@ impl Accel {
         if flag == 0 {
             return true;
         }
-        if flag & FLAG_CAMERA_HIDDEN != 0 && visibility == Visibility::Camera {
-            return false;
-        }
-        if flag & FLAG_SHADOW_HIDDEN != 0 && visibility == Visibility::Shadow {
-            return false;
-        }
-        if flag & FLAG_ALPHA_TEST == 0 {
-            return true;
-        }
         let (mi, ti) = self.ids[slot];
-        let mesh = &scene.meshes[mi as usize];
-        let material = &scene.materials[mesh.material as usize];
-        let mut alpha = material.base_color.w;
-        if let (Some(tex), false) = (&material.base_color_texture, mesh.uvs.is_empty()) {
-            let idx = mesh.indices[ti as usize];
-            let uv = mesh.uvs[idx[0] as usize] * (1.0 - b1 - b2)
-                + mesh.uvs[idx[1] as usize] * b1
-                + mesh.uvs[idx[2] as usize] * b2;
-            alpha *= scene.textures[tex.texture as usize].sample(tex.apply(uv)).w;
-        }
-        match material.alpha_mode {
-            AlphaMode::Opaque => true,
-            AlphaMode::Mask { cutoff } => alpha >= cutoff,
-            // Stochastic transparency with a hash of the ray and triangle, so the decision is
-            // deterministic and the same for a shadow ray and a closest-hit ray along the same line.
-            AlphaMode::Blend => {
-                let h = hash_combine(&[
-                    ray.origin.x.to_bits() as u64 | ((ray.origin.y.to_bits() as u64) << 32),
-                    ray.origin.z.to_bits() as u64 | ((ray.direction.x.to_bits() as u64) << 32),
-                    ray.direction.y.to_bits() as u64 | ((ray.direction.z.to_bits() as u64) << 32),
-                    self.ids[slot].0 as u64 | ((self.ids[slot].1 as u64) << 32),
-                ]);
-                ((h >> 40) as f32 * (1.0 / 16_777_216.0)) < alpha
-            }
-        }
+        accepts(
+            scene,
+            &scene.meshes[mi as usize],
+            flag,
+            (ti, b1, b2),
+            (ray.origin, ray.direction),
+            mi as u64 | ((ti as u64) << 32),
+            visibility,
+        )
     }
 
     /// The ray in BVH space with a unit direction, and the factor k with t_bvh = k · t_world.
@@ -548,15 +567,9 @@ impl Accel {
             let mut hit = RayHit::none();
             instanced.top.ray_traverse(top_ray, &mut hit, |r, slot| {
                 let index = instanced.slots[slot];
-                let instance = &scene.instances[index as usize];
-                let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
-                    return f32::INFINITY;
-                };
                 let t_max = found.map_or(limit, |h| h.t).min(r.tmax / k);
-                let to_object = instance.to_object_at(ray.time);
-                let origin = to_object.transform_point3(ray.origin);
-                let dir = to_object.transform_vector3(ray.direction);
-                match prototype.intersect(origin, dir, t_max, false) {
+                let instance = &scene.instances[index as usize];
+                match instanced.intersect(scene, index, ray, t_max, false, visibility) {
                     Some((t, triangle, b1, b2)) => {
                         found = Some(Hit {
                             t,
@@ -600,14 +613,8 @@ impl Accel {
             return true;
         };
         instanced.top.ray_traverse_miss(bvh_ray, |_, slot| {
-            let instance = &scene.instances[instanced.slots[slot] as usize];
-            let Some(prototype) = &instanced.prototypes[instance.prototype as usize] else {
-                return f32::INFINITY;
-            };
-            let to_object = instance.to_object_at(ray.time);
-            let origin = to_object.transform_point3(ray.origin);
-            let dir = to_object.transform_vector3(ray.direction);
-            match prototype.intersect(origin, dir, ray.t_max, true) {
+            let index = instanced.slots[slot];
+            match instanced.intersect(scene, index, ray, ray.t_max, true, Visibility::Shadow) {
                 Some((t, ..)) => t * k,
                 None => f32::INFINITY,
             }
@@ -621,12 +628,49 @@ impl Accel {
 }
 
 impl Instanced {
+    /// `ray` (world space) against instance `index`'s prototype where the instance is at the
+    /// ray's moment, up to `t_max`: (t, triangle, b1, b2) as `Prototype::intersect`, with the
+    /// alpha test and the instance's ray visibility for `visibility`.
+    fn intersect(
+        &self,
+        scene: &Scene,
+        index: u32,
+        ray: &Ray,
+        t_max: f32,
+        any: bool,
+        visibility: Visibility,
+    ) -> Option<(f32, u32, f32, f32)> {
+        let instance = &scene.instances[index as usize];
+        let prototype = self.prototypes[instance.prototype as usize].as_ref()?;
+        let to_object = instance.to_object_at(ray.time);
+        let origin = to_object.transform_point3(ray.origin);
+        let dir = to_object.transform_vector3(ray.direction);
+        let flag = instance_flag(prototype, instance);
+        let mesh = &scene.prototypes[instance.prototype as usize];
+        let accept = |ti: u32, b1, b2| {
+            flag == 0
+                || accepts(
+                    scene,
+                    mesh,
+                    flag,
+                    (ti, b1, b2),
+                    (origin, dir),
+                    index as u64 | ((ti as u64) << 32),
+                    visibility,
+                )
+        };
+        prototype.intersect(origin, dir, t_max, ray.time, any, accept)
+    }
+
     fn new(scene: &Scene, center: Vec3, scale: f32) -> Option<Instanced> {
         if scene.instances.is_empty() {
             return None;
         }
-        let prototypes: Vec<Option<Prototype>> =
-            scene.prototypes.iter().map(Prototype::new).collect();
+        let prototypes: Vec<Option<Prototype>> = scene
+            .prototypes
+            .iter()
+            .map(|m| Prototype::new(scene, m))
+            .collect();
         let local: Vec<crate::scene::Bounds> =
             scene.prototypes.iter().map(|m| m.bounds()).collect();
         let mut boxes = Vec::with_capacity(scene.instances.len());
@@ -666,6 +710,79 @@ struct BvhBox(Aabb);
 impl Boundable for BvhBox {
     fn aabb(&self) -> Aabb {
         self.0
+    }
+}
+
+/// The flags of `prototype`'s triangles as placed by `instance`: its material's alpha test
+/// and the placing object's ray visibility.
+fn instance_flag(prototype: &Prototype, instance: &crate::scene::Instance) -> u8 {
+    let mut flag = prototype.flag;
+    if !instance.camera_visible {
+        flag |= FLAG_CAMERA_HIDDEN;
+    }
+    if !instance.casts_shadows {
+        flag |= FLAG_SHADOW_HIDDEN;
+    }
+    flag
+}
+
+/// `FLAG_ALPHA_TEST` when `material`'s alpha can hide parts of its surface, else 0.
+fn alpha_flag(material: &crate::scene::Material) -> u8 {
+    if material.alpha_mode != AlphaMode::Opaque
+        && (material.base_color.w < 1.0 || material.base_color_texture.is_some())
+    {
+        FLAG_ALPHA_TEST
+    } else {
+        0
+    }
+}
+
+/// Whether a ray (`line`: origin and direction, in the mesh's space) for `visibility` may stop
+/// on `mesh` (whose flags are `flag`) at `at` = (triangle, b1, b2): the visibility flags, then
+/// the material's alpha. `id` names the triangle for the stochastic transparency of blended
+/// materials, so the decision is deterministic and the same for a shadow ray and a closest-hit
+/// ray along the same line.
+fn accepts(
+    scene: &Scene,
+    mesh: &crate::scene::Mesh,
+    flag: u8,
+    at: (u32, f32, f32),
+    line: (Vec3, Vec3),
+    id: u64,
+    visibility: Visibility,
+) -> bool {
+    if flag & FLAG_CAMERA_HIDDEN != 0 && visibility == Visibility::Camera {
+        return false;
+    }
+    if flag & FLAG_SHADOW_HIDDEN != 0 && visibility == Visibility::Shadow {
+        return false;
+    }
+    if flag & FLAG_ALPHA_TEST == 0 {
+        return true;
+    }
+    let (ti, b1, b2) = at;
+    let material = &scene.materials[mesh.material as usize];
+    let mut alpha = material.base_color.w;
+    if let (Some(tex), false) = (&material.base_color_texture, mesh.uvs.is_empty()) {
+        let idx = mesh.indices[ti as usize];
+        let uv = mesh.uvs[idx[0] as usize] * (1.0 - b1 - b2)
+            + mesh.uvs[idx[1] as usize] * b1
+            + mesh.uvs[idx[2] as usize] * b2;
+        alpha *= scene.textures[tex.texture as usize].sample(tex.apply(uv)).w;
+    }
+    match material.alpha_mode {
+        AlphaMode::Opaque => true,
+        AlphaMode::Mask { cutoff } => alpha >= cutoff,
+        AlphaMode::Blend => {
+            let (origin, direction) = line;
+            let h = hash_combine(&[
+                origin.x.to_bits() as u64 | ((origin.y.to_bits() as u64) << 32),
+                origin.z.to_bits() as u64 | ((direction.x.to_bits() as u64) << 32),
+                direction.y.to_bits() as u64 | ((direction.z.to_bits() as u64) << 32),
+                id,
+            ]);
+            ((h >> 40) as f32 * (1.0 / 16_777_216.0)) < alpha
+        }
     }
 }
 

@@ -7,7 +7,7 @@
 //! scales with the coordinates involved, which the reintersection test checks from 1e-4 to 1e5.
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
-use crate::math::{gamma, Affine3A, Frame, Mat3, Vec2, Vec3, Vec4};
+use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
 use crate::scene::nodes::{ShadingInputs, UV_SETS};
 use crate::scene::{Mesh, Scene};
 
@@ -46,23 +46,51 @@ impl SurfaceHit {
             Some(inst) => (inst.to_world_at(ray.time), inst.normal_matrix_at(ray.time)),
             None => (Affine3A::IDENTITY, Mat3::IDENTITY),
         };
-        let p = idx.map(|i| match instance {
-            Some(_) => to_world.transform_point3(mesh.positions[i as usize]),
-            None => mesh.positions[i as usize],
-        });
-        let to_world_normal = |n: Vec3| match instance {
-            Some(_) => normal_matrix * n,
-            None => n,
+        let place = |q: Vec3| match instance {
+            Some(_) => to_world.transform_point3(q),
+            None => q,
         };
-        let to_world_tangent = |t: Vec4| match instance {
-            Some(_) => to_world.transform_vector3(t.truncate()).extend(t.w),
-            None => t,
+        let p = mesh.triangle_at(hit.triangle, ray.time).map(place);
+        // A deforming mesh's normals and tangents, stored for the frame, turn with the
+        // triangle: by the rotation taking its normal at the frame to its normal now.
+        let bend = if mesh.deformation.is_empty() {
+            None
+        } else {
+            let rest = idx.map(|i| place(mesh.positions[i as usize]));
+            let n0 = (rest[1] - rest[0])
+                .cross(rest[2] - rest[0])
+                .normalize_or_zero();
+            let n1 = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            (n0 != Vec3::ZERO && n1 != Vec3::ZERO).then(|| Quat::from_rotation_arc(n0, n1))
+        };
+        let to_world_normal = |n: Vec3| {
+            let n = match instance {
+                Some(_) => normal_matrix * n,
+                None => n,
+            };
+            bend.map_or(n, |q| q * n)
+        };
+        let to_world_tangent = |t: Vec4| {
+            let v = match instance {
+                Some(_) => to_world.transform_vector3(t.truncate()),
+                None => t.truncate(),
+            };
+            let w = match instance {
+                Some(inst) if inst.mirrored => -t.w,
+                _ => t.w,
+            };
+            bend.map_or(v, |q| q * v).extend(w)
         };
         let (b1, b2) = (hit.b1, hit.b2);
         let b0 = 1.0 - b1 - b2;
         let pos = interpolate(p, b1, b2);
         let p_error = gamma(7) * ((b0 * p[0]).abs() + (b1 * p[1]).abs() + (b2 * p[2]).abs());
-        let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+        let mut cross = (p[1] - p[0]).cross(p[2] - p[0]);
+        if instance.is_some_and(|inst| inst.mirrored) {
+            // A flattened mirrored copy reverses its winding to keep the geometric normal's
+            // side; so does a mirrored instance.
+            cross = -cross;
+        }
         let len = cross.length();
         let ng = if len > 0.0 && len.is_finite() {
             cross / len
@@ -111,7 +139,7 @@ impl SurfaceHit {
             ng,
             frame,
             uv,
-            // Instances are never lights: their hits name no world-space mesh.
+            // Hits on instances name no world-space mesh (lights find them by `hit.instance`).
             mesh: if instance.is_some() {
                 u32::MAX
             } else {
@@ -138,17 +166,15 @@ impl SurfaceHit {
         } else {
             self.frame.n
         };
-        let here = node_inputs(mesh, tri, b1, b2, self.p, n, view);
+        let instance = scene.instances.get(self.hit.instance as usize);
+        let placed = instance.map(|inst| Mat3::from(inst.to_world_at(self.time).matrix3));
+        let here = node_inputs(mesh, tri, b1, b2, self.p, n, view, placed);
         if !offsets {
             return [here; 3];
         }
-        let instance = scene.instances.get(self.hit.instance as usize);
-        let idx = mesh.indices[tri as usize];
-        let w = idx.map(|i| match instance {
-            Some(inst) => inst
-                .to_world_at(self.time)
-                .transform_point3(mesh.positions[i as usize]),
-            None => mesh.positions[i as usize],
+        let w = mesh.triangle_at(tri, self.time).map(|q| match instance {
+            Some(inst) => inst.to_world_at(self.time).transform_point3(q),
+            None => q,
         });
         let (e1, e2) = (w[1] - w[0], w[2] - w[0]);
         let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
@@ -164,7 +190,7 @@ impl SurfaceHit {
             let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
             let (nb1, nb2) = (b1 + db1, b2 + db2);
             let p = self.p + db1 * e1 + db2 * e2;
-            node_inputs(mesh, tri, nb1, nb2, p, n, view)
+            node_inputs(mesh, tri, nb1, nb2, p, n, view, placed)
         };
         [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
@@ -291,8 +317,10 @@ impl View {
 }
 
 /// A node tree's inputs at barycentrics (b1, b2) of `triangle` of `mesh`, with world position
-/// `p` and unit world normal `n` (facing the viewer), seen from `view`. UVs are turned to
-/// Blender's v-up convention.
+/// `p` and unit world normal `n` (facing the viewer), seen from `view`. `placed` is the linear
+/// part of the instance's object-to-world transform at that moment when `mesh` is a prototype
+/// (`None` for a world-space mesh). UVs are turned to Blender's v-up convention.
+#[allow(clippy::too_many_arguments)]
 pub fn node_inputs(
     mesh: &Mesh,
     triangle: u32,
@@ -301,6 +329,7 @@ pub fn node_inputs(
     p: Vec3,
     n: Vec3,
     view: View,
+    placed: Option<Mat3>,
 ) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
     let mut uv = [Vec2::ZERO; UV_SETS];
@@ -317,12 +346,17 @@ pub fn node_inputs(
     let (object, generated, object_normal, object_to_world_normal) = match &mesh.object_space {
         Some(space) => {
             let o = space.to_object.transform_point3(stored);
-            // Normals go to object space by the inverse transpose (the stored positions of
-            // meshes with node trees are world positions: they are never instanced), and back
-            // by the transpose.
+            // Normals go from world to the stored positions' space (by the transpose of an
+            // instance's linear part, which takes its normals out by the inverse transpose),
+            // then to object space by the inverse transpose, and back by the transposes.
+            let (stored_n, stored_to_world) = match placed {
+                Some(m) => (m.transpose() * n, m.inverse().transpose()),
+                None => (n, Mat3::IDENTITY),
+            };
             let linear = Mat3::from(space.to_object.matrix3);
-            let on = (linear.inverse().transpose() * n).normalize_or(blender_axes(n));
-            (o, space.generated(o), on, BLENDER_AXES * linear.transpose())
+            let on = (linear.inverse().transpose() * stored_n).normalize_or(blender_axes(n));
+            let to_world = BLENDER_AXES * stored_to_world * linear.transpose();
+            (o, space.generated(o), on, to_world)
         }
         None => (
             blender_axes(p),

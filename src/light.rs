@@ -3,6 +3,11 @@
 //! its power, with `sample_light` (a direction towards a light, for next-event estimation) and the
 //! matching densities for multiple importance sampling (Veach 1997, ch. 9).
 //!
+//! An instance of an emitting prototype mesh is one light: a triangle of the prototype is
+//! picked in proportion to its object-space area, and the point drawn on it is placed where the
+//! instance is at the ray's (or photon's) moment, so moving emitters are sampled where they
+//! are; the density is the picking probability over the triangle's area at that moment.
+//!
 //! Units follow Cycles (docs/ARCHITECTURE.md): triangle and world radiance as given, point and spot
 //! intensity in W/sr, sun irradiance in W/m².
 //!
@@ -12,11 +17,12 @@
 
 use crate::interaction::{LightPoint, SurfaceHit};
 use crate::math::{luminance, Frame, Vec2, Vec3};
+use crate::math::{Affine3A, Mat3};
 use crate::sampling::{
     square_to_triangle, square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf,
     Distribution1D, Distribution2D, UNIFORM_SPHERE_PDF,
 };
-use crate::scene::{Environment, Light, Scene};
+use crate::scene::{Environment, Light, Mesh, Scene};
 use std::f32::consts::PI;
 
 /// One emitter.
@@ -26,6 +32,14 @@ pub enum LightSource {
     Triangle {
         mesh: u32,
         triangle: u32,
+        area: f32,
+        two_sided: bool,
+    },
+    /// An instance of a prototype whose material emits (`Scene::instances`): one of its
+    /// triangles, picked by `Lights::prototype_triangles`, where the instance is at the
+    /// sample's moment. `area` is its world area when still (for its share of samples).
+    Instance {
+        instance: u32,
         area: f32,
         two_sided: bool,
     },
@@ -82,6 +96,12 @@ pub struct Lights {
     select: Distribution1D,
     /// For each mesh, the index of its first triangle light (triangle lights are contiguous).
     mesh_first_light: Vec<Option<u32>>,
+    /// For each instance, its light (`LightSource::Instance`) when its prototype emits; empty
+    /// when none does.
+    instance_light: Vec<Option<u32>>,
+    /// For each prototype, the distribution that picks one of its triangles (by object-space
+    /// area) when its material emits.
+    prototype_triangles: Vec<Option<Distribution1D>>,
     /// Some light can be met by a ray: an emitting mesh, the world or a sun with a disk
     /// (checked per camera sample by the photon method, so kept, not searched).
     hittable: bool,
@@ -136,10 +156,7 @@ pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3, emission: Vec
     if !material.double_sided && wo.dot(hit.ng) <= 0.0 {
         return Vec3::ZERO;
     }
-    let spread = scene
-        .meshes
-        .get(hit.mesh as usize)
-        .and_then(|m| m.emission_spread);
+    let spread = crate::accel::hit_mesh(scene, &hit.hit).emission_spread;
     emission * spread_factor(spread, wo.dot(hit.ng).abs())
 }
 
@@ -165,26 +182,49 @@ pub struct EmitterPoint {
     pub radiance: Vec3,
 }
 
-/// Draw a point uniformly on triangle `triangle` of mesh `mesh` with `u`: the one routine both
-/// light sampling and photon emission use. A node tree's emission is evaluated as seen from
-/// `seen_from` (light sampling: the shaded point and its distance, as Cycles evaluates a sampled
-/// emitter), or head-on at distance 0 (photons leave in a direction drawn afterwards).
+/// A point drawn on an emitter (`LightSource::Triangle` or `Instance`) at some moment.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterSample {
+    pub emitter: EmitterPoint,
+    /// One over the point's density per unit area: the triangle's area divided by the
+    /// probability of picking it (an instance's triangle, at the sample's moment).
+    pub area: f32,
+    pub two_sided: bool,
+    /// The emitting mesh's area-light spread (`Mesh::emission_spread`).
+    pub spread: Option<f32>,
+}
+
+/// Draw a point uniformly on triangle `triangle` of mesh `m` with `u`: the one routine both
+/// light sampling and photon emission use. `placed` takes a prototype's triangle, deformed as
+/// at moment `time`, to world space (an instance at that moment; `None` for a world-space
+/// mesh). A node tree's
+/// emission is evaluated as seen from `seen_from` (light sampling: the shaded point and its
+/// distance, as Cycles evaluates a sampled emitter), or head-on at distance 0 (photons leave
+/// in a direction drawn afterwards).
 pub fn sample_emitter_point(
     scene: &Scene,
-    mesh: u32,
+    m: &Mesh,
     triangle: u32,
+    placed: Option<Affine3A>,
+    time: f32,
     u: Vec2,
     seen_from: Option<Vec3>,
 ) -> EmitterPoint {
-    let m = &scene.meshes[mesh as usize];
     let idx = m.indices[triangle as usize];
-    let v = idx.map(|i| m.positions[i as usize]);
+    let v = m.triangle_at(triangle, time).map(|q| match placed {
+        Some(to_world) => to_world.transform_point3(q),
+        None => q,
+    });
     let b = square_to_triangle(u);
     let b0 = 1.0 - b.x - b.y;
     let p = v[0] * b0 + v[1] * b.x + v[2] * b.y;
     let p_error =
         crate::math::gamma(6) * ((v[0] * b0).abs() + (v[1] * b.x).abs() + (v[2] * b.y).abs());
-    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    let mut n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    if placed.is_some_and(|to_world| to_world.matrix3.determinant() < 0.0) {
+        // A mirrored instance keeps the side of its winding, as `SurfaceHit::new` does.
+        n = -n;
+    }
     let uv = if m.uvs.is_empty() {
         Vec2::ZERO
     } else {
@@ -194,8 +234,12 @@ pub fn sample_emitter_point(
     let material = &scene.materials[m.material as usize];
     let radiance = match &material.nodes {
         Some(program) => {
-            let shading_n = crate::accel::interpolate(idx.map(|i| m.normals[i as usize]), b.x, b.y)
-                .normalize_or(n);
+            let linear = placed.map(|to_world| Mat3::from(to_world.matrix3));
+            let normal = |i: u32| match linear {
+                Some(l) => l.inverse().transpose() * m.normals[i as usize],
+                None => m.normals[i as usize],
+            };
+            let shading_n = crate::accel::interpolate(idx.map(normal), b.x, b.y).normalize_or(n);
             let view = match seen_from {
                 Some(o) => {
                     let wo = (o - p).normalize_or(shading_n);
@@ -218,7 +262,8 @@ pub fn sample_emitter_point(
             } else {
                 shading_n
             };
-            let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view);
+            let at =
+                crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view, linear);
             program.eval(&[at; 3], &scene.textures, 0.5).emission
         }
         None => material_emission(scene, material, uv),
@@ -254,6 +299,40 @@ impl Lights {
                 sources.push(LightSource::Triangle {
                     mesh: mi as u32,
                     triangle: ti as u32,
+                    area,
+                    two_sided: material.double_sided,
+                });
+                power.push(PI * luminance(material.emission) * area * sides);
+            }
+        }
+        let prototype_triangles: Vec<Option<Distribution1D>> = scene
+            .prototypes
+            .iter()
+            .map(|mesh| {
+                scene.materials[mesh.material as usize]
+                    .is_emissive()
+                    .then(|| Distribution1D::new(&triangle_areas(mesh)))
+            })
+            .collect();
+        let mut instance_light = Vec::new();
+        if prototype_triangles.iter().any(Option::is_some) {
+            instance_light = vec![None; scene.instances.len()];
+            for (i, instance) in scene.instances.iter().enumerate() {
+                let prototype = instance.prototype as usize;
+                let Some(triangles) = &prototype_triangles[prototype] else {
+                    continue;
+                };
+                let mesh = &scene.prototypes[prototype];
+                let material = &scene.materials[mesh.material as usize];
+                // The object-space area scaled by the transform's mean areal factor (exact for
+                // uniform scale): the share of samples only, never the density.
+                let det = Mat3::from(instance.to_world.matrix3).determinant().abs();
+                let area = triangles.total() as f32 * det.powf(2.0 / 3.0);
+                let area = if area.is_finite() { area } else { 0.0 };
+                let sides = if material.double_sided { 2.0 } else { 1.0 };
+                instance_light[i] = Some(sources.len() as u32);
+                sources.push(LightSource::Instance {
+                    instance: i as u32,
                     area,
                     two_sided: material.double_sided,
                 });
@@ -324,11 +403,15 @@ impl Lights {
         let soft_sun = suns.iter().any(
             |&s| matches!(sources[s as usize], LightSource::Sun { cos_max, .. } if cos_max < 1.0),
         );
+        let emitting_mesh = mesh_first_light.iter().any(Option::is_some)
+            || instance_light.iter().any(Option::is_some);
         Lights {
-            hittable: mesh_first_light.iter().any(Option::is_some) || world.is_some() || soft_sun,
+            hittable: emitting_mesh || world.is_some() || soft_sun,
             sources,
             select: Distribution1D::new(&power),
             mesh_first_light,
+            instance_light,
+            prototype_triangles,
             world,
             environment,
             suns,
@@ -358,32 +441,92 @@ impl Lights {
         }
     }
 
-    /// Pick a light with `u_select` and sample a direction towards it from `p`.
-    pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
-        let (index, pmf) = self.select.sample(u_select)?;
-        let mut s = self.sample_source(scene, &self.sources[index], p, u)?;
+    /// Pick a light with `u_select` and sample a direction towards it from `p`, seen at moment
+    /// `time` of the shutter (where moving emitters are then).
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        time: f32,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        let (index, pmf, u_pick) = self.select.sample_remapped(u_select)?;
+        let mut s = self.sample_source(scene, index, p, time, u_pick, u)?;
         s.pdf *= pmf;
         (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
     }
 
-    fn sample_source(
+    /// A point on emitting geometry `index` (`LightSource::Triangle` or `Instance`) drawn with
+    /// `u` at moment `time`, `u_pick` picking an instance's triangle; `seen_from` as for
+    /// `sample_emitter_point`. `None` for other lights and degenerate triangles.
+    pub fn sample_emitter(
         &self,
         scene: &Scene,
-        source: &LightSource,
-        p: Vec3,
+        index: usize,
+        u_pick: f32,
         u: Vec2,
-    ) -> Option<LightSample> {
-        match *source {
+        time: f32,
+        seen_from: Option<Vec3>,
+    ) -> Option<EmitterSample> {
+        match self.sources[index] {
             LightSource::Triangle {
                 mesh,
                 triangle,
                 area,
                 two_sided,
             } => {
-                if area <= 0.0 {
-                    return None;
-                }
-                let emitter = sample_emitter_point(scene, mesh, triangle, u, Some(p));
+                let m = &scene.meshes[mesh as usize];
+                (area > 0.0).then(|| EmitterSample {
+                    emitter: sample_emitter_point(scene, m, triangle, None, time, u, seen_from),
+                    area,
+                    two_sided,
+                    spread: m.emission_spread,
+                })
+            }
+            LightSource::Instance {
+                instance,
+                two_sided,
+                ..
+            } => {
+                let instance = &scene.instances[instance as usize];
+                let prototype = instance.prototype as usize;
+                let (triangle, pmf) = self.prototype_triangles[prototype]
+                    .as_ref()?
+                    .sample(u_pick)?;
+                let m = &scene.prototypes[prototype];
+                let to_world = instance.to_world_at(time);
+                let area = placed_area(m, triangle as u32, to_world, time);
+                let (triangle, placed) = (triangle as u32, Some(to_world));
+                let emitter = sample_emitter_point(scene, m, triangle, placed, time, u, seen_from);
+                (area > 0.0 && pmf > 0.0).then_some(EmitterSample {
+                    emitter,
+                    area: area / pmf,
+                    two_sided,
+                    spread: m.emission_spread,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    fn sample_source(
+        &self,
+        scene: &Scene,
+        index: usize,
+        p: Vec3,
+        time: f32,
+        u_pick: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        match self.sources[index] {
+            LightSource::Triangle { .. } | LightSource::Instance { .. } => {
+                let EmitterSample {
+                    emitter,
+                    area,
+                    two_sided,
+                    spread,
+                } = self.sample_emitter(scene, index, u_pick, u, time, Some(p))?;
                 let (q, n) = (emitter.point.p, emitter.point.n);
                 let d = q - p;
                 let dist2 = d.length_squared();
@@ -399,7 +542,7 @@ impl Lights {
                 if cos_l <= 0.0 {
                     return None;
                 }
-                let spread = spread_factor(scene.meshes[mesh as usize].emission_spread, cos_l);
+                let spread = spread_factor(spread, cos_l);
                 if spread <= 0.0 {
                     return None;
                 }
@@ -492,7 +635,10 @@ impl Lights {
 
     /// Solid-angle density with which `sample` would have chosen the point `hit` on an emissive
     /// triangle, seen from `p` (for MIS when a BSDF-sampled ray hits an emitter).
-    pub fn triangle_pdf(&self, p: Vec3, hit: &SurfaceHit) -> f32 {
+    pub fn triangle_pdf(&self, scene: &Scene, p: Vec3, hit: &SurfaceHit) -> f32 {
+        if hit.hit.instance != crate::accel::NO_INSTANCE {
+            return self.instance_triangle_pdf(scene, p, hit);
+        }
         let Some(first) = self
             .mesh_first_light
             .get(hit.mesh as usize)
@@ -512,6 +658,33 @@ impl Lights {
             return 0.0;
         }
         self.select.pmf(index) * dist2 / (cos_l * area)
+    }
+
+    /// `triangle_pdf` of a point on an instance: the instance's share, its triangle's, and the
+    /// triangle's area where the instance is at the hit's moment.
+    fn instance_triangle_pdf(&self, scene: &Scene, p: Vec3, hit: &SurfaceHit) -> f32 {
+        let Some(index) = self
+            .instance_light
+            .get(hit.hit.instance as usize)
+            .copied()
+            .flatten()
+        else {
+            return 0.0;
+        };
+        let instance = &scene.instances[hit.hit.instance as usize];
+        let Some(triangles) = &self.prototype_triangles[instance.prototype as usize] else {
+            return 0.0;
+        };
+        let mesh = &scene.prototypes[instance.prototype as usize];
+        let area = placed_area(mesh, hit.triangle, instance.to_world_at(hit.time), hit.time);
+        let d = hit.p - p;
+        let dist2 = d.length_squared();
+        let cos_l = (d.normalize_or_zero().dot(hit.ng)).abs();
+        if !(area > 0.0) || cos_l <= 0.0 {
+            return 0.0;
+        }
+        self.select.pmf(index as usize) * triangles.pmf(hit.triangle as usize) * dist2
+            / (cos_l * area)
     }
 
     /// Radiance of distant emitters (world and soft suns) seen along `dir`, each paired with its
@@ -570,6 +743,31 @@ impl Lights {
     pub fn scene_sphere(&self) -> (Vec3, f32) {
         (self.scene_center, self.scene_radius)
     }
+}
+
+/// Area of the triangle `p`; zero when not finite.
+fn area(p: [Vec3; 3]) -> f32 {
+    let a = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+    if a.is_finite() {
+        a
+    } else {
+        0.0
+    }
+}
+
+/// Areas of `mesh`'s triangles in its own space.
+fn triangle_areas(mesh: &Mesh) -> Vec<f32> {
+    (mesh.indices.iter())
+        .map(|idx| area(idx.map(|i| mesh.positions[i as usize])))
+        .collect()
+}
+
+/// Area of `mesh`'s triangle `triangle` deformed as at `time` and placed by `to_world`.
+fn placed_area(mesh: &Mesh, triangle: u32, to_world: Affine3A, time: f32) -> f32 {
+    area(
+        mesh.triangle_at(triangle, time)
+            .map(|q| to_world.transform_point3(q)),
+    )
 }
 
 /// Direction towards a point or spot light seen from `p`, with the factor that turns its

@@ -258,6 +258,12 @@ fn summarise(scene: &Scene) -> SceneSummary {
             lights.emissive_triangles += mesh.indices.len();
         }
     }
+    for instance in &scene.instances {
+        let mesh = &scene.prototypes[instance.prototype as usize];
+        if scene.materials[mesh.material as usize].is_emissive() {
+            lights.emissive_triangles += mesh.indices.len();
+        }
+    }
     for light in &scene.lights {
         match light {
             Light::Point { .. } => lights.point += 1,

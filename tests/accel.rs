@@ -28,6 +28,7 @@ fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
         casts_shadows: true,
         colors: Vec::new(),
         object_space: None,
+        deformation: Vec::new(),
     };
     scenes::scene(
         vec![mesh],

@@ -460,17 +460,23 @@ fn hierarchy_transforms_are_flattened_to_world_space() {
         (instance.normal_matrix * prototype.normals[0]).normalize(),
         Vec3::Z
     ));
-    // Flattened (a node with its own ray visibility is never an instance): the same place.
-    doc.json["nodes"][child]["extensions"] = json!({"PHOTON_object": {"visible_shadow": true}});
+    // A node with its own ray visibility is an instance carrying it.
+    doc.json["nodes"][child]["extensions"] = json!({"PHOTON_object": {"visible_shadow": false}});
+    let scene = load_glb(&doc).unwrap();
+    assert_eq!(scene.instances.len(), 2);
+    assert!(scene.instances[0].casts_shadows && scene.instances[0].camera_visible);
+    assert!(!scene.instances[1].casts_shadows && scene.instances[1].camera_visible);
+    // Flattened (a mirrored copy is never an instance): the same place, mirrored in x.
+    doc.json["nodes"][child]["scale"] = json!([-2.0, 2.0, 2.0]);
     let scene = load_glb(&doc).unwrap();
     let m = &scene.meshes[scene.meshes.len() - 1];
+    // Vertex (1, 0, 0): scale → (−2, 0, 0), translate → (−2, 0, 1), rotate → (0, −2, 1).
     assert!(
-        close(m.positions[1], Vec3::new(1.0, 4.0, 4.0)),
+        close(m.positions[1], Vec3::new(1.0, 0.0, 4.0)),
         "{:?}",
         m.positions[1]
     );
     assert!(close(m.positions[0], Vec3::new(1.0, 2.0, 4.0)));
-    assert!(close(m.normals[0], Vec3::Z));
 }
 
 #[test]
@@ -1512,11 +1518,10 @@ fn instanced_triangle_totals_are_refused_before_any_geometry_is_read() {
                           "values": {"bufferView": sparse_values}}}),
     );
     doc.json["meshes"][0]["primitives"][0]["indices"] = json!(indices);
-    // Copies with their own ray visibility are flattened, so each counts.
+    // Mirrored copies are flattened, so each counts.
     for i in 0..40 {
         doc.node(
-            json!({"name": format!("Copy{i}"), "mesh": 0,
-                   "extensions": {"PHOTON_object": {"visible_camera": true}}}),
+            json!({"name": format!("Copy{i}"), "mesh": 0, "scale": [-1.0, 1.0, 1.0]}),
             true,
         );
     }

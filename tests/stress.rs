@@ -146,6 +146,7 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
         casts_shadows: true,
         colors: Vec::new(),
         object_space: None,
+        deformation: Vec::new(),
     }
 }
 

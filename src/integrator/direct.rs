@@ -22,7 +22,7 @@ pub fn sample_direct(
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
     let (choice, point) = rng.uniform3();
-    let Some(ls) = ctx.lights.sample(ctx.scene, at.p, choice, point) else {
+    let Some(ls) = ctx.lights.sample(ctx.scene, at.p, at.time, choice, point) else {
         return Vec3::ZERO;
     };
     if ls.li == Vec3::ZERO {
@@ -71,7 +71,7 @@ impl Previous {
         if self.delta {
             1.0
         } else {
-            power_heuristic(self.pdf, ctx.lights.triangle_pdf(self.p, hit))
+            power_heuristic(self.pdf, ctx.lights.triangle_pdf(ctx.scene, self.p, hit))
         }
     }
 }

@@ -108,9 +108,17 @@
 //! - `PHOTON_object` may also carry `"motion": [m0, m1, ...]`: two or more column-major 4 × 4
 //!   world matrices (glTF axes) of the node at evenly spaced moments from the shutter's opening
 //!   to its closing (Blender's motion blur). Its mesh becomes a prototype placed by an instance
-//!   that each ray meets where it is at the ray's moment (`scene::Instance::motion`); a mesh
-//!   that cannot be instanced (emissive, specular, transmissive or translucent materials, a
-//!   node tree) stays at the node's own transform, with a warning.
+//!   that each ray meets where it is at the ray's moment (`scene::Instance::motion`), whatever
+//!   its material; the node's descendants without poses of their own move with it (Geometry
+//!   Nodes and particle instances under a moving object), mirrored or not. A node under a
+//!   singular transform stays at its own transform, with a warning.
+//! - `PHOTON_object` may also carry `"deform": {"frame": b64, "steps": [b64, ...]}`, a
+//!   deforming mesh (Cycles' deformation blur): its object's vertices at the frame and at two
+//!   or more evenly spaced moments from the shutter's opening to its closing, each base64 of
+//!   little-endian f32 triples in object space (glTF axes). The mesh becomes a prototype
+//!   (`scene::Mesh::deformation`); each glTF vertex is found by its exact position among the
+//!   frame's (a primitive with a vertex not found stays still, with a warning). Malformed
+//!   data is refused with an error.
 //!
 //! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
 //! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree
@@ -133,11 +141,11 @@
 //! set 0 only for glTF's textures (node trees read `TEXCOORD_0` to `_3`). Vertex attributes must have the component types glTF allows (integers only
 //! with KHR_mesh_quantization, normalized UVs also without).
 //!
-//! A mesh placed by two or more nodes whose materials are plain (opaque, not emissive,
-//! translucent, transmissive or specular: roughness ≥ `INSTANCE_MIN_ROUGHNESS`; no node
-//! tree) is stored once as a prototype (`Scene::prototypes`) and placed by
-//! `Scene::instances`, counted once against the limits. Copies under a mirroring or singular
-//! transform, or with their own `PHOTON_object` ray visibility, and every other mesh are flattened to world space; under a mirroring
+//! A mesh placed by two or more nodes, whatever its materials, is stored once as a prototype
+//! (`Scene::prototypes`) and placed by `Scene::instances` (each with its node's
+//! `PHOTON_object` ray visibility), counted once against the limits. Still copies under a
+//! mirroring or singular transform and every other mesh are flattened to world space (a
+//! moving mirrored copy is a mirrored instance: `scene::Instance::mirrored`); under a mirroring
 //! transform the triangle winding is flipped and the tangent's w (bitangent sign) is negated,
 //! so both the geometric normal and the tangent frame keep their meaning.
 //!
@@ -200,10 +208,6 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_texture_webp",
 ];
 
-/// Materials rougher than this (perceptual roughness) are never specular for the photon
-/// method's caustic aiming, so meshes made of them may be instanced.
-const INSTANCE_MIN_ROUGHNESS: f32 = 0.3;
-
 /// Segments of the fan that approximates disk and ellipse area lights.
 const AREA_LIGHT_SEGMENTS: usize = 32;
 
@@ -261,6 +265,20 @@ struct DecodedImage {
     /// As stored: `Texels::Linear` holds 16-bit and float values still sRGB-encoded when the
     /// texture is (`push_texture` decodes them).
     texels: Texels,
+}
+
+/// Where a node's parent is: its world matrix, and its poses over the shutter when it moves
+/// (empty: still).
+struct Placement {
+    world: Mat4,
+    motion: Vec<Affine3A>,
+}
+
+impl Placement {
+    const ROOT: Placement = Placement {
+        world: Mat4::IDENTITY,
+        motion: Vec::new(),
+    };
 }
 
 /// A camera found while walking the node tree.
@@ -456,7 +474,7 @@ impl Loader {
             self.check_sizes(gltf_scene)?;
             for node in gltf_scene.nodes() {
                 let mut ancestors = Vec::new();
-                self.visit_node(&node, Mat4::IDENTITY, &mut ancestors, &mut cameras)?;
+                self.visit_node(&node, Placement::ROOT, &mut ancestors, &mut cameras)?;
             }
             self.read_scene_extensions(gltf_scene)?;
         } else {
@@ -494,24 +512,19 @@ impl Loader {
             }
             per_mesh.insert(mesh.index(), (triangles, vertices));
         }
-        // Meshes placed by two or more nodes, with materials nothing but the BVH needs to
-        // know about, become prototypes: stored once, placed by instances.
+        // Meshes placed by two or more nodes become prototypes: stored once, placed by
+        // instances.
+        // So do meshes of nodes that move while the shutter is open (or whose ancestors do): an
+        // instance is placed per ray, at the ray's moment.
         let mut uses: HashMap<usize, usize> = HashMap::new();
+        let mut moving = std::collections::HashSet::new();
         let mut visited = 0;
         for node in gltf_scene.nodes() {
-            count_mesh_uses(&node, &mut uses, 0, &mut visited);
+            count_mesh_uses(&node, &mut uses, &mut moving, false, 0, &mut visited);
         }
-        // So do meshes of nodes that move while the shutter is open: an instance is placed
-        // per ray, at the ray's moment.
-        let moving: std::collections::HashSet<usize> = self
-            .document
-            .nodes()
-            .filter(|n| moves(n))
-            .filter_map(|n| n.mesh().map(|m| m.index()))
-            .collect();
         self.instanced_meshes = uses
             .into_iter()
-            .filter(|&(mesh, n)| (n >= 2 || moving.contains(&mesh)) && self.instanceable(mesh))
+            .filter(|&(mesh, n)| n >= 2 || moving.contains(&mesh))
             .map(|(mesh, _)| mesh)
             .collect();
         let mut totals = SizeTotals::default();
@@ -521,47 +534,17 @@ impl Loader {
         Ok(())
     }
 
-    /// Whether a glTF mesh may be a prototype: every primitive's material is opaque, neither
-    /// emissive nor translucent nor transmissive, and rough (never specular), so that only the
-    /// BVH and the shading point need its instances.
-    fn instanceable(&self, mesh_index: usize) -> bool {
-        let Some(mesh) = self.document.meshes().nth(mesh_index) else {
-            return false;
-        };
-        mesh.primitives().all(|p| {
-            let plain_default = Material::default();
-            let m = match p.material().index() {
-                Some(i) => match self.scene.materials.get(i) {
-                    Some(m) => m,
-                    None => return false,
-                },
-                None => &plain_default,
-            };
-            !m.is_emissive()
-                && !m.is_translucent()
-                && m.transmission == 0.0
-                && m.transmission_texture.is_none()
-                && m.alpha_mode == AlphaMode::Opaque
-                && m.roughness >= INSTANCE_MIN_ROUGHNESS
-                && m.metallic_roughness_texture.is_none()
-                // A node tree may be glossy or transmissive anywhere: kept out, to be safe.
-                && m.nodes.is_none()
-        })
-    }
-
-    /// Whether `node` places its mesh as an instance: an instanced mesh, a transform that is
-    /// invertible and not mirrored, no per-object ray visibility.
-    fn places_instance(&self, node: &gltf::Node, world: &Mat4) -> bool {
+    /// Whether `node` places its mesh as an instance: an instanced mesh and a transform that
+    /// is invertible and, unless the node `moving`, not mirrored (still mirrored copies are
+    /// flattened, moving ones are mirrored instances).
+    fn places_instance(&self, node: &gltf::Node, world: &Mat4, moving: bool) -> bool {
         let Some(mesh) = node.mesh() else {
             return false;
         };
         let det = Mat3::from_mat4(*world).determinant();
         self.instanced_meshes.contains(&mesh.index())
-            && det > 0.0
             && det.is_finite()
-            && node.extension_value("PHOTON_object").is_none_or(|v| {
-                v.get("visible_camera").is_none() && v.get("visible_shadow").is_none()
-            })
+            && (det > 0.0 || (moving && det < 0.0))
     }
 
     /// The checks `read_accessor` makes before allocating, without reading: the elements fit
@@ -622,7 +605,8 @@ impl Loader {
         if let Some(mesh) = node.mesh() {
             let (mut triangles, mut vertices) =
                 per_mesh.get(&mesh.index()).copied().unwrap_or_default();
-            if world.is_finite() && self.places_instance(node, &world) {
+            // Moving mirrored nodes are counted as flattened: an upper bound.
+            if world.is_finite() && self.places_instance(node, &world, false) {
                 // Stored once, however many instances place it.
                 if !totals.counted_prototypes.insert(mesh.index()) {
                     (triangles, vertices) = (0, 0);
@@ -660,7 +644,7 @@ impl Loader {
     fn visit_node(
         &mut self,
         node: &gltf::Node,
-        parent: Mat4,
+        parent: Placement,
         ancestors: &mut Vec<usize>,
         cameras: &mut Vec<FoundCamera>,
     ) -> Result<()> {
@@ -681,18 +665,33 @@ impl Loader {
                 format!("the hierarchy instances more than {MAX_NODE_INSTANCES} nodes"),
             ));
         }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent.world * local;
         if !world.is_finite() {
             return Err(self.err(object, "transform is NaN or infinite"));
         }
+        // Its own poses over the shutter (world matrices), or its moving parent's carrying it.
+        let motion = match node
+            .extension_value("PHOTON_object")
+            .and_then(|v| v.get("motion"))
+        {
+            Some(poses) => {
+                read_poses(poses).map_err(|m| self.err(format!("{object} PHOTON_object"), m))?
+            }
+            None => parent
+                .motion
+                .iter()
+                .map(|pose| *pose * Affine3A::from_mat4(local))
+                .collect(),
+        };
         if let Some(mesh) = node.mesh() {
-            if self.places_instance(node, &world) {
-                self.add_instance(node, &mesh, &world)?;
+            if self.places_instance(node, &world, !motion.is_empty()) {
+                self.add_instance(node, &mesh, &world, &motion)?;
             } else {
-                if moves(node) {
+                if !motion.is_empty() || moves(node) {
                     self.scene.warnings.push(format!(
-                        "{object}: motion blur is not rendered for it (only meshes of opaque, \
-                         rough, non-emissive materials are placed per moment)"
+                        "{object}: motion blur is not rendered for it (a singular transform: \
+                         only invertible ones are placed per moment)"
                     ));
                 }
                 self.add_mesh(node, &mesh, &world, false)?;
@@ -739,7 +738,11 @@ impl Loader {
         self.add_lights(node, &world)?;
         ancestors.push(node.index());
         for child in node.children() {
-            self.visit_node(&child, world, ancestors, cameras)?;
+            let placement = Placement {
+                world,
+                motion: motion.clone(),
+            };
+            self.visit_node(&child, placement, ancestors, cameras)?;
         }
         ancestors.pop();
         Ok(())
@@ -748,7 +751,14 @@ impl Loader {
     // ----- meshes -------------------------------------------------------------------------
 
     /// Place `mesh` by `world` as instances of its prototypes (built on first use).
-    fn add_instance(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: &Mat4) -> Result<()> {
+    /// `motion` holds its poses over the shutter (empty: still).
+    fn add_instance(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        world: &Mat4,
+        motion: &[Affine3A],
+    ) -> Result<()> {
         if !self.prototype_ids.contains_key(&mesh.index()) {
             let first = self.scene.prototypes.len() as u32;
             self.add_mesh(node, mesh, &Mat4::IDENTITY, true)?;
@@ -756,22 +766,31 @@ impl Loader {
             self.prototype_ids.insert(mesh.index(), ids);
         }
         let to_world = Affine3A::from_mat4(*world);
-        let motion = match node
-            .extension_value("PHOTON_object")
-            .and_then(|v| v.get("motion"))
-        {
-            None => Vec::new(),
-            Some(poses) => read_poses(poses).map_err(|m| {
-                let object = named("node", node.index(), node.name());
-                self.err(format!("{object} PHOTON_object"), m)
-            })?,
-        };
+        let (camera_visible, casts_shadows) = self.visibility(node)?;
         for &prototype in &self.prototype_ids[&mesh.index()] {
             let mut instance = super::Instance::new(prototype, to_world);
-            instance.motion.clone_from(&motion);
+            instance.motion = motion.to_vec();
+            instance.camera_visible = camera_visible;
+            instance.casts_shadows = casts_shadows;
             self.scene.instances.push(instance);
         }
         Ok(())
+    }
+
+    /// `PHOTON_object`'s camera and shadow ray visibility of `node` (default: both true).
+    fn visibility(&self, node: &gltf::Node) -> Result<(bool, bool)> {
+        let Some(v) = node.extension_value("PHOTON_object") else {
+            return Ok((true, true));
+        };
+        let flag = |key: &str| match v.get(key) {
+            None => Ok(true),
+            Some(Value::Bool(b)) => Ok(*b),
+            Some(other) => Err(self.err(
+                format!("{} PHOTON_object", named("node", node.index(), node.name())),
+                format!("'{key}' must be true or false, found {other}"),
+            )),
+        };
+        Ok((flag("visible_camera")?, flag("visible_shadow")?))
     }
 
     /// Read `mesh`'s primitives placed by `world` into `Scene::meshes`, or with the identity
@@ -790,19 +809,18 @@ impl Loader {
         let linear = Mat3::from_mat4(*world);
         let normal_matrix = linear.inverse().transpose();
         let mirrored = linear.determinant() < 0.0;
-        let visibility = match node.extension_value("PHOTON_object") {
-            None => (true, true),
-            Some(v) => {
-                let flag = |key: &str| match v.get(key) {
-                    None => Ok(true),
-                    Some(Value::Bool(b)) => Ok(*b),
-                    Some(other) => Err(self.err(
-                        format!("{} PHOTON_object", named("node", node.index(), node.name())),
-                        format!("'{key}' must be true or false, found {other}"),
-                    )),
-                };
-                (flag("visible_camera")?, flag("visible_shadow")?)
-            }
+        let visibility = self.visibility(node)?;
+        let deform = match node
+            .extension_value("PHOTON_object")
+            .and_then(|v| v.get("deform"))
+        {
+            Some(value) if prototype => Some(read_deform(value).map_err(|m| {
+                self.err(
+                    format!("{} PHOTON_object", named("node", node.index(), node.name())),
+                    m,
+                )
+            })?),
+            _ => None,
         };
         for primitive in mesh.primitives() {
             let object = format!("{mesh_name} primitive {}", primitive.index());
@@ -954,6 +972,7 @@ impl Loader {
                 casts_shadows,
                 colors,
                 object_space,
+                deformation: Vec::new(),
             };
             match normals {
                 Some(normals) => {
@@ -970,6 +989,15 @@ impl Loader {
                 None => make_flat(&mut out),
             }
             if prototype {
+                if let Some((frame, steps)) = &deform {
+                    match deformation_of(&positions, frame, steps) {
+                        Some(deformation) => out.deformation = deformation,
+                        None => self.scene.warnings.push(format!(
+                            "{object}: its deformation is not blurred (its vertices are not \
+                             those of PHOTON_object's \"deform\" frame)"
+                        )),
+                    }
+                }
                 self.scene.prototypes.push(out);
             } else {
                 self.scene.meshes.push(out);
@@ -1949,6 +1977,7 @@ impl Loader {
             casts_shadows: true,
             colors: Vec::new(),
             object_space: None,
+            deformation: Vec::new(),
         });
         Ok(())
     }
@@ -2243,12 +2272,15 @@ impl Loader {
     }
 }
 
-/// How many node instances place each mesh. Stops after `MAX_NODE_INSTANCES` nodes or at
+/// How many node instances place each mesh, and which meshes move while the shutter is open
+/// (placed by a node with a `motion` or under one). Stops after `MAX_NODE_INSTANCES` nodes or at
 /// `MAX_NODE_DEPTH` (cycles and depth are refused by `Loader::count_node`, which walks the same
 /// hierarchy next).
 fn count_mesh_uses(
     node: &gltf::Node,
     uses: &mut HashMap<usize, usize>,
+    moving: &mut std::collections::HashSet<usize>,
+    moving_above: bool,
     depth: usize,
     visited: &mut usize,
 ) {
@@ -2256,11 +2288,15 @@ fn count_mesh_uses(
     if depth >= MAX_NODE_DEPTH || *visited > MAX_NODE_INSTANCES {
         return;
     }
+    let moves = moving_above || moves(node);
     if let Some(mesh) = node.mesh() {
         *uses.entry(mesh.index()).or_default() += 1;
+        if moves {
+            moving.insert(mesh.index());
+        }
     }
     for child in node.children() {
-        count_mesh_uses(&child, uses, depth + 1, visited);
+        count_mesh_uses(&child, uses, moving, moves, depth + 1, visited);
     }
 }
 
@@ -2422,10 +2458,72 @@ fn read_poses(value: &Value) -> std::result::Result<Vec<Affine3A>, String> {
         .collect()
 }
 
-/// Whether `node` moves while the shutter is open (`PHOTON_object` "motion").
+/// Whether `node` moves or deforms while the shutter is open (`PHOTON_object` "motion" or
+/// "deform").
 fn moves(node: &gltf::Node) -> bool {
     node.extension_value("PHOTON_object")
-        .is_some_and(|v| v.get("motion").is_some())
+        .is_some_and(|v| v.get("motion").is_some() || v.get("deform").is_some())
+}
+
+/// `PHOTON_object`'s "deform": the positions of the object's vertices at the frame, and at
+/// two or more steps of the shutter, each base64 little-endian f32 triples (glTF axes, object
+/// space).
+fn read_deform(value: &Value) -> std::result::Result<(Vec<Vec3>, Vec<Vec<Vec3>>), String> {
+    let positions = |v: &Value| -> std::result::Result<Vec<Vec3>, String> {
+        let bytes = v
+            .as_str()
+            .and_then(decode_base64)
+            .filter(|b| b.len() % 12 == 0)
+            .ok_or("'deform' positions must be base64 of little-endian float triples")?;
+        let floats: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let out: Vec<Vec3> = floats.chunks_exact(3).map(Vec3::from_slice).collect();
+        match out.iter().all(|p| p.is_finite()) {
+            true => Ok(out),
+            false => Err("a 'deform' position is NaN or infinite".into()),
+        }
+    };
+    let frame = positions(value.get("frame").ok_or("'deform' needs its 'frame'")?)?;
+    let steps = value
+        .get("steps")
+        .and_then(Value::as_array)
+        .filter(|s| s.len() >= 2)
+        .ok_or("'deform' needs 'steps', a list of two or more")?
+        .iter()
+        .map(positions)
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    if steps.iter().any(|s| s.len() != frame.len()) {
+        return Err("every 'deform' step must hold as many positions as 'frame'".into());
+    }
+    Ok((frame, steps))
+}
+
+/// A primitive's deformation: each of its vertices (`positions`) found by its exact position
+/// among the object's vertices at the frame, then its place at each step; `None` when a
+/// vertex is not among them.
+fn deformation_of(
+    positions: &[Vec3],
+    frame: &[Vec3],
+    steps: &[Vec<Vec3>],
+) -> Option<Vec<Vec<Vec3>>> {
+    // −0.0 + 0.0 is +0.0: both zeros are one key.
+    let key = |p: Vec3| (p + Vec3::ZERO).to_array().map(f32::to_bits);
+    let mut index: HashMap<[u32; 3], usize> = HashMap::with_capacity(frame.len());
+    for (i, &p) in frame.iter().enumerate() {
+        index.entry(key(p)).or_insert(i);
+    }
+    let found: Vec<usize> = positions
+        .iter()
+        .map(|&p| index.get(&key(p)).copied())
+        .collect::<Option<_>>()?;
+    Some(
+        steps
+            .iter()
+            .map(|step| found.iter().map(|&i| step[i]).collect())
+            .collect(),
+    )
 }
 
 /// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.

@@ -49,6 +49,12 @@ pub struct Mesh {
     /// The Blender object the mesh belongs to, for node trees' Object and Generated
     /// coordinates; `None` reads world positions for both.
     pub object_space: Option<ObjectSpace>,
+    /// Deformation blur (armatures, shape keys; our `PHOTON_object` "deform"): the stored
+    /// positions at evenly spaced moments from the shutter's opening to its closing, each as
+    /// long as `positions`; rays meet the triangles interpolated linearly between the two
+    /// nearest. Empty: the mesh keeps `positions`, which are always those of the frame (and
+    /// what textures read). Only prototypes deform.
+    pub deformation: Vec<Vec<Vec3>>,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
@@ -81,7 +87,8 @@ impl ObjectSpace {
 pub struct Instance {
     /// Index into `Scene::prototypes`.
     pub prototype: u32,
-    /// Object space → world space (not mirrored: mirrored copies are flattened).
+    /// Object space → world space (mirrored only for moving copies: still mirrored copies are
+    /// flattened).
     pub to_world: Affine3A,
     /// World space → object space (the inverse of `to_world`).
     pub to_object: Affine3A,
@@ -91,6 +98,13 @@ pub struct Instance {
     /// closing (Blender's motion blur; our `PHOTON_object` "motion"); empty: still at
     /// `to_world`.
     pub motion: Vec<Affine3A>,
+    /// `to_world` mirrors (negative determinant): the triangles' winding normals and the
+    /// tangents' handedness are flipped in world space, as for a flattened mirrored copy.
+    pub mirrored: bool,
+    /// Seen by camera rays (Blender's camera ray visibility of the placing object).
+    pub camera_visible: bool,
+    /// Blocks shadow rays (Blender's shadow ray visibility of the placing object).
+    pub casts_shadows: bool,
 }
 
 impl Instance {
@@ -103,6 +117,9 @@ impl Instance {
             to_object: to_world.inverse(),
             normal_matrix: linear.inverse().transpose(),
             motion: Vec::new(),
+            mirrored: linear.determinant() < 0.0,
+            camera_visible: true,
+            casts_shadows: true,
         }
     }
 
@@ -575,8 +592,9 @@ pub struct SceneRenderSettings {
 pub struct Scene {
     /// World-space meshes.
     pub meshes: Vec<Mesh>,
-    /// Object-space meshes placed by `instances` (plain opaque, non-emissive, non-translucent,
-    /// non-specular materials only, so lights, subsurface and caustic aiming never see them).
+    /// Object-space meshes placed by `instances`, of any material: lights (`crate::light`),
+    /// photon emission, subsurface and caustic aiming see each instance where it is at a
+    /// ray's or photon's moment.
     pub prototypes: Vec<Mesh>,
     pub instances: Vec<Instance>,
     pub materials: Vec<Material>,
@@ -594,13 +612,32 @@ pub struct Scene {
 }
 
 impl Mesh {
-    /// Bounds of the mesh's vertices (in its own space).
+    /// Bounds of the mesh's vertices (in its own space), at every step of its deformation.
     pub fn bounds(&self) -> Bounds {
         let mut b = Bounds::EMPTY;
-        for &p in &self.positions {
+        for &p in self
+            .positions
+            .iter()
+            .chain(self.deformation.iter().flatten())
+        {
             b.grow(p);
         }
         b
+    }
+
+    /// The stored positions of triangle `t`'s vertices at `time` ∈ [0, 1] of the shutter:
+    /// interpolated between the deformation's two nearest steps, or `positions`.
+    pub fn triangle_at(&self, t: u32, time: f32) -> [Vec3; 3] {
+        let idx = self.indices[t as usize];
+        let last = self.deformation.len().saturating_sub(1);
+        if last == 0 {
+            return idx.map(|i| self.positions[i as usize]);
+        }
+        let x = time.clamp(0.0, 1.0) * last as f32;
+        let k = (x.floor() as usize).min(last - 1);
+        let f = x - k as f32;
+        let (a, b) = (&self.deformation[k], &self.deformation[k + 1]);
+        idx.map(|i| a[i as usize].lerp(b[i as usize], f))
     }
 }
 
@@ -710,9 +747,11 @@ impl Scene {
                 .sum::<usize>()
     }
 
-    /// Whether some instance moves while the shutter is open (`Instance::motion`).
+    /// Whether some instance moves or deforms while the shutter is open (`Instance::motion`,
+    /// `Mesh::deformation`).
     pub fn has_motion(&self) -> bool {
         self.instances.iter().any(|i| !i.motion.is_empty())
+            || self.prototypes.iter().any(|m| !m.deformation.is_empty())
     }
 
     /// Triangles stored: world-space meshes and prototypes (each once).
@@ -787,6 +826,17 @@ impl Scene {
             {
                 return Err(format!(
                     "mesh {mi} '{}': triangle {t:?} indexes past {n} vertices",
+                    m.name
+                ));
+            }
+            if m.deformation.len() == 1
+                || m.deformation.iter().any(|step| step.len() != n)
+                || m.deformation.iter().flatten().any(|p| !p.is_finite())
+                || (!m.deformation.is_empty() && mi < self.meshes.len())
+            {
+                return Err(format!(
+                    "mesh {mi} '{}': a deformation needs two or more steps of {n} finite \
+                     positions, on a prototype",
                     m.name
                 ));
             }

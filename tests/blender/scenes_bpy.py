@@ -99,6 +99,40 @@ def hdri_scene(rotation_z_deg=30.0):
     return scene
 
 
+def instance_on_points(obj, instanced, *, rotation_max=None, rise_with_time=False):
+    """Give `obj` a Geometry Nodes modifier that instances `instanced` on its points (Instance
+    on Points), turned by random angles up to `rotation_max` (x, y, z) when given, and with
+    the points rising by the scene time in seconds with `rise_with_time`."""
+    modifier = obj.modifiers.new("Scatter", "NODES")
+    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
+    modifier.node_group = tree
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    group_in = tree.nodes.new("NodeGroupInput")
+    group_out = tree.nodes.new("NodeGroupOutput")
+    on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    info = tree.nodes.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value = instanced
+    points = group_in.outputs["Geometry"]
+    if rise_with_time:
+        time = tree.nodes.new("GeometryNodeInputSceneTime")
+        rise = tree.nodes.new("ShaderNodeCombineXYZ")
+        lift = tree.nodes.new("GeometryNodeSetPosition")
+        tree.links.new(time.outputs["Seconds"], rise.inputs["Z"])
+        tree.links.new(rise.outputs["Vector"], lift.inputs["Offset"])
+        tree.links.new(points, lift.inputs["Geometry"])
+        points = lift.outputs["Geometry"]
+    tree.links.new(points, on_points.inputs["Points"])
+    tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
+    if rotation_max is not None:
+        rotate = tree.nodes.new("FunctionNodeRandomValue")
+        rotate.data_type = "FLOAT_VECTOR"
+        rotate.inputs["Max"].default_value = rotation_max
+        tree.links.new(rotate.outputs["Value"], on_points.inputs["Rotation"])
+    tree.links.new(on_points.outputs["Instances"], group_out.inputs["Geometry"])
+    return modifier
+
+
 def render(scene, engine: str, path: Path, samples: int) -> np.ndarray:
     """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back."""
     common.configure_cycles(scene, samples, seed=1, threads=THREADS)

@@ -10,6 +10,7 @@ import bpy
 import pytest
 
 import common
+import scenes_bpy
 from cycles_compare import compare
 
 
@@ -107,23 +108,7 @@ def test_geometry_nodes_instances_on_points(tmp_path):
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=3, size=2.4,
                                     location=(0.0, 0.3, 0.01))
     grid = bpy.context.active_object
-    modifier = grid.modifiers.new("Scatter", "NODES")
-    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
-    modifier.node_group = tree
-    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    group_in = tree.nodes.new("NodeGroupInput")
-    group_out = tree.nodes.new("NodeGroupOutput")
-    on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
-    info = tree.nodes.new("GeometryNodeObjectInfo")
-    info.inputs["Object"].default_value = pebble
-    rotate = tree.nodes.new("FunctionNodeRandomValue")
-    rotate.data_type = "FLOAT_VECTOR"
-    rotate.inputs["Max"].default_value = (0.0, 0.0, 3.0)
-    tree.links.new(group_in.outputs["Geometry"], on_points.inputs["Points"])
-    tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
-    tree.links.new(rotate.outputs["Value"], on_points.inputs["Rotation"])
-    tree.links.new(on_points.outputs["Instances"], group_out.inputs["Geometry"])
+    scenes_bpy.instance_on_points(grid, pebble, rotation_max=(0.0, 0.0, 3.0))
     compare("geometry nodes instances on points", scene, tmp_path)
 
 

@@ -76,6 +76,7 @@ pub fn sphere(
         casts_shadows: true,
         colors: Vec::new(),
         object_space: None,
+        deformation: Vec::new(),
     }
 }
 
@@ -101,6 +102,7 @@ pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
         casts_shadows: true,
         colors: Vec::new(),
         object_space: None,
+        deformation: Vec::new(),
     }
 }
 

@@ -245,7 +245,7 @@ fn grid_for(source: &LightSource) -> Option<(usize, usize)> {
         LightSource::Sun { .. } | LightSource::Point { .. } => Some((1, 32)),
         LightSource::Spot { .. } => Some((1, 16)),
         LightSource::World { .. } => Some((8, 8)),
-        LightSource::Triangle { .. } => None,
+        LightSource::Triangle { .. } | LightSource::Instance { .. } => None,
     }
 }
 

@@ -37,29 +37,41 @@ pub struct SubsurfaceMaps {
     brute_force: bool,
 }
 
-/// Surface area of each material's meshes (scene units²).
+/// Surface area of a mesh's triangles, its positions placed by `to_world` (scene units²).
+fn mesh_area(m: &crate::scene::Mesh, to_world: crate::math::Affine3A) -> f32 {
+    let p = &m.positions;
+    m.indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| to_world.transform_point3(p[i as usize]));
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
+/// Surface area of each material's meshes, instances included (scene units²).
 fn material_areas(scene: &Scene) -> Vec<f32> {
     let mut area = vec![0.0f32; scene.materials.len()];
-    for m in &scene.meshes {
-        let p = &m.positions;
-        let a: f32 = m
-            .indices
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| p[i as usize]);
-                0.5 * (b - a).cross(c - a).length()
-            })
-            .sum();
+    let placed = scene
+        .meshes
+        .iter()
+        .map(|m| (m, crate::math::Affine3A::IDENTITY));
+    let instances = scene.instances.iter().filter_map(|i| {
+        let m = &scene.prototypes[i.prototype as usize];
+        let translucent = scene.materials[m.material as usize].is_translucent();
+        translucent.then_some((m, i.to_world))
+    });
+    for (m, to_world) in placed.chain(instances) {
         if let Some(slot) = area.get_mut(m.material as usize) {
-            *slot += a;
+            *slot += mesh_area(m, to_world);
         }
     }
     area
 }
 
-/// True when some mesh uses a translucent material.
+/// True when some mesh (or instanced prototype) uses a translucent material.
 pub fn has_translucent(scene: &Scene) -> bool {
-    scene.meshes.iter().any(|m| {
+    scene.meshes.iter().chain(&scene.prototypes).any(|m| {
         scene
             .materials
             .get(m.material as usize)

@@ -33,7 +33,7 @@ use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::shading::{transmittance, Shading};
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
-use crate::light::{sample_emitter_point, smoothstep, spread_factor, LightSource};
+use crate::light::{smoothstep, spread_factor, EmitterSample, LightSource};
 use crate::math::{luminance, max_component, Frame, Vec2, Vec3};
 use crate::photon_map::Photon;
 use crate::progress::{Progress, ProgressEvent};
@@ -42,6 +42,7 @@ use crate::sampling::{
     square_to_cosine_hemisphere, square_to_disk, square_to_uniform_cone, square_to_uniform_sphere,
     uniform_cone_pdf, Distribution1D,
 };
+use crate::scene::{instance_bounds, Bounds, Scene};
 use crate::subsurface::Sample;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -87,6 +88,16 @@ fn light_flux(ctx: &Context, source: &LightSource, radius: f32) -> Vec3 {
             let sides = if two_sided { 2.0 } else { 1.0 };
             ctx.scene.materials[m.material as usize].emission * (PI * area * sides)
         }
+        LightSource::Instance {
+            instance,
+            area,
+            two_sided,
+        } => {
+            let prototype = ctx.scene.instances[instance as usize].prototype;
+            let m = &ctx.scene.prototypes[prototype as usize];
+            let sides = if two_sided { 2.0 } else { 1.0 };
+            ctx.scene.materials[m.material as usize].emission * (PI * area * sides)
+        }
         LightSource::Point { intensity, .. } => intensity * (4.0 * PI),
         LightSource::Spot {
             intensity,
@@ -121,18 +132,19 @@ impl Emitters {
     /// image of aspect ratio `aspect` (`super::guide`); uniform where that gains nothing.
     pub fn guided(ctx: &Context, aspect: f32, seed: u64) -> Emitters {
         let mut emitters = Emitters::new(ctx);
-        let guidable = ctx
-            .lights
-            .sources
-            .iter()
-            .any(|s| !matches!(s, LightSource::Triangle { .. }));
+        let guidable = ctx.lights.sources.iter().any(|s| {
+            !matches!(
+                s,
+                LightSource::Triangle { .. } | LightSource::Instance { .. }
+            )
+        });
         if guidable {
             if let Some(region) = ReadRegion::new(ctx, aspect, seed) {
                 let shares: Vec<f32> = (0..ctx.lights.sources.len())
                     .map(|i| emitters.select.pmf(i))
                     .collect();
                 let trace = |light, u1, u2, rng: &mut Rng, out: &mut Vec<(Vec3, Vec3, f32)>| {
-                    let Some(e) = emitters.emit_with(ctx, light, None, u1, u2, rng) else {
+                    let Some(e) = emitters.emit_with(ctx, light, None, 0.5, u1, u2, rng) else {
                         return;
                     };
                     walk_photon(ctx, e.ray, e.power, ctx.max_depth, rng, |s, power, _, _| {
@@ -170,7 +182,7 @@ impl Emitters {
     /// their power divides by that density instead.
     pub fn emit(&self, ctx: &Context, aimed: bool, rng: &mut Rng) -> Option<Emitted> {
         let aim = if aimed { self.targets.as_ref() } else { None };
-        let (index, pmf) = self.select.sample(rng.uniform())?;
+        let (index, pmf, u_pick) = self.select.sample_remapped(rng.uniform())?;
         let (mut u1, mut u2) = (rng.uniform2(), rng.uniform2());
         let mut density = 1.0;
         if let (None, Some(guide)) = (aim, &self.guide) {
@@ -178,18 +190,20 @@ impl Emitters {
                 (u1, u2, density) = warped?;
             }
         }
-        let mut e = self.emit_with(ctx, index, aim, u1, u2, rng)?;
+        let mut e = self.emit_with(ctx, index, aim, u_pick, u1, u2, rng)?;
         e.power /= pmf * density;
         (e.power.is_finite() && max_component(e.power) > 0.0).then_some(e)
     }
 
     /// A photon of light `index` placed by the unit-square points `u1` and `u2` (`aim` as in
-    /// `emit`), its power before dividing by the light's selection probability.
+    /// `emit`; `u_pick` picks the triangle of an emitting instance), its power before dividing
+    /// by the light's selection probability.
     fn emit_with(
         &self,
         ctx: &Context,
         index: usize,
         aim: Option<&Targets>,
+        u_pick: f32,
         u1: Vec2,
         u2: Vec2,
         rng: &mut Rng,
@@ -207,13 +221,15 @@ impl Emitters {
             time,
         };
         let (r, power) = match ctx.lights.sources[index] {
-            LightSource::Triangle {
-                mesh,
-                triangle,
-                area,
-                two_sided,
-            } => {
-                let emitter = sample_emitter_point(ctx.scene, mesh, triangle, u1, None);
+            LightSource::Triangle { .. } | LightSource::Instance { .. } => {
+                let EmitterSample {
+                    emitter,
+                    area,
+                    two_sided,
+                    spread,
+                } = ctx
+                    .lights
+                    .sample_emitter(ctx.scene, index, u_pick, u1, time, None)?;
                 let LightPoint {
                     p: q,
                     p_error: q_error,
@@ -227,7 +243,6 @@ impl Emitters {
                     (true, false) => (n, 2.0),
                     _ => (n, 1.0),
                 };
-                let spread = ctx.scene.meshes[mesh as usize].emission_spread;
                 let (dir, power) = match (aim, spread) {
                     (None, None) => (
                         Frame::from_normal(side).to_world(square_to_cosine_hemisphere(u2)),
@@ -355,11 +370,50 @@ struct Targets {
     spheres: Vec<(Vec3, f32)>,
 }
 
+/// More specular instances than this are aimed at as one sphere around them all: every photon
+/// sums the density of every sphere.
+const MAX_INSTANCE_TARGETS: usize = 64;
+
+/// Bounding spheres of the instances of specular prototypes (of every place a moving one takes
+/// while the shutter is open), or one around them all when there are many.
+fn instance_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
+    let specular: Vec<bool> = scene
+        .prototypes
+        .iter()
+        .map(|m| !m.positions.is_empty() && is_specular(scene, m.material))
+        .collect();
+    let local: Vec<Bounds> = scene.prototypes.iter().map(|m| m.bounds()).collect();
+    let boxes: Vec<Bounds> = scene
+        .instances
+        .iter()
+        .filter(|i| specular[i.prototype as usize])
+        .map(|i| instance_bounds(i, local[i.prototype as usize]))
+        .filter(|b| !b.is_empty())
+        .collect();
+    let sphere = |b: &Bounds| {
+        let centre = b.center();
+        let radius = 0.5 * b.diagonal();
+        (
+            centre,
+            radius * 1.001 + 1e-6 * centre.abs().max_element() + 1e-20,
+        )
+    };
+    if boxes.len() <= MAX_INSTANCE_TARGETS {
+        return boxes.iter().map(sphere).collect();
+    }
+    let mut all = Bounds::EMPTY;
+    for b in &boxes {
+        all.grow(b.min);
+        all.grow(b.max);
+    }
+    vec![sphere(&all)]
+}
+
 impl Targets {
     /// The specular meshes' bounding spheres; `None` when there is no specular mesh.
     fn new(ctx: &Context) -> Option<Targets> {
         let scene = ctx.scene;
-        let spheres: Vec<(Vec3, f32)> = scene
+        let mut spheres: Vec<(Vec3, f32)> = scene
             .meshes
             .iter()
             .filter(|m| !m.positions.is_empty() && is_specular(scene, m.material))
@@ -381,6 +435,7 @@ impl Targets {
                 )
             })
             .collect();
+        spheres.extend(instance_spheres(scene));
         (!spheres.is_empty()).then_some(Targets { spheres })
     }
 
