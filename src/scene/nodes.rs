@@ -22,9 +22,13 @@
 //! `svm_node_set_bump` with those steps as dPdx and dPdy.
 //!
 //! Shader nodes become Principled parameter sets (`Closure`); a Principled BSDF's Alpha below 1
-//! mixes it with a Transparent BSDF by alpha, as Cycles does. Diffuse BSDF → colour, metallic 0,
-//! specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy → metallic 1 with the
-//! colour as F0 (Blender's Glossy has no Fresnel: differs at grazing angles); Glass → transmission
+//! mixes it with a Transparent BSDF by alpha, as Cycles does. Its coat, sheen and anisotropy
+//! inputs are the BSDF's own layers (`crate::bsdf`); an unlinked Tangent is Cycles' default
+//! (`default_tangent`), turned by Anisotropic Rotation around the normal. Diffuse BSDF → colour,
+//! metallic 0, specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy →
+//! metallic 1 with the colour as F0 (Blender's Glossy has no Fresnel: differs at grazing
+//! angles), its Anisotropy as Cycles maps it (α (1 − a) along the tangent and α / (1 − a)
+//! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
 //! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
 //! the colour); Translucent → fully rough transmission with IOR 1 (an approximation of diffuse
@@ -114,6 +118,21 @@ pub struct Closure {
     pub emission: Vec3,
     /// Shading normal from a Normal input (Blender's axes, world); zero: the surface's own.
     pub normal: Vec3,
+    /// The Principled coat: weight, roughness, IOR, tint and normal (Blender's axes; zero:
+    /// the shading normal).
+    pub coat_weight: f32,
+    pub coat_roughness: f32,
+    pub coat_ior: f32,
+    pub coat_tint: Vec3,
+    pub coat_normal: Vec3,
+    /// The sheen: weight, roughness and tint (Principled's sheen layer, or a Sheen BSDF).
+    pub sheen_weight: f32,
+    pub sheen_roughness: f32,
+    pub sheen_tint: Vec3,
+    /// Anisotropy as `SurfaceMaterial::aspect` (α_y / α_x), along `tangent` (Blender's axes,
+    /// rotation applied; zero: the shading frame's).
+    pub aspect: f32,
+    pub tangent: Vec3,
 }
 
 impl Closure {
@@ -128,6 +147,16 @@ impl Closure {
         specular_color: Vec3::ZERO,
         emission: Vec3::ZERO,
         normal: Vec3::ZERO,
+        coat_weight: 0.0,
+        coat_roughness: 0.03,
+        coat_ior: 1.5,
+        coat_tint: Vec3::ONE,
+        coat_normal: Vec3::ZERO,
+        sheen_weight: 0.0,
+        sheen_roughness: 0.5,
+        sheen_tint: Vec3::ONE,
+        aspect: 1.0,
+        tangent: Vec3::ZERO,
     };
 }
 
@@ -288,6 +317,7 @@ enum Op {
     Principled,
     Diffuse,
     Glossy,
+    Sheen,
     Glass,
     Emission,
     Transparent,
@@ -810,14 +840,36 @@ fn spec(op: &Op) -> Spec {
                 i("Emission Color", Color, Vec4::ONE),
                 i("Emission Strength", Float, f(0.0)),
                 i("Normal", Vector, Vec4::ZERO),
+                i("Anisotropic", Float, f(0.0)),
+                i("Anisotropic Rotation", Float, f(0.0)),
+                i("Tangent", Vector, Vec4::ZERO),
+                i("Coat Weight", Float, f(0.0)),
+                i("Coat Roughness", Float, f(0.03)),
+                i("Coat IOR", Float, f(1.5)),
+                i("Coat Tint", Color, Vec4::ONE),
+                i("Coat Normal", Vector, Vec4::ZERO),
+                i("Sheen Weight", Float, f(0.0)),
+                i("Sheen Roughness", Float, f(0.5)),
+                i("Sheen Tint", Color, Vec4::ONE),
             ],
             vec![("BSDF", Shader)],
         ),
-        Op::Diffuse | Op::Glossy => (
+        Op::Diffuse | Op::Sheen => (
             vec![
                 i("Color", Color, grey),
                 i("Roughness", Float, f(0.5)),
                 i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("BSDF", Shader)],
+        ),
+        Op::Glossy => (
+            vec![
+                i("Color", Color, grey),
+                i("Roughness", Float, f(0.5)),
+                i("Normal", Vector, Vec4::ZERO),
+                i("Anisotropy", Float, f(0.0)),
+                i("Rotation", Float, f(0.0)),
+                i("Tangent", Vector, Vec4::ZERO),
             ],
             vec![("BSDF", Shader)],
         ),
@@ -1245,6 +1297,10 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
         "BsdfPrincipled" => Op::Principled,
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
+        "BsdfSheen" => match setting(node, "distribution").unwrap_or("MICROFIBER") {
+            "MICROFIBER" => Op::Sheen,
+            _ => return Ok(None),
+        },
         "BsdfGlass" => Op::Glass,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
@@ -2055,6 +2111,16 @@ fn run(
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
             let tint = get(m, 6).truncate();
+            let normal = get(m, 10).truncate();
+            let anisotropic = get(m, 11).x.clamp(0.0, 1.0);
+            let (aspect, tangent) = if anisotropic > 0.0 {
+                let n = normal_input(get(m, 10), at.normal);
+                let t = tangent_input(get(m, 13), at);
+                let t = crate::math::rotate_around(t, n, get(m, 12).x * 2.0 * PI);
+                (principled_aspect(anisotropic), t)
+            } else {
+                (1.0, Vec3::ZERO)
+            };
             let principled = Closure {
                 base_color: get(m, 0).truncate(),
                 metallic: get(m, 1).x.clamp(0.0, 1.0),
@@ -2064,7 +2130,17 @@ fn run(
                 specular_color: 2.0 * level * tint,
                 transmission: get(m, 7).x.clamp(0.0, 1.0),
                 emission: get(m, 8).truncate() * get(m, 9).x,
-                normal: get(m, 10).truncate(),
+                normal,
+                coat_weight: get(m, 14).x.max(0.0),
+                coat_roughness: get(m, 15).x.clamp(0.0, 1.0),
+                coat_ior: get(m, 16).x.max(1.0),
+                coat_tint: get(m, 17).truncate().max(Vec3::ZERO),
+                coat_normal: get(m, 18).truncate(),
+                sheen_weight: get(m, 19).x.max(0.0),
+                sheen_roughness: get(m, 20).x.clamp(0.0, 1.0),
+                sheen_tint: get(m, 21).truncate().max(Vec3::ZERO),
+                aspect,
+                tangent,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
             // Transparent BSDF by 1 − alpha.
@@ -2084,10 +2160,36 @@ fn run(
             };
         }
         Op::Glossy => {
+            // Cycles' Glossy BSDF: α_x = α (1 − a), α_y = α / (1 − a) for a > 0 (stretched
+            // along the bitangent: the tangent turned a quarter), α / (1 + a) and α (1 + a)
+            // for a < 0.
+            let a = get(m, 3).x.clamp(-0.99, 0.99);
+            let (aspect, tangent) = if a.abs() > 1e-4 {
+                let n = normal_input(get(m, 2), at.normal);
+                let t = tangent_input(get(m, 5), at);
+                let turn = get(m, 4).x + if a > 0.0 { 0.25 } else { 0.0 };
+                (
+                    1.0 - a.abs(),
+                    crate::math::rotate_around(t, n, turn * 2.0 * PI),
+                )
+            } else {
+                (1.0, Vec3::ZERO)
+            };
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 metallic: 1.0,
                 roughness: get(m, 1).x.clamp(0.0, 1.0),
+                normal: get(m, 2).truncate(),
+                aspect,
+                tangent,
+                ..Closure::BLACK
+            };
+        }
+        Op::Sheen => {
+            m.closures[o] = Closure {
+                sheen_weight: 1.0,
+                sheen_tint: get(m, 0).truncate().max(Vec3::ZERO),
+                sheen_roughness: get(m, 1).x.clamp(0.0, 1.0),
                 normal: get(m, 2).truncate(),
                 ..Closure::BLACK
             };
@@ -2175,7 +2277,11 @@ fn mix_closures(u: &mut f32, t: f32, a: Closure, b: Closure) -> Closure {
 }
 
 fn is_black_bsdf(c: &Closure) -> bool {
-    c.base_color == Vec3::ZERO && c.specular_color == Vec3::ZERO && c.transmission == 0.0
+    c.base_color == Vec3::ZERO
+        && c.specular_color == Vec3::ZERO
+        && c.transmission == 0.0
+        && (c.sheen_weight == 0.0 || c.sheen_tint == Vec3::ZERO)
+        && c.coat_weight == 0.0
 }
 
 // ----- node definitions --------------------------------------------------------------------
@@ -2188,6 +2294,37 @@ fn normal_input(given: Vec4, normal: Vec3) -> Vec3 {
     } else {
         g.normalize_or(normal)
     }
+}
+
+/// Blender's Principled Anisotropic A (clamped to [0, 1]) as α_y / α_x: sqrt(1 − 0.9 A).
+pub fn principled_aspect(anisotropic: f32) -> f32 {
+    let a = if anisotropic.is_finite() {
+        anisotropic.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (1.0 - 0.9 * a).sqrt()
+}
+
+/// A Tangent input: the given vector, or Blender's default when it is unlinked (zero).
+fn tangent_input(given: Vec4, at: &ShadingInputs) -> Vec3 {
+    let g = given.truncate();
+    if g == Vec3::ZERO {
+        default_tangent(at)
+    } else {
+        g
+    }
+}
+
+/// The tangent Cycles gives an unlinked Tangent input (its Geometry node's Tangent): around
+/// the object's Z axis through the middle of its texture space, from the Generated
+/// coordinates (−(y − ½), x − ½, 0) taken to world space as a normal is, then made
+/// perpendicular to the shading normal. Blender's axes, unit (zero where it is undefined).
+pub fn default_tangent(at: &ShadingInputs) -> Vec3 {
+    let g = at.generated;
+    let radial = at.object_to_world_normal * Vec3::new(-(g.y - 0.5), g.x - 0.5, 0.0);
+    let n = at.normal;
+    n.cross(radial.cross(n).normalize_or_zero())
 }
 
 /// Cycles' `svm_node_normal_map`: the colour (each channel 0.5 ↦ 0) as a normal in `space`,
