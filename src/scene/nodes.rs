@@ -2887,9 +2887,36 @@ fn negate_if(v: f32, condition: u32) -> f32 {
     }
 }
 
+/// `a` when `c`, else `b`, without a branch (the gradient picks are unpredictable).
+fn select(c: bool, a: f32, b: f32) -> f32 {
+    let mask = (c as u32).wrapping_neg();
+    f32::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+}
+
+/// −v when `bit` (0 or 1) is 1, without a branch: a flip of the sign bit, as negation is.
+fn flip_sign(v: f32, bit: u32) -> f32 {
+    f32::from_bits(v.to_bits() ^ (bit << 31))
+}
+
 fn floorfrac(x: f32) -> (i32, f32) {
-    let f = x.floor();
+    let f = floor(x);
     (f as i32, x - f)
+}
+
+/// `x.floor()` without the library call baseline x86-64 makes for it (bit for bit the same,
+/// −0 and NaN included): beyond 2²³ every float is an integer.
+fn floor(x: f32) -> f32 {
+    if !(x.abs() < 8_388_608.0) {
+        return x;
+    }
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else if t < x {
+        t
+    } else {
+        x
+    }
 }
 
 fn grad1(hash: u32, x: f32) -> f32 {
@@ -2900,16 +2927,17 @@ fn grad1(hash: u32, x: f32) -> f32 {
 
 fn grad2(hash: u32, x: f32, y: f32) -> f32 {
     let h = hash & 7;
-    let (u, v) = if h < 4 { (x, 2.0 * y) } else { (y, 2.0 * x) };
-    negate_if(u, h & 1) + negate_if(v, h & 2)
+    let first = h < 4;
+    let (u, v) = (select(first, x, y), select(first, 2.0 * y, 2.0 * x));
+    flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
 
 fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
     let h = hash & 15;
-    let u = if h < 8 { x } else { y };
-    let vt = if h == 12 || h == 14 { x } else { z };
-    let v = if h < 4 { y } else { vt };
-    negate_if(u, h & 1) + negate_if(v, h & 2)
+    let u = select(h < 8, x, y);
+    let vt = select(h == 12 || h == 14, x, z);
+    let v = select(h < 4, y, vt);
+    flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
@@ -2959,7 +2987,14 @@ fn perlin3(x: f32, y: f32, z: f32) -> f32 {
 
 /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
 fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
-    let m = |x: f32| x % 100_000.0;
+    // fmod is the identity below the period (and a library call).
+    let m = |x: f32| {
+        if x.abs() < 100_000.0 {
+            x
+        } else {
+            x % 100_000.0
+        }
+    };
     match dimensions {
         1 => 0.25 * perlin1(m(w)),
         2 => 0.6616 * perlin2(m(p.x), m(p.y)),
@@ -3360,10 +3395,13 @@ fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
     if dimensions == 2 {
         Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
     } else {
+        // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
+        let s = LOOKUP3_SEED.wrapping_add((4 << 2) + 13);
+        let (a, b, c) = lookup3_mix(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z));
         Vec3::new(
             unit(hash3(x, y, z)),
-            unit(hash4(x, y, z, 1f32.to_bits())),
-            unit(hash4(x, y, z, 2f32.to_bits())),
+            unit(lookup3_final(a.wrapping_add(1f32.to_bits()), b, c)),
+            unit(lookup3_final(a.wrapping_add(2f32.to_bits()), b, c)),
         )
     }
 }
@@ -3407,7 +3445,7 @@ fn cell_offsets(dimensions: u8, reach: i32) -> impl Iterator<Item = Vec3> {
 /// One octave: (distance, colour, position).
 fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
     let dims = p.kind.dimensions;
-    let cell = coord.floor();
+    let cell = Vec3::new(floor(coord.x), floor(coord.y), floor(coord.z));
     let local = coord - cell;
     let metric = p.kind.metric;
     match p.kind.feature {
@@ -3450,11 +3488,31 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
             (d2, cell_color(dims, cell + o2), p2 + cell)
         }
         _ => {
+            // The nearest point, the first in Cycles' order on a tie. A cell's point lies in
+            // [offset, offset + randomness] on each axis, so a cell whose box is farther from
+            // `local` than the home cell's point cannot win: it is skipped unhashed (exact).
+            // (As Cycles computes it: cell + 0 turns a −0 coordinate into +0 before hashing.)
+            let home = Vec3::ZERO + cell_point(dims, cell + Vec3::ZERO) * p.randomness;
+            let home_d = voronoi_distance(metric, p.exponent, home, local);
+            let prune = metric != Metric::Minkowski;
+            let bound = home_d * (1.0 + 1e-6);
             let mut best = f32::MAX;
             let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
             for offset in cell_offsets(dims, 1) {
-                let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                let d = voronoi_distance(metric, p.exponent, point, local);
+                let (point, d) = if offset == Vec3::ZERO {
+                    (home, home_d)
+                } else {
+                    if prune {
+                        let below = offset - local;
+                        let above = local - (offset + Vec3::splat(p.randomness));
+                        let gap = below.max(above).max(Vec3::ZERO);
+                        if voronoi_distance(metric, p.exponent, gap, Vec3::ZERO) > bound {
+                            continue;
+                        }
+                    }
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    (point, voronoi_distance(metric, p.exponent, point, local))
+                };
                 if d < best {
                     (best, target_offset, target) = (d, offset, point);
                 }
@@ -3518,6 +3576,234 @@ fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
         Vec3::ZERO
     };
     (distance, color, position)
+}
+
+/// The straightforward forms the optimised noise and Voronoi code replaced (branchy
+/// gradients, fmod always, every Voronoi cell hashed): the optimised code must agree bit for
+/// bit, so patterns stay Cycles'.
+#[cfg(test)]
+mod reference {
+    use super::{
+        cell_color, cell_offsets, fade, floorfrac, hash2, hash3, hash4, lerp, negate_if, perlin1,
+        smoothstep, unit, voronoi_distance, Metric, Vec3, VoronoiFeature, VoronoiKind,
+        VoronoiParams,
+    };
+
+    fn grad2(hash: u32, x: f32, y: f32) -> f32 {
+        let h = hash & 7;
+        let (u, v) = if h < 4 { (x, 2.0 * y) } else { (y, 2.0 * x) };
+        negate_if(u, h & 1) + negate_if(v, h & 2)
+    }
+
+    fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
+        let h = hash & 15;
+        let u = if h < 8 { x } else { y };
+        let vt = if h == 12 || h == 14 { x } else { z };
+        let v = if h < 4 { y } else { vt };
+        negate_if(u, h & 1) + negate_if(v, h & 2)
+    }
+
+    fn perlin2(x: f32, y: f32) -> f32 {
+        let (xi, fx) = floorfrac(x);
+        let (yi, fy) = floorfrac(y);
+        let (u, v) = (fade(fx), fade(fy));
+        let h = |dx: i32, dy: i32| hash2(xi.wrapping_add(dx) as u32, yi.wrapping_add(dy) as u32);
+        let v0 = grad2(h(0, 0), fx, fy);
+        let v1 = grad2(h(1, 0), fx - 1.0, fy);
+        let v2 = grad2(h(0, 1), fx, fy - 1.0);
+        let v3 = grad2(h(1, 1), fx - 1.0, fy - 1.0);
+        let x1 = 1.0 - u;
+        (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
+    }
+
+    fn perlin3(x: f32, y: f32, z: f32) -> f32 {
+        let (xi, fx) = floorfrac(x);
+        let (yi, fy) = floorfrac(y);
+        let (zi, fz) = floorfrac(z);
+        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+        let g = |dx: i32, dy: i32, dz: i32| {
+            let h = hash3(
+                xi.wrapping_add(dx) as u32,
+                yi.wrapping_add(dy) as u32,
+                zi.wrapping_add(dz) as u32,
+            );
+            grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
+        };
+        let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
+        z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
+            + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
+    }
+
+    /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
+    fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
+        let m = |x: f32| x % 100_000.0;
+        match dimensions {
+            1 => 0.25 * perlin1(m(w)),
+            2 => 0.6616 * perlin2(m(p.x), m(p.y)),
+            _ => 0.9820 * perlin3(m(p.x), m(p.y), m(p.z)),
+        }
+    }
+
+    /// `hash_float2_to_float2` (2D) or `hash_float3_to_float3` (3D): a cell's point offset.
+    fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
+        let (x, y, z) = (c.x.to_bits(), c.y.to_bits(), c.z.to_bits());
+        if dimensions == 2 {
+            Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
+        } else {
+            Vec3::new(
+                unit(hash3(x, y, z)),
+                unit(hash4(x, y, z, 1f32.to_bits())),
+                unit(hash4(x, y, z, 2f32.to_bits())),
+            )
+        }
+    }
+
+    /// One octave: (distance, colour, position).
+    fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+        let dims = p.kind.dimensions;
+        let cell = coord.floor();
+        let local = coord - cell;
+        let metric = p.kind.metric;
+        match p.kind.feature {
+            VoronoiFeature::SmoothF1 if p.smoothness != 0.0 => {
+                let mut distance = 0.0f32;
+                let mut color = Vec3::ZERO;
+                let mut position = Vec3::ZERO;
+                let mut h = -1.0f32;
+                for offset in cell_offsets(dims, 2) {
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    let d = voronoi_distance(metric, p.exponent, point, local);
+                    h = if h == -1.0 {
+                        1.0
+                    } else {
+                        smoothstep(0.0, 1.0, 0.5 + 0.5 * (distance - d) / p.smoothness)
+                    };
+                    let mut correction = p.smoothness * h * (1.0 - h);
+                    distance = lerp(distance, d, h) - correction;
+                    correction /= 1.0 + 3.0 * p.smoothness;
+                    let c = cell_color(dims, cell + offset);
+                    color = color.lerp(c, h) - Vec3::splat(correction);
+                    position = position.lerp(point, h) - Vec3::splat(correction);
+                }
+                (distance, color, cell + position)
+            }
+            VoronoiFeature::F2 => {
+                let (mut d1, mut d2) = (f32::MAX, f32::MAX);
+                let (mut o1, mut o2) = (Vec3::ZERO, Vec3::ZERO);
+                let (mut p1, mut p2) = (Vec3::ZERO, Vec3::ZERO);
+                for offset in cell_offsets(dims, 1) {
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    let d = voronoi_distance(metric, p.exponent, point, local);
+                    if d < d1 {
+                        (d2, o2, p2) = (d1, o1, p1);
+                        (d1, o1, p1) = (d, offset, point);
+                    } else if d < d2 {
+                        (d2, o2, p2) = (d, offset, point);
+                    }
+                }
+                (d2, cell_color(dims, cell + o2), p2 + cell)
+            }
+            _ => {
+                let mut best = f32::MAX;
+                let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
+                for offset in cell_offsets(dims, 1) {
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    let d = voronoi_distance(metric, p.exponent, point, local);
+                    if d < best {
+                        (best, target_offset, target) = (d, offset, point);
+                    }
+                }
+                (best, cell_color(dims, cell + target_offset), target + cell)
+            }
+        }
+    }
+
+    fn random_point(rng: &mut crate::rng::Rng, scale: f32) -> Vec3 {
+        let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * scale;
+        Vec3::new(c(rng), c(rng), c(rng))
+    }
+
+    #[test]
+    fn optimised_noise_matches_the_reference_bit_for_bit() {
+        let mut rng = crate::rng::Rng::new(5);
+        for k in 0..200_000 {
+            let scale = [1.0, 10.0, 1000.0, 2.0e5][k % 4];
+            let p = random_point(&mut rng, scale);
+            for dims in [2u8, 3] {
+                assert_eq!(
+                    super::snoise(dims, p, 0.0).to_bits(),
+                    snoise(dims, p, 0.0).to_bits(),
+                    "{p:?}"
+                );
+            }
+        }
+        assert_eq!(
+            super::snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0),
+            snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0)
+        );
+        for x in [
+            -0.0f32,
+            0.0,
+            -1.5,
+            2.0,
+            -3.0,
+            1e9,
+            -1e9,
+            8_388_607.5,
+            -8_388_607.5,
+        ] {
+            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+        assert!(super::floor(f32::NAN).is_nan());
+        for _ in 0..100_000 {
+            let x = (rng.uniform() - 0.5) * 2e7;
+            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+    }
+
+    #[test]
+    fn optimised_voronoi_matches_the_reference_bit_for_bit() {
+        let mut rng = crate::rng::Rng::new(6);
+        for metric in [
+            Metric::Euclidean,
+            Metric::Manhattan,
+            Metric::Chebychev,
+            Metric::Minkowski,
+        ] {
+            for dims in [2u8, 3] {
+                for randomness in [1.0f32, 0.6, 0.0] {
+                    let p = VoronoiParams {
+                        scale: 1.0,
+                        detail: 0.0,
+                        roughness: 0.5,
+                        lacunarity: 2.0,
+                        smoothness: 0.0,
+                        exponent: 1.5,
+                        randomness,
+                        kind: VoronoiKind {
+                            dimensions: dims,
+                            feature: VoronoiFeature::F1,
+                            metric,
+                            normalize: false,
+                        },
+                    };
+                    for k in 0..20_000 {
+                        let mut c = random_point(&mut rng, [2.0, 50.0][k % 2]);
+                        if dims == 2 {
+                            c.z = 0.0;
+                        }
+                        if k == 0 {
+                            c = Vec3::new(-0.0, -0.0, 0.0);
+                        }
+                        let (a, b) = (super::voronoi_octave(&p, c), voronoi_octave(&p, c));
+                        assert_eq!(a.0.to_bits(), b.0.to_bits(), "{metric:?} {c:?}");
+                        assert_eq!(a.1, b.1);
+                        assert_eq!(a.2, b.2);
+                    }
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -3950,5 +4236,122 @@ mod tests {
         assert!((mix_color(Blend::Mix, 0.5, a, b) - (a + b) * 0.5).length() < 1e-6);
         let c = Vec3::new(0.8, 0.2, 0.1);
         assert!((hsv_to_rgb(rgb_to_hsv(c)) - c).length() < 1e-6);
+    }
+}
+
+/// A timing aid, run by hand: `PHOTON_PROFILE_GLB=scene.glb cargo test --release --lib
+/// nodes::profile -- --ignored --nocapture` prints the cost of a whole evaluation of material
+/// 0's tree and of each of its instructions (at 256 points spread over the object).
+#[cfg(test)]
+mod profile {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn profile() {
+        let Some(path) = std::env::var_os("PHOTON_PROFILE_GLB") else {
+            return;
+        };
+        let scene = crate::scene::gltf::load(
+            std::path::Path::new(&path),
+            &crate::scene::gltf::LoadOptions::default(),
+        )
+        .unwrap();
+        let program = scene.materials[0].nodes.clone().expect("a node tree");
+        let mut rng = crate::rng::Rng::new(1);
+        let points: Vec<[ShadingInputs; 3]> = (0..256)
+            .map(|_| {
+                let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 2.0 - 1.0;
+                let at = |d: Vec3| ShadingInputs {
+                    position: p + d,
+                    object: p + d,
+                    generated: (p + d) * 0.5 + 0.5,
+                    normal: Vec3::Z,
+                    incoming: Vec3::new(0.3, 0.2, 0.9).normalize(),
+                    ..ShadingInputs::default()
+                };
+                [at(Vec3::ZERO), at(Vec3::X * 1e-4), at(Vec3::Y * 1e-4)]
+            })
+            .collect();
+        let textures = &scene.textures;
+        let reps = 200;
+        {
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                sink += cell_point(3, Vec3::new(k as f32, 2.0, 3.0)).x;
+            }
+            println!(
+                "cell_point: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                sink += perlin3(k as f32 * 0.37, 2.1, 3.3);
+            }
+            println!(
+                "perlin3: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+            let params = VoronoiParams {
+                scale: 4.0,
+                detail: 0.0,
+                roughness: 0.5,
+                lacunarity: 2.0,
+                smoothness: 0.5,
+                exponent: 0.5,
+                randomness: 1.0,
+                kind: VoronoiKind {
+                    dimensions: 3,
+                    feature: VoronoiFeature::F1,
+                    metric: Metric::Euclidean,
+                    normalize: false,
+                },
+            };
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..200_000u32 {
+                sink += voronoi(&params, Vec3::new(k as f32 * 0.37, 2.1, 3.3)).0;
+            }
+            println!(
+                "voronoi: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 5e3
+            );
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                sink += (k as f32 * 0.37).floor();
+            }
+            println!("floor: {:.1} ns ({sink})", t0.elapsed().as_secs_f64() * 1e3);
+        }
+        let t0 = std::time::Instant::now();
+        let mut sink = 0.0;
+        for _ in 0..reps {
+            for at in &points {
+                sink += program.eval(at, textures, 0.5).roughness;
+            }
+        }
+        let per = t0.elapsed().as_secs_f64() / (reps * points.len()) as f64;
+        println!("whole tree: {:.0} ns per evaluation ({sink})", per * 1e9);
+        Machine::with(&program, |m| {
+            for (k, instr) in program.instrs.iter().enumerate() {
+                let t0 = std::time::Instant::now();
+                let mut u = 0.5;
+                for _ in 0..reps {
+                    for at in &points {
+                        run(instr, at, textures, m, &mut u);
+                    }
+                }
+                let per = t0.elapsed().as_secs_f64() / (reps * points.len()) as f64;
+                let name = format!("{:?}", instr.op);
+                println!(
+                    "{k:3} {:>6.0} ns  offset {}  {}",
+                    per * 1e9,
+                    instr.offset,
+                    &name[..name.len().min(60)]
+                );
+            }
+        });
     }
 }
