@@ -3495,7 +3495,6 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
             let home = Vec3::ZERO + cell_point(dims, cell + Vec3::ZERO) * p.randomness;
             let home_d = voronoi_distance(metric, p.exponent, home, local);
             let prune = metric != Metric::Minkowski;
-            let bound = home_d * (1.0 + 1e-6);
             let mut best = f32::MAX;
             let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
             for offset in cell_offsets(dims, 1) {
@@ -3506,6 +3505,8 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
                         let below = offset - local;
                         let above = local - (offset + Vec3::splat(p.randomness));
                         let gap = below.max(above).max(Vec3::ZERO);
+                        // Nor can one farther than the best so far.
+                        let bound = home_d.min(best) * (1.0 + 1e-6);
                         if voronoi_distance(metric, p.exponent, gap, Vec3::ZERO) > bound {
                             continue;
                         }
