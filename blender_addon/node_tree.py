@@ -70,6 +70,7 @@ SETTINGS = {
     "ShaderNodeBsdfDiffuse": (),
     "ShaderNodeBsdfGlossy": (),
     "ShaderNodeBsdfAnisotropic": (),
+    "ShaderNodeBsdfSheen": ("distribution",),
     "ShaderNodeBsdfGlass": (),
     "ShaderNodeEmission": (),
     "ShaderNodeBsdfTransparent": (),
@@ -83,10 +84,16 @@ SETTINGS = {
 READ_INPUTS = {
     "ShaderNodeBsdfPrincipled": {"Base Color", "Metallic", "Roughness", "IOR", "Alpha",
                                  "Specular IOR Level", "Specular Tint", "Transmission Weight",
-                                 "Emission Color", "Emission Strength", "Normal"},
+                                 "Emission Color", "Emission Strength", "Normal",
+                                 "Anisotropic", "Anisotropic Rotation", "Tangent",
+                                 "Coat Weight", "Coat Roughness", "Coat IOR", "Coat Tint",
+                                 "Coat Normal", "Sheen Weight", "Sheen Roughness", "Sheen Tint"},
     "ShaderNodeBsdfDiffuse": {"Color", "Roughness", "Normal"},
-    "ShaderNodeBsdfGlossy": {"Color", "Roughness", "Normal"},
-    "ShaderNodeBsdfAnisotropic": {"Color", "Roughness", "Normal"},
+    "ShaderNodeBsdfGlossy": {"Color", "Roughness", "Normal", "Anisotropy", "Rotation",
+                             "Tangent"},
+    "ShaderNodeBsdfAnisotropic": {"Color", "Roughness", "Normal", "Anisotropy", "Rotation",
+                                  "Tangent"},
+    "ShaderNodeBsdfSheen": {"Color", "Roughness", "Normal"},
     "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color"},
     "ShaderNodeBsdfTransparent": {"Color"},
@@ -114,7 +121,14 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeTexImage", "projection"): {"BOX", "SPHERE", "TUBE"},
     ("ShaderNodeTexVoronoi", "feature"): {"DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"},
     ("ShaderNodeVectorMath", "operation"): {"WRAP", "REFRACT", "FACEFORWARD", "POWER", "SIGN"},
+    ("ShaderNodeBsdfSheen", "distribution"): {"ASHIKHMIN"},
 }
+
+# A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold
+# what glTF's extensions carry and Blender's importer reads back: an untinted coat of IOR 1.5
+# (KHR_materials_clearcoat), a sheen of weight 0 or 1 (KHR_materials_sheen has no weight).
+GLTF_EXACT_PRINCIPLED = {"Coat IOR": (1.5,), "Coat Tint": ((1.0, 1.0, 1.0, 1.0),),
+                         "Sheen Weight": (0.0, 1.0)}
 
 # The Math operations the renderer evaluates (src/scene/nodes.rs `math_op`).
 MATH_OPS = {
@@ -188,6 +202,14 @@ def _value(socket):
         return [float(x) for x in v]
     except TypeError:
         return float(v)
+
+
+def _close(value, expected) -> bool:
+    """Whether a socket value (number or list) equals `expected` to 1e-6."""
+    if isinstance(expected, tuple):
+        return isinstance(value, list) and len(value) == len(expected) and all(
+            abs(a - b) <= 1e-6 for a, b in zip(value, expected))
+    return not isinstance(value, list) and abs(value - expected) <= 1e-6
 
 
 def _active_uv_maps(material) -> set[str]:
@@ -362,6 +384,12 @@ class _Walker:
                                  f"not evaluated by Photon")
         if kind not in ("ShaderNodeBsdfPrincipled",):
             self.trivial = False
+        else:
+            for key, exact in GLTF_EXACT_PRINCIPLED.items():
+                socket = node.inputs.get(key)
+                value = _value(socket) if socket is not None else None
+                if value is not None and not any(_close(value, e) for e in exact):
+                    self.trivial = False
         inputs = {}
         read = READ_INPUTS.get(kind)
         for socket in node.inputs:

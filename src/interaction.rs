@@ -9,7 +9,7 @@
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
 use crate::scene::nodes::{ShadingInputs, UV_SETS};
-use crate::scene::{Mesh, Scene};
+use crate::scene::{Mesh, Scene, TextureRef};
 
 /// Everything shading needs about a surface point.
 #[derive(Clone, Copy, Debug)]
@@ -151,6 +151,63 @@ impl SurfaceHit {
             hit: *hit,
             time: ray.time,
         }
+    }
+
+    /// The interpolated UV-map tangent (world, unit) and bitangent sign at this point; `None`
+    /// when the mesh has no tangents.
+    fn tangent4(&self, scene: &Scene) -> Option<Vec4> {
+        let mesh = hit_mesh(scene, &self.hit);
+        if mesh.tangents.is_empty() {
+            return None;
+        }
+        let idx = mesh.indices[self.hit.triangle as usize];
+        let instance = scene.instances.get(self.hit.instance as usize);
+        let t4 = interpolate(
+            idx.map(|i| {
+                let t = mesh.tangents[i as usize];
+                match instance {
+                    Some(inst) => inst
+                        .to_world_at(self.time)
+                        .transform_vector3(t.truncate())
+                        .extend(t.w),
+                    None => t,
+                }
+            }),
+            self.hit.b1,
+            self.hit.b2,
+        );
+        let t = t4.truncate().normalize_or_zero();
+        (t != Vec3::ZERO).then(|| t.extend(t4.w))
+    }
+
+    /// The UV map's tangent at this point (world, unit); `None` without mesh tangents.
+    pub fn uv_tangent(&self, scene: &Scene) -> Option<Vec3> {
+        self.tangent4(scene).map(|t| t.truncate())
+    }
+
+    /// The shading normal a tangent-space normal texture gives at this point (glTF's
+    /// normalTexture convention, `scale` on x and y), on the geometric side; `None` when the
+    /// mesh has no tangents.
+    pub fn normal_from_texture(&self, scene: &Scene, tex: &TextureRef, scale: f32) -> Option<Vec3> {
+        let t4 = self.tangent4(scene)?;
+        let n = self.frame.n;
+        let base = Frame::from_normal_tangent(n, t4.truncate());
+        let sign = if t4.w < 0.0 { -1.0 } else { 1.0 };
+        let texel = scene
+            .textures
+            .get(tex.texture as usize)?
+            .sample(tex.apply(self.uv));
+        let local = Vec3::new(
+            (2.0 * texel.x - 1.0) * scale,
+            (2.0 * texel.y - 1.0) * scale * sign,
+            2.0 * texel.z - 1.0,
+        );
+        let mapped = base.to_world(local).normalize_or(n);
+        Some(if mapped.dot(self.ng) <= 1e-3 {
+            n
+        } else {
+            mapped
+        })
     }
 
     /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with

@@ -37,6 +37,23 @@ pub struct SurfaceMaterial {
     /// A shading normal a node tree gives (Bump, or a Normal input), unit, world space;
     /// `None`: the surface's own.
     pub normal: Option<Vec3>,
+    /// Blender's Principled coat: Coat Weight, Roughness, IOR, Tint, and its normal (unit,
+    /// world; `None`: the shading normal).
+    pub coat_weight: f32,
+    pub coat_roughness: f32,
+    pub coat_ior: f32,
+    pub coat_tint: Vec3,
+    pub coat_normal: Option<Vec3>,
+    /// Blender's Principled sheen: Sheen Weight, Roughness and Tint.
+    pub sheen_weight: f32,
+    pub sheen_roughness: f32,
+    pub sheen_tint: Vec3,
+    /// Anisotropy of the specular layer and the metal: α_x = α / aspect along `tangent`,
+    /// α_y = α · aspect (1: isotropic; Blender's Anisotropic A gives sqrt(1 − 0.9 A)).
+    pub aspect: f32,
+    /// The direction α_x runs along (world, any length; Anisotropic Rotation applied);
+    /// `None`: the shading frame's own.
+    pub tangent: Option<Vec3>,
 }
 
 impl Default for SurfaceMaterial {
@@ -56,6 +73,16 @@ impl Default for SurfaceMaterial {
             thin_walled: false,
             subsurface: Subsurface::default(),
             normal: None,
+            coat_weight: 0.0,
+            coat_roughness: 0.03,
+            coat_ior: 1.5,
+            coat_tint: Vec3::ONE,
+            coat_normal: None,
+            sheen_weight: 0.0,
+            sheen_roughness: 0.5,
+            sheen_tint: Vec3::ONE,
+            aspect: 1.0,
+            tangent: None,
         }
     }
 }
@@ -83,13 +110,15 @@ pub fn absorption_coefficient(attenuation_color: Vec3, attenuation_distance: f32
 
 /// Resolve `material` at texture coordinate `uv`: every factor times its texture, as glTF
 /// specifies (base colour × RGBA texture, metallic × B, roughness × G, emission × RGB,
-/// transmission × R).
+/// transmission × R, clearcoat × R, clearcoat roughness × G, sheen colour × RGB, sheen
+/// roughness × A, anisotropy strength × B). The coat's normal and the anisotropy's direction
+/// need the surface point: `eval_surface` adds them.
 pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMaterial {
     let base = material.base_color * lookup(scene, &material.base_color_texture, uv);
     let metal_rough = lookup(scene, &material.metallic_roughness_texture, uv);
     let emissive = lookup(scene, &material.emissive_texture, uv);
     let transmission = lookup(scene, &material.transmission_texture, uv);
-    SurfaceMaterial {
+    let mut s = SurfaceMaterial {
         base_color: base.truncate(),
         alpha: base.w.clamp(0.0, 1.0),
         metallic: (material.metallic * metal_rough.z).clamp(0.0, 1.0),
@@ -105,14 +134,37 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
         ),
         thin_walled: material.thickness <= 0.0,
         subsurface: material.subsurface,
-        normal: None,
+        ..SurfaceMaterial::default()
+    };
+    if material.coat > 0.0 {
+        s.coat_weight = material.coat * lookup(scene, &material.coat_texture, uv).x;
+        s.coat_roughness =
+            material.coat_roughness * lookup(scene, &material.coat_roughness_texture, uv).y;
     }
+    if material.sheen {
+        s.sheen_weight = 1.0;
+        s.sheen_tint =
+            material.sheen_color * lookup(scene, &material.sheen_color_texture, uv).truncate();
+        s.sheen_roughness =
+            material.sheen_roughness * lookup(scene, &material.sheen_roughness_texture, uv).w;
+    }
+    if material.anisotropy != 0.0 {
+        let strength = material.anisotropy * lookup(scene, &material.anisotropy_texture, uv).z;
+        s.aspect = crate::scene::nodes::principled_aspect(strength);
+    }
+    s
+}
+
+/// Blender's (x, y, z) as glTF's (x, z, −y): node trees' vectors back to the scene's axes.
+fn gltf_axes(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.z, -v.y)
 }
 
 /// The material at surface point `sh` seen from `view`: its node tree when it has one (`u` in
 /// [0, 1) picks the
 /// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV with the base
-/// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1).
+/// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1),
+/// the clearcoat normal texture and the anisotropy's direction.
 pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> SurfaceMaterial {
     let material = &scene.materials[sh.material as usize];
     match &material.nodes {
@@ -124,6 +176,28 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
                 let c = interpolate(idx.map(|i| mesh.colors[i as usize]), sh.hit.b1, sh.hit.b2);
                 s.base_color *= c.truncate();
                 s.alpha = (s.alpha * c.w).clamp(0.0, 1.0);
+            }
+            if s.coat_weight > 0.0 {
+                if let Some(tex) = &material.coat_normal_texture {
+                    s.coat_normal = sh.normal_from_texture(scene, tex, material.coat_normal_scale);
+                }
+            }
+            if s.aspect < 1.0 {
+                let uv_tangent = material
+                    .anisotropy_texture
+                    .as_ref()
+                    .and_then(|_| sh.uv_tangent(scene));
+                let n = sh.frame.n;
+                let base = uv_tangent.unwrap_or_else(|| {
+                    let at = sh.node_inputs(scene, false, view)[0];
+                    gltf_axes(crate::scene::nodes::default_tangent(&at))
+                });
+                let mut angle = material.anisotropy_rotation;
+                if let Some(t) = &material.anisotropy_texture {
+                    let texel = lookup(scene, &Some(*t), sh.uv);
+                    angle += (2.0 * texel.y - 1.0).atan2(2.0 * texel.x - 1.0);
+                }
+                s.tangent = Some(crate::math::rotate_around(base, n, angle));
             }
             s
         }
@@ -142,6 +216,12 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
 /// come from the material (glTF extensions), and node materials are never thin-walled (Cycles
 /// has no such notion: every transmissive surface bounds a solid).
 pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
+    // Blender's (x, y, z) is glTF's (x, −z, y): back to the scene's axes.
+    let direction = |v: Vec3| {
+        (v != Vec3::ZERO)
+            .then(|| gltf_axes(v).normalize_or_zero())
+            .filter(|n| *n != Vec3::ZERO)
+    };
     SurfaceMaterial {
         base_color: c.base_color,
         // A tree's alpha is a Transparent closure picked with probability 1 − alpha.
@@ -159,10 +239,17 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         ),
         thin_walled: false,
         subsurface: material.subsurface,
-        // Blender's (x, y, z) is glTF's (x, −z, y): back to the scene's axes.
-        normal: (c.normal != Vec3::ZERO)
-            .then(|| Vec3::new(c.normal.x, c.normal.z, -c.normal.y).normalize_or_zero())
-            .filter(|n| *n != Vec3::ZERO),
+        normal: direction(c.normal),
+        coat_weight: c.coat_weight,
+        coat_roughness: c.coat_roughness,
+        coat_ior: c.coat_ior,
+        coat_tint: c.coat_tint,
+        coat_normal: direction(c.coat_normal),
+        sheen_weight: c.sheen_weight,
+        sheen_roughness: c.sheen_roughness,
+        sheen_tint: c.sheen_tint,
+        aspect: c.aspect,
+        tangent: direction(c.tangent),
     }
 }
 

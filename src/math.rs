@@ -48,6 +48,13 @@ impl Frame {
     }
 }
 
+/// `t` turned by `angle` (radians, right-handed) around the unit vector `n`, after Cycles'
+/// `rotate_around_axis`.
+pub fn rotate_around(t: Vec3, n: Vec3, angle: f32) -> Vec3 {
+    let (s, c) = angle.sin_cos();
+    t * c + n.cross(t) * s + n * (n.dot(t) * (1.0 - c))
+}
+
 /// Luminance of a linear Rec.709 colour (the Y row of the RGB→XYZ matrix).
 pub fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z

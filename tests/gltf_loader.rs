@@ -675,6 +675,80 @@ fn subsurface_extension_is_read_with_blender_defaults_and_checked() {
     }
 }
 
+/// KHR_materials_clearcoat, _sheen and _anisotropy are read (as Blender imports them), also
+/// when required, with their textures; bad values are refused.
+#[test]
+fn clearcoat_sheen_and_anisotropy_are_read() {
+    let png = png_bytes(
+        1,
+        1,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        &[255, 128, 0],
+    );
+    let mut doc = textured_doc(
+        &png,
+        "image/png",
+        json!({
+            "name": "Layered",
+            "extensions": {
+                "KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatTexture": {"index": 0}},
+                "KHR_materials_sheen": {"sheenColorFactor": [0.5, 0.25, 1.0], "sheenRoughnessFactor": 0.4,
+                                        "sheenColorTexture": {"index": 0}},
+                "KHR_materials_anisotropy": {"anisotropyStrength": 0.6, "anisotropyRotation": 0.5}
+            }
+        }),
+    );
+    doc.json["extensionsRequired"] = json!([
+        "KHR_materials_clearcoat",
+        "KHR_materials_sheen",
+        "KHR_materials_anisotropy"
+    ]);
+    let scene = load_glb(&doc).unwrap();
+    let m = &scene.materials[0];
+    assert_eq!(
+        (m.coat, m.coat_roughness),
+        (0.7, 0.03),
+        "Blender's default coat roughness"
+    );
+    assert!(m.coat_texture.is_some() && m.coat_normal_texture.is_none());
+    assert!(m.sheen);
+    assert!(close(m.sheen_color, Vec3::new(0.5, 0.25, 1.0)));
+    assert_eq!(m.sheen_roughness, 0.4);
+    let (color, coat) = (m.sheen_color_texture.unwrap(), m.coat_texture.unwrap());
+    assert!(scene.textures[color.texture as usize].srgb);
+    assert!(!scene.textures[coat.texture as usize].srgb);
+    assert_eq!((m.anisotropy, m.anisotropy_rotation), (0.6, 0.5));
+    // At a point: coat × R, sheen colour × RGB (sRGB decoded), Blender's anisotropy.
+    let s = photon::material::eval_material(&scene, m, photon::math::Vec2::ZERO);
+    assert!((s.coat_weight - 0.7).abs() < 1e-6);
+    assert_eq!(s.sheen_weight, 1.0);
+    assert!((s.sheen_tint.x - 0.5).abs() < 1e-6 && s.sheen_tint.z == 0.0);
+    assert!((s.sheen_tint.y - 0.25 * photon::math::srgb_to_linear(128.0 / 255.0)).abs() < 1e-4);
+    assert!((s.aspect - (1.0f32 - 0.9 * 0.6).sqrt()).abs() < 1e-6);
+    // A coat makes the material glossy: no instancing, and the photon classifier sees it.
+    assert!(photon::integrator::classify::is_specular(&scene, 0));
+
+    for (ext, bad) in [
+        (
+            "KHR_materials_clearcoat",
+            json!({"clearcoatFactor": "thick"}),
+        ),
+        (
+            "KHR_materials_sheen",
+            json!({"sheenColorFactor": [1.0, -1.0, 0.0]}),
+        ),
+        (
+            "KHR_materials_anisotropy",
+            json!({"anisotropyTexture": {"index": 7}}),
+        ),
+    ] {
+        let mut doc = triangle_doc();
+        doc.set_material(json!({"name": "Bad", "extensions": {ext: bad}}));
+        assert_scene_error(load_glb(&doc), &["Bad", ext]);
+    }
+}
+
 /// Make `png` (stored in the buffer) texture 0 of `doc`.
 fn add_png_texture(doc: &mut Doc, png: &[u8], mime: &str) {
     let view = doc.view(png);

@@ -1,4 +1,5 @@
-//! The isotropic GGX (Trowbridge–Reitz) microfacet distribution: normal distribution D, Smith
+//! The GGX (Trowbridge–Reitz) microfacet distribution, isotropic and anisotropic (Heitz 2014
+//! §5.2: α_x along the frame's x axis, α_y along y): normal distribution D, Smith
 //! masking Λ / G1 and height-correlated masking-shadowing G2 (Heitz 2014, "Understanding the
 //! Masking-Shadowing Function in Microfacet-Based BRDFs", eqs. 72 and 99), and sampling of the
 //! distribution of visible normals (Heitz 2018, "Sampling the GGX Distribution of Visible
@@ -47,8 +48,48 @@ pub fn ggx_g2(alpha: f32, wo: Vec3, wi: Vec3) -> f32 {
 
 /// Sample a microfacet normal from the distribution of normals visible from `wo` (`wo.z > 0`).
 pub fn sample_ggx_vndf(alpha: f32, wo: Vec3, u: [f32; 2]) -> Vec3 {
+    sample_ggx_vndf_aniso(alpha, alpha, wo, u)
+}
+
+/// Anisotropic GGX D(h).
+pub fn ggx_d_aniso(ax: f32, ay: f32, h: Vec3) -> f32 {
+    if h.z <= 0.0 {
+        return 0.0;
+    }
+    let (x, y) = (h.x / ax, h.y / ay);
+    let t = x * x + y * y + h.z * h.z;
+    FRAC_1_PI / (ax * ay * t * t)
+}
+
+/// Anisotropic Smith Λ(w).
+pub fn ggx_lambda_aniso(ax: f32, ay: f32, w: Vec3) -> f32 {
+    let cos2 = w.z * w.z;
+    if cos2 <= 0.0 {
+        return f32::INFINITY;
+    }
+    let t = ((ax * w.x) * (ax * w.x) + (ay * w.y) * (ay * w.y)) / cos2;
+    0.5 * ((1.0 + t.max(0.0)).sqrt() - 1.0)
+}
+
+/// Anisotropic height-correlated G2(wo, wi).
+pub fn ggx_g2_aniso(ax: f32, ay: f32, wo: Vec3, wi: Vec3) -> f32 {
+    1.0 / (1.0 + ggx_lambda_aniso(ax, ay, wo) + ggx_lambda_aniso(ax, ay, wi))
+}
+
+/// Density of `sample_ggx_vndf_aniso` over microfacet normals.
+pub fn ggx_vndf_pdf_aniso(ax: f32, ay: f32, wo: Vec3, h: Vec3) -> f32 {
+    let cos_oh = wo.dot(h);
+    if cos_oh <= 0.0 || wo.z <= 0.0 {
+        return 0.0;
+    }
+    cos_oh * ggx_d_aniso(ax, ay, h) / ((1.0 + ggx_lambda_aniso(ax, ay, wo)) * wo.z)
+}
+
+/// `sample_ggx_vndf` with α_x ≠ α_y.
+pub fn sample_ggx_vndf_aniso(ax: f32, ay: f32, wo: Vec3, u: [f32; 2]) -> Vec3 {
+    let alpha = Vec3::new(ax, ay, 1.0);
     // Stretch the view so the distribution becomes the hemisphere of radius 1.
-    let v = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
+    let v = (wo * alpha).normalize();
     let len2 = v.x * v.x + v.y * v.y;
     let t1 = if len2 > 1e-12 {
         Vec3::new(-v.y, v.x, 0.0) / len2.sqrt()
@@ -65,7 +106,7 @@ pub fn sample_ggx_vndf(alpha: f32, wo: Vec3, u: [f32; 2]) -> Vec3 {
     p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2;
     let n = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * v;
     // Unstretch.
-    Vec3::new(alpha * n.x, alpha * n.y, n.z.max(1e-7)).normalize()
+    Vec3::new(ax * n.x, ay * n.y, n.z.max(1e-7)).normalize()
 }
 
 /// Density of `sample_ggx_vndf` over microfacet normals: G1(wo)·max(0, wo·h)·D(h) / wo.z.
@@ -75,6 +116,22 @@ pub fn ggx_vndf_pdf(alpha: f32, wo: Vec3, h: Vec3) -> f32 {
         return 0.0;
     }
     ggx_g1(alpha, wo) * cos_oh * ggx_d(alpha, h) / wo.z
+}
+
+/// ∫ f over the upper hemisphere by the midpoint rule in (cos θ, φ) on n × 2n cells (for
+/// tests of the lobes' normalisation).
+#[cfg(test)]
+pub(crate) fn hemisphere_integral(n: usize, f: impl Fn(Vec3) -> f32) -> f64 {
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        let z = (i as f32 + 0.5) / n as f32;
+        let s = (1.0 - z * z).sqrt();
+        for j in 0..2 * n {
+            let phi = (j as f32 + 0.5) / (2 * n) as f32 * 2.0 * PI;
+            sum += f(Vec3::new(s * phi.cos(), s * phi.sin(), z)) as f64;
+        }
+    }
+    sum / n as f64 * 2.0 * std::f64::consts::PI / (2 * n) as f64
 }
 
 #[cfg(test)]
@@ -97,5 +154,17 @@ mod tests {
                 sum * (std::f64::consts::FRAC_PI_2 / n as f64) * 2.0 * std::f64::consts::PI;
             assert!((integral - 1.0).abs() < 1e-3, "alpha {alpha}: {integral}");
         }
+    }
+
+    /// The anisotropic functions reduce to the isotropic ones, and D_aniso is normalised.
+    #[test]
+    fn anisotropic_ggx_is_consistent() {
+        let h = Vec3::new(0.3, -0.2, 0.9).normalize();
+        let w = Vec3::new(-0.5, 0.4, 0.6).normalize();
+        assert!((ggx_d_aniso(0.4, 0.4, h) - ggx_d(0.4, h)).abs() < 1e-4 * ggx_d(0.4, h));
+        assert!((ggx_lambda_aniso(0.4, 0.4, w) - ggx_lambda(0.4, w)).abs() < 1e-5);
+        let (ax, ay) = (0.6f32, 0.15f32);
+        let integral = hemisphere_integral(1000, |w| ggx_d_aniso(ax, ay, w) * w.z);
+        assert!((integral - 1.0).abs() < 2e-3, "{integral}");
     }
 }

@@ -10,7 +10,17 @@
 //!   refraction (Walter et al. 2007), transmission tinted by sqrt(base colour) per crossing;
 //! - dielectric base, weight `(1 − metallic)(1 − transmission)`: an energy-compensated GGX
 //!   specular layer over a Lambertian diffuse, the diffuse scaled by 1 − (the layer's
-//!   directional albedo), so a white base conserves energy.
+//!   directional albedo), so a white base conserves energy;
+//! - above them, top down as Cycles stacks them: a sheen layer (`sheen`: the microfiber sheen of
+//!   Zeltner et al. 2022, weight `sheen weight × sheen tint`, around the normal mixed towards
+//!   the coat's by the coat weight), then a coat (an untinted energy-compensated GGX dielectric
+//!   of its own IOR, roughness and normal, weight `coat weight`). Each layer scales everything
+//!   below it by 1 − (its directional albedo's largest channel) (Cycles'
+//!   `closure_layering_weight`), and the coat tints what lies below by `tint^(1/cos θt)` (θt the
+//!   view refracted into the coat), mixed in by the coat weight: these factors depend on the
+//!   view, as in Cycles, so the layered BSDF is not reciprocal;
+//! - the specular layer and the metal are anisotropic GGX (α_x = α / aspect along the frame's
+//!   x axis, the tangent; α_y = α · aspect), the glass and the coat isotropic.
 //!
 //! Conventions (all functions):
 //! - directions are in the local shading frame, normal = +Z, both `wo` and `wi` point away from
@@ -33,13 +43,18 @@
 
 pub mod fresnel;
 pub mod microfacet;
+pub mod sheen;
 pub mod tables;
 
 use crate::material::SurfaceMaterial;
-use crate::math::{max_component, reflect, refract, Vec2, Vec3};
+use crate::math::{max_component, reflect, refract, Frame, Vec2, Vec3};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
-use fresnel::{f0_from_ior, fresnel_blend_factor, ior_from_f0, F82Tint};
-use microfacet::{ggx_d, ggx_g2, ggx_vndf_pdf, sample_ggx_vndf, MIN_ALPHA};
+use fresnel::{f0_from_ior, fresnel_blend_factor, fresnel_dielectric, ior_from_f0, F82Tint};
+use microfacet::{
+    ggx_d, ggx_d_aniso, ggx_g2, ggx_g2_aniso, ggx_vndf_pdf, ggx_vndf_pdf_aniso, sample_ggx_vndf,
+    sample_ggx_vndf_aniso, MIN_ALPHA,
+};
+use sheen::SheenLobe;
 use std::f32::consts::FRAC_1_PI;
 use tables::albedo_tables;
 
@@ -53,6 +68,55 @@ const IOR_ONE_TOLERANCE: f32 = 1e-4;
 /// Smallest rough-glass lobe choice probability (Cycles clamps to [0.125, 0.875] likewise).
 const MIN_GLASS_CHOICE: f32 = 0.125;
 
+/// Layer weights below this are absent (Cycles' `CLOSURE_WEIGHT_CUTOFF`).
+const WEIGHT_CUTOFF: f32 = 1e-5;
+
+/// The coat: an untinted GGX dielectric above the rest (Cycles' Principled coat).
+#[derive(Clone, Copy, Debug)]
+struct Coat {
+    /// Coat Weight (≥ 0; 0: no coat).
+    weight: f32,
+    /// Coat IOR (≥ 1) and its F0.
+    eta: f32,
+    f0: f32,
+    roughness: f32,
+    alpha: f32,
+    smooth: bool,
+    /// Coat Tint: what lies below is seen through it.
+    tint: Vec3,
+    /// Unit coat normal in the local frame (+Z: the shading normal).
+    normal: Vec3,
+}
+
+impl Coat {
+    const NONE: Coat = Coat {
+        weight: 0.0,
+        eta: 1.5,
+        f0: 0.04,
+        roughness: 0.03,
+        alpha: 0.0009,
+        smooth: false,
+        tint: Vec3::ONE,
+        normal: Vec3::Z,
+    };
+
+    fn present(&self) -> bool {
+        self.weight > WEIGHT_CUTOFF
+    }
+
+    /// The coat reflects (its IOR is not 1).
+    fn reflects(&self) -> bool {
+        self.present() && self.eta - 1.0 > IOR_ONE_TOLERANCE
+    }
+}
+
+/// The sheen layer: `color` = Sheen Weight × Sheen Tint (zero: no sheen).
+#[derive(Clone, Copy, Debug)]
+struct Sheen {
+    color: Vec3,
+    roughness: f32,
+}
+
 /// The BSDF at one point, built once per hit from a `SurfaceMaterial`.
 #[derive(Clone, Copy, Debug)]
 pub struct Bsdf {
@@ -64,6 +128,9 @@ pub struct Bsdf {
     /// Perceptual roughness, and GGX α = roughness² clamped to `MIN_ALPHA`.
     roughness: f32,
     alpha: f32,
+    /// The specular layer's and the metal's α along the frame's x and y axes.
+    alpha_x: f32,
+    alpha_y: f32,
     /// Specular, metal and glass lobes are delta lobes.
     smooth: bool,
     /// Relative IOR of the dielectric specular layer after the specular-level adjustment; 1 when
@@ -79,6 +146,8 @@ pub struct Bsdf {
     /// Fraction of the Lambertian part kept (1 − subsurface weight where a subsurface term
     /// replaces the rest; 1 otherwise).
     diffuse_scale: f32,
+    coat: Coat,
+    sheen: Sheen,
 }
 
 /// One sampled direction.
@@ -148,13 +217,49 @@ impl Bsdf {
             (1.0, Vec3::ZERO)
         };
 
+        let alpha = (roughness * roughness).max(MIN_ALPHA);
+        let aspect = clean(m.aspect, 0.01, 1.0);
+
+        let coat_weight = clean(m.coat_weight, 0.0, f32::MAX);
+        let coat = if coat_weight > WEIGHT_CUTOFF {
+            let eta = if m.coat_ior.is_finite() {
+                m.coat_ior.max(1.0)
+            } else {
+                1.5
+            };
+            let rough = clean(m.coat_roughness, 0.0, 1.0);
+            Coat {
+                weight: coat_weight,
+                eta,
+                f0: f0_from_ior(eta),
+                roughness: rough,
+                alpha: (rough * rough).max(MIN_ALPHA),
+                smooth: rough < SMOOTH_ROUGHNESS,
+                tint: clean3(m.coat_tint),
+                normal: Vec3::Z,
+            }
+        } else {
+            Coat::NONE
+        };
+        let sheen_weight = clean(m.sheen_weight, 0.0, f32::MAX);
+        let sheen = Sheen {
+            color: if sheen_weight > WEIGHT_CUTOFF {
+                clean3(m.sheen_tint) * sheen_weight
+            } else {
+                Vec3::ZERO
+            },
+            roughness: clean(m.sheen_roughness, 0.0, 1.0),
+        };
+
         Bsdf {
             base_color,
             base_weight: (1.0 - metallic) * (1.0 - transmission),
             metal_weight: metallic,
             glass_weight: (1.0 - metallic) * transmission,
             roughness,
-            alpha: (roughness * roughness).max(MIN_ALPHA),
+            alpha,
+            alpha_x: alpha / aspect,
+            alpha_y: alpha * aspect,
             smooth: roughness < SMOOTH_ROUGHNESS,
             spec_eta,
             spec_f0,
@@ -167,7 +272,32 @@ impl Bsdf {
                 clamped_base.z.sqrt(),
             ),
             diffuse_scale: 1.0,
+            coat,
+            sheen,
         }
+    }
+
+    /// The same BSDF with the coat's normal `n` (unit, in the local frame of the shading
+    /// normal; Cycles' Coat Normal input).
+    pub fn with_coat_normal(mut self, n: Vec3) -> Bsdf {
+        if n.is_finite() && n.length_squared() > 0.0 {
+            self.coat.normal = n.normalize();
+        }
+        self
+    }
+
+    /// The sheen's normal: the shading normal mixed towards the coat's by the coat weight.
+    fn sheen_normal(&self) -> Vec3 {
+        let t = if self.coat.present() {
+            self.coat.weight.min(1.0)
+        } else {
+            0.0
+        };
+        Vec3::Z.lerp(self.coat.normal, t).normalize_or(Vec3::Z)
+    }
+
+    fn has_sheen(&self) -> bool {
+        self.sheen.color != Vec3::ZERO
     }
 
     /// The same BSDF with `weight` of its Lambertian part removed, for shading a translucent
@@ -201,6 +331,8 @@ impl Bsdf {
             || (!self.smooth
                 && (self.metal_weight > 0.0
                     || (self.glass_weight > 0.0 && !self.glass_passes_straight())))
+            || self.has_sheen()
+            || (self.coat.reflects() && !self.coat.smooth)
     }
 
     /// True when every lobe is a delta (smooth metal or glass): no light sampling, no MIS.
@@ -212,7 +344,9 @@ impl Bsdf {
     pub fn has_delta(&self) -> bool {
         let smooth_lobe =
             self.metal_weight > 0.0 || self.glass_weight > 0.0 || self.has_spec_layer();
-        (self.smooth && smooth_lobe) || (self.glass_weight > 0.0 && self.glass_passes_straight())
+        (self.smooth && smooth_lobe)
+            || (self.glass_weight > 0.0 && self.glass_passes_straight())
+            || (self.coat.reflects() && self.coat.smooth)
     }
 
     /// True when light can cross the surface (a glass lobe exists): the integrator must not flip
@@ -224,11 +358,23 @@ impl Bsdf {
     /// True when some lobe is glossy or specular (anything but the Lambertian base): paths that
     /// leave through it can carry caustics.
     pub fn has_specular(&self) -> bool {
+        self.base_has_specular() || self.coat.reflects()
+    }
+
+    fn base_has_specular(&self) -> bool {
         self.metal_weight > 0.0 || self.glass_weight > 0.0 || self.has_spec_layer()
     }
 
+    /// Perceptual roughness of the smoothest glossy lobe (the base's, or the coat's when it is
+    /// smoother); the base's when there is none.
     pub fn roughness(&self) -> f32 {
-        self.roughness
+        if self.coat.reflects()
+            && (self.coat.roughness < self.roughness || !self.base_has_specular())
+        {
+            self.coat.roughness
+        } else {
+            self.roughness
+        }
     }
 }
 
@@ -241,23 +387,69 @@ struct LobeSet {
     wo: Vec3,
     /// Lambertian reflectance (f = diffuse / π).
     diffuse: Vec3,
-    /// Fraction of the light that crosses the specular layer into the base.
+    /// Fraction of the light that crosses the sheen, the coat and the specular layer into the
+    /// base (its grey part: the coat's tint is left out).
     base_transmittance: f32,
-    /// Specular-layer and metal multipliers (lobe weight × energy compensation).
+    /// Specular-layer and metal multipliers (lobe weight × energy compensation × the layers
+    /// above).
     spec_scale: Vec3,
     metal_scale: Vec3,
+    /// The glass weight times the layers above.
+    glass_scale: Vec3,
     /// Relative IOR seen by the glass from the viewer's side.
     glass_eta: f32,
-    /// Estimated directional albedo of each lobe: diffuse, specular layer, metal, glass.
-    albedo: [Vec3; 4],
+    /// What the sheen and the coat let through to the base (and its emission).
+    under: Vec3,
+    /// The coat seen from `wo`: its frame in the mirrored frame (`None`: the shading normal),
+    /// `wo` in it, and its multiplier (weight × energy compensation × the sheen above).
+    coat_frame: Option<Frame>,
+    coat_wo: Vec3,
+    coat_scale: f32,
+    /// The sheen seen from `wo`: its lobe, its frame (x towards the viewer) and f·cos / D.
+    sheen: SheenLobe,
+    sheen_frame: Frame,
+    sheen_color: Vec3,
+    /// Estimated directional albedo of each lobe.
+    albedo: [Vec3; LOBES],
     /// Probability of sampling each lobe.
-    prob: [f32; 4],
+    prob: [f32; LOBES],
 }
 
 const DIFFUSE: usize = 0;
 const SPECULAR: usize = 1;
 const METAL: usize = 2;
 const GLASS: usize = 3;
+const COAT: usize = 4;
+const SHEEN: usize = 5;
+const LOBES: usize = 6;
+
+/// Energy compensation of a GGX dielectric reflector (Cycles' `microfacet_ggx_preserve_energy`
+/// with Fresnel mix(F0·tint, 1, s)) seen at cosine `mu`: its single-scattering multiplier
+/// (1 + F_ms·(1 − E)/E) and E times the lobe-averaged Fresnel (the reflector's directional
+/// albedo is their product).
+fn dielectric_layer(smooth: bool, rough: f32, mu: f32, eta: f32, f0_tinted: Vec3) -> (Vec3, Vec3) {
+    let t = albedo_tables();
+    let (e, e_avg) = if smooth {
+        (1.0, 1.0)
+    } else {
+        (t.ggx_e(mu, rough).max(1e-3), t.ggx_e_avg(rough).max(1e-3))
+    };
+    let s = if smooth {
+        fresnel_blend_factor(mu, eta)
+    } else {
+        t.dielectric_s_bar(mu, rough, eta)
+    };
+    let f_lobe = mix(f0_tinted, Vec3::ONE, s);
+    let f_avg = mix(f0_tinted, Vec3::ONE, t.dielectric_s_avg(eta));
+    let compensation = Vec3::ONE + multiscatter_fresnel(f_avg, e_avg) * ((1.0 - e) / e);
+    (compensation, f_lobe * e)
+}
+
+/// A frame around `n` whose x axis is `w`'s projection on its plane (any frame when `w` is
+/// along `n`).
+fn frame_towards(n: Vec3, w: Vec3) -> Frame {
+    Frame::from_normal_tangent(n, w)
+}
 
 impl LobeSet {
     fn new(b: &Bsdf, wo: Vec3) -> Option<LobeSet> {
@@ -270,50 +462,108 @@ impl LobeSet {
         }
         let side = if wo.z > 0.0 { 1.0 } else { -1.0 };
         let wo = Vec3::new(wo.x, wo.y, wo.z * side);
+        // Seen from behind, every layer's normal turns to the viewer (as Cycles flips them):
+        // a normal n is −n mirrored.
+        let turned = |n: Vec3| Vec3::new(n.x * side, n.y * side, n.z);
         let mu = wo.z.min(1.0);
         let t = albedo_tables();
         let rough = b.roughness;
 
-        let mut albedo = [Vec3::ZERO; 4];
+        let mut albedo = [Vec3::ZERO; LOBES];
         let mut spec_scale = Vec3::ZERO;
         let mut metal_scale = Vec3::ZERO;
 
-        let (e, e_avg) = if b.smooth {
-            (1.0, 1.0)
-        } else {
-            (t.ggx_e(mu, rough).max(1e-3), t.ggx_e_avg(rough).max(1e-3))
+        // The layers above the base, top down: each scales what lies below by 1 − its albedo.
+        let mut above = 1.0f32;
+        let mut sheen_frame = Frame {
+            s: Vec3::X,
+            t: Vec3::Y,
+            n: Vec3::Z,
         };
-        let missing = (1.0 - e) / e;
+        let mut sheen = SheenLobe {
+            a: 1.0,
+            b: 0.0,
+            albedo: 0.0,
+        };
+        let mut sheen_color = Vec3::ZERO;
+        if b.has_sheen() {
+            let sheen_n = turned(b.sheen_normal());
+            sheen_frame = frame_towards(sheen_n, wo);
+            sheen = SheenLobe::new(wo.dot(sheen_n), b.sheen.roughness);
+            sheen_color = b.sheen.color * sheen.albedo;
+            albedo[SHEEN] = sheen_color;
+            above *= (1.0 - max_component(sheen_color)).clamp(0.0, 1.0);
+        }
+        let coat_n = turned(b.coat.normal);
+        let coat_frame = (coat_n != Vec3::Z).then(|| Frame::from_normal(coat_n));
+        let coat_wo = coat_frame.map_or(wo, |f| f.to_local(wo));
+        let mut coat_scale = 0.0;
+        let mut tint = Vec3::ONE;
+        if b.coat.present() {
+            let c = &b.coat;
+            if c.reflects() && coat_wo.z > 0.0 {
+                let (compensation, fresnel_e) = dielectric_layer(
+                    c.smooth,
+                    c.roughness,
+                    coat_wo.z.min(1.0),
+                    c.eta,
+                    Vec3::splat(c.f0),
+                );
+                coat_scale = c.weight * compensation.x * above;
+                let ratio = c.weight * fresnel_e.x * compensation.x;
+                albedo[COAT] = Vec3::splat(ratio * above);
+                above *= (1.0 - ratio).clamp(0.0, 1.0);
+            }
+            if c.tint != Vec3::ONE {
+                // Beer–Lambert through a coat of unit thickness along the refracted view.
+                let cos_i = coat_wo.z;
+                let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (c.eta * c.eta))
+                    .max(1e-6)
+                    .sqrt();
+                let depth = 1.0 / cos_t;
+                let through = Vec3::new(
+                    c.tint.x.powf(depth),
+                    c.tint.y.powf(depth),
+                    c.tint.z.powf(depth),
+                );
+                tint = mix(Vec3::ONE, through, c.weight.min(1.0));
+            }
+        }
+        let under = tint * above;
 
+        let mut layer_albedo = 0.0;
         if b.has_spec_layer() {
-            let s = if b.smooth {
-                fresnel_blend_factor(mu, b.spec_eta)
-            } else {
-                t.dielectric_s_bar(mu, rough, b.spec_eta)
-            };
-            let f_lobe = mix(b.spec_f0, Vec3::ONE, s);
-            let f_avg = mix(b.spec_f0, Vec3::ONE, t.dielectric_s_avg(b.spec_eta));
-            let f_ms = multiscatter_fresnel(f_avg, e_avg);
+            let (compensation, fresnel_e) =
+                dielectric_layer(b.smooth, rough, mu, b.spec_eta, b.spec_f0);
             // The compensated lobe reflects E·f_lobe·(1 + F_ms·(1 − E)/E): Cycles' estimate of
             // the layer's albedo (bsdf_microfacet_estimate_albedo times the darkening already in
             // the weight), and what the diffuse below must give up.
-            spec_scale = (Vec3::ONE + f_ms * missing) * b.base_weight;
-            albedo[SPECULAR] = f_lobe * e * spec_scale;
+            let weighted = compensation * b.base_weight;
+            let layer = fresnel_e * weighted;
+            layer_albedo = max_component(layer) / b.base_weight;
+            spec_scale = weighted * under;
+            albedo[SPECULAR] = layer * under;
         }
-        let layer_albedo = if b.base_weight > 0.0 {
-            max_component(albedo[SPECULAR]) / b.base_weight
+        let base_share = b.base_weight * (1.0 - layer_albedo).max(0.0);
+        let base_transmittance = if tint == Vec3::ONE {
+            base_share * above
         } else {
-            0.0
+            base_share * above * average(tint)
         };
-        let base_transmittance = b.base_weight * (1.0 - layer_albedo).max(0.0);
-        let diffuse = b.base_color * (base_transmittance * b.diffuse_scale);
+        let diffuse = b.base_color * under * (base_share * b.diffuse_scale);
         albedo[DIFFUSE] = diffuse;
 
         if b.metal_weight > 0.0 {
+            let (e, e_avg) = if b.smooth {
+                (1.0, 1.0)
+            } else {
+                (t.ggx_e(mu, rough).max(1e-3), t.ggx_e_avg(rough).max(1e-3))
+            };
+            let missing = (1.0 - e) / e;
             let f_view = b.metal_fresnel.eval(mu);
             let f_ms = multiscatter_fresnel(b.metal_fresnel.average(), e_avg);
-            albedo[METAL] = (f_view * e + f_ms * (1.0 - e)) * b.metal_weight;
-            metal_scale = (Vec3::ONE + f_ms * missing) * b.metal_weight;
+            albedo[METAL] = (f_view * e + f_ms * (1.0 - e)) * b.metal_weight * under;
+            metal_scale = (Vec3::ONE + f_ms * missing) * b.metal_weight * under;
         }
 
         let glass_eta = if side > 0.0 {
@@ -321,14 +571,15 @@ impl LobeSet {
         } else {
             1.0 / b.glass_ior
         };
+        let glass_scale = under * b.glass_weight;
         if b.glass_weight > 0.0 {
             let (r, tr) = glass_split(b, mu, glass_eta);
-            albedo[GLASS] = (r + tr) * b.glass_weight;
+            albedo[GLASS] = (r + tr) * glass_scale;
         }
 
         // Sample in proportion to the estimated albedo; a tiny floor keeps every lobe that can
         // carry light reachable.
-        let mut prob = [0.0f32; 4];
+        let mut prob = [0.0f32; LOBES];
         if b.base_weight > 0.0 {
             prob[DIFFUSE] = average(diffuse);
             if b.has_spec_layer() {
@@ -340,6 +591,12 @@ impl LobeSet {
         }
         if b.glass_weight > 0.0 {
             prob[GLASS] = average(albedo[GLASS]).max(1e-4 * b.glass_weight);
+        }
+        if coat_scale > 0.0 {
+            prob[COAT] = average(albedo[COAT]).max(1e-4 * b.coat.weight.min(1.0));
+        }
+        if b.has_sheen() {
+            prob[SHEEN] = average(albedo[SHEEN]).max(1e-4);
         }
         let total: f32 = prob.iter().sum();
         if !(total > 0.0) || !total.is_finite() {
@@ -356,7 +613,15 @@ impl LobeSet {
             base_transmittance,
             spec_scale,
             metal_scale,
+            glass_scale,
             glass_eta,
+            under,
+            coat_frame,
+            coat_wo,
+            coat_scale,
+            sheen,
+            sheen_frame,
+            sheen_color,
             albedo,
             prob,
         })
@@ -365,6 +630,15 @@ impl LobeSet {
     /// Mirror a direction into (or out of) the viewer-up frame.
     fn mirror(&self, w: Vec3) -> Vec3 {
         Vec3::new(w.x, w.y, w.z * self.side)
+    }
+
+    /// A direction of the mirrored frame in the coat's frame.
+    fn in_coat_frame(&self, w: Vec3) -> Vec3 {
+        self.coat_frame.map_or(w, |f| f.to_local(w))
+    }
+
+    fn out_of_coat_frame(&self, w: Vec3) -> Vec3 {
+        self.coat_frame.map_or(w, |f| f.to_world(w))
     }
 }
 
@@ -449,6 +723,23 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
             f += l.diffuse * (FRAC_1_PI * wi.z);
             pdf += l.prob[DIFFUSE] * cosine_hemisphere_pdf(wi.z);
         }
+        if l.prob[SHEEN] > 0.0 {
+            let d = l.sheen.density(l.sheen_frame.to_local(wi));
+            f += l.sheen_color * d;
+            pdf += l.prob[SHEEN] * d;
+        }
+        if l.prob[COAT] > 0.0 && !b.coat.smooth {
+            let (wo_c, wi_c) = (l.coat_wo, l.in_coat_frame(wi));
+            let h = (wo_c + wi_c).normalize_or_zero();
+            let cos_oh = wo_c.dot(h);
+            if wi_c.z > 0.0 && h.z > 0.0 && cos_oh > 0.0 {
+                let a = b.coat.alpha;
+                let d = ggx_d(a, h);
+                let fr = fresnel_dielectric(cos_oh, b.coat.eta);
+                f += Vec3::splat(fr * l.coat_scale * d * ggx_g2(a, wo_c, wi_c) / (4.0 * wo_c.z));
+                pdf += l.prob[COAT] * ggx_vndf_pdf(a, wo_c, h) / (4.0 * cos_oh);
+            }
+        }
         if b.smooth {
             return (f, pdf);
         }
@@ -457,25 +748,41 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
         if h.z <= 0.0 || cos_oh <= 0.0 {
             return (f, pdf);
         }
-        let d = ggx_d(b.alpha, h);
-        let single = d * ggx_g2(b.alpha, wo, wi) / (4.0 * wo.z);
-        let reflect_pdf = ggx_vndf_pdf(b.alpha, wo, h) / (4.0 * cos_oh);
-        if l.prob[SPECULAR] > 0.0 {
-            let fr = mix(
-                b.spec_f0,
-                Vec3::ONE,
-                fresnel_blend_factor(cos_oh, b.spec_eta),
-            );
-            f += fr * l.spec_scale * single;
-            pdf += l.prob[SPECULAR] * reflect_pdf;
-        }
-        if l.prob[METAL] > 0.0 {
-            f += b.metal_fresnel.eval(cos_oh) * l.metal_scale * single;
-            pdf += l.prob[METAL] * reflect_pdf;
+        // The isotropic lobe (glass, and the others when isotropic).
+        let isotropic = || {
+            let d = ggx_d(b.alpha, h);
+            let single = d * ggx_g2(b.alpha, wo, wi) / (4.0 * wo.z);
+            (single, ggx_vndf_pdf(b.alpha, wo, h) / (4.0 * cos_oh))
+        };
+        if l.prob[SPECULAR] > 0.0 || l.prob[METAL] > 0.0 {
+            let (ax, ay) = (b.alpha_x, b.alpha_y);
+            let (single, reflect_pdf) = if ax == ay {
+                isotropic()
+            } else {
+                let d = ggx_d_aniso(ax, ay, h);
+                (
+                    d * ggx_g2_aniso(ax, ay, wo, wi) / (4.0 * wo.z),
+                    ggx_vndf_pdf_aniso(ax, ay, wo, h) / (4.0 * cos_oh),
+                )
+            };
+            if l.prob[SPECULAR] > 0.0 {
+                let fr = mix(
+                    b.spec_f0,
+                    Vec3::ONE,
+                    fresnel_blend_factor(cos_oh, b.spec_eta),
+                );
+                f += fr * l.spec_scale * single;
+                pdf += l.prob[SPECULAR] * reflect_pdf;
+            }
+            if l.prob[METAL] > 0.0 {
+                f += b.metal_fresnel.eval(cos_oh) * l.metal_scale * single;
+                pdf += l.prob[METAL] * reflect_pdf;
+            }
         }
         if l.prob[GLASS] > 0.0 && !b.glass_passes_straight() {
+            let (single, reflect_pdf) = isotropic();
             let (r, t) = glass_split(b, cos_oh, l.glass_eta);
-            f += r * (b.glass_weight * single);
+            f += r * (l.glass_scale * single);
             pdf += l.prob[GLASS] * reflect_pdf * glass_reflect_probability(r, t, false);
         }
     } else if l.prob[GLASS] > 0.0 && !b.smooth && !b.glass_passes_straight() {
@@ -485,7 +792,7 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
             let (r, t) = glass_split(b, g.cos_oh, eta);
             let jacobian = eta * eta * (-g.cos_ih) / g.denom2;
             let value = d * ggx_g2(b.alpha, wo, wi) * g.cos_oh * jacobian / wo.z;
-            f += t * (b.glass_weight * value);
+            f += t * (l.glass_scale * value);
             let p_t = 1.0 - glass_reflect_probability(r, t, false);
             pdf += l.prob[GLASS] * ggx_vndf_pdf(b.alpha, wo, g.h) * jacobian * p_t;
         }
@@ -556,6 +863,12 @@ impl ViewedBsdf {
         self.lobes.as_ref().map_or(0.0, |l| l.base_transmittance)
     }
 
+    /// What the sheen and coat layers let through from the base towards `wo` (Cycles
+    /// attenuates the Principled BSDF's emission by it too); one without them.
+    pub fn layer_transmittance(&self) -> Vec3 {
+        self.lobes.as_ref().map_or(Vec3::ONE, |l| l.under)
+    }
+
     /// The same view of `Bsdf::without_subsurface`.
     pub fn without_subsurface(&self, weight: f32) -> ViewedBsdf {
         self.bsdf.without_subsurface(weight).viewed_from(self.wo)
@@ -621,19 +934,37 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
             return delta(mirror, value, p_lobe);
         }
         SPECULAR | METAL => {
-            let h = sample_ggx_vndf(b.alpha, wo_up, uu);
+            let h = sample_ggx_vndf_aniso(b.alpha_x, b.alpha_y, wo_up, uu);
             (reflect(wo_up, h), true)
         }
+        COAT => {
+            let wo_c = l.coat_wo;
+            if b.coat.smooth {
+                let wi_up = l.out_of_coat_frame(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
+                if !(wi_up.z > 0.0) {
+                    return None;
+                }
+                let value = fresnel_dielectric(wo_c.z, b.coat.eta) * l.coat_scale;
+                return delta(wi_up, Vec3::splat(value), p_lobe);
+            }
+            let h = sample_ggx_vndf(b.coat.alpha, wo_c, uu);
+            let wi_c = reflect(wo_c, h);
+            if !(wi_c.z > 0.0) {
+                return None;
+            }
+            (l.out_of_coat_frame(wi_c), true)
+        }
+        SHEEN => (l.sheen_frame.to_world(l.sheen.sample(uu)), true),
         _ => {
             let eta = l.glass_eta;
             if b.smooth || b.glass_passes_straight() {
                 let (r, t) = glass_split(b, wo_up.z, eta);
                 let p_r = glass_reflect_probability(r, t, true);
                 return if u_choice < p_r {
-                    delta(mirror, r * b.glass_weight, p_lobe * p_r)
+                    delta(mirror, r * l.glass_scale, p_lobe * p_r)
                 } else {
                     let wi_up = refract(wo_up, Vec3::Z, eta)?;
-                    delta(wi_up, t * b.glass_weight, p_lobe * (1.0 - p_r))
+                    delta(wi_up, t * l.glass_scale, p_lobe * (1.0 - p_r))
                 };
             }
             let h = sample_ggx_vndf(b.alpha, wo_up, uu);

@@ -69,11 +69,15 @@ impl Shading {
         } else {
             eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera, length), 0.0)
         };
-        let mut frame = match surface.normal {
-            // A node tree's normal (Bump), on the side of the surface's own.
-            Some(n) if n.dot(sh.frame.n) < 0.0 => Frame::from_normal(-n),
-            Some(n) => Frame::from_normal(n),
-            None => sh.frame,
+        // A node tree's normal (Bump), on the side of the surface's own.
+        let toward = |n: Vec3| if n.dot(sh.frame.n) < 0.0 { -n } else { n };
+        let mut frame = match (surface.normal, surface.tangent) {
+            // Anisotropic lobes run along the material's tangent.
+            (n, Some(t)) if surface.aspect < 1.0 => {
+                Frame::from_normal_tangent(n.map_or(sh.frame.n, toward), t)
+            }
+            (Some(n), _) => Frame::from_normal(toward(n)),
+            (None, _) => sh.frame,
         };
         let opaque = surface.transmission <= 0.0;
         let mut ng = sh.ng;
@@ -83,12 +87,23 @@ impl Shading {
             ng = -ng;
         }
         let wo_local = frame.to_local(wo);
+        let mut bsdf = Bsdf::new(&surface);
+        if let Some(c) = surface.coat_normal.filter(|_| surface.coat_weight > 0.0) {
+            let c = if c.dot(frame.n) < 0.0 { -c } else { c };
+            bsdf = bsdf.with_coat_normal(frame.to_local(c));
+        }
+        let bsdf = bsdf.viewed_from(wo_local);
+        let mut surface = surface;
+        if surface.coat_weight > 0.0 || surface.sheen_weight > 0.0 {
+            // Cycles' Principled emission lies below the sheen and the coat.
+            surface.emission *= bsdf.layer_transmittance();
+        }
         Shading {
             sh,
             frame,
             ng,
             opaque,
-            bsdf: Bsdf::new(&surface).viewed_from(wo_local),
+            bsdf,
             wo,
             wo_local,
             surface,

@@ -120,6 +120,19 @@
 //!   frame's (a primitive with a vertex not found stays still, with a warning). Malformed
 //!   data is refused with an error.
 //!
+//! # Coat, sheen and anisotropy
+//!
+//! `KHR_materials_clearcoat`, `KHR_materials_sheen` and `KHR_materials_anisotropy` are read as
+//! Blender's importer turns them into Principled BSDF inputs, so a file renders as Cycles
+//! renders it once imported: clearcoat → Coat Weight and Coat Roughness (× the textures' R and
+//! G; roughness 0.03, Blender's default, when neither factor nor texture is given; IOR 1.5,
+//! untinted) with the clearcoat normal texture as the Coat Normal; sheen → Sheen Weight 1,
+//! Sheen Tint = sheenColorFactor (× texture RGB), Sheen Roughness (× texture A);
+//! anisotropy → Anisotropic = anisotropyStrength (× texture B), its direction turned by
+//! anisotropyRotation (radians) and, with a texture, by the angle of its (R, G) × 2 − 1, from
+//! the mesh's UV tangent with a texture and from Blender's default tangent (around the object's
+//! Z axis) without one (`crate::material::eval_surface`).
+//!
 //! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
 //! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree
 //! multiplies its base colour by them, as glTF specifies.
@@ -203,6 +216,9 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_materials_anisotropy",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
     "EXT_texture_webp",
@@ -1401,6 +1417,55 @@ impl Loader {
                     .push(format!("{object}: specular textures are ignored"));
             }
         }
+        if let Some(ext) = material.extension_value("KHR_materials_clearcoat") {
+            let label = format!("{object} KHR_materials_clearcoat");
+            out.coat = self.ext_number(ext, "clearcoatFactor", 0.0, 0.0, 1.0, &label)?;
+            out.coat_texture = self.raw_texture_info(ext.get("clearcoatTexture"), false, &label)?;
+            out.coat_roughness_texture =
+                self.raw_texture_info(ext.get("clearcoatRoughnessTexture"), false, &label)?;
+            // Blender's importer: its default coat roughness when neither is given.
+            let default = if out.coat_roughness_texture.is_some() {
+                0.0
+            } else {
+                0.03
+            };
+            out.coat_roughness =
+                self.ext_number(ext, "clearcoatRoughnessFactor", default, 0.0, 1.0, &label)?;
+            if let Some(normal) = ext.get("clearcoatNormalTexture") {
+                out.coat_normal_texture = self.raw_texture_info(Some(normal), false, &label)?;
+                out.coat_normal_scale =
+                    self.ext_number(normal, "scale", 1.0, f32::MIN, f32::MAX, &label)?;
+            }
+        }
+        if let Some(ext) = material.extension_value("KHR_materials_sheen") {
+            let label = format!("{object} KHR_materials_sheen");
+            out.sheen = true;
+            out.sheen_color = match ext.get("sheenColorFactor") {
+                None => Vec3::ZERO,
+                Some(v) => json_vec3(v)
+                    .filter(|c| c.is_finite() && c.min_element() >= 0.0)
+                    .ok_or_else(|| {
+                        self.err(
+                            &label,
+                            format!("'sheenColorFactor' must be three numbers ≥ 0, found {v}"),
+                        )
+                    })?,
+            };
+            out.sheen_color_texture =
+                self.raw_texture_info(ext.get("sheenColorTexture"), true, &label)?;
+            out.sheen_roughness =
+                self.ext_number(ext, "sheenRoughnessFactor", 0.0, 0.0, 1.0, &label)?;
+            out.sheen_roughness_texture =
+                self.raw_texture_info(ext.get("sheenRoughnessTexture"), false, &label)?;
+        }
+        if let Some(ext) = material.extension_value("KHR_materials_anisotropy") {
+            let label = format!("{object} KHR_materials_anisotropy");
+            out.anisotropy = self.ext_number(ext, "anisotropyStrength", 0.0, 0.0, 1.0, &label)?;
+            out.anisotropy_rotation =
+                self.ext_number(ext, "anisotropyRotation", 0.0, f32::MIN, f32::MAX, &label)?;
+            out.anisotropy_texture =
+                self.raw_texture_info(ext.get("anisotropyTexture"), false, &label)?;
+        }
         if let Some(volume) = material.volume() {
             out.thickness = volume.thickness_factor();
             out.attenuation_distance = volume.attenuation_distance();
@@ -1575,6 +1640,58 @@ impl Loader {
                 })?;
         }
         Ok(out)
+    }
+
+    /// The number `key` of an extension object (`default` when absent), clamped to
+    /// [lo, hi]; anything but a finite number is refused.
+    fn ext_number(
+        &self,
+        ext: &Value,
+        key: &str,
+        default: f32,
+        lo: f32,
+        hi: f32,
+        object: &str,
+    ) -> Result<f32> {
+        match ext.get(key) {
+            None => Ok(default),
+            Some(v) => match v.as_f64().map(|x| x as f32) {
+                Some(x) if x.is_finite() => Ok(x.clamp(lo, hi)),
+                _ => Err(self.err(object, format!("'{key}' must be a number, found {v}"))),
+            },
+        }
+    }
+
+    /// A textureInfo object of an extension the gltf crate does not parse: `{"index": i,
+    /// "texCoord": n, "extensions": {"KHR_texture_transform": {...}}}`.
+    fn raw_texture_info(
+        &mut self,
+        info: Option<&Value>,
+        srgb: bool,
+        object: &str,
+    ) -> Result<Option<TextureRef>> {
+        let Some(info) = info else {
+            return Ok(None);
+        };
+        let document = self.document.clone();
+        let texture = info
+            .get("index")
+            .and_then(Value::as_u64)
+            .and_then(|i| document.textures().nth(i as usize))
+            .ok_or_else(|| {
+                self.err(
+                    object,
+                    format!("texture 'index' must name one of the file's textures, found {info}"),
+                )
+            })?;
+        let tex_coord = info.get("texCoord").and_then(Value::as_u64).unwrap_or(0);
+        self.warn_tex_coord(tex_coord as u32, object);
+        let transform = info
+            .get("extensions")
+            .and_then(|e| e.get("KHR_texture_transform"))
+            .map(raw_texture_transform);
+        self.texture_ref(&texture, srgb, transform, object)
+            .map(Some)
     }
 
     fn warn_tex_coord(&mut self, tex_coord: u32, object: &str) {

@@ -201,6 +201,31 @@ pub struct Material {
     pub thickness: f32,
     /// Blender's Principled subsurface inputs (our `PHOTON_material_subsurface` extension).
     pub subsurface: Subsurface,
+    /// KHR_materials_clearcoat: clearcoatFactor (× texture R), clearcoatRoughnessFactor
+    /// (× texture G) and the clearcoat normal texture with its scale. Read as Blender imports
+    /// them: Blender's coat (IOR 1.5, untinted), roughness 0.03 when the factor and its
+    /// texture are absent.
+    pub coat: f32,
+    pub coat_texture: Option<TextureRef>,
+    pub coat_roughness: f32,
+    pub coat_roughness_texture: Option<TextureRef>,
+    pub coat_normal_texture: Option<TextureRef>,
+    pub coat_normal_scale: f32,
+    /// KHR_materials_sheen: sheenColorFactor (× texture RGB) and sheenRoughnessFactor
+    /// (× texture A); present when the extension is (Blender's Sheen Weight 1 and Tint the
+    /// colour).
+    pub sheen: bool,
+    pub sheen_color: Vec3,
+    pub sheen_color_texture: Option<TextureRef>,
+    pub sheen_roughness: f32,
+    pub sheen_roughness_texture: Option<TextureRef>,
+    /// KHR_materials_anisotropy as Blender imports it: anisotropyStrength (× texture B) is
+    /// Blender's Anisotropic, the direction is anisotropyRotation (radians) plus, with a
+    /// texture, the angle of its (R, G) × 2 − 1, around the UV map's tangent with a texture and
+    /// Blender's default tangent (around the object's Z axis) without one.
+    pub anisotropy: f32,
+    pub anisotropy_rotation: f32,
+    pub anisotropy_texture: Option<TextureRef>,
     /// The Blender node tree (our `PHOTON_material_nodes` extension), compiled: when present
     /// it replaces every factor and texture above at each shading point (`crate::material`).
     pub nodes: Option<std::sync::Arc<nodes::NodeProgram>>,
@@ -267,6 +292,20 @@ impl Default for Material {
             attenuation_distance: f32::INFINITY,
             thickness: 0.0,
             subsurface: Subsurface::default(),
+            coat: 0.0,
+            coat_texture: None,
+            coat_roughness: 0.03,
+            coat_roughness_texture: None,
+            coat_normal_texture: None,
+            coat_normal_scale: 1.0,
+            sheen: false,
+            sheen_color: Vec3::ZERO,
+            sheen_color_texture: None,
+            sheen_roughness: 0.0,
+            sheen_roughness_texture: None,
+            anisotropy: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_texture: None,
             nodes: None,
         }
     }

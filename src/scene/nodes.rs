@@ -22,9 +22,13 @@
 //! `svm_node_set_bump` with those steps as dPdx and dPdy.
 //!
 //! Shader nodes become Principled parameter sets (`Closure`); a Principled BSDF's Alpha below 1
-//! mixes it with a Transparent BSDF by alpha, as Cycles does. Diffuse BSDF → colour, metallic 0,
-//! specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy → metallic 1 with the
-//! colour as F0 (Blender's Glossy has no Fresnel: differs at grazing angles); Glass → transmission
+//! mixes it with a Transparent BSDF by alpha, as Cycles does. Its coat, sheen and anisotropy
+//! inputs are the BSDF's own layers (`crate::bsdf`); an unlinked Tangent is Cycles' default
+//! (`default_tangent`), turned by Anisotropic Rotation around the normal. Diffuse BSDF → colour,
+//! metallic 0, specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy →
+//! metallic 1 with the colour as F0 (Blender's Glossy has no Fresnel: differs at grazing
+//! angles), its Anisotropy as Cycles maps it (α (1 − a) along the tangent and α / (1 − a)
+//! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
 //! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
 //! the colour); Translucent → fully rough transmission with IOR 1 (an approximation of diffuse
@@ -114,6 +118,21 @@ pub struct Closure {
     pub emission: Vec3,
     /// Shading normal from a Normal input (Blender's axes, world); zero: the surface's own.
     pub normal: Vec3,
+    /// The Principled coat: weight, roughness, IOR, tint and normal (Blender's axes; zero:
+    /// the shading normal).
+    pub coat_weight: f32,
+    pub coat_roughness: f32,
+    pub coat_ior: f32,
+    pub coat_tint: Vec3,
+    pub coat_normal: Vec3,
+    /// The sheen: weight, roughness and tint (Principled's sheen layer, or a Sheen BSDF).
+    pub sheen_weight: f32,
+    pub sheen_roughness: f32,
+    pub sheen_tint: Vec3,
+    /// Anisotropy as `SurfaceMaterial::aspect` (α_y / α_x), along `tangent` (Blender's axes,
+    /// rotation applied; zero: the shading frame's).
+    pub aspect: f32,
+    pub tangent: Vec3,
 }
 
 impl Closure {
@@ -128,6 +147,16 @@ impl Closure {
         specular_color: Vec3::ZERO,
         emission: Vec3::ZERO,
         normal: Vec3::ZERO,
+        coat_weight: 0.0,
+        coat_roughness: 0.03,
+        coat_ior: 1.5,
+        coat_tint: Vec3::ONE,
+        coat_normal: Vec3::ZERO,
+        sheen_weight: 0.0,
+        sheen_roughness: 0.5,
+        sheen_tint: Vec3::ONE,
+        aspect: 1.0,
+        tangent: Vec3::ZERO,
     };
 }
 
@@ -288,6 +317,7 @@ enum Op {
     Principled,
     Diffuse,
     Glossy,
+    Sheen,
     Glass,
     Emission,
     Transparent,
@@ -810,14 +840,36 @@ fn spec(op: &Op) -> Spec {
                 i("Emission Color", Color, Vec4::ONE),
                 i("Emission Strength", Float, f(0.0)),
                 i("Normal", Vector, Vec4::ZERO),
+                i("Anisotropic", Float, f(0.0)),
+                i("Anisotropic Rotation", Float, f(0.0)),
+                i("Tangent", Vector, Vec4::ZERO),
+                i("Coat Weight", Float, f(0.0)),
+                i("Coat Roughness", Float, f(0.03)),
+                i("Coat IOR", Float, f(1.5)),
+                i("Coat Tint", Color, Vec4::ONE),
+                i("Coat Normal", Vector, Vec4::ZERO),
+                i("Sheen Weight", Float, f(0.0)),
+                i("Sheen Roughness", Float, f(0.5)),
+                i("Sheen Tint", Color, Vec4::ONE),
             ],
             vec![("BSDF", Shader)],
         ),
-        Op::Diffuse | Op::Glossy => (
+        Op::Diffuse | Op::Sheen => (
             vec![
                 i("Color", Color, grey),
                 i("Roughness", Float, f(0.5)),
                 i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("BSDF", Shader)],
+        ),
+        Op::Glossy => (
+            vec![
+                i("Color", Color, grey),
+                i("Roughness", Float, f(0.5)),
+                i("Normal", Vector, Vec4::ZERO),
+                i("Anisotropy", Float, f(0.0)),
+                i("Rotation", Float, f(0.0)),
+                i("Tangent", Vector, Vec4::ZERO),
             ],
             vec![("BSDF", Shader)],
         ),
@@ -1245,6 +1297,10 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
         "BsdfPrincipled" => Op::Principled,
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
+        "BsdfSheen" => match setting(node, "distribution").unwrap_or("MICROFIBER") {
+            "MICROFIBER" => Op::Sheen,
+            _ => return Ok(None),
+        },
         "BsdfGlass" => Op::Glass,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
@@ -2055,6 +2111,16 @@ fn run(
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
             let tint = get(m, 6).truncate();
+            let normal = get(m, 10).truncate();
+            let anisotropic = get(m, 11).x.clamp(0.0, 1.0);
+            let (aspect, tangent) = if anisotropic > 0.0 {
+                let n = normal_input(get(m, 10), at.normal);
+                let t = tangent_input(get(m, 13), at);
+                let t = crate::math::rotate_around(t, n, get(m, 12).x * 2.0 * PI);
+                (principled_aspect(anisotropic), t)
+            } else {
+                (1.0, Vec3::ZERO)
+            };
             let principled = Closure {
                 base_color: get(m, 0).truncate(),
                 metallic: get(m, 1).x.clamp(0.0, 1.0),
@@ -2064,7 +2130,17 @@ fn run(
                 specular_color: 2.0 * level * tint,
                 transmission: get(m, 7).x.clamp(0.0, 1.0),
                 emission: get(m, 8).truncate() * get(m, 9).x,
-                normal: get(m, 10).truncate(),
+                normal,
+                coat_weight: get(m, 14).x.max(0.0),
+                coat_roughness: get(m, 15).x.clamp(0.0, 1.0),
+                coat_ior: get(m, 16).x.max(1.0),
+                coat_tint: get(m, 17).truncate().max(Vec3::ZERO),
+                coat_normal: get(m, 18).truncate(),
+                sheen_weight: get(m, 19).x.max(0.0),
+                sheen_roughness: get(m, 20).x.clamp(0.0, 1.0),
+                sheen_tint: get(m, 21).truncate().max(Vec3::ZERO),
+                aspect,
+                tangent,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
             // Transparent BSDF by 1 − alpha.
@@ -2084,10 +2160,36 @@ fn run(
             };
         }
         Op::Glossy => {
+            // Cycles' Glossy BSDF: α_x = α (1 − a), α_y = α / (1 − a) for a > 0 (stretched
+            // along the bitangent: the tangent turned a quarter), α / (1 + a) and α (1 + a)
+            // for a < 0.
+            let a = get(m, 3).x.clamp(-0.99, 0.99);
+            let (aspect, tangent) = if a.abs() > 1e-4 {
+                let n = normal_input(get(m, 2), at.normal);
+                let t = tangent_input(get(m, 5), at);
+                let turn = get(m, 4).x + if a > 0.0 { 0.25 } else { 0.0 };
+                (
+                    1.0 - a.abs(),
+                    crate::math::rotate_around(t, n, turn * 2.0 * PI),
+                )
+            } else {
+                (1.0, Vec3::ZERO)
+            };
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 metallic: 1.0,
                 roughness: get(m, 1).x.clamp(0.0, 1.0),
+                normal: get(m, 2).truncate(),
+                aspect,
+                tangent,
+                ..Closure::BLACK
+            };
+        }
+        Op::Sheen => {
+            m.closures[o] = Closure {
+                sheen_weight: 1.0,
+                sheen_tint: get(m, 0).truncate().max(Vec3::ZERO),
+                sheen_roughness: get(m, 1).x.clamp(0.0, 1.0),
                 normal: get(m, 2).truncate(),
                 ..Closure::BLACK
             };
@@ -2175,7 +2277,11 @@ fn mix_closures(u: &mut f32, t: f32, a: Closure, b: Closure) -> Closure {
 }
 
 fn is_black_bsdf(c: &Closure) -> bool {
-    c.base_color == Vec3::ZERO && c.specular_color == Vec3::ZERO && c.transmission == 0.0
+    c.base_color == Vec3::ZERO
+        && c.specular_color == Vec3::ZERO
+        && c.transmission == 0.0
+        && (c.sheen_weight == 0.0 || c.sheen_tint == Vec3::ZERO)
+        && c.coat_weight == 0.0
 }
 
 // ----- node definitions --------------------------------------------------------------------
@@ -2188,6 +2294,37 @@ fn normal_input(given: Vec4, normal: Vec3) -> Vec3 {
     } else {
         g.normalize_or(normal)
     }
+}
+
+/// Blender's Principled Anisotropic A (clamped to [0, 1]) as α_y / α_x: sqrt(1 − 0.9 A).
+pub fn principled_aspect(anisotropic: f32) -> f32 {
+    let a = if anisotropic.is_finite() {
+        anisotropic.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (1.0 - 0.9 * a).sqrt()
+}
+
+/// A Tangent input: the given vector, or Blender's default when it is unlinked (zero).
+fn tangent_input(given: Vec4, at: &ShadingInputs) -> Vec3 {
+    let g = given.truncate();
+    if g == Vec3::ZERO {
+        default_tangent(at)
+    } else {
+        g
+    }
+}
+
+/// The tangent Cycles gives an unlinked Tangent input (its Geometry node's Tangent): around
+/// the object's Z axis through the middle of its texture space, from the Generated
+/// coordinates (−(y − ½), x − ½, 0) taken to world space as a normal is, then made
+/// perpendicular to the shading normal. Blender's axes, unit (zero where it is undefined).
+pub fn default_tangent(at: &ShadingInputs) -> Vec3 {
+    let g = at.generated;
+    let radial = at.object_to_world_normal * Vec3::new(-(g.y - 0.5), g.x - 0.5, 0.0);
+    let n = at.normal;
+    n.cross(radial.cross(n).normalize_or_zero())
 }
 
 /// Cycles' `svm_node_normal_map`: the colour (each channel 0.5 ↦ 0) as a normal in `space`,
@@ -2750,9 +2887,36 @@ fn negate_if(v: f32, condition: u32) -> f32 {
     }
 }
 
+/// `a` when `c`, else `b`, without a branch (the gradient picks are unpredictable).
+fn select(c: bool, a: f32, b: f32) -> f32 {
+    let mask = (c as u32).wrapping_neg();
+    f32::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+}
+
+/// −v when `bit` (0 or 1) is 1, without a branch: a flip of the sign bit, as negation is.
+fn flip_sign(v: f32, bit: u32) -> f32 {
+    f32::from_bits(v.to_bits() ^ (bit << 31))
+}
+
 fn floorfrac(x: f32) -> (i32, f32) {
-    let f = x.floor();
+    let f = floor(x);
     (f as i32, x - f)
+}
+
+/// `x.floor()` without the library call baseline x86-64 makes for it (bit for bit the same,
+/// −0 and NaN included): beyond 2²³ every float is an integer.
+fn floor(x: f32) -> f32 {
+    if !(x.abs() < 8_388_608.0) {
+        return x;
+    }
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else if t < x {
+        t
+    } else {
+        x
+    }
 }
 
 fn grad1(hash: u32, x: f32) -> f32 {
@@ -2763,16 +2927,17 @@ fn grad1(hash: u32, x: f32) -> f32 {
 
 fn grad2(hash: u32, x: f32, y: f32) -> f32 {
     let h = hash & 7;
-    let (u, v) = if h < 4 { (x, 2.0 * y) } else { (y, 2.0 * x) };
-    negate_if(u, h & 1) + negate_if(v, h & 2)
+    let first = h < 4;
+    let (u, v) = (select(first, x, y), select(first, 2.0 * y, 2.0 * x));
+    flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
 
 fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
     let h = hash & 15;
-    let u = if h < 8 { x } else { y };
-    let vt = if h == 12 || h == 14 { x } else { z };
-    let v = if h < 4 { y } else { vt };
-    negate_if(u, h & 1) + negate_if(v, h & 2)
+    let u = select(h < 8, x, y);
+    let vt = select(h == 12 || h == 14, x, z);
+    let v = select(h < 4, y, vt);
+    flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
@@ -2802,17 +2967,45 @@ fn perlin2(x: f32, y: f32) -> f32 {
     (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
 }
 
+/// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), computed lane by lane
+/// so the compiler can run the eight in vector registers.
+fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [u32; 8] {
+    let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
+    let mut a = [0u32; 8];
+    let mut b = [0u32; 8];
+    let mut c = [0u32; 8];
+    for i in 0..8 {
+        a[i] = s.wrapping_add(xi.wrapping_add((i & 1) as i32) as u32);
+        b[i] = s.wrapping_add(yi.wrapping_add(((i >> 1) & 1) as i32) as u32);
+        c[i] = s.wrapping_add(zi.wrapping_add((i >> 2) as i32) as u32);
+    }
+    for i in 0..8 {
+        c[i] ^= b[i];
+        c[i] = c[i].wrapping_sub(b[i].rotate_left(14));
+        a[i] ^= c[i];
+        a[i] = a[i].wrapping_sub(c[i].rotate_left(11));
+        b[i] ^= a[i];
+        b[i] = b[i].wrapping_sub(a[i].rotate_left(25));
+        c[i] ^= b[i];
+        c[i] = c[i].wrapping_sub(b[i].rotate_left(16));
+        a[i] ^= c[i];
+        a[i] = a[i].wrapping_sub(c[i].rotate_left(4));
+        b[i] ^= a[i];
+        b[i] = b[i].wrapping_sub(a[i].rotate_left(14));
+        c[i] ^= b[i];
+        c[i] = c[i].wrapping_sub(b[i].rotate_left(24));
+    }
+    c
+}
+
 fn perlin3(x: f32, y: f32, z: f32) -> f32 {
     let (xi, fx) = floorfrac(x);
     let (yi, fy) = floorfrac(y);
     let (zi, fz) = floorfrac(z);
     let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+    let hashes = corner_hashes(xi, yi, zi);
     let g = |dx: i32, dy: i32, dz: i32| {
-        let h = hash3(
-            xi.wrapping_add(dx) as u32,
-            yi.wrapping_add(dy) as u32,
-            zi.wrapping_add(dz) as u32,
-        );
+        let h = hashes[(dx + 2 * dy + 4 * dz) as usize];
         grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
     };
     let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
@@ -2822,7 +3015,14 @@ fn perlin3(x: f32, y: f32, z: f32) -> f32 {
 
 /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
 fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
-    let m = |x: f32| x % 100_000.0;
+    // fmod is the identity below the period (and a library call).
+    let m = |x: f32| {
+        if x.abs() < 100_000.0 {
+            x
+        } else {
+            x % 100_000.0
+        }
+    };
     match dimensions {
         1 => 0.25 * perlin1(m(w)),
         2 => 0.6616 * perlin2(m(p.x), m(p.y)),
@@ -3223,10 +3423,13 @@ fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
     if dimensions == 2 {
         Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
     } else {
+        // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
+        let s = LOOKUP3_SEED.wrapping_add((4 << 2) + 13);
+        let (a, b, c) = lookup3_mix(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z));
         Vec3::new(
             unit(hash3(x, y, z)),
-            unit(hash4(x, y, z, 1f32.to_bits())),
-            unit(hash4(x, y, z, 2f32.to_bits())),
+            unit(lookup3_final(a.wrapping_add(1f32.to_bits()), b, c)),
+            unit(lookup3_final(a.wrapping_add(2f32.to_bits()), b, c)),
         )
     }
 }
@@ -3270,7 +3473,7 @@ fn cell_offsets(dimensions: u8, reach: i32) -> impl Iterator<Item = Vec3> {
 /// One octave: (distance, colour, position).
 fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
     let dims = p.kind.dimensions;
-    let cell = coord.floor();
+    let cell = Vec3::new(floor(coord.x), floor(coord.y), floor(coord.z));
     let local = coord - cell;
     let metric = p.kind.metric;
     match p.kind.feature {
@@ -3313,11 +3516,32 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
             (d2, cell_color(dims, cell + o2), p2 + cell)
         }
         _ => {
+            // The nearest point, the first in Cycles' order on a tie. A cell's point lies in
+            // [offset, offset + randomness] on each axis, so a cell whose box is farther from
+            // `local` than the home cell's point cannot win: it is skipped unhashed (exact).
+            // (As Cycles computes it: cell + 0 turns a −0 coordinate into +0 before hashing.)
+            let home = Vec3::ZERO + cell_point(dims, cell + Vec3::ZERO) * p.randomness;
+            let home_d = voronoi_distance(metric, p.exponent, home, local);
+            let prune = metric != Metric::Minkowski;
             let mut best = f32::MAX;
             let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
             for offset in cell_offsets(dims, 1) {
-                let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                let d = voronoi_distance(metric, p.exponent, point, local);
+                let (point, d) = if offset == Vec3::ZERO {
+                    (home, home_d)
+                } else {
+                    if prune {
+                        let below = offset - local;
+                        let above = local - (offset + Vec3::splat(p.randomness));
+                        let gap = below.max(above).max(Vec3::ZERO);
+                        // Nor can one farther than the best so far.
+                        let bound = home_d.min(best) * (1.0 + 1e-6);
+                        if voronoi_distance(metric, p.exponent, gap, Vec3::ZERO) > bound {
+                            continue;
+                        }
+                    }
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    (point, voronoi_distance(metric, p.exponent, point, local))
+                };
                 if d < best {
                     (best, target_offset, target) = (d, offset, point);
                 }
@@ -3381,6 +3605,234 @@ fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
         Vec3::ZERO
     };
     (distance, color, position)
+}
+
+/// The straightforward forms the optimised noise and Voronoi code replaced (branchy
+/// gradients, fmod always, every Voronoi cell hashed): the optimised code must agree bit for
+/// bit, so patterns stay Cycles'.
+#[cfg(test)]
+mod reference {
+    use super::{
+        cell_color, cell_offsets, fade, floorfrac, hash2, hash3, hash4, lerp, negate_if, perlin1,
+        smoothstep, unit, voronoi_distance, Metric, Vec3, VoronoiFeature, VoronoiKind,
+        VoronoiParams,
+    };
+
+    fn grad2(hash: u32, x: f32, y: f32) -> f32 {
+        let h = hash & 7;
+        let (u, v) = if h < 4 { (x, 2.0 * y) } else { (y, 2.0 * x) };
+        negate_if(u, h & 1) + negate_if(v, h & 2)
+    }
+
+    fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
+        let h = hash & 15;
+        let u = if h < 8 { x } else { y };
+        let vt = if h == 12 || h == 14 { x } else { z };
+        let v = if h < 4 { y } else { vt };
+        negate_if(u, h & 1) + negate_if(v, h & 2)
+    }
+
+    fn perlin2(x: f32, y: f32) -> f32 {
+        let (xi, fx) = floorfrac(x);
+        let (yi, fy) = floorfrac(y);
+        let (u, v) = (fade(fx), fade(fy));
+        let h = |dx: i32, dy: i32| hash2(xi.wrapping_add(dx) as u32, yi.wrapping_add(dy) as u32);
+        let v0 = grad2(h(0, 0), fx, fy);
+        let v1 = grad2(h(1, 0), fx - 1.0, fy);
+        let v2 = grad2(h(0, 1), fx, fy - 1.0);
+        let v3 = grad2(h(1, 1), fx - 1.0, fy - 1.0);
+        let x1 = 1.0 - u;
+        (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
+    }
+
+    fn perlin3(x: f32, y: f32, z: f32) -> f32 {
+        let (xi, fx) = floorfrac(x);
+        let (yi, fy) = floorfrac(y);
+        let (zi, fz) = floorfrac(z);
+        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+        let g = |dx: i32, dy: i32, dz: i32| {
+            let h = hash3(
+                xi.wrapping_add(dx) as u32,
+                yi.wrapping_add(dy) as u32,
+                zi.wrapping_add(dz) as u32,
+            );
+            grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
+        };
+        let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
+        z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
+            + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
+    }
+
+    /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
+    fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
+        let m = |x: f32| x % 100_000.0;
+        match dimensions {
+            1 => 0.25 * perlin1(m(w)),
+            2 => 0.6616 * perlin2(m(p.x), m(p.y)),
+            _ => 0.9820 * perlin3(m(p.x), m(p.y), m(p.z)),
+        }
+    }
+
+    /// `hash_float2_to_float2` (2D) or `hash_float3_to_float3` (3D): a cell's point offset.
+    fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
+        let (x, y, z) = (c.x.to_bits(), c.y.to_bits(), c.z.to_bits());
+        if dimensions == 2 {
+            Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
+        } else {
+            Vec3::new(
+                unit(hash3(x, y, z)),
+                unit(hash4(x, y, z, 1f32.to_bits())),
+                unit(hash4(x, y, z, 2f32.to_bits())),
+            )
+        }
+    }
+
+    /// One octave: (distance, colour, position).
+    fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+        let dims = p.kind.dimensions;
+        let cell = coord.floor();
+        let local = coord - cell;
+        let metric = p.kind.metric;
+        match p.kind.feature {
+            VoronoiFeature::SmoothF1 if p.smoothness != 0.0 => {
+                let mut distance = 0.0f32;
+                let mut color = Vec3::ZERO;
+                let mut position = Vec3::ZERO;
+                let mut h = -1.0f32;
+                for offset in cell_offsets(dims, 2) {
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    let d = voronoi_distance(metric, p.exponent, point, local);
+                    h = if h == -1.0 {
+                        1.0
+                    } else {
+                        smoothstep(0.0, 1.0, 0.5 + 0.5 * (distance - d) / p.smoothness)
+                    };
+                    let mut correction = p.smoothness * h * (1.0 - h);
+                    distance = lerp(distance, d, h) - correction;
+                    correction /= 1.0 + 3.0 * p.smoothness;
+                    let c = cell_color(dims, cell + offset);
+                    color = color.lerp(c, h) - Vec3::splat(correction);
+                    position = position.lerp(point, h) - Vec3::splat(correction);
+                }
+                (distance, color, cell + position)
+            }
+            VoronoiFeature::F2 => {
+                let (mut d1, mut d2) = (f32::MAX, f32::MAX);
+                let (mut o1, mut o2) = (Vec3::ZERO, Vec3::ZERO);
+                let (mut p1, mut p2) = (Vec3::ZERO, Vec3::ZERO);
+                for offset in cell_offsets(dims, 1) {
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    let d = voronoi_distance(metric, p.exponent, point, local);
+                    if d < d1 {
+                        (d2, o2, p2) = (d1, o1, p1);
+                        (d1, o1, p1) = (d, offset, point);
+                    } else if d < d2 {
+                        (d2, o2, p2) = (d, offset, point);
+                    }
+                }
+                (d2, cell_color(dims, cell + o2), p2 + cell)
+            }
+            _ => {
+                let mut best = f32::MAX;
+                let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
+                for offset in cell_offsets(dims, 1) {
+                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                    let d = voronoi_distance(metric, p.exponent, point, local);
+                    if d < best {
+                        (best, target_offset, target) = (d, offset, point);
+                    }
+                }
+                (best, cell_color(dims, cell + target_offset), target + cell)
+            }
+        }
+    }
+
+    fn random_point(rng: &mut crate::rng::Rng, scale: f32) -> Vec3 {
+        let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * scale;
+        Vec3::new(c(rng), c(rng), c(rng))
+    }
+
+    #[test]
+    fn optimised_noise_matches_the_reference_bit_for_bit() {
+        let mut rng = crate::rng::Rng::new(5);
+        for k in 0..200_000 {
+            let scale = [1.0, 10.0, 1000.0, 2.0e5][k % 4];
+            let p = random_point(&mut rng, scale);
+            for dims in [2u8, 3] {
+                assert_eq!(
+                    super::snoise(dims, p, 0.0).to_bits(),
+                    snoise(dims, p, 0.0).to_bits(),
+                    "{p:?}"
+                );
+            }
+        }
+        assert_eq!(
+            super::snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0),
+            snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0)
+        );
+        for x in [
+            -0.0f32,
+            0.0,
+            -1.5,
+            2.0,
+            -3.0,
+            1e9,
+            -1e9,
+            8_388_607.5,
+            -8_388_607.5,
+        ] {
+            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+        assert!(super::floor(f32::NAN).is_nan());
+        for _ in 0..100_000 {
+            let x = (rng.uniform() - 0.5) * 2e7;
+            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+    }
+
+    #[test]
+    fn optimised_voronoi_matches_the_reference_bit_for_bit() {
+        let mut rng = crate::rng::Rng::new(6);
+        for metric in [
+            Metric::Euclidean,
+            Metric::Manhattan,
+            Metric::Chebychev,
+            Metric::Minkowski,
+        ] {
+            for dims in [2u8, 3] {
+                for randomness in [1.0f32, 0.6, 0.0] {
+                    let p = VoronoiParams {
+                        scale: 1.0,
+                        detail: 0.0,
+                        roughness: 0.5,
+                        lacunarity: 2.0,
+                        smoothness: 0.0,
+                        exponent: 1.5,
+                        randomness,
+                        kind: VoronoiKind {
+                            dimensions: dims,
+                            feature: VoronoiFeature::F1,
+                            metric,
+                            normalize: false,
+                        },
+                    };
+                    for k in 0..20_000 {
+                        let mut c = random_point(&mut rng, [2.0, 50.0][k % 2]);
+                        if dims == 2 {
+                            c.z = 0.0;
+                        }
+                        if k == 0 {
+                            c = Vec3::new(-0.0, -0.0, 0.0);
+                        }
+                        let (a, b) = (super::voronoi_octave(&p, c), voronoi_octave(&p, c));
+                        assert_eq!(a.0.to_bits(), b.0.to_bits(), "{metric:?} {c:?}");
+                        assert_eq!(a.1, b.1);
+                        assert_eq!(a.2, b.2);
+                    }
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -3813,5 +4265,122 @@ mod tests {
         assert!((mix_color(Blend::Mix, 0.5, a, b) - (a + b) * 0.5).length() < 1e-6);
         let c = Vec3::new(0.8, 0.2, 0.1);
         assert!((hsv_to_rgb(rgb_to_hsv(c)) - c).length() < 1e-6);
+    }
+}
+
+/// A timing aid, run by hand: `PHOTON_PROFILE_GLB=scene.glb cargo test --release --lib
+/// nodes::profile -- --ignored --nocapture` prints the cost of a whole evaluation of material
+/// 0's tree and of each of its instructions (at 256 points spread over the object).
+#[cfg(test)]
+mod profile {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn profile() {
+        let Some(path) = std::env::var_os("PHOTON_PROFILE_GLB") else {
+            return;
+        };
+        let scene = crate::scene::gltf::load(
+            std::path::Path::new(&path),
+            &crate::scene::gltf::LoadOptions::default(),
+        )
+        .unwrap();
+        let program = scene.materials[0].nodes.clone().expect("a node tree");
+        let mut rng = crate::rng::Rng::new(1);
+        let points: Vec<[ShadingInputs; 3]> = (0..256)
+            .map(|_| {
+                let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 2.0 - 1.0;
+                let at = |d: Vec3| ShadingInputs {
+                    position: p + d,
+                    object: p + d,
+                    generated: (p + d) * 0.5 + 0.5,
+                    normal: Vec3::Z,
+                    incoming: Vec3::new(0.3, 0.2, 0.9).normalize(),
+                    ..ShadingInputs::default()
+                };
+                [at(Vec3::ZERO), at(Vec3::X * 1e-4), at(Vec3::Y * 1e-4)]
+            })
+            .collect();
+        let textures = &scene.textures;
+        let reps = 200;
+        {
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                sink += cell_point(3, Vec3::new(k as f32, 2.0, 3.0)).x;
+            }
+            println!(
+                "cell_point: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                sink += perlin3(k as f32 * 0.37, 2.1, 3.3);
+            }
+            println!(
+                "perlin3: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+            let params = VoronoiParams {
+                scale: 4.0,
+                detail: 0.0,
+                roughness: 0.5,
+                lacunarity: 2.0,
+                smoothness: 0.5,
+                exponent: 0.5,
+                randomness: 1.0,
+                kind: VoronoiKind {
+                    dimensions: 3,
+                    feature: VoronoiFeature::F1,
+                    metric: Metric::Euclidean,
+                    normalize: false,
+                },
+            };
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..200_000u32 {
+                sink += voronoi(&params, Vec3::new(k as f32 * 0.37, 2.1, 3.3)).0;
+            }
+            println!(
+                "voronoi: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 5e3
+            );
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                sink += (k as f32 * 0.37).floor();
+            }
+            println!("floor: {:.1} ns ({sink})", t0.elapsed().as_secs_f64() * 1e3);
+        }
+        let t0 = std::time::Instant::now();
+        let mut sink = 0.0;
+        for _ in 0..reps {
+            for at in &points {
+                sink += program.eval(at, textures, 0.5).roughness;
+            }
+        }
+        let per = t0.elapsed().as_secs_f64() / (reps * points.len()) as f64;
+        println!("whole tree: {:.0} ns per evaluation ({sink})", per * 1e9);
+        Machine::with(&program, |m| {
+            for (k, instr) in program.instrs.iter().enumerate() {
+                let t0 = std::time::Instant::now();
+                let mut u = 0.5;
+                for _ in 0..reps {
+                    for at in &points {
+                        run(instr, at, textures, m, &mut u);
+                    }
+                }
+                let per = t0.elapsed().as_secs_f64() / (reps * points.len()) as f64;
+                let name = format!("{:?}", instr.op);
+                println!(
+                    "{k:3} {:>6.0} ns  offset {}  {}",
+                    per * 1e9,
+                    instr.offset,
+                    &name[..name.len().min(60)]
+                );
+            }
+        });
     }
 }
