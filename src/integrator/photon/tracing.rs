@@ -144,7 +144,7 @@ impl Emitters {
                     .map(|i| emitters.select.pmf(i))
                     .collect();
                 let trace = |light, u1, u2, rng: &mut Rng, out: &mut Vec<(Vec3, Vec3, f32)>| {
-                    let Some(e) = emitters.emit_with(ctx, light, None, 0.5, u1, u2, rng) else {
+                    let Some(e) = emitters.emit_with(ctx, light, None, (0.5, u1, u2), rng) else {
                         return;
                     };
                     walk_photon(ctx, e.ray, e.power, ctx.max_depth, rng, |s, power, _, _| {
@@ -190,22 +190,20 @@ impl Emitters {
                 (u1, u2, density) = warped?;
             }
         }
-        let mut e = self.emit_with(ctx, index, aim, u_pick, u1, u2, rng)?;
+        let mut e = self.emit_with(ctx, index, aim, (u_pick, u1, u2), rng)?;
         e.power /= pmf * density;
         (e.power.is_finite() && max_component(e.power) > 0.0).then_some(e)
     }
 
     /// A photon of light `index` placed by the unit-square points `u1` and `u2` (`aim` as in
-    /// `emit`; `u_pick` picks the triangle of an emitting instance), its power before dividing
-    /// by the light's selection probability.
+    /// `emit`; `u_pick` in [0, 1) picks the triangle of an emitting instance), its power before
+    /// dividing by the light's selection probability.
     fn emit_with(
         &self,
         ctx: &Context,
         index: usize,
         aim: Option<&Targets>,
-        u_pick: f32,
-        u1: Vec2,
-        u2: Vec2,
+        (u_pick, u1, u2): (f32, Vec2, Vec2),
         rng: &mut Rng,
     ) -> Option<Emitted> {
         // A moment only with motion: still scenes keep their photon streams.
