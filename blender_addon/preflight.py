@@ -74,6 +74,10 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
             messages.append(f"{what}: 'indirect only' is not exported; its objects are seen "
                             f"directly too")
     if scene.render.use_motion_blur:
+        rolling = getattr(getattr(scene, "cycles", None), "rolling_shutter_type", "NONE")
+        if rolling != "NONE":
+            messages.append("motion blur: the rolling shutter is not exported; every row is "
+                            "exposed over the same shutter")
         # Meshes' deformation is exported (export.deformation_recorded); other objects' not.
         deforming = [obj.name for obj in objects
                      if getattr(obj, "type", "") != "MESH" and deforms(obj)]

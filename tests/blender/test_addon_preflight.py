@@ -177,3 +177,16 @@ def test_holdout_and_indirect_only_are_named(photon_addon):
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages
+
+
+def test_rolling_shutter_is_named(photon_addon):
+    """Cycles' rolling shutter (rows exposed one after another) is not carried: one message
+    with motion blur on, none while it is off."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    scene.render.use_motion_blur = True
+    assert messages_for(scene) == []
+    scene.cycles.rolling_shutter_type = "TOP"
+    messages = messages_for(scene)
+    assert len(messages) == 1 and messages[0].startswith("motion blur: the rolling shutter"), \
+        messages
