@@ -725,6 +725,11 @@ fn run_compare(image: &Path, reference: &Path, error_image: Option<&Path>) -> Re
     }
     let e = photon::metrics::compare(&pixels, &ref_pixels);
     println!("relMSE {:.6}", e.rel_mse);
+    println!(
+        "relMSE without the worst {} % of pixels {:.6}",
+        100.0 * photon::metrics::OUTLIER_SHARE,
+        e.rel_mse_without_outliers
+    );
     println!("RMSE {:.6}", e.rmse);
     println!(
         "mean {:.6} vs reference {:.6} ({:+.2} %)",
