@@ -114,4 +114,20 @@ mod tests {
         let expected = (0.0025 / 0.26 + 0.0004 / 0.05 + 0.01 / 1.01) / 3.0;
         assert!((e.rel_mse - expected).abs() < 1e-6);
     }
+
+    #[test]
+    fn one_firefly_rules_the_relmse_but_not_the_relmse_without_outliers() {
+        // 400 pixels: the worst 0.25 % is one pixel.
+        let r = vec![[0.5, 0.5, 0.5, 1.0]; 400];
+        let mut image: Vec<[f32; 4]> = r.iter().map(|p| [p[0] * 1.1, p[1], p[2], 1.0]).collect();
+        let even = compare(&image, &r);
+        image[17] = [50.0, 50.0, 50.0, 1.0];
+        let e = compare(&image, &r);
+        assert!(e.rel_mse > 100.0 * even.rel_mse, "{e:?}");
+        assert!(
+            (e.rel_mse_without_outliers - even.rel_mse).abs() < 1e-9,
+            "{e:?}"
+        );
+        assert!((even.rel_mse_without_outliers - even.rel_mse).abs() < 1e-9);
+    }
 }
