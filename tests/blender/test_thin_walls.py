@@ -6,7 +6,7 @@ of floor, so any light carried through a wall or across a plane's two faces show
 Photon's default render (`auto`: photon mapping with the irradiance cache) must agree with the
 8192-spp Cycles reference (64 bounces) to relMSE <= 0.01, and its mean within 2 % at 256 spp and
 3 % at the default 64 spp, where a single render's mean is as noisy as the path tracer's. The
-sun's photons are guided through the window (integrator/photon/ guide.rs): emitted uniformly,
+sun's photons are guided through the window (integrator/photon/guide.rs): emitted uniformly,
 most landed on the walls' outsides, and the room's mean moved from one seed to the next by
 -4.9..+2.9 % at 64 spp. Now seeds 0-6 give -1.6..+2.2 % (thick walls) and -1.2..+1.5 % (thin),
 the spread of the camera samples themselves (the path tracer at 64 spp: -1.2..+1.8 %); this
