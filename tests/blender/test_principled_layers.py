@@ -101,8 +101,11 @@ def test_coated_red_sphere_keeps_its_highlight(tmp_path, method):
     mat, _ = principled("Coated", Base_Color=(0.8, 0.05, 0.03, 1.0), Roughness=0.6,
                         Coat_Weight=1.0, Coat_Roughness=0.1)
     through(mat, "gltf")
+    # The path tracer's Sobol samples read this highlight low at few samples: 0.946 of Cycles'
+    # at 512 spp, 0.982 at 1024, 1.000 at 2048 and 1.003 at 4096 (independent random numbers:
+    # 1.020 at 512), so it renders 2048 (issue 21 looks into why).
     img, ref = matches(f"coated sphere {method.lower()}", sphere_scene(mat), tmp_path,
-                       method=method)
+                       photon_spp=2048 if method == "PATH" else 512, method=method)
     # Without the coat the rough red base has no sharp highlight: the coat's is white.
     top = img.reshape(-1, 3)[np.argmax(img.sum(axis=2))]
     assert top[1] > 0.5 * top[0], f"the brightest pixel {top} is not the coat's white"
