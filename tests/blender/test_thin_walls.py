@@ -8,7 +8,7 @@ Photon's default render (`auto`: photon mapping with the irradiance cache) must 
 3 % at the default 64 spp, where a single render's mean is as noisy as the path tracer's. The
 sun's photons are guided through the window (integrator/photon/guide.rs): emitted uniformly,
 most landed on the walls' outsides, and the room's mean moved from one seed to the next by
--4.9..+2.9 % at 64 spp. Now seeds 0-6 give -1.6..+2.2 % (thick walls) and -1.2..+1.5 % (thin),
+-3.8..+2.9 % at 64 spp. Now seeds 0-6 give -1.6..+2.2 % (thick walls) and -1.2..+1.5 % (thin),
 the spread of the camera samples themselves (the path tracer at 64 spp: -1.2..+1.8 %); this
 test's seed 1 is the thick room's highest, +2.2 %. Over 8 seeds at 256 spp the mean is +0.40 %
 where the path tracer's is +0.4..+0.5 % at 1024-2048 spp (docs/bench/measurements.md, "Guided
