@@ -15,6 +15,7 @@ use crate::integrator::cache::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::build::{build_maps, PhotonMaps};
 use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
 use crate::integrator::photon::shade::{self, View};
+use crate::integrator::photon::tracing::Emitters;
 use crate::integrator::{path, CameraSample, Context};
 use crate::irradiance_cache::{IcSettings, IrradianceCache};
 use crate::light::Lights;
@@ -267,6 +268,19 @@ pub fn render_scheduled(
     // samples per pixel with fresh random numbers and smaller radii (`for_generation`).
     let progressive =
         settings.method.photon_view().is_some() || settings.method.cache_view().is_some();
+    // Where photons leave the lights (`Emitters::guided`): measured once per render, with the
+    // render's seed, and shared by every generation's photons.
+    let emitters = settings.method.photon_view().map(|_| {
+        let start = Instant::now();
+        let emitters = Emitters::guided(
+            &ctx,
+            settings.width as f32 / settings.height as f32,
+            settings.seed,
+        );
+        let info = stats.photon.get_or_insert_with(PhotonInfo::default);
+        info.guide_seconds += start.elapsed().as_secs_f64();
+        emitters
+    });
     let mut done_spp = 0u32;
     let mut prepared: Option<Prepared> = None;
     let mut previous = None;
@@ -297,7 +311,14 @@ pub fn render_scheduled(
             }
             if prepared.is_none() {
                 let generation_settings = settings.for_generation(generation);
-                let built = prepare(&ctx, &generation_settings, generation, progress, &mut stats)?;
+                let built = prepare(
+                    &ctx,
+                    emitters.as_ref(),
+                    &generation_settings,
+                    generation,
+                    progress,
+                    &mut stats,
+                )?;
                 prepared = Some(built);
             }
             let p = prepared.as_ref().expect("prepared just above");
@@ -515,31 +536,27 @@ struct Prepared {
     cache: Option<IrradianceCache>,
 }
 
-/// Build generation `generation`'s photon maps and irradiance cache with `settings` (already
-/// `for_generation`), adding their statistics to `stats`.
+/// Build generation `generation`'s photon maps (photons from `emitters`) and irradiance cache
+/// with `settings` (already `for_generation`), adding their statistics to `stats`.
 fn prepare(
     ctx: &Context,
+    emitters: Option<&Emitters>,
     settings: &RenderSettings,
     generation: u32,
     progress: &Progress,
     stats: &mut RenderStats,
 ) -> Result<Prepared> {
-    let maps = match settings.method.photon_view() {
-        Some(view) => {
-            let (maps, info) = build_maps(
-                ctx,
-                &settings.photon,
-                settings.width as f32 / settings.height as f32,
-                settings.seed,
-                progress,
-            )?;
+    let maps = match (settings.method.photon_view(), emitters) {
+        (Some(view), Some(emitters)) => {
+            let (maps, info) =
+                build_maps(ctx, emitters, &settings.photon, settings.seed, progress)?;
             stats
                 .photon
                 .get_or_insert_with(PhotonInfo::default)
                 .add(&info);
             Some((maps, view))
         }
-        None => None,
+        _ => None,
     };
     let cache = prepare_cache(ctx, settings, &maps, progress, stats)?;
     stats.generations += 1;
