@@ -121,7 +121,7 @@ enum MethodArg {
     IcRecords,
 }
 
-/// The path tracer's sampler (`--sampler`).
+/// The camera samples' sampler (`--sampler`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum SamplerArg {
     /// Owen-scrambled Sobol points, each pixel randomised on its own.
@@ -189,8 +189,9 @@ struct RenderArgs {
     /// pixels (Cycles' definitions) [default: the scene's, else blackman-harris:1.5].
     #[arg(long, value_name = "TYPE[:WIDTH]")]
     filter: Option<String>,
-    /// Numbers of the path tracer's camera paths: Owen-scrambled Sobol points or independent
-    /// random numbers (the photon and cache methods always use random numbers).
+    /// Numbers of the camera samples: Owen-scrambled Sobol points or independent random numbers
+    /// (every method's pixel position, lens and moment; the rest of the path tracer's paths;
+    /// the photon and cache methods' gathers always use random numbers).
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     sampler: SamplerArg,
     /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
@@ -433,6 +434,15 @@ fn run_render(args: RenderArgs) -> Result<()> {
         height,
         accel.as_ref().map(|a| (a, args.spp)),
     );
+    if args.method == MethodArg::Auto {
+        let message = format!("auto: {} ({})", plan.method_name(), plan.method_reason);
+        match mode {
+            ProgressMode::Json => {
+                json_line(serde_json::json!({"stage": "plan", "fraction": 1.0, "message": message}))
+            }
+            _ => eprintln!("photon: {message}"),
+        }
+    }
     let ic_settings = args.ic_settings()?;
     let spp = match (args.spp, time_limit) {
         (Some(spp), _) => spp,

@@ -49,16 +49,17 @@ pub struct RenderSettings {
     pub region: Option<Region>,
     /// Keep the light-path passes (`Image::passes`); off, they are summed but not stored.
     pub light_passes: bool,
-    /// Where the path tracer's camera paths draw their numbers from.
+    /// Where camera samples draw their numbers from.
     pub sampler: Sampler,
     /// The pixel filter; `None`: the scene's (`SceneRenderSettings::filter`), else Blender's
     /// default (Blackman–Harris, 1.5 px).
     pub filter: Option<FilterSettings>,
 }
 
-/// Where the path tracer's camera paths draw their numbers from (pixel position, lens, moment,
-/// light choice and point, BSDF lobe and direction, Russian roulette, subsurface probes). The
-/// photon and cache methods draw from PCG32 streams whatever this says.
+/// Where camera samples draw their numbers from: every method's pixel position, lens and moment,
+/// and the rest of the path tracer's paths (light choice and point, BSDF lobe and direction,
+/// Russian roulette, subsurface probes). The photon and cache methods draw the rest of a sample
+/// (gather rays, lookups) from PCG32 streams whatever this says.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Sampler {
     /// Owen-scrambled Sobol points, each pixel and dimension randomised on its own (`sobol`).
@@ -477,6 +478,12 @@ pub fn radius2_factor(generation: u32) -> f32 {
     (1..=generation).fold(1.0, |f, j| f * (j as f32 + RADIUS_ALPHA) / (j as f32 + 1.0))
 }
 
+/// How many times the first generation's photons generation `generation` traces: its radii
+/// shrink by tracing more photons for the same k, up to `MAX_PHOTON_GROWTH` times.
+pub fn photon_growth(generation: u32) -> f32 {
+    (1.0 / radius2_factor(generation)).min(MAX_PHOTON_GROWTH)
+}
+
 /// The seed of the samples after `done_spp` of a round whose first ones used `seed` (a
 /// generation boundary inside a round), or of generation `g`'s photon maps and cache.
 fn generation_seed(seed: u64, n: u32) -> u64 {
@@ -496,7 +503,7 @@ impl RenderSettings {
         // The radii shrink by tracing more photons for the same k (k-nearest estimates with few
         // photons are biased low next to bright patches); past `MAX_PHOTON_GROWTH` times the
         // photons, k shrinks instead.
-        let grow = (1.0 / f).min(MAX_PHOTON_GROWTH);
+        let grow = photon_growth(generation);
         let k = |k: u32| ((k as f32 * f * grow).round() as u32).max(1);
         let n = |n: u32| (n as f32 * grow).round() as u32;
         let photon = PhotonSettings {
@@ -635,20 +642,28 @@ fn render_tile(
             // samples that hit something (1e10 when none did), never mixed with the background.
             let mut depth_sum = 0.0f32;
             for s in 0..settings.spp {
-                let mut rng = match (integrator, settings.sampler) {
-                    (Integrator::Path, Sampler::Sobol) => Rng::sobol(settings.seed, pixel_index, s),
-                    _ => Rng::for_item(settings.seed, pixel_index, s as u64),
+                // The camera's dimensions (film, lens, moment) come from the pixel's Sobol
+                // sequence for every method; the path tracer's paths go on drawing from it, the
+                // other integrators' from a pseudo-random stream.
+                let random = || Rng::for_item(settings.seed, pixel_index, s as u64);
+                let mut camera_rng = match settings.sampler {
+                    Sampler::Sobol => Rng::sobol(settings.seed, pixel_index, s),
+                    Sampler::Random => random(),
                 };
-                let offset = filter.sample(rng.uniform2());
+                let offset = filter.sample(camera_rng.uniform2());
                 let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
                 // A lens sample only with an aperture and a moment only when something moves:
                 // still scenes seen by pinhole cameras keep their streams.
                 let lens = if camera.has_lens() {
-                    rng.uniform2()
+                    camera_rng.uniform2()
                 } else {
                     Vec2::ZERO
                 };
-                let time = round.moving.then(|| rng.uniform());
+                let time = round.moving.then(|| camera_rng.uniform());
+                let mut rng = match (integrator, settings.sampler) {
+                    (Integrator::Path, _) | (_, Sampler::Random) => camera_rng,
+                    _ => random(),
+                };
                 let ray = camera.sample_ray(film, lens, time);
                 if ray.t_max <= 0.0 {
                     continue; // outside a fisheye's image: black, as in Cycles
