@@ -8,7 +8,7 @@ use photon::film::FilterSettings;
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
-use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Quality};
+use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Pilot, Quality};
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
@@ -432,7 +432,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         quality,
         width,
         height,
-        accel.as_ref().map(|a| (a, args.spp)),
+        accel.as_ref().map(|a| Pilot::new(a, args.spp)),
     );
     if args.method == MethodArg::Auto {
         let message = format!("auto: {} ({})", plan.method_name(), plan.method_reason);

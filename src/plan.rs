@@ -402,13 +402,13 @@ const PILOT_PHOTONS: u32 = 4096;
 const PILOT_WIDTH: u32 = 32;
 const PILOT_SPP: u32 = 4;
 
-/// The pilots shrink on small renders, to about this many of the render's camera samples per
-/// pilot path or photon, down to `MIN_PILOT_SCALE` of their full size: at full size they cost
+/// The photon pilots shrink on small renders, to about this many of the render's camera samples
+/// per pilot photon, down to `MIN_PILOT_SCALE` of their full size: at full size the pilots cost
 /// about a quarter of a 128-pixel render at 1 spp (the furnace: 0.05 s of 0.20 s). At a quarter
-/// (1024 paths and photons) the shares still decide every scene in scenes/ and the gallery as
-/// at full size (tests/plan.rs).
+/// (1024 photons) the shares still decide every scene in scenes/ and the gallery as at full
+/// size (tests/plan.rs).
 const RENDER_SAMPLES_PER_PILOT_SAMPLE: f32 = 32.0;
-const MIN_PILOT_SCALE: f32 = 0.25;
+pub const MIN_PILOT_SCALE: f32 = 0.25;
 
 /// The fraction of the full pilots run for a render of `render_samples` camera samples.
 fn pilot_scale(render_samples: u64) -> f32 {
@@ -443,14 +443,22 @@ const PREPARATION_PER_PHOTON_RAY: f32 = 4.0;
 /// against a path-traced one, in time: 0.45 s against 0.87 s on the Cornell box at 64 px.
 const PHOTON_SAMPLE_COST: f32 = 0.5;
 
-/// The photon method's relMSE against the path tracer's at equal samples per pixel is taken as
-/// `NOISE_LEFT_SCALE` × `PilotShares::noise_left` + `NOISE_LEFT_FLOOR`: the noise it leaves,
-/// its own noise from the maps and the cache, and its bias. Measured with `photon bench` at
-/// 48–64 px (docs/bench/measurements.md, "The planner's cost rule"): the ratios and the pilots'
-/// shares were, for the Cornell box 0.33–0.52 and 0.22, the furnace 0.025 and 0.0, the
-/// window-lit room 0.07 and 0.03; the fractal Cornell box, 0.59 and 0.18, lies above the rule.
+/// The photon method's relMSE at equal samples per pixel is taken as `NOISE_LEFT_SCALE` ×
+/// `PilotShares::noise_left` + `NOISE_LEFT_FLOOR` times the path tracer's: the noise it
+/// leaves, and its own noise and bias from the maps and the cache. Measured with `photon bench`
+/// at 48 px (docs/bench/measurements.md, "The planner's cost rule"): the ratio and the pilot's
+/// share were 0.18–0.45 and 0.22–0.28 on the Cornell box, 0.31–0.73 and 0.18–0.22 on the
+/// fractal Cornell box, 0.02–0.2 and 0.03–0.06 on the window-lit room, 0.004–0.16 and 0–0.01 on
+/// the furnace.
 const NOISE_LEFT_SCALE: f32 = 1.5;
-const NOISE_LEFT_FLOOR: f32 = 0.03;
+const NOISE_LEFT_FLOOR: f32 = 0.1;
+
+/// Camera samples per generation for which `auto` traces the preset's photons; a smaller
+/// budget traces proportionally fewer, down to `MIN_PHOTON_SHARE` of them, so that preparing
+/// the maps does not outweigh the render (the window-lit rooms of `tests/blender` at 48 px
+/// and 64 spp need the preset's photons).
+const FULL_PHOTON_SAMPLES: f32 = 48.0 * 48.0 * 64.0;
+const MIN_PHOTON_SHARE: f32 = 0.05;
 
 /// Caustics of emitting meshes, which the path tracer finds by chance: the photon method
 /// renders them when it costs at most this many times the path tracer's render, whose error
@@ -476,9 +484,7 @@ struct Cost {
 
 impl Cost {
     /// For `samples` camera samples at `spp` per pixel, with `photons` emitted per generation
-    /// (global and caustic). At equal samples the photon method's error is the path tracer's
-    /// times the noise it leaves (`PilotShares::noise_left`), so it wins when that share of its
-    /// cost is below the path tracer's.
+    /// (global and caustic).
     fn predict(shares: &PilotShares, samples: u64, spp: u32, photons: f32) -> Cost {
         let path = samples as f32 * shares.rays_per_path.max(1.0);
         let generations = spp.div_ceil(GENERATION_SPP);
@@ -490,6 +496,13 @@ impl Cost {
             photon: preparation + PHOTON_SAMPLE_COST * path,
             preparation,
         }
+    }
+
+    /// Whether the photon method reaches less error than the path tracer in its own time, the
+    /// path tracer's relMSE falling as 1/time.
+    fn photons_win(&self, shares: &PilotShares) -> bool {
+        let error_ratio = NOISE_LEFT_SCALE * shares.noise_left + NOISE_LEFT_FLOOR;
+        error_ratio * self.photon < self.path
     }
 }
 
@@ -606,10 +619,10 @@ fn seen_by_camera<'a>(
     }
 }
 
-/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`, at
-/// `scale` of their full size: when `global`, a path-traced image of `PILOT_WIDTH` pixels
-/// across at `PILOT_SPP` (else the indirect share is 0); when `caustics`, `PILOT_PHOTONS`
-/// global and as many aimed caustic photons. Milliseconds; deterministic.
+/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`: a
+/// path-traced image of `PILOT_WIDTH` pixels across at `PILOT_SPP` (the indirect share is 0
+/// unless `global`); when `global` or `caustics`, `scale` × `PILOT_PHOTONS` global photons, and
+/// when `caustics` as many aimed caustic photons. Milliseconds; deterministic.
 fn pilot_shares(
     scene: &Scene,
     accel: &Accel,
@@ -634,10 +647,11 @@ fn pilot_shares(
         transparent_background: false,
     };
 
-    let width = (PILOT_WIDTH as f32 * scale.sqrt()).round().max(1.0) as u32;
     let photon_count = (PILOT_PHOTONS as f32 * scale).round() as u32;
-    // The path-traced pilot image: the indirect share, the rays per camera sample and how the
-    // noise splits between indirect light and the rest.
+    // The path-traced pilot image, always at full size (its share of the noise decides close
+    // cases): the indirect share, the rays per camera sample and how the noise splits between
+    // indirect light and the rest.
+    let width = PILOT_WIDTH;
     let height = ((width as f32 / aspect).round() as u32).max(1);
     let camera = CameraRays::new(&scene.camera, width, height);
     let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
@@ -791,20 +805,48 @@ pub fn plan(scene: &Scene, quality: Quality) -> Plan {
 /// The plan for an image of `width`×`height` pixels (which only the memory estimate uses).
 pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) -> Plan {
     let accel = Accel::new(scene);
-    plan_with_pilot(scene, quality, width, height, Some((&accel, None)))
+    plan_with_pilot(
+        scene,
+        quality,
+        width,
+        height,
+        Some(Pilot::new(&accel, None)),
+    )
 }
 
-/// `plan_for_image`, with the pilots traced through `pilot`: the scene's BVH (built once and
-/// shared with the render: a second of start-up on a million triangles) and the render's
-/// samples per pixel when given (else the quality preset's), which size the pilots. Without it
-/// the auto method is not measured where it would need the pilots: for renders whose method is
-/// given explicitly.
+/// How the planner's pilots run.
+#[derive(Clone, Copy)]
+pub struct Pilot<'a> {
+    /// The scene's BVH, built once and shared with the render (a second of start-up on a
+    /// million triangles).
+    pub accel: &'a Accel,
+    /// The render's samples per pixel; `None`: the quality preset's. With the image size, they
+    /// are the budget the methods' costs are predicted for.
+    pub spp: Option<u32>,
+    /// The pilots' size as a fraction of their full size; `None`: from the render's camera
+    /// samples (`pilot_scale`).
+    pub scale: Option<f32>,
+}
+
+impl<'a> Pilot<'a> {
+    /// Pilots through `accel` for a render of `spp` samples per pixel, sized to the render.
+    pub fn new(accel: &'a Accel, spp: Option<u32>) -> Self {
+        Pilot {
+            accel,
+            spp,
+            scale: None,
+        }
+    }
+}
+
+/// `plan_for_image`, with the pilots run as `pilot` says. Without it the auto method is not
+/// measured where it would need the pilots: for renders whose method is given explicitly.
 pub fn plan_with_pilot(
     scene: &Scene,
     quality: Quality,
     width: u32,
     height: u32,
-    pilot: Option<(&Accel, Option<u32>)>,
+    pilot: Option<Pilot>,
 ) -> Plan {
     let summary = summarise(scene);
     let anything_to_trace = summary.lights.any();
@@ -827,6 +869,8 @@ pub fn plan_with_pilot(
     let scale = |count: u32| (count as f32 * quality.photon_scale()).round() as u32;
     // Global photons per preset photon, from the pilot's share seen by the camera.
     let mut global_boost = 1.0;
+    // The share of the preset's photons the render's budget calls for.
+    let mut budget_share = 1.0;
     let (method, method_reason) = if !anything_to_trace {
         (
             Method::Path,
@@ -842,15 +886,15 @@ pub fn plan_with_pilot(
             Method::Path,
             "no caustics and no indirect light: nothing for photon maps to cache".into(),
         )
-    } else if let Some((accel, spp)) = pilot {
+    } else if let Some(pilot) = pilot {
         let aspect = width as f32 / height.max(1) as f32;
-        let spp = spp.unwrap_or(quality.spp());
+        let spp = pilot.spp.unwrap_or(quality.spp());
         let samples = (width as u64 * height as u64).saturating_mul(spp as u64);
         let shares = pilot_shares(
             scene,
-            accel,
+            pilot.accel,
             aspect,
-            pilot_scale(samples),
+            pilot.scale.unwrap_or_else(|| pilot_scale(samples)),
             (global_map.needed, caustic_map.needed),
         );
         let percent = |x: f32| 100.0 * x;
@@ -861,12 +905,16 @@ pub fn plan_with_pilot(
                 percent(shares.seen)
             );
         }
-        let photons =
-            global_map.needed as u32 as f32 * scale(defaults.global_photons) as f32 * global_boost
-                + caustic_map.needed as u32 as f32 * scale(defaults.caustic_photons) as f32;
+        let generation_samples = width as f32 * height as f32 * spp.min(GENERATION_SPP) as f32;
+        budget_share = (generation_samples / FULL_PHOTON_SAMPLES).clamp(MIN_PHOTON_SHARE, 1.0);
+        let photons = budget_share
+            * (global_map.needed as u32 as f32
+                * scale(defaults.global_photons) as f32
+                * global_boost
+                + caustic_map.needed as u32 as f32 * scale(defaults.caustic_photons) as f32);
         let cost = Cost::predict(&shares, samples, spp, photons);
         let cost_note = format!(
-            "; predicted cost in rays: path tracer {:.2e}, photon method {:.2e} ({:.2e} of it preparation), {:.0} % of the path tracer's noise not indirect",
+            "; predicted cost in rays: path tracer {:.2e}, photon method {:.2e} ({:.2e} of it preparation); {:.0} % of the path tracer's noise is not indirect light",
             cost.path,
             cost.photon,
             cost.preparation,
@@ -879,7 +927,6 @@ pub fn plan_with_pilot(
                 shares.photons
             )
         };
-        let noise_ratio = NOISE_LEFT_SCALE * shares.noise_left + NOISE_LEFT_FLOOR;
         let (method, reason) = if shares.delta_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
             && cost.photon <= DELTA_CAUSTIC_COST_RATIO * cost.path
             || shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
@@ -888,7 +935,7 @@ pub fn plan_with_pilot(
             (Method::Photon, caustic_reason())
         } else if global_map.needed
             && shares.indirect >= INDIRECT_SHARE_FOR_PHOTONS
-            && cost.photon * noise_ratio < cost.path
+            && cost.photons_win(&shares)
         {
             (
                 Method::Photon,
@@ -916,12 +963,12 @@ pub fn plan_with_pilot(
     };
     let photon = PhotonSettings {
         global_photons: if global_map.needed {
-            (scale(defaults.global_photons) as f32 * global_boost).round() as u32
+            (scale(defaults.global_photons) as f32 * global_boost * budget_share).round() as u32
         } else {
             0
         },
         caustic_photons: if caustic_map.needed {
-            scale(defaults.caustic_photons)
+            (scale(defaults.caustic_photons) as f32 * budget_share).round() as u32
         } else {
             0
         },
