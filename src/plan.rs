@@ -175,6 +175,9 @@ pub struct Plan {
     /// Ward's irradiance cache for the photon method's indirect light (`--irradiance-cache`).
     pub irradiance_cache: Decision,
     pub subsurface: Decision,
+    /// Share of the light the camera sees on surfaces that is a caustic of lamps or emitting
+    /// meshes, from the pilot (0 when no pilot ran).
+    pub caustic_share: f32,
     /// The method `--method auto` renders with, and why.
     pub method: Method,
     pub method_reason: String,
@@ -445,11 +448,10 @@ const PHOTON_SAMPLE_COST: f32 = 0.5;
 
 /// The photon method's relMSE at equal samples per pixel is taken as `NOISE_LEFT_SCALE` ×
 /// `PilotShares::noise_left` + `NOISE_LEFT_FLOOR` times the path tracer's: the noise it
-/// leaves, and its own noise and bias from the maps and the cache. Measured with `photon bench`
-/// at 48 px (docs/bench/measurements.md, "The planner's cost rule"): the ratio and the pilot's
-/// share were 0.18–0.45 and 0.22–0.28 on the Cornell box, 0.31–0.73 and 0.18–0.22 on the
-/// fractal Cornell box, 0.02–0.2 and 0.03–0.06 on the window-lit room, 0.004–0.16 and 0–0.01 on
-/// the furnace.
+/// leaves, and its own noise and bias from the maps and the cache. Fitted to `photon bench` at
+/// 48 px on the Cornell boxes, a window-lit room, the furnace and an interior
+/// (docs/bench/measurements.md, "The planner's cost rule"); the ratio grows with the samples on
+/// scenes of fine detail, whose photon-method bias then rules.
 const NOISE_LEFT_SCALE: f32 = 1.5;
 const NOISE_LEFT_FLOOR: f32 = 0.1;
 
@@ -871,6 +873,7 @@ pub fn plan_with_pilot(
     let mut global_boost = 1.0;
     // The share of the preset's photons the render's budget calls for.
     let mut budget_share = 1.0;
+    let mut caustic_share = 0.0;
     let (method, method_reason) = if !anything_to_trace {
         (
             Method::Path,
@@ -898,6 +901,7 @@ pub fn plan_with_pilot(
             (global_map.needed, caustic_map.needed),
         );
         let percent = |x: f32| 100.0 * x;
+        caustic_share = shares.hard_caustic;
         global_boost = global_photon_boost(shares.seen);
         if global_boost > 1.0 {
             global_map.reason += &format!(
@@ -1009,6 +1013,7 @@ pub fn plan_with_pilot(
         ),
         global_map,
         subsurface,
+        caustic_share,
         method,
         method_reason,
         spp: quality.spp(),
@@ -1020,6 +1025,12 @@ pub fn plan_with_pilot(
 }
 
 impl Plan {
+    /// Whether the pilot found caustics of lamps or emitting meshes that carry a visible share
+    /// of what the camera sees: the path tracer resolves them slowly or never.
+    pub fn hard_caustics(&self) -> bool {
+        self.caustic_share >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
+    }
+
     /// The method `auto` renders with, in words.
     pub fn method_name(&self) -> &'static str {
         match self.method {
