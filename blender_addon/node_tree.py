@@ -104,8 +104,6 @@ READ_OUTPUTS = {
     "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
-    # What every integrator can tell (photon tracing has no camera-path depth, and no lobe).
-    "ShaderNodeLightPath": {"Is Camera Ray", "Ray Length"},
 }
 
 # Settings values the renderer does not evaluate.

@@ -22,6 +22,7 @@ use crate::sampling::{
     square_to_triangle, square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf,
     Distribution1D, Distribution2D, UNIFORM_SPHERE_PDF,
 };
+use crate::scene::nodes::RayPath;
 use crate::scene::{Environment, Light, Mesh, Scene};
 use std::f32::consts::PI;
 
@@ -110,6 +111,9 @@ pub struct Lights {
     suns: Vec<u32>,
     scene_center: Vec3,
     scene_radius: f32,
+    /// Some material lets shadow rays through where its node tree gives a Transparent BSDF:
+    /// shadow rays then evaluate the surfaces they meet (`direct::shadow_transmittance`).
+    pub transparent_shadows: bool,
 }
 
 pub fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
@@ -198,9 +202,9 @@ pub struct EmitterSample {
 /// light sampling and photon emission use. `placed` takes a prototype's triangle, deformed as
 /// at moment `time`, to world space (an instance at that moment; `None` for a world-space
 /// mesh). A node tree's
-/// emission is evaluated as seen from `seen_from` (light sampling: the shaded point and its
-/// distance, as Cycles evaluates a sampled emitter), or head-on at distance 0 (photons leave
-/// in a direction drawn afterwards).
+/// emission is evaluated as seen from `seen_from` (light sampling: the shaded point, its
+/// distance and the path there, as Cycles evaluates a sampled emitter), or head-on at
+/// distance 0 by a ray of no kind (photons leave in a direction drawn afterwards).
 pub fn sample_emitter_point(
     scene: &Scene,
     m: &Mesh,
@@ -208,7 +212,7 @@ pub fn sample_emitter_point(
     placed: Option<Affine3A>,
     time: f32,
     u: Vec2,
-    seen_from: Option<Vec3>,
+    seen_from: Option<(Vec3, RayPath)>,
 ) -> EmitterPoint {
     let idx = m.indices[triangle as usize];
     let v = m.triangle_at(triangle, time).map(|q| match placed {
@@ -241,19 +245,19 @@ pub fn sample_emitter_point(
             };
             let shading_n = crate::accel::interpolate(idx.map(normal), b.x, b.y).normalize_or(n);
             let view = match seen_from {
-                Some(o) => {
+                Some((o, path)) => {
                     let wo = (o - p).normalize_or(shading_n);
                     crate::interaction::View {
                         wo,
                         backfacing: wo.dot(n) < 0.0,
-                        camera: false,
+                        path: path.emission(),
                         ray_length: o.distance(p),
                     }
                 }
                 None => crate::interaction::View {
                     wo: shading_n,
                     backfacing: false,
-                    camera: false,
+                    path: RayPath::default(),
                     ray_length: 0.0,
                 },
             };
@@ -405,7 +409,13 @@ impl Lights {
         );
         let emitting_mesh = mesh_first_light.iter().any(Option::is_some)
             || instance_light.iter().any(Option::is_some);
+        let transparent_shadows = scene.materials.iter().any(|m| {
+            m.nodes
+                .as_ref()
+                .is_some_and(|program| program.shadow_transparent)
+        });
         Lights {
+            transparent_shadows,
             hittable: emitting_mesh || world.is_some() || soft_sun,
             sources,
             select: Distribution1D::new(&power),
@@ -443,16 +453,20 @@ impl Lights {
 
     /// Pick a light with `u_select` and sample a direction towards it from `p`, seen at moment
     /// `time` of the shutter (where moving emitters are then).
+    /// `path`: the path at `p`, which an emitter's node tree reads as it is sampled from
+    /// there (`RayPath::emission`).
+    #[allow(clippy::too_many_arguments)]
     pub fn sample(
         &self,
         scene: &Scene,
         p: Vec3,
+        path: RayPath,
         time: f32,
         u_select: f32,
         u: Vec2,
     ) -> Option<LightSample> {
         let (index, pmf, u_pick) = self.select.sample_remapped(u_select)?;
-        let mut s = self.sample_source(scene, index, p, time, u_pick, u)?;
+        let mut s = self.sample_source(scene, index, (p, path), time, u_pick, u)?;
         s.pdf *= pmf;
         (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
     }
@@ -467,7 +481,7 @@ impl Lights {
         u_pick: f32,
         u: Vec2,
         time: f32,
-        seen_from: Option<Vec3>,
+        seen_from: Option<(Vec3, RayPath)>,
     ) -> Option<EmitterSample> {
         match self.sources[index] {
             LightSource::Triangle {
@@ -514,11 +528,12 @@ impl Lights {
         &self,
         scene: &Scene,
         index: usize,
-        p: Vec3,
+        from: (Vec3, RayPath),
         time: f32,
         u_pick: f32,
         u: Vec2,
     ) -> Option<LightSample> {
+        let p = from.0;
         match self.sources[index] {
             LightSource::Triangle { .. } | LightSource::Instance { .. } => {
                 let EmitterSample {
@@ -526,7 +541,7 @@ impl Lights {
                     area,
                     two_sided,
                     spread,
-                } = self.sample_emitter(scene, index, u_pick, u, time, Some(p))?;
+                } = self.sample_emitter(scene, index, u_pick, u, time, Some(from))?;
                 let (q, n) = (emitter.point.p, emitter.point.n);
                 let d = q - p;
                 let dist2 = d.length_squared();

@@ -49,6 +49,7 @@ pub mod tables;
 use crate::material::SurfaceMaterial;
 use crate::math::{max_component, reflect, refract, Frame, Vec2, Vec3};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+pub use crate::scene::nodes::Scattering;
 use fresnel::{f0_from_ior, fresnel_blend_factor, fresnel_dielectric, ior_from_f0, F82Tint};
 use microfacet::{
     ggx_d, ggx_d_aniso, ggx_g2, ggx_g2_aniso, ggx_vndf_pdf, ggx_vndf_pdf_aniso, sample_ggx_vndf,
@@ -148,6 +149,8 @@ pub struct Bsdf {
     diffuse_scale: f32,
     coat: Coat,
     sheen: Sheen,
+    /// The glass lobe is a Transparent BSDF (`SurfaceMaterial::transparent`).
+    transparent: bool,
 }
 
 /// One sampled direction.
@@ -161,6 +164,8 @@ pub struct BsdfSample {
     pub delta: bool,
     /// `wi` is on the other side of the surface from `wo`.
     pub transmitted: bool,
+    /// The lobe's kind, for node trees' Light Path (Cycles' closure labels).
+    pub scattering: Scattering,
 }
 
 fn average(c: Vec3) -> f32 {
@@ -266,14 +271,21 @@ impl Bsdf {
             metal_fresnel: F82Tint::new(clamped_base, tint),
             glass_ior: ior,
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
-            glass_transmit_tint: Vec3::new(
-                clamped_base.x.sqrt(),
-                clamped_base.y.sqrt(),
-                clamped_base.z.sqrt(),
-            ),
+            // A Transparent BSDF passes its colour (Cycles' weight); glass tints by the
+            // colour's square root per crossing.
+            glass_transmit_tint: if m.transparent {
+                clamped_base
+            } else {
+                Vec3::new(
+                    clamped_base.x.sqrt(),
+                    clamped_base.y.sqrt(),
+                    clamped_base.z.sqrt(),
+                )
+            },
             diffuse_scale: 1.0,
             coat,
             sheen,
+            transparent: m.transparent,
         }
     }
 
@@ -903,6 +915,7 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
     let uu = [u.x, u.y];
 
     let delta = |wi_up: Vec3, value: Vec3, pdf: f32| -> Option<BsdfSample> {
+        let transmitted = wi_up.z < 0.0;
         if !(pdf > 0.0) {
             return None;
         }
@@ -917,6 +930,11 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
             pdf,
             delta: true,
             transmitted: wi.z * wo.z < 0.0,
+            scattering: if transmitted && b.transparent {
+                Scattering::Transparent
+            } else {
+                Scattering::Singular
+            },
         })
     };
     let mirror = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
@@ -997,5 +1015,10 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
         pdf,
         delta: false,
         transmitted: wi.z * wo.z < 0.0,
+        scattering: if lobe == DIFFUSE || lobe == SHEEN {
+            Scattering::Diffuse
+        } else {
+            Scattering::Glossy
+        },
     })
 }
