@@ -15,7 +15,9 @@
 //! distribution over its pixels weighted by luminance × sin θ, mapped to the sphere with the
 //! Jacobian 2π² sin θ (pbrt-v4 §12.5.2, "Image infinite lights").
 
+use crate::bsdf::Bsdf;
 use crate::interaction::{LightPoint, SurfaceHit};
+use crate::material::{from_closure, SurfaceMaterial};
 use crate::math::{luminance, Frame, Vec2, Vec3};
 use crate::math::{Affine3A, Mat3};
 use crate::sampling::{
@@ -177,6 +179,25 @@ fn material_emission(scene: &Scene, material: &crate::scene::Material, uv: Vec2)
     }
 }
 
+/// The emission of `surface` towards unit direction `wo` at a point whose shading normal `n`
+/// faces `wo`'s side, as Cycles evaluates an emitter it samples as a light: dimmed by the
+/// coat's tint seen from `wo`, but not by the coat's or the sheen's reflection (Cycles
+/// evaluates a sampled emitter without allocating closures, so those layers' albedos are not
+/// computed; a ray that meets the surface sees both, as `integrator::shading::Shading` dims
+/// it). Light sampling and photon emission read it here.
+fn sampled_emission(surface: &SurfaceMaterial, n: Vec3, wo: Vec3) -> Vec3 {
+    if surface.coat_weight <= 0.0 || surface.coat_tint == Vec3::ONE {
+        return surface.emission;
+    }
+    let toward = |v: Vec3| if v.dot(n) < 0.0 { -v } else { v };
+    let frame = Frame::from_normal(surface.normal.map_or(n, toward));
+    let mut bsdf = Bsdf::new(surface);
+    if let Some(c) = surface.coat_normal {
+        bsdf = bsdf.with_coat_normal(frame.to_local(toward(c)));
+    }
+    surface.emission * bsdf.coat_tint_seen(frame.to_local(wo))
+}
+
 /// A point drawn uniformly on an emissive triangle.
 #[derive(Clone, Copy, Debug)]
 pub struct EmitterPoint {
@@ -202,9 +223,10 @@ pub struct EmitterSample {
 /// light sampling and photon emission use. `placed` takes a prototype's triangle, deformed as
 /// at moment `time`, to world space (an instance at that moment; `None` for a world-space
 /// mesh). A node tree's
-/// emission is evaluated as seen from `seen_from` (light sampling: the shaded point, its
-/// distance and the path there, as Cycles evaluates a sampled emitter), or head-on at
-/// distance 0 by a ray of no kind (photons leave in a direction drawn afterwards).
+/// emission, and the dimming by a coat's tint above it (`sampled_emission`), are
+/// evaluated as seen from `seen_from` (light sampling: the shaded point, its distance and the
+/// path there, as Cycles evaluates a sampled emitter), or head-on at distance 0 by a ray of no
+/// kind (photons leave in a direction drawn afterwards: their coat dimming is the head-on one).
 pub fn sample_emitter_point(
     scene: &Scene,
     m: &Mesh,
@@ -236,41 +258,41 @@ pub fn sample_emitter_point(
         t[0] * b0 + t[1] * b.x + t[2] * b.y
     };
     let material = &scene.materials[m.material as usize];
-    let radiance = match &material.nodes {
-        Some(program) => {
-            let linear = placed.map(|to_world| Mat3::from(to_world.matrix3));
-            let normal = |i: u32| match linear {
-                Some(l) => l.inverse().transpose() * m.normals[i as usize],
-                None => m.normals[i as usize],
-            };
-            let shading_n = crate::accel::interpolate(idx.map(normal), b.x, b.y).normalize_or(n);
-            let view = match seen_from {
-                Some((o, path)) => {
-                    let wo = (o - p).normalize_or(shading_n);
-                    crate::interaction::View {
-                        wo,
-                        backfacing: wo.dot(n) < 0.0,
-                        path: path.emission(),
-                        ray_length: o.distance(p),
-                    }
+    // glTF's clearcoat has no tint: only a node tree's coat dims a sampled emitter.
+    let radiance = if let Some(program) = &material.nodes {
+        let linear = placed.map(|to_world| Mat3::from(to_world.matrix3));
+        let normal = |i: u32| match linear {
+            Some(l) => l.inverse().transpose() * m.normals[i as usize],
+            None => m.normals[i as usize],
+        };
+        let shading_n = crate::accel::interpolate(idx.map(normal), b.x, b.y).normalize_or(n);
+        let view = match seen_from {
+            Some((o, path)) => {
+                let wo = (o - p).normalize_or(shading_n);
+                crate::interaction::View {
+                    wo,
+                    backfacing: wo.dot(n) < 0.0,
+                    path: path.emission(),
+                    ray_length: o.distance(p),
                 }
-                None => crate::interaction::View {
-                    wo: shading_n,
-                    backfacing: false,
-                    path: RayPath::default(),
-                    ray_length: 0.0,
-                },
-            };
-            let facing = if view.backfacing {
-                -shading_n
-            } else {
-                shading_n
-            };
-            let at =
-                crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view, linear);
-            program.eval(&[at; 3], &scene.textures, 0.5).emission
-        }
-        None => material_emission(scene, material, uv),
+            }
+            None => crate::interaction::View {
+                wo: shading_n,
+                backfacing: false,
+                path: RayPath::default(),
+                ray_length: 0.0,
+            },
+        };
+        let facing = if view.backfacing {
+            -shading_n
+        } else {
+            shading_n
+        };
+        let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view, linear);
+        let surface = from_closure(material, &program.eval(&[at; 3], &scene.textures, 0.5));
+        sampled_emission(&surface, facing, view.wo)
+    } else {
+        material_emission(scene, material, uv)
     };
     EmitterPoint {
         point: LightPoint { p, p_error, n },

@@ -109,6 +109,25 @@ impl Coat {
     fn reflects(&self) -> bool {
         self.present() && self.eta - 1.0 > IOR_ONE_TOLERANCE
     }
+
+    /// What the coat's tint lets through towards a viewer at cosine `cos_i` from the coat's
+    /// normal: Beer–Lambert through a coat of unit thickness along the refracted view, mixed
+    /// in by the coat weight (Cycles' Principled coat tint).
+    fn tint_seen(&self, cos_i: f32) -> Vec3 {
+        if !self.present() || self.tint == Vec3::ONE {
+            return Vec3::ONE;
+        }
+        let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (self.eta * self.eta))
+            .max(1e-6)
+            .sqrt();
+        let depth = 1.0 / cos_t;
+        let through = Vec3::new(
+            self.tint.x.powf(depth),
+            self.tint.y.powf(depth),
+            self.tint.z.powf(depth),
+        );
+        mix(Vec3::ONE, through, self.weight.min(1.0))
+    }
 }
 
 /// The sheen layer: `color` = Sheen Weight × Sheen Tint (zero: no sheen).
@@ -296,6 +315,16 @@ impl Bsdf {
             self.coat.normal = n.normalize();
         }
         self
+    }
+
+    /// What the coat's tint alone lets through towards `wo` (local frame, on the side of the
+    /// normal): the dimming of the emission below it that Cycles applies when it evaluates an
+    /// emitter for light sampling, which allocates no closures and so leaves out the coat's
+    /// and sheen's reflection (`ViewedBsdf::layer_transmittance` has both).
+    pub fn coat_tint_seen(&self, wo: Vec3) -> Vec3 {
+        let n = self.coat.normal;
+        self.coat
+            .tint_seen(wo.dot(if n.dot(wo) < 0.0 { -n } else { n }))
     }
 
     /// The sheen's normal: the shading normal mixed towards the coat's by the coat weight.
@@ -526,20 +555,7 @@ impl LobeSet {
                 albedo[COAT] = Vec3::splat(ratio * above);
                 above *= (1.0 - ratio).clamp(0.0, 1.0);
             }
-            if c.tint != Vec3::ONE {
-                // Beer–Lambert through a coat of unit thickness along the refracted view.
-                let cos_i = coat_wo.z;
-                let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (c.eta * c.eta))
-                    .max(1e-6)
-                    .sqrt();
-                let depth = 1.0 / cos_t;
-                let through = Vec3::new(
-                    c.tint.x.powf(depth),
-                    c.tint.y.powf(depth),
-                    c.tint.z.powf(depth),
-                );
-                tint = mix(Vec3::ONE, through, c.weight.min(1.0));
-            }
+            tint = c.tint_seen(coat_wo.z);
         }
         let under = tint * above;
 

@@ -185,3 +185,36 @@ def test_mix_of_diffuse_and_sheen_bsdf(tmp_path):
     tree.links.new(sheen.outputs["BSDF"], mix.inputs[2])
     tree.links.new(mix.outputs["Shader"], tree.nodes["Material Output"].inputs["Surface"])
     matches("sheen node", sphere_scene(mat), tmp_path)
+
+
+@pytest.mark.parametrize("route,method", [("gltf", "PATH"), ("tree", "PATH"), ("tree", "PHOTON")])
+def test_coated_lamp_lights_the_floor_as_it_looks(tmp_path, route, method):
+    """An emitting Principled BSDF under a coat, a quad over a diffuse floor (32x32). Cycles
+    dims the emission a ray meets by the coat's reflection and tint seen from the ray, but an
+    emitter it samples as a light by the tint alone (seen from the shaded point: it evaluates
+    sampled emitters without closures), and MIS mixes the two; Photon does the same. Through
+    glTF (KHR_materials_clearcoat, IOR 1.5, no tint) and through the node tree (a tinted coat
+    of IOR 2.2, the emission colour from an RGB node: light sampling undimmed, as before, is
+    +4.6 % and relMSE 0.13), by the path tracer and photon mapping (photons leave with the
+    tint seen head-on)."""
+    from test_nodes import lamp_over_floor
+    common.reset_scene(32, 32)
+    mat = bpy.data.materials.new(f"Coated lamp {route}")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    bsdf.inputs["Emission Color"].default_value = (1.0, 0.8, 0.6, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = 6.0
+    bsdf.inputs["Coat Weight"].default_value = 1.0
+    if route == "tree":
+        bsdf.inputs["Coat IOR"].default_value = 2.2
+        bsdf.inputs["Coat Tint"].default_value = (0.5, 0.8, 1.0, 1.0)
+        rgb = mat.node_tree.nodes.new("ShaderNodeRGB")
+        rgb.outputs["Color"].default_value = (1.0, 0.8, 0.6, 1.0)
+        mat.node_tree.links.new(rgb.outputs["Color"], bsdf.inputs["Emission Color"])
+    through(mat, route)
+    scene = lamp_over_floor(mat, 0.5, 0.3)
+    compare(f"coated lamp {route} {method.lower()}", scene, tmp_path, photon_spp=512,
+            cycles_spp=1024, method=method)
