@@ -9,8 +9,9 @@
 //! - glass, weight `(1 − metallic)·transmission`: rough or smooth dielectric reflection and
 //!   refraction (Walter et al. 2007), transmission tinted by sqrt(base colour) per crossing;
 //! - dielectric base, weight `(1 − metallic)(1 − transmission)`: an energy-compensated GGX
-//!   specular layer over a Lambertian diffuse, the diffuse scaled by 1 − (the layer's
-//!   directional albedo), so a white base conserves energy;
+//!   specular layer over a Lambertian diffuse (or, with Diffuse Roughness, Cycles' Oren–Nayar
+//!   lobe: `oren_nayar`), the diffuse scaled by 1 − (the layer's directional albedo), so a
+//!   white base conserves energy;
 //! - above them, top down as Cycles stacks them: a sheen layer (`sheen`: the microfiber sheen of
 //!   Zeltner et al. 2022, weight `sheen weight × sheen tint`, around the normal mixed towards
 //!   the coat's by the coat weight), then a coat (an untinted energy-compensated GGX dielectric
@@ -43,6 +44,7 @@
 
 pub mod fresnel;
 pub mod microfacet;
+pub mod oren_nayar;
 pub mod sheen;
 pub mod tables;
 
@@ -55,6 +57,7 @@ use microfacet::{
     ggx_d, ggx_d_aniso, ggx_g2, ggx_g2_aniso, ggx_vndf_pdf, ggx_vndf_pdf_aniso, sample_ggx_vndf,
     sample_ggx_vndf_aniso, MIN_ALPHA,
 };
+use oren_nayar::OrenNayar;
 use sheen::SheenLobe;
 use std::f32::consts::FRAC_1_PI;
 use tables::albedo_tables;
@@ -170,6 +173,8 @@ pub struct Bsdf {
     sheen: Sheen,
     /// The glass lobe is a Transparent BSDF (`SurfaceMaterial::transparent`).
     transparent: bool,
+    /// Oren–Nayar roughness of the diffuse lobe (`oren_nayar`; below its cutoff: Lambert).
+    diffuse_roughness: f32,
 }
 
 /// One sampled direction.
@@ -305,7 +310,14 @@ impl Bsdf {
             coat,
             sheen,
             transparent: m.transparent,
+            diffuse_roughness: clean(m.diffuse_roughness, 0.0, 1.0),
         }
+    }
+
+    /// The diffuse lobe is Lambertian (no Oren–Nayar roughness): `ViewedBsdf::diffuse_reflectance`
+    /// over π is then its BRDF.
+    pub fn diffuse_is_lambertian(&self) -> bool {
+        self.diffuse_roughness < oren_nayar::LAMBERT_BELOW
     }
 
     /// The same BSDF with the coat's normal `n` (unit, in the local frame of the shading
@@ -426,8 +438,11 @@ struct LobeSet {
     side: f32,
     /// `wo` in the mirrored frame (z > 0).
     wo: Vec3,
-    /// Lambertian reflectance (f = diffuse / π).
+    /// The diffuse lobe's weight: f = diffuse / π (Lambert), or diffuse × the Oren–Nayar
+    /// lobe's value.
     diffuse: Vec3,
+    /// The Oren–Nayar lobe seen from `wo` (`None`: Lambert).
+    rough_diffuse: Option<OrenNayar>,
     /// Fraction of the light that crosses the sheen, the coat and the specular layer into the
     /// base (its grey part: the coat's tint is left out).
     base_transmittance: f32,
@@ -579,7 +594,8 @@ impl LobeSet {
             base_share * above * average(tint)
         };
         let diffuse = b.base_color * under * (base_share * b.diffuse_scale);
-        albedo[DIFFUSE] = diffuse;
+        let rough_diffuse = OrenNayar::new(b.diffuse_roughness, b.base_color, mu);
+        albedo[DIFFUSE] = rough_diffuse.map_or(diffuse, |on| diffuse * on.albedo());
 
         if b.metal_weight > 0.0 {
             let (e, e_avg) = if b.smooth {
@@ -609,7 +625,7 @@ impl LobeSet {
         // carry light reachable.
         let mut prob = [0.0f32; LOBES];
         if b.base_weight > 0.0 {
-            prob[DIFFUSE] = average(diffuse);
+            prob[DIFFUSE] = average(albedo[DIFFUSE]);
             if b.has_spec_layer() {
                 prob[SPECULAR] = average(albedo[SPECULAR]).max(1e-4 * b.base_weight);
             }
@@ -638,6 +654,7 @@ impl LobeSet {
             side,
             wo,
             diffuse,
+            rough_diffuse,
             base_transmittance,
             spec_scale,
             metal_scale,
@@ -748,7 +765,10 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
     }
     if wi.z > 0.0 {
         if l.prob[DIFFUSE] > 0.0 {
-            f += l.diffuse * (FRAC_1_PI * wi.z);
+            f += match &l.rough_diffuse {
+                None => l.diffuse * (FRAC_1_PI * wi.z),
+                Some(on) => l.diffuse * on.eval(wo, wi) * wi.z,
+            };
             pdf += l.prob[DIFFUSE] * cosine_hemisphere_pdf(wi.z);
         }
         if l.prob[SHEEN] > 0.0 {
@@ -876,11 +896,14 @@ impl ViewedBsdf {
             .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum())
     }
 
-    /// The Lambertian part: the diffuse term of `eval` is `diffuse_reflectance() / π ·
+    /// The diffuse lobe's directional albedo; when it is Lambertian
+    /// (`Bsdf::diffuse_is_lambertian`), the diffuse term of `eval` is `diffuse_reflectance() / π ·
     /// |cos θi|`. It includes the base weight and the attenuation by the specular layer above
     /// it, which depends on the view angle (zero when `wo` cannot see the diffuse).
     pub fn diffuse_reflectance(&self) -> Vec3 {
-        self.lobes.as_ref().map_or(Vec3::ZERO, |l| l.diffuse)
+        self.lobes
+            .as_ref()
+            .map_or(Vec3::ZERO, |l| l.albedo[DIFFUSE])
     }
 
     /// Fraction of the light arriving from (or leaving towards) `wo` that crosses the

@@ -30,7 +30,7 @@
 //! mixes it with a Transparent BSDF by alpha, as Cycles does. Its coat, sheen and anisotropy
 //! inputs are the BSDF's own layers (`crate::bsdf`); an unlinked Tangent is Cycles' default
 //! (`default_tangent`), turned by Anisotropic Rotation around the normal. Diffuse BSDF → colour,
-//! metallic 0, specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy →
+//! metallic 0, specular 0, its Roughness the Oren–Nayar lobe's (`crate::bsdf::oren_nayar`); Glossy →
 //! metallic 1 with the colour as F0 (Blender's Glossy has no Fresnel: differs at grazing
 //! angles), its Anisotropy as Cycles maps it (α (1 − a) along the tangent and α / (1 − a)
 //! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
@@ -271,6 +271,8 @@ pub struct Closure {
     /// rotation applied; zero: the shading frame's).
     pub aspect: f32,
     pub tangent: Vec3,
+    /// Oren–Nayar roughness of the diffuse lobe (0: Lambert).
+    pub diffuse_roughness: f32,
     /// A Transparent BSDF: its pass is not a bounce, and shadow rays go through it.
     pub transparent: bool,
 }
@@ -297,6 +299,7 @@ impl Closure {
         sheen_tint: Vec3::ONE,
         aspect: 1.0,
         tangent: Vec3::ZERO,
+        diffuse_roughness: 0.0,
         transparent: false,
     };
 }
@@ -998,13 +1001,19 @@ fn spec(op: &Op) -> Spec {
                 i("Sheen Weight", Float, f(0.0)),
                 i("Sheen Roughness", Float, f(0.5)),
                 i("Sheen Tint", Color, Vec4::ONE),
+                i("Diffuse Roughness", Float, f(0.0)),
             ],
             vec![("BSDF", Shader)],
         ),
         Op::Diffuse | Op::Sheen => (
             vec![
                 i("Color", Color, grey),
-                i("Roughness", Float, f(0.5)),
+                // Blender's defaults: a Lambertian Diffuse BSDF, a Sheen BSDF of roughness ½.
+                i(
+                    "Roughness",
+                    Float,
+                    f(if *op == Op::Diffuse { 0.0 } else { 0.5 }),
+                ),
                 i("Normal", Vector, Vec4::ZERO),
             ],
             vec![("BSDF", Shader)],
@@ -2320,6 +2329,7 @@ fn run(
                 sheen_tint: get(m, 21).truncate().max(Vec3::ZERO),
                 aspect,
                 tangent,
+                diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
                 transparent: false,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
@@ -2335,6 +2345,7 @@ fn run(
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 roughness: 1.0,
+                diffuse_roughness: get(m, 1).x.clamp(0.0, 1.0),
                 normal: get(m, 2).truncate(),
                 ..Closure::BLACK
             };
