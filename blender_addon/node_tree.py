@@ -87,7 +87,8 @@ READ_INPUTS = {
                                  "Emission Color", "Emission Strength", "Normal",
                                  "Anisotropic", "Anisotropic Rotation", "Tangent",
                                  "Coat Weight", "Coat Roughness", "Coat IOR", "Coat Tint",
-                                 "Coat Normal", "Sheen Weight", "Sheen Roughness", "Sheen Tint"},
+                                 "Coat Normal", "Sheen Weight", "Sheen Roughness", "Sheen Tint",
+                                 "Diffuse Roughness"},
     "ShaderNodeBsdfDiffuse": {"Color", "Roughness", "Normal"},
     "ShaderNodeBsdfGlossy": {"Color", "Roughness", "Normal", "Anisotropy", "Rotation",
                              "Tangent"},
@@ -104,8 +105,6 @@ READ_OUTPUTS = {
     "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
-    # What every integrator can tell (photon tracing has no camera-path depth, and no lobe).
-    "ShaderNodeLightPath": {"Is Camera Ray", "Ray Length"},
 }
 
 # Settings values the renderer does not evaluate.
@@ -128,7 +127,7 @@ UNSUPPORTED_SETTINGS = {
 # what glTF's extensions carry and Blender's importer reads back: an untinted coat of IOR 1.5
 # (KHR_materials_clearcoat), a sheen of weight 0 or 1 (KHR_materials_sheen has no weight).
 GLTF_EXACT_PRINCIPLED = {"Coat IOR": (1.5,), "Coat Tint": ((1.0, 1.0, 1.0, 1.0),),
-                         "Sheen Weight": (0.0, 1.0)}
+                         "Sheen Weight": (0.0, 1.0), "Diffuse Roughness": (0.0,)}
 
 # The Math operations the renderer evaluates (src/scene/nodes.rs `math_op`).
 MATH_OPS = {

@@ -462,6 +462,21 @@ fn run_render(args: RenderArgs) -> Result<()> {
     } else {
         args.photon_settings(&PhotonSettings::default())?
     };
+    let ray_state = scene.ray_state_materials();
+    if !ray_state.is_empty() && !matches!(args.method, MethodArg::Auto | MethodArg::Path) {
+        let w = format!(
+            "material(s) {} read Light Path's ray kind or depths: photon paths, gathers and \
+             cache records do not carry a camera path's state (they read 0), so this method \
+             renders them differently from Cycles; --method path (auto's choice) renders them \
+             as Cycles does",
+            ray_state.join(", ")
+        );
+        if mode == ProgressMode::Json {
+            json_line(serde_json::json!({"stage": "load", "fraction": 1.0, "warning": w}));
+        } else {
+            eprintln!("photon: warning: {w}");
+        }
+    }
     let settings = RenderSettings {
         width,
         height,

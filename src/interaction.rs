@@ -8,7 +8,7 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
-use crate::scene::nodes::{ShadingInputs, UV_SETS};
+use crate::scene::nodes::{RayPath, ShadingInputs, UV_SETS};
 use crate::scene::{Mesh, Scene, TextureRef};
 
 /// Everything shading needs about a surface point.
@@ -354,20 +354,20 @@ pub struct View {
     pub wo: Vec3,
     /// Seen from behind the triangle's winding.
     pub backfacing: bool,
-    /// By a camera ray (Light Path's Is Camera Ray).
-    pub camera: bool,
+    /// The ray's kind and the bounces before it (Light Path's outputs).
+    pub path: RayPath,
     /// The distance the ray travelled to the point (Light Path's Ray Length).
     pub ray_length: f32,
 }
 
 impl View {
-    /// Surface point `sh` seen along unit direction `wo` (towards the viewer) by a ray that
-    /// travelled `ray_length`.
-    pub fn new(sh: &SurfaceHit, wo: Vec3, camera: bool, ray_length: f32) -> View {
+    /// Surface point `sh` seen along unit direction `wo` (towards the viewer) by a ray of
+    /// `path` that travelled `ray_length`.
+    pub fn new(sh: &SurfaceHit, wo: Vec3, path: RayPath, ray_length: f32) -> View {
         View {
             wo,
             backfacing: wo.dot(sh.ng) < 0.0,
-            camera,
+            path,
             ray_length,
         }
     }
@@ -443,7 +443,7 @@ pub fn node_inputs(
         object_normal,
         incoming: blender_axes(view.wo),
         backfacing: view.backfacing,
-        camera_ray: view.camera,
+        path: view.path,
         ray_length: view.ray_length,
         tangent,
         object_to_world_normal,

@@ -15,13 +15,16 @@
 //! distribution over its pixels weighted by luminance × sin θ, mapped to the sphere with the
 //! Jacobian 2π² sin θ (pbrt-v4 §12.5.2, "Image infinite lights").
 
+use crate::bsdf::Bsdf;
 use crate::interaction::{LightPoint, SurfaceHit};
+use crate::material::{from_closure, SurfaceMaterial};
 use crate::math::{luminance, Frame, Vec2, Vec3};
 use crate::math::{Affine3A, Mat3};
 use crate::sampling::{
     square_to_triangle, square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf,
     Distribution1D, Distribution2D, UNIFORM_SPHERE_PDF,
 };
+use crate::scene::nodes::RayPath;
 use crate::scene::{Environment, Light, Mesh, Scene};
 use std::f32::consts::PI;
 
@@ -110,6 +113,9 @@ pub struct Lights {
     suns: Vec<u32>,
     scene_center: Vec3,
     scene_radius: f32,
+    /// Some material lets shadow rays through where its node tree gives a Transparent BSDF:
+    /// shadow rays then evaluate the surfaces they meet (`direct::shadow_transmittance`).
+    pub transparent_shadows: bool,
 }
 
 pub fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
@@ -173,6 +179,25 @@ fn material_emission(scene: &Scene, material: &crate::scene::Material, uv: Vec2)
     }
 }
 
+/// The emission of `surface` towards unit direction `wo` at a point whose shading normal `n`
+/// faces `wo`'s side, as Cycles evaluates an emitter it samples as a light: dimmed by the
+/// coat's tint seen from `wo`, but not by the coat's or the sheen's reflection (Cycles
+/// evaluates a sampled emitter without allocating closures, so those layers' albedos are not
+/// computed; a ray that meets the surface sees both, as `integrator::shading::Shading` dims
+/// it). Light sampling and photon emission read it here.
+fn sampled_emission(surface: &SurfaceMaterial, n: Vec3, wo: Vec3) -> Vec3 {
+    if surface.coat_weight <= 0.0 || surface.coat_tint == Vec3::ONE {
+        return surface.emission;
+    }
+    let toward = |v: Vec3| if v.dot(n) < 0.0 { -v } else { v };
+    let frame = Frame::from_normal(surface.normal.map_or(n, toward));
+    let mut bsdf = Bsdf::new(surface);
+    if let Some(c) = surface.coat_normal {
+        bsdf = bsdf.with_coat_normal(frame.to_local(toward(c)));
+    }
+    surface.emission * bsdf.coat_tint_seen(frame.to_local(wo))
+}
+
 /// A point drawn uniformly on an emissive triangle.
 #[derive(Clone, Copy, Debug)]
 pub struct EmitterPoint {
@@ -198,9 +223,10 @@ pub struct EmitterSample {
 /// light sampling and photon emission use. `placed` takes a prototype's triangle, deformed as
 /// at moment `time`, to world space (an instance at that moment; `None` for a world-space
 /// mesh). A node tree's
-/// emission is evaluated as seen from `seen_from` (light sampling: the shaded point and its
-/// distance, as Cycles evaluates a sampled emitter), or head-on at distance 0 (photons leave
-/// in a direction drawn afterwards).
+/// emission, and the dimming by a coat's tint above it (`sampled_emission`), are
+/// evaluated as seen from `seen_from` (light sampling: the shaded point, its distance and the
+/// path there, as Cycles evaluates a sampled emitter), or head-on at distance 0 by a ray of no
+/// kind (photons leave in a direction drawn afterwards: their coat dimming is the head-on one).
 pub fn sample_emitter_point(
     scene: &Scene,
     m: &Mesh,
@@ -208,7 +234,7 @@ pub fn sample_emitter_point(
     placed: Option<Affine3A>,
     time: f32,
     u: Vec2,
-    seen_from: Option<Vec3>,
+    seen_from: Option<(Vec3, RayPath)>,
 ) -> EmitterPoint {
     let idx = m.indices[triangle as usize];
     let v = m.triangle_at(triangle, time).map(|q| match placed {
@@ -232,41 +258,41 @@ pub fn sample_emitter_point(
         t[0] * b0 + t[1] * b.x + t[2] * b.y
     };
     let material = &scene.materials[m.material as usize];
-    let radiance = match &material.nodes {
-        Some(program) => {
-            let linear = placed.map(|to_world| Mat3::from(to_world.matrix3));
-            let normal = |i: u32| match linear {
-                Some(l) => l.inverse().transpose() * m.normals[i as usize],
-                None => m.normals[i as usize],
-            };
-            let shading_n = crate::accel::interpolate(idx.map(normal), b.x, b.y).normalize_or(n);
-            let view = match seen_from {
-                Some(o) => {
-                    let wo = (o - p).normalize_or(shading_n);
-                    crate::interaction::View {
-                        wo,
-                        backfacing: wo.dot(n) < 0.0,
-                        camera: false,
-                        ray_length: o.distance(p),
-                    }
+    // glTF's clearcoat has no tint: only a node tree's coat dims a sampled emitter.
+    let radiance = if let Some(program) = &material.nodes {
+        let linear = placed.map(|to_world| Mat3::from(to_world.matrix3));
+        let normal = |i: u32| match linear {
+            Some(l) => l.inverse().transpose() * m.normals[i as usize],
+            None => m.normals[i as usize],
+        };
+        let shading_n = crate::accel::interpolate(idx.map(normal), b.x, b.y).normalize_or(n);
+        let view = match seen_from {
+            Some((o, path)) => {
+                let wo = (o - p).normalize_or(shading_n);
+                crate::interaction::View {
+                    wo,
+                    backfacing: wo.dot(n) < 0.0,
+                    path: path.emission(),
+                    ray_length: o.distance(p),
                 }
-                None => crate::interaction::View {
-                    wo: shading_n,
-                    backfacing: false,
-                    camera: false,
-                    ray_length: 0.0,
-                },
-            };
-            let facing = if view.backfacing {
-                -shading_n
-            } else {
-                shading_n
-            };
-            let at =
-                crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view, linear);
-            program.eval(&[at; 3], &scene.textures, 0.5).emission
-        }
-        None => material_emission(scene, material, uv),
+            }
+            None => crate::interaction::View {
+                wo: shading_n,
+                backfacing: false,
+                path: RayPath::default(),
+                ray_length: 0.0,
+            },
+        };
+        let facing = if view.backfacing {
+            -shading_n
+        } else {
+            shading_n
+        };
+        let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view, linear);
+        let surface = from_closure(material, &program.eval(&[at; 3], &scene.textures, 0.5));
+        sampled_emission(&surface, facing, view.wo)
+    } else {
+        material_emission(scene, material, uv)
     };
     EmitterPoint {
         point: LightPoint { p, p_error, n },
@@ -405,7 +431,13 @@ impl Lights {
         );
         let emitting_mesh = mesh_first_light.iter().any(Option::is_some)
             || instance_light.iter().any(Option::is_some);
+        let transparent_shadows = scene.materials.iter().any(|m| {
+            m.nodes
+                .as_ref()
+                .is_some_and(|program| program.shadow_transparent)
+        });
         Lights {
+            transparent_shadows,
             hittable: emitting_mesh || world.is_some() || soft_sun,
             sources,
             select: Distribution1D::new(&power),
@@ -443,16 +475,20 @@ impl Lights {
 
     /// Pick a light with `u_select` and sample a direction towards it from `p`, seen at moment
     /// `time` of the shutter (where moving emitters are then).
+    /// `path`: the path at `p`, which an emitter's node tree reads as it is sampled from
+    /// there (`RayPath::emission`).
+    #[allow(clippy::too_many_arguments)]
     pub fn sample(
         &self,
         scene: &Scene,
         p: Vec3,
+        path: RayPath,
         time: f32,
         u_select: f32,
         u: Vec2,
     ) -> Option<LightSample> {
         let (index, pmf, u_pick) = self.select.sample_remapped(u_select)?;
-        let mut s = self.sample_source(scene, index, p, time, u_pick, u)?;
+        let mut s = self.sample_source(scene, index, (p, path), time, u_pick, u)?;
         s.pdf *= pmf;
         (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
     }
@@ -467,7 +503,7 @@ impl Lights {
         u_pick: f32,
         u: Vec2,
         time: f32,
-        seen_from: Option<Vec3>,
+        seen_from: Option<(Vec3, RayPath)>,
     ) -> Option<EmitterSample> {
         match self.sources[index] {
             LightSource::Triangle {
@@ -514,11 +550,12 @@ impl Lights {
         &self,
         scene: &Scene,
         index: usize,
-        p: Vec3,
+        from: (Vec3, RayPath),
         time: f32,
         u_pick: f32,
         u: Vec2,
     ) -> Option<LightSample> {
+        let p = from.0;
         match self.sources[index] {
             LightSource::Triangle { .. } | LightSource::Instance { .. } => {
                 let EmitterSample {
@@ -526,7 +563,7 @@ impl Lights {
                     area,
                     two_sided,
                     spread,
-                } = self.sample_emitter(scene, index, u_pick, u, time, Some(p))?;
+                } = self.sample_emitter(scene, index, u_pick, u, time, Some(from))?;
                 let (q, n) = (emitter.point.p, emitter.point.n);
                 let d = q - p;
                 let dist2 = d.length_squared();

@@ -54,6 +54,11 @@ pub struct SurfaceMaterial {
     /// The direction α_x runs along (world, any length; Anisotropic Rotation applied);
     /// `None`: the shading frame's own.
     pub tangent: Option<Vec3>,
+    /// Oren–Nayar roughness of the diffuse lobe (Blender's Diffuse Roughness; 0: Lambert).
+    pub diffuse_roughness: f32,
+    /// A node tree's Transparent BSDF (its transmission a straight pass): passing it is no
+    /// bounce for Light Path, and shadow rays go through it.
+    pub transparent: bool,
 }
 
 impl Default for SurfaceMaterial {
@@ -83,6 +88,8 @@ impl Default for SurfaceMaterial {
             sheen_tint: Vec3::ONE,
             aspect: 1.0,
             tangent: None,
+            diffuse_roughness: 0.0,
+            transparent: false,
         }
     }
 }
@@ -250,6 +257,8 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         sheen_tint: c.sheen_tint,
         aspect: c.aspect,
         tangent: direction(c.tangent),
+        diffuse_roughness: c.diffuse_roughness,
+        transparent: c.transparent,
     }
 }
 

@@ -879,6 +879,11 @@ pub fn plan_with_pilot(
             Method::Path,
             "no light: the path tracer only shows emission and background".into(),
         )
+    } else if !scene.ray_state_materials().is_empty() {
+        (
+            Method::Path,
+            "node trees read Light Path's ray kind or depths, which only the path tracer's camera paths carry".into(),
+        )
     } else if subsurface.needed {
         (
             Method::Photon,

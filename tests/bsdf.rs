@@ -135,6 +135,18 @@ fn rough_cases() -> Vec<Case> {
         },
         false,
     ));
+    // Oren–Nayar diffuse (Blender's Diffuse Roughness), alone and under the specular layer.
+    for (sigma, specular) in [(1.0, 0.0), (0.5, 1.0)] {
+        cases.push(case(
+            &format!("rough diffuse σ={sigma} specular={specular}"),
+            SurfaceMaterial {
+                specular,
+                diffuse_roughness: sigma,
+                ..material(Vec3::new(0.9, 0.5, 0.2), 0.0, 0.4, 0.0)
+            },
+            false,
+        ));
+    }
     cases.push(Case {
         name: "layered sheen, tinted coat, anisotropic mixture".into(),
         bsdf: Bsdf::new(&SurfaceMaterial {
@@ -179,8 +191,8 @@ fn view_directions(inside: bool) -> Vec<Vec3> {
     dirs
 }
 
-/// 1 + 9 + 6 + 12 + 6 + 15 + 9 + 9 + 3 chi-square tests below.
-const NUM_CHI2_TESTS: usize = 72;
+/// 1 + 9 + 6 + 12 + 6 + 15 + 9 + 9 + 3 + 6 chi-square tests below.
+const NUM_CHI2_TESTS: usize = 78;
 
 /// Chi-square tests of the rough cases whose name starts with `family`.
 fn chi2_family(family: &str) {
@@ -258,6 +270,11 @@ fn chi2_anisotropic() {
 #[test]
 fn chi2_layered() {
     chi2_family("layered");
+}
+
+#[test]
+fn chi2_rough_diffuse() {
+    chi2_family("rough diffuse");
 }
 
 fn close(a: f32, b: f32, rel: f32) -> bool {
@@ -427,6 +444,17 @@ fn white_furnace_never_creates_energy() {
             }
         }
     }
+    // Oren–Nayar diffuse, alone and under the specular layer and a coat.
+    for &sigma in &[0.3, 1.0] {
+        for &(specular, coat) in &[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)] {
+            configs.push(SurfaceMaterial {
+                specular,
+                coat_weight: coat,
+                diffuse_roughness: sigma,
+                ..material(Vec3::ONE, 0.0, 0.5, 0.0)
+            });
+        }
+    }
     for m in configs {
         let b = Bsdf::new(&m);
         for &mu in &[1.0, 0.6, 0.2, 0.05, -0.5, -0.1] {
@@ -458,6 +486,31 @@ fn white_furnace_is_one_for_white_dielectric_and_metal() {
             (albedo.max_element() - 1.0).abs() < 0.025,
             "dielectric μ={mu}: {albedo:?}"
         );
+    }
+    // Oren–Nayar diffuse with its multiple scattering: white reflects all the light (a grey
+    // one less than Lambert's ρ at normal view, as its single scattering darkens there).
+    for &sigma in &[0.5, 1.0] {
+        let rough = |rho: f32| {
+            Bsdf::new(&SurfaceMaterial {
+                specular: 0.0,
+                diffuse_roughness: sigma,
+                ..material(Vec3::splat(rho), 0.0, 0.5, 0.0)
+            })
+        };
+        for &mu in &[0.1, 0.5, 1.0] {
+            let (albedo, err) = measured_albedo(&rough(1.0), view(mu), 400_000, 11);
+            println!("white Oren–Nayar σ={sigma} μ={mu}: {albedo:?} ± {err}");
+            assert!(
+                (albedo.max_element() - 1.0).abs() < 4.0 * err + 1e-3,
+                "Oren–Nayar σ={sigma} μ={mu}: {albedo:?} ± {err}"
+            );
+            let (grey, err) = measured_albedo(&rough(0.5), view(mu), 400_000, 12);
+            let estimate = rough(0.5).viewed_from(view(mu)).albedo();
+            assert!(
+                (grey.x - estimate.x).abs() < 4.0 * err + 1e-3 && grey.x < 0.5,
+                "grey Oren–Nayar σ={sigma} μ={mu}: {grey:?} ± {err} vs {estimate:?}"
+            );
+        }
     }
     for &r in &[0.5, 1.0] {
         let metal = Bsdf::new(&material(Vec3::ONE, 1.0, r, 0.0));

@@ -9,8 +9,9 @@
 //! - glass, weight `(1 − metallic)·transmission`: rough or smooth dielectric reflection and
 //!   refraction (Walter et al. 2007), transmission tinted by sqrt(base colour) per crossing;
 //! - dielectric base, weight `(1 − metallic)(1 − transmission)`: an energy-compensated GGX
-//!   specular layer over a Lambertian diffuse, the diffuse scaled by 1 − (the layer's
-//!   directional albedo), so a white base conserves energy;
+//!   specular layer over a Lambertian diffuse (or, with Diffuse Roughness, Cycles' Oren–Nayar
+//!   lobe: `oren_nayar`), the diffuse scaled by 1 − (the layer's directional albedo), so a
+//!   white base conserves energy;
 //! - above them, top down as Cycles stacks them: a sheen layer (`sheen`: the microfiber sheen of
 //!   Zeltner et al. 2022, weight `sheen weight × sheen tint`, around the normal mixed towards
 //!   the coat's by the coat weight), then a coat (an untinted energy-compensated GGX dielectric
@@ -43,17 +44,20 @@
 
 pub mod fresnel;
 pub mod microfacet;
+pub mod oren_nayar;
 pub mod sheen;
 pub mod tables;
 
 use crate::material::SurfaceMaterial;
 use crate::math::{max_component, reflect, refract, Frame, Vec2, Vec3};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+pub use crate::scene::nodes::Scattering;
 use fresnel::{f0_from_ior, fresnel_blend_factor, fresnel_dielectric, ior_from_f0, F82Tint};
 use microfacet::{
     ggx_d, ggx_d_aniso, ggx_g2, ggx_g2_aniso, ggx_vndf_pdf, ggx_vndf_pdf_aniso, sample_ggx_vndf,
     sample_ggx_vndf_aniso, MIN_ALPHA,
 };
+use oren_nayar::OrenNayar;
 use sheen::SheenLobe;
 use std::f32::consts::FRAC_1_PI;
 use tables::albedo_tables;
@@ -108,6 +112,25 @@ impl Coat {
     fn reflects(&self) -> bool {
         self.present() && self.eta - 1.0 > IOR_ONE_TOLERANCE
     }
+
+    /// What the coat's tint lets through towards a viewer at cosine `cos_i` from the coat's
+    /// normal: Beer–Lambert through a coat of unit thickness along the refracted view, mixed
+    /// in by the coat weight (Cycles' Principled coat tint).
+    fn tint_seen(&self, cos_i: f32) -> Vec3 {
+        if !self.present() || self.tint == Vec3::ONE {
+            return Vec3::ONE;
+        }
+        let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (self.eta * self.eta))
+            .max(1e-6)
+            .sqrt();
+        let depth = 1.0 / cos_t;
+        let through = Vec3::new(
+            self.tint.x.powf(depth),
+            self.tint.y.powf(depth),
+            self.tint.z.powf(depth),
+        );
+        mix(Vec3::ONE, through, self.weight.min(1.0))
+    }
 }
 
 /// The sheen layer: `color` = Sheen Weight × Sheen Tint (zero: no sheen).
@@ -148,6 +171,10 @@ pub struct Bsdf {
     diffuse_scale: f32,
     coat: Coat,
     sheen: Sheen,
+    /// The glass lobe is a Transparent BSDF (`SurfaceMaterial::transparent`).
+    transparent: bool,
+    /// Oren–Nayar roughness of the diffuse lobe (`oren_nayar`; below its cutoff: Lambert).
+    diffuse_roughness: f32,
 }
 
 /// One sampled direction.
@@ -161,6 +188,8 @@ pub struct BsdfSample {
     pub delta: bool,
     /// `wi` is on the other side of the surface from `wo`.
     pub transmitted: bool,
+    /// The lobe's kind, for node trees' Light Path (Cycles' closure labels).
+    pub scattering: Scattering,
 }
 
 fn average(c: Vec3) -> f32 {
@@ -266,15 +295,29 @@ impl Bsdf {
             metal_fresnel: F82Tint::new(clamped_base, tint),
             glass_ior: ior,
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
-            glass_transmit_tint: Vec3::new(
-                clamped_base.x.sqrt(),
-                clamped_base.y.sqrt(),
-                clamped_base.z.sqrt(),
-            ),
+            // A Transparent BSDF passes its colour (Cycles' weight); glass tints by the
+            // colour's square root per crossing.
+            glass_transmit_tint: if m.transparent {
+                clamped_base
+            } else {
+                Vec3::new(
+                    clamped_base.x.sqrt(),
+                    clamped_base.y.sqrt(),
+                    clamped_base.z.sqrt(),
+                )
+            },
             diffuse_scale: 1.0,
             coat,
             sheen,
+            transparent: m.transparent,
+            diffuse_roughness: clean(m.diffuse_roughness, 0.0, 1.0),
         }
+    }
+
+    /// The diffuse lobe is Lambertian (no Oren–Nayar roughness): `ViewedBsdf::diffuse_reflectance`
+    /// over π is then its BRDF.
+    pub fn diffuse_is_lambertian(&self) -> bool {
+        self.diffuse_roughness < oren_nayar::LAMBERT_BELOW
     }
 
     /// The same BSDF with the coat's normal `n` (unit, in the local frame of the shading
@@ -284,6 +327,16 @@ impl Bsdf {
             self.coat.normal = n.normalize();
         }
         self
+    }
+
+    /// What the coat's tint alone lets through towards `wo` (local frame, on the side of the
+    /// normal): the dimming of the emission below it that Cycles applies when it evaluates an
+    /// emitter for light sampling, which allocates no closures and so leaves out the coat's
+    /// and sheen's reflection (`ViewedBsdf::layer_transmittance` has both).
+    pub fn coat_tint_seen(&self, wo: Vec3) -> Vec3 {
+        let n = self.coat.normal;
+        self.coat
+            .tint_seen(wo.dot(if n.dot(wo) < 0.0 { -n } else { n }))
     }
 
     /// The sheen's normal: the shading normal mixed towards the coat's by the coat weight.
@@ -385,8 +438,11 @@ struct LobeSet {
     side: f32,
     /// `wo` in the mirrored frame (z > 0).
     wo: Vec3,
-    /// Lambertian reflectance (f = diffuse / π).
+    /// The diffuse lobe's weight: f = diffuse / π (Lambert), or diffuse × the Oren–Nayar
+    /// lobe's value.
     diffuse: Vec3,
+    /// The Oren–Nayar lobe seen from `wo` (`None`: Lambert).
+    rough_diffuse: Option<OrenNayar>,
     /// Fraction of the light that crosses the sheen, the coat and the specular layer into the
     /// base (its grey part: the coat's tint is left out).
     base_transmittance: f32,
@@ -514,20 +570,7 @@ impl LobeSet {
                 albedo[COAT] = Vec3::splat(ratio * above);
                 above *= (1.0 - ratio).clamp(0.0, 1.0);
             }
-            if c.tint != Vec3::ONE {
-                // Beer–Lambert through a coat of unit thickness along the refracted view.
-                let cos_i = coat_wo.z;
-                let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (c.eta * c.eta))
-                    .max(1e-6)
-                    .sqrt();
-                let depth = 1.0 / cos_t;
-                let through = Vec3::new(
-                    c.tint.x.powf(depth),
-                    c.tint.y.powf(depth),
-                    c.tint.z.powf(depth),
-                );
-                tint = mix(Vec3::ONE, through, c.weight.min(1.0));
-            }
+            tint = c.tint_seen(coat_wo.z);
         }
         let under = tint * above;
 
@@ -551,7 +594,8 @@ impl LobeSet {
             base_share * above * average(tint)
         };
         let diffuse = b.base_color * under * (base_share * b.diffuse_scale);
-        albedo[DIFFUSE] = diffuse;
+        let rough_diffuse = OrenNayar::new(b.diffuse_roughness, b.base_color, mu);
+        albedo[DIFFUSE] = rough_diffuse.map_or(diffuse, |on| diffuse * on.albedo());
 
         if b.metal_weight > 0.0 {
             let (e, e_avg) = if b.smooth {
@@ -581,7 +625,7 @@ impl LobeSet {
         // carry light reachable.
         let mut prob = [0.0f32; LOBES];
         if b.base_weight > 0.0 {
-            prob[DIFFUSE] = average(diffuse);
+            prob[DIFFUSE] = average(albedo[DIFFUSE]);
             if b.has_spec_layer() {
                 prob[SPECULAR] = average(albedo[SPECULAR]).max(1e-4 * b.base_weight);
             }
@@ -610,6 +654,7 @@ impl LobeSet {
             side,
             wo,
             diffuse,
+            rough_diffuse,
             base_transmittance,
             spec_scale,
             metal_scale,
@@ -720,7 +765,10 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
     }
     if wi.z > 0.0 {
         if l.prob[DIFFUSE] > 0.0 {
-            f += l.diffuse * (FRAC_1_PI * wi.z);
+            f += match &l.rough_diffuse {
+                None => l.diffuse * (FRAC_1_PI * wi.z),
+                Some(on) => l.diffuse * on.eval(wo, wi) * wi.z,
+            };
             pdf += l.prob[DIFFUSE] * cosine_hemisphere_pdf(wi.z);
         }
         if l.prob[SHEEN] > 0.0 {
@@ -848,11 +896,14 @@ impl ViewedBsdf {
             .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum())
     }
 
-    /// The Lambertian part: the diffuse term of `eval` is `diffuse_reflectance() / π ·
+    /// The diffuse lobe's directional albedo; when it is Lambertian
+    /// (`Bsdf::diffuse_is_lambertian`), the diffuse term of `eval` is `diffuse_reflectance() / π ·
     /// |cos θi|`. It includes the base weight and the attenuation by the specular layer above
     /// it, which depends on the view angle (zero when `wo` cannot see the diffuse).
     pub fn diffuse_reflectance(&self) -> Vec3 {
-        self.lobes.as_ref().map_or(Vec3::ZERO, |l| l.diffuse)
+        self.lobes
+            .as_ref()
+            .map_or(Vec3::ZERO, |l| l.albedo[DIFFUSE])
     }
 
     /// Fraction of the light arriving from (or leaving towards) `wo` that crosses the
@@ -903,6 +954,7 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
     let uu = [u.x, u.y];
 
     let delta = |wi_up: Vec3, value: Vec3, pdf: f32| -> Option<BsdfSample> {
+        let transmitted = wi_up.z < 0.0;
         if !(pdf > 0.0) {
             return None;
         }
@@ -917,6 +969,11 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
             pdf,
             delta: true,
             transmitted: wi.z * wo.z < 0.0,
+            scattering: if transmitted && b.transparent {
+                Scattering::Transparent
+            } else {
+                Scattering::Singular
+            },
         })
     };
     let mirror = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
@@ -997,5 +1054,10 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
         pdf,
         delta: false,
         transmitted: wi.z * wo.z < 0.0,
+        scattering: if lobe == DIFFUSE || lobe == SHEEN {
+            Scattering::Diffuse
+        } else {
+            Scattering::Glossy
+        },
     })
 }

@@ -26,7 +26,7 @@ pub fn stores_photons(bsdf: &ViewedBsdf) -> bool {
 /// True when the BSDF's whole albedo is its diffuse lobe's (within 1e-4): it scatters as a
 /// Lambertian surface.
 pub fn is_lambertian(bsdf: &ViewedBsdf) -> bool {
-    max_component(bsdf.albedo() - bsdf.diffuse_reflectance()) < 1e-4
+    bsdf.diffuse_is_lambertian() && max_component(bsdf.albedo() - bsdf.diffuse_reflectance()) < 1e-4
 }
 
 /// ρ of a Lambertian opaque BSDF (the surfaces the irradiance cache serves alone), `None` for
@@ -36,11 +36,12 @@ pub fn lambertian_reflectance(bsdf: &ViewedBsdf, opaque: bool) -> Option<Vec3> {
     (opaque && rho != Vec3::ZERO && is_lambertian(bsdf)).then_some(rho)
 }
 
-/// ρ_d of the diffuse lobe of an opaque BSDF (Lambertian or under a glossy layer), `None` when
-/// it has none: the surfaces that get irradiance-cache records.
+/// ρ_d of the Lambertian diffuse lobe of an opaque BSDF (alone or under a glossy layer),
+/// `None` when it has none (or an Oren–Nayar one, whose light is not ρ_d/π × E): the surfaces
+/// that get irradiance-cache records.
 pub fn diffuse_reflectance(bsdf: &ViewedBsdf, opaque: bool) -> Option<Vec3> {
     let rho = bsdf.diffuse_reflectance();
-    (opaque && rho != Vec3::ZERO).then_some(rho)
+    (opaque && rho != Vec3::ZERO && bsdf.diffuse_is_lambertian()).then_some(rho)
 }
 
 /// The BSDF that classifies material `m` for photon tracing and the scene planner: its value at

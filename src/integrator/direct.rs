@@ -1,12 +1,22 @@
 //! Direct light, written once: one light sample with multiple importance sampling (Veach &
 //! Guibas 1995, the power heuristic), and the MIS weight of emission that a BSDF-sampled ray
 //! meets instead. Every integrator's next-event estimation goes through `sample_direct`.
+//!
+//! Shadow rays pass surfaces whose node tree gives a Transparent BSDF for them (Cycles'
+//! transparent shadows: the surface's shader is evaluated for the shadow ray, which Light
+//! Path's Is Shadow Ray reads, and its transparent weight tints what passes).
 
 use super::Context;
-use crate::interaction::SurfaceHit;
+use crate::accel::Visibility;
+use crate::interaction::{LightPoint, SurfaceHit, View};
+use crate::material::eval_surface;
 use crate::math::Vec3;
-use crate::rng::Rng;
+use crate::rng::{hash_combine, Rng};
 use crate::sampling::power_heuristic;
+use crate::scene::nodes::RayPath;
+
+/// Most surfaces a shadow ray passes through (Cycles' default transparent bounces are 8).
+const MAX_TRANSPARENT_SHADOW_HITS: u32 = 64;
 
 /// One light sample from `at`, chosen by the lights' power: `beta` × f × Lᵢ × w / pdf, where
 /// `scattering(wi)` gives f (with the cosine) and the BSDF density of the direction towards the
@@ -21,8 +31,28 @@ pub fn sample_direct(
     rays: &mut u32,
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
+    let path = RayPath::default();
+    sample_direct_on(ctx, at, path, beta, mis, rng, rays, scattering)
+}
+
+/// `sample_direct` from a vertex of camera path `path` (what node trees of the emitter and of
+/// the surfaces the shadow ray passes read).
+#[allow(clippy::too_many_arguments)]
+pub fn sample_direct_on(
+    ctx: &Context,
+    at: &SurfaceHit,
+    path: RayPath,
+    beta: Vec3,
+    mis: bool,
+    rng: &mut Rng,
+    rays: &mut u32,
+    scattering: impl FnOnce(Vec3) -> (Vec3, f32),
+) -> Vec3 {
     let (choice, point) = rng.uniform3();
-    let Some(ls) = ctx.lights.sample(ctx.scene, at.p, at.time, choice, point) else {
+    let Some(ls) = ctx
+        .lights
+        .sample(ctx.scene, at.p, path, at.time, choice, point)
+    else {
         return Vec3::ZERO;
     };
     if ls.li == Vec3::ZERO {
@@ -32,8 +62,8 @@ pub fn sample_direct(
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    *rays += 1;
-    if !ctx.accel.unoccluded(ctx.scene, &at.spawn_to(&ls.target)) {
+    let through = shadow_transmittance(ctx, at, &ls.target, path, rays);
+    if through == Vec3::ZERO {
         return Vec3::ZERO;
     }
     let w = if ls.delta || !mis {
@@ -41,7 +71,65 @@ pub fn sample_direct(
     } else {
         power_heuristic(ls.pdf, bsdf_pdf)
     };
-    beta * f * ls.li * (w / ls.pdf)
+    beta * f * ls.li * through * (w / ls.pdf)
+}
+
+/// What reaches `at` from `target` along a shadow ray of path `path`: one when nothing is in
+/// between, zero when something opaque is, and otherwise the product of the transparent
+/// weights of the surfaces passed (each evaluated for the shadow ray, its Mix Shader picks
+/// drawn from a hash of the ray, so the product is right on average). Counts its rays.
+pub fn shadow_transmittance(
+    ctx: &Context,
+    at: &SurfaceHit,
+    target: &LightPoint,
+    path: RayPath,
+    rays: &mut u32,
+) -> Vec3 {
+    *rays += 1;
+    let mut ray = at.spawn_to(target);
+    if !ctx.lights.transparent_shadows {
+        return if ctx.accel.unoccluded(ctx.scene, &ray) {
+            Vec3::ONE
+        } else {
+            Vec3::ZERO
+        };
+    }
+    let scene = ctx.scene;
+    let mut through = Vec3::ONE;
+    for passed in 0..MAX_TRANSPARENT_SHADOW_HITS {
+        let Some(hit) = ctx.accel.intersect(scene, &ray, Visibility::Shadow) else {
+            return through;
+        };
+        let sh = SurfaceHit::new(scene, &ray, &hit);
+        let material = &scene.materials[sh.material as usize];
+        if !material
+            .nodes
+            .as_ref()
+            .is_some_and(|program| program.shadow_transparent)
+        {
+            return Vec3::ZERO;
+        }
+        let wo = -ray.direction.normalize();
+        let length = hit.t * ray.direction.length();
+        let u = hash_combine(&[
+            ray.origin.x.to_bits() as u64 | ((ray.origin.y.to_bits() as u64) << 32),
+            ray.origin.z.to_bits() as u64 | ((hit.t.to_bits() as u64) << 32),
+            hit.triangle as u64 | ((passed as u64) << 32),
+        ]);
+        let u = (u >> 40) as f32 * (1.0 / 16_777_216.0);
+        let view = View::new(&sh, wo, path.shadow(), length);
+        let surface = eval_surface(scene, &sh, view, u);
+        if !surface.transparent {
+            return Vec3::ZERO;
+        }
+        through *= surface.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+        if through == Vec3::ZERO {
+            return through;
+        }
+        *rays += 1;
+        ray = sh.spawn_to(target);
+    }
+    Vec3::ZERO
 }
 
 /// The scattering vertex a ray left, for the MIS weight of the emission that ray meets.

@@ -29,11 +29,12 @@
 //! the path took the subsurface branch; the cached term is Indirect. Caustic stays 0.
 
 use super::classify::{lambertian_reflectance, stores_photons};
-use super::direct::{sample_direct, Previous};
+use super::direct::{sample_direct_on, Previous};
 use super::shading::Shading;
 use super::walk::{walk, Next, PathState, Scatter};
 use super::{CameraSample, Context};
 use crate::accel::{Ray, Visibility};
+use crate::bsdf::Scattering;
 use crate::interaction::SurfaceHit;
 use crate::irradiance_cache::{Incoming, IrradianceCache};
 use crate::material::SurfaceMaterial;
@@ -192,7 +193,8 @@ fn subsurface_branch(ctx: &Context, state: &mut PathState, s: &Shading, rng: &mu
             .viewed_from(exit_frame.to_local(wi))
             .base_transmittance()
     };
-    let l = sample_direct(ctx, &exit, state.beta, true, rng, &mut state.rays, |wi| {
+    let (beta, on) = (state.beta, state.light_path);
+    let l = sample_direct_on(ctx, &exit, on, beta, true, rng, &mut state.rays, |wi| {
         let cos = wi.dot(exit.ng);
         if cos > 0.0 {
             (
@@ -216,6 +218,7 @@ fn subsurface_branch(ctx: &Context, state: &mut PathState, s: &Shading, rng: &mu
         delta: false,
     };
     state.ray = exit.spawn(wi);
+    state.light_path = on.after(Scattering::Diffuse, false);
     Next::Moved
 }
 

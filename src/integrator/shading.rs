@@ -8,7 +8,7 @@
 //! inside a transmissive object a ray is attenuated by Beer–Lambert absorption.
 
 use super::classify::{diffuse_reflectance, is_lambertian, lambertian_reflectance};
-use super::direct::sample_direct;
+use super::direct::sample_direct_on;
 use super::Context;
 use crate::accel::{Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
@@ -17,6 +17,7 @@ use crate::irradiance_cache::IrradianceCache;
 use crate::material::{eval_surface, SurfaceMaterial};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::rng::{hash_combine, Rng};
+use crate::scene::nodes::RayPath;
 use std::f32::consts::PI;
 
 /// A surface hit prepared for shading (module header for the sides).
@@ -29,6 +30,9 @@ pub struct Shading {
     pub opaque: bool,
     /// The BSDF seen from `wo`.
     pub bsdf: ViewedBsdf,
+    /// The ray that met the point (what its node tree, and the light samples and shadow rays
+    /// from it, read of Light Path).
+    pub path: RayPath,
     /// Unit direction towards the viewer (or where the photon came from).
     pub wo: Vec3,
     pub wo_local: Vec3,
@@ -45,13 +49,24 @@ pub fn transmittance(absorption: Vec3, hit: &Hit, ray: &Ray) -> Vec3 {
 }
 
 impl Shading {
-    /// `camera`: `ray` is a camera ray (node trees' Light Path reads it).
+    /// `camera`: `ray` is a camera ray (node trees' Light Path reads it); any other ray is
+    /// one of no kind after no bounce (photons, gathers).
     pub fn new(ctx: &Context, ray: &Ray, hit: &Hit, camera: bool) -> Shading {
+        let path = if camera {
+            RayPath::camera()
+        } else {
+            RayPath::default()
+        };
+        Shading::on_path(ctx, ray, hit, path, camera)
+    }
+
+    /// The hit of a ray of camera path `path`; `primary`: the ray left the camera (Ray Length
+    /// then counts from the near clip plane, where Cycles starts camera rays).
+    pub fn on_path(ctx: &Context, ray: &Ray, hit: &Hit, path: RayPath, primary: bool) -> Shading {
         let sh = SurfaceHit::new(ctx.scene, ray, hit);
         let wo = -ray.direction.normalize();
-        // Cycles starts camera rays on the near clip plane: Ray Length counts from there.
         let mut length = hit.t * ray.direction.length();
-        if camera {
+        if primary {
             length -= ctx.scene.camera.near_clip_distance(-wo);
         }
         let material = &ctx.scene.materials[sh.material as usize];
@@ -65,9 +80,9 @@ impl Shading {
                 hit.triangle as u64 | ((hit.t.to_bits() as u64) << 32),
             ]);
             let u = (h >> 40) as f32 * (1.0 / 16_777_216.0);
-            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera, length), u)
+            eval_surface(ctx.scene, &sh, View::new(&sh, wo, path, length), u)
         } else {
-            eval_surface(ctx.scene, &sh, View::new(&sh, wo, camera, length), 0.0)
+            eval_surface(ctx.scene, &sh, View::new(&sh, wo, path, length), 0.0)
         };
         // A node tree's normal (Bump), on the side of the surface's own.
         let toward = |n: Vec3| if n.dot(sh.frame.n) < 0.0 { -n } else { n };
@@ -104,6 +119,7 @@ impl Shading {
             ng,
             opaque,
             bsdf,
+            path,
             wo,
             wo_local,
             surface,
@@ -145,7 +161,7 @@ impl Shading {
         rng: &mut Rng,
         rays: &mut u32,
     ) -> Vec3 {
-        sample_direct(ctx, &self.sh, beta, mis, rng, rays, |wi| {
+        sample_direct_on(ctx, &self.sh, self.path, beta, mis, rng, rays, |wi| {
             if self.opaque && wi.dot(self.ng) <= 0.0 {
                 (Vec3::ZERO, 0.0)
             } else {

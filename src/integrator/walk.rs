@@ -17,11 +17,12 @@ use super::direct::Previous;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{Ray, Visibility};
-use crate::bsdf::BsdfSample;
+use crate::bsdf::{BsdfSample, Scattering};
 use crate::light::emitted_radiance;
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::rng::Rng;
+use crate::scene::nodes::RayPath;
 
 /// Longest chain of specular surfaces `follow_specular` follows.
 pub const MAX_SPECULAR_CHAIN: u32 = 12;
@@ -48,10 +49,14 @@ pub struct PathState {
     pub passes: Passes,
     /// Rays traced so far (closest-hit and shadow).
     pub rays: u32,
+    /// The kind of the ray to the next vertex and the bounces before it, as node trees'
+    /// Light Path reads them.
+    pub light_path: RayPath,
 }
 
 impl PathState {
-    fn new(ray: Ray) -> PathState {
+    /// A camera ray's path, or (`gather`) a cache record's gather ray's: a diffuse bounce.
+    fn new(ray: Ray, gather: bool) -> PathState {
         // Emission seen by the camera ray counts in full.
         let previous = Previous {
             p: ray.origin,
@@ -69,6 +74,11 @@ impl PathState {
             emission_only: false,
             passes: Passes::default(),
             rays: 0,
+            light_path: if gather {
+                RayPath::camera().after(Scattering::Diffuse, false)
+            } else {
+                RayPath::camera()
+            },
         }
     }
 
@@ -123,11 +133,17 @@ impl PathState {
         if !bs.delta {
             self.diffuse += 1;
         }
-        self.previous = Previous {
-            p: s.sh.p,
-            pdf: bs.pdf,
-            delta: bs.delta || !light_sampled,
-        };
+        self.light_path = self.light_path.after(bs.scattering, bs.transmitted);
+        // A transparent pass is no vertex: emission met beyond it is weighed against the
+        // light sample of the vertex before, whose shadow ray passed it too (as Cycles keeps
+        // its MIS state through transparent surfaces).
+        if bs.scattering != Scattering::Transparent {
+            self.previous = Previous {
+                p: s.sh.p,
+                pdf: bs.pdf,
+                delta: bs.delta || !light_sampled,
+            };
+        }
         self.absorption = s.absorption_after(bs, wi, self.absorption);
         self.ray = s.sh.spawn(wi);
         true
@@ -184,9 +200,10 @@ pub fn walk(
         ..CameraSample::default()
     };
     let emission = integrator.counts_emission();
-    let mut state = PathState::new(ray);
+    let mut state = PathState::new(ray, gather);
     for depth in 0..=ctx.max_depth {
-        let visibility = if depth == 0 && !gather {
+        // A camera ray stays one through transparent surfaces (as in Cycles).
+        let visibility = if state.light_path.is(RayPath::CAMERA) {
             Visibility::Camera
         } else {
             Visibility::Secondary
@@ -208,7 +225,8 @@ pub fn walk(
         if state.absorption != Vec3::ZERO {
             state.beta *= transmittance(state.absorption, &hit, &ray);
         }
-        let mut s = Shading::new(ctx, &ray, &hit, visibility == Visibility::Camera);
+        let primary = depth == 0 && !gather;
+        let mut s = Shading::on_path(ctx, &ray, &hit, state.light_path, primary);
         if depth == 0 {
             out.hit = true;
             out.albedo = s.surface.base_color;

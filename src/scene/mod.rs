@@ -757,6 +757,16 @@ impl Bounds {
 }
 
 impl Scene {
+    /// Materials whose node tree reads the camera path's state (Light Path's Is Diffuse Ray
+    /// … and depths), which only the path tracer carries to every shading point.
+    pub fn ray_state_materials(&self) -> Vec<&str> {
+        self.materials
+            .iter()
+            .filter(|m| m.nodes.as_ref().is_some_and(|p| p.reads_ray_state))
+            .map(|m| m.name.as_str())
+            .collect()
+    }
+
     /// Bounds of all geometry (empty for a scene with no triangles).
     pub fn bounds(&self) -> Bounds {
         let mut b = Bounds::EMPTY;

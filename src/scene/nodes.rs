@@ -16,6 +16,11 @@
 //! `rgb_ramp_lookup` over the 256-entry table the add-on bakes with Blender's own
 //! `ColorRamp.evaluate`), written here from those definitions.
 //!
+//! Light Path reads the ray the point is evaluated for (`RayPath`): its kind and bounce counts
+//! as Cycles' path state keeps them (`path_state_next`), kept by the path walk; shadow rays and
+//! sampled emitters read Cycles' shadow and emission conventions (`RayPath::shadow`,
+//! `RayPath::emission`).
+//!
 //! A Bump node's Height subtree is compiled three times: as is, and copies that read the
 //! shading point moved a small step along each surface tangent (`Instr::offset`), as Cycles'
 //! SVM evaluates it at P + dPdx and P + dPdy; the normal then follows Cycles'
@@ -25,13 +30,13 @@
 //! mixes it with a Transparent BSDF by alpha, as Cycles does. Its coat, sheen and anisotropy
 //! inputs are the BSDF's own layers (`crate::bsdf`); an unlinked Tangent is Cycles' default
 //! (`default_tangent`), turned by Anisotropic Rotation around the normal. Diffuse BSDF → colour,
-//! metallic 0, specular 0 (Lambert; the Oren–Nayar roughness is not modelled); Glossy →
+//! metallic 0, specular 0, its Roughness the Oren–Nayar lobe's (`crate::bsdf::oren_nayar`); Glossy →
 //! metallic 1 with the colour as F0 (Blender's Glossy has no Fresnel: differs at grazing
 //! angles), its Anisotropy as Cycles maps it (α (1 − a) along the tangent and α / (1 − a)
 //! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
 //! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
-//! the colour); Translucent → fully rough transmission with IOR 1 (an approximation of diffuse
+//! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent → fully rough transmission with IOR 1 (an approximation of diffuse
 //! transmission). Mix Shader mixes emission exactly and picks one BSDF per shading point with
 //! probability given by the factor, as Cycles samples one closure by its weight: the BSDF is
 //! linear in its closures, so every integrator (path tracing, photon tracing and gathering,
@@ -77,9 +82,8 @@ pub struct ShadingInputs {
     pub incoming: Vec3,
     /// Seen from behind the surface's winding (`normal` is then turned to the viewer).
     pub backfacing: bool,
-    /// Seen by a camera ray (Light Path's Is Camera Ray; photons, gather and bounce rays,
-    /// light sampling: not).
-    pub camera_ray: bool,
+    /// The kind and bounces of the ray that reached the point (Light Path's outputs).
+    pub path: RayPath,
     /// The distance the ray travelled to the point (Light Path's Ray Length: a camera ray's
     /// from the near clip plane, as in Cycles; for an emitter sampled as a light, its distance
     /// to the shaded point; 0 where photons leave it).
@@ -90,6 +94,140 @@ pub struct ShadingInputs {
     pub tangent: Vec4,
     /// Object-space normals to world space (Blender's axes; not normalising).
     pub object_to_world_normal: Mat3,
+}
+
+/// The ray a shading point is evaluated for, as Cycles' path state describes it to the Light
+/// Path node (`svm_node_light_path` reading the path flags and the bounce counters kept by
+/// `path_state_next`): what kind of ray it is and how many bounces of each kind the path made
+/// before it. The default is a ray of no kind after no bounce (photons, and the light the
+/// photon methods gather).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayPath {
+    /// `RayPath::CAMERA` … `RayPath::TRANSMIT`.
+    pub flags: u8,
+    /// Bounces so far, transparent ones excluded (Ray Depth; Cycles' `bounce`).
+    pub depth: u16,
+    /// Diffuse reflections, glossy (and singular) reflections, transmissions other than
+    /// transparent ones, and transparent surfaces passed through.
+    pub diffuse: u16,
+    pub glossy: u16,
+    pub transmission: u16,
+    pub transparent: u16,
+}
+
+/// The Light Path node's outputs, in Blender's order.
+const LIGHT_PATH_OUTPUTS: [&str; 14] = [
+    "Is Camera Ray",
+    "Is Shadow Ray",
+    "Is Diffuse Ray",
+    "Is Glossy Ray",
+    "Is Singular Ray",
+    "Is Reflection Ray",
+    "Is Transmission Ray",
+    "Is Volume Scatter Ray",
+    "Ray Length",
+    "Ray Depth",
+    "Diffuse Depth",
+    "Glossy Depth",
+    "Transparent Depth",
+    "Transmission Depth",
+];
+
+/// The Light Path outputs only a camera path's state tells (the lobe a ray left by and the
+/// bounces before it): Is Diffuse … Is Transmission Ray and the depths.
+const RAY_STATE_OUTPUTS: u32 = 0b11_1110_0111_1100;
+
+/// Light Path's Ray Length.
+const RAY_LENGTH_OUTPUT: u32 = 1 << 8;
+
+/// The kind of scattering a BSDF sample made (Cycles' closure labels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scattering {
+    Diffuse,
+    Glossy,
+    /// A delta lobe (smooth mirror or glass).
+    Singular,
+    /// Straight through a Transparent BSDF (not a bounce).
+    Transparent,
+}
+
+impl RayPath {
+    pub const CAMERA: u8 = 1;
+    pub const SHADOW: u8 = 2;
+    pub const DIFFUSE: u8 = 4;
+    pub const GLOSSY: u8 = 8;
+    pub const SINGULAR: u8 = 16;
+    pub const REFLECT: u8 = 32;
+    pub const TRANSMIT: u8 = 64;
+
+    /// A camera ray.
+    pub const fn camera() -> RayPath {
+        RayPath {
+            flags: RayPath::CAMERA,
+            depth: 0,
+            diffuse: 0,
+            glossy: 0,
+            transmission: 0,
+            transparent: 0,
+        }
+    }
+
+    pub fn is(&self, flag: u8) -> bool {
+        self.flags & flag != 0
+    }
+
+    /// The ray that leaves after `scattering`, reflected or `transmitted` (Cycles'
+    /// `path_state_next`): a transparent pass keeps the ray's kind and counts only as a
+    /// transparent bounce; any other replaces the kind and counts as a bounce, of its lobe
+    /// when reflected (singular reflections count as glossy) or as a transmission.
+    pub fn after(self, scattering: Scattering, transmitted: bool) -> RayPath {
+        let mut next = self;
+        if scattering == Scattering::Transparent {
+            next.transparent = up_one(self.transparent);
+            return next;
+        }
+        next.depth = up_one(self.depth);
+        next.flags = if transmitted {
+            next.transmission = up_one(self.transmission);
+            RayPath::TRANSMIT
+        } else {
+            match scattering {
+                Scattering::Diffuse => next.diffuse = up_one(self.diffuse),
+                _ => next.glossy = up_one(self.glossy),
+            }
+            RayPath::REFLECT
+        };
+        next.flags |= match scattering {
+            Scattering::Diffuse => RayPath::DIFFUSE,
+            Scattering::Glossy => RayPath::GLOSSY,
+            _ => RayPath::GLOSSY | RayPath::SINGULAR,
+        };
+        next
+    }
+
+    /// What a shadow ray from a vertex of this path reads (Cycles evaluates shadow rays'
+    /// shaders with the shadow flag alone, one bounce further).
+    pub fn shadow(self) -> RayPath {
+        RayPath {
+            flags: RayPath::SHADOW,
+            depth: up_one(self.depth),
+            ..self
+        }
+    }
+
+    /// What an emitter sampled as a light from a vertex of this path reads (no kind, one
+    /// bounce further, as Cycles evaluates it with its emission flag).
+    pub fn emission(self) -> RayPath {
+        RayPath {
+            flags: 0,
+            depth: up_one(self.depth),
+            ..self
+        }
+    }
+}
+
+fn up_one(n: u16) -> u16 {
+    n.saturating_add(1)
 }
 
 /// The Normal Map node's spaces (Blender's `space`).
@@ -133,6 +271,10 @@ pub struct Closure {
     /// rotation applied; zero: the shading frame's).
     pub aspect: f32,
     pub tangent: Vec3,
+    /// Oren–Nayar roughness of the diffuse lobe (0: Lambert).
+    pub diffuse_roughness: f32,
+    /// A Transparent BSDF: its pass is not a bounce, and shadow rays go through it.
+    pub transparent: bool,
 }
 
 impl Closure {
@@ -157,6 +299,8 @@ impl Closure {
         sheen_tint: Vec3::ONE,
         aspect: 1.0,
         tangent: Vec3::ZERO,
+        diffuse_roughness: 0.0,
+        transparent: false,
     };
 }
 
@@ -498,6 +642,12 @@ pub struct NodeProgram {
     /// True when the program reads the points a step away (it has a Bump node): `eval` then
     /// needs all three `ShadingInputs`.
     pub needs_offsets: bool,
+    /// True when some Light Path output reads the camera path's state (`RAY_STATE_OUTPUTS`):
+    /// only the path tracer carries it to every shading point.
+    pub reads_ray_state: bool,
+    /// True when the tree can give a Transparent BSDF (a Transparent node, or a Principled
+    /// BSDF's Alpha): shadow rays must evaluate it to pass.
+    pub shadow_transparent: bool,
     /// The Material Output's Displacement as Cycles' "bump only" method: a program whose
     /// output is the bumped normal, which the surface tree then reads as the shading normal.
     displacement: Option<Box<NodeProgram>>,
@@ -579,7 +729,7 @@ fn spec(op: &Op) -> Spec {
         ),
         Op::LightPath => (
             vec![],
-            vec![("Is Camera Ray", Float), ("Ray Length", Float)],
+            LIGHT_PATH_OUTPUTS.iter().map(|&n| (n, Float)).collect(),
         ),
         Op::Value(_) => (vec![], vec![("Value", Float)]),
         Op::Rgb(_) => (vec![], vec![("Color", Color)]),
@@ -851,13 +1001,19 @@ fn spec(op: &Op) -> Spec {
                 i("Sheen Weight", Float, f(0.0)),
                 i("Sheen Roughness", Float, f(0.5)),
                 i("Sheen Tint", Color, Vec4::ONE),
+                i("Diffuse Roughness", Float, f(0.0)),
             ],
             vec![("BSDF", Shader)],
         ),
         Op::Diffuse | Op::Sheen => (
             vec![
                 i("Color", Color, grey),
-                i("Roughness", Float, f(0.5)),
+                // Blender's defaults: a Lambertian Diffuse BSDF, a Sheen BSDF of roughness ½.
+                i(
+                    "Roughness",
+                    Float,
+                    f(if *op == Op::Diffuse { 0.0 } else { 0.5 }),
+                ),
                 i("Normal", Vector, Vec4::ZERO),
             ],
             vec![("BSDF", Shader)],
@@ -1328,6 +1484,7 @@ pub fn compile(
             .map_err(|m| format!("displacement: {m}"))?;
         program.needs_offsets |= normal.needs_offsets;
         program.reads_color |= normal.reads_color;
+        program.reads_ray_state |= normal.reads_ray_state;
         program.displacement = Some(Box::new(normal));
     }
     Ok(program)
@@ -1352,6 +1509,7 @@ fn compile_tree(
     let mut emits = false;
     let mut reads_color = false;
     let mut needs_offsets = false;
+    let mut shadow_transparent = false;
     // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
     let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
     let mut deps: Vec<Vec<usize>> = Vec::with_capacity(nodes.len());
@@ -1478,6 +1636,11 @@ fn compile_tree(
             _ => false,
         };
         reads_color |= matches!(op, Op::VertexColor | Op::Attribute);
+        shadow_transparent |= match op {
+            Op::Transparent => true,
+            Op::Principled => !matches!(ins[4], Src::Const(v) if v.x >= 1.0),
+            _ => false,
+        };
         if matches!(op, Op::Bump { .. }) {
             // The Height subtree again at the two offset points; the heights there are the
             // Bump's inputs 5 and 6.
@@ -1614,11 +1777,11 @@ fn compile_tree(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
-    if emits
-        && instrs
-            .iter()
-            .any(|i| i.op == Op::LightPath && i.used & 2 != 0)
-    {
+    let light_path_reads = instrs
+        .iter()
+        .filter(|i| i.op == Op::LightPath)
+        .fold(0, |mask, i| mask | i.used);
+    if emits && light_path_reads & RAY_LENGTH_OUTPUT != 0 {
         warnings.push(
             "Light Path's Ray Length in a tree that emits: photons leaving the surface read \
              it as 0, so photon mapping's light from it may differ (path tracing and light \
@@ -1635,6 +1798,8 @@ fn compile_tree(
         emits,
         reads_color,
         needs_offsets,
+        reads_ray_state: light_path_reads & RAY_STATE_OUTPUTS != 0,
+        shadow_transparent,
         displacement: None,
     })
 }
@@ -1805,8 +1970,31 @@ fn run(
             m.regs[o + 4] = splat(if at.backfacing { 1.0 } else { 0.0 });
         }
         Op::LightPath => {
-            m.regs[o] = splat(if at.camera_ray { 1.0 } else { 0.0 });
-            m.regs[o + 1] = splat(at.ray_length);
+            let p = &at.path;
+            let flag = |f: u8| splat(if p.is(f) { 1.0 } else { 0.0 });
+            let count = |n: u16| splat(n as f32);
+            let values = [
+                flag(RayPath::CAMERA),
+                flag(RayPath::SHADOW),
+                flag(RayPath::DIFFUSE),
+                flag(RayPath::GLOSSY),
+                flag(RayPath::SINGULAR),
+                flag(RayPath::REFLECT),
+                flag(RayPath::TRANSMIT),
+                // No volumes: never a volume scatter ray.
+                splat(0.0),
+                splat(at.ray_length),
+                count(p.depth),
+                count(p.diffuse),
+                count(p.glossy),
+                count(p.transparent),
+                count(p.transmission),
+            ];
+            for (k, v) in values.into_iter().enumerate() {
+                if instr.used & (1 << k) != 0 {
+                    m.regs[o + k] = v;
+                }
+            }
         }
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
@@ -2141,6 +2329,8 @@ fn run(
                 sheen_tint: get(m, 21).truncate().max(Vec3::ZERO),
                 aspect,
                 tangent,
+                diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
+                transparent: false,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
             // Transparent BSDF by 1 − alpha.
@@ -2155,6 +2345,7 @@ fn run(
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 roughness: 1.0,
+                diffuse_roughness: get(m, 1).x.clamp(0.0, 1.0),
                 normal: get(m, 2).truncate(),
                 ..Closure::BLACK
             };
@@ -2216,6 +2407,7 @@ fn run(
         Op::Translucent => {
             m.closures[o] = Closure {
                 roughness: 1.0,
+                transparent: false,
                 ..transparent(get(m, 0).truncate())
             };
         }
@@ -2256,6 +2448,7 @@ fn transparent(color: Vec3) -> Closure {
         roughness: 0.0,
         ior: 1.0,
         transmission: 1.0,
+        transparent: true,
         ..Closure::BLACK
     }
 }
@@ -3932,6 +4125,108 @@ mod tests {
             normal_map(NormalMapSpace::Tangent, tilted, 1.0, &none),
             Vec3::Z
         );
+    }
+
+    #[test]
+    fn ray_path_counts_bounces_as_cycles_path_state_does() {
+        // Camera → transparent → glossy reflection → smooth refraction → diffuse reflection.
+        let p = RayPath::camera().after(Scattering::Transparent, true);
+        assert_eq!((p.flags, p.depth, p.transparent), (RayPath::CAMERA, 0, 1));
+        let p = p.after(Scattering::Glossy, false);
+        assert_eq!(p.flags, RayPath::GLOSSY | RayPath::REFLECT);
+        let p = p.after(Scattering::Singular, true);
+        assert_eq!(
+            p.flags,
+            RayPath::GLOSSY | RayPath::SINGULAR | RayPath::TRANSMIT
+        );
+        let p = p.after(Scattering::Diffuse, false);
+        assert_eq!(p.flags, RayPath::DIFFUSE | RayPath::REFLECT);
+        assert_eq!(
+            (p.depth, p.diffuse, p.glossy, p.transmission, p.transparent),
+            (3, 1, 1, 1, 1)
+        );
+        // Shadow rays and sampled emitters: their own kind, one bounce further.
+        assert_eq!((p.shadow().flags, p.shadow().depth), (RayPath::SHADOW, 4));
+        assert_eq!((p.emission().flags, p.emission().depth), (0, 4));
+        assert_eq!(p.emission().diffuse, 1);
+    }
+
+    #[test]
+    fn light_path_outputs_read_the_ray_path() {
+        let output = |name: &str, path: RayPath| {
+            let tree = json!({"nodes": [
+                {"name": "L", "type": "ShaderNodeLightPath"},
+                {"name": "E", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"node": 0, "output": name}, "Strength": 1.0}}
+            ], "output": {"node": 1, "output": "Emission"}});
+            let at = ShadingInputs {
+                path,
+                ray_length: 2.5,
+                ..ShadingInputs::default()
+            };
+            emission_of(tree, &at).x
+        };
+        let p = RayPath::camera()
+            .after(Scattering::Transparent, true)
+            .after(Scattering::Transparent, true)
+            .after(Scattering::Singular, true)
+            .after(Scattering::Diffuse, false);
+        let expected = [
+            ("Is Camera Ray", 0.0),
+            ("Is Shadow Ray", 0.0),
+            ("Is Diffuse Ray", 1.0),
+            ("Is Glossy Ray", 0.0),
+            ("Is Singular Ray", 0.0),
+            ("Is Reflection Ray", 1.0),
+            ("Is Transmission Ray", 0.0),
+            ("Is Volume Scatter Ray", 0.0),
+            ("Ray Length", 2.5),
+            ("Ray Depth", 2.0),
+            ("Diffuse Depth", 1.0),
+            ("Glossy Depth", 0.0),
+            ("Transparent Depth", 2.0),
+            ("Transmission Depth", 1.0),
+        ];
+        for (name, value) in expected {
+            assert_eq!(output(name, p), value, "{name}");
+        }
+        assert_eq!(output("Is Shadow Ray", p.shadow()), 1.0);
+        assert_eq!(output("Is Camera Ray", RayPath::camera()), 1.0);
+        // Only the outputs of a camera path's state make the tree depend on it.
+        for (name, depends) in [
+            ("Is Camera Ray", false),
+            ("Is Shadow Ray", false),
+            ("Ray Length", false),
+            ("Is Glossy Ray", true),
+            ("Transparent Depth", true),
+        ] {
+            let tree = json!({"nodes": [
+                {"name": "L", "type": "ShaderNodeLightPath"},
+                {"name": "E", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"node": 0, "output": name}}}
+            ], "output": {"node": 1, "output": "Emission"}});
+            let program = compile(&tree, 0, &mut Vec::new()).expect("compiles");
+            assert_eq!(program.reads_ray_state, depends, "{name}");
+        }
+    }
+
+    #[test]
+    fn transparent_closures_let_shadows_through() {
+        let tree = |alpha: Value| {
+            json!({"nodes": [
+                {"name": "P", "type": "ShaderNodeBsdfPrincipled", "inputs": {"Alpha": alpha}}
+            ], "output": {"node": 0, "output": "BSDF"}})
+        };
+        let compiled = |t: Value| compile(&t, 0, &mut Vec::new()).expect("compiles");
+        assert!(!compiled(tree(json!(1.0))).shadow_transparent);
+        assert!(compiled(tree(json!(0.5))).shadow_transparent);
+        let transparent = json!({"nodes": [
+            {"name": "T", "type": "ShaderNodeBsdfTransparent", "inputs": {"Color": [1, 1, 1, 1]}}
+        ], "output": {"node": 0, "output": "BSDF"}});
+        let program = compiled(transparent);
+        assert!(program.shadow_transparent);
+        let c = program.eval(&[ShadingInputs::default(); 3], &[], 0.5);
+        assert!(c.transparent && c.transmission == 1.0);
     }
 
     #[test]

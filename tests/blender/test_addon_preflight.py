@@ -190,3 +190,20 @@ def test_rolling_shutter_is_named(photon_addon):
     messages = messages_for(scene)
     assert len(messages) == 1 and messages[0].startswith("motion blur: the rolling shutter"), \
         messages
+
+
+def test_thin_film_is_named(photon_addon):
+    """A Principled BSDF's Thin Film is not rendered: one message, on the glTF route (a lone
+    Principled BSDF) and on the node-tree route (its Diffuse Roughness, which Photon renders,
+    takes the tree route) alike; a zero thickness gives none."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    mat = bpy.data.objects["Cube"].active_material
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Diffuse Roughness"].default_value = 0.5
+    assert messages_for(scene) == [], "Diffuse Roughness is rendered"
+    bsdf.inputs["Thin Film Thickness"].default_value = 400.0
+    for roughness in (0.5, 0.0):
+        bsdf.inputs["Diffuse Roughness"].default_value = roughness
+        messages = messages_for(scene)
+        assert len(messages) == 1 and "Thin Film is not rendered" in messages[0], messages

@@ -658,6 +658,7 @@ fn scatter_photon(s: &Shading, rng: &mut Rng) -> Option<(BsdfSample, Vec3)> {
             pdf,
             delta: false,
             transmitted: false,
+            scattering: crate::bsdf::Scattering::Diffuse,
         },
         wi,
     ))
