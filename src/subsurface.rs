@@ -34,7 +34,9 @@
 //! tests.
 
 use crate::math::Vec3;
+use std::collections::HashMap;
 use std::f32::consts::PI;
+use std::sync::RwLock;
 
 /// Samples per octree leaf.
 const LEAF_SIZE: usize = 8;
@@ -49,6 +51,10 @@ const MAX_RADIUS_IN_MFP: f32 = 64.0;
 const SAMPLING_STEPS: u32 = 24;
 /// Bisection steps of the albedo inversion (2⁻⁴⁸ resolution in α′).
 const INVERSION_STEPS: u32 = 48;
+/// e^{−x} for x beyond this is subnormal in f32 (below 2⁻¹²⁶ ≈ e^{−87.3}).
+const EXP_UNDERFLOW: f32 = 87.0;
+/// Shards of `ExitanceCache`'s map (each behind its own lock).
+const CACHE_SHARDS: usize = 64;
 
 /// Diffuse Fresnel reflectance F_dr for relative IOR `eta` (Egan & Hilgeman's fit, JMLH01
 /// eq. 5), with `eta` clamped to [1, 4]: below 1 the fit is not meant for the inside of an
@@ -128,7 +134,12 @@ impl Channel {
 
     fn pole(&self, z: f32, r2: f32) -> f32 {
         let d = (r2 + z * z).sqrt();
-        z * (self.sigma_tr * d + 1.0) * (-self.sigma_tr * d).exp() / (d * d * d)
+        let s = self.sigma_tr * d;
+        if s > EXP_UNDERFLOW {
+            // e^{−s} is below f32's smallest normal: skip the slow subnormal path of `exp`.
+            return 0.0;
+        }
+        z * (s + 1.0) * (-s).exp() / (d * d * d)
     }
 
     fn rd(&self, r2: f32) -> f32 {
@@ -412,6 +423,11 @@ impl SampleTree {
         self.samples.is_empty()
     }
 
+    /// The samples' bounding box (min, max); `None` without samples.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.nodes.first().map(|n| (n.min, n.max))
+    }
+
     /// Total flux of all samples.
     pub fn total_flux(&self) -> Vec3 {
         self.nodes.first().map_or(Vec3::ZERO, |n| n.flux)
@@ -458,6 +474,59 @@ impl SampleTree {
             .iter()
             .map(|s| dipole.kernel((x - s.position).length_squared()) * s.flux)
             .sum()
+    }
+}
+
+/// Exitance at fixed points of the surface, each computed once, on first use. The hierarchical
+/// sum costs hundreds of kernel evaluations, and a render asks for M at many points within one
+/// smoothing radius (every camera sample of every pixel): the caller interpolates M between
+/// points it names by a key (`crate::integrator::photon::subsurface` uses a lattice over each
+/// triangle). A point's value depends only on its key, so the image is the same whichever
+/// thread computes it first. Past `max_points` stored points, new ones are computed each time
+/// they are asked for and not kept (the same values, bounded memory).
+pub struct ExitanceCache {
+    max_per_shard: usize,
+    shards: Vec<RwLock<HashMap<[u32; 4], Vec3>>>,
+}
+
+impl ExitanceCache {
+    pub fn new(max_points: usize) -> ExitanceCache {
+        ExitanceCache {
+            max_per_shard: max_points / CACHE_SHARDS,
+            shards: (0..CACHE_SHARDS)
+                .map(|_| RwLock::new(HashMap::new()))
+                .collect(),
+        }
+    }
+
+    /// Points stored so far.
+    pub fn len(&self) -> usize {
+        self.shards
+            .iter()
+            .map(|s| s.read().map_or(0, |m| m.len()))
+            .sum()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The value stored under `key`, else `exitance()`, stored.
+    pub fn get_or_compute(&self, key: [u32; 4], exitance: impl FnOnce() -> Vec3) -> Vec3 {
+        let hash = key
+            .iter()
+            .fold(0x811c_9dc5u32, |h, &k| (h ^ k).wrapping_mul(0x0100_0193));
+        let shard = &self.shards[(hash >> 26) as usize % CACHE_SHARDS];
+        if let Some(v) = shard.read().ok().and_then(|m| m.get(&key).copied()) {
+            return v;
+        }
+        let v = exitance();
+        if let Ok(mut m) = shard.write() {
+            if m.len() < self.max_per_shard {
+                m.insert(key, v);
+            }
+        }
+        v
     }
 }
 
