@@ -28,7 +28,8 @@
 //!
 //! **Hierarchy** (Jensen & Buhler §3): an octree over the samples; each node keeps its total
 //! flux, its flux-weighted centre, its bounds and the area its samples represent (count × the
-//! area per sample). A node is used as one sample at its centre when the solid angle it
+//! area per sample, or half its box's squared diagonal where that is larger: photon samples are
+//! not spread evenly by area as Jensen & Buhler's points are). A node is used as one sample at its centre when the solid angle it
 //! subtends, ΔΩ = area / ‖x − centre‖², is below `accuracy` and x is further than h from its
 //! bounds; otherwise its children are visited. `exitance_brute_force` sums every sample, for
 //! tests.
@@ -285,7 +286,7 @@ struct Node {
     /// Flux-weighted centre (by the sum of the channels; the box centre when the flux is zero).
     centre: Vec3,
     flux: Vec3,
-    /// Area the node's samples represent.
+    /// Area the node's samples represent, at least its box's extent.
     area: f32,
     /// Children are `first..first + count` in `nodes` for inner nodes, samples for leaves.
     first: u32,
@@ -348,7 +349,10 @@ impl SampleTree {
             max,
             centre,
             flux,
-            area: per_sample * samples.len() as f32,
+            // Samples are denser where more light arrived (and where guided photons were
+            // drawn), so the count alone can call a wide, sparse node small: the box's own
+            // extent (half its squared diagonal: a square's area) bounds it from below.
+            area: (per_sample * samples.len() as f32).max(0.5 * (max - min).length_squared()),
             first: first as u32,
             count: samples.len() as u32,
             leaf: true,
@@ -469,11 +473,12 @@ impl SampleTree {
     }
 
     /// M(x) summed over every sample (the reference for the hierarchical evaluation).
+    /// Summed in f64: hundreds of thousands of small terms.
     pub fn exitance_brute_force(&self, x: Vec3, dipole: &Dipole) -> Vec3 {
-        self.samples
-            .iter()
-            .map(|s| dipole.kernel((x - s.position).length_squared()) * s.flux)
-            .sum()
+        let sum = self.samples.iter().fold(glam::DVec3::ZERO, |sum, s| {
+            sum + (dipole.kernel((x - s.position).length_squared()) * s.flux).as_dvec3()
+        });
+        sum.as_vec3()
     }
 }
 
