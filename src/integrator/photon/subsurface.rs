@@ -5,7 +5,9 @@
 //! material, and at a shading point x the radiance T(ω_o) M(x)/π, where M is the dipole
 //! exitance of `crate::subsurface` and T(ω_o) the layer's transmission out (the same factor a
 //! Lambertian base gets, so a translucent surface under uniform light shows R_d E/π exactly as
-//! the diffuse surface it replaces). Light diffuses only within one material's samples.
+//! the diffuse surface it replaces). Light diffuses only within one material's samples. M is
+//! summed at the points of a lattice over each triangle (`Lattice`), once each, and
+//! interpolated between them at the shading points.
 //!
 //! The dipole assumes a flat semi-infinite medium, so on thick-kernel materials it loses light
 //! where the kernel reaches past the object's surface (measured against Cycles' random walk in
