@@ -34,8 +34,10 @@ const SMOOTHING_SAMPLES: f32 = 16.0;
 const LATTICE_SPACING: f32 = 0.5;
 /// Most lattice intervals along a triangle's edge.
 const MAX_LATTICE: f32 = 1024.0;
-/// Lattice points kept per material (about 40 bytes each).
-const LATTICE_POINTS: usize = 4 << 20;
+/// Lattice points kept per material (about 48 bytes each with the map's overhead: 48 MiB at
+/// most; a render needs about π/4 per sample on the surfaces it sees: 4/h² points against
+/// 16/(πh²) samples per unit area).
+const LATTICE_POINTS: usize = 1 << 20;
 /// The third word of a cache key that names a mesh vertex (shared by the triangles around it)
 /// instead of a triangle's lattice point.
 const VERTEX_KEY: u32 = u32::MAX;
