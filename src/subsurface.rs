@@ -28,13 +28,16 @@
 //!
 //! **Hierarchy** (Jensen & Buhler §3): an octree over the samples; each node keeps its total
 //! flux, its flux-weighted centre, its bounds and the area its samples represent (count × the
-//! area per sample). A node is used as one sample at its centre when the solid angle it
+//! area per sample, or half its box's squared diagonal where that is larger: photon samples are
+//! not spread evenly by area as Jensen & Buhler's points are). A node is used as one sample at its centre when the solid angle it
 //! subtends, ΔΩ = area / ‖x − centre‖², is below `accuracy` and x is further than h from its
 //! bounds; otherwise its children are visited. `exitance_brute_force` sums every sample, for
 //! tests.
 
 use crate::math::Vec3;
+use std::collections::HashMap;
 use std::f32::consts::PI;
+use std::sync::RwLock;
 
 /// Samples per octree leaf.
 const LEAF_SIZE: usize = 8;
@@ -49,6 +52,10 @@ const MAX_RADIUS_IN_MFP: f32 = 64.0;
 const SAMPLING_STEPS: u32 = 24;
 /// Bisection steps of the albedo inversion (2⁻⁴⁸ resolution in α′).
 const INVERSION_STEPS: u32 = 48;
+/// e^{−x} for x beyond this is subnormal in f32 (below 2⁻¹²⁶ ≈ e^{−87.3}).
+const EXP_UNDERFLOW: f32 = 87.0;
+/// Shards of `ExitanceCache`'s map (each behind its own lock).
+const CACHE_SHARDS: usize = 64;
 
 /// Diffuse Fresnel reflectance F_dr for relative IOR `eta` (Egan & Hilgeman's fit, JMLH01
 /// eq. 5), with `eta` clamped to [1, 4]: below 1 the fit is not meant for the inside of an
@@ -128,7 +135,12 @@ impl Channel {
 
     fn pole(&self, z: f32, r2: f32) -> f32 {
         let d = (r2 + z * z).sqrt();
-        z * (self.sigma_tr * d + 1.0) * (-self.sigma_tr * d).exp() / (d * d * d)
+        let s = self.sigma_tr * d;
+        if s > EXP_UNDERFLOW {
+            // e^{−s} is below f32's smallest normal: skip the slow subnormal path of `exp`.
+            return 0.0;
+        }
+        z * (s + 1.0) * (-s).exp() / (d * d * d)
     }
 
     fn rd(&self, r2: f32) -> f32 {
@@ -274,7 +286,7 @@ struct Node {
     /// Flux-weighted centre (by the sum of the channels; the box centre when the flux is zero).
     centre: Vec3,
     flux: Vec3,
-    /// Area the node's samples represent.
+    /// Area the node's samples represent, at least its box's extent.
     area: f32,
     /// Children are `first..first + count` in `nodes` for inner nodes, samples for leaves.
     first: u32,
@@ -337,7 +349,10 @@ impl SampleTree {
             max,
             centre,
             flux,
-            area: per_sample * samples.len() as f32,
+            // Samples are denser where more light arrived (and where guided photons were
+            // drawn), so the count alone can call a wide, sparse node small: the box's own
+            // extent (half its squared diagonal: a square's area) bounds it from below.
+            area: (per_sample * samples.len() as f32).max(0.5 * (max - min).length_squared()),
             first: first as u32,
             count: samples.len() as u32,
             leaf: true,
@@ -412,6 +427,11 @@ impl SampleTree {
         self.samples.is_empty()
     }
 
+    /// The samples' bounding box (min, max); `None` without samples.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.nodes.first().map(|n| (n.min, n.max))
+    }
+
     /// Total flux of all samples.
     pub fn total_flux(&self) -> Vec3 {
         self.nodes.first().map_or(Vec3::ZERO, |n| n.flux)
@@ -453,11 +473,65 @@ impl SampleTree {
     }
 
     /// M(x) summed over every sample (the reference for the hierarchical evaluation).
+    /// Summed in f64: hundreds of thousands of small terms.
     pub fn exitance_brute_force(&self, x: Vec3, dipole: &Dipole) -> Vec3 {
-        self.samples
+        let sum = self.samples.iter().fold(glam::DVec3::ZERO, |sum, s| {
+            sum + (dipole.kernel((x - s.position).length_squared()) * s.flux).as_dvec3()
+        });
+        sum.as_vec3()
+    }
+}
+
+/// Exitance at fixed points of the surface, each computed once, on first use. The hierarchical
+/// sum costs hundreds of kernel evaluations, and a render asks for M at many points within one
+/// smoothing radius (every camera sample of every pixel): the caller interpolates M between
+/// points it names by a key (`crate::integrator::photon::subsurface` uses a lattice over each
+/// triangle). A point's value depends only on its key, so the image is the same whichever
+/// thread computes it first. Past `max_points` stored points, new ones are computed each time
+/// they are asked for and not kept (the same values, bounded memory).
+pub struct ExitanceCache {
+    max_per_shard: usize,
+    shards: Vec<RwLock<HashMap<[u32; 4], Vec3>>>,
+}
+
+impl ExitanceCache {
+    pub fn new(max_points: usize) -> ExitanceCache {
+        ExitanceCache {
+            max_per_shard: max_points / CACHE_SHARDS,
+            shards: (0..CACHE_SHARDS)
+                .map(|_| RwLock::new(HashMap::new()))
+                .collect(),
+        }
+    }
+
+    /// Points stored so far.
+    pub fn len(&self) -> usize {
+        self.shards
             .iter()
-            .map(|s| dipole.kernel((x - s.position).length_squared()) * s.flux)
+            .map(|s| s.read().map_or(0, |m| m.len()))
             .sum()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The value stored under `key`, else `exitance()`, stored.
+    pub fn get_or_compute(&self, key: [u32; 4], exitance: impl FnOnce() -> Vec3) -> Vec3 {
+        let hash = key
+            .iter()
+            .fold(0x811c_9dc5u32, |h, &k| (h ^ k).wrapping_mul(0x0100_0193));
+        let shard = &self.shards[(hash >> 26) as usize % CACHE_SHARDS];
+        if let Some(v) = shard.read().ok().and_then(|m| m.get(&key).copied()) {
+            return v;
+        }
+        let v = exitance();
+        if let Ok(mut m) = shard.write() {
+            if m.len() < self.max_per_shard {
+                m.insert(key, v);
+            }
+        }
+        v
     }
 }
 

@@ -1,7 +1,8 @@
 //! Subsurface scattering (dipole diffusion, Jensen et al. 2001; hierarchical evaluation, Jensen
 //! & Buhler 2002): the dipole's total diffuse reflectance against its closed form, the albedo
 //! inversion, energy conservation of the sample kernel, the hierarchical sum against brute
-//! force, and rendered slabs under a sun against R_d·E/π.
+//! force, the exitance cache, the render's lattice interpolation against brute force, and
+//! rendered slabs under a sun against R_d·E/π.
 
 #[path = "support/scenes.rs"]
 mod scenes;
@@ -16,7 +17,7 @@ use photon::render::{render, Method, RenderSettings};
 use photon::rng::Rng;
 use photon::scene::{Light, Material, Scene, Subsurface};
 use photon::subsurface::{
-    boundary_term, invert_albedo, total_reflectance, Dipole, Sample, SampleTree,
+    boundary_term, invert_albedo, total_reflectance, Dipole, ExitanceCache, Sample, SampleTree,
 };
 use std::f32::consts::PI;
 
@@ -286,12 +287,22 @@ fn extreme_radii_and_unit_ior_stay_finite() {
 
 #[test]
 fn hierarchical_render_matches_brute_force_render() {
+    // The render reads M from the lattice over each triangle (octree sums at its points); brute
+    // force sums every sample at every shading point. A mean free path above and one well below
+    // the smoothing radius (there M has the kernel's steps of the disc mean).
+    for mfp in [0.05, 0.002] {
+        let scene = slab(Vec3::new(0.9, 0.6, 0.3), mfp, 1.3, 1.0);
+        let (fast_mean, fast) = mean_radiance(&scene, false);
+        let (brute_mean, brute) = mean_radiance(&scene, true);
+        let err = compare(&fast, &brute);
+        assert!(err.rel_mse <= 1e-3, "ℓ {mfp}: relMSE {}", err.rel_mse);
+        let bias = (fast_mean / brute_mean - Vec3::ONE).abs().max_element();
+        assert!(bias <= 0.005, "ℓ {mfp}: mean {fast_mean} vs {brute_mean}");
+    }
+    // Deterministic whatever the thread count (photon batches, octree order and lattice values
+    // are fixed).
     let scene = slab(Vec3::new(0.9, 0.6, 0.3), 0.05, 1.3, 1.0);
     let (_, fast) = mean_radiance(&scene, false);
-    let (_, brute) = mean_radiance(&scene, true);
-    let err = compare(&fast, &brute);
-    assert!(err.rel_mse <= 1e-3, "relMSE {}", err.rel_mse);
-    // Deterministic whatever the thread count (photon batches and octree order are fixed).
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
     let (_, single) = pool.expect("pool").install(|| mean_radiance(&scene, false));
     let bits = |im: &[[f32; 4]]| {
@@ -300,6 +311,36 @@ fn hierarchical_render_matches_brute_force_render() {
             .collect::<Vec<_>>()
     };
     assert_eq!(bits(&fast), bits(&single));
+}
+
+#[test]
+fn exitance_cache_computes_each_point_once_and_stays_bounded() {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    let cache = ExitanceCache::new(64 * 4);
+    let calls = AtomicU32::new(0);
+    let value = |k: u32| Vec3::new(k as f32, 1.0, 2.0);
+    let get = |k: u32| {
+        cache.get_or_compute([0, 1, 2, k], || {
+            calls.fetch_add(1, Ordering::Relaxed);
+            value(k)
+        })
+    };
+    for k in 0..100 {
+        assert_eq!(get(k), value(k));
+    }
+    let first = calls.load(Ordering::Relaxed);
+    assert_eq!(first, 100);
+    // Stored points are not computed again; past the bound, points are computed and not kept.
+    let stored = cache.len();
+    assert!(stored <= 64 * 4 && stored > 0);
+    for k in 0..100 {
+        assert_eq!(get(k), value(k));
+    }
+    assert_eq!(calls.load(Ordering::Relaxed) - first, 100 - stored as u32);
+    for k in 0..10_000 {
+        assert_eq!(get(k), value(k));
+    }
+    assert!(cache.len() <= 64 * 4);
 }
 
 #[test]

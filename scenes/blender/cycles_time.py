@@ -14,8 +14,9 @@ A `.blend` is rendered as it is (its camera, resolution from the reference). A `
 imported with Blender's glTF importer and Photon's own extensions are put back where Cycles has
 the same thing: `PHOTON_render` (film transparency, pixel filter), `PHOTON_world` (a constant
 colour), `PHOTON_light` (soft-shadow radius, sun angle, spot cone, power and colour, area
-lights), and one-sided emission of materials that are not double-sided (Photon emits from the
-front only, Cycles from both sides unless told). Anything else Photon reads and Cycles would
+lights), `PHOTON_material_subsurface` (the Principled subsurface inputs, random walk), and
+one-sided emission of materials that are not double-sided (Photon emits from the front only,
+Cycles from both sides unless told). Anything else Photon reads and Cycles would
 render differently is listed as a warning before rendering.
 
 Usage (the Cycles settings are the references' of common.configure_cycles: no clamping, no
@@ -144,6 +145,26 @@ def area_light(node_obj, ext: dict) -> None:
     bpy.context.scene.collection.objects.link(obj)
 
 
+def subsurface(name: str, ext: dict, warnings: list) -> None:
+    """PHOTON_material_subsurface on an imported material: the Principled BSDF's subsurface
+    inputs back, with Blender's default method (random walk, whose boundary uses the BSDF's IOR;
+    the extension's `ior` is Subsurface IOR, read only by the skin method)."""
+    material = bpy.data.materials.get(name)
+    tree = material.node_tree if material is not None else None
+    bsdf = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None) if tree else None
+    if bsdf is None:
+        warnings.append(f"material '{name}': PHOTON_material_subsurface has no Principled BSDF "
+                        "to go on")
+        return
+    bsdf.subsurface_method = "RANDOM_WALK"
+    sockets = {i.name: i for i in bsdf.inputs}  # the IOR socket is hidden with RANDOM_WALK
+    for key, socket in (("weight", "Subsurface Weight"), ("radius", "Subsurface Radius"),
+                        ("scale", "Subsurface Scale"), ("ior", "Subsurface IOR"),
+                        ("anisotropy", "Subsurface Anisotropy")):
+        if key in ext:
+            sockets[socket].default_value = ext[key]
+
+
 def import_gltf(path: Path) -> tuple[dict, list]:
     """Import `path` into an empty scene and put back Photon's extensions (module docstring);
     returns the PHOTON_render extension and the warnings."""
@@ -192,9 +213,11 @@ def import_gltf(path: Path) -> tuple[dict, list]:
                 obj.data.shadow_soft_size = 0.0
     for material in doc.get("materials", []):
         m_ext = material.get("extensions", {})
-        for name in sorted(m_ext):
+        for name in sorted(set(m_ext) - {"PHOTON_material_subsurface"}):
             if name.startswith("PHOTON_"):
                 warnings.append(f"material '{material.get('name')}': {name} is not reproduced")
+        if "PHOTON_material_subsurface" in m_ext:
+            subsurface(material.get("name", ""), m_ext["PHOTON_material_subsurface"], warnings)
         emits = any(material.get("emissiveFactor", [0, 0, 0]))
         if emits and not material.get("doubleSided", False):
             blender = bpy.data.materials.get(material.get("name", ""))

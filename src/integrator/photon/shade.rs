@@ -437,7 +437,11 @@ impl<'a> Gather<'a> {
     /// `shade`, where on a translucent surface the subsurface term replaces the subsurface
     /// weight's share of the Lambertian part.
     fn shade_full(&mut self, s: &Shading, rng: &mut Rng) -> Passes {
-        let sss = self.maps.subsurface.as_ref().and_then(|m| m.radiance(s));
+        let sss = self
+            .maps
+            .subsurface
+            .as_ref()
+            .and_then(|m| m.radiance(self.ctx.scene, s));
         match sss {
             None => self.shade(s, rng),
             Some(l) => {

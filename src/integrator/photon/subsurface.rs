@@ -5,7 +5,9 @@
 //! material, and at a shading point x the radiance T(ω_o) M(x)/π, where M is the dipole
 //! exitance of `crate::subsurface` and T(ω_o) the layer's transmission out (the same factor a
 //! Lambertian base gets, so a translucent surface under uniform light shows R_d E/π exactly as
-//! the diffuse surface it replaces). Light diffuses only within one material's samples.
+//! the diffuse surface it replaces). Light diffuses only within one material's samples. M is
+//! summed at the points of a lattice over each triangle (`Lattice`), once each, and
+//! interpolated between them at the shading points.
 //!
 //! The dipole assumes a flat semi-infinite medium, so on thick-kernel materials it loses light
 //! where the kernel reaches past the object's surface (measured against Cycles' random walk in
@@ -22,19 +24,131 @@ use crate::math::Vec3;
 use crate::photon_map::Photon;
 use crate::progress::Progress;
 use crate::scene::Scene;
-use crate::subsurface::{Dipole, Sample, SampleTree};
+use crate::subsurface::{Dipole, ExitanceCache, Sample, SampleTree};
 use std::f32::consts::PI;
 use std::time::Instant;
 
 /// The kernel's smoothing radius covers this many samples' areas (`SampleTree::build`).
 const SMOOTHING_SAMPLES: f32 = 16.0;
+/// Spacing of the exitance lattice over each triangle, in smoothing radii.
+const LATTICE_SPACING: f32 = 0.5;
+/// Most lattice intervals along a triangle's edge.
+const MAX_LATTICE: f32 = 1024.0;
+/// Lattice points kept per material (about 48 bytes each with the map's overhead: 48 MiB at
+/// most; a render needs about π/4 per sample on the surfaces it sees: 4/h² points against
+/// 16/(πh²) samples per unit area).
+const LATTICE_POINTS: usize = 1 << 20;
+/// The third word of a cache key that names a mesh vertex (shared by the triangles around it)
+/// instead of a triangle's lattice point.
+const VERTEX_KEY: u32 = u32::MAX;
 
 /// Subsurface samples per translucent material.
 pub struct SubsurfaceMaps {
     /// Indexed by material; `None` for opaque materials or ones no photon reached.
     trees: Vec<Option<SampleTree>>,
+    /// Indexed by material, alongside `trees`: the lattice of a material whose dipole is the
+    /// same at every point that has the material's own factors.
+    lattices: Vec<Option<Lattice>>,
     accuracy: f32,
     brute_force: bool,
+}
+
+/// The exitance at the points of a lattice over each triangle of one translucent material,
+/// interpolated linearly between them (Jensen & Buhler evaluate M once per irradiance-sample
+/// spacing of the surface too; here the points are made on the triangles the camera sees).
+/// A triangle whose longest edge is e gets n = ⌈e/δ⌉ intervals along each edge, lattice points
+/// at barycentric coordinates (i/n, j/n), i + j ≤ n; its corners are the mesh's vertices,
+/// shared by the triangles around them. The points lie on the surface, so the interpolation only
+/// smooths M along it (spacing δ = `LATTICE_SPACING` × h, under the kernel's own smoothing
+/// radius h). It serves the points whose base colour, mean free path and IOR are the
+/// material's own factors (no texture, vertex colour or node changed them there) on meshes that
+/// do not move or deform; other points sum the octree themselves.
+struct Lattice {
+    reflectance: Vec3,
+    mean_free_path: Vec3,
+    ior: f32,
+    dipole: Dipole,
+    spacing: f32,
+    cache: ExitanceCache,
+}
+
+impl Lattice {
+    fn new(material: &crate::scene::Material, tree: &SampleTree) -> Option<Lattice> {
+        let reflectance = material.base_color.truncate().clamp(Vec3::ZERO, Vec3::ONE);
+        let sub = &material.subsurface;
+        let h = tree.smoothing();
+        (h > 0.0 && h.is_finite()).then(|| Lattice {
+            reflectance,
+            mean_free_path: sub.mean_free_path(),
+            ior: sub.ior,
+            dipole: Dipole::new(reflectance, sub.mean_free_path(), sub.ior, h),
+            spacing: LATTICE_SPACING * h,
+            cache: ExitanceCache::new(LATTICE_POINTS),
+        })
+    }
+
+    /// True when a point of `reflectance` and subsurface `sub` has this lattice's dipole.
+    fn matches(&self, reflectance: Vec3, sub: &crate::scene::Subsurface) -> bool {
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        bits(self.reflectance) == bits(reflectance)
+            && bits(self.mean_free_path) == bits(sub.mean_free_path())
+            && self.ior.to_bits() == sub.ior.to_bits()
+    }
+
+    /// M at `sh` interpolated over its triangle's lattice; `None` on a moving or deforming mesh.
+    fn exitance(
+        &self,
+        scene: &Scene,
+        sh: &crate::interaction::SurfaceHit,
+        tree: &SampleTree,
+        accuracy: f32,
+    ) -> Option<Vec3> {
+        let hit = &sh.hit;
+        let mesh = crate::accel::hit_mesh(scene, hit);
+        let instance = scene.instances.get(hit.instance as usize);
+        if mesh.deformation.len() > 1 || instance.is_some_and(|i| !i.motion.is_empty()) {
+            return None;
+        }
+        let place = |q: Vec3| instance.map_or(q, |i| i.to_world.transform_point3(q));
+        let [p0, p1, p2] = mesh.triangle_at(hit.triangle, 0.0).map(place);
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let longest = e1.length().max(e2.length()).max((p2 - p1).length());
+        let n = (longest / self.spacing).ceil().clamp(1.0, MAX_LATTICE);
+        if !n.is_finite() {
+            return None;
+        }
+        let last = n as u32;
+        let (u, v) = (hit.b1.clamp(0.0, 1.0) * n, hit.b2.clamp(0.0, 1.0) * n);
+        let i = (u.floor() as u32).min(last - 1);
+        let j = (v.floor() as u32).min(last - 1 - i);
+        let (fu, fv) = (u - i as f32, v - j as f32);
+        // The cell's lower triangle (i, j), (i+1, j), (i, j+1), or its upper one.
+        let corners = if fu + fv <= 1.0 || i + j + 1 == last {
+            [(i, j, 1.0 - fu - fv), (i + 1, j, fu), (i, j + 1, fv)]
+        } else {
+            [
+                (i + 1, j + 1, fu + fv - 1.0),
+                (i, j + 1, 1.0 - fu),
+                (i + 1, j, 1.0 - fv),
+            ]
+        };
+        let idx = mesh.indices[hit.triangle as usize];
+        let mut sum = Vec3::ZERO;
+        for (ci, cj, w) in corners {
+            let key = match (ci, cj) {
+                (0, 0) => [hit.instance, hit.mesh, VERTEX_KEY, idx[0]],
+                (i, 0) if i == last => [hit.instance, hit.mesh, VERTEX_KEY, idx[1]],
+                (0, j) if j == last => [hit.instance, hit.mesh, VERTEX_KEY, idx[2]],
+                _ => [hit.instance, hit.mesh, hit.triangle, ci << 16 | cj],
+            };
+            let m = self.cache.get_or_compute(key, || {
+                let x = p0 + e1 * (ci as f32 / n) + e2 * (cj as f32 / n);
+                tree.exitance(x, &self.dipole, accuracy).0
+            });
+            sum += w.max(0.0) * m;
+        }
+        Some(sum)
+    }
 }
 
 /// Surface area of a mesh's triangles, its positions placed by `to_world` (scene units²).
@@ -127,16 +241,22 @@ pub fn build(
             list.push(s);
         }
     }
-    let trees = per_material
+    let trees: Vec<Option<SampleTree>> = per_material
         .into_iter()
         .zip(areas)
         .map(|(list, area)| {
             (!list.is_empty()).then(|| SampleTree::build(list, area, SMOOTHING_SAMPLES))
         })
         .collect();
+    let lattices = trees
+        .iter()
+        .zip(&ctx.scene.materials)
+        .map(|(tree, material)| tree.as_ref().and_then(|t| Lattice::new(material, t)))
+        .collect();
     info.subsurface_seconds = start.elapsed().as_secs_f64();
     Ok(Some(SubsurfaceMaps {
         trees,
+        lattices,
         accuracy: settings.subsurface_accuracy,
         brute_force: settings.subsurface_brute_force,
     }))
@@ -144,8 +264,9 @@ pub fn build(
 
 impl SubsurfaceMaps {
     /// The subsurface radiance leaving `s` towards its viewer, T(ω_o) M(x)/π; `None` when the
-    /// surface is not translucent. `s` carries the full BSDF (the layer's transmission out).
-    pub fn radiance(&self, s: &Shading) -> Option<Vec3> {
+    /// surface is not translucent. `s` carries the full BSDF (the layer's transmission out);
+    /// `scene` is the one `s` is on.
+    pub fn radiance(&self, scene: &Scene, s: &Shading) -> Option<Vec3> {
         let sub = &s.surface.subsurface;
         if !(sub.weight > 0.0) {
             return None;
@@ -154,11 +275,24 @@ impl SubsurfaceMaps {
             return Some(Vec3::ZERO);
         };
         let reflectance = s.surface.base_color.clamp(Vec3::ZERO, Vec3::ONE);
-        let dipole = Dipole::new(reflectance, sub.mean_free_path(), sub.ior, tree.smoothing());
-        let m = if self.brute_force {
-            tree.exitance_brute_force(s.sh.p, &dipole)
-        } else {
-            tree.exitance(s.sh.p, &dipole, self.accuracy).0
+        let lattice = self
+            .lattices
+            .get(s.sh.material as usize)
+            .and_then(Option::as_ref);
+        let interpolated = lattice
+            .filter(|l| !self.brute_force && l.matches(reflectance, sub))
+            .and_then(|l| l.exitance(scene, &s.sh, tree, self.accuracy));
+        let m = match interpolated {
+            Some(m) => m,
+            None => {
+                let dipole =
+                    Dipole::new(reflectance, sub.mean_free_path(), sub.ior, tree.smoothing());
+                if self.brute_force {
+                    tree.exitance_brute_force(s.sh.p, &dipole)
+                } else {
+                    tree.exitance(s.sh.p, &dipole, self.accuracy).0
+                }
+            }
         };
         let l = m * (s.bsdf.base_transmittance() / PI);
         Some(if l.is_finite() { l } else { Vec3::ZERO })
