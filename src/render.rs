@@ -5,7 +5,10 @@
 //! Determinism: each camera sample draws from its own stream, seeded by (seed, pixel, sample
 //! index) — the path tracer's a sample of the pixel's scrambled Sobol sequence, the other
 //! methods' a PCG32 stream — and each sample lands in exactly one pixel (see `film`), so the
-//! image is bit-identical for any number of threads.
+//! image is bit-identical for any number of threads. With adaptive sampling (`adaptive`) the
+//! pixels are sampled in steps between convergence checks made on the whole window at once,
+//! from sums each pixel accumulates in sample order, so which pixels stop does not depend on
+//! the threads either.
 
 use crate::accel::Accel;
 use crate::adaptive::{is_class_a, spread_active, AdaptiveSettings, Convergence};
@@ -197,7 +200,8 @@ pub fn render(
 
 /// What a scheduled render does after its preparation: given the image of the round just
 /// rendered and its samples per pixel (`None` before the first), the seed and samples per pixel
-/// of the next round, or `None` to finish.
+/// of the next round, or `None` to finish. With adaptive sampling the render also finishes,
+/// after handing over the last round, once every pixel has stopped.
 pub type Schedule<'a> = dyn FnMut(Option<(Image, u32)>) -> Option<(u64, u32)> + 'a;
 
 /// Prepare once (BVH unless `accel` is the scene's already built, lights, photon maps and
@@ -352,6 +356,11 @@ pub fn render_scheduled(
             part_seed = generation_seed(seed, done_spp);
         }
         previous = image.map(|image| (image, spp));
+        if adaptive.as_ref().is_some_and(AdaptiveFilm::all_converged) {
+            // Nothing is left to sample: hand over the last round and finish.
+            schedule(previous.take());
+            break;
+        }
     }
     Ok(stats)
 }

@@ -155,3 +155,25 @@ fn the_photon_method_stops_converged_pixels_too() {
     let floor: Vec<u32> = (0..SIZE).map(|y| image.samples[at(&image, 0, y)]).collect();
     assert!(floor.iter().all(|&n| n > FIRST_CHECK), "{floor:?}");
 }
+
+#[test]
+fn a_render_ends_once_every_pixel_has_stopped() {
+    // Only the world in view: every pixel converges at the first check, in the second round of
+    // 16 samples, and no more rounds follow.
+    let mut scene = half_floor();
+    for p in &mut scene.meshes[0].positions {
+        p.x += 100.0;
+    }
+    let settings = RenderSettings {
+        spp: 4096,
+        ..settings(true)
+    };
+    let rounds = scenes::with_progress(|progress| {
+        render_in_rounds(&scene, None, &settings, 16, None, progress)
+    })
+    .expect("render");
+    assert_eq!(rounds.rounds, FIRST_CHECK / 16);
+    assert_eq!(rounds.spp, FIRST_CHECK);
+    assert!(rounds.image.samples.iter().all(|&n| n == FIRST_CHECK));
+    assert!(rounds.image.rgba.iter().all(|p| p[0] == 0.5));
+}
