@@ -190,8 +190,9 @@ struct RenderArgs {
     /// pixels (Cycles' definitions) [default: the scene's, else blackman-harris:1.5].
     #[arg(long, value_name = "TYPE[:WIDTH]")]
     filter: Option<String>,
-    /// Numbers of the path tracer's camera paths: Owen-scrambled Sobol points or independent
-    /// random numbers (the photon and cache methods always use random numbers).
+    /// Numbers of the camera paths of the path tracer and the photon method (final gathering
+    /// included): Owen-scrambled Sobol points or independent random numbers (the cache methods,
+    /// photon tracing and cache records always use random numbers).
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     sampler: SamplerArg,
     /// Adaptive sampling (Blender's Noise Threshold): a pixel stops taking samples once its

@@ -3,8 +3,8 @@
 //! non-finite samples (which never reach the film).
 //!
 //! Determinism: each camera sample draws from its own stream, seeded by (seed, pixel, sample
-//! index) — the path tracer's a sample of the pixel's scrambled Sobol sequence, the other
-//! methods' a PCG32 stream — and each sample lands in exactly one pixel (see `film`), so the
+//! index) — the path tracer's and the photon method's a sample of the pixel's scrambled Sobol
+//! sequence, the cache methods' a PCG32 stream — and each sample lands in exactly one pixel (see `film`), so the
 //! image is bit-identical for any number of threads. With adaptive sampling (`adaptive`) the
 //! pixels are sampled in steps between convergence checks made on the whole window at once,
 //! from sums each pixel accumulates in sample order, so which pixels stop does not depend on
@@ -62,9 +62,11 @@ pub struct RenderSettings {
     pub adaptive: Option<AdaptiveSettings>,
 }
 
-/// Where the path tracer's camera paths draw their numbers from (pixel position, lens, moment,
-/// light choice and point, BSDF lobe and direction, Russian roulette, subsurface probes). The
-/// photon and cache methods draw from PCG32 streams whatever this says.
+/// Where the camera paths of the path tracer and of the photon method draw their numbers from
+/// (pixel position, lens, moment, light choice and point, BSDF lobe and direction, Russian
+/// roulette, subsurface probes; the photon method's final-gather rays too, each its own
+/// dimensions). The cache methods' camera paths, and photon tracing and the irradiance cache's
+/// records in every method, draw from PCG32 streams whatever this says.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Sampler {
     /// Owen-scrambled Sobol points, each pixel and dimension randomised on its own (`sobol`).
@@ -802,7 +804,9 @@ fn render_tile(
         let pixel_index = y as u64 * settings.width as u64 + x as u64;
         for s in px.n..px.n + step {
             let mut rng = match (integrator, settings.sampler) {
-                (Integrator::Path, Sampler::Sobol) => Rng::sobol(settings.seed, pixel_index, s),
+                (Integrator::Path | Integrator::Photon(..), Sampler::Sobol) => {
+                    Rng::sobol(settings.seed, pixel_index, s)
+                }
                 _ => Rng::for_item(settings.seed, pixel_index, s as u64),
             };
             let offset = filter.sample(rng.uniform2());
