@@ -59,11 +59,12 @@ pub struct BenchArgs {
     /// Samples per pixel of the reference (two halves with seeds 1 and 2).
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
-    /// How the reference is rendered: `path`, or `photon` for scenes whose caustics of small
+    /// How the references are rendered: `path`; `photon`, for scenes whose caustics of small
     /// lights the path tracer does not resolve (the photon method without the cache, with
     /// `REFERENCE_PHOTONS` global and caustic photons per generation: consistent, so it
-    /// converges with the samples; it agrees with the path tracer where both converge).
-    #[arg(long, value_enum, default_value_t = ReferenceMethod::Path)]
+    /// converges with the samples; it agrees with the path tracer where both converge); `auto`,
+    /// `photon` for the scenes whose planner pilot finds such caustics, `path` for the others.
+    #[arg(long, value_enum, default_value_t = ReferenceMethod::Auto)]
     reference_method: ReferenceMethod,
     /// Runs of each timed render, in rounds over all of a scene's renders; the fastest counts
     /// (renders are deterministic, so the image is the same; on a shared machine the minimum is
@@ -82,8 +83,20 @@ pub struct BenchArgs {
 /// How `photon bench` renders its references.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ReferenceMethod {
+    Auto,
     Path,
     Photon,
+}
+
+/// How a reference rendered with `method` (`Path` or `Photon`) is described in the report.
+fn reference_words(method: ReferenceMethod) -> String {
+    match method {
+        ReferenceMethod::Photon => format!(
+            "the photon method without the cache ({REFERENCE_PHOTONS} global and caustic photons \
+             per generation of 64 spp)"
+        ),
+        _ => "the path tracer".to_string(),
+    }
 }
 
 /// The seed of the second render that splits a method's error into noise and bias (the timed
@@ -235,8 +248,10 @@ fn bench_size(scene: &photon::scene::Scene, args: &BenchArgs) -> (u32, u32) {
     (args.width, height)
 }
 
-/// A scene's path-traced reference and an estimate of its own error.
+/// A scene's reference and an estimate of its own error.
 struct Reference {
+    /// How it was rendered: `Path` or `Photon`.
+    method: ReferenceMethod,
     pixels: Vec<[f32; 4]>,
     /// Estimated relMSE of the reference against the true image.
     noise: f64,
@@ -262,16 +277,21 @@ fn two_half_noise(a: &[[f32; 4]], b: &[[f32; 4]]) -> (Vec<[f32; 4]>, f64) {
     (mean, noise)
 }
 
-/// The cached reference of `scene`, rendered when missing: two path-traced halves of
-/// `--reference-spp / 2` samples with seeds 1 and 2, averaged into `refs/KEY.exr`, their noise
-/// estimate in `refs/KEY.noise.json`.
-fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Reference> {
+/// The cached reference of `scene`, rendered when missing with `reference_method` (`Path` or
+/// `Photon`): two halves of `--reference-spp / 2` samples with seeds 1 and 2, averaged into
+/// `refs/KEY.exr`, their noise estimate in `refs/KEY.noise.json`.
+fn reference(
+    scene: &Path,
+    reference_method: ReferenceMethod,
+    args: &BenchArgs,
+    size: (u32, u32),
+) -> Result<Reference> {
     let bytes = std::fs::read(scene).map_err(|e| io_error(scene, e))?;
     let refs = args.out.join("refs");
     std::fs::create_dir_all(&refs).map_err(|e| io_error(&refs, e))?;
-    let method = match args.reference_method {
-        ReferenceMethod::Path => "path",
+    let method = match reference_method {
         ReferenceMethod::Photon => "photon",
+        _ => "path",
     };
     // The scene's own filter is part of its bytes; one given on the command line is named.
     let filter = args
@@ -297,6 +317,7 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
         let cached: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
         if let Some(noise) = cached["reference_noise_rel_mse"].as_f64() {
             return Ok(Reference {
+                method: reference_method,
                 pixels: read_rgba(&exr)?,
                 noise,
             });
@@ -312,7 +333,7 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
             .chain(["--seed", seed])
             .map(String::from)
             .collect();
-        if args.reference_method == ReferenceMethod::Photon {
+        if reference_method == ReferenceMethod::Photon {
             let photons = REFERENCE_PHOTONS.to_string();
             let options = ["--irradiance-cache", "off", "--photons", &photons];
             extra.extend(
@@ -337,7 +358,11 @@ fn reference(scene: &Path, args: &BenchArgs, size: (u32, u32)) -> Result<Referen
         "seeds": [1, 2],
     });
     write_file(&noise_file, &format!("{cached:#}\n"))?;
-    Ok(Reference { pixels, noise })
+    Ok(Reference {
+        method: reference_method,
+        pixels,
+        noise,
+    })
 }
 
 fn stem(path: &Path) -> String {
@@ -352,6 +377,8 @@ fn read_rgba(path: &Path) -> Result<Vec<[f32; 4]>> {
 /// What the bench learnt of one scene besides its rows.
 struct SceneResult {
     name: String,
+    /// How its reference was rendered.
+    reference_method: ReferenceMethod,
     /// Estimated relMSE of the reference itself.
     reference_noise: f64,
     analysis: Analysis,
@@ -406,7 +433,12 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
     let scene = load_scene(Some(scene_path), None)?;
     let size = bench_size(&scene, args);
     let scene_plan = plan(&scene, Quality::Default);
-    let reference = reference(scene_path, args, size)?;
+    let reference_method = match args.reference_method {
+        ReferenceMethod::Auto if scene_plan.hard_caustics() => ReferenceMethod::Photon,
+        ReferenceMethod::Auto => ReferenceMethod::Path,
+        given => given,
+    };
+    let reference = reference(scene_path, reference_method, args, size)?;
     let reference_pixels = &reference.pixels;
     let images = args.out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| io_error(&images, e))?;
@@ -509,6 +541,7 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
     Ok(SceneResult {
         analysis: analyse(rows, &name, args),
         name,
+        reference_method: reference.method,
         reference_noise: reference.noise,
         biases,
     })
@@ -773,9 +806,11 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
         args.width,
         match args.reference_method {
             ReferenceMethod::Path => "the path tracer".to_string(),
-            ReferenceMethod::Photon => format!(
-                "the photon method without the cache ({REFERENCE_PHOTONS} global and caustic \
-                 photons per generation of 64 spp)"
+            ReferenceMethod::Photon => reference_words(ReferenceMethod::Photon),
+            ReferenceMethod::Auto => format!(
+                "the path tracer, or where the planner's pilot finds caustics of lamps and \
+                 emitting meshes, {}",
+                reference_words(ReferenceMethod::Photon)
             ),
         },
         args.reference_spp,
@@ -790,6 +825,7 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
     );
     for SceneResult {
         name: scene,
+        reference_method,
         reference_noise,
         analysis,
         biases,
@@ -798,9 +834,10 @@ fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
         let _ = write!(
             out,
             "\n## {scene}\n\n![relMSE against time]({scene}.svg)\n\n\
-             Reference noise ≈ relMSE {reference_noise:.2e} (two halves of {} spp, seeds 1 and 2); \
-             errors below ~{:.2e} are not resolved.\n\n\
+             Reference: {}; noise ≈ relMSE {reference_noise:.2e} (two halves of {} spp, seeds 1 \
+             and 2); errors below ~{:.2e} are not resolved.\n\n\
              | method | budget | time (s) | peak MiB | relMSE | mean error |\n|---|---:|---:|---:|---:|---:|\n",
+            reference_words(*reference_method),
             (args.reference_spp / 2).max(1),
             3.0 * reference_noise
         );
@@ -927,6 +964,7 @@ fn summary(scenes: &[SceneResult], args: &BenchArgs) -> serde_json::Value {
             .collect();
         json!({
             "scene": r.name,
+            "reference_method": format!("{:?}", r.reference_method).to_lowercase(),
             "reference_noise_rel_mse": r.reference_noise,
             "time_to_target": times,
             "auto_check": checks,
@@ -1095,6 +1133,7 @@ mod tests {
         };
         let (a, b) = (shift(noisy(n, h, 3)), shift(noisy(n, h, 4)));
         let reference = Reference {
+            method: ReferenceMethod::Path,
             pixels: vec![[1.0; 4]; n],
             noise: 0.0,
         };

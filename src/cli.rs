@@ -9,7 +9,7 @@ use photon::film::FilterSettings;
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
-use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Quality};
+use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Pilot, Quality};
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
@@ -122,7 +122,7 @@ enum MethodArg {
     IcRecords,
 }
 
-/// The path tracer's sampler (`--sampler`).
+/// The camera samples' sampler (`--sampler`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum SamplerArg {
     /// Owen-scrambled Sobol points, each pixel randomised on its own.
@@ -190,9 +190,10 @@ struct RenderArgs {
     /// pixels (Cycles' definitions) [default: the scene's, else blackman-harris:1.5].
     #[arg(long, value_name = "TYPE[:WIDTH]")]
     filter: Option<String>,
-    /// Numbers of the camera paths of the path tracer and the photon method (final gathering
-    /// included): Owen-scrambled Sobol points or independent random numbers (the cache methods,
-    /// photon tracing and cache records always use random numbers).
+    /// Numbers of the camera samples: Owen-scrambled Sobol points or independent random numbers
+    /// (every method's pixel position, lens and moment; the rest of the path tracer's and the
+    /// photon method's paths, final gathering included; the cache methods' gathers, photon
+    /// tracing and cache records always use random numbers).
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     sampler: SamplerArg,
     /// Adaptive sampling (Blender's Noise Threshold): a pixel stops taking samples once its
@@ -458,8 +459,17 @@ fn run_render(args: RenderArgs) -> Result<()> {
         quality,
         width,
         height,
-        accel.as_ref().map(|a| (a, args.spp)),
+        accel.as_ref().map(|a| Pilot::new(a, args.spp)),
     );
+    if args.method == MethodArg::Auto {
+        let message = format!("auto: {} ({})", plan.method_name(), plan.method_reason);
+        match mode {
+            ProgressMode::Json => {
+                json_line(serde_json::json!({"stage": "plan", "fraction": 1.0, "message": message}))
+            }
+            _ => eprintln!("photon: {message}"),
+        }
+    }
     let ic_settings = args.ic_settings()?;
     let spp = match (args.spp, time_limit) {
         (Some(spp), _) => spp,

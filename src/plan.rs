@@ -28,7 +28,7 @@ use crate::accel::Accel;
 use crate::integrator::classify::{bsdf_is_specular, classifying_bsdf};
 use crate::integrator::photon::settings::PhotonSettings;
 use crate::math::Vec3;
-use crate::render::{Method, GENERATION_SPP};
+use crate::render::{photon_growth, Method, GENERATION_SPP};
 use crate::scene::{Bounds, Light, Mesh, Scene};
 use std::fmt;
 
@@ -175,6 +175,9 @@ pub struct Plan {
     /// Ward's irradiance cache for the photon method's indirect light (`--irradiance-cache`).
     pub irradiance_cache: Decision,
     pub subsurface: Decision,
+    /// Share of the light the camera sees on surfaces that is a caustic of lamps or emitting
+    /// meshes, from the pilot (0 when no pilot ran).
+    pub caustic_share: f32,
     /// The method `--method auto` renders with, and why.
     pub method: Method,
     pub method_reason: String,
@@ -402,13 +405,13 @@ const PILOT_PHOTONS: u32 = 4096;
 const PILOT_WIDTH: u32 = 32;
 const PILOT_SPP: u32 = 4;
 
-/// The pilots shrink on small renders, to about this many of the render's camera samples per
-/// pilot path or photon, down to `MIN_PILOT_SCALE` of their full size: at full size they cost
+/// The photon pilots shrink on small renders, to about this many of the render's camera samples
+/// per pilot photon, down to `MIN_PILOT_SCALE` of their full size: at full size the pilots cost
 /// about a quarter of a 128-pixel render at 1 spp (the furnace: 0.05 s of 0.20 s). At a quarter
-/// (1024 paths and photons) the shares still decide every scene in scenes/ and the gallery as
-/// at full size (tests/plan.rs).
+/// (1024 photons) the shares still decide every scene in scenes/ and the gallery as at full
+/// size (tests/plan.rs).
 const RENDER_SAMPLES_PER_PILOT_SAMPLE: f32 = 32.0;
-const MIN_PILOT_SCALE: f32 = 0.25;
+pub const MIN_PILOT_SCALE: f32 = 0.25;
 
 /// The fraction of the full pilots run for a render of `render_samples` camera samples.
 fn pilot_scale(render_samples: u64) -> f32 {
@@ -433,6 +436,78 @@ const INDIRECT_SHARE_FOR_PHOTONS: f32 = 0.3;
 /// caustic is seen only through the glass) below.
 const HARD_CAUSTIC_SHARE_FOR_PHOTONS: f32 = 0.01;
 
+/// A photon ray's share of the photon method's preparation, in path-tracer rays: tracing,
+/// the kd-trees, the precomputed irradiance and the irradiance cache together, per ray of
+/// photon tracing. Measured on the Cornell box at 64 px and 64 spp (preparation 1.55 s for
+/// 563 000 photon rays; the path tracer's render 0.87 s for 1.39 million rays).
+const PREPARATION_PER_PHOTON_RAY: f32 = 4.0;
+
+/// The photon method's camera sample (direct light, a cache or map lookup, the first bounce)
+/// against a path-traced one, in time: 0.45 s against 0.87 s on the Cornell box at 64 px.
+const PHOTON_SAMPLE_COST: f32 = 0.5;
+
+/// The photon method's relMSE at equal samples per pixel is taken as `NOISE_LEFT_SCALE` ×
+/// `PilotShares::noise_left` + `NOISE_LEFT_FLOOR` times the path tracer's: the noise it
+/// leaves, and its own noise and bias from the maps and the cache. Fitted to `photon bench` at
+/// 48 px on the Cornell boxes, a window-lit room, the furnace and an interior
+/// (docs/bench/measurements.md, "The planner's cost rule"); the ratio grows with the samples on
+/// scenes of fine detail, whose photon-method bias then rules.
+const NOISE_LEFT_SCALE: f32 = 1.5;
+const NOISE_LEFT_FLOOR: f32 = 0.1;
+
+/// Camera samples per generation for which `auto` traces the preset's photons; a smaller
+/// budget traces proportionally fewer, down to `MIN_PHOTON_SHARE` of them, so that preparing
+/// the maps does not outweigh the render (the window-lit rooms of `tests/blender` at 48 px
+/// and 64 spp need the preset's photons).
+const FULL_PHOTON_SAMPLES: f32 = 48.0 * 48.0 * 64.0;
+const MIN_PHOTON_SHARE: f32 = 0.05;
+
+/// Caustics of emitting meshes, which the path tracer finds by chance: the photon method
+/// renders them when it costs at most this many times the path tracer's render, whose error
+/// then falls slower than its time grows (rare bright paths).
+const CAUSTIC_COST_RATIO: f32 = 4.0;
+
+/// Caustics of point, spot and sun lights, which the path tracer never finds: the photon method
+/// renders them unless it costs more than this many times the path tracer's render, where the
+/// path tracer's noise exceeds the light it misses (the open ring at 48 px and 4 spp: relMSE
+/// 0.0157 against the photon method's 0.0188, docs/bench/README.md).
+const DELTA_CAUSTIC_COST_RATIO: f32 = 16.0;
+
+/// The predicted cost of a render, in path-tracer rays, from the pilots.
+#[derive(Clone, Copy, Debug)]
+struct Cost {
+    /// The path tracer's render.
+    path: f32,
+    /// The photon method's render, preparation included.
+    photon: f32,
+    /// The photon method's preparation: photon tracing, maps and caches of every generation.
+    preparation: f32,
+}
+
+impl Cost {
+    /// For `samples` camera samples at `spp` per pixel, with `photons` emitted per generation
+    /// (global and caustic).
+    fn predict(shares: &PilotShares, samples: u64, spp: u32, photons: f32) -> Cost {
+        let path = samples as f32 * shares.rays_per_path.max(1.0);
+        let generations = spp.div_ceil(GENERATION_SPP);
+        let growth: f32 = (0..generations).map(photon_growth).sum();
+        let preparation =
+            photons * growth * shares.rays_per_photon.max(1.0) * PREPARATION_PER_PHOTON_RAY;
+        Cost {
+            path,
+            photon: preparation + PHOTON_SAMPLE_COST * path,
+            preparation,
+        }
+    }
+
+    /// Whether the photon method reaches less error than the path tracer in its own time, the
+    /// path tracer's relMSE falling as 1/time.
+    fn photons_win(&self, shares: &PilotShares) -> bool {
+        let error_ratio = NOISE_LEFT_SCALE * shares.noise_left + NOISE_LEFT_FLOOR;
+        error_ratio * self.photon < self.path
+    }
+}
+
 /// What the pilots measure of a scene's light.
 #[derive(Clone, Copy, Debug)]
 struct PilotShares {
@@ -451,8 +526,20 @@ struct PilotShares {
     /// global pilot ran. Small when most of the light lands where the camera does not look (a
     /// room lit by the sun through a window, the sun's photons spread over the ground outside).
     seen: f32,
+    /// Of `hard_caustic`, the share from point, spot and sun lights, which the path tracer
+    /// never finds: only photons render these caustics.
+    delta_caustic: f32,
     /// Photons of each caustic pilot pass.
     photons: u32,
+    /// Rays the path tracer casts per camera sample (closest-hit and shadow), in the pilot image.
+    rays_per_path: f32,
+    /// Of a path-traced pixel's relative variance (averaged over the pilot image's pixels), the
+    /// share that is not indirect light: the noise left when photon maps and the cache carry the
+    /// indirect light smoothly. 1 without a pilot image.
+    noise_left: f32,
+    /// Rays cast per emitted global photon in the pilot (its emission and one per stored
+    /// photon); 0 when no global pilot ran.
+    rays_per_photon: f32,
 }
 
 /// Most smooth transmissive surfaces (`seen_by_camera`) a segment to the eye may cross.
@@ -534,10 +621,10 @@ fn seen_by_camera<'a>(
     }
 }
 
-/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`, at
-/// `scale` of their full size: when `global`, a path-traced image of `PILOT_WIDTH` pixels
-/// across at `PILOT_SPP` (else the indirect share is 0); when `caustics`, `PILOT_PHOTONS`
-/// global and as many aimed caustic photons. Milliseconds; deterministic.
+/// Run the pilots through `accel` (the scene's BVH) for an image of aspect ratio `aspect`: a
+/// path-traced image of `PILOT_WIDTH` pixels across at `PILOT_SPP` (the indirect share is 0
+/// unless `global`); when `global` or `caustics`, `scale` × `PILOT_PHOTONS` global photons, and
+/// when `caustics` as many aimed caustic photons. Milliseconds; deterministic.
 fn pilot_shares(
     scene: &Scene,
     accel: &Accel,
@@ -562,102 +649,141 @@ fn pilot_shares(
         transparent_background: false,
     };
 
-    let width = (PILOT_WIDTH as f32 * scale.sqrt()).round().max(1.0) as u32;
     let photon_count = (PILOT_PHOTONS as f32 * scale).round() as u32;
-    let indirect = if global {
-        let height = ((width as f32 / aspect).round() as u32).max(1);
-        let camera = CameraRays::new(&scene.camera, width, height);
-        let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
-        let (mut sum, mut pixels) = (0.0f64, 0u32);
-        for y in 0..height {
-            for x in 0..width {
-                let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
-                for _ in 0..PILOT_SPP {
-                    let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
-                    let passes = path::trace(&ctx, camera.ray(film), &mut rng).passes;
-                    let pass = |p: LightPass| luminance(passes.0[p as usize]) as f64;
-                    indirect += pass(LightPass::Indirect);
-                    reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
-                }
-                if reflected > 0.0 {
-                    sum += indirect / reflected;
-                    pixels += 1;
-                }
+    // The path-traced pilot image, always at full size (its share of the noise decides close
+    // cases): the indirect share, the rays per camera sample and how the noise splits between
+    // indirect light and the rest.
+    let width = PILOT_WIDTH;
+    let height = ((width as f32 / aspect).round() as u32).max(1);
+    let camera = CameraRays::new(&scene.camera, width, height);
+    let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
+    let (mut share_sum, mut pixels) = (0.0f64, 0u32);
+    let (mut rays, mut noise_total, mut noise_direct) = (0u64, 0.0f64, 0.0f64);
+    for y in 0..height {
+        for x in 0..width {
+            let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
+            // Sums and sums of squares of the pixel's samples, whole and without indirect light.
+            let (mut total, mut direct) = ([0.0f64; 2], [0.0f64; 2]);
+            for _ in 0..PILOT_SPP {
+                let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
+                let sample = path::trace(&ctx, camera.ray(film), &mut rng);
+                rays += sample.rays as u64;
+                let pass = |p: LightPass| luminance(sample.passes.0[p as usize]) as f64;
+                indirect += pass(LightPass::Indirect);
+                reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
+                let whole = luminance(sample.radiance) as f64;
+                let rest = whole - pass(LightPass::Indirect);
+                total = [total[0] + whole, total[1] + whole * whole];
+                direct = [direct[0] + rest, direct[1] + rest * rest];
+            }
+            if reflected > 0.0 {
+                share_sum += indirect / reflected;
+                pixels += 1;
+            }
+            let n = PILOT_SPP as f64;
+            let mean = total[0] / n;
+            if mean > 0.0 {
+                let variance = |[sum, squares]: [f64; 2]| (squares - sum * sum / n).max(0.0);
+                noise_total += variance(total) / (mean * mean);
+                noise_direct += variance(direct) / (mean * mean);
             }
         }
-        (sum / pixels.max(1) as f64) as f32
-    } else {
-        0.0
+    }
+    let indirect = match global {
+        true => (share_sum / pixels.max(1) as f64) as f32,
+        false => 0.0,
+    };
+    let rays_per_path = rays as f32 / (width * height * PILOT_SPP) as f32;
+    let noise_left = match noise_total > 0.0 {
+        true => (noise_direct / noise_total).min(1.0) as f32,
+        false => 1.0,
     };
 
-    let mut hard_caustic = 0.0;
-    let mut seen_share = 1.0;
+    let mut shares = PilotShares {
+        indirect,
+        hard_caustic: 0.0,
+        delta_caustic: 0.0,
+        seen: 1.0,
+        photons: photon_count,
+        rays_per_path,
+        noise_left,
+        rays_per_photon: 0.0,
+    };
     // Guided as the render's photons are, so that `seen` counts what the render will store.
     let emitters = Emitters::guided(&ctx, aspect, 0x0f1a_7e58);
     let caustics = caustics && emitters.has_caustic_targets();
-    if global || caustics {
-        let seen = seen_by_camera(&ctx, aspect);
-        let power = |photons: &[Photon]| -> f64 {
-            let seen = photons.iter().filter(|p| seen(p.position(), p.normal()));
-            seen.map(|p| luminance(p.power()) as f64).sum()
+    if !global && !caustics {
+        return shares;
+    }
+    let seen = seen_by_camera(&ctx, aspect);
+    let power = |photons: &[Photon]| -> f64 {
+        let seen = photons.iter().filter(|p| seen(p.position(), p.normal()));
+        seen.map(|p| luminance(p.power()) as f64).sum()
+    };
+    let mut rng = Rng::for_item(0x0f1a_7e57, 0, 0);
+    let mut photons = Vec::new();
+    let mut emitted = 0u32;
+    for _ in 0..photon_count {
+        if let Some(e) = emitters.emit(&ctx, false, &mut rng) {
+            emitted += 1;
+            trace_photon(
+                &ctx,
+                e.ray,
+                e.power,
+                MapKind::Global,
+                16,
+                &mut rng,
+                &mut photons,
+            );
+        }
+    }
+    if emitted > 0 {
+        shares.rays_per_photon = (emitted as usize + photons.len()) as f32 / emitted as f32;
+    }
+    if !photons.is_empty() {
+        let in_view = photons
+            .iter()
+            .filter(|p| seen(p.position(), p.normal()))
+            .count();
+        shares.seen = in_view as f32 / photons.len() as f32;
+    }
+    if !caustics {
+        return shares;
+    }
+    let total = power(&photons);
+    let (mut caustic, mut delta) = (0.0f64, 0.0f64);
+    for _ in 0..photon_count {
+        let Some(e) = emitters.emit(&ctx, true, &mut rng) else {
+            continue;
         };
-        let mut rng = Rng::for_item(0x0f1a_7e57, 0, 0);
-        let mut photons = Vec::new();
-        for _ in 0..photon_count {
-            if let Some(e) = emitters.emit(&ctx, false, &mut rng) {
-                trace_photon(
-                    &ctx,
-                    e.ray,
-                    e.power,
-                    MapKind::Global,
-                    16,
-                    &mut rng,
-                    &mut photons,
-                );
-            }
+        let source = &lights.sources[e.light];
+        if matches!(source, LightSource::World { .. }) {
+            continue;
         }
-        if !photons.is_empty() {
-            let in_view = photons
-                .iter()
-                .filter(|p| seen(p.position(), p.normal()))
-                .count();
-            seen_share = in_view as f32 / photons.len() as f32;
-        }
-        if !caustics {
-            return PilotShares {
-                indirect,
-                hard_caustic,
-                seen: seen_share,
-                photons: photon_count,
-            };
-        }
-        let total = power(&photons);
         photons.clear();
-        for _ in 0..photon_count {
-            if let Some(e) = emitters.emit(&ctx, true, &mut rng) {
-                if !matches!(lights.sources[e.light], LightSource::World { .. }) {
-                    trace_photon(
-                        &ctx,
-                        e.ray,
-                        e.power,
-                        MapKind::Caustic,
-                        16,
-                        &mut rng,
-                        &mut photons,
-                    );
-                }
-            }
-        }
-        if total > 0.0 {
-            hard_caustic = (power(&photons) / total) as f32;
+        trace_photon(
+            &ctx,
+            e.ray,
+            e.power,
+            MapKind::Caustic,
+            16,
+            &mut rng,
+            &mut photons,
+        );
+        let seen_power = power(&photons);
+        caustic += seen_power;
+        if !matches!(
+            source,
+            LightSource::Triangle { .. } | LightSource::Instance { .. }
+        ) {
+            delta += seen_power;
         }
     }
-    PilotShares {
-        indirect,
-        hard_caustic,
-        seen: seen_share,
-        photons: photon_count,
+    if total > 0.0 {
+        shares.hard_caustic = (caustic / total) as f32;
+        shares.delta_caustic = (delta / total) as f32;
     }
+    shares
 }
 
 /// Share of the global photons that should land where the camera sees them; a scene whose
@@ -681,20 +807,48 @@ pub fn plan(scene: &Scene, quality: Quality) -> Plan {
 /// The plan for an image of `width`×`height` pixels (which only the memory estimate uses).
 pub fn plan_for_image(scene: &Scene, quality: Quality, width: u32, height: u32) -> Plan {
     let accel = Accel::new(scene);
-    plan_with_pilot(scene, quality, width, height, Some((&accel, None)))
+    plan_with_pilot(
+        scene,
+        quality,
+        width,
+        height,
+        Some(Pilot::new(&accel, None)),
+    )
 }
 
-/// `plan_for_image`, with the pilots traced through `pilot`: the scene's BVH (built once and
-/// shared with the render: a second of start-up on a million triangles) and the render's
-/// samples per pixel when given (else the quality preset's), which size the pilots. Without it
-/// the auto method is not measured where it would need the pilots: for renders whose method is
-/// given explicitly.
+/// How the planner's pilots run.
+#[derive(Clone, Copy)]
+pub struct Pilot<'a> {
+    /// The scene's BVH, built once and shared with the render (a second of start-up on a
+    /// million triangles).
+    pub accel: &'a Accel,
+    /// The render's samples per pixel; `None`: the quality preset's. With the image size, they
+    /// are the budget the methods' costs are predicted for.
+    pub spp: Option<u32>,
+    /// The pilots' size as a fraction of their full size; `None`: from the render's camera
+    /// samples (`pilot_scale`).
+    pub scale: Option<f32>,
+}
+
+impl<'a> Pilot<'a> {
+    /// Pilots through `accel` for a render of `spp` samples per pixel, sized to the render.
+    pub fn new(accel: &'a Accel, spp: Option<u32>) -> Self {
+        Pilot {
+            accel,
+            spp,
+            scale: None,
+        }
+    }
+}
+
+/// `plan_for_image`, with the pilots run as `pilot` says. Without it the auto method is not
+/// measured where it would need the pilots: for renders whose method is given explicitly.
 pub fn plan_with_pilot(
     scene: &Scene,
     quality: Quality,
     width: u32,
     height: u32,
-    pilot: Option<(&Accel, Option<u32>)>,
+    pilot: Option<Pilot>,
 ) -> Plan {
     let summary = summarise(scene);
     let anything_to_trace = summary.lights.any();
@@ -713,8 +867,13 @@ pub fn plan_with_pilot(
             ),
         )
     };
+    let defaults = PhotonSettings::default();
+    let scale = |count: u32| (count as f32 * quality.photon_scale()).round() as u32;
     // Global photons per preset photon, from the pilot's share seen by the camera.
     let mut global_boost = 1.0;
+    // The share of the preset's photons the render's budget calls for.
+    let mut budget_share = 1.0;
+    let mut caustic_share = 0.0;
     let (method, method_reason) = if !anything_to_trace {
         (
             Method::Path,
@@ -730,18 +889,19 @@ pub fn plan_with_pilot(
             Method::Path,
             "no caustics and no indirect light: nothing for photon maps to cache".into(),
         )
-    } else if let Some((accel, spp)) = pilot {
+    } else if let Some(pilot) = pilot {
         let aspect = width as f32 / height.max(1) as f32;
-        let samples =
-            (width as u64 * height as u64).saturating_mul(spp.unwrap_or(quality.spp()) as u64);
+        let spp = pilot.spp.unwrap_or(quality.spp());
+        let samples = (width as u64 * height as u64).saturating_mul(spp as u64);
         let shares = pilot_shares(
             scene,
-            accel,
+            pilot.accel,
             aspect,
-            pilot_scale(samples),
+            pilot.scale.unwrap_or_else(|| pilot_scale(samples)),
             (global_map.needed, caustic_map.needed),
         );
         let percent = |x: f32| 100.0 * x;
+        caustic_share = shares.hard_caustic;
         global_boost = global_photon_boost(shares.seen);
         if global_boost > 1.0 {
             global_map.reason += &format!(
@@ -749,16 +909,38 @@ pub fn plan_with_pilot(
                 percent(shares.seen)
             );
         }
-        if shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS {
-            (
-                Method::Photon,
-                format!(
-                    "caustics: {:.1} % of the light the camera sees on surfaces (a pilot of {} photons) is focused from lamps or emitting meshes, which path tracing finds only by chance; the caustic map resolves it",
-                    percent(shares.hard_caustic),
-                    shares.photons
-                ),
+        let generation_samples = width as f32 * height as f32 * spp.min(GENERATION_SPP) as f32;
+        budget_share = (generation_samples / FULL_PHOTON_SAMPLES).clamp(MIN_PHOTON_SHARE, 1.0);
+        let photons = budget_share
+            * (global_map.needed as u32 as f32
+                * scale(defaults.global_photons) as f32
+                * global_boost
+                + caustic_map.needed as u32 as f32 * scale(defaults.caustic_photons) as f32);
+        let cost = Cost::predict(&shares, samples, spp, photons);
+        let cost_note = format!(
+            "; predicted cost in rays: path tracer {:.2e}, photon method {:.2e} ({:.2e} of it preparation); {:.0} % of the path tracer's noise is not indirect light",
+            cost.path,
+            cost.photon,
+            cost.preparation,
+            percent(shares.noise_left)
+        );
+        let caustic_reason = || {
+            format!(
+                "caustics: {:.1} % of the light the camera sees on surfaces (a pilot of {} photons) is focused from lamps or emitting meshes, which path tracing finds only by chance; the caustic map resolves it",
+                percent(shares.hard_caustic),
+                shares.photons
             )
-        } else if global_map.needed && shares.indirect >= INDIRECT_SHARE_FOR_PHOTONS {
+        };
+        let (method, reason) = if shares.delta_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
+            && cost.photon <= DELTA_CAUSTIC_COST_RATIO * cost.path
+            || shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
+                && cost.photon <= CAUSTIC_COST_RATIO * cost.path
+        {
+            (Method::Photon, caustic_reason())
+        } else if global_map.needed
+            && shares.indirect >= INDIRECT_SHARE_FOR_PHOTONS
+            && cost.photons_win(&shares)
+        {
             (
                 Method::Photon,
                 format!(
@@ -770,28 +952,27 @@ pub fn plan_with_pilot(
             (
                 Method::Path,
                 format!(
-                    "mostly direct light, where the path tracer is fastest: {:.0} % of the reflected light in a small path-traced pilot image is indirect, {:.1} % of what the camera sees on surfaces is a caustic of lamps or emitting meshes",
+                    "the path tracer reaches less error in the render's time: {:.0} % of the reflected light in a small path-traced pilot image is indirect, {:.1} % of what the camera sees on surfaces is a caustic of lamps or emitting meshes",
                     percent(shares.indirect),
                     percent(shares.hard_caustic)
                 ),
             )
-        }
+        };
+        (method, reason + &cost_note)
     } else {
         (
             Method::Path,
             "not measured: the method was given explicitly".into(),
         )
     };
-    let defaults = PhotonSettings::default();
-    let scale = |count: u32| (count as f32 * quality.photon_scale()).round() as u32;
     let photon = PhotonSettings {
         global_photons: if global_map.needed {
-            (scale(defaults.global_photons) as f32 * global_boost).round() as u32
+            (scale(defaults.global_photons) as f32 * global_boost * budget_share).round() as u32
         } else {
             0
         },
         caustic_photons: if caustic_map.needed {
-            scale(defaults.caustic_photons)
+            (scale(defaults.caustic_photons) as f32 * budget_share).round() as u32
         } else {
             0
         },
@@ -832,6 +1013,7 @@ pub fn plan_with_pilot(
         ),
         global_map,
         subsurface,
+        caustic_share,
         method,
         method_reason,
         spp: quality.spp(),
@@ -839,6 +1021,22 @@ pub fn plan_with_pilot(
         memory,
         width,
         height,
+    }
+}
+
+impl Plan {
+    /// Whether the pilot found caustics of lamps or emitting meshes that carry a visible share
+    /// of what the camera sees: the path tracer resolves them slowly or never.
+    pub fn hard_caustics(&self) -> bool {
+        self.caustic_share >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
+    }
+
+    /// The method `auto` renders with, in words.
+    pub fn method_name(&self) -> &'static str {
+        match self.method {
+            Method::Path => "path tracer",
+            _ => "photon mapping",
+        }
     }
 }
 
@@ -895,11 +1093,12 @@ impl fmt::Display for Plan {
         ] {
             writeln!(f, "  {name}: {} ({})", yes_no(d), d.reason)?;
         }
-        let method = match self.method {
-            Method::Path => "path tracer",
-            _ => "photon mapping",
-        };
-        writeln!(f, "  auto method: {method} ({})", self.method_reason)?;
+        writeln!(
+            f,
+            "  auto method: {} ({})",
+            self.method_name(),
+            self.method_reason
+        )?;
         writeln!(f, "  samples per pixel: {}", self.spp)?;
         if self.method == Method::Photon {
             writeln!(

@@ -19,6 +19,7 @@ use crate::integrator::cache::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::build::{build_maps, PhotonMaps};
 use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
 use crate::integrator::photon::shade::{self, View};
+use crate::integrator::photon::tracing::Emitters;
 use crate::integrator::{path, CameraSample, Context};
 use crate::irradiance_cache::{IcSettings, IrradianceCache};
 use crate::light::Lights;
@@ -52,7 +53,7 @@ pub struct RenderSettings {
     pub region: Option<Region>,
     /// Keep the light-path passes (`Image::passes`); off, they are summed but not stored.
     pub light_passes: bool,
-    /// Where the path tracer's camera paths draw their numbers from.
+    /// Where camera samples draw their numbers from.
     pub sampler: Sampler,
     /// The pixel filter; `None`: the scene's (`SceneRenderSettings::filter`), else Blender's
     /// default (Blackman–Harris, 1.5 px).
@@ -62,11 +63,12 @@ pub struct RenderSettings {
     pub adaptive: Option<AdaptiveSettings>,
 }
 
-/// Where the camera paths of the path tracer and of the photon method draw their numbers from
-/// (pixel position, lens, moment, light choice and point, BSDF lobe and direction, Russian
-/// roulette, subsurface probes; the photon method's final-gather rays too, each its own
-/// dimensions). The cache methods' camera paths, and photon tracing and the irradiance cache's
-/// records in every method, draw from PCG32 streams whatever this says.
+/// Where camera samples draw their numbers from: every method's pixel position, lens and moment,
+/// and the rest of the path tracer's and the photon method's paths (light choice and point,
+/// BSDF lobe and direction, Russian roulette, subsurface probes; the photon method's
+/// final-gather rays, each its own dimensions). The cache methods draw the rest of a sample
+/// (gathers, lookups) from PCG32 streams whatever this says, and photon tracing and the
+/// irradiance cache's records always do.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Sampler {
     /// Owen-scrambled Sobol points, each pixel and dimension randomised on its own (`sobol`).
@@ -278,6 +280,19 @@ pub fn render_scheduled(
     // samples per pixel with fresh random numbers and smaller radii (`for_generation`).
     let progressive =
         settings.method.photon_view().is_some() || settings.method.cache_view().is_some();
+    // Where photons leave the lights (`Emitters::guided`): measured once per render, with the
+    // render's seed, and shared by every generation's photons.
+    let emitters = settings.method.photon_view().map(|_| {
+        let start = Instant::now();
+        let emitters = Emitters::guided(
+            &ctx,
+            settings.width as f32 / settings.height as f32,
+            settings.seed,
+        );
+        let info = stats.photon.get_or_insert_with(PhotonInfo::default);
+        info.guide_seconds += start.elapsed().as_secs_f64();
+        emitters
+    });
     let mut done_spp = 0u32;
     let mut adaptive = settings
         .adaptive
@@ -325,7 +340,14 @@ pub fn render_scheduled(
             }
             if prepared.is_none() {
                 let generation_settings = settings.for_generation(generation);
-                let built = prepare(&ctx, &generation_settings, generation, progress, &mut stats)?;
+                let built = prepare(
+                    &ctx,
+                    emitters.as_ref(),
+                    &generation_settings,
+                    generation,
+                    progress,
+                    &mut stats,
+                )?;
                 prepared = Some(built);
             }
             let p = prepared.as_ref().expect("prepared just above");
@@ -652,6 +674,12 @@ pub fn radius2_factor(generation: u32) -> f32 {
     (1..=generation).fold(1.0, |f, j| f * (j as f32 + RADIUS_ALPHA) / (j as f32 + 1.0))
 }
 
+/// How many times the first generation's photons generation `generation` traces: its radii
+/// shrink by tracing more photons for the same k, up to `MAX_PHOTON_GROWTH` times.
+pub fn photon_growth(generation: u32) -> f32 {
+    (1.0 / radius2_factor(generation)).min(MAX_PHOTON_GROWTH)
+}
+
 /// The seed of the samples after `done_spp` of a round whose first ones used `seed` (a
 /// generation boundary inside a round), or of generation `g`'s photon maps and cache.
 fn generation_seed(seed: u64, n: u32) -> u64 {
@@ -671,7 +699,7 @@ impl RenderSettings {
         // The radii shrink by tracing more photons for the same k (k-nearest estimates with few
         // photons are biased low next to bright patches); past `MAX_PHOTON_GROWTH` times the
         // photons, k shrinks instead.
-        let grow = (1.0 / f).min(MAX_PHOTON_GROWTH);
+        let grow = photon_growth(generation);
         let k = |k: u32| ((k as f32 * f * grow).round() as u32).max(1);
         let n = |n: u32| (n as f32 * grow).round() as u32;
         let photon = PhotonSettings {
@@ -711,31 +739,27 @@ struct Prepared {
     cache: Option<IrradianceCache>,
 }
 
-/// Build generation `generation`'s photon maps and irradiance cache with `settings` (already
-/// `for_generation`), adding their statistics to `stats`.
+/// Build generation `generation`'s photon maps (photons from `emitters`) and irradiance cache
+/// with `settings` (already `for_generation`), adding their statistics to `stats`.
 fn prepare(
     ctx: &Context,
+    emitters: Option<&Emitters>,
     settings: &RenderSettings,
     generation: u32,
     progress: &Progress,
     stats: &mut RenderStats,
 ) -> Result<Prepared> {
-    let maps = match settings.method.photon_view() {
-        Some(view) => {
-            let (maps, info) = build_maps(
-                ctx,
-                &settings.photon,
-                settings.width as f32 / settings.height as f32,
-                settings.seed,
-                progress,
-            )?;
+    let maps = match (settings.method.photon_view(), emitters) {
+        (Some(view), Some(emitters)) => {
+            let (maps, info) =
+                build_maps(ctx, emitters, &settings.photon, settings.seed, progress)?;
             stats
                 .photon
                 .get_or_insert_with(PhotonInfo::default)
                 .add(&info);
             Some((maps, view))
         }
-        None => None,
+        _ => None,
     };
     let cache = prepare_cache(ctx, settings, &maps, progress, stats)?;
     stats.generations += 1;
@@ -803,22 +827,28 @@ fn render_tile(
         progress.check()?;
         let pixel_index = y as u64 * settings.width as u64 + x as u64;
         for s in px.n..px.n + step {
-            let mut rng = match (integrator, settings.sampler) {
-                (Integrator::Path | Integrator::Photon(..), Sampler::Sobol) => {
-                    Rng::sobol(settings.seed, pixel_index, s)
-                }
-                _ => Rng::for_item(settings.seed, pixel_index, s as u64),
+            // The camera's dimensions (film, lens, moment) come from the pixel's Sobol sequence
+            // for every method; the path tracer's and the photon method's paths go on drawing
+            // from it, the cache methods' from a pseudo-random stream.
+            let random = || Rng::for_item(settings.seed, pixel_index, s as u64);
+            let mut camera_rng = match settings.sampler {
+                Sampler::Sobol => Rng::sobol(settings.seed, pixel_index, s),
+                Sampler::Random => random(),
             };
-            let offset = filter.sample(rng.uniform2());
+            let offset = filter.sample(camera_rng.uniform2());
             let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
             // A lens sample only with an aperture and a moment only when something moves:
             // still scenes seen by pinhole cameras keep their streams.
             let lens = if camera.has_lens() {
-                rng.uniform2()
+                camera_rng.uniform2()
             } else {
                 Vec2::ZERO
             };
-            let time = round.moving.then(|| rng.uniform());
+            let time = round.moving.then(|| camera_rng.uniform());
+            let mut rng = match (integrator, settings.sampler) {
+                (Integrator::Path | Integrator::Photon(..), _) | (_, Sampler::Random) => camera_rng,
+                _ => random(),
+            };
             let ray = camera.sample_ray(film, lens, time);
             if ray.t_max <= 0.0 {
                 continue; // outside a fisheye's image: black, as in Cycles

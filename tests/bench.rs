@@ -57,7 +57,10 @@ fn bench_writes_results_for_each_method_and_budget() {
     let noise = cached["reference_noise_rel_mse"].as_f64().expect("noise");
     assert!(noise > 0.0 && noise.is_finite(), "{noise}");
     let report = std::fs::read_to_string(dir.join("report.md")).expect("report.md");
-    assert!(report.contains("Reference noise ≈ relMSE"), "{report}");
+    assert!(
+        report.contains("Reference: the path tracer; noise ≈ relMSE"),
+        "{report}"
+    );
     let (_, time_table) = report
         .split_once("### Time to relMSE 0.01")
         .expect("time-to-target table");

@@ -71,9 +71,16 @@ fn json_progress_is_one_object_per_line() {
     let last = lines.last().unwrap();
     assert_eq!(last["stage"], "done");
     assert!(last["stats"]["rays"].as_u64().unwrap() > 0);
-    // No --method: auto, whose pilot finds the Cornell box mostly indirectly lit (photon
-    // mapping); the pilot's BVH is the render's, so one build is reported.
-    assert_eq!(last["stats"]["method"], "Photon", "{last}");
+    // No --method: auto, whose pilot finds the Cornell box mostly indirectly lit but the budget
+    // (16 × 16 at 1 spp) too small to pay for photon maps: the path tracer, with the choice and
+    // its reason reported; the pilot's BVH is the render's, so one build is reported.
+    assert_eq!(last["stats"]["method"], "Path", "{last}");
+    let plan = lines
+        .iter()
+        .find(|v| v["stage"] == "plan")
+        .expect("the plan");
+    let message = plan["message"].as_str().unwrap_or_default();
+    assert!(message.starts_with("auto: path tracer ("), "{message}");
     assert!(last["stats"]["build_seconds"].as_f64().unwrap() > 0.0);
 }
 

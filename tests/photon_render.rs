@@ -11,6 +11,7 @@ use photon::accel::Accel;
 use photon::film::Image;
 use photon::integrator::photon::build::{build_maps, PhotonMaps};
 use photon::integrator::photon::settings::{PhotonInfo, PhotonSettings};
+use photon::integrator::photon::tracing::Emitters;
 use photon::integrator::Context;
 use photon::light::Lights;
 use photon::math::Vec3;
@@ -69,7 +70,8 @@ fn photon_maps(scene: &Scene, global_photons: u32) -> (PhotonMaps, PhotonInfo) {
         global_photons,
         ..PhotonSettings::default()
     };
-    with_progress(|p| build_maps(&ctx, &settings, 1.0, 3, p)).expect("photons")
+    with_progress(|p| build_maps(&ctx, &Emitters::guided(&ctx, 1.0, 3), &settings, 3, p))
+        .expect("photons")
 }
 
 #[test]

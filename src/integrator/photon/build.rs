@@ -65,26 +65,21 @@ fn trace_map(
     )
 }
 
-/// Trace the photons and build the maps, the precomputed irradiance and the subsurface samples
-/// for an image of aspect ratio `aspect` (width / height), which guides the photons
-/// (`super::guide`).
+/// Trace the photons from `emitters` (built once per render, `Emitters::guided`) and build the
+/// maps, the precomputed irradiance and the subsurface samples.
 pub fn build_maps(
     ctx: &Context,
+    emitters: &Emitters,
     settings: &PhotonSettings,
-    aspect: f32,
     seed: u64,
     progress: &Progress,
 ) -> Result<(PhotonMaps, PhotonInfo)> {
-    let start = Instant::now();
-    let emitters = Emitters::guided(ctx, aspect, seed);
-    let guide_seconds = start.elapsed().as_secs_f64();
     let mut info = PhotonInfo {
         guided: emitters.is_guided(),
-        guide_seconds,
         ..PhotonInfo::default()
     };
     let start = Instant::now();
-    let global = trace_map(ctx, &emitters, settings, MapKind::Global, 0, seed, progress)?;
+    let global = trace_map(ctx, emitters, settings, MapKind::Global, 0, seed, progress)?;
     info.global_emitted = settings.global_photons as u64;
     let caustic = if settings.caustic_photons == 0 {
         info.caustic_skipped = Some("no caustic photons requested".into());
@@ -96,7 +91,7 @@ pub fn build_maps(
         info.caustic_emitted = settings.caustic_photons as u64;
         trace_map(
             ctx,
-            &emitters,
+            emitters,
             settings,
             MapKind::Caustic,
             (global.len() * std::mem::size_of::<Photon>()) as u64,
@@ -126,7 +121,7 @@ pub fn build_maps(
         _ => None,
     };
     info.irradiance_seconds = start.elapsed().as_secs_f64();
-    let subsurface = subsurface::build(ctx, &emitters, settings, seed, progress, &mut info)?;
+    let subsurface = subsurface::build(ctx, emitters, settings, seed, progress, &mut info)?;
     Ok((
         PhotonMaps {
             global,
