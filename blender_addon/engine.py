@@ -99,7 +99,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
                 binary, glb, exr, width=width, height=height,
                 settings=properties.render_settings(settings), camera=scene.camera.name,
                 view_layer=view_layer.name, region=region,
-                passes=bool(properties.enabled_light_passes(view_layer)))
+                passes=bool(properties.enabled_light_passes(view_layer)),
+                adaptive=properties.adaptive_sampling(scene))
             stats = runner.run(command, self._on_event, self.test_break)
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]

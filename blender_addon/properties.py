@@ -69,6 +69,18 @@ class PhotonRenderSettings(bpy.types.PropertyGroup):
         precision=3)
 
 
+def adaptive_sampling(scene):
+    """Blender's adaptive sampling (Render > Sampling > Noise Threshold, the Cycles settings,
+    which Photon reads as it reads the pixel filter): (threshold, min samples), 0 meaning
+    automatic, or None when it is off. Without the Cycles add-on's settings, Blender's defaults:
+    on, threshold 0.01, min samples automatic."""
+    cycles = getattr(scene, "cycles", None)
+    if not getattr(cycles, "use_adaptive_sampling", True):
+        return None
+    return (float(getattr(cycles, "adaptive_threshold", 0.01)),
+            int(getattr(cycles, "adaptive_min_samples", 0)))
+
+
 def render_settings(props) -> RenderSettings:
     """`scene.photon` as the plain `runner.RenderSettings` (enum items lower-cased)."""
     values = {}

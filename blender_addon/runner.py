@@ -125,10 +125,12 @@ def settings_arguments(settings: RenderSettings) -> list[str]:
 
 
 def render_command(binary, scene, output, *, width, height, settings: RenderSettings,
-                   camera=None, view_layer=None, region=None, passes=False) -> list[str]:
+                   camera=None, view_layer=None, region=None, passes=False,
+                   adaptive=None) -> list[str]:
     """The `photon render` command line for one frame, with JSON progress on stderr. `region`
     is (x0, y0, x1, y1) in full-frame pixels from the top-left, x1 and y1 exclusive; `passes`
-    adds the light passes to the view layer's EXR."""
+    adds the light passes to the view layer's EXR; `adaptive` is adaptive sampling's (noise
+    threshold, min samples), 0 meaning automatic for either, or None for none."""
     cmd = [str(binary), "render", str(scene), "-o", str(output),
            "--width", str(width), "--height", str(height), *settings_arguments(settings),
            "--progress", "json"]
@@ -140,6 +142,10 @@ def render_command(binary, scene, output, *, width, height, settings: RenderSett
         cmd += ["--region", *(str(v) for v in region)]
     if passes and view_layer:
         cmd += ["--passes"]
+    if adaptive is not None:
+        threshold, min_samples = adaptive
+        cmd += ["--adaptive-threshold", f"{threshold:g}", "--adaptive-min-samples",
+                str(min_samples)]
     return cmd
 
 

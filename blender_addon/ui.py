@@ -160,6 +160,15 @@ class RENDER_PT_photon_sampling(PhotonPanel, bpy.types.Panel):
         col.prop(settings, "quality")
         col.prop(settings, "samples")
         col.prop(settings, "time_limit")
+        # Blender's Noise Threshold, Cycles' settings, which Photon reads
+        # (properties.adaptive_sampling).
+        cycles = getattr(context.scene, "cycles", None)
+        if cycles is not None:
+            col.prop(cycles, "use_adaptive_sampling", text="Noise Threshold")
+            sub = col.column()
+            sub.active = cycles.use_adaptive_sampling
+            sub.prop(cycles, "adaptive_threshold", text="Threshold")
+            sub.prop(cycles, "adaptive_min_samples", text="Min Samples")
         col.prop(settings, "max_bounces")
         col.prop(settings, "seed")
         col.prop(settings, "threads")

@@ -40,7 +40,8 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [1, 4, 16])]
     budgets: Vec<u32>,
     /// Methods to compare: path, photon (no irradiance cache), photon-ic, auto, path-random
-    /// (the path tracer with independent random numbers) [default: all but path-random].
+    /// (the path tracer with independent random numbers), path-adaptive and auto-adaptive
+    /// (with adaptive sampling at Blender's default threshold, 0.01) [default: the first four].
     #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
     /// Worker threads of each timed render (0: one per core); references use every core.
@@ -108,8 +109,11 @@ const REFERENCE_PHOTONS: u32 = 1_000_000;
 /// The bench methods and the render options each adds. `photon` is pure final gathering,
 /// `photon-ic` takes the indirect light from Ward's irradiance cache; `auto` renders the planner's
 /// choice with the same budget, so the bench judges the choice. `path-random` is the path tracer
-/// with independent random numbers instead of its Sobol points (not run unless asked for).
-const METHODS: [(&str, &[&str]); 5] = [
+/// with independent random numbers instead of its Sobol points, `path-adaptive` and
+/// `auto-adaptive` the path tracer and the planner's choice with adaptive sampling at Blender's
+/// default Noise Threshold, 0.01, the budget being the most samples a pixel takes (not run
+/// unless asked for).
+const METHODS: [(&str, &[&str]); 7] = [
     ("path", &["--method", "path"]),
     (
         "photon",
@@ -121,6 +125,14 @@ const METHODS: [(&str, &[&str]); 5] = [
     ),
     ("auto", &["--method", "auto"]),
     ("path-random", &["--method", "path", "--sampler", "random"]),
+    (
+        "path-adaptive",
+        &["--method", "path", "--adaptive-threshold", "0.01"],
+    ),
+    (
+        "auto-adaptive",
+        &["--method", "auto", "--adaptive-threshold", "0.01"],
+    ),
 ];
 
 /// The methods run without `--methods`.

@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use photon::accel::Accel;
+use photon::adaptive::AdaptiveSettings;
 use photon::error::{Error, Result};
 use photon::film::FilterSettings;
 use photon::image_io::{write_image, ExrLayout};
@@ -190,10 +191,24 @@ struct RenderArgs {
     #[arg(long, value_name = "TYPE[:WIDTH]")]
     filter: Option<String>,
     /// Numbers of the camera samples: Owen-scrambled Sobol points or independent random numbers
-    /// (every method's pixel position, lens and moment; the rest of the path tracer's paths;
-    /// the photon and cache methods' gathers always use random numbers).
+    /// (every method's pixel position, lens and moment; the rest of the path tracer's and the
+    /// photon method's paths, final gathering included; the cache methods' gathers, photon
+    /// tracing and cache records always use random numbers).
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     sampler: SamplerArg,
+    /// Adaptive sampling (Blender's Noise Threshold): a pixel stops taking samples once its
+    /// estimated error is below T; 0: automatic (1 / samples, at least 0.001). Off unless given.
+    #[arg(long, value_name = "T")]
+    adaptive_threshold: Option<f32>,
+    /// Samples every pixel takes before adaptive sampling first checks it (Blender's Min
+    /// Samples); 0: automatic, from the threshold.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 0,
+        requires = "adaptive_threshold"
+    )]
+    adaptive_min_samples: u32,
     /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
     #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     method: MethodArg,
@@ -388,6 +403,18 @@ fn run_render(args: RenderArgs) -> Result<()> {
         .as_deref()
         .map(FilterSettings::parse)
         .transpose()?;
+    let adaptive = match args.adaptive_threshold {
+        Some(t) if !(t.is_finite() && t >= 0.0) => {
+            return Err(Error::Settings(format!(
+                "--adaptive-threshold must be a number >= 0 (0: automatic), not {t}"
+            )))
+        }
+        Some(threshold) => Some(AdaptiveSettings {
+            threshold,
+            min_samples: args.adaptive_min_samples,
+        }),
+        None => None,
+    };
     let cancel = install_signal_handlers()?;
     let mode = match args.progress {
         ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
@@ -524,6 +551,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
             SamplerArg::Sobol => Sampler::Sobol,
             SamplerArg::Random => Sampler::Random,
         },
+        adaptive,
     };
 
     let bar = (mode == ProgressMode::Bar).then(|| {
@@ -593,7 +621,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
         None => ExrLayout::Rgba,
     };
     write_image(&args.output, &image, &layout, &cancel)?;
-    summarise(&args.output, &settings, &stats, threads, mode);
+    let pixels = image.width as u64 * image.height as u64;
+    summarise(&args.output, &settings, &stats, pixels, threads, mode);
     Ok(())
 }
 
@@ -601,9 +630,12 @@ fn summarise(
     output: &Path,
     settings: &RenderSettings,
     stats: &RenderStats,
+    pixels: u64,
     threads: usize,
     mode: ProgressMode,
 ) {
+    // Samples per pixel on average: fewer than `spp` where adaptive sampling stopped pixels.
+    let mean_spp = stats.camera_samples as f64 / pixels.max(1) as f64;
     let mrays = stats.rays as f64 / stats.render_seconds.max(1e-9) / 1e6;
     if let Some(p) = &stats.photon {
         let rate = (p.global_emitted + p.caustic_emitted) as f64 / p.trace_seconds.max(1e-9);
@@ -688,15 +720,20 @@ fn summarise(
                 "build_seconds": stats.build_seconds, "render_seconds": stats.render_seconds,
                 "rays": stats.rays, "mrays_per_second": mrays,
                 "nonfinite_samples": stats.nonfinite_samples, "peak_memory_mib": memory,
+                "camera_samples": stats.camera_samples, "mean_spp": mean_spp,
             }
         }));
     } else {
         eprintln!(
-            "photon: wrote {} ({}x{}, {} spp) in {:.2} s on {} threads: {:.1} M rays/s, build {:.3} s, peak memory {:.0} MiB{}",
+            "photon: wrote {} ({}x{}, {} spp{}) in {:.2} s on {} threads: {:.1} M rays/s, build {:.3} s, peak memory {:.0} MiB{}",
             output.display(),
             settings.width,
             settings.height,
             settings.spp,
+            match settings.adaptive {
+                Some(_) => format!(", adaptive: {mean_spp:.1} on average"),
+                None => String::new(),
+            },
             stats.render_seconds,
             threads,
             mrays,

@@ -233,6 +233,9 @@ pub struct Image {
     pub passes: Vec<Passes>,
     /// Camera-to-world rotation, to express normals in camera space (Blender's Denoising Normal).
     pub camera_rotation: Mat3,
+    /// Camera samples taken per pixel (Cycles' Sample Count pass): all the same unless adaptive
+    /// sampling stopped some pixels early (`adaptive`).
+    pub samples: Vec<u32>,
 }
 
 impl Image {
@@ -247,6 +250,7 @@ impl Image {
             depth: vec![0.0; n],
             passes: Vec::new(),
             camera_rotation: Mat3::IDENTITY,
+            samples: vec![0; n],
         }
     }
 
@@ -266,28 +270,32 @@ impl Image {
 
     /// The sample-weighted average of this image (of `own_spp` samples per pixel) and `other`
     /// (of `other_spp`): colour, AOVs and light passes averaged, depth the nearest.
-    pub fn merge(mut self, own_spp: u32, other: &Image, other_spp: u32) -> Image {
-        let total = (own_spp + other_spp) as f32;
-        let (a, b) = (own_spp as f32 / total, other_spp as f32 / total);
-        for (s, p) in self.rgba.iter_mut().zip(&other.rgba) {
+    /// The average of this image and `other` weighted by each pixel's samples (`samples`): the
+    /// image of all their samples together. A pixel neither sampled keeps this image's values.
+    pub fn merge(mut self, other: &Image) -> Image {
+        for k in 0..self.rgba.len() {
+            let (own, more) = (self.samples[k], other.samples[k]);
+            let total = (own + more) as f32;
+            if total == 0.0 {
+                continue;
+            }
+            let (a, b) = (own as f32 / total, more as f32 / total);
+            let (s, p) = (&mut self.rgba[k], other.rgba[k]);
             for c in 0..4 {
                 s[c] = s[c] * a + p[c] * b;
             }
-        }
-        for (s, p) in self.albedo.iter_mut().zip(&other.albedo) {
-            *s = *s * a + *p * b;
-        }
-        for (s, p) in self.normal.iter_mut().zip(&other.normal) {
-            *s = (*s * a + *p * b).normalize_or_zero();
-        }
-        for (s, p) in self.passes.iter_mut().zip(&other.passes) {
-            let mut p = *p;
-            p.scale(b);
-            s.scale(a);
-            *s += p;
-        }
-        for (s, p) in self.depth.iter_mut().zip(&other.depth) {
-            *s = s.min(*p);
+            self.albedo[k] = self.albedo[k] * a + other.albedo[k] * b;
+            self.normal[k] = (self.normal[k] * a + other.normal[k] * b).normalize_or_zero();
+            if let (Some(s), Some(p)) = (self.passes.get_mut(k), other.passes.get(k)) {
+                let mut p = *p;
+                p.scale(b);
+                s.scale(a);
+                *s += p;
+            }
+            if more > 0 {
+                self.depth[k] = self.depth[k].min(other.depth[k]);
+            }
+            self.samples[k] = own + more;
         }
         self
     }

@@ -6,6 +6,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod adaptive;
 pub mod bsdf;
 pub mod camera;
 pub mod error;

@@ -3,11 +3,15 @@
 //! non-finite samples (which never reach the film).
 //!
 //! Determinism: each camera sample draws from its own stream, seeded by (seed, pixel, sample
-//! index) — the path tracer's a sample of the pixel's scrambled Sobol sequence, the other
-//! methods' a PCG32 stream — and each sample lands in exactly one pixel (see `film`), so the
-//! image is bit-identical for any number of threads.
+//! index) — the path tracer's and the photon method's a sample of the pixel's scrambled Sobol
+//! sequence, the cache methods' a PCG32 stream — and each sample lands in exactly one pixel (see `film`), so the
+//! image is bit-identical for any number of threads. With adaptive sampling (`adaptive`) the
+//! pixels are sampled in steps between convergence checks made on the whole window at once,
+//! from sums each pixel accumulates in sample order, so which pixels stop does not depend on
+//! the threads either.
 
 use crate::accel::Accel;
+use crate::adaptive::{is_class_a, spread_active, AdaptiveSettings, Convergence};
 use crate::camera::CameraRays;
 use crate::error::{Error, Result};
 use crate::film::{FilterSettings, Image, PixelFilter};
@@ -54,12 +58,17 @@ pub struct RenderSettings {
     /// The pixel filter; `None`: the scene's (`SceneRenderSettings::filter`), else Blender's
     /// default (Blackman–Harris, 1.5 px).
     pub filter: Option<FilterSettings>,
+    /// Adaptive sampling (Cycles' noise threshold, `adaptive`): pixels stop taking samples
+    /// once their estimated error is below the threshold; `None`: every pixel takes `spp`.
+    pub adaptive: Option<AdaptiveSettings>,
 }
 
 /// Where camera samples draw their numbers from: every method's pixel position, lens and moment,
-/// and the rest of the path tracer's paths (light choice and point, BSDF lobe and direction,
-/// Russian roulette, subsurface probes). The photon and cache methods draw the rest of a sample
-/// (gather rays, lookups) from PCG32 streams whatever this says.
+/// and the rest of the path tracer's and the photon method's paths (light choice and point,
+/// BSDF lobe and direction, Russian roulette, subsurface probes; the photon method's
+/// final-gather rays, each its own dimensions). The cache methods draw the rest of a sample
+/// (gathers, lookups) from PCG32 streams whatever this says, and photon tracing and the
+/// irradiance cache's records always do.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Sampler {
     /// Owen-scrambled Sobol points, each pixel and dimension randomised on its own (`sobol`).
@@ -149,6 +158,7 @@ impl Default for RenderSettings {
             light_passes: false,
             filter: None,
             sampler: Sampler::default(),
+            adaptive: None,
         }
     }
 }
@@ -194,7 +204,8 @@ pub fn render(
 
 /// What a scheduled render does after its preparation: given the image of the round just
 /// rendered and its samples per pixel (`None` before the first), the seed and samples per pixel
-/// of the next round, or `None` to finish.
+/// of the next round, or `None` to finish. With adaptive sampling the render also finishes,
+/// after handing over the last round, once every pixel has stopped.
 pub type Schedule<'a> = dyn FnMut(Option<(Image, u32)>) -> Option<(u64, u32)> + 'a;
 
 /// Prepare once (BVH unless `accel` is the scene's already built, lights, photon maps and
@@ -283,6 +294,9 @@ pub fn render_scheduled(
         emitters
     });
     let mut done_spp = 0u32;
+    let mut adaptive = settings
+        .adaptive
+        .map(|a| AdaptiveFilm::new(&a, settings.spp, window));
     let mut prepared: Option<Prepared> = None;
     let mut previous = None;
     while let Some((seed, spp)) = schedule(previous.take()) {
@@ -303,6 +317,20 @@ pub fn render_scheduled(
                 true => (spp - image_spp).min(GENERATION_SPP - done_spp % GENERATION_SPP),
                 false => spp,
             };
+            if adaptive.as_ref().is_some_and(AdaptiveFilm::all_converged) {
+                // Every pixel has converged: nothing to prepare or render.
+                let mut part = Image::new(window.width(), window.height());
+                if settings.light_passes {
+                    part.passes = vec![Passes::default(); part.rgba.len()];
+                }
+                image = Some(match image {
+                    None => part,
+                    Some(sum) => sum.merge(&part),
+                });
+                image_spp += n;
+                done_spp += n;
+                continue;
+            }
             if prepared
                 .as_ref()
                 .is_some_and(|p| p.generation != generation)
@@ -342,16 +370,21 @@ pub fn render_scheduled(
                 window,
                 moving: camera.moves() || ctx.scene.has_motion(),
             };
-            let part = render_round(&round, progress, &mut stats)?;
+            let part = render_round(&round, progress, &mut stats, adaptive.as_mut())?;
             image = Some(match image {
                 None => part,
-                Some(sum) => sum.merge(image_spp, &part, n),
+                Some(sum) => sum.merge(&part),
             });
             image_spp += n;
             done_spp += n;
             part_seed = generation_seed(seed, done_spp);
         }
         previous = image.map(|image| (image, spp));
+        if adaptive.as_ref().is_some_and(AdaptiveFilm::all_converged) {
+            // Nothing is left to sample: hand over the last round and finish.
+            schedule(previous.take());
+            break;
+        }
     }
     Ok(stats)
 }
@@ -371,78 +404,241 @@ struct RoundSetup<'a> {
 }
 
 /// Render `settings.spp` samples per pixel of the window with `settings.seed`, adding the time,
-/// samples and rays to `stats`.
-fn render_round(round: &RoundSetup, progress: &Progress, stats: &mut RenderStats) -> Result<Image> {
+/// samples and rays to `stats`. With `adaptive`, only the pixels it leaves active take samples,
+/// in steps that end where it checks them.
+fn render_round(
+    round: &RoundSetup,
+    progress: &Progress,
+    stats: &mut RenderStats,
+    mut adaptive: Option<&mut AdaptiveFilm>,
+) -> Result<Image> {
     let (scene, settings, window) = (round.ctx.scene, round.settings, round.window);
     let tiles_x = window.width().div_ceil(TILE);
     let tiles_y = window.height().div_ceil(TILE);
-    let tile_count = (tiles_x * tiles_y) as u64;
-    let done = AtomicU64::new(0);
+    let tile_count = tiles_x * tiles_y;
     let rays = AtomicU64::new(0);
     let nonfinite = AtomicU64::new(0);
     let start = Instant::now();
 
-    let tiles: Vec<(u32, u32, TileResult)> = (0..tiles_x * tiles_y)
-        .into_par_iter()
+    let mut tiles: Vec<Tile> = (0..tile_count)
         .map(|t| {
-            let (tx, ty) = (
+            let (x0, y0) = (
                 window.x0 + t % tiles_x * TILE,
                 window.y0 + t / tiles_x * TILE,
             );
-            let tile = render_tile(round, tx, ty, progress, &rays, &nonfinite)?;
-            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            (progress.report)(&ProgressEvent {
-                stage: "render",
-                fraction: finished as f32 / tile_count as f32,
-                message: format!("tile {finished}/{tile_count}"),
-            });
-            Ok((tx, ty, tile))
+            let (x1, y1) = ((x0 + TILE).min(window.x1), (y0 + TILE).min(window.y1));
+            let mut pixels = vec![PixelSum::default(); ((x1 - x0) * (y1 - y0)) as usize];
+            for (i, px) in pixels.iter_mut().enumerate() {
+                let (x, y) = (x0 + i as u32 % (x1 - x0), y0 + i as u32 / (x1 - x0));
+                px.active = adaptive.as_ref().is_none_or(|a| a.active[a.index(x, y)]);
+            }
+            Tile { x0, y0, x1, pixels }
         })
-        .collect::<Result<_>>()?;
+        .collect();
+
+    let mut done_spp = 0;
+    while done_spp < settings.spp {
+        let remaining = settings.spp - done_spp;
+        let step = adaptive
+            .as_ref()
+            .map_or(remaining, |a| a.schedule.step(a.taken, remaining));
+        let converged = adaptive.as_ref().map(|a| a.converged_fraction());
+        let finished = AtomicU64::new(0);
+        tiles
+            .par_iter_mut()
+            .map(|tile| {
+                render_tile(round, tile, step, progress, &rays, &nonfinite)?;
+                let finished = finished.fetch_add(1, Ordering::Relaxed) + 1;
+                let fraction = (done_spp as f32
+                    + step as f32 * finished as f32 / tile_count as f32)
+                    / settings.spp as f32;
+                let message = match converged {
+                    None => format!("tile {finished}/{tile_count}"),
+                    Some(c) => format!(
+                        "tile {finished}/{tile_count}, {:.0} % of pixels converged",
+                        100.0 * c
+                    ),
+                };
+                (progress.report)(&ProgressEvent {
+                    stage: "render",
+                    fraction,
+                    message,
+                });
+                Ok(())
+            })
+            .collect::<Result<()>>()?;
+        done_spp += step;
+        if let Some(a) = adaptive.as_deref_mut() {
+            a.taken += step;
+            if a.schedule.check_due(a.taken) {
+                a.check(&mut tiles);
+            }
+        }
+    }
+    if let Some(a) = adaptive {
+        a.absorb(&tiles);
+    }
 
     let mut image = Image::new(window.width(), window.height());
     if settings.light_passes {
         image.passes = vec![Passes::default(); image.rgba.len()];
     }
     image.camera_rotation = crate::math::Mat3::from(scene.camera.to_world.matrix3);
-    for (tx, ty, tile) in tiles {
-        for (i, px) in tile.pixels.into_iter().enumerate() {
-            let x = tx + i as u32 % tile.width;
-            let y = ty + i as u32 / tile.width;
+    let alpha = |coverage: f32| match round.ctx.transparent_background {
+        true => coverage,
+        false => 1.0,
+    };
+    for tile in &tiles {
+        let width = tile.x1 - tile.x0;
+        for (i, px) in tile.pixels.iter().enumerate() {
+            let x = tile.x0 + i as u32 % width;
+            let y = tile.y0 + i as u32 / width;
             let k = ((y - window.y0) * window.width() + (x - window.x0)) as usize;
-            image.rgba[k] = px.rgba;
-            image.albedo[k] = px.albedo;
-            image.normal[k] = px.normal;
-            image.depth[k] = px.depth;
-        }
-        if settings.light_passes {
-            for (i, passes) in tile.passes.into_iter().enumerate() {
-                let x = tx + i as u32 % tile.width;
-                let y = ty + i as u32 / tile.width;
-                image.passes[((y - window.y0) * window.width() + (x - window.x0)) as usize] =
-                    passes;
+            stats.camera_samples += px.n as u64;
+            image.samples[k] = px.n;
+            if px.n == 0 {
+                image.depth[k] = 1e10;
+                continue;
+            }
+            let n = px.n as f32;
+            let c = px.sum / n;
+            // Alpha as Cycles writes it: the coverage with a transparent film, else 1.
+            image.rgba[k] = [c.x, c.y, c.z, alpha(px.coverage / n)];
+            image.albedo[k] = px.albedo / n;
+            image.normal[k] = px.normal.normalize_or_zero();
+            // Depth as Cycles writes it: distance along the camera's axis, averaged over the
+            // samples that hit something (1e10 when none did), never mixed with the background.
+            image.depth[k] = if px.coverage > 0.0 {
+                px.depth_sum / px.coverage
+            } else {
+                1e10
+            };
+            if settings.light_passes {
+                let mut passes = px.passes;
+                passes.scale(1.0 / n);
+                image.passes[k] = passes;
             }
         }
     }
     stats.render_seconds += start.elapsed().as_secs_f64();
-    stats.camera_samples += window.width() as u64 * window.height() as u64 * settings.spp as u64;
     stats.rays += rays.into_inner();
     stats.nonfinite_samples += nonfinite.into_inner();
     Ok(image)
 }
 
-struct PixelResult {
-    rgba: [f32; 4],
+/// What one pixel has gathered in one round (or part of a round).
+#[derive(Clone, Default)]
+struct PixelSum {
+    sum: Vec3,
+    /// The sum of the class-A samples (`adaptive::is_class_a`).
+    sum_a: Vec3,
+    passes: Passes,
+    coverage: f32,
     albedo: Vec3,
     normal: Vec3,
-    depth: f32,
+    depth_sum: f32,
+    /// Samples taken.
+    n: u32,
+    /// The pixel takes the next step's samples.
+    active: bool,
 }
 
-struct TileResult {
-    width: u32,
-    pixels: Vec<PixelResult>,
-    /// The light-path passes of the pixels, when the settings keep them.
-    passes: Vec<Passes>,
+/// The pixels of one tile, row by row, from (`x0`, `y0`) to column `x1` (exclusive).
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    pixels: Vec<PixelSum>,
+}
+
+/// Adaptive sampling over a whole render, all rounds and generations: each pixel's sums so far
+/// and whether it still takes samples (`adaptive`).
+struct AdaptiveFilm {
+    schedule: Convergence,
+    window: Region,
+    /// (sum, class-A sum, samples) of each pixel of the window over the finished rounds.
+    totals: Vec<(Vec3, Vec3, u32)>,
+    /// Whether each pixel of the window takes the next samples.
+    active: Vec<bool>,
+    /// Samples taken by the pixels that were never stopped.
+    taken: u32,
+}
+
+impl AdaptiveFilm {
+    fn new(settings: &AdaptiveSettings, spp: u32, window: Region) -> Self {
+        let n = (window.width() * window.height()) as usize;
+        AdaptiveFilm {
+            schedule: settings.resolve(spp),
+            window,
+            totals: vec![(Vec3::ZERO, Vec3::ZERO, 0); n],
+            active: vec![true; n],
+            taken: 0,
+        }
+    }
+
+    fn index(&self, x: u32, y: u32) -> usize {
+        ((y - self.window.y0) * self.window.width() + (x - self.window.x0)) as usize
+    }
+
+    fn converged_fraction(&self) -> f32 {
+        self.active.iter().filter(|&&a| !a).count() as f32 / self.active.len() as f32
+    }
+
+    fn all_converged(&self) -> bool {
+        !self.active.contains(&true)
+    }
+
+    /// Each tile pixel with its window index.
+    fn pixels<'t>(&self, tiles: &'t [Tile]) -> impl Iterator<Item = (usize, &'t PixelSum)> + 't {
+        let window = self.window;
+        tiles.iter().flat_map(move |tile| {
+            let width = tile.x1 - tile.x0;
+            tile.pixels.iter().enumerate().map(move |(i, px)| {
+                let (x, y) = (tile.x0 + i as u32 % width, tile.y0 + i as u32 / width);
+                (
+                    ((y - window.y0) * window.width() + (x - window.x0)) as usize,
+                    px,
+                )
+            })
+        })
+    }
+
+    /// Check the active pixels with their sums so far (the finished rounds' and `tiles'`),
+    /// wake the neighbours of those still active, and tell the tiles.
+    fn check(&mut self, tiles: &mut [Tile]) {
+        let mut active = std::mem::take(&mut self.active);
+        for (k, px) in self.pixels(tiles) {
+            let (sum, sum_a, n) = self.totals[k];
+            active[k] = active[k]
+                && !self
+                    .schedule
+                    .converged(sum + px.sum, sum_a + px.sum_a, n + px.n);
+        }
+        let (w, h) = (self.window.width(), self.window.height());
+        spread_active(&mut active, w as usize, h as usize);
+        self.active = active;
+        let window = self.window;
+        for tile in tiles {
+            let width = tile.x1 - tile.x0;
+            for (i, px) in tile.pixels.iter_mut().enumerate() {
+                let (x, y) = (tile.x0 + i as u32 % width, tile.y0 + i as u32 / width);
+                px.active =
+                    self.active[((y - window.y0) * window.width() + (x - window.x0)) as usize];
+            }
+        }
+    }
+
+    /// Add a finished round's (or part's) sums to the totals.
+    fn absorb(&mut self, tiles: &[Tile]) {
+        let sums: Vec<(usize, Vec3, Vec3, u32)> = self
+            .pixels(tiles)
+            .map(|(k, px)| (k, px.sum, px.sum_a, px.n))
+            .collect();
+        for (k, sum, sum_a, n) in sums {
+            let t = &mut self.totals[k];
+            *t = (t.0 + sum, t.1 + sum_a, t.2 + n);
+        }
+    }
 }
 
 /// The integrator of this render, chosen once.
@@ -603,110 +799,81 @@ fn prepare_cache(
     Ok(Some(cache))
 }
 
+/// Take `step` more samples in each active pixel of `tile`, each pixel's samples numbered on
+/// from those it already has.
 fn render_tile(
     round: &RoundSetup,
-    x0: u32,
-    y0: u32,
+    tile: &mut Tile,
+    step: u32,
     progress: &Progress,
     rays: &AtomicU64,
     nonfinite: &AtomicU64,
-) -> Result<TileResult> {
-    let (ctx, integrator, camera, filter, settings, window) = (
+) -> Result<()> {
+    let (ctx, integrator, camera, filter, settings) = (
         round.ctx,
         round.integrator,
         round.camera,
         round.filter,
         round.settings,
-        &round.window,
     );
-    let x1 = (x0 + TILE).min(window.x1);
-    let y1 = (y0 + TILE).min(window.y1);
-    let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-    let mut tile_passes = Vec::new();
     let mut tile_rays = 0u64;
     let mut tile_nonfinite = 0u64;
-    let alpha = |coverage: f32| match ctx.transparent_background {
-        true => coverage,
-        false => 1.0,
-    };
-    for y in y0..y1 {
-        for x in x0..x1 {
-            progress.check()?;
-            let pixel_index = y as u64 * settings.width as u64 + x as u64;
-            let mut sum = Vec3::ZERO;
-            let mut passes = Passes::default();
-            let mut coverage = 0.0f32;
-            let mut albedo = Vec3::ZERO;
-            let mut normal = Vec3::ZERO;
-            // Depth as Cycles writes it: distance along the camera's axis, averaged over the
-            // samples that hit something (1e10 when none did), never mixed with the background.
-            let mut depth_sum = 0.0f32;
-            for s in 0..settings.spp {
-                // The camera's dimensions (film, lens, moment) come from the pixel's Sobol
-                // sequence for every method; the path tracer's paths go on drawing from it, the
-                // other integrators' from a pseudo-random stream.
-                let random = || Rng::for_item(settings.seed, pixel_index, s as u64);
-                let mut camera_rng = match settings.sampler {
-                    Sampler::Sobol => Rng::sobol(settings.seed, pixel_index, s),
-                    Sampler::Random => random(),
-                };
-                let offset = filter.sample(camera_rng.uniform2());
-                let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-                // A lens sample only with an aperture and a moment only when something moves:
-                // still scenes seen by pinhole cameras keep their streams.
-                let lens = if camera.has_lens() {
-                    camera_rng.uniform2()
-                } else {
-                    Vec2::ZERO
-                };
-                let time = round.moving.then(|| camera_rng.uniform());
-                let mut rng = match (integrator, settings.sampler) {
-                    (Integrator::Path, _) | (_, Sampler::Random) => camera_rng,
-                    _ => random(),
-                };
-                let ray = camera.sample_ray(film, lens, time);
-                if ray.t_max <= 0.0 {
-                    continue; // outside a fisheye's image: black, as in Cycles
-                }
-                let sample = integrator.trace(ctx, ray, &mut rng);
-                tile_rays += sample.rays as u64;
-                if sample.radiance.is_finite() {
-                    sum += sample.radiance;
-                    passes += sample.passes;
-                } else {
-                    tile_nonfinite += 1;
-                }
-                if sample.hit {
-                    coverage += 1.0;
-                    depth_sum += sample.depth * ray.direction.normalize().dot(camera.forward());
-                }
-                albedo += sample.albedo;
-                normal += sample.normal;
-            }
-            let n = settings.spp as f32;
-            let c = sum / n;
-            passes.scale(1.0 / n);
-            pixels.push(PixelResult {
-                // Alpha as Cycles writes it: the coverage with a transparent film, else 1.
-                rgba: [c.x, c.y, c.z, alpha(coverage / n)],
-                albedo: albedo / n,
-                normal: normal.normalize_or_zero(),
-                depth: if coverage > 0.0 {
-                    depth_sum / coverage
-                } else {
-                    1e10
-                },
-            });
-            if settings.light_passes {
-                tile_passes.push(passes);
-            }
+    let width = tile.x1 - tile.x0;
+    for (i, px) in tile.pixels.iter_mut().enumerate() {
+        if !px.active {
+            continue;
         }
+        let (x, y) = (tile.x0 + i as u32 % width, tile.y0 + i as u32 / width);
+        progress.check()?;
+        let pixel_index = y as u64 * settings.width as u64 + x as u64;
+        for s in px.n..px.n + step {
+            // The camera's dimensions (film, lens, moment) come from the pixel's Sobol sequence
+            // for every method; the path tracer's and the photon method's paths go on drawing
+            // from it, the cache methods' from a pseudo-random stream.
+            let random = || Rng::for_item(settings.seed, pixel_index, s as u64);
+            let mut camera_rng = match settings.sampler {
+                Sampler::Sobol => Rng::sobol(settings.seed, pixel_index, s),
+                Sampler::Random => random(),
+            };
+            let offset = filter.sample(camera_rng.uniform2());
+            let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
+            // A lens sample only with an aperture and a moment only when something moves:
+            // still scenes seen by pinhole cameras keep their streams.
+            let lens = if camera.has_lens() {
+                camera_rng.uniform2()
+            } else {
+                Vec2::ZERO
+            };
+            let time = round.moving.then(|| camera_rng.uniform());
+            let mut rng = match (integrator, settings.sampler) {
+                (Integrator::Path | Integrator::Photon(..), _) | (_, Sampler::Random) => camera_rng,
+                _ => random(),
+            };
+            let ray = camera.sample_ray(film, lens, time);
+            if ray.t_max <= 0.0 {
+                continue; // outside a fisheye's image: black, as in Cycles
+            }
+            let sample = integrator.trace(ctx, ray, &mut rng);
+            tile_rays += sample.rays as u64;
+            if sample.radiance.is_finite() {
+                px.sum += sample.radiance;
+                px.passes += sample.passes;
+                if is_class_a(s) {
+                    px.sum_a += sample.radiance;
+                }
+            } else {
+                tile_nonfinite += 1;
+            }
+            if sample.hit {
+                px.coverage += 1.0;
+                px.depth_sum += sample.depth * ray.direction.normalize().dot(camera.forward());
+            }
+            px.albedo += sample.albedo;
+            px.normal += sample.normal;
+        }
+        px.n += step;
     }
     rays.fetch_add(tile_rays, Ordering::Relaxed);
     nonfinite.fetch_add(tile_nonfinite, Ordering::Relaxed);
-    Ok(TileResult {
-        width: x1 - x0,
-        pixels,
-        passes: tile_passes,
-    })
+    Ok(())
 }

@@ -6,7 +6,8 @@
 //! a SplitMix64-style hash — or quasi-random: the dimensions of one sample of a pixel's
 //! Owen-scrambled Sobol sequence (`sobol`), each `uniform` one dimension and each `uniform2`
 //! one pair, numbered in the order they are drawn, as pbrt-v4's samplers number them. The path
-//! tracer's camera paths draw from the second, everything else from the first.
+//! tracer's and the photon method's camera paths draw from the second, everything else from the
+//! first.
 
 use crate::math::Vec2;
 use crate::sobol::{sample_1d, sample_2d, sample_3d, Seeds};

@@ -54,7 +54,7 @@ pub fn render_in_rounds(
         if let Some((image, spp)) = finished {
             total = Some(match total.take() {
                 None => image,
-                Some(sum) => sum.merge(done_spp, &image, spp),
+                Some(sum) => sum.merge(&image),
             });
             done_spp += spp;
             rounds += 1;

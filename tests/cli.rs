@@ -117,6 +117,10 @@ fn bad_arguments_and_missing_files_exit_with_2() {
         vec!["render".into(), "--filter".into(), "gaussian:0".into()],
         vec!["render".into(), "--filter".into(), "box:wide".into()],
         vec!["bench".into(), "--filter".into(), "lanczos".into()],
+        // Adaptive sampling's threshold is a number >= 0; its minimum needs a threshold.
+        vec!["render".into(), "--adaptive-threshold=-0.1".into()],
+        vec!["render".into(), "--adaptive-threshold".into(), "nan".into()],
+        vec!["render".into(), "--adaptive-min-samples".into(), "8".into()],
         // The light-path passes need Blender's multilayer naming.
         vec![
             "render".into(),

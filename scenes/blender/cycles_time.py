@@ -26,6 +26,10 @@ glossy filter, light tree, adaptive sampling and denoising off):
         --bench-dir bench_out --spp 16,32,64,128,256 --threads 2 [--json cycles.json]
     .venv/bin/python scenes/blender/cycles_time.py scene.glb --reference ref.exr --spp 64,256
 
+`--adaptive-threshold T` turns Cycles' adaptive sampling on (Noise Threshold T, 0: automatic;
+Min Samples automatic), to compare with `photon bench`'s `*-adaptive` methods, which pass the
+same threshold.
+
 A 1-sample render first loads Cycles' kernels and is not counted.
 """
 
@@ -357,7 +361,12 @@ def main(argv: list) -> int:
     parser.add_argument("--out", type=Path, default=Path("/tmp/cycles_time"),
                         help="where the renders go")
     parser.add_argument("--json", type=Path, help="also write the results here")
+    parser.add_argument("--adaptive-threshold", type=float,
+                        help="Cycles' adaptive sampling on with this Noise Threshold (0: "
+                             "automatic); off without it")
     args = parser.parse_args(argv)
+    if args.adaptive_threshold is not None and not args.adaptive_threshold >= 0:
+        raise Usage("--adaptive-threshold must be >= 0 (0: automatic)")
     try:
         spps = [int(s) for s in args.spp.split(",") if s.strip()]
     except ValueError:
@@ -377,6 +386,11 @@ def main(argv: list) -> int:
     (kind, width), warnings = prepare(args.scene, size, args.threads, args.filter)
     for w in warnings:
         print(f"cycles_time: warning: {w}", file=sys.stderr)
+    if args.adaptive_threshold is not None:
+        cycles_settings = bpy.context.scene.cycles
+        cycles_settings.use_adaptive_sampling = True
+        cycles_settings.adaptive_threshold = args.adaptive_threshold
+        cycles_settings.adaptive_min_samples = 0
     args.out.mkdir(parents=True, exist_ok=True)
     render(args.out / "warmup.exr", 1, args.seed)
     points = []
@@ -405,6 +419,7 @@ def main(argv: list) -> int:
             "scene": str(args.scene), "width": size[0], "height": size[1],
             "threads": args.threads, "filter": {"type": kind, "width": width},
             "reference": str(reference_path), "target_rel_mse": args.target_error,
+            "adaptive_threshold": args.adaptive_threshold,
             "cycles": [{"spp": s, "seconds": t, "rel_mse": e}
                        for s, (t, e) in zip(sorted(set(spps)), points)],
             "cycles_time_to_target": cycles, "photon_time_to_target": times,
