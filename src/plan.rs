@@ -462,16 +462,13 @@ const NOISE_LEFT_FLOOR: f32 = 0.1;
 const FULL_PHOTON_SAMPLES: f32 = 48.0 * 48.0 * 64.0;
 const MIN_PHOTON_SHARE: f32 = 0.05;
 
-/// Caustics of emitting meshes, which the path tracer finds by chance: the photon method
-/// renders them when it costs at most this many times the path tracer's render, whose error
-/// then falls slower than its time grows (rare bright paths).
-const CAUSTIC_COST_RATIO: f32 = 4.0;
-
-/// Caustics of point, spot and sun lights, which the path tracer never finds: the photon method
-/// renders them unless it costs more than this many times the path tracer's render, where the
-/// path tracer's noise exceeds the light it misses (the open ring at 48 px and 4 spp: relMSE
-/// 0.0157 against the photon method's 0.0188, docs/bench/README.md).
-const DELTA_CAUSTIC_COST_RATIO: f32 = 16.0;
+/// Caustics of lamps and emitting meshes, which the path tracer finds by chance or never: the
+/// photon method renders them unless it costs more than this many times the path tracer's
+/// render. The path tracer's error then falls slower than its time grows (rare bright paths);
+/// at 48 px, the gallery's caustic scenes cost the photon method 4–6 times the path tracer and
+/// render to far less error, except at 4 spp, where the path tracer's noise exceeds the light it
+/// misses on three of eight (docs/bench/measurements.md, "The planner's cost rule").
+const CAUSTIC_COST_RATIO: f32 = 16.0;
 
 /// The predicted cost of a render, in path-tracer rays, from the pilots.
 #[derive(Clone, Copy, Debug)]
@@ -526,9 +523,6 @@ struct PilotShares {
     /// global pilot ran. Small when most of the light lands where the camera does not look (a
     /// room lit by the sun through a window, the sun's photons spread over the ground outside).
     seen: f32,
-    /// Of `hard_caustic`, the share from point, spot and sun lights, which the path tracer
-    /// never finds: only photons render these caustics.
-    delta_caustic: f32,
     /// Photons of each caustic pilot pass.
     photons: u32,
     /// Rays the path tracer casts per camera sample (closest-hit and shadow), in the pilot image.
@@ -702,7 +696,6 @@ fn pilot_shares(
     let mut shares = PilotShares {
         indirect,
         hard_caustic: 0.0,
-        delta_caustic: 0.0,
         seen: 1.0,
         photons: photon_count,
         rays_per_path,
@@ -751,37 +744,24 @@ fn pilot_shares(
         return shares;
     }
     let total = power(&photons);
-    let (mut caustic, mut delta) = (0.0f64, 0.0f64);
+    photons.clear();
     for _ in 0..photon_count {
-        let Some(e) = emitters.emit(&ctx, true, &mut rng) else {
-            continue;
-        };
-        let source = &lights.sources[e.light];
-        if matches!(source, LightSource::World { .. }) {
-            continue;
-        }
-        photons.clear();
-        trace_photon(
-            &ctx,
-            e.ray,
-            e.power,
-            MapKind::Caustic,
-            16,
-            &mut rng,
-            &mut photons,
-        );
-        let seen_power = power(&photons);
-        caustic += seen_power;
-        if !matches!(
-            source,
-            LightSource::Triangle { .. } | LightSource::Instance { .. }
-        ) {
-            delta += seen_power;
+        if let Some(e) = emitters.emit(&ctx, true, &mut rng) {
+            if !matches!(lights.sources[e.light], LightSource::World { .. }) {
+                trace_photon(
+                    &ctx,
+                    e.ray,
+                    e.power,
+                    MapKind::Caustic,
+                    16,
+                    &mut rng,
+                    &mut photons,
+                );
+            }
         }
     }
     if total > 0.0 {
-        shares.hard_caustic = (caustic / total) as f32;
-        shares.delta_caustic = (delta / total) as f32;
+        shares.hard_caustic = (power(&photons) / total) as f32;
     }
     shares
 }
@@ -936,10 +916,8 @@ pub fn plan_with_pilot(
                 shares.photons
             )
         };
-        let (method, reason) = if shares.delta_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
-            && cost.photon <= DELTA_CAUSTIC_COST_RATIO * cost.path
-            || shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
-                && cost.photon <= CAUSTIC_COST_RATIO * cost.path
+        let (method, reason) = if shares.hard_caustic >= HARD_CAUSTIC_SHARE_FOR_PHOTONS
+            && cost.photon <= CAUSTIC_COST_RATIO * cost.path
         {
             (Method::Photon, caustic_reason())
         } else if global_map.needed
