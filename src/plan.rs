@@ -18,11 +18,15 @@
 //!   dipole by probe rays and needs no pass.
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
 //!   the background); translucent materials → photon mapping (subsurface photons); otherwise,
-//!   when caustics or indirect light are possible, two pilots measure them: photon mapping
-//!   when the caustics of lamps and emitting meshes carry a visible share of what the camera
-//!   sees (`HARD_CAUSTIC_SHARE_FOR_PHOTONS`; caustics are where path tracing is noisiest) or
-//!   when most reflected light in a small path-traced image is indirect
-//!   (`INDIRECT_SHARE_FOR_PHOTONS`: the irradiance cache pays off), the path tracer otherwise.
+//!   when caustics or indirect light are possible, two pilots measure them and predict both
+//!   methods' cost at the render's budget (`Cost`, in rays): photon mapping when the caustics
+//!   of lamps and emitting meshes carry a visible share of what the camera sees
+//!   (`HARD_CAUSTIC_SHARE_FOR_PHOTONS`; caustics are where path tracing is noisiest) and the
+//!   photon method costs at most `CAUSTIC_COST_RATIO` times the path tracer, or when much of
+//!   the reflected light in a small path-traced image is indirect (`INDIRECT_SHARE_FOR_PHOTONS`)
+//!   and the photon method should reach less error in the render's time
+//!   (`Cost::photons_win`), the path tracer otherwise. The photons scale with the budget
+//!   (`FULL_PHOTON_SAMPLES`).
 
 use crate::accel::Accel;
 use crate::integrator::classify::{bsdf_is_specular, classifying_bsdf};
