@@ -9,7 +9,9 @@ use photon::film::FilterSettings;
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
-use photon::plan::{cache_ray_budget, plan_for_image, plan_with_pilot, Pilot, Quality};
+use photon::plan::{
+    cache_gather_rays, cache_ray_budget, plan_for_image, plan_with_pilot, Pilot, Quality,
+};
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
@@ -257,7 +259,8 @@ struct RenderArgs {
     /// Irradiance-cache accuracy a (records are used where Ward's weight exceeds 1/a) [default: 0.2].
     #[arg(long)]
     ic_accuracy: Option<f32>,
-    /// Gather rays per irradiance record (split into T x P strata) [default: 256].
+    /// Gather rays per irradiance record (split into T x P strata) [default: 256; auto: 8 per
+    /// sample per pixel, from 64 up to 256, when the samples are known].
     #[arg(long)]
     ic_gather_rays: Option<u32>,
     /// Smallest radius an irradiance record covers, in pixels [default: 3].
@@ -535,6 +538,16 @@ fn run_render(args: RenderArgs) -> Result<()> {
                     Some(cache_ray_budget(spp, photon.gather_rays))
                 }
                 None => None,
+            },
+            // Auto gathers fewer rays per record at a few samples (`plan.rs`) unless the count
+            // was given.
+            gather_rays: match args.ic_gather_rays {
+                None if args.method == MethodArg::Auto
+                    && (args.spp.is_some() || time_limit.is_none()) =>
+                {
+                    cache_gather_rays(spp, ic_settings.gather_rays)
+                }
+                _ => ic_settings.gather_rays,
             },
             ..ic_settings
         },

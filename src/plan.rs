@@ -402,6 +402,24 @@ pub fn cache_ray_budget(spp: u32, gather_rays: u32) -> f32 {
     CACHE_RAYS_PER_GATHER_RAY * spp.min(GENERATION_SPP) as f32 * gather_rays as f32
 }
 
+/// Gather rays per irradiance record for `auto`, per camera sample per pixel of a generation:
+/// a record's noise is read by every pixel it covers, in every sample, so it need only stay
+/// below the pixels' own noise, which falls as the samples grow. The count grows with the
+/// samples from `MIN_CACHE_GATHER_RAYS` to the cache's default (256) at 32 spp. Measured with
+/// `photon-ic` on the Cornell box at 256 px (5000 photons per spp, against a 4096-spp path
+/// reference; docs/bench/measurements.md, "Gather rays per record"): 64 rays instead of 256
+/// cost +2 % relMSE at 4 spp, +8 % at 8 and +22 % at 16, for a quarter of the cache's time,
+/// which at 8 spp is half the render's.
+const CACHE_GATHER_RAYS_PER_SAMPLE: u32 = 8;
+const MIN_CACHE_GATHER_RAYS: u32 = 64;
+
+/// The irradiance cache's gather rays per record for `auto` at `spp` samples per pixel, at most
+/// `full` (the cache's setting).
+pub fn cache_gather_rays(spp: u32, full: u32) -> u32 {
+    (CACHE_GATHER_RAYS_PER_SAMPLE * spp.min(GENERATION_SPP))
+        .clamp(MIN_CACHE_GATHER_RAYS.min(full), full)
+}
+
 /// The pilots at full size: photons of each of the caustic pilot's two passes (global, and
 /// aimed at the specular meshes), and the path-traced image's width in pixels (the height
 /// follows the aspect ratio) and samples per pixel: 4096 paths for a square image.

@@ -196,17 +196,25 @@ fn an_explicit_method_skips_the_photon_pilot() {
 #[test]
 fn auto_holds_the_irradiance_cache_to_the_final_gathers_rays() {
     // The furnace needs few records, 269 at this 96-pixel size (held to 7.5 % of the frame):
-    // 1 spp's budget holds about 140, so the build stops early; at 2 spp it completes, and so it
-    // does at 1 spp when the cache is asked for. (Auto renders the furnace with photons at
-    // these budgets; the Cornell box it now renders with the path tracer.)
+    // at 256 gather rays each, 1 spp's budget holds about 140, so the build stops early; at 2
+    // spp it completes, and so it does at 1 spp when the cache is asked for. At auto's own
+    // count for 1 spp (64 rays per record, 5 × 13 strata) the whole cache fits. (Auto renders
+    // the furnace with photons at these budgets; the Cornell box it now renders with the path
+    // tracer.)
     let dir = temp_dir("auto-cache");
-    for (name, spp, asked, stopped) in [
-        ("furnace.glb", 1, false, true),
-        ("furnace.glb", 2, false, false),
-        ("furnace.glb", 1, true, false),
+    for (name, spp, asked, full_gathers, stopped) in [
+        ("furnace.glb", 1, false, true, true),
+        ("furnace.glb", 2, false, true, false),
+        ("furnace.glb", 1, true, true, false),
+        ("furnace.glb", 1, false, false, false),
     ] {
         let asked_for: &[&str] = if asked {
             &["--irradiance-cache", "on"]
+        } else {
+            &[]
+        };
+        let gathers: &[&str] = if full_gathers {
+            &["--ic-gather-rays", "256"]
         } else {
             &[]
         };
@@ -215,8 +223,9 @@ fn auto_holds_the_irradiance_cache_to_the_final_gathers_rays() {
             .arg(scene_path(name))
             .args(["--width", "96", "--height", "96", "--photons", "2000"])
             .args(asked_for)
+            .args(gathers)
             .args(["--spp", &spp.to_string(), "--progress", "json", "-o"])
-            .arg(dir.join(format!("{name}-{spp}-{asked}.exr")))
+            .arg(dir.join(format!("{name}-{spp}-{asked}-{full_gathers}.exr")))
             .output()
             .expect("runs");
         assert_success(&result);
@@ -228,6 +237,12 @@ fn auto_holds_the_irradiance_cache_to_the_final_gathers_rays() {
             .unwrap_or_else(|| panic!("{name} {spp} spp: no cache statistics in {stderr}"));
         let records = cache["stats"]["records"].as_u64().expect("records");
         assert!(records > 0, "{name} {spp} spp: no records");
+        let strata = if full_gathers { [9, 29] } else { [5, 13] };
+        assert_eq!(
+            cache["stats"]["strata"],
+            serde_json::json!(strata),
+            "{name} {spp} spp: gather rays per record"
+        );
         assert_eq!(
             cache["stats"]["budget_reached"].as_bool(),
             Some(stopped),
