@@ -192,10 +192,10 @@ struct RenderArgs {
     /// pixels (Cycles' definitions) [default: the scene's, else blackman-harris:1.5].
     #[arg(long, value_name = "TYPE[:WIDTH]")]
     filter: Option<String>,
-    /// Numbers of the camera samples: Owen-scrambled Sobol points or independent random numbers
-    /// (every method's pixel position, lens and moment; the rest of the path tracer's and the
-    /// photon method's paths, final gathering included; the cache methods' gathers, photon
-    /// tracing and cache records always use random numbers).
+    /// Numbers of the camera samples and photons: Owen-scrambled Sobol points or independent
+    /// random numbers (every method's pixel position, lens and moment; the rest of the path
+    /// tracer's and the photon method's paths, final gathering included; photon tracing, one
+    /// sequence per map; the cache methods' gathers and cache records always use random numbers).
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     sampler: SamplerArg,
     /// Adaptive sampling (Blender's Noise Threshold): a pixel stops taking samples once its

@@ -27,6 +27,7 @@ use crate::light_pass::Passes;
 use crate::math::{Vec2, Vec3};
 use crate::progress::{Progress, ProgressEvent};
 use crate::rng::Rng;
+pub use crate::rng::Sampler;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -53,7 +54,7 @@ pub struct RenderSettings {
     pub region: Option<Region>,
     /// Keep the light-path passes (`Image::passes`); off, they are summed but not stored.
     pub light_passes: bool,
-    /// Where camera samples draw their numbers from.
+    /// Where camera samples and photons draw their numbers from.
     pub sampler: Sampler,
     /// The pixel filter; `None`: the scene's (`SceneRenderSettings::filter`), else Blender's
     /// default (Blackman–Harris, 1.5 px).
@@ -61,21 +62,6 @@ pub struct RenderSettings {
     /// Adaptive sampling (Cycles' noise threshold, `adaptive`): pixels stop taking samples
     /// once their estimated error is below the threshold; `None`: every pixel takes `spp`.
     pub adaptive: Option<AdaptiveSettings>,
-}
-
-/// Where camera samples draw their numbers from: every method's pixel position, lens and moment,
-/// and the rest of the path tracer's and the photon method's paths (light choice and point,
-/// BSDF lobe and direction, Russian roulette, subsurface probes; the photon method's
-/// final-gather rays, each its own dimensions). The cache methods draw the rest of a sample
-/// (gathers, lookups) from PCG32 streams whatever this says, and photon tracing and the
-/// irradiance cache's records always do.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Sampler {
-    /// Owen-scrambled Sobol points, each pixel and dimension randomised on its own (`sobol`).
-    #[default]
-    Sobol,
-    /// Independent PCG32 numbers (`rng`).
-    Random,
 }
 
 /// A window of the frame in pixels, top-left origin, `x1` and `y1` exclusive.
@@ -751,8 +737,14 @@ fn prepare(
 ) -> Result<Prepared> {
     let maps = match (settings.method.photon_view(), emitters) {
         (Some(view), Some(emitters)) => {
-            let (maps, info) =
-                build_maps(ctx, emitters, &settings.photon, settings.seed, progress)?;
+            let (maps, info) = build_maps(
+                ctx,
+                emitters,
+                &settings.photon,
+                settings.seed,
+                settings.sampler,
+                progress,
+            )?;
             stats
                 .photon
                 .get_or_insert_with(PhotonInfo::default)

@@ -172,6 +172,22 @@ impl Rng {
     }
 }
 
+/// Where camera samples draw their numbers from: every method's pixel position, lens and moment,
+/// and the rest of the path tracer's and the photon method's paths (light choice and point,
+/// BSDF lobe and direction, Russian roulette, subsurface probes; the photon method's
+/// final-gather rays, each its own dimensions) and photon tracing (each photon a sample of one
+/// sequence per map: emission, then every bounce). The cache methods draw the rest of a sample
+/// (gathers, lookups) from PCG32 streams whatever this says, and the irradiance cache's records
+/// always do.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Sampler {
+    /// Owen-scrambled Sobol points, each pixel and dimension randomised on its own (`sobol`).
+    #[default]
+    Sobol,
+    /// Independent PCG32 numbers (`rng`).
+    Random,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -15,7 +15,7 @@ use photon::integrator::photon::tracing::Emitters;
 use photon::integrator::Context;
 use photon::light::Lights;
 use photon::math::Vec3;
-use photon::render::{render, Method, RenderSettings};
+use photon::render::{render, Method, RenderSettings, Sampler};
 use photon::scene::gltf::LoadOptions;
 use photon::scene::{builtin, Light, Material, Projection, Scene};
 use std::f32::consts::PI;
@@ -61,8 +61,18 @@ fn context<'a>(
 }
 
 /// The photon maps of `scene` from `global_photons` photons, with the default settings
-/// otherwise (seed 3, 64 bounces).
+/// otherwise (seed 3, 64 bounces, Sobol photons).
 fn photon_maps(scene: &Scene, global_photons: u32) -> (PhotonMaps, PhotonInfo) {
+    photon_maps_with(scene, global_photons, 3, Sampler::Sobol)
+}
+
+/// `photon_maps` with the seed and the photons' numbers chosen.
+fn photon_maps_with(
+    scene: &Scene,
+    global_photons: u32,
+    seed: u64,
+    sampler: Sampler,
+) -> (PhotonMaps, PhotonInfo) {
     let accel = Accel::new(scene);
     let lights = Lights::new(scene);
     let ctx = context(scene, &accel, &lights, 64);
@@ -70,8 +80,50 @@ fn photon_maps(scene: &Scene, global_photons: u32) -> (PhotonMaps, PhotonInfo) {
         global_photons,
         ..PhotonSettings::default()
     };
-    with_progress(|p| build_maps(&ctx, &Emitters::guided(&ctx, 1.0, 3), &settings, 3, p))
-        .expect("photons")
+    with_progress(|p| {
+        build_maps(
+            &ctx,
+            &Emitters::guided(&ctx, 1.0, 3),
+            &settings,
+            seed,
+            sampler,
+            p,
+        )
+    })
+    .expect("photons")
+}
+
+#[test]
+fn quasi_random_photons_leave_the_lamp_evenly() {
+    // Photon i of a Sobol run is sample i of one scrambled Sobol sequence (Keller 1996): the
+    // share of the Cornell box lamp's photons leaving within 37° of straight down (read from
+    // the first-hit photons' incoming directions in the closed box) varies between seeds far
+    // less than with independent streams, by more than 4× at 4000 photons; both agree on it.
+    let scene = builtin::cornell_box(&LoadOptions::default()).expect("cornell box");
+    let spread = |sampler: Sampler| {
+        let shares: Vec<f64> = (0..8)
+            .map(|seed| {
+                let (maps, _) = photon_maps_with(&scene, 4000, seed, sampler);
+                let photons = maps.global.as_ref().expect("global map").photons();
+                let direct = photons.iter().filter(|ph| ph.is_direct());
+                let steep = direct.clone().filter(|ph| ph.incoming().y > 0.8).count();
+                steep as f64 / direct.count() as f64
+            })
+            .collect();
+        let mean = shares.iter().sum::<f64>() / shares.len() as f64;
+        let var = shares.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / 7.0;
+        (mean, var.sqrt())
+    };
+    let (sobol_mean, sobol) = spread(Sampler::Sobol);
+    let (random_mean, random) = spread(Sampler::Random);
+    assert!(
+        (sobol_mean - random_mean).abs() < 3.0 * random,
+        "share leaving steeply: Sobol {sobol_mean:.4}, random {random_mean:.4} ± {random:.4}"
+    );
+    assert!(
+        sobol < 0.25 * random,
+        "its spread between seeds: Sobol {sobol:.5}, random {random:.5}"
+    );
 }
 
 #[test]

@@ -10,6 +10,7 @@ use crate::error::Result;
 use crate::integrator::Context;
 use crate::photon_map::{Photon, PhotonMap};
 use crate::progress::Progress;
+use crate::rng::Sampler;
 use std::time::Instant;
 
 /// The photon maps, the precomputed irradiance, the subsurface samples and the lookup
@@ -30,6 +31,7 @@ pub struct PhotonMaps {
 }
 
 /// `trace_photons` for the global or the caustic map.
+#[allow(clippy::too_many_arguments)]
 fn trace_map(
     ctx: &Context,
     emitters: &Emitters,
@@ -37,6 +39,7 @@ fn trace_map(
     map: MapKind,
     used_bytes: u64,
     seed: u64,
+    sampler: Sampler,
     progress: &Progress,
 ) -> Result<Vec<Photon>> {
     let (tag, count) = match map {
@@ -53,6 +56,7 @@ fn trace_map(
         tag,
         aimed: map == MapKind::Caustic,
         budget_bytes: settings.memory_budget_bytes().saturating_sub(used_bytes),
+        sampler,
     };
     trace_photons(
         ctx,
@@ -72,6 +76,7 @@ pub fn build_maps(
     emitters: &Emitters,
     settings: &PhotonSettings,
     seed: u64,
+    sampler: Sampler,
     progress: &Progress,
 ) -> Result<(PhotonMaps, PhotonInfo)> {
     let mut info = PhotonInfo {
@@ -79,7 +84,16 @@ pub fn build_maps(
         ..PhotonInfo::default()
     };
     let start = Instant::now();
-    let global = trace_map(ctx, emitters, settings, MapKind::Global, 0, seed, progress)?;
+    let global = trace_map(
+        ctx,
+        emitters,
+        settings,
+        MapKind::Global,
+        0,
+        seed,
+        sampler,
+        progress,
+    )?;
     info.global_emitted = settings.global_photons as u64;
     let caustic = if settings.caustic_photons == 0 {
         info.caustic_skipped = Some("no caustic photons requested".into());
@@ -96,6 +110,7 @@ pub fn build_maps(
             MapKind::Caustic,
             (global.len() * std::mem::size_of::<Photon>()) as u64,
             seed,
+            sampler,
             progress,
         )?
     };
@@ -121,7 +136,8 @@ pub fn build_maps(
         _ => None,
     };
     info.irradiance_seconds = start.elapsed().as_secs_f64();
-    let subsurface = subsurface::build(ctx, emitters, settings, seed, progress, &mut info)?;
+    let subsurface =
+        subsurface::build(ctx, emitters, settings, seed, sampler, progress, &mut info)?;
     Ok((
         PhotonMaps {
             global,

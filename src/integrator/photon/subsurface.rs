@@ -23,6 +23,7 @@ use crate::integrator::Context;
 use crate::math::Vec3;
 use crate::photon_map::Photon;
 use crate::progress::Progress;
+use crate::rng::Sampler;
 use crate::scene::Scene;
 use crate::subsurface::{Dipole, ExitanceCache, Sample, SampleTree};
 use std::f32::consts::PI;
@@ -201,6 +202,7 @@ pub fn build(
     emitters: &Emitters,
     settings: &PhotonSettings,
     seed: u64,
+    sampler: Sampler,
     progress: &Progress,
     info: &mut PhotonInfo,
 ) -> Result<Option<SubsurfaceMaps>> {
@@ -222,6 +224,7 @@ pub fn build(
         budget_bytes: settings
             .memory_budget_bytes()
             .saturating_sub((stored * std::mem::size_of::<Photon>()) as u64),
+        sampler,
     };
     let samples = trace_photons(
         ctx,
