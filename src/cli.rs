@@ -211,6 +211,11 @@ struct RenderArgs {
         requires = "adaptive_threshold"
     )]
     adaptive_min_samples: u32,
+    /// Extra camera rays per sample that see only emission: edges of lamps, windows and other
+    /// emitters the camera sees directly are averaged over that many more positions in each
+    /// pixel [auto: the planner's choice from its pilot image; other methods: 0].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=64))]
+    emission_rays: Option<u32>,
     /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
     #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     method: MethodArg,
@@ -462,7 +467,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
         quality,
         width,
         height,
-        accel.as_ref().map(|a| Pilot::new(a, args.spp)),
+        accel.as_ref().map(|a| Pilot {
+            photons: [args.photons, args.caustic_photons],
+            ..Pilot::new(a, args.spp)
+        }),
     );
     if args.method == MethodArg::Auto {
         let message = format!("auto: {} ({})", plan.method_name(), plan.method_reason);
@@ -565,6 +573,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
             SamplerArg::Random => Sampler::Random,
         },
         adaptive,
+        emission_rays: match (args.emission_rays, args.method) {
+            (Some(n), _) => n,
+            (None, MethodArg::Auto) => plan.emission_rays,
+            (None, _) => 0,
+        },
     };
 
     let bar = (mode == ProgressMode::Bar).then(|| {

@@ -185,6 +185,9 @@ pub struct Plan {
     /// The method `--method auto` renders with, and why.
     pub method: Method,
     pub method_reason: String,
+    /// Emission rays per camera sample (`RenderSettings::emission_rays`), from the pilot's
+    /// share of noise in emission seen directly; 0 without a pilot.
+    pub emission_rays: u32,
     pub spp: u32,
     /// Photon settings for the photon method; counts are zero for skipped maps.
     pub photon: PhotonSettings,
@@ -492,6 +495,24 @@ const MIN_PHOTON_SHARE: f32 = 0.05;
 /// misses on three of eight (docs/bench/measurements.md, "The planner's cost rule").
 const CAUSTIC_COST_RATIO: f32 = 16.0;
 
+/// An emission ray's cost in path-tracer rays: one closest hit, shaded only on emitters
+/// (`walk::seen_emission`).
+const EMISSION_RAY_COST: f32 = 0.5;
+
+/// Emission rays per camera sample of the photon method when the camera sees emitters, and the
+/// least share of the path-traced pilot's noise in emission seen directly that counts as
+/// seeing them. The photon method leaves little noise but the edges of what the camera sees
+/// emit (its camera samples are Sobol points, which smooth light integrals far better than
+/// edges), and its preparation outweighs its camera samples, so emission rays cost it little:
+/// `photon-ic` at 8 spp and 96 px, 3 rays against none (docs/bench/measurements.md, "Emission
+/// rays"): the Cornell box relMSE 0.0145 → 0.0020 for 10 % more CPU time, the fractal Cornell
+/// box 0.0192 → 0.0029 for 8 %, Cornell spheres (16 spp, 48 px) 0.071 → 0.057; scenes whose
+/// error is elsewhere (the interior: seen share 1.1 %; sphereflake, glossy caustic) unchanged
+/// for 5–10 %. The path tracer, whose noise is everywhere, gained nothing on materials.glb and
+/// 1.3× on the Cornell box at 96 px for 35–50 % more time: it traces none.
+const PHOTON_EMISSION_RAYS: u32 = 3;
+const SEEN_SHARE_FOR_EMISSION_RAYS: f32 = 0.02;
+
 /// The predicted cost of a render, in path-tracer rays, from the pilots.
 #[derive(Clone, Copy, Debug)]
 struct Cost {
@@ -505,16 +526,23 @@ struct Cost {
 
 impl Cost {
     /// For `samples` camera samples at `spp` per pixel, with `photons` emitted per generation
-    /// (global and caustic).
-    fn predict(shares: &PilotShares, samples: u64, spp: u32, photons: f32) -> Cost {
+    /// (global and caustic), the photon method tracing `emission_rays` per camera sample.
+    fn predict(
+        shares: &PilotShares,
+        samples: u64,
+        spp: u32,
+        photons: f32,
+        emission_rays: u32,
+    ) -> Cost {
         let path = samples as f32 * shares.rays_per_path.max(1.0);
+        let emission = samples as f32 * emission_rays as f32 * EMISSION_RAY_COST;
         let generations = spp.div_ceil(GENERATION_SPP);
         let growth: f32 = (0..generations).map(photon_growth).sum();
         let preparation =
             photons * growth * shares.rays_per_photon.max(1.0) * PREPARATION_PER_PHOTON_RAY;
         Cost {
             path,
-            photon: preparation + PHOTON_SAMPLE_COST * path,
+            photon: preparation + PHOTON_SAMPLE_COST * path + emission,
             preparation,
         }
     }
@@ -553,6 +581,10 @@ struct PilotShares {
     /// share that is not indirect light: the noise left when photon maps and the cache carry the
     /// indirect light smoothly. 1 without a pilot image.
     noise_left: f32,
+    /// The share of that variance that is emission the camera sees directly: the edges of lamps,
+    /// windows, emitting screens against what lies around them, which emission rays average
+    /// (`RenderSettings::emission_rays`).
+    noise_seen: f32,
     /// Rays cast per emitted global photon in the pilot (its emission and one per stored
     /// photon); 0 when no global pilot ran.
     rays_per_photon: f32,
@@ -674,12 +706,16 @@ fn pilot_shares(
     let camera = CameraRays::new(&scene.camera, width, height);
     let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
     let (mut share_sum, mut pixels) = (0.0f64, 0u32);
-    let (mut rays, mut noise_total, mut noise_direct) = (0u64, 0.0f64, 0.0f64);
+    // Relative variance of the pixels' indirect light, of the emission they see directly, and of
+    // the rest.
+    let (mut rays, mut noise_indirect, mut noise_seen, mut noise_rest) = (0u64, 0.0, 0.0, 0.0);
     for y in 0..height {
         for x in 0..width {
             let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
-            // Sums and sums of squares of the pixel's samples, whole and without indirect light.
-            let (mut total, mut direct) = ([0.0f64; 2], [0.0f64; 2]);
+            // Sums and sums of squares of the pixel's samples: indirect light, emission seen
+            // directly, the rest.
+            let mut sums = [[0.0f64; 2]; 3];
+            let mut mean = 0.0;
             for _ in 0..PILOT_SPP {
                 let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
                 let sample = path::trace(&ctx, camera.ray(film), &mut rng);
@@ -688,31 +724,40 @@ fn pilot_shares(
                 indirect += pass(LightPass::Indirect);
                 reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
                 let whole = luminance(sample.radiance) as f64;
-                let rest = whole - pass(LightPass::Indirect);
-                total = [total[0] + whole, total[1] + whole * whole];
-                direct = [direct[0] + rest, direct[1] + rest * rest];
+                let seen = luminance(sample.seen_emission) as f64;
+                let parts = [pass(LightPass::Indirect), seen];
+                let parts = [parts[0], parts[1], whole - parts[0] - parts[1]];
+                for (sum, v) in sums.iter_mut().zip(parts) {
+                    *sum = [sum[0] + v, sum[1] + v * v];
+                }
+                mean += whole;
             }
             if reflected > 0.0 {
                 share_sum += indirect / reflected;
                 pixels += 1;
             }
             let n = PILOT_SPP as f64;
-            let mean = total[0] / n;
+            mean /= n;
             if mean > 0.0 {
                 let variance = |[sum, squares]: [f64; 2]| (squares - sum * sum / n).max(0.0);
-                noise_total += variance(total) / (mean * mean);
-                noise_direct += variance(direct) / (mean * mean);
+                noise_indirect += variance(sums[0]) / (mean * mean);
+                noise_seen += variance(sums[1]) / (mean * mean);
+                noise_rest += variance(sums[2]) / (mean * mean);
             }
         }
     }
+    let noise_total = noise_indirect + noise_seen + noise_rest;
     let indirect = match global {
         true => (share_sum / pixels.max(1) as f64) as f32,
         false => 0.0,
     };
     let rays_per_path = rays as f32 / (width * height * PILOT_SPP) as f32;
-    let noise_left = match noise_total > 0.0 {
-        true => (noise_direct / noise_total).min(1.0) as f32,
-        false => 1.0,
+    let (noise_left, noise_seen) = match noise_total > 0.0 {
+        true => (
+            ((noise_seen + noise_rest) / noise_total) as f32,
+            (noise_seen / noise_total) as f32,
+        ),
+        false => (1.0, 0.0),
     };
 
     let mut shares = PilotShares {
@@ -722,6 +767,7 @@ fn pilot_shares(
         photons: photon_count,
         rays_per_path,
         noise_left,
+        noise_seen,
         rays_per_photon: 0.0,
     };
     // Guided as the render's photons are, so that `seen` counts what the render will store.
@@ -830,6 +876,10 @@ pub struct Pilot<'a> {
     /// The pilots' size as a fraction of their full size; `None`: from the render's camera
     /// samples (`pilot_scale`).
     pub scale: Option<f32>,
+    /// Global and caustic photons per generation the render was given (`--photons`,
+    /// `--caustic-photons`), which the photon method's predicted cost then counts; `None`: the
+    /// plan's own.
+    pub photons: [Option<u32>; 2],
 }
 
 impl<'a> Pilot<'a> {
@@ -839,6 +889,7 @@ impl<'a> Pilot<'a> {
             accel,
             spp,
             scale: None,
+            photons: [None, None],
         }
     }
 }
@@ -876,6 +927,7 @@ pub fn plan_with_pilot(
     // The share of the preset's photons the render's budget calls for.
     let mut budget_share = 1.0;
     let mut caustic_share = 0.0;
+    let mut emission_rays = 0;
     let (method, method_reason) = if !anything_to_trace {
         (
             Method::Path,
@@ -907,6 +959,10 @@ pub fn plan_with_pilot(
             pilot.scale.unwrap_or_else(|| pilot_scale(samples)),
             (global_map.needed, caustic_map.needed),
         );
+        let photon_emission_rays = match shares.noise_seen >= SEEN_SHARE_FOR_EMISSION_RAYS {
+            true => PHOTON_EMISSION_RAYS,
+            false => 0,
+        };
         let percent = |x: f32| 100.0 * x;
         caustic_share = shares.hard_caustic;
         global_boost = global_photon_boost(shares.seen);
@@ -918,18 +974,29 @@ pub fn plan_with_pilot(
         }
         let generation_samples = width as f32 * height as f32 * spp.min(GENERATION_SPP) as f32;
         budget_share = (generation_samples / FULL_PHOTON_SAMPLES).clamp(MIN_PHOTON_SHARE, 1.0);
-        let photons = budget_share
-            * (global_map.needed as u32 as f32
-                * scale(defaults.global_photons) as f32
-                * global_boost
-                + caustic_map.needed as u32 as f32 * scale(defaults.caustic_photons) as f32);
-        let cost = Cost::predict(&shares, samples, spp, photons);
+        let [global_given, caustic_given] = pilot.photons;
+        let global = global_given.map_or(
+            budget_share * scale(defaults.global_photons) as f32 * global_boost,
+            |n| n as f32,
+        );
+        let caustic = caustic_given
+            .map_or(budget_share * scale(defaults.caustic_photons) as f32, |n| {
+                n as f32
+            });
+        let photons =
+            global_map.needed as u32 as f32 * global + caustic_map.needed as u32 as f32 * caustic;
+        let cost = Cost::predict(&shares, samples, spp, photons, photon_emission_rays);
         let cost_note = format!(
-            "; predicted cost in rays: path tracer {:.2e}, photon method {:.2e} ({:.2e} of it preparation); {:.0} % of the path tracer's noise is not indirect light",
+            "; predicted cost in rays: path tracer {:.2e}, photon method {:.2e} ({:.2e} of it preparation); {:.0} % of the path tracer's noise is not indirect light, {:.0} % is emission seen directly{}",
             cost.path,
             cost.photon,
             cost.preparation,
-            percent(shares.noise_left)
+            percent(shares.noise_left),
+            percent(shares.noise_seen),
+            match photon_emission_rays {
+                0 => String::new(),
+                n => format!(" (the photon method traces {n} emission rays per sample)"),
+            }
         );
         let caustic_reason = || {
             format!(
@@ -963,6 +1030,9 @@ pub fn plan_with_pilot(
                 ),
             )
         };
+        if method == Method::Photon {
+            emission_rays = photon_emission_rays;
+        }
         (method, reason + &cost_note)
     } else {
         (
@@ -1021,6 +1091,7 @@ pub fn plan_with_pilot(
         caustic_share,
         method,
         method_reason,
+        emission_rays,
         spp: quality.spp(),
         photon,
         memory,

@@ -20,10 +20,10 @@ use crate::integrator::photon::build::{build_maps, PhotonMaps};
 use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
 use crate::integrator::photon::shade::{self, View};
 use crate::integrator::photon::tracing::Emitters;
-use crate::integrator::{path, CameraSample, Context};
+use crate::integrator::{path, walk, CameraSample, Context};
 use crate::irradiance_cache::{IcSettings, IrradianceCache};
 use crate::light::Lights;
-use crate::light_pass::Passes;
+use crate::light_pass::{LightPass, Passes};
 use crate::math::{Vec2, Vec3};
 use crate::progress::{Progress, ProgressEvent};
 use crate::rng::Rng;
@@ -62,6 +62,10 @@ pub struct RenderSettings {
     /// Adaptive sampling (Cycles' noise threshold, `adaptive`): pixels stop taking samples
     /// once their estimated error is below the threshold; `None`: every pixel takes `spp`.
     pub adaptive: Option<AdaptiveSettings>,
+    /// Extra camera rays per sample that only see emission (`walk::seen_emission`): the light
+    /// the camera sees directly (a lamp's edge against a dark ceiling, a bright window) is
+    /// averaged over these instead of the sample's own ray, whose path keeps the rest. 0: off.
+    pub emission_rays: u32,
 }
 
 /// A window of the frame in pixels, top-left origin, `x1` and `y1` exclusive.
@@ -145,6 +149,7 @@ impl Default for RenderSettings {
             filter: None,
             sampler: Sampler::default(),
             adaptive: None,
+            emission_rays: 0,
         }
     }
 }
@@ -793,6 +798,50 @@ fn prepare_cache(
 
 /// Take `step` more samples in each active pixel of `tile`, each pixel's samples numbered on
 /// from those it already has.
+/// Tag of the Sobol sequence of the emission rays (`RenderSettings::emission_rays`).
+const EMISSION_RAYS_TAG: u64 = 0x5ee5_e111;
+
+/// Replace what sample `s` of pixel (x, y) sees directly by the mean of what
+/// `settings.emission_rays` other camera rays of the pixel see (`walk::seen_emission`): both
+/// estimate the same integral over the pixel filter, so the sample stays unbiased, and edges of
+/// bright emitters take that many more positions. Each ray draws its film position, lens and
+/// moment from one Sobol sequence per pixel (sample s·n + k), so a pixel's emission rays are
+/// stratified together. Returns the rays traced.
+fn see_emission(
+    round: &RoundSetup,
+    sample: &mut CameraSample,
+    pixel_index: u64,
+    s: u32,
+    (x, y): (u32, u32),
+) -> u32 {
+    let (ctx, camera, filter, settings) = (round.ctx, round.camera, round.filter, round.settings);
+    let n = settings.emission_rays;
+    let (mut seen, mut rays) = (Vec3::ZERO, 0);
+    for k in 0..n {
+        let mut rng = Rng::sobol(settings.seed ^ EMISSION_RAYS_TAG, pixel_index, s * n + k);
+        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + filter.sample(rng.uniform2());
+        let lens = if camera.has_lens() {
+            rng.uniform2()
+        } else {
+            Vec2::ZERO
+        };
+        let time = round.moving.then(|| rng.uniform());
+        let ray = camera.sample_ray(film, lens, time);
+        if ray.t_max > 0.0 {
+            let (le, traced) = walk::seen_emission(ctx, ray, &mut rng);
+            seen += le;
+            rays += traced;
+        }
+    }
+    let seen = seen / n as f32;
+    sample.radiance += seen - sample.seen_emission;
+    sample
+        .passes
+        .add(LightPass::Emission, seen - sample.seen_emission);
+    sample.seen_emission = seen;
+    rays
+}
+
 fn render_tile(
     round: &RoundSetup,
     tile: &mut Tile,
@@ -845,7 +894,10 @@ fn render_tile(
             if ray.t_max <= 0.0 {
                 continue; // outside a fisheye's image: black, as in Cycles
             }
-            let sample = integrator.trace(ctx, ray, &mut rng);
+            let mut sample = integrator.trace(ctx, ray, &mut rng);
+            if settings.emission_rays > 0 {
+                tile_rays += see_emission(round, &mut sample, pixel_index, s, (x, y)) as u64;
+            }
             tile_rays += sample.rays as u64;
             if sample.radiance.is_finite() {
                 px.sum += sample.radiance;

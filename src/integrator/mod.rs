@@ -55,4 +55,8 @@ pub struct CameraSample {
     /// `radiance` split by light path (`crate::light_pass::LightPass`); every integrator sets
     /// both so that the passes sum to `radiance`.
     pub passes: Passes,
+    /// The part of `radiance` the camera ray sees directly: the emission of the first surface
+    /// it meets, or the background it escapes to (`walk::seen_emission` estimates the same
+    /// for another ray).
+    pub seen_emission: Vec3,
 }

@@ -16,7 +16,7 @@ use super::classify::stores_photons;
 use super::direct::Previous;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
-use crate::accel::{Ray, Visibility};
+use crate::accel::{hit_mesh, Ray, Visibility};
 use crate::bsdf::{BsdfSample, Scattering};
 use crate::light::emitted_radiance;
 use crate::light_pass::{LightPass, Passes};
@@ -56,7 +56,8 @@ pub struct PathState {
 
 impl PathState {
     /// A camera ray's path, or (`gather`) a cache record's gather ray's: a diffuse bounce.
-    fn new(ray: Ray, gather: bool) -> PathState {
+    /// `emission_only`: the walk ends at the first surface, after its emission.
+    fn new(ray: Ray, gather: bool, emission_only: bool) -> PathState {
         // Emission seen by the camera ray counts in full.
         let previous = Previous {
             p: ray.origin,
@@ -71,7 +72,7 @@ impl PathState {
             diffuse: 0,
             depth: 0,
             subsurface: false,
-            emission_only: false,
+            emission_only,
             passes: Passes::default(),
             rays: 0,
             light_path: if gather {
@@ -200,7 +201,42 @@ pub fn walk(
         ..CameraSample::default()
     };
     let emission = integrator.counts_emission();
-    let mut state = PathState::new(ray, gather);
+    let mut state = PathState::new(ray, gather, false);
+    walk_from(ctx, &mut state, rng, gather, emission, integrator, &mut out);
+    out.radiance = state.passes.total();
+    out.passes = state.passes;
+    out.rays = state.rays;
+    out
+}
+
+/// What the camera sees directly along `ray`: the emission of the first surface it meets, or
+/// the background it escapes to, exactly as `walk` counts it at its first vertex
+/// (`CameraSample::seen_emission`), with the rays traced. A surface whose material cannot emit
+/// is not shaded.
+pub fn seen_emission(ctx: &Context, ray: Ray, rng: &mut Rng) -> (Vec3, u32) {
+    /// The walk ends at the first surface before any integrator acts.
+    struct Nothing;
+    impl Scatter for Nothing {
+        fn scatter(&mut self, _: &mut PathState, _: &mut Shading, _: &mut Rng) -> Next {
+            Next::End
+        }
+    }
+    let mut state = PathState::new(ray, false, true);
+    let mut out = CameraSample::default();
+    walk_from(ctx, &mut state, rng, false, true, &mut Nothing, &mut out);
+    (out.seen_emission, state.rays)
+}
+
+/// The loop of `walk` from `state`, filling `out`'s first-hit fields.
+fn walk_from(
+    ctx: &Context,
+    state: &mut PathState,
+    rng: &mut Rng,
+    gather: bool,
+    emission: bool,
+    integrator: &mut impl Scatter,
+    out: &mut CameraSample,
+) {
     for depth in 0..=ctx.max_depth {
         // A camera ray stays one through transparent surfaces (as in Cycles).
         let visibility = if state.light_path.is(RayPath::CAMERA) {
@@ -220,8 +256,16 @@ pub fn walk(
                     _ => state.escaped(ctx),
                 }
             }
+            if depth == 0 {
+                out.seen_emission = state.passes.total();
+            }
             break;
         };
+        // Only emission is wanted: a surface that cannot emit ends the walk unshaded.
+        let material = hit_mesh(ctx.scene, &hit).material;
+        if state.emission_only && !ctx.scene.materials[material as usize].is_emissive() {
+            break;
+        }
         if state.absorption != Vec3::ZERO {
             state.beta *= transmittance(state.absorption, &hit, &ray);
         }
@@ -236,11 +280,14 @@ pub fn walk(
         if emission && !(gather && depth == 0) {
             state.emitted(ctx, &s);
         }
+        if depth == 0 {
+            out.seen_emission = state.passes.total();
+        }
         if depth == ctx.max_depth || state.emission_only {
             break;
         }
         state.depth = depth;
-        let light_sampled = match integrator.scatter(&mut state, &mut s, rng) {
+        let light_sampled = match integrator.scatter(state, &mut s, rng) {
             Next::End => break,
             Next::Moved => {
                 if depth >= 3 && !state.roulette(rng) {
@@ -261,10 +308,6 @@ pub fn walk(
             break;
         }
     }
-    out.radiance = state.passes.total();
-    out.passes = state.passes;
-    out.rays = state.rays;
-    out
 }
 
 /// The throughput, medium and length of a specular chain as `follow_specular` walks it.
