@@ -15,18 +15,18 @@
 //! distribution over its pixels weighted by luminance × sin θ, mapped to the sphere with the
 //! Jacobian 2π² sin θ (pbrt-v4 §12.5.2, "Image infinite lights").
 
+use crate::accel::Ray;
 use crate::bsdf::Bsdf;
 use crate::interaction::{LightPoint, SurfaceHit};
 use crate::material::{from_closure, SurfaceMaterial};
 use crate::math::{luminance, Frame, Vec2, Vec3};
 use crate::math::{Affine3A, Mat3};
-use crate::accel::Ray;
-use crate::scene::Lamp;
 use crate::sampling::{
     square_to_triangle, square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf,
     Distribution1D, Distribution2D, UNIFORM_SPHERE_PDF,
 };
 use crate::scene::nodes::RayPath;
+use crate::scene::Lamp;
 use crate::scene::{Environment, Light, Mesh, Scene};
 use std::f32::consts::PI;
 
@@ -1014,7 +1014,9 @@ fn sample_punctual(
         });
     };
     let wi = cone.sample(u);
-    let t = cone.hit(wi, radius, lamp.soft_falloff).unwrap_or(cone.distance);
+    let t = cone
+        .hit(wi, radius, lamp.soft_falloff)
+        .unwrap_or(cone.distance);
     let q = p + wi * t;
     let target = LightPoint {
         p: q,

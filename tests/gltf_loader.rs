@@ -921,7 +921,10 @@ fn lamp_flags_are_read_and_checked() {
     let light = |flags: Value| {
         let mut doc = triangle_doc();
         let mut extension = json!({"radius": 0.2});
-        extension.as_object_mut().unwrap().extend(flags.as_object().unwrap().clone());
+        extension
+            .as_object_mut()
+            .unwrap()
+            .extend(flags.as_object().unwrap().clone());
         with_light(
             &mut doc,
             json!({"type": "spot", "intensity": 100.0, "spot": {"outerConeAngle": 0.5}}),
@@ -929,7 +932,9 @@ fn lamp_flags_are_read_and_checked() {
         );
         load_glb(&doc)
     };
-    let scene = light(json!({"soft_falloff": false, "visible_camera": true, "visible_bounces": false})).unwrap();
+    let scene =
+        light(json!({"soft_falloff": false, "visible_camera": true, "visible_bounces": false}))
+            .unwrap();
     let Light::Spot { lamp, radius, .. } = &scene.lights[0] else {
         panic!("not a spot light")
     };

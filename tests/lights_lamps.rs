@@ -64,7 +64,12 @@ fn rays_meet_the_sphere_and_the_soft_falloff_disc_where_they_are() {
     for soft in [false, true] {
         let (_, lights) = lights_of(vec![point(centre, r, lamp(soft))]);
         // Head-on: the sphere's near side at d − r, the disc through the centre at d.
-        let hits = met(&lights, &ray(Vec3::ZERO, Vec3::new(0.0, 2.0, 0.0)), 1e9, false);
+        let hits = met(
+            &lights,
+            &ray(Vec3::ZERO, Vec3::new(0.0, 2.0, 0.0)),
+            1e9,
+            false,
+        );
         assert_eq!(hits.len(), 1, "soft {soft}");
         let expected = if soft { 3.0 } else { 2.5 };
         assert!((hits[0].2 - expected).abs() < 1e-5, "{hits:?}");
@@ -73,10 +78,17 @@ fn rays_meet_the_sphere_and_the_soft_falloff_disc_where_they_are() {
         // Blocked by a surface before the lamp.
         assert!(met(&lights, &ray(Vec3::ZERO, Vec3::Y), expected - 0.01, false).is_empty());
         // Just inside and just outside the lamp's cone (sphere: sin θ = r/d; disc: tan θ = r/d).
-        let edge = if soft { (r / 3.0f32).atan() } else { (r / 3.0f32).asin() };
+        let edge = if soft {
+            (r / 3.0f32).atan()
+        } else {
+            (r / 3.0f32).asin()
+        };
         for (angle, hit) in [(edge * 0.999, true), (edge * 1.001, false)] {
             let w = Vec3::new(angle.sin(), angle.cos(), 0.0);
-            assert_eq!(!met(&lights, &ray(Vec3::ZERO, w), 1e9, false).is_empty(), hit);
+            assert_eq!(
+                !met(&lights, &ray(Vec3::ZERO, w), 1e9, false).is_empty(),
+                hit
+            );
         }
         // Pointing away; and from inside the sphere nothing is met.
         assert!(met(&lights, &ray(Vec3::ZERO, -Vec3::Y), 1e9, false).is_empty());
@@ -99,7 +111,11 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
         lamp: lamp(false),
     };
     let soft = point(Vec3::new(-1.0, 1.5, 0.5), 0.2, lamp(true));
-    let (scene, lights) = lights_of(vec![spot, soft, point(Vec3::new(2.0, 2.0, 2.0), 0.0, lamp(true))]);
+    let (scene, lights) = lights_of(vec![
+        spot,
+        soft,
+        point(Vec3::new(2.0, 2.0, 2.0), 0.0, lamp(true)),
+    ]);
     let mut rng = Rng::new(7);
     let mut checked = 0;
     for i in 0..2000 {
@@ -119,7 +135,11 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
         assert!((pdf / ls.pdf - 1.0).abs() < 1e-4, "pdf {pdf} vs {}", ls.pdf);
         // The spot's cone is evaluated along the ray as along the sample (to rounding).
         let brightest = 30.0 / (PI * 0.3 * 0.3);
-        assert!((l - ls.li).abs().max_element() < 1e-4 * brightest, "{l} vs {}", ls.li);
+        assert!(
+            (l - ls.li).abs().max_element() < 1e-4 * brightest,
+            "{l} vs {}",
+            ls.li
+        );
         assert!((p + ls.wi * t).distance(ls.target.p) < 1e-4);
         checked += 1;
     }
@@ -142,7 +162,14 @@ fn camera_rays_see_only_lamps_visible_to_the_camera() {
     // A lamp hidden from scattered rays is a light sample without MIS.
     let (_, lights) = lights_of(vec![point(Vec3::Y * 3.0, 0.5, seen)]);
     let ls = lights
-        .sample(&scene, Vec3::ZERO, RayPath::default(), FRAME_TIME, 0.5, Vec2::splat(0.5))
+        .sample(
+            &scene,
+            Vec3::ZERO,
+            RayPath::default(),
+            FRAME_TIME,
+            0.5,
+            Vec2::splat(0.5),
+        )
         .unwrap();
     assert!(ls.delta);
     assert!(!lights.hittable());
@@ -156,7 +183,11 @@ fn many_lamps_are_found_through_the_hierarchy() {
     let mut all = Vec::new();
     for _ in 0..300 {
         let c = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 20.0 - 10.0;
-        all.push(point(c, 0.05 + 0.5 * rng.uniform(), lamp(rng.uniform() < 0.5)));
+        all.push(point(
+            c,
+            0.05 + 0.5 * rng.uniform(),
+            lamp(rng.uniform() < 0.5),
+        ));
     }
     let (_, lights) = lights_of(all.clone());
     let alone: Vec<Lights> = all.iter().map(|l| lights_of(vec![l.clone()]).1).collect();
@@ -166,7 +197,8 @@ fn many_lamps_are_found_through_the_hierarchy() {
         let w = photon::sampling::square_to_uniform_sphere(Vec2::new(rng.uniform(), rng.uniform()));
         let reach = 30.0 * rng.uniform();
         let r = ray(o, w * 2.0);
-        let mut through_tree: Vec<f32> = met(&lights, &r, reach, false).iter().map(|h| h.2).collect();
+        let mut through_tree: Vec<f32> =
+            met(&lights, &r, reach, false).iter().map(|h| h.2).collect();
         let mut one_by_one: Vec<f32> = alone
             .iter()
             .flat_map(|l| met(l, &r, reach, false))
@@ -224,5 +256,8 @@ fn mis_with_the_lamp_lowers_the_glossy_highlights_error() {
     let mis = compare(&render(true, 16, 3), &reference).rel_mse;
     let light_only = compare(&render(false, 16, 3), &reference).rel_mse;
     println!("relMSE at 16 spp: MIS {mis:.5}, light sampling alone {light_only:.5}");
-    assert!(mis < 0.5 * light_only, "MIS {mis} vs light sampling {light_only}");
+    assert!(
+        mis < 0.5 * light_only,
+        "MIS {mis} vs light sampling {light_only}"
+    );
 }

@@ -173,8 +173,8 @@
 
 use super::texture::{Texels, Wrap};
 use super::{
-    AlphaMode, Background, Bounds, Camera, Environment, Lamp, Light, Material, Mesh, Projection, Scene,
-    SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
+    AlphaMode, Background, Bounds, Camera, Environment, Lamp, Light, Material, Mesh, Projection,
+    Scene, SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
 use crate::film::{FilterKind, FilterSettings};
@@ -1958,9 +1958,9 @@ impl Loader {
         let flag = |key: &str, default: bool| -> Result<bool> {
             match extension.and_then(|e| e.get(key)) {
                 None => Ok(default),
-                Some(v) => v
-                    .as_bool()
-                    .ok_or_else(|| self.err(&object, format!("'{key}' must be true or false: {v}"))),
+                Some(v) => v.as_bool().ok_or_else(|| {
+                    self.err(&object, format!("'{key}' must be true or false: {v}"))
+                }),
             }
         };
         let defaults = Lamp::default();
