@@ -763,6 +763,12 @@ impl Lights {
             if !(if camera { lamp.camera } else { lamp.bounces }) {
                 return;
             }
+            // Most rays pass wide of a lamp: both its sphere and its disc lie within r of the
+            // centre, which the ray must pass ahead of its origin.
+            let c = position - o;
+            if c.dot(w) <= 0.0 || w.cross(c).length_squared() > radius * radius {
+                return;
+            }
             let Some(cone) = lamp_cone(position, radius, lamp.soft_falloff, o) else {
                 return;
             };
