@@ -631,7 +631,10 @@ impl Lights {
                 let s = sample_punctual(position, radius, lamp, p, u)?;
                 // As Cycles: the cone is evaluated along the sampled ray, from the sampled point
                 // of the lamp, which widens it by about the radius (a point: from the centre).
-                let falloff = smoothstep(cos_outer, cos_inner, -s.sample.wi.dot(direction));
+                let falloff = match s.inside {
+                    true => 1.0,
+                    false => smoothstep(cos_outer, cos_inner, -s.sample.wi.dot(direction)),
+                };
                 if falloff <= 0.0 {
                     return None;
                 }
@@ -738,8 +741,7 @@ impl Lights {
     /// and the lamp's distance. `camera`: a camera ray, which sees the lamps Blender shows the
     /// camera; any other ray is one a surface scattered. As in Cycles a lamp is not geometry:
     /// the ray passes through it (Cycles counts a transparent bounce), so every lamp on the way
-    /// counts. Rays from inside a sphere lamp do not see it (light sampling treats it as a
-    /// point there).
+    /// counts. From inside a sphere lamp a ray meets its far side.
     pub fn lamps_met(
         &self,
         ray: &Ray,
@@ -766,7 +768,9 @@ impl Lights {
             // Most rays pass wide of a lamp: both its sphere and its disc lie within r of the
             // centre, which the ray must pass ahead of its origin.
             let c = position - o;
-            if c.dot(w) <= 0.0 || w.cross(c).length_squared() > radius * radius {
+            let r2 = radius * radius;
+            let ahead = c.dot(w) > 0.0 && w.cross(c).length_squared() <= r2;
+            if !ahead && (lamp.soft_falloff || c.length_squared() > r2) {
                 return;
             }
             let Some(cone) = lamp_cone(position, radius, lamp.soft_falloff, o) else {
@@ -786,7 +790,10 @@ impl Lights {
                     cos_inner,
                     cos_outer,
                     ..
-                } => intensity * smoothstep(cos_outer, cos_inner, -w.dot(direction)),
+                } if !cone.inside => {
+                    intensity * smoothstep(cos_outer, cos_inner, -w.dot(direction))
+                }
+                LightSource::Spot { intensity, .. } => intensity,
                 _ => Vec3::ZERO,
             } / (PI * radius * radius);
             if radiance != Vec3::ZERO {
@@ -904,14 +911,19 @@ struct LampCone {
     to_centre: Vec3,
     /// Distance to the centre.
     distance: f32,
-    /// 1 − cos of the cone's half-angle (kept apart: it is tiny for small lamps).
+    /// 1 − cos of the cone's half-angle (kept apart: it is tiny for small lamps); 2 inside
+    /// a sphere, whose every direction meets the lamp.
     one_minus_cos: f32,
+    /// The point is inside the sphere: rays meet its far side, and a spot's cone does not dim
+    /// it (as in Cycles).
+    inside: bool,
 }
 
 /// The cone of directions in which a lamp of radius `radius` at `position` is seen from `p`:
-/// a sphere's (sin θ = r/d) or, with Soft Falloff, a disc's facing `p` (tan θ = r/d), both of
-/// uniform radiance. `None` where the lamp is a point from `p`: radius 0, `p` inside the
-/// sphere, or so far that the cone is numerically a point.
+/// a sphere's (sin θ = r/d; inside it, the whole sphere of directions, drawn uniformly where
+/// Cycles draws the hemisphere by cosine) or, with Soft Falloff, a disc's facing `p`
+/// (tan θ = r/d), all of uniform radiance. `None` where the lamp is a point from `p`: radius
+/// 0, `p` at its centre, or so far that the cone is numerically a point.
 fn lamp_cone(position: Vec3, radius: f32, soft_falloff: bool, p: Vec3) -> Option<LampCone> {
     let d = position - p;
     let d2 = d.length_squared();
@@ -920,14 +932,14 @@ fn lamp_cone(position: Vec3, radius: f32, soft_falloff: bool, p: Vec3) -> Option
         return None;
     }
     let distance = d2.sqrt();
+    let inside = !soft_falloff && d2 <= r2;
     let one_minus_cos = if soft_falloff {
         // 1 − d/h with h² = d² + r², written without cancellation.
         let h = (d2 + r2).sqrt();
         r2 / (h * (h + distance))
+    } else if inside {
+        2.0
     } else {
-        if d2 <= r2 {
-            return None;
-        }
         let sin2 = r2 / d2;
         sin2 / (1.0 + (1.0 - sin2).sqrt())
     };
@@ -935,6 +947,7 @@ fn lamp_cone(position: Vec3, radius: f32, soft_falloff: bool, p: Vec3) -> Option
         to_centre: d / distance,
         distance,
         one_minus_cos,
+        inside,
     })
 }
 
@@ -958,17 +971,21 @@ impl LampCone {
     }
 
     /// Distance along unit direction `w` from the cone's apex to the lamp (the near side of
-    /// the sphere, or the disc through the centre facing the apex); `None` when `w` misses it.
+    /// the sphere, its far side from inside, or the disc through the centre facing the apex);
+    /// `None` when `w` misses it.
     fn hit(&self, w: Vec3, radius: f32, soft_falloff: bool) -> Option<f32> {
         let c = self.to_centre * self.distance;
         let along = w.dot(c);
-        if along <= 0.0 {
-            return None;
-        }
         // Squared distance of the centre from the line, from the cross product: no
         // cancellation for nearly head-on rays.
         let off2 = w.cross(c).length_squared();
         let r2 = radius * radius;
+        if self.inside {
+            return Some(along + (r2 - off2).max(0.0).sqrt());
+        }
+        if along <= 0.0 {
+            return None;
+        }
         if soft_falloff {
             // Within the disc: tan α ≤ r/d.
             (off2 * self.distance * self.distance <= r2 * along * along)
@@ -984,6 +1001,8 @@ impl LampCone {
 struct PunctualSample {
     sample: LightSample,
     scale: f32,
+    /// `p` is inside a sphere lamp (`LampCone::inside`).
+    inside: bool,
 }
 
 /// Direction towards a point or spot light seen from `p`. With a lamp's cone (`lamp_cone`) the
@@ -1017,6 +1036,7 @@ fn sample_punctual(
         return Some(PunctualSample {
             sample,
             scale: 1.0 / dist2,
+            inside: false,
         });
     };
     let wi = cone.sample(u);
@@ -1039,6 +1059,7 @@ fn sample_punctual(
     Some(PunctualSample {
         sample,
         scale: 1.0 / (PI * radius * radius),
+        inside: cone.inside,
     })
 }
 

@@ -90,11 +90,14 @@ fn rays_meet_the_sphere_and_the_soft_falloff_disc_where_they_are() {
                 hit
             );
         }
-        // Pointing away; and from inside the sphere nothing is met.
+        // Pointing away nothing is met; from inside the sphere, its far side, every direction
+        // with the whole sphere's density.
         assert!(met(&lights, &ray(Vec3::ZERO, -Vec3::Y), 1e9, false).is_empty());
         if !soft {
-            let inside = ray(centre + Vec3::new(0.1, 0.0, 0.0), Vec3::X);
-            assert!(met(&lights, &inside, 1e9, false).is_empty());
+            let inside = met(&lights, &ray(centre + Vec3::X * 0.1, Vec3::X), 1e9, false);
+            assert_eq!(inside.len(), 1);
+            assert!((inside[0].2 - 0.4).abs() < 1e-5, "{inside:?}");
+            assert!((inside[0].1 - 1.0 / (4.0 * PI)).abs() < 1e-6);
         }
     }
 }
@@ -111,27 +114,36 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
         lamp: lamp(false),
     };
     let soft = point(Vec3::new(-1.0, 1.5, 0.5), 0.2, lamp(true));
-    let (scene, lights) = lights_of(vec![
-        spot,
-        soft,
-        point(Vec3::new(2.0, 2.0, 2.0), 0.0, lamp(true)),
-    ]);
+    // A sphere lamp around part of the floor: points inside it sample the whole sphere.
+    let around = point(Vec3::new(0.6, 0.1, 0.6), 0.4, lamp(false));
+    let hard = point(Vec3::new(2.0, 2.0, 2.0), 0.0, lamp(true));
+    let (scene, lights) = lights_of(vec![spot, soft, around, hard]);
     let mut rng = Rng::new(7);
-    let mut checked = 0;
-    for i in 0..2000 {
+    let (mut checked, mut inside) = (0, 0);
+    for i in 0..4000 {
         let p = Vec3::new(rng.uniform() - 0.5, 0.0, rng.uniform() - 0.5) * 2.0;
         let u = Vec2::new(rng.uniform(), rng.uniform());
         let Some(ls) = lights.sample(&scene, p, RayPath::default(), FRAME_TIME, rng.uniform(), u)
         else {
             continue;
         };
+        // The lamp met where the sample's shadow ray ends is the sampled one (a ray from inside
+        // the sphere lamp also meets that one); a point light is never met.
         let hits = met(&lights, &ray(p, ls.wi), 1e9, false);
+        let at_target = hits
+            .iter()
+            .find(|h| (p + ls.wi * h.2).distance(ls.target.p) < 1e-4);
         if ls.delta {
-            assert!(hits.is_empty(), "sample {i}: a point light is never met");
+            assert!(
+                at_target.is_none(),
+                "sample {i}: a point light is never met"
+            );
             continue;
         }
-        assert_eq!(hits.len(), 1, "sample {i}: {ls:?}");
-        let (l, pdf, t) = hits[0];
+        let Some(&(l, pdf, t)) = at_target else {
+            panic!("sample {i}: {ls:?} not met: {hits:?}");
+        };
+        inside += (p.distance(Vec3::new(0.6, 0.1, 0.6)) < 0.4) as u32;
         assert!((pdf / ls.pdf - 1.0).abs() < 1e-4, "pdf {pdf} vs {}", ls.pdf);
         // The spot's cone is evaluated along the ray as along the sample (to rounding).
         let brightest = 30.0 / (PI * 0.3 * 0.3);
@@ -143,7 +155,10 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
         assert!((p + ls.wi * t).distance(ls.target.p) < 1e-4);
         checked += 1;
     }
-    assert!(checked > 500, "{checked} lamp samples");
+    assert!(
+        checked > 1000 && inside > 20,
+        "{checked} lamp samples, {inside} inside"
+    );
 }
 
 #[test]
@@ -260,4 +275,37 @@ fn mis_with_the_lamp_lowers_the_glossy_highlights_error() {
         mis < 0.5 * light_only,
         "MIS {mis} vs light sampling {light_only}"
     );
+}
+
+/// A floor inside a sphere lamp (Soft Falloff off) sees the lamp's radiance L = I / (πr²) over
+/// its whole hemisphere, so it shows ρL, with light sampling alone and with MIS.
+#[test]
+fn a_floor_inside_a_sphere_lamp_shows_albedo_times_its_radiance() {
+    for bounces in [false, true] {
+        let light = Light::Point {
+            position: Vec3::new(0.0, 0.1, 0.0),
+            intensity: Vec3::splat(2.0),
+            radius: 0.5,
+            lamp: Lamp {
+                soft_falloff: false,
+                camera: false,
+                bounces,
+            },
+        };
+        let settings = RenderSettings {
+            width: 8,
+            height: 8,
+            spp: 64,
+            ..RenderSettings::default()
+        };
+        let image = scenes::render_quietly(&scenes::lit_floor(0.5, light), &settings)
+            .expect("render")
+            .0;
+        let expected = 0.5 * 2.0 / (PI * 0.25);
+        let mean = image.mean_rgb().x;
+        assert!(
+            (mean / expected - 1.0).abs() < 0.01,
+            "bounces {bounces}: {mean} vs {expected}"
+        );
+    }
 }
