@@ -11,6 +11,15 @@
 //! Units follow Cycles (docs/ARCHITECTURE.md): triangle and world radiance as given, point and spot
 //! intensity in W/sr, sun irradiance in W/m².
 //!
+//! A point or spot light with a radius is a lamp as Cycles 4 defines it (`kernel/light/point.h`,
+//! `spot.h`): uniform radiance I / (πr²) over a disc of radius r facing the point it lights
+//! (Blender's Soft Falloff, the default) or over a sphere. Light sampling draws a direction
+//! uniformly in the cone the lamp fills; rays that surfaces scatter meet it too
+//! (`Lights::lamps_met`, which the camera walk calls on every segment), so both are weighted by
+//! MIS with the same density, select probability / the cone's solid angle. Lamps are not
+//! geometry: rays pass through them, shadow rays ignore them; past eight lamps a small BVH over
+//! their spheres keeps a ray from testing them all.
+//!
 //! An environment map (`EnvironmentLight`) is importance-sampled with a 2D piecewise-constant
 //! distribution over its pixels weighted by luminance × sin θ, mapped to the sphere with the
 //! Jacobian 2π² sin θ (pbrt-v4 §12.5.2, "Image infinite lights").
@@ -93,7 +102,7 @@ pub struct LightSample {
     /// lights only that probability.
     pub pdf: f32,
     /// The light cannot be reached by BSDF-sampled rays (a point, a hard sun, a lamp hidden
-    /// from scattered rays or seen from inside its sphere): its sample is used without MIS.
+    /// from scattered rays or so far that it is a point): its sample is used without MIS.
     pub delta: bool,
     /// Where the shadow ray must reach.
     pub target: LightPoint,
