@@ -622,7 +622,7 @@ impl Lights {
                 radius,
                 lamp,
             } => {
-                let s = sample_punctual(position, radius, lamp, p, u)?;
+                let s = sample_punctual(position, radius, lamp, None, p, u)?;
                 Some(LightSample {
                     li: intensity * s.scale,
                     ..s.sample
@@ -637,7 +637,8 @@ impl Lights {
                 radius,
                 lamp,
             } => {
-                let s = sample_punctual(position, radius, lamp, p, u)?;
+                let spread = spot_spread(&self.sources[index]);
+                let s = sample_punctual(position, radius, lamp, spread, p, u)?;
                 // As Cycles: the cone is evaluated along the sampled ray, from the sampled point
                 // of the lamp, which widens it by about the radius (a point: from the centre).
                 let falloff = match s.inside {
@@ -806,7 +807,8 @@ impl Lights {
                 _ => Vec3::ZERO,
             } / (PI * radius * radius);
             if radiance != Vec3::ZERO {
-                visit(radiance, self.select.pmf(i as usize) * cone.pdf(), t);
+                let pdf = cone.pdf(spot_spread(source));
+                visit(radiance, self.select.pmf(i as usize) * pdf, t);
             }
         });
     }
@@ -913,6 +915,20 @@ fn lamp_of(source: &LightSource) -> Option<(Vec3, f32, Lamp)> {
     }
 }
 
+/// A spot's own cone as light sampling may draw from it (`LampCone::sampled`): the axis
+/// pointing back along the spot's direction and 1 − cos of its outer half-angle; `None` for
+/// other lights.
+fn spot_spread(source: &LightSource) -> Option<(Vec3, f32)> {
+    match *source {
+        LightSource::Spot {
+            direction,
+            cos_outer,
+            ..
+        } => Some((-direction, 1.0 - cos_outer)),
+        _ => None,
+    }
+}
+
 /// A lamp's cone seen from a point (`lamp_cone`).
 #[derive(Clone, Copy, Debug)]
 struct LampCone {
@@ -963,20 +979,32 @@ fn lamp_cone(position: Vec3, radius: f32, soft_falloff: bool, p: Vec3) -> Option
 /// Smallest 1 − cos θ of a lamp's cone that is sampled as a cone; narrower ones are points.
 const MIN_LAMP_CONE: f32 = 1e-6;
 
+/// A direction drawn uniformly with `u` in the cone around unit `axis` whose half-angle has
+/// 1 − cos = `one_minus_cos` (the sine from 1 − cos, which keeps its digits in narrow cones).
+fn cone_direction(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
+    let one_minus_z = u.x * one_minus_cos;
+    let z = 1.0 - one_minus_z;
+    let r = (one_minus_z * (2.0 - one_minus_z)).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Frame::from_normal(axis).to_world(Vec3::new(r * phi.cos(), r * phi.sin(), z))
+}
+
 impl LampCone {
-    /// Density per solid angle of a direction drawn uniformly in the cone.
-    fn pdf(&self) -> f32 {
-        1.0 / (2.0 * PI * self.one_minus_cos)
+    /// The cone light sampling draws from (1 − cos and axis): the lamp's, or, as Cycles does,
+    /// a spot's own cone around the reversed spot direction (`spread`: that axis and its
+    /// 1 − cos) where it is the narrower, since no direction outside it carries light. Inside a
+    /// sphere the lamp's.
+    fn sampled(&self, spread: Option<(Vec3, f32)>) -> (Vec3, f32) {
+        match spread {
+            Some((axis, omc)) if !self.inside && omc < self.one_minus_cos => (axis, omc),
+            _ => (self.to_centre, self.one_minus_cos),
+        }
     }
 
-    /// A direction drawn uniformly in the cone with `u` (the sine from 1 − cos, which keeps
-    /// its digits in narrow cones).
-    fn sample(&self, u: Vec2) -> Vec3 {
-        let one_minus_z = u.x * self.one_minus_cos;
-        let z = 1.0 - one_minus_z;
-        let r = (one_minus_z * (2.0 - one_minus_z)).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        Frame::from_normal(self.to_centre).to_world(Vec3::new(r * phi.cos(), r * phi.sin(), z))
+    /// Density per solid angle with which light sampling draws a direction that meets the lamp
+    /// (uniform in the cone `sampled` gives).
+    fn pdf(&self, spread: Option<(Vec3, f32)>) -> f32 {
+        1.0 / (2.0 * PI * self.sampled(spread).1)
     }
 
     /// Distance along unit direction `w` from the cone's apex to the lamp (the near side of
@@ -1017,11 +1045,13 @@ struct PunctualSample {
 /// Direction towards a point or spot light seen from `p`. With a lamp's cone (`lamp_cone`) the
 /// direction is drawn uniformly in it and the radiance is I / (πr²) (the lamp's projected area
 /// is πr²; far away this gives the point's I / d²), a sample BSDF rays can also find when
-/// `lamp.bounces`. Without one, a true point: I / d², density 1, delta.
+/// `lamp.bounces` (a spot's `spread`, `spot_spread`, may narrow the cone drawn from:
+/// `LampCone::sampled`). Without one, a true point: I / d², density 1, delta.
 fn sample_punctual(
     position: Vec3,
     radius: f32,
     lamp: Lamp,
+    spread: Option<(Vec3, f32)>,
     p: Vec3,
     u: Vec2,
 ) -> Option<PunctualSample> {
@@ -1048,10 +1078,15 @@ fn sample_punctual(
             inside: false,
         });
     };
-    let wi = cone.sample(u);
-    let t = cone
-        .hit(wi, radius, lamp.soft_falloff)
-        .unwrap_or(cone.distance);
+    let (axis, one_minus_cos) = cone.sampled(spread);
+    let wi = cone_direction(axis, one_minus_cos, u);
+    // Drawn in the lamp's cone the direction meets it (to rounding); in a spot's narrower cone
+    // it may not.
+    let t = match cone.hit(wi, radius, lamp.soft_falloff) {
+        Some(t) => t,
+        None if one_minus_cos == cone.one_minus_cos => cone.distance,
+        None => return None,
+    };
     let q = p + wi * t;
     let target = LightPoint {
         p: q,
@@ -1061,7 +1096,7 @@ fn sample_punctual(
     let sample = LightSample {
         li: Vec3::ZERO,
         wi,
-        pdf: cone.pdf(),
+        pdf: cone.pdf(spread),
         delta: !lamp.bounces,
         target,
     };

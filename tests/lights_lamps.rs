@@ -117,9 +117,20 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
     // A sphere lamp around part of the floor: points inside it sample the whole sphere.
     let around = point(Vec3::new(0.6, 0.1, 0.6), 0.4, lamp(false));
     let hard = point(Vec3::new(2.0, 2.0, 2.0), 0.0, lamp(true));
-    let (scene, lights) = lights_of(vec![spot, soft, around, hard]);
+    // A narrow spot lamp close to the floor: its own cone is narrower than the lamp's, and
+    // light sampling draws from it (as Cycles does).
+    let narrow = Light::Spot {
+        position: Vec3::new(-0.6, 0.45, -0.6),
+        direction: -Vec3::Y,
+        intensity: Vec3::splat(20.0),
+        cos_inner: 12f32.to_radians().cos(),
+        cos_outer: 14f32.to_radians().cos(),
+        radius: 0.3,
+        lamp: lamp(false),
+    };
+    let (scene, lights) = lights_of(vec![spot, soft, around, hard, narrow]);
     let mut rng = Rng::new(7);
-    let (mut checked, mut inside) = (0, 0);
+    let (mut checked, mut inside, mut in_spread) = (0, 0, 0);
     for i in 0..4000 {
         let p = Vec3::new(rng.uniform() - 0.5, 0.0, rng.uniform() - 0.5) * 2.0;
         let u = Vec2::new(rng.uniform(), rng.uniform());
@@ -144,6 +155,9 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
             panic!("sample {i}: {ls:?} not met: {hits:?}");
         };
         inside += (p.distance(Vec3::new(0.6, 0.1, 0.6)) < 0.4) as u32;
+        // Seen from the floor the narrow spot's lamp fills a cone far wider than its 14°.
+        let on_narrow = (ls.target.p.distance(Vec3::new(-0.6, 0.45, -0.6)) - 0.3).abs() < 1e-3;
+        in_spread += on_narrow as u32;
         assert!((pdf / ls.pdf - 1.0).abs() < 1e-4, "pdf {pdf} vs {}", ls.pdf);
         // The spot's cone is evaluated along the ray as along the sample (to rounding).
         let brightest = 30.0 / (PI * 0.3 * 0.3);
@@ -156,8 +170,8 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
         checked += 1;
     }
     assert!(
-        checked > 1000 && inside > 20,
-        "{checked} lamp samples, {inside} inside"
+        checked > 1000 && inside > 20 && in_spread > 20,
+        "{checked} lamp samples, {inside} inside, {in_spread} from the narrow spot"
     );
 }
 
