@@ -180,13 +180,19 @@ def light_extension(obj) -> dict:
     light's colour x its blackbody colour when "Temperature" is on x the colour of the Emission
     node of its node tree; power x 2^exposure x the node's strength), which the glTF exporter
     gets wrong with a node tree (it keeps only the node's colour); plus what glTF cannot say:
-    point/spot radius, Cycles' exact spot cone (size and blend), sun angle, area lights."""
+    point/spot radius, Soft Falloff and which rays see the lamp (camera; scattered rays when
+    diffuse, glossy and transmission visibility are all on), Cycles' exact spot cone (size and
+    blend), sun angle, area lights."""
     light = obj.data
     color, strength = light_tint(light)
     scale = 2.0 ** float(getattr(light, "exposure", 0.0)) * strength
     if light.type in ("POINT", "SPOT"):
         data = {"radius": float(light.shadow_soft_size), "power": float(light.energy) * scale,
-                "color": color}
+                "color": color, "soft_falloff": bool(getattr(light, "use_soft_falloff", True)),
+                "visible_camera": bool(getattr(obj, "visible_camera", False)),
+                "visible_bounces": all(bool(getattr(obj, prop, True)) for prop in
+                                       ("visible_diffuse", "visible_glossy",
+                                        "visible_transmission"))}
         if light.type == "SPOT":
             data["spot_size"] = float(light.spot_size)
             data["spot_blend"] = float(light.spot_blend)

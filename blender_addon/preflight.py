@@ -134,6 +134,11 @@ def light_features(obj) -> list[str]:
     messages += [f"{what}: {problem}" for problem in light_node_problems(light)]
     if not getattr(light, "use_shadow", True):
         messages.append(f"{what}: 'Cast Shadow' off is not exported; it casts shadows in Photon")
+    hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
+    if hidden:
+        messages.append(f"{what}: ray visibility is exported only as seen or not by scattered "
+                        f"rays (it is hidden from {', '.join(hidden)} rays in Blender): rays "
+                        f"do not meet the lamp, but it still lights every surface in Photon")
     return messages
 
 

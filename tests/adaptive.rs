@@ -29,6 +29,7 @@ fn half_floor() -> Scene {
             position: Vec3::new(0.0, 3.0, 0.0),
             intensity: Vec3::ZERO,
             radius: 0.0,
+            lamp: Default::default(),
         },
     );
     scene.lights.clear();

@@ -7,7 +7,7 @@ use photon::film::{FilterKind, FilterSettings};
 use photon::math::{Vec3, Vec4};
 use photon::scene::gltf::{load, load_slice, LoadOptions};
 use photon::scene::texture::Texels;
-use photon::scene::{Light, Projection, Scene};
+use photon::scene::{Lamp, Light, Projection, Scene};
 use serde_json::{json, Value};
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
@@ -896,6 +896,7 @@ fn blender_default_point_light_is_1000_watts() {
         position,
         intensity,
         radius,
+        lamp,
     } = &scene.lights[0]
     else {
         panic!("not a point light")
@@ -904,6 +905,48 @@ fn blender_default_point_light_is_1000_watts() {
     let expected = 1000.0 / (4.0 * PI);
     assert!((intensity.x - expected).abs() < 1e-3 * expected);
     assert_eq!(*radius, 0.25);
+    // Blender's defaults for a light object: Soft Falloff on, hidden from the camera.
+    let default = Lamp {
+        soft_falloff: true,
+        camera: false,
+        bounces: true,
+    };
+    assert_eq!(*lamp, default);
+}
+
+/// PHOTON_light's lamp flags (Soft Falloff, camera and scattered-ray visibility) reach the
+/// light; a flag that is not a boolean is refused.
+#[test]
+fn lamp_flags_are_read_and_checked() {
+    let light = |flags: Value| {
+        let mut doc = triangle_doc();
+        let mut extension = json!({"radius": 0.2});
+        extension
+            .as_object_mut()
+            .unwrap()
+            .extend(flags.as_object().unwrap().clone());
+        with_light(
+            &mut doc,
+            json!({"type": "spot", "intensity": 100.0, "spot": {"outerConeAngle": 0.5}}),
+            json!({"name": "Spot", "extensions": {"KHR_lights_punctual": {"light": 0}, "PHOTON_light": extension}}),
+        );
+        load_glb(&doc)
+    };
+    let scene =
+        light(json!({"soft_falloff": false, "visible_camera": true, "visible_bounces": false}))
+            .unwrap();
+    let Light::Spot { lamp, radius, .. } = &scene.lights[0] else {
+        panic!("not a spot light")
+    };
+    assert_eq!(*radius, 0.2);
+    let expected = Lamp {
+        soft_falloff: false,
+        camera: true,
+        bounces: false,
+    };
+    assert_eq!(*lamp, expected);
+    let err = light(json!({"visible_camera": 1})).unwrap_err().to_string();
+    assert!(err.contains("visible_camera"), "{err}");
 }
 
 #[test]

@@ -140,6 +140,7 @@ fn stored_power_equals_emitted_and_reflected_power() {
             position: Vec3::new(0.1, 0.2, -0.1),
             intensity: Vec3::splat(intensity),
             radius: 0.0,
+            lamp: Default::default(),
         }],
         scenes::camera_looking_at(Vec3::ZERO, -Vec3::Z, Projection::Perspective { yfov: 1.0 }),
         Vec3::ZERO,
@@ -416,6 +417,7 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
             position: Vec3::new(0.3, 3.0, 0.2),
             intensity: Vec3::splat(10.0),
             radius: 0.0,
+            lamp: Default::default(),
         },
         Light::Spot {
             position: Vec3::new(0.3, 3.0, 0.2),
@@ -424,6 +426,7 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
             cos_inner: 0.95,
             cos_outer: 0.85,
             radius: 0.0,
+            lamp: Default::default(),
         },
         Light::Sun {
             direction: Vec3::new(0.3, -1.0, 0.1).normalize(),

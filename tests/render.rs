@@ -68,6 +68,7 @@ fn point_light_irradiance_follows_cycles_units() {
             position: Vec3::new(0.0, d, 0.0),
             intensity: Vec3::splat(intensity),
             radius: 0.0,
+            lamp: Default::default(),
         },
     );
     let image = render_with(&scene, &settings(8, 4));
@@ -139,6 +140,7 @@ fn spot_light_is_bright_inside_and_dark_outside_its_cone() {
                 cos_inner: cos_outer + 0.001,
                 cos_outer,
                 radius: 0.0,
+                lamp: Default::default(),
             },
         )
     };
@@ -306,7 +308,8 @@ fn transparent_film_hides_the_world_but_keeps_its_light() {
 
 #[test]
 fn soft_point_light_gives_the_irradiance_of_a_point_light() {
-    // A sphere of radiance I/(πr²) seen from d gives E = L·π·sin²θ = I/d² on a surface facing it.
+    // A sphere of radiance I/(πr²) seen from d gives E = L·π·sin²θ = I/d² on a surface facing it
+    // (Blender's Soft Falloff off; with it the lamp is a disc, E = I/(d² + r²)).
     let intensity = 1000.0 / (4.0 * PI);
     let make = |radius: f32| {
         scenes::lit_floor(
@@ -315,6 +318,10 @@ fn soft_point_light_gives_the_irradiance_of_a_point_light() {
                 position: Vec3::new(0.0, 2.0, 0.0),
                 intensity: Vec3::splat(intensity),
                 radius,
+                lamp: photon::scene::Lamp {
+                    soft_falloff: false,
+                    ..Default::default()
+                },
             },
         )
     };

@@ -89,6 +89,7 @@ fn point_light(intensity: f32) -> Light {
         position: Vec3::new(0.5, 3.0, 1.0),
         intensity: Vec3::splat(intensity),
         radius: 0.0,
+        lamp: Default::default(),
     }
 }
 
@@ -293,6 +294,7 @@ fn cases() -> Vec<Case> {
             cos_inner: 1.0,
             cos_outer: 1.0,
             radius: 0.0,
+            lamp: Default::default(),
         }),
         expect: Expect::Range(0.0, 1.0),
     });
@@ -305,6 +307,7 @@ fn cases() -> Vec<Case> {
             cos_inner: 0.9,
             cos_outer: 0.8,
             radius: 0.0,
+            lamp: Default::default(),
         }),
         expect: Expect::Range(0.0, 0.0),
     });

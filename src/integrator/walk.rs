@@ -108,6 +108,19 @@ impl PathState {
         });
     }
 
+    /// The lamps the ray to the next vertex meets before `reach` (`Lights::lamps_met`),
+    /// attenuated by the medium up to them, MIS-weighted.
+    fn lamps(&mut self, ctx: &Context, reach: f32, camera: bool) {
+        let pass = self.pass(0);
+        let (beta, previous, absorption) = (self.beta, self.previous, self.absorption);
+        let passes = &mut self.passes;
+        ctx.lights
+            .lamps_met(&self.ray, reach, camera, |le, light_pdf, t| {
+                let through = (-absorption * t).exp();
+                passes.add(pass, beta * through * le * previous.weight(light_pdf));
+            });
+    }
+
     /// The ray met `s`: its emission, MIS-weighted.
     fn emitted(&mut self, ctx: &Context, s: &Shading) {
         let le = emitted_radiance(ctx.scene, &s.sh, s.wo, s.surface.emission);
@@ -246,7 +259,12 @@ fn walk_from(
         };
         let ray = state.ray;
         state.rays += 1;
-        let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, visibility) else {
+        let hit = ctx.accel.intersect(ctx.scene, &ray, visibility);
+        if emission && !(gather && depth == 0) {
+            let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+            state.lamps(ctx, reach, visibility == Visibility::Camera);
+        }
+        let Some(hit) = hit else {
             if emission && !(depth == 0 && (ctx.transparent_background || gather)) {
                 match &ctx.scene.world.camera_background {
                     // No light sample precedes a camera ray: nothing to weigh against.
@@ -264,6 +282,9 @@ fn walk_from(
         // Only emission is wanted: a surface that cannot emit ends the walk unshaded.
         let material = hit_mesh(ctx.scene, &hit).material;
         if state.emission_only && !ctx.scene.materials[material as usize].is_emissive() {
+            if depth == 0 {
+                out.seen_emission = state.passes.total();
+            }
             break;
         }
         if state.absorption != Vec3::ZERO {
@@ -353,7 +374,15 @@ pub fn follow_specular(
         chain.absorption = s.absorption_after(&bs, wi, chain.absorption);
         let ray = s.sh.spawn(wi);
         *rays += 1;
-        let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary) else {
+        let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
+        if let Some(le) = emission.as_deref_mut() {
+            let (beta, absorption) = (chain.beta, chain.absorption);
+            let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+            ctx.lights.lamps_met(&ray, reach, false, |l, _, t| {
+                *le += beta * (-absorption * t).exp() * l;
+            });
+        }
+        let Some(hit) = hit else {
             if let Some(le) = emission {
                 let beta = chain.beta;
                 ctx.lights.escaped(wi, |l, _| *le += beta * l);

@@ -35,8 +35,11 @@
 //!   width; the default width of the type when it is missing). Unknown types and widths outside
 //!   0.01–10 px are refused.
 //! - `PHOTON_light` on a node:
-//!   - with a KHR_lights_punctual point or spot light: `{"radius": r}`, Blender's soft-shadow
-//!     radius in metres (default 0);
+//!   - with a KHR_lights_punctual point or spot light: `{"radius": r, "soft_falloff": bool,
+//!     "visible_camera": bool, "visible_bounces": bool}`, Blender's soft-shadow radius in metres
+//!     (default 0), its Soft Falloff (default true), whether camera rays see the lamp (default
+//!     false, Blender's default for lights) and whether rays scattered by surfaces meet it (its
+//!     diffuse, glossy and transmission visibility all on; default true);
 //!   - with a directional light: `{"angle": a}`, the sun's angular diameter in radians (default 0);
 //!   - an area light (which the exporter drops): `{"type": "area", "shape": "SQUARE" |
 //!     "RECTANGLE" | "DISK" | "ELLIPSE", "size": x, "size_y": y, "power": watts, "color": [r, g,
@@ -170,8 +173,8 @@
 
 use super::texture::{Texels, Wrap};
 use super::{
-    AlphaMode, Background, Bounds, Camera, Environment, Light, Material, Mesh, Projection, Scene,
-    SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
+    AlphaMode, Background, Bounds, Camera, Environment, Lamp, Light, Material, Mesh, Projection,
+    Scene, SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
 use crate::film::{FilterKind, FilterSettings};
@@ -1952,11 +1955,26 @@ impl Loader {
             Some(watts) => color * units::blender_point_power_to_intensity(watts),
             None => color * units::candela_to_watts_per_sr(light.intensity()),
         };
+        let flag = |key: &str, default: bool| -> Result<bool> {
+            match extension.and_then(|e| e.get(key)) {
+                None => Ok(default),
+                Some(v) => v.as_bool().ok_or_else(|| {
+                    self.err(&object, format!("'{key}' must be true or false: {v}"))
+                }),
+            }
+        };
+        let defaults = Lamp::default();
+        let lamp = Lamp {
+            soft_falloff: flag("soft_falloff", defaults.soft_falloff)?,
+            camera: flag("visible_camera", defaults.camera)?,
+            bounces: flag("visible_bounces", defaults.bounces)?,
+        };
         let light = match light.kind() {
             gltf::khr_lights_punctual::Kind::Point => Light::Point {
                 position,
                 intensity,
                 radius: number("radius", 0.0),
+                lamp,
             },
             gltf::khr_lights_punctual::Kind::Spot {
                 inner_cone_angle,
@@ -1980,6 +1998,7 @@ impl Loader {
                     cos_inner,
                     cos_outer,
                     radius: number("radius", 0.0),
+                    lamp,
                 }
             }
             gltf::khr_lights_punctual::Kind::Directional => {

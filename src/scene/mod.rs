@@ -350,6 +350,8 @@ pub enum Light {
         intensity: Vec3,
         /// Blender's soft-shadow radius; 0 is a true point.
         radius: f32,
+        /// How the light looks to rays when `radius` > 0.
+        lamp: Lamp,
     },
     /// A point light restricted to a cone around `direction`, with glTF's smooth falloff between
     /// the inner and outer cone angles. Intensity inside the cone as for a point light.
@@ -361,6 +363,7 @@ pub enum Light {
         cos_inner: f32,
         cos_outer: f32,
         radius: f32,
+        lamp: Lamp,
     },
     /// A distant light: `irradiance` W/m² on a surface facing it.
     Sun {
@@ -370,6 +373,32 @@ pub enum Light {
         /// Angular diameter in radians (Blender's sun angle); 0 is a hard sun.
         angle: f32,
     },
+}
+
+/// How a point or spot light of radius > 0 meets rays, as Blender sets it: Cycles makes it a
+/// lamp of uniform radiance I / (πr²) that light sampling draws from and rays can hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Lamp {
+    /// Blender's Soft Falloff (on by default): the lamp is a disc of the light's radius facing
+    /// the point it lights (or the ray that meets it); off, a sphere of that radius.
+    pub soft_falloff: bool,
+    /// Camera rays see the lamp (the light object's `visible_camera`, off by default).
+    pub camera: bool,
+    /// Rays that surfaces scatter meet the lamp (the object's diffuse, glossy and transmission
+    /// ray visibility all on): BSDF sampling and light sampling then share it by MIS. Off, the
+    /// lamp only lights by light sampling.
+    pub bounces: bool,
+}
+
+impl Default for Lamp {
+    /// Blender's defaults for a light object.
+    fn default() -> Self {
+        Lamp {
+            soft_falloff: true,
+            camera: false,
+            bounces: true,
+        }
+    }
 }
 
 /// The camera projection.
@@ -964,6 +993,7 @@ impl Scene {
                     position,
                     intensity,
                     radius,
+                    ..
                 } => position.is_finite() && intensity.is_finite() && radius.is_finite(),
                 Light::Spot {
                     position,
@@ -972,6 +1002,7 @@ impl Scene {
                     cos_inner,
                     cos_outer,
                     radius,
+                    ..
                 } => {
                     position.is_finite()
                         && direction.is_finite()

@@ -269,6 +269,7 @@ pub fn transformed(mut scene: Scene, s: f32, offset: Vec3) -> Scene {
                 position,
                 intensity,
                 radius,
+                ..
             }
             | Light::Spot {
                 position,

@@ -232,6 +232,7 @@ impl<'a> Gather<'a> {
         if l != Vec3::ZERO {
             l *= previous.weight_at(ctx, &z.sh);
         }
+        l += self.lamps(&ray, Some(&hit), Vec3::ZERO, &previous);
         let mut chain = Chain {
             length: hit.t * ray.direction.length(),
             ..Chain::new(Vec3::ZERO)
@@ -278,6 +279,17 @@ impl<'a> Gather<'a> {
         s.light_sample(self.ctx, Vec3::ONE, mis, rng, &mut self.rays)
     }
 
+    /// The lamps `ray` meets before `hit` (all along it without one), through a medium of
+    /// absorption `absorption`, MIS-weighted against the light sample at `previous`.
+    fn lamps(&self, ray: &Ray, hit: Option<&Hit>, absorption: Vec3, previous: &Previous) -> Vec3 {
+        let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+        let mut l = Vec3::ZERO;
+        self.ctx.lights.lamps_met(ray, reach, false, |le, lpdf, t| {
+            l += (-absorption * t).exp() * le * previous.weight(lpdf);
+        });
+        l
+    }
+
     /// The ray leaving `s` by the BSDF sample `bs` (world direction `wi`), the surface it meets
     /// and the vertex it left (for the MIS weight of emission there); `Err` with the world's
     /// emission, MIS-weighted against light sampling, when it meets none.
@@ -296,7 +308,8 @@ impl<'a> Gather<'a> {
         match self.intersect(&ray) {
             Some(hit) => Ok((ray, hit, previous)),
             None => {
-                let mut l = Vec3::ZERO;
+                let absorption = s.absorption_after(bs, wi, Vec3::ZERO);
+                let mut l = self.lamps(&ray, None, absorption, &previous);
                 self.ctx
                     .lights
                     .escaped(ray.direction, |le, lpdf| l += le * previous.weight(lpdf));
@@ -349,7 +362,8 @@ impl<'a> Gather<'a> {
                 e = chain.beta * at_end;
             }
         }
-        (t * l, t * e)
+        let lamps = self.lamps(&ray, Some(&hit), absorption, &previous);
+        (t * l + lamps, t * e)
     }
 
     /// Direct light at `s` when no final-gather ray leaves it (its indirect light is cached):
