@@ -47,8 +47,10 @@
 
 use super::texture::Texture;
 use crate::math::{Mat3, Vec2, Vec3, Vec4};
+use glam::BVec4A;
 use serde_json::Value;
 use std::f32::consts::PI;
+use std::ops::{Add, Div, Mul};
 
 /// UV maps node trees read (`TEXCOORD_0` …).
 pub const UV_SETS: usize = 4;
@@ -381,7 +383,8 @@ enum Op {
     LightPath,
     Value(f32),
     Rgb(Vec4),
-    Mapping(MappingKind),
+    /// Mapping; its rotation's sines and cosines when the Rotation input is constant.
+    Mapping(MappingKind, Option<Euler>),
     Math {
         op: MathOp,
         clamp: bool,
@@ -424,6 +427,15 @@ enum Op {
     Noise {
         dimensions: u8,
         normalize: bool,
+    },
+    /// A Noise Texture and its two copies at a Bump's offset points, fused (`fuse_bump_noise`):
+    /// `ins` holds the three nodes' inputs one after the other, `outs` and `used` their first
+    /// output registers and read outputs.
+    NoiseAt3 {
+        dimensions: u8,
+        normalize: bool,
+        outs: [u16; 3],
+        used: [u32; 3],
     },
     /// An Image Texture: its texture in `Scene::textures`, and whether it is transparent black
     /// outside [0, 1]² (Blender's Clip extension).
@@ -733,7 +745,7 @@ fn spec(op: &Op) -> Spec {
         ),
         Op::Value(_) => (vec![], vec![("Value", Float)]),
         Op::Rgb(_) => (vec![], vec![("Color", Color)]),
-        Op::Mapping(_) => (
+        Op::Mapping(..) => (
             vec![
                 i("Vector", Vector, Vec4::ZERO),
                 i("Location", Vector, Vec4::ZERO),
@@ -837,7 +849,7 @@ fn spec(op: &Op) -> Spec {
             vec![i("Vector", Vector, Vec4::ZERO)],
             vec![("Color", Color), ("Fac", Float)],
         ),
-        Op::Noise { .. } => (
+        Op::Noise { .. } | Op::NoiseAt3 { .. } => (
             vec![
                 i("Vector", Vector, Vec4::ZERO),
                 i("W", Float, f(0.0)),
@@ -1178,13 +1190,16 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                 .and_then(const_value)
                 .ok_or("RGB: 'value' must be a colour")?,
         ),
-        "Mapping" => Op::Mapping(match setting(node, "vector_type").unwrap_or("POINT") {
-            "POINT" => MappingKind::Point,
-            "TEXTURE" => MappingKind::Texture,
-            "VECTOR" => MappingKind::Vector,
-            "NORMAL" => MappingKind::Normal,
-            _ => return Err(bad("vector_type")),
-        }),
+        "Mapping" => Op::Mapping(
+            match setting(node, "vector_type").unwrap_or("POINT") {
+                "POINT" => MappingKind::Point,
+                "TEXTURE" => MappingKind::Texture,
+                "VECTOR" => MappingKind::Vector,
+                "NORMAL" => MappingKind::Normal,
+                _ => return Err(bad("vector_type")),
+            },
+            None,
+        ),
         "Math" => Op::Math {
             op: match math_op(setting(node, "operation").unwrap_or("ADD")) {
                 Some(op) => op,
@@ -1513,6 +1528,8 @@ fn compile_tree(
     // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
     let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
     let mut deps: Vec<Vec<usize>> = Vec::with_capacity(nodes.len());
+    // Per instruction: the instruction it copies (a Bump's offset copies), else itself.
+    let mut anchors: Vec<usize> = Vec::new();
     for (index, node) in nodes.iter().enumerate() {
         let name = setting(node, "name").unwrap_or("?").to_string();
         let kind = setting(node, "type").unwrap_or("?").to_string();
@@ -1698,6 +1715,7 @@ fn compile_tree(
                         return Err(format!("the tree needs more than {MAX_REGISTERS} values"));
                     }
                     instrs.push(copy);
+                    anchors.push(k);
                 }
                 let remap = |r: u16| {
                     moved
@@ -1718,6 +1736,14 @@ fn compile_tree(
         node_instr.push(if shader { None } else { Some(instrs.len()) });
         deps.push(reads);
         needs_offsets |= needs;
+        let op = match (op, ins.get(2)) {
+            // A constant rotation's sines and cosines, once.
+            (Op::Mapping(kind, None), Some(Src::Const(r))) => {
+                Op::Mapping(kind, Some(Euler::new(r.truncate())))
+            }
+            (op, _) => op,
+        };
+        anchors.push(instrs.len());
         instrs.push(Instr {
             op,
             ins,
@@ -1777,6 +1803,7 @@ fn compile_tree(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
+    let instrs = fuse_bump_noise(instrs, &anchors);
     let light_path_reads = instrs
         .iter()
         .filter(|i| i.op == Op::LightPath)
@@ -1802,6 +1829,55 @@ fn compile_tree(
         shadow_transparent,
         displacement: None,
     })
+}
+
+/// Each of a Bump's offset copies moved to just after the instruction it copies (valid: a
+/// copy reads only copies of what its original reads, or what the original reads, all of
+/// which come earlier), then every Noise Texture followed by its copies at both offsets fused
+/// into one `NoiseAt3`, which shares the lattice hashes of the three nearby points (the same
+/// values as three separate evaluations, bit for bit).
+fn fuse_bump_noise(instrs: Vec<Instr>, anchors: &[usize]) -> Vec<Instr> {
+    let mut order: Vec<(usize, Instr)> = anchors.iter().copied().zip(instrs).collect();
+    order.sort_by_key(|(anchor, _)| *anchor);
+    let mut fused: Vec<Instr> = Vec::with_capacity(order.len());
+    let mut k = 0;
+    while k < order.len() {
+        let triple = order.get(k..k + 3).filter(|t| {
+            matches!(t[0].1.op, Op::Noise { .. })
+                && t.iter().all(|(a, i)| *a == t[0].0 && i.op == t[0].1.op)
+                && t.iter()
+                    .enumerate()
+                    .all(|(n, (_, i))| i.offset as usize == n)
+        });
+        match (triple, &order[k].1.op) {
+            (
+                Some(t),
+                Op::Noise {
+                    dimensions,
+                    normalize,
+                },
+            ) => {
+                fused.push(Instr {
+                    op: Op::NoiseAt3 {
+                        dimensions: *dimensions,
+                        normalize: *normalize,
+                        outs: [t[0].1.out, t[1].1.out, t[2].1.out],
+                        used: [t[0].1.used, t[1].1.used, t[2].1.used],
+                    },
+                    ins: t.iter().flat_map(|(_, i)| i.ins.iter().copied()).collect(),
+                    out: t[0].1.out,
+                    offset: 0,
+                    used: t[0].1.used | t[1].1.used | t[2].1.used,
+                });
+                k += 3;
+            }
+            _ => {
+                fused.push(order[k].1.clone());
+                k += 1;
+            }
+        }
+    }
+    fused
 }
 
 // ----- evaluation --------------------------------------------------------------------------
@@ -1998,12 +2074,12 @@ fn run(
         }
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
-        Op::Mapping(kind) => {
+        Op::Mapping(kind, fixed) => {
             let v = get(m, 0).truncate();
             let loc = get(m, 1).truncate();
-            let rot = get(m, 2).truncate();
+            let rot = fixed.unwrap_or_else(|| Euler::new(get(m, 2).truncate()));
             let scale = get(m, 3).truncate();
-            m.regs[o] = v3(mapping(*kind, v, loc, rot, scale));
+            m.regs[o] = v3(mapping(*kind, v, loc, &rot, scale));
         }
         Op::Math { op, clamp } => {
             let r = math(*op, get(m, 0).x, get(m, 1).x, get(m, 2).x);
@@ -2122,6 +2198,31 @@ fn run(
             let (fac, color) = noise_texture(*dimensions, p, w, &params, distortion, color);
             m.regs[o] = splat(fac);
             m.regs[o + 1] = v3(color);
+        }
+        Op::NoiseAt3 {
+            dimensions,
+            normalize,
+            outs,
+            used,
+        } => {
+            let input = |k: usize| {
+                let g = |j: usize| load(m, &points[k], ins[9 * k + j]).x;
+                let scale = g(2);
+                let p = load(m, &points[k], ins[9 * k]).truncate() * scale;
+                let f = Fractal {
+                    detail: g(3).clamp(0.0, 15.0),
+                    roughness: g(4).max(0.0),
+                    lacunarity: g(5),
+                    normalize: *normalize,
+                };
+                (p, g(1) * scale, f, g(8))
+            };
+            let color = used.iter().any(|u| u & 2 != 0);
+            let values = noise_texture_at3(*dimensions, &[input(0), input(1), input(2)], color);
+            for ((fac, color), out) in values.into_iter().zip(outs) {
+                m.regs[*out as usize] = splat(fac);
+                m.regs[*out as usize + 1] = v3(color);
+            }
         }
         Op::Image { texture, clip, .. } => {
             let uv = get(m, 0);
@@ -2575,24 +2676,42 @@ fn fresnel_dielectric_cos(cos: f32, eta: f32) -> f32 {
     }
 }
 
+/// A rotation by Euler angles, as its angles' sines and cosines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Euler {
+    sin: Vec3,
+    cos: Vec3,
+}
+
+impl Euler {
+    fn new(r: Vec3) -> Euler {
+        let (sx, cx) = r.x.sin_cos();
+        let (sy, cy) = r.y.sin_cos();
+        let (sz, cz) = r.z.sin_cos();
+        Euler {
+            sin: Vec3::new(sx, sy, sz),
+            cos: Vec3::new(cx, cy, cz),
+        }
+    }
+}
+
+/// `v` turned about axis `axis` (0 X, 1 Y, 2 Z) by the angle of sine `s` and cosine `c`.
+fn turn(v: Vec3, axis: usize, s: f32, c: f32) -> Vec3 {
+    match axis {
+        0 => Vec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z),
+        1 => Vec3::new(c * v.x + s * v.z, v.y, -s * v.x + c * v.z),
+        _ => Vec3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z),
+    }
+}
+
 /// Blender's Euler XYZ rotation (X first, then Y, then Z).
-fn euler_xyz(r: Vec3, v: Vec3) -> Vec3 {
-    let (sx, cx) = r.x.sin_cos();
-    let (sy, cy) = r.y.sin_cos();
-    let (sz, cz) = r.z.sin_cos();
-    let v = Vec3::new(v.x, cx * v.y - sx * v.z, sx * v.y + cx * v.z);
-    let v = Vec3::new(cy * v.x + sy * v.z, v.y, -sy * v.x + cy * v.z);
-    Vec3::new(cz * v.x - sz * v.y, sz * v.x + cz * v.y, v.z)
+fn euler_xyz(r: &Euler, v: Vec3) -> Vec3 {
+    (0..3).fold(v, |v, k| turn(v, k, r.sin[k], r.cos[k]))
 }
 
 /// The inverse of `euler_xyz`.
-fn euler_xyz_inverse(r: Vec3, v: Vec3) -> Vec3 {
-    let (sx, cx) = r.x.sin_cos();
-    let (sy, cy) = r.y.sin_cos();
-    let (sz, cz) = r.z.sin_cos();
-    let v = Vec3::new(cz * v.x + sz * v.y, -sz * v.x + cz * v.y, v.z);
-    let v = Vec3::new(cy * v.x - sy * v.z, v.y, sy * v.x + cy * v.z);
-    Vec3::new(v.x, cx * v.y + sx * v.z, -sx * v.y + cx * v.z)
+fn euler_xyz_inverse(r: &Euler, v: Vec3) -> Vec3 {
+    (0..3).rev().fold(v, |v, k| turn(v, k, -r.sin[k], r.cos[k]))
 }
 
 fn safe_divide3(a: Vec3, b: Vec3) -> Vec3 {
@@ -2601,7 +2720,7 @@ fn safe_divide3(a: Vec3, b: Vec3) -> Vec3 {
 }
 
 /// The Mapping node (Cycles' `svm_mapping`).
-fn mapping(kind: MappingKind, v: Vec3, loc: Vec3, rot: Vec3, scale: Vec3) -> Vec3 {
+fn mapping(kind: MappingKind, v: Vec3, loc: Vec3, rot: &Euler, scale: Vec3) -> Vec3 {
     match kind {
         MappingKind::Point => euler_xyz(rot, v * scale) + loc,
         MappingKind::Texture => safe_divide3(euler_xyz_inverse(rot, v - loc), scale),
@@ -3223,6 +3342,7 @@ fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
     }
 }
 
+#[derive(Clone, Copy, PartialEq)]
 struct Fractal {
     detail: f32,
     roughness: f32,
@@ -3232,33 +3352,41 @@ struct Fractal {
 
 /// Cycles' `noise_fbm`.
 fn fbm(dimensions: u8, p: Vec3, w: f32, f: &Fractal) -> f32 {
+    fractal_sum(f, 0.0, |scale| snoise(dimensions, scale * p, scale * w))
+}
+
+/// `noise_fbm`'s sum of octaves of `noise` (called with each octave's scale), for one point
+/// or several as lanes.
+fn fractal_sum<T>(f: &Fractal, zero: T, noise: impl Fn(f32) -> T) -> T
+where
+    T: Copy + Add<Output = T> + Add<f32, Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>,
+{
     let mut fscale = 1.0f32;
     let mut amp = 1.0f32;
     let mut maxamp = 0.0f32;
-    let mut sum = 0.0f32;
+    let mut sum = zero;
     let octaves = f.detail as i32;
     for _ in 0..=octaves {
-        let t = snoise(dimensions, fscale * p, fscale * w);
-        sum += t * amp;
+        sum = sum + noise(fscale) * amp;
         maxamp += amp;
         amp *= f.roughness;
         fscale *= f.lacunarity;
     }
+    let lerp = |a: T, b: T, t: f32| a * (1.0 - t) + b * t;
     let rmd = f.detail - f.detail.floor();
     if rmd != 0.0 {
-        let t = snoise(dimensions, fscale * p, fscale * w);
-        let sum2 = sum + t * amp;
+        let sum2 = sum + noise(fscale) * amp;
         if f.normalize {
             lerp(
-                0.5 * sum / maxamp + 0.5,
-                0.5 * sum2 / (maxamp + amp) + 0.5,
+                sum * 0.5 / maxamp + 0.5,
+                sum2 * 0.5 / (maxamp + amp) + 0.5,
                 rmd,
             )
         } else {
             lerp(sum, sum2, rmd)
         }
     } else if f.normalize {
-        0.5 * sum / maxamp + 0.5
+        sum * 0.5 / maxamp + 0.5
     } else {
         sum
     }
@@ -3320,6 +3448,115 @@ fn noise_texture(
         fbm(dimensions, p + masked(o), w + ow, f)
     };
     (value, Vec3::new(value, shifted(s1), shifted(s2)))
+}
+
+// ----- the same noise at a Bump's three points at once ---------------------------------------
+//
+// A Bump reads its height at the shading point and a small step along each tangent: three
+// points that nearly always lie in the same lattice cell of every octave. There the eight
+// corner hashes are computed once and the three points' gradients and interpolation run as
+// lanes of one vector, each lane the very operations of `perlin3` in the same order (no fused
+// multiply-add), so the values are the scalar code's bit for bit; points in different cells,
+// far coordinates and other dimensions take the scalar code.
+
+/// Three points' coordinates as lanes (the fourth repeats the first).
+fn lanes(v: [f32; 3]) -> Vec4 {
+    Vec4::new(v[0], v[1], v[2], v[0])
+}
+
+#[inline(always)]
+fn fade4(t: Vec4) -> Vec4 {
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+/// `grad3` for one hash over lanes of points: the hash picks the same components and signs
+/// in every lane (a sign is flipped by multiplying by −1, which is exact).
+#[inline(always)]
+fn grad3_lanes(hash: u32, x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+    let h = hash & 15;
+    let pick = |c: bool, a: Vec4, b: Vec4| Vec4::select(BVec4A::splat(c), a, b);
+    let u = pick(h < 8, x, y);
+    let vt = pick(h == 12 || h == 14, x, z);
+    let v = pick(h < 4, y, vt);
+    let sign = |bit: u32| 1.0 - 2.0 * bit as f32;
+    u * sign(h & 1) + v * sign((h >> 1) & 1)
+}
+
+/// `floor` lane by lane for |v| < 2²² (the same values, −0 included): adding and taking
+/// away 1.5 · 2²³ rounds to an integer.
+#[inline(always)]
+fn floor4(v: Vec4) -> Vec4 {
+    const ROUND: f32 = 12_582_912.0;
+    let t = (v + ROUND) - ROUND;
+    Vec4::select(t.cmpgt(v), t - 1.0, Vec4::select(t.cmplt(v), t, v))
+}
+
+/// `0.9820 * perlin3` (`snoise` in 3D) of three points given as lanes.
+fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+    let near = |v: Vec4| v.abs().cmplt(Vec4::splat(100_000.0)).all();
+    let (cx, cy, cz) = (floor4(x), floor4(y), floor4(z));
+    let one_cell = |c: Vec4| c.cmpeq(Vec4::splat(c.x)).all();
+    if !(near(x) && near(y) && near(z) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+        let (xs, ys, zs) = (x.to_array(), y.to_array(), z.to_array());
+        let n = |k: usize| snoise(3, Vec3::new(xs[k], ys[k], zs[k]), 0.0);
+        return lanes([n(0), n(1), n(2)]);
+    }
+    let h = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
+    let (fx, fy, fz) = (x - cx, y - cy, z - cz);
+    let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
+    let (gx, gy, gz) = (fx - 1.0, fy - 1.0, fz - 1.0);
+    let g000 = grad3_lanes(h[0], fx, fy, fz);
+    let g100 = grad3_lanes(h[1], gx, fy, fz);
+    let g010 = grad3_lanes(h[2], fx, gy, fz);
+    let g110 = grad3_lanes(h[3], gx, gy, fz);
+    let g001 = grad3_lanes(h[4], fx, fy, gz);
+    let g101 = grad3_lanes(h[5], gx, fy, gz);
+    let g011 = grad3_lanes(h[6], fx, gy, gz);
+    let g111 = grad3_lanes(h[7], gx, gy, gz);
+    let (x1, y1, z1) = (Vec4::ONE - u, Vec4::ONE - v, Vec4::ONE - w);
+    let p = z1 * (y1 * (g000 * x1 + g100 * u) + v * (g010 * x1 + g110 * u))
+        + w * (y1 * (g001 * x1 + g101 * u) + v * (g011 * x1 + g111 * u));
+    0.9820 * p
+}
+
+/// `fbm` in 3D of three points given as lanes.
+fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+    fractal_sum(f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z))
+}
+
+/// One point's Noise Texture inputs: (scaled position, scaled W, fractal, distortion).
+type NoiseInput = (Vec3, f32, Fractal, f32);
+
+/// `noise_texture` at a Bump's three points (its section header).
+fn noise_texture_at3(dimensions: u8, at: &[NoiseInput; 3], color: bool) -> [(f32, Vec3); 3] {
+    let (_, _, f, distortion) = at[0];
+    let shared = at.iter().all(|a| a.2 == f && a.3 == distortion);
+    if dimensions != 3 || !shared {
+        return at.map(|(p, w, f, d)| noise_texture(dimensions, p, w, &f, d, color));
+    }
+    let (mut x, mut y, mut z) = (
+        lanes(at.map(|a| a.0.x)),
+        lanes(at.map(|a| a.0.y)),
+        lanes(at.map(|a| a.0.z)),
+    );
+    if distortion != 0.0 {
+        let d = [0.0f32, 1.0, 2.0].map(|seed| {
+            let o = offset(3, seed).0;
+            snoise3_lanes(x + o.x, y + o.y, z + o.z) * distortion
+        });
+        (x, y, z) = (x + d[0], y + d[1], z + d[2]);
+    }
+    let value = fbm3_lanes(x, y, z, &f);
+    let shifted = |seed: f32| {
+        let o = offset(3, seed).0;
+        fbm3_lanes(x + o.x, y + o.y, z + o.z, &f)
+    };
+    let (g, b) = if color {
+        (shifted(3.0), shifted(4.0))
+    } else {
+        (value, value)
+    };
+    [0, 1, 2].map(|k| (value[k], Vec3::new(value[k], g[k], b[k])))
 }
 
 /// Blender's Vector Math node: the vector and the value outputs.
@@ -3711,38 +3948,84 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
         _ => {
             // The nearest point, the first in Cycles' order on a tie. A cell's point lies in
             // [offset, offset + randomness] on each axis, so a cell whose box is farther from
-            // `local` than the home cell's point cannot win: it is skipped unhashed (exact).
+            // `local` than the best point so far cannot win: it is skipped unhashed (exact).
+            // The cells are visited nearest first (the home cell, then those sharing a face,
+            // an edge, a corner), so the best point is found early and most cells are skipped.
             // (As Cycles computes it: cell + 0 turns a −0 coordinate into +0 before hashing.)
-            let home = Vec3::ZERO + cell_point(dims, cell + Vec3::ZERO) * p.randomness;
-            let home_d = voronoi_distance(metric, p.exponent, home, local);
             let prune = metric != Metric::Minkowski;
             let mut best = f32::MAX;
+            let mut best_index = usize::MAX;
             let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
-            for offset in cell_offsets(dims, 1) {
-                let (point, d) = if offset == Vec3::ZERO {
-                    (home, home_d)
-                } else {
-                    if prune {
+            let order: &[(u8, [i8; 3])] = if dims == 2 {
+                &NEAREST_FIRST_2D
+            } else {
+                &NEAREST_FIRST_3D
+            };
+            // Per axis, the squared gap from `local` to the boxes of offset −1, 0 and 1.
+            let gap2 = [local.x, local.y, local.z].map(|l| {
+                [-1.0f32, 0.0, 1.0].map(|o| {
+                    let g = (o - l).max(l - (o + p.randomness)).max(0.0);
+                    g * g
+                })
+            });
+            for &(index, [i, j, k]) in order {
+                let index = index as usize;
+                let offset = Vec3::new(i as f32, j as f32, k as f32);
+                if prune && best != f32::MAX {
+                    let bound = best * (1.0 + 1e-6);
+                    let far = if metric == Metric::Euclidean {
+                        // Squared, without the root (the bound's margin covers the rounding).
+                        let [a, b, c] = [i, j, k].map(|o| (o + 1) as usize);
+                        gap2[0][a] + gap2[1][b] + gap2[2][c] > bound * bound
+                    } else {
                         let below = offset - local;
                         let above = local - (offset + Vec3::splat(p.randomness));
                         let gap = below.max(above).max(Vec3::ZERO);
-                        // Nor can one farther than the best so far.
-                        let bound = home_d.min(best) * (1.0 + 1e-6);
-                        if voronoi_distance(metric, p.exponent, gap, Vec3::ZERO) > bound {
-                            continue;
-                        }
+                        voronoi_distance(metric, p.exponent, gap, Vec3::ZERO) > bound
+                    };
+                    if far {
+                        continue;
                     }
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    (point, voronoi_distance(metric, p.exponent, point, local))
-                };
-                if d < best {
-                    (best, target_offset, target) = (d, offset, point);
+                }
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                if d < best || (d == best && index < best_index) {
+                    (best, best_index, target_offset, target) = (d, index, offset, point);
                 }
             }
             (best, cell_color(dims, cell + target_offset), target + cell)
         }
     }
 }
+
+/// The cells around a Voronoi point's home cell as (Cycles' visiting order, offset), nearest
+/// first: the home cell, then the cells sharing a face, an edge, a corner with it.
+const fn nearest_first<const N: usize>(dims: usize) -> [(u8, [i8; 3]); N] {
+    let mut out = [(0u8, [0i8; 3]); N];
+    let mut n = 0;
+    let mut shared = 0;
+    while shared <= dims {
+        let mut index = 0;
+        while index < N {
+            let o = [
+                (index % 3) as i8 - 1,
+                ((index / 3) % 3) as i8 - 1,
+                if dims == 2 { 0 } else { (index / 9) as i8 - 1 },
+            ];
+            let nonzero = (o[0] != 0) as usize + (o[1] != 0) as usize + (o[2] != 0) as usize;
+            if nonzero == shared {
+                out[n] = (index as u8, o);
+                n += 1;
+            }
+            index += 1;
+        }
+        shared += 1;
+    }
+    out
+}
+
+const NEAREST_FIRST_2D: [(u8, [i8; 3]); 9] = nearest_first::<9>(2);
+const NEAREST_FIRST_3D: [(u8, [i8; 3]); 27] = nearest_first::<27>(3);
 
 /// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
 fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
@@ -4532,6 +4815,101 @@ mod tests {
     }
 
     #[test]
+    fn noise_at_a_bumps_three_points_is_the_scalar_noise_bit_for_bit() {
+        // Points a small step apart (mostly one lattice cell), some across cell walls, far
+        // ones (fmod), with and without distortion and colour, whole and fractional detail.
+        let mut rng = crate::rng::Rng::new(9);
+        let mut shared_cells = 0;
+        for k in 0..20_000 {
+            let scale = [1.0, 10.0, 300.0, 2.0e5][k % 4];
+            let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * scale;
+            let p = Vec3::new(c(&mut rng), c(&mut rng), c(&mut rng));
+            let step = [1e-4, 1e-2, 0.3][k % 3];
+            let points = [p, p + Vec3::X * step, p + Vec3::Y * step];
+            let f = Fractal {
+                detail: [0.0, 2.0, 3.5][k % 3],
+                roughness: 0.5,
+                lacunarity: 2.0,
+                normalize: k % 2 == 0,
+            };
+            let distortion = [0.0, 0.0, 1.5][(k / 3) % 3];
+            let color = k % 5 == 0;
+            let inputs = points.map(|p| (p, 0.0, f, distortion));
+            let fused = noise_texture_at3(3, &inputs, color);
+            for (q, (fac, col)) in points.iter().zip(fused) {
+                let (want, want_col) = noise_texture(3, *q, 0.0, &f, distortion, color);
+                assert_eq!(fac.to_bits(), want.to_bits(), "{q:?} {k}");
+                assert_eq!(
+                    col.to_array().map(f32::to_bits),
+                    want_col.to_array().map(f32::to_bits)
+                );
+            }
+            let cell = |v: Vec3| v.floor();
+            shared_cells += (cell(points[1]) == cell(p) && cell(points[2]) == cell(p)) as u32;
+        }
+        // Both paths ran: the shared-cell lanes and the scalar fallback.
+        assert!((5_000..19_000).contains(&shared_cells), "{shared_cells}");
+    }
+
+    #[test]
+    fn a_bumps_noise_copies_fuse_into_one_instruction() {
+        // Noise → Bump and Noise → Emission: the Noise and its two offset copies become one
+        // NoiseAt3 placed where the Noise was, and the tree's values are unchanged.
+        let tree = json!({"nodes": [
+            {"name": "T", "type": "ShaderNodeTexCoord"},
+            {"name": "N", "type": "ShaderNodeTexNoise", "inputs": {
+                "Vector": {"node": 0, "output": "Object"}, "Scale": 3.0, "Detail": 2.0}},
+            {"name": "B", "type": "ShaderNodeBump", "inputs": {
+                "Distance": 0.1, "Strength": 1.0, "Height": {"node": 1, "output": "Fac"}}},
+            {"name": "E", "type": "ShaderNodeEmission", "inputs": {
+                "Color": {"node": 1, "output": "Color"}, "Strength": 1.0}},
+            {"name": "D", "type": "ShaderNodeBsdfDiffuse",
+             "inputs": {"Normal": {"node": 2, "output": "Normal"}}},
+            {"name": "A", "type": "ShaderNodeAddShader", "inputs": {
+                "Shader": {"node": 3, "output": "Emission"},
+                "Shader_001": {"node": 4, "output": "BSDF"}}}
+        ], "output": {"node": 5, "output": "Shader"}});
+        let mut w = Vec::new();
+        let p = compile(&tree, 0, &mut w).unwrap();
+        assert!(w.is_empty(), "{w:?}");
+        let fused = p
+            .instrs
+            .iter()
+            .filter(|i| matches!(i.op, Op::NoiseAt3 { .. }))
+            .count();
+        let plain = p
+            .instrs
+            .iter()
+            .filter(|i| matches!(i.op, Op::Noise { .. }))
+            .count();
+        assert_eq!((fused, plain), (1, 0));
+        let at = |q: Vec3| ShadingInputs {
+            position: q,
+            object: q,
+            normal: Vec3::Z,
+            ..ShadingInputs::default()
+        };
+        let q = Vec3::new(0.3, -0.2, 0.1);
+        let e = 1e-3;
+        let c = p.eval(&[at(q), at(q + Vec3::X * e), at(q + Vec3::Y * e)], &[], 0.5);
+        let f = Fractal {
+            detail: 2.0,
+            roughness: 0.5,
+            lacunarity: 2.0,
+            normalize: true,
+        };
+        let (_, color) = noise_texture(3, q * 3.0, 0.0, &f, 0.0, true);
+        assert_eq!(c.emission, color);
+        let h = |v: Vec3| noise_texture(3, v * 3.0, 0.0, &f, 0.0, false).0;
+        let slope = Vec3::new(h(q + Vec3::X * e) - h(q), h(q + Vec3::Y * e) - h(q), 0.0);
+        assert!(
+            slope.length() > 0.0 && c.normal.dot(slope) < 0.0,
+            "{}",
+            c.normal
+        );
+    }
+
+    #[test]
     fn mapping_point_and_texture_are_inverse() {
         let (loc, rot, scale) = (
             Vec3::new(0.3, -1.0, 2.0),
@@ -4539,11 +4917,12 @@ mod tests {
             Vec3::new(2.0, 0.5, 3.0),
         );
         let v = Vec3::new(0.7, 0.2, -0.4);
-        let p = mapping(MappingKind::Point, v, loc, rot, scale);
-        let back = mapping(MappingKind::Texture, p, loc, rot, scale);
+        let rot = Euler::new(rot);
+        let p = mapping(MappingKind::Point, v, loc, &rot, scale);
+        let back = mapping(MappingKind::Texture, p, loc, &rot, scale);
         assert!((back - v).length() < 1e-5);
         // A 90° turn about Z takes X to Y.
-        let r = euler_xyz(Vec3::new(0.0, 0.0, PI / 2.0), Vec3::X);
+        let r = euler_xyz(&Euler::new(Vec3::new(0.0, 0.0, PI / 2.0)), Vec3::X);
         assert!((r - Vec3::Y).length() < 1e-6);
     }
 
@@ -4612,7 +4991,7 @@ mod profile {
             let t0 = std::time::Instant::now();
             let mut sink = 0.0;
             for k in 0..1_000_000u32 {
-                sink += perlin3(k as f32 * 0.37, 2.1, 3.3);
+                sink += perlin3((k % 4096) as f32 * 0.37, 2.1, 3.3);
             }
             println!(
                 "perlin3: {:.1} ns ({sink})",
@@ -4641,6 +5020,17 @@ mod profile {
             println!(
                 "voronoi: {:.1} ns ({sink})",
                 t0.elapsed().as_secs_f64() * 5e3
+            );
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                let a = (k % 4096) as f32 * 0.37;
+                let x = Vec4::new(a, a + 1e-3, a, a);
+                sink += snoise3_lanes(x, Vec4::splat(2.1), Vec4::splat(3.3)).x;
+            }
+            println!(
+                "snoise3_lanes: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 1e3
             );
             let t0 = std::time::Instant::now();
             let mut sink = 0.0;
