@@ -36,8 +36,8 @@
 //! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
 //! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
-//! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent → fully rough transmission with IOR 1 (an approximation of diffuse
-//! transmission). Mix Shader mixes emission exactly and picks one BSDF per shading point with
+//! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent →
+//! the BSDF's Lambertian transmission lobe alone (`Closure::translucent`). Mix Shader mixes emission exactly and picks one BSDF per shading point with
 //! probability given by the factor, as Cycles samples one closure by its weight: the BSDF is
 //! linear in its closures, so every integrator (path tracing, photon tracing and gathering,
 //! caches) gets the exact mixture in expectation, where interpolating parameters would not be
@@ -277,6 +277,8 @@ pub struct Closure {
     pub diffuse_roughness: f32,
     /// A Transparent BSDF: its pass is not a bounce, and shadow rays go through it.
     pub transparent: bool,
+    /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
+    pub translucent: bool,
 }
 
 impl Closure {
@@ -303,6 +305,7 @@ impl Closure {
         tangent: Vec3::ZERO,
         diffuse_roughness: 0.0,
         transparent: false,
+        translucent: false,
     };
 }
 
@@ -1054,9 +1057,14 @@ fn spec(op: &Op) -> Spec {
             vec![i("Color", Color, Vec4::ONE), i("Strength", Float, f(1.0))],
             vec![("Emission", Shader)],
         ),
-        Op::Transparent | Op::Translucent => {
-            (vec![i("Color", Color, Vec4::ONE)], vec![("BSDF", Shader)])
-        }
+        Op::Transparent => (vec![i("Color", Color, Vec4::ONE)], vec![("BSDF", Shader)]),
+        Op::Translucent => (
+            vec![
+                i("Color", Color, Vec4::ONE),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("BSDF", Shader)],
+        ),
         Op::MixShader => (
             vec![
                 i("Fac", Float, f(0.5)),
@@ -2432,6 +2440,7 @@ fn run(
                 tangent,
                 diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
                 transparent: false,
+                translucent: false,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
             // Transparent BSDF by 1 − alpha.
@@ -2507,9 +2516,12 @@ fn run(
         Op::Transparent => m.closures[o] = transparent(get(m, 0).truncate()),
         Op::Translucent => {
             m.closures[o] = Closure {
+                base_color: get(m, 0).truncate(),
                 roughness: 1.0,
-                transparent: false,
-                ..transparent(get(m, 0).truncate())
+                transmission: 1.0,
+                normal: get(m, 1).truncate(),
+                translucent: true,
+                ..Closure::BLACK
             };
         }
         Op::MixShader => {
