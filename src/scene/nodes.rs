@@ -3337,14 +3337,17 @@ fn perlin3(x: f32, y: f32, z: f32) -> f32 {
         + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
 }
 
-/// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
+/// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`: each
+/// coordinate taken modulo the period, plus ½ where it was at least 10⁶).
 fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
     // fmod is the identity below the period (and a library call).
     let m = |x: f32| {
         if x.abs() < 100_000.0 {
             x
-        } else {
+        } else if x.abs() < 1_000_000.0 {
             x % 100_000.0
+        } else {
+            x % 100_000.0 + 0.5
         }
     };
     match dimensions {
@@ -4095,234 +4098,6 @@ fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
     (distance, color, position)
 }
 
-/// The straightforward forms the optimised noise and Voronoi code replaced (branchy
-/// gradients, fmod always, every Voronoi cell hashed): the optimised code must agree bit for
-/// bit, so patterns stay Cycles'.
-#[cfg(test)]
-mod reference {
-    use super::{
-        cell_color, cell_offsets, fade, floorfrac, hash2, hash3, hash4, lerp, negate_if, perlin1,
-        smoothstep, unit, voronoi_distance, Metric, Vec3, VoronoiFeature, VoronoiKind,
-        VoronoiParams,
-    };
-
-    fn grad2(hash: u32, x: f32, y: f32) -> f32 {
-        let h = hash & 7;
-        let (u, v) = if h < 4 { (x, 2.0 * y) } else { (y, 2.0 * x) };
-        negate_if(u, h & 1) + negate_if(v, h & 2)
-    }
-
-    fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
-        let h = hash & 15;
-        let u = if h < 8 { x } else { y };
-        let vt = if h == 12 || h == 14 { x } else { z };
-        let v = if h < 4 { y } else { vt };
-        negate_if(u, h & 1) + negate_if(v, h & 2)
-    }
-
-    fn perlin2(x: f32, y: f32) -> f32 {
-        let (xi, fx) = floorfrac(x);
-        let (yi, fy) = floorfrac(y);
-        let (u, v) = (fade(fx), fade(fy));
-        let h = |dx: i32, dy: i32| hash2(xi.wrapping_add(dx) as u32, yi.wrapping_add(dy) as u32);
-        let v0 = grad2(h(0, 0), fx, fy);
-        let v1 = grad2(h(1, 0), fx - 1.0, fy);
-        let v2 = grad2(h(0, 1), fx, fy - 1.0);
-        let v3 = grad2(h(1, 1), fx - 1.0, fy - 1.0);
-        let x1 = 1.0 - u;
-        (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
-    }
-
-    fn perlin3(x: f32, y: f32, z: f32) -> f32 {
-        let (xi, fx) = floorfrac(x);
-        let (yi, fy) = floorfrac(y);
-        let (zi, fz) = floorfrac(z);
-        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-        let g = |dx: i32, dy: i32, dz: i32| {
-            let h = hash3(
-                xi.wrapping_add(dx) as u32,
-                yi.wrapping_add(dy) as u32,
-                zi.wrapping_add(dz) as u32,
-            );
-            grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
-        };
-        let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
-        z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
-            + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
-    }
-
-    /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
-    fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
-        let m = |x: f32| x % 100_000.0;
-        match dimensions {
-            1 => 0.25 * perlin1(m(w)),
-            2 => 0.6616 * perlin2(m(p.x), m(p.y)),
-            _ => 0.9820 * perlin3(m(p.x), m(p.y), m(p.z)),
-        }
-    }
-
-    /// `hash_float2_to_float2` (2D) or `hash_float3_to_float3` (3D): a cell's point offset.
-    fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
-        let (x, y, z) = (c.x.to_bits(), c.y.to_bits(), c.z.to_bits());
-        if dimensions == 2 {
-            Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
-        } else {
-            Vec3::new(
-                unit(hash3(x, y, z)),
-                unit(hash4(x, y, z, 1f32.to_bits())),
-                unit(hash4(x, y, z, 2f32.to_bits())),
-            )
-        }
-    }
-
-    /// One octave: (distance, colour, position).
-    fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
-        let dims = p.kind.dimensions;
-        let cell = coord.floor();
-        let local = coord - cell;
-        let metric = p.kind.metric;
-        match p.kind.feature {
-            VoronoiFeature::SmoothF1 if p.smoothness != 0.0 => {
-                let mut distance = 0.0f32;
-                let mut color = Vec3::ZERO;
-                let mut position = Vec3::ZERO;
-                let mut h = -1.0f32;
-                for offset in cell_offsets(dims, 2) {
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    let d = voronoi_distance(metric, p.exponent, point, local);
-                    h = if h == -1.0 {
-                        1.0
-                    } else {
-                        smoothstep(0.0, 1.0, 0.5 + 0.5 * (distance - d) / p.smoothness)
-                    };
-                    let mut correction = p.smoothness * h * (1.0 - h);
-                    distance = lerp(distance, d, h) - correction;
-                    correction /= 1.0 + 3.0 * p.smoothness;
-                    let c = cell_color(dims, cell + offset);
-                    color = color.lerp(c, h) - Vec3::splat(correction);
-                    position = position.lerp(point, h) - Vec3::splat(correction);
-                }
-                (distance, color, cell + position)
-            }
-            VoronoiFeature::F2 => {
-                let (mut d1, mut d2) = (f32::MAX, f32::MAX);
-                let (mut o1, mut o2) = (Vec3::ZERO, Vec3::ZERO);
-                let (mut p1, mut p2) = (Vec3::ZERO, Vec3::ZERO);
-                for offset in cell_offsets(dims, 1) {
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    let d = voronoi_distance(metric, p.exponent, point, local);
-                    if d < d1 {
-                        (d2, o2, p2) = (d1, o1, p1);
-                        (d1, o1, p1) = (d, offset, point);
-                    } else if d < d2 {
-                        (d2, o2, p2) = (d, offset, point);
-                    }
-                }
-                (d2, cell_color(dims, cell + o2), p2 + cell)
-            }
-            _ => {
-                let mut best = f32::MAX;
-                let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
-                for offset in cell_offsets(dims, 1) {
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    let d = voronoi_distance(metric, p.exponent, point, local);
-                    if d < best {
-                        (best, target_offset, target) = (d, offset, point);
-                    }
-                }
-                (best, cell_color(dims, cell + target_offset), target + cell)
-            }
-        }
-    }
-
-    fn random_point(rng: &mut crate::rng::Rng, scale: f32) -> Vec3 {
-        let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * scale;
-        Vec3::new(c(rng), c(rng), c(rng))
-    }
-
-    #[test]
-    fn optimised_noise_matches_the_reference_bit_for_bit() {
-        let mut rng = crate::rng::Rng::new(5);
-        for k in 0..200_000 {
-            let scale = [1.0, 10.0, 1000.0, 2.0e5][k % 4];
-            let p = random_point(&mut rng, scale);
-            for dims in [2u8, 3] {
-                assert_eq!(
-                    super::snoise(dims, p, 0.0).to_bits(),
-                    snoise(dims, p, 0.0).to_bits(),
-                    "{p:?}"
-                );
-            }
-        }
-        assert_eq!(
-            super::snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0),
-            snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0)
-        );
-        for x in [
-            -0.0f32,
-            0.0,
-            -1.5,
-            2.0,
-            -3.0,
-            1e9,
-            -1e9,
-            8_388_607.5,
-            -8_388_607.5,
-        ] {
-            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
-        }
-        assert!(super::floor(f32::NAN).is_nan());
-        for _ in 0..100_000 {
-            let x = (rng.uniform() - 0.5) * 2e7;
-            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
-        }
-    }
-
-    #[test]
-    fn optimised_voronoi_matches_the_reference_bit_for_bit() {
-        let mut rng = crate::rng::Rng::new(6);
-        for metric in [
-            Metric::Euclidean,
-            Metric::Manhattan,
-            Metric::Chebychev,
-            Metric::Minkowski,
-        ] {
-            for dims in [2u8, 3] {
-                for randomness in [1.0f32, 0.6, 0.0] {
-                    let p = VoronoiParams {
-                        scale: 1.0,
-                        detail: 0.0,
-                        roughness: 0.5,
-                        lacunarity: 2.0,
-                        smoothness: 0.0,
-                        exponent: 1.5,
-                        randomness,
-                        kind: VoronoiKind {
-                            dimensions: dims,
-                            feature: VoronoiFeature::F1,
-                            metric,
-                            normalize: false,
-                        },
-                    };
-                    for k in 0..20_000 {
-                        let mut c = random_point(&mut rng, [2.0, 50.0][k % 2]);
-                        if dims == 2 {
-                            c.z = 0.0;
-                        }
-                        if k == 0 {
-                            c = Vec3::new(-0.0, -0.0, 0.0);
-                        }
-                        let (a, b) = (super::voronoi_octave(&p, c), voronoi_octave(&p, c));
-                        assert_eq!(a.0.to_bits(), b.0.to_bits(), "{metric:?} {c:?}");
-                        assert_eq!(a.1, b.1);
-                        assert_eq!(a.2, b.2);
-                    }
-                }
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -4861,6 +4636,183 @@ mod tests {
         }
         // Both paths ran: the shared-cell lanes and the scalar fallback.
         assert!((5_000..19_000).contains(&shared_cells), "{shared_cells}");
+    }
+
+    /// Blender's own Noise and Voronoi values at chosen points (near the origin, negative,
+    /// −0, on cell walls, large, past Noise's period), recorded by
+    /// `tests/blender/record_patterns.py` with Blender's geometry nodes, which evaluate the
+    /// same definitions as Cycles' shader nodes.
+    fn blender_patterns() -> (Value, Vec<Vec3>) {
+        let doc: Value =
+            serde_json::from_str(include_str!("../../tests/data/blender_patterns.json"))
+                .expect("the recorded patterns are JSON");
+        let points = doc["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(vec3_of)
+            .collect();
+        (doc, points)
+    }
+
+    fn dims_of(config: &Value) -> u8 {
+        if config["dimensions"] == "2D" {
+            2
+        } else {
+            3
+        }
+    }
+
+    fn vec3_of(v: &Value) -> Vec3 {
+        let c = |k: usize| v[k].as_f64().expect("a number") as f32;
+        Vec3::new(c(0), c(1), c(2))
+    }
+
+    /// |a − b| within 2e-5 of the larger magnitude (at least 1): Blender's build may contract
+    /// multiply-adds where Photon does not.
+    fn assert_close(a: Vec3, b: Vec3, what: &str) {
+        let scale = a.abs().max(b.abs()).max_element().max(1.0);
+        assert!(
+            (a - b).abs().max_element() <= 2e-5 * scale,
+            "{what}: {a} vs Blender's {b}"
+        );
+    }
+
+    #[test]
+    fn blender_noise_at_chosen_points() {
+        let (doc, points) = blender_patterns();
+        for n in doc["noise"].as_array().unwrap() {
+            let (dims, num) = (dims_of(n), |k: &str| n[k].as_f64().unwrap() as f32);
+            let f = Fractal {
+                detail: num("detail"),
+                roughness: num("roughness"),
+                lacunarity: num("lacunarity"),
+                normalize: n["normalize"].as_bool().unwrap(),
+            };
+            for (k, p) in points.iter().enumerate() {
+                let (fac, color) = noise_texture(dims, *p, 0.0, &f, num("distortion"), true);
+                let what = format!("{n} at {p}");
+                let want = n["fac"][k].as_f64().unwrap() as f32;
+                assert_close(Vec3::splat(fac), Vec3::splat(want), &what);
+                assert_close(color, vec3_of(&n["color"][k]), &what);
+            }
+        }
+    }
+
+    #[test]
+    fn blender_voronoi_at_chosen_points() {
+        let (doc, points) = blender_patterns();
+        for v in doc["voronoi"].as_array().unwrap() {
+            let (dims, num) = (dims_of(v), |k: &str| v[k].as_f64().unwrap() as f32);
+            let feature = match v["feature"].as_str().unwrap() {
+                "F2" => VoronoiFeature::F2,
+                "SMOOTH_F1" => VoronoiFeature::SmoothF1,
+                _ => VoronoiFeature::F1,
+            };
+            let metric = match v["metric"].as_str().unwrap() {
+                "MANHATTAN" => Metric::Manhattan,
+                "CHEBYCHEV" => Metric::Chebychev,
+                "MINKOWSKI" => Metric::Minkowski,
+                _ => Metric::Euclidean,
+            };
+            let params = VoronoiParams {
+                scale: 1.0,
+                detail: num("detail"),
+                roughness: 0.5,
+                lacunarity: 2.0,
+                smoothness: (num("smoothness") / 2.0).clamp(0.0, 0.5),
+                exponent: num("exponent"),
+                randomness: num("randomness"),
+                kind: VoronoiKind {
+                    dimensions: dims,
+                    feature,
+                    metric,
+                    normalize: false,
+                },
+            };
+            for (k, p) in points.iter().enumerate() {
+                let mut p = *p;
+                if dims == 2 {
+                    p.z = 0.0;
+                }
+                let (distance, color, position) = voronoi(&params, p);
+                let what = format!("{v} at {p}");
+                let want = v["distance"][k].as_f64().unwrap() as f32;
+                assert_close(Vec3::splat(distance), Vec3::splat(want), &what);
+                assert_close(color, vec3_of(&v["color"][k]), &what);
+                assert_close(position, vec3_of(&v["position"][k]), &what);
+            }
+        }
+    }
+
+    #[test]
+    fn floor_is_the_library_floor() {
+        for x in [
+            -0.0f32,
+            0.0,
+            -1.5,
+            2.0,
+            -3.0,
+            1e9,
+            -1e9,
+            8_388_607.5,
+            -8_388_607.5,
+        ] {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+        assert!(floor(f32::NAN).is_nan());
+        let mut rng = crate::rng::Rng::new(5);
+        for _ in 0..100_000 {
+            let x = (rng.uniform() - 0.5) * 2e7;
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+    }
+
+    #[test]
+    fn voronoi_f1_is_the_nearest_of_the_neighbouring_cells_points() {
+        // The pruned, nearest-first search finds what visiting all 27 (or 9) cells finds.
+        let mut rng = crate::rng::Rng::new(6);
+        for metric in [
+            Metric::Euclidean,
+            Metric::Manhattan,
+            Metric::Chebychev,
+            Metric::Minkowski,
+        ] {
+            for dims in [2u8, 3] {
+                for randomness in [1.0f32, 0.6, 0.0] {
+                    let p = VoronoiParams {
+                        scale: 1.0,
+                        detail: 0.0,
+                        roughness: 0.5,
+                        lacunarity: 2.0,
+                        smoothness: 0.0,
+                        exponent: 1.5,
+                        randomness,
+                        kind: VoronoiKind {
+                            dimensions: dims,
+                            feature: VoronoiFeature::F1,
+                            metric,
+                            normalize: false,
+                        },
+                    };
+                    for k in 0..5_000 {
+                        let s = [2.0, 50.0][k % 2];
+                        let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * s;
+                        let z = if dims == 2 { 0.0 } else { c(&mut rng) };
+                        let x = Vec3::new(c(&mut rng), c(&mut rng), z);
+                        let cell = x.floor();
+                        let nearest = cell_offsets(dims, 1)
+                            .map(|o| {
+                                let point = o + cell_point(dims, cell + o) * randomness;
+                                voronoi_distance(metric, 1.5, point, x - cell)
+                            })
+                            .fold(f32::MAX, f32::min);
+                        let (d, _, _) = voronoi_octave(&p, x);
+                        assert_eq!(d.to_bits(), nearest.to_bits(), "{metric:?} {x}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
