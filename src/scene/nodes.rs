@@ -24,7 +24,10 @@
 //! A Bump node's Height subtree is compiled three times: as is, and copies that read the
 //! shading point moved a small step along each surface tangent (`Instr::offset`), as Cycles'
 //! SVM evaluates it at P + dPdx and P + dPdy; the normal then follows Cycles'
-//! `svm_node_set_bump` with those steps as dPdx and dPdy.
+//! `svm_node_set_bump` with those steps as dPdx and dPdy. Each copy runs right after the
+//! instruction it copies, and a Noise Texture with its two copies is one instruction
+//! (`NoiseAt3`): the three nearby points share each octave's lattice hashes and run as vector
+//! lanes, with the scalar code's values bit for bit.
 //!
 //! Shader nodes become Principled parameter sets (`Closure`); a Principled BSDF's Alpha below 1
 //! mixes it with a Transparent BSDF by alpha, as Cycles does. Its coat, sheen and anisotropy
