@@ -96,7 +96,7 @@ READ_INPUTS = {
                                   "Tangent"},
     "ShaderNodeBsdfSheen": {"Color", "Roughness", "Normal"},
     "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR", "Normal"},
-    "ShaderNodeBsdfTranslucent": {"Color"},
+    "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
     "ShaderNodeBsdfTransparent": {"Color"},
 }
 

@@ -247,7 +247,7 @@ impl SurfaceHit {
             let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
             let (nb1, nb2) = (b1 + db1, b2 + db2);
             let p = self.p + db1 * e1 + db2 * e2;
-            node_inputs(mesh, tri, nb1, nb2, p, n, view, placed)
+            moved_inputs(&here, mesh, tri, nb1, nb2, p)
         };
         [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
@@ -388,6 +388,46 @@ pub fn node_inputs(
     view: View,
     placed: Option<Mat3>,
 ) -> ShadingInputs {
+    let (object_normal, object_to_world_normal) = match &mesh.object_space {
+        Some(space) => {
+            // Normals go from world to the stored positions' space (by the transpose of an
+            // instance's linear part, which takes its normals out by the inverse transpose),
+            // then to object space by the inverse transpose, and back by the transposes.
+            let (stored_n, stored_to_world) = match placed {
+                Some(m) => (m.transpose() * n, m.inverse().transpose()),
+                None => (n, Mat3::IDENTITY),
+            };
+            let linear = Mat3::from(space.to_object.matrix3);
+            let on = (linear.inverse().transpose() * stored_n).normalize_or(blender_axes(n));
+            let to_world = BLENDER_AXES * stored_to_world * linear.transpose();
+            (on, to_world)
+        }
+        None => (blender_axes(n), Mat3::IDENTITY),
+    };
+    let here = ShadingInputs {
+        normal: blender_axes(n),
+        object_normal,
+        incoming: blender_axes(view.wo),
+        backfacing: view.backfacing,
+        path: view.path,
+        ray_length: view.ray_length,
+        object_to_world_normal,
+        ..ShadingInputs::default()
+    };
+    moved_inputs(&here, mesh, triangle, b1, b2, p)
+}
+
+/// `at`'s node inputs moved to barycentrics (b1, b2) of `triangle` and world position `p`
+/// (what depends on the position: the point itself, UVs, generated and object coordinates,
+/// the vertex colour and tangent; the normal and view stay).
+fn moved_inputs(
+    at: &ShadingInputs,
+    mesh: &Mesh,
+    triangle: u32,
+    b1: f32,
+    b2: f32,
+    p: Vec3,
+) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
     let mut uv = [Vec2::ZERO; UV_SETS];
     for (out, set) in uv
@@ -399,28 +439,13 @@ pub fn node_inputs(
             *out = Vec2::new(t.x, 1.0 - t.y);
         }
     }
-    let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
-    let (object, generated, object_normal, object_to_world_normal) = match &mesh.object_space {
+    let (object, generated) = match &mesh.object_space {
         Some(space) => {
+            let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
             let o = space.to_object.transform_point3(stored);
-            // Normals go from world to the stored positions' space (by the transpose of an
-            // instance's linear part, which takes its normals out by the inverse transpose),
-            // then to object space by the inverse transpose, and back by the transposes.
-            let (stored_n, stored_to_world) = match placed {
-                Some(m) => (m.transpose() * n, m.inverse().transpose()),
-                None => (n, Mat3::IDENTITY),
-            };
-            let linear = Mat3::from(space.to_object.matrix3);
-            let on = (linear.inverse().transpose() * stored_n).normalize_or(blender_axes(n));
-            let to_world = BLENDER_AXES * stored_to_world * linear.transpose();
-            (o, space.generated(o), on, to_world)
+            (o, space.generated(o))
         }
-        None => (
-            blender_axes(p),
-            blender_axes(p),
-            blender_axes(n),
-            Mat3::IDENTITY,
-        ),
+        None => (blender_axes(p), blender_axes(p)),
     };
     let tangent = if mesh.tangents.is_empty() {
         Vec4::ZERO
@@ -435,17 +460,11 @@ pub fn node_inputs(
     };
     ShadingInputs {
         position: blender_axes(p),
-        normal: blender_axes(n),
         uv,
         generated,
         object,
         color,
-        object_normal,
-        incoming: blender_axes(view.wo),
-        backfacing: view.backfacing,
-        path: view.path,
-        ray_length: view.ray_length,
         tangent,
-        object_to_world_normal,
+        ..*at
     }
 }

@@ -59,6 +59,9 @@ pub struct SurfaceMaterial {
     /// A node tree's Transparent BSDF (its transmission a straight pass): passing it is no
     /// bounce for Light Path, and shadow rays go through it.
     pub transparent: bool,
+    /// A node tree's Translucent BSDF: Lambertian transmission of `base_color` alone (with
+    /// `transmission` 1, so light crosses the surface).
+    pub translucent: bool,
 }
 
 impl Default for SurfaceMaterial {
@@ -90,6 +93,7 @@ impl Default for SurfaceMaterial {
             tangent: None,
             diffuse_roughness: 0.0,
             transparent: false,
+            translucent: false,
         }
     }
 }
@@ -259,6 +263,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         tangent: direction(c.tangent),
         diffuse_roughness: c.diffuse_roughness,
         transparent: c.transparent,
+        translucent: c.translucent,
     }
 }
 

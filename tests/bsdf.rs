@@ -147,6 +147,12 @@ fn rough_cases() -> Vec<Case> {
             false,
         ));
     }
+    // Blender's Translucent BSDF: Lambertian transmission, seen from either side.
+    cases.push(case(
+        "translucent",
+        translucent(Vec3::new(0.9, 0.6, 0.3)),
+        true,
+    ));
     cases.push(Case {
         name: "layered sheen, tinted coat, anisotropic mixture".into(),
         bsdf: Bsdf::new(&SurfaceMaterial {
@@ -158,6 +164,14 @@ fn rough_cases() -> Vec<Case> {
         inside: false,
     });
     cases
+}
+
+/// A Translucent BSDF node's material (`Closure::translucent`).
+fn translucent(color: Vec3) -> SurfaceMaterial {
+    SurfaceMaterial {
+        translucent: true,
+        ..material(color, 0.0, 1.0, 1.0)
+    }
 }
 
 fn coated(m: SurfaceMaterial, roughness: f32) -> SurfaceMaterial {
@@ -191,8 +205,8 @@ fn view_directions(inside: bool) -> Vec<Vec3> {
     dirs
 }
 
-/// 1 + 9 + 6 + 12 + 6 + 15 + 9 + 9 + 3 + 6 chi-square tests below.
-const NUM_CHI2_TESTS: usize = 78;
+/// 1 + 9 + 6 + 12 + 6 + 15 + 9 + 9 + 3 + 6 + 6 chi-square tests below.
+const NUM_CHI2_TESTS: usize = 84;
 
 /// Chi-square tests of the rough cases whose name starts with `family`.
 fn chi2_family(family: &str) {
@@ -270,6 +284,11 @@ fn chi2_anisotropic() {
 #[test]
 fn chi2_layered() {
     chi2_family("layered");
+}
+
+#[test]
+fn chi2_translucent() {
+    chi2_family("translucent");
 }
 
 #[test]
@@ -362,6 +381,31 @@ fn single_scattering_lobes_are_reciprocal() {
     });
     let glass = Bsdf::new(&material(Vec3::ONE, 0.0, 0.4, 1.0));
     let mut rng = Rng::new(7);
+    // Lambertian transmission: f(wo, wi) = f(wi, wo) = colour / π across the surface.
+    let colour = Vec3::new(0.9, 0.6, 0.3);
+    let leaf = Bsdf::new(&translucent(colour));
+    for _ in 0..2000 {
+        let a = photon::sampling::square_to_uniform_sphere(rng.uniform2());
+        let c = photon::sampling::square_to_uniform_sphere(rng.uniform2());
+        if a.z.abs() < 1e-3 || c.z.abs() < 1e-3 {
+            continue;
+        }
+        let f1 = leaf.viewed_from(a).eval(c) / c.z.abs();
+        let f2 = leaf.viewed_from(c).eval(a) / a.z.abs();
+        let expected = if a.z * c.z < 0.0 {
+            colour / std::f32::consts::PI
+        } else {
+            Vec3::ZERO
+        };
+        assert!((f1 - expected).length() < 1e-5 && (f2 - expected).length() < 1e-5);
+        let pdf = leaf.viewed_from(a).pdf(c);
+        let want = if a.z * c.z < 0.0 {
+            c.z.abs() / std::f32::consts::PI
+        } else {
+            0.0
+        };
+        assert!((pdf - want).abs() < 1e-5, "pdf {pdf} vs {want}");
+    }
     for b in [diffuse, glass] {
         for _ in 0..2000 {
             let a = photon::sampling::square_to_cosine_hemisphere(rng.uniform2());
@@ -455,6 +499,7 @@ fn white_furnace_never_creates_energy() {
             });
         }
     }
+    configs.push(translucent(Vec3::ONE));
     for m in configs {
         let b = Bsdf::new(&m);
         for &mu in &[1.0, 0.6, 0.2, 0.05, -0.5, -0.1] {
@@ -521,6 +566,32 @@ fn white_furnace_is_one_for_white_dielectric_and_metal() {
                 (albedo.max_element() - 1.0).abs() < 0.025,
                 "metal r={r} μ={mu}: {albedo:?}"
             );
+        }
+    }
+}
+
+#[test]
+fn translucent_transmits_its_colour_and_reflects_nothing() {
+    // White furnace: a white Translucent BSDF sends all the light through, from either side,
+    // by cosine-weighted samples of weight exactly its colour; nothing is reflected.
+    let colour = Vec3::new(0.9, 0.6, 0.3);
+    for c in [Vec3::ONE, colour] {
+        let b = Bsdf::new(&translucent(c));
+        assert!(b.is_transmissive() && b.has_non_delta() && !b.has_delta());
+        for &mu in &[1.0, 0.5, 0.1, -0.3, -0.9] {
+            let wo = view(mu);
+            let v = b.viewed_from(wo);
+            assert_eq!(v.diffuse_reflectance(), Vec3::ZERO);
+            assert!((v.albedo() - c).length() < 1e-6);
+            let mut rng = Rng::new(13);
+            for _ in 0..2000 {
+                let s = v
+                    .sample(rng.uniform(), rng.uniform2())
+                    .expect("always samples");
+                assert!(s.transmitted && s.wi.z * wo.z < 0.0 && !s.delta);
+                assert!((s.weight - c).length() < 1e-5, "{:?}", s.weight);
+                assert_eq!(s.scattering, photon::bsdf::Scattering::Diffuse);
+            }
         }
     }
 }

@@ -20,6 +20,10 @@
 //!   `closure_layering_weight`), and the coat tints what lies below by `tint^(1/cos θt)` (θt the
 //!   view refracted into the coat), mixed in by the coat weight: these factors depend on the
 //!   view, as in Cycles, so the layered BSDF is not reciprocal;
+//! - Blender's Translucent BSDF (a node tree's `translucent` material) is a lobe of its own,
+//!   alone: Lambertian transmission, f = colour / π for directions on the other side of the
+//!   surface from the viewer, sampled cosine-weighted into that hemisphere (Cycles'
+//!   `bsdf_translucent`); it is reciprocal, so photons scatter by the same lobe;
 //! - the specular layer and the metal are anisotropic GGX (α_x = α / aspect along the frame's
 //!   x axis, the tangent; α_y = α · aspect), the glass and the coat isotropic.
 //!
@@ -175,6 +179,9 @@ pub struct Bsdf {
     transparent: bool,
     /// Oren–Nayar roughness of the diffuse lobe (`oren_nayar`; below its cutoff: Lambert).
     diffuse_roughness: f32,
+    /// The Translucent BSDF's colour: f = translucent / π for directions on the other side
+    /// of the surface from the viewer (zero: no such lobe).
+    translucent: Vec3,
 }
 
 /// One sampled direction.
@@ -280,11 +287,18 @@ impl Bsdf {
             roughness: clean(m.sheen_roughness, 0.0, 1.0),
         };
 
+        // A Translucent BSDF is its lobe alone.
+        let (metallic, transmission) = if m.translucent {
+            (0.0, 0.0)
+        } else {
+            (metallic, transmission)
+        };
+        let dielectric = if m.translucent { 0.0 } else { 1.0 - metallic };
         Bsdf {
             base_color,
-            base_weight: (1.0 - metallic) * (1.0 - transmission),
+            base_weight: dielectric * (1.0 - transmission),
             metal_weight: metallic,
-            glass_weight: (1.0 - metallic) * transmission,
+            glass_weight: dielectric * transmission,
             roughness,
             alpha,
             alpha_x: alpha / aspect,
@@ -311,6 +325,11 @@ impl Bsdf {
             sheen,
             transparent: m.transparent,
             diffuse_roughness: clean(m.diffuse_roughness, 0.0, 1.0),
+            translucent: if m.translucent {
+                base_color
+            } else {
+                Vec3::ZERO
+            },
         }
     }
 
@@ -386,6 +405,11 @@ impl Bsdf {
                     || (self.glass_weight > 0.0 && !self.glass_passes_straight())))
             || self.has_sheen()
             || (self.coat.reflects() && !self.coat.smooth)
+            || self.has_translucent()
+    }
+
+    fn has_translucent(&self) -> bool {
+        self.translucent != Vec3::ZERO
     }
 
     /// True when every lobe is a delta (smooth metal or glass): no light sampling, no MIS.
@@ -402,10 +426,11 @@ impl Bsdf {
             || (self.coat.reflects() && self.coat.smooth)
     }
 
-    /// True when light can cross the surface (a glass lobe exists): the integrator must not flip
-    /// the frame to the viewer's side, and `wo.z < 0` means inside the object.
+    /// True when light can cross the surface (a glass or translucent lobe exists): the
+    /// integrator must not flip the frame to the viewer's side, and `wo.z < 0` means inside
+    /// the object.
     pub fn is_transmissive(&self) -> bool {
-        self.glass_weight > 0.0
+        self.glass_weight > 0.0 || self.has_translucent()
     }
 
     /// True when some lobe is glossy or specular (anything but the Lambertian base): paths that
@@ -477,7 +502,8 @@ const METAL: usize = 2;
 const GLASS: usize = 3;
 const COAT: usize = 4;
 const SHEEN: usize = 5;
-const LOBES: usize = 6;
+const TRANSLUCENT: usize = 6;
+const LOBES: usize = 7;
 
 /// Energy compensation of a GGX dielectric reflector (Cycles' `microfacet_ggx_preserve_energy`
 /// with Fresnel mix(F0·tint, 1, s)) seen at cosine `mu`: its single-scattering multiplier
@@ -512,7 +538,7 @@ impl LobeSet {
         if !wo.is_finite() || wo.z == 0.0 {
             return None;
         }
-        let opaque_visible = wo.z > 0.0 || b.glass_weight > 0.0;
+        let opaque_visible = wo.z > 0.0 || b.is_transmissive();
         if !opaque_visible {
             return None;
         }
@@ -620,6 +646,7 @@ impl LobeSet {
             let (r, tr) = glass_split(b, mu, glass_eta);
             albedo[GLASS] = (r + tr) * glass_scale;
         }
+        albedo[TRANSLUCENT] = b.translucent;
 
         // Sample in proportion to the estimated albedo; a tiny floor keeps every lobe that can
         // carry light reachable.
@@ -641,6 +668,9 @@ impl LobeSet {
         }
         if b.has_sheen() {
             prob[SHEEN] = average(albedo[SHEEN]).max(1e-4);
+        }
+        if b.has_translucent() {
+            prob[TRANSLUCENT] = average(albedo[TRANSLUCENT]).max(1e-4);
         }
         let total: f32 = prob.iter().sum();
         if !(total > 0.0) || !total.is_finite() {
@@ -833,6 +863,10 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
             f += r * (l.glass_scale * single);
             pdf += l.prob[GLASS] * reflect_pdf * glass_reflect_probability(r, t, false);
         }
+    } else if l.prob[TRANSLUCENT] > 0.0 {
+        // Lambertian transmission, into the hemisphere opposite the viewer.
+        f += b.translucent * (FRAC_1_PI * -wi.z);
+        pdf += l.prob[TRANSLUCENT] * cosine_hemisphere_pdf(-wi.z);
     } else if l.prob[GLASS] > 0.0 && !b.smooth && !b.glass_passes_straight() {
         let eta = l.glass_eta;
         if let Some(g) = refraction_geometry(wo, wi, eta) {
@@ -1012,6 +1046,10 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
             (l.out_of_coat_frame(wi_c), true)
         }
         SHEEN => (l.sheen_frame.to_world(l.sheen.sample(uu)), true),
+        TRANSLUCENT => {
+            let d = square_to_cosine_hemisphere(u);
+            (Vec3::new(d.x, d.y, -d.z), false)
+        }
         _ => {
             let eta = l.glass_eta;
             if b.smooth || b.glass_passes_straight() {
@@ -1054,7 +1092,7 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
         pdf,
         delta: false,
         transmitted: wi.z * wo.z < 0.0,
-        scattering: if lobe == DIFFUSE || lobe == SHEEN {
+        scattering: if matches!(lobe, DIFFUSE | SHEEN | TRANSLUCENT) {
             Scattering::Diffuse
         } else {
             Scattering::Glossy

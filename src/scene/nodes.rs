@@ -24,7 +24,10 @@
 //! A Bump node's Height subtree is compiled three times: as is, and copies that read the
 //! shading point moved a small step along each surface tangent (`Instr::offset`), as Cycles'
 //! SVM evaluates it at P + dPdx and P + dPdy; the normal then follows Cycles'
-//! `svm_node_set_bump` with those steps as dPdx and dPdy.
+//! `svm_node_set_bump` with those steps as dPdx and dPdy. Each copy runs right after the
+//! instruction it copies, and a Noise Texture with its two copies is one instruction
+//! (`NoiseAt3`): the three nearby points share each octave's lattice hashes and run as vector
+//! lanes, with the scalar code's values bit for bit.
 //!
 //! Shader nodes become Principled parameter sets (`Closure`); a Principled BSDF's Alpha below 1
 //! mixes it with a Transparent BSDF by alpha, as Cycles does. Its coat, sheen and anisotropy
@@ -36,8 +39,8 @@
 //! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
 //! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
-//! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent → fully rough transmission with IOR 1 (an approximation of diffuse
-//! transmission). Mix Shader mixes emission exactly and picks one BSDF per shading point with
+//! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent →
+//! the BSDF's Lambertian transmission lobe alone (`Closure::translucent`). Mix Shader mixes emission exactly and picks one BSDF per shading point with
 //! probability given by the factor, as Cycles samples one closure by its weight: the BSDF is
 //! linear in its closures, so every integrator (path tracing, photon tracing and gathering,
 //! caches) gets the exact mixture in expectation, where interpolating parameters would not be
@@ -47,8 +50,10 @@
 
 use super::texture::Texture;
 use crate::math::{Mat3, Vec2, Vec3, Vec4};
+use glam::BVec4A;
 use serde_json::Value;
 use std::f32::consts::PI;
+use std::ops::{Add, Div, Mul};
 
 /// UV maps node trees read (`TEXCOORD_0` …).
 pub const UV_SETS: usize = 4;
@@ -275,6 +280,8 @@ pub struct Closure {
     pub diffuse_roughness: f32,
     /// A Transparent BSDF: its pass is not a bounce, and shadow rays go through it.
     pub transparent: bool,
+    /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
+    pub translucent: bool,
 }
 
 impl Closure {
@@ -301,6 +308,7 @@ impl Closure {
         tangent: Vec3::ZERO,
         diffuse_roughness: 0.0,
         transparent: false,
+        translucent: false,
     };
 }
 
@@ -381,7 +389,8 @@ enum Op {
     LightPath,
     Value(f32),
     Rgb(Vec4),
-    Mapping(MappingKind),
+    /// Mapping; its rotation's sines and cosines when the Rotation input is constant.
+    Mapping(MappingKind, Option<Euler>),
     Math {
         op: MathOp,
         clamp: bool,
@@ -424,6 +433,15 @@ enum Op {
     Noise {
         dimensions: u8,
         normalize: bool,
+    },
+    /// A Noise Texture and its two copies at a Bump's offset points, fused (`fuse_bump_noise`):
+    /// `ins` holds the three nodes' inputs one after the other, `outs` and `used` their first
+    /// output registers and read outputs.
+    NoiseAt3 {
+        dimensions: u8,
+        normalize: bool,
+        outs: [u16; 3],
+        used: [u32; 3],
     },
     /// An Image Texture: its texture in `Scene::textures`, and whether it is transparent black
     /// outside [0, 1]² (Blender's Clip extension).
@@ -733,7 +751,7 @@ fn spec(op: &Op) -> Spec {
         ),
         Op::Value(_) => (vec![], vec![("Value", Float)]),
         Op::Rgb(_) => (vec![], vec![("Color", Color)]),
-        Op::Mapping(_) => (
+        Op::Mapping(..) => (
             vec![
                 i("Vector", Vector, Vec4::ZERO),
                 i("Location", Vector, Vec4::ZERO),
@@ -837,7 +855,7 @@ fn spec(op: &Op) -> Spec {
             vec![i("Vector", Vector, Vec4::ZERO)],
             vec![("Color", Color), ("Fac", Float)],
         ),
-        Op::Noise { .. } => (
+        Op::Noise { .. } | Op::NoiseAt3 { .. } => (
             vec![
                 i("Vector", Vector, Vec4::ZERO),
                 i("W", Float, f(0.0)),
@@ -1042,9 +1060,14 @@ fn spec(op: &Op) -> Spec {
             vec![i("Color", Color, Vec4::ONE), i("Strength", Float, f(1.0))],
             vec![("Emission", Shader)],
         ),
-        Op::Transparent | Op::Translucent => {
-            (vec![i("Color", Color, Vec4::ONE)], vec![("BSDF", Shader)])
-        }
+        Op::Transparent => (vec![i("Color", Color, Vec4::ONE)], vec![("BSDF", Shader)]),
+        Op::Translucent => (
+            vec![
+                i("Color", Color, Vec4::ONE),
+                i("Normal", Vector, Vec4::ZERO),
+            ],
+            vec![("BSDF", Shader)],
+        ),
         Op::MixShader => (
             vec![
                 i("Fac", Float, f(0.5)),
@@ -1178,13 +1201,16 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                 .and_then(const_value)
                 .ok_or("RGB: 'value' must be a colour")?,
         ),
-        "Mapping" => Op::Mapping(match setting(node, "vector_type").unwrap_or("POINT") {
-            "POINT" => MappingKind::Point,
-            "TEXTURE" => MappingKind::Texture,
-            "VECTOR" => MappingKind::Vector,
-            "NORMAL" => MappingKind::Normal,
-            _ => return Err(bad("vector_type")),
-        }),
+        "Mapping" => Op::Mapping(
+            match setting(node, "vector_type").unwrap_or("POINT") {
+                "POINT" => MappingKind::Point,
+                "TEXTURE" => MappingKind::Texture,
+                "VECTOR" => MappingKind::Vector,
+                "NORMAL" => MappingKind::Normal,
+                _ => return Err(bad("vector_type")),
+            },
+            None,
+        ),
         "Math" => Op::Math {
             op: match math_op(setting(node, "operation").unwrap_or("ADD")) {
                 Some(op) => op,
@@ -1513,6 +1539,8 @@ fn compile_tree(
     // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
     let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
     let mut deps: Vec<Vec<usize>> = Vec::with_capacity(nodes.len());
+    // Per instruction: the instruction it copies (a Bump's offset copies), else itself.
+    let mut anchors: Vec<usize> = Vec::new();
     for (index, node) in nodes.iter().enumerate() {
         let name = setting(node, "name").unwrap_or("?").to_string();
         let kind = setting(node, "type").unwrap_or("?").to_string();
@@ -1698,6 +1726,7 @@ fn compile_tree(
                         return Err(format!("the tree needs more than {MAX_REGISTERS} values"));
                     }
                     instrs.push(copy);
+                    anchors.push(k);
                 }
                 let remap = |r: u16| {
                     moved
@@ -1718,6 +1747,14 @@ fn compile_tree(
         node_instr.push(if shader { None } else { Some(instrs.len()) });
         deps.push(reads);
         needs_offsets |= needs;
+        let op = match (op, ins.get(2)) {
+            // A constant rotation's sines and cosines, once.
+            (Op::Mapping(kind, None), Some(Src::Const(r))) => {
+                Op::Mapping(kind, Some(Euler::new(r.truncate())))
+            }
+            (op, _) => op,
+        };
+        anchors.push(instrs.len());
         instrs.push(Instr {
             op,
             ins,
@@ -1777,6 +1814,7 @@ fn compile_tree(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
+    let instrs = fuse_bump_noise(instrs, &anchors);
     let light_path_reads = instrs
         .iter()
         .filter(|i| i.op == Op::LightPath)
@@ -1802,6 +1840,55 @@ fn compile_tree(
         shadow_transparent,
         displacement: None,
     })
+}
+
+/// Each of a Bump's offset copies moved to just after the instruction it copies (valid: a
+/// copy reads only copies of what its original reads, or what the original reads, all of
+/// which come earlier), then every Noise Texture followed by its copies at both offsets fused
+/// into one `NoiseAt3`, which shares the lattice hashes of the three nearby points (the same
+/// values as three separate evaluations, bit for bit).
+fn fuse_bump_noise(instrs: Vec<Instr>, anchors: &[usize]) -> Vec<Instr> {
+    let mut order: Vec<(usize, Instr)> = anchors.iter().copied().zip(instrs).collect();
+    order.sort_by_key(|(anchor, _)| *anchor);
+    let mut fused: Vec<Instr> = Vec::with_capacity(order.len());
+    let mut k = 0;
+    while k < order.len() {
+        let triple = order.get(k..k + 3).filter(|t| {
+            matches!(t[0].1.op, Op::Noise { .. })
+                && t.iter().all(|(a, i)| *a == t[0].0 && i.op == t[0].1.op)
+                && t.iter()
+                    .enumerate()
+                    .all(|(n, (_, i))| i.offset as usize == n)
+        });
+        match (triple, &order[k].1.op) {
+            (
+                Some(t),
+                Op::Noise {
+                    dimensions,
+                    normalize,
+                },
+            ) => {
+                fused.push(Instr {
+                    op: Op::NoiseAt3 {
+                        dimensions: *dimensions,
+                        normalize: *normalize,
+                        outs: [t[0].1.out, t[1].1.out, t[2].1.out],
+                        used: [t[0].1.used, t[1].1.used, t[2].1.used],
+                    },
+                    ins: t.iter().flat_map(|(_, i)| i.ins.iter().copied()).collect(),
+                    out: t[0].1.out,
+                    offset: 0,
+                    used: t[0].1.used | t[1].1.used | t[2].1.used,
+                });
+                k += 3;
+            }
+            _ => {
+                fused.push(order[k].1.clone());
+                k += 1;
+            }
+        }
+    }
+    fused
 }
 
 // ----- evaluation --------------------------------------------------------------------------
@@ -1998,12 +2085,12 @@ fn run(
         }
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
-        Op::Mapping(kind) => {
+        Op::Mapping(kind, fixed) => {
             let v = get(m, 0).truncate();
             let loc = get(m, 1).truncate();
-            let rot = get(m, 2).truncate();
+            let rot = fixed.unwrap_or_else(|| Euler::new(get(m, 2).truncate()));
             let scale = get(m, 3).truncate();
-            m.regs[o] = v3(mapping(*kind, v, loc, rot, scale));
+            m.regs[o] = v3(mapping(*kind, v, loc, &rot, scale));
         }
         Op::Math { op, clamp } => {
             let r = math(*op, get(m, 0).x, get(m, 1).x, get(m, 2).x);
@@ -2122,6 +2209,31 @@ fn run(
             let (fac, color) = noise_texture(*dimensions, p, w, &params, distortion, color);
             m.regs[o] = splat(fac);
             m.regs[o + 1] = v3(color);
+        }
+        Op::NoiseAt3 {
+            dimensions,
+            normalize,
+            outs,
+            used,
+        } => {
+            let input = |k: usize| {
+                let g = |j: usize| load(m, &points[k], ins[9 * k + j]).x;
+                let scale = g(2);
+                let p = load(m, &points[k], ins[9 * k]).truncate() * scale;
+                let f = Fractal {
+                    detail: g(3).clamp(0.0, 15.0),
+                    roughness: g(4).max(0.0),
+                    lacunarity: g(5),
+                    normalize: *normalize,
+                };
+                (p, g(1) * scale, f, g(8))
+            };
+            let color = used.iter().any(|u| u & 2 != 0);
+            let values = noise_texture_at3(*dimensions, &[input(0), input(1), input(2)], color);
+            for ((fac, color), out) in values.into_iter().zip(outs) {
+                m.regs[*out as usize] = splat(fac);
+                m.regs[*out as usize + 1] = v3(color);
+            }
         }
         Op::Image { texture, clip, .. } => {
             let uv = get(m, 0);
@@ -2331,6 +2443,7 @@ fn run(
                 tangent,
                 diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
                 transparent: false,
+                translucent: false,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
             // Transparent BSDF by 1 − alpha.
@@ -2406,9 +2519,12 @@ fn run(
         Op::Transparent => m.closures[o] = transparent(get(m, 0).truncate()),
         Op::Translucent => {
             m.closures[o] = Closure {
+                base_color: get(m, 0).truncate(),
                 roughness: 1.0,
-                transparent: false,
-                ..transparent(get(m, 0).truncate())
+                transmission: 1.0,
+                normal: get(m, 1).truncate(),
+                translucent: true,
+                ..Closure::BLACK
             };
         }
         Op::MixShader => {
@@ -2575,24 +2691,42 @@ fn fresnel_dielectric_cos(cos: f32, eta: f32) -> f32 {
     }
 }
 
+/// A rotation by Euler angles, as its angles' sines and cosines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Euler {
+    sin: Vec3,
+    cos: Vec3,
+}
+
+impl Euler {
+    fn new(r: Vec3) -> Euler {
+        let (sx, cx) = r.x.sin_cos();
+        let (sy, cy) = r.y.sin_cos();
+        let (sz, cz) = r.z.sin_cos();
+        Euler {
+            sin: Vec3::new(sx, sy, sz),
+            cos: Vec3::new(cx, cy, cz),
+        }
+    }
+}
+
+/// `v` turned about axis `axis` (0 X, 1 Y, 2 Z) by the angle of sine `s` and cosine `c`.
+fn turn(v: Vec3, axis: usize, s: f32, c: f32) -> Vec3 {
+    match axis {
+        0 => Vec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z),
+        1 => Vec3::new(c * v.x + s * v.z, v.y, -s * v.x + c * v.z),
+        _ => Vec3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z),
+    }
+}
+
 /// Blender's Euler XYZ rotation (X first, then Y, then Z).
-fn euler_xyz(r: Vec3, v: Vec3) -> Vec3 {
-    let (sx, cx) = r.x.sin_cos();
-    let (sy, cy) = r.y.sin_cos();
-    let (sz, cz) = r.z.sin_cos();
-    let v = Vec3::new(v.x, cx * v.y - sx * v.z, sx * v.y + cx * v.z);
-    let v = Vec3::new(cy * v.x + sy * v.z, v.y, -sy * v.x + cy * v.z);
-    Vec3::new(cz * v.x - sz * v.y, sz * v.x + cz * v.y, v.z)
+fn euler_xyz(r: &Euler, v: Vec3) -> Vec3 {
+    (0..3).fold(v, |v, k| turn(v, k, r.sin[k], r.cos[k]))
 }
 
 /// The inverse of `euler_xyz`.
-fn euler_xyz_inverse(r: Vec3, v: Vec3) -> Vec3 {
-    let (sx, cx) = r.x.sin_cos();
-    let (sy, cy) = r.y.sin_cos();
-    let (sz, cz) = r.z.sin_cos();
-    let v = Vec3::new(cz * v.x + sz * v.y, -sz * v.x + cz * v.y, v.z);
-    let v = Vec3::new(cy * v.x - sy * v.z, v.y, sy * v.x + cy * v.z);
-    Vec3::new(v.x, cx * v.y + sx * v.z, -sx * v.y + cx * v.z)
+fn euler_xyz_inverse(r: &Euler, v: Vec3) -> Vec3 {
+    (0..3).rev().fold(v, |v, k| turn(v, k, -r.sin[k], r.cos[k]))
 }
 
 fn safe_divide3(a: Vec3, b: Vec3) -> Vec3 {
@@ -2601,7 +2735,7 @@ fn safe_divide3(a: Vec3, b: Vec3) -> Vec3 {
 }
 
 /// The Mapping node (Cycles' `svm_mapping`).
-fn mapping(kind: MappingKind, v: Vec3, loc: Vec3, rot: Vec3, scale: Vec3) -> Vec3 {
+fn mapping(kind: MappingKind, v: Vec3, loc: Vec3, rot: &Euler, scale: Vec3) -> Vec3 {
     match kind {
         MappingKind::Point => euler_xyz(rot, v * scale) + loc,
         MappingKind::Texture => safe_divide3(euler_xyz_inverse(rot, v - loc), scale),
@@ -3206,14 +3340,17 @@ fn perlin3(x: f32, y: f32, z: f32) -> f32 {
         + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
 }
 
-/// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
+/// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`: each
+/// coordinate taken modulo the period, plus ½ where it was at least 10⁶).
 fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
     // fmod is the identity below the period (and a library call).
     let m = |x: f32| {
         if x.abs() < 100_000.0 {
             x
-        } else {
+        } else if x.abs() < 1_000_000.0 {
             x % 100_000.0
+        } else {
+            x % 100_000.0 + 0.5
         }
     };
     match dimensions {
@@ -3223,6 +3360,7 @@ fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
     }
 }
 
+#[derive(Clone, Copy, PartialEq)]
 struct Fractal {
     detail: f32,
     roughness: f32,
@@ -3232,33 +3370,41 @@ struct Fractal {
 
 /// Cycles' `noise_fbm`.
 fn fbm(dimensions: u8, p: Vec3, w: f32, f: &Fractal) -> f32 {
+    fractal_sum(f, 0.0, |scale| snoise(dimensions, scale * p, scale * w))
+}
+
+/// `noise_fbm`'s sum of octaves of `noise` (called with each octave's scale), for one point
+/// or several as lanes.
+fn fractal_sum<T>(f: &Fractal, zero: T, noise: impl Fn(f32) -> T) -> T
+where
+    T: Copy + Add<Output = T> + Add<f32, Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>,
+{
     let mut fscale = 1.0f32;
     let mut amp = 1.0f32;
     let mut maxamp = 0.0f32;
-    let mut sum = 0.0f32;
+    let mut sum = zero;
     let octaves = f.detail as i32;
     for _ in 0..=octaves {
-        let t = snoise(dimensions, fscale * p, fscale * w);
-        sum += t * amp;
+        sum = sum + noise(fscale) * amp;
         maxamp += amp;
         amp *= f.roughness;
         fscale *= f.lacunarity;
     }
+    let lerp = |a: T, b: T, t: f32| a * (1.0 - t) + b * t;
     let rmd = f.detail - f.detail.floor();
     if rmd != 0.0 {
-        let t = snoise(dimensions, fscale * p, fscale * w);
-        let sum2 = sum + t * amp;
+        let sum2 = sum + noise(fscale) * amp;
         if f.normalize {
             lerp(
-                0.5 * sum / maxamp + 0.5,
-                0.5 * sum2 / (maxamp + amp) + 0.5,
+                sum * 0.5 / maxamp + 0.5,
+                sum2 * 0.5 / (maxamp + amp) + 0.5,
                 rmd,
             )
         } else {
             lerp(sum, sum2, rmd)
         }
     } else if f.normalize {
-        0.5 * sum / maxamp + 0.5
+        sum * 0.5 / maxamp + 0.5
     } else {
         sum
     }
@@ -3320,6 +3466,115 @@ fn noise_texture(
         fbm(dimensions, p + masked(o), w + ow, f)
     };
     (value, Vec3::new(value, shifted(s1), shifted(s2)))
+}
+
+// ----- the same noise at a Bump's three points at once ---------------------------------------
+//
+// A Bump reads its height at the shading point and a small step along each tangent: three
+// points that nearly always lie in the same lattice cell of every octave. There the eight
+// corner hashes are computed once and the three points' gradients and interpolation run as
+// lanes of one vector, each lane the very operations of `perlin3` in the same order (no fused
+// multiply-add), so the values are the scalar code's bit for bit; points in different cells,
+// far coordinates and other dimensions take the scalar code.
+
+/// Three points' coordinates as lanes (the fourth repeats the first).
+fn lanes(v: [f32; 3]) -> Vec4 {
+    Vec4::new(v[0], v[1], v[2], v[0])
+}
+
+#[inline(always)]
+fn fade4(t: Vec4) -> Vec4 {
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+/// `grad3` for one hash over lanes of points: the hash picks the same components and signs
+/// in every lane (a sign is flipped by multiplying by −1, which is exact).
+#[inline(always)]
+fn grad3_lanes(hash: u32, x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+    let h = hash & 15;
+    let pick = |c: bool, a: Vec4, b: Vec4| Vec4::select(BVec4A::splat(c), a, b);
+    let u = pick(h < 8, x, y);
+    let vt = pick(h == 12 || h == 14, x, z);
+    let v = pick(h < 4, y, vt);
+    let sign = |bit: u32| 1.0 - 2.0 * bit as f32;
+    u * sign(h & 1) + v * sign((h >> 1) & 1)
+}
+
+/// `floor` lane by lane for |v| < 2²² (the same values, −0 included): adding and taking
+/// away 1.5 · 2²³ rounds to an integer.
+#[inline(always)]
+fn floor4(v: Vec4) -> Vec4 {
+    const ROUND: f32 = 12_582_912.0;
+    let t = (v + ROUND) - ROUND;
+    Vec4::select(t.cmpgt(v), t - 1.0, Vec4::select(t.cmplt(v), t, v))
+}
+
+/// `0.9820 * perlin3` (`snoise` in 3D) of three points given as lanes.
+fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+    let near = |v: Vec4| v.abs().cmplt(Vec4::splat(100_000.0)).all();
+    let (cx, cy, cz) = (floor4(x), floor4(y), floor4(z));
+    let one_cell = |c: Vec4| c.cmpeq(Vec4::splat(c.x)).all();
+    if !(near(x) && near(y) && near(z) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+        let (xs, ys, zs) = (x.to_array(), y.to_array(), z.to_array());
+        let n = |k: usize| snoise(3, Vec3::new(xs[k], ys[k], zs[k]), 0.0);
+        return lanes([n(0), n(1), n(2)]);
+    }
+    let h = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
+    let (fx, fy, fz) = (x - cx, y - cy, z - cz);
+    let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
+    let (gx, gy, gz) = (fx - 1.0, fy - 1.0, fz - 1.0);
+    let g000 = grad3_lanes(h[0], fx, fy, fz);
+    let g100 = grad3_lanes(h[1], gx, fy, fz);
+    let g010 = grad3_lanes(h[2], fx, gy, fz);
+    let g110 = grad3_lanes(h[3], gx, gy, fz);
+    let g001 = grad3_lanes(h[4], fx, fy, gz);
+    let g101 = grad3_lanes(h[5], gx, fy, gz);
+    let g011 = grad3_lanes(h[6], fx, gy, gz);
+    let g111 = grad3_lanes(h[7], gx, gy, gz);
+    let (x1, y1, z1) = (Vec4::ONE - u, Vec4::ONE - v, Vec4::ONE - w);
+    let p = z1 * (y1 * (g000 * x1 + g100 * u) + v * (g010 * x1 + g110 * u))
+        + w * (y1 * (g001 * x1 + g101 * u) + v * (g011 * x1 + g111 * u));
+    0.9820 * p
+}
+
+/// `fbm` in 3D of three points given as lanes.
+fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+    fractal_sum(f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z))
+}
+
+/// One point's Noise Texture inputs: (scaled position, scaled W, fractal, distortion).
+type NoiseInput = (Vec3, f32, Fractal, f32);
+
+/// `noise_texture` at a Bump's three points (its section header).
+fn noise_texture_at3(dimensions: u8, at: &[NoiseInput; 3], color: bool) -> [(f32, Vec3); 3] {
+    let (_, _, f, distortion) = at[0];
+    let shared = at.iter().all(|a| a.2 == f && a.3 == distortion);
+    if dimensions != 3 || !shared {
+        return at.map(|(p, w, f, d)| noise_texture(dimensions, p, w, &f, d, color));
+    }
+    let (mut x, mut y, mut z) = (
+        lanes(at.map(|a| a.0.x)),
+        lanes(at.map(|a| a.0.y)),
+        lanes(at.map(|a| a.0.z)),
+    );
+    if distortion != 0.0 {
+        let d = [0.0f32, 1.0, 2.0].map(|seed| {
+            let o = offset(3, seed).0;
+            snoise3_lanes(x + o.x, y + o.y, z + o.z) * distortion
+        });
+        (x, y, z) = (x + d[0], y + d[1], z + d[2]);
+    }
+    let value = fbm3_lanes(x, y, z, &f);
+    let shifted = |seed: f32| {
+        let o = offset(3, seed).0;
+        fbm3_lanes(x + o.x, y + o.y, z + o.z, &f)
+    };
+    let (g, b) = if color {
+        (shifted(3.0), shifted(4.0))
+    } else {
+        (value, value)
+    };
+    [0, 1, 2].map(|k| (value[k], Vec3::new(value[k], g[k], b[k])))
 }
 
 /// Blender's Vector Math node: the vector and the value outputs.
@@ -3711,38 +3966,84 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
         _ => {
             // The nearest point, the first in Cycles' order on a tie. A cell's point lies in
             // [offset, offset + randomness] on each axis, so a cell whose box is farther from
-            // `local` than the home cell's point cannot win: it is skipped unhashed (exact).
+            // `local` than the best point so far cannot win: it is skipped unhashed (exact).
+            // The cells are visited nearest first (the home cell, then those sharing a face,
+            // an edge, a corner), so the best point is found early and most cells are skipped.
             // (As Cycles computes it: cell + 0 turns a −0 coordinate into +0 before hashing.)
-            let home = Vec3::ZERO + cell_point(dims, cell + Vec3::ZERO) * p.randomness;
-            let home_d = voronoi_distance(metric, p.exponent, home, local);
             let prune = metric != Metric::Minkowski;
             let mut best = f32::MAX;
+            let mut best_index = usize::MAX;
             let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
-            for offset in cell_offsets(dims, 1) {
-                let (point, d) = if offset == Vec3::ZERO {
-                    (home, home_d)
-                } else {
-                    if prune {
+            let order: &[(u8, [i8; 3])] = if dims == 2 {
+                &NEAREST_FIRST_2D
+            } else {
+                &NEAREST_FIRST_3D
+            };
+            // Per axis, the squared gap from `local` to the boxes of offset −1, 0 and 1.
+            let gap2 = [local.x, local.y, local.z].map(|l| {
+                [-1.0f32, 0.0, 1.0].map(|o| {
+                    let g = (o - l).max(l - (o + p.randomness)).max(0.0);
+                    g * g
+                })
+            });
+            for &(index, [i, j, k]) in order {
+                let index = index as usize;
+                let offset = Vec3::new(i as f32, j as f32, k as f32);
+                if prune && best != f32::MAX {
+                    let bound = best * (1.0 + 1e-6);
+                    let far = if metric == Metric::Euclidean {
+                        // Squared, without the root (the bound's margin covers the rounding).
+                        let [a, b, c] = [i, j, k].map(|o| (o + 1) as usize);
+                        gap2[0][a] + gap2[1][b] + gap2[2][c] > bound * bound
+                    } else {
                         let below = offset - local;
                         let above = local - (offset + Vec3::splat(p.randomness));
                         let gap = below.max(above).max(Vec3::ZERO);
-                        // Nor can one farther than the best so far.
-                        let bound = home_d.min(best) * (1.0 + 1e-6);
-                        if voronoi_distance(metric, p.exponent, gap, Vec3::ZERO) > bound {
-                            continue;
-                        }
+                        voronoi_distance(metric, p.exponent, gap, Vec3::ZERO) > bound
+                    };
+                    if far {
+                        continue;
                     }
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    (point, voronoi_distance(metric, p.exponent, point, local))
-                };
-                if d < best {
-                    (best, target_offset, target) = (d, offset, point);
+                }
+                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let d = voronoi_distance(metric, p.exponent, point, local);
+                if d < best || (d == best && index < best_index) {
+                    (best, best_index, target_offset, target) = (d, index, offset, point);
                 }
             }
             (best, cell_color(dims, cell + target_offset), target + cell)
         }
     }
 }
+
+/// The cells around a Voronoi point's home cell as (Cycles' visiting order, offset), nearest
+/// first: the home cell, then the cells sharing a face, an edge, a corner with it.
+const fn nearest_first<const N: usize>(dims: usize) -> [(u8, [i8; 3]); N] {
+    let mut out = [(0u8, [0i8; 3]); N];
+    let mut n = 0;
+    let mut shared = 0;
+    while shared <= dims {
+        let mut index = 0;
+        while index < N {
+            let o = [
+                (index % 3) as i8 - 1,
+                ((index / 3) % 3) as i8 - 1,
+                if dims == 2 { 0 } else { (index / 9) as i8 - 1 },
+            ];
+            let nonzero = (o[0] != 0) as usize + (o[1] != 0) as usize + (o[2] != 0) as usize;
+            if nonzero == shared {
+                out[n] = (index as u8, o);
+                n += 1;
+            }
+            index += 1;
+        }
+        shared += 1;
+    }
+    out
+}
+
+const NEAREST_FIRST_2D: [(u8, [i8; 3]); 9] = nearest_first::<9>(2);
+const NEAREST_FIRST_3D: [(u8, [i8; 3]); 27] = nearest_first::<27>(3);
 
 /// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
 fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
@@ -3798,234 +4099,6 @@ fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
         Vec3::ZERO
     };
     (distance, color, position)
-}
-
-/// The straightforward forms the optimised noise and Voronoi code replaced (branchy
-/// gradients, fmod always, every Voronoi cell hashed): the optimised code must agree bit for
-/// bit, so patterns stay Cycles'.
-#[cfg(test)]
-mod reference {
-    use super::{
-        cell_color, cell_offsets, fade, floorfrac, hash2, hash3, hash4, lerp, negate_if, perlin1,
-        smoothstep, unit, voronoi_distance, Metric, Vec3, VoronoiFeature, VoronoiKind,
-        VoronoiParams,
-    };
-
-    fn grad2(hash: u32, x: f32, y: f32) -> f32 {
-        let h = hash & 7;
-        let (u, v) = if h < 4 { (x, 2.0 * y) } else { (y, 2.0 * x) };
-        negate_if(u, h & 1) + negate_if(v, h & 2)
-    }
-
-    fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
-        let h = hash & 15;
-        let u = if h < 8 { x } else { y };
-        let vt = if h == 12 || h == 14 { x } else { z };
-        let v = if h < 4 { y } else { vt };
-        negate_if(u, h & 1) + negate_if(v, h & 2)
-    }
-
-    fn perlin2(x: f32, y: f32) -> f32 {
-        let (xi, fx) = floorfrac(x);
-        let (yi, fy) = floorfrac(y);
-        let (u, v) = (fade(fx), fade(fy));
-        let h = |dx: i32, dy: i32| hash2(xi.wrapping_add(dx) as u32, yi.wrapping_add(dy) as u32);
-        let v0 = grad2(h(0, 0), fx, fy);
-        let v1 = grad2(h(1, 0), fx - 1.0, fy);
-        let v2 = grad2(h(0, 1), fx, fy - 1.0);
-        let v3 = grad2(h(1, 1), fx - 1.0, fy - 1.0);
-        let x1 = 1.0 - u;
-        (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
-    }
-
-    fn perlin3(x: f32, y: f32, z: f32) -> f32 {
-        let (xi, fx) = floorfrac(x);
-        let (yi, fy) = floorfrac(y);
-        let (zi, fz) = floorfrac(z);
-        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-        let g = |dx: i32, dy: i32, dz: i32| {
-            let h = hash3(
-                xi.wrapping_add(dx) as u32,
-                yi.wrapping_add(dy) as u32,
-                zi.wrapping_add(dz) as u32,
-            );
-            grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
-        };
-        let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
-        z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
-            + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
-    }
-
-    /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`).
-    fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
-        let m = |x: f32| x % 100_000.0;
-        match dimensions {
-            1 => 0.25 * perlin1(m(w)),
-            2 => 0.6616 * perlin2(m(p.x), m(p.y)),
-            _ => 0.9820 * perlin3(m(p.x), m(p.y), m(p.z)),
-        }
-    }
-
-    /// `hash_float2_to_float2` (2D) or `hash_float3_to_float3` (3D): a cell's point offset.
-    fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
-        let (x, y, z) = (c.x.to_bits(), c.y.to_bits(), c.z.to_bits());
-        if dimensions == 2 {
-            Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
-        } else {
-            Vec3::new(
-                unit(hash3(x, y, z)),
-                unit(hash4(x, y, z, 1f32.to_bits())),
-                unit(hash4(x, y, z, 2f32.to_bits())),
-            )
-        }
-    }
-
-    /// One octave: (distance, colour, position).
-    fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
-        let dims = p.kind.dimensions;
-        let cell = coord.floor();
-        let local = coord - cell;
-        let metric = p.kind.metric;
-        match p.kind.feature {
-            VoronoiFeature::SmoothF1 if p.smoothness != 0.0 => {
-                let mut distance = 0.0f32;
-                let mut color = Vec3::ZERO;
-                let mut position = Vec3::ZERO;
-                let mut h = -1.0f32;
-                for offset in cell_offsets(dims, 2) {
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    let d = voronoi_distance(metric, p.exponent, point, local);
-                    h = if h == -1.0 {
-                        1.0
-                    } else {
-                        smoothstep(0.0, 1.0, 0.5 + 0.5 * (distance - d) / p.smoothness)
-                    };
-                    let mut correction = p.smoothness * h * (1.0 - h);
-                    distance = lerp(distance, d, h) - correction;
-                    correction /= 1.0 + 3.0 * p.smoothness;
-                    let c = cell_color(dims, cell + offset);
-                    color = color.lerp(c, h) - Vec3::splat(correction);
-                    position = position.lerp(point, h) - Vec3::splat(correction);
-                }
-                (distance, color, cell + position)
-            }
-            VoronoiFeature::F2 => {
-                let (mut d1, mut d2) = (f32::MAX, f32::MAX);
-                let (mut o1, mut o2) = (Vec3::ZERO, Vec3::ZERO);
-                let (mut p1, mut p2) = (Vec3::ZERO, Vec3::ZERO);
-                for offset in cell_offsets(dims, 1) {
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    let d = voronoi_distance(metric, p.exponent, point, local);
-                    if d < d1 {
-                        (d2, o2, p2) = (d1, o1, p1);
-                        (d1, o1, p1) = (d, offset, point);
-                    } else if d < d2 {
-                        (d2, o2, p2) = (d, offset, point);
-                    }
-                }
-                (d2, cell_color(dims, cell + o2), p2 + cell)
-            }
-            _ => {
-                let mut best = f32::MAX;
-                let (mut target_offset, mut target) = (Vec3::ZERO, Vec3::ZERO);
-                for offset in cell_offsets(dims, 1) {
-                    let point = offset + cell_point(dims, cell + offset) * p.randomness;
-                    let d = voronoi_distance(metric, p.exponent, point, local);
-                    if d < best {
-                        (best, target_offset, target) = (d, offset, point);
-                    }
-                }
-                (best, cell_color(dims, cell + target_offset), target + cell)
-            }
-        }
-    }
-
-    fn random_point(rng: &mut crate::rng::Rng, scale: f32) -> Vec3 {
-        let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * scale;
-        Vec3::new(c(rng), c(rng), c(rng))
-    }
-
-    #[test]
-    fn optimised_noise_matches_the_reference_bit_for_bit() {
-        let mut rng = crate::rng::Rng::new(5);
-        for k in 0..200_000 {
-            let scale = [1.0, 10.0, 1000.0, 2.0e5][k % 4];
-            let p = random_point(&mut rng, scale);
-            for dims in [2u8, 3] {
-                assert_eq!(
-                    super::snoise(dims, p, 0.0).to_bits(),
-                    snoise(dims, p, 0.0).to_bits(),
-                    "{p:?}"
-                );
-            }
-        }
-        assert_eq!(
-            super::snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0),
-            snoise(3, Vec3::new(-0.0, 0.0, -0.5), 0.0)
-        );
-        for x in [
-            -0.0f32,
-            0.0,
-            -1.5,
-            2.0,
-            -3.0,
-            1e9,
-            -1e9,
-            8_388_607.5,
-            -8_388_607.5,
-        ] {
-            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
-        }
-        assert!(super::floor(f32::NAN).is_nan());
-        for _ in 0..100_000 {
-            let x = (rng.uniform() - 0.5) * 2e7;
-            assert_eq!(super::floor(x).to_bits(), x.floor().to_bits(), "{x}");
-        }
-    }
-
-    #[test]
-    fn optimised_voronoi_matches_the_reference_bit_for_bit() {
-        let mut rng = crate::rng::Rng::new(6);
-        for metric in [
-            Metric::Euclidean,
-            Metric::Manhattan,
-            Metric::Chebychev,
-            Metric::Minkowski,
-        ] {
-            for dims in [2u8, 3] {
-                for randomness in [1.0f32, 0.6, 0.0] {
-                    let p = VoronoiParams {
-                        scale: 1.0,
-                        detail: 0.0,
-                        roughness: 0.5,
-                        lacunarity: 2.0,
-                        smoothness: 0.0,
-                        exponent: 1.5,
-                        randomness,
-                        kind: VoronoiKind {
-                            dimensions: dims,
-                            feature: VoronoiFeature::F1,
-                            metric,
-                            normalize: false,
-                        },
-                    };
-                    for k in 0..20_000 {
-                        let mut c = random_point(&mut rng, [2.0, 50.0][k % 2]);
-                        if dims == 2 {
-                            c.z = 0.0;
-                        }
-                        if k == 0 {
-                            c = Vec3::new(-0.0, -0.0, 0.0);
-                        }
-                        let (a, b) = (super::voronoi_octave(&p, c), voronoi_octave(&p, c));
-                        assert_eq!(a.0.to_bits(), b.0.to_bits(), "{metric:?} {c:?}");
-                        assert_eq!(a.1, b.1);
-                        assert_eq!(a.2, b.2);
-                    }
-                }
-            }
-        }
-    }
 }
 
 #[cfg(test)]
@@ -4532,6 +4605,278 @@ mod tests {
     }
 
     #[test]
+    fn noise_at_a_bumps_three_points_is_the_scalar_noise_bit_for_bit() {
+        // Points a small step apart (mostly one lattice cell), some across cell walls, far
+        // ones (fmod), with and without distortion and colour, whole and fractional detail.
+        let mut rng = crate::rng::Rng::new(9);
+        let mut shared_cells = 0;
+        for k in 0..20_000 {
+            let scale = [1.0, 10.0, 300.0, 2.0e5][k % 4];
+            let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * scale;
+            let p = Vec3::new(c(&mut rng), c(&mut rng), c(&mut rng));
+            let step = [1e-4, 1e-2, 0.3][k % 3];
+            let points = [p, p + Vec3::X * step, p + Vec3::Y * step];
+            let f = Fractal {
+                detail: [0.0, 2.0, 3.5][k % 3],
+                roughness: 0.5,
+                lacunarity: 2.0,
+                normalize: k % 2 == 0,
+            };
+            let distortion = [0.0, 0.0, 1.5][(k / 3) % 3];
+            let color = k % 5 == 0;
+            let inputs = points.map(|p| (p, 0.0, f, distortion));
+            let fused = noise_texture_at3(3, &inputs, color);
+            for (q, (fac, col)) in points.iter().zip(fused) {
+                let (want, want_col) = noise_texture(3, *q, 0.0, &f, distortion, color);
+                assert_eq!(fac.to_bits(), want.to_bits(), "{q:?} {k}");
+                assert_eq!(
+                    col.to_array().map(f32::to_bits),
+                    want_col.to_array().map(f32::to_bits)
+                );
+            }
+            let cell = |v: Vec3| v.floor();
+            shared_cells += (cell(points[1]) == cell(p) && cell(points[2]) == cell(p)) as u32;
+        }
+        // Both paths ran: the shared-cell lanes and the scalar fallback.
+        assert!((5_000..19_000).contains(&shared_cells), "{shared_cells}");
+    }
+
+    /// Blender's own Noise and Voronoi values at chosen points (near the origin, negative,
+    /// −0, on cell walls, large, past Noise's period), recorded by
+    /// `tests/blender/record_patterns.py` with Blender's geometry nodes, which evaluate the
+    /// same definitions as Cycles' shader nodes.
+    fn blender_patterns() -> (Value, Vec<Vec3>) {
+        let doc: Value =
+            serde_json::from_str(include_str!("../../tests/data/blender_patterns.json"))
+                .expect("the recorded patterns are JSON");
+        let points = doc["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(vec3_of)
+            .collect();
+        (doc, points)
+    }
+
+    fn dims_of(config: &Value) -> u8 {
+        if config["dimensions"] == "2D" {
+            2
+        } else {
+            3
+        }
+    }
+
+    fn vec3_of(v: &Value) -> Vec3 {
+        let c = |k: usize| v[k].as_f64().expect("a number") as f32;
+        Vec3::new(c(0), c(1), c(2))
+    }
+
+    /// |a − b| within 2e-5 of the larger magnitude (at least 1): Blender's build may contract
+    /// multiply-adds where Photon does not.
+    fn assert_close(a: Vec3, b: Vec3, what: &str) {
+        let scale = a.abs().max(b.abs()).max_element().max(1.0);
+        assert!(
+            (a - b).abs().max_element() <= 2e-5 * scale,
+            "{what}: {a} vs Blender's {b}"
+        );
+    }
+
+    #[test]
+    fn blender_noise_at_chosen_points() {
+        let (doc, points) = blender_patterns();
+        for n in doc["noise"].as_array().unwrap() {
+            let (dims, num) = (dims_of(n), |k: &str| n[k].as_f64().unwrap() as f32);
+            let f = Fractal {
+                detail: num("detail"),
+                roughness: num("roughness"),
+                lacunarity: num("lacunarity"),
+                normalize: n["normalize"].as_bool().unwrap(),
+            };
+            for (k, p) in points.iter().enumerate() {
+                let (fac, color) = noise_texture(dims, *p, 0.0, &f, num("distortion"), true);
+                let what = format!("{n} at {p}");
+                let want = n["fac"][k].as_f64().unwrap() as f32;
+                assert_close(Vec3::splat(fac), Vec3::splat(want), &what);
+                assert_close(color, vec3_of(&n["color"][k]), &what);
+            }
+        }
+    }
+
+    #[test]
+    fn blender_voronoi_at_chosen_points() {
+        let (doc, points) = blender_patterns();
+        for v in doc["voronoi"].as_array().unwrap() {
+            let (dims, num) = (dims_of(v), |k: &str| v[k].as_f64().unwrap() as f32);
+            let feature = match v["feature"].as_str().unwrap() {
+                "F2" => VoronoiFeature::F2,
+                "SMOOTH_F1" => VoronoiFeature::SmoothF1,
+                _ => VoronoiFeature::F1,
+            };
+            let metric = match v["metric"].as_str().unwrap() {
+                "MANHATTAN" => Metric::Manhattan,
+                "CHEBYCHEV" => Metric::Chebychev,
+                "MINKOWSKI" => Metric::Minkowski,
+                _ => Metric::Euclidean,
+            };
+            let params = VoronoiParams {
+                scale: 1.0,
+                detail: num("detail"),
+                roughness: 0.5,
+                lacunarity: 2.0,
+                smoothness: (num("smoothness") / 2.0).clamp(0.0, 0.5),
+                exponent: num("exponent"),
+                randomness: num("randomness"),
+                kind: VoronoiKind {
+                    dimensions: dims,
+                    feature,
+                    metric,
+                    normalize: false,
+                },
+            };
+            for (k, p) in points.iter().enumerate() {
+                let mut p = *p;
+                if dims == 2 {
+                    p.z = 0.0;
+                }
+                let (distance, color, position) = voronoi(&params, p);
+                let what = format!("{v} at {p}");
+                let want = v["distance"][k].as_f64().unwrap() as f32;
+                assert_close(Vec3::splat(distance), Vec3::splat(want), &what);
+                assert_close(color, vec3_of(&v["color"][k]), &what);
+                assert_close(position, vec3_of(&v["position"][k]), &what);
+            }
+        }
+    }
+
+    #[test]
+    fn floor_is_the_library_floor() {
+        for x in [
+            -0.0f32,
+            0.0,
+            -1.5,
+            2.0,
+            -3.0,
+            1e9,
+            -1e9,
+            8_388_607.5,
+            -8_388_607.5,
+        ] {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+        assert!(floor(f32::NAN).is_nan());
+        let mut rng = crate::rng::Rng::new(5);
+        for _ in 0..100_000 {
+            let x = (rng.uniform() - 0.5) * 2e7;
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+    }
+
+    #[test]
+    fn voronoi_f1_is_the_nearest_of_the_neighbouring_cells_points() {
+        // The pruned, nearest-first search finds what visiting all 27 (or 9) cells finds.
+        let mut rng = crate::rng::Rng::new(6);
+        for metric in [
+            Metric::Euclidean,
+            Metric::Manhattan,
+            Metric::Chebychev,
+            Metric::Minkowski,
+        ] {
+            for dims in [2u8, 3] {
+                for randomness in [1.0f32, 0.6, 0.0] {
+                    let p = VoronoiParams {
+                        scale: 1.0,
+                        detail: 0.0,
+                        roughness: 0.5,
+                        lacunarity: 2.0,
+                        smoothness: 0.0,
+                        exponent: 1.5,
+                        randomness,
+                        kind: VoronoiKind {
+                            dimensions: dims,
+                            feature: VoronoiFeature::F1,
+                            metric,
+                            normalize: false,
+                        },
+                    };
+                    for k in 0..5_000 {
+                        let s = [2.0, 50.0][k % 2];
+                        let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * s;
+                        let z = if dims == 2 { 0.0 } else { c(&mut rng) };
+                        let x = Vec3::new(c(&mut rng), c(&mut rng), z);
+                        let cell = x.floor();
+                        let nearest = cell_offsets(dims, 1)
+                            .map(|o| {
+                                let point = o + cell_point(dims, cell + o) * randomness;
+                                voronoi_distance(metric, 1.5, point, x - cell)
+                            })
+                            .fold(f32::MAX, f32::min);
+                        let (d, _, _) = voronoi_octave(&p, x);
+                        assert_eq!(d.to_bits(), nearest.to_bits(), "{metric:?} {x}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_bumps_noise_copies_fuse_into_one_instruction() {
+        // Noise → Bump and Noise → Emission: the Noise and its two offset copies become one
+        // NoiseAt3 placed where the Noise was, and the tree's values are unchanged.
+        let tree = json!({"nodes": [
+            {"name": "T", "type": "ShaderNodeTexCoord"},
+            {"name": "N", "type": "ShaderNodeTexNoise", "inputs": {
+                "Vector": {"node": 0, "output": "Object"}, "Scale": 3.0, "Detail": 2.0}},
+            {"name": "B", "type": "ShaderNodeBump", "inputs": {
+                "Distance": 0.1, "Strength": 1.0, "Height": {"node": 1, "output": "Fac"}}},
+            {"name": "E", "type": "ShaderNodeEmission", "inputs": {
+                "Color": {"node": 1, "output": "Color"}, "Strength": 1.0}},
+            {"name": "D", "type": "ShaderNodeBsdfDiffuse",
+             "inputs": {"Normal": {"node": 2, "output": "Normal"}}},
+            {"name": "A", "type": "ShaderNodeAddShader", "inputs": {
+                "Shader": {"node": 3, "output": "Emission"},
+                "Shader_001": {"node": 4, "output": "BSDF"}}}
+        ], "output": {"node": 5, "output": "Shader"}});
+        let mut w = Vec::new();
+        let p = compile(&tree, 0, &mut w).unwrap();
+        assert!(w.is_empty(), "{w:?}");
+        let fused = p
+            .instrs
+            .iter()
+            .filter(|i| matches!(i.op, Op::NoiseAt3 { .. }))
+            .count();
+        let plain = p
+            .instrs
+            .iter()
+            .filter(|i| matches!(i.op, Op::Noise { .. }))
+            .count();
+        assert_eq!((fused, plain), (1, 0));
+        let at = |q: Vec3| ShadingInputs {
+            position: q,
+            object: q,
+            normal: Vec3::Z,
+            ..ShadingInputs::default()
+        };
+        let q = Vec3::new(0.3, -0.2, 0.1);
+        let e = 1e-3;
+        let c = p.eval(&[at(q), at(q + Vec3::X * e), at(q + Vec3::Y * e)], &[], 0.5);
+        let f = Fractal {
+            detail: 2.0,
+            roughness: 0.5,
+            lacunarity: 2.0,
+            normalize: true,
+        };
+        let (_, color) = noise_texture(3, q * 3.0, 0.0, &f, 0.0, true);
+        assert_eq!(c.emission, color);
+        let h = |v: Vec3| noise_texture(3, v * 3.0, 0.0, &f, 0.0, false).0;
+        let slope = Vec3::new(h(q + Vec3::X * e) - h(q), h(q + Vec3::Y * e) - h(q), 0.0);
+        assert!(
+            slope.length() > 0.0 && c.normal.dot(slope) < 0.0,
+            "{}",
+            c.normal
+        );
+    }
+
+    #[test]
     fn mapping_point_and_texture_are_inverse() {
         let (loc, rot, scale) = (
             Vec3::new(0.3, -1.0, 2.0),
@@ -4539,11 +4884,12 @@ mod tests {
             Vec3::new(2.0, 0.5, 3.0),
         );
         let v = Vec3::new(0.7, 0.2, -0.4);
-        let p = mapping(MappingKind::Point, v, loc, rot, scale);
-        let back = mapping(MappingKind::Texture, p, loc, rot, scale);
+        let rot = Euler::new(rot);
+        let p = mapping(MappingKind::Point, v, loc, &rot, scale);
+        let back = mapping(MappingKind::Texture, p, loc, &rot, scale);
         assert!((back - v).length() < 1e-5);
         // A 90° turn about Z takes X to Y.
-        let r = euler_xyz(Vec3::new(0.0, 0.0, PI / 2.0), Vec3::X);
+        let r = euler_xyz(&Euler::new(Vec3::new(0.0, 0.0, PI / 2.0)), Vec3::X);
         assert!((r - Vec3::Y).length() < 1e-6);
     }
 
@@ -4612,7 +4958,7 @@ mod profile {
             let t0 = std::time::Instant::now();
             let mut sink = 0.0;
             for k in 0..1_000_000u32 {
-                sink += perlin3(k as f32 * 0.37, 2.1, 3.3);
+                sink += perlin3((k % 4096) as f32 * 0.37, 2.1, 3.3);
             }
             println!(
                 "perlin3: {:.1} ns ({sink})",
@@ -4641,6 +4987,17 @@ mod profile {
             println!(
                 "voronoi: {:.1} ns ({sink})",
                 t0.elapsed().as_secs_f64() * 5e3
+            );
+            let t0 = std::time::Instant::now();
+            let mut sink = 0.0;
+            for k in 0..1_000_000u32 {
+                let a = (k % 4096) as f32 * 0.37;
+                let x = Vec4::new(a, a + 1e-3, a, a);
+                sink += snoise3_lanes(x, Vec4::splat(2.1), Vec4::splat(3.3)).x;
+            }
+            println!(
+                "snoise3_lanes: {:.1} ns ({sink})",
+                t0.elapsed().as_secs_f64() * 1e3
             );
             let t0 = std::time::Instant::now();
             let mut sink = 0.0;
