@@ -247,7 +247,7 @@ struct RenderArgs {
     /// Photons emitted for the subsurface samples of translucent materials [default: 1000000].
     #[arg(long)]
     subsurface_photons: Option<u32>,
-    /// Jensen & Buhler's octree error bound (solid angle) [default: 0.05].
+    /// Jensen & Buhler's octree error bound (solid angle) [default: 0.2].
     #[arg(long)]
     subsurface_accuracy: Option<f32>,
     /// Memory budget of the photon maps and subsurface samples, in MiB; tracing stops with an

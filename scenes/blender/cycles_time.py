@@ -45,6 +45,7 @@ import time
 from pathlib import Path
 
 import bpy
+from mathutils import Matrix
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -133,8 +134,10 @@ def photon_light(obj, ext: dict, warnings: list) -> None:
 
 
 def area_light(node_obj, ext: dict) -> None:
-    """A PHOTON_light area light at the node: Blender's area light (it emits along its local −Z,
-    as Photon's)."""
+    """A PHOTON_light area light at the node: Blender's area light emitting along the glTF node's
+    local −Z, as Photon's does. The importer makes the node (no glTF light on it) an empty whose
+    matrix is the node's with Y-up turned to Z-up, so the node's −Z is the empty's +Y: the lamp is
+    the empty turned +90° about its X (which keeps the lamp's X and Y along the node's)."""
     light = bpy.data.lights.new(node_obj.name + "_area", "AREA")
     light.shape = ext.get("shape", "SQUARE")
     light.size = ext.get("size", 1.0)
@@ -144,7 +147,7 @@ def area_light(node_obj, ext: dict) -> None:
     if "spread" in ext:
         light.spread = ext["spread"]
     obj = bpy.data.objects.new(node_obj.name + "_area", light)
-    obj.matrix_world = node_obj.matrix_world
+    obj.matrix_world = node_obj.matrix_world @ Matrix.Rotation(math.pi / 2.0, 4, "X")
     obj.visible_camera = ext.get("visible_camera", True)
     bpy.context.scene.collection.objects.link(obj)
 

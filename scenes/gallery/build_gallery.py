@@ -373,14 +373,19 @@ def interior_room():
     return g
 
 
-def translucent_bust():
-    """A sculpted bust (head, neck and shoulders as lathed and scaled solids) of translucent
-    marble on a dark plinth, lit from behind and the side so light shows through thin parts."""
+BUST_PARTS = ("dome", "neck", "egg", "nose")
+
+
+def bust_scene(parts=BUST_PARTS, scale=0.08, ior=1.4):
+    """The translucent bust's scene with only `parts` of its marble mesh (the shoulders' lathed
+    `dome`, the `neck` column, the `egg` of the head, the `nose`: overlapping solids merged into
+    one mesh, so it has faces inside the marble) and the given Subsurface Scale and IOR;
+    docs/bench/bust_256px/variants.py builds subsets to study them."""
     g = Gltf()
     plinth = g.material("Plinth", base=(0.08, 0.08, 0.09), roughness=0.4)
     marble = g.material("Marble", base=(0.9, 0.88, 0.84), roughness=0.35, extensions={
-        "PHOTON_material_subsurface": {"weight": 1.0, "radius": [1.0, 0.7, 0.5], "scale": 0.08,
-                                       "ior": 1.4, "anisotropy": 0.0}})
+        "PHOTON_material_subsurface": {"weight": 1.0, "radius": [1.0, 0.7, 0.5], "scale": scale,
+                                       "ior": ior, "anisotropy": 0.0}})
     floor = g.material("Floor", base=(0.5, 0.5, 0.5), roughness=1.0, lambert=True)
     g.node("Floor", mesh=g.mesh("Floor", floor_quad(6.0), floor))
     g.node("Plinth", mesh=g.mesh("Plinth", box([-0.5, 0.0, -0.4], [0.5, 0.6, 0.4]), plinth))
@@ -393,9 +398,9 @@ def translucent_bust():
             1.2 + 0.32 * (-math.cos(math.pi * k / 24))) for k in range(25)]
     dome = lathe(shoulders, 64)
     dome = ([[1.3 * x, y, z] for x, y, z in dome[0]],) + dome[1:]  # broad shoulders
-    parts = merge(dome, lathe(neck, 48), lathe(egg, 64),
-                  transformed(uv_sphere(0.05, 16, 8), 1.0, [0.0, 1.22, 0.225]))  # nose
-    g.node("Bust", mesh=g.mesh("Bust", parts, marble))
+    meshes = {"dome": dome, "neck": lathe(neck, 48), "egg": lathe(egg, 64),
+              "nose": transformed(uv_sphere(0.05, 16, 8), 1.0, [0.0, 1.22, 0.225])}
+    g.node("Bust", mesh=g.mesh("Bust", merge(*[meshes[p] for p in parts]), marble))
     small_lamp(g, [-1.5, 2.5, -1.5], 0.5, 150.0, name="KeyLight")
     g.doc["nodes"][-1]["rotation"] = bs.clean(bs.look_at([-1.5, 2.5, -1.5], [0, 1.0, 0]))
     small_lamp(g, [2.0, 1.8, 2.0], 0.6, 40.0, name="FillLight")
@@ -403,7 +408,13 @@ def translucent_bust():
     g.scene_extension("PHOTON_world", {"color": [0.02, 0.02, 0.025], "strength": 1.0})
     g.camera("Camera", [0.6, 1.35, 3.2], [0, 0.95, 0], 35.0, 1.0)
     bs.render_settings(g, 256, 256)
-    g.write("translucent_bust.glb")
+    return g
+
+
+def translucent_bust():
+    """A sculpted bust (head, neck and shoulders as lathed and scaled solids) of translucent
+    marble on a dark plinth, lit from behind and the side so light shows through thin parts."""
+    bust_scene().write("translucent_bust.glb")
 
 
 SCENES = [cornell_spheres, glossy_caustic, metal_ring, cognac_glass, sphereflake, glass_cube,

@@ -30,7 +30,8 @@ pub struct PhotonSettings {
     /// material).
     pub subsurface_photons: u32,
     /// Jensen & Buhler's error bound: an octree node counts as one sample when the solid angle
-    /// its samples' area subtends is below this (default 0.05).
+    /// its samples' area subtends is below this (default 0.2; each node is taken to second
+    /// order in its samples' spread, `crate::subsurface`).
     pub subsurface_accuracy: f32,
     /// Sum every subsurface sample instead of the octree (for tests and measurements).
     pub subsurface_brute_force: bool,
@@ -49,7 +50,7 @@ impl Default for PhotonSettings {
             irradiance_stride: 4,
             memory_limit_mib: 8192,
             subsurface_photons: 1_000_000,
-            subsurface_accuracy: 0.05,
+            subsurface_accuracy: 0.2,
             subsurface_brute_force: false,
         }
     }
