@@ -10,7 +10,8 @@ use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::settings::PhotonSettings;
 use photon::irradiance_cache::IcSettings;
 use photon::plan::{
-    cache_gather_rays, cache_ray_budget, plan_for_image, plan_with_pilot, Pilot, Quality,
+    cache_density, cache_gather_rays, cache_ray_budget, plan_for_image, plan_with_pilot, Pilot,
+    Quality,
 };
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
@@ -261,14 +262,16 @@ struct RenderArgs {
     /// (off: final gather rays at every shading point) [default: on].
     #[arg(long, value_enum)]
     irradiance_cache: Option<OnOff>,
-    /// Irradiance-cache accuracy a (records are used where Ward's weight exceeds 1/a) [default: 0.2].
+    /// Irradiance-cache accuracy a (records are used where Ward's weight exceeds 1/a) [default: 0.2;
+    /// auto: up to 0.3 below 16 samples per pixel].
     #[arg(long)]
     ic_accuracy: Option<f32>,
     /// Gather rays per irradiance record (split into T x P strata) [default: 256; auto: 8 per
     /// sample per pixel, from 64 up to 256, when the samples are known].
     #[arg(long)]
     ic_gather_rays: Option<u32>,
-    /// Smallest radius an irradiance record covers, in pixels [default: 3].
+    /// Smallest radius an irradiance record covers, in pixels [default: 3; auto: up to 5 below 16
+    /// samples per pixel].
     #[arg(long)]
     ic_min_spacing: Option<f32>,
     /// Largest radius an irradiance record covers, in pixels [default: 48].
@@ -515,6 +518,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
             eprintln!("photon: warning: {w}");
         }
     }
+    // Auto sizes the irradiance cache to the samples when they are known.
+    let sized_by_samples =
+        args.method == MethodArg::Auto && (args.spp.is_some() || time_limit.is_none());
+    let coarse = cache_density(spp, ic_settings.accuracy, ic_settings.min_spacing);
     let settings = RenderSettings {
         width,
         height,
@@ -547,15 +554,19 @@ fn run_render(args: RenderArgs) -> Result<()> {
                 }
                 None => None,
             },
-            // Auto gathers fewer rays per record at a few samples (`plan.rs`) unless the count
-            // was given.
+            // Auto gathers fewer rays per record, and places records less densely, at a few
+            // samples (`plan.rs`), unless the settings were given.
             gather_rays: match args.ic_gather_rays {
-                None if args.method == MethodArg::Auto
-                    && (args.spp.is_some() || time_limit.is_none()) =>
-                {
-                    cache_gather_rays(spp, ic_settings.gather_rays)
-                }
+                None if sized_by_samples => cache_gather_rays(spp, ic_settings.gather_rays),
                 _ => ic_settings.gather_rays,
+            },
+            accuracy: match args.ic_accuracy {
+                None if sized_by_samples => coarse.0,
+                _ => ic_settings.accuracy,
+            },
+            min_spacing: match args.ic_min_spacing {
+                None if sized_by_samples => coarse.1.min(ic_settings.max_spacing),
+                _ => ic_settings.min_spacing,
             },
             ..ic_settings
         },

@@ -423,6 +423,28 @@ pub fn cache_gather_rays(spp: u32, full: u32) -> u32 {
         .clamp(MIN_CACHE_GATHER_RAYS.min(full), full)
 }
 
+/// Samples per pixel of a generation from which `auto` places irradiance records as densely as
+/// the cache's settings say; below, Ward's accuracy and the smallest record spacing grow as
+/// √(`DENSE_CACHE_SPP` / spp), up to `COARSE_CACHE_FACTOR` times: with a few samples the
+/// records' interpolation error hides under the pixels' noise. `photon-ic` at 4 and 8 spp,
+/// accuracy 0.3 and spacing 5 px against 0.2 and 3 px (docs/bench/measurements.md, "Coarser
+/// records at a few samples"): the Cornell box at 256 px 1338 records instead of 2954, −50 ms,
+/// relMSE +2 % / +6 %; at 96 px the window-lit room +1 % for −7..−12 % time, the interior
+/// +0.4 / +3 % for −11 %, the fractal Cornell box +0.2 / +1 % for −32 %.
+const DENSE_CACHE_SPP: f32 = 16.0;
+const COARSE_CACHE_FACTOR: f32 = 1.5;
+const COARSE_CACHE_SPACING_FACTOR: f32 = 5.0 / 3.0;
+
+/// Ward's accuracy and the smallest record spacing (pixels) for `auto` at `spp` samples per
+/// pixel, from the cache's settings `accuracy` and `min_spacing`.
+pub fn cache_density(spp: u32, accuracy: f32, min_spacing: f32) -> (f32, f32) {
+    let coarse = (DENSE_CACHE_SPP / spp.clamp(1, GENERATION_SPP) as f32).sqrt();
+    (
+        accuracy * coarse.clamp(1.0, COARSE_CACHE_FACTOR),
+        min_spacing * coarse.clamp(1.0, COARSE_CACHE_SPACING_FACTOR),
+    )
+}
+
 /// The pilots at full size: photons of each of the caustic pilot's two passes (global, and
 /// aimed at the specular meshes), and the path-traced image's width in pixels (the height
 /// follows the aspect ratio) and samples per pixel: 4096 paths for a square image.

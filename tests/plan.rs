@@ -331,3 +331,23 @@ fn a_room_lit_through_a_window_keeps_its_photons_where_the_camera_looks() {
         );
     }
 }
+
+#[test]
+fn auto_places_records_coarser_only_at_a_few_samples() {
+    use photon::plan::cache_density;
+    // From 16 spp on, the cache's own settings; below, coarser, up to 1.5 × the accuracy and
+    // 5/3 × the spacing, never finer as the samples fall.
+    assert_eq!(cache_density(16, 0.2, 3.0), (0.2, 3.0));
+    assert_eq!(cache_density(64, 0.2, 3.0), (0.2, 3.0));
+    let (a1, s1) = cache_density(1, 0.2, 3.0);
+    assert!(
+        (a1 - 0.3).abs() < 1e-6 && (s1 - 5.0).abs() < 1e-5,
+        "{a1} {s1}"
+    );
+    let mut last = (0.2, 3.0);
+    for spp in (1..16).rev() {
+        let (a, s) = cache_density(spp, 0.2, 3.0);
+        assert!(a >= last.0 && s >= last.1, "{spp} spp: {a} {s}");
+        last = (a, s);
+    }
+}
