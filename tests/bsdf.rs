@@ -844,3 +844,35 @@ fn anisotropy_stretches_the_highlight_along_the_tangent() {
         "{a_iso:?} {a_aniso:?}"
     );
 }
+
+#[test]
+fn weight_scales_values_and_samples_not_densities() {
+    // A node tree's Add Shader doubles the BSDF it picks: every value and sample weight twice
+    // the unweighted one, the same densities and directions.
+    let plain = material(Vec3::new(0.6, 0.3, 0.2), 0.4, 0.5, 0.0);
+    let doubled = SurfaceMaterial {
+        weight: 2.0,
+        ..plain
+    };
+    let (a, b) = (Bsdf::new(&plain), Bsdf::new(&doubled));
+    for &mu in &[1.0, 0.6, 0.2] {
+        let wo = view(mu);
+        let (va, vb) = (a.viewed_from(wo), b.viewed_from(wo));
+        assert!((vb.albedo() - 2.0 * va.albedo()).length() < 1e-6);
+        assert!((vb.diffuse_reflectance() - 2.0 * va.diffuse_reflectance()).length() < 1e-6);
+        assert!((vb.base_transmittance() - 2.0 * va.base_transmittance()).abs() < 1e-6);
+        let mut rng = Rng::new(29);
+        for _ in 0..500 {
+            let (u, uu) = (rng.uniform(), rng.uniform2());
+            let (Some(sa), Some(sb)) = (va.sample(u, uu), vb.sample(u, uu)) else {
+                continue;
+            };
+            assert_eq!(sa.wi, sb.wi);
+            assert_eq!(sa.pdf, sb.pdf);
+            assert!((sb.weight - 2.0 * sa.weight).length() <= 1e-5 * sa.weight.length());
+            let ((fa, pa), (fb, pb)) = (va.eval_and_pdf(sa.wi), vb.eval_and_pdf(sa.wi));
+            assert_eq!(pa, pb);
+            assert!((fb - 2.0 * fa).length() <= 1e-5 * fa.length().max(1e-12));
+        }
+    }
+}

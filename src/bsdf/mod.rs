@@ -182,6 +182,9 @@ pub struct Bsdf {
     /// The Translucent BSDF's colour: f = translucent / π for directions on the other side
     /// of the surface from the viewer (zero: no such lobe).
     translucent: Vec3,
+    /// What the whole BSDF is multiplied by (`SurfaceMaterial::weight`; 1 but for a node
+    /// tree's Add Shader): applied to `ViewedBsdf`'s values and samples, not to densities.
+    weight: f32,
 }
 
 /// One sampled direction.
@@ -330,6 +333,7 @@ impl Bsdf {
             } else {
                 Vec3::ZERO
             },
+            weight: clean(m.weight, 0.0, f32::MAX),
         }
     }
 
@@ -916,7 +920,10 @@ impl ViewedBsdf {
     /// `eval` and `pdf` together (one half-vector computation).
     pub fn eval_and_pdf(&self, wi: Vec3) -> (Vec3, f32) {
         match &self.lobes {
-            Some(l) => eval_and_pdf(&self.bsdf, l, l.mirror(wi)),
+            Some(l) => {
+                let (f, pdf) = eval_and_pdf(&self.bsdf, l, l.mirror(wi));
+                (f * self.bsdf.weight, pdf)
+            }
             None => (Vec3::ZERO, 0.0),
         }
     }
@@ -927,7 +934,8 @@ impl ViewedBsdf {
     pub fn albedo(&self) -> Vec3 {
         self.lobes
             .as_ref()
-            .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum())
+            .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum::<Vec3>())
+            * self.bsdf.weight
     }
 
     /// The diffuse lobe's directional albedo; when it is Lambertian
@@ -938,6 +946,7 @@ impl ViewedBsdf {
         self.lobes
             .as_ref()
             .map_or(Vec3::ZERO, |l| l.albedo[DIFFUSE])
+            * self.bsdf.weight
     }
 
     /// Fraction of the light arriving from (or leaving towards) `wo` that crosses the
@@ -945,7 +954,7 @@ impl ViewedBsdf {
     /// layer's directional albedo). Light entering a translucent base is this times the
     /// subsurface weight.
     pub fn base_transmittance(&self) -> f32 {
-        self.lobes.as_ref().map_or(0.0, |l| l.base_transmittance)
+        self.lobes.as_ref().map_or(0.0, |l| l.base_transmittance) * self.bsdf.weight
     }
 
     /// What the sheen and coat layers let through from the base towards `wo` (Cycles
@@ -962,7 +971,9 @@ impl ViewedBsdf {
     /// Sample a direction: `u_lobe` picks the lobe (and, remapped, reflection or refraction for
     /// glass), `u` the direction within it.
     pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        sample(&self.bsdf, self.lobes.as_ref()?, self.wo, u_lobe, u)
+        let mut s = sample(&self.bsdf, self.lobes.as_ref()?, self.wo, u_lobe, u)?;
+        s.weight *= self.bsdf.weight;
+        Some(s)
     }
 }
 

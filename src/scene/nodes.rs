@@ -282,6 +282,9 @@ pub struct Closure {
     pub transparent: bool,
     /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
     pub translucent: bool,
+    /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
+    /// probability ½ and doubles it, so their sum is exact on average).
+    pub weight: f32,
 }
 
 impl Closure {
@@ -309,6 +312,7 @@ impl Closure {
         diffuse_roughness: 0.0,
         transparent: false,
         translucent: false,
+        weight: 1.0,
     };
 }
 
@@ -2444,6 +2448,7 @@ fn run(
                 diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
                 transparent: false,
                 translucent: false,
+                weight: 1.0,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
             // Transparent BSDF by 1 − alpha.
@@ -2541,13 +2546,22 @@ fn run(
                 (true, false) => a,
                 (false, true) => b,
                 _ => {
-                    if *u < 0.5 {
+                    // One of the two with probability ½, doubled: their sum on average, as
+                    // Cycles sums closures. A Transparent BSDF carries it in its colour,
+                    // which shadow rays read as their tint.
+                    let mut one = if *u < 0.5 {
                         *u *= 2.0;
                         a
                     } else {
                         *u = 2.0 * *u - 1.0;
                         b
+                    };
+                    if one.transparent {
+                        one.base_color *= 2.0;
+                    } else {
+                        one.weight *= 2.0;
                     }
+                    one
                 }
             };
             *u = u.clamp(0.0, 0.999_999_94);
