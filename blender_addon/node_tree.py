@@ -72,6 +72,7 @@ SETTINGS = {
     "ShaderNodeBsdfAnisotropic": (),
     "ShaderNodeBsdfSheen": ("distribution",),
     "ShaderNodeBsdfGlass": (),
+    "ShaderNodeBsdfRefraction": ("distribution",),
     "ShaderNodeEmission": (),
     "ShaderNodeBsdfTransparent": (),
     "ShaderNodeBsdfTranslucent": (),
@@ -96,6 +97,7 @@ READ_INPUTS = {
                                   "Tangent"},
     "ShaderNodeBsdfSheen": {"Color", "Roughness", "Normal"},
     "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR", "Normal"},
+    "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
     "ShaderNodeBsdfTransparent": {"Color"},
 }
@@ -121,6 +123,7 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeTexVoronoi", "feature"): {"DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"},
     ("ShaderNodeVectorMath", "operation"): {"WRAP", "REFRACT", "FACEFORWARD", "POWER", "SIGN"},
     ("ShaderNodeBsdfSheen", "distribution"): {"ASHIKHMIN"},
+    ("ShaderNodeBsdfRefraction", "distribution"): {"BECKMANN"},
 }
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold

@@ -62,6 +62,9 @@ pub struct SurfaceMaterial {
     /// A node tree's Translucent BSDF: Lambertian transmission of `base_color` alone (with
     /// `transmission` 1, so light crosses the surface).
     pub translucent: bool,
+    /// A node tree's Refraction BSDF: the glass lobe (`transmission` 1) transmits
+    /// `base_color` with no Fresnel and reflects nothing.
+    pub refraction: bool,
     /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
     /// one and doubles it).
     pub weight: f32,
@@ -97,6 +100,7 @@ impl Default for SurfaceMaterial {
             diffuse_roughness: 0.0,
             transparent: false,
             translucent: false,
+            refraction: false,
             weight: 1.0,
         }
     }
@@ -268,6 +272,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         diffuse_roughness: c.diffuse_roughness,
         transparent: c.transparent,
         translucent: c.translucent,
+        refraction: c.refraction,
         weight: c.weight,
     }
 }

@@ -177,6 +177,8 @@ pub struct Bsdf {
     sheen: Sheen,
     /// The glass lobe is a Transparent BSDF (`SurfaceMaterial::transparent`).
     transparent: bool,
+    /// The glass lobe transmits only, without Fresnel (`SurfaceMaterial::refraction`).
+    refraction: bool,
     /// Oren–Nayar roughness of the diffuse lobe (`oren_nayar`; below its cutoff: Lambert).
     diffuse_roughness: f32,
     /// The Translucent BSDF's colour: f = translucent / π for directions on the other side
@@ -314,7 +316,7 @@ impl Bsdf {
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
             // A Transparent BSDF passes its colour (Cycles' weight); glass tints by the
             // colour's square root per crossing.
-            glass_transmit_tint: if m.transparent {
+            glass_transmit_tint: if m.transparent || m.refraction {
                 clamped_base
             } else {
                 Vec3::new(
@@ -327,6 +329,7 @@ impl Bsdf {
             coat,
             sheen,
             transparent: m.transparent,
+            refraction: m.refraction,
             diffuse_roughness: clean(m.diffuse_roughness, 0.0, 1.0),
             translucent: if m.translucent {
                 base_color
@@ -724,9 +727,23 @@ impl LobeSet {
 /// Glass reflectance and transmittance for a microfacet (or the macro-surface) at cosine `cos_i`
 /// from the viewer's side with relative IOR `eta`: Cycles' tinted dielectric
 /// F = mix(F0·tint, 1, s), T = (1 − F)·sqrt(base colour). Total internal reflection gives F = 1.
+///
+/// Blender's Refraction BSDF has no Fresnel: it transmits its colour whole, and nothing at
+/// total internal reflection (Cycles' microfacet closure without Fresnel).
 fn glass_split(b: &Bsdf, cos_i: f32, eta: f32) -> (Vec3, Vec3) {
     if b.glass_passes_straight() {
         return (Vec3::ZERO, b.glass_transmit_tint);
+    }
+    if b.refraction {
+        let total = fresnel_dielectric(cos_i, eta) >= 1.0;
+        return (
+            Vec3::ZERO,
+            if total {
+                Vec3::ZERO
+            } else {
+                b.glass_transmit_tint
+            },
+        );
     }
     let s = fresnel_blend_factor(cos_i, eta);
     let r = mix(b.glass_f0, Vec3::ONE, s);

@@ -37,7 +37,9 @@
 //! metallic 1 with the colour as F0 (Blender's Glossy has no Fresnel: differs at grazing
 //! angles), its Anisotropy as Cycles maps it (α (1 − a) along the tangent and α / (1 − a)
 //! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
-//! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
+//! 1 (the colour tints transmission only, Blender tints reflection too); Refraction → the
+//! glass's transmission alone (`Closure::refraction`: the colour per crossing, no Fresnel, no
+//! reflection); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
 //! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent →
 //! the BSDF's Lambertian transmission lobe alone (`Closure::translucent`). Mix Shader mixes emission exactly and picks one BSDF per shading point with
@@ -282,6 +284,8 @@ pub struct Closure {
     pub transparent: bool,
     /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
     pub translucent: bool,
+    /// A Refraction BSDF: the glass's transmission alone, of `base_color`, without Fresnel.
+    pub refraction: bool,
     /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
     /// probability ½ and doubles it, so their sum is exact on average).
     pub weight: f32,
@@ -312,6 +316,7 @@ impl Closure {
         diffuse_roughness: 0.0,
         transparent: false,
         translucent: false,
+        refraction: false,
         weight: 1.0,
     };
 }
@@ -485,6 +490,8 @@ enum Op {
     Glossy,
     Sheen,
     Glass,
+    /// Blender's Refraction BSDF: the glass's transmission lobe alone.
+    Refraction,
     Emission,
     Transparent,
     Translucent,
@@ -1051,7 +1058,7 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("BSDF", Shader)],
         ),
-        Op::Glass => (
+        Op::Glass | Op::Refraction => (
             vec![
                 i("Color", Color, Vec4::ONE),
                 i("Roughness", Float, f(0.0)),
@@ -1488,6 +1495,7 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             _ => return Ok(None),
         },
         "BsdfGlass" => Op::Glass,
+        "BsdfRefraction" => Op::Refraction,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
         "BsdfTranslucent" => Op::Translucent,
@@ -2448,6 +2456,7 @@ fn run(
                 diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
                 transparent: false,
                 translucent: false,
+                refraction: false,
                 weight: 1.0,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
@@ -2503,7 +2512,7 @@ fn run(
                 ..Closure::BLACK
             };
         }
-        Op::Glass => {
+        Op::Glass | Op::Refraction => {
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 roughness: get(m, 1).x.clamp(0.0, 1.0),
@@ -2512,6 +2521,7 @@ fn run(
                 specular: 1.0,
                 specular_color: Vec3::ONE,
                 normal: get(m, 3).truncate(),
+                refraction: matches!(instr.op, Op::Refraction),
                 ..Closure::BLACK
             };
         }
