@@ -76,6 +76,7 @@ SETTINGS = {
     "ShaderNodeEmission": (),
     "ShaderNodeBsdfTransparent": (),
     "ShaderNodeBsdfTranslucent": (),
+    "ShaderNodeHoldout": (),
     "ShaderNodeMixShader": (),
     "ShaderNodeAddShader": (),
 }

@@ -65,6 +65,9 @@ pub struct SurfaceMaterial {
     /// A node tree's Refraction BSDF: the glass lobe (`transmission` 1) transmits
     /// `base_color` with no Fresnel and reflects nothing.
     pub refraction: bool,
+    /// A node tree's Holdout: no light, and transparent in the film's alpha where the camera
+    /// sees it (Cycles' holdout).
+    pub holdout: bool,
     /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
     /// one and doubles it).
     pub weight: f32,
@@ -101,6 +104,7 @@ impl Default for SurfaceMaterial {
             transparent: false,
             translucent: false,
             refraction: false,
+            holdout: false,
             weight: 1.0,
         }
     }
@@ -273,6 +277,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         transparent: c.transparent,
         translucent: c.translucent,
         refraction: c.refraction,
+        holdout: c.holdout,
         weight: c.weight,
     }
 }

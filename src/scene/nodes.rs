@@ -286,6 +286,8 @@ pub struct Closure {
     pub translucent: bool,
     /// A Refraction BSDF: the glass's transmission alone, of `base_color`, without Fresnel.
     pub refraction: bool,
+    /// A Holdout: black, and transparent in the film's alpha where the camera sees it.
+    pub holdout: bool,
     /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
     /// probability ½ and doubles it, so their sum is exact on average).
     pub weight: f32,
@@ -317,6 +319,7 @@ impl Closure {
         transparent: false,
         translucent: false,
         refraction: false,
+        holdout: false,
         weight: 1.0,
     };
 }
@@ -492,6 +495,8 @@ enum Op {
     Glass,
     /// Blender's Refraction BSDF: the glass's transmission lobe alone.
     Refraction,
+    /// Blender's Holdout: no light, and a hole in the film's alpha for camera rays.
+    Holdout,
     Emission,
     Transparent,
     Translucent,
@@ -1072,6 +1077,7 @@ fn spec(op: &Op) -> Spec {
             vec![("Emission", Shader)],
         ),
         Op::Transparent => (vec![i("Color", Color, Vec4::ONE)], vec![("BSDF", Shader)]),
+        Op::Holdout => (vec![], vec![("Holdout", Shader)]),
         Op::Translucent => (
             vec![
                 i("Color", Color, Vec4::ONE),
@@ -1498,6 +1504,7 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
         "BsdfRefraction" => Op::Refraction,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
+        "Holdout" => Op::Holdout,
         "BsdfTranslucent" => Op::Translucent,
         "MixShader" => Op::MixShader,
         "AddShader" => Op::AddShader,
@@ -2457,6 +2464,7 @@ fn run(
                 transparent: false,
                 translucent: false,
                 refraction: false,
+                holdout: false,
                 weight: 1.0,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
@@ -2532,6 +2540,12 @@ fn run(
             };
         }
         Op::Transparent => m.closures[o] = transparent(get(m, 0).truncate()),
+        Op::Holdout => {
+            m.closures[o] = Closure {
+                holdout: true,
+                ..Closure::BLACK
+            }
+        }
         Op::Translucent => {
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
