@@ -53,3 +53,23 @@ def test_refraction_slab_over_a_checker_floor(tmp_path, roughness, method):
     bg.inputs["Strength"].default_value = 1.0
     compare(f"refraction slab {roughness} {method.lower()}", scene, tmp_path, photon_spp=512,
             cycles_spp=1024, method=method)
+
+
+def test_beckmann_refraction_is_not_evaluated_and_reported():
+    """Photon's microfacets are GGX: a Refraction BSDF with Beckmann's distribution keeps the
+    tree off PHOTON_material_nodes, and the pre-flight report names the node; GGX is
+    evaluated and reported by nothing."""
+    from blender_addon import preflight
+    from blender_addon.node_tree import material_nodes
+    mat, tree = node_material("Beckmann")
+    refraction = tree.nodes.new("ShaderNodeBsdfRefraction")
+    tree.links.new(refraction.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    scene, _ = plane_scene(mat)
+    refraction.distribution = "GGX"
+    assert material_nodes(mat)[0] is not None
+    assert preflight.unsupported_features(scene, list(scene.objects)) == []
+    refraction.distribution = "BECKMANN"
+    extension, problems = material_nodes(mat)
+    assert extension is None and problems, problems
+    messages = preflight.unsupported_features(scene, list(scene.objects))
+    assert [m for m in messages if refraction.name in m], messages
