@@ -65,6 +65,9 @@ pub struct SurfaceMaterial {
     /// A node tree's Refraction BSDF: the glass lobe (`transmission` 1) transmits
     /// `base_color` with no Fresnel and reflects nothing.
     pub refraction: bool,
+    /// A node tree's Glass BSDF: its colour weighs the glass's reflection and each crossing
+    /// (not the Principled BSDF's square root on the transmission alone).
+    pub glass: bool,
     /// A node tree's Holdout: no light, and transparent in the film's alpha where the camera
     /// sees it (Cycles' holdout).
     pub holdout: bool,
@@ -104,6 +107,7 @@ impl Default for SurfaceMaterial {
             transparent: false,
             translucent: false,
             refraction: false,
+            glass: false,
             holdout: false,
             weight: 1.0,
         }
@@ -277,6 +281,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         transparent: c.transparent,
         translucent: c.translucent,
         refraction: c.refraction,
+        glass: c.glass,
         holdout: c.holdout,
         weight: c.weight,
     }

@@ -170,6 +170,8 @@ pub struct Bsdf {
     glass_ior: f32,
     glass_f0: Vec3,
     glass_transmit_tint: Vec3,
+    /// What the glass's reflection is multiplied by (a Glass BSDF node's colour; else white).
+    glass_reflect_tint: Vec3,
     /// Fraction of the Lambertian part kept (1 − subsurface weight where a subsurface term
     /// replaces the rest; 1 otherwise).
     diffuse_scale: f32,
@@ -316,7 +318,7 @@ impl Bsdf {
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
             // A Transparent BSDF passes its colour (Cycles' weight); glass tints by the
             // colour's square root per crossing.
-            glass_transmit_tint: if m.transparent || m.refraction {
+            glass_transmit_tint: if m.transparent || m.refraction || m.glass {
                 clamped_base
             } else {
                 Vec3::new(
@@ -336,6 +338,7 @@ impl Bsdf {
             } else {
                 Vec3::ZERO
             },
+            glass_reflect_tint: if m.glass { clamped_base } else { Vec3::ONE },
             weight: clean(m.weight, 0.0, f32::MAX),
         }
     }
@@ -726,7 +729,8 @@ impl LobeSet {
 
 /// Glass reflectance and transmittance for a microfacet (or the macro-surface) at cosine `cos_i`
 /// from the viewer's side with relative IOR `eta`: Cycles' tinted dielectric
-/// F = mix(F0·tint, 1, s), T = (1 − F)·sqrt(base colour). Total internal reflection gives F = 1.
+/// F = mix(F0·tint, 1, s), T = (1 − F)·sqrt(base colour) (a Glass BSDF node: both times its
+/// colour, `glass_reflect_tint`). Total internal reflection gives F = 1.
 ///
 /// Blender's Refraction BSDF has no Fresnel: it transmits its colour whole, and nothing at
 /// total internal reflection (Cycles' microfacet closure without Fresnel).
@@ -747,7 +751,10 @@ fn glass_split(b: &Bsdf, cos_i: f32, eta: f32) -> (Vec3, Vec3) {
     }
     let s = fresnel_blend_factor(cos_i, eta);
     let r = mix(b.glass_f0, Vec3::ONE, s);
-    (r, (Vec3::ONE - r) * b.glass_transmit_tint)
+    (
+        r * b.glass_reflect_tint,
+        (Vec3::ONE - r) * b.glass_transmit_tint,
+    )
 }
 
 /// Probability of choosing reflection for glass given its reflectance and transmittance.

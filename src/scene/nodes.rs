@@ -37,7 +37,7 @@
 //! metallic 1 with the colour as F0 (Blender's Glossy has no Fresnel: differs at grazing
 //! angles), its Anisotropy as Cycles maps it (α (1 − a) along the tangent and α / (1 − a)
 //! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
-//! 1 (the colour tints transmission only, Blender tints reflection too); Refraction → the
+//! 1, its colour weighing reflection and each crossing alike (`Closure::glass`); Refraction → the
 //! glass's transmission alone (`Closure::refraction`: the colour per crossing, no Fresnel, no
 //! reflection); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
@@ -286,6 +286,9 @@ pub struct Closure {
     pub translucent: bool,
     /// A Refraction BSDF: the glass's transmission alone, of `base_color`, without Fresnel.
     pub refraction: bool,
+    /// A Glass BSDF: its colour weighs the reflection and each crossing alike (Cycles'
+    /// closure weight), where the Principled BSDF's tints only the transmission, by its root.
+    pub glass: bool,
     /// A Holdout: black, and transparent in the film's alpha where the camera sees it.
     pub holdout: bool,
     /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
@@ -319,6 +322,7 @@ impl Closure {
         transparent: false,
         translucent: false,
         refraction: false,
+        glass: false,
         holdout: false,
         weight: 1.0,
     };
@@ -2464,6 +2468,7 @@ fn run(
                 transparent: false,
                 translucent: false,
                 refraction: false,
+                glass: false,
                 holdout: false,
                 weight: 1.0,
             };
@@ -2530,6 +2535,7 @@ fn run(
                 specular_color: Vec3::ONE,
                 normal: get(m, 3).truncate(),
                 refraction: matches!(instr.op, Op::Refraction),
+                glass: matches!(instr.op, Op::Glass),
                 ..Closure::BLACK
             };
         }
