@@ -72,9 +72,11 @@ SETTINGS = {
     "ShaderNodeBsdfAnisotropic": (),
     "ShaderNodeBsdfSheen": ("distribution",),
     "ShaderNodeBsdfGlass": (),
+    "ShaderNodeBsdfRefraction": ("distribution",),
     "ShaderNodeEmission": (),
     "ShaderNodeBsdfTransparent": (),
     "ShaderNodeBsdfTranslucent": (),
+    "ShaderNodeHoldout": (),
     "ShaderNodeMixShader": (),
     "ShaderNodeAddShader": (),
 }
@@ -96,6 +98,7 @@ READ_INPUTS = {
                                   "Tangent"},
     "ShaderNodeBsdfSheen": {"Color", "Roughness", "Normal"},
     "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR", "Normal"},
+    "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
     "ShaderNodeBsdfTransparent": {"Color"},
 }
@@ -121,6 +124,7 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeTexVoronoi", "feature"): {"DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"},
     ("ShaderNodeVectorMath", "operation"): {"WRAP", "REFRACT", "FACEFORWARD", "POWER", "SIGN"},
     ("ShaderNodeBsdfSheen", "distribution"): {"ASHIKHMIN"},
+    ("ShaderNodeBsdfRefraction", "distribution"): {"BECKMANN"},
 }
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold

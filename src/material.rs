@@ -62,6 +62,18 @@ pub struct SurfaceMaterial {
     /// A node tree's Translucent BSDF: Lambertian transmission of `base_color` alone (with
     /// `transmission` 1, so light crosses the surface).
     pub translucent: bool,
+    /// A node tree's Refraction BSDF: the glass lobe (`transmission` 1) transmits
+    /// `base_color` with no Fresnel and reflects nothing.
+    pub refraction: bool,
+    /// A node tree's Glass BSDF: its colour weighs the glass's reflection and each crossing
+    /// (not the Principled BSDF's square root on the transmission alone).
+    pub glass: bool,
+    /// A node tree's Holdout: no light, and transparent in the film's alpha where the camera
+    /// sees it (Cycles' holdout).
+    pub holdout: bool,
+    /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
+    /// one and doubles it).
+    pub weight: f32,
 }
 
 impl Default for SurfaceMaterial {
@@ -94,6 +106,10 @@ impl Default for SurfaceMaterial {
             diffuse_roughness: 0.0,
             transparent: false,
             translucent: false,
+            refraction: false,
+            glass: false,
+            holdout: false,
+            weight: 1.0,
         }
     }
 }
@@ -264,6 +280,10 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         diffuse_roughness: c.diffuse_roughness,
         transparent: c.transparent,
         translucent: c.translucent,
+        refraction: c.refraction,
+        glass: c.glass,
+        holdout: c.holdout,
+        weight: c.weight,
     }
 }
 

@@ -153,6 +153,13 @@ fn rough_cases() -> Vec<Case> {
         translucent(Vec3::new(0.9, 0.6, 0.3)),
         true,
     ));
+    for r in [0.3, 0.8] {
+        cases.push(case(
+            &format!("refraction r={r}"),
+            refraction(tinted_glass, r),
+            true,
+        ));
+    }
     cases.push(Case {
         name: "layered sheen, tinted coat, anisotropic mixture".into(),
         bsdf: Bsdf::new(&SurfaceMaterial {
@@ -171,6 +178,14 @@ fn translucent(color: Vec3) -> SurfaceMaterial {
     SurfaceMaterial {
         translucent: true,
         ..material(color, 0.0, 1.0, 1.0)
+    }
+}
+
+/// A Refraction BSDF node's material (`Closure::refraction`): the glass's transmission alone.
+fn refraction(color: Vec3, roughness: f32) -> SurfaceMaterial {
+    SurfaceMaterial {
+        refraction: true,
+        ..material(color, 0.0, roughness, 1.0)
     }
 }
 
@@ -205,8 +220,8 @@ fn view_directions(inside: bool) -> Vec<Vec3> {
     dirs
 }
 
-/// 1 + 9 + 6 + 12 + 6 + 15 + 9 + 9 + 3 + 6 + 6 chi-square tests below.
-const NUM_CHI2_TESTS: usize = 84;
+/// 1 + 9 + 6 + 12 + 6 + 15 + 9 + 9 + 3 + 6 + 6 + 12 chi-square tests below.
+const NUM_CHI2_TESTS: usize = 96;
 
 /// Chi-square tests of the rough cases whose name starts with `family`.
 fn chi2_family(family: &str) {
@@ -289,6 +304,11 @@ fn chi2_layered() {
 #[test]
 fn chi2_translucent() {
     chi2_family("translucent");
+}
+
+#[test]
+fn chi2_refraction() {
+    chi2_family("refraction");
 }
 
 #[test]
@@ -843,4 +863,94 @@ fn anisotropy_stretches_the_highlight_along_the_tangent() {
         (a_iso.x - a_aniso.x).abs() < 0.02 + 4.0 * (e1 + e2),
         "{a_iso:?} {a_aniso:?}"
     );
+}
+
+#[test]
+fn weight_scales_values_and_samples_not_densities() {
+    // A node tree's Add Shader doubles the BSDF it picks: every value and sample weight twice
+    // the unweighted one, the same densities and directions.
+    let plain = material(Vec3::new(0.6, 0.3, 0.2), 0.4, 0.5, 0.0);
+    let doubled = SurfaceMaterial {
+        weight: 2.0,
+        ..plain
+    };
+    let (a, b) = (Bsdf::new(&plain), Bsdf::new(&doubled));
+    for &mu in &[1.0, 0.6, 0.2] {
+        let wo = view(mu);
+        let (va, vb) = (a.viewed_from(wo), b.viewed_from(wo));
+        assert!((vb.albedo() - 2.0 * va.albedo()).length() < 1e-6);
+        assert!((vb.diffuse_reflectance() - 2.0 * va.diffuse_reflectance()).length() < 1e-6);
+        assert!((vb.base_transmittance() - 2.0 * va.base_transmittance()).abs() < 1e-6);
+        let mut rng = Rng::new(29);
+        for _ in 0..500 {
+            let (u, uu) = (rng.uniform(), rng.uniform2());
+            let (Some(sa), Some(sb)) = (va.sample(u, uu), vb.sample(u, uu)) else {
+                continue;
+            };
+            assert_eq!(sa.wi, sb.wi);
+            assert_eq!(sa.pdf, sb.pdf);
+            assert!((sb.weight - 2.0 * sa.weight).length() <= 1e-5 * sa.weight.length());
+            let ((fa, pa), (fb, pb)) = (va.eval_and_pdf(sa.wi), vb.eval_and_pdf(sa.wi));
+            assert_eq!(pa, pb);
+            assert!((fb - 2.0 * fa).length() <= 1e-5 * fa.length().max(1e-12));
+        }
+    }
+}
+
+#[test]
+fn refraction_transmits_its_colour_without_fresnel() {
+    // Smooth: every sample crosses with weight exactly the colour, from outside and from
+    // inside below the critical angle; past it (inside, grazing) nothing leaves. Rough: nothing
+    // is reflected, nothing is created, and the transmitted BTDF obeys reciprocity with the
+    // η² factor of refraction, f(wo, wi) / η_i² = f(wi, wo) / η_o².
+    let colour = Vec3::new(0.9, 0.6, 0.3);
+    let smooth = Bsdf::new(&refraction(colour, 0.0));
+    assert!(smooth.is_delta_only() && smooth.is_transmissive());
+    let mut rng = Rng::new(17);
+    for &mu in &[1.0f32, 0.6, 0.2, -1.0, -0.9, -0.8, -0.5, -0.2] {
+        let wo = view(mu.abs()) * Vec3::new(1.0, 1.0, mu.signum());
+        let critical = mu < 0.0 && (1.0 - mu * mu) * 1.5 * 1.5 >= 1.0;
+        for _ in 0..200 {
+            match smooth.viewed_from(wo).sample(rng.uniform(), rng.uniform2()) {
+                Some(s) if s.weight != Vec3::ZERO => {
+                    assert!(!critical, "light left past the critical angle at {mu}");
+                    assert!(s.transmitted && s.delta, "{s:?}");
+                    assert!((s.weight - colour).length() < 1e-5, "{:?}", s.weight);
+                }
+                _ => assert!(critical, "nothing crossed at {mu}"),
+            }
+        }
+    }
+    let rough = Bsdf::new(&refraction(Vec3::ONE, 0.4));
+    for &mu in &[0.9f32, 0.5, 0.15] {
+        let v = rough.viewed_from(view(mu));
+        let (albedo, error) = measured_albedo(&rough, view(mu), 200_000, 5);
+        assert!(
+            albedo.x < 1.0 + 4.0 * error,
+            "albedo {albedo:?} ± {error} at {mu}"
+        );
+        assert!(albedo.x > 0.8, "albedo {albedo:?} at {mu}");
+        for _ in 0..500 {
+            let wi = photon::sampling::square_to_uniform_sphere(rng.uniform2());
+            if wi.z > 0.0 {
+                assert_eq!(v.eval(wi), Vec3::ZERO, "reflected towards {wi:?}");
+            }
+        }
+    }
+    let eta = 1.5f32;
+    for _ in 0..2000 {
+        let a = photon::sampling::square_to_cosine_hemisphere(rng.uniform2());
+        let c = photon::sampling::square_to_cosine_hemisphere(rng.uniform2());
+        if a.z < 1e-2 || c.z < 1e-2 {
+            continue;
+        }
+        let (wo, wi) = (a, Vec3::new(c.x, c.y, -c.z));
+        let f1 = rough.viewed_from(wo).eval(wi).x / wi.z.abs();
+        let f2 = rough.viewed_from(wi).eval(wo).x / wo.z.abs();
+        // wo outside (η_o = 1), wi inside (η_i = η).
+        assert!(
+            close(f1 / (eta * eta), f2, 2e-3),
+            "{f1} / η² vs {f2} at {wo:?} {wi:?}"
+        );
+    }
 }

@@ -170,6 +170,8 @@ pub struct Bsdf {
     glass_ior: f32,
     glass_f0: Vec3,
     glass_transmit_tint: Vec3,
+    /// What the glass's reflection is multiplied by (a Glass BSDF node's colour; else white).
+    glass_reflect_tint: Vec3,
     /// Fraction of the Lambertian part kept (1 − subsurface weight where a subsurface term
     /// replaces the rest; 1 otherwise).
     diffuse_scale: f32,
@@ -177,11 +179,16 @@ pub struct Bsdf {
     sheen: Sheen,
     /// The glass lobe is a Transparent BSDF (`SurfaceMaterial::transparent`).
     transparent: bool,
+    /// The glass lobe transmits only, without Fresnel (`SurfaceMaterial::refraction`).
+    refraction: bool,
     /// Oren–Nayar roughness of the diffuse lobe (`oren_nayar`; below its cutoff: Lambert).
     diffuse_roughness: f32,
     /// The Translucent BSDF's colour: f = translucent / π for directions on the other side
     /// of the surface from the viewer (zero: no such lobe).
     translucent: Vec3,
+    /// What the whole BSDF is multiplied by (`SurfaceMaterial::weight`; 1 but for a node
+    /// tree's Add Shader): applied to `ViewedBsdf`'s values and samples, not to densities.
+    weight: f32,
 }
 
 /// One sampled direction.
@@ -311,7 +318,7 @@ impl Bsdf {
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
             // A Transparent BSDF passes its colour (Cycles' weight); glass tints by the
             // colour's square root per crossing.
-            glass_transmit_tint: if m.transparent {
+            glass_transmit_tint: if m.transparent || m.refraction || m.glass {
                 clamped_base
             } else {
                 Vec3::new(
@@ -324,12 +331,15 @@ impl Bsdf {
             coat,
             sheen,
             transparent: m.transparent,
+            refraction: m.refraction,
             diffuse_roughness: clean(m.diffuse_roughness, 0.0, 1.0),
             translucent: if m.translucent {
                 base_color
             } else {
                 Vec3::ZERO
             },
+            glass_reflect_tint: if m.glass { clamped_base } else { Vec3::ONE },
+            weight: clean(m.weight, 0.0, f32::MAX),
         }
     }
 
@@ -719,14 +729,32 @@ impl LobeSet {
 
 /// Glass reflectance and transmittance for a microfacet (or the macro-surface) at cosine `cos_i`
 /// from the viewer's side with relative IOR `eta`: Cycles' tinted dielectric
-/// F = mix(F0·tint, 1, s), T = (1 − F)·sqrt(base colour). Total internal reflection gives F = 1.
+/// F = mix(F0·tint, 1, s), T = (1 − F)·sqrt(base colour) (a Glass BSDF node: both times its
+/// colour, `glass_reflect_tint`). Total internal reflection gives F = 1.
+///
+/// Blender's Refraction BSDF has no Fresnel: it transmits its colour whole, and nothing at
+/// total internal reflection (Cycles' microfacet closure without Fresnel).
 fn glass_split(b: &Bsdf, cos_i: f32, eta: f32) -> (Vec3, Vec3) {
     if b.glass_passes_straight() {
         return (Vec3::ZERO, b.glass_transmit_tint);
     }
+    if b.refraction {
+        let total = fresnel_dielectric(cos_i, eta) >= 1.0;
+        return (
+            Vec3::ZERO,
+            if total {
+                Vec3::ZERO
+            } else {
+                b.glass_transmit_tint
+            },
+        );
+    }
     let s = fresnel_blend_factor(cos_i, eta);
     let r = mix(b.glass_f0, Vec3::ONE, s);
-    (r, (Vec3::ONE - r) * b.glass_transmit_tint)
+    (
+        r * b.glass_reflect_tint,
+        (Vec3::ONE - r) * b.glass_transmit_tint,
+    )
 }
 
 /// Probability of choosing reflection for glass given its reflectance and transmittance.
@@ -916,7 +944,10 @@ impl ViewedBsdf {
     /// `eval` and `pdf` together (one half-vector computation).
     pub fn eval_and_pdf(&self, wi: Vec3) -> (Vec3, f32) {
         match &self.lobes {
-            Some(l) => eval_and_pdf(&self.bsdf, l, l.mirror(wi)),
+            Some(l) => {
+                let (f, pdf) = eval_and_pdf(&self.bsdf, l, l.mirror(wi));
+                (f * self.bsdf.weight, pdf)
+            }
             None => (Vec3::ZERO, 0.0),
         }
     }
@@ -927,7 +958,8 @@ impl ViewedBsdf {
     pub fn albedo(&self) -> Vec3 {
         self.lobes
             .as_ref()
-            .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum())
+            .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum::<Vec3>())
+            * self.bsdf.weight
     }
 
     /// The diffuse lobe's directional albedo; when it is Lambertian
@@ -938,6 +970,7 @@ impl ViewedBsdf {
         self.lobes
             .as_ref()
             .map_or(Vec3::ZERO, |l| l.albedo[DIFFUSE])
+            * self.bsdf.weight
     }
 
     /// Fraction of the light arriving from (or leaving towards) `wo` that crosses the
@@ -945,7 +978,7 @@ impl ViewedBsdf {
     /// layer's directional albedo). Light entering a translucent base is this times the
     /// subsurface weight.
     pub fn base_transmittance(&self) -> f32 {
-        self.lobes.as_ref().map_or(0.0, |l| l.base_transmittance)
+        self.lobes.as_ref().map_or(0.0, |l| l.base_transmittance) * self.bsdf.weight
     }
 
     /// What the sheen and coat layers let through from the base towards `wo` (Cycles
@@ -962,7 +995,9 @@ impl ViewedBsdf {
     /// Sample a direction: `u_lobe` picks the lobe (and, remapped, reflection or refraction for
     /// glass), `u` the direction within it.
     pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        sample(&self.bsdf, self.lobes.as_ref()?, self.wo, u_lobe, u)
+        let mut s = sample(&self.bsdf, self.lobes.as_ref()?, self.wo, u_lobe, u)?;
+        s.weight *= self.bsdf.weight;
+        Some(s)
     }
 }
 

@@ -292,6 +292,11 @@ fn walk_from(
         }
         let primary = depth == 0 && !gather;
         let mut s = Shading::on_path(ctx, &ray, &hit, state.light_path, primary);
+        // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
+        if primary && s.surface.holdout {
+            out.seen_emission = state.passes.total();
+            break;
+        }
         if depth == 0 {
             out.hit = true;
             out.albedo = s.surface.base_color;

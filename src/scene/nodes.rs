@@ -37,7 +37,9 @@
 //! metallic 1 with the colour as F0 (Blender's Glossy has no Fresnel: differs at grazing
 //! angles), its Anisotropy as Cycles maps it (α (1 − a) along the tangent and α / (1 − a)
 //! across, for a > 0); Sheen BSDF (microfiber) → the sheen layer alone; Glass → transmission
-//! 1 (the colour tints transmission only, Blender tints reflection too); Emission → emission and
+//! 1, its colour weighing reflection and each crossing alike (`Closure::glass`); Refraction → the
+//! glass's transmission alone (`Closure::refraction`: the colour per crossing, no Fresnel, no
+//! reflection); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
 //! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent →
 //! the BSDF's Lambertian transmission lobe alone (`Closure::translucent`). Mix Shader mixes emission exactly and picks one BSDF per shading point with
@@ -282,6 +284,16 @@ pub struct Closure {
     pub transparent: bool,
     /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
     pub translucent: bool,
+    /// A Refraction BSDF: the glass's transmission alone, of `base_color`, without Fresnel.
+    pub refraction: bool,
+    /// A Glass BSDF: its colour weighs the reflection and each crossing alike (Cycles'
+    /// closure weight), where the Principled BSDF's tints only the transmission, by its root.
+    pub glass: bool,
+    /// A Holdout: black, and transparent in the film's alpha where the camera sees it.
+    pub holdout: bool,
+    /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
+    /// probability ½ and doubles it, so their sum is exact on average).
+    pub weight: f32,
 }
 
 impl Closure {
@@ -309,6 +321,10 @@ impl Closure {
         diffuse_roughness: 0.0,
         transparent: false,
         translucent: false,
+        refraction: false,
+        glass: false,
+        holdout: false,
+        weight: 1.0,
     };
 }
 
@@ -481,6 +497,10 @@ enum Op {
     Glossy,
     Sheen,
     Glass,
+    /// Blender's Refraction BSDF: the glass's transmission lobe alone.
+    Refraction,
+    /// Blender's Holdout: no light, and a hole in the film's alpha for camera rays.
+    Holdout,
     Emission,
     Transparent,
     Translucent,
@@ -1047,7 +1067,7 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("BSDF", Shader)],
         ),
-        Op::Glass => (
+        Op::Glass | Op::Refraction => (
             vec![
                 i("Color", Color, Vec4::ONE),
                 i("Roughness", Float, f(0.0)),
@@ -1061,6 +1081,7 @@ fn spec(op: &Op) -> Spec {
             vec![("Emission", Shader)],
         ),
         Op::Transparent => (vec![i("Color", Color, Vec4::ONE)], vec![("BSDF", Shader)]),
+        Op::Holdout => (vec![], vec![("Holdout", Shader)]),
         Op::Translucent => (
             vec![
                 i("Color", Color, Vec4::ONE),
@@ -1484,8 +1505,10 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             _ => return Ok(None),
         },
         "BsdfGlass" => Op::Glass,
+        "BsdfRefraction" => Op::Refraction,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
+        "Holdout" => Op::Holdout,
         "BsdfTranslucent" => Op::Translucent,
         "MixShader" => Op::MixShader,
         "AddShader" => Op::AddShader,
@@ -2444,6 +2467,10 @@ fn run(
                 diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
                 transparent: false,
                 translucent: false,
+                refraction: false,
+                glass: false,
+                holdout: false,
+                weight: 1.0,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
             // Transparent BSDF by 1 − alpha.
@@ -2498,7 +2525,7 @@ fn run(
                 ..Closure::BLACK
             };
         }
-        Op::Glass => {
+        Op::Glass | Op::Refraction => {
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 roughness: get(m, 1).x.clamp(0.0, 1.0),
@@ -2507,6 +2534,8 @@ fn run(
                 specular: 1.0,
                 specular_color: Vec3::ONE,
                 normal: get(m, 3).truncate(),
+                refraction: matches!(instr.op, Op::Refraction),
+                glass: matches!(instr.op, Op::Glass),
                 ..Closure::BLACK
             };
         }
@@ -2517,6 +2546,12 @@ fn run(
             };
         }
         Op::Transparent => m.closures[o] = transparent(get(m, 0).truncate()),
+        Op::Holdout => {
+            m.closures[o] = Closure {
+                holdout: true,
+                ..Closure::BLACK
+            }
+        }
         Op::Translucent => {
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
@@ -2541,13 +2576,22 @@ fn run(
                 (true, false) => a,
                 (false, true) => b,
                 _ => {
-                    if *u < 0.5 {
+                    // One of the two with probability ½, doubled: their sum on average, as
+                    // Cycles sums closures. A Transparent BSDF carries it in its colour,
+                    // which shadow rays read as their tint.
+                    let mut one = if *u < 0.5 {
                         *u *= 2.0;
                         a
                     } else {
                         *u = 2.0 * *u - 1.0;
                         b
+                    };
+                    if one.transparent {
+                        one.base_color *= 2.0;
+                    } else {
+                        one.weight *= 2.0;
                     }
+                    one
                 }
             };
             *u = u.clamp(0.0, 0.999_999_94);
