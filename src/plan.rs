@@ -517,10 +517,6 @@ const MIN_PHOTON_SHARE: f32 = 0.05;
 /// misses on three of eight (docs/bench/measurements.md, "The planner's cost rule").
 const CAUSTIC_COST_RATIO: f32 = 16.0;
 
-/// An emission ray's cost in path-tracer rays: one closest hit, shaded only on emitters
-/// (`walk::seen_emission`).
-const EMISSION_RAY_COST: f32 = 0.5;
-
 /// Emission rays per camera sample of the photon method when the camera sees emitters, and the
 /// least share of the path-traced pilot's noise in emission seen directly that counts as
 /// seeing them. The photon method leaves little noise but the edges of what the camera sees
@@ -531,9 +527,15 @@ const EMISSION_RAY_COST: f32 = 0.5;
 /// box 0.0192 → 0.0029 for 8 %, Cornell spheres (16 spp, 48 px) 0.071 → 0.057; scenes whose
 /// error is elsewhere (the interior: seen share 1.1 %; sphereflake, glossy caustic) unchanged
 /// for 5–10 %. The path tracer, whose noise is everywhere, gained nothing on materials.glb and
-/// 1.3× on the Cornell box at 96 px for 35–50 % more time: it traces none.
+/// 1.3× on the Cornell box at 96 px for 35–50 % more time: it traces none. The method is
+/// chosen without them (counting their cost but not their gain turned the Cornell box at 64 px
+/// and 64 spp to the path tracer, 4× the error).
+/// Their gain shrinks with the samples while their share of the time grows: on the Cornell box
+/// at 256 px, relMSE ÷ 2.5 at 16 spp and ÷ 1.6 at 32 for +40 % CPU time, and at 64 px and 64 spp
+/// ÷ 1.25 for +45 %, so only renders of at most `EMISSION_RAYS_MAX_SPP` get them.
 const PHOTON_EMISSION_RAYS: u32 = 3;
 const SEEN_SHARE_FOR_EMISSION_RAYS: f32 = 0.02;
+const EMISSION_RAYS_MAX_SPP: u32 = 32;
 
 /// The predicted cost of a render, in path-tracer rays, from the pilots.
 #[derive(Clone, Copy, Debug)]
@@ -548,23 +550,16 @@ struct Cost {
 
 impl Cost {
     /// For `samples` camera samples at `spp` per pixel, with `photons` emitted per generation
-    /// (global and caustic), the photon method tracing `emission_rays` per camera sample.
-    fn predict(
-        shares: &PilotShares,
-        samples: u64,
-        spp: u32,
-        photons: f32,
-        emission_rays: u32,
-    ) -> Cost {
+    /// (global and caustic).
+    fn predict(shares: &PilotShares, samples: u64, spp: u32, photons: f32) -> Cost {
         let path = samples as f32 * shares.rays_per_path.max(1.0);
-        let emission = samples as f32 * emission_rays as f32 * EMISSION_RAY_COST;
         let generations = spp.div_ceil(GENERATION_SPP);
         let growth: f32 = (0..generations).map(photon_growth).sum();
         let preparation =
             photons * growth * shares.rays_per_photon.max(1.0) * PREPARATION_PER_PHOTON_RAY;
         Cost {
             path,
-            photon: preparation + PHOTON_SAMPLE_COST * path + emission,
+            photon: preparation + PHOTON_SAMPLE_COST * path,
             preparation,
         }
     }
@@ -981,7 +976,9 @@ pub fn plan_with_pilot(
             pilot.scale.unwrap_or_else(|| pilot_scale(samples)),
             (global_map.needed, caustic_map.needed),
         );
-        let photon_emission_rays = match shares.noise_seen >= SEEN_SHARE_FOR_EMISSION_RAYS {
+        let photon_emission_rays = match shares.noise_seen >= SEEN_SHARE_FOR_EMISSION_RAYS
+            && spp <= EMISSION_RAYS_MAX_SPP
+        {
             true => PHOTON_EMISSION_RAYS,
             false => 0,
         };
@@ -1007,7 +1004,7 @@ pub fn plan_with_pilot(
             });
         let photons =
             global_map.needed as u32 as f32 * global + caustic_map.needed as u32 as f32 * caustic;
-        let cost = Cost::predict(&shares, samples, spp, photons, photon_emission_rays);
+        let cost = Cost::predict(&shares, samples, spp, photons);
         let cost_note = format!(
             "; predicted cost in rays: path tracer {:.2e}, photon method {:.2e} ({:.2e} of it preparation); {:.0} % of the path tracer's noise is not indirect light, {:.0} % is emission seen directly{}",
             cost.path,
