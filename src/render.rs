@@ -796,8 +796,21 @@ fn prepare_cache(
     Ok(Some(cache))
 }
 
-/// Take `step` more samples in each active pixel of `tile`, each pixel's samples numbered on
-/// from those it already has.
+/// A camera ray through pixel (x, y): its film position from the pixel filter, then a lens
+/// sample only with an aperture and a moment only when something moves (still scenes seen by
+/// pinhole cameras keep their streams), drawn from `rng` in that order. Its `t_max` is 0 outside
+/// a fisheye's image.
+fn camera_ray(round: &RoundSetup, (x, y): (u32, u32), rng: &mut Rng) -> crate::accel::Ray {
+    let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + round.filter.sample(rng.uniform2());
+    let lens = if round.camera.has_lens() {
+        rng.uniform2()
+    } else {
+        Vec2::ZERO
+    };
+    let time = round.moving.then(|| rng.uniform());
+    round.camera.sample_ray(film, lens, time)
+}
+
 /// Tag of the Sobol sequence of the emission rays (`RenderSettings::emission_rays`).
 const EMISSION_RAYS_TAG: u64 = 0x5ee5_e111;
 
@@ -814,21 +827,14 @@ fn see_emission(
     s: u32,
     (x, y): (u32, u32),
 ) -> u32 {
-    let (ctx, camera, filter, settings) = (round.ctx, round.camera, round.filter, round.settings);
+    let settings = round.settings;
     let n = settings.emission_rays;
     let (mut seen, mut rays) = (Vec3::ZERO, 0);
     for k in 0..n {
         let mut rng = Rng::sobol(settings.seed ^ EMISSION_RAYS_TAG, pixel_index, s * n + k);
-        let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + filter.sample(rng.uniform2());
-        let lens = if camera.has_lens() {
-            rng.uniform2()
-        } else {
-            Vec2::ZERO
-        };
-        let time = round.moving.then(|| rng.uniform());
-        let ray = camera.sample_ray(film, lens, time);
+        let ray = camera_ray(round, (x, y), &mut rng);
         if ray.t_max > 0.0 {
-            let (le, traced) = walk::seen_emission(ctx, ray, &mut rng);
+            let (le, traced) = walk::seen_emission(round.ctx, ray, &mut rng);
             seen += le;
             rays += traced;
         }
@@ -842,6 +848,8 @@ fn see_emission(
     rays
 }
 
+/// Take `step` more samples in each active pixel of `tile`, each pixel's samples numbered on
+/// from those it already has.
 fn render_tile(
     round: &RoundSetup,
     tile: &mut Tile,
@@ -850,13 +858,8 @@ fn render_tile(
     rays: &AtomicU64,
     nonfinite: &AtomicU64,
 ) -> Result<()> {
-    let (ctx, integrator, camera, filter, settings) = (
-        round.ctx,
-        round.integrator,
-        round.camera,
-        round.filter,
-        round.settings,
-    );
+    let (ctx, integrator, camera, settings) =
+        (round.ctx, round.integrator, round.camera, round.settings);
     let mut tile_rays = 0u64;
     let mut tile_nonfinite = 0u64;
     let width = tile.x1 - tile.x0;
@@ -876,21 +879,11 @@ fn render_tile(
                 Sampler::Sobol => Rng::sobol(settings.seed, pixel_index, s),
                 Sampler::Random => random(),
             };
-            let offset = filter.sample(camera_rng.uniform2());
-            let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + offset;
-            // A lens sample only with an aperture and a moment only when something moves:
-            // still scenes seen by pinhole cameras keep their streams.
-            let lens = if camera.has_lens() {
-                camera_rng.uniform2()
-            } else {
-                Vec2::ZERO
-            };
-            let time = round.moving.then(|| camera_rng.uniform());
+            let ray = camera_ray(round, (x, y), &mut camera_rng);
             let mut rng = match (integrator, settings.sampler) {
                 (Integrator::Path | Integrator::Photon(..), _) | (_, Sampler::Random) => camera_rng,
                 _ => random(),
             };
-            let ray = camera.sample_ray(film, lens, time);
             if ray.t_max <= 0.0 {
                 continue; // outside a fisheye's image: black, as in Cycles
             }
