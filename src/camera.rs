@@ -98,6 +98,28 @@ impl CameraRays {
         at(self.to_world_ray(&to_world, start, (focus - start).normalize()))
     }
 
+    /// The film position (pixels) of the ray from the lens centre that meets world point `p`:
+    /// the inverse of `ray`, for a still perspective or orthographic camera without an aperture.
+    /// `None` where no such position bounds where the camera sees `p`: a point at or behind a
+    /// perspective camera's plane, a lens, a moving camera, a panorama.
+    pub fn film_position(&self, p: Vec3) -> Option<Vec2> {
+        if self.lens.is_some() || self.moves() {
+            return None;
+        }
+        let q = self.to_world.inverse().transform_point3(p);
+        let (x, y) = match self.projection {
+            Projection::Perspective { .. } if q.z < -1e-6 * q.length() => (q.x / -q.z, q.y / -q.z),
+            Projection::Orthographic { .. } => (q.x, q.y),
+            _ => return None,
+        };
+        let aspect = self.width / self.height;
+        let film = Vec2::new(
+            ((x - self.shift.x) / (aspect * self.half_height) + 1.0) * 0.5 * self.width,
+            (1.0 - (y - self.shift.y) / self.half_height) * 0.5 * self.height,
+        );
+        film.is_finite().then_some(film)
+    }
+
     /// Origin and unit direction in camera space; a zero direction where the image shows
     /// nothing (outside a fisheye's circle).
     fn camera_space_ray(&self, film: Vec2) -> (Vec3, Vec3) {
@@ -251,6 +273,56 @@ mod tests {
 
     /// A moving camera is at its first pose when the shutter opens, its last when it closes,
     /// and between them halfway: the position at the midpoint, the rotation half-turned.
+    /// `film_position` inverts `ray` on a turned, shifted, off-square camera of either
+    /// projection, and gives up where it must.
+    #[test]
+    fn film_position_finds_the_film_point_of_a_ray() {
+        let to_world = Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(0.7) * Quat::from_rotation_x(-0.3),
+            Vec3::new(1.0, 2.0, -3.0),
+        );
+        for projection in [
+            Projection::Perspective { yfov: 0.8 },
+            Projection::Orthographic {
+                xmag: 3.0,
+                ymag: 2.0,
+            },
+        ] {
+            let camera = Camera {
+                name: "c".into(),
+                to_world,
+                projection,
+                aspect_ratio: None,
+                shift: Vec2::new(0.1, -0.2),
+                lens: None,
+                motion: Vec::new(),
+                near_clip: 0.0,
+            };
+            let rays = CameraRays::new(&camera, 64, 48);
+            for (fx, fy, t) in [(0.5, 0.5, 1.0), (63.2, 47.9, 7.0), (20.3, 30.1, 0.3)] {
+                let film = Vec2::new(fx, fy);
+                let ray = rays.ray(film);
+                let p = ray.origin + ray.direction * t;
+                let back = rays.film_position(p).expect("in front of the camera");
+                assert!(
+                    back.abs_diff_eq(film, 1e-3),
+                    "{projection:?}: {back} != {film}"
+                );
+            }
+            let behind = to_world.transform_point3(Vec3::new(0.2, 0.1, 1.0));
+            let perspective = matches!(projection, Projection::Perspective { .. });
+            assert_eq!(rays.film_position(behind).is_none(), perspective);
+            let with_lens = Camera {
+                lens: Some(lens(0, 1.0)),
+                ..camera.clone()
+            };
+            let p = to_world.transform_point3(Vec3::new(0.0, 0.0, -4.0));
+            assert!(CameraRays::new(&with_lens, 64, 48)
+                .film_position(p)
+                .is_none());
+        }
+    }
+
     #[test]
     fn moving_camera_interpolates_its_poses() {
         let open = Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.0));

@@ -897,7 +897,7 @@ fn placed_area(mesh: &Mesh, triangle: u32, to_world: Affine3A, time: f32) -> f32
 }
 
 /// Position, radius and ray visibility of a point or spot light; `None` for other lights.
-fn lamp_of(source: &LightSource) -> Option<(Vec3, f32, Lamp)> {
+pub fn lamp_of(source: &LightSource) -> Option<(Vec3, f32, Lamp)> {
     match *source {
         LightSource::Point {
             position,

@@ -13,6 +13,7 @@
 use crate::accel::Accel;
 use crate::adaptive::{is_class_a, spread_active, AdaptiveSettings, Convergence};
 use crate::camera::CameraRays;
+use crate::emitter_pixels::EmitterPixels;
 use crate::error::{Error, Result};
 use crate::film::{FilterSettings, Image, PixelFilter};
 use crate::integrator::cache::{self, CacheView, IcInfo, Source};
@@ -267,6 +268,15 @@ pub fn render_scheduled(
             .or(scene.render_settings.filter)
             .unwrap_or_default(),
     );
+    let emitter_pixels = (settings.emission_rays > 0).then(|| {
+        EmitterPixels::new(
+            &ctx,
+            &camera,
+            filter.radius(),
+            settings.width,
+            settings.height,
+        )
+    });
     // Methods that read photon maps or an irradiance cache rebuild them every `GENERATION_SPP`
     // samples per pixel with fresh random numbers and smaller radii (`for_generation`).
     let progressive =
@@ -357,6 +367,7 @@ pub fn render_scheduled(
                 integrator,
                 camera: &camera,
                 filter: &filter,
+                emitter_pixels: emitter_pixels.as_ref(),
                 settings: &round_settings,
                 window,
                 moving: camera.moves() || ctx.scene.has_motion(),
@@ -386,6 +397,8 @@ struct RoundSetup<'a> {
     integrator: Integrator<'a>,
     camera: &'a CameraRays,
     filter: &'a PixelFilter,
+    /// Where emission rays can meet an emitter; `None` without emission rays.
+    emitter_pixels: Option<&'a EmitterPixels>,
     /// The round's seed and samples per pixel.
     settings: &'a RenderSettings,
     window: Region,
@@ -819,7 +832,8 @@ const EMISSION_RAYS_TAG: u64 = 0x5ee5_e111;
 /// estimate the same integral over the pixel filter, so the sample stays unbiased, and edges of
 /// bright emitters take that many more positions. Each ray draws its film position, lens and
 /// moment from one Sobol sequence per pixel (sample s·n + k), so a pixel's emission rays are
-/// stratified together. Returns the rays traced.
+/// stratified together. Only pixels that may see an emitter take them (`EmitterPixels`):
+/// elsewhere they would all see nothing, as the sample's own ray did. Returns the rays traced.
 fn see_emission(
     round: &RoundSetup,
     sample: &mut CameraSample,
@@ -888,7 +902,7 @@ fn render_tile(
                 continue; // outside a fisheye's image: black, as in Cycles
             }
             let mut sample = integrator.trace(ctx, ray, &mut rng);
-            if settings.emission_rays > 0 {
+            if round.emitter_pixels.is_some_and(|e| e.may_see(x, y)) {
                 tile_rays += see_emission(round, &mut sample, pixel_index, s, (x, y)) as u64;
             }
             tile_rays += sample.rays as u64;
