@@ -532,10 +532,34 @@ const CAUSTIC_COST_RATIO: f32 = 16.0;
 /// and 64 spp to the path tracer, 4× the error).
 /// Their gain shrinks with the samples while their share of the time grows: on the Cornell box
 /// at 256 px, relMSE ÷ 2.5 at 16 spp and ÷ 1.6 at 32 for +40 % CPU time, and at 64 px and 64 spp
-/// ÷ 1.25 for +45 %, so only renders of at most `EMISSION_RAYS_MAX_SPP` get them.
+/// ÷ 1.25 for +45 %, so only renders of at most `EMISSION_RAYS_MAX_SPP` get them, unless the
+/// emitters cover at most `EMISSION_RAYS_FEW_PIXELS` of the image: only pixels that may see
+/// one trace them (`EmitterPixels`), and then they cost little (docs/bench/measurements.md,
+/// "Emission rays where an emitter can be seen").
 const PHOTON_EMISSION_RAYS: u32 = 3;
 const SEEN_SHARE_FOR_EMISSION_RAYS: f32 = 0.02;
 const EMISSION_RAYS_MAX_SPP: u32 = 32;
+const EMISSION_RAYS_FEW_PIXELS: f64 = 0.25;
+
+/// The share of a `width` × `height` image whose pixels may see an emitter directly
+/// (`EmitterPixels`, with the scene's pixel filter).
+fn emitter_pixel_share(scene: &Scene, accel: &Accel, width: u32, height: u32) -> f64 {
+    use crate::camera::CameraRays;
+    use crate::emitter_pixels::EmitterPixels;
+    use crate::integrator::Context;
+    use crate::light::Lights;
+    let lights = Lights::new(scene);
+    let ctx = Context {
+        scene,
+        accel,
+        lights: &lights,
+        max_depth: 0,
+        transparent_background: scene.render_settings.transparent_film,
+    };
+    let camera = CameraRays::new(&scene.camera, width, height);
+    let radius = scene.render_settings.filter.unwrap_or_default().radius();
+    EmitterPixels::new(&ctx, &camera, radius, width, height).share()
+}
 
 /// The predicted cost of a render, in path-tracer rays, from the pilots.
 #[derive(Clone, Copy, Debug)]
@@ -977,7 +1001,9 @@ pub fn plan_with_pilot(
             (global_map.needed, caustic_map.needed),
         );
         let photon_emission_rays = match shares.noise_seen >= SEEN_SHARE_FOR_EMISSION_RAYS
-            && spp <= EMISSION_RAYS_MAX_SPP
+            && (spp <= EMISSION_RAYS_MAX_SPP
+                || emitter_pixel_share(scene, pilot.accel, width, height)
+                    <= EMISSION_RAYS_FEW_PIXELS)
         {
             true => PHOTON_EMISSION_RAYS,
             false => 0,
