@@ -583,11 +583,17 @@ pub fn build<P: Send>(
         let (nx, ny) = (width.div_ceil(step), height.div_ceil(step));
         let cache_ref = &cache;
         // The level's uncovered sites first, so that its cost is known before any ray is
-        // gathered; each keeps its random stream for the gather.
+        // gathered; each keeps its random stream for the gather. A pixel of the level before
+        // finds the same site again (its stream is the pixel's), covered since: skipped.
+        let coarser = 2 * step;
+        let first_level = info.levels == 0;
         let sites: Vec<(Site, P, Rng)> = (0..nx * ny)
             .into_par_iter()
             .filter_map(|i| {
                 let (x, y) = (i % nx * step, i / nx * step);
+                if !first_level && x % coarser == 0 && y % coarser == 0 {
+                    return None;
+                }
                 let mut rng = Rng::for_item(seed ^ 0x1c_ca5e, (y * width + x) as u64, 0);
                 let (site, data) = find(x, y, &mut rng)?;
                 let covered = cache_ref.lookup(site.p, site.n).is_some();
