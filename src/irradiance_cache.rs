@@ -428,6 +428,15 @@ impl IrradianceCache {
 
     /// Call `f` with every record whose (slightly widened) validity sphere holds `p`.
     fn visit(&self, p: Vec3, mut f: impl FnMut(&Record)) {
+        self.visit_until(p, |rec| {
+            f(rec);
+            false
+        });
+    }
+
+    /// Call `f` with the records whose (slightly widened) validity sphere holds `p` until it
+    /// returns true; whether it did.
+    fn visit_until(&self, p: Vec3, mut f: impl FnMut(&Record) -> bool) -> bool {
         // Depth-first with a fixed stack: at most 8 children wait per level.
         let mut stack = [0u32; 8 * MAX_DEPTH as usize + 1];
         let mut top = 1;
@@ -435,8 +444,8 @@ impl IrradianceCache {
             top -= 1;
             let node = &self.nodes[stack[top] as usize];
             for e in &node.records {
-                if (p - e.p).length_squared() <= e.radius2 {
-                    f(&self.records[e.index as usize]);
+                if (p - e.p).length_squared() <= e.radius2 && f(&self.records[e.index as usize]) {
+                    return true;
                 }
             }
             for &c in &node.children {
@@ -449,6 +458,7 @@ impl IrradianceCache {
                 }
             }
         }
+        false
     }
 
     /// Ward's error estimate εᵢ(x) = ‖x−xᵢ‖/Rᵢ + √(1−N·Nᵢ), or `None` when record is unusable
@@ -481,6 +491,11 @@ impl IrradianceCache {
             weights += w;
         });
         (weights > 0.0).then(|| sum / weights)
+    }
+
+    /// Whether some record is valid at (p, n): `lookup` would answer.
+    pub fn covers(&self, p: Vec3, n: Vec3) -> bool {
+        self.visit_until(p, |rec| self.error(rec, p, n).is_some())
     }
 
     /// True when a record lies within one pixel footprint (and its validity radius) of `p`
@@ -596,7 +611,7 @@ pub fn build<P: Send>(
                 }
                 let mut rng = Rng::for_item(seed ^ 0x1c_ca5e, (y * width + x) as u64, 0);
                 let (site, data) = find(x, y, &mut rng)?;
-                let covered = cache_ref.lookup(site.p, site.n).is_some();
+                let covered = cache_ref.covers(site.p, site.n);
                 (!covered).then_some((site, data, rng))
             })
             .collect();
@@ -706,6 +721,7 @@ mod tests {
                 .iter()
                 .any(|r| cache.error(r, p, Vec3::Z).is_some());
             assert_eq!(cache.lookup(p, Vec3::Z).is_some(), brute, "at {p}");
+            assert_eq!(cache.covers(p, Vec3::Z), brute, "at {p}");
         }
     }
 
