@@ -20,6 +20,15 @@
 //! geometry: rays pass through them, shadow rays ignore them; past eight lamps a small BVH over
 //! their spheres keeps a ray from testing them all.
 //!
+//! A world of one constant colour is left out of the light samples that are weighed by MIS
+//! against BSDF sampling, as Cycles leaves it out ("Background MIS has been disabled" in
+//! `LightManager::test_enabled_lights`, unless the background varies or portals exist): BSDF
+//! sampling finds a uniform sky as well as a uniform light sample does on a diffuse surface, far
+//! better on a glossy one, and never wastes a direction below the horizon, so the light samples
+//! all go to the lights that need them (the sun). A light sample without a BSDF counterpart
+//! (`mis` false: the photon method's direct light without gather rays) still draws from every
+//! light.
+//!
 //! An environment map (`EnvironmentLight`) is importance-sampled with a 2D piecewise-constant
 //! distribution over its pixels weighted by luminance × sin θ, mapped to the sphere with the
 //! Jacobian 2π² sin θ (pbrt-v4 §12.5.2, "Image infinite lights").
@@ -111,7 +120,12 @@ pub struct LightSample {
 /// All emitters of a scene and the distribution that picks one.
 pub struct Lights {
     pub sources: Vec<LightSource>,
+    /// Picks the light of a sample weighed by MIS against BSDF sampling: every light but a
+    /// constant world (module header). The densities MIS reads (`triangle_pdf`, `lamps_met`,
+    /// `escaped`) are this one's.
     select: Distribution1D,
+    /// Picks the light of a sample without MIS, from every light; `None` when that is `select`.
+    select_all: Option<Distribution1D>,
     /// For each mesh, the index of its first triangle light (triangle lights are contiguous).
     mesh_first_light: Vec<Option<u32>>,
     /// For each instance, its light (`LightSource::Instance`) when its prototype emits; empty
@@ -443,10 +457,19 @@ impl Lights {
             Some(env) => env.average,
             None => background.color,
         };
+        let mut select_all = None;
         if luminance(radiance) > 0.0 {
             world = Some(sources.len() as u32);
             sources.push(LightSource::World { radiance });
-            power.push(PI * PI * luminance(radiance) * scene_radius * scene_radius);
+            let world_power = PI * PI * luminance(radiance) * scene_radius * scene_radius;
+            if environment.is_some() {
+                power.push(world_power);
+            } else {
+                let mut all = power.clone();
+                all.push(world_power);
+                select_all = Some(Distribution1D::new(&all));
+                power.push(0.0);
+            }
         }
         let soft_sun = suns.iter().any(
             |&s| matches!(sources[s as usize], LightSource::Sun { cos_max, .. } if cos_max < 1.0),
@@ -465,6 +488,7 @@ impl Lights {
             lamps,
             sources,
             select: Distribution1D::new(&power),
+            select_all,
             mesh_first_light,
             instance_light,
             prototype_triangles,
@@ -478,6 +502,10 @@ impl Lights {
 
     pub fn is_empty(&self) -> bool {
         self.select.is_empty()
+            && self
+                .select_all
+                .as_ref()
+                .is_none_or(Distribution1D::is_empty)
     }
 
     /// True when a ray can meet some light (an emitting mesh, the world, a sun with a disk, a
@@ -501,7 +529,9 @@ impl Lights {
     /// Pick a light with `u_select` and sample a direction towards it from `p`, seen at moment
     /// `time` of the shutter (where moving emitters are then).
     /// `path`: the path at `p`, which an emitter's node tree reads as it is sampled from
-    /// there (`RayPath::emission`).
+    /// there (`RayPath::emission`). `mis`: the sample will be weighed by MIS against BSDF
+    /// sampling, which alone finds a constant world (module header); without it every light
+    /// may be picked.
     #[allow(clippy::too_many_arguments)]
     pub fn sample(
         &self,
@@ -509,10 +539,15 @@ impl Lights {
         p: Vec3,
         path: RayPath,
         time: f32,
+        mis: bool,
         u_select: f32,
         u: Vec2,
     ) -> Option<LightSample> {
-        let (index, pmf, u_pick) = self.select.sample_remapped(u_select)?;
+        let select = match (&self.select_all, mis) {
+            (Some(all), false) => all,
+            _ => &self.select,
+        };
+        let (index, pmf, u_pick) = select.sample_remapped(u_select)?;
         let mut s = self.sample_source(scene, index, (p, path), time, u_pick, u)?;
         s.pdf *= pmf;
         (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
