@@ -53,7 +53,9 @@ fn ray(origin: Vec3, direction: Vec3) -> Ray {
 /// Every lamp `ray` meets: (radiance, pdf, distance).
 fn met(lights: &Lights, ray: &Ray, reach: f32, camera: bool) -> Vec<(Vec3, f32, f32)> {
     let mut out = Vec::new();
-    lights.lamps_met(ray, reach, camera, |l, pdf, t| out.push((l, pdf, t)));
+    lights.lamps_met(ray, ray.origin, reach, camera, |l, pdf, t| {
+        out.push((l, pdf, t))
+    });
     out
 }
 
