@@ -1,7 +1,8 @@
 //! Lights as the integrators see them: every emitter of the scene (emissive triangles, point,
-//! spot and sun lights, the world background) in one list, chosen in proportion to an estimate of
-//! its power, with `sample_light` (a direction towards a light, for next-event estimation) and the
-//! matching densities for multiple importance sampling (Veach 1997, ch. 9).
+//! spot and sun lights, the world background) in one list, a light chosen by power or, among a
+//! few lights, partly by its irradiance at the shading point (below), with `sample` (a
+//! direction towards a light, for next-event estimation) and the matching densities for
+//! multiple importance sampling (Veach 1997, ch. 9).
 //!
 //! An instance of an emitting prototype mesh is one light: a triangle of the prototype is
 //! picked in proportion to its object-space area, and the point drawn on it is placed where the
@@ -19,6 +20,28 @@
 //! MIS with the same density, select probability / the cone's solid angle. Lamps are not
 //! geometry: rays pass through them, shadow rays ignore them; past eight lamps a small BVH over
 //! their spheres keeps a ray from testing them all.
+//!
+//! Which light a sample goes to: in proportion to the power of each light for scenes of many
+//! lights. With at most `MAX_LOCAL_LIGHTS` (and no emitting instance or deforming emitter), half
+//! of the samples still go by power and half in proportion to an estimate of the irradiance
+//! each light brings to the shading point (`LocalSelection`: its power over the squared
+//! distance, the distance clamped by its size; none from a one-sided triangle behind whose
+//! plane the point lies; a sun's irradiance), as Cycles' light tree weighs its leaves by
+//! energy, orientation and distance (Conty Estevez and Kulla 2018, "Importance Sampling of Many
+//! Lights with Adaptive Tree Splitting"). A near lamp then gets samples a far sun of more total
+//! power would take; the half by power (a defensive mixture, Hesterberg 1995) keeps every
+//! light's share at least half of what it was, which the estimate, blind to the surface's
+//! orientation and to shadows, could otherwise starve. The densities MIS reads are computed at
+//! the vertex the ray left, with the same weights.
+//!
+//! A world of one constant colour is left out of the light samples that are weighed by MIS
+//! against BSDF sampling, as Cycles leaves it out ("Background MIS has been disabled" in
+//! `LightManager::test_enabled_lights`, unless the background varies or portals exist): BSDF
+//! sampling finds a uniform sky as well as a uniform light sample does on a diffuse surface, far
+//! better on a glossy one, and never wastes a direction below the horizon, so the light samples
+//! all go to the lights that need them (the sun). A light sample without a BSDF counterpart
+//! (`mis` false: the photon method's direct light without gather rays) still draws from every
+//! light.
 //!
 //! An environment map (`EnvironmentLight`) is importance-sampled with a 2D piecewise-constant
 //! distribution over its pixels weighted by luminance × sin θ, mapped to the sphere with the
@@ -111,7 +134,15 @@ pub struct LightSample {
 /// All emitters of a scene and the distribution that picks one.
 pub struct Lights {
     pub sources: Vec<LightSource>,
+    /// Picks the light of a sample weighed by MIS against BSDF sampling: every light but a
+    /// constant world (module header). The densities MIS reads (`triangle_pdf`, `lamps_met`,
+    /// `escaped`) are this one's.
     select: Distribution1D,
+    /// Picks the light of a sample without MIS, from every light; `None` when that is `select`.
+    select_all: Option<Distribution1D>,
+    /// With few lights, `select`'s weights turned into each light's irradiance at the shading
+    /// point (module header): samples weighed by MIS pick half by it, half by `select`.
+    local: Option<LocalSelection>,
     /// For each mesh, the index of its first triangle light (triangle lights are contiguous).
     mesh_first_light: Vec<Option<u32>>,
     /// For each instance, its light (`LightSource::Instance`) when its prototype emits; empty
@@ -328,6 +359,11 @@ impl Lights {
         };
         let mut sources = Vec::new();
         let mut power = Vec::new();
+        // For `LocalSelection`: where each light is, and its power over what turns power over
+        // squared distance into irradiance.
+        let mut reach = Vec::new();
+        let mut reach_scale = Vec::new();
+        let mut local_possible = true;
         let mut mesh_first_light = vec![None; scene.meshes.len()];
         for (mi, mesh) in scene.meshes.iter().enumerate() {
             let material = &scene.materials[mesh.material as usize];
@@ -347,6 +383,10 @@ impl Lights {
                     two_sided: material.double_sided,
                 });
                 power.push(PI * luminance(material.emission) * area * sides);
+                let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                reach.push(Reach::near(&p, (!material.double_sided).then_some(normal)));
+                reach_scale.push(1.0 / (PI * sides));
+                local_possible &= mesh.deformation.len() <= 1;
             }
         }
         let prototype_triangles: Vec<Option<Distribution1D>> = scene
@@ -375,6 +415,9 @@ impl Lights {
                 let area = if area.is_finite() { area } else { 0.0 };
                 let sides = if material.double_sided { 2.0 } else { 1.0 };
                 instance_light[i] = Some(sources.len() as u32);
+                local_possible = false;
+                reach.push(Reach::Distant);
+                reach_scale.push(0.0);
                 sources.push(LightSource::Instance {
                     instance: i as u32,
                     area,
@@ -399,6 +442,8 @@ impl Lights {
                         lamp,
                     });
                     power.push(4.0 * PI * luminance(intensity));
+                    reach.push(Reach::sphere(position, radius));
+                    reach_scale.push(1.0 / (4.0 * PI));
                 }
                 Light::Spot {
                     position,
@@ -419,6 +464,8 @@ impl Lights {
                         lamp,
                     });
                     power.push(4.0 * PI * luminance(intensity));
+                    reach.push(Reach::sphere(position, radius));
+                    reach_scale.push(1.0 / (4.0 * PI));
                 }
                 Light::Sun {
                     direction,
@@ -433,6 +480,8 @@ impl Lights {
                         cos_max: if half > 0.0 { half.cos() } else { 1.0 },
                     });
                     power.push(luminance(irradiance) * PI * scene_radius * scene_radius);
+                    reach.push(Reach::Distant);
+                    reach_scale.push(1.0 / (PI * scene_radius * scene_radius));
                 }
             }
         }
@@ -443,10 +492,21 @@ impl Lights {
             Some(env) => env.average,
             None => background.color,
         };
+        let mut select_all = None;
         if luminance(radiance) > 0.0 {
             world = Some(sources.len() as u32);
             sources.push(LightSource::World { radiance });
-            power.push(PI * PI * luminance(radiance) * scene_radius * scene_radius);
+            let world_power = PI * PI * luminance(radiance) * scene_radius * scene_radius;
+            reach.push(Reach::Distant);
+            reach_scale.push(1.0 / (PI * scene_radius * scene_radius));
+            if environment.is_some() {
+                power.push(world_power);
+            } else {
+                let mut all = power.clone();
+                all.push(world_power);
+                select_all = Some(Distribution1D::new(&all));
+                power.push(0.0);
+            }
         }
         let soft_sun = suns.iter().any(
             |&s| matches!(sources[s as usize], LightSource::Sun { cos_max, .. } if cos_max < 1.0),
@@ -459,12 +519,17 @@ impl Lights {
                 .is_some_and(|program| program.shadow_transparent)
         });
         let lamps = LampSet::new(&sources);
+        let local = local_possible
+            .then(|| LocalSelection::new(&power, &reach, &reach_scale))
+            .flatten();
         Lights {
             transparent_shadows,
             hittable: emitting_mesh || world.is_some() || soft_sun || lamps.seen_by_bounces,
             lamps,
             sources,
             select: Distribution1D::new(&power),
+            select_all,
+            local,
             mesh_first_light,
             instance_light,
             prototype_triangles,
@@ -478,6 +543,10 @@ impl Lights {
 
     pub fn is_empty(&self) -> bool {
         self.select.is_empty()
+            && self
+                .select_all
+                .as_ref()
+                .is_none_or(Distribution1D::is_empty)
     }
 
     /// True when a ray can meet some light (an emitting mesh, the world, a sun with a disk, a
@@ -501,7 +570,9 @@ impl Lights {
     /// Pick a light with `u_select` and sample a direction towards it from `p`, seen at moment
     /// `time` of the shutter (where moving emitters are then).
     /// `path`: the path at `p`, which an emitter's node tree reads as it is sampled from
-    /// there (`RayPath::emission`).
+    /// there (`RayPath::emission`). `mis`: the sample will be weighed by MIS against BSDF
+    /// sampling, which alone finds a constant world (module header); without it every light
+    /// may be picked.
     #[allow(clippy::too_many_arguments)]
     pub fn sample(
         &self,
@@ -509,10 +580,15 @@ impl Lights {
         p: Vec3,
         path: RayPath,
         time: f32,
+        mis: bool,
         u_select: f32,
         u: Vec2,
     ) -> Option<LightSample> {
-        let (index, pmf, u_pick) = self.select.sample_remapped(u_select)?;
+        let (index, pmf, u_pick) = match (&self.local, &self.select_all, mis) {
+            (_, Some(all), false) => all.sample_remapped(u_select)?,
+            (Some(local), _, true) => local.sample(p, u_select, &self.select)?,
+            _ => self.select.sample_remapped(u_select)?,
+        };
         let mut s = self.sample_source(scene, index, (p, path), time, u_pick, u)?;
         s.pdf *= pmf;
         (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
@@ -713,7 +789,7 @@ impl Lights {
         if area <= 0.0 || cos_l <= 0.0 {
             return 0.0;
         }
-        self.select.pmf(index) * dist2 / (cos_l * area)
+        self.pick_pmf(p, index) * dist2 / (cos_l * area)
     }
 
     /// `triangle_pdf` of a point on an instance: the instance's share, its triangle's, and the
@@ -739,7 +815,7 @@ impl Lights {
         if !(area > 0.0) || cos_l <= 0.0 {
             return 0.0;
         }
-        self.select.pmf(index as usize) * triangles.pmf(hit.triangle as usize) * dist2
+        self.pick_pmf(p, index as usize) * triangles.pmf(hit.triangle as usize) * dist2
             / (cos_l * area)
     }
 
@@ -751,10 +827,12 @@ impl Lights {
     /// and the lamp's distance. `camera`: a camera ray, which sees the lamps Blender shows the
     /// camera; any other ray is one a surface scattered. As in Cycles a lamp is not geometry:
     /// the ray passes through it (Cycles counts a transparent bounce), so every lamp on the way
-    /// counts. From inside a sphere lamp a ray meets its far side.
+    /// counts. From inside a sphere lamp a ray meets its far side. `from`: the vertex the ray
+    /// left, where the light sample it is weighed against was drawn.
     pub fn lamps_met(
         &self,
         ray: &Ray,
+        from: Vec3,
         reach: f32,
         camera: bool,
         mut visit: impl FnMut(Vec3, f32, f32),
@@ -808,17 +886,18 @@ impl Lights {
             } / (PI * radius * radius);
             if radiance != Vec3::ZERO {
                 let pdf = cone.pdf(spot_spread(source));
-                visit(radiance, self.select.pmf(i as usize) * pdf, t);
+                visit(radiance, self.pick_pmf(from, i as usize) * pdf, t);
             }
         });
     }
 
     /// Radiance of distant emitters (world and soft suns) seen along `dir`, each paired with its
-    /// light-sampling density for MIS: returns (radiance, pdf) per emitter via `visit`.
-    pub fn escaped(&self, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
+    /// light-sampling density for MIS at `from`, the vertex the ray left: returns (radiance,
+    /// pdf) per emitter via `visit`.
+    pub fn escaped(&self, from: Vec3, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
         if let Some(w) = self.world {
             let (radiance, pdf) = self.world_radiance(dir);
-            visit(radiance, self.select.pmf(w as usize) * pdf);
+            visit(radiance, self.pick_pmf(from, w as usize) * pdf);
         }
         for &s in &self.suns {
             if let LightSource::Sun {
@@ -830,10 +909,18 @@ impl Lights {
                 if cos_max < 1.0 && dir.dot(to_sun) >= cos_max {
                     visit(
                         sun_disk_radiance(irradiance, cos_max),
-                        self.select.pmf(s as usize) * uniform_cone_pdf(cos_max),
+                        self.pick_pmf(from, s as usize) * uniform_cone_pdf(cos_max),
                     );
                 }
             }
+        }
+    }
+
+    /// Probability that a light sample weighed by MIS, drawn at `p`, picks light `index`.
+    fn pick_pmf(&self, p: Vec3, index: usize) -> f32 {
+        match &self.local {
+            Some(local) => local.pmf(p, index, &self.select),
+            None => self.select.pmf(index),
         }
     }
 
@@ -868,6 +955,153 @@ impl Lights {
     /// Bounding sphere of the scene geometry (centre, radius).
     pub fn scene_sphere(&self) -> (Vec3, f32) {
         (self.scene_center, self.scene_radius)
+    }
+}
+
+/// Most lights `LocalSelection` weighs one by one at every light sample.
+const MAX_LOCAL_LIGHTS: usize = 16;
+
+/// Where a light is, for `LocalSelection`.
+#[derive(Clone, Copy, Debug)]
+enum Reach {
+    /// The sun or the world: the same from every point.
+    Distant,
+    /// Within `radius2.sqrt()` of `centre`; with `front`, a one-sided emitter lighting only
+    /// the points in front of the plane through `centre` with that normal.
+    Near {
+        centre: Vec3,
+        radius2: f32,
+        front: Option<Vec3>,
+    },
+}
+
+impl Reach {
+    /// A triangle `p`, one-sided along `front` when given.
+    fn near(p: &[Vec3; 3], front: Option<Vec3>) -> Reach {
+        let centre = (p[0] + p[1] + p[2]) / 3.0;
+        let radius2 = p
+            .iter()
+            .map(|&v| (v - centre).length_squared())
+            .fold(0.0, f32::max);
+        Reach::Near {
+            centre,
+            radius2,
+            front: front.filter(|n| *n != Vec3::ZERO),
+        }
+    }
+
+    /// A point light, or a lamp of radius `radius`.
+    fn sphere(centre: Vec3, radius: f32) -> Reach {
+        Reach::Near {
+            centre,
+            radius2: radius * radius,
+            front: None,
+        }
+    }
+
+    /// What the light's irradiance at `p` is proportional to: 1 far away; near, the inverse
+    /// squared distance, clamped at the light's size; zero behind a one-sided emitter.
+    fn falloff(&self, p: Vec3) -> f32 {
+        match *self {
+            Reach::Distant => 1.0,
+            Reach::Near {
+                centre,
+                radius2,
+                front,
+            } => {
+                let d = p - centre;
+                if front.is_some_and(|n| d.dot(n) <= 0.0) {
+                    return 0.0;
+                }
+                1.0 / d.length_squared().max(radius2).max(1e-12)
+            }
+        }
+    }
+}
+
+/// The choice of light for scenes of a few lights: half by power, half by the estimated
+/// irradiance at the shading point (module header).
+#[derive(Clone, Debug)]
+struct LocalSelection {
+    /// Per light: its power times the factor that makes power × `Reach::falloff` an
+    /// irradiance (zero: never picked), and where it is.
+    lights: Vec<(f32, Reach)>,
+}
+
+impl LocalSelection {
+    /// `None` when there are too many lights, or too few to choose between, or no light whose
+    /// share changes from point to point.
+    fn new(power: &[f32], reach: &[Reach], scale: &[f32]) -> Option<LocalSelection> {
+        let lights: Vec<(f32, Reach)> = power
+            .iter()
+            .zip(scale)
+            .zip(reach)
+            .map(|((&p, &s), &r)| {
+                let w = p * s;
+                (if w.is_finite() && w > 0.0 { w } else { 0.0 }, r)
+            })
+            .collect();
+        let lit = lights.iter().filter(|(w, _)| *w > 0.0).count();
+        let near = lights
+            .iter()
+            .any(|(w, r)| *w > 0.0 && matches!(r, Reach::Near { .. }));
+        (lights.len() <= MAX_LOCAL_LIGHTS && lit > 1 && near).then_some(LocalSelection { lights })
+    }
+
+    /// The weight of every light at `p` and their sum.
+    fn weights(&self, p: Vec3) -> ([f32; MAX_LOCAL_LIGHTS], f32) {
+        let mut w = [0.0f32; MAX_LOCAL_LIGHTS];
+        let mut total = 0.0;
+        for (i, (scale, reach)) in self.lights.iter().enumerate() {
+            w[i] = if *scale > 0.0 {
+                scale * reach.falloff(p)
+            } else {
+                0.0
+            };
+            total += w[i];
+        }
+        (w, total)
+    }
+
+    /// Pick a light for a sample at `p` with `u`: (index, probability, `u` rescaled to [0, 1)
+    /// within the light's share), as `Distribution1D::sample_remapped`; `power` is the choice by
+    /// power.
+    fn sample(&self, p: Vec3, u: f32, power: &Distribution1D) -> Option<(usize, f32, f32)> {
+        if u < 0.5 {
+            let (i, _, remapped) = power.sample_remapped(2.0 * u)?;
+            return Some((i, self.pmf(p, i, power), remapped));
+        }
+        let u = 2.0 * u - 1.0;
+        let (w, total) = self.weights(p);
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let target = u * total;
+        let mut below = 0.0;
+        let mut last = None;
+        for (i, &wi) in w[..self.lights.len()].iter().enumerate() {
+            if wi <= 0.0 {
+                continue;
+            }
+            last = Some((i, below));
+            if target < below + wi {
+                break;
+            }
+            below += wi;
+        }
+        let (i, below) = last?;
+        let remapped = ((target - below) / w[i]).clamp(0.0, 1.0 - f32::EPSILON);
+        Some((i, self.pmf(p, i, power), remapped))
+    }
+
+    /// The probability that `sample` at `p` (with the same `power`) picks light `index`.
+    fn pmf(&self, p: Vec3, index: usize, power: &Distribution1D) -> f32 {
+        let (w, total) = self.weights(p);
+        let local = match w.get(index) {
+            Some(&wi) if total > 0.0 && total.is_finite() => wi / total,
+            _ => 0.0,
+        };
+        0.5 * (local + power.pmf(index))
     }
 }
 
@@ -1311,6 +1545,65 @@ impl EnvironmentLight {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A sun, a point light and a one-sided triangle facing +y, with the powers and scales
+    /// `Lights::new` would give them (scene radius 10).
+    fn few_lights() -> (LocalSelection, Distribution1D) {
+        let triangle = [
+            Vec3::new(-1.0, 2.0, 0.0),
+            Vec3::new(1.0, 2.0, 0.0),
+            Vec3::Y * 2.0 + Vec3::Z,
+        ];
+        let power = [3.0 * PI * 100.0, 4.0 * PI * 5.0, PI * 40.0 * 1.0];
+        let reach = [
+            Reach::Distant,
+            Reach::sphere(Vec3::new(3.0, 1.0, 0.0), 0.1),
+            Reach::near(&triangle, Some(Vec3::Y)),
+        ];
+        let scale = [1.0 / (PI * 100.0), 1.0 / (4.0 * PI), 1.0 / PI];
+        let local = LocalSelection::new(&power, &reach, &scale).expect("a near light");
+        (local, Distribution1D::new(&power))
+    }
+
+    /// The choice near the shading point is a distribution: its probabilities sum to one, the
+    /// share of the unit interval `sample` gives each light is the probability it reports and
+    /// `pmf` recomputes, the rescaled number stays in [0, 1), and a light behind a one-sided
+    /// emitter keeps only its share by power.
+    #[test]
+    fn local_selection_samples_what_its_pmf_says() {
+        let (local, power) = few_lights();
+        for p in [
+            Vec3::new(0.0, 3.0, 0.2),
+            Vec3::new(2.5, 1.2, 0.0),
+            Vec3::new(0.0, 0.0, 0.0),
+        ] {
+            let sum: f32 = (0..3).map(|i| local.pmf(p, i, &power)).sum();
+            assert!((sum - 1.0).abs() < 1e-5, "sum {sum} at {p:?}");
+            let n = 200_000;
+            let mut count = [0usize; 3];
+            for k in 0..n {
+                let u = (k as f32 + 0.5) / n as f32;
+                let (i, pmf, remapped) = local.sample(p, u, &power).expect("a light");
+                assert!((pmf - local.pmf(p, i, &power)).abs() < 1e-6);
+                assert!((0.0..1.0).contains(&remapped), "remapped {remapped}");
+                count[i] += 1;
+            }
+            for (i, &c) in count.iter().enumerate() {
+                let expected = local.pmf(p, i, &power);
+                assert!(
+                    (c as f32 / n as f32 - expected).abs() < 1e-3,
+                    "light {i} at {p:?}: drawn {} expected {expected}",
+                    c as f32 / n as f32
+                );
+            }
+        }
+        // Below the triangle (y < 2, facing +y): only its half by power.
+        let below = Vec3::new(0.0, 0.0, 0.0);
+        assert!((local.pmf(below, 2, &power) - 0.5 * power.pmf(2)).abs() < 1e-6);
+        // Next to the point light, it takes most of the local half.
+        let near = Vec3::new(2.9, 1.0, 0.0);
+        assert!(local.pmf(near, 1, &power) > 0.5 * power.pmf(1) + 0.45);
+    }
 
     /// The spread keeps the light's power: ∫ factor · cos dω over the hemisphere is π, for wide
     /// and narrow spreads (the narrow ones through the series branch).

@@ -53,7 +53,9 @@ fn ray(origin: Vec3, direction: Vec3) -> Ray {
 /// Every lamp `ray` meets: (radiance, pdf, distance).
 fn met(lights: &Lights, ray: &Ray, reach: f32, camera: bool) -> Vec<(Vec3, f32, f32)> {
     let mut out = Vec::new();
-    lights.lamps_met(ray, reach, camera, |l, pdf, t| out.push((l, pdf, t)));
+    lights.lamps_met(ray, ray.origin, reach, camera, |l, pdf, t| {
+        out.push((l, pdf, t))
+    });
     out
 }
 
@@ -134,8 +136,15 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
     for i in 0..4000 {
         let p = Vec3::new(rng.uniform() - 0.5, 0.0, rng.uniform() - 0.5) * 2.0;
         let u = Vec2::new(rng.uniform(), rng.uniform());
-        let Some(ls) = lights.sample(&scene, p, RayPath::default(), FRAME_TIME, rng.uniform(), u)
-        else {
+        let Some(ls) = lights.sample(
+            &scene,
+            p,
+            RayPath::default(),
+            FRAME_TIME,
+            true,
+            rng.uniform(),
+            u,
+        ) else {
             continue;
         };
         // The lamp met where the sample's shadow ray ends is the sampled one (a ray from inside
@@ -196,6 +205,7 @@ fn camera_rays_see_only_lamps_visible_to_the_camera() {
             Vec3::ZERO,
             RayPath::default(),
             FRAME_TIME,
+            true,
             0.5,
             Vec2::splat(0.5),
         )

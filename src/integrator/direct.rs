@@ -51,7 +51,7 @@ pub fn sample_direct_on(
     let (choice, point) = rng.uniform3();
     let Some(ls) = ctx
         .lights
-        .sample(ctx.scene, at.p, path, at.time, choice, point)
+        .sample(ctx.scene, at.p, path, at.time, mis, choice, point)
     else {
         return Vec3::ZERO;
     };

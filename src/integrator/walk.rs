@@ -103,9 +103,10 @@ impl PathState {
         let pass = self.pass(0);
         let (beta, previous) = (self.beta, self.previous);
         let passes = &mut self.passes;
-        ctx.lights.escaped(self.ray.direction, |le, light_pdf| {
-            passes.add(pass, beta * le * previous.weight(light_pdf));
-        });
+        ctx.lights
+            .escaped(previous.p, self.ray.direction, |le, light_pdf| {
+                passes.add(pass, beta * le * previous.weight(light_pdf));
+            });
     }
 
     /// The lamps the ray to the next vertex meets before `reach` (`Lights::lamps_met`),
@@ -115,7 +116,7 @@ impl PathState {
         let (beta, previous, absorption) = (self.beta, self.previous, self.absorption);
         let passes = &mut self.passes;
         ctx.lights
-            .lamps_met(&self.ray, reach, camera, |le, light_pdf, t| {
+            .lamps_met(&self.ray, previous.p, reach, camera, |le, light_pdf, t| {
                 let through = (-absorption * t).exp();
                 passes.add(pass, beta * through * le * previous.weight(light_pdf));
             });
@@ -383,14 +384,15 @@ pub fn follow_specular(
         if let Some(le) = emission.as_deref_mut() {
             let (beta, absorption) = (chain.beta, chain.absorption);
             let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
-            ctx.lights.lamps_met(&ray, reach, false, |l, _, t| {
-                *le += beta * (-absorption * t).exp() * l;
-            });
+            ctx.lights
+                .lamps_met(&ray, ray.origin, reach, false, |l, _, t| {
+                    *le += beta * (-absorption * t).exp() * l;
+                });
         }
         let Some(hit) = hit else {
             if let Some(le) = emission {
                 let beta = chain.beta;
-                ctx.lights.escaped(wi, |l, _| *le += beta * l);
+                ctx.lights.escaped(ray.origin, wi, |l, _| *le += beta * l);
             }
             return None;
         };

@@ -284,9 +284,11 @@ impl<'a> Gather<'a> {
     fn lamps(&self, ray: &Ray, hit: Option<&Hit>, absorption: Vec3, previous: &Previous) -> Vec3 {
         let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
         let mut l = Vec3::ZERO;
-        self.ctx.lights.lamps_met(ray, reach, false, |le, lpdf, t| {
-            l += (-absorption * t).exp() * le * previous.weight(lpdf);
-        });
+        self.ctx
+            .lights
+            .lamps_met(ray, previous.p, reach, false, |le, lpdf, t| {
+                l += (-absorption * t).exp() * le * previous.weight(lpdf);
+            });
         l
     }
 
@@ -312,7 +314,9 @@ impl<'a> Gather<'a> {
                 let mut l = self.lamps(&ray, None, absorption, &previous);
                 self.ctx
                     .lights
-                    .escaped(ray.direction, |le, lpdf| l += le * previous.weight(lpdf));
+                    .escaped(previous.p, ray.direction, |le, lpdf| {
+                        l += le * previous.weight(lpdf)
+                    });
                 Err(l)
             }
         }
