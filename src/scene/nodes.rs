@@ -3328,8 +3328,8 @@ fn perlin2(x: f32, y: f32) -> f32 {
     (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
 }
 
-/// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), computed lane by lane
-/// so the compiler can run the eight in vector registers.
+/// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), four at a time
+/// (`node_hash::U32x4`): the near face's corners, then the far face's.
 fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [u32; 8] {
     let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
     let (x0, y0, z0) = (xi as u32, yi as u32, zi as u32);
