@@ -1981,9 +1981,7 @@ impl NodeProgram {
 
     fn eval_closure(&self, at: &[ShadingInputs; 3], textures: &[Texture], u: &mut f32) -> Closure {
         Machine::with(self, |m| {
-            for instr in &self.instrs {
-                run(instr, at, textures, m, u);
-            }
+            run_all(&self.instrs, at, textures, m, u);
             closure(m, self.output)
         })
     }
@@ -1991,9 +1989,7 @@ impl NodeProgram {
     /// A vector-output program's value (the displacement tree's normal, unit).
     fn eval_vector(&self, at: &[ShadingInputs; 3], textures: &[Texture]) -> Vec3 {
         Machine::with(self, |m| {
-            for instr in &self.instrs {
-                run(instr, at, textures, m, &mut 0.5);
-            }
+            run_all(&self.instrs, at, textures, m, &mut 0.5);
             load(m, &at[0], self.output)
                 .truncate()
                 .normalize_or(at[0].normal)
@@ -2043,6 +2039,22 @@ fn closure(m: &Machine, s: Src) -> Closure {
     }
 }
 
+/// Run `instrs` in order: one call, the instructions' bodies inlined in its loop (a call per
+/// instruction cost each its large frame's set-up).
+#[inline(never)]
+fn run_all(
+    instrs: &[Instr],
+    points: &[ShadingInputs; 3],
+    textures: &[Texture],
+    m: &mut Machine,
+    u: &mut f32,
+) {
+    for instr in instrs {
+        run(instr, points, textures, m, u);
+    }
+}
+
+#[inline(always)]
 fn run(
     instr: &Instr,
     points: &[ShadingInputs; 3],
