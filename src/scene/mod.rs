@@ -10,6 +10,7 @@
 pub mod builtin;
 pub mod gltf;
 pub mod load;
+pub mod node_hash;
 pub mod nodes;
 pub mod sky;
 pub mod texture;

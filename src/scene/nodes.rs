@@ -50,6 +50,7 @@
 //! it picks one with probability ½, which halves their sum (approximate; exact when one side
 //! only emits, the common case).
 
+use super::node_hash::{self, U32x4, W};
 use super::texture::Texture;
 use crate::math::{Mat3, Vec2, Vec3, Vec4};
 use glam::BVec4A;
@@ -1980,9 +1981,7 @@ impl NodeProgram {
 
     fn eval_closure(&self, at: &[ShadingInputs; 3], textures: &[Texture], u: &mut f32) -> Closure {
         Machine::with(self, |m| {
-            for instr in &self.instrs {
-                run(instr, at, textures, m, u);
-            }
+            run_all(&self.instrs, at, textures, m, u);
             closure(m, self.output)
         })
     }
@@ -1990,9 +1989,7 @@ impl NodeProgram {
     /// A vector-output program's value (the displacement tree's normal, unit).
     fn eval_vector(&self, at: &[ShadingInputs; 3], textures: &[Texture]) -> Vec3 {
         Machine::with(self, |m| {
-            for instr in &self.instrs {
-                run(instr, at, textures, m, &mut 0.5);
-            }
+            run_all(&self.instrs, at, textures, m, &mut 0.5);
             load(m, &at[0], self.output)
                 .truncate()
                 .normalize_or(at[0].normal)
@@ -2014,6 +2011,7 @@ impl NodeProgram {
     }
 }
 
+#[inline(always)]
 fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
     match s {
         Src::Const(v) => v,
@@ -2041,6 +2039,22 @@ fn closure(m: &Machine, s: Src) -> Closure {
     }
 }
 
+/// Run `instrs` in order: one call, the instructions' bodies inlined in its loop (a call per
+/// instruction cost each its large frame's set-up).
+#[inline(never)]
+fn run_all(
+    instrs: &[Instr],
+    points: &[ShadingInputs; 3],
+    textures: &[Texture],
+    m: &mut Machine,
+    u: &mut f32,
+) {
+    for instr in instrs {
+        run(instr, points, textures, m, u);
+    }
+}
+
+#[inline(always)]
 fn run(
     instr: &Instr,
     points: &[ShadingInputs; 3],
@@ -2286,7 +2300,7 @@ fn run(
             if kind.dimensions == 2 {
                 p.z = 0.0;
             }
-            let (distance, color, position) = voronoi(&params, p);
+            let (distance, color, position) = voronoi(&params, p, instr.used & 2 != 0);
             m.regs[o] = splat(distance);
             m.regs[o + 1] = v3(color);
             m.regs[o + 2] = v3(position);
@@ -3203,21 +3217,9 @@ fn gradient(kind: GradientKind, p: Vec3) -> f32 {
 // ----- Perlin noise as Blender defines it ----------------------------------------------------
 
 /// Jenkins' lookup3 `final` mix of (a, b, c), returning c.
-fn lookup3_final(mut a: u32, mut b: u32, mut c: u32) -> u32 {
-    c ^= b;
-    c = c.wrapping_sub(b.rotate_left(14));
-    a ^= c;
-    a = a.wrapping_sub(c.rotate_left(11));
-    b ^= a;
-    b = b.wrapping_sub(a.rotate_left(25));
-    c ^= b;
-    c = c.wrapping_sub(b.rotate_left(16));
-    a ^= c;
-    a = a.wrapping_sub(c.rotate_left(4));
-    b ^= a;
-    b = b.wrapping_sub(a.rotate_left(14));
-    c ^= b;
-    c.wrapping_sub(b.rotate_left(24))
+#[inline(always)]
+fn lookup3_final(a: u32, b: u32, c: u32) -> u32 {
+    node_hash::finish(W(a), W(b), W(c)).0
 }
 
 const LOOKUP3_SEED: u32 = 0xdead_beef;
@@ -3338,35 +3340,19 @@ fn perlin2(x: f32, y: f32) -> f32 {
     (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
 }
 
-/// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), computed lane by lane
-/// so the compiler can run the eight in vector registers.
+/// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), four at a time
+/// (`node_hash::U32x4`): the near face's corners, then the far face's.
 fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [u32; 8] {
     let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
-    let mut a = [0u32; 8];
-    let mut b = [0u32; 8];
-    let mut c = [0u32; 8];
-    for i in 0..8 {
-        a[i] = s.wrapping_add(xi.wrapping_add((i & 1) as i32) as u32);
-        b[i] = s.wrapping_add(yi.wrapping_add(((i >> 1) & 1) as i32) as u32);
-        c[i] = s.wrapping_add(zi.wrapping_add((i >> 2) as i32) as u32);
-    }
-    for i in 0..8 {
-        c[i] ^= b[i];
-        c[i] = c[i].wrapping_sub(b[i].rotate_left(14));
-        a[i] ^= c[i];
-        a[i] = a[i].wrapping_sub(c[i].rotate_left(11));
-        b[i] ^= a[i];
-        b[i] = b[i].wrapping_sub(a[i].rotate_left(25));
-        c[i] ^= b[i];
-        c[i] = c[i].wrapping_sub(b[i].rotate_left(16));
-        a[i] ^= c[i];
-        a[i] = a[i].wrapping_sub(c[i].rotate_left(4));
-        b[i] ^= a[i];
-        b[i] = b[i].wrapping_sub(a[i].rotate_left(14));
-        c[i] ^= b[i];
-        c[i] = c[i].wrapping_sub(b[i].rotate_left(24));
-    }
-    c
+    let (x0, y0, z0) = (xi as u32, yi as u32, zi as u32);
+    let a = U32x4::new([x0, x0.wrapping_add(1), x0, x0.wrapping_add(1)]);
+    let b = U32x4::new([y0, y0, y0.wrapping_add(1), y0.wrapping_add(1)]);
+    let (a, b) = (a + U32x4::splat(s), b + U32x4::splat(s));
+    let near = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0))).to_array();
+    let far = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0).wrapping_add(1))).to_array();
+    [
+        near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
+    ]
 }
 
 fn perlin3(x: f32, y: f32, z: f32) -> f32 {
@@ -3877,26 +3863,10 @@ struct VoronoiParams {
 }
 
 /// Jenkins' lookup3 `mix` of (a, b, c).
-fn lookup3_mix(mut a: u32, mut b: u32, mut c: u32) -> (u32, u32, u32) {
-    a = a.wrapping_sub(c);
-    a ^= c.rotate_left(4);
-    c = c.wrapping_add(b);
-    b = b.wrapping_sub(a);
-    b ^= a.rotate_left(6);
-    a = a.wrapping_add(c);
-    c = c.wrapping_sub(b);
-    c ^= b.rotate_left(8);
-    b = b.wrapping_add(a);
-    a = a.wrapping_sub(c);
-    a ^= c.rotate_left(16);
-    c = c.wrapping_add(b);
-    b = b.wrapping_sub(a);
-    b ^= a.rotate_left(19);
-    a = a.wrapping_add(c);
-    c = c.wrapping_sub(b);
-    c ^= b.rotate_left(4);
-    b = b.wrapping_add(a);
-    (a, b, c)
+#[inline(always)]
+fn lookup3_mix(a: u32, b: u32, c: u32) -> (u32, u32, u32) {
+    let (a, b, c) = node_hash::mix(W(a), W(b), W(c));
+    (a.0, b.0, c.0)
 }
 
 fn hash4(x: u32, y: u32, z: u32, w: u32) -> u32 {
@@ -3963,7 +3933,8 @@ fn cell_offsets(dimensions: u8, reach: i32) -> impl Iterator<Item = Vec3> {
 }
 
 /// One octave: (distance, colour, position).
-fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+/// Without `color` the F1 colour is not computed (zero).
+fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f32, Vec3, Vec3) {
     let dims = p.kind.dimensions;
     let cell = Vec3::new(floor(coord.x), floor(coord.y), floor(coord.z));
     let local = coord - cell;
@@ -4030,6 +4001,16 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
                     g * g
                 })
             });
+            if metric == Metric::Euclidean && dims == 3 {
+                let (best, offset, point) =
+                    nearest_point_euclidean_3d(cell, local, p.randomness, &gap2);
+                let color = if color {
+                    cell_color(dims, cell + offset)
+                } else {
+                    Vec3::ZERO
+                };
+                return (best, color, point + cell);
+            }
             for &(index, [i, j, k]) in order {
                 let index = index as usize;
                 let offset = Vec3::new(i as f32, j as f32, k as f32);
@@ -4055,7 +4036,113 @@ fn voronoi_octave(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
                     (best, best_index, target_offset, target) = (d, index, offset, point);
                 }
             }
-            (best, cell_color(dims, cell + target_offset), target + cell)
+            let color = if color {
+                cell_color(dims, cell + target_offset)
+            } else {
+                Vec3::ZERO
+            };
+            (best, color, target + cell)
+        }
+    }
+}
+
+/// `cell_point` in 3D of four cells given as lanes: the same hashes, lane by lane.
+#[inline(always)]
+fn cell_points4(x: Vec4, y: Vec4, z: Vec4) -> [Vec4; 3] {
+    let bits = |v: Vec4| U32x4::new(v.to_array().map(f32::to_bits));
+    let (x, y, z) = (bits(x), bits(y), bits(z));
+    let s3 = U32x4::splat(LOOKUP3_SEED.wrapping_add((3 << 2) + 13));
+    let first = node_hash::finish(x + s3, y + s3, z + s3);
+    // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
+    let s4 = U32x4::splat(LOOKUP3_SEED.wrapping_add((4 << 2) + 13));
+    let (a, b, c) = node_hash::mix(x + s4, y + s4, z + s4);
+    let second = node_hash::finish(a + U32x4::splat(1f32.to_bits()), b, c);
+    let third = node_hash::finish(a + U32x4::splat(2f32.to_bits()), b, c);
+    let unit4 = |h: U32x4| Vec4::from_array(h.to_array().map(unit));
+    [unit4(first), unit4(second), unit4(third)]
+}
+
+/// The Voronoi F1 search in 3D with the Euclidean metric (`voronoi_octave`'s, exact):
+/// (distance, offset, point) of the nearest cell point to `local` in `cell`'s frame. The
+/// home cell and, per axis, the face neighbour on `local`'s nearer side are searched first,
+/// four at once; then the other cells nearest first, skipping those whose box (per axis
+/// squared gaps `gap2` for offsets −1, 0, 1) lies farther than the best point so far, the
+/// others queued and searched four at a time.
+fn nearest_point_euclidean_3d(
+    cell: Vec3,
+    local: Vec3,
+    randomness: f32,
+    gap2: &[[f32; 3]; 3],
+) -> (f32, Vec3, Vec3) {
+    let mut nearest = (f32::MAX, usize::MAX, Vec3::ZERO, Vec3::ZERO);
+    let side = |l: f32| if l < 0.5 { -1.0f32 } else { 1.0 };
+    let (sx, sy, sz) = (side(local.x), side(local.y), side(local.z));
+    // Cycles' index of offset (i, j, k): z outermost, x innermost.
+    let index = |o: Vec3| (o.x + 1.0 + 3.0 * (o.y + 1.0) + 9.0 * (o.z + 1.0)) as usize;
+    let first = [
+        Vec3::ZERO,
+        Vec3::new(sx, 0.0, 0.0),
+        Vec3::new(0.0, sy, 0.0),
+        Vec3::new(0.0, 0.0, sz),
+    ]
+    .map(|o| (index(o), o));
+    nearest_of_four(&first, cell, local, randomness, &mut nearest);
+    let done = first.iter().fold(0u32, |m, (i, _)| m | 1 << i);
+    let mut batch = [first[0]; 4];
+    let mut queued = 0;
+    for &(index, [i, j, k]) in &NEAREST_FIRST_3D {
+        let index = index as usize;
+        if done >> index & 1 != 0 {
+            continue;
+        }
+        // Squared, without the root (the bound's margin covers the rounding).
+        let bound = nearest.0 * (1.0 + 1e-6);
+        let [a, b, c] = [i, j, k].map(|o| (o + 1) as usize);
+        if gap2[0][a] + gap2[1][b] + gap2[2][c] > bound * bound {
+            continue;
+        }
+        batch[queued] = (index, Vec3::new(i as f32, j as f32, k as f32));
+        queued += 1;
+        if queued == 4 {
+            nearest_of_four(&batch, cell, local, randomness, &mut nearest);
+            queued = 0;
+        }
+    }
+    if queued > 0 {
+        // The empty lanes repeat the batch's first cell (a tie with itself: no change).
+        for k in queued..4 {
+            batch[k] = batch[0];
+        }
+        nearest_of_four(&batch, cell, local, randomness, &mut nearest);
+    }
+    (nearest.0, nearest.2, nearest.3)
+}
+
+/// The Euclidean F1 search over four cells (index in Cycles' order, offset) at once: their
+/// points, distances to `local` (`a.distance(b)`'s operations lane by lane) and the update of
+/// `nearest` = (distance, index, offset, point) with Cycles' tie rule (the first in its order).
+fn nearest_of_four(
+    cells: &[(usize, Vec3); 4],
+    cell: Vec3,
+    local: Vec3,
+    randomness: f32,
+    nearest: &mut (f32, usize, Vec3, Vec3),
+) {
+    let lane = |f: fn(Vec3) -> f32| Vec4::from_array(cells.map(|(_, o)| f(o)));
+    let (ox, oy, oz) = (lane(|o| o.x), lane(|o| o.y), lane(|o| o.z));
+    let [hx, hy, hz] = cell_points4(ox + cell.x, oy + cell.y, oz + cell.z);
+    let (px, py, pz) = (
+        ox + hx * randomness,
+        oy + hy * randomness,
+        oz + hz * randomness,
+    );
+    let (dx, dy, dz) = (px - local.x, py - local.y, pz - local.z);
+    let d = (dx * dx + dy * dy + dz * dz).sqrt().to_array();
+    let (px, py, pz) = (px.to_array(), py.to_array(), pz.to_array());
+    for k in 0..4 {
+        let (index, offset) = cells[k];
+        if d[k] < nearest.0 || (d[k] == nearest.0 && index < nearest.1) {
+            *nearest = (d[k], index, offset, Vec3::new(px[k], py[k], pz[k]));
         }
     }
 }
@@ -4090,7 +4177,8 @@ const NEAREST_FIRST_2D: [(u8, [i8; 3]); 9] = nearest_first::<9>(2);
 const NEAREST_FIRST_3D: [(u8, [i8; 3]); 27] = nearest_first::<27>(3);
 
 /// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
-fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
+/// Without `color` the F1 colour is not computed (zero).
+fn voronoi(p: &VoronoiParams, coord: Vec3, with_color: bool) -> (f32, Vec3, Vec3) {
     let r = 0.5 + 0.5 * p.randomness;
     let corner = if p.kind.dimensions == 2 {
         Vec3::new(r, r, 0.0)
@@ -4110,7 +4198,7 @@ fn voronoi(p: &VoronoiParams, coord: Vec3) -> (f32, Vec3, Vec3) {
     let zero_input = p.detail == 0.0 || p.roughness == 0.0;
     let octaves = p.detail.ceil() as i32;
     for i in 0..=octaves {
-        let (d, c, pos) = voronoi_octave(p, coord * scale);
+        let (d, c, pos) = voronoi_octave(p, coord * scale, with_color);
         if zero_input {
             max_amplitude = 1.0;
             (distance, color, position) = (d, c, pos);
@@ -4782,7 +4870,7 @@ mod tests {
                 if dims == 2 {
                     p.z = 0.0;
                 }
-                let (distance, color, position) = voronoi(&params, p);
+                let (distance, color, position) = voronoi(&params, p, true);
                 let what = format!("{v} at {p}");
                 let want = v["distance"][k].as_f64().unwrap() as f32;
                 assert_close(Vec3::splat(distance), Vec3::splat(want), &what);
@@ -4848,14 +4936,22 @@ mod tests {
                         let z = if dims == 2 { 0.0 } else { c(&mut rng) };
                         let x = Vec3::new(c(&mut rng), c(&mut rng), z);
                         let cell = x.floor();
-                        let nearest = cell_offsets(dims, 1)
-                            .map(|o| {
-                                let point = o + cell_point(dims, cell + o) * randomness;
-                                voronoi_distance(metric, 1.5, point, x - cell)
-                            })
-                            .fold(f32::MAX, f32::min);
-                        let (d, _, _) = voronoi_octave(&p, x);
+                        // Cycles' search: every cell in its order, the first on a tie.
+                        let (mut nearest, mut at) = (f32::MAX, Vec3::ZERO);
+                        for o in cell_offsets(dims, 1) {
+                            let point = o + cell_point(dims, cell + o) * randomness;
+                            let d = voronoi_distance(metric, 1.5, point, x - cell);
+                            if d < nearest {
+                                (nearest, at) = (d, o);
+                            }
+                        }
+                        let position = at + cell_point(dims, cell + at) * randomness + cell;
+                        let (d, color, found) = voronoi_octave(&p, x, true);
                         assert_eq!(d.to_bits(), nearest.to_bits(), "{metric:?} {x}");
+                        assert_eq!(found, position, "{metric:?} {x}");
+                        assert_eq!(color, cell_color(dims, cell + at), "{metric:?} {x}");
+                        let (d, _, found) = voronoi_octave(&p, x, false);
+                        assert_eq!((d, found), (nearest, position), "{metric:?} {x}");
                     }
                 }
             }
@@ -5026,7 +5122,7 @@ mod profile {
             let t0 = std::time::Instant::now();
             let mut sink = 0.0;
             for k in 0..200_000u32 {
-                sink += voronoi(&params, Vec3::new(k as f32 * 0.37, 2.1, 3.3)).0;
+                sink += voronoi(&params, Vec3::new(k as f32 * 0.37, 2.1, 3.3), false).0;
             }
             println!(
                 "voronoi: {:.1} ns ({sink})",
@@ -5050,6 +5146,19 @@ mod profile {
             }
             println!("floor: {:.1} ns ({sink})", t0.elapsed().as_secs_f64() * 1e3);
         }
+        let t0 = std::time::Instant::now();
+        let mut sink = 0.0;
+        for _ in 0..reps {
+            for at in &points {
+                sink += Machine::with(&program, |m| m.regs[3].x + at[0].position.x);
+            }
+        }
+        let per = t0.elapsed().as_secs_f64() / (reps * points.len()) as f64;
+        println!(
+            "machine only: {:.0} ns per evaluation ({sink}) size {:?}",
+            per * 1e9,
+            program.size()
+        );
         let t0 = std::time::Instant::now();
         let mut sink = 0.0;
         for _ in 0..reps {

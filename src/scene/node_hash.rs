@@ -1,0 +1,243 @@
+//! Bob Jenkins' lookup3 hash (Jenkins, 2006, `lookup3.c`: its `mix` and `final` steps), the
+//! hash Blender's procedural textures draw their lattice gradients and cell points from, for
+//! one value or for four at once. `U32x4` holds four lanes in one SSE2 register on x86-64
+//! (plain arrays elsewhere): the compiler does not vectorise the hash's rotations by itself,
+//! and Perlin noise's eight lattice corners and the Voronoi search's cells are hashed four at
+//! a time. Every lane computes exactly the scalar hash.
+
+use std::ops::{Add, BitXor, Sub};
+
+/// What lookup3's steps need of a word: wrapping add and subtract, xor and rotation.
+pub trait HashWord: Copy + Add<Output = Self> + Sub<Output = Self> + BitXor<Output = Self> {
+    /// `self` rotated left by `L` bits (`R` = 32 − `L`).
+    fn rotl<const L: i32, const R: i32>(self) -> Self;
+}
+
+/// One 32-bit word with lookup3's wrapping arithmetic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct W(pub u32);
+
+impl Add for W {
+    type Output = W;
+    #[inline(always)]
+    fn add(self, o: W) -> W {
+        W(self.0.wrapping_add(o.0))
+    }
+}
+
+impl Sub for W {
+    type Output = W;
+    #[inline(always)]
+    fn sub(self, o: W) -> W {
+        W(self.0.wrapping_sub(o.0))
+    }
+}
+
+impl BitXor for W {
+    type Output = W;
+    #[inline(always)]
+    fn bitxor(self, o: W) -> W {
+        W(self.0 ^ o.0)
+    }
+}
+
+impl HashWord for W {
+    #[inline(always)]
+    fn rotl<const L: i32, const R: i32>(self) -> W {
+        W(self.0.rotate_left(L as u32))
+    }
+}
+
+/// Jenkins' lookup3 `mix` of (a, b, c).
+#[inline(always)]
+pub fn mix<T: HashWord>(mut a: T, mut b: T, mut c: T) -> (T, T, T) {
+    a = a - c;
+    a = a ^ c.rotl::<4, 28>();
+    c = c + b;
+    b = b - a;
+    b = b ^ a.rotl::<6, 26>();
+    a = a + c;
+    c = c - b;
+    c = c ^ b.rotl::<8, 24>();
+    b = b + a;
+    a = a - c;
+    a = a ^ c.rotl::<16, 16>();
+    c = c + b;
+    b = b - a;
+    b = b ^ a.rotl::<19, 13>();
+    a = a + c;
+    c = c - b;
+    c = c ^ b.rotl::<4, 28>();
+    b = b + a;
+    (a, b, c)
+}
+
+/// Jenkins' lookup3 `final` of (a, b, c), returning c.
+#[inline(always)]
+pub fn finish<T: HashWord>(mut a: T, mut b: T, mut c: T) -> T {
+    c = c ^ b;
+    c = c - b.rotl::<14, 18>();
+    a = a ^ c;
+    a = a - c.rotl::<11, 21>();
+    b = b ^ a;
+    b = b - a.rotl::<25, 7>();
+    c = c ^ b;
+    c = c - b.rotl::<16, 16>();
+    a = a ^ c;
+    a = a - c.rotl::<4, 28>();
+    b = b ^ a;
+    b = b - a.rotl::<14, 18>();
+    c = c ^ b;
+    c - b.rotl::<24, 8>()
+}
+
+#[cfg(target_arch = "x86_64")]
+mod lanes {
+    use std::arch::x86_64::*;
+
+    /// Four 32-bit words in one SSE2 register (SSE2 is part of every x86-64).
+    #[derive(Clone, Copy, Debug)]
+    pub struct U32x4(__m128i);
+
+    impl U32x4 {
+        #[inline(always)]
+        pub fn new(v: [u32; 4]) -> U32x4 {
+            // SAFETY: SSE2 is always present on x86-64; the load is unaligned.
+            unsafe { U32x4(_mm_loadu_si128(v.as_ptr() as *const __m128i)) }
+        }
+
+        #[inline(always)]
+        pub fn splat(v: u32) -> U32x4 {
+            // SAFETY: SSE2 is always present on x86-64.
+            unsafe { U32x4(_mm_set1_epi32(v as i32)) }
+        }
+
+        #[inline(always)]
+        pub fn to_array(self) -> [u32; 4] {
+            let mut out = [0u32; 4];
+            // SAFETY: SSE2 is always present on x86-64; the store is unaligned.
+            unsafe { _mm_storeu_si128(out.as_mut_ptr() as *mut __m128i, self.0) };
+            out
+        }
+    }
+
+    impl std::ops::Add for U32x4 {
+        type Output = U32x4;
+        #[inline(always)]
+        fn add(self, o: U32x4) -> U32x4 {
+            // SAFETY: SSE2 is always present on x86-64.
+            unsafe { U32x4(_mm_add_epi32(self.0, o.0)) }
+        }
+    }
+
+    impl std::ops::Sub for U32x4 {
+        type Output = U32x4;
+        #[inline(always)]
+        fn sub(self, o: U32x4) -> U32x4 {
+            // SAFETY: SSE2 is always present on x86-64.
+            unsafe { U32x4(_mm_sub_epi32(self.0, o.0)) }
+        }
+    }
+
+    impl std::ops::BitXor for U32x4 {
+        type Output = U32x4;
+        #[inline(always)]
+        fn bitxor(self, o: U32x4) -> U32x4 {
+            // SAFETY: SSE2 is always present on x86-64.
+            unsafe { U32x4(_mm_xor_si128(self.0, o.0)) }
+        }
+    }
+
+    impl super::HashWord for U32x4 {
+        #[inline(always)]
+        fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
+            // SAFETY: SSE2 is always present on x86-64.
+            unsafe {
+                U32x4(_mm_or_si128(
+                    _mm_slli_epi32::<L>(self.0),
+                    _mm_srli_epi32::<R>(self.0),
+                ))
+            }
+        }
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+mod lanes {
+    /// Four 32-bit words, lane by lane.
+    #[derive(Clone, Copy, Debug)]
+    pub struct U32x4([u32; 4]);
+
+    impl U32x4 {
+        pub fn new(v: [u32; 4]) -> U32x4 {
+            U32x4(v)
+        }
+
+        pub fn splat(v: u32) -> U32x4 {
+            U32x4([v; 4])
+        }
+
+        pub fn to_array(self) -> [u32; 4] {
+            self.0
+        }
+
+        fn zip(self, o: U32x4, f: impl Fn(u32, u32) -> u32) -> U32x4 {
+            U32x4([0, 1, 2, 3].map(|k| f(self.0[k], o.0[k])))
+        }
+    }
+
+    impl std::ops::Add for U32x4 {
+        type Output = U32x4;
+        fn add(self, o: U32x4) -> U32x4 {
+            self.zip(o, u32::wrapping_add)
+        }
+    }
+
+    impl std::ops::Sub for U32x4 {
+        type Output = U32x4;
+        fn sub(self, o: U32x4) -> U32x4 {
+            self.zip(o, u32::wrapping_sub)
+        }
+    }
+
+    impl std::ops::BitXor for U32x4 {
+        type Output = U32x4;
+        fn bitxor(self, o: U32x4) -> U32x4 {
+            self.zip(o, |a, b| a ^ b)
+        }
+    }
+
+    impl super::HashWord for U32x4 {
+        fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
+            U32x4(self.0.map(|v| v.rotate_left(L as u32)))
+        }
+    }
+}
+
+pub use lanes::U32x4;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn four_lanes_hash_as_four_words() {
+        let mut rng = crate::rng::Rng::new(3);
+        let mut word =
+            || (rng.uniform() * 4_294_967_295.0) as u32 ^ (rng.uniform() * 65536.0) as u32;
+        for _ in 0..10_000 {
+            let v: [[u32; 4]; 3] = [[0; 4]; 3].map(|_| [0; 4].map(|_| word()));
+            let [a, b, c] = v.map(U32x4::new);
+            let lanes = finish(a, b, c).to_array();
+            let (ma, mb, mc) = mix(a, b, c);
+            let mixed = [ma.to_array(), mb.to_array(), mc.to_array()];
+            for k in 0..4 {
+                let (a, b, c) = (W(v[0][k]), W(v[1][k]), W(v[2][k]));
+                assert_eq!(lanes[k], finish(a, b, c).0);
+                let (sa, sb, sc) = mix(a, b, c);
+                assert_eq!([mixed[0][k], mixed[1][k], mixed[2][k]], [sa.0, sb.0, sc.0]);
+            }
+        }
+        assert_eq!(U32x4::splat(7).to_array(), [7; 4]);
+    }
+}
