@@ -488,9 +488,11 @@ fn render_round(
         image.passes = vec![Passes::default(); image.rgba.len()];
     }
     image.camera_rotation = crate::math::Mat3::from(scene.camera.to_world.matrix3);
-    let alpha = |coverage: f32| match round.ctx.transparent_background {
-        true => coverage,
-        false => 1.0,
+    // Alpha as Cycles writes it: the coverage with a transparent film, else 1 less the
+    // samples that met a Holdout.
+    let alpha = |px: &PixelSum| match round.ctx.transparent_background {
+        true => px.coverage / px.n as f32,
+        false => 1.0 - px.holdouts / px.n as f32,
     };
     for tile in &tiles {
         let width = tile.x1 - tile.x0;
@@ -506,8 +508,7 @@ fn render_round(
             }
             let n = px.n as f32;
             let c = px.sum / n;
-            // Alpha as Cycles writes it: the coverage with a transparent film, else 1.
-            image.rgba[k] = [c.x, c.y, c.z, alpha(px.coverage / n)];
+            image.rgba[k] = [c.x, c.y, c.z, alpha(px)];
             image.albedo[k] = px.albedo / n;
             image.normal[k] = px.normal.normalize_or_zero();
             // Depth as Cycles writes it: distance along the camera's axis, averaged over the
@@ -538,6 +539,8 @@ struct PixelSum {
     sum_a: Vec3,
     passes: Passes,
     coverage: f32,
+    /// Samples whose camera ray met a Holdout.
+    holdouts: f32,
     albedo: Vec3,
     normal: Vec3,
     depth_sum: f32,
@@ -915,6 +918,7 @@ fn render_tile(
             } else {
                 tile_nonfinite += 1;
             }
+            px.holdouts += sample.holdout as u32 as f32;
             if sample.hit {
                 px.coverage += 1.0;
                 px.depth_sum += sample.depth * ray.direction.normalize().dot(camera.forward());

@@ -46,6 +46,9 @@ pub struct CameraSample {
     pub radiance: Vec3,
     /// The camera ray hit geometry (alpha coverage).
     pub hit: bool,
+    /// The camera ray met a Holdout: a hole in the alpha even with an opaque film, as Cycles
+    /// makes it.
+    pub holdout: bool,
     pub albedo: Vec3,
     /// World-space shading normal at the first hit.
     pub normal: Vec3,

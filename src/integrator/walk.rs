@@ -296,6 +296,7 @@ fn walk_from(
         // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
         if primary && s.surface.holdout {
             out.seen_emission = state.passes.total();
+            out.holdout = true;
             break;
         }
         if depth == 0 {
