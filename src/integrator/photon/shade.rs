@@ -503,10 +503,12 @@ impl Scatter for PhotonCamera<'_> {
         matches!(self.view, View::Full | View::Global)
     }
 
-    /// Christensen–Burley materials take the dipole when its samples were built.
+    /// The full view walks translucent objects; Christensen–Burley materials take the dipole
+    /// when its samples were built. The debug views show their estimate on the surface itself.
     fn walks_subsurface(&self, subsurface: &Subsurface) -> bool {
-        subsurface.method != SubsurfaceMethod::ChristensenBurley
-            || self.gather.maps.subsurface.is_none()
+        self.view == View::Full
+            && (subsurface.method != SubsurfaceMethod::ChristensenBurley
+                || self.gather.maps.subsurface.is_none())
     }
 
     fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
