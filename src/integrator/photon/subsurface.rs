@@ -1,5 +1,7 @@
-//! The photon renderer's subsurface term ("diffusion photon mode", Jensen & Buhler 2002 §3 with
-//! photons as the irradiance samples, Jensen 2000 "Subsurface scattering"): dedicated photon
+//! The photon renderer's subsurface term for Christensen–Burley materials (random-walk ones are
+//! walked by the camera paths, `crate::integrator::random_walk`; nothing here is built for
+//! them): the "diffusion photon mode", Jensen & Buhler 2002 §3 with photons as the irradiance
+//! samples, Jensen 2000 "Subsurface scattering". Dedicated photon
 //! tracing stores the flux entering each translucent surface (after the specular layer's Fresnel
 //! transmission, times the subsurface weight), one octree of those samples per translucent
 //! material, and at a shading point x the radiance T(ω_o) M(x)/π, where M is the dipole
