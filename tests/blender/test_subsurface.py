@@ -13,9 +13,9 @@ Both: relMSE <= 0.01, mean within 2 %, the box's mean and every channel's within
 
 The gallery's translucent bust (scenes/gallery/translucent_bust.glb) against Cycles' random walk
 rendered here through scenes/blender/cycles_time.py (which puts its area lamps and the
-subsurface inputs back), at 32 x 32: everything but the bust agrees (within 2 %); the bust's
-mean +2.1 % at 16 spp (the dipole's was +6.2 % at 256 px, carrying light into the shadowed
-side): within 6 %.
+subsurface inputs back), at 32 x 32 and 128 spp: everything but the bust agrees (within 2 %);
+the bust's mean +3.5 % (+2.1 % to +5.0 % at 16 spp; at 256 px and 128 spp against the 2048-spp
+reference -0.6 %; the dipole's was +6.2 %, carrying light into the shadowed side): within 6 %.
 """
 
 import subprocess
@@ -90,13 +90,14 @@ def test_long_mean_free_path_matches_random_walk():
 BUST = SCENES.parent / "gallery" / "translucent_bust.glb"
 BUST_SIZE = 32
 BUST_CYCLES_SPP = 512
+BUST_SPP = 128
 
 
 def test_gallery_bust_against_random_walk(tmp_path):
     import cycles_time
     out = tmp_path / "photon.exr"
     cmd = [str(photon_binary()), "render", str(BUST), "-o", str(out), "--width", str(BUST_SIZE),
-           "--height", str(BUST_SIZE), "--spp", str(SPP), "--seed", "1", "--threads", "2",
+           "--height", str(BUST_SIZE), "--spp", str(BUST_SPP), "--seed", "1", "--threads", "2",
            "--exr-layer", "V", "--passes", "--progress", "none"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600,
                           stdin=subprocess.DEVNULL)
