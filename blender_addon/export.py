@@ -603,8 +603,12 @@ def subsurface_extension(material) -> dict:
     if weight <= 0.0:
         return {}
     # Cycles reads "Subsurface IOR" only for Random Walk (Skin); otherwise the BSDF's IOR.
-    skin = getattr(bsdf, "subsurface_method", "") == "RANDOM_WALK_SKIN"
-    return {"weight": weight,
+    method = getattr(bsdf, "subsurface_method", "RANDOM_WALK")
+    if method not in ("BURLEY", "RANDOM_WALK", "RANDOM_WALK_SKIN"):
+        method = "RANDOM_WALK"  # e.g. an older Blender's legacy random walk
+    skin = method == "RANDOM_WALK_SKIN"
+    return {"method": method,
+            "weight": weight,
             "radius": [float(c) for c in value("Subsurface Radius", (1.0, 0.2, 0.1))[:3]],
             "scale": float(value("Subsurface Scale", 0.05)),
             "ior": float(value("Subsurface IOR", 1.4) if skin else value("IOR", 1.5)),

@@ -45,13 +45,6 @@ use std::sync::RwLock;
 const LEAF_SIZE: usize = 8;
 /// Deepest octree level (coincident samples stop splitting here).
 const MAX_DEPTH: u32 = 24;
-/// Fraction of R_d inside the path tracer's probe radius.
-const PROFILE_FRACTION: f32 = 0.99;
-/// The probe radius never exceeds this many mean free paths (white materials' R_d tail falls
-/// only as 1/r³).
-const MAX_RADIUS_IN_MFP: f32 = 64.0;
-/// Bisection steps of the radius sampling.
-const SAMPLING_STEPS: u32 = 24;
 /// Bisection steps of the albedo inversion (2⁻⁴⁸ resolution in α′).
 const INVERSION_STEPS: u32 = 48;
 /// e^{−x} for x beyond this is subnormal in f32 (below 2⁻¹²⁶ ≈ e^{−87.3}).
@@ -183,20 +176,6 @@ impl Channel {
         [k * (a[0] + b[0]), k * (a[1] + b[1]), k * (a[2] + b[2])]
     }
 
-    /// The radius in [0, `hi`] where P reaches `target` (bisection; P is increasing).
-    fn radius_where(&self, target: f32, hi: f32) -> f32 {
-        let (mut lo, mut hi) = (0.0f32, hi);
-        for _ in 0..SAMPLING_STEPS {
-            let mid = 0.5 * (lo + hi);
-            if self.cumulative(mid) < target {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        0.5 * (lo + hi)
-    }
-
     /// P(radius), in f64: the two terms of each pole nearly cancel when radius ≪ z.
     fn cumulative(&self, radius: f32) -> f32 {
         let (r2, sigma) = ((radius as f64).powi(2), self.sigma_tr as f64);
@@ -269,33 +248,6 @@ impl Dipole {
     /// Total diffuse reflectance P(∞).
     pub fn total(&self) -> Vec3 {
         self.map(|c| total_reflectance(c.alpha, self.a))
-    }
-
-    /// The radius within which channel `c` keeps `PROFILE_FRACTION` of its R_d (bisection on
-    /// the closed-form P(r)); the probe rays of the path tracer stay inside it.
-    pub fn max_radius(&self, c: usize) -> f32 {
-        let ch = &self.channels[c];
-        let target = PROFILE_FRACTION * ch.cumulative(f32::MAX.sqrt());
-        ch.radius_where(target, ch.zr * MAX_RADIUS_IN_MFP)
-    }
-
-    /// A radius for channel `c` distributed as R_d(r)·2πr within `r_max` (inverting P by
-    /// bisection); its density per unit area of the disc is `disc_pdf`.
-    pub fn sample_radius(&self, c: usize, u: f32, r_max: f32) -> f32 {
-        let ch = &self.channels[c];
-        ch.radius_where(u * ch.cumulative(r_max), r_max)
-    }
-
-    /// Density per unit area of `sample_radius` points (with a uniform angle) at distance `r`
-    /// from the disc's centre: R_d(r)/P(r_max), zero beyond `r_max`.
-    pub fn disc_pdf(&self, c: usize, r: f32, r_max: f32) -> f32 {
-        let ch = &self.channels[c];
-        let p = ch.cumulative(r_max);
-        if r > r_max || !(p > 0.0) {
-            0.0
-        } else {
-            ch.rd(r * r) / p
-        }
     }
 
     /// The kernel summed over a cluster of samples seen from offset `v` (x − the cluster's

@@ -7,7 +7,7 @@ use photon::film::{FilterKind, FilterSettings};
 use photon::math::{Vec3, Vec4};
 use photon::scene::gltf::{load, load_slice, LoadOptions};
 use photon::scene::texture::Texels;
-use photon::scene::{Lamp, Light, Projection, Scene};
+use photon::scene::{Lamp, Light, Projection, Scene, SubsurfaceMethod};
 use serde_json::{json, Value};
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
@@ -662,7 +662,23 @@ fn subsurface_extension_is_read_with_blender_defaults_and_checked() {
     );
     assert!(close(s.mean_free_path(), Vec3::new(0.1, 0.05, 0.025)));
     assert!(scene.materials[0].is_translucent());
+    // Without a method: Blender's default, the random walk.
+    assert_eq!(s.method, SubsurfaceMethod::RandomWalk);
+    assert!(!scene.materials[0].uses_dipole());
+    for (name, method) in [
+        ("BURLEY", SubsurfaceMethod::ChristensenBurley),
+        ("RANDOM_WALK", SubsurfaceMethod::RandomWalk),
+        ("RANDOM_WALK_SKIN", SubsurfaceMethod::RandomWalkSkin),
+    ] {
+        let mut doc = triangle_doc();
+        doc.set_material(json!({"name": "Wax", "extensions":
+            {"PHOTON_material_subsurface": {"weight": 0.5, "method": name}}}));
+        let scene = load_glb(&doc).unwrap();
+        assert_eq!(scene.materials[0].subsurface.method, method, "{name}");
+    }
     for bad in [
+        json!({"method": "CUBIC"}),
+        json!({"method": 1}),
         json!({"weight": 1.5}),
         json!({"radius": [1.0, -1.0, 0.0]}),
         json!({"radius": [1.0]}),

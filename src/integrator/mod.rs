@@ -7,7 +7,9 @@
 //!   scene planner and photon tracing);
 //! - `direct`: the one direct-light sampler with MIS (Veach 1997, power heuristic);
 //! - `walk`: the one camera path walk (an explicit path state with escaped / emitted / advance /
-//!   roulette steps) and the one specular-chain follower.
+//!   roulette steps) and the one specular-chain follower;
+//! - `random_walk`: the volumetric walk through translucent objects (Chiang et al. 2016, as
+//!   Cycles' Random Walk), which `walk` takes for both integrators.
 //!
 //! The integrators on top: `path` (the unbiased reference: Kajiya 1986 with next-event
 //! estimation and MIS), `photon` (Jensen 1996/2001 photon mapping with final gathering, its
@@ -19,6 +21,7 @@ pub mod classify;
 pub mod direct;
 pub mod path;
 pub mod photon;
+pub mod random_walk;
 pub mod shading;
 pub mod walk;
 

@@ -5,15 +5,25 @@
 //! attenuate through the medium, record the first hit's AOVs, count emission (MIS-weighted
 //! against the light sample of the vertex before), then let the integrator decide at the surface
 //! (`Scatter`): end the path there with an estimate (the photon method at its first diffuse
-//! surface), move it itself (the path tracer's subsurface branch), or sample a light and hand
-//! back the BSDF to continue through; the walk samples it, advances the state and plays Russian
-//! roulette (pbrt-v4 §13.4: on the throughput, from the fourth bounce).
+//! surface), move it itself, or sample a light and hand back the BSDF to continue through; the
+//! walk samples it, advances the state and plays Russian roulette (pbrt-v4 §13.4: on the
+//! throughput, from the fourth bounce).
+//!
+//! Translucent surfaces (`PathState::subsurface_branch`), before the integrator acts: on a path
+//! with no diffuse bounce yet, the walk picks the subsurface part (in proportion to its share
+//! of the albedo) and walks through the object (`super::random_walk`), handing the integrator
+//! the exit point as a white Lambertian surface, which it shades as any diffuse surface; or it
+//! picks the rest of the BSDF. After a diffuse bounce the subsurface part is the Lambertian it
+//! replaces (as Cycles turns a BSSRDF into a diffuse BSDF below a diffuse ancestor). The
+//! integrator says which materials it walks (`Scatter::walks_subsurface`): the photon method
+//! leaves Christensen–Burley ones to its dipole.
 //!
 //! `follow_specular` follows the surfaces the photon method ray traces (delta and glossy-only
 //! lobes, `classify::stores_photons` false) from a hit to the first surface that stores photons.
 
 use super::classify::stores_photons;
 use super::direct::Previous;
+use super::random_walk;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{hit_mesh, Ray, Visibility};
@@ -23,6 +33,7 @@ use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::rng::Rng;
 use crate::scene::nodes::RayPath;
+use crate::scene::Subsurface;
 
 /// Longest chain of specular surfaces `follow_specular` follows.
 pub const MAX_SPECULAR_CHAIN: u32 = 12;
@@ -43,6 +54,8 @@ pub struct PathState {
     pub depth: u32,
     /// The path went through a translucent material (its light is `LightPass::Subsurface`).
     pub subsurface: bool,
+    /// The path made a diffuse bounce (translucent surfaces then scatter as Lambertian ones).
+    pub diffuse_ancestor: bool,
     /// The next surface adds only its emission, then the walk ends.
     pub emission_only: bool,
     /// Radiance gathered so far, by light pass.
@@ -72,6 +85,7 @@ impl PathState {
             diffuse: 0,
             depth: 0,
             subsurface: false,
+            diffuse_ancestor: gather,
             emission_only,
             passes: Passes::default(),
             rays: 0,
@@ -96,6 +110,47 @@ impl PathState {
     /// Add `radiance` (already times `beta`) to the pass after `vertices` more vertices.
     pub fn add(&mut self, vertices: u32, radiance: Vec3) {
         self.passes.add(self.pass(vertices), radiance);
+    }
+
+    /// Add `estimate` × `beta`, an estimate by pass made at the current vertex
+    /// (`Passes::add_after`), all of it Subsurface once the path went through a translucent
+    /// material.
+    pub fn add_estimate(&mut self, estimate: &Passes) {
+        if self.subsurface {
+            self.passes
+                .add(LightPass::Subsurface, self.beta * estimate.total());
+        } else {
+            self.passes.add_after(estimate, self.beta, self.diffuse);
+        }
+    }
+
+    /// At translucent `s` (module header): with the subsurface part's share of the albedo as
+    /// probability, walk through the object and replace `s` by the exit; else leave `s` with
+    /// the rest of its BSDF. False when the path ends (the walk was dropped).
+    fn subsurface_branch(&mut self, ctx: &Context, s: &mut Shading, rng: &mut Rng) -> bool {
+        let weight = s.surface.subsurface.weight;
+        let entering = weight * s.bsdf.base_transmittance();
+        let base = s.surface.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+        let share = entering * (base.x + base.y + base.z) / 3.0;
+        let rest = s.bsdf.without_subsurface(weight);
+        let rest_albedo = rest.albedo();
+        let p_walk = share / (share + (rest_albedo.x + rest_albedo.y + rest_albedo.z) / 3.0);
+        if !(p_walk > 0.0) {
+            s.bsdf = rest;
+            return true;
+        }
+        if rng.uniform() >= p_walk {
+            s.bsdf = rest;
+            self.beta /= 1.0 - p_walk;
+            return true;
+        }
+        let Some((exit, walked)) = random_walk::walk(ctx, s, rng, &mut self.rays) else {
+            return false;
+        };
+        self.beta *= walked * (entering / p_walk);
+        self.subsurface = true;
+        *s = exit;
+        self.beta.is_finite() && self.beta != Vec3::ZERO
     }
 
     /// The ray left the scene: the world's light, MIS-weighted.
@@ -148,6 +203,9 @@ impl PathState {
         if !bs.delta {
             self.diffuse += 1;
         }
+        if bs.scattering == Scattering::Diffuse {
+            self.diffuse_ancestor = true;
+        }
         self.light_path = self.light_path.after(bs.scattering, bs.transmitted);
         // A transparent pass is no vertex: emission met beyond it is weighed against the
         // light sample of the vertex before, whose shadow ray passed it too (as Cycles keeps
@@ -192,6 +250,12 @@ pub enum Next {
 pub trait Scatter {
     /// Whether emission met by the walk counts (debug views of one estimate leave it out).
     fn counts_emission(&self) -> bool {
+        true
+    }
+
+    /// Whether the walk takes translucent materials of `subsurface` through the random walk
+    /// (else the integrator sees them whole).
+    fn walks_subsurface(&self, _subsurface: &Subsurface) -> bool {
         true
     }
 
@@ -315,6 +379,15 @@ fn walk_from(
             break;
         }
         state.depth = depth;
+        if s.opaque
+            && s.surface.subsurface.weight > 0.0
+            && !state.diffuse_ancestor
+            && integrator.walks_subsurface(&s.surface.subsurface)
+            && !random_walk::too_short(&s)
+            && !state.subsurface_branch(ctx, &mut s, rng)
+        {
+            break;
+        }
         let light_sampled = match integrator.scatter(state, &mut s, rng) {
             Next::End => break,
             Next::Moved => {

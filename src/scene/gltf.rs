@@ -82,12 +82,15 @@
 //!   (default true), Blender's camera and shadow ray visibility: camera rays pass through an
 //!   object hidden from the camera, shadow rays (direct light) through one that casts no
 //!   shadows.
-//! - `PHOTON_material_subsurface` on a material: `{"weight": w, "radius": [r, g, b], "scale": s,
-//!   "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs (defaults: weight 0,
-//!   radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4, anisotropy 0). With weight > 0 the material
-//!   is translucent: the subsurface part replaces weight × the diffuse part, with the base colour
-//!   as its total diffuse reflectance and `radius × scale` (scene units) as the mean free path
-//!   per channel (see `crate::subsurface`). Out-of-range values are refused with an error.
+//! - `PHOTON_material_subsurface` on a material: `{"method": m, "weight": w, "radius": [r, g, b],
+//!   "scale": s, "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs
+//!   (defaults: method "RANDOM_WALK", weight 0, radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4,
+//!   anisotropy 0; the method is Blender's `subsurface_method`: "BURLEY", "RANDOM_WALK" or
+//!   "RANDOM_WALK_SKIN"). With weight > 0 the material is translucent: the subsurface part
+//!   replaces weight × the diffuse part, with the base colour as its total diffuse reflectance
+//!   and `radius × scale` (scene units) setting the medium (Cycles' random walk,
+//!   `crate::integrator::random_walk`; the dipole of `crate::subsurface` for "BURLEY" in the
+//!   photon method). Out-of-range values are refused with an error.
 //! - `PHOTON_material_nodes` on a material: Blender's shader node tree as `crate::scene::nodes`
 //!   compiles it: `{"nodes": [node, ...], "output": {"node": i, "output": "BSDF"}}`. Each node is
 //!   `{"name": n, "type": bl_idname, "inputs": {identifier: value or link}, ...settings}` where a
@@ -174,7 +177,7 @@
 use super::texture::{Texels, Wrap};
 use super::{
     AlphaMode, Background, Bounds, Camera, Environment, Lamp, Light, Material, Mesh, Projection,
-    Scene, SceneRenderSettings, Subsurface, Texture, TextureRef, ThinLens, World,
+    Scene, SceneRenderSettings, Subsurface, SubsurfaceMethod, Texture, TextureRef, ThinLens, World,
 };
 use crate::error::{Error, Result};
 use crate::film::{FilterKind, FilterSettings};
@@ -1632,6 +1635,19 @@ impl Loader {
         out.scale = number("scale", |x| x >= 0.0, out.scale)?;
         out.ior = number("ior", |x| x > 0.0, out.ior)?;
         out.anisotropy = number("anisotropy", |x| x.abs() < 1.0, out.anisotropy)?;
+        if let Some(v) = value.get("method") {
+            out.method = v
+                .as_str()
+                .and_then(SubsurfaceMethod::from_blender)
+                .ok_or_else(|| {
+                    self.err(
+                        &object,
+                        format!(
+                            "'method' must be \"BURLEY\", \"RANDOM_WALK\" or \"RANDOM_WALK_SKIN\", found {v}"
+                        ),
+                    )
+                })?;
+        }
         if let Some(v) = value.get("radius") {
             out.radius = json_vec3(v)
                 .filter(|r| r.is_finite() && r.min_element() >= 0.0)

@@ -232,10 +232,40 @@ pub struct Material {
     pub nodes: Option<std::sync::Arc<nodes::NodeProgram>>,
 }
 
+/// How light travels under a translucent surface: Blender's Principled BSDF "Subsurface
+/// Method".
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SubsurfaceMethod {
+    /// Christensen–Burley: a diffusion profile. The photon method renders it with the dipole
+    /// (`crate::subsurface`); the path tracer with the random walk.
+    ChristensenBurley,
+    /// Cycles' Random Walk (Blender's default): a volumetric walk entering by refraction at the
+    /// IOR (`crate::integrator::random_walk`).
+    RandomWalk,
+    /// Cycles' Random Walk (Skin): the radius adjusted by the albedo and Subsurface IOR, half
+    /// the walks entering diffusely.
+    RandomWalkSkin,
+}
+
+impl SubsurfaceMethod {
+    /// Blender's name of the method (`subsurface_method`), as `PHOTON_material_subsurface`
+    /// carries it; `None` for any other.
+    pub fn from_blender(name: &str) -> Option<SubsurfaceMethod> {
+        match name {
+            "BURLEY" => Some(SubsurfaceMethod::ChristensenBurley),
+            "RANDOM_WALK" => Some(SubsurfaceMethod::RandomWalk),
+            "RANDOM_WALK_SKIN" => Some(SubsurfaceMethod::RandomWalkSkin),
+            _ => None,
+        }
+    }
+}
+
 /// Blender's Principled BSDF subsurface inputs. The material is translucent when `weight > 0`:
 /// the subsurface part then replaces `weight` × the diffuse part (see `crate::subsurface`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Subsurface {
+    /// Subsurface Method.
+    pub method: SubsurfaceMethod,
     /// Subsurface Weight in [0, 1].
     pub weight: f32,
     /// Subsurface Radius per channel; the mean free path is `radius × scale` (scene units).
@@ -244,14 +274,17 @@ pub struct Subsurface {
     pub scale: f32,
     /// Subsurface IOR (relative, inside over outside).
     pub ior: f32,
-    /// Subsurface Anisotropy (read and kept; the dipole does not use it).
+    /// Subsurface Anisotropy: the random walk's Henyey–Greenstein g (the dipole does not use
+    /// it).
     pub anisotropy: f32,
 }
 
 impl Default for Subsurface {
-    /// Blender's Principled BSDF defaults: weight 0, radius (1, 0.2, 0.1), scale 0.05, IOR 1.4.
+    /// Blender's Principled BSDF defaults: Random Walk, weight 0, radius (1, 0.2, 0.1), scale
+    /// 0.05, IOR 1.4.
     fn default() -> Self {
         Subsurface {
+            method: SubsurfaceMethod::RandomWalk,
             weight: 0.0,
             radius: Vec3::new(1.0, 0.2, 0.1),
             scale: 0.05,
@@ -333,6 +366,12 @@ impl Material {
     /// True when the material has a subsurface (translucent) part.
     pub fn is_translucent(&self) -> bool {
         self.subsurface.weight > 0.0
+    }
+
+    /// True when the material is translucent with the Christensen–Burley method, which the
+    /// photon method renders with the dipole (its subsurface photons).
+    pub fn uses_dipole(&self) -> bool {
+        self.is_translucent() && self.subsurface.method == SubsurfaceMethod::ChristensenBurley
     }
 
     /// True when the material emits light (some texel may be black, but the factor is not).

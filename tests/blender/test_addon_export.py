@@ -146,8 +146,8 @@ def test_export_time_one_million_triangles(photon_addon, tmp_path):
 
 
 def test_subsurface_extension(photon_addon, tmp_path):
-    """PHOTON_material_subsurface carries the Principled BSDF's subsurface inputs, and only for
-    materials whose subsurface weight is above 0."""
+    """PHOTON_material_subsurface carries the Principled BSDF's subsurface inputs and method,
+    and only for materials whose subsurface weight is above 0."""
     from blender_addon import export
     bpy.ops.wm.read_factory_settings()
     skin = bpy.data.materials.new("Skin")
@@ -171,7 +171,8 @@ def test_subsurface_extension(photon_addon, tmp_path):
     assert "PHOTON_material_subsurface" not in doc.get("extensionsRequired", [])
     materials = {m["name"]: m for m in doc["materials"]}
     sss = materials["Skin"]["extensions"]["PHOTON_material_subsurface"]
-    assert sss == {"weight": pytest.approx(0.8), "radius": pytest.approx([1.0, 0.2, 0.1]),
+    assert sss == {"method": "RANDOM_WALK_SKIN",
+                   "weight": pytest.approx(0.8), "radius": pytest.approx([1.0, 0.2, 0.1]),
                    "scale": pytest.approx(0.05), "ior": pytest.approx(1.33),
                    "anisotropy": pytest.approx(0.25)}
     assert "PHOTON_material_subsurface" not in materials["Plain"].get("extensions", {})

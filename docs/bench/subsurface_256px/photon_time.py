@@ -18,6 +18,8 @@ ap.add_argument("--spp", default="1,2,4,8"); ap.add_argument("--size", type=int,
 ap.add_argument("--method", default="auto"); ap.add_argument("--repeats", type=int, default=1)
 ap.add_argument("--json")
 a = ap.parse_args()
+import tempfile
+scratch = tempfile.mkdtemp(prefix="photon_time-")  # private: other runs may share /tmp
 ref = read_exr(a.reference)
 bins = dict(b.split("=", 1) for b in a.bin)
 spps = [int(s) for s in a.spp.split(",")]
@@ -25,7 +27,7 @@ best = {(n, s): None for n in bins for s in spps}
 for r in range(a.repeats):
     for s in spps:
         for n, path in bins.items():
-            out = f"/tmp/photon_time-{n}-{s}.exr"
+            out = f"{scratch}/photon_time-{n}-{s}.exr"
             t0 = time.perf_counter()
             subprocess.run([path, "render", a.scene, "--width", str(a.size), "--height", str(a.size),
                             "--spp", str(s), "--threads", "2", "--method", a.method, "--seed", "1",

@@ -4,7 +4,8 @@
 //! - `tracing`: photon emission and the photon random walk;
 //! - `guide`: guided emission, towards what the render reads (Peter & Pietrek 1998);
 //! - `estimate`: density estimation from the maps and Christensen's precomputed irradiance;
-//! - `subsurface`: the diffusion photon mode for translucent materials (Jensen & Buhler 2002);
+//! - `subsurface`: the diffusion photon mode for Christensen–Burley translucent materials
+//!   (Jensen & Buhler 2002);
 //! - `build`: tracing the photons into the maps everything else reads;
 //! - `shade`: rendering from the maps (direct, specular, caustics, final gathering, the
 //!   irradiance cache) and the debug views.

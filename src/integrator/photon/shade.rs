@@ -53,6 +53,7 @@ use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec2, Vec3};
 use crate::photon_map::Neighbors;
 use crate::rng::Rng;
+use crate::scene::{Subsurface, SubsurfaceMethod};
 use std::f32::consts::PI;
 
 /// Least probability with which a final-gather hit traces its glossy layer (`glossy_rest`):
@@ -506,6 +507,14 @@ impl Scatter for PhotonCamera<'_> {
         matches!(self.view, View::Full | View::Global)
     }
 
+    /// The full view walks translucent objects; Christensen–Burley materials take the dipole
+    /// when its samples were built. The debug views show their estimate on the surface itself.
+    fn walks_subsurface(&self, subsurface: &Subsurface) -> bool {
+        self.view == View::Full
+            && (subsurface.method != SubsurfaceMethod::ChristensenBurley
+                || self.gather.maps.subsurface.is_none())
+    }
+
     fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
         let g = &mut self.gather;
         g.depth = path.depth;
@@ -517,7 +526,7 @@ impl Scatter for PhotonCamera<'_> {
                 View::Caustic => l.add(LightPass::Caustic, g.caustic(s, 1)),
                 View::Photons => l.add(LightPass::Indirect, g.dots(s)),
             };
-            path.passes.add_after(&l, path.beta, path.diffuse);
+            path.add_estimate(&l);
             return Next::End;
         }
         let light_sampled = self.view == View::Full && s.bsdf.has_non_delta();

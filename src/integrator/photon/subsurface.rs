@@ -1,5 +1,7 @@
-//! The photon renderer's subsurface term ("diffusion photon mode", Jensen & Buhler 2002 §3 with
-//! photons as the irradiance samples, Jensen 2000 "Subsurface scattering"): dedicated photon
+//! The photon renderer's subsurface term for Christensen–Burley materials (random-walk ones are
+//! walked by the camera paths, `crate::integrator::random_walk`; nothing here is built for
+//! them): the "diffusion photon mode", Jensen & Buhler 2002 §3 with photons as the irradiance
+//! samples, Jensen 2000 "Subsurface scattering". Dedicated photon
 //! tracing stores the flux entering each translucent surface (after the specular layer's Fresnel
 //! transmission, times the subsurface weight), one octree of those samples per translucent
 //! material, and at a shading point x the radiance T(ω_o) M(x)/π, where M is the dipole
@@ -24,7 +26,7 @@ use crate::math::Vec3;
 use crate::photon_map::Photon;
 use crate::progress::Progress;
 use crate::rng::Sampler;
-use crate::scene::Scene;
+use crate::scene::{Scene, SubsurfaceMethod};
 use crate::subsurface::{Dipole, ExitanceCache, Sample, SampleTree};
 use std::f32::consts::PI;
 use std::time::Instant;
@@ -184,18 +186,20 @@ fn material_areas(scene: &Scene) -> Vec<f32> {
     area
 }
 
-/// True when some mesh (or instanced prototype) uses a translucent material.
-pub fn has_translucent(scene: &Scene) -> bool {
+/// True when some mesh (or instanced prototype) uses a translucent material the dipole renders
+/// (Christensen–Burley; random-walk materials are walked by the camera paths).
+pub fn has_dipole(scene: &Scene) -> bool {
     scene.meshes.iter().chain(&scene.prototypes).any(|m| {
         scene
             .materials
             .get(m.material as usize)
-            .is_some_and(|mat| mat.is_translucent())
+            .is_some_and(|mat| mat.uses_dipole())
     })
 }
 
 /// Trace the subsurface photons and build the octrees;
-/// `None` (with the reason in `info`) when nothing is translucent or no samples are requested.
+/// `None` (with the reason in `info`) when no material uses the dipole or no samples are
+/// requested.
 #[allow(clippy::too_many_arguments)]
 pub fn build(
     ctx: &Context,
@@ -206,8 +210,8 @@ pub fn build(
     progress: &Progress,
     info: &mut PhotonInfo,
 ) -> Result<Option<SubsurfaceMaps>> {
-    if !has_translucent(ctx.scene) {
-        info.subsurface_skipped = Some("no translucent material".into());
+    if !has_dipole(ctx.scene) {
+        info.subsurface_skipped = Some("no Christensen-Burley (dipole) material".into());
         return Ok(None);
     }
     if settings.subsurface_photons == 0 {
@@ -271,7 +275,7 @@ impl SubsurfaceMaps {
     /// `scene` is the one `s` is on.
     pub fn radiance(&self, scene: &Scene, s: &Shading) -> Option<Vec3> {
         let sub = &s.surface.subsurface;
-        if !(sub.weight > 0.0) {
+        if !(sub.weight > 0.0) || sub.method != SubsurfaceMethod::ChristensenBurley {
             return None;
         }
         let Some(Some(tree)) = self.trees.get(s.sh.material as usize) else {
