@@ -12,12 +12,12 @@
 //! - **global map + final gather**: needed when indirect diffuse light is possible: there is a light,
 //!   some mesh has a non-black diffuse material, and the geometry is not a single convex mesh lit
 //!   only from outside (light leaving a convex surface never meets the scene again).
-//! - **subsurface**: needed when a mesh uses a translucent material (`PHOTON_material_subsurface`
-//!   weight > 0) and the scene has a light: the photon method then traces subsurface photons and
-//!   evaluates the dipole (`integrator::photon::subsurface`). The path tracer samples the same
-//!   dipole by probe rays and needs no pass.
+//! - **subsurface**: needed when a mesh uses a translucent material of Subsurface Method
+//!   Christensen–Burley and the scene has a light: the photon method then traces subsurface
+//!   photons and evaluates the dipole (`integrator::photon::subsurface`). Random Walk materials
+//!   (Blender's default) need no pass: both methods walk them (`integrator::random_walk`).
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
-//!   the background); translucent materials → photon mapping (subsurface photons); otherwise,
+//!   the background); Christensen–Burley materials → photon mapping (subsurface photons); otherwise,
 //!   when caustics or indirect light are possible, two pilots measure them and predict both
 //!   methods' cost at the render's budget (`Cost`, in rays): photon mapping when the caustics
 //!   of lamps and emitting meshes carry a visible share of what the camera sees
@@ -106,6 +106,8 @@ pub struct MaterialKinds {
     pub emissive: usize,
     /// Translucent materials (subsurface weight > 0).
     pub translucent: usize,
+    /// Of those, the Christensen–Burley ones (the photon method's dipole).
+    pub dipole: usize,
     /// Non-emissive materials that reflect nothing.
     pub black: usize,
 }
@@ -253,6 +255,7 @@ fn summarise(scene: &Scene) -> SceneSummary {
         materials.refractive += t.refractive as usize;
         materials.emissive += t.emissive as usize;
         materials.translucent += scene.materials[index].is_translucent() as usize;
+        materials.dipole += scene.materials[index].uses_dipole() as usize;
         materials.black += (!t.emissive && !t.diffuse && !t.glossy && !t.specular) as usize;
     }
     let mut lights = LightKinds {
@@ -948,16 +951,21 @@ pub fn plan_with_pilot(
     let anything_to_trace = summary.lights.any();
     let caustic_map = caustic_decision(&summary);
     let mut global_map = global_decision(scene, &summary);
-    let translucent = summary.materials.translucent;
+    let (translucent, dipole) = (summary.materials.translucent, summary.materials.dipole);
     let subsurface = if translucent == 0 {
         Decision::new(false, "no translucent material")
+    } else if dipole == 0 {
+        Decision::new(
+            false,
+            format!("{translucent} translucent material(s), walked as Cycles' Random Walk by either method: no subsurface photons"),
+        )
     } else if !anything_to_trace {
         Decision::new(false, "translucent materials but no light")
     } else {
         Decision::new(
             true,
             format!(
-                "{translucent} translucent material(s): dipole diffusion, from subsurface photons (photon method) or probe rays (path tracer)"
+                "{dipole} Christensen–Burley material(s): dipole diffusion from subsurface photons (photon method; the path tracer walks them as Random Walk)"
             ),
         )
     };
@@ -982,7 +990,7 @@ pub fn plan_with_pilot(
     } else if subsurface.needed {
         (
             Method::Photon,
-            "translucent materials: the dipole from subsurface photons is smooth where the path tracer's probe rays are noisy".into(),
+            "Christensen–Burley materials: the photon method's dipole diffusion is the profile they ask for (the path tracer walks them)".into(),
         )
     } else if !global_map.needed && !caustic_map.needed {
         (
