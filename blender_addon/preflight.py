@@ -12,8 +12,7 @@ empty list, so the rules below only flag what really changes the image:
   node tree PHOTON_world does not carry (export.world_problems: anything but Background,
   Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
   Ray" factor and Add Shader);
-- a Principled BSDF's Thin Film (iridescence), which Photon does not render; a Holdout seen
-  with an opaque film (Photon writes alpha 1 there, Cycles 0);
+- a Principled BSDF's Thin Film (iridescence), which Photon does not render;
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement as bump: node_tree.py);
@@ -61,10 +60,6 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
                 materials.setdefault(slot.material.name, slot.material)
     for name in sorted(materials):
         messages += material_features(materials[name])
-        if not scene.render.film_transparent and _has_holdout(materials[name]):
-            messages.append(f"material '{name}': with an opaque film Photon writes alpha 1 "
-                            f"where the camera sees its Holdout (Cycles writes 0); it is "
-                            f"black either way, and a transparent film gives the hole")
     if scene.world is not None:
         messages += world_features(scene.world)
     if scene.camera is not None:
@@ -179,14 +174,6 @@ def material_features(material) -> list[str]:
         messages.append(f"{what}: displacement ('{displacement.links[0].from_node.name}') is "
                         f"not exported")
     return messages
-
-
-def _has_holdout(material) -> bool:
-    """Whether `material`'s surface reaches a Holdout node."""
-    tree = material.node_tree if material.use_nodes else None
-    output = _active_output(tree, "OUTPUT_MATERIAL") if tree is not None else None
-    return output is not None and any(node.type == "HOLDOUT"
-                                      for node in _upstream(output.inputs["Surface"]))
 
 
 def _material_node_reason(node) -> str:
