@@ -167,12 +167,32 @@ def uses_node_materials(obj) -> bool:
 
 def visibility_extension(obj) -> dict:
     """PHOTON_object: the object's camera and shadow ray visibility when one is off (the
-    other ray types are named by the pre-flight report)."""
+    other ray types are named by the pre-flight report), and "holdout" when the object is a
+    holdout (its own setting, or a holdout collection of the view layer holding it)."""
     camera = bool(getattr(obj, "visible_camera", True))
     shadow = bool(getattr(obj, "visible_shadow", True))
-    if camera and shadow:
-        return {}
-    return {"visible_camera": camera, "visible_shadow": shadow}
+    data = {} if camera and shadow else {"visible_camera": camera, "visible_shadow": shadow}
+    if getattr(obj, "is_holdout", False) or obj.name in holdout_objects(bpy.context.view_layer):
+        data["holdout"] = True
+    return data
+
+
+def holdout_objects(view_layer) -> set:
+    """Names of the objects in the view layer's holdout collections (a collection is a holdout
+    when it or a collection above it is; excluded ones hold nothing)."""
+    names = set()
+    if view_layer is None:
+        return names
+    stack = [(layer, False) for layer in view_layer.layer_collection.children]
+    while stack:
+        layer, above = stack.pop()
+        if layer.exclude:
+            continue
+        holdout = above or layer.holdout
+        if holdout:
+            names.update(obj.name for obj in layer.collection.objects)
+        stack.extend((child, holdout) for child in layer.children)
+    return names
 
 
 def light_extension(obj) -> dict:

@@ -21,7 +21,7 @@ empty list, so the rules below only flag what really changes the image:
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
   Light Falloff's Quadratic strength), shadows turned off;
 - objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
-  Visibility; camera and shadow visibility are carried), holdout objects and collections,
+  Visibility; camera and shadow visibility and holdout objects and collections are carried),
   'indirect only' collections;
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
   field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
@@ -68,9 +68,6 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
         what = f"collection '{layer_collection.name}'"
         if layer_collection.exclude:
             continue
-        if layer_collection.holdout:
-            messages.append(f"{what}: holdout is not exported; its objects render as ordinary "
-                            f"objects")
         if layer_collection.indirect_only:
             messages.append(f"{what}: 'indirect only' is not exported; its objects are seen "
                             f"directly too")
@@ -117,8 +114,6 @@ def _object_features(obj) -> list[str]:
             messages.append(f"{what}: particle system '{system.name}' rendered as "
                             f"{system.settings.render_type} is not exported (objects and "
                             f"collections are)")
-    if getattr(obj, "is_holdout", False):
-        messages.append(f"{what}: holdout is not exported; it renders as an ordinary object")
     if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
         hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:

@@ -805,6 +805,15 @@ pub fn hit_uv(scene: &Scene, hit: &Hit) -> Vec2 {
     interpolate(idx.map(|i| mesh.uvs[i as usize]), hit.b1, hit.b2)
 }
 
+/// Whether the object `hit` belongs to is a holdout (`Mesh::holdout`, `Instance::holdout`).
+pub fn hit_holdout(scene: &Scene, hit: &Hit) -> bool {
+    if hit.instance == NO_INSTANCE {
+        scene.meshes[hit.mesh as usize].holdout
+    } else {
+        scene.instances[hit.instance as usize].holdout
+    }
+}
+
 /// The mesh a hit is on: a world-space mesh, or the prototype of the instance hit.
 pub fn hit_mesh<'a>(scene: &'a Scene, hit: &Hit) -> &'a crate::scene::Mesh {
     if hit.instance == NO_INSTANCE {

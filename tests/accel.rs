@@ -24,6 +24,7 @@ fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
         indices: vec![[0, 1, 2]],
         material: 0,
         camera_visible: true,
+        holdout: false,
         emission_spread: None,
         casts_shadows: true,
         colors: Vec::new(),

@@ -143,6 +143,7 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
             .collect(),
         material,
         camera_visible: true,
+        holdout: false,
         emission_spread: None,
         casts_shadows: true,
         colors: Vec::new(),

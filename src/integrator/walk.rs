@@ -26,7 +26,7 @@ use super::direct::Previous;
 use super::random_walk;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
-use crate::accel::{hit_mesh, Ray, Visibility};
+use crate::accel::{hit_holdout, hit_mesh, Ray, Visibility};
 use crate::bsdf::{BsdfSample, Scattering};
 use crate::light::emitted_radiance;
 use crate::light_pass::{LightPass, Passes};
@@ -358,7 +358,7 @@ fn walk_from(
         let primary = depth == 0 && !gather;
         let mut s = Shading::on_path(ctx, &ray, &hit, state.light_path, primary);
         // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
-        if primary && s.surface.holdout {
+        if primary && (s.surface.holdout || hit_holdout(ctx.scene, &hit)) {
             out.seen_emission = state.passes.total();
             out.holdout = true;
             break;

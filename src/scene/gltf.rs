@@ -78,10 +78,11 @@
 //!   opening to its closing (Blender's motion blur): each camera sample takes a uniform moment
 //!   and the pose interpolated there (translation linearly, rotation by slerp), as Cycles
 //!   blurs camera motion.
-//! - `PHOTON_object` on a mesh node: `{"visible_camera": bool, "visible_shadow": bool}`
-//!   (default true), Blender's camera and shadow ray visibility: camera rays pass through an
-//!   object hidden from the camera, shadow rays (direct light) through one that casts no
-//!   shadows.
+//! - `PHOTON_object` on a mesh node: `{"visible_camera": bool, "visible_shadow": bool,
+//!   "holdout": bool}` (visibility default true, holdout false), Blender's camera and shadow
+//!   ray visibility: camera rays pass through an object hidden from the camera, shadow rays
+//!   (direct light) through one that casts no shadows; a holdout object is black with alpha 0
+//!   where the camera sees it (`Mesh::holdout`).
 //! - `PHOTON_material_subsurface` on a material: `{"method": m, "weight": w, "radius": [r, g, b],
 //!   "scale": s, "ior": n, "anisotropy": g}`, Blender's Principled BSDF subsurface inputs
 //!   (defaults: method "RANDOM_WALK", weight 0, radius [1.0, 0.2, 0.1], scale 0.05, IOR 1.4,
@@ -788,31 +789,37 @@ impl Loader {
             self.prototype_ids.insert(mesh.index(), ids);
         }
         let to_world = Affine3A::from_mat4(*world);
-        let (camera_visible, casts_shadows) = self.visibility(node)?;
+        let (camera_visible, casts_shadows, holdout) = self.visibility(node)?;
         for &prototype in &self.prototype_ids[&mesh.index()] {
             let mut instance = super::Instance::new(prototype, to_world);
             instance.motion = motion.to_vec();
             instance.camera_visible = camera_visible;
             instance.casts_shadows = casts_shadows;
+            instance.holdout = holdout;
             self.scene.instances.push(instance);
         }
         Ok(())
     }
 
-    /// `PHOTON_object`'s camera and shadow ray visibility of `node` (default: both true).
-    fn visibility(&self, node: &gltf::Node) -> Result<(bool, bool)> {
+    /// `PHOTON_object`'s camera and shadow ray visibility of `node` (default: both true) and
+    /// whether it is a holdout (default: false).
+    fn visibility(&self, node: &gltf::Node) -> Result<(bool, bool, bool)> {
         let Some(v) = node.extension_value("PHOTON_object") else {
-            return Ok((true, true));
+            return Ok((true, true, false));
         };
-        let flag = |key: &str| match v.get(key) {
-            None => Ok(true),
+        let flag = |key: &str, default: bool| match v.get(key) {
+            None => Ok(default),
             Some(Value::Bool(b)) => Ok(*b),
             Some(other) => Err(self.err(
                 format!("{} PHOTON_object", named("node", node.index(), node.name())),
                 format!("'{key}' must be true or false, found {other}"),
             )),
         };
-        Ok((flag("visible_camera")?, flag("visible_shadow")?))
+        Ok((
+            flag("visible_camera", true)?,
+            flag("visible_shadow", true)?,
+            flag("holdout", false)?,
+        ))
     }
 
     /// Read `mesh`'s primitives placed by `world` into `Scene::meshes`, or with the identity
@@ -974,7 +981,7 @@ impl Loader {
                 .collect();
 
             let material = self.material_index(primitive.material().index());
-            let (camera_visible, casts_shadows) = visibility;
+            let (camera_visible, casts_shadows, holdout) = visibility;
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",
@@ -990,6 +997,7 @@ impl Loader {
                 indices,
                 material,
                 camera_visible,
+                holdout,
                 emission_spread: None,
                 casts_shadows,
                 colors,
@@ -2124,6 +2132,7 @@ impl Loader {
             indices,
             material: (self.scene.materials.len() - 1) as u32,
             camera_visible: light.visible_camera,
+            holdout: false,
             // Narrower than a milliradian is a laser nothing would sample; Cycles clamps too.
             emission_spread: (spread < std::f32::consts::PI).then_some(spread.max(1e-3)),
             casts_shadows: true,

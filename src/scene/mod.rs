@@ -39,6 +39,9 @@ pub struct Mesh {
     pub material: u32,
     /// Seen by camera rays. False for area-light geometry that Blender hides from the camera.
     pub camera_visible: bool,
+    /// Blender's holdout object (or collection): where the camera sees it the image is black
+    /// and its alpha 0; every other ray meets its material.
+    pub holdout: bool,
     /// Blender's area-light spread (full angle, radians, in (0, π)): the emission narrows
     /// towards the normal as through a soft-box grid, the total power unchanged
     /// (`crate::light::spread_factor`). `None` emits over the whole hemisphere.
@@ -106,6 +109,8 @@ pub struct Instance {
     pub camera_visible: bool,
     /// Blocks shadow rays (Blender's shadow ray visibility of the placing object).
     pub casts_shadows: bool,
+    /// The placing object is a holdout (`Mesh::holdout`).
+    pub holdout: bool,
 }
 
 impl Instance {
@@ -121,6 +126,7 @@ impl Instance {
             mirrored: linear.determinant() < 0.0,
             camera_visible: true,
             casts_shadows: true,
+            holdout: false,
         }
     }
 

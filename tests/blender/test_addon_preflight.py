@@ -158,8 +158,9 @@ def test_other_rules(photon_addon):
     assert len(messages) == len(expected), messages
 
 
-def test_holdout_and_indirect_only_are_named(photon_addon):
-    """Holdout objects and collections and 'indirect only' collections are not carried."""
+def test_indirect_only_is_named_and_holdouts_are_carried(photon_addon):
+    """'Indirect only' collections are not carried (named); holdout objects and collections
+    are (nothing said, and PHOTON_object says "holdout" for their objects)."""
     bpy.ops.wm.read_factory_settings()
     scene = bpy.context.scene
     bpy.data.objects["Cube"].is_holdout = True
@@ -169,14 +170,23 @@ def test_holdout_and_indirect_only_are_named(photon_addon):
     layers["Held"].holdout = True
     layers["Indirect"].indirect_only = True
     layers["Gone"].exclude = True
-    layers["Gone"].holdout = True  # excluded: nothing of it renders, nothing to say
-    from blender_addon import preflight
+    layers["Gone"].holdout = True  # excluded: nothing of it renders
+    inner = bpy.data.collections.new("Inner")
+    bpy.data.collections["Held"].children.link(inner)
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    ball = bpy.context.active_object
+    for c in list(ball.users_collection):
+        c.objects.unlink(ball)
+    inner.objects.link(ball)  # held out through its parent collection
+    bpy.ops.mesh.primitive_cone_add()
+    free = bpy.context.active_object  # in the scene's own collection
+    from blender_addon import export, preflight
     messages = preflight.unsupported_features(scene, list(scene.objects), scene.view_layers[0])
-    expected = ("object 'Cube': holdout", "collection 'Held': holdout",
-                "collection 'Indirect': 'indirect only'")
-    for start in expected:
-        assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
-    assert len(messages) == len(expected), messages
+    assert [m for m in messages if m.startswith("collection 'Indirect': 'indirect only'")]
+    assert len(messages) == 1, messages
+    assert export.visibility_extension(bpy.data.objects["Cube"]) == {"holdout": True}
+    assert export.visibility_extension(ball) == {"holdout": True}
+    assert export.visibility_extension(free) == {}
 
 
 def test_rolling_shutter_is_named(photon_addon):

@@ -15,7 +15,7 @@ import pytest
 import common
 from cycles_compare import compare
 from helpers import read_exr
-from test_nodes import node_material, plane_scene
+from test_nodes import SIZE, node_material, plane_scene
 from test_nodes_refraction import checker_floor
 
 
@@ -56,3 +56,44 @@ def test_holdout_quad_over_a_lit_floor(tmp_path, method):
         assert (photon == 0.0).sum() > 100, "the quad should leave a hole in the alpha"
         assert (photon == 1.0).sum() > 100, "the floor should stay opaque"
         assert np.abs(photon - cycles).mean() < 0.02
+
+
+def _alpha_of_each_engine(scene, tmp_path, name):
+    """Each engine's alpha (RGBA render with the scene's film) by engine name."""
+    scene.render.image_settings.color_mode = "RGBA"
+    alpha = {}
+    for engine in ("CYCLES", "PHOTON"):
+        path = tmp_path / f"{name}_{engine.lower()}_alpha.exr"
+        scene.render.engine = engine
+        scene.render.filepath = str(path)
+        bpy.ops.render.render(write_still=True)
+        alpha[engine] = read_exr(path, ("R", "G", "B", "A"))[:, :, 3]
+    return alpha["PHOTON"], alpha["CYCLES"]
+
+
+@pytest.mark.parametrize("how", ["object", "collection"])
+def test_holdout_object_over_a_lit_floor(tmp_path, how):
+    """A red diffuse quad held out (Object > Visibility > Holdout, or a holdout collection):
+    black with alpha 0 where the camera sees it, its red material to every other ray (its
+    shadow and red light on the floor), as Cycles renders it, with an opaque film."""
+    common.reset_scene(SIZE, SIZE)
+    scene, _ = plane_scene(checker_floor())
+    red = common.principled("Red", (0.8, 0.1, 0.1), roughness=1.0)
+    quad = common.quad("Hole", [(-0.7, -0.5, 0.5), (0.3, -0.5, 0.5), (0.3, 0.4, 0.5),
+                                (-0.7, 0.4, 0.5)], red)
+    if how == "object":
+        quad.is_holdout = True
+    else:
+        held = bpy.data.collections.new("Held")
+        scene.collection.children.link(held)
+        for c in list(quad.users_collection):
+            c.objects.unlink(quad)
+        held.objects.link(quad)
+        scene.view_layers[0].layer_collection.children["Held"].holdout = True
+    common.light("Sun", "SUN", (0, 0, 5), (30.0, 0.0, 60.0), energy=3.0)
+    name = f"holdout {how}"
+    compare(name, scene, tmp_path, photon_spp=256, cycles_spp=512, method="PATH")
+    photon, cycles = _alpha_of_each_engine(scene, tmp_path, name)
+    print(f"{name}: alpha mean photon {photon.mean():.4f} vs cycles {cycles.mean():.4f}")
+    assert (photon == 0.0).sum() > 100, "the quad should leave a hole in the alpha"
+    assert np.abs(photon - cycles).mean() < 0.02
