@@ -214,6 +214,7 @@ fn subsurface_branch(ctx: &Context, state: &mut PathState, s: &Shading, rng: &mu
     }
     state.previous = Previous {
         p: exit.p,
+        horizon: None,
         pdf: cosine_hemisphere_pdf(local.z),
         delta: false,
     };
