@@ -31,8 +31,11 @@
 //! Lights with Adaptive Tree Splitting"). A near lamp then gets samples a far sun of more total
 //! power would take; the half by power (a defensive mixture, Hesterberg 1995) keeps every
 //! light's share at least half of what it was, which the estimate, blind to the surface's
-//! orientation and to shadows, could otherwise starve. The densities MIS reads are computed at
-//! the vertex the ray left, with the same weights.
+//! orientation and to shadows, could otherwise starve. Seen from an opaque surface (a `Receiver`
+//! with a horizon), a light wholly below the plane of its geometric normal (a triangle's or
+//! lamp's bounding sphere, a sun's disc) can light nothing there, so both halves leave it out,
+//! as Cycles' light tree leaves out lights outside the shading normal's hemisphere. The
+//! densities MIS reads are computed at the vertex the ray left, from the same `Receiver`.
 //!
 //! A world of one constant colour is left out of the light samples that are weighed by MIS
 //! against BSDF sampling, as Cycles leaves it out ("Background MIS has been disabled" in
@@ -129,6 +132,22 @@ pub struct LightSample {
     pub delta: bool,
     /// Where the shadow ray must reach.
     pub target: LightPoint,
+}
+
+/// Where a light sample is drawn from: the point and, on an opaque surface, its geometric
+/// normal turned to the viewer, below whose plane no light reaches what the surface scatters
+/// (`LocalSelection` then leaves out the lights wholly below it).
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver {
+    pub p: Vec3,
+    pub horizon: Option<Vec3>,
+}
+
+impl Receiver {
+    /// A point that may be lit from every direction.
+    pub fn at(p: Vec3) -> Receiver {
+        Receiver { p, horizon: None }
+    }
 }
 
 /// All emitters of a scene and the distribution that picks one.
@@ -480,7 +499,10 @@ impl Lights {
                         cos_max: if half > 0.0 { half.cos() } else { 1.0 },
                     });
                     power.push(luminance(irradiance) * PI * scene_radius * scene_radius);
-                    reach.push(Reach::Distant);
+                    reach.push(Reach::Sun {
+                        to_sun: -direction.normalize_or(-Vec3::Z),
+                        sin_half: half.sin(),
+                    });
                     reach_scale.push(1.0 / (PI * scene_radius * scene_radius));
                 }
             }
@@ -567,9 +589,9 @@ impl Lights {
         }
     }
 
-    /// Pick a light with `u_select` and sample a direction towards it from `p`, seen at moment
+    /// Pick a light with `u_select` and sample a direction towards it from `from`, seen at moment
     /// `time` of the shutter (where moving emitters are then).
-    /// `path`: the path at `p`, which an emitter's node tree reads as it is sampled from
+    /// `path`: the path at `from`, which an emitter's node tree reads as it is sampled from
     /// there (`RayPath::emission`). `mis`: the sample will be weighed by MIS against BSDF
     /// sampling, which alone finds a constant world (module header); without it every light
     /// may be picked.
@@ -577,16 +599,17 @@ impl Lights {
     pub fn sample(
         &self,
         scene: &Scene,
-        p: Vec3,
+        from: Receiver,
         path: RayPath,
         time: f32,
         mis: bool,
         u_select: f32,
         u: Vec2,
     ) -> Option<LightSample> {
+        let p = from.p;
         let (index, pmf, u_pick) = match (&self.local, &self.select_all, mis) {
             (_, Some(all), false) => all.sample_remapped(u_select)?,
-            (Some(local), _, true) => local.sample(p, u_select, &self.select)?,
+            (Some(local), _, true) => local.sample(from, u_select, &self.select)?,
             _ => self.select.sample_remapped(u_select)?,
         };
         let mut s = self.sample_source(scene, index, (p, path), time, u_pick, u)?;
@@ -766,10 +789,10 @@ impl Lights {
     }
 
     /// Solid-angle density with which `sample` would have chosen the point `hit` on an emissive
-    /// triangle, seen from `p` (for MIS when a BSDF-sampled ray hits an emitter).
-    pub fn triangle_pdf(&self, scene: &Scene, p: Vec3, hit: &SurfaceHit) -> f32 {
+    /// triangle, seen from `from` (for MIS when a BSDF-sampled ray hits an emitter).
+    pub fn triangle_pdf(&self, scene: &Scene, from: Receiver, hit: &SurfaceHit) -> f32 {
         if hit.hit.instance != crate::accel::NO_INSTANCE {
-            return self.instance_triangle_pdf(scene, p, hit);
+            return self.instance_triangle_pdf(scene, from, hit);
         }
         let Some(first) = self
             .mesh_first_light
@@ -783,18 +806,18 @@ impl Lights {
         let LightSource::Triangle { area, .. } = self.sources[index] else {
             return 0.0;
         };
-        let d = hit.p - p;
+        let d = hit.p - from.p;
         let dist2 = d.length_squared();
         let cos_l = (d.normalize_or_zero().dot(hit.ng)).abs();
         if area <= 0.0 || cos_l <= 0.0 {
             return 0.0;
         }
-        self.pick_pmf(p, index) * dist2 / (cos_l * area)
+        self.pick_pmf(from, index) * dist2 / (cos_l * area)
     }
 
     /// `triangle_pdf` of a point on an instance: the instance's share, its triangle's, and the
     /// triangle's area where the instance is at the hit's moment.
-    fn instance_triangle_pdf(&self, scene: &Scene, p: Vec3, hit: &SurfaceHit) -> f32 {
+    fn instance_triangle_pdf(&self, scene: &Scene, from: Receiver, hit: &SurfaceHit) -> f32 {
         let Some(index) = self
             .instance_light
             .get(hit.hit.instance as usize)
@@ -809,13 +832,13 @@ impl Lights {
         };
         let mesh = &scene.prototypes[instance.prototype as usize];
         let area = placed_area(mesh, hit.triangle, instance.to_world_at(hit.time), hit.time);
-        let d = hit.p - p;
+        let d = hit.p - from.p;
         let dist2 = d.length_squared();
         let cos_l = (d.normalize_or_zero().dot(hit.ng)).abs();
         if !(area > 0.0) || cos_l <= 0.0 {
             return 0.0;
         }
-        self.pick_pmf(p, index as usize) * triangles.pmf(hit.triangle as usize) * dist2
+        self.pick_pmf(from, index as usize) * triangles.pmf(hit.triangle as usize) * dist2
             / (cos_l * area)
     }
 
@@ -832,7 +855,7 @@ impl Lights {
     pub fn lamps_met(
         &self,
         ray: &Ray,
-        from: Vec3,
+        from: Receiver,
         reach: f32,
         camera: bool,
         mut visit: impl FnMut(Vec3, f32, f32),
@@ -894,7 +917,7 @@ impl Lights {
     /// Radiance of distant emitters (world and soft suns) seen along `dir`, each paired with its
     /// light-sampling density for MIS at `from`, the vertex the ray left: returns (radiance,
     /// pdf) per emitter via `visit`.
-    pub fn escaped(&self, from: Vec3, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
+    pub fn escaped(&self, from: Receiver, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
         if let Some(w) = self.world {
             let (radiance, pdf) = self.world_radiance(dir);
             visit(radiance, self.pick_pmf(from, w as usize) * pdf);
@@ -916,10 +939,10 @@ impl Lights {
         }
     }
 
-    /// Probability that a light sample weighed by MIS, drawn at `p`, picks light `index`.
-    fn pick_pmf(&self, p: Vec3, index: usize) -> f32 {
+    /// Probability that a light sample weighed by MIS, drawn from `from`, picks light `index`.
+    fn pick_pmf(&self, from: Receiver, index: usize) -> f32 {
         match &self.local {
-            Some(local) => local.pmf(p, index, &self.select),
+            Some(local) => local.pmf(from, index, &self.select),
             None => self.select.pmf(index),
         }
     }
@@ -964,8 +987,11 @@ const MAX_LOCAL_LIGHTS: usize = 16;
 /// Where a light is, for `LocalSelection`.
 #[derive(Clone, Copy, Debug)]
 enum Reach {
-    /// The sun or the world: the same from every point.
+    /// The world: the same from every point, never below a horizon.
     Distant,
+    /// A sun: the same from every point, its disc within the angle of sine `sin_half` of
+    /// `to_sun`.
+    Sun { to_sun: Vec3, sin_half: f32 },
     /// Within `radius2.sqrt()` of `centre`; with `front`, a one-sided emitter lighting only
     /// the points in front of the plane through `centre` with that normal.
     Near {
@@ -1003,7 +1029,7 @@ impl Reach {
     /// squared distance, clamped at the light's size; zero behind a one-sided emitter.
     fn falloff(&self, p: Vec3) -> f32 {
         match *self {
-            Reach::Distant => 1.0,
+            Reach::Distant | Reach::Sun { .. } => 1.0,
             Reach::Near {
                 centre,
                 radius2,
@@ -1015,6 +1041,18 @@ impl Reach {
                 }
                 1.0 / d.length_squared().max(radius2).max(1e-12)
             }
+        }
+    }
+
+    /// True when every point of the light lies strictly below the plane through `p` of normal
+    /// `n`: no direction towards it leaves the front of that plane.
+    fn below(&self, p: Vec3, n: Vec3) -> bool {
+        match *self {
+            Reach::Distant => false,
+            Reach::Sun { to_sun, sin_half } => to_sun.dot(n) < -sin_half,
+            Reach::Near {
+                centre, radius2, ..
+            } => (centre - p).dot(n) < -radius2.sqrt(),
         }
     }
 }
@@ -1048,60 +1086,63 @@ impl LocalSelection {
         (lights.len() <= MAX_LOCAL_LIGHTS && lit > 1 && near).then_some(LocalSelection { lights })
     }
 
-    /// The weight of every light at `p` and their sum.
-    fn weights(&self, p: Vec3) -> ([f32; MAX_LOCAL_LIGHTS], f32) {
-        let mut w = [0.0f32; MAX_LOCAL_LIGHTS];
-        let mut total = 0.0;
+    /// The probability of picking each light from `from`: half in proportion to its estimated
+    /// irradiance there, half by power, both among the lights not wholly below `from`'s horizon
+    /// (a half left with no light gives its share to the other); all zero when none is left.
+    fn probabilities(&self, from: Receiver, power: &Distribution1D) -> [f32; MAX_LOCAL_LIGHTS] {
+        let mut by_irradiance = [0.0f32; MAX_LOCAL_LIGHTS];
+        let mut by_power = [0.0f32; MAX_LOCAL_LIGHTS];
+        let (mut irradiance_total, mut power_total) = (0.0, 0.0);
         for (i, (scale, reach)) in self.lights.iter().enumerate() {
-            w[i] = if *scale > 0.0 {
-                scale * reach.falloff(p)
-            } else {
-                0.0
-            };
-            total += w[i];
+            if from.horizon.is_some_and(|n| reach.below(from.p, n)) {
+                continue;
+            }
+            if *scale > 0.0 {
+                by_irradiance[i] = scale * reach.falloff(from.p);
+            }
+            by_power[i] = power.pmf(i);
+            irradiance_total += by_irradiance[i];
+            power_total += by_power[i];
         }
-        (w, total)
+        let usable = |total: f32| total > 0.0 && total.is_finite();
+        let (irradiance_share, power_share) = match (usable(irradiance_total), usable(power_total))
+        {
+            (true, true) => (0.5 / irradiance_total, 0.5 / power_total),
+            (true, false) => (1.0 / irradiance_total, 0.0),
+            (false, true) => (0.0, 1.0 / power_total),
+            (false, false) => return [0.0; MAX_LOCAL_LIGHTS],
+        };
+        std::array::from_fn(|i| by_irradiance[i] * irradiance_share + by_power[i] * power_share)
     }
 
-    /// Pick a light for a sample at `p` with `u`: (index, probability, `u` rescaled to [0, 1)
-    /// within the light's share), as `Distribution1D::sample_remapped`; `power` is the choice by
-    /// power.
-    fn sample(&self, p: Vec3, u: f32, power: &Distribution1D) -> Option<(usize, f32, f32)> {
-        if u < 0.5 {
-            let (i, _, remapped) = power.sample_remapped(2.0 * u)?;
-            return Some((i, self.pmf(p, i, power), remapped));
-        }
-        let u = 2.0 * u - 1.0;
-        let (w, total) = self.weights(p);
-        if !(total > 0.0 && total.is_finite()) {
-            return None;
-        }
-        let target = u * total;
+    /// Pick a light for a sample from `from` with `u`: (index, probability, `u` rescaled to
+    /// [0, 1) within the light's share), as `Distribution1D::sample_remapped`; `power` is the
+    /// choice by power.
+    fn sample(&self, from: Receiver, u: f32, power: &Distribution1D) -> Option<(usize, f32, f32)> {
+        let probabilities = self.probabilities(from, power);
         let mut below = 0.0;
         let mut last = None;
-        for (i, &wi) in w[..self.lights.len()].iter().enumerate() {
-            if wi <= 0.0 {
+        for (i, &q) in probabilities[..self.lights.len()].iter().enumerate() {
+            if q <= 0.0 {
                 continue;
             }
             last = Some((i, below));
-            if target < below + wi {
+            if u < below + q {
                 break;
             }
-            below += wi;
+            below += q;
         }
         let (i, below) = last?;
-        let remapped = ((target - below) / w[i]).clamp(0.0, 1.0 - f32::EPSILON);
-        Some((i, self.pmf(p, i, power), remapped))
+        let remapped = ((u - below) / probabilities[i]).clamp(0.0, 1.0 - f32::EPSILON);
+        Some((i, probabilities[i], remapped))
     }
 
-    /// The probability that `sample` at `p` (with the same `power`) picks light `index`.
-    fn pmf(&self, p: Vec3, index: usize, power: &Distribution1D) -> f32 {
-        let (w, total) = self.weights(p);
-        let local = match w.get(index) {
-            Some(&wi) if total > 0.0 && total.is_finite() => wi / total,
-            _ => 0.0,
-        };
-        0.5 * (local + power.pmf(index))
+    /// The probability that `sample` from `from` (with the same `power`) picks light `index`.
+    fn pmf(&self, from: Receiver, index: usize, power: &Distribution1D) -> f32 {
+        self.probabilities(from, power)
+            .get(index)
+            .copied()
+            .unwrap_or(0.0)
     }
 }
 
@@ -1556,7 +1597,10 @@ mod tests {
         ];
         let power = [3.0 * PI * 100.0, 4.0 * PI * 5.0, PI * 40.0 * 1.0];
         let reach = [
-            Reach::Distant,
+            Reach::Sun {
+                to_sun: Vec3::Y,
+                sin_half: 0.01,
+            },
             Reach::sphere(Vec3::new(3.0, 1.0, 0.0), 0.1),
             Reach::near(&triangle, Some(Vec3::Y)),
         ];
@@ -1568,28 +1612,36 @@ mod tests {
     /// The choice near the shading point is a distribution: its probabilities sum to one, the
     /// share of the unit interval `sample` gives each light is the probability it reports and
     /// `pmf` recomputes, the rescaled number stays in [0, 1), and a light behind a one-sided
-    /// emitter keeps only its share by power.
+    /// emitter keeps only its share by power, and a light wholly below the receiver's horizon
+    /// gets nothing.
     #[test]
     fn local_selection_samples_what_its_pmf_says() {
         let (local, power) = few_lights();
-        for p in [
-            Vec3::new(0.0, 3.0, 0.2),
-            Vec3::new(2.5, 1.2, 0.0),
-            Vec3::new(0.0, 0.0, 0.0),
+        let above = |p: Vec3, n: Vec3| Receiver {
+            p,
+            horizon: Some(n),
+        };
+        for from in [
+            Receiver::at(Vec3::new(0.0, 3.0, 0.2)),
+            Receiver::at(Vec3::new(2.5, 1.2, 0.0)),
+            Receiver::at(Vec3::new(0.0, 0.0, 0.0)),
+            above(Vec3::new(2.5, 1.2, 0.0), -Vec3::Y),
+            above(Vec3::new(0.0, 3.5, 0.2), Vec3::X),
         ] {
-            let sum: f32 = (0..3).map(|i| local.pmf(p, i, &power)).sum();
+            let p = from.p;
+            let sum: f32 = (0..3).map(|i| local.pmf(from, i, &power)).sum();
             assert!((sum - 1.0).abs() < 1e-5, "sum {sum} at {p:?}");
             let n = 200_000;
             let mut count = [0usize; 3];
             for k in 0..n {
                 let u = (k as f32 + 0.5) / n as f32;
-                let (i, pmf, remapped) = local.sample(p, u, &power).expect("a light");
-                assert!((pmf - local.pmf(p, i, &power)).abs() < 1e-6);
+                let (i, pmf, remapped) = local.sample(from, u, &power).expect("a light");
+                assert!((pmf - local.pmf(from, i, &power)).abs() < 1e-6);
                 assert!((0.0..1.0).contains(&remapped), "remapped {remapped}");
                 count[i] += 1;
             }
             for (i, &c) in count.iter().enumerate() {
-                let expected = local.pmf(p, i, &power);
+                let expected = local.pmf(from, i, &power);
                 assert!(
                     (c as f32 / n as f32 - expected).abs() < 1e-3,
                     "light {i} at {p:?}: drawn {} expected {expected}",
@@ -1599,10 +1651,16 @@ mod tests {
         }
         // Below the triangle (y < 2, facing +y): only its half by power.
         let below = Vec3::new(0.0, 0.0, 0.0);
-        assert!((local.pmf(below, 2, &power) - 0.5 * power.pmf(2)).abs() < 1e-6);
+        assert!((local.pmf(Receiver::at(below), 2, &power) - 0.5 * power.pmf(2)).abs() < 1e-6);
         // Next to the point light, it takes most of the local half.
         let near = Vec3::new(2.9, 1.0, 0.0);
-        assert!(local.pmf(near, 1, &power) > 0.5 * power.pmf(1) + 0.45);
+        assert!(local.pmf(Receiver::at(near), 1, &power) > 0.5 * power.pmf(1) + 0.45);
+        // Under a surface facing away from the sun, the sun is never picked; above the
+        // triangle and the point light, facing up, only the sun is left.
+        assert_eq!(local.pmf(above(near, -Vec3::Y), 0, &power), 0.0);
+        let over = above(Vec3::new(0.0, 3.5, 0.2), Vec3::Y);
+        assert_eq!(local.pmf(over, 0, &power), 1.0);
+        assert_eq!(local.sample(over, 0.99, &power).map(|s| s.0), Some(0));
     }
 
     /// The spread keeps the light's power: ∫ factor · cos dω over the hemisphere is π, for wide

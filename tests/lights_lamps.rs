@@ -8,7 +8,7 @@
 mod scenes;
 
 use photon::accel::{Ray, FRAME_TIME};
-use photon::light::Lights;
+use photon::light::{Lights, Receiver};
 use photon::math::{Vec2, Vec3};
 use photon::metrics::compare;
 use photon::render::RenderSettings;
@@ -53,7 +53,7 @@ fn ray(origin: Vec3, direction: Vec3) -> Ray {
 /// Every lamp `ray` meets: (radiance, pdf, distance).
 fn met(lights: &Lights, ray: &Ray, reach: f32, camera: bool) -> Vec<(Vec3, f32, f32)> {
     let mut out = Vec::new();
-    lights.lamps_met(ray, ray.origin, reach, camera, |l, pdf, t| {
+    lights.lamps_met(ray, Receiver::at(ray.origin), reach, camera, |l, pdf, t| {
         out.push((l, pdf, t))
     });
     out
@@ -138,7 +138,7 @@ fn light_sample_density_equals_the_density_a_ray_meeting_the_lamp_computes() {
         let u = Vec2::new(rng.uniform(), rng.uniform());
         let Some(ls) = lights.sample(
             &scene,
-            p,
+            Receiver::at(p),
             RayPath::default(),
             FRAME_TIME,
             true,
@@ -202,7 +202,7 @@ fn camera_rays_see_only_lamps_visible_to_the_camera() {
     let ls = lights
         .sample(
             &scene,
-            Vec3::ZERO,
+            Receiver::at(Vec3::ZERO),
             RayPath::default(),
             FRAME_TIME,
             true,

@@ -9,6 +9,7 @@
 use super::Context;
 use crate::accel::Visibility;
 use crate::interaction::{LightPoint, SurfaceHit, View};
+use crate::light::Receiver;
 use crate::material::eval_surface;
 use crate::math::Vec3;
 use crate::rng::{hash_combine, Rng};
@@ -22,9 +23,13 @@ const MAX_TRANSPARENT_SHADOW_HITS: u32 = 64;
 /// `scattering(wi)` gives f (with the cosine) and the BSDF density of the direction towards the
 /// light, and w is the power heuristic against that density when `mis` is set (1 for delta
 /// lights). Counts the shadow ray in `rays`; zero when the light is blocked or not reached.
+/// `horizon`: the geometric normal of an opaque surface, below which `scattering` is zero
+/// (`light::Receiver`).
+#[allow(clippy::too_many_arguments)]
 pub fn sample_direct(
     ctx: &Context,
     at: &SurfaceHit,
+    horizon: Option<Vec3>,
     beta: Vec3,
     mis: bool,
     rng: &mut Rng,
@@ -32,11 +37,11 @@ pub fn sample_direct(
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
     let path = RayPath::default();
-    sample_direct_on(ctx, at, path, beta, mis, rng, rays, scattering)
+    sample_direct_from(ctx, at, horizon, path, beta, mis, rng, rays, scattering)
 }
 
 /// `sample_direct` from a vertex of camera path `path` (what node trees of the emitter and of
-/// the surfaces the shadow ray passes read).
+/// the surfaces the shadow ray passes read), lit from every side.
 #[allow(clippy::too_many_arguments)]
 pub fn sample_direct_on(
     ctx: &Context,
@@ -48,10 +53,27 @@ pub fn sample_direct_on(
     rays: &mut u32,
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
+    sample_direct_from(ctx, at, None, path, beta, mis, rng, rays, scattering)
+}
+
+/// `sample_direct_on` below `horizon` as in `sample_direct`.
+#[allow(clippy::too_many_arguments)]
+pub fn sample_direct_from(
+    ctx: &Context,
+    at: &SurfaceHit,
+    horizon: Option<Vec3>,
+    path: RayPath,
+    beta: Vec3,
+    mis: bool,
+    rng: &mut Rng,
+    rays: &mut u32,
+    scattering: impl FnOnce(Vec3) -> (Vec3, f32),
+) -> Vec3 {
     let (choice, point) = rng.uniform3();
+    let from = Receiver { p: at.p, horizon };
     let Some(ls) = ctx
         .lights
-        .sample(ctx.scene, at.p, path, at.time, mis, choice, point)
+        .sample(ctx.scene, from, path, at.time, mis, choice, point)
     else {
         return Vec3::ZERO;
     };
@@ -136,6 +158,8 @@ pub fn shadow_transmittance(
 #[derive(Clone, Copy, Debug)]
 pub struct Previous {
     pub p: Vec3,
+    /// The horizon the light sample there was drawn below (`light::Receiver`).
+    pub horizon: Option<Vec3>,
     /// The BSDF density (solid angle) of the ray's direction.
     pub pdf: f32,
     /// The ray left through a delta lobe, or light sampling did not run there: emission it
@@ -144,6 +168,14 @@ pub struct Previous {
 }
 
 impl Previous {
+    /// Where the light sample weighed against the ray was drawn from.
+    pub fn receiver(&self) -> Receiver {
+        Receiver {
+            p: self.p,
+            horizon: self.horizon,
+        }
+    }
+
     /// Weight of emission the ray meets, which light sampling would have drawn with density
     /// `light_pdf` (solid angle).
     pub fn weight(&self, light_pdf: f32) -> f32 {
@@ -159,7 +191,10 @@ impl Previous {
         if self.delta {
             1.0
         } else {
-            power_heuristic(self.pdf, ctx.lights.triangle_pdf(ctx.scene, self.p, hit))
+            power_heuristic(
+                self.pdf,
+                ctx.lights.triangle_pdf(ctx.scene, self.receiver(), hit),
+            )
         }
     }
 }

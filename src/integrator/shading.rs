@@ -8,7 +8,7 @@
 //! inside a transmissive object a ray is attenuated by Beer–Lambert absorption.
 
 use super::classify::{diffuse_reflectance, is_lambertian, lambertian_reflectance};
-use super::direct::sample_direct_on;
+use super::direct::sample_direct_from;
 use super::Context;
 use crate::accel::{Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
@@ -152,7 +152,7 @@ impl Shading {
     /// One light sample through this point's BSDF, times `beta`, MIS-weighted against BSDF
     /// sampling when `mis` is set (`direct::sample_direct`). An opaque surface is never lit
     /// from behind its geometry, whatever the shading normal says (no light leaking through
-    /// interpolated normals).
+    /// interpolated normals), so the light choice leaves out the lights wholly behind it.
     pub fn light_sample(
         &self,
         ctx: &Context,
@@ -161,13 +161,30 @@ impl Shading {
         rng: &mut Rng,
         rays: &mut u32,
     ) -> Vec3 {
-        sample_direct_on(ctx, &self.sh, self.path, beta, mis, rng, rays, |wi| {
-            if self.opaque && wi.dot(self.ng) <= 0.0 {
-                (Vec3::ZERO, 0.0)
-            } else {
-                self.bsdf.eval_and_pdf(self.frame.to_local(wi))
-            }
-        })
+        let horizon = self.horizon();
+        sample_direct_from(
+            ctx,
+            &self.sh,
+            horizon,
+            self.path,
+            beta,
+            mis,
+            rng,
+            rays,
+            |wi| {
+                if self.opaque && wi.dot(self.ng) <= 0.0 {
+                    (Vec3::ZERO, 0.0)
+                } else {
+                    self.bsdf.eval_and_pdf(self.frame.to_local(wi))
+                }
+            },
+        )
+    }
+
+    /// The normal below which this point scatters no light (`light::Receiver`): an opaque
+    /// surface's geometric normal, turned to the viewer; none for a transmissive one.
+    pub fn horizon(&self) -> Option<Vec3> {
+        self.opaque.then_some(self.ng)
     }
 
     /// The irradiance cache's answer for this point's diffuse lobe; `None` when it has none or

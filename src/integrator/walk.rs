@@ -28,7 +28,7 @@ use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{hit_holdout, hit_mesh, Ray, Visibility};
 use crate::bsdf::{BsdfSample, Scattering};
-use crate::light::emitted_radiance;
+use crate::light::{emitted_radiance, Receiver};
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::rng::Rng;
@@ -74,6 +74,7 @@ impl PathState {
         // Emission seen by the camera ray counts in full.
         let previous = Previous {
             p: ray.origin,
+            horizon: None,
             pdf: 0.0,
             delta: true,
         };
@@ -159,7 +160,7 @@ impl PathState {
         let (beta, previous) = (self.beta, self.previous);
         let passes = &mut self.passes;
         ctx.lights
-            .escaped(previous.p, self.ray.direction, |le, light_pdf| {
+            .escaped(previous.receiver(), self.ray.direction, |le, light_pdf| {
                 passes.add(pass, beta * le * previous.weight(light_pdf));
             });
     }
@@ -170,11 +171,16 @@ impl PathState {
         let pass = self.pass(0);
         let (beta, previous, absorption) = (self.beta, self.previous, self.absorption);
         let passes = &mut self.passes;
-        ctx.lights
-            .lamps_met(&self.ray, previous.p, reach, camera, |le, light_pdf, t| {
+        ctx.lights.lamps_met(
+            &self.ray,
+            previous.receiver(),
+            reach,
+            camera,
+            |le, light_pdf, t| {
                 let through = (-absorption * t).exp();
                 passes.add(pass, beta * through * le * previous.weight(light_pdf));
-            });
+            },
+        );
     }
 
     /// The ray met `s`: its emission, MIS-weighted.
@@ -213,6 +219,7 @@ impl PathState {
         if bs.scattering != Scattering::Transparent {
             self.previous = Previous {
                 p: s.sh.p,
+                horizon: s.horizon(),
                 pdf: bs.pdf,
                 delta: bs.delta || !light_sampled,
             };
@@ -459,14 +466,15 @@ pub fn follow_specular(
             let (beta, absorption) = (chain.beta, chain.absorption);
             let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
             ctx.lights
-                .lamps_met(&ray, ray.origin, reach, false, |l, _, t| {
+                .lamps_met(&ray, Receiver::at(ray.origin), reach, false, |l, _, t| {
                     *le += beta * (-absorption * t).exp() * l;
                 });
         }
         let Some(hit) = hit else {
             if let Some(le) = emission {
                 let beta = chain.beta;
-                ctx.lights.escaped(ray.origin, wi, |l, _| *le += beta * l);
+                ctx.lights
+                    .escaped(Receiver::at(ray.origin), wi, |l, _| *le += beta * l);
             }
             return None;
         };

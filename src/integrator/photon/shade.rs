@@ -192,7 +192,8 @@ impl<'a> Gather<'a> {
             return Vec3::ZERO;
         }
         let ctx = self.ctx;
-        let mut l = sample_direct(ctx, &s.sh, Vec3::ONE, true, rng, &mut self.rays, |wi| {
+        let (horizon, rays) = (s.horizon(), &mut self.rays);
+        let mut l = sample_direct(ctx, &s.sh, horizon, Vec3::ONE, true, rng, rays, |wi| {
             if wi.dot(s.ng) <= 0.0 {
                 return (Vec3::ZERO, 0.0);
             }
@@ -287,7 +288,7 @@ impl<'a> Gather<'a> {
         let mut l = Vec3::ZERO;
         self.ctx
             .lights
-            .lamps_met(ray, previous.p, reach, false, |le, lpdf, t| {
+            .lamps_met(ray, previous.receiver(), reach, false, |le, lpdf, t| {
                 l += (-absorption * t).exp() * le * previous.weight(lpdf);
             });
         l
@@ -304,6 +305,7 @@ impl<'a> Gather<'a> {
     ) -> Result<(Ray, Hit, Previous), Vec3> {
         let previous = Previous {
             p: s.sh.p,
+            horizon: s.horizon(),
             pdf: bs.pdf,
             delta: bs.delta,
         };
@@ -315,7 +317,7 @@ impl<'a> Gather<'a> {
                 let mut l = self.lamps(&ray, None, absorption, &previous);
                 self.ctx
                     .lights
-                    .escaped(previous.p, ray.direction, |le, lpdf| {
+                    .escaped(previous.receiver(), ray.direction, |le, lpdf| {
                         l += le * previous.weight(lpdf)
                     });
                 Err(l)
