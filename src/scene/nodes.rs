@@ -53,7 +53,6 @@
 use super::node_hash::{self, U32x4, W};
 use super::texture::Texture;
 use crate::math::{Mat3, Vec2, Vec3, Vec4};
-use glam::BVec4A;
 use serde_json::Value;
 use std::f32::consts::PI;
 use std::ops::{Add, Div, Mul};
@@ -3305,12 +3304,52 @@ fn grad2(hash: u32, x: f32, y: f32) -> f32 {
     flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
 
-fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
+/// The axes (0 x, 1 y, 2 z) of the two components Perlin's 3D gradient of hash `h & 15`
+/// adds (Cycles' `grad3`: u is x below 8, else y; v is y below 4, x at 12 and 14, else z).
+const GRAD3_AXES: [[usize; 2]; 16] = {
+    let mut axes = [[0; 2]; 16];
+    let mut h = 0;
+    while h < 16 {
+        let u = if h < 8 { 0 } else { 1 };
+        let v = if h < 4 {
+            1
+        } else if h == 12 || h == 14 {
+            0
+        } else {
+            2
+        };
+        axes[h] = [u, v];
+        h += 1;
+    }
+    axes
+};
+
+/// For each lattice corner (index dx + 2 dy + 4 dz) and hash `h & 15`, where `grad3`'s two
+/// components are in a cell's offsets `[fx, fy, fz, fx − 1, fy − 1, fz − 1]`: a table read
+/// instead of three selects per corner.
+const GRAD3_PICKS: [[[u8; 2]; 16]; 8] = {
+    let mut picks = [[[0; 2]; 16]; 8];
+    let mut corner = 0;
+    while corner < 8 {
+        let step = [corner & 1, (corner >> 1) & 1, corner >> 2];
+        let mut h = 0;
+        while h < 16 {
+            let [u, v] = GRAD3_AXES[h];
+            picks[corner][h] = [(u + 3 * step[u]) as u8, (v + 3 * step[v]) as u8];
+            h += 1;
+        }
+        corner += 1;
+    }
+    picks
+};
+
+/// Cycles' `grad3` at lattice corner `corner` of a cell whose offsets from its near corner
+/// are `offsets` (`GRAD3_PICKS`' order): ±u ± v, the signs hash bits 0 and 1.
+#[inline(always)]
+fn grad3(hash: u32, corner: usize, offsets: &[f32; 6]) -> f32 {
     let h = hash & 15;
-    let u = select(h < 8, x, y);
-    let vt = select(h == 12 || h == 14, x, z);
-    let v = select(h < 4, y, vt);
-    flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
+    let [u, v] = GRAD3_PICKS[corner][h as usize];
+    flip_sign(offsets[u as usize], h & 1) + flip_sign(offsets[v as usize], (h >> 1) & 1)
 }
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
@@ -3361,9 +3400,10 @@ fn perlin3(x: f32, y: f32, z: f32) -> f32 {
     let (zi, fz) = floorfrac(z);
     let (u, v, w) = (fade(fx), fade(fy), fade(fz));
     let hashes = corner_hashes(xi, yi, zi);
-    let g = |dx: i32, dy: i32, dz: i32| {
-        let h = hashes[(dx + 2 * dy + 4 * dz) as usize];
-        grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
+    let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
+    let g = |dx: usize, dy: usize, dz: usize| {
+        let corner = dx + 2 * dy + 4 * dz;
+        grad3(hashes[corner], corner, &offsets)
     };
     let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
     z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
@@ -3520,14 +3560,11 @@ fn fade4(t: Vec4) -> Vec4 {
 /// `grad3` for one hash over lanes of points: the hash picks the same components and signs
 /// in every lane (a sign is flipped by multiplying by −1, which is exact).
 #[inline(always)]
-fn grad3_lanes(hash: u32, x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+fn grad3_lanes(hash: u32, corner: usize, offsets: &[Vec4; 6]) -> Vec4 {
     let h = hash & 15;
-    let pick = |c: bool, a: Vec4, b: Vec4| Vec4::select(BVec4A::splat(c), a, b);
-    let u = pick(h < 8, x, y);
-    let vt = pick(h == 12 || h == 14, x, z);
-    let v = pick(h < 4, y, vt);
+    let [u, v] = GRAD3_PICKS[corner][h as usize];
     let sign = |bit: u32| 1.0 - 2.0 * bit as f32;
-    u * sign(h & 1) + v * sign((h >> 1) & 1)
+    offsets[u as usize] * sign(h & 1) + offsets[v as usize] * sign((h >> 1) & 1)
 }
 
 /// `floor` lane by lane for |v| < 2²² (the same values, −0 included): adding and taking
@@ -3552,15 +3589,10 @@ fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
     let h = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
     let (fx, fy, fz) = (x - cx, y - cy, z - cz);
     let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
-    let (gx, gy, gz) = (fx - 1.0, fy - 1.0, fz - 1.0);
-    let g000 = grad3_lanes(h[0], fx, fy, fz);
-    let g100 = grad3_lanes(h[1], gx, fy, fz);
-    let g010 = grad3_lanes(h[2], fx, gy, fz);
-    let g110 = grad3_lanes(h[3], gx, gy, fz);
-    let g001 = grad3_lanes(h[4], fx, fy, gz);
-    let g101 = grad3_lanes(h[5], gx, fy, gz);
-    let g011 = grad3_lanes(h[6], fx, gy, gz);
-    let g111 = grad3_lanes(h[7], gx, gy, gz);
+    let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
+    let g = |corner: usize| grad3_lanes(h[corner], corner, &offsets);
+    let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
+    let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
     let (x1, y1, z1) = (Vec4::ONE - u, Vec4::ONE - v, Vec4::ONE - w);
     let p = z1 * (y1 * (g000 * x1 + g100 * u) + v * (g010 * x1 + g110 * u))
         + w * (y1 * (g001 * x1 + g101 * u) + v * (g011 * x1 + g111 * u));
