@@ -3304,27 +3304,7 @@ fn grad2(hash: u32, x: f32, y: f32) -> f32 {
     flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
 
-/// The axes (0 x, 1 y, 2 z) of the two components Perlin's 3D gradient of hash `h & 15`
-/// adds (Cycles' `grad3`: u is x below 8, else y; v is y below 4, x at 12 and 14, else z).
-const GRAD3_AXES: [[usize; 2]; 16] = {
-    let mut axes = [[0; 2]; 16];
-    let mut h = 0;
-    while h < 16 {
-        let u = if h < 8 { 0 } else { 1 };
-        let v = if h < 4 {
-            1
-        } else if h == 12 || h == 14 {
-            0
-        } else {
-            2
-        };
-        axes[h] = [u, v];
-        h += 1;
-    }
-    axes
-};
-
-/// For each lattice corner (index dx + 2 dy + 4 dz) and hash `h & 15`, where `grad3`'s two
+/// For each lattice corner (index dx + 2 dy + 4 dz) and hash `h & 15`, where Perlin's gradient's two
 /// components are in a cell's offsets `[fx, fy, fz, fx − 1, fy − 1, fz − 1]`: a table read
 /// instead of three selects per corner.
 const GRAD3_PICKS: [[[u8; 2]; 16]; 8] = {
@@ -3334,7 +3314,7 @@ const GRAD3_PICKS: [[[u8; 2]; 16]; 8] = {
         let step = [corner & 1, (corner >> 1) & 1, corner >> 2];
         let mut h = 0;
         while h < 16 {
-            let [u, v] = GRAD3_AXES[h];
+            let [u, v] = node_hash::GRAD3_AXES[h];
             picks[corner][h] = [(u + 3 * step[u]) as u8, (v + 3 * step[v]) as u8];
             h += 1;
         }
@@ -3342,15 +3322,6 @@ const GRAD3_PICKS: [[[u8; 2]; 16]; 8] = {
     }
     picks
 };
-
-/// Cycles' `grad3` at lattice corner `corner` of a cell whose offsets from its near corner
-/// are `offsets` (`GRAD3_PICKS`' order): ±u ± v, the signs hash bits 0 and 1.
-#[inline(always)]
-fn grad3(hash: u32, corner: usize, offsets: &[f32; 6]) -> f32 {
-    let h = hash & 15;
-    let [u, v] = GRAD3_PICKS[corner][h as usize];
-    flip_sign(offsets[u as usize], h & 1) + flip_sign(offsets[v as usize], (h >> 1) & 1)
-}
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
     (1.0 - t) * a + t * b
@@ -3380,18 +3351,16 @@ fn perlin2(x: f32, y: f32) -> f32 {
 }
 
 /// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), four at a time
-/// (`node_hash::U32x4`): the near face's corners, then the far face's.
-fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [u32; 8] {
+/// (`node_hash::U32x4`): the near face's corners (dz = 0), then the far face's.
+fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [U32x4; 2] {
     let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
     let (x0, y0, z0) = (xi as u32, yi as u32, zi as u32);
     let a = U32x4::new([x0, x0.wrapping_add(1), x0, x0.wrapping_add(1)]);
     let b = U32x4::new([y0, y0, y0.wrapping_add(1), y0.wrapping_add(1)]);
     let (a, b) = (a + U32x4::splat(s), b + U32x4::splat(s));
-    let near = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0))).to_array();
-    let far = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0).wrapping_add(1))).to_array();
-    [
-        near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
-    ]
+    let near = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0)));
+    let far = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0).wrapping_add(1)));
+    [near, far]
 }
 
 fn perlin3(x: f32, y: f32, z: f32) -> f32 {
@@ -3399,15 +3368,18 @@ fn perlin3(x: f32, y: f32, z: f32) -> f32 {
     let (yi, fy) = floorfrac(y);
     let (zi, fz) = floorfrac(z);
     let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-    let hashes = corner_hashes(xi, yi, zi);
-    let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
-    let g = |dx: usize, dy: usize, dz: usize| {
-        let corner = dx + 2 * dy + 4 * dz;
-        grad3(hashes[corner], corner, &offsets)
-    };
+    let [near, far] = corner_hashes(xi, yi, zi);
+    // A face's four corners as lanes (dx + 2 dy), each lane the scalar code's operations:
+    // z1 · (y1 · (g000 · x1 + g100 · u) + v · (g010 · x1 + g110 · u)) + w · (same, far face).
+    let (gx, gy) = (fx - 1.0, fy - 1.0);
+    let (xs, ys) = (Vec4::new(fx, gx, fx, gx), Vec4::new(fy, fy, gy, gy));
     let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
-    z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
-        + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
+    let along_x = Vec4::new(x1, u, x1, u);
+    let n = near.grad3(xs, ys, Vec4::splat(fz)) * along_x;
+    let f = far.grad3(xs, ys, Vec4::splat(fz - 1.0)) * along_x;
+    let rows = Vec4::new(n.x, n.z, f.x, f.z) + Vec4::new(n.y, n.w, f.y, f.w);
+    let faces = rows * Vec4::new(y1, v, y1, v);
+    z1 * (faces.x + faces.y) + w * (faces.z + faces.w)
 }
 
 /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`: each
@@ -3586,7 +3558,11 @@ fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
         let n = |k: usize| snoise(3, Vec3::new(xs[k], ys[k], zs[k]), 0.0);
         return lanes([n(0), n(1), n(2)]);
     }
-    let h = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
+    let [near, far] = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
+    let (near, far) = (near.to_array(), far.to_array());
+    let h = [
+        near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
+    ];
     let (fx, fy, fz) = (x - cx, y - cy, z - cz);
     let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
     let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
