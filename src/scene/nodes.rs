@@ -664,6 +664,10 @@ struct Instr {
     offset: u8,
     /// Bit k: output k is read by some instruction (unread outputs may be skipped).
     used: u32,
+    /// When every input is a register or a constant: the register each input reads, the
+    /// constants' in `NodeProgram::constants` (`fold_constants`), so reading an input is one
+    /// load instead of a match on its `Src`.
+    regs_in: Option<Box<[u16]>>,
 }
 
 /// A compiled node tree.
@@ -671,6 +675,8 @@ struct Instr {
 pub struct NodeProgram {
     instrs: Vec<Instr>,
     registers: usize,
+    /// The constant inputs, put in the registers after the first `registers` before each run.
+    constants: Vec<Vec4>,
     closures: usize,
     output: Src,
     /// True when some node emits (the material is a light candidate).
@@ -1784,6 +1790,7 @@ fn compile_tree(
             out: out as u16,
             offset: 0,
             used: u32::MAX,
+            regs_in: None,
         });
     }
     let output = match ext.get("output") {
@@ -1837,7 +1844,8 @@ fn compile_tree(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
-    let instrs = fuse_bump_noise(instrs, &anchors);
+    let mut instrs = fuse_bump_noise(instrs, &anchors);
+    let constants = fold_constants(&mut instrs, registers);
     let light_path_reads = instrs
         .iter()
         .filter(|i| i.op == Op::LightPath)
@@ -1854,6 +1862,7 @@ fn compile_tree(
     Ok(NodeProgram {
         instrs,
         registers,
+        constants,
         closures,
         output,
         emits,
@@ -1863,6 +1872,38 @@ fn compile_tree(
         shadow_transparent,
         displacement: None,
     })
+}
+
+/// Sets `regs_in` of each instruction whose inputs are all registers or constants, the
+/// constants (equal ones shared) numbered from register `registers` on as long as they fit
+/// in `MAX_REGISTERS`; returns the constants in register order.
+fn fold_constants(instrs: &mut [Instr], registers: usize) -> Vec<Vec4> {
+    let mut constants: Vec<Vec4> = Vec::new();
+    for instr in instrs.iter_mut() {
+        let mut regs = Vec::with_capacity(instr.ins.len());
+        for s in &instr.ins {
+            let r = match *s {
+                Src::Reg(r) => r as usize,
+                Src::Const(v) => {
+                    let bits = |c: &Vec4| c.to_array().map(f32::to_bits);
+                    match constants.iter().position(|c| bits(c) == bits(&v)) {
+                        Some(k) => registers + k,
+                        None if registers + constants.len() < MAX_REGISTERS => {
+                            constants.push(v);
+                            registers + constants.len() - 1
+                        }
+                        None => break,
+                    }
+                }
+                _ => break,
+            };
+            regs.push(r as u16);
+        }
+        if regs.len() == instr.ins.len() {
+            instr.regs_in = Some(regs.into_boxed_slice());
+        }
+    }
+    constants
 }
 
 /// Each of a Bump's offset copies moved to just after the instruction it copies (valid: a
@@ -1902,6 +1943,7 @@ fn fuse_bump_noise(instrs: Vec<Instr>, anchors: &[usize]) -> Vec<Instr> {
                     out: t[0].1.out,
                     offset: 0,
                     used: t[0].1.used | t[1].1.used | t[2].1.used,
+                    regs_in: None,
                 });
                 k += 3;
             }
@@ -1936,6 +1978,8 @@ impl Machine {
         MACHINE.with(|cell| {
             let mut m = cell.borrow_mut();
             m.regs[..program.registers].fill(Vec4::ZERO);
+            let end = program.registers + program.constants.len();
+            m.regs[program.registers..end].copy_from_slice(&program.constants);
             m.closures[..program.closures].fill(Closure::BLACK);
             run(&mut m)
         })
@@ -2026,6 +2070,15 @@ fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
     }
 }
 
+/// Input `k` of `instr` at the shading point `at`.
+#[inline(always)]
+fn operand(m: &Machine, at: &ShadingInputs, instr: &Instr, k: usize) -> Vec4 {
+    match &instr.regs_in {
+        Some(regs) => m.regs[regs[k] as usize],
+        None => load(m, at, instr.ins[k]),
+    }
+}
+
 fn uv_value(at: &ShadingInputs, set: u8) -> Vec4 {
     let uv = at.uv[set as usize];
     Vec4::new(uv.x, uv.y, 0.0, 1.0)
@@ -2063,7 +2116,7 @@ fn run(
 ) {
     let at = &points[instr.offset as usize];
     let ins = &instr.ins;
-    let get = |m: &Machine, k: usize| load(m, at, ins[k]);
+    let get = |m: &Machine, k: usize| operand(m, at, instr, k);
     let o = instr.out as usize;
     match &instr.op {
         Op::TexCoord { uv_set } => {
@@ -2253,9 +2306,9 @@ fn run(
             used,
         } => {
             let input = |k: usize| {
-                let g = |j: usize| load(m, &points[k], ins[9 * k + j]).x;
+                let g = |j: usize| operand(m, &points[k], instr, 9 * k + j).x;
                 let scale = g(2);
-                let p = load(m, &points[k], ins[9 * k]).truncate() * scale;
+                let p = operand(m, &points[k], instr, 9 * k).truncate() * scale;
                 let f = Fractal {
                     detail: g(3).clamp(0.0, 15.0),
                     roughness: g(4).max(0.0),
