@@ -666,8 +666,9 @@ struct Instr {
     used: u32,
     /// When every input is a register or a constant: the register each input reads, the
     /// constants' in `NodeProgram::constants` (`fold_constants`), so reading an input is one
-    /// load instead of a match on its `Src`.
-    regs_in: Option<Box<[u16]>>,
+    /// load instead of a match on its `Src`. A `u8` indexes every register
+    /// (`MAX_REGISTERS` is 256), so the load needs no bounds check.
+    regs_in: Option<Box<[u8]>>,
 }
 
 /// A compiled node tree.
@@ -1878,6 +1879,7 @@ fn compile_tree(
 /// constants (equal ones shared) numbered from register `registers` on as long as they fit
 /// in `MAX_REGISTERS`; returns the constants in register order.
 fn fold_constants(instrs: &mut [Instr], registers: usize) -> Vec<Vec4> {
+    const _: () = assert!(MAX_REGISTERS == 256, "register indices are u8");
     let mut constants: Vec<Vec4> = Vec::new();
     for instr in instrs.iter_mut() {
         let mut regs = Vec::with_capacity(instr.ins.len());
@@ -1897,7 +1899,7 @@ fn fold_constants(instrs: &mut [Instr], registers: usize) -> Vec<Vec4> {
                 }
                 _ => break,
             };
-            regs.push(r as u16);
+            regs.push(r as u8);
         }
         if regs.len() == instr.ins.len() {
             instr.regs_in = Some(regs.into_boxed_slice());
