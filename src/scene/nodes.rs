@@ -4153,21 +4153,25 @@ fn nearest_point_euclidean_3d(
     let done = first.iter().fold(0u32, |m, (i, _)| m | 1 << i);
     let mut batch = [first[0]; 4];
     let mut queued = 0;
-    for &(index, [i, j, k]) in &NEAREST_FIRST_3D {
-        let index = index as usize;
+    // Squared, without the root (the bound's margin covers the rounding); it changes only
+    // when a batch finds a nearer point.
+    let limit = |nearest: f32| {
+        let bound = nearest * (1.0 + 1e-6);
+        bound * bound
+    };
+    let mut far = limit(nearest.0);
+    for &(index, [a, b, c], offset) in &NEAREST_FIRST_3D_BOXES {
         if done >> index & 1 != 0 {
             continue;
         }
-        // Squared, without the root (the bound's margin covers the rounding).
-        let bound = nearest.0 * (1.0 + 1e-6);
-        let [a, b, c] = [i, j, k].map(|o| (o + 1) as usize);
-        if gap2[0][a] + gap2[1][b] + gap2[2][c] > bound * bound {
+        if gap2[0][a] + gap2[1][b] + gap2[2][c] > far {
             continue;
         }
-        batch[queued] = (index, Vec3::new(i as f32, j as f32, k as f32));
+        batch[queued] = (index, offset);
         queued += 1;
         if queued == 4 {
             nearest_of_four(&batch, cell, local, randomness, &mut nearest);
+            far = limit(nearest.0);
             queued = 0;
         }
     }
@@ -4238,6 +4242,23 @@ const fn nearest_first<const N: usize>(dims: usize) -> [(u8, [i8; 3]); N] {
 
 const NEAREST_FIRST_2D: [(u8, [i8; 3]); 9] = nearest_first::<9>(2);
 const NEAREST_FIRST_3D: [(u8, [i8; 3]); 27] = nearest_first::<27>(3);
+
+/// `NEAREST_FIRST_3D` as the 3D Euclidean search reads it: (index, the offset's per-axis
+/// indices into the box gaps (offset + 1), offset).
+const NEAREST_FIRST_3D_BOXES: [(usize, [usize; 3], Vec3); 27] = {
+    let mut boxes = [(0, [0; 3], Vec3::ZERO); 27];
+    let mut n = 0;
+    while n < 27 {
+        let (index, [i, j, k]) = NEAREST_FIRST_3D[n];
+        boxes[n] = (
+            index as usize,
+            [(i + 1) as usize, (j + 1) as usize, (k + 1) as usize],
+            Vec3::new(i as f32, j as f32, k as f32),
+        );
+        n += 1;
+    }
+    boxes
+};
 
 /// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
 /// Without `color` the F1 colour is not computed (zero).
