@@ -3590,9 +3590,23 @@ fn fade4(t: Vec4) -> Vec4 {
 fn grad3_lanes(hash: u32, corner: usize, offsets: &[Vec4; 6]) -> Vec4 {
     let h = hash & 15;
     let [u, v] = GRAD3_PICKS[corner][h as usize];
-    let sign = |bit: u32| 1.0 - 2.0 * bit as f32;
-    offsets[u as usize] * sign(h & 1) + offsets[v as usize] * sign((h >> 1) & 1)
+    let [su, sv] = GRAD3_SIGNS[h as usize];
+    offsets[u as usize] * su + offsets[v as usize] * sv
 }
+
+/// The signs of `grad3`'s two components for hash `h & 15`: hash bits 0 and 1.
+const GRAD3_SIGNS: [[f32; 2]; 16] = {
+    let mut signs = [[1.0; 2]; 16];
+    let mut h = 0;
+    while h < 16 {
+        signs[h] = [
+            if h & 1 != 0 { -1.0 } else { 1.0 },
+            if h & 2 != 0 { -1.0 } else { 1.0 },
+        ];
+        h += 1;
+    }
+    signs
+};
 
 /// `floor` lane by lane for |v| < 2²² (the same values, −0 included): adding and taking
 /// away 1.5 · 2²³ rounds to an integer.
