@@ -3,7 +3,8 @@
 //! one value or for four at once. `U32x4` holds four lanes in one SSE2 register on x86-64
 //! (plain arrays elsewhere): the compiler does not vectorise the hash's rotations by itself,
 //! and Perlin noise's eight lattice corners and the Voronoi search's cells are hashed four at
-//! a time. Every lane computes exactly the scalar hash.
+//! a time. Every lane computes exactly the scalar hash. `U32x4::grad3` turns four corners'
+//! hashes into Perlin's gradients the same way, lane by lane.
 
 use std::ops::{Add, BitXor, Sub};
 
@@ -93,6 +94,7 @@ pub fn finish<T: HashWord>(mut a: T, mut b: T, mut c: T) -> T {
 
 #[cfg(target_arch = "x86_64")]
 mod lanes {
+    use crate::math::Vec4;
     use std::arch::x86_64::*;
 
     /// Four 32-bit words in one SSE2 register (SSE2 is part of every x86-64).
@@ -148,6 +150,35 @@ mod lanes {
         }
     }
 
+    impl U32x4 {
+        /// Perlin's 3D gradient (`super::GRAD3_AXES`, the signs hash bits 0 and 1) of each
+        /// lane's hash at that lane's offset (x, y, z): masks and a flip of the sign bit, as
+        /// the scalar code's selects and negation.
+        #[inline(always)]
+        pub fn grad3(self, x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+            // SAFETY: SSE2 is always present on x86-64.
+            unsafe {
+                let h = _mm_and_si128(self.0, _mm_set1_epi32(15));
+                let mask = |m: __m128i| _mm_castsi128_ps(m);
+                let pick = |m: __m128, a: __m128, b: __m128| {
+                    _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b))
+                };
+                let (x, y, z): (__m128, __m128, __m128) = (x.into(), y.into(), z.into());
+                let below8 = mask(_mm_cmplt_epi32(h, _mm_set1_epi32(8)));
+                let below4 = mask(_mm_cmplt_epi32(h, _mm_set1_epi32(4)));
+                let v_is_x = mask(_mm_or_si128(
+                    _mm_cmpeq_epi32(h, _mm_set1_epi32(12)),
+                    _mm_cmpeq_epi32(h, _mm_set1_epi32(14)),
+                ));
+                let u = pick(below8, x, y);
+                let v = pick(below4, y, pick(v_is_x, x, z));
+                let sign_u = mask(_mm_slli_epi32::<31>(_mm_and_si128(h, _mm_set1_epi32(1))));
+                let sign_v = mask(_mm_slli_epi32::<30>(_mm_and_si128(h, _mm_set1_epi32(2))));
+                Vec4::from(_mm_add_ps(_mm_xor_ps(u, sign_u), _mm_xor_ps(v, sign_v)))
+            }
+        }
+    }
+
     impl super::HashWord for U32x4 {
         #[inline(always)]
         fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
@@ -164,6 +195,8 @@ mod lanes {
 
 #[cfg(not(target_arch = "x86_64"))]
 mod lanes {
+    use crate::math::Vec4;
+
     /// Four 32-bit words, lane by lane.
     #[derive(Clone, Copy, Debug)]
     pub struct U32x4([u32; 4]);
@@ -179,6 +212,19 @@ mod lanes {
 
         pub fn to_array(self) -> [u32; 4] {
             self.0
+        }
+
+        /// Perlin's 3D gradient (`super::GRAD3_AXES`, the signs hash bits 0 and 1) of each
+        /// lane's hash at that lane's offset (x, y, z).
+        pub fn grad3(self, x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+            let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
+            Vec4::from_array([0, 1, 2, 3].map(|k| {
+                let h = self.0[k] & 15;
+                let [a, b] = super::GRAD3_AXES[h as usize];
+                let axis = [x[k], y[k], z[k]];
+                let flip = |v: f32, bit: u32| f32::from_bits(v.to_bits() ^ (bit << 31));
+                flip(axis[a], h & 1) + flip(axis[b], (h >> 1) & 1)
+            }))
         }
 
         fn zip(self, o: U32x4, f: impl Fn(u32, u32) -> u32) -> U32x4 {
@@ -216,9 +262,30 @@ mod lanes {
 
 pub use lanes::U32x4;
 
+/// The axes (0 x, 1 y, 2 z) of the two components Perlin's 3D gradient of hash `h & 15`
+/// adds (Cycles' `grad3`: u is x below 8, else y; v is y below 4, x at 12 and 14, else z).
+pub const GRAD3_AXES: [[usize; 2]; 16] = {
+    let mut axes = [[0; 2]; 16];
+    let mut h = 0;
+    while h < 16 {
+        let u = if h < 8 { 0 } else { 1 };
+        let v = if h < 4 {
+            1
+        } else if h == 12 || h == 14 {
+            0
+        } else {
+            2
+        };
+        axes[h] = [u, v];
+        h += 1;
+    }
+    axes
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vec4;
 
     #[test]
     fn four_lanes_hash_as_four_words() {
@@ -239,5 +306,33 @@ mod tests {
             }
         }
         assert_eq!(U32x4::splat(7).to_array(), [7; 4]);
+    }
+
+    #[test]
+    fn four_lanes_gradients_as_cycles_grad3() {
+        let (x, y, z) = (
+            Vec4::new(0.25, -0.0, 1.5, -2.0),
+            Vec4::new(-0.5, 0.75, 0.0, 3.0),
+            Vec4::new(0.125, -1.0, -0.0, 0.5),
+        );
+        for h in 0..64u32 {
+            let lanes = U32x4::new([h, h + 5, h * 7, h + 13]);
+            let got = lanes.grad3(x, y, z).to_array();
+            for (k, hash) in lanes.to_array().into_iter().enumerate() {
+                // Cycles' grad3, with its branches.
+                let h = hash & 15;
+                let (px, py, pz) = (x[k], y[k], z[k]);
+                let u = if h < 8 { px } else { py };
+                let v = if h < 4 {
+                    py
+                } else if h == 12 || h == 14 {
+                    px
+                } else {
+                    pz
+                };
+                let want = (if h & 1 != 0 { -u } else { u }) + (if h & 2 != 0 { -v } else { v });
+                assert_eq!(got[k].to_bits(), want.to_bits(), "hash {hash}");
+            }
+        }
     }
 }

@@ -53,7 +53,6 @@
 use super::node_hash::{self, U32x4, W};
 use super::texture::Texture;
 use crate::math::{Mat3, Vec2, Vec3, Vec4};
-use glam::BVec4A;
 use serde_json::Value;
 use std::f32::consts::PI;
 use std::ops::{Add, Div, Mul};
@@ -665,6 +664,11 @@ struct Instr {
     offset: u8,
     /// Bit k: output k is read by some instruction (unread outputs may be skipped).
     used: u32,
+    /// When every input is a register or a constant: the register each input reads, the
+    /// constants' in `NodeProgram::constants` (`fold_constants`), so reading an input is one
+    /// load instead of a match on its `Src`. A `u8` indexes every register
+    /// (`MAX_REGISTERS` is 256), so the load needs no bounds check.
+    regs_in: Option<Box<[u8]>>,
 }
 
 /// A compiled node tree.
@@ -672,6 +676,8 @@ struct Instr {
 pub struct NodeProgram {
     instrs: Vec<Instr>,
     registers: usize,
+    /// The constant inputs, put in the registers after the first `registers` before each run.
+    constants: Vec<Vec4>,
     closures: usize,
     output: Src,
     /// True when some node emits (the material is a light candidate).
@@ -1785,6 +1791,7 @@ fn compile_tree(
             out: out as u16,
             offset: 0,
             used: u32::MAX,
+            regs_in: None,
         });
     }
     let output = match ext.get("output") {
@@ -1838,7 +1845,8 @@ fn compile_tree(
                 .fold(0, |mask, k| mask | 1 << k);
         }
     }
-    let instrs = fuse_bump_noise(instrs, &anchors);
+    let mut instrs = fuse_bump_noise(instrs, &anchors);
+    let constants = fold_constants(&mut instrs, registers);
     let light_path_reads = instrs
         .iter()
         .filter(|i| i.op == Op::LightPath)
@@ -1855,6 +1863,7 @@ fn compile_tree(
     Ok(NodeProgram {
         instrs,
         registers,
+        constants,
         closures,
         output,
         emits,
@@ -1864,6 +1873,39 @@ fn compile_tree(
         shadow_transparent,
         displacement: None,
     })
+}
+
+/// Sets `regs_in` of each instruction whose inputs are all registers or constants, the
+/// constants (equal ones shared) numbered from register `registers` on as long as they fit
+/// in `MAX_REGISTERS`; returns the constants in register order.
+fn fold_constants(instrs: &mut [Instr], registers: usize) -> Vec<Vec4> {
+    const _: () = assert!(MAX_REGISTERS == 256, "register indices are u8");
+    let mut constants: Vec<Vec4> = Vec::new();
+    for instr in instrs.iter_mut() {
+        let mut regs = Vec::with_capacity(instr.ins.len());
+        for s in &instr.ins {
+            let r = match *s {
+                Src::Reg(r) => r as usize,
+                Src::Const(v) => {
+                    let bits = |c: &Vec4| c.to_array().map(f32::to_bits);
+                    match constants.iter().position(|c| bits(c) == bits(&v)) {
+                        Some(k) => registers + k,
+                        None if registers + constants.len() < MAX_REGISTERS => {
+                            constants.push(v);
+                            registers + constants.len() - 1
+                        }
+                        None => break,
+                    }
+                }
+                _ => break,
+            };
+            regs.push(r as u8);
+        }
+        if regs.len() == instr.ins.len() {
+            instr.regs_in = Some(regs.into_boxed_slice());
+        }
+    }
+    constants
 }
 
 /// Each of a Bump's offset copies moved to just after the instruction it copies (valid: a
@@ -1903,6 +1945,7 @@ fn fuse_bump_noise(instrs: Vec<Instr>, anchors: &[usize]) -> Vec<Instr> {
                     out: t[0].1.out,
                     offset: 0,
                     used: t[0].1.used | t[1].1.used | t[2].1.used,
+                    regs_in: None,
                 });
                 k += 3;
             }
@@ -1937,6 +1980,8 @@ impl Machine {
         MACHINE.with(|cell| {
             let mut m = cell.borrow_mut();
             m.regs[..program.registers].fill(Vec4::ZERO);
+            let end = program.registers + program.constants.len();
+            m.regs[program.registers..end].copy_from_slice(&program.constants);
             m.closures[..program.closures].fill(Closure::BLACK);
             run(&mut m)
         })
@@ -2027,6 +2072,15 @@ fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
     }
 }
 
+/// Input `k` of `instr` at the shading point `at`.
+#[inline(always)]
+fn operand(m: &Machine, at: &ShadingInputs, instr: &Instr, k: usize) -> Vec4 {
+    match &instr.regs_in {
+        Some(regs) => m.regs[regs[k] as usize],
+        None => load(m, at, instr.ins[k]),
+    }
+}
+
 fn uv_value(at: &ShadingInputs, set: u8) -> Vec4 {
     let uv = at.uv[set as usize];
     Vec4::new(uv.x, uv.y, 0.0, 1.0)
@@ -2064,7 +2118,7 @@ fn run(
 ) {
     let at = &points[instr.offset as usize];
     let ins = &instr.ins;
-    let get = |m: &Machine, k: usize| load(m, at, ins[k]);
+    let get = |m: &Machine, k: usize| operand(m, at, instr, k);
     let o = instr.out as usize;
     match &instr.op {
         Op::TexCoord { uv_set } => {
@@ -2254,9 +2308,9 @@ fn run(
             used,
         } => {
             let input = |k: usize| {
-                let g = |j: usize| load(m, &points[k], ins[9 * k + j]).x;
+                let g = |j: usize| operand(m, &points[k], instr, 9 * k + j).x;
                 let scale = g(2);
-                let p = load(m, &points[k], ins[9 * k]).truncate() * scale;
+                let p = operand(m, &points[k], instr, 9 * k).truncate() * scale;
                 let f = Fractal {
                     detail: g(3).clamp(0.0, 15.0),
                     roughness: g(4).max(0.0),
@@ -3305,13 +3359,24 @@ fn grad2(hash: u32, x: f32, y: f32) -> f32 {
     flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
 
-fn grad3(hash: u32, x: f32, y: f32, z: f32) -> f32 {
-    let h = hash & 15;
-    let u = select(h < 8, x, y);
-    let vt = select(h == 12 || h == 14, x, z);
-    let v = select(h < 4, y, vt);
-    flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
-}
+/// For each lattice corner (index dx + 2 dy + 4 dz) and hash `h & 15`, where Perlin's gradient's two
+/// components are in a cell's offsets `[fx, fy, fz, fx − 1, fy − 1, fz − 1]`: a table read
+/// instead of three selects per corner.
+const GRAD3_PICKS: [[[u8; 2]; 16]; 8] = {
+    let mut picks = [[[0; 2]; 16]; 8];
+    let mut corner = 0;
+    while corner < 8 {
+        let step = [corner & 1, (corner >> 1) & 1, corner >> 2];
+        let mut h = 0;
+        while h < 16 {
+            let [u, v] = node_hash::GRAD3_AXES[h];
+            picks[corner][h] = [(u + 3 * step[u]) as u8, (v + 3 * step[v]) as u8];
+            h += 1;
+        }
+        corner += 1;
+    }
+    picks
+};
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
     (1.0 - t) * a + t * b
@@ -3341,18 +3406,16 @@ fn perlin2(x: f32, y: f32) -> f32 {
 }
 
 /// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), four at a time
-/// (`node_hash::U32x4`): the near face's corners, then the far face's.
-fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [u32; 8] {
+/// (`node_hash::U32x4`): the near face's corners (dz = 0), then the far face's.
+fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [U32x4; 2] {
     let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
     let (x0, y0, z0) = (xi as u32, yi as u32, zi as u32);
     let a = U32x4::new([x0, x0.wrapping_add(1), x0, x0.wrapping_add(1)]);
     let b = U32x4::new([y0, y0, y0.wrapping_add(1), y0.wrapping_add(1)]);
     let (a, b) = (a + U32x4::splat(s), b + U32x4::splat(s));
-    let near = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0))).to_array();
-    let far = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0).wrapping_add(1))).to_array();
-    [
-        near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
-    ]
+    let near = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0)));
+    let far = node_hash::finish(a, b, U32x4::splat(s.wrapping_add(z0).wrapping_add(1)));
+    [near, far]
 }
 
 fn perlin3(x: f32, y: f32, z: f32) -> f32 {
@@ -3360,14 +3423,18 @@ fn perlin3(x: f32, y: f32, z: f32) -> f32 {
     let (yi, fy) = floorfrac(y);
     let (zi, fz) = floorfrac(z);
     let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-    let hashes = corner_hashes(xi, yi, zi);
-    let g = |dx: i32, dy: i32, dz: i32| {
-        let h = hashes[(dx + 2 * dy + 4 * dz) as usize];
-        grad3(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
-    };
+    let [near, far] = corner_hashes(xi, yi, zi);
+    // A face's four corners as lanes (dx + 2 dy), each lane the scalar code's operations:
+    // z1 · (y1 · (g000 · x1 + g100 · u) + v · (g010 · x1 + g110 · u)) + w · (same, far face).
+    let (gx, gy) = (fx - 1.0, fy - 1.0);
+    let (xs, ys) = (Vec4::new(fx, gx, fx, gx), Vec4::new(fy, fy, gy, gy));
     let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
-    z1 * (y1 * (g(0, 0, 0) * x1 + g(1, 0, 0) * u) + v * (g(0, 1, 0) * x1 + g(1, 1, 0) * u))
-        + w * (y1 * (g(0, 0, 1) * x1 + g(1, 0, 1) * u) + v * (g(0, 1, 1) * x1 + g(1, 1, 1) * u))
+    let along_x = Vec4::new(x1, u, x1, u);
+    let n = near.grad3(xs, ys, Vec4::splat(fz)) * along_x;
+    let f = far.grad3(xs, ys, Vec4::splat(fz - 1.0)) * along_x;
+    let rows = Vec4::new(n.x, n.z, f.x, f.z) + Vec4::new(n.y, n.w, f.y, f.w);
+    let faces = rows * Vec4::new(y1, v, y1, v);
+    z1 * (faces.x + faces.y) + w * (faces.z + faces.w)
 }
 
 /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`: each
@@ -3520,15 +3587,26 @@ fn fade4(t: Vec4) -> Vec4 {
 /// `grad3` for one hash over lanes of points: the hash picks the same components and signs
 /// in every lane (a sign is flipped by multiplying by −1, which is exact).
 #[inline(always)]
-fn grad3_lanes(hash: u32, x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+fn grad3_lanes(hash: u32, corner: usize, offsets: &[Vec4; 6]) -> Vec4 {
     let h = hash & 15;
-    let pick = |c: bool, a: Vec4, b: Vec4| Vec4::select(BVec4A::splat(c), a, b);
-    let u = pick(h < 8, x, y);
-    let vt = pick(h == 12 || h == 14, x, z);
-    let v = pick(h < 4, y, vt);
-    let sign = |bit: u32| 1.0 - 2.0 * bit as f32;
-    u * sign(h & 1) + v * sign((h >> 1) & 1)
+    let [u, v] = GRAD3_PICKS[corner][h as usize];
+    let [su, sv] = GRAD3_SIGNS[h as usize];
+    offsets[u as usize] * su + offsets[v as usize] * sv
 }
+
+/// The signs of `grad3`'s two components for hash `h & 15`: hash bits 0 and 1.
+const GRAD3_SIGNS: [[f32; 2]; 16] = {
+    let mut signs = [[1.0; 2]; 16];
+    let mut h = 0;
+    while h < 16 {
+        signs[h] = [
+            if h & 1 != 0 { -1.0 } else { 1.0 },
+            if h & 2 != 0 { -1.0 } else { 1.0 },
+        ];
+        h += 1;
+    }
+    signs
+};
 
 /// `floor` lane by lane for |v| < 2²² (the same values, −0 included): adding and taking
 /// away 1.5 · 2²³ rounds to an integer.
@@ -3549,18 +3627,17 @@ fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
         let n = |k: usize| snoise(3, Vec3::new(xs[k], ys[k], zs[k]), 0.0);
         return lanes([n(0), n(1), n(2)]);
     }
-    let h = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
+    let [near, far] = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
+    let (near, far) = (near.to_array(), far.to_array());
+    let h = [
+        near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
+    ];
     let (fx, fy, fz) = (x - cx, y - cy, z - cz);
     let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
-    let (gx, gy, gz) = (fx - 1.0, fy - 1.0, fz - 1.0);
-    let g000 = grad3_lanes(h[0], fx, fy, fz);
-    let g100 = grad3_lanes(h[1], gx, fy, fz);
-    let g010 = grad3_lanes(h[2], fx, gy, fz);
-    let g110 = grad3_lanes(h[3], gx, gy, fz);
-    let g001 = grad3_lanes(h[4], fx, fy, gz);
-    let g101 = grad3_lanes(h[5], gx, fy, gz);
-    let g011 = grad3_lanes(h[6], fx, gy, gz);
-    let g111 = grad3_lanes(h[7], gx, gy, gz);
+    let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
+    let g = |corner: usize| grad3_lanes(h[corner], corner, &offsets);
+    let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
+    let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
     let (x1, y1, z1) = (Vec4::ONE - u, Vec4::ONE - v, Vec4::ONE - w);
     let p = z1 * (y1 * (g000 * x1 + g100 * u) + v * (g010 * x1 + g110 * u))
         + w * (y1 * (g001 * x1 + g101 * u) + v * (g011 * x1 + g111 * u));
@@ -4090,21 +4167,25 @@ fn nearest_point_euclidean_3d(
     let done = first.iter().fold(0u32, |m, (i, _)| m | 1 << i);
     let mut batch = [first[0]; 4];
     let mut queued = 0;
-    for &(index, [i, j, k]) in &NEAREST_FIRST_3D {
-        let index = index as usize;
+    // Squared, without the root (the bound's margin covers the rounding); it changes only
+    // when a batch finds a nearer point.
+    let limit = |nearest: f32| {
+        let bound = nearest * (1.0 + 1e-6);
+        bound * bound
+    };
+    let mut far = limit(nearest.0);
+    for &(index, [a, b, c], offset) in &NEAREST_FIRST_3D_BOXES {
         if done >> index & 1 != 0 {
             continue;
         }
-        // Squared, without the root (the bound's margin covers the rounding).
-        let bound = nearest.0 * (1.0 + 1e-6);
-        let [a, b, c] = [i, j, k].map(|o| (o + 1) as usize);
-        if gap2[0][a] + gap2[1][b] + gap2[2][c] > bound * bound {
+        if gap2[0][a] + gap2[1][b] + gap2[2][c] > far {
             continue;
         }
-        batch[queued] = (index, Vec3::new(i as f32, j as f32, k as f32));
+        batch[queued] = (index, offset);
         queued += 1;
         if queued == 4 {
             nearest_of_four(&batch, cell, local, randomness, &mut nearest);
+            far = limit(nearest.0);
             queued = 0;
         }
     }
@@ -4175,6 +4256,23 @@ const fn nearest_first<const N: usize>(dims: usize) -> [(u8, [i8; 3]); N] {
 
 const NEAREST_FIRST_2D: [(u8, [i8; 3]); 9] = nearest_first::<9>(2);
 const NEAREST_FIRST_3D: [(u8, [i8; 3]); 27] = nearest_first::<27>(3);
+
+/// `NEAREST_FIRST_3D` as the 3D Euclidean search reads it: (index, the offset's per-axis
+/// indices into the box gaps (offset + 1), offset).
+const NEAREST_FIRST_3D_BOXES: [(usize, [usize; 3], Vec3); 27] = {
+    let mut boxes = [(0, [0; 3], Vec3::ZERO); 27];
+    let mut n = 0;
+    while n < 27 {
+        let (index, [i, j, k]) = NEAREST_FIRST_3D[n];
+        boxes[n] = (
+            index as usize,
+            [(i + 1) as usize, (j + 1) as usize, (k + 1) as usize],
+            Vec3::new(i as f32, j as f32, k as f32),
+        );
+        n += 1;
+    }
+    boxes
+};
 
 /// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
 /// Without `color` the F1 colour is not computed (zero).
