@@ -9,10 +9,10 @@ mod scenes;
 use photon::adaptive::AdaptiveSettings;
 use photon::film::Image;
 use photon::integrator::photon::settings::PhotonSettings;
-use photon::math::Vec3;
+use photon::math::{Mat3, Vec3};
 use photon::render::{Method, RenderSettings};
 use photon::rounds::render_in_rounds;
-use photon::scene::{Light, Scene};
+use photon::scene::{Environment, Light, Scene};
 
 const SIZE: u32 = 24;
 const SPP: u32 = 128;
@@ -21,7 +21,9 @@ const FIRST_CHECK: u32 = 32;
 
 /// A floor under a uniform grey world filling the left half of the frame, seen from above: the
 /// floor's pixels are noisy (sky light sampled with MIS, half of the light samples below the
-/// horizon), the right half sees the constant world and has no noise at all.
+/// horizon), the right half sees the constant world and has no noise at all. The world is an
+/// environment map of one grey, which light sampling draws from (a constant colour is left to
+/// BSDF sampling, which sees it without noise on a Lambertian floor).
 fn half_floor() -> Scene {
     let mut scene = scenes::lit_floor(
         0.8,
@@ -37,7 +39,13 @@ fn half_floor() -> Scene {
     for p in &mut scene.meshes[0].positions {
         p.x += 10.0;
     }
-    scene.world.background.color = Vec3::splat(0.5);
+    scene.world.background.environment = Some(Environment {
+        width: 4,
+        height: 2,
+        pixels: vec![Vec3::splat(0.5); 8].into(),
+        to_map: Mat3::IDENTITY,
+        closest: true,
+    });
     scene
 }
 
