@@ -179,7 +179,7 @@ mod lanes {
         }
     }
 
-    impl super::HashWord for U32x4 {
+    impl crate::scene::node_hash::HashWord for U32x4 {
         #[inline(always)]
         fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
             // SAFETY: SSE2 is always present on x86-64.
@@ -220,7 +220,7 @@ mod lanes {
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
             Vec4::from_array([0, 1, 2, 3].map(|k| {
                 let h = self.0[k] & 15;
-                let [a, b] = super::GRAD3_AXES[h as usize];
+                let [a, b] = crate::scene::node_hash::GRAD3_AXES[h as usize];
                 let axis = [x[k], y[k], z[k]];
                 let flip = |v: f32, bit: u32| f32::from_bits(v.to_bits() ^ (bit << 31));
                 flip(axis[a], h & 1) + flip(axis[b], (h >> 1) & 1)
@@ -253,7 +253,7 @@ mod lanes {
         }
     }
 
-    impl super::HashWord for U32x4 {
+    impl crate::scene::node_hash::HashWord for U32x4 {
         fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
             U32x4(self.0.map(|v| v.rotate_left(L as u32)))
         }
