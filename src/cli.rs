@@ -17,7 +17,7 @@ use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
 use photon::scene::load::{image_size, load_scene};
-use photon::scene::Projection;
+use photon::scene::{Projection, SubsurfaceMethod};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -134,6 +134,18 @@ enum SamplerArg {
     Random,
 }
 
+/// How translucent materials scatter under their surface (`--subsurface`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SubsurfaceArg {
+    /// As each material's Subsurface Method says (Random Walk unless it says Christensen–Burley).
+    Material,
+    /// Every translucent material walked as Cycles' Random Walk, by either method.
+    Walk,
+    /// Every translucent material as the dipole diffusion of subsurface photons in the photon
+    /// method (Christensen–Burley; the path tracer still walks it).
+    Dipole,
+}
+
 /// A switch (`on` / `off`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum OnOff {
@@ -220,6 +232,10 @@ struct RenderArgs {
     /// Rendering algorithm (auto: the scene planner's choice, see `photon info`).
     #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     method: MethodArg,
+    /// How translucent materials scatter under their surface: as each material says, all by
+    /// the random walk, or all by the photon method's dipole.
+    #[arg(long, value_enum, default_value_t = SubsurfaceArg::Material)]
+    subsurface: SubsurfaceArg,
     /// Photons emitted for the global map [default: 200000].
     #[arg(long)]
     photons: Option<u32>,
@@ -437,7 +453,17 @@ fn run_render(args: RenderArgs) -> Result<()> {
             serde_json::json!({"stage": "load", "fraction": 0.0, "message": "loading scene"}),
         );
     }
-    let scene = load_scene(args.scene.as_deref(), args.camera.clone())?;
+    let mut scene = load_scene(args.scene.as_deref(), args.camera.clone())?;
+    let method = match args.subsurface {
+        SubsurfaceArg::Material => None,
+        SubsurfaceArg::Walk => Some(SubsurfaceMethod::RandomWalk),
+        SubsurfaceArg::Dipole => Some(SubsurfaceMethod::ChristensenBurley),
+    };
+    if let Some(method) = method {
+        for material in &mut scene.materials {
+            material.subsurface.method = method;
+        }
+    }
     for w in &scene.warnings {
         if mode == ProgressMode::Json {
             json_line(serde_json::json!({"stage": "load", "fraction": 1.0, "warning": w}));

@@ -308,3 +308,31 @@ fn a_zero_field_of_view_and_integer_positions_exit_with_2() {
         assert!(!out.exists(), "{name}: an image was written");
     }
 }
+
+#[test]
+fn subsurface_chooses_the_walk_or_the_dipole_for_every_translucent_material() {
+    // scenes/blender/subsurface.glb: a Random Walk box. `--subsurface dipole` makes it
+    // Christensen–Burley: auto then takes the photon method and traces subsurface photons.
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/blender/subsurface.glb");
+    let dir = temp_dir("subsurface_arg");
+    let plan = |choice: &str| {
+        let result = photon()
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(dir.join(format!("{choice}.exr")))
+            .args(["--width", "16", "--height", "16", "--spp", "1"])
+            .args(["--subsurface", choice])
+            .output()
+            .unwrap();
+        assert_success(&result);
+        String::from_utf8_lossy(&result.stderr).into_owned()
+    };
+    for choice in ["material", "walk"] {
+        let log = plan(choice);
+        assert!(log.contains("auto: path tracer"), "{choice}: {log}");
+    }
+    let log = plan("dipole");
+    assert!(log.contains("auto: photon mapping"), "{log}");
+    assert!(log.contains("Christensen"), "{log}");
+}
