@@ -9,7 +9,8 @@
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
 use crate::scene::nodes::{
-    RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_TANGENT, READS_UV,
+    RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
+    READS_TANGENT, READS_UV,
 };
 use crate::scene::{Mesh, Scene, TextureRef};
 
@@ -417,6 +418,7 @@ fn node_inputs_reading(
     reads: u8,
 ) -> ShadingInputs {
     let (object_normal, object_to_world_normal) = match &mesh.object_space {
+        _ if reads & READS_OBJECT_NORMAL == 0 => (Vec3::ZERO, Mat3::IDENTITY),
         Some(space) => {
             // Normals go from world to the stored positions' space (by the transpose of an
             // instance's linear part, which takes its normals out by the inverse transpose),

@@ -671,17 +671,21 @@ struct Instr {
     regs_in: Option<Box<[u8]>>,
 }
 
-/// Bits of `NodeProgram::reads`: the position-dependent `ShadingInputs` a program reads
-/// besides the position (the others may be left unset): the UV maps, the vertex colour, the
-/// tangent, and the Generated and Object coordinates.
+/// Bits of `NodeProgram::reads`: the `ShadingInputs` a program may read besides the position,
+/// the normal and the view (the others may be left unset): the UV maps, the vertex colour,
+/// the tangent, the Generated and Object coordinates, and the object-space normal with the
+/// object-to-world normal matrix.
 pub const READS_UV: u8 = 1;
 pub const READS_COLOR: u8 = 2;
 pub const READS_TANGENT: u8 = 4;
 pub const READS_COORDS: u8 = 8;
-pub const READS_ALL: u8 = READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS;
+pub const READS_OBJECT_NORMAL: u8 = 16;
+pub const READS_ALL: u8 =
+    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL;
 
 /// The `READS_*` bits of what `instrs` read of the shading points (`run`, `load`).
 fn input_reads(instrs: &[Instr]) -> u8 {
+    let bit = |on: bool, bit: u8| if on { bit } else { 0 };
     let mut reads = 0;
     for instr in instrs {
         for s in &instr.ins {
@@ -691,20 +695,29 @@ fn input_reads(instrs: &[Instr]) -> u8 {
                 _ => 0,
             };
         }
+        let used = instr.used;
         reads |= match instr.op {
-            // Outputs 0 and 3 are Generated and Object, 2 the UV.
+            // Outputs 0 and 3 are Generated and Object, 1 the object-space Normal, 2 the UV.
             Op::TexCoord { .. } => {
-                (if instr.used & 0b1001 != 0 {
-                    READS_COORDS
-                } else {
-                    0
-                }) | if instr.used & 0b100 != 0 { READS_UV } else { 0 }
+                bit(used & 0b1001 != 0, READS_COORDS)
+                    | bit(used & 0b10 != 0, READS_OBJECT_NORMAL)
+                    | bit(used & 0b100 != 0, READS_UV)
             }
             Op::UvMap { .. } => READS_UV,
             Op::VertexColor | Op::Attribute => READS_COLOR,
-            Op::NormalMap(_) => READS_TANGENT,
-            // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates.
-            Op::Principled | Op::Glossy => READS_COORDS,
+            Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
+            Op::Displacement { .. } => READS_OBJECT_NORMAL,
+            // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
+            // the object-to-world normal matrix, unless the anisotropy is a constant `run`
+            // reads as none.
+            Op::Principled => match instr.ins.get(11) {
+                Some(Src::Const(a)) if !(a.x.clamp(0.0, 1.0) > 0.0) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
+            Op::Glossy => match instr.ins.get(3) {
+                Some(Src::Const(a)) if !(a.x.clamp(-0.99, 0.99).abs() > 1e-4) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
             _ => 0,
         };
     }
