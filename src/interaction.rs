@@ -8,7 +8,10 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
-use crate::scene::nodes::{RayPath, ShadingInputs, UV_SETS};
+use crate::scene::nodes::{
+    RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
+    READS_TANGENT, READS_UV,
+};
 use crate::scene::{Mesh, Scene, TextureRef};
 
 /// Everything shading needs about a surface point.
@@ -215,7 +218,15 @@ impl SurfaceHit {
     /// else copies of the point).
     /// Seen from behind its winding (`view`), the surface's normal is turned to the viewer, as
     /// Cycles does.
-    pub fn node_inputs(&self, scene: &Scene, offsets: bool, view: View) -> [ShadingInputs; 3] {
+    /// Only what `reads` (`scene::nodes::READS_*`) names of the position-dependent inputs is
+    /// set (besides the position); the rest is left at its default.
+    pub fn node_inputs(
+        &self,
+        scene: &Scene,
+        offsets: bool,
+        reads: u8,
+        view: View,
+    ) -> [ShadingInputs; 3] {
         let mesh = hit_mesh(scene, &self.hit);
         let (tri, b1, b2) = (self.hit.triangle, self.hit.b1, self.hit.b2);
         let n = if view.backfacing {
@@ -225,7 +236,7 @@ impl SurfaceHit {
         };
         let instance = scene.instances.get(self.hit.instance as usize);
         let placed = instance.map(|inst| Mat3::from(inst.to_world_at(self.time).matrix3));
-        let here = node_inputs(mesh, tri, b1, b2, self.p, n, view, placed);
+        let here = node_inputs_reading(mesh, tri, b1, b2, self.p, n, view, placed, reads);
         if !offsets {
             return [here; 3];
         }
@@ -247,7 +258,7 @@ impl SurfaceHit {
             let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
             let (nb1, nb2) = (b1 + db1, b2 + db2);
             let p = self.p + db1 * e1 + db2 * e2;
-            moved_inputs(&here, mesh, tri, nb1, nb2, p)
+            moved_inputs(&here, mesh, tri, nb1, nb2, p, reads)
         };
         [here, at(step * self.frame.s), at(step * self.frame.t)]
     }
@@ -388,7 +399,26 @@ pub fn node_inputs(
     view: View,
     placed: Option<Mat3>,
 ) -> ShadingInputs {
+    node_inputs_reading(mesh, triangle, b1, b2, p, n, view, placed, READS_ALL)
+}
+
+/// `node_inputs`, setting only what `reads` (`scene::nodes::READS_*`) names of the
+/// position-dependent inputs besides the position.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn node_inputs_reading(
+    mesh: &Mesh,
+    triangle: u32,
+    b1: f32,
+    b2: f32,
+    p: Vec3,
+    n: Vec3,
+    view: View,
+    placed: Option<Mat3>,
+    reads: u8,
+) -> ShadingInputs {
     let (object_normal, object_to_world_normal) = match &mesh.object_space {
+        _ if reads & READS_OBJECT_NORMAL == 0 => (Vec3::ZERO, Mat3::IDENTITY),
         Some(space) => {
             // Normals go from world to the stored positions' space (by the transpose of an
             // instance's linear part, which takes its normals out by the inverse transpose),
@@ -414,12 +444,14 @@ pub fn node_inputs(
         object_to_world_normal,
         ..ShadingInputs::default()
     };
-    moved_inputs(&here, mesh, triangle, b1, b2, p)
+    moved_inputs(&here, mesh, triangle, b1, b2, p, reads)
 }
 
 /// `at`'s node inputs moved to barycentrics (b1, b2) of `triangle` and world position `p`
 /// (what depends on the position: the point itself, UVs, generated and object coordinates,
-/// the vertex colour and tangent; the normal and view stay).
+/// the vertex colour and tangent; the normal and view stay). Of those only what `reads`
+/// (`scene::nodes::READS_*`) names besides the position is set; the rest is `at`'s.
+#[inline(always)]
 fn moved_inputs(
     at: &ShadingInputs,
     mesh: &Mesh,
@@ -427,19 +459,23 @@ fn moved_inputs(
     b1: f32,
     b2: f32,
     p: Vec3,
+    reads: u8,
 ) -> ShadingInputs {
     let idx = mesh.indices[triangle as usize];
-    let mut uv = [Vec2::ZERO; UV_SETS];
-    for (out, set) in uv
-        .iter_mut()
-        .zip(std::iter::once(&mesh.uvs).chain(&mesh.extra_uvs))
-    {
-        if !set.is_empty() {
-            let t = interpolate(idx.map(|i| set[i as usize]), b1, b2);
-            *out = Vec2::new(t.x, 1.0 - t.y);
+    let mut uv = at.uv;
+    if reads & READS_UV != 0 {
+        for (out, set) in uv
+            .iter_mut()
+            .zip(std::iter::once(&mesh.uvs).chain(&mesh.extra_uvs))
+        {
+            if !set.is_empty() {
+                let t = interpolate(idx.map(|i| set[i as usize]), b1, b2);
+                *out = Vec2::new(t.x, 1.0 - t.y);
+            }
         }
     }
     let (object, generated) = match &mesh.object_space {
+        _ if reads & READS_COORDS == 0 => (at.object, at.generated),
         Some(space) => {
             let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
             let o = space.to_object.transform_point3(stored);
@@ -447,13 +483,17 @@ fn moved_inputs(
         }
         None => (blender_axes(p), blender_axes(p)),
     };
-    let tangent = if mesh.tangents.is_empty() {
+    let tangent = if reads & READS_TANGENT == 0 {
+        at.tangent
+    } else if mesh.tangents.is_empty() {
         Vec4::ZERO
     } else {
         let t = interpolate(idx.map(|i| mesh.tangents[i as usize]), b1, b2);
         blender_axes(t.truncate()).extend(if t.w < 0.0 { -1.0 } else { 1.0 })
     };
-    let color = if mesh.colors.is_empty() {
+    let color = if reads & READS_COLOR == 0 {
+        at.color
+    } else if mesh.colors.is_empty() {
         Vec4::ONE
     } else {
         interpolate(idx.map(|i| mesh.colors[i as usize]), b1, b2)

@@ -216,7 +216,7 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
                     .and_then(|_| sh.uv_tangent(scene));
                 let n = sh.frame.n;
                 let base = uv_tangent.unwrap_or_else(|| {
-                    let at = sh.node_inputs(scene, false, view)[0];
+                    let at = sh.node_inputs(scene, false, crate::scene::nodes::READS_ALL, view)[0];
                     gltf_axes(crate::scene::nodes::default_tangent(&at))
                 });
                 let mut angle = material.anisotropy_rotation;
@@ -231,7 +231,7 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
         Some(program) => from_closure(
             material,
             &program.eval(
-                &sh.node_inputs(scene, program.needs_offsets, view),
+                &sh.node_inputs(scene, program.needs_offsets, program.reads, view),
                 &scene.textures,
                 u,
             ),

@@ -671,6 +671,59 @@ struct Instr {
     regs_in: Option<Box<[u8]>>,
 }
 
+/// Bits of `NodeProgram::reads`: the `ShadingInputs` a program may read besides the position,
+/// the normal and the view (the others may be left unset): the UV maps, the vertex colour,
+/// the tangent, the Generated and Object coordinates, and the object-space normal with the
+/// object-to-world normal matrix.
+pub const READS_UV: u8 = 1;
+pub const READS_COLOR: u8 = 2;
+pub const READS_TANGENT: u8 = 4;
+pub const READS_COORDS: u8 = 8;
+pub const READS_OBJECT_NORMAL: u8 = 16;
+pub const READS_ALL: u8 =
+    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL;
+
+/// The `READS_*` bits of what `instrs` read of the shading points (`run`, `load`).
+fn input_reads(instrs: &[Instr]) -> u8 {
+    let bit = |on: bool, bit: u8| if on { bit } else { 0 };
+    let mut reads = 0;
+    for instr in instrs {
+        for s in &instr.ins {
+            reads |= match s {
+                Src::Generated => READS_COORDS,
+                Src::Uv(_) => READS_UV,
+                _ => 0,
+            };
+        }
+        let used = instr.used;
+        reads |= match instr.op {
+            // Outputs 0 and 3 are Generated and Object, 1 the object-space Normal, 2 the UV.
+            Op::TexCoord { .. } => {
+                bit(used & 0b1001 != 0, READS_COORDS)
+                    | bit(used & 0b10 != 0, READS_OBJECT_NORMAL)
+                    | bit(used & 0b100 != 0, READS_UV)
+            }
+            Op::UvMap { .. } => READS_UV,
+            Op::VertexColor | Op::Attribute => READS_COLOR,
+            Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
+            Op::Displacement { .. } => READS_OBJECT_NORMAL,
+            // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
+            // the object-to-world normal matrix, unless the anisotropy is a constant `run`
+            // reads as none.
+            Op::Principled => match instr.ins.get(11) {
+                Some(Src::Const(a)) if !(a.x.clamp(0.0, 1.0) > 0.0) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
+            Op::Glossy => match instr.ins.get(3) {
+                Some(Src::Const(a)) if !(a.x.clamp(-0.99, 0.99).abs() > 1e-4) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
+            _ => 0,
+        };
+    }
+    reads
+}
+
 /// A compiled node tree.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NodeProgram {
@@ -687,6 +740,9 @@ pub struct NodeProgram {
     /// True when the program reads the points a step away (it has a Bump node): `eval` then
     /// needs all three `ShadingInputs`.
     pub needs_offsets: bool,
+    /// The `READS_*` bits: which position-dependent `ShadingInputs` `eval` reads (with the
+    /// displacement tree's).
+    pub reads: u8,
     /// True when some Light Path output reads the camera path's state (`RAY_STATE_OUTPUTS`):
     /// only the path tracer carries it to every shading point.
     pub reads_ray_state: bool,
@@ -1540,6 +1596,7 @@ pub fn compile(
             .map_err(|m| format!("displacement: {m}"))?;
         program.needs_offsets |= normal.needs_offsets;
         program.reads_color |= normal.reads_color;
+        program.reads |= normal.reads;
         program.reads_ray_state |= normal.reads_ray_state;
         program.displacement = Some(Box::new(normal));
     }
@@ -1860,6 +1917,7 @@ fn compile_tree(
         );
     }
 
+    let reads = input_reads(&instrs);
     Ok(NodeProgram {
         instrs,
         registers,
@@ -1869,6 +1927,7 @@ fn compile_tree(
         emits,
         reads_color,
         needs_offsets,
+        reads,
         reads_ray_state: light_path_reads & RAY_STATE_OUTPUTS != 0,
         shadow_transparent,
         displacement: None,
