@@ -258,6 +258,13 @@ fn instances_of_any_material_render_as_their_copies() {
             json!({"alphaMode": "BLEND", "pbrMetallicRoughness":
                 {"baseColorFactor": [0.2, 0.6, 0.9, 0.5], "roughnessFactor": 0.5}}),
         ),
+        (
+            "translucent (random walk)",
+            json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.6, 0.5, 1.0],
+                "roughnessFactor": 0.5},
+                "extensions": {"PHOTON_material_subsurface": {"weight": 1.0,
+                    "radius": [1.0, 0.4, 0.2], "scale": 0.05}}}),
+        ),
         ("node tree (object)", checker_on("Object")),
         ("node tree (normal)", checker_on("Normal")),
     ];
@@ -274,7 +281,12 @@ fn instances_of_any_material_render_as_their_copies() {
             name.starts_with("node tree"),
             "{name}"
         );
-        let methods: &[Method] = if name == "emissive" {
+        assert_eq!(
+            instanced.materials[0].is_translucent(),
+            name.starts_with("translucent"),
+            "{name}"
+        );
+        let methods: &[Method] = if name == "emissive" || name.starts_with("translucent") {
             &[Method::Path, Method::Photon]
         } else {
             &[Method::Path]

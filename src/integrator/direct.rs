@@ -41,22 +41,7 @@ pub fn sample_direct(
 }
 
 /// `sample_direct` from a vertex of camera path `path` (what node trees of the emitter and of
-/// the surfaces the shadow ray passes read), lit from every side.
-#[allow(clippy::too_many_arguments)]
-pub fn sample_direct_on(
-    ctx: &Context,
-    at: &SurfaceHit,
-    path: RayPath,
-    beta: Vec3,
-    mis: bool,
-    rng: &mut Rng,
-    rays: &mut u32,
-    scattering: impl FnOnce(Vec3) -> (Vec3, f32),
-) -> Vec3 {
-    sample_direct_from(ctx, at, None, path, beta, mis, rng, rays, scattering)
-}
-
-/// `sample_direct_on` below `horizon` as in `sample_direct`.
+/// the surfaces the shadow ray passes read).
 #[allow(clippy::too_many_arguments)]
 pub fn sample_direct_from(
     ctx: &Context,

@@ -40,17 +40,9 @@ def test_holdout_quad_over_a_lit_floor(tmp_path, method):
     compare(name, scene, tmp_path, photon_spp=256, cycles_spp=512, method=method)
     # `compare` writes RGB: the alpha of each engine again, in RGBA, with a transparent and
     # with an opaque film (the world seen where the quad is not: alpha 1 there).
-    scene.render.image_settings.color_mode = "RGBA"
     for transparent in (True, False):
         scene.render.film_transparent = transparent
-        alpha = {}
-        for engine in ("CYCLES", "PHOTON"):
-            path = tmp_path / f"{name}_{engine.lower()}_alpha_{transparent}.exr"
-            scene.render.engine = engine
-            scene.render.filepath = str(path)
-            bpy.ops.render.render(write_still=True)
-            alpha[engine] = read_exr(path, ("R", "G", "B", "A"))[:, :, 3]
-        photon, cycles = alpha["PHOTON"], alpha["CYCLES"]
+        photon, cycles = _alpha_of_each_engine(scene, tmp_path, f"{name} {transparent}")
         print(f"{name}, transparent film {transparent}: alpha mean photon {photon.mean():.4f} "
               f"vs cycles {cycles.mean():.4f}")
         assert (photon == 0.0).sum() > 100, "the quad should leave a hole in the alpha"
