@@ -664,12 +664,17 @@ struct Instr {
     offset: u8,
     /// Bit k: output k is read by some instruction (unread outputs may be skipped).
     used: u32,
-    /// When every input is a register or a constant: the register each input reads, the
-    /// constants' in `NodeProgram::constants` (`fold_constants`), so reading an input is one
-    /// load instead of a match on its `Src`. A `u8` indexes every register
+    /// True when every input is a register or a constant and `regs_in` holds them all.
+    all_regs: bool,
+    /// Then the register each input reads, the constants' in `NodeProgram::constants`
+    /// (`fold_constants`), so reading an input is one load instead of a match on its `Src`.
+    /// Held in the instruction (no pointer to follow), and a `u8` indexes every register
     /// (`MAX_REGISTERS` is 256), so the load needs no bounds check.
-    regs_in: Option<Box<[u8]>>,
+    regs_in: [u8; MAX_REGS_IN],
 }
+
+/// The most inputs an instruction reads through `Instr::regs_in` (more read their `Src`).
+const MAX_REGS_IN: usize = 32;
 
 /// Bits of `NodeProgram::reads`: the `ShadingInputs` a program may read besides the position,
 /// the normal and the view (the others may be left unset): the UV maps, the vertex colour,
@@ -1848,7 +1853,8 @@ fn compile_tree(
             out: out as u16,
             offset: 0,
             used: u32::MAX,
-            regs_in: None,
+            all_regs: false,
+            regs_in: [0; MAX_REGS_IN],
         });
     }
     let output = match ext.get("output") {
@@ -1960,8 +1966,9 @@ fn fold_constants(instrs: &mut [Instr], registers: usize) -> Vec<Vec4> {
             };
             regs.push(r as u8);
         }
-        if regs.len() == instr.ins.len() {
-            instr.regs_in = Some(regs.into_boxed_slice());
+        if regs.len() == instr.ins.len() && regs.len() <= MAX_REGS_IN {
+            instr.all_regs = true;
+            instr.regs_in[..regs.len()].copy_from_slice(&regs);
         }
     }
     constants
@@ -2004,7 +2011,8 @@ fn fuse_bump_noise(instrs: Vec<Instr>, anchors: &[usize]) -> Vec<Instr> {
                     out: t[0].1.out,
                     offset: 0,
                     used: t[0].1.used | t[1].1.used | t[2].1.used,
-                    regs_in: None,
+                    all_regs: false,
+                    regs_in: [0; MAX_REGS_IN],
                 });
                 k += 3;
             }
@@ -2134,9 +2142,10 @@ fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
 /// Input `k` of `instr` at the shading point `at`.
 #[inline(always)]
 fn operand(m: &Machine, at: &ShadingInputs, instr: &Instr, k: usize) -> Vec4 {
-    match &instr.regs_in {
-        Some(regs) => m.regs[regs[k] as usize],
-        None => load(m, at, instr.ins[k]),
+    if instr.all_regs {
+        m.regs[instr.regs_in[k] as usize]
+    } else {
+        load(m, at, instr.ins[k])
     }
 }
 
