@@ -9,7 +9,7 @@
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
 use crate::scene::nodes::{
-    RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
+    PointInputs, RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
     READS_TANGENT, READS_UV,
 };
 use crate::scene::{Mesh, Scene, TextureRef};
@@ -226,7 +226,7 @@ impl SurfaceHit {
         offsets: bool,
         reads: u8,
         view: View,
-    ) -> [ShadingInputs; 3] {
+    ) -> ShadingInputs {
         let mesh = hit_mesh(scene, &self.hit);
         let (tri, b1, b2) = (self.hit.triangle, self.hit.b1, self.hit.b2);
         let n = if view.backfacing {
@@ -236,9 +236,9 @@ impl SurfaceHit {
         };
         let instance = scene.instances.get(self.hit.instance as usize);
         let placed = instance.map(|inst| Mat3::from(inst.to_world_at(self.time).matrix3));
-        let here = node_inputs_reading(mesh, tri, b1, b2, self.p, n, view, placed, reads);
+        let mut inputs = node_inputs_reading(mesh, tri, b1, b2, self.p, n, view, placed, reads);
         if !offsets {
-            return [here; 3];
+            return inputs;
         }
         let w = mesh.triangle_at(tri, self.time).map(|q| match instance {
             Some(inst) => inst.to_world_at(self.time).transform_point3(q),
@@ -247,20 +247,20 @@ impl SurfaceHit {
         let (e1, e2) = (w[1] - w[0], w[2] - w[0]);
         let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
         let det = a * c - b * b;
+        if !(det.abs() > 0.0 && det.is_finite()) {
+            return inputs;
+        }
         // A step small against the surface's features, large against float precision.
         let step = BUMP_STEP * self.p.abs().max_element().max(1.0);
-        let at = |d: Vec3| {
-            if !(det.abs() > 0.0 && det.is_finite()) {
-                return here;
-            }
+        for (k, d) in [(1, step * self.frame.s), (2, step * self.frame.t)] {
             // The barycentric step whose position step is d projected on the triangle.
             let (r1, r2) = (d.dot(e1), d.dot(e2));
             let (db1, db2) = ((c * r1 - b * r2) / det, (a * r2 - b * r1) / det);
             let (nb1, nb2) = (b1 + db1, b2 + db2);
             let p = self.p + db1 * e1 + db2 * e2;
-            moved_inputs(&here, mesh, tri, nb1, nb2, p, reads)
-        };
-        [here, at(step * self.frame.s), at(step * self.frame.t)]
+            move_point(&mut inputs.points[k], mesh, tri, nb1, nb2, p, reads);
+        }
+        inputs
     }
 
     /// A ray leaving this surface in direction `dir`.
@@ -434,7 +434,10 @@ fn node_inputs_reading(
         }
         None => (blender_axes(n), Mat3::IDENTITY),
     };
-    let here = ShadingInputs {
+    let mut point = PointInputs::default();
+    move_point(&mut point, mesh, triangle, b1, b2, p, reads);
+    ShadingInputs {
+        points: [point; 3],
         normal: blender_axes(n),
         object_normal,
         incoming: blender_axes(view.wo),
@@ -442,29 +445,27 @@ fn node_inputs_reading(
         path: view.path,
         ray_length: view.ray_length,
         object_to_world_normal,
-        ..ShadingInputs::default()
-    };
-    moved_inputs(&here, mesh, triangle, b1, b2, p, reads)
+    }
 }
 
-/// `at`'s node inputs moved to barycentrics (b1, b2) of `triangle` and world position `p`
-/// (what depends on the position: the point itself, UVs, generated and object coordinates,
-/// the vertex colour and tangent; the normal and view stay). Of those only what `reads`
-/// (`scene::nodes::READS_*`) names besides the position is set; the rest is `at`'s.
+/// `point` moved to barycentrics (b1, b2) of `triangle` and world position `p`: the position,
+/// and of the UVs, the Generated and Object coordinates, the vertex colour and the tangent
+/// what `reads` (`scene::nodes::READS_*`) names (the rest is left as it was).
 #[inline(always)]
-fn moved_inputs(
-    at: &ShadingInputs,
+fn move_point(
+    point: &mut PointInputs,
     mesh: &Mesh,
     triangle: u32,
     b1: f32,
     b2: f32,
     p: Vec3,
     reads: u8,
-) -> ShadingInputs {
+) {
     let idx = mesh.indices[triangle as usize];
-    let mut uv = at.uv;
+    point.position = blender_axes(p);
     if reads & READS_UV != 0 {
-        for (out, set) in uv
+        for (out, set) in point
+            .uv
             .iter_mut()
             .zip(std::iter::once(&mesh.uvs).chain(&mesh.extra_uvs))
         {
@@ -474,37 +475,29 @@ fn moved_inputs(
             }
         }
     }
-    let (object, generated) = match &mesh.object_space {
-        _ if reads & READS_COORDS == 0 => (at.object, at.generated),
-        Some(space) => {
-            let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
-            let o = space.to_object.transform_point3(stored);
-            (o, space.generated(o))
-        }
-        None => (blender_axes(p), blender_axes(p)),
-    };
-    let tangent = if reads & READS_TANGENT == 0 {
-        at.tangent
-    } else if mesh.tangents.is_empty() {
-        Vec4::ZERO
-    } else {
-        let t = interpolate(idx.map(|i| mesh.tangents[i as usize]), b1, b2);
-        blender_axes(t.truncate()).extend(if t.w < 0.0 { -1.0 } else { 1.0 })
-    };
-    let color = if reads & READS_COLOR == 0 {
-        at.color
-    } else if mesh.colors.is_empty() {
-        Vec4::ONE
-    } else {
-        interpolate(idx.map(|i| mesh.colors[i as usize]), b1, b2)
-    };
-    ShadingInputs {
-        position: blender_axes(p),
-        uv,
-        generated,
-        object,
-        color,
-        tangent,
-        ..*at
+    if reads & READS_COORDS != 0 {
+        (point.object, point.generated) = match &mesh.object_space {
+            Some(space) => {
+                let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
+                let o = space.to_object.transform_point3(stored);
+                (o, space.generated(o))
+            }
+            None => (blender_axes(p), blender_axes(p)),
+        };
+    }
+    if reads & READS_TANGENT != 0 {
+        point.tangent = if mesh.tangents.is_empty() {
+            Vec4::ZERO
+        } else {
+            let t = interpolate(idx.map(|i| mesh.tangents[i as usize]), b1, b2);
+            blender_axes(t.truncate()).extend(if t.w < 0.0 { -1.0 } else { 1.0 })
+        };
+    }
+    if reads & READS_COLOR != 0 {
+        point.color = if mesh.colors.is_empty() {
+            Vec4::ONE
+        } else {
+            interpolate(idx.map(|i| mesh.colors[i as usize]), b1, b2)
+        };
     }
 }

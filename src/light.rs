@@ -357,7 +357,7 @@ pub fn sample_emitter_point(
             shading_n
         };
         let at = crate::interaction::node_inputs(m, triangle, b.x, b.y, p, facing, view, linear);
-        let surface = from_closure(material, &program.eval(&[at; 3], &scene.textures, 0.5));
+        let surface = from_closure(material, &program.eval(&at, &scene.textures, 0.5));
         sampled_emission(&surface, facing, view.wo)
     } else {
         material_emission(scene, material, uv)

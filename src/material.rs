@@ -216,8 +216,8 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
                     .and_then(|_| sh.uv_tangent(scene));
                 let n = sh.frame.n;
                 let base = uv_tangent.unwrap_or_else(|| {
-                    let at = sh.node_inputs(scene, false, crate::scene::nodes::READS_ALL, view)[0];
-                    gltf_axes(crate::scene::nodes::default_tangent(&at))
+                    let at = sh.node_inputs(scene, false, crate::scene::nodes::READS_ALL, view);
+                    gltf_axes(crate::scene::nodes::default_tangent(&at, &at.points[0]))
                 });
                 let mut angle = material.anisotropy_rotation;
                 if let Some(t) = &material.anisotropy_texture {

@@ -53,7 +53,7 @@ pub fn classifying_bsdf(scene: &Scene, m: u32) -> Bsdf {
         // closure of each Mix Shader.
         Some(program) => from_closure(
             material,
-            &program.eval(&[ShadingInputs::default(); 3], &scene.textures, 0.0),
+            &program.eval(&ShadingInputs::default(), &scene.textures, 0.0),
         ),
         None => eval_material(scene, material, Vec2::ZERO),
     };

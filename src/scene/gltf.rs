@@ -1515,7 +1515,7 @@ impl Loader {
             // point, or 1 when the tree may emit there and is black at that point.
             if program.emits {
                 let at = super::nodes::ShadingInputs::default();
-                let e = program.eval(&[at; 3], &self.scene.textures, 0.5).emission;
+                let e = program.eval(&at, &self.scene.textures, 0.5).emission;
                 out.emission = if e.max_element() > 0.0 && e.is_finite() {
                     e
                 } else {

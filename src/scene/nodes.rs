@@ -59,20 +59,19 @@ use std::ops::{Add, Div, Mul};
 
 /// UV maps node trees read (`TEXCOORD_0` …).
 pub const UV_SETS: usize = 4;
-const _: () = assert!(UV_SETS == 4, "ShadingInputs::uv holds UV_SETS maps");
+const _: () = assert!(UV_SETS == 4, "PointInputs::uv holds UV_SETS maps");
 
 /// Registers (node outputs) a program may use; larger trees are refused.
 pub const MAX_REGISTERS: usize = 256;
 /// Shader nodes a program may hold.
 pub const MAX_CLOSURES: usize = 32;
 
-/// What a node tree reads about the shading point, in Blender's axes (Z up).
+/// What a node tree reads about a shading point that moves with it, in Blender's axes (Z up):
+/// a Bump's offset points differ from the point in these alone.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ShadingInputs {
+pub struct PointInputs {
     /// World position.
     pub position: Vec3,
-    /// Unit shading normal (world).
-    pub normal: Vec3,
     /// The UV maps (`TEXCOORD_n`), in Blender's convention (v up: glTF's 1 − v); zero where
     /// the mesh has none. (`UV_SETS` long: the literal works around a rustc internal error
     /// with a named constant here.)
@@ -83,6 +82,21 @@ pub struct ShadingInputs {
     pub object: Vec3,
     /// Vertex colour COLOR_0 (white when the mesh has none).
     pub color: Vec4,
+    /// The mesh's tangent for UV map 0 (world, Blender's axes, not normalised) with the
+    /// bitangent sign in `w` (Blender's: bitangent = w × normal × tangent); zero when the mesh
+    /// has none.
+    pub tangent: Vec4,
+}
+
+/// What a node tree reads about the shading point, in Blender's axes (Z up).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ShadingInputs {
+    /// The shading point (`points[0]`) and, when the program `needs_offsets`, the points a
+    /// small step along its two tangents (else copies of the point), where a Bump node's
+    /// Height is read (as Cycles' SVM evaluates it at P + dPdx and P + dPdy).
+    pub points: [PointInputs; 3],
+    /// Unit shading normal (world).
+    pub normal: Vec3,
     /// The normal in object coordinates.
     pub object_normal: Vec3,
     /// Unit direction towards the viewer (world; Cycles' I).
@@ -95,12 +109,18 @@ pub struct ShadingInputs {
     /// from the near clip plane, as in Cycles; for an emitter sampled as a light, its distance
     /// to the shaded point; 0 where photons leave it).
     pub ray_length: f32,
-    /// The mesh's tangent for UV map 0 (world, Blender's axes, not normalised) with the
-    /// bitangent sign in `w` (Blender's: bitangent = w × normal × tangent); zero when the mesh
-    /// has none.
-    pub tangent: Vec4,
     /// Object-space normals to world space (Blender's axes; not normalising).
     pub object_to_world_normal: Mat3,
+}
+
+impl ShadingInputs {
+    /// The inputs at one point: `point` at all three (a program without a Bump).
+    pub fn at_point(point: PointInputs) -> ShadingInputs {
+        ShadingInputs {
+            points: [point; 3],
+            ..ShadingInputs::default()
+        }
+    }
 }
 
 /// The ray a shading point is evaluated for, as Cycles' path state describes it to the Light
@@ -2070,20 +2090,17 @@ fn v3(v: Vec3) -> Vec4 {
 impl NodeProgram {
     /// Evaluate the program at a shading point. `u` in [0, 1) picks the BSDF of Mix and Add
     /// Shader nodes (module header).
-    /// `at` holds the shading point and, when `needs_offsets`, the points a small step along
-    /// its two tangents (else three copies of the point).
+    /// `at.points` holds the shading point and, when `needs_offsets`, the points a small step
+    /// along its two tangents (else three copies of the point).
     /// With a displacement tree, its bumped normal is the shading normal the surface tree
     /// reads, and the normal of its BSDFs whose Normal input is unlinked (Cycles sets the
     /// shading point's N before evaluating the surface).
-    pub fn eval(&self, at: &[ShadingInputs; 3], textures: &[Texture], mut u: f32) -> Closure {
+    pub fn eval(&self, at: &ShadingInputs, textures: &[Texture], mut u: f32) -> Closure {
         let Some(displacement) = &self.displacement else {
             return self.eval_closure(at, textures, &mut u);
         };
         let n = displacement.eval_vector(at, textures);
-        let bumped = at.map(|mut point| {
-            point.normal = n;
-            point
-        });
+        let bumped = ShadingInputs { normal: n, ..*at };
         let mut c = self.eval_closure(&bumped, textures, &mut u);
         if c.normal == Vec3::ZERO {
             c.normal = n;
@@ -2091,7 +2108,7 @@ impl NodeProgram {
         c
     }
 
-    fn eval_closure(&self, at: &[ShadingInputs; 3], textures: &[Texture], u: &mut f32) -> Closure {
+    fn eval_closure(&self, at: &ShadingInputs, textures: &[Texture], u: &mut f32) -> Closure {
         Machine::with(self, |m| {
             run_all(&self.instrs, at, textures, m, u);
             closure(m, self.output)
@@ -2099,12 +2116,12 @@ impl NodeProgram {
     }
 
     /// A vector-output program's value (the displacement tree's normal, unit).
-    fn eval_vector(&self, at: &[ShadingInputs; 3], textures: &[Texture]) -> Vec3 {
+    fn eval_vector(&self, at: &ShadingInputs, textures: &[Texture]) -> Vec3 {
         Machine::with(self, |m| {
             run_all(&self.instrs, at, textures, m, &mut 0.5);
-            load(m, &at[0], self.output)
+            load(m, &at.points[0], self.output)
                 .truncate()
-                .normalize_or(at[0].normal)
+                .normalize_or(at.normal)
         })
     }
 
@@ -2124,7 +2141,7 @@ impl NodeProgram {
 }
 
 #[inline(always)]
-fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
+fn load(m: &Machine, at: &PointInputs, s: Src) -> Vec4 {
     match s {
         Src::Const(v) => v,
         Src::Reg(r) => m.regs[r as usize],
@@ -2141,7 +2158,7 @@ fn load(m: &Machine, at: &ShadingInputs, s: Src) -> Vec4 {
 
 /// Input `k` of `instr` at the shading point `at`.
 #[inline(always)]
-fn operand(m: &Machine, at: &ShadingInputs, instr: &Instr, k: usize) -> Vec4 {
+fn operand(m: &Machine, at: &PointInputs, instr: &Instr, k: usize) -> Vec4 {
     if instr.all_regs {
         m.regs[instr.regs_in[k] as usize]
     } else {
@@ -2149,7 +2166,7 @@ fn operand(m: &Machine, at: &ShadingInputs, instr: &Instr, k: usize) -> Vec4 {
     }
 }
 
-fn uv_value(at: &ShadingInputs, set: u8) -> Vec4 {
+fn uv_value(at: &PointInputs, set: u8) -> Vec4 {
     let uv = at.uv[set as usize];
     Vec4::new(uv.x, uv.y, 0.0, 1.0)
 }
@@ -2166,35 +2183,31 @@ fn closure(m: &Machine, s: Src) -> Closure {
 #[inline(never)]
 fn run_all(
     instrs: &[Instr],
-    points: &[ShadingInputs; 3],
+    inputs: &ShadingInputs,
     textures: &[Texture],
     m: &mut Machine,
     u: &mut f32,
 ) {
     for instr in instrs {
-        run(instr, points, textures, m, u);
+        // Opaque to the optimiser: else it hoists the shared inputs' conversions (which few
+        // instructions read) out of the loop, ~200 instructions per evaluation.
+        run(instr, std::hint::black_box(inputs), textures, m, u);
     }
 }
 
 #[inline(always)]
-fn run(
-    instr: &Instr,
-    points: &[ShadingInputs; 3],
-    textures: &[Texture],
-    m: &mut Machine,
-    u: &mut f32,
-) {
-    let at = &points[instr.offset as usize];
+fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Machine, u: &mut f32) {
+    let at = &inputs.points[instr.offset as usize];
     let ins = &instr.ins;
     let get = |m: &Machine, k: usize| operand(m, at, instr, k);
     let o = instr.out as usize;
     match &instr.op {
         Op::TexCoord { uv_set } => {
             m.regs[o] = v3(at.generated);
-            m.regs[o + 1] = v3(at.object_normal);
+            m.regs[o + 1] = v3(inputs.object_normal);
             m.regs[o + 2] = uv_value(at, *uv_set);
             m.regs[o + 3] = v3(at.object);
-            let (n, i) = (at.normal, at.incoming);
+            let (n, i) = (inputs.normal, inputs.incoming);
             m.regs[o + 4] = v3(2.0 * n.dot(i) * n - i);
         }
         Op::UvMap { uv_set } => m.regs[o] = uv_value(at, *uv_set),
@@ -2210,13 +2223,13 @@ fn run(
         }
         Op::Geometry => {
             m.regs[o] = v3(at.position);
-            m.regs[o + 1] = v3(at.normal);
-            m.regs[o + 2] = v3(at.normal);
-            m.regs[o + 3] = v3(at.incoming);
-            m.regs[o + 4] = splat(if at.backfacing { 1.0 } else { 0.0 });
+            m.regs[o + 1] = v3(inputs.normal);
+            m.regs[o + 2] = v3(inputs.normal);
+            m.regs[o + 3] = v3(inputs.incoming);
+            m.regs[o + 4] = splat(if inputs.backfacing { 1.0 } else { 0.0 });
         }
         Op::LightPath => {
-            let p = &at.path;
+            let p = &inputs.path;
             let flag = |f: u8| splat(if p.is(f) { 1.0 } else { 0.0 });
             let count = |n: u16| splat(n as f32);
             let values = [
@@ -2229,7 +2242,7 @@ fn run(
                 flag(RayPath::TRANSMIT),
                 // No volumes: never a volume scatter ray.
                 splat(0.0),
-                splat(at.ray_length),
+                splat(inputs.ray_length),
                 count(p.depth),
                 count(p.diffuse),
                 count(p.glossy),
@@ -2376,9 +2389,9 @@ fn run(
             used,
         } => {
             let input = |k: usize| {
-                let g = |j: usize| operand(m, &points[k], instr, 9 * k + j).x;
+                let g = |j: usize| operand(m, &inputs.points[k], instr, 9 * k + j).x;
                 let scale = g(2);
-                let p = operand(m, &points[k], instr, 9 * k).truncate() * scale;
+                let p = operand(m, &inputs.points[k], instr, 9 * k).truncate() * scale;
                 let f = Fractal {
                     detail: g(3).clamp(0.0, 15.0),
                     roughness: g(4).max(0.0),
@@ -2505,17 +2518,17 @@ fn run(
             m.regs[o + 1] = splat(value);
         }
         Op::Fresnel => {
-            let n = normal_input(get(m, 1), at.normal);
+            let n = normal_input(get(m, 1), inputs.normal);
             let eta = get(m, 0).x.max(1e-5);
-            let eta = if at.backfacing { 1.0 / eta } else { eta };
-            m.regs[o] = splat(fresnel_dielectric_cos(at.incoming.dot(n), eta));
+            let eta = if inputs.backfacing { 1.0 / eta } else { eta };
+            m.regs[o] = splat(fresnel_dielectric_cos(inputs.incoming.dot(n), eta));
         }
         Op::LayerWeight => {
-            let n = normal_input(get(m, 1), at.normal);
+            let n = normal_input(get(m, 1), inputs.normal);
             let blend = get(m, 0).x;
             let eta = (1.0 - blend).max(1e-5);
-            let eta = if at.backfacing { eta } else { 1.0 / eta };
-            let cos = at.incoming.dot(n);
+            let eta = if inputs.backfacing { eta } else { 1.0 / eta };
+            let cos = inputs.incoming.dot(n);
             m.regs[o] = splat(fresnel_dielectric_cos(cos, eta));
             let mut facing = cos.abs();
             if blend != 0.5 {
@@ -2530,15 +2543,15 @@ fn run(
             let distance = if *invert { -get(m, 1).x } else { get(m, 1).x };
             let given = get(m, 4).truncate();
             let n = if given == Vec3::ZERO {
-                at.normal
+                inputs.normal
             } else {
-                given.normalize_or(at.normal)
+                given.normalize_or(inputs.normal)
             };
             let (hc, hx, hy) = (get(m, 3).x, get(m, 5).x, get(m, 6).x);
             // Cycles' svm_node_set_bump with our steps as dPdx, dPdy: the normal of the
             // surface displaced by distance × height.
-            let dx = points[1].position - points[0].position;
-            let dy = points[2].position - points[0].position;
+            let dx = inputs.points[1].position - inputs.points[0].position;
+            let dy = inputs.points[2].position - inputs.points[0].position;
             let rx = dy.cross(n);
             let ry = n.cross(dx);
             let det = dx.dot(rx);
@@ -2552,12 +2565,12 @@ fn run(
             m.regs[o] = v3(out);
         }
         Op::Displacement { object_space } => {
-            let n = normal_input(get(m, 3), at.normal);
+            let n = normal_input(get(m, 3), inputs.normal);
             let height = (get(m, 0).x - get(m, 1).x) * get(m, 2).x;
             let direction = if *object_space {
                 // Cycles: the normal to object space (normalised), scaled, and back as a
                 // direction, so the object's scale scales the displacement.
-                let to_object = at.object_to_world_normal.inverse();
+                let to_object = inputs.object_to_world_normal.inverse();
                 to_object.transpose() * (to_object * n).normalize_or_zero()
             } else {
                 n
@@ -2565,7 +2578,13 @@ fn run(
             m.regs[o] = v3(direction * height);
         }
         Op::NormalMap(space) => {
-            m.regs[o] = v3(normal_map(*space, get(m, 1).truncate(), get(m, 0).x, at));
+            m.regs[o] = v3(normal_map(
+                *space,
+                get(m, 1).truncate(),
+                get(m, 0).x,
+                inputs,
+                at,
+            ));
         }
         Op::Principled => {
             let level = get(m, 5).x.max(0.0);
@@ -2573,8 +2592,8 @@ fn run(
             let normal = get(m, 10).truncate();
             let anisotropic = get(m, 11).x.clamp(0.0, 1.0);
             let (aspect, tangent) = if anisotropic > 0.0 {
-                let n = normal_input(get(m, 10), at.normal);
-                let t = tangent_input(get(m, 13), at);
+                let n = normal_input(get(m, 10), inputs.normal);
+                let t = tangent_input(get(m, 13), inputs, at);
                 let t = crate::math::rotate_around(t, n, get(m, 12).x * 2.0 * PI);
                 (principled_aspect(anisotropic), t)
             } else {
@@ -2632,8 +2651,8 @@ fn run(
             // for a < 0.
             let a = get(m, 3).x.clamp(-0.99, 0.99);
             let (aspect, tangent) = if a.abs() > 1e-4 {
-                let n = normal_input(get(m, 2), at.normal);
-                let t = tangent_input(get(m, 5), at);
+                let n = normal_input(get(m, 2), inputs.normal);
+                let t = tangent_input(get(m, 5), inputs, at);
                 let turn = get(m, 4).x + if a > 0.0 { 0.25 } else { 0.0 };
                 (
                     1.0 - a.abs(),
@@ -2796,10 +2815,10 @@ pub fn principled_aspect(anisotropic: f32) -> f32 {
 }
 
 /// A Tangent input: the given vector, or Blender's default when it is unlinked (zero).
-fn tangent_input(given: Vec4, at: &ShadingInputs) -> Vec3 {
+fn tangent_input(given: Vec4, inputs: &ShadingInputs, at: &PointInputs) -> Vec3 {
     let g = given.truncate();
     if g == Vec3::ZERO {
-        default_tangent(at)
+        default_tangent(inputs, at)
     } else {
         g
     }
@@ -2809,10 +2828,10 @@ fn tangent_input(given: Vec4, at: &ShadingInputs) -> Vec3 {
 /// the object's Z axis through the middle of its texture space, from the Generated
 /// coordinates (−(y − ½), x − ½, 0) taken to world space as a normal is, then made
 /// perpendicular to the shading normal. Blender's axes, unit (zero where it is undefined).
-pub fn default_tangent(at: &ShadingInputs) -> Vec3 {
+pub fn default_tangent(inputs: &ShadingInputs, at: &PointInputs) -> Vec3 {
     let g = at.generated;
-    let radial = at.object_to_world_normal * Vec3::new(-(g.y - 0.5), g.x - 0.5, 0.0);
-    let n = at.normal;
+    let radial = inputs.object_to_world_normal * Vec3::new(-(g.y - 0.5), g.x - 0.5, 0.0);
+    let n = inputs.normal;
     n.cross(radial.cross(n).normalize_or_zero())
 }
 
@@ -2820,37 +2839,47 @@ pub fn default_tangent(at: &ShadingInputs) -> Vec3 {
 /// world space out, blended with the shading normal by `strength`. In tangent space the
 /// colour's x, y, z weigh the tangent, the bitangent and the interpolated normal, on the
 /// winding's side (turned to the viewer afterwards, as Cycles does).
-fn normal_map(space: NormalMapSpace, color: Vec3, strength: f32, at: &ShadingInputs) -> Vec3 {
+fn normal_map(
+    space: NormalMapSpace,
+    color: Vec3,
+    strength: f32,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+) -> Vec3 {
     let c = 2.0 * (color - Vec3::splat(0.5));
     let n = match space {
         NormalMapSpace::Tangent => {
             if at.tangent == Vec4::ZERO {
-                return at.normal;
+                return inputs.normal;
             }
-            let winding = if at.backfacing { -at.normal } else { at.normal };
+            let winding = if inputs.backfacing {
+                -inputs.normal
+            } else {
+                inputs.normal
+            };
             let tangent = at.tangent.truncate();
             let bitangent = at.tangent.w * winding.cross(tangent);
             let n = (c.x * tangent + c.y * bitangent + c.z * winding).normalize_or_zero();
-            if at.backfacing {
+            if inputs.backfacing {
                 -n
             } else {
                 n
             }
         }
-        NormalMapSpace::Object => (at.object_to_world_normal * c).normalize_or_zero(),
+        NormalMapSpace::Object => (inputs.object_to_world_normal * c).normalize_or_zero(),
         NormalMapSpace::BlenderObject => {
-            (at.object_to_world_normal * Vec3::new(c.x, -c.y, -c.z)).normalize_or_zero()
+            (inputs.object_to_world_normal * Vec3::new(c.x, -c.y, -c.z)).normalize_or_zero()
         }
         NormalMapSpace::World => c.normalize_or_zero(),
         NormalMapSpace::BlenderWorld => Vec3::new(c.x, -c.y, -c.z).normalize_or_zero(),
     };
     let n = if strength != 1.0 {
-        (at.normal + (n - at.normal) * strength.max(0.0)).normalize_or_zero()
+        (inputs.normal + (n - inputs.normal) * strength.max(0.0)).normalize_or_zero()
     } else {
         n
     };
     if n == Vec3::ZERO {
-        at.normal
+        inputs.normal
     } else {
         n
     }
@@ -4405,8 +4434,20 @@ mod tests {
     use serde_json::json;
 
     fn at_generated(p: Vec3) -> ShadingInputs {
-        ShadingInputs {
+        ShadingInputs::at_point(PointInputs {
             generated: p,
+            ..PointInputs::default()
+        })
+    }
+
+    /// Shading inputs with `normal` at the three `positions` (the point, then its offsets).
+    fn at_positions(positions: [Vec3; 3], normal: Vec3) -> ShadingInputs {
+        ShadingInputs {
+            points: positions.map(|position| PointInputs {
+                position,
+                ..PointInputs::default()
+            }),
+            normal,
             ..ShadingInputs::default()
         }
     }
@@ -4414,7 +4455,7 @@ mod tests {
     fn emission_of(tree: Value, at: &ShadingInputs) -> Vec3 {
         let mut w = Vec::new();
         let program = compile(&tree, 0, &mut w).expect("compiles");
-        program.eval(&[*at; 3], &[], 0.5).emission
+        program.eval(at, &[], 0.5).emission
     }
 
     #[test]
@@ -4442,15 +4483,7 @@ mod tests {
         let mut w = Vec::new();
         let program = compile(&tree, 0, &mut w).expect("compiles");
         assert!(w.is_empty() && program.needs_offsets, "{w:?}");
-        let here = ShadingInputs {
-            normal: Vec3::Z,
-            ..ShadingInputs::default()
-        };
-        let step = |d: Vec3| ShadingInputs {
-            position: d,
-            ..here
-        };
-        let at = [here, step(Vec3::X * 1e-3), step(Vec3::Y * 1e-3)];
+        let at = at_positions([Vec3::ZERO, Vec3::X * 1e-3, Vec3::Y * 1e-3], Vec3::Z);
         let c = program.eval(&at, &[], 0.5);
         let expected = Vec3::new(-1.0, 0.0, 1.0).normalize();
         assert!((c.emission - expected).length() < 1e-3, "{}", c.emission);
@@ -4461,15 +4494,21 @@ mod tests {
     fn normal_map_weighs_tangent_bitangent_and_normal() {
         let at = ShadingInputs {
             normal: Vec3::Z,
-            tangent: Vec4::new(0.0, 1.0, 0.0, -1.0),
             ..ShadingInputs::default()
         };
+        let point = PointInputs {
+            tangent: Vec4::new(0.0, 1.0, 0.0, -1.0),
+            ..PointInputs::default()
+        };
         let flat = Vec3::new(0.5, 0.5, 1.0);
-        assert_eq!(normal_map(NormalMapSpace::Tangent, flat, 1.0, &at), Vec3::Z);
+        let map = |c: Vec3, strength: f32, at: &ShadingInputs, point: &PointInputs| {
+            normal_map(NormalMapSpace::Tangent, c, strength, at, point)
+        };
+        assert_eq!(map(flat, 1.0, &at, &point), Vec3::Z);
         // Bitangent = sign × N × T = −(Z × Y) = +X.
-        let n = normal_map(NormalMapSpace::Tangent, Vec3::new(0.5, 1.0, 0.5), 1.0, &at);
+        let n = map(Vec3::new(0.5, 1.0, 0.5), 1.0, &at, &point);
         assert!((n - Vec3::X).length() < 1e-6, "{n}");
-        let n = normal_map(NormalMapSpace::Tangent, Vec3::new(1.0, 0.5, 0.5), 1.0, &at);
+        let n = map(Vec3::new(1.0, 0.5, 0.5), 1.0, &at, &point);
         assert!((n - Vec3::Y).length() < 1e-6, "{n}");
         // Seen from behind, the map is applied on the winding's side and turned to the viewer.
         let behind = ShadingInputs {
@@ -4477,25 +4516,14 @@ mod tests {
             backfacing: true,
             ..at
         };
-        let n = normal_map(
-            NormalMapSpace::Tangent,
-            Vec3::new(1.0, 0.5, 0.5),
-            1.0,
-            &behind,
-        );
+        let n = map(Vec3::new(1.0, 0.5, 0.5), 1.0, &behind, &point);
         assert!((n + Vec3::Y).length() < 1e-6, "{n}");
         // Strength 0 keeps the shading normal; no tangents: the shading normal.
-        let n = normal_map(NormalMapSpace::World, Vec3::new(1.0, 0.5, 0.5), 0.0, &at);
+        let world = Vec3::new(1.0, 0.5, 0.5);
+        let n = normal_map(NormalMapSpace::World, world, 0.0, &at, &point);
         assert!((n - Vec3::Z).length() < 1e-6);
-        let none = ShadingInputs {
-            tangent: Vec4::ZERO,
-            ..at
-        };
         let tilted = Vec3::new(1.0, 0.5, 0.5);
-        assert_eq!(
-            normal_map(NormalMapSpace::Tangent, tilted, 1.0, &none),
-            Vec3::Z
-        );
+        assert_eq!(map(tilted, 1.0, &at, &PointInputs::default()), Vec3::Z);
     }
 
     #[test]
@@ -4596,7 +4624,7 @@ mod tests {
         ], "output": {"node": 0, "output": "BSDF"}});
         let program = compiled(transparent);
         assert!(program.shadow_transparent);
-        let c = program.eval(&[ShadingInputs::default(); 3], &[], 0.5);
+        let c = program.eval(&ShadingInputs::default(), &[], 0.5);
         assert!(c.transparent && c.transmission == 1.0);
     }
 
@@ -4786,10 +4814,10 @@ mod tests {
             ],
             "output": {"node": 6, "output": "Emission"}
         });
-        let at = ShadingInputs {
+        let at = ShadingInputs::at_point(PointInputs {
             uv: [Vec2::ZERO, Vec2::ONE, Vec2::new(0.5, 0.25), Vec2::ONE],
-            ..ShadingInputs::default()
-        };
+            ..PointInputs::default()
+        });
         let e = emission_of(tree, &at);
         assert!(
             (e - Vec3::splat(0.125 + 0.7152)).abs().max_element() < 1e-6,
@@ -4817,7 +4845,7 @@ mod tests {
         let n = 10_000;
         let mut metal = 0;
         for i in 0..n {
-            let c = p.eval(&[at; 3], &[], (i as f32 + 0.5) / n as f32);
+            let c = p.eval(&at, &[], (i as f32 + 0.5) / n as f32);
             assert_eq!(c.emission, Vec3::splat(2.0));
             if c.metallic == 1.0 {
                 assert_eq!(c.base_color, Vec3::new(0.0, 1.0, 0.0));
@@ -4866,7 +4894,7 @@ mod tests {
         assert!(w[0].contains("Gabor"), "{w:?}");
         // The Emission colour's default (white) is used.
         assert_eq!(
-            p.eval(&[ShadingInputs::default(); 3], &[], 0.5).emission,
+            p.eval(&ShadingInputs::default(), &[], 0.5).emission,
             Vec3::ONE
         );
     }
@@ -4888,17 +4916,16 @@ mod tests {
         let mut w = Vec::new();
         let p = compile(&tree, 0, &mut w).unwrap();
         assert!(p.needs_offsets && w.is_empty());
-        let at = |x: f32, y: f32| ShadingInputs {
-            position: Vec3::new(x, y, 0.0),
-            normal: Vec3::Z,
-            ..ShadingInputs::default()
-        };
         let e = 1e-3;
-        let c = p.eval(&[at(0.0, 0.0), at(e, 0.0), at(0.0, e)], &[], 0.5);
+        let c = p.eval(
+            &at_positions([Vec3::ZERO, Vec3::X * e, Vec3::Y * e], Vec3::Z),
+            &[],
+            0.5,
+        );
         let want = Vec3::new(-1.0, 0.0, 1.0).normalize();
         assert!((c.normal - want).length() < 1e-4, "{}", c.normal);
         // Without offsets (all three points equal) the normal is the surface's.
-        let flat = p.eval(&[at(0.0, 0.0); 3], &[], 0.5);
+        let flat = p.eval(&at_positions([Vec3::ZERO; 3], Vec3::Z), &[], 0.5);
         assert!((flat.normal - Vec3::Z).length() < 1e-6);
     }
 
@@ -5156,15 +5183,13 @@ mod tests {
             .filter(|i| matches!(i.op, Op::Noise { .. }))
             .count();
         assert_eq!((fused, plain), (1, 0));
-        let at = |q: Vec3| ShadingInputs {
-            position: q,
-            object: q,
-            normal: Vec3::Z,
-            ..ShadingInputs::default()
-        };
         let q = Vec3::new(0.3, -0.2, 0.1);
         let e = 1e-3;
-        let c = p.eval(&[at(q), at(q + Vec3::X * e), at(q + Vec3::Y * e)], &[], 0.5);
+        let mut at = at_positions([q, q + Vec3::X * e, q + Vec3::Y * e], Vec3::Z);
+        for point in &mut at.points {
+            point.object = point.position;
+        }
+        let c = p.eval(&at, &[], 0.5);
         let f = Fractal {
             detail: 2.0,
             roughness: 0.5,
@@ -5235,18 +5260,21 @@ mod profile {
         .unwrap();
         let program = scene.materials[0].nodes.clone().expect("a node tree");
         let mut rng = crate::rng::Rng::new(1);
-        let points: Vec<[ShadingInputs; 3]> = (0..256)
+        let points: Vec<ShadingInputs> = (0..256)
             .map(|_| {
                 let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 2.0 - 1.0;
-                let at = |d: Vec3| ShadingInputs {
+                let at = |d: Vec3| PointInputs {
                     position: p + d,
                     object: p + d,
                     generated: (p + d) * 0.5 + 0.5,
+                    ..PointInputs::default()
+                };
+                ShadingInputs {
+                    points: [at(Vec3::ZERO), at(Vec3::X * 1e-4), at(Vec3::Y * 1e-4)],
                     normal: Vec3::Z,
                     incoming: Vec3::new(0.3, 0.2, 0.9).normalize(),
                     ..ShadingInputs::default()
-                };
-                [at(Vec3::ZERO), at(Vec3::X * 1e-4), at(Vec3::Y * 1e-4)]
+                }
             })
             .collect();
         let textures = &scene.textures;
@@ -5316,7 +5344,7 @@ mod profile {
         let mut sink = 0.0;
         for _ in 0..reps {
             for at in &points {
-                sink += Machine::with(&program, |m| m.regs[3].x + at[0].position.x);
+                sink += Machine::with(&program, |m| m.regs[3].x + at.points[0].position.x);
             }
         }
         let per = t0.elapsed().as_secs_f64() / (reps * points.len()) as f64;
