@@ -2203,12 +2203,24 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
     let o = instr.out as usize;
     match &instr.op {
         Op::TexCoord { uv_set } => {
-            m.regs[o] = v3(at.generated);
-            m.regs[o + 1] = v3(inputs.object_normal);
-            m.regs[o + 2] = uv_value(at, *uv_set);
-            m.regs[o + 3] = v3(at.object);
-            let (n, i) = (inputs.normal, inputs.incoming);
-            m.regs[o + 4] = v3(2.0 * n.dot(i) * n - i);
+            // Only the outputs some instruction reads (often one).
+            let used = |k: u32| instr.used & (1 << k) != 0;
+            if used(0) {
+                m.regs[o] = v3(at.generated);
+            }
+            if used(1) {
+                m.regs[o + 1] = v3(inputs.object_normal);
+            }
+            if used(2) {
+                m.regs[o + 2] = uv_value(at, *uv_set);
+            }
+            if used(3) {
+                m.regs[o + 3] = v3(at.object);
+            }
+            if used(4) {
+                let (n, i) = (inputs.normal, inputs.incoming);
+                m.regs[o + 4] = v3(2.0 * n.dot(i) * n - i);
+            }
         }
         Op::UvMap { uv_set } => m.regs[o] = uv_value(at, *uv_set),
         Op::VertexColor => {
