@@ -66,12 +66,12 @@ SETTINGS = {
     "ShaderNodeDisplacement": ("space",),
     "ShaderNodeFresnel": (),
     "ShaderNodeLayerWeight": (),
-    "ShaderNodeBsdfPrincipled": (),
+    "ShaderNodeBsdfPrincipled": ("distribution",),
     "ShaderNodeBsdfDiffuse": (),
-    "ShaderNodeBsdfGlossy": (),
-    "ShaderNodeBsdfAnisotropic": (),
+    "ShaderNodeBsdfGlossy": ("distribution",),
+    "ShaderNodeBsdfAnisotropic": ("distribution",),
     "ShaderNodeBsdfSheen": ("distribution",),
-    "ShaderNodeBsdfGlass": (),
+    "ShaderNodeBsdfGlass": ("distribution",),
     "ShaderNodeBsdfRefraction": ("distribution",),
     "ShaderNodeEmission": (),
     "ShaderNodeBsdfTransparent": (),
@@ -124,7 +124,11 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeTexVoronoi", "feature"): {"DISTANCE_TO_EDGE", "N_SPHERE_RADIUS"},
     ("ShaderNodeVectorMath", "operation"): {"WRAP", "REFRACT", "FACEFORWARD", "POWER", "SIGN"},
     ("ShaderNodeBsdfSheen", "distribution"): {"ASHIKHMIN"},
+    # Photon's microfacets are GGX, with or without Multiscatter GGX's energy compensation.
     ("ShaderNodeBsdfRefraction", "distribution"): {"BECKMANN"},
+    ("ShaderNodeBsdfGlass", "distribution"): {"BECKMANN"},
+    ("ShaderNodeBsdfGlossy", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
+    ("ShaderNodeBsdfAnisotropic", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
 }
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold
@@ -385,7 +389,8 @@ class _Walker:
         if kind == "ShaderNodeMix" and getattr(node, "factor_mode", "UNIFORM") != "UNIFORM":
             self.problems.append(f"{self.what}: Mix node '{name}' with a non-uniform factor is "
                                  f"not evaluated by Photon")
-        if kind not in ("ShaderNodeBsdfPrincipled",):
+        if kind not in ("ShaderNodeBsdfPrincipled",) or node.distribution != "MULTI_GGX":
+            # glTF has no GGX without energy compensation.
             self.trivial = False
         else:
             for key, exact in GLTF_EXACT_PRINCIPLED.items():

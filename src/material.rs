@@ -71,6 +71,8 @@ pub struct SurfaceMaterial {
     /// A node tree's Holdout: no light, and transparent in the film's alpha where the camera
     /// sees it (Cycles' holdout).
     pub holdout: bool,
+    /// GGX without Multiscatter GGX's energy compensation of the metal and specular lobes.
+    pub single_scatter: bool,
     /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
     /// one and doubles it).
     pub weight: f32,
@@ -109,6 +111,7 @@ impl Default for SurfaceMaterial {
             refraction: false,
             glass: false,
             holdout: false,
+            single_scatter: false,
             weight: 1.0,
         }
     }
@@ -283,6 +286,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         refraction: c.refraction,
         glass: c.glass,
         holdout: c.holdout,
+        single_scatter: c.single_scatter,
         weight: c.weight,
     }
 }

@@ -591,6 +591,47 @@ fn white_furnace_is_one_for_white_dielectric_and_metal() {
 }
 
 #[test]
+fn single_scatter_ggx_loses_what_multiscatter_ggx_gives_back() {
+    // Blender's GGX distribution (no energy compensation): a white rough metal reflects the
+    // single-scattering albedo E(μ) < 1 where Multiscatter GGX reflects 1, and the lobe's own
+    // albedo estimate (what layering and light choice read) agrees with its samples; on a
+    // white dielectric the diffuse takes what the uncompensated specular layer leaves.
+    for &r in &[0.5, 1.0] {
+        let multi = material(Vec3::ONE, 1.0, r, 0.0);
+        let single = SurfaceMaterial {
+            single_scatter: true,
+            ..multi
+        };
+        for &mu in &[0.2, 0.6, 1.0] {
+            let (full, _) = measured_albedo(&Bsdf::new(&multi), view(mu), 200_000, 21);
+            let b = Bsdf::new(&single);
+            let (lossy, err) = measured_albedo(&b, view(mu), 200_000, 21);
+            let estimate = b.viewed_from(view(mu)).albedo();
+            println!("white metal r={r} μ={mu}: single {lossy:?} ± {err}, estimate {estimate:?}, multi {full:?}");
+            assert!(
+                lossy.x < full.x - 0.02 && lossy.x > 0.3,
+                "r={r} μ={mu}: single {lossy:?}, multi {full:?}"
+            );
+            assert!(
+                (lossy.x - estimate.x).abs() < 4.0 * err + 2e-3,
+                "r={r} μ={mu}: sampled {lossy:?} ± {err}, estimate {estimate:?}"
+            );
+        }
+    }
+    let dielectric = SurfaceMaterial {
+        single_scatter: true,
+        ..material(Vec3::ONE, 0.0, 1.0, 0.0)
+    };
+    for &mu in &[0.2, 1.0] {
+        let (albedo, err) = measured_albedo(&Bsdf::new(&dielectric), view(mu), 200_000, 22);
+        assert!(
+            (albedo.max_element() - 1.0).abs() < 0.025 + 4.0 * err,
+            "white GGX dielectric μ={mu}: {albedo:?} ± {err}"
+        );
+    }
+}
+
+#[test]
 fn translucent_transmits_its_colour_and_reflects_nothing() {
     // White furnace: a white Translucent BSDF sends all the light through, from either side,
     // by cosine-weighted samples of weight exactly its colour; nothing is reflected.

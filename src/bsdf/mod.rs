@@ -160,6 +160,9 @@ pub struct Bsdf {
     alpha_y: f32,
     /// Specular, metal and glass lobes are delta lobes.
     smooth: bool,
+    /// The specular layer and the metal without energy compensation (GGX, not Multiscatter
+    /// GGX: `SurfaceMaterial::single_scatter`).
+    single_scatter: bool,
     /// Relative IOR of the dielectric specular layer after the specular-level adjustment; 1 when
     /// the layer is absent.
     spec_eta: f32,
@@ -311,6 +314,7 @@ impl Bsdf {
             alpha_x: alpha / aspect,
             alpha_y: alpha * aspect,
             smooth: roughness < SMOOTH_ROUGHNESS,
+            single_scatter: m.single_scatter,
             spec_eta,
             spec_f0,
             metal_fresnel: F82Tint::new(clamped_base, tint),
@@ -614,6 +618,11 @@ impl LobeSet {
         if b.has_spec_layer() {
             let (compensation, fresnel_e) =
                 dielectric_layer(b.smooth, rough, mu, b.spec_eta, b.spec_f0);
+            let compensation = if b.single_scatter {
+                Vec3::ONE
+            } else {
+                compensation
+            };
             // The compensated lobe reflects E·f_lobe·(1 + F_ms·(1 − E)/E): Cycles' estimate of
             // the layer's albedo (bsdf_microfacet_estimate_albedo times the darkening already in
             // the weight), and what the diffuse below must give up.
@@ -641,7 +650,11 @@ impl LobeSet {
             };
             let missing = (1.0 - e) / e;
             let f_view = b.metal_fresnel.eval(mu);
-            let f_ms = multiscatter_fresnel(b.metal_fresnel.average(), e_avg);
+            let f_ms = if b.single_scatter {
+                Vec3::ZERO
+            } else {
+                multiscatter_fresnel(b.metal_fresnel.average(), e_avg)
+            };
             albedo[METAL] = (f_view * e + f_ms * (1.0 - e)) * b.metal_weight * under;
             metal_scale = (Vec3::ONE + f_ms * missing) * b.metal_weight * under;
         }

@@ -311,6 +311,10 @@ pub struct Closure {
     pub glass: bool,
     /// A Holdout: black, and transparent in the film's alpha where the camera sees it.
     pub holdout: bool,
+    /// The GGX distribution without Multiscatter GGX's energy compensation of the metal and
+    /// specular lobes (a Principled, Glossy or Anisotropic BSDF set to GGX, as scenes made
+    /// before Blender 4.0 are).
+    pub single_scatter: bool,
     /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
     /// probability ½ and doubles it, so their sum is exact on average).
     pub weight: f32,
@@ -344,6 +348,7 @@ impl Closure {
         refraction: false,
         glass: false,
         holdout: false,
+        single_scatter: false,
         weight: 1.0,
     };
 }
@@ -512,9 +517,15 @@ enum Op {
     },
     Fresnel,
     LayerWeight,
-    Principled,
+    /// Principled BSDF; `multiscatter`: its distribution is Multiscatter GGX (else GGX).
+    Principled {
+        multiscatter: bool,
+    },
     Diffuse,
-    Glossy,
+    /// Glossy and Anisotropic BSDF; `multiscatter` as the Principled's.
+    Glossy {
+        multiscatter: bool,
+    },
     Sheen,
     Glass,
     /// Blender's Refraction BSDF: the glass's transmission lobe alone.
@@ -735,11 +746,11 @@ fn input_reads(instrs: &[Instr]) -> u8 {
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
             // the object-to-world normal matrix, unless the anisotropy is a constant `run`
             // reads as none.
-            Op::Principled => match instr.ins.get(11) {
+            Op::Principled { .. } => match instr.ins.get(11) {
                 Some(Src::Const(a)) if !(a.x.clamp(0.0, 1.0) > 0.0) => 0,
                 _ => READS_COORDS | READS_OBJECT_NORMAL,
             },
-            Op::Glossy => match instr.ins.get(3) {
+            Op::Glossy { .. } => match instr.ins.get(3) {
                 Some(Src::Const(a)) if !(a.x.clamp(-0.99, 0.99).abs() > 1e-4) => 0,
                 _ => READS_COORDS | READS_OBJECT_NORMAL,
             },
@@ -1103,7 +1114,7 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("Normal", Vector)],
         ),
-        Op::Principled => (
+        Op::Principled { .. } => (
             vec![
                 i("Base Color", Color, grey),
                 i("Metallic", Float, f(0.0)),
@@ -1144,7 +1155,7 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("BSDF", Shader)],
         ),
-        Op::Glossy => (
+        Op::Glossy { .. } => (
             vec![
                 i("Color", Color, grey),
                 i("Roughness", Float, f(0.5)),
@@ -1585,14 +1596,33 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
                 _ => return Err(bad("space")),
             },
         },
-        "BsdfPrincipled" => Op::Principled,
+        "BsdfPrincipled" => match setting(node, "distribution").unwrap_or("MULTI_GGX") {
+            "MULTI_GGX" => Op::Principled { multiscatter: true },
+            "GGX" => Op::Principled {
+                multiscatter: false,
+            },
+            _ => return Err(bad("distribution")),
+        },
         "BsdfDiffuse" => Op::Diffuse,
-        "BsdfGlossy" | "BsdfAnisotropic" => Op::Glossy,
+        "BsdfGlossy" | "BsdfAnisotropic" => {
+            match setting(node, "distribution").unwrap_or("MULTI_GGX") {
+                "MULTI_GGX" => Op::Glossy { multiscatter: true },
+                "GGX" => Op::Glossy {
+                    multiscatter: false,
+                },
+                // Beckmann and Ashikhmin–Shirley microfacets are not rendered.
+                _ => return Ok(None),
+            }
+        }
         "BsdfSheen" => match setting(node, "distribution").unwrap_or("MICROFIBER") {
             "MICROFIBER" => Op::Sheen,
             _ => return Ok(None),
         },
-        "BsdfGlass" => Op::Glass,
+        // Photon's glass is GGX without energy compensation for either distribution.
+        "BsdfGlass" => match setting(node, "distribution").unwrap_or("MULTI_GGX") {
+            "MULTI_GGX" | "GGX" => Op::Glass,
+            _ => return Ok(None),
+        },
         "BsdfRefraction" => Op::Refraction,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
@@ -1772,13 +1802,13 @@ fn compile_tree(
         let black = |k: usize| matches!(ins[k], Src::Const(v) if v.truncate() == Vec3::ZERO);
         emits |= match op {
             Op::Emission => !black(0) && !black(1),
-            Op::Principled => !black(8) && !black(9),
+            Op::Principled { .. } => !black(8) && !black(9),
             _ => false,
         };
         reads_color |= matches!(op, Op::VertexColor | Op::Attribute);
         shadow_transparent |= match op {
             Op::Transparent => true,
-            Op::Principled => !matches!(ins[4], Src::Const(v) if v.x >= 1.0),
+            Op::Principled { .. } => !matches!(ins[4], Src::Const(v) if v.x >= 1.0),
             _ => false,
         };
         if matches!(op, Op::Bump { .. }) {
@@ -2598,7 +2628,7 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
                 at,
             ));
         }
-        Op::Principled => {
+        Op::Principled { multiscatter } => {
             let level = get(m, 5).x.max(0.0);
             let tint = get(m, 6).truncate();
             let normal = get(m, 10).truncate();
@@ -2637,6 +2667,7 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
                 refraction: false,
                 glass: false,
                 holdout: false,
+                single_scatter: !multiscatter,
                 weight: 1.0,
             };
             // Alpha as Cycles defines it: the BSDF (and its emission) weighted by alpha, a
@@ -2657,7 +2688,7 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
                 ..Closure::BLACK
             };
         }
-        Op::Glossy => {
+        Op::Glossy { multiscatter } => {
             // Cycles' Glossy BSDF: α_x = α (1 − a), α_y = α / (1 − a) for a > 0 (stretched
             // along the bitangent: the tangent turned a quarter), α / (1 + a) and α (1 + a)
             // for a < 0.
@@ -2680,6 +2711,7 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
                 normal: get(m, 2).truncate(),
                 aspect,
                 tangent,
+                single_scatter: !multiscatter,
                 ..Closure::BLACK
             };
         }
