@@ -392,14 +392,17 @@ fn opaque_lobes_stay_on_the_viewer_side() {
 
 #[test]
 fn single_scattering_lobes_are_reciprocal() {
-    // The Lambertian and the (uncompensated) glass reflection are reciprocal. The layered base
-    // and the compensated metal are not exactly, in Cycles as here: their scaling depends on the
-    // view angle only.
+    // The Lambertian and the uncompensated (GGX) glass reflection are reciprocal. The layered
+    // base and the compensated metal and glass (Multiscatter GGX) are not exactly, in Cycles as
+    // here: their scaling depends on the view angle only.
     let diffuse = Bsdf::new(&SurfaceMaterial {
         specular: 0.0,
         ..material(Vec3::splat(0.7), 0.0, 0.5, 0.0)
     });
-    let glass = Bsdf::new(&material(Vec3::ONE, 0.0, 0.4, 1.0));
+    let glass = Bsdf::new(&SurfaceMaterial {
+        single_scatter: true,
+        ..material(Vec3::ONE, 0.0, 0.4, 1.0)
+    });
     let mut rng = Rng::new(7);
     // Lambertian transmission: f(wo, wi) = f(wi, wo) = colour / π across the surface.
     let colour = Vec3::new(0.9, 0.6, 0.3);
@@ -628,6 +631,29 @@ fn single_scatter_ggx_loses_what_multiscatter_ggx_gives_back() {
             (albedo.max_element() - 1.0).abs() < 0.025 + 4.0 * err,
             "white GGX dielectric μ={mu}: {albedo:?} ± {err}"
         );
+    }
+}
+
+#[test]
+fn multiscatter_glass_loses_nothing() {
+    // White rough glass in Multiscatter GGX (the default) is divided by its single-scattering
+    // albedo: reflection plus refraction sum to 1 from either side; in GGX it loses energy.
+    for &r in &[0.3, 0.7, 1.0] {
+        let multi = material(Vec3::ONE, 0.0, r, 1.0);
+        let single = SurfaceMaterial {
+            single_scatter: true,
+            ..multi
+        };
+        for &mu in &[0.9, 0.4, -0.4, -0.9] {
+            let (albedo, err) = measured_albedo(&Bsdf::new(&multi), view(mu), 100_000, 23);
+            let (lossy, _) = measured_albedo(&Bsdf::new(&single), view(mu), 100_000, 23);
+            println!("white glass r={r} μ={mu}: multiscatter {albedo:?} ± {err}, GGX {lossy:?}");
+            assert!(
+                (albedo.x - 1.0).abs() < 0.015 + 4.0 * err,
+                "r={r} μ={mu}: {albedo:?} ± {err}"
+            );
+            assert!(lossy.x < albedo.x, "r={r} μ={mu}: {lossy:?} vs {albedo:?}");
+        }
     }
 }
 

@@ -664,7 +664,21 @@ impl LobeSet {
         } else {
             1.0 / b.glass_ior
         };
-        let glass_scale = under * b.glass_weight;
+        // Multiscatter GGX glass: the single-scattering lobe divided by its own albedo (Cycles'
+        // `microfacet_ggx_preserve_energy` with the glass tables), so white rough glass loses
+        // nothing; GGX glass, the Refraction BSDF and Transparent passes are not compensated.
+        let compensated = b.glass_weight > 0.0
+            && !b.smooth
+            && !b.single_scatter
+            && !b.refraction
+            && !b.transparent
+            && !b.glass_passes_straight();
+        let glass_compensation = if compensated {
+            1.0 / t.glass_e(mu, rough, glass_eta).max(1e-3)
+        } else {
+            1.0
+        };
+        let glass_scale = under * (b.glass_weight * glass_compensation);
         if b.glass_weight > 0.0 {
             let (r, tr) = glass_split(b, mu, glass_eta);
             albedo[GLASS] = (r + tr) * glass_scale;

@@ -11,14 +11,18 @@
 //!   specular layer's albedo is mix(F0·tint, 1, s̄) · E (plus the multiscatter term), which the
 //!   Principled layering subtracts from the diffuse base ("albedo scaling");
 //! - `s_avg(z)`: the cosine-weighted hemispherical average of the blend factor (Fss for the
-//!   compensation's multi-bounce Fresnel).
+//!   compensation's multi-bounce Fresnel);
+//! - `E_glass(μ, r, z)` seen from outside (relative IOR η > 1) and from inside (1/η): the
+//!   directional albedo, reflection plus refraction, of a white single-scattering GGX glass
+//!   (Walter et al. 2007, flux conserved across the interface). Multiscatter GGX glass divides
+//!   its lobe by it, as Cycles' `ggx_glass_E` / `ggx_glass_inv_E` tables do.
 //!
 //! `r` is perceptual roughness (α = r²), `z = F0^(1/4) = sqrt((η − 1)/(η + 1))`; the μ axes are
 //! uniform in sqrt(μ).
 
-use super::fresnel::fresnel_blend_factor;
+use super::fresnel::{fresnel_blend_factor, fresnel_dielectric};
 use super::microfacet::{ggx_g1, ggx_g2, sample_ggx_vndf, MIN_ALPHA};
-use crate::math::{reflect, Vec3};
+use crate::math::{reflect, refract, Vec3};
 use std::sync::LazyLock;
 
 const E_ROUGH: usize = 32;
@@ -27,12 +31,18 @@ const S_ROUGH: usize = 16;
 const S_MU: usize = 32;
 const S_Z: usize = 16;
 const AVG_Z: usize = 64;
+const GLASS_ROUGH: usize = 16;
+const GLASS_MU: usize = 16;
+const GLASS_Z: usize = 16;
+const GLASS_SIDE: usize = GLASS_ROUGH * GLASS_MU * GLASS_Z;
 
 pub struct AlbedoTables {
     e: Vec<f32>,
     e_avg: Vec<f32>,
     s_bar: Vec<f32>,
     s_avg: Vec<f32>,
+    /// `E_glass` from outside, then from inside.
+    glass_e: Vec<f32>,
 }
 
 /// The baked tables: `AlbedoTables::build`'s output as little-endian f32 (e, e_avg, s_bar,
@@ -90,7 +100,13 @@ fn for_each_reflection(alpha: f32, wo: Vec3, n: usize, mut f: impl FnMut(Vec3, f
 
 impl AlbedoTables {
     /// Table lengths in `BAKED` order.
-    const LENGTHS: [usize; 4] = [E_ROUGH * E_MU, E_ROUGH, S_ROUGH * S_MU * S_Z, AVG_Z];
+    const LENGTHS: [usize; 5] = [
+        E_ROUGH * E_MU,
+        E_ROUGH,
+        S_ROUGH * S_MU * S_Z,
+        AVG_Z,
+        2 * GLASS_SIDE,
+    ];
 
     fn from_bytes(bytes: &[u8]) -> Self {
         let total: usize = Self::LENGTHS.iter().sum();
@@ -103,21 +119,28 @@ impl AlbedoTables {
             .chunks_exact(4)
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]));
         let mut next = |n: usize| values.by_ref().take(n).collect::<Vec<f32>>();
-        let [e, e_avg, s_bar, s_avg] = Self::LENGTHS;
+        let [e, e_avg, s_bar, s_avg, glass_e] = Self::LENGTHS;
         AlbedoTables {
             e: next(e),
             e_avg: next(e_avg),
             s_bar: next(s_bar),
             s_avg: next(s_avg),
+            glass_e: next(glass_e),
         }
     }
 
     /// The tables as `albedo_tables.bin` stores them.
     pub fn to_bytes(&self) -> Vec<u8> {
-        [&self.e, &self.e_avg, &self.s_bar, &self.s_avg]
-            .into_iter()
-            .flat_map(|t| t.iter().flat_map(|v| v.to_le_bytes()))
-            .collect()
+        [
+            &self.e,
+            &self.e_avg,
+            &self.s_bar,
+            &self.s_avg,
+            &self.glass_e,
+        ]
+        .into_iter()
+        .flat_map(|t| t.iter().flat_map(|v| v.to_le_bytes()))
+        .collect()
     }
 
     /// Integrate the tables (what `albedo_tables.bin` holds).
@@ -197,11 +220,28 @@ impl AlbedoTables {
             })
             .collect();
 
+        let glass_e = [false, true]
+            .into_iter()
+            .flat_map(|inside| {
+                (0..GLASS_ROUGH).flat_map(move |ir| {
+                    (0..GLASS_MU).flat_map(move |im| {
+                        (0..GLASS_Z).map(move |iz| {
+                            let eta = eta_of_z(grid(iz, GLASS_Z));
+                            let eta = if inside { 1.0 / eta } else { eta };
+                            let mu = mu_of(grid(im, GLASS_MU));
+                            glass_albedo(alpha_of(grid(ir, GLASS_ROUGH)), view(mu), eta, 32)
+                        })
+                    })
+                })
+            })
+            .collect();
+
         AlbedoTables {
             e,
             e_avg,
             s_bar,
             s_avg,
+            glass_e,
         }
     }
 
@@ -217,32 +257,49 @@ impl AlbedoTables {
 
     /// Lobe-averaged Fresnel blend factor of a dielectric GGX reflector of relative IOR `eta`.
     pub fn dielectric_s_bar(&self, mu: f32, rough: f32, eta: f32) -> f32 {
-        let (x, y, z) = (
-            axis(rough, S_ROUGH),
-            axis(mu.max(0.0).sqrt(), S_MU),
-            axis(z_of_eta(eta), S_Z),
-        );
-        let (x0, y0, z0) = (x.floor() as usize, y.floor() as usize, z.floor() as usize);
-        let (x1, y1, z1) = (
-            (x0 + 1).min(S_ROUGH - 1),
-            (y0 + 1).min(S_MU - 1),
-            (z0 + 1).min(S_Z - 1),
-        );
-        let (fx, fy, fz) = (x - x0 as f32, y - y0 as f32, z - z0 as f32);
-        let at = |i: usize, j: usize, k: usize| self.s_bar[(i * S_MU + j) * S_Z + k];
-        let plane = |k: usize| {
-            let a = at(x0, y0, k) + (at(x1, y0, k) - at(x0, y0, k)) * fx;
-            let b = at(x0, y1, k) + (at(x1, y1, k) - at(x0, y1, k)) * fx;
-            a + (b - a) * fy
-        };
-        let (p0, p1) = (plane(z0), plane(z1));
-        p0 + (p1 - p0) * fz
+        let t = [rough, mu.max(0.0).sqrt(), z_of_eta(eta)];
+        lerp_3d(&self.s_bar, [S_ROUGH, S_MU, S_Z], t)
     }
 
     /// Cosine-weighted hemispherical average of the Fresnel blend factor.
     pub fn dielectric_s_avg(&self, eta: f32) -> f32 {
         lerp_1d(&self.s_avg, z_of_eta(eta))
     }
+
+    /// Directional albedo (reflection plus refraction) of a white single-scattering GGX glass
+    /// of relative IOR `eta` (η > 1 seen from outside, < 1 from inside).
+    pub fn glass_e(&self, mu: f32, rough: f32, eta: f32) -> f32 {
+        let side = if eta < 1.0 {
+            &self.glass_e[GLASS_SIDE..]
+        } else {
+            &self.glass_e[..GLASS_SIDE]
+        };
+        let (x, y, z) = (rough, mu.max(0.0).sqrt(), z_of_eta(eta));
+        lerp_3d(side, [GLASS_ROUGH, GLASS_MU, GLASS_Z], [x, y, z])
+    }
+}
+
+/// `E_glass` by stratified visible-normal samples (n × n): each microfacet reflects the
+/// dielectric Fresnel F and refracts 1 − F, weighed G2/G1 (the glass lobe's sample weight);
+/// what leaves on the wrong side is lost.
+fn glass_albedo(alpha: f32, wo: Vec3, eta: f32, n: usize) -> f32 {
+    let g1 = ggx_g1(alpha, wo);
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let u = [(i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32];
+            let h = sample_ggx_vndf(alpha, wo, u);
+            let f = fresnel_dielectric(wo.dot(h), eta);
+            let wr = reflect(wo, h);
+            if wr.z > 0.0 {
+                sum += (f * ggx_g2(alpha, wo, wr) / g1) as f64;
+            }
+            if let Some(wt) = refract(wo, h, eta).filter(|wt| wt.z < 0.0) {
+                sum += ((1.0 - f) * ggx_g2(alpha, wo, wt) / g1) as f64;
+            }
+        }
+    }
+    (sum / (n * n) as f64) as f32
 }
 
 fn z_of_eta(eta: f32) -> f32 {
@@ -265,6 +322,27 @@ fn lerp_1d(table: &[f32], t: f32) -> f32 {
     let i = (x.floor() as usize).min(table.len() - 1);
     let j = (i + 1).min(table.len() - 1);
     table[i] + (table[j] - table[i]) * (x - i as f32)
+}
+
+/// Trilinear lookup in a table of `n[0] × n[1] × n[2]` values (the last axis fastest) at
+/// `t` ∈ [0, 1]³.
+fn lerp_3d(table: &[f32], n: [usize; 3], t: [f32; 3]) -> f32 {
+    let (x, y, z) = (axis(t[0], n[0]), axis(t[1], n[1]), axis(t[2], n[2]));
+    let (x0, y0, z0) = (x.floor() as usize, y.floor() as usize, z.floor() as usize);
+    let (x1, y1, z1) = (
+        (x0 + 1).min(n[0] - 1),
+        (y0 + 1).min(n[1] - 1),
+        (z0 + 1).min(n[2] - 1),
+    );
+    let (fx, fy, fz) = (x - x0 as f32, y - y0 as f32, z - z0 as f32);
+    let at = |i: usize, j: usize, k: usize| table[(i * n[1] + j) * n[2] + k];
+    let plane = |k: usize| {
+        let a = at(x0, y0, k) + (at(x1, y0, k) - at(x0, y0, k)) * fx;
+        let b = at(x0, y1, k) + (at(x1, y1, k) - at(x0, y1, k)) * fx;
+        a + (b - a) * fy
+    };
+    let (p0, p1) = (plane(z0), plane(z1));
+    p0 + (p1 - p0) * fz
 }
 
 fn lerp_2d(table: &[f32], nx: usize, ny: usize, tx: f32, ty: f32) -> f32 {
@@ -325,5 +403,13 @@ mod tests {
         let s = t.dielectric_s_bar(1.0, 0.0, 1.5);
         assert!(s.abs() < 1e-3, "{s}");
         assert!(t.dielectric_s_avg(1.5) > 0.0 && t.dielectric_s_avg(1.5) < 0.2);
+        // Smooth glass loses nothing, from either side (total internal reflection included);
+        // rough glass loses more the rougher it is.
+        for &(mu, eta) in &[(1.0, 1.5), (0.3, 1.5), (1.0, 1.0 / 1.5), (0.3, 1.0 / 1.5)] {
+            let smooth = t.glass_e(mu, 0.0, eta);
+            assert!((smooth - 1.0).abs() < 2e-3, "μ = {mu}, η = {eta}: {smooth}");
+        }
+        let (e4, e8) = (t.glass_e(0.7, 0.4, 1.5), t.glass_e(0.7, 0.8, 1.5));
+        assert!(e8 < e4 && e4 < 1.0 && e8 > 0.3, "{e4} {e8}");
     }
 }

@@ -527,7 +527,10 @@ enum Op {
         multiscatter: bool,
     },
     Sheen,
-    Glass,
+    /// Glass BSDF; `multiscatter` as the Principled's (its lobe divided by its albedo).
+    Glass {
+        multiscatter: bool,
+    },
     /// Blender's Refraction BSDF: the glass's transmission lobe alone.
     Refraction,
     /// Blender's Holdout: no light, and a hole in the film's alpha for camera rays.
@@ -1166,7 +1169,7 @@ fn spec(op: &Op) -> Spec {
             ],
             vec![("BSDF", Shader)],
         ),
-        Op::Glass | Op::Refraction => (
+        Op::Glass { .. } | Op::Refraction => (
             vec![
                 i("Color", Color, Vec4::ONE),
                 i("Roughness", Float, f(0.0)),
@@ -1618,9 +1621,12 @@ fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             "MICROFIBER" => Op::Sheen,
             _ => return Ok(None),
         },
-        // Photon's glass is GGX without energy compensation for either distribution.
         "BsdfGlass" => match setting(node, "distribution").unwrap_or("MULTI_GGX") {
-            "MULTI_GGX" | "GGX" => Op::Glass,
+            "MULTI_GGX" => Op::Glass { multiscatter: true },
+            "GGX" => Op::Glass {
+                multiscatter: false,
+            },
+            // Beckmann microfacets are not rendered.
             _ => return Ok(None),
         },
         "BsdfRefraction" => Op::Refraction,
@@ -2724,7 +2730,7 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
                 ..Closure::BLACK
             };
         }
-        Op::Glass | Op::Refraction => {
+        Op::Glass { .. } | Op::Refraction => {
             m.closures[o] = Closure {
                 base_color: get(m, 0).truncate(),
                 roughness: get(m, 1).x.clamp(0.0, 1.0),
@@ -2734,7 +2740,13 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
                 specular_color: Vec3::ONE,
                 normal: get(m, 3).truncate(),
                 refraction: matches!(instr.op, Op::Refraction),
-                glass: matches!(instr.op, Op::Glass),
+                glass: matches!(instr.op, Op::Glass { .. }),
+                single_scatter: matches!(
+                    instr.op,
+                    Op::Glass {
+                        multiscatter: false
+                    }
+                ),
                 ..Closure::BLACK
             };
         }
