@@ -7,7 +7,8 @@
 //! deliberately simple and conservative (a pass is skipped only when it provably adds nothing):
 //!
 //! - **caustic map**: needed when a mesh uses a material with a delta or near-specular lobe
-//!   (perceptual roughness below `SPECULAR_ROUGHNESS`) and the scene has a light. Whether light
+//!   (perceptual roughness below `SPECULAR_ROUGHNESS`), or a dielectric without a Lambertian
+//!   part at any roughness (`classify`), and the scene has a light. Whether light
 //!   actually reaches that surface is not traced yet.
 //! - **global map + final gather**: needed when indirect diffuse light is possible: there is a light,
 //!   some mesh has a non-black diffuse material, and the geometry is not a single convex mesh lit

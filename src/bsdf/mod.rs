@@ -40,8 +40,11 @@
 //!   `delta` is true;
 //! - `ViewedBsdf::pdf` is the solid-angle density of `sample` over the non-delta lobes (its
 //!   integral is 1 minus the probability of delta lobes and of rejected samples);
-//! - refraction does not scale radiance by η² (Cycles' convention): flux is conserved across an
-//!   interface, so the same BSDF serves camera paths and photons.
+//! - refraction does not scale radiance by η² (Cycles' convention): the camera paths' radiance
+//!   is unchanged across an interface. That BSDF is not symmetric for a transmitted pair,
+//!   f(wo, wi) = (η_i/η_o)² f(wi, wo): photons, which sample it and so conserve their flux, are
+//!   scaled by 1/η² where they are stored inside a medium of index η
+//!   (`integrator::photon::tracing::adjoint_scale`).
 
 // `!(x > 0.0)` is deliberate throughout: it rejects NaN as well as non-positive values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -405,6 +408,23 @@ impl Bsdf {
 
     fn has_spec_layer(&self) -> bool {
         self.base_weight > 0.0 && self.spec_eta != 1.0
+    }
+
+    /// The index of refraction of the medium a glass lobe bounds (inside over outside); 1 when
+    /// the surface has no glass lobe or its glass passes light straight (no refraction).
+    pub fn medium_ior(&self) -> f32 {
+        if self.glass_weight > 0.0 && !self.transparent && !self.glass_passes_straight() {
+            self.glass_ior
+        } else {
+            1.0
+        }
+    }
+
+    /// True when every lobe but delta ones is glossy and some light crosses through the glass
+    /// lobe: a rough (or smooth) dielectric, with no Lambertian, Oren–Nayar or Translucent lobe
+    /// (a coat or sheen may lie above it).
+    pub fn is_glossy_dielectric(&self) -> bool {
+        self.glass_weight > 0.0 && self.base_weight == 0.0 && !self.has_translucent()
     }
 
     fn glass_passes_straight(&self) -> bool {

@@ -5,6 +5,12 @@
 //! "Specular" means a delta lobe, or a surface without a Lambertian part whose perceptual
 //! roughness is below `SPECULAR_ROUGHNESS` (LuxCore's glossiness threshold): such lobes are
 //! narrow enough that ray tracing them converges fast, while a photon estimate would blur them.
+//! A dielectric without a Lambertian part (glass, a Refraction BSDF) is specular at any
+//! roughness (`Bsdf::is_glossy_dielectric`): photons on both of its sides would have to be
+//! estimated through its narrow refraction lobe, from the few of the k nearest that fall in
+//! it, and a rough slab rendered so took 16 s for relMSE 0.066 at 32 × 32 and 512 spp where
+//! ray tracing it, as the path tracer does, takes 3 s for relMSE 0.0005 (issue 19,
+//! docs/bench/measurements.md); light through it onto diffuse surfaces is a caustic.
 
 use crate::bsdf::{Bsdf, ViewedBsdf};
 use crate::material::{eval_material, from_closure};
@@ -17,9 +23,10 @@ pub const SPECULAR_ROUGHNESS: f32 = 0.049;
 
 /// True when a photon arriving at this surface is stored and the renderer reads photon maps
 /// here: some lobe is not a delta, and the surface is not a glossy-only one (no Lambertian part
-/// and roughness below `SPECULAR_ROUGHNESS`).
+/// and roughness below `SPECULAR_ROUGHNESS`) nor a dielectric without a Lambertian part.
 pub fn stores_photons(bsdf: &ViewedBsdf) -> bool {
     bsdf.has_non_delta()
+        && !bsdf.is_glossy_dielectric()
         && (bsdf.roughness() >= SPECULAR_ROUGHNESS || bsdf.diffuse_reflectance() != Vec3::ZERO)
 }
 
@@ -63,9 +70,12 @@ pub fn classifying_bsdf(scene: &Scene, m: u32) -> Bsdf {
     Bsdf::new(&s)
 }
 
-/// True when `b` has a delta or glossy-only lobe: a photon may scatter specularly off it.
+/// True when `b` has a delta or glossy-only lobe, or is a dielectric without a Lambertian part
+/// (module header): a photon may scatter specularly off it.
 pub fn bsdf_is_specular(b: &Bsdf) -> bool {
-    b.has_delta() || (b.has_specular() && b.roughness() < SPECULAR_ROUGHNESS)
+    b.has_delta()
+        || (b.has_specular() && b.roughness() < SPECULAR_ROUGHNESS)
+        || (b.is_glossy_dielectric() && b.has_non_delta())
 }
 
 /// True when material `m` (classified by `classifying_bsdf`) scatters photons specularly.

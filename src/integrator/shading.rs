@@ -11,7 +11,7 @@ use super::classify::{diffuse_reflectance, is_lambertian, lambertian_reflectance
 use super::direct::sample_direct_from;
 use super::Context;
 use crate::accel::{Hit, Ray};
-use crate::bsdf::{Bsdf, BsdfSample, ViewedBsdf};
+use crate::bsdf::{Bsdf, BsdfSample, Scattering, ViewedBsdf};
 use crate::interaction::{SurfaceHit, View};
 use crate::irradiance_cache::IrradianceCache;
 use crate::material::{eval_surface, SurfaceMaterial};
@@ -135,6 +135,23 @@ impl Shading {
             self.surface.absorption
         } else {
             Vec3::ZERO
+        }
+    }
+
+    /// Index of refraction of the medium a ray leaving along `wi` by `bs` travels through,
+    /// `current` being the one it arrived in: the glass's when it refracted into the object, 1
+    /// when it refracted out of it; unchanged by reflections and by crossings that do not bend
+    /// light (a Translucent or Transparent lobe), as `absorption_after` follows the medium.
+    pub fn ior_after(&self, bs: &BsdfSample, wi: Vec3, current: f32) -> f32 {
+        let refracted = bs.transmitted
+            && matches!(bs.scattering, Scattering::Glossy | Scattering::Singular)
+            && self.bsdf.medium_ior() != 1.0;
+        if !refracted {
+            current
+        } else if wi.dot(self.sh.ng) < 0.0 {
+            self.bsdf.medium_ior()
+        } else {
+            1.0
         }
     }
 

@@ -579,6 +579,8 @@ fn walk_photon(
     // True while every bounce so far was specular (light → S*).
     let mut specular_path = true;
     let mut absorption = Vec3::ZERO;
+    // Index of refraction of the medium the photon travels through (1: outside any object).
+    let mut ior = 1.0f32;
     for bounce in 0..=max_bounces {
         let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary) else {
             return;
@@ -586,7 +588,13 @@ fn walk_photon(
         power *= transmittance(absorption, &hit, &ray);
         let s = Shading::new(ctx, &ray, &hit, false);
         let storing = stores_photons(&s.bsdf);
-        if storing && !store(&s, power, bounce, bounce > 0 && specular_path) {
+        // Inside a medium of index η a photon stands for 1/η² of its flux (`adjoint_scale`).
+        let stored = if ior == 1.0 {
+            power
+        } else {
+            power * adjoint_scale(ior)
+        };
+        if storing && !store(&s, stored, bounce, bounce > 0 && specular_path) {
             return;
         }
         if bounce == max_bounces {
@@ -606,8 +614,27 @@ fn walk_photon(
             return;
         }
         absorption = s.absorption_after(&bs, wi, absorption);
+        ior = s.ior_after(&bs, wi, ior);
         ray = s.sh.spawn(wi);
     }
+}
+
+/// What a photon's flux is multiplied by where it is stored inside a medium of index of
+/// refraction `ior` (relative to the outside): 1/η². Refraction is not symmetric (Veach 1997,
+/// §5.2): the camera paths' BSDF conserves radiance across an interface (Cycles' convention,
+/// `crate::bsdf`), f(wo, wi) = (η_i/η_o)² f(wi, wo) for a transmitted pair, so its adjoint, by
+/// which photons must scatter for their density to estimate the radiance camera paths compute,
+/// is the sampled weight times (η_from/η_to)² at each crossing. Photons scattered by the
+/// camera's BSDF, which conserves their flux, were η² too bright wherever they were stored
+/// inside glass: on a rough slab's faces (+2.5 % for a Refraction BSDF slab, +9 % for a Glass
+/// one), on the floor inside the gallery's tilted glass cube (+9.6 % there against the path
+/// tracer, now +0.6 %) and under the cognac glass's foot (+21 %, now −3.5 %;
+/// docs/bench/measurements.md, issue 19). The factors of a photon's crossings cancel once it
+/// is back outside, so the scale is applied to what is stored, from the medium the photon is
+/// in (followed as the absorbing medium is, `Shading::ior_after`: one level, no nesting), and
+/// photons outside any medium are stored exactly as before.
+pub fn adjoint_scale(ior: f32) -> f32 {
+    1.0 / (ior * ior)
 }
 
 /// Where a photon scattered at `s` goes, and the weight it carries: f(wi, wo)·|cos θi| / pdf
@@ -622,8 +649,9 @@ fn walk_photon(
 /// grazing angles, while the adjoint diffuse is not: so on surfaces with a diffuse and another
 /// lobe, half the photons are sampled by the BSDF and half cosine-distributed, weighted by the
 /// mixture density (one-sample MIS with the balance heuristic), which keeps weights bounded.
-/// Delta lobes and refraction keep the sampler's weight (flux is conserved across an
-/// interface, `crate::bsdf`).
+/// Delta lobes and refraction keep the sampler's weight, which conserves flux across an
+/// interface; what a photon inside a medium stands for is scaled where it is stored
+/// (`adjoint_scale`).
 fn scatter_photon(s: &Shading, rng: &mut Rng) -> Option<(BsdfSample, Vec3)> {
     let diffuse = max_component(s.bsdf.diffuse_reflectance());
     let mixed = diffuse > 0.0 && max_component(s.bsdf.albedo()) > diffuse * (1.0 + 1e-3);
