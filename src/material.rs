@@ -56,6 +56,10 @@ pub struct SurfaceMaterial {
     pub tangent: Option<Vec3>,
     /// Oren–Nayar roughness of the diffuse lobe (Blender's Diffuse Roughness; 0: Lambert).
     pub diffuse_roughness: f32,
+    /// Blender's Principled Thin Film: thickness (nm; at most 0.1: none) and IOR of a film
+    /// on the specular layer and the glass (`bsdf::thin_film`).
+    pub thin_film_thickness: f32,
+    pub thin_film_ior: f32,
     /// A node tree's Transparent BSDF (its transmission a straight pass): passing it is no
     /// bounce for Light Path, and shadow rays go through it.
     pub transparent: bool,
@@ -104,6 +108,8 @@ impl Default for SurfaceMaterial {
             aspect: 1.0,
             tangent: None,
             diffuse_roughness: 0.0,
+            thin_film_thickness: 0.0,
+            thin_film_ior: 1.33,
             transparent: false,
             translucent: false,
             refraction: false,
@@ -278,6 +284,8 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         aspect: c.aspect,
         tangent: direction(c.tangent),
         diffuse_roughness: c.diffuse_roughness,
+        thin_film_thickness: c.thin_film_thickness,
+        thin_film_ior: c.thin_film_ior,
         transparent: c.transparent,
         translucent: c.translucent,
         refraction: c.refraction,

@@ -160,6 +160,18 @@ fn rough_cases() -> Vec<Case> {
             true,
         ));
     }
+    for r in [0.2, 0.6] {
+        cases.push(case(
+            &format!("thin film specular r={r}"),
+            film(material(Vec3::new(0.2, 0.3, 0.5), 0.0, r, 0.0), 500.0),
+            false,
+        ));
+        cases.push(case(
+            &format!("thin film glass r={r}"),
+            film(material(tinted_glass, 0.0, r, 1.0), 350.0),
+            true,
+        ));
+    }
     cases.push(Case {
         name: "layered sheen, tinted coat, anisotropic mixture".into(),
         bsdf: Bsdf::new(&SurfaceMaterial {
@@ -171,6 +183,15 @@ fn rough_cases() -> Vec<Case> {
         inside: false,
     });
     cases
+}
+
+/// `m` under a thin film `thickness` nm thick, of IOR 1.33 (Blender's default).
+fn film(m: SurfaceMaterial, thickness: f32) -> SurfaceMaterial {
+    SurfaceMaterial {
+        thin_film_thickness: thickness,
+        thin_film_ior: 1.33,
+        ..m
+    }
 }
 
 /// A Translucent BSDF node's material (`Closure::translucent`).
@@ -309,6 +330,11 @@ fn chi2_translucent() {
 #[test]
 fn chi2_refraction() {
     chi2_family("refraction");
+}
+
+#[test]
+fn chi2_thin_film() {
+    chi2_family("thin film");
 }
 
 #[test]
@@ -520,6 +546,17 @@ fn white_furnace_never_creates_energy() {
         }
     }
     configs.push(translucent(Vec3::ONE));
+    // Thin films on the specular layer and the glass (Cycles 4.5's Principled Thin Film).
+    for &thickness in &[250.0, 500.0, 800.0] {
+        for &roughness in &[0.0, 0.3, 0.8] {
+            for &transmission in &[0.0, 1.0] {
+                configs.push(film(
+                    material(Vec3::ONE, 0.0, roughness, transmission),
+                    thickness,
+                ));
+            }
+        }
+    }
     for m in configs {
         let b = Bsdf::new(&m);
         for &mu in &[1.0, 0.6, 0.2, 0.05, -0.5, -0.1] {
