@@ -66,7 +66,7 @@ use oren_nayar::OrenNayar;
 use sheen::SheenLobe;
 use std::f32::consts::FRAC_1_PI;
 use tables::albedo_tables;
-use thin_film::{scale_to_f0, thin_film_reflectance, ThinFilm};
+use thin_film::{scale_to_f0, thin_film_reflectance, weigh_film, ThinFilm};
 
 /// Below this perceptual roughness the specular, metal and glass lobes are perfectly smooth
 /// (delta lobes).
@@ -174,6 +174,8 @@ pub struct Bsdf {
     /// IOR, below 1 when the material's is) and the real F0 of that IOR.
     spec_film_substrate: f32,
     spec_f0_real: f32,
+    /// How much of the film's reflectance replaces the plain one (`weigh_film`).
+    film_weight: f32,
     metal_fresnel: F82Tint,
     /// IOR of the glass (inside over outside).
     glass_ior: f32,
@@ -271,7 +273,9 @@ impl Bsdf {
 
         let alpha = (roughness * roughness).max(MIN_ALPHA);
         let aspect = clean(m.aspect, 0.01, 1.0);
-        let film = ThinFilm::new(m.thin_film_thickness, m.thin_film_ior);
+        let film_weight = clean(m.thin_film_weight, 0.0, 1.0);
+        let film =
+            ThinFilm::new(m.thin_film_thickness, m.thin_film_ior).filter(|_| film_weight > 0.0);
 
         let coat_weight = clean(m.coat_weight, 0.0, f32::MAX);
         let coat = if coat_weight > WEIGHT_CUTOFF {
@@ -326,6 +330,7 @@ impl Bsdf {
             film,
             spec_film_substrate: if ior < 1.0 { 1.0 / spec_eta } else { spec_eta },
             spec_f0_real: f0_from_ior(spec_eta),
+            film_weight,
             metal_fresnel: F82Tint::new(clamped_base, tint),
             glass_ior: ior,
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
@@ -422,17 +427,27 @@ impl Bsdf {
     /// `cos_i`: Cycles' tinted dielectric mix(F0·tint, 1, s), or with a thin film its
     /// iridescent reflectance scaled towards the tinted F0 (`thin_film::scale_to_f0`).
     fn spec_fresnel(&self, cos_i: f32) -> Vec3 {
-        match &self.film {
-            None => mix(
+        let plain = || {
+            mix(
                 self.spec_f0,
                 Vec3::ONE,
                 fresnel_blend_factor(cos_i, self.spec_eta),
-            ),
-            Some(film) => scale_to_f0(
-                thin_film_reflectance(cos_i, film, self.spec_film_substrate),
-                self.spec_f0,
-                self.spec_f0_real,
-            ),
+            )
+        };
+        match &self.film {
+            None => plain(),
+            Some(film) => {
+                let f = scale_to_f0(
+                    thin_film_reflectance(cos_i, film, self.spec_film_substrate),
+                    self.spec_f0,
+                    self.spec_f0_real,
+                );
+                if self.film_weight >= 1.0 {
+                    f
+                } else {
+                    weigh_film(plain(), f, self.film_weight)
+                }
+            }
         }
     }
 
@@ -807,11 +822,17 @@ fn glass_split(b: &Bsdf, cos_i: f32, eta: f32) -> (Vec3, Vec3) {
                     ..*film
                 }
             };
-            scale_to_f0(
+            let f = scale_to_f0(
                 thin_film_reflectance(cos_i, &film, eta),
                 b.glass_f0,
                 f0_from_ior(b.glass_ior),
-            )
+            );
+            if b.film_weight >= 1.0 {
+                f
+            } else {
+                let plain = mix(b.glass_f0, Vec3::ONE, fresnel_blend_factor(cos_i, eta));
+                weigh_film(plain, f, b.film_weight)
+            }
         }
     };
     (

@@ -37,6 +37,16 @@ impl ThinFilm {
     }
 }
 
+/// `film` (a film's reflectance) mixed over `plain` (the film-free one) by `weight` in [0, 1]
+/// (KHR_materials_iridescence's factor; Blender's film is whole).
+pub fn weigh_film(plain: Vec3, film: Vec3, weight: f32) -> Vec3 {
+    if weight >= 1.0 {
+        film
+    } else {
+        plain + (film - plain) * weight.max(0.0)
+    }
+}
+
 /// One interface's reflectance for s and p polarisation and the phase each reflected wave
 /// takes (0 or π), light arriving at cosine `cos_i` (> 0) on an interface of relative index
 /// `eta` = η_t / η_i. `None` on total internal reflection; else also the transmitted cosine.
@@ -298,6 +308,14 @@ mod tests {
                 .max_element()
                 < 2e-4
         );
+    }
+
+    #[test]
+    fn a_partial_film_mixes_the_reflectances() {
+        let (plain, film) = (Vec3::splat(0.04), Vec3::new(0.1, 0.0, 0.02));
+        assert_eq!(weigh_film(plain, film, 1.0), film);
+        assert_eq!(weigh_film(plain, film, 0.0), plain);
+        assert!((weigh_film(plain, film, 0.5) - Vec3::new(0.07, 0.02, 0.03)).length() < 1e-6);
     }
 
     #[test]
