@@ -47,55 +47,78 @@ pub fn weigh_film(plain: Vec3, film: Vec3, weight: f32) -> Vec3 {
     }
 }
 
-/// One interface's reflectance for s and p polarisation and the phase each reflected wave
-/// takes (0 or π), light arriving at cosine `cos_i` (> 0) on an interface of relative index
-/// `eta` = η_t / η_i. `None` on total internal reflection; else also the transmitted cosine.
-fn interface(cos_i: f32, eta: f32) -> Option<([f32; 2], [f32; 2], f32)> {
+/// One interface's reflectance for s and p polarisation and whether each reflected wave turns
+/// by π (its amplitude ratio is negative; dielectrics turn by 0 or π), light arriving at
+/// cosine `cos_i` (> 0) on an interface of relative index `eta` = η_t / η_i. `None` on total
+/// internal reflection; else also the transmitted cosine.
+fn interface(cos_i: f32, eta: f32) -> Option<([f32; 2], [bool; 2], f32)> {
     let cos2_t = 1.0 - (1.0 - cos_i * cos_i) / (eta * eta);
     if !(cos2_t > 0.0) {
         return None;
     }
     let cos_t = cos2_t.sqrt();
-    // Amplitude ratios (Born & Wolf §1.5.2); a negative one reflects with a phase of π.
+    // Amplitude ratios (Born & Wolf §1.5.2).
     let r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     let r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let phase = |r: f32| if r < 0.0 { std::f32::consts::PI } else { 0.0 };
-    Some(([r_s * r_s, r_p * r_p], [phase(r_s), phase(r_p)], cos_t))
+    Some(([r_s * r_s, r_p * r_p], [r_s < 0.0, r_p < 0.0], cos_t))
 }
 
-/// The Fourier transform of the CIE 1931 colour matching functions (Belcour & Barla's fit: one
-/// Gaussian per function, a second lobe on x̄), at optical path difference `opd` (nm) and phase
-/// `shift`, normalised so that a flat spectrum gives Y = 1.
-fn sensitivity(opd: f32, shift: f32) -> Vec3 {
+/// Belcour & Barla's fit of the CIE 1931 colour matching functions' Fourier transforms: per
+/// function (x̄ has a second lobe) an amplitude, a centre frequency and a variance.
+const FIT: [(usize, f32, f32, f32); 4] = [
+    (0, 5.4856e-13, 1.6810e6, 4.3278e9),
+    (1, 4.4201e-13, 1.7953e6, 9.3046e9),
+    (2, 5.2481e-13, 2.2084e6, 6.6121e9),
+    (0, 1.64408e-8, 2.2399e6, 4.5282e9),
+];
+
+/// Their normalisation: a flat spectrum gives Y = 1.
+const FIT_SCALE: f32 = 1.0 / 1.0685e-7;
+
+/// The spectral sensitivity (XYZ) of the Airy terms of orders m = 1, 2, 3 at optical path
+/// difference `opd` (nm) of one round trip, with no phase shift: the fit's transforms at
+/// m × opd. A phase of 0 or π only flips the sign (`airy_series`), so the three orders share
+/// one cosine and one exponential per lobe (cos 2x and cos 3x by Chebyshev's recurrence,
+/// exp(−m²a) as powers of exp(−a)).
+fn sensitivities(opd: f32) -> [Vec3; 3] {
     // Angular frequency of the path difference, with wavelength in metres.
-    let w = std::f64::consts::TAU as f32 * opd * 1e-9;
-    const AMPLITUDE: [f32; 3] = [5.4856e-13, 4.4201e-13, 5.2481e-13];
-    const CENTRE: [f32; 3] = [1.6810e6, 1.7953e6, 2.2084e6];
-    const VARIANCE: [f32; 3] = [4.3278e9, 9.3046e9, 6.6121e9];
-    let lobe = |k: usize| {
-        AMPLITUDE[k]
-            * (std::f32::consts::TAU * VARIANCE[k]).sqrt()
-            * (CENTRE[k] * w + shift).cos()
-            * (-w * w * VARIANCE[k]).exp()
-    };
-    let x2 = 1.64408e-8 * (2.2399e6 * w + shift).cos() * (-4.5282e9 * w * w).exp();
-    Vec3::new(lobe(0) + x2, lobe(1), lobe(2)) / 1.0685e-7
+    let w = std::f32::consts::TAU * opd * 1e-9;
+    let mut out = [[0.0f32; 3]; 3];
+    for (k, (xyz, amplitude, centre, variance)) in FIT.into_iter().enumerate() {
+        // The first three lobes are Gaussians whose transform is scaled by sqrt(2π var).
+        let scale = if k < 3 {
+            amplitude * (std::f32::consts::TAU * variance).sqrt()
+        } else {
+            amplitude
+        };
+        let c1 = (centre * w).cos();
+        let e1 = (-w * w * variance).exp();
+        let c2 = 2.0 * c1 * c1 - 1.0;
+        let c3 = c1 * (4.0 * c1 * c1 - 3.0);
+        let e2 = (e1 * e1) * (e1 * e1);
+        let e3 = e2 * e2 * e1;
+        out[0][xyz] += scale * c1 * e1;
+        out[1][xyz] += scale * c2 * e2;
+        out[2][xyz] += scale * c3 * e3;
+    }
+    out.map(|v| Vec3::from(v) * FIT_SCALE)
 }
 
 /// The Airy series of one polarisation (Belcour & Barla eq. 10, orders 0…3), in XYZ: `r12`
-/// the top interface's reflectance, `r23` the bottom's, `opd` the path difference of one
-/// round trip (nm), `phase` the phase the round trip's reflections add.
-fn airy_series(r12: f32, r23: f32, opd: f32, phase: f32) -> Vec3 {
+/// the top interface's reflectance, `r23` the bottom's, `sens` the orders' sensitivities at
+/// the film's path difference, `odd` whether the round trip's reflections add a phase of π
+/// (then order m changes sign with m).
+fn airy_series(r12: f32, r23: f32, sens: &[Vec3; 3], odd: bool) -> Vec3 {
     let t121 = 1.0 - r12;
     let r123 = r12 * r23;
     let amplitude = r123.sqrt();
     let inside = t121 * t121 * r23 / (1.0 - r123);
     let mut sum = Vec3::splat(r12 + inside);
     let mut c = inside - t121;
-    for m in 1..4 {
-        c *= amplitude;
-        let m = m as f32;
-        sum += 2.0 * c * sensitivity(m * opd, m * phase);
+    let flip = if odd { -1.0 } else { 1.0 };
+    for s in sens {
+        c *= amplitude * flip;
+        sum += 2.0 * c * *s;
     }
     sum
 }
@@ -122,18 +145,19 @@ pub fn thin_film_reflectance(cos_i: f32, film: &ThinFilm, substrate: f32) -> Vec
         let t = (film.thickness / FADE_THICKNESS).clamp(0.0, 1.0);
         film_ior = 1.0 + (film_ior - 1.0) * (t * t * (3.0 - 2.0 * t));
     }
-    let Some((r12, phase12, cos_film)) = interface(cos_i, film_ior) else {
+    let Some((r12, flip12, cos_film)) = interface(cos_i, film_ior) else {
         return Vec3::ONE;
     };
-    let Some((r23, phase23, _)) = interface(cos_film, substrate / film_ior) else {
+    let Some((r23, flip23, _)) = interface(cos_film, substrate / film_ior) else {
         return Vec3::ONE;
     };
-    let opd = 2.0 * film_ior * film.thickness * cos_film;
+    let sens = sensitivities(2.0 * film_ior * film.thickness * cos_film);
     let mut xyz = Vec3::ZERO;
     for k in 0..2 {
-        // The wave reflected back at the top from inside the film turns by π − φ₁₂.
-        let phase = std::f32::consts::PI - phase12[k] + phase23[k];
-        xyz += 0.5 * airy_series(r12[k], r23[k], opd, phase);
+        // A round trip's phase: π − φ₁₂ (the wave reflected back at the top from inside the
+        // film) + φ₂₃, each φ 0 or π.
+        let odd = !(flip12[k] ^ flip23[k]);
+        xyz += 0.5 * airy_series(r12[k], r23[k], &sens, odd);
     }
     xyz_to_rec709(xyz * D65).clamp(Vec3::ZERO, Vec3::ONE)
 }
@@ -246,7 +270,8 @@ mod tests {
                 let opd = 2.0 * film_ior * d * cf;
                 let mut ours = 0.0f64;
                 for k in 0..2 {
-                    let phase = std::f64::consts::PI - ph12[k] as f64 + ph23[k] as f64;
+                    let pi = std::f64::consts::PI;
+                    let phase = pi - pi * ph12[k] as u8 as f64 + pi * ph23[k] as u8 as f64;
                     let (r12, r23) = (r12[k] as f64, r23[k] as f64);
                     let t121 = 1.0 - r12;
                     let r123 = r12 * r23;
@@ -308,6 +333,43 @@ mod tests {
                 .max_element()
                 < 2e-4
         );
+    }
+
+    /// The fit's transform evaluated directly (with a phase shift), as Belcour & Barla
+    /// write it.
+    fn direct_sensitivity(opd: f64, shift: f64) -> [f64; 3] {
+        let w = std::f64::consts::TAU * opd * 1e-9;
+        let mut out = [0.0; 3];
+        for (k, (xyz, a, c, v)) in FIT.into_iter().enumerate() {
+            let (a, c, v) = (a as f64, c as f64, v as f64);
+            let scale = if k < 3 {
+                a * (std::f64::consts::TAU * v).sqrt()
+            } else {
+                a
+            };
+            out[xyz] += scale * (c * w + shift).cos() * (-w * w * v).exp();
+        }
+        out.map(|x| x / 1.0685e-7)
+    }
+
+    #[test]
+    fn orders_share_the_fit_evaluated_directly() {
+        for &opd in &[0.0f32, 120.0, 665.0, 1330.0, 2400.0, 5000.0] {
+            let fast = sensitivities(opd);
+            for m in 1..4 {
+                for (flip, shift) in [(1.0, 0.0), (-1.0, std::f64::consts::PI)] {
+                    let want = direct_sensitivity(m as f64 * opd as f64, m as f64 * shift);
+                    let sign = if m % 2 == 1 { flip } else { 1.0 };
+                    for c in 0..3 {
+                        let got = sign * fast[m - 1][c] as f64;
+                        assert!(
+                            (got - want[c]).abs() < 2e-5,
+                            "{opd} {m} {shift}: {got} {want:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -17,8 +17,8 @@ Cycles and by Photon through the add-on (F12): mean within 2 % and relMSE <= 0.0
 - a metal under a 500 nm film: Blender 4.5 leaves metals without iridescence (the film
   changes nothing in Cycles), and so does Photon.
 
-Without the film the first sphere would be +12 % against Cycles' (green +30 %; Cycles
-against Cycles), the glass +10 % in green and +13 % in blue: see docs/bench/measurements.md,
+Without the film the first sphere would be +12 % against Cycles' (red −5 %, green +30 %;
+Cycles against Cycles), the glass +10 % in green and +13 % in blue: see docs/bench/measurements.md,
 "Issue 19: Thin Film (thinfilm-19m)".
 """
 
