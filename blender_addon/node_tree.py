@@ -90,7 +90,7 @@ READ_INPUTS = {
                                  "Anisotropic", "Anisotropic Rotation", "Tangent",
                                  "Coat Weight", "Coat Roughness", "Coat IOR", "Coat Tint",
                                  "Coat Normal", "Sheen Weight", "Sheen Roughness", "Sheen Tint",
-                                 "Diffuse Roughness"},
+                                 "Diffuse Roughness", "Thin Film Thickness", "Thin Film IOR"},
     "ShaderNodeBsdfDiffuse": {"Color", "Roughness", "Normal"},
     "ShaderNodeBsdfGlossy": {"Color", "Roughness", "Normal", "Anisotropy", "Rotation",
                              "Tangent"},
@@ -133,9 +133,11 @@ UNSUPPORTED_SETTINGS = {
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold
 # what glTF's extensions carry and Blender's importer reads back: an untinted coat of IOR 1.5
-# (KHR_materials_clearcoat), a sheen of weight 0 or 1 (KHR_materials_sheen has no weight).
+# (KHR_materials_clearcoat), a sheen of weight 0 or 1 (KHR_materials_sheen has no weight), no
+# thin film (Blender 4.5's exporter writes none).
 GLTF_EXACT_PRINCIPLED = {"Coat IOR": (1.5,), "Coat Tint": ((1.0, 1.0, 1.0, 1.0),),
-                         "Sheen Weight": (0.0, 1.0), "Diffuse Roughness": (0.0,)}
+                         "Sheen Weight": (0.0, 1.0), "Diffuse Roughness": (0.0,),
+                         "Thin Film Thickness": (0.0,)}
 
 # The Math operations the renderer evaluates (src/scene/nodes.rs `math_op`).
 MATH_OPS = {

@@ -12,7 +12,8 @@ empty list, so the rules below only flag what really changes the image:
   node tree PHOTON_world does not carry (export.world_problems: anything but Background,
   Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
   Ray" factor and Add Shader);
-- a Principled BSDF's Thin Film (iridescence), which Photon does not render;
+- a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
+  (the tree route renders it; glTF carries no film);
 - volumes: a material's or the world's Volume output linked, and Volume objects;
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement as bump: node_tree.py);
@@ -154,11 +155,12 @@ def material_features(material) -> list[str]:
         reason = _material_node_reason(node)
         if reason:
             messages.append(f"{what}: {node.bl_label} node '{node.name}' {reason}")
-    for node in _upstream(output.inputs["Surface"]):
+    for node in [] if evaluated else _upstream(output.inputs["Surface"]):
         film = node.inputs.get("Thin Film Thickness") if node.type == "BSDF_PRINCIPLED" else None
         if film is not None and (film.is_linked or film.default_value > 0.0):
             messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film is not rendered "
-                            f"by Photon; the surface renders without its iridescence")
+                            f"(the node tree is not evaluated, and glTF carries no film); the "
+                            f"surface renders without its iridescence")
     if output.inputs["Volume"].is_linked:
         node = output.inputs["Volume"].links[0].from_node
         messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "

@@ -56,6 +56,13 @@ pub struct SurfaceMaterial {
     pub tangent: Option<Vec3>,
     /// Oren–Nayar roughness of the diffuse lobe (Blender's Diffuse Roughness; 0: Lambert).
     pub diffuse_roughness: f32,
+    /// Blender's Principled Thin Film: thickness (nm; at most 0.1: none) and IOR of a film
+    /// on the specular layer and the glass (`bsdf::thin_film`).
+    pub thin_film_thickness: f32,
+    pub thin_film_ior: f32,
+    /// How much of the film's reflectance replaces the film-free one (1: all, as Blender's;
+    /// KHR_materials_iridescence's iridescenceFactor).
+    pub thin_film_weight: f32,
     /// A node tree's Transparent BSDF (its transmission a straight pass): passing it is no
     /// bounce for Light Path, and shadow rays go through it.
     pub transparent: bool,
@@ -106,6 +113,9 @@ impl Default for SurfaceMaterial {
             aspect: 1.0,
             tangent: None,
             diffuse_roughness: 0.0,
+            thin_film_thickness: 0.0,
+            thin_film_ior: 1.33,
+            thin_film_weight: 1.0,
             transparent: false,
             translucent: false,
             refraction: false,
@@ -141,7 +151,8 @@ pub fn absorption_coefficient(attenuation_color: Vec3, attenuation_distance: f32
 /// Resolve `material` at texture coordinate `uv`: every factor times its texture, as glTF
 /// specifies (base colour × RGBA texture, metallic × B, roughness × G, emission × RGB,
 /// transmission × R, clearcoat × R, clearcoat roughness × G, sheen colour × RGB, sheen
-/// roughness × A, anisotropy strength × B). The coat's normal and the anisotropy's direction
+/// roughness × A, anisotropy strength × B, iridescence × R, iridescence thickness between
+/// its minimum and maximum by G). The coat's normal and the anisotropy's direction
 /// need the surface point: `eval_surface` adds them.
 pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMaterial {
     let base = material.base_color * lookup(scene, &material.base_color_texture, uv);
@@ -177,6 +188,18 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
             material.sheen_color * lookup(scene, &material.sheen_color_texture, uv).truncate();
         s.sheen_roughness =
             material.sheen_roughness * lookup(scene, &material.sheen_roughness_texture, uv).w;
+    }
+    if material.iridescence > 0.0 {
+        s.thin_film_weight =
+            material.iridescence * lookup(scene, &material.iridescence_texture, uv).x;
+        let [lo, hi] = material.iridescence_thickness;
+        s.thin_film_thickness = match &material.iridescence_thickness_texture {
+            None => hi,
+            Some(_) => {
+                lo + (hi - lo) * lookup(scene, &material.iridescence_thickness_texture, uv).y
+            }
+        };
+        s.thin_film_ior = material.iridescence_ior;
     }
     if material.anisotropy != 0.0 {
         let strength = material.anisotropy * lookup(scene, &material.anisotropy_texture, uv).z;
@@ -281,6 +304,9 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         aspect: c.aspect,
         tangent: direction(c.tangent),
         diffuse_roughness: c.diffuse_roughness,
+        thin_film_thickness: c.thin_film_thickness,
+        thin_film_ior: c.thin_film_ior,
+        thin_film_weight: 1.0,
         transparent: c.transparent,
         translucent: c.translucent,
         refraction: c.refraction,

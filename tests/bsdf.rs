@@ -160,6 +160,18 @@ fn rough_cases() -> Vec<Case> {
             true,
         ));
     }
+    for r in [0.2, 0.6] {
+        cases.push(case(
+            &format!("thin film specular r={r}"),
+            film(material(Vec3::new(0.2, 0.3, 0.5), 0.0, r, 0.0), 500.0),
+            false,
+        ));
+        cases.push(case(
+            &format!("thin film glass r={r}"),
+            film(material(tinted_glass, 0.0, r, 1.0), 350.0),
+            true,
+        ));
+    }
     cases.push(Case {
         name: "layered sheen, tinted coat, anisotropic mixture".into(),
         bsdf: Bsdf::new(&SurfaceMaterial {
@@ -171,6 +183,15 @@ fn rough_cases() -> Vec<Case> {
         inside: false,
     });
     cases
+}
+
+/// `m` under a thin film `thickness` nm thick, of IOR 1.33 (Blender's default).
+fn film(m: SurfaceMaterial, thickness: f32) -> SurfaceMaterial {
+    SurfaceMaterial {
+        thin_film_thickness: thickness,
+        thin_film_ior: 1.33,
+        ..m
+    }
 }
 
 /// A Translucent BSDF node's material (`Closure::translucent`).
@@ -309,6 +330,11 @@ fn chi2_translucent() {
 #[test]
 fn chi2_refraction() {
     chi2_family("refraction");
+}
+
+#[test]
+fn chi2_thin_film() {
+    chi2_family("thin film");
 }
 
 #[test]
@@ -523,6 +549,17 @@ fn white_furnace_never_creates_energy() {
         }
     }
     configs.push(translucent(Vec3::ONE));
+    // Thin films on the specular layer and the glass (Cycles 4.5's Principled Thin Film).
+    for &thickness in &[250.0, 500.0, 800.0] {
+        for &roughness in &[0.0, 0.3, 0.8] {
+            for &transmission in &[0.0, 1.0] {
+                configs.push(film(
+                    material(Vec3::ONE, 0.0, roughness, transmission),
+                    thickness,
+                ));
+            }
+        }
+    }
     for m in configs {
         let b = Bsdf::new(&m);
         for &mu in &[1.0, 0.6, 0.2, 0.05, -0.5, -0.1] {
@@ -1018,6 +1055,94 @@ fn refraction_transmits_its_colour_without_fresnel() {
         assert!(
             close(f1 / (eta * eta), f2, 2e-3),
             "{f1} / η² vs {f2} at {wo:?} {wi:?}"
+        );
+    }
+}
+
+/// A smooth specular layer under a thin film (black base: the layer alone) reflects what
+/// Blender 4.5's Cycles renders for it (a mirror plane under a white world, seen straight on
+/// and at 60° by an orthographic camera; docs/bench/measurements.md, "Issue 19: Thin Film"),
+/// with its Specular IOR Level and Tint, a film under 30 nm and an IOR below 1.
+#[test]
+fn thin_film_layer_matches_cycles() {
+    let cases = [
+        // (thickness, level, tint, IOR, view angle, Cycles' RGB)
+        (
+            500.0,
+            0.5,
+            Vec3::ONE,
+            1.5,
+            0.0,
+            [0.037087, 0.008976, 0.036142],
+        ),
+        (
+            500.0,
+            0.5,
+            Vec3::ONE,
+            1.5,
+            60.0,
+            [0.031311, 0.082435, 0.064725],
+        ),
+        (
+            500.0,
+            0.25,
+            Vec3::new(1.0, 0.5, 0.2),
+            1.5,
+            0.0,
+            [0.020011, 0.010057, 0.004003],
+        ),
+        (
+            500.0,
+            0.8,
+            Vec3::ONE,
+            1.5,
+            0.0,
+            [0.058874, 0.005114, 0.056868],
+        ),
+        (
+            15.0,
+            0.5,
+            Vec3::ONE,
+            1.5,
+            0.0,
+            [0.039087, 0.038547, 0.037827],
+        ),
+        (
+            15.0,
+            0.5,
+            Vec3::ONE,
+            1.5,
+            60.0,
+            [0.088416, 0.087936, 0.087333],
+        ),
+        (
+            500.0,
+            0.5,
+            Vec3::ONE,
+            0.8,
+            0.0,
+            [0.028667, 0.135773, 0.029999],
+        ),
+    ];
+    for (thickness, level, tint, ior, angle, cycles) in cases {
+        let m = SurfaceMaterial {
+            ior,
+            specular: 1.0,
+            specular_color: 2.0 * level * tint,
+            thin_film_thickness: thickness,
+            thin_film_ior: 1.33,
+            ..material(Vec3::ZERO, 0.0, 0.0, 0.0)
+        };
+        let s = Bsdf::new(&m)
+            .viewed_from(view((angle as f32).to_radians().cos()))
+            .sample(0.5, photon::math::Vec2::new(0.5, 0.5))
+            .unwrap();
+        assert!(s.delta);
+        let want = Vec3::from(cycles);
+        assert!(
+            (s.weight - want).abs().max_element() < 3e-4,
+            "{thickness} nm, level {level}, IOR {ior}, {angle}°: {} vs {want}",
+            s.weight
         );
     }
 }

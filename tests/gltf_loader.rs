@@ -765,6 +765,62 @@ fn clearcoat_sheen_and_anisotropy_are_read() {
     }
 }
 
+/// KHR_materials_iridescence is read as a thin film (Blender's Principled Thin Film, which
+/// Blender 4.5's glTF exporter and importer do not carry): the factor (× texture R) weighs the
+/// film, the thickness lies between the minimum and maximum by the thickness texture's G (the
+/// maximum without one); numbers are clamped to their ranges, other values refused.
+#[test]
+fn iridescence_is_read_as_a_thin_film() {
+    let png = png_bytes(
+        1,
+        1,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        &[255, 51, 0],
+    );
+    let ext = json!({"iridescenceFactor": 0.5, "iridescenceIor": 1.4,
+                     "iridescenceThicknessMinimum": 200.0, "iridescenceThicknessMaximum": 600.0,
+                     "iridescenceThicknessTexture": {"index": 0}});
+    let mut doc = textured_doc(
+        &png,
+        "image/png",
+        json!({"name": "Film", "extensions": {"KHR_materials_iridescence": ext}}),
+    );
+    doc.json["extensionsRequired"] = json!(["KHR_materials_iridescence"]);
+    let scene = load_glb(&doc).unwrap();
+    let m = &scene.materials[0];
+    assert_eq!((m.iridescence, m.iridescence_ior), (0.5, 1.4));
+    assert_eq!(m.iridescence_thickness, [200.0, 600.0]);
+    let s = photon::material::eval_material(&scene, m, photon::math::Vec2::ZERO);
+    assert_eq!((s.thin_film_weight, s.thin_film_ior), (0.5, 1.4));
+    assert!((s.thin_film_thickness - (200.0 + 400.0 * 0.2)).abs() < 1e-3);
+    // Without a thickness texture: the maximum; without the extension: no film.
+    let mut doc = triangle_doc();
+    doc.set_material(
+        json!({"extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 1.0}}}),
+    );
+    let scene = load_glb(&doc).unwrap();
+    let s = photon::material::eval_material(&scene, &scene.materials[0], photon::math::Vec2::ZERO);
+    assert_eq!(
+        (s.thin_film_thickness, s.thin_film_ior, s.thin_film_weight),
+        (400.0, 1.3, 1.0)
+    );
+    let mut doc = triangle_doc();
+    doc.set_material(json!({"name": "Plain"}));
+    let scene = load_glb(&doc).unwrap();
+    let s = photon::material::eval_material(&scene, &scene.materials[0], photon::math::Vec2::ZERO);
+    assert_eq!(s.thin_film_thickness, 0.0);
+    for bad in [
+        json!({"iridescenceFactor": "shiny"}),
+        json!({"iridescenceThicknessMaximum": null}),
+        json!({"iridescenceTexture": {"index": 7}}),
+    ] {
+        let mut doc = triangle_doc();
+        doc.set_material(json!({"name": "Bad", "extensions": {"KHR_materials_iridescence": bad}}));
+        assert_scene_error(load_glb(&doc), &["Bad", "KHR_materials_iridescence"]);
+    }
+}
+
 /// Make `png` (stored in the buffer) texture 0 of `doc`.
 fn add_png_texture(doc: &mut Doc, png: &[u8], mime: &str) {
     let view = doc.view(png);

@@ -54,6 +54,7 @@ pub mod microfacet;
 pub mod oren_nayar;
 pub mod sheen;
 pub mod tables;
+pub mod thin_film;
 
 use crate::material::SurfaceMaterial;
 use crate::math::{max_component, reflect, refract, Frame, Vec2, Vec3};
@@ -68,6 +69,7 @@ use oren_nayar::OrenNayar;
 use sheen::SheenLobe;
 use std::f32::consts::FRAC_1_PI;
 use tables::albedo_tables;
+use thin_film::{scale_to_f0, thin_film_reflectance, weigh_film, ThinFilm};
 
 /// Below this perceptual roughness the specular, metal and glass lobes are perfectly smooth
 /// (delta lobes).
@@ -171,6 +173,15 @@ pub struct Bsdf {
     spec_eta: f32,
     /// F0 of the specular layer times the specular tint.
     spec_f0: Vec3,
+    /// The Principled BSDF's thin film (`thin_film`) on the specular layer and the glass;
+    /// `None`: no film, and the plain Fresnel.
+    film: Option<ThinFilm>,
+    /// What the film lies on in the specular layer: its IOR (Cycles' specular-level-adjusted
+    /// IOR, below 1 when the material's is) and the real F0 of that IOR.
+    spec_film_substrate: f32,
+    spec_f0_real: f32,
+    /// How much of the film's reflectance replaces the plain one (`weigh_film`).
+    film_weight: f32,
     metal_fresnel: F82Tint,
     /// IOR of the glass (inside over outside).
     glass_ior: f32,
@@ -268,6 +279,9 @@ impl Bsdf {
 
         let alpha = (roughness * roughness).max(MIN_ALPHA);
         let aspect = clean(m.aspect, 0.01, 1.0);
+        let film_weight = clean(m.thin_film_weight, 0.0, 1.0);
+        let film =
+            ThinFilm::new(m.thin_film_thickness, m.thin_film_ior).filter(|_| film_weight > 0.0);
 
         let coat_weight = clean(m.coat_weight, 0.0, f32::MAX);
         let coat = if coat_weight > WEIGHT_CUTOFF {
@@ -320,6 +334,10 @@ impl Bsdf {
             single_scatter: m.single_scatter,
             spec_eta,
             spec_f0,
+            film,
+            spec_film_substrate: if ior < 1.0 { 1.0 / spec_eta } else { spec_eta },
+            spec_f0_real: f0_from_ior(spec_eta),
+            film_weight,
             metal_fresnel: F82Tint::new(clamped_base, tint),
             glass_ior: ior,
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
@@ -406,8 +424,38 @@ impl Bsdf {
         }
     }
 
+    /// The dielectric base has a specular layer: its IOR is not 1, or a thin film reflects
+    /// (Cycles keeps the layer for a film alone).
     fn has_spec_layer(&self) -> bool {
-        self.base_weight > 0.0 && self.spec_eta != 1.0
+        self.base_weight > 0.0 && (self.spec_eta != 1.0 || self.film.is_some())
+    }
+
+    /// The specular layer's reflectance for a microfacet (or the macro-surface) at cosine
+    /// `cos_i`: Cycles' tinted dielectric mix(F0·tint, 1, s), or with a thin film its
+    /// iridescent reflectance scaled towards the tinted F0 (`thin_film::scale_to_f0`).
+    fn spec_fresnel(&self, cos_i: f32) -> Vec3 {
+        let plain = || {
+            mix(
+                self.spec_f0,
+                Vec3::ONE,
+                fresnel_blend_factor(cos_i, self.spec_eta),
+            )
+        };
+        match &self.film {
+            None => plain(),
+            Some(film) => {
+                let f = scale_to_f0(
+                    thin_film_reflectance(cos_i, film, self.spec_film_substrate),
+                    self.spec_f0,
+                    self.spec_f0_real,
+                );
+                if self.film_weight >= 1.0 {
+                    f
+                } else {
+                    weigh_film(plain(), f, self.film_weight)
+                }
+            }
+        }
     }
 
     /// The index of refraction of the medium a glass lobe bounds (inside over outside); 1 when
@@ -542,8 +590,17 @@ const LOBES: usize = 7;
 /// Energy compensation of a GGX dielectric reflector (Cycles' `microfacet_ggx_preserve_energy`
 /// with Fresnel mix(F0·tint, 1, s)) seen at cosine `mu`: its single-scattering multiplier
 /// (1 + F_ms·(1 − E)/E) and E times the lobe-averaged Fresnel (the reflector's directional
-/// albedo is their product).
-fn dielectric_layer(smooth: bool, rough: f32, mu: f32, eta: f32, f0_tinted: Vec3) -> (Vec3, Vec3) {
+/// albedo is their product). `film`: the reflectance of a thin film at `mu`, which stands for
+/// the lobe-averaged Fresnel (Cycles has no table for films and takes the smooth surface's
+/// value), while the compensation keeps the film-free F_ms, as Cycles' does.
+fn dielectric_layer(
+    smooth: bool,
+    rough: f32,
+    mu: f32,
+    eta: f32,
+    f0_tinted: Vec3,
+    film: Option<Vec3>,
+) -> (Vec3, Vec3) {
     let t = albedo_tables();
     let (e, e_avg) = if smooth {
         (1.0, 1.0)
@@ -555,7 +612,7 @@ fn dielectric_layer(smooth: bool, rough: f32, mu: f32, eta: f32, f0_tinted: Vec3
     } else {
         t.dielectric_s_bar(mu, rough, eta)
     };
-    let f_lobe = mix(f0_tinted, Vec3::ONE, s);
+    let f_lobe = film.unwrap_or_else(|| mix(f0_tinted, Vec3::ONE, s));
     let f_avg = mix(f0_tinted, Vec3::ONE, t.dielectric_s_avg(eta));
     let compensation = Vec3::ONE + multiscatter_fresnel(f_avg, e_avg) * ((1.0 - e) / e);
     (compensation, f_lobe * e)
@@ -624,6 +681,7 @@ impl LobeSet {
                     coat_wo.z.min(1.0),
                     c.eta,
                     Vec3::splat(c.f0),
+                    None,
                 );
                 coat_scale = c.weight * compensation.x * above;
                 let ratio = c.weight * fresnel_e.x * compensation.x;
@@ -636,8 +694,9 @@ impl LobeSet {
 
         let mut layer_albedo = 0.0;
         if b.has_spec_layer() {
+            let film = b.film.is_some().then(|| b.spec_fresnel(mu));
             let (compensation, fresnel_e) =
-                dielectric_layer(b.smooth, rough, mu, b.spec_eta, b.spec_f0);
+                dielectric_layer(b.smooth, rough, mu, b.spec_eta, b.spec_f0, film);
             let compensation = if b.single_scatter {
                 Vec3::ONE
             } else {
@@ -796,8 +855,33 @@ fn glass_split(b: &Bsdf, cos_i: f32, eta: f32) -> (Vec3, Vec3) {
             },
         );
     }
-    let s = fresnel_blend_factor(cos_i, eta);
-    let r = mix(b.glass_f0, Vec3::ONE, s);
+    let r = match &b.film {
+        None => mix(b.glass_f0, Vec3::ONE, fresnel_blend_factor(cos_i, eta)),
+        Some(film) => {
+            // Seen from inside (`eta` is the inverse IOR), Cycles reads the stack substrate |
+            // film | outside as outside | film / IOR | 1 / IOR: the same reflectances, and
+            // the film's index scaled as the substrate's.
+            let film = if eta == b.glass_ior {
+                *film
+            } else {
+                ThinFilm {
+                    ior: film.ior / b.glass_ior,
+                    ..*film
+                }
+            };
+            let f = scale_to_f0(
+                thin_film_reflectance(cos_i, &film, eta),
+                b.glass_f0,
+                f0_from_ior(b.glass_ior),
+            );
+            if b.film_weight >= 1.0 {
+                f
+            } else {
+                let plain = mix(b.glass_f0, Vec3::ONE, fresnel_blend_factor(cos_i, eta));
+                weigh_film(plain, f, b.film_weight)
+            }
+        }
+    };
     (
         r * b.glass_reflect_tint,
         (Vec3::ONE - r) * b.glass_transmit_tint,
@@ -919,12 +1003,7 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
                 )
             };
             if l.prob[SPECULAR] > 0.0 {
-                let fr = mix(
-                    b.spec_f0,
-                    Vec3::ONE,
-                    fresnel_blend_factor(cos_oh, b.spec_eta),
-                );
-                f += fr * l.spec_scale * single;
+                f += b.spec_fresnel(cos_oh) * l.spec_scale * single;
                 pdf += l.prob[SPECULAR] * reflect_pdf;
             }
             if l.prob[METAL] > 0.0 {
@@ -1099,8 +1178,7 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
         DIFFUSE => (square_to_cosine_hemisphere(u), true),
         SPECULAR | METAL if b.smooth => {
             let value = if lobe == SPECULAR {
-                let s = fresnel_blend_factor(wo_up.z, b.spec_eta);
-                mix(b.spec_f0, Vec3::ONE, s) * l.spec_scale
+                b.spec_fresnel(wo_up.z) * l.spec_scale
             } else {
                 b.metal_fresnel.eval(wo_up.z) * l.metal_scale
             };

@@ -140,6 +140,13 @@
 //! the mesh's UV tangent with a texture and from Blender's default tangent (around the object's
 //! Z axis) without one (`crate::material::eval_surface`).
 //!
+//! `KHR_materials_iridescence` (which Blender 4.5's exporter and importer leave out) is read
+//! as Blender's Principled Thin Film: thickness = iridescenceThicknessMinimum + (Maximum −
+//! Minimum) × the thickness texture's G (Maximum without a texture), IOR = iridescenceIor,
+//! and iridescenceFactor (× texture R) mixing the film's Fresnel over the plain one; the film
+//! lies on the specular layer and the glass, not on metals (`crate::bsdf::thin_film`, as
+//! Cycles 4.5).
+//!
 //! Vertex colours `COLOR_0` (VEC3 or VEC4, float or normalized unsigned) are read into
 //! `Mesh::colors`: node trees read them (Color Attribute), and a material without a node tree
 //! multiplies its base colour by them, as glTF specifies.
@@ -226,6 +233,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
     "KHR_materials_anisotropy",
+    "KHR_materials_iridescence",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
     "EXT_texture_webp",
@@ -1479,6 +1487,34 @@ impl Loader {
                 self.ext_number(ext, "anisotropyRotation", 0.0, f32::MIN, f32::MAX, &label)?;
             out.anisotropy_texture =
                 self.raw_texture_info(ext.get("anisotropyTexture"), false, &label)?;
+        }
+        if let Some(ext) = material.extension_value("KHR_materials_iridescence") {
+            let label = format!("{object} KHR_materials_iridescence");
+            out.iridescence = self.ext_number(ext, "iridescenceFactor", 0.0, 0.0, 1.0, &label)?;
+            out.iridescence_texture =
+                self.raw_texture_info(ext.get("iridescenceTexture"), false, &label)?;
+            out.iridescence_ior =
+                self.ext_number(ext, "iridescenceIor", 1.3, 1e-5, f32::MAX, &label)?;
+            out.iridescence_thickness = [
+                self.ext_number(
+                    ext,
+                    "iridescenceThicknessMinimum",
+                    100.0,
+                    0.0,
+                    f32::MAX,
+                    &label,
+                )?,
+                self.ext_number(
+                    ext,
+                    "iridescenceThicknessMaximum",
+                    400.0,
+                    0.0,
+                    f32::MAX,
+                    &label,
+                )?,
+            ];
+            out.iridescence_thickness_texture =
+                self.raw_texture_info(ext.get("iridescenceThicknessTexture"), false, &label)?;
         }
         if let Some(volume) = material.volume() {
             out.thickness = volume.thickness_factor();

@@ -233,6 +233,15 @@ pub struct Material {
     pub anisotropy: f32,
     pub anisotropy_rotation: f32,
     pub anisotropy_texture: Option<TextureRef>,
+    /// KHR_materials_iridescence: a thin film of `iridescence` strength (× texture R), IOR
+    /// `iridescence_ior`, thickness from `iridescence_thickness` [min, max] nanometres by the
+    /// thickness texture's G (the maximum without one), rendered as Blender's Principled Thin
+    /// Film (`crate::bsdf::thin_film`; a strength below 1 mixes the film-free Fresnel in).
+    pub iridescence: f32,
+    pub iridescence_texture: Option<TextureRef>,
+    pub iridescence_ior: f32,
+    pub iridescence_thickness: [f32; 2],
+    pub iridescence_thickness_texture: Option<TextureRef>,
     /// The Blender node tree (our `PHOTON_material_nodes` extension), compiled: when present
     /// it replaces every factor and texture above at each shading point (`crate::material`).
     pub nodes: Option<std::sync::Arc<nodes::NodeProgram>>,
@@ -346,6 +355,11 @@ impl Default for Material {
             anisotropy: 0.0,
             anisotropy_rotation: 0.0,
             anisotropy_texture: None,
+            iridescence: 0.0,
+            iridescence_texture: None,
+            iridescence_ior: 1.3,
+            iridescence_thickness: [100.0, 400.0],
+            iridescence_thickness_texture: None,
             nodes: None,
         }
     }

@@ -300,6 +300,9 @@ pub struct Closure {
     pub tangent: Vec3,
     /// Oren–Nayar roughness of the diffuse lobe (0: Lambert).
     pub diffuse_roughness: f32,
+    /// The Principled Thin Film: thickness (nm) and IOR.
+    pub thin_film_thickness: f32,
+    pub thin_film_ior: f32,
     /// A Transparent BSDF: its pass is not a bounce, and shadow rays go through it.
     pub transparent: bool,
     /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
@@ -343,6 +346,8 @@ impl Closure {
         aspect: 1.0,
         tangent: Vec3::ZERO,
         diffuse_roughness: 0.0,
+        thin_film_thickness: 0.0,
+        thin_film_ior: 1.33,
         transparent: false,
         translucent: false,
         refraction: false,
@@ -1142,6 +1147,8 @@ fn spec(op: &Op) -> Spec {
                 i("Sheen Roughness", Float, f(0.5)),
                 i("Sheen Tint", Color, Vec4::ONE),
                 i("Diffuse Roughness", Float, f(0.0)),
+                i("Thin Film Thickness", Float, f(0.0)),
+                i("Thin Film IOR", Float, f(1.33)),
             ],
             vec![("BSDF", Shader)],
         ),
@@ -2668,6 +2675,8 @@ fn run(instr: &Instr, inputs: &ShadingInputs, textures: &[Texture], m: &mut Mach
                 aspect,
                 tangent,
                 diffuse_roughness: get(m, 22).x.clamp(0.0, 1.0),
+                thin_film_thickness: get(m, 23).x.max(0.0),
+                thin_film_ior: get(m, 24).x.max(1e-5),
                 transparent: false,
                 translucent: false,
                 refraction: false,

@@ -202,18 +202,41 @@ def test_rolling_shutter_is_named(photon_addon):
         messages
 
 
-def test_thin_film_is_named(photon_addon):
-    """A Principled BSDF's Thin Film is not rendered: one message, on the glTF route (a lone
-    Principled BSDF) and on the node-tree route (its Diffuse Roughness, which Photon renders,
-    takes the tree route) alike; a zero thickness gives none."""
+def test_thin_film_is_named_only_where_it_is_not_rendered(photon_addon):
+    """A Principled BSDF's Thin Film is rendered on the node-tree route: a lone Principled
+    BSDF with a film takes it (Blender's glTF exporter writes no film), constant or linked,
+    and nothing is reported. Where the tree is not evaluated (a Toon BSDF beside it), the film
+    is named with the node Photon cannot evaluate; a zero thickness gives no film message."""
+    from blender_addon.node_tree import material_nodes
     bpy.ops.wm.read_factory_settings()
     scene = bpy.context.scene
     mat = bpy.data.objects["Cube"].active_material
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Diffuse Roughness"].default_value = 0.5
-    assert messages_for(scene) == [], "Diffuse Roughness is rendered"
+    tree = mat.node_tree
+    bsdf = tree.nodes["Principled BSDF"]
+    assert material_nodes(mat)[0] is None, "a plain Principled BSDF keeps the glTF route"
     bsdf.inputs["Thin Film Thickness"].default_value = 400.0
     for roughness in (0.5, 0.0):
         bsdf.inputs["Diffuse Roughness"].default_value = roughness
-        messages = messages_for(scene)
-        assert len(messages) == 1 and "Thin Film is not rendered" in messages[0], messages
+        extension, problems = material_nodes(mat)
+        assert extension is not None and not problems, problems
+        inputs = [n for n in extension["nodes"] if n["type"] == "ShaderNodeBsdfPrincipled"][0]
+        assert "Thin Film Thickness" in str(inputs) and "Thin Film IOR" in str(inputs), inputs
+        assert messages_for(scene) == [], "Thin Film is rendered"
+    value = tree.nodes.new("ShaderNodeValue")
+    value.outputs[0].default_value = 300.0
+    tree.links.new(value.outputs[0], bsdf.inputs["Thin Film Thickness"])
+    assert material_nodes(mat)[0] is not None
+    assert messages_for(scene) == [], "a linked Thin Film is rendered"
+    toon = tree.nodes.new("ShaderNodeBsdfToon")
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    output = tree.nodes["Material Output"]
+    tree.links.new(bsdf.outputs["BSDF"], mix.inputs[1])
+    tree.links.new(toon.outputs["BSDF"], mix.inputs[2])
+    tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
+    messages = messages_for(scene)
+    assert [m for m in messages if "Thin Film is not rendered" in m], messages
+    assert [m for m in messages if toon.name in m], messages
+    tree.links.remove(bsdf.inputs["Thin Film Thickness"].links[0])
+    bsdf.inputs["Thin Film Thickness"].default_value = 0.0
+    messages = messages_for(scene)
+    assert not [m for m in messages if "Thin Film" in m], messages
