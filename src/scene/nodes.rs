@@ -3512,8 +3512,28 @@ fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
     match dimensions {
         1 => 0.25 * perlin1(m(w)),
         2 => 0.6616 * perlin2(m(p.x), m(p.y)),
-        _ => 0.9820 * perlin3(m(p.x), m(p.y), m(p.z)),
+        _ => 0.9820 * perlin3_fast(m(p.x), m(p.y), m(p.z)),
     }
+}
+
+/// Whether this machine has AVX2, for the eight-lane noise and Voronoi kernels (the
+/// detection is cached by the standard library).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn has_avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
+/// `perlin3`, its eight corners as the lanes of one AVX2 register where the machine has it
+/// (`noise_avx2::perlin3`, the same value bit for bit); NaN coordinates take `perlin3`.
+#[inline(always)]
+fn perlin3_fast(x: f32, y: f32, z: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() && !(x.is_nan() || y.is_nan() || z.is_nan()) {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::perlin3(x, y, z) };
+    }
+    perlin3(x, y, z)
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -3703,9 +3723,191 @@ fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
     0.9820 * p
 }
 
-/// `fbm` in 3D of three points given as lanes.
+/// `fbm` in 3D of three points given as lanes. With AVX2 the octaves are evaluated two at a
+/// time (`noise_avx2::snoise3_pair`): `fractal_sum` calls for scales s, s · lacunarity, ..
+/// in turn, so a call computes its octave and the next (the very scale `fractal_sum` passes
+/// next), which the next call returns.
 fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        let pending = std::cell::Cell::new(None);
+        return fractal_sum(f, Vec4::ZERO, |s| {
+            if let Some(v) = pending.take() {
+                return v;
+            }
+            let t = s * f.lacunarity;
+            // SAFETY: AVX2 is present (checked above).
+            let [a, b] =
+                unsafe { noise_avx2::snoise3_pair([s * x, t * x], [s * y, t * y], [s * z, t * z]) };
+            pending.set(Some(b));
+            a
+        });
+    }
     fractal_sum(f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z))
+}
+
+/// Perlin noise on AVX2 (x86-64 machines that have it; the callers check): the operations of
+/// `perlin3` and `snoise3_lanes`, lane by lane in the same order (no fused multiply-add), so
+/// the values are theirs bit for bit.
+#[cfg(target_arch = "x86_64")]
+mod noise_avx2 {
+    use super::{node_hash::avx2 as hash, snoise3_lanes, Vec4, LOOKUP3_SEED};
+    use std::arch::x86_64::*;
+
+    const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
+
+    /// `fade` lane by lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn fade(t: __m256) -> __m256 {
+        let s = _mm256_set1_ps;
+        let tt = _mm256_mul_ps(_mm256_mul_ps(t, t), t);
+        let inner = _mm256_sub_ps(_mm256_mul_ps(t, s(6.0)), s(15.0));
+        _mm256_mul_ps(tt, _mm256_add_ps(_mm256_mul_ps(t, inner), s(10.0)))
+    }
+
+    /// Cycles' `grad3` of each lane's hash at that lane's offset (x, y, z), as
+    /// `U32x4::grad3`: selects and a flip of the sign bit.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn grad3(h: __m256i, x: __m256, y: __m256, z: __m256) -> __m256 {
+        let k = _mm256_set1_epi32;
+        let h = _mm256_and_si256(h, k(15));
+        let below8 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(8), h));
+        let below4 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(4), h));
+        let v_is_x = _mm256_castsi256_ps(_mm256_or_si256(
+            _mm256_cmpeq_epi32(h, k(12)),
+            _mm256_cmpeq_epi32(h, k(14)),
+        ));
+        let u = _mm256_blendv_ps(y, x, below8);
+        let v = _mm256_blendv_ps(_mm256_blendv_ps(z, x, v_is_x), y, below4);
+        let sign_u = _mm256_castsi256_ps(_mm256_slli_epi32::<31>(_mm256_and_si256(h, k(1))));
+        let sign_v = _mm256_castsi256_ps(_mm256_slli_epi32::<30>(_mm256_and_si256(h, k(2))));
+        _mm256_add_ps(_mm256_xor_ps(u, sign_u), _mm256_xor_ps(v, sign_v))
+    }
+
+    /// Lane `K` (0x00, 0x55, 0xAA: lane 0, 1, 2) of `v` in all eight lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn lane<const K: i32>(v: __m128) -> __m256 {
+        _mm256_broadcastss_ps(_mm_permute_ps::<K>(v))
+    }
+
+    /// `super::perlin3` at one point (coordinates not NaN): its eight lattice corners
+    /// (dx + 2 dy + 4 dz) as lanes; the two pairwise sums of the interpolation are
+    /// horizontal adds (a + b is b + a bit for bit).
+    #[target_feature(enable = "avx2")]
+    pub fn perlin3(x: f32, y: f32, z: f32) -> f32 {
+        let p = _mm_set_ps(0.0, z, y, x);
+        let cell = _mm_floor_ps(p);
+        let f = _mm_sub_ps(p, cell);
+        let g = _mm_sub_ps(f, _mm_set1_ps(1.0));
+        let t = fade(_mm256_castps128_ps256(f));
+        let fade3 = _mm256_castps256_ps128(t);
+        let rest = _mm_sub_ps(_mm_set1_ps(1.0), fade3);
+        let c = _mm_add_epi32(_mm_cvttps_epi32(cell), _mm_set1_epi32(SEED3));
+        let a = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(c),
+            _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1),
+        );
+        let b = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0x55>(c)),
+            _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1),
+        );
+        let c = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0xAA>(c)),
+            _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1),
+        );
+        let h = hash::finish(a, b, c);
+        let xs = _mm256_blend_ps::<0xAA>(lane::<0x00>(f), lane::<0x00>(g));
+        let ys = _mm256_blend_ps::<0xCC>(lane::<0x55>(f), lane::<0x55>(g));
+        let zs = _mm256_blend_ps::<0xF0>(lane::<0xAA>(f), lane::<0xAA>(g));
+        let along_x = _mm256_blend_ps::<0xAA>(lane::<0x00>(rest), lane::<0x00>(fade3));
+        let m = _mm256_mul_ps(grad3(h, xs, ys, zs), along_x);
+        // (g000 x1 + g100 u, g010 x1 + g110 u, ..) in lanes 0, 1 (near face), 4, 5 (far).
+        let rows = _mm256_hadd_ps(m, m);
+        let along_y = _mm256_blend_ps::<0xAA>(lane::<0x55>(rest), lane::<0x55>(fade3));
+        let faces = _mm256_mul_ps(rows, along_y);
+        let faces = _mm256_hadd_ps(faces, faces);
+        let near = _mm_cvtss_f32(_mm256_castps256_ps128(faces));
+        let far = _mm_cvtss_f32(_mm256_extractf128_ps::<1>(faces));
+        let (z1, w) = (
+            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(rest)),
+            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(fade3)),
+        );
+        z1 * near + w * far
+    }
+
+    /// `snoise3_lanes` of two sets of lanes (two octaves of a Bump's three points) at once:
+    /// each set in one lattice cell, whose eight corner hashes are computed for both sets in
+    /// two eight-lane hashes; a set that is not takes `snoise3_lanes`.
+    #[target_feature(enable = "avx2")]
+    pub fn snoise3_pair(x: [Vec4; 2], y: [Vec4; 2], z: [Vec4; 2]) -> [Vec4; 2] {
+        let join = |v: [Vec4; 2]| _mm256_set_m128(v[1].into(), v[0].into());
+        let (px, py, pz) = (join(x), join(y), join(z));
+        let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
+        let near = |v: __m256| {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(
+                abs(v),
+                _mm256_set1_ps(100_000.0),
+            )) == 0xFF
+        };
+        let (cx, cy, cz) = (
+            _mm256_floor_ps(px),
+            _mm256_floor_ps(py),
+            _mm256_floor_ps(pz),
+        );
+        let one_cell = |c: __m256| {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(c, _mm256_permute_ps::<0>(c))) == 0xFF
+        };
+        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+            return [0, 1].map(|k| snoise3_lanes(x[k], y[k], z[k]));
+        }
+        let seeded = |c: __m256| _mm256_add_epi32(_mm256_cvttps_epi32(c), _mm256_set1_epi32(SEED3));
+        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
+        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
+        let c = seeded(cz);
+        // Corners 0–3 (near face), then 4–7 (far face), of each set's cell.
+        let near_h = hash::finish(a, b, c);
+        let far_h = hash::finish(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1)));
+        let one = _mm256_set1_ps(1.0);
+        let (fx, fy, fz) = (
+            _mm256_sub_ps(px, cx),
+            _mm256_sub_ps(py, cy),
+            _mm256_sub_ps(pz, cz),
+        );
+        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+        let (gx, gy, gz) = (
+            _mm256_sub_ps(fx, one),
+            _mm256_sub_ps(fy, one),
+            _mm256_sub_ps(fz, one),
+        );
+        let g000 = grad3(_mm256_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
+        let g100 = grad3(_mm256_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
+        let g010 = grad3(_mm256_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
+        let g110 = grad3(_mm256_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
+        let g001 = grad3(_mm256_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
+        let g101 = grad3(_mm256_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
+        let g011 = grad3(_mm256_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
+        let g111 = grad3(_mm256_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
+        let (x1, y1, z1) = (
+            _mm256_sub_ps(one, u),
+            _mm256_sub_ps(one, v),
+            _mm256_sub_ps(one, w),
+        );
+        let (add, mul) = (_mm256_add_ps, _mm256_mul_ps);
+        let row = |a: __m256, b: __m256| add(mul(a, x1), mul(b, u));
+        let face = |r0: __m256, r1: __m256| add(mul(y1, r0), mul(v, r1));
+        let p = add(
+            mul(z1, face(row(g000, g100), row(g010, g110))),
+            mul(w, face(row(g001, g101), row(g011, g111))),
+        );
+        let p = mul(_mm256_set1_ps(0.9820), p);
+        [
+            Vec4::from(_mm256_castps256_ps128(p)),
+            Vec4::from(_mm256_extractf128_ps::<1>(p)),
+        ]
+    }
 }
 
 /// One point's Noise Texture inputs: (scaled position, scaled W, fractal, distortion).
@@ -4928,6 +5130,91 @@ mod tests {
         }
         // Both paths ran: the shared-cell lanes and the scalar fallback.
         assert!((5_000..19_000).contains(&shared_cells), "{shared_cells}");
+    }
+
+    /// Random coordinates at several scales, with −0, integers and cell walls mixed in.
+    #[cfg(target_arch = "x86_64")]
+    fn awkward_coordinate(rng: &mut crate::rng::Rng, k: usize) -> f32 {
+        let scale = [1.0, 10.0, 300.0, 9.0e4][k % 4];
+        let v = (rng.uniform() * 2.0 - 1.0) * scale;
+        match (k / 4) % 7 {
+            0 => -0.0,
+            1 => v.floor(),
+            2 => v.floor() - f32::EPSILON * v.abs(),
+            _ => v,
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_perlin3_is_perlin3_bit_for_bit() {
+        if !has_avx2() {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(21);
+        for k in 0..200_000 {
+            let [x, y, z] = [k, k / 3, k / 5].map(|j| awkward_coordinate(&mut rng, j));
+            // SAFETY: AVX2 is present (checked above).
+            let got = unsafe { noise_avx2::perlin3(x, y, z) };
+            assert_eq!(got.to_bits(), perlin3(x, y, z).to_bits(), "{x} {y} {z}");
+            let p = Vec3::new(x, y, z) * 37.0;
+            let want = 0.9820 * perlin3(p.x % 100_000.0, p.y % 100_000.0, p.z % 100_000.0);
+            if p.abs().max_element() < 100_000.0 {
+                assert_eq!(snoise(3, p, 0.0).to_bits(), want.to_bits());
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_octave_pairs_are_snoise3_lanes_bit_for_bit() {
+        if !has_avx2() {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(22);
+        for k in 0..100_000 {
+            let set = |rng: &mut crate::rng::Rng, j: usize| {
+                let p = [j, j + 1, j + 2].map(|i| awkward_coordinate(rng, i));
+                let step = [1e-4, 1e-2, 0.3][j % 3];
+                let (x, y, z) = (
+                    lanes([p[0], p[0] + step, p[0]]),
+                    lanes([p[1], p[1], p[1] + step]),
+                    Vec4::splat(p[2]),
+                );
+                (x, y, z)
+            };
+            let (a, b) = (set(&mut rng, k), set(&mut rng, k / 2 + 1));
+            // SAFETY: AVX2 is present (checked above).
+            let got = unsafe { noise_avx2::snoise3_pair([a.0, b.0], [a.1, b.1], [a.2, b.2]) };
+            for (g, (x, y, z)) in got.iter().zip([a, b]) {
+                let want = snoise3_lanes(x, y, z);
+                assert_eq!(
+                    g.to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "{x} {y} {z}"
+                );
+            }
+        }
+        // The octaves in pairs sum as one at a time.
+        for k in 0..20_000 {
+            let f = Fractal {
+                detail: [0.0, 1.0, 2.0, 2.5, 3.25, 15.0][k % 6],
+                roughness: 0.5,
+                lacunarity: [2.0, 1.7][k % 2],
+                normalize: k % 3 == 0,
+            };
+            let p = [0, 1, 2].map(|j| awkward_coordinate(&mut rng, k + j) * 0.01);
+            let (x, y, z) = (
+                lanes([p[0], p[0] + 1e-4, p[0]]),
+                Vec4::splat(p[1]),
+                Vec4::splat(p[2]),
+            );
+            let want = fractal_sum(&f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z));
+            assert_eq!(
+                fbm3_lanes(x, y, z, &f).to_array().map(f32::to_bits),
+                want.to_array().map(f32::to_bits)
+            );
+        }
     }
 
     /// Blender's own Noise and Voronoi values at chosen points (near the origin, negative,
