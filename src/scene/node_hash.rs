@@ -265,68 +265,73 @@ pub use lanes::U32x4;
 
 /// lookup3's `mix` and `final` on eight words at once in one AVX2 register, for x86-64
 /// machines that have AVX2 (the callers check `is_x86_feature_detected!("avx2")` and keep the
-/// four-lane code otherwise): every lane computes exactly the scalar hash.
+/// four-lane code otherwise): every lane computes exactly the scalar hash. They are forced
+/// inline (which a `#[target_feature]` function cannot be) into the callers' AVX2 code.
 #[cfg(target_arch = "x86_64")]
 pub mod avx2 {
     use std::arch::x86_64::*;
 
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn rotl<const L: i32, const R: i32>(v: __m256i) -> __m256i {
-        _mm256_or_si256(_mm256_slli_epi32::<L>(v), _mm256_srli_epi32::<R>(v))
+    /// Eight words; made only by `mix` and `finish`, whose callers have checked for AVX2.
+    #[derive(Clone, Copy)]
+    struct U32x8(__m256i);
+
+    impl std::ops::Add for U32x8 {
+        type Output = U32x8;
+        #[inline(always)]
+        fn add(self, o: U32x8) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe { U32x8(_mm256_add_epi32(self.0, o.0)) }
+        }
+    }
+
+    impl std::ops::Sub for U32x8 {
+        type Output = U32x8;
+        #[inline(always)]
+        fn sub(self, o: U32x8) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe { U32x8(_mm256_sub_epi32(self.0, o.0)) }
+        }
+    }
+
+    impl std::ops::BitXor for U32x8 {
+        type Output = U32x8;
+        #[inline(always)]
+        fn bitxor(self, o: U32x8) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe { U32x8(_mm256_xor_si256(self.0, o.0)) }
+        }
+    }
+
+    impl super::HashWord for U32x8 {
+        #[inline(always)]
+        fn rotl<const L: i32, const R: i32>(self) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe {
+                U32x8(_mm256_or_si256(
+                    _mm256_slli_epi32::<L>(self.0),
+                    _mm256_srli_epi32::<R>(self.0),
+                ))
+            }
+        }
     }
 
     /// `super::mix` lane by lane.
     ///
     /// # Safety
     /// The machine must have AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn mix(mut a: __m256i, mut b: __m256i, mut c: __m256i) -> (__m256i, __m256i, __m256i) {
-        let (add, sub, xor) = (_mm256_add_epi32, _mm256_sub_epi32, _mm256_xor_si256);
-        a = sub(a, c);
-        a = xor(a, rotl::<4, 28>(c));
-        c = add(c, b);
-        b = sub(b, a);
-        b = xor(b, rotl::<6, 26>(a));
-        a = add(a, c);
-        c = sub(c, b);
-        c = xor(c, rotl::<8, 24>(b));
-        b = add(b, a);
-        a = sub(a, c);
-        a = xor(a, rotl::<16, 16>(c));
-        c = add(c, b);
-        b = sub(b, a);
-        b = xor(b, rotl::<19, 13>(a));
-        a = add(a, c);
-        c = sub(c, b);
-        c = xor(c, rotl::<4, 28>(b));
-        b = add(b, a);
-        (a, b, c)
+    #[inline(always)]
+    pub unsafe fn mix(a: __m256i, b: __m256i, c: __m256i) -> (__m256i, __m256i, __m256i) {
+        let (a, b, c) = super::mix(U32x8(a), U32x8(b), U32x8(c));
+        (a.0, b.0, c.0)
     }
 
     /// `super::finish` lane by lane.
     ///
     /// # Safety
     /// The machine must have AVX2.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    pub fn finish(mut a: __m256i, mut b: __m256i, mut c: __m256i) -> __m256i {
-        let (sub, xor) = (_mm256_sub_epi32, _mm256_xor_si256);
-        c = xor(c, b);
-        c = sub(c, rotl::<14, 18>(b));
-        a = xor(a, c);
-        a = sub(a, rotl::<11, 21>(c));
-        b = xor(b, a);
-        b = sub(b, rotl::<25, 7>(a));
-        c = xor(c, b);
-        c = sub(c, rotl::<16, 16>(b));
-        a = xor(a, c);
-        a = sub(a, rotl::<4, 28>(c));
-        b = xor(b, a);
-        b = sub(b, rotl::<14, 18>(a));
-        c = xor(c, b);
-        sub(c, rotl::<24, 8>(b))
+    #[inline(always)]
+    pub unsafe fn finish(a: __m256i, b: __m256i, c: __m256i) -> __m256i {
+        super::finish(U32x8(a), U32x8(b), U32x8(c)).0
     }
 }
 

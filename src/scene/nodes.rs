@@ -3546,6 +3546,11 @@ struct Fractal {
 
 /// Cycles' `noise_fbm`.
 fn fbm(dimensions: u8, p: Vec3, w: f32, f: &Fractal) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if dimensions == 3 && has_avx2() {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::fbm3(p, f) };
+    }
     fractal_sum(f, 0.0, |scale| snoise(dimensions, scale * p, scale * w))
 }
 
@@ -3723,25 +3728,12 @@ fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
     0.9820 * p
 }
 
-/// `fbm` in 3D of three points given as lanes. With AVX2 the octaves are evaluated two at a
-/// time (`noise_avx2::snoise3_pair`): `fractal_sum` calls for scales s, s · lacunarity, ..
-/// in turn, so a call computes its octave and the next (the very scale `fractal_sum` passes
-/// next), which the next call returns.
+/// `fbm` in 3D of three points given as lanes (with AVX2 `noise_avx2::fbm3_lanes`).
 fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
     #[cfg(target_arch = "x86_64")]
     if has_avx2() {
-        let pending = std::cell::Cell::new(None);
-        return fractal_sum(f, Vec4::ZERO, |s| {
-            if let Some(v) = pending.take() {
-                return v;
-            }
-            let t = s * f.lacunarity;
-            // SAFETY: AVX2 is present (checked above).
-            let [a, b] =
-                unsafe { noise_avx2::snoise3_pair([s * x, t * x], [s * y, t * y], [s * z, t * z]) };
-            pending.set(Some(b));
-            a
-        });
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::fbm3_lanes(x, y, z, f) };
     }
     fractal_sum(f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z))
 }
@@ -3751,10 +3743,47 @@ fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
 /// the values are theirs bit for bit.
 #[cfg(target_arch = "x86_64")]
 mod noise_avx2 {
-    use super::{node_hash::avx2 as hash, snoise3_lanes, Vec4, LOOKUP3_SEED};
+    use super::{
+        fractal_sum, node_hash::avx2 as hash, snoise, snoise3_lanes, Fractal, Vec3, Vec4,
+        LOOKUP3_SEED,
+    };
     use std::arch::x86_64::*;
 
     const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
+
+    /// `super::fbm` in 3D, its octaves' noise inlined.
+    #[target_feature(enable = "avx2")]
+    pub fn fbm3(p: Vec3, f: &Fractal) -> f32 {
+        fractal_sum(f, 0.0, |scale| {
+            let q = scale * p;
+            // `snoise` in 3D, whose coordinates' fmod is the identity below the period.
+            let below = |v: f32| v.abs() < 100_000.0;
+            if below(q.x) && below(q.y) && below(q.z) {
+                0.9820 * perlin3(q.x, q.y, q.z)
+            } else {
+                snoise(3, q, 0.0)
+            }
+        })
+    }
+
+    /// `super::fbm3_lanes`, the octaves evaluated two at a time (`snoise3_pair`):
+    /// `fractal_sum` calls for scales s, s · lacunarity, .. in turn, so a call computes its
+    /// octave and the next (the very scale `fractal_sum` passes next), which the next call
+    /// returns.
+    #[target_feature(enable = "avx2")]
+    pub fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+        let mut pending = None;
+        let pending = std::cell::Cell::from_mut(&mut pending);
+        fractal_sum(f, Vec4::ZERO, |s| {
+            if let Some(v) = pending.take() {
+                return v;
+            }
+            let t = s * f.lacunarity;
+            let [a, b] = snoise3_pair([s * x, t * x], [s * y, t * y], [s * z, t * z]);
+            pending.set(Some(b));
+            a
+        })
+    }
 
     /// `fade` lane by lane.
     #[target_feature(enable = "avx2")]
@@ -3797,6 +3826,7 @@ mod noise_avx2 {
     /// (dx + 2 dy + 4 dz) as lanes; the two pairwise sums of the interpolation are
     /// horizontal adds (a + b is b + a bit for bit).
     #[target_feature(enable = "avx2")]
+    #[inline]
     pub fn perlin3(x: f32, y: f32, z: f32) -> f32 {
         let p = _mm_set_ps(0.0, z, y, x);
         let cell = _mm_floor_ps(p);
@@ -3818,7 +3848,8 @@ mod noise_avx2 {
             _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0xAA>(c)),
             _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1),
         );
-        let h = hash::finish(a, b, c);
+        // SAFETY: this function runs only with AVX2.
+        let h = unsafe { hash::finish(a, b, c) };
         let xs = _mm256_blend_ps::<0xAA>(lane::<0x00>(f), lane::<0x00>(g));
         let ys = _mm256_blend_ps::<0xCC>(lane::<0x55>(f), lane::<0x55>(g));
         let zs = _mm256_blend_ps::<0xF0>(lane::<0xAA>(f), lane::<0xAA>(g));
@@ -3842,6 +3873,7 @@ mod noise_avx2 {
     /// each set in one lattice cell, whose eight corner hashes are computed for both sets in
     /// two eight-lane hashes; a set that is not takes `snoise3_lanes`.
     #[target_feature(enable = "avx2")]
+    #[inline]
     pub fn snoise3_pair(x: [Vec4; 2], y: [Vec4; 2], z: [Vec4; 2]) -> [Vec4; 2] {
         let join = |v: [Vec4; 2]| _mm256_set_m128(v[1].into(), v[0].into());
         let (px, py, pz) = (join(x), join(y), join(z));
@@ -3868,8 +3900,13 @@ mod noise_avx2 {
         let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
         let c = seeded(cz);
         // Corners 0–3 (near face), then 4–7 (far face), of each set's cell.
-        let near_h = hash::finish(a, b, c);
-        let far_h = hash::finish(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1)));
+        // SAFETY: this function runs only with AVX2.
+        let (near_h, far_h) = unsafe {
+            (
+                hash::finish(a, b, c),
+                hash::finish(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1))),
+            )
+        };
         let one = _mm256_set1_ps(1.0);
         let (fx, fy, fz) = (
             _mm256_sub_ps(px, cx),
@@ -4616,13 +4653,19 @@ mod voronoi_avx2 {
         );
         let add = _mm256_add_epi32;
         let s3 = _mm256_set1_epi32(SEED3);
-        let first = hash::finish(add(x, s3), add(y, s3), add(z, s3));
-        // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
         let s4 = _mm256_set1_epi32(SEED4);
-        let (a, b, c) = hash::mix(add(x, s4), add(y, s4), add(z, s4));
         let w = |v: f32| _mm256_set1_epi32(v.to_bits() as i32);
-        let second = hash::finish(add(a, w(1.0)), b, c);
-        let third = hash::finish(add(a, w(2.0)), b, c);
+        // SAFETY: this function runs only with AVX2.
+        let (first, second, third) = unsafe {
+            let first = hash::finish(add(x, s3), add(y, s3), add(z, s3));
+            // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
+            let (a, b, c) = hash::mix(add(x, s4), add(y, s4), add(z, s4));
+            (
+                first,
+                hash::finish(add(a, w(1.0)), b, c),
+                hash::finish(add(a, w(2.0)), b, c),
+            )
+        };
         [unit(first), unit(second), unit(third)]
     }
 
@@ -5376,6 +5419,27 @@ mod tests {
             if p.abs().max_element() < 100_000.0 {
                 assert_eq!(snoise(3, p, 0.0).to_bits(), want.to_bits());
             }
+            // fBm: the octaves inlined, past the period too.
+            let f = Fractal {
+                detail: [0.0, 2.0, 3.5, 15.0][k % 4],
+                roughness: 0.5,
+                lacunarity: [2.0, 1.9][k % 2],
+                normalize: k % 3 == 0,
+            };
+            let m = |v: f32| {
+                if v.abs() < 100_000.0 {
+                    v
+                } else if v.abs() < 1_000_000.0 {
+                    v % 100_000.0
+                } else {
+                    v % 100_000.0 + 0.5
+                }
+            };
+            let reference = fractal_sum(&f, 0.0, |s| {
+                let q = s * p;
+                0.9820 * perlin3(m(q.x), m(q.y), m(q.z))
+            });
+            assert_eq!(fbm(3, p, 0.0, &f).to_bits(), reference.to_bits(), "{p}");
         }
     }
 
