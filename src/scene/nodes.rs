@@ -4617,6 +4617,34 @@ mod voronoi_avx2 {
         o
     };
 
+    /// For each side of the home cell's centre `local` is on (bit a set where it is at least
+    /// ½ along axis a): the Cycles indices of the 2 × 2 × 2 cells on that side (lane
+    /// dx + 2 dy + 4 dz) and their set.
+    const BLOCKS: [([usize; 8], u32); 8] = {
+        let mut blocks = [([0; 8], 0); 8];
+        let mut sides = 0;
+        while sides < 8 {
+            // The sign of each axis' step: 2 · bit − 1.
+            let (ix, iy, iz) = (
+                2 * (sides & 1) as isize - 1,
+                3 * (2 * ((sides >> 1) & 1) as isize - 1),
+                9 * (2 * (sides >> 2) as isize - 1),
+            );
+            let mut lane = 0;
+            while lane < 8 {
+                let d = (lane & 1) as isize * ix
+                    + ((lane >> 1) & 1) as isize * iy
+                    + (lane >> 2) as isize * iz;
+                let index = (13 + d) as usize;
+                blocks[sides].0[lane] = index;
+                blocks[sides].1 |= 1 << index;
+                lane += 1;
+            }
+            sides += 1;
+        }
+        blocks
+    };
+
     /// For group g and each axis, which of the box gaps (offset + 1) the cell of index
     /// 8 g + lane reads (3: none, for the five lanes past the 27 cells).
     const GAP_PICKS: [[[i32; 8]; 3]; 4] = {
@@ -4696,29 +4724,44 @@ mod voronoi_avx2 {
             sub(pz, s(local.z)),
         );
         let d = _mm256_sqrt_ps(add(add(mul(dx, dx), mul(dy, dy)), mul(dz, dz)));
-        let mut hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(d, s(nearest.0))) as u32;
+        let within = _mm256_cmp_ps::<_CMP_LE_OQ>(d, s(nearest.0));
+        let hits = _mm256_movemask_ps(within) as u32;
         if hits == 0 {
             return;
         }
-        let store = |v: __m256| {
-            let mut out = [0.0f32; 8];
-            // SAFETY: an unaligned store of eight floats into eight floats.
-            unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
-            out
-        };
-        let (d, px, py, pz) = (store(d), store(px), store(py), store(pz));
-        while hits != 0 {
-            let k = hits.trailing_zeros() as usize;
-            hits &= hits - 1;
-            if d[k] < nearest.0 || (d[k] == nearest.0 && index[k] < nearest.1) {
-                let o = OFFSETS[index[k]];
-                *nearest = (
-                    d[k],
-                    index[k],
-                    Vec3::new(o[0], o[1], o[2]),
-                    Vec3::new(px[k], py[k], pz[k]),
-                );
+        // The least distance among the lanes not farther than the best (NaN never is), then
+        // the least index among its lanes: the rule below applied lane by lane in any order
+        // keeps the least (distance, index).
+        let d = _mm256_blendv_ps(s(f32::INFINITY), d, within);
+        let m = _mm256_min_ps(d, _mm256_permute2f128_ps::<1>(d, d));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
+        let least = _mm_cvtss_f32(_mm256_castps256_ps128(m));
+        let mut ties = hits & _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(d, m)) as u32;
+        let mut k = ties.trailing_zeros() as usize;
+        ties &= ties - 1;
+        while ties != 0 {
+            let j = ties.trailing_zeros() as usize;
+            ties &= ties - 1;
+            if index[j] < index[k] {
+                k = j;
             }
+        }
+        if least < nearest.0 || (least == nearest.0 && index[k] < nearest.1) {
+            let store = |v: __m256| {
+                let mut out = [0.0f32; 8];
+                // SAFETY: an unaligned store of eight floats into eight floats.
+                unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
+                out
+            };
+            let (px, py, pz) = (store(px), store(py), store(pz));
+            let o = OFFSETS[index[k]];
+            *nearest = (
+                least,
+                index[k],
+                Vec3::new(o[0], o[1], o[2]),
+                Vec3::new(px[k], py[k], pz[k]),
+            );
         }
     }
 
@@ -4731,20 +4774,19 @@ mod voronoi_avx2 {
         gap2: &[[f32; 3]; 3],
     ) -> (f32, Vec3, Vec3) {
         let mut nearest = (f32::MAX, usize::MAX, Vec3::ZERO, Vec3::ZERO);
-        let side = |l: f32| if l < 0.5 { -1.0f32 } else { 1.0 };
-        let (sx, sy, sz) = (side(local.x), side(local.y), side(local.z));
+        let up = |l: f32| !(l < 0.5);
+        let sides =
+            up(local.x) as usize | (up(local.y) as usize) << 1 | (up(local.z) as usize) << 2;
+        let side = |a: usize| _mm256_set1_ps(if sides >> a & 1 != 0 { 1.0 } else { -1.0 });
         // Lane dx + 2 dy + 4 dz: offset (dx sx, dy sy, dz sz), each zero a +0.
         let zero = _mm256_setzero_ps();
         let block = [
-            _mm256_blend_ps::<0xAA>(zero, _mm256_set1_ps(sx)),
-            _mm256_blend_ps::<0xCC>(zero, _mm256_set1_ps(sy)),
-            _mm256_blend_ps::<0xF0>(zero, _mm256_set1_ps(sz)),
+            _mm256_blend_ps::<0xAA>(zero, side(0)),
+            _mm256_blend_ps::<0xCC>(zero, side(1)),
+            _mm256_blend_ps::<0xF0>(zero, side(2)),
         ];
-        let (ix, iy, iz) = (sx as isize, 3 * sy as isize, 9 * sz as isize);
-        let index =
-            [0, ix, iy, ix + iy, iz, ix + iz, iy + iz, ix + iy + iz].map(|d| (13 + d) as usize);
-        nearest_of_eight(&index, block, cell, local, randomness, &mut nearest);
-        let done = index.iter().fold(0u32, |m, i| m | 1 << i);
+        let (index, done) = &BLOCKS[sides];
+        nearest_of_eight(index, block, cell, local, randomness, &mut nearest);
         // The other cells whose box lies within the bound (squared, without the root: its
         // margin covers the rounding), as `super::nearest_point_euclidean_3d` tests them.
         let bound = nearest.0 * (1.0 + 1e-6);
@@ -4763,7 +4805,7 @@ mod voronoi_avx2 {
             let near = _mm256_cmp_ps::<_CMP_NGT_UQ>(sum, far);
             within |= (_mm256_movemask_ps(near) as u32) << (8 * group);
         }
-        let mut left = within & !done & ((1 << 27) - 1);
+        let mut left = within & !*done & ((1 << 27) - 1);
         while left != 0 {
             let mut index = [0usize; 8];
             let mut offsets = [[0.0f32; 8]; 3];
