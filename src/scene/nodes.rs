@@ -3774,9 +3774,18 @@ mod noise_avx2 {
     pub fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
         let mut pending = None;
         let pending = std::cell::Cell::from_mut(&mut pending);
+        // How many times `fractal_sum` calls: the last of an odd number is one octave alone
+        // (`snoise3_one`). (Were this count off, the values would be the same.)
+        let calls = (f.detail as i32 + 1).max(0) + (f.detail - f.detail.floor() != 0.0) as i32;
+        let mut call = 0;
+        let call = std::cell::Cell::from_mut(&mut call);
         fractal_sum(f, Vec4::ZERO, |s| {
+            call.set(call.get() + 1);
             if let Some(v) = pending.take() {
                 return v;
+            }
+            if call.get() == calls {
+                return snoise3_one(s * x, s * y, s * z);
             }
             let t = s * f.lacunarity;
             let [a, b] = snoise3_pair([s * x, t * x], [s * y, t * y], [s * z, t * z]);
@@ -3944,6 +3953,90 @@ mod noise_avx2 {
             Vec4::from(_mm256_castps256_ps128(p)),
             Vec4::from(_mm256_extractf128_ps::<1>(p)),
         ]
+    }
+
+    /// `fade` lane by lane, on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn fade4(t: __m128) -> __m128 {
+        let s = _mm_set1_ps;
+        let tt = _mm_mul_ps(_mm_mul_ps(t, t), t);
+        let inner = _mm_sub_ps(_mm_mul_ps(t, s(6.0)), s(15.0));
+        _mm_mul_ps(tt, _mm_add_ps(_mm_mul_ps(t, inner), s(10.0)))
+    }
+
+    /// `grad3` on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn grad3_4(h: __m128i, x: __m128, y: __m128, z: __m128) -> __m128 {
+        let k = _mm_set1_epi32;
+        let h = _mm_and_si128(h, k(15));
+        let below8 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(8), h));
+        let below4 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(4), h));
+        let v_is_x = _mm_castsi128_ps(_mm_or_si128(
+            _mm_cmpeq_epi32(h, k(12)),
+            _mm_cmpeq_epi32(h, k(14)),
+        ));
+        let u = _mm_blendv_ps(y, x, below8);
+        let v = _mm_blendv_ps(_mm_blendv_ps(z, x, v_is_x), y, below4);
+        let sign_u = _mm_castsi128_ps(_mm_slli_epi32::<31>(_mm_and_si128(h, k(1))));
+        let sign_v = _mm_castsi128_ps(_mm_slli_epi32::<30>(_mm_and_si128(h, k(2))));
+        _mm_add_ps(_mm_xor_ps(u, sign_u), _mm_xor_ps(v, sign_v))
+    }
+
+    /// `snoise3_lanes` of one set of lanes (one octave of a Bump's three points) in one
+    /// lattice cell: its eight corner hashes in one eight-lane hash (lane dx + 2 dy + 4 dz),
+    /// each broadcast to the four lanes; a set that is not in one cell takes
+    /// `snoise3_lanes`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn snoise3_one(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+        let (px, py, pz): (__m128, __m128, __m128) = (x.into(), y.into(), z.into());
+        let abs = |v: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), v);
+        let near = |v: __m128| _mm_movemask_ps(_mm_cmplt_ps(abs(v), _mm_set1_ps(100_000.0))) == 0xF;
+        let (cx, cy, cz) = (_mm_floor_ps(px), _mm_floor_ps(py), _mm_floor_ps(pz));
+        let one_cell = |c: __m128| _mm_movemask_ps(_mm_cmpeq_ps(c, _mm_permute_ps::<0>(c))) == 0xF;
+        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+            return snoise3_lanes(x, y, z);
+        }
+        // The cell's coordinates (lane 0 of each) in all eight lanes, seeded.
+        let seeded = |c: __m128| {
+            _mm256_add_epi32(
+                _mm256_broadcastd_epi32(_mm_cvttps_epi32(c)),
+                _mm256_set1_epi32(SEED3),
+            )
+        };
+        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
+        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
+        let c = _mm256_add_epi32(seeded(cz), _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1));
+        // SAFETY: this function runs only with AVX2.
+        let h = unsafe { hash::finish(a, b, c) };
+        let (near_h, far_h) = (_mm256_castsi256_si128(h), _mm256_extracti128_si256::<1>(h));
+        let one = _mm_set1_ps(1.0);
+        let (fx, fy, fz) = (_mm_sub_ps(px, cx), _mm_sub_ps(py, cy), _mm_sub_ps(pz, cz));
+        let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
+        let (gx, gy, gz) = (
+            _mm_sub_ps(fx, one),
+            _mm_sub_ps(fy, one),
+            _mm_sub_ps(fz, one),
+        );
+        let g000 = grad3_4(_mm_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
+        let g100 = grad3_4(_mm_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
+        let g010 = grad3_4(_mm_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
+        let g110 = grad3_4(_mm_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
+        let g001 = grad3_4(_mm_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
+        let g101 = grad3_4(_mm_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
+        let g011 = grad3_4(_mm_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
+        let g111 = grad3_4(_mm_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
+        let (x1, y1, z1) = (_mm_sub_ps(one, u), _mm_sub_ps(one, v), _mm_sub_ps(one, w));
+        let (add, mul) = (_mm_add_ps, _mm_mul_ps);
+        let row = |a: __m128, b: __m128| add(mul(a, x1), mul(b, u));
+        let face = |r0: __m128, r1: __m128| add(mul(y1, r0), mul(v, r1));
+        let p = add(
+            mul(z1, face(row(g000, g100), row(g010, g110))),
+            mul(w, face(row(g001, g101), row(g011, g111))),
+        );
+        Vec4::from(mul(_mm_set1_ps(0.9820), p))
     }
 }
 
@@ -5504,6 +5597,12 @@ mod tests {
                 (x, y, z)
             };
             let (a, b) = (set(&mut rng, k), set(&mut rng, k / 2 + 1));
+            // SAFETY: AVX2 is present (checked above).
+            let one = unsafe { noise_avx2::snoise3_one(a.0, a.1, a.2) };
+            assert_eq!(
+                one.to_array().map(f32::to_bits),
+                snoise3_lanes(a.0, a.1, a.2).to_array().map(f32::to_bits)
+            );
             // SAFETY: AVX2 is present (checked above).
             let got = unsafe { noise_avx2::snoise3_pair([a.0, b.0], [a.1, b.1], [a.2, b.2]) };
             for (g, (x, y, z)) in got.iter().zip([a, b]) {
