@@ -4,7 +4,8 @@
 //! (plain arrays elsewhere): the compiler does not vectorise the hash's rotations by itself,
 //! and Perlin noise's eight lattice corners and the Voronoi search's cells are hashed four at
 //! a time. Every lane computes exactly the scalar hash. `U32x4::grad3` turns four corners'
-//! hashes into Perlin's gradients the same way, lane by lane.
+//! hashes into Perlin's gradients the same way, lane by lane. `avx2` hashes eight lanes at
+//! once where the machine has AVX2.
 
 use std::ops::{Add, BitXor, Sub};
 
@@ -262,6 +263,78 @@ mod lanes {
 
 pub use lanes::U32x4;
 
+/// lookup3's `mix` and `final` on eight words at once in one AVX2 register, for x86-64
+/// machines that have AVX2 (the callers check `is_x86_feature_detected!("avx2")` and keep the
+/// four-lane code otherwise): every lane computes exactly the scalar hash. They are forced
+/// inline (which a `#[target_feature]` function cannot be) into the callers' AVX2 code.
+#[cfg(target_arch = "x86_64")]
+pub mod avx2 {
+    use std::arch::x86_64::*;
+
+    /// Eight words; made only by `mix` and `finish`, whose callers have checked for AVX2.
+    #[derive(Clone, Copy)]
+    struct U32x8(__m256i);
+
+    impl std::ops::Add for U32x8 {
+        type Output = U32x8;
+        #[inline(always)]
+        fn add(self, o: U32x8) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe { U32x8(_mm256_add_epi32(self.0, o.0)) }
+        }
+    }
+
+    impl std::ops::Sub for U32x8 {
+        type Output = U32x8;
+        #[inline(always)]
+        fn sub(self, o: U32x8) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe { U32x8(_mm256_sub_epi32(self.0, o.0)) }
+        }
+    }
+
+    impl std::ops::BitXor for U32x8 {
+        type Output = U32x8;
+        #[inline(always)]
+        fn bitxor(self, o: U32x8) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe { U32x8(_mm256_xor_si256(self.0, o.0)) }
+        }
+    }
+
+    impl super::HashWord for U32x8 {
+        #[inline(always)]
+        fn rotl<const L: i32, const R: i32>(self) -> U32x8 {
+            // SAFETY: a U32x8 exists only where AVX2 does.
+            unsafe {
+                U32x8(_mm256_or_si256(
+                    _mm256_slli_epi32::<L>(self.0),
+                    _mm256_srli_epi32::<R>(self.0),
+                ))
+            }
+        }
+    }
+
+    /// `super::mix` lane by lane.
+    ///
+    /// # Safety
+    /// The machine must have AVX2.
+    #[inline(always)]
+    pub unsafe fn mix(a: __m256i, b: __m256i, c: __m256i) -> (__m256i, __m256i, __m256i) {
+        let (a, b, c) = super::mix(U32x8(a), U32x8(b), U32x8(c));
+        (a.0, b.0, c.0)
+    }
+
+    /// `super::finish` lane by lane.
+    ///
+    /// # Safety
+    /// The machine must have AVX2.
+    #[inline(always)]
+    pub unsafe fn finish(a: __m256i, b: __m256i, c: __m256i) -> __m256i {
+        super::finish(U32x8(a), U32x8(b), U32x8(c)).0
+    }
+}
+
 /// The axes (0 x, 1 y, 2 z) of the two components Perlin's 3D gradient of hash `h & 15`
 /// adds (Cycles' `grad3`: u is x below 8, else y; v is y below 4, x at 12 and 14, else z).
 pub const GRAD3_AXES: [[usize; 2]; 16] = {
@@ -306,6 +379,37 @@ mod tests {
             }
         }
         assert_eq!(U32x4::splat(7).to_array(), [7; 4]);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn eight_lanes_hash_as_eight_words() {
+        use std::arch::x86_64::*;
+        if !is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(5);
+        let mut word =
+            || (rng.uniform() * 4_294_967_295.0) as u32 ^ (rng.uniform() * 65536.0) as u32;
+        let load = |v: &[u32; 8]| unsafe { _mm256_loadu_si256(v.as_ptr() as *const __m256i) };
+        let store = |v: __m256i| {
+            let mut out = [0u32; 8];
+            unsafe { _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, v) };
+            out
+        };
+        for _ in 0..10_000 {
+            let v: [[u32; 8]; 3] = [[0; 8]; 3].map(|_| [0; 8].map(|_| word()));
+            let [a, b, c] = [load(&v[0]), load(&v[1]), load(&v[2])];
+            // SAFETY: AVX2 is present (checked above).
+            let (finished, (ma, mb, mc)) = unsafe { (avx2::finish(a, b, c), avx2::mix(a, b, c)) };
+            let (finished, mixed) = (store(finished), [store(ma), store(mb), store(mc)]);
+            for k in 0..8 {
+                let (a, b, c) = (W(v[0][k]), W(v[1][k]), W(v[2][k]));
+                assert_eq!(finished[k], finish(a, b, c).0);
+                let (sa, sb, sc) = mix(a, b, c);
+                assert_eq!([mixed[0][k], mixed[1][k], mixed[2][k]], [sa.0, sb.0, sc.0]);
+            }
+        }
     }
 
     #[test]

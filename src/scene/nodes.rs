@@ -3615,8 +3615,28 @@ fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
     match dimensions {
         1 => 0.25 * perlin1(m(w)),
         2 => 0.6616 * perlin2(m(p.x), m(p.y)),
-        _ => 0.9820 * perlin3(m(p.x), m(p.y), m(p.z)),
+        _ => 0.9820 * perlin3_fast(m(p.x), m(p.y), m(p.z)),
     }
+}
+
+/// Whether this machine has AVX2, for the eight-lane noise and Voronoi kernels (the
+/// detection is cached by the standard library).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn has_avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
+/// `perlin3`, its eight corners as the lanes of one AVX2 register where the machine has it
+/// (`noise_avx2::perlin3`, the same value bit for bit); NaN coordinates take `perlin3`.
+#[inline(always)]
+fn perlin3_fast(x: f32, y: f32, z: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() && !(x.is_nan() || y.is_nan() || z.is_nan()) {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::perlin3(x, y, z) };
+    }
+    perlin3(x, y, z)
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -3629,6 +3649,11 @@ struct Fractal {
 
 /// Cycles' `noise_fbm`.
 fn fbm(dimensions: u8, p: Vec3, w: f32, f: &Fractal) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if dimensions == 3 && has_avx2() {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::fbm3(p, f) };
+    }
     fractal_sum(f, 0.0, |scale| snoise(dimensions, scale * p, scale * w))
 }
 
@@ -3806,9 +3831,316 @@ fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
     0.9820 * p
 }
 
-/// `fbm` in 3D of three points given as lanes.
+/// `fbm` in 3D of three points given as lanes (with AVX2 `noise_avx2::fbm3_lanes`).
 fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::fbm3_lanes(x, y, z, f) };
+    }
     fractal_sum(f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z))
+}
+
+/// Perlin noise on AVX2 (x86-64 machines that have it; the callers check): the operations of
+/// `perlin3` and `snoise3_lanes`, lane by lane in the same order (no fused multiply-add), so
+/// the values are theirs bit for bit.
+#[cfg(target_arch = "x86_64")]
+mod noise_avx2 {
+    use super::{
+        fractal_sum, node_hash::avx2 as hash, snoise, snoise3_lanes, Fractal, Vec3, Vec4,
+        LOOKUP3_SEED,
+    };
+    use std::arch::x86_64::*;
+
+    const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
+
+    /// `super::fbm` in 3D, its octaves' noise inlined.
+    #[target_feature(enable = "avx2")]
+    pub fn fbm3(p: Vec3, f: &Fractal) -> f32 {
+        fractal_sum(f, 0.0, |scale| {
+            let q = scale * p;
+            // `snoise` in 3D, whose coordinates' fmod is the identity below the period.
+            let below = |v: f32| v.abs() < 100_000.0;
+            if below(q.x) && below(q.y) && below(q.z) {
+                0.9820 * perlin3(q.x, q.y, q.z)
+            } else {
+                snoise(3, q, 0.0)
+            }
+        })
+    }
+
+    /// `super::fbm3_lanes`, the octaves evaluated two at a time (`snoise3_pair`):
+    /// `fractal_sum` calls for scales s, s · lacunarity, .. in turn, so a call computes its
+    /// octave and the next (the very scale `fractal_sum` passes next), which the next call
+    /// returns.
+    #[target_feature(enable = "avx2")]
+    pub fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+        let mut pending = None;
+        let pending = std::cell::Cell::from_mut(&mut pending);
+        // How many times `fractal_sum` calls: the last of an odd number is one octave alone
+        // (`snoise3_one`). (Were this count off, the values would be the same.)
+        let calls = (f.detail as i32 + 1).max(0) + (f.detail - f.detail.floor() != 0.0) as i32;
+        let mut call = 0;
+        let call = std::cell::Cell::from_mut(&mut call);
+        fractal_sum(f, Vec4::ZERO, |s| {
+            call.set(call.get() + 1);
+            if let Some(v) = pending.take() {
+                return v;
+            }
+            if call.get() == calls {
+                return snoise3_one(s * x, s * y, s * z);
+            }
+            let t = s * f.lacunarity;
+            let [a, b] = snoise3_pair([s * x, t * x], [s * y, t * y], [s * z, t * z]);
+            pending.set(Some(b));
+            a
+        })
+    }
+
+    /// `fade` lane by lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn fade(t: __m256) -> __m256 {
+        let s = _mm256_set1_ps;
+        let tt = _mm256_mul_ps(_mm256_mul_ps(t, t), t);
+        let inner = _mm256_sub_ps(_mm256_mul_ps(t, s(6.0)), s(15.0));
+        _mm256_mul_ps(tt, _mm256_add_ps(_mm256_mul_ps(t, inner), s(10.0)))
+    }
+
+    /// Cycles' `grad3` of each lane's hash at that lane's offset (x, y, z), as
+    /// `U32x4::grad3`: selects and a flip of the sign bit.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn grad3(h: __m256i, x: __m256, y: __m256, z: __m256) -> __m256 {
+        let k = _mm256_set1_epi32;
+        let h = _mm256_and_si256(h, k(15));
+        let below8 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(8), h));
+        let below4 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(4), h));
+        let v_is_x = _mm256_castsi256_ps(_mm256_or_si256(
+            _mm256_cmpeq_epi32(h, k(12)),
+            _mm256_cmpeq_epi32(h, k(14)),
+        ));
+        let u = _mm256_blendv_ps(y, x, below8);
+        let v = _mm256_blendv_ps(_mm256_blendv_ps(z, x, v_is_x), y, below4);
+        let sign_u = _mm256_castsi256_ps(_mm256_slli_epi32::<31>(_mm256_and_si256(h, k(1))));
+        let sign_v = _mm256_castsi256_ps(_mm256_slli_epi32::<30>(_mm256_and_si256(h, k(2))));
+        _mm256_add_ps(_mm256_xor_ps(u, sign_u), _mm256_xor_ps(v, sign_v))
+    }
+
+    /// Lane `K` (0x00, 0x55, 0xAA: lane 0, 1, 2) of `v` in all eight lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn lane<const K: i32>(v: __m128) -> __m256 {
+        _mm256_broadcastss_ps(_mm_permute_ps::<K>(v))
+    }
+
+    /// `super::perlin3` at one point (coordinates not NaN): its eight lattice corners
+    /// (dx + 2 dy + 4 dz) as lanes; the two pairwise sums of the interpolation are
+    /// horizontal adds (a + b is b + a bit for bit).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn perlin3(x: f32, y: f32, z: f32) -> f32 {
+        let p = _mm_set_ps(0.0, z, y, x);
+        let cell = _mm_floor_ps(p);
+        let f = _mm_sub_ps(p, cell);
+        let g = _mm_sub_ps(f, _mm_set1_ps(1.0));
+        let t = fade(_mm256_castps128_ps256(f));
+        let fade3 = _mm256_castps256_ps128(t);
+        let rest = _mm_sub_ps(_mm_set1_ps(1.0), fade3);
+        let c = _mm_add_epi32(_mm_cvttps_epi32(cell), _mm_set1_epi32(SEED3));
+        let a = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(c),
+            _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1),
+        );
+        let b = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0x55>(c)),
+            _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1),
+        );
+        let c = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0xAA>(c)),
+            _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1),
+        );
+        // SAFETY: this function runs only with AVX2.
+        let h = unsafe { hash::finish(a, b, c) };
+        let xs = _mm256_blend_ps::<0xAA>(lane::<0x00>(f), lane::<0x00>(g));
+        let ys = _mm256_blend_ps::<0xCC>(lane::<0x55>(f), lane::<0x55>(g));
+        let zs = _mm256_blend_ps::<0xF0>(lane::<0xAA>(f), lane::<0xAA>(g));
+        let along_x = _mm256_blend_ps::<0xAA>(lane::<0x00>(rest), lane::<0x00>(fade3));
+        let m = _mm256_mul_ps(grad3(h, xs, ys, zs), along_x);
+        // (g000 x1 + g100 u, g010 x1 + g110 u, ..) in lanes 0, 1 (near face), 4, 5 (far).
+        let rows = _mm256_hadd_ps(m, m);
+        let along_y = _mm256_blend_ps::<0xAA>(lane::<0x55>(rest), lane::<0x55>(fade3));
+        let faces = _mm256_mul_ps(rows, along_y);
+        let faces = _mm256_hadd_ps(faces, faces);
+        let near = _mm_cvtss_f32(_mm256_castps256_ps128(faces));
+        let far = _mm_cvtss_f32(_mm256_extractf128_ps::<1>(faces));
+        let (z1, w) = (
+            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(rest)),
+            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(fade3)),
+        );
+        z1 * near + w * far
+    }
+
+    /// `snoise3_lanes` of two sets of lanes (two octaves of a Bump's three points) at once:
+    /// each set in one lattice cell, whose eight corner hashes are computed for both sets in
+    /// two eight-lane hashes; a set that is not takes `snoise3_lanes`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn snoise3_pair(x: [Vec4; 2], y: [Vec4; 2], z: [Vec4; 2]) -> [Vec4; 2] {
+        let join = |v: [Vec4; 2]| _mm256_set_m128(v[1].into(), v[0].into());
+        let (px, py, pz) = (join(x), join(y), join(z));
+        let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
+        let near = |v: __m256| {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(
+                abs(v),
+                _mm256_set1_ps(100_000.0),
+            )) == 0xFF
+        };
+        let (cx, cy, cz) = (
+            _mm256_floor_ps(px),
+            _mm256_floor_ps(py),
+            _mm256_floor_ps(pz),
+        );
+        let one_cell = |c: __m256| {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(c, _mm256_permute_ps::<0>(c))) == 0xFF
+        };
+        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+            return [0, 1].map(|k| snoise3_lanes(x[k], y[k], z[k]));
+        }
+        let seeded = |c: __m256| _mm256_add_epi32(_mm256_cvttps_epi32(c), _mm256_set1_epi32(SEED3));
+        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
+        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
+        let c = seeded(cz);
+        // Corners 0–3 (near face), then 4–7 (far face), of each set's cell.
+        // SAFETY: this function runs only with AVX2.
+        let (near_h, far_h) = unsafe {
+            (
+                hash::finish(a, b, c),
+                hash::finish(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1))),
+            )
+        };
+        let one = _mm256_set1_ps(1.0);
+        let (fx, fy, fz) = (
+            _mm256_sub_ps(px, cx),
+            _mm256_sub_ps(py, cy),
+            _mm256_sub_ps(pz, cz),
+        );
+        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+        let (gx, gy, gz) = (
+            _mm256_sub_ps(fx, one),
+            _mm256_sub_ps(fy, one),
+            _mm256_sub_ps(fz, one),
+        );
+        let g000 = grad3(_mm256_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
+        let g100 = grad3(_mm256_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
+        let g010 = grad3(_mm256_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
+        let g110 = grad3(_mm256_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
+        let g001 = grad3(_mm256_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
+        let g101 = grad3(_mm256_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
+        let g011 = grad3(_mm256_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
+        let g111 = grad3(_mm256_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
+        let (x1, y1, z1) = (
+            _mm256_sub_ps(one, u),
+            _mm256_sub_ps(one, v),
+            _mm256_sub_ps(one, w),
+        );
+        let (add, mul) = (_mm256_add_ps, _mm256_mul_ps);
+        let row = |a: __m256, b: __m256| add(mul(a, x1), mul(b, u));
+        let face = |r0: __m256, r1: __m256| add(mul(y1, r0), mul(v, r1));
+        let p = add(
+            mul(z1, face(row(g000, g100), row(g010, g110))),
+            mul(w, face(row(g001, g101), row(g011, g111))),
+        );
+        let p = mul(_mm256_set1_ps(0.9820), p);
+        [
+            Vec4::from(_mm256_castps256_ps128(p)),
+            Vec4::from(_mm256_extractf128_ps::<1>(p)),
+        ]
+    }
+
+    /// `fade` lane by lane, on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn fade4(t: __m128) -> __m128 {
+        let s = _mm_set1_ps;
+        let tt = _mm_mul_ps(_mm_mul_ps(t, t), t);
+        let inner = _mm_sub_ps(_mm_mul_ps(t, s(6.0)), s(15.0));
+        _mm_mul_ps(tt, _mm_add_ps(_mm_mul_ps(t, inner), s(10.0)))
+    }
+
+    /// `grad3` on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn grad3_4(h: __m128i, x: __m128, y: __m128, z: __m128) -> __m128 {
+        let k = _mm_set1_epi32;
+        let h = _mm_and_si128(h, k(15));
+        let below8 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(8), h));
+        let below4 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(4), h));
+        let v_is_x = _mm_castsi128_ps(_mm_or_si128(
+            _mm_cmpeq_epi32(h, k(12)),
+            _mm_cmpeq_epi32(h, k(14)),
+        ));
+        let u = _mm_blendv_ps(y, x, below8);
+        let v = _mm_blendv_ps(_mm_blendv_ps(z, x, v_is_x), y, below4);
+        let sign_u = _mm_castsi128_ps(_mm_slli_epi32::<31>(_mm_and_si128(h, k(1))));
+        let sign_v = _mm_castsi128_ps(_mm_slli_epi32::<30>(_mm_and_si128(h, k(2))));
+        _mm_add_ps(_mm_xor_ps(u, sign_u), _mm_xor_ps(v, sign_v))
+    }
+
+    /// `snoise3_lanes` of one set of lanes (one octave of a Bump's three points) in one
+    /// lattice cell: its eight corner hashes in one eight-lane hash (lane dx + 2 dy + 4 dz),
+    /// each broadcast to the four lanes; a set that is not in one cell takes
+    /// `snoise3_lanes`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn snoise3_one(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+        let (px, py, pz): (__m128, __m128, __m128) = (x.into(), y.into(), z.into());
+        let abs = |v: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), v);
+        let near = |v: __m128| _mm_movemask_ps(_mm_cmplt_ps(abs(v), _mm_set1_ps(100_000.0))) == 0xF;
+        let (cx, cy, cz) = (_mm_floor_ps(px), _mm_floor_ps(py), _mm_floor_ps(pz));
+        let one_cell = |c: __m128| _mm_movemask_ps(_mm_cmpeq_ps(c, _mm_permute_ps::<0>(c))) == 0xF;
+        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+            return snoise3_lanes(x, y, z);
+        }
+        // The cell's coordinates (lane 0 of each) in all eight lanes, seeded.
+        let seeded = |c: __m128| {
+            _mm256_add_epi32(
+                _mm256_broadcastd_epi32(_mm_cvttps_epi32(c)),
+                _mm256_set1_epi32(SEED3),
+            )
+        };
+        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
+        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
+        let c = _mm256_add_epi32(seeded(cz), _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1));
+        // SAFETY: this function runs only with AVX2.
+        let h = unsafe { hash::finish(a, b, c) };
+        let (near_h, far_h) = (_mm256_castsi256_si128(h), _mm256_extracti128_si256::<1>(h));
+        let one = _mm_set1_ps(1.0);
+        let (fx, fy, fz) = (_mm_sub_ps(px, cx), _mm_sub_ps(py, cy), _mm_sub_ps(pz, cz));
+        let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
+        let (gx, gy, gz) = (
+            _mm_sub_ps(fx, one),
+            _mm_sub_ps(fy, one),
+            _mm_sub_ps(fz, one),
+        );
+        let g000 = grad3_4(_mm_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
+        let g100 = grad3_4(_mm_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
+        let g010 = grad3_4(_mm_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
+        let g110 = grad3_4(_mm_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
+        let g001 = grad3_4(_mm_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
+        let g101 = grad3_4(_mm_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
+        let g011 = grad3_4(_mm_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
+        let g111 = grad3_4(_mm_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
+        let (x1, y1, z1) = (_mm_sub_ps(one, u), _mm_sub_ps(one, v), _mm_sub_ps(one, w));
+        let (add, mul) = (_mm_add_ps, _mm_mul_ps);
+        let row = |a: __m128, b: __m128| add(mul(a, x1), mul(b, u));
+        let face = |r0: __m128, r1: __m128| add(mul(y1, r0), mul(v, r1));
+        let p = add(
+            mul(z1, face(row(g000, g100), row(g010, g110))),
+            mul(w, face(row(g001, g101), row(g011, g111))),
+        );
+        Vec4::from(mul(_mm_set1_ps(0.9820), p))
+    }
 }
 
 /// One point's Noise Texture inputs: (scaled position, scaled W, fractal, distortion).
@@ -4302,12 +4634,28 @@ fn cell_points4(x: Vec4, y: Vec4, z: Vec4) -> [Vec4; 3] {
 }
 
 /// The Voronoi F1 search in 3D with the Euclidean metric (`voronoi_octave`'s, exact):
-/// (distance, offset, point) of the nearest cell point to `local` in `cell`'s frame. The
-/// home cell and, per axis, the face neighbour on `local`'s nearer side are searched first,
-/// four at once; then the other cells nearest first, skipping those whose box (per axis
-/// squared gaps `gap2` for offsets −1, 0, 1) lies farther than the best point so far, the
-/// others queued and searched four at a time.
+/// (distance, offset, point) of the nearest cell point to `local` in `cell`'s frame; `gap2`
+/// holds per axis the squared gaps from `local` to the boxes of offsets −1, 0, 1. Eight cells
+/// at a time where the machine has AVX2 (`voronoi_avx2`), else four (the same result).
 fn nearest_point_euclidean_3d(
+    cell: Vec3,
+    local: Vec3,
+    randomness: f32,
+    gap2: &[[f32; 3]; 3],
+) -> (f32, Vec3, Vec3) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { voronoi_avx2::nearest_point_euclidean_3d(cell, local, randomness, gap2) };
+    }
+    nearest_point_euclidean_3d_lanes4(cell, local, randomness, gap2)
+}
+
+/// `nearest_point_euclidean_3d` four cells at a time: the home cell and, per axis, the face
+/// neighbour on `local`'s nearer side are searched first, four at once; then the other cells
+/// nearest first, skipping those whose box lies farther than the best point so far, the
+/// others queued and searched four at a time.
+fn nearest_point_euclidean_3d_lanes4(
     cell: Vec3,
     local: Vec3,
     randomness: f32,
@@ -4435,6 +4783,252 @@ const NEAREST_FIRST_3D_BOXES: [(usize, [usize; 3], Vec3); 27] = {
     }
     boxes
 };
+
+/// The Voronoi F1 search in 3D with the Euclidean metric on AVX2 (x86-64 machines that have
+/// it; the caller checks): `nearest_point_euclidean_3d`'s result bit for bit. The 2 × 2 × 2
+/// cells on `local`'s nearer side along each axis are searched first, eight at once; then the
+/// box of each of the other cells is tested against the best distance so far, all at once,
+/// and those within it searched eight at a time. The nearest point is the least (distance,
+/// Cycles' index) over the searched cells, so the order of the search does not matter.
+#[cfg(target_arch = "x86_64")]
+mod voronoi_avx2 {
+    use super::{node_hash::avx2 as hash, Vec3, LOOKUP3_SEED};
+    use std::arch::x86_64::*;
+
+    const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
+    const SEED4: i32 = LOOKUP3_SEED.wrapping_add((4 << 2) + 13) as i32;
+
+    /// The offset of the cell of Cycles' index `i` (z outermost, x innermost).
+    const OFFSETS: [[f32; 3]; 27] = {
+        let mut o = [[0.0; 3]; 27];
+        let mut i = 0;
+        while i < 27 {
+            o[i] = [
+                (i % 3) as f32 - 1.0,
+                ((i / 3) % 3) as f32 - 1.0,
+                (i / 9) as f32 - 1.0,
+            ];
+            i += 1;
+        }
+        o
+    };
+
+    /// For each side of the home cell's centre `local` is on (bit a set where it is at least
+    /// ½ along axis a): the Cycles indices of the 2 × 2 × 2 cells on that side (lane
+    /// dx + 2 dy + 4 dz) and their set.
+    const BLOCKS: [([usize; 8], u32); 8] = {
+        let mut blocks = [([0; 8], 0); 8];
+        let mut sides = 0;
+        while sides < 8 {
+            // The sign of each axis' step: 2 · bit − 1.
+            let (ix, iy, iz) = (
+                2 * (sides & 1) as isize - 1,
+                3 * (2 * ((sides >> 1) & 1) as isize - 1),
+                9 * (2 * (sides >> 2) as isize - 1),
+            );
+            let mut lane = 0;
+            while lane < 8 {
+                let d = (lane & 1) as isize * ix
+                    + ((lane >> 1) & 1) as isize * iy
+                    + (lane >> 2) as isize * iz;
+                let index = (13 + d) as usize;
+                blocks[sides].0[lane] = index;
+                blocks[sides].1 |= 1 << index;
+                lane += 1;
+            }
+            sides += 1;
+        }
+        blocks
+    };
+
+    /// For group g and each axis, which of the box gaps (offset + 1) the cell of index
+    /// 8 g + lane reads (3: none, for the five lanes past the 27 cells).
+    const GAP_PICKS: [[[i32; 8]; 3]; 4] = {
+        let mut picks = [[[3; 8]; 3]; 4];
+        let mut i = 0;
+        while i < 27 {
+            picks[i / 8][0][i % 8] = (i % 3) as i32;
+            picks[i / 8][1][i % 8] = ((i / 3) % 3) as i32;
+            picks[i / 8][2][i % 8] = (i / 9) as i32;
+            i += 1;
+        }
+        picks
+    };
+
+    /// `unit` lane by lane: `h as f32` exactly (its high and low 16 bits convert exactly, and
+    /// their sum rounds once, to nearest even, as the conversion does), times 1 / (2³² − 1).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn unit(h: __m256i) -> __m256 {
+        let hi = _mm256_cvtepi32_ps(_mm256_srli_epi32::<16>(h));
+        let lo = _mm256_cvtepi32_ps(_mm256_and_si256(h, _mm256_set1_epi32(0xFFFF)));
+        let f = _mm256_add_ps(_mm256_mul_ps(hi, _mm256_set1_ps(65536.0)), lo);
+        _mm256_mul_ps(f, _mm256_set1_ps(1.0 / 4_294_967_295.0))
+    }
+
+    /// `super::cell_points4` on eight cells.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn cell_points8(x: __m256, y: __m256, z: __m256) -> [__m256; 3] {
+        let (x, y, z) = (
+            _mm256_castps_si256(x),
+            _mm256_castps_si256(y),
+            _mm256_castps_si256(z),
+        );
+        let add = _mm256_add_epi32;
+        let s3 = _mm256_set1_epi32(SEED3);
+        let s4 = _mm256_set1_epi32(SEED4);
+        let w = |v: f32| _mm256_set1_epi32(v.to_bits() as i32);
+        // SAFETY: this function runs only with AVX2.
+        let (first, second, third) = unsafe {
+            let first = hash::finish(add(x, s3), add(y, s3), add(z, s3));
+            // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
+            let (a, b, c) = hash::mix(add(x, s4), add(y, s4), add(z, s4));
+            (
+                first,
+                hash::finish(add(a, w(1.0)), b, c),
+                hash::finish(add(a, w(2.0)), b, c),
+            )
+        };
+        [unit(first), unit(second), unit(third)]
+    }
+
+    /// `super::nearest_of_four` on eight cells: Cycles' indices and offsets as lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn nearest_of_eight(
+        index: &[usize; 8],
+        offset: [__m256; 3],
+        cell: Vec3,
+        local: Vec3,
+        randomness: f32,
+        nearest: &mut (f32, usize, Vec3, Vec3),
+    ) {
+        let s = _mm256_set1_ps;
+        let (add, sub, mul) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps);
+        let [ox, oy, oz] = offset;
+        let [hx, hy, hz] = cell_points8(add(ox, s(cell.x)), add(oy, s(cell.y)), add(oz, s(cell.z)));
+        let r = s(randomness);
+        let (px, py, pz) = (
+            add(ox, mul(hx, r)),
+            add(oy, mul(hy, r)),
+            add(oz, mul(hz, r)),
+        );
+        let (dx, dy, dz) = (
+            sub(px, s(local.x)),
+            sub(py, s(local.y)),
+            sub(pz, s(local.z)),
+        );
+        let d = _mm256_sqrt_ps(add(add(mul(dx, dx), mul(dy, dy)), mul(dz, dz)));
+        let within = _mm256_cmp_ps::<_CMP_LE_OQ>(d, s(nearest.0));
+        let hits = _mm256_movemask_ps(within) as u32;
+        if hits == 0 {
+            return;
+        }
+        // The least distance among the lanes not farther than the best (NaN never is), then
+        // the least index among its lanes: the rule below applied lane by lane in any order
+        // keeps the least (distance, index).
+        let d = _mm256_blendv_ps(s(f32::INFINITY), d, within);
+        let m = _mm256_min_ps(d, _mm256_permute2f128_ps::<1>(d, d));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
+        let least = _mm_cvtss_f32(_mm256_castps256_ps128(m));
+        let mut ties = hits & _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(d, m)) as u32;
+        let mut k = ties.trailing_zeros() as usize;
+        ties &= ties - 1;
+        while ties != 0 {
+            let j = ties.trailing_zeros() as usize;
+            ties &= ties - 1;
+            if index[j] < index[k] {
+                k = j;
+            }
+        }
+        if least < nearest.0 || (least == nearest.0 && index[k] < nearest.1) {
+            let store = |v: __m256| {
+                let mut out = [0.0f32; 8];
+                // SAFETY: an unaligned store of eight floats into eight floats.
+                unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
+                out
+            };
+            let (px, py, pz) = (store(px), store(py), store(pz));
+            let o = OFFSETS[index[k]];
+            *nearest = (
+                least,
+                index[k],
+                Vec3::new(o[0], o[1], o[2]),
+                Vec3::new(px[k], py[k], pz[k]),
+            );
+        }
+    }
+
+    /// See the module's header; `gap2` as `super::nearest_point_euclidean_3d` takes it.
+    #[target_feature(enable = "avx2")]
+    pub fn nearest_point_euclidean_3d(
+        cell: Vec3,
+        local: Vec3,
+        randomness: f32,
+        gap2: &[[f32; 3]; 3],
+    ) -> (f32, Vec3, Vec3) {
+        let mut nearest = (f32::MAX, usize::MAX, Vec3::ZERO, Vec3::ZERO);
+        let up = |l: f32| !(l < 0.5);
+        let sides =
+            up(local.x) as usize | (up(local.y) as usize) << 1 | (up(local.z) as usize) << 2;
+        let side = |a: usize| _mm256_set1_ps(if sides >> a & 1 != 0 { 1.0 } else { -1.0 });
+        // Lane dx + 2 dy + 4 dz: offset (dx sx, dy sy, dz sz), each zero a +0.
+        let zero = _mm256_setzero_ps();
+        let block = [
+            _mm256_blend_ps::<0xAA>(zero, side(0)),
+            _mm256_blend_ps::<0xCC>(zero, side(1)),
+            _mm256_blend_ps::<0xF0>(zero, side(2)),
+        ];
+        let (index, done) = &BLOCKS[sides];
+        nearest_of_eight(index, block, cell, local, randomness, &mut nearest);
+        // The other cells whose box lies within the bound (squared, without the root: its
+        // margin covers the rounding), as `super::nearest_point_euclidean_3d` tests them.
+        let bound = nearest.0 * (1.0 + 1e-6);
+        let far = _mm256_set1_ps(bound * bound);
+        let axis = |g: &[f32; 3]| _mm256_setr_ps(g[0], g[1], g[2], f32::MAX, 0.0, 0.0, 0.0, 0.0);
+        let (g0, g1, g2) = (axis(&gap2[0]), axis(&gap2[1]), axis(&gap2[2]));
+        let mut within = 0u32;
+        for (group, picks) in GAP_PICKS.iter().enumerate() {
+            let pick = |g: __m256, axis: usize| {
+                // SAFETY: an unaligned load of eight words from eight words.
+                let i = unsafe { _mm256_loadu_si256(picks[axis].as_ptr() as *const __m256i) };
+                _mm256_permutevar8x32_ps(g, i)
+            };
+            let sum = _mm256_add_ps(_mm256_add_ps(pick(g0, 0), pick(g1, 1)), pick(g2, 2));
+            // Not farther: as the test that skips a cell, NaN included.
+            let near = _mm256_cmp_ps::<_CMP_NGT_UQ>(sum, far);
+            within |= (_mm256_movemask_ps(near) as u32) << (8 * group);
+        }
+        let mut left = within & !*done & ((1 << 27) - 1);
+        while left != 0 {
+            let mut index = [0usize; 8];
+            let mut offsets = [[0.0f32; 8]; 3];
+            let mut n = 0;
+            while left != 0 && n < 8 {
+                let i = left.trailing_zeros() as usize;
+                left &= left - 1;
+                index[n] = i;
+                for (lane, o) in offsets.iter_mut().zip(OFFSETS[i]) {
+                    lane[n] = o;
+                }
+                n += 1;
+            }
+            // The empty lanes repeat the batch's first cell (a tie with itself: no change).
+            for k in n..8 {
+                index[k] = index[0];
+                for lane in &mut offsets {
+                    lane[k] = lane[0];
+                }
+            }
+            // SAFETY: unaligned loads of eight floats from eight floats.
+            let lanes = offsets.map(|o| unsafe { _mm256_loadu_ps(o.as_ptr()) });
+            nearest_of_eight(&index, lanes, cell, local, randomness, &mut nearest);
+        }
+        (nearest.0, nearest.2, nearest.3)
+    }
+}
 
 /// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
 /// Without `color` the F1 colour is not computed (zero).
@@ -5029,6 +5623,152 @@ mod tests {
         }
         // Both paths ran: the shared-cell lanes and the scalar fallback.
         assert!((5_000..19_000).contains(&shared_cells), "{shared_cells}");
+    }
+
+    /// Random coordinates at several scales, with −0, integers and cell walls mixed in.
+    #[cfg(target_arch = "x86_64")]
+    fn awkward_coordinate(rng: &mut crate::rng::Rng, k: usize) -> f32 {
+        let scale = [1.0, 10.0, 300.0, 9.0e4][k % 4];
+        let v = (rng.uniform() * 2.0 - 1.0) * scale;
+        match (k / 4) % 7 {
+            0 => -0.0,
+            1 => v.floor(),
+            2 => v.floor() - f32::EPSILON * v.abs(),
+            _ => v,
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_perlin3_is_perlin3_bit_for_bit() {
+        if !has_avx2() {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(21);
+        for k in 0..200_000 {
+            let [x, y, z] = [k, k / 3, k / 5].map(|j| awkward_coordinate(&mut rng, j));
+            // SAFETY: AVX2 is present (checked above).
+            let got = unsafe { noise_avx2::perlin3(x, y, z) };
+            assert_eq!(got.to_bits(), perlin3(x, y, z).to_bits(), "{x} {y} {z}");
+            let p = Vec3::new(x, y, z) * 37.0;
+            let want = 0.9820 * perlin3(p.x % 100_000.0, p.y % 100_000.0, p.z % 100_000.0);
+            if p.abs().max_element() < 100_000.0 {
+                assert_eq!(snoise(3, p, 0.0).to_bits(), want.to_bits());
+            }
+            // fBm: the octaves inlined, past the period too.
+            let f = Fractal {
+                detail: [0.0, 2.0, 3.5, 15.0][k % 4],
+                roughness: 0.5,
+                lacunarity: [2.0, 1.9][k % 2],
+                normalize: k % 3 == 0,
+            };
+            let m = |v: f32| {
+                if v.abs() < 100_000.0 {
+                    v
+                } else if v.abs() < 1_000_000.0 {
+                    v % 100_000.0
+                } else {
+                    v % 100_000.0 + 0.5
+                }
+            };
+            let reference = fractal_sum(&f, 0.0, |s| {
+                let q = s * p;
+                0.9820 * perlin3(m(q.x), m(q.y), m(q.z))
+            });
+            assert_eq!(fbm(3, p, 0.0, &f).to_bits(), reference.to_bits(), "{p}");
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_octave_pairs_are_snoise3_lanes_bit_for_bit() {
+        if !has_avx2() {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(22);
+        for k in 0..100_000 {
+            let set = |rng: &mut crate::rng::Rng, j: usize| {
+                let p = [j, j + 1, j + 2].map(|i| awkward_coordinate(rng, i));
+                let step = [1e-4, 1e-2, 0.3][j % 3];
+                let (x, y, z) = (
+                    lanes([p[0], p[0] + step, p[0]]),
+                    lanes([p[1], p[1], p[1] + step]),
+                    Vec4::splat(p[2]),
+                );
+                (x, y, z)
+            };
+            let (a, b) = (set(&mut rng, k), set(&mut rng, k / 2 + 1));
+            // SAFETY: AVX2 is present (checked above).
+            let one = unsafe { noise_avx2::snoise3_one(a.0, a.1, a.2) };
+            assert_eq!(
+                one.to_array().map(f32::to_bits),
+                snoise3_lanes(a.0, a.1, a.2).to_array().map(f32::to_bits)
+            );
+            // SAFETY: AVX2 is present (checked above).
+            let got = unsafe { noise_avx2::snoise3_pair([a.0, b.0], [a.1, b.1], [a.2, b.2]) };
+            for (g, (x, y, z)) in got.iter().zip([a, b]) {
+                let want = snoise3_lanes(x, y, z);
+                assert_eq!(
+                    g.to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "{x} {y} {z}"
+                );
+            }
+        }
+        // The octaves in pairs sum as one at a time.
+        for k in 0..20_000 {
+            let f = Fractal {
+                detail: [0.0, 1.0, 2.0, 2.5, 3.25, 15.0][k % 6],
+                roughness: 0.5,
+                lacunarity: [2.0, 1.7][k % 2],
+                normalize: k % 3 == 0,
+            };
+            let p = [0, 1, 2].map(|j| awkward_coordinate(&mut rng, k + j) * 0.01);
+            let (x, y, z) = (
+                lanes([p[0], p[0] + 1e-4, p[0]]),
+                Vec4::splat(p[1]),
+                Vec4::splat(p[2]),
+            );
+            let want = fractal_sum(&f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z));
+            assert_eq!(
+                fbm3_lanes(x, y, z, &f).to_array().map(f32::to_bits),
+                want.to_array().map(f32::to_bits)
+            );
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_voronoi_search_is_the_four_lane_search_bit_for_bit() {
+        if !has_avx2() {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(23);
+        for k in 0..200_000 {
+            let coord =
+                Vec3::from_array([k, k / 3, k / 5].map(|j| awkward_coordinate(&mut rng, j)));
+            let randomness = [1.0, 0.5, 0.0, 0.93, 1e-3][k % 5];
+            let cell = Vec3::new(floor(coord.x), floor(coord.y), floor(coord.z));
+            let local = coord - cell;
+            let gap2 = [local.x, local.y, local.z].map(|l| {
+                [-1.0f32, 0.0, 1.0].map(|o| {
+                    let g = (o - l).max(l - (o + randomness)).max(0.0);
+                    g * g
+                })
+            });
+            // SAFETY: AVX2 is present (checked above).
+            let got =
+                unsafe { voronoi_avx2::nearest_point_euclidean_3d(cell, local, randomness, &gap2) };
+            let want = nearest_point_euclidean_3d_lanes4(cell, local, randomness, &gap2);
+            let bits = |(d, o, p): (f32, Vec3, Vec3)| {
+                (
+                    d.to_bits(),
+                    o.to_array().map(f32::to_bits),
+                    p.to_array().map(f32::to_bits),
+                )
+            };
+            assert_eq!(bits(got), bits(want), "{coord} {randomness}");
+        }
     }
 
     /// Blender's own Noise and Voronoi values at chosen points (near the origin, negative,
