@@ -302,7 +302,7 @@ pub mod avx2 {
         }
     }
 
-    impl super::HashWord for U32x8 {
+    impl crate::scene::node_hash::HashWord for U32x8 {
         #[inline(always)]
         fn rotl<const L: i32, const R: i32>(self) -> U32x8 {
             // SAFETY: a U32x8 exists only where AVX2 does.
@@ -321,7 +321,7 @@ pub mod avx2 {
     /// The machine must have AVX2.
     #[inline(always)]
     pub unsafe fn mix(a: __m256i, b: __m256i, c: __m256i) -> (__m256i, __m256i, __m256i) {
-        let (a, b, c) = super::mix(U32x8(a), U32x8(b), U32x8(c));
+        let (a, b, c) = crate::scene::node_hash::mix(U32x8(a), U32x8(b), U32x8(c));
         (a.0, b.0, c.0)
     }
 
@@ -331,7 +331,7 @@ pub mod avx2 {
     /// The machine must have AVX2.
     #[inline(always)]
     pub unsafe fn finish(a: __m256i, b: __m256i, c: __m256i) -> __m256i {
-        super::finish(U32x8(a), U32x8(b), U32x8(c)).0
+        crate::scene::node_hash::finish(U32x8(a), U32x8(b), U32x8(c)).0
     }
 }
 

@@ -3846,10 +3846,9 @@ fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
 /// the values are theirs bit for bit.
 #[cfg(target_arch = "x86_64")]
 mod noise_avx2 {
-    use super::{
-        fractal_sum, node_hash::avx2 as hash, snoise, snoise3_lanes, Fractal, Vec3, Vec4,
-        LOOKUP3_SEED,
-    };
+    use crate::math::{Vec3, Vec4};
+    use crate::scene::node_hash::avx2 as hash;
+    use crate::scene::nodes::{fractal_sum, snoise, snoise3_lanes, Fractal, LOOKUP3_SEED};
     use std::arch::x86_64::*;
 
     const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
@@ -4792,7 +4791,9 @@ const NEAREST_FIRST_3D_BOXES: [(usize, [usize; 3], Vec3); 27] = {
 /// Cycles' index) over the searched cells, so the order of the search does not matter.
 #[cfg(target_arch = "x86_64")]
 mod voronoi_avx2 {
-    use super::{node_hash::avx2 as hash, Vec3, LOOKUP3_SEED};
+    use crate::math::Vec3;
+    use crate::scene::node_hash::avx2 as hash;
+    use crate::scene::nodes::LOOKUP3_SEED;
     use std::arch::x86_64::*;
 
     const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
