@@ -17,7 +17,7 @@ use photon::integrator::photon::settings::PhotonSettings;
 use photon::math::{Quat, Vec3};
 use photon::metrics::{compare, ImageError};
 use photon::render::{render, Method, RenderSettings};
-use photon::scene::{Material, Mesh, Projection, Scene};
+use photon::scene::{Camera, Material, Mesh, Projection, Scene};
 use scenes::{camera_looking_at, floor, scene, with_progress};
 
 /// A box of half-extents `half` centred at `center`, turned by `turn` radians about +Y, with
@@ -77,6 +77,15 @@ fn glass(roughness: f32) -> Material {
     }
 }
 
+/// The camera both scenes use: above the floor, looking down at the box.
+fn over_the_floor() -> Camera {
+    camera_looking_at(
+        Vec3::new(0.3, 3.0, 0.5),
+        Vec3::new(0.0, 0.3, 0.0),
+        Projection::Perspective { yfov: 0.6 },
+    )
+}
+
 /// A grey floor with a box of `box_material` on or above it, seen from above, lit by a grey
 /// world of radiance 0.8.
 fn box_over_a_floor(box_material: Material, center: Vec3, half: Vec3, turn: f32) -> Scene {
@@ -84,11 +93,7 @@ fn box_over_a_floor(box_material: Material, center: Vec3, half: Vec3, turn: f32)
         vec![floor(6.0, 0.0, 0), box_mesh(center, half, turn, 1)],
         vec![Material::diffuse("floor", Vec3::splat(0.6)), box_material],
         Vec::new(),
-        camera_looking_at(
-            Vec3::new(0.3, 3.0, 0.5),
-            Vec3::new(0.0, 0.3, 0.0),
-            Projection::Perspective { yfov: 0.6 },
-        ),
+        over_the_floor(),
         Vec3::splat(0.8),
     )
 }
@@ -153,11 +158,7 @@ fn a_floor_sealed_in_smooth_glass_renders_as_the_path_tracer_renders_it() {
         ],
         vec![Material::diffuse("floor", Vec3::splat(0.6)), glass(0.0)],
         Vec::new(),
-        camera_looking_at(
-            Vec3::new(0.3, 3.0, 0.5),
-            Vec3::new(0.0, 0.3, 0.0),
-            Projection::Perspective { yfov: 0.6 },
-        ),
+        over_the_floor(),
         Vec3::splat(0.8),
     );
     inside.materials[1].base_color = Vec3::ONE.extend(1.0);
