@@ -108,3 +108,50 @@ def test_other_distributions_are_named(node_type, distribution):
     assert extension is None and problems, problems
     messages = preflight.unsupported_features(scene, list(scene.objects))
     assert [m for m in messages if node.name in m and distribution in m], messages
+
+
+def test_instanced_thin_glass_panes_and_ggx_boxes(tmp_path):
+    """Instances, open meshes and thin walls: a Geometry Nodes scatter of single-quad panes of
+    rough Multiscatter GGX glass (open, one wall thick) and of boxes of a GGX gold metal, over
+    a floor under a sun and a sky (`test_depsgraph`'s set-up)."""
+    import bpy
+
+    import common
+    import scenes_bpy
+    from test_depsgraph import lit_floor
+
+    scene = lit_floor()
+    pane = bpy.data.materials.new("Pane")
+    if bpy.app.version < (5, 0, 0):
+        pane.use_nodes = True
+    tree = pane.node_tree
+    glass = tree.nodes.new("ShaderNodeBsdfGlass")
+    glass.inputs["Roughness"].default_value = 0.5
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    tree.links.new(glass.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    gold = common.principled("GGX gold", (0.9, 0.6, 0.3), roughness=0.7)
+    bsdf = gold.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Metallic"].default_value = 1.0
+    bsdf.distribution = "GGX"
+    through(pane, "tree")
+    through(gold, "tree")
+    source = bpy.data.collections.new("Source")
+    scene.collection.children.link(source)
+    source.hide_render = True
+    panel = common.quad("Panel", [(-0.2, 0, 0), (0.2, 0, 0), (0.2, 0, 0.5), (-0.2, 0, 0.5)],
+                        pane)
+    block = common.box("Block", (0.25, 0.25, 0.3), gold, (0.0, 0.0, 0.0), 0.0)
+    for obj in (panel, block):
+        scene.collection.objects.unlink(obj)
+        source.objects.link(obj)
+    for name, obj, location in (("Panes", panel, (-0.8, 0.3, 0.01)),
+                                ("Blocks", block, (0.9, 0.3, 0.01))):
+        bpy.ops.mesh.primitive_grid_add(x_subdivisions=2, y_subdivisions=3, size=1.2,
+                                        location=location)
+        grid = bpy.context.active_object
+        grid.name = name
+        scenes_bpy.instance_on_points(grid, obj, rotation_max=(0.0, 0.0, 3.0))
+    # relMSE 0.00012 measured; before the distribution and the glass compensation 0.0047 (the
+    # floor dominates the mean, which was +0.5 %), so the bound is set between them.
+    compare("instanced panes and boxes", scene, tmp_path, photon_spp=512, cycles_spp=1024,
+            relmse_max=0.0015)
