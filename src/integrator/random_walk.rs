@@ -41,6 +41,7 @@ use crate::bsdf::Bsdf;
 use crate::interaction::SurfaceHit;
 use crate::material::SurfaceMaterial;
 use crate::math::{Frame, Vec3};
+use crate::phase::{henyey_greenstein, sample_henyey_greenstein};
 use crate::rng::Rng;
 use crate::sampling::square_to_cosine_hemisphere;
 use crate::scene::nodes::RayPath;
@@ -205,21 +206,6 @@ pub fn too_short(s: &Shading) -> bool {
     !(longest > PRECISION_STEPS * s.sh.p_error.max_element().max(f32::MIN_POSITIVE))
 }
 
-/// A direction scattered from `dir` by the Henyey–Greenstein phase function of `g`
-/// (importance-sampled: the phase function cancels against its density).
-pub fn sample_henyey_greenstein(dir: Vec3, g: f32, u: [f32; 2]) -> Vec3 {
-    let cos = if g.abs() < 1e-3 {
-        1.0 - 2.0 * u[0]
-    } else {
-        let k = (1.0 - g * g) / (1.0 - g + 2.0 * g * u[0]);
-        ((1.0 + g * g - k * k) / (2.0 * g)).clamp(-1.0, 1.0)
-    };
-    let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    let phi = 2.0 * PI * u[1];
-    let frame = Frame::from_normal(dir);
-    frame.to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), cos))
-}
-
 /// Where a walk left the medium: what the surface finder returned, the last step's direction
 /// and the walk's throughput (its expectation is the object's reflectance, Cycles' closure
 /// weight divided by the albedo aside).
@@ -227,12 +213,6 @@ pub struct Walked<H> {
     pub exit: H,
     pub direction: Vec3,
     pub weight: Vec3,
-}
-
-/// The Henyey–Greenstein phase function of `g` at cosine `cos` (per steradian).
-fn henyey_greenstein(cos: f32, g: f32) -> f32 {
-    let d = 1.0 + g * g - 2.0 * g * cos;
-    (1.0 - g * g) / (4.0 * PI * d * d.sqrt())
 }
 
 /// Dwivedi's guided sampling of directions towards the surface the walk entered by (Křivánek &
