@@ -330,6 +330,9 @@ pub struct LightPoint {
     pub p: Vec3,
     pub p_error: Vec3,
     pub n: Vec3,
+    /// A distant light's stand-in point (a sun, the world): the light itself is infinitely
+    /// far, which media that fill all space (the world's volume) attenuate to nothing.
+    pub distant: bool,
 }
 
 /// A shadow ray between a surface point and `target`, both ends pushed out of their error boxes,

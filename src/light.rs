@@ -363,7 +363,12 @@ pub fn sample_emitter_point(
         material_emission(scene, material, uv)
     };
     EmitterPoint {
-        point: LightPoint { p, p_error, n },
+        point: LightPoint {
+            p,
+            p_error,
+            n,
+            distant: false,
+        },
         radiance,
     }
 }
@@ -586,6 +591,7 @@ impl Lights {
             p: p + dir * reach,
             p_error: Vec3::ZERO,
             n: Vec3::ZERO,
+            distant: true,
         }
     }
 
@@ -1345,6 +1351,7 @@ fn sample_punctual(
                 p: position,
                 p_error: Vec3::ZERO,
                 n: Vec3::ZERO,
+                distant: false,
             },
         };
         return Some(PunctualSample {
@@ -1367,6 +1374,7 @@ fn sample_punctual(
         p: q,
         p_error: crate::math::gamma(8) * (q.abs() + position.abs()),
         n: (q - position).normalize_or(-wi),
+        distant: false,
     };
     let sample = LightSample {
         li: Vec3::ZERO,

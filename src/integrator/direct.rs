@@ -6,12 +6,15 @@
 //! transparent shadows: the surface's shader is evaluated for the shadow ray, which Light
 //! Path's Is Shadow Ray reads, and its transparent weight tints what passes).
 
+use super::media::MediumStack;
 use super::Context;
+use crate::accel::Ray;
 use crate::accel::Visibility;
-use crate::interaction::{LightPoint, SurfaceHit, View};
+use crate::interaction::{spawn_to, LightPoint, SurfaceHit, View};
 use crate::light::Receiver;
 use crate::material::eval_surface;
 use crate::math::Vec3;
+use crate::medium::transmittance;
 use crate::rng::{hash_combine, Rng};
 use crate::sampling::power_heuristic;
 use crate::scene::nodes::RayPath;
@@ -30,6 +33,7 @@ pub fn sample_direct(
     ctx: &Context,
     at: &SurfaceHit,
     horizon: Option<Vec3>,
+    media: &MediumStack,
     beta: Vec3,
     mis: bool,
     rng: &mut Rng,
@@ -37,17 +41,21 @@ pub fn sample_direct(
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
     let path = RayPath::default();
-    sample_direct_from(ctx, at, horizon, path, beta, mis, rng, rays, scattering)
+    let at = Vertex::Surface(at);
+    sample_direct_from(
+        ctx, at, horizon, path, media, beta, mis, rng, rays, scattering,
+    )
 }
 
 /// `sample_direct` from a vertex of camera path `path` (what node trees of the emitter and of
-/// the surfaces the shadow ray passes read).
+/// the surfaces the shadow ray passes read), in the media `media`.
 #[allow(clippy::too_many_arguments)]
 pub fn sample_direct_from(
     ctx: &Context,
-    at: &SurfaceHit,
+    at: Vertex,
     horizon: Option<Vec3>,
     path: RayPath,
+    media: &MediumStack,
     beta: Vec3,
     mis: bool,
     rng: &mut Rng,
@@ -55,10 +63,10 @@ pub fn sample_direct_from(
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
     let (choice, point) = rng.uniform3();
-    let from = Receiver { p: at.p, horizon };
+    let from = Receiver { p: at.p(), horizon };
     let Some(ls) = ctx
         .lights
-        .sample(ctx.scene, from, path, at.time, mis, choice, point)
+        .sample(ctx.scene, from, path, at.time(), mis, choice, point)
     else {
         return Vec3::ZERO;
     };
@@ -69,7 +77,7 @@ pub fn sample_direct_from(
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let through = shadow_transmittance(ctx, at, &ls.target, path, rays);
+    let through = shadow_transmittance(ctx, at, &ls.target, path, media, rng, rays);
     if through == Vec3::ZERO {
         return Vec3::ZERO;
     }
@@ -81,32 +89,92 @@ pub fn sample_direct_from(
     beta * f * ls.li * through * (w / ls.pdf)
 }
 
-/// What reaches `at` from `target` along a shadow ray of path `path`: one when nothing is in
-/// between, zero when something opaque is, and otherwise the product of the transparent
-/// weights of the surfaces passed (each evaluated for the shadow ray, its Mix Shader picks
-/// drawn from a hash of the ray, so the product is right on average). Counts its rays.
+/// Where a light sample is drawn from: a surface point, or a point inside a medium.
+#[derive(Clone, Copy)]
+pub enum Vertex<'a> {
+    Surface(&'a SurfaceHit),
+    /// A scattering point in a medium at moment `time` of the shutter.
+    Medium {
+        p: Vec3,
+        time: f32,
+    },
+}
+
+impl Vertex<'_> {
+    fn p(&self) -> Vec3 {
+        match self {
+            Vertex::Surface(sh) => sh.p,
+            Vertex::Medium { p, .. } => *p,
+        }
+    }
+
+    fn time(&self) -> f32 {
+        match self {
+            Vertex::Surface(sh) => sh.time,
+            Vertex::Medium { time, .. } => *time,
+        }
+    }
+
+    /// The shadow ray from here to `target` (`SurfaceHit::spawn_to`; a medium point needs no
+    /// offset).
+    fn spawn_to(&self, target: &LightPoint) -> Ray {
+        match self {
+            Vertex::Surface(sh) => sh.spawn_to(target),
+            Vertex::Medium { p, time } => Ray {
+                time: *time,
+                ..spawn_to(*p, Vec3::ZERO, Vec3::ZERO, target)
+            },
+        }
+    }
+}
+
+/// What reaches `at` from `target` along a shadow ray of path `path` leaving in `media`: one
+/// when nothing is in between, zero when something opaque is, and otherwise the product of the
+/// transparent weights of the surfaces passed (each evaluated for the shadow ray, its Mix
+/// Shader picks drawn from a hash of the ray, so the product is right on average) and of the
+/// media's transmittance along the way (`medium::transmittance`; the world's volume stops the
+/// light of distant lights entirely). Counts its rays.
 pub fn shadow_transmittance(
     ctx: &Context,
-    at: &SurfaceHit,
+    at: Vertex,
     target: &LightPoint,
     path: RayPath,
+    media: &MediumStack,
+    rng: &mut Rng,
     rays: &mut u32,
 ) -> Vec3 {
     *rays += 1;
     let mut ray = at.spawn_to(target);
+    let scene = ctx.scene;
+    let mut media = *media;
+    if target.distant && scene.world.volume.is_some() {
+        return Vec3::ZERO;
+    }
+    // The media's transmittance along `ray` up to parameter `t`.
+    let through_media = |media: &MediumStack, ray: &Ray, t: f32, rng: &mut Rng| {
+        if media.is_vacuum(scene) {
+            return Vec3::ONE;
+        }
+        let length = ray.direction.length();
+        let dir = ray.direction / length;
+        transmittance(&media.media(ctx), ray.origin, dir, t * length, rng)
+    };
     if !ctx.lights.transparent_shadows {
-        return if ctx.accel.unoccluded(ctx.scene, &ray) {
-            Vec3::ONE
+        return if ctx.accel.unoccluded(scene, &ray) {
+            through_media(&media, &ray, ray.t_max, rng)
         } else {
             Vec3::ZERO
         };
     }
-    let scene = ctx.scene;
     let mut through = Vec3::ONE;
     for passed in 0..MAX_TRANSPARENT_SHADOW_HITS {
         let Some(hit) = ctx.accel.intersect(scene, &ray, Visibility::Shadow) else {
-            return through;
+            return through * through_media(&media, &ray, ray.t_max, rng);
         };
+        through *= through_media(&media, &ray, hit.t, rng);
+        if through == Vec3::ZERO {
+            return through;
+        }
         let sh = SurfaceHit::new(scene, &ray, &hit);
         let material = &scene.materials[sh.material as usize];
         if !material
@@ -133,6 +201,7 @@ pub fn shadow_transmittance(
         if through == Vec3::ZERO {
             return through;
         }
+        media = media.crossed(scene, &hit, sh.material, ray.direction.dot(sh.ng) < 0.0);
         *rays += 1;
         ray = sh.spawn_to(target);
     }

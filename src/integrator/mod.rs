@@ -19,6 +19,7 @@
 pub mod cache;
 pub mod classify;
 pub mod direct;
+pub mod media;
 pub mod path;
 pub mod photon;
 pub mod random_walk;

@@ -439,6 +439,7 @@ fn exit_shading(sh: SurfaceHit, dir: Vec3, path: RayPath) -> Shading {
         path,
         wo,
         wo_local,
+        media: Default::default(),
     }
 }
 

@@ -8,7 +8,8 @@
 //! inside a transmissive object a ray is attenuated by Beer–Lambert absorption.
 
 use super::classify::{diffuse_reflectance, is_lambertian, lambertian_reflectance};
-use super::direct::sample_direct_from;
+use super::direct::{sample_direct_from, Vertex};
+use super::media::MediumStack;
 use super::Context;
 use crate::accel::{Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample, Scattering, ViewedBsdf};
@@ -36,6 +37,8 @@ pub struct Shading {
     /// Unit direction towards the viewer (or where the photon came from).
     pub wo: Vec3,
     pub wo_local: Vec3,
+    /// The media the viewer is in (where light samples' shadow rays start).
+    pub media: MediumStack,
 }
 
 /// Beer–Lambert transmittance along `ray` up to `hit` through a medium of absorption
@@ -123,6 +126,7 @@ impl Shading {
             wo,
             wo_local,
             surface,
+            media: MediumStack::default(),
         }
     }
 
@@ -181,9 +185,10 @@ impl Shading {
         let horizon = self.horizon();
         sample_direct_from(
             ctx,
-            &self.sh,
+            Vertex::Surface(&self.sh),
             horizon,
             self.path,
+            &self.media,
             beta,
             mis,
             rng,

@@ -22,7 +22,8 @@
 //! lobes, `classify::stores_photons` false) from a hit to the first surface that stores photons.
 
 use super::classify::stores_photons;
-use super::direct::Previous;
+use super::direct::{sample_direct_from, Previous, Vertex};
+use super::media::MediumStack;
 use super::random_walk;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
@@ -31,9 +32,10 @@ use crate::bsdf::{BsdfSample, Scattering};
 use crate::light::{emitted_radiance, Receiver};
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec3};
+use crate::medium::{fly, transmittance as medium_transmittance, Coefficients, Flight};
 use crate::rng::Rng;
 use crate::scene::nodes::RayPath;
-use crate::scene::Subsurface;
+use crate::scene::{Scene, Subsurface};
 
 /// Longest chain of specular surfaces `follow_specular` follows.
 pub const MAX_SPECULAR_CHAIN: u32 = 12;
@@ -48,6 +50,10 @@ pub struct PathState {
     pub previous: Previous,
     /// Absorption coefficient of the medium the ray travels through.
     pub absorption: Vec3,
+    /// The participating media the ray travels through (`super::media`).
+    pub media: MediumStack,
+    /// Scatterings in media so far (Blender's Volume bounces limit them).
+    pub volume_bounces: u32,
     /// Non-delta vertices so far.
     pub diffuse: u32,
     /// Bounces before the current vertex (0 at the camera ray's hit).
@@ -83,6 +89,8 @@ impl PathState {
             ray,
             beta: Vec3::ONE,
             absorption: Vec3::ZERO,
+            media: MediumStack::default(),
+            volume_bounces: 0,
             diffuse: 0,
             depth: 0,
             subsurface: false,
@@ -150,7 +158,10 @@ impl PathState {
         };
         self.beta *= walked * (entering / p_walk);
         self.subsurface = true;
-        *s = exit;
+        *s = Shading {
+            media: self.media,
+            ..exit
+        };
         self.beta.is_finite() && self.beta != Vec3::ZERO
     }
 
@@ -167,20 +178,114 @@ impl PathState {
 
     /// The lamps the ray to the next vertex meets before `reach` (`Lights::lamps_met`),
     /// attenuated by the medium up to them, MIS-weighted.
-    fn lamps(&mut self, ctx: &Context, reach: f32, camera: bool) {
+    fn lamps(&mut self, ctx: &Context, reach: f32, camera: bool, rng: &mut Rng) {
         let pass = self.pass(0);
         let (beta, previous, absorption) = (self.beta, self.previous, self.absorption);
         let passes = &mut self.passes;
+        let (ray, media) = (self.ray, self.media);
+        let in_media = !media.is_vacuum(ctx.scene);
         ctx.lights.lamps_met(
-            &self.ray,
+            &ray,
             previous.receiver(),
             reach,
             camera,
             |le, light_pdf, t| {
-                let through = (-absorption * t).exp();
+                let mut through = (-absorption * t).exp();
+                if in_media {
+                    let dir = ray.direction.normalize();
+                    through *= medium_transmittance(&media.media(ctx), ray.origin, dir, t, rng);
+                }
                 passes.add(pass, beta * through * le * previous.weight(light_pdf));
             },
         );
+    }
+
+    /// The ray to the next vertex through the media over `reach` (its distance to the surface
+    /// it meets, or infinity): the media's emission on the way (with `emission`) and a free
+    /// flight that may scatter before the surface.
+    fn through_media(
+        &mut self,
+        ctx: &Context,
+        reach: f32,
+        emission: bool,
+        rng: &mut Rng,
+    ) -> Flight {
+        let dir = self.ray.direction.normalize();
+        let mut emitted = Vec3::ZERO;
+        let media = self.media;
+        let flight = fly(
+            &media.media(ctx),
+            self.ray.origin,
+            dir,
+            reach,
+            &mut self.beta,
+            &mut emitted,
+            rng,
+        );
+        if emission && emitted != Vec3::ZERO {
+            self.add(0, emitted);
+        }
+        flight
+    }
+
+    /// A scattering at distance `t` along the ray in media `at`: a light sample through the
+    /// phase function, MIS-weighted, then a direction drawn from it (the scattered ray counts
+    /// only the emission it meets once Blender's Volume bounces are spent). False when the
+    /// path ends.
+    fn scatter_in_medium(
+        &mut self,
+        ctx: &Context,
+        t: f32,
+        at: &Coefficients,
+        rng: &mut Rng,
+    ) -> bool {
+        let ray = self.ray;
+        let dir = ray.direction.normalize();
+        let p = ray.origin + dir * t;
+        let phase = at.phase;
+        let vertex = Vertex::Medium { p, time: ray.time };
+        let (path, media) = (self.light_path, self.media);
+        let l = sample_direct_from(
+            ctx,
+            vertex,
+            None,
+            path,
+            &media,
+            self.beta,
+            true,
+            rng,
+            &mut self.rays,
+            |wi| {
+                let cos = dir.dot(wi);
+                (Vec3::splat(phase.eval(cos)), phase.pdf(cos))
+            },
+        );
+        self.add(1, l);
+        let (wi, f, pdf) = phase.sample(dir, [rng.uniform(), rng.uniform(), rng.uniform()]);
+        if !(pdf > 0.0) {
+            return false;
+        }
+        self.beta *= f / pdf;
+        self.diffuse += 1;
+        self.volume_bounces += 1;
+        if self.volume_bounces > ctx.scene.render_settings.volume_bounces {
+            self.emission_only = true;
+        }
+        // Not a camera ray any more (no other Light Path kind fits a volume scattering).
+        self.light_path = self.light_path.after(Scattering::Diffuse, false);
+        self.previous = Previous {
+            p,
+            horizon: None,
+            pdf,
+            delta: false,
+        };
+        self.ray = Ray {
+            origin: p,
+            direction: wi,
+            t_max: f32::INFINITY,
+            time: ray.time,
+        };
+        self.beta.is_finite() && self.beta != Vec3::ZERO
     }
 
     /// The ray met `s`: its emission, MIS-weighted.
@@ -201,7 +306,14 @@ impl PathState {
     /// Continue from `s` along the BSDF sample `bs` (world direction `wi`); `light_sampled`:
     /// light sampling ran at `s`, so emission the new ray meets is MIS-weighted. False when the
     /// throughput vanished.
-    pub fn advance(&mut self, s: &Shading, bs: &BsdfSample, wi: Vec3, light_sampled: bool) -> bool {
+    pub fn advance(
+        &mut self,
+        scene: &Scene,
+        s: &Shading,
+        bs: &BsdfSample,
+        wi: Vec3,
+        light_sampled: bool,
+    ) -> bool {
         self.beta *= bs.weight;
         if self.beta == Vec3::ZERO || !self.beta.is_finite() {
             return false;
@@ -225,6 +337,12 @@ impl PathState {
             };
         }
         self.absorption = s.absorption_after(bs, wi, self.absorption);
+        if bs.transmitted {
+            let entering = wi.dot(s.sh.ng) < 0.0;
+            self.media = self
+                .media
+                .crossed(scene, &s.sh.hit, s.sh.material, entering);
+        }
         self.ray = s.sh.spawn(wi);
         true
     }
@@ -332,9 +450,36 @@ fn walk_from(
         let ray = state.ray;
         state.rays += 1;
         let hit = ctx.accel.intersect(ctx.scene, &ray, visibility);
-        if emission && !(gather && depth == 0) {
-            let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
-            state.lamps(ctx, reach, visibility == Visibility::Camera);
+        let counts = emission && !(gather && depth == 0);
+        let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+        if counts {
+            state.lamps(ctx, reach, visibility == Visibility::Camera, rng);
+        }
+        if !state.media.is_vacuum(ctx.scene) {
+            match state.through_media(ctx, reach, counts, rng) {
+                Flight::Passed => {}
+                Flight::Absorbed => {
+                    if depth == 0 {
+                        out.seen_emission = state.passes.total();
+                    }
+                    break;
+                }
+                Flight::Scattered { t, at } => {
+                    if depth == 0 {
+                        out.seen_emission = state.passes.total();
+                    }
+                    if depth == ctx.max_depth
+                        || state.emission_only
+                        || !state.scatter_in_medium(ctx, t, &at, rng)
+                    {
+                        break;
+                    }
+                    if depth >= 3 && !state.roulette(rng) {
+                        break;
+                    }
+                    continue;
+                }
+            }
         }
         let Some(hit) = hit else {
             if emission && !(depth == 0 && (ctx.transparent_background || gather)) {
@@ -364,6 +509,7 @@ fn walk_from(
         }
         let primary = depth == 0 && !gather;
         let mut s = Shading::on_path(ctx, &ray, &hit, state.light_path, primary);
+        s.media = state.media;
         // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
         if primary && (s.surface.holdout || hit_holdout(ctx.scene, &hit)) {
             out.seen_emission = state.passes.total();
@@ -409,7 +555,7 @@ fn walk_from(
         let Some((bs, wi)) = s.sample(lobe, direction) else {
             break;
         };
-        if !state.advance(&s, &bs, wi, light_sampled) {
+        if !state.advance(ctx.scene, &s, &bs, wi, light_sampled) {
             break;
         }
         if depth >= 3 && !state.roulette(rng) {

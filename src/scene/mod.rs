@@ -17,6 +17,7 @@ pub mod texture;
 pub mod units;
 
 use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
+pub use crate::medium::Coefficients;
 pub use texture::{Texture, TextureRef};
 
 /// A triangle mesh: in world space in `Scene::meshes`, in object space in `Scene::prototypes`.
@@ -245,6 +246,34 @@ pub struct Material {
     /// The Blender node tree (our `PHOTON_material_nodes` extension), compiled: when present
     /// it replaces every factor and texture above at each shading point (`crate::material`).
     pub nodes: Option<std::sync::Arc<nodes::NodeProgram>>,
+    /// What fills the object (Blender's Volume socket): rays that cross its surface into it
+    /// travel through this medium until they cross out (`crate::integrator::media`).
+    pub volume: Option<Volume>,
+}
+
+/// A participating medium: a material's volume (inside its object) or the world's (everywhere
+/// outside every object that does not replace it). Homogeneous when `constant` is set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Volume {
+    /// The coefficients, the same at every point.
+    pub constant: Option<Coefficients>,
+    /// A grey bound of the extinction coefficient over the medium, per scene unit.
+    pub majorant: f32,
+}
+
+impl Volume {
+    /// A homogeneous medium of coefficients `c`.
+    pub fn homogeneous(c: Coefficients) -> Volume {
+        Volume {
+            constant: Some(c),
+            majorant: c.extinction().max_element(),
+        }
+    }
+
+    /// The coefficients at world point `p` (Blender's axes are the program's business).
+    pub fn at(&self, _p: Vec3) -> Coefficients {
+        self.constant.unwrap_or(Coefficients::VACUUM)
+    }
 }
 
 /// How light travels under a translucent surface: Blender's Principled BSDF "Subsurface
@@ -361,6 +390,7 @@ impl Default for Material {
             iridescence_thickness: [100.0, 400.0],
             iridescence_thickness_texture: None,
             nodes: None,
+            volume: None,
         }
     }
 }
@@ -568,6 +598,8 @@ pub struct World {
     /// What camera rays that escape see instead (Blender's Light Path "Is Camera Ray" choosing
     /// between two backgrounds); `None`: the same as every other ray.
     pub camera_background: Option<Background>,
+    /// The world's volume: a medium filling all space (Blender's World Volume socket).
+    pub volume: Option<Volume>,
 }
 
 impl World {
@@ -713,6 +745,9 @@ pub struct SceneRenderSettings {
     pub transparent_film: bool,
     /// Blender's pixel filter (Cycles' film settings); `None`: Blender's default.
     pub filter: Option<crate::film::FilterSettings>,
+    /// Blender's Light Paths › Max Bounces › Volume: scatterings in media a path may continue
+    /// from (0, Blender's default: single scattering, each lit by light samples alone).
+    pub volume_bounces: u32,
 }
 
 /// Everything there is to render.

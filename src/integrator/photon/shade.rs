@@ -193,14 +193,24 @@ impl<'a> Gather<'a> {
         }
         let ctx = self.ctx;
         let (horizon, rays) = (s.horizon(), &mut self.rays);
-        let mut l = sample_direct(ctx, &s.sh, horizon, Vec3::ONE, true, rng, rays, |wi| {
-            if wi.dot(s.ng) <= 0.0 {
-                return (Vec3::ZERO, 0.0);
-            }
-            let local = s.frame.to_local(wi);
-            let (f, pdf) = s.bsdf.eval_and_pdf(local);
-            (without_diffuse(f, rho, local.z, 1.0), pdf)
-        });
+        let mut l = sample_direct(
+            ctx,
+            &s.sh,
+            horizon,
+            &s.media,
+            Vec3::ONE,
+            true,
+            rng,
+            rays,
+            |wi| {
+                if wi.dot(s.ng) <= 0.0 {
+                    return (Vec3::ZERO, 0.0);
+                }
+                let local = s.frame.to_local(wi);
+                let (f, pdf) = s.bsdf.eval_and_pdf(local);
+                (without_diffuse(f, rho, local.z, 1.0), pdf)
+            },
+        );
         if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
             let weight = match bs.delta {
                 true => bs.weight,

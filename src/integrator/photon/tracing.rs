@@ -232,6 +232,7 @@ impl Emitters {
                     p: q,
                     p_error: q_error,
                     n,
+                    ..
                 } = emitter.point;
                 if n == Vec3::ZERO {
                     return None;

@@ -1,0 +1,126 @@
+//! The media a ray travels in: the world's volume and the volumes of the objects whose surface
+//! it crossed into, kept as a small stack as Cycles keeps its volume stack. A ray enters an
+//! object's medium when it crosses the surface against its winding (from the front) and
+//! leaves it when it crosses back; media that overlap add (`medium::Coefficients::add`).
+//!
+//! Crossings happen where a path or a shadow ray passes a surface: through a transmissive
+//! BSDF, or through the invisible boundary of an object that has a volume and no surface
+//! shader (a white Transparent BSDF, as Cycles passes volume-only surfaces).
+
+use super::Context;
+use crate::accel::Hit;
+use crate::math::Vec3;
+use crate::medium::{Coefficients, Media};
+use crate::scene::{Scene, Volume};
+
+/// Object media a stack holds at most (deeper nesting is ignored: the innermost are dropped).
+const DEPTH: usize = 8;
+
+/// One object's medium the ray is in: its material and the mesh (and instance) whose surface
+/// it entered by (`accel::Hit`'s indices), where heterogeneous media read their coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Entry {
+    material: u32,
+    mesh: u32,
+    instance: u32,
+}
+
+/// The object media a ray is in (the world's volume is under all of them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MediumStack {
+    entries: [Option<Entry>; DEPTH],
+}
+
+impl MediumStack {
+    /// Whether a ray with this stack travels through any medium in `scene`.
+    pub fn is_vacuum(&self, scene: &Scene) -> bool {
+        scene.world.volume.is_none() && self.entries[0].is_none()
+    }
+
+    /// The stack after crossing the surface of `hit` (of material `material`): `entering`
+    /// when the ray goes against the surface's winding normal (into the object).
+    pub fn crossed(&self, scene: &Scene, hit: &Hit, material: u32, entering: bool) -> MediumStack {
+        if scene.materials[material as usize].volume.is_none() {
+            return *self;
+        }
+        let entry = Entry {
+            material,
+            mesh: hit.mesh,
+            instance: hit.instance,
+        };
+        let mut out = *self;
+        if entering {
+            if let Some(slot) = out.entries.iter_mut().find(|e| e.is_none()) {
+                *slot = Some(entry);
+            }
+        } else if let Some(k) = out
+            .entries
+            .iter()
+            .position(|e| e.is_some_and(|e| e.material == material && e.mesh == hit.mesh))
+        {
+            // Remove it, keeping the others in order.
+            out.entries.copy_within(k + 1.., k);
+            out.entries[DEPTH - 1] = None;
+        }
+        out
+    }
+
+    /// The media of this stack in `ctx`'s scene, as `medium::fly` and
+    /// `medium::transmittance` read them.
+    pub fn media<'a>(&'a self, ctx: &'a Context) -> StackMedia<'a> {
+        StackMedia {
+            scene: ctx.scene,
+            stack: self,
+        }
+    }
+
+    fn volumes<'a>(&'a self, scene: &'a Scene) -> impl Iterator<Item = &'a Volume> + 'a {
+        scene.world.volume.iter().chain(
+            self.entries
+                .iter()
+                .map_while(|e| *e)
+                .filter_map(|e| scene.materials[e.material as usize].volume.as_ref()),
+        )
+    }
+}
+
+/// A stack's media in a scene (`medium::Media`).
+pub struct StackMedia<'a> {
+    scene: &'a Scene,
+    stack: &'a MediumStack,
+}
+
+impl Media for StackMedia<'_> {
+    fn at(&self, p: Vec3, u: f32) -> Coefficients {
+        let mut sum = Coefficients::VACUUM;
+        let mut u = u;
+        for volume in self.stack.volumes(self.scene) {
+            let c = volume.at(p);
+            // Each addition reuses what is left of `u` as a fresh uniform number.
+            let mine = sum.scattering.element_sum();
+            let theirs = c.scattering.element_sum();
+            sum.add(&c, u);
+            if theirs > 0.0 {
+                let split = mine / (mine + theirs);
+                u = if u < split {
+                    u / split
+                } else {
+                    (u - split) / (1.0 - split)
+                };
+            }
+        }
+        sum
+    }
+
+    fn homogeneous(&self) -> Option<Coefficients> {
+        let mut sum = Coefficients::VACUUM;
+        for volume in self.stack.volumes(self.scene) {
+            sum.add(&volume.constant?, 0.5);
+        }
+        Some(sum)
+    }
+
+    fn majorant(&self) -> f32 {
+        self.stack.volumes(self.scene).map(|v| v.majorant).sum()
+    }
+}
