@@ -2397,28 +2397,29 @@ impl Loader {
                 None => None,
                 Some(filter) => Some(self.read_filter(filter)?),
             };
-            self.scene.render_settings =
-                SceneRenderSettings {
-                    width: dimension("width")?,
-                    height: dimension("height")?,
-                    transparent_film: render
-                        .get("film_transparent")
-                        .and_then(Value::as_bool)
-                        .unwrap_or(false),
-                    filter,
-                    volume_bounces: match render.get("volume_bounces") {
-                        None => 0,
-                        Some(v) => match v.as_u64().filter(|&n| n <= 1024) {
-                            Some(n) => n as u32,
-                            None => return Err(self.err(
+            self.scene.render_settings = SceneRenderSettings {
+                width: dimension("width")?,
+                height: dimension("height")?,
+                transparent_film: render
+                    .get("film_transparent")
+                    .and_then(Value::as_bool)
+                    .unwrap_or(false),
+                filter,
+                volume_bounces: match render.get("volume_bounces") {
+                    None => 0,
+                    Some(v) => match v.as_u64().filter(|&n| n <= 1024) {
+                        Some(n) => n as u32,
+                        None => {
+                            return Err(self.err(
                                 "scene PHOTON_render",
                                 format!(
                                     "'volume_bounces' must be an integer in 0..=1024, found {v}"
                                 ),
-                            )),
-                        },
+                            ))
+                        }
                     },
-                };
+                },
+            };
         }
         Ok(())
     }

@@ -151,6 +151,7 @@ pub fn scene(
                 environment: None,
             },
             camera_background: None,
+            volume: None,
         },
         render_settings: SceneRenderSettings::default(),
         warnings: Vec::new(),

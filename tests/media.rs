@@ -1,0 +1,144 @@
+//! Participating media against closed forms: a scattering sphere in a white world is a white
+//! furnace (radiance 1 everywhere once every volume bounce is followed), an absorbing and
+//! emitting sphere seen through its centre gives Beer–Lambert and its emission integral, and a
+//! world volume stops the light of the sun entirely (as Cycles renders it).
+
+#[path = "support/scenes.rs"]
+mod scenes;
+
+use photon::film::Image;
+use photon::math::Vec3;
+use photon::medium::Coefficients;
+use photon::phase::Phase;
+use photon::render::{render, Method, RenderSettings};
+use photon::scene::nodes::{compile, CompileWarnings};
+use photon::scene::{Light, Material, Projection, Scene, Volume};
+use scenes::{camera_looking_at, floor, scene, sphere, with_progress};
+use std::sync::Arc;
+
+fn render_with(scene: &Scene, method: Method, size: u32, spp: u32) -> Image {
+    let settings = RenderSettings {
+        width: size,
+        height: size,
+        spp,
+        max_depth: 256,
+        seed: 3,
+        method,
+        ..RenderSettings::default()
+    };
+    let (image, stats) = with_progress(|p| render(scene, &settings, p)).expect("render");
+    assert_eq!(stats.nonfinite_samples, 0);
+    image
+}
+
+/// A material whose surface lets every ray through (a white Transparent BSDF, as a Blender
+/// material with only a Volume) and whose inside is `c`.
+fn volume_material(c: Coefficients) -> Material {
+    let tree = serde_json::json!({
+        "nodes": [{"name": "T", "type": "ShaderNodeBsdfTransparent",
+                   "inputs": {"Color": [1, 1, 1, 1]}}],
+        "output": {"node": 0, "output": "BSDF"}
+    });
+    let mut warnings = CompileWarnings::new();
+    let program = compile(&tree, 0, &mut warnings).expect("transparent tree");
+    Material {
+        nodes: Some(Arc::new(program)),
+        volume: Some(Volume::homogeneous(c)),
+        ..Material::diffuse("volume", Vec3::ONE)
+    }
+}
+
+/// A unit sphere of medium `c` at the origin under a uniform world of radiance `world`, seen
+/// by an orthographic camera covering the central ±`half` of it.
+fn sphere_scene(c: Coefficients, world: f32, half: f32) -> Scene {
+    scene(
+        vec![sphere(Vec3::ZERO, 1.0, 48, 96, false, 0)],
+        vec![volume_material(c)],
+        Vec::new(),
+        camera_looking_at(
+            Vec3::new(0.0, 0.0, 4.0),
+            Vec3::ZERO,
+            Projection::Orthographic {
+                xmag: half,
+                ymag: half,
+            },
+        ),
+        Vec3::splat(world),
+    )
+}
+
+#[test]
+fn a_scattering_sphere_in_a_white_world_is_a_furnace() {
+    let c = Coefficients {
+        scattering: Vec3::new(3.0, 1.5, 0.5),
+        absorption: Vec3::ZERO,
+        emission: Vec3::ZERO,
+        phase: Phase::henyey_greenstein(0.6),
+    };
+    let mut s = sphere_scene(c, 1.0, 1.2);
+    s.render_settings.volume_bounces = 1000;
+    let all = render_with(&s, Method::Path, 16, 64).mean_rgb();
+    assert!((all - Vec3::ONE).abs().max_element() < 0.015, "mean {all}");
+    // Single scattering alone loses the light scattered more than once.
+    s.render_settings.volume_bounces = 0;
+    let single = render_with(&s, Method::Path, 16, 64).mean_rgb();
+    assert!(
+        single.x < 0.95 && single.x < single.z,
+        "single scattering {single}"
+    );
+}
+
+#[test]
+fn an_absorbing_emitting_sphere_follows_beer_lambert() {
+    let sigma = Vec3::new(0.5, 1.0, 2.0);
+    let c = Coefficients {
+        scattering: Vec3::ZERO,
+        absorption: sigma,
+        emission: Vec3::new(0.2, 0.3, 0.4),
+        phase: Phase::henyey_greenstein(0.0),
+    };
+    // Through the centre: a chord of 2 (the view covers ±0.02, chords within 0.0004 of it).
+    let chord = 2.0;
+    let through = (-sigma * chord).exp();
+    let emitted = c.emission * (Vec3::ONE - through) / sigma;
+    for method in [Method::Path, Method::Photon] {
+        let got = render_with(&sphere_scene(c, 1.0, 0.02), method, 4, 4).mean_rgb();
+        let want = through + emitted;
+        assert!(
+            (got - want).abs().max_element() < 2e-3,
+            "{method:?}: {got} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn a_world_volume_stops_the_sun() {
+    let mut s = scene(
+        vec![floor(20.0, 0.0, 0)],
+        vec![Material::diffuse("floor", Vec3::splat(0.8))],
+        vec![Light::Sun {
+            direction: Vec3::new(0.2, -1.0, 0.1).normalize(),
+            irradiance: Vec3::splat(3.0),
+            angle: 0.0,
+        }],
+        camera_looking_at(
+            Vec3::new(0.0, 3.0, 3.0),
+            Vec3::ZERO,
+            Projection::Perspective { yfov: 0.8 },
+        ),
+        Vec3::ZERO,
+    );
+    let clear = render_with(&s, Method::Path, 8, 4).mean_rgb();
+    assert!(
+        clear.x > 0.1,
+        "the sun lights the floor without a medium: {clear}"
+    );
+    s.world.volume = Some(Volume::homogeneous(Coefficients {
+        scattering: Vec3::splat(0.04),
+        absorption: Vec3::ZERO,
+        emission: Vec3::ZERO,
+        phase: Phase::henyey_greenstein(0.0),
+    }));
+    let fog = render_with(&s, Method::Path, 8, 4).mean_rgb();
+    assert_eq!(fog, Vec3::ZERO);
+}
