@@ -12,7 +12,7 @@ use photon::medium::Coefficients;
 use photon::phase::Phase;
 use photon::render::{render, Method, RenderSettings};
 use photon::scene::nodes::{compile, CompileWarnings};
-use photon::scene::{Light, Material, Projection, Scene, Volume};
+use photon::scene::{Lamp, Light, Material, Projection, Scene, Volume};
 use scenes::{camera_looking_at, floor, scene, sphere, with_progress};
 use std::sync::Arc;
 
@@ -141,4 +141,70 @@ fn a_world_volume_stops_the_sun() {
     }));
     let fog = render_with(&s, Method::Path, 8, 4).mean_rgb();
     assert_eq!(fog, Vec3::ZERO);
+}
+
+#[test]
+fn a_camera_inside_a_medium_starts_in_it() {
+    let sigma = Vec3::new(0.3, 0.7, 1.5);
+    let c = Coefficients {
+        scattering: Vec3::ZERO,
+        absorption: sigma,
+        emission: Vec3::ZERO,
+        phase: Phase::henyey_greenstein(0.0),
+    };
+    let mut s = sphere_scene(c, 1.0, 0.5);
+    // From the centre every ray crosses one radius of the medium.
+    s.camera = camera_looking_at(
+        Vec3::ZERO,
+        Vec3::new(0.0, 0.0, -1.0),
+        Projection::Perspective { yfov: 1.0 },
+    );
+    let got = render_with(&s, Method::Path, 4, 1).mean_rgb();
+    let want = (-sigma).exp();
+    assert!((got - want).abs().max_element() < 2e-3, "{got} vs {want}");
+}
+
+/// A floor lit by a point light through a sphere of fog that the floor cuts: the photon method
+/// (photons scattered and attenuated by the fog on their way to the floor) against the path
+/// tracer. (A point light inside fog gives light samples from points near it unbounded
+/// variance until equiangular sampling; this light stays outside.)
+#[test]
+fn photons_cross_fog_as_camera_paths_do() {
+    let fog = Coefficients {
+        scattering: Vec3::new(0.8, 1.0, 1.2),
+        absorption: Vec3::splat(0.2),
+        emission: Vec3::ZERO,
+        phase: Phase::henyey_greenstein(0.3),
+    };
+    let mut s = scene(
+        vec![
+            floor(6.0, 0.0, 0),
+            sphere(Vec3::ZERO, 1.2, 32, 64, false, 1),
+        ],
+        vec![
+            Material::diffuse("floor", Vec3::splat(0.7)),
+            volume_material(fog),
+        ],
+        vec![Light::Point {
+            position: Vec3::new(0.3, 2.5, 0.2),
+            intensity: Vec3::splat(20.0),
+            radius: 0.0,
+            lamp: Lamp::default(),
+        }],
+        camera_looking_at(
+            Vec3::new(0.0, 2.0, 2.5),
+            Vec3::ZERO,
+            Projection::Perspective { yfov: 0.9 },
+        ),
+        Vec3::ZERO,
+    );
+    s.render_settings.volume_bounces = 2;
+    let path = render_with(&s, Method::Path, 16, 256).mean_rgb();
+    let photon = render_with(&s, Method::Photon, 16, 256).mean_rgb();
+    let ratio = photon / path;
+    assert!(path.x > 0.01, "lit: {path}");
+    assert!(
+        (ratio - Vec3::ONE).abs().max_element() < 0.04,
+        "photon {photon} / path {path}"
+    );
 }

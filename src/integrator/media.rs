@@ -8,7 +8,8 @@
 //! shader (a white Transparent BSDF, as Cycles passes volume-only surfaces).
 
 use super::Context;
-use crate::accel::Hit;
+use crate::accel::{Hit, Ray, Visibility};
+use crate::interaction::SurfaceHit;
 use crate::math::Vec3;
 use crate::medium::{Coefficients, Media};
 use crate::scene::{Scene, Volume};
@@ -35,6 +36,47 @@ impl MediumStack {
     /// Whether a ray with this stack travels through any medium in `scene`.
     pub fn is_vacuum(&self, scene: &Scene) -> bool {
         scene.world.volume.is_none() && self.entries[0].is_none()
+    }
+
+    /// The media at point `p` (at moment `time`), found as Cycles initialises its volume
+    /// stack: a ray from `p` crosses every surface out to the scene's edge, and each object
+    /// it leaves without having entered it on the way holds `p`. Empty (only the world's
+    /// volume) when no material has a volume.
+    pub fn at(ctx: &Context, p: Vec3, time: f32) -> MediumStack {
+        let scene = ctx.scene;
+        let mut stack = MediumStack::default();
+        if !scene.materials.iter().any(|m| m.volume.is_some()) {
+            return stack;
+        }
+        // Objects entered along the probe (their leaving then says nothing about `p`).
+        let mut entered = MediumStack::default();
+        // An direction unlikely to graze axis-aligned walls.
+        let dir = Vec3::new(0.267_261_24, 0.534_522_5, 0.801_783_7);
+        let mut ray = Ray {
+            origin: p,
+            direction: dir,
+            t_max: f32::INFINITY,
+            time,
+        };
+        for _ in 0..64 {
+            let Some(hit) = ctx.accel.intersect(scene, &ray, Visibility::Secondary) else {
+                break;
+            };
+            let sh = SurfaceHit::new(scene, &ray, &hit);
+            let entering = dir.dot(sh.ng) < 0.0;
+            if scene.materials[sh.material as usize].volume.is_some() {
+                let key = |e: &Entry| e.material == sh.material && e.mesh == hit.mesh;
+                if entering {
+                    entered = entered.crossed(scene, &hit, sh.material, true);
+                } else if entered.entries.iter().flatten().any(key) {
+                    entered = entered.crossed(scene, &hit, sh.material, false);
+                } else {
+                    stack = stack.crossed(scene, &hit, sh.material, true);
+                }
+            }
+            ray = sh.spawn(dir);
+        }
+        stack
     }
 
     /// The stack after crossing the surface of `hit` (of material `material`): `entering`

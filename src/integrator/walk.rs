@@ -405,6 +405,7 @@ pub fn walk(
     };
     let emission = integrator.counts_emission();
     let mut state = PathState::new(ray, gather, false);
+    state.media = MediumStack::at(ctx, ray.origin, ray.time);
     walk_from(ctx, &mut state, rng, gather, emission, integrator, &mut out);
     out.radiance = state.passes.total();
     out.passes = state.passes;
@@ -425,6 +426,7 @@ pub fn seen_emission(ctx: &Context, ray: Ray, rng: &mut Rng) -> (Vec3, u32) {
         }
     }
     let mut state = PathState::new(ray, false, true);
+    state.media = MediumStack::at(ctx, ray.origin, ray.time);
     let mut out = CameraSample::default();
     walk_from(ctx, &mut state, rng, false, true, &mut Nothing, &mut out);
     (out.seen_emission, state.rays)

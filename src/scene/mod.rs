@@ -881,6 +881,10 @@ impl Bounds {
 }
 
 impl Scene {
+    /// The world or some material has a volume (participating media).
+    pub fn has_media(&self) -> bool {
+        self.world.volume.is_some() || self.materials.iter().any(|m| m.volume.is_some())
+    }
     /// Materials whose node tree reads the camera path's state (Light Path's Is Diffuse Ray
     /// … and depths), which only the path tracer carries to every shading point.
     pub fn ray_state_materials(&self) -> Vec<&str> {

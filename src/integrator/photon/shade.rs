@@ -530,6 +530,16 @@ impl Scatter for PhotonCamera<'_> {
     fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
         let g = &mut self.gather;
         g.depth = path.depth;
+        // Final gathering does not cross media: a scene with media is path traced past its
+        // first surface (the maps were built through the media and stay right for what they
+        // hold; the path only never reads them).
+        if self.view == View::Full && g.ctx.scene.has_media() {
+            let light_sampled = s.bsdf.has_non_delta();
+            if light_sampled {
+                path.light_sample(g.ctx, s, rng);
+            }
+            return Next::Continue { light_sampled };
+        }
         if stores_photons(&s.bsdf) {
             let mut l = Passes::default();
             match self.view {

@@ -30,11 +30,13 @@ use crate::accel::{Ray, Visibility, FRAME_TIME};
 use crate::bsdf::BsdfSample;
 use crate::error::{Error, Result};
 use crate::integrator::classify::{is_specular, stores_photons};
+use crate::integrator::media::MediumStack;
 use crate::integrator::shading::{transmittance, Shading};
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
 use crate::light::{smoothstep, spread_factor, EmitterSample, LightSource};
 use crate::math::{luminance, max_component, Frame, Vec2, Vec3};
+use crate::medium::{fly, Flight};
 use crate::photon_map::Photon;
 use crate::progress::{Progress, ProgressEvent};
 use crate::rng::{Rng, Sampler};
@@ -582,8 +584,63 @@ fn walk_photon(
     let mut absorption = Vec3::ZERO;
     // Index of refraction of the medium the photon travels through (1: outside any object).
     let mut ior = 1.0f32;
+    // The participating media it travels through, and its scatterings in them.
+    let mut media = MediumStack::at(ctx, ray.origin, ray.time);
+    let mut volume_bounces = 0;
     for bounce in 0..=max_bounces {
-        let Some(hit) = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary) else {
+        let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
+        if !media.is_vacuum(ctx.scene) {
+            let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+            let dir = ray.direction.normalize();
+            let before = max_component(power);
+            let mut emitted = Vec3::ZERO;
+            let flight = fly(
+                &media.media(ctx),
+                ray.origin,
+                dir,
+                reach,
+                &mut power,
+                &mut emitted,
+                rng,
+            );
+            match flight {
+                Flight::Passed => {}
+                Flight::Absorbed => return,
+                Flight::Scattered { t, at } => {
+                    // Blender's Volume bounces: a camera path continues from that many
+                    // scatterings in media, and lights from one more.
+                    volume_bounces += 1;
+                    if bounce == max_bounces
+                        || volume_bounces > ctx.scene.render_settings.volume_bounces + 1
+                    {
+                        return;
+                    }
+                    let p = ray.origin + dir * t;
+                    let (wi, f, pdf) = at
+                        .phase
+                        .sample(dir, [rng.uniform(), rng.uniform(), rng.uniform()]);
+                    if !(pdf > 0.0) {
+                        return;
+                    }
+                    power *= f / pdf;
+                    // Russian roulette keeps the photon's power nearly constant.
+                    let q = (max_component(power) / before).min(1.0);
+                    if !(q > 0.0) || rng.uniform() >= q {
+                        return;
+                    }
+                    power /= q;
+                    specular_path = false;
+                    ray = Ray {
+                        origin: p,
+                        direction: wi,
+                        t_max: f32::INFINITY,
+                        time: ray.time,
+                    };
+                    continue;
+                }
+            }
+        }
+        let Some(hit) = hit else {
             return;
         };
         power *= transmittance(absorption, &hit, &ray);
@@ -616,6 +673,10 @@ fn walk_photon(
         }
         absorption = s.absorption_after(&bs, wi, absorption);
         ior = s.ior_after(&bs, wi, ior);
+        if bs.transmitted {
+            let entering = wi.dot(s.sh.ng) < 0.0;
+            media = media.crossed(ctx.scene, &hit, s.sh.material, entering);
+        }
         ray = s.sh.spawn(wi);
     }
 }
