@@ -154,10 +154,17 @@ impl Media for StackMedia<'_> {
         sum
     }
 
+    /// Homogeneous media of one phase function (scattering media of different phase
+    /// functions are mixed point by point, as `at` does).
     fn homogeneous(&self) -> Option<Coefficients> {
         let mut sum = Coefficients::VACUUM;
         for volume in self.stack.volumes(self.scene) {
-            sum.add(&volume.constant?, 0.5);
+            let c = volume.constant?;
+            let scatters = c.scattering != Vec3::ZERO;
+            if scatters && sum.scattering != Vec3::ZERO && c.phase != sum.phase {
+                return None;
+            }
+            sum.add(&c, 0.5);
         }
         Some(sum)
     }

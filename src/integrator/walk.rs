@@ -32,7 +32,9 @@ use crate::bsdf::{BsdfSample, Scattering};
 use crate::light::{emitted_radiance, Receiver};
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec3};
-use crate::medium::{fly, transmittance as medium_transmittance, Coefficients, Flight};
+use crate::medium::{
+    fly, transmittance as medium_transmittance, Coefficients, Flight, Media, SegmentSampler,
+};
 use crate::rng::Rng;
 use crate::scene::nodes::RayPath;
 use crate::scene::{Scene, Subsurface};
@@ -228,10 +230,80 @@ impl PathState {
         flight
     }
 
-    /// A scattering at distance `t` along the ray in media `at`: a light sample through the
-    /// phase function, MIS-weighted, then a direction drawn from it (the scattered ray counts
-    /// only the emission it meets once Blender's Volume bounces are spent). False when the
-    /// path ends.
+    /// The light the media along the ray to the next vertex (over `reach`) scatter towards
+    /// it, one light sample through the phase function (MIS-weighted against phase sampling)
+    /// from one point drawn on the segment by distance or equiangular sampling
+    /// (`medium::SegmentSampler`, centred on a point drawn on a light from the segment's
+    /// middle), added to the next vertex's pass. The scattering the walk then continues from
+    /// (`scatter_in_medium`) takes no light sample of its own.
+    fn light_in_media(&mut self, ctx: &Context, reach: f32, rng: &mut Rng) {
+        let ray = self.ray;
+        let dir = ray.direction.normalize();
+        let (path, media) = (self.light_path, self.media);
+        let in_media = media.media(ctx);
+        let homogeneous = in_media.homogeneous();
+        let rates = match homogeneous {
+            Some(c) => c.extinction(),
+            None => Vec3::splat(in_media.majorant()),
+        };
+        let middle = if reach.is_finite() {
+            ray.origin + dir * (0.5 * reach)
+        } else {
+            ray.origin
+        };
+        let (choice, point) = rng.uniform3();
+        let centre = ctx
+            .lights
+            .sample(
+                ctx.scene,
+                Receiver::at(middle),
+                path,
+                ray.time,
+                true,
+                choice,
+                point,
+            )
+            .filter(|ls| !ls.target.distant)
+            .map(|ls| ls.target.p);
+        let sampler = SegmentSampler::new(ray.origin, dir, reach, rates, self.beta, centre);
+        let Some((t, pdf)) = sampler.sample([rng.uniform(), rng.uniform(), rng.uniform()]) else {
+            return;
+        };
+        let p = ray.origin + dir * t;
+        let (through, at) = match homogeneous {
+            Some(c) => ((-c.extinction() * t).exp(), c),
+            None => (
+                medium_transmittance(&in_media, ray.origin, dir, t, rng),
+                in_media.at(p, rng.uniform()),
+            ),
+        };
+        let weight = self.beta * through * at.scattering / pdf;
+        if weight == Vec3::ZERO || !weight.is_finite() {
+            return;
+        }
+        let phase = at.phase;
+        let vertex = Vertex::Medium { p, time: ray.time };
+        let l = sample_direct_from(
+            ctx,
+            vertex,
+            None,
+            path,
+            &media,
+            weight,
+            true,
+            rng,
+            &mut self.rays,
+            |wi| {
+                let cos = dir.dot(wi);
+                (Vec3::splat(phase.eval(cos)), phase.pdf(cos))
+            },
+        );
+        self.add(1, l);
+    }
+
+    /// A scattering at distance `t` along the ray in media `at`: the path goes on along a
+    /// direction drawn from the phase function (counting only the emission it meets once
+    /// Blender's Volume bounces are spent). False when the path ends.
     fn scatter_in_medium(
         &mut self,
         ctx: &Context,
@@ -243,24 +315,6 @@ impl PathState {
         let dir = ray.direction.normalize();
         let p = ray.origin + dir * t;
         let phase = at.phase;
-        let vertex = Vertex::Medium { p, time: ray.time };
-        let (path, media) = (self.light_path, self.media);
-        let l = sample_direct_from(
-            ctx,
-            vertex,
-            None,
-            path,
-            &media,
-            self.beta,
-            true,
-            rng,
-            &mut self.rays,
-            |wi| {
-                let cos = dir.dot(wi);
-                (Vec3::splat(phase.eval(cos)), phase.pdf(cos))
-            },
-        );
-        self.add(1, l);
         let (wi, f, pdf) = phase.sample(dir, [rng.uniform(), rng.uniform(), rng.uniform()]);
         if !(pdf > 0.0) {
             return false;
@@ -458,6 +512,9 @@ fn walk_from(
             state.lamps(ctx, reach, visibility == Visibility::Camera, rng);
         }
         if !state.media.is_vacuum(ctx.scene) {
+            if emission && !state.emission_only && depth < ctx.max_depth {
+                state.light_in_media(ctx, reach, rng);
+            }
             match state.through_media(ctx, reach, counts, rng) {
                 Flight::Passed => {}
                 Flight::Absorbed => {
