@@ -180,6 +180,7 @@ fn shadow_rays_between_two_surfaces_reach_at_every_scale() {
                 p: hb.p,
                 p_error: hb.p_error,
                 n: hb.ng,
+                distant: false,
             };
             let shadow = spawn_to(ha.p, ha.p_error, ha.ng, &target);
             assert!(
@@ -315,6 +316,7 @@ fn bvh_agrees_with_brute_force_at_grazing_angles_in_large_scenes() {
                     p: light,
                     p_error: Vec3::ZERO,
                     n: Vec3::ZERO,
+                    distant: false,
                 },
             );
             assert!(
