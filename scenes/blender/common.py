@@ -218,7 +218,7 @@ def configure_cycles(scene, samples: int, seed: int, threads: int):
     c.glossy_bounces = 64
     c.transmission_bounces = 64
     c.transparent_max_bounces = 64
-    c.volume_bounces = 0
+    # Volume bounces stay as the scene has them (Blender's default is 0).
     c.pixel_filter_type = "BLACKMAN_HARRIS"
     c.filter_width = 1.5
     c.film_exposure = 1.0

@@ -1,0 +1,179 @@
+"""Volumes (Blender's Volume sockets) against Cycles through the add-on, 32x32.
+
+Each scene is built with bpy, rendered by Cycles (1024 spp) and by Photon through the add-on,
+and compared: mean within 2 % and relMSE <= 0.01 (`cycles_compare.compare`) unless a test says
+otherwise. Volume bounces stay at Blender's default, 0 (single scattering), but where a test
+sets them.
+
+- a cube of Principled Volume (density 2) over a sunlit floor, Surface unlinked (the cube's
+  surface is only the medium's boundary);
+- a cube of Volume Absorption in front of an emitting wall (Beer–Lambert through the cube);
+- a cube of smoke whose density is a Noise Texture × 6 (heterogeneous, the node program
+  evaluated at points in the medium);
+- an emitting Principled Volume sphere (emission strength 2, orange);
+- a World with a Principled Volume and a sun: black, as Cycles renders it (the sun is
+  attenuated over an infinite medium);
+- a spot light in a fog box (Volume Scatter) over a sphere: the light cone;
+- a Volume Scatter cube with two volume bounces.
+"""
+
+import math
+
+import bpy
+import pytest
+
+import common
+from cycles_compare import compare
+
+SIZE = 32
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(autouse=True)
+def _addon(photon_addon, binary_env):
+    return photon_addon
+
+
+def volume_material(name, kind, **inputs):
+    """A material with only a Volume: node `kind` (a bl_idname) with `inputs` set, into the
+    Material Output's Volume; Surface unlinked. Returns (material, node)."""
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    tree = mat.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    node = tree.nodes.new(kind)
+    for key, value in inputs.items():
+        node.inputs[key].default_value = value
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Volume"])
+    return mat, node
+
+
+def cube(name, material, size, location):
+    s = size / 2
+    verts = [(-s, -s, -s), (s, -s, -s), (s, s, -s), (-s, s, -s),
+             (-s, -s, s), (s, -s, s), (s, s, s), (-s, s, s)]
+    faces = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    return common.mesh_object(name, verts, faces, material, location)
+
+
+def sphere(name, material, radius, location):
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=radius, location=location, segments=48,
+                                         ring_count=24)
+    obj = bpy.context.active_object
+    obj.name = name
+    obj.data.materials.append(material)
+    bpy.ops.object.shade_smooth()
+    return obj
+
+
+def floor_scene(world=0.05):
+    """A fresh scene: a diffuse 6 m floor, a camera looking down at the origin, a dim world."""
+    scene = common.reset_scene(SIZE, SIZE)
+    bg = scene.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bg.inputs["Strength"].default_value = world
+    floor = common.principled("Floor", (0.8, 0.8, 0.8), roughness=1.0)
+    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
+    common.camera("Camera", (0.0, -4.0, 3.0), (53.0, 0.0, 0.0), 45.0)
+    return scene
+
+
+def sun(strength=3.0, rotation=(30.0, 10.0, 40.0)):
+    common.light("Sun", "SUN", (0, 0, 5), rotation, energy=strength)
+
+
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_principled_volume_cube_over_a_sunlit_floor(tmp_path, method):
+    scene = floor_scene()
+    mat, _ = volume_material("Smoke", "ShaderNodeVolumePrincipled", Density=2.0)
+    cube("Smoke", mat, 1.2, (0.0, 0.0, 0.8))
+    sun()
+    compare(f"principled volume {method.lower()}", scene, tmp_path, photon_spp=256,
+            method=method)
+
+
+def test_absorption_cube_before_an_emitting_wall(tmp_path):
+    scene = floor_scene(world=0.0)
+    wall = bpy.data.materials.new("Wall")
+    if bpy.app.version < (5, 0, 0):
+        wall.use_nodes = True
+    tree = wall.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    common.quad("Wall", [(-3, 2, 0), (3, 2, 0), (3, 2, 4), (-3, 2, 4)], wall)
+    mat, _ = volume_material("Ink", "ShaderNodeVolumeAbsorption",
+                             Color=(0.8, 0.4, 0.2, 1.0), Density=1.5)
+    cube("Ink", mat, 1.5, (0.0, 0.0, 1.0))
+    compare("absorption", scene, tmp_path, photon_spp=64)
+
+
+def test_noise_density_smoke(tmp_path):
+    scene = floor_scene()
+    mat, node = volume_material("Noise smoke", "ShaderNodeVolumePrincipled")
+    tree = mat.node_tree
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 3.0
+    times = tree.nodes.new("ShaderNodeMath")
+    times.operation = "MULTIPLY"
+    times.inputs[1].default_value = 6.0
+    tree.links.new(noise.outputs["Fac"], times.inputs[0])
+    tree.links.new(times.outputs[0], node.inputs["Density"])
+    cube("Noise smoke", mat, 1.2, (0.0, 0.0, 0.8))
+    sun()
+    compare("noise density", scene, tmp_path, photon_spp=256)
+
+
+def test_emitting_principled_volume_sphere(tmp_path):
+    scene = floor_scene(world=0.0)
+    mat, _ = volume_material("Glow", "ShaderNodeVolumePrincipled", Density=0.5,
+                             **{"Emission Strength": 2.0,
+                                "Emission Color": (1.0, 0.4, 0.1, 1.0)})
+    sphere("Glow", mat, 0.8, (0.0, 0.0, 1.0))
+    compare("emitting volume", scene, tmp_path, photon_spp=256)
+
+
+def test_world_volume_stops_the_sun(tmp_path):
+    scene = floor_scene(world=0.0)
+    world = scene.world.node_tree
+    fog = world.nodes.new("ShaderNodeVolumePrincipled")
+    fog.inputs["Density"].default_value = 0.04
+    world.links.new(fog.outputs[0], world.nodes["World Output"].inputs["Volume"])
+    sun()
+    import scenes_bpy
+    ref = scenes_bpy.render(scene, "CYCLES", tmp_path / "world_cycles.exr", 16)
+    img = scenes_bpy.render(scene, "PHOTON", tmp_path / "world_photon.exr", 16)
+    print(f"world volume: max photon {img.max():.3g}, cycles {ref.max():.3g}")
+    assert ref.max() < 1e-4, "Cycles renders a world volume under a sun black"
+    assert img.max() < 1e-4
+
+
+def test_spot_light_in_a_fog_box(tmp_path):
+    scene = floor_scene(world=0.0)
+    mat, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.15)
+    cube("Fog", mat, 5.0, (0.0, 0.0, 2.49))
+    ball = common.principled("Ball", (0.8, 0.3, 0.2), roughness=0.5)
+    sphere("Ball", ball, 0.5, (0.0, 0.0, 0.5))
+    spot = bpy.data.lights.new("Spot", "SPOT")
+    spot.energy = 400.0
+    spot.spot_size = math.radians(35.0)
+    spot.spot_blend = 0.2
+    spot.shadow_soft_size = 0.05
+    obj = common.link(bpy.data.objects.new("Spot", spot))
+    obj.location = (0.8, 0.5, 3.5)
+    obj.rotation_euler = (math.radians(12.0), math.radians(10.0), 0.0)
+    compare("spot in fog", scene, tmp_path, photon_spp=512)
+
+
+def test_scatter_cube_with_two_volume_bounces(tmp_path):
+    scene = floor_scene()
+    mat, _ = volume_material("Cloud", "ShaderNodeVolumeScatter",
+                             Color=(0.9, 0.9, 0.9, 1.0), Density=3.0, Anisotropy=0.3)
+    cube("Cloud", mat, 1.2, (0.0, 0.0, 0.8))
+    sun()
+    scene.cycles.volume_bounces = 2
+    scene.photon.volume_bounces = 2
+    compare("two volume bounces", scene, tmp_path, photon_spp=512)
