@@ -504,3 +504,45 @@ fn move_point(
         };
     }
 }
+
+/// What a volume's node tree reads at world point `p` inside the object of `mesh` (an index
+/// into `Scene::meshes`, or into `Scene::prototypes` placed by `instance`, as `accel::Hit`
+/// has them) at moment `time`: the position, and the Object and Generated coordinates of the
+/// object's texture space (Cycles' volume shading points read the same).
+pub fn volume_inputs(scene: &Scene, mesh: u32, instance: u32, p: Vec3, time: f32) -> ShadingInputs {
+    let placed = scene.instances.get(instance as usize);
+    let mesh = match placed {
+        Some(inst) => &scene.prototypes[inst.prototype as usize],
+        None => &scene.meshes[mesh as usize],
+    };
+    let stored = match placed {
+        Some(inst) => inst.to_object_at(time).transform_point3(p),
+        None => p,
+    };
+    let mut point = PointInputs {
+        position: blender_axes(p),
+        color: Vec4::ONE,
+        ..PointInputs::default()
+    };
+    (point.object, point.generated) = match &mesh.object_space {
+        Some(space) => {
+            let o = space.to_object.transform_point3(stored);
+            (o, space.generated(o))
+        }
+        None => (blender_axes(p), blender_axes(p)),
+    };
+    ShadingInputs::at_point(point)
+}
+
+/// What the world's volume tree reads at world point `p`: the position, which its Object and
+/// Generated coordinates also are.
+pub fn world_volume_inputs(p: Vec3) -> ShadingInputs {
+    let at = blender_axes(p);
+    ShadingInputs::at_point(PointInputs {
+        position: at,
+        object: at,
+        generated: at,
+        color: Vec4::ONE,
+        ..PointInputs::default()
+    })
+}
