@@ -8,11 +8,11 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
-use crate::scene::nodes::{
+use crate::scene::{Mesh, Scene, TextureRef};
+use crate::shader::{
     PointInputs, RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
     READS_TANGENT, READS_UV,
 };
-use crate::scene::{Mesh, Scene, TextureRef};
 
 /// Everything shading needs about a surface point.
 #[derive(Clone, Copy, Debug)]
@@ -213,12 +213,12 @@ impl SurfaceHit {
         })
     }
 
-    /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with
+    /// What a node tree reads at this point (`shader::ShadingInputs`), and with
     /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
     /// else copies of the point).
     /// Seen from behind its winding (`view`), the surface's normal is turned to the viewer, as
     /// Cycles does.
-    /// Only what `reads` (`scene::nodes::READS_*`) names of the position-dependent inputs is
+    /// Only what `reads` (`shader::READS_*`) names of the position-dependent inputs is
     /// set (besides the position); the rest is left at its default.
     pub fn node_inputs(
         &self,
@@ -402,7 +402,7 @@ pub fn node_inputs(
     node_inputs_reading(mesh, triangle, b1, b2, p, n, view, placed, READS_ALL)
 }
 
-/// `node_inputs`, setting only what `reads` (`scene::nodes::READS_*`) names of the
+/// `node_inputs`, setting only what `reads` (`shader::READS_*`) names of the
 /// position-dependent inputs besides the position.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -450,7 +450,7 @@ fn node_inputs_reading(
 
 /// `point` moved to barycentrics (b1, b2) of `triangle` and world position `p`: the position,
 /// and of the UVs, the Generated and Object coordinates, the vertex colour and the tangent
-/// what `reads` (`scene::nodes::READS_*`) names (the rest is left as it was).
+/// what `reads` (`shader::READS_*`) names (the rest is left as it was).
 #[inline(always)]
 fn move_point(
     point: &mut PointInputs,

@@ -32,8 +32,8 @@ use crate::light::{emitted_radiance, Receiver};
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::rng::Rng;
-use crate::scene::nodes::RayPath;
 use crate::scene::Subsurface;
+use crate::shader::RayPath;
 
 /// Longest chain of specular surfaces `follow_specular` follows.
 pub const MAX_SPECULAR_CHAIN: u32 = 12;

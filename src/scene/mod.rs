@@ -10,8 +10,6 @@
 pub mod builtin;
 pub mod gltf;
 pub mod load;
-pub mod node_hash;
-pub mod nodes;
 pub mod sky;
 pub mod texture;
 pub mod units;
@@ -29,7 +27,7 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// UV set 0; empty when the file has none.
     pub uvs: Vec<Vec2>,
-    /// UV sets 1, 2, … (`TEXCOORD_1` …, up to `nodes::UV_SETS` in all), which node trees read;
+    /// UV sets 1, 2, … (`TEXCOORD_1` …, up to `crate::shader::UV_SETS` in all), which node trees read;
     /// each empty when the file has none.
     pub extra_uvs: Vec<Vec<Vec2>>,
     /// Tangents (xyz, w = bitangent sign); empty when the file has none.
@@ -244,7 +242,7 @@ pub struct Material {
     pub iridescence_thickness_texture: Option<TextureRef>,
     /// The Blender node tree (our `PHOTON_material_nodes` extension), compiled: when present
     /// it replaces every factor and texture above at each shading point (`crate::material`).
-    pub nodes: Option<std::sync::Arc<nodes::NodeProgram>>,
+    pub nodes: Option<std::sync::Arc<crate::shader::NodeProgram>>,
 }
 
 /// How light travels under a translucent surface: Blender's Principled BSDF "Subsurface
