@@ -8,11 +8,11 @@
 
 use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
-use crate::scene::nodes::{
+use crate::scene::{blender_axes, Mesh, Scene, TextureRef, BLENDER_AXES};
+use crate::shader::{
     PointInputs, RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
     READS_TANGENT, READS_UV,
 };
-use crate::scene::{Mesh, Scene, TextureRef};
 
 /// Everything shading needs about a surface point.
 #[derive(Clone, Copy, Debug)]
@@ -213,12 +213,12 @@ impl SurfaceHit {
         })
     }
 
-    /// What a node tree reads at this point (`scene::nodes::ShadingInputs`), and with
+    /// What a node tree reads at this point (`shader::ShadingInputs`), and with
     /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
     /// else copies of the point).
     /// Seen from behind its winding (`view`), the surface's normal is turned to the viewer, as
     /// Cycles does.
-    /// Only what `reads` (`scene::nodes::READS_*`) names of the position-dependent inputs is
+    /// Only what `reads` (`shader::READS_*`) names of the position-dependent inputs is
     /// set (besides the position); the rest is left at its default.
     pub fn node_inputs(
         &self,
@@ -352,15 +352,6 @@ pub fn spawn_to(p: Vec3, p_error: Vec3, ng: Vec3, target: &LightPoint) -> Ray {
 /// their Height beside the shading point.
 const BUMP_STEP: f32 = 1e-4;
 
-/// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
-fn blender_axes(v: Vec3) -> Vec3 {
-    BLENDER_AXES * v
-}
-
-/// `blender_axes` as a matrix (its columns: the images of x, y, z).
-const BLENDER_AXES: Mat3 =
-    Mat3::from_cols(Vec3::X, Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, -1.0, 0.0));
-
 /// Where a shading point is seen from, for node trees.
 #[derive(Clone, Copy, Debug)]
 pub struct View {
@@ -405,7 +396,7 @@ pub fn node_inputs(
     node_inputs_reading(mesh, triangle, b1, b2, p, n, view, placed, READS_ALL)
 }
 
-/// `node_inputs`, setting only what `reads` (`scene::nodes::READS_*`) names of the
+/// `node_inputs`, setting only what `reads` (`shader::READS_*`) names of the
 /// position-dependent inputs besides the position.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -453,7 +444,7 @@ fn node_inputs_reading(
 
 /// `point` moved to barycentrics (b1, b2) of `triangle` and world position `p`: the position,
 /// and of the UVs, the Generated and Object coordinates, the vertex colour and the tangent
-/// what `reads` (`scene::nodes::READS_*`) names (the rest is left as it was).
+/// what `reads` (`shader::READS_*`) names (the rest is left as it was).
 #[inline(always)]
 fn move_point(
     point: &mut PointInputs,
@@ -503,46 +494,4 @@ fn move_point(
             interpolate(idx.map(|i| mesh.colors[i as usize]), b1, b2)
         };
     }
-}
-
-/// What a volume's node tree reads at world point `p` inside the object of `mesh` (an index
-/// into `Scene::meshes`, or into `Scene::prototypes` placed by `instance`, as `accel::Hit`
-/// has them) at moment `time`: the position, and the Object and Generated coordinates of the
-/// object's texture space (Cycles' volume shading points read the same).
-pub fn volume_inputs(scene: &Scene, mesh: u32, instance: u32, p: Vec3, time: f32) -> ShadingInputs {
-    let placed = scene.instances.get(instance as usize);
-    let mesh = match placed {
-        Some(inst) => &scene.prototypes[inst.prototype as usize],
-        None => &scene.meshes[mesh as usize],
-    };
-    let stored = match placed {
-        Some(inst) => inst.to_object_at(time).transform_point3(p),
-        None => p,
-    };
-    let mut point = PointInputs {
-        position: blender_axes(p),
-        color: Vec4::ONE,
-        ..PointInputs::default()
-    };
-    (point.object, point.generated) = match &mesh.object_space {
-        Some(space) => {
-            let o = space.to_object.transform_point3(stored);
-            (o, space.generated(o))
-        }
-        None => (blender_axes(p), blender_axes(p)),
-    };
-    ShadingInputs::at_point(point)
-}
-
-/// What the world's volume tree reads at world point `p`: the position, which its Object and
-/// Generated coordinates also are.
-pub fn world_volume_inputs(p: Vec3) -> ShadingInputs {
-    let at = blender_axes(p);
-    ShadingInputs::at_point(PointInputs {
-        position: at,
-        object: at,
-        generated: at,
-        color: Vec4::ONE,
-        ..PointInputs::default()
-    })
 }

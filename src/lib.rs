@@ -31,5 +31,6 @@ pub mod rng;
 pub mod rounds;
 pub mod sampling;
 pub mod scene;
+pub mod shader;
 pub mod sobol;
 pub mod subsurface;

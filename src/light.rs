@@ -60,9 +60,9 @@ use crate::sampling::{
     square_to_triangle, square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf,
     Distribution1D, Distribution2D, UNIFORM_SPHERE_PDF,
 };
-use crate::scene::nodes::RayPath;
 use crate::scene::Lamp;
 use crate::scene::{Environment, Light, Mesh, Scene};
+use crate::shader::RayPath;
 use std::f32::consts::PI;
 
 /// One emitter.

@@ -2,13 +2,13 @@
 //! `SurfaceMaterial` that shading reads (yocto-gl's `eval_material` habit), following the glTF
 //! 2.0 specification §3.9 (metallic-roughness) and the KHR_materials_transmission, _ior,
 //! _specular, _emissive_strength and _volume extensions. A material with a Blender node tree
-//! (`scene::nodes`) is evaluated by its program instead, at the full shading point.
+//! (`shader`) is evaluated by its program instead, at the full shading point.
 
 use crate::accel::{hit_mesh, interpolate};
 use crate::interaction::{SurfaceHit, View};
 use crate::math::{Vec2, Vec3, Vec4};
-use crate::scene::nodes::Closure;
 use crate::scene::{Material, Scene, Subsurface, TextureRef};
+use crate::shader::Closure;
 
 /// A material's values at one point, with textures applied. Colours are linear RGB.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -203,7 +203,7 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
     }
     if material.anisotropy != 0.0 {
         let strength = material.anisotropy * lookup(scene, &material.anisotropy_texture, uv).z;
-        s.aspect = crate::scene::nodes::principled_aspect(strength);
+        s.aspect = crate::shader::principled_aspect(strength);
     }
     s
 }
@@ -242,8 +242,8 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
                     .and_then(|_| sh.uv_tangent(scene));
                 let n = sh.frame.n;
                 let base = uv_tangent.unwrap_or_else(|| {
-                    let at = sh.node_inputs(scene, false, crate::scene::nodes::READS_ALL, view);
-                    gltf_axes(crate::scene::nodes::default_tangent(&at, &at.points[0]))
+                    let at = sh.node_inputs(scene, false, crate::shader::READS_ALL, view);
+                    gltf_axes(crate::shader::default_tangent(&at, &at.points[0]))
                 });
                 let mut angle = material.anisotropy_rotation;
                 if let Some(t) = &material.anisotropy_texture {

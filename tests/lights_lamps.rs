@@ -13,8 +13,8 @@ use photon::math::{Vec2, Vec3};
 use photon::metrics::compare;
 use photon::render::RenderSettings;
 use photon::rng::Rng;
-use photon::scene::nodes::RayPath;
 use photon::scene::{Lamp, Light, Material, Scene};
+use photon::shader::RayPath;
 use std::f32::consts::PI;
 
 fn lamp(soft_falloff: bool) -> Lamp {

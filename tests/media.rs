@@ -11,8 +11,8 @@ use photon::math::Vec3;
 use photon::medium::Coefficients;
 use photon::phase::Phase;
 use photon::render::{render, Method, RenderSettings};
-use photon::scene::nodes::{compile, CompileWarnings};
 use photon::scene::{Lamp, Light, Material, Projection, Scene, Volume};
+use photon::shader::{compile, CompileWarnings};
 use scenes::{camera_looking_at, floor, scene, sphere, with_progress};
 use std::sync::Arc;
 

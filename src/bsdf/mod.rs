@@ -59,7 +59,7 @@ pub mod thin_film;
 use crate::material::SurfaceMaterial;
 use crate::math::{max_component, reflect, refract, Frame, Vec2, Vec3};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
-pub use crate::scene::nodes::Scattering;
+pub use crate::shader::Scattering;
 use fresnel::{f0_from_ior, fresnel_blend_factor, fresnel_dielectric, ior_from_f0, F82Tint};
 use microfacet::{
     ggx_d, ggx_d_aniso, ggx_g2, ggx_g2_aniso, ggx_vndf_pdf, ggx_vndf_pdf_aniso, sample_ggx_vndf,

@@ -15,8 +15,8 @@
 use crate::bsdf::{Bsdf, ViewedBsdf};
 use crate::material::{eval_material, from_closure};
 use crate::math::{max_component, Vec2, Vec3};
-use crate::scene::nodes::ShadingInputs;
 use crate::scene::Scene;
+use crate::shader::ShadingInputs;
 
 /// Perceptual roughness below which a surface without Lambertian part counts as specular.
 pub const SPECULAR_ROUGHNESS: f32 = 0.049;

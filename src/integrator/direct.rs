@@ -17,7 +17,7 @@ use crate::math::Vec3;
 use crate::medium::transmittance;
 use crate::rng::{hash_combine, Rng};
 use crate::sampling::power_heuristic;
-use crate::scene::nodes::RayPath;
+use crate::shader::RayPath;
 
 /// Most surfaces a shadow ray passes through (Cycles' default transparent bounces are 8).
 const MAX_TRANSPARENT_SHADOW_HITS: u32 = 64;

@@ -8,7 +8,7 @@
 //! shader (a white Transparent BSDF, as Cycles passes volume-only surfaces).
 
 use super::Context;
-use crate::accel::{Hit, Ray, Visibility};
+use crate::accel::{Hit, Ray, Visibility, FRAME_TIME};
 use crate::interaction::SurfaceHit;
 use crate::math::Vec3;
 use crate::medium::{Coefficients, Media};
@@ -116,13 +116,17 @@ impl MediumStack {
         }
     }
 
-    fn volumes<'a>(&'a self, scene: &'a Scene) -> impl Iterator<Item = &'a Volume> + 'a {
-        scene.world.volume.iter().chain(
-            self.entries
-                .iter()
-                .map_while(|e| *e)
-                .filter_map(|e| scene.materials[e.material as usize].volume.as_ref()),
-        )
+    /// The media of this stack: the world's, then each object's, with the object (mesh and
+    /// instance) a heterogeneous medium reads its coordinates from.
+    fn volumes<'a>(
+        &'a self,
+        scene: &'a Scene,
+    ) -> impl Iterator<Item = (&'a Volume, Option<(u32, u32)>)> + 'a {
+        let world = scene.world.volume.iter().map(|v| (v, None));
+        world.chain(self.entries.iter().map_while(|e| *e).filter_map(|e| {
+            let volume = scene.materials[e.material as usize].volume.as_ref()?;
+            Some((volume, Some((e.mesh, e.instance))))
+        }))
     }
 }
 
@@ -136,8 +140,8 @@ impl Media for StackMedia<'_> {
     fn at(&self, p: Vec3, u: f32) -> Coefficients {
         let mut sum = Coefficients::VACUUM;
         let mut u = u;
-        for volume in self.stack.volumes(self.scene) {
-            let c = volume.at(p);
+        for (volume, object) in self.stack.volumes(self.scene) {
+            let c = volume.at(self.scene, object, p, FRAME_TIME);
             // Each addition reuses what is left of `u` as a fresh uniform number.
             let mine = sum.scattering.element_sum();
             let theirs = c.scattering.element_sum();
@@ -158,7 +162,7 @@ impl Media for StackMedia<'_> {
     /// functions are mixed point by point, as `at` does).
     fn homogeneous(&self) -> Option<Coefficients> {
         let mut sum = Coefficients::VACUUM;
-        for volume in self.stack.volumes(self.scene) {
+        for (volume, _) in self.stack.volumes(self.scene) {
             let c = volume.constant?;
             let scatters = c.scattering != Vec3::ZERO;
             if scatters && sum.scattering != Vec3::ZERO && c.phase != sum.phase {
@@ -170,6 +174,9 @@ impl Media for StackMedia<'_> {
     }
 
     fn majorant(&self) -> f32 {
-        self.stack.volumes(self.scene).map(|v| v.majorant).sum()
+        self.stack
+            .volumes(self.scene)
+            .map(|(v, _)| v.majorant)
+            .sum()
     }
 }

@@ -44,8 +44,8 @@ use crate::math::{Frame, Vec3};
 use crate::phase::{henyey_greenstein, sample_henyey_greenstein};
 use crate::rng::Rng;
 use crate::sampling::square_to_cosine_hemisphere;
-use crate::scene::nodes::RayPath;
 use crate::scene::{Subsurface, SubsurfaceMethod};
+use crate::shader::RayPath;
 use crate::subsurface::{boundary_term, invert_albedo};
 use std::f32::consts::PI;
 

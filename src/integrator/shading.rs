@@ -18,7 +18,7 @@ use crate::irradiance_cache::IrradianceCache;
 use crate::material::{eval_surface, SurfaceMaterial};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::rng::{hash_combine, Rng};
-use crate::scene::nodes::RayPath;
+use crate::shader::RayPath;
 use std::f32::consts::PI;
 
 /// A surface hit prepared for shading (module header for the sides).

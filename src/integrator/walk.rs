@@ -36,8 +36,8 @@ use crate::medium::{
     fly, transmittance as medium_transmittance, Coefficients, Flight, Media, SegmentSampler,
 };
 use crate::rng::Rng;
-use crate::scene::nodes::RayPath;
 use crate::scene::{Scene, Subsurface};
+use crate::shader::RayPath;
 
 /// Longest chain of specular surfaces `follow_specular` follows.
 pub const MAX_SPECULAR_CHAIN: u32 = 12;

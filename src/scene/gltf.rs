@@ -919,7 +919,7 @@ impl Loader {
                 None => Vec::new(),
             };
             let mut extra_uvs = Vec::new();
-            for set in 1..super::nodes::UV_SETS as u32 {
+            for set in 1..crate::shader::UV_SETS as u32 {
                 let Some(a) = primitive.get(&gltf::Semantic::TexCoords(set)) else {
                     break;
                 };
@@ -1539,7 +1539,7 @@ impl Loader {
         if let Some(tree) = nodes_extension.filter(|t| t.get("nodes").is_some()) {
             let mut warnings = Vec::new();
             let tree = self.load_node_images(tree, &object)?;
-            let program = super::nodes::compile(&tree, self.scene.textures.len(), &mut warnings)
+            let program = crate::shader::compile(&tree, self.scene.textures.len(), &mut warnings)
                 .map_err(|m| self.err(format!("{object} PHOTON_material_nodes"), m))?;
             if let Some(list) = tree.get("warnings").and_then(Value::as_array) {
                 warnings.extend(list.iter().filter_map(Value::as_str).map(str::to_string));
@@ -1550,7 +1550,7 @@ impl Loader {
             // Light sampling weighs emitters by this radiance: the tree's value at a default
             // point, or 1 when the tree may emit there and is black at that point.
             if program.emits {
-                let at = super::nodes::ShadingInputs::default();
+                let at = crate::shader::ShadingInputs::default();
                 let e = program.eval(&at, &self.scene.textures, 0.5).emission;
                 out.emission = if e.max_element() > 0.0 && e.is_finite() {
                     e

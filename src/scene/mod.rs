@@ -10,15 +10,23 @@
 pub mod builtin;
 pub mod gltf;
 pub mod load;
-pub mod node_hash;
-pub mod nodes;
 pub mod sky;
 pub mod texture;
 pub mod units;
 
 use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 pub use crate::medium::Coefficients;
+use crate::shader::{PointInputs, ShadingInputs};
 pub use texture::{Texture, TextureRef};
+
+/// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
+pub fn blender_axes(v: Vec3) -> Vec3 {
+    BLENDER_AXES * v
+}
+
+/// `blender_axes` as a matrix (its columns: the images of x, y, z).
+pub const BLENDER_AXES: Mat3 =
+    Mat3::from_cols(Vec3::X, Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, -1.0, 0.0));
 
 /// A triangle mesh: in world space in `Scene::meshes`, in object space in `Scene::prototypes`.
 #[derive(Clone, Debug, Default)]
@@ -30,7 +38,7 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// UV set 0; empty when the file has none.
     pub uvs: Vec<Vec2>,
-    /// UV sets 1, 2, … (`TEXCOORD_1` …, up to `nodes::UV_SETS` in all), which node trees read;
+    /// UV sets 1, 2, … (`TEXCOORD_1` …, up to `crate::shader::UV_SETS` in all), which node trees read;
     /// each empty when the file has none.
     pub extra_uvs: Vec<Vec<Vec2>>,
     /// Tangents (xyz, w = bitangent sign); empty when the file has none.
@@ -245,18 +253,21 @@ pub struct Material {
     pub iridescence_thickness_texture: Option<TextureRef>,
     /// The Blender node tree (our `PHOTON_material_nodes` extension), compiled: when present
     /// it replaces every factor and texture above at each shading point (`crate::material`).
-    pub nodes: Option<std::sync::Arc<nodes::NodeProgram>>,
+    pub nodes: Option<std::sync::Arc<crate::shader::NodeProgram>>,
     /// What fills the object (Blender's Volume socket): rays that cross its surface into it
     /// travel through this medium until they cross out (`crate::integrator::media`).
     pub volume: Option<Volume>,
 }
 
 /// A participating medium: a material's volume (inside its object) or the world's (everywhere
-/// outside every object that does not replace it). Homogeneous when `constant` is set.
+/// outside every object that does not replace it): Blender's volume shaders as a node program
+/// evaluated at points in the medium, or coefficients that are the same everywhere.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Volume {
-    /// The coefficients, the same at every point.
+    /// The coefficients when they are the same at every point (homogeneous).
     pub constant: Option<Coefficients>,
+    /// The volume's node program when they are not (heterogeneous).
+    pub program: Option<std::sync::Arc<crate::shader::NodeProgram>>,
     /// A grey bound of the extinction coefficient over the medium, per scene unit.
     pub majorant: f32,
 }
@@ -266,14 +277,45 @@ impl Volume {
     pub fn homogeneous(c: Coefficients) -> Volume {
         Volume {
             constant: Some(c),
+            program: None,
             majorant: c.extinction().max_element(),
         }
     }
 
-    /// The coefficients at world point `p` (Blender's axes are the program's business).
-    pub fn at(&self, _p: Vec3) -> Coefficients {
-        self.constant.unwrap_or(Coefficients::VACUUM)
+    /// The medium at world point `p`, inside the object of `mesh` and `instance` (as
+    /// `accel::Hit` has them; `None` for the world's volume), at moment `time`.
+    pub fn at(
+        &self,
+        scene: &Scene,
+        object: Option<(u32, u32)>,
+        p: Vec3,
+        time: f32,
+    ) -> Coefficients {
+        if let Some(c) = self.constant {
+            return c;
+        }
+        let Some(program) = &self.program else {
+            return Coefficients::VACUUM;
+        };
+        let inputs = match object {
+            Some((mesh, instance)) => scene.volume_inputs(mesh, instance, p, time),
+            None => world_volume_inputs(p),
+        };
+        program.eval_volume(&inputs, &scene.textures)
     }
+}
+
+/// What the world's volume tree reads at world point `p`: the position, which its Object and
+/// Generated coordinates also are.
+fn world_volume_inputs(p: Vec3) -> ShadingInputs {
+    let at = blender_axes(p);
+    ShadingInputs::at_point(PointInputs {
+        position: at,
+        object: at,
+        generated: at,
+        color: Vec4::ONE,
+        ..PointInputs::default()
+    })
 }
 
 /// How light travels under a translucent surface: Blender's Principled BSDF "Subsurface
@@ -881,6 +923,34 @@ impl Bounds {
 }
 
 impl Scene {
+    /// What a volume's node tree reads at world point `p` inside the object of `mesh` (an
+    /// index into `meshes`, or into `prototypes` placed by `instance`, as `accel::Hit` has
+    /// them) at moment `time`: the position, and the Object and Generated coordinates of the
+    /// object's texture space (what Cycles' volume shading points read).
+    pub fn volume_inputs(&self, mesh: u32, instance: u32, p: Vec3, time: f32) -> ShadingInputs {
+        let placed = self.instances.get(instance as usize);
+        let (mesh, stored) = match placed {
+            Some(inst) => (
+                &self.prototypes[inst.prototype as usize],
+                inst.to_object_at(time).transform_point3(p),
+            ),
+            None => (&self.meshes[mesh as usize], p),
+        };
+        let mut point = PointInputs {
+            position: blender_axes(p),
+            color: Vec4::ONE,
+            ..PointInputs::default()
+        };
+        (point.object, point.generated) = match &mesh.object_space {
+            Some(space) => {
+                let o = space.to_object.transform_point3(stored);
+                (o, space.generated(o))
+            }
+            None => (blender_axes(p), blender_axes(p)),
+        };
+        ShadingInputs::at_point(point)
+    }
+
     /// The world or some material has a volume (participating media).
     pub fn has_media(&self) -> bool {
         self.world.volume.is_some() || self.materials.iter().any(|m| m.volume.is_some())

@@ -180,7 +180,7 @@ mod lanes {
         }
     }
 
-    impl crate::scene::node_hash::HashWord for U32x4 {
+    impl crate::shader::hash::HashWord for U32x4 {
         #[inline(always)]
         fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
             // SAFETY: SSE2 is always present on x86-64.
@@ -221,7 +221,7 @@ mod lanes {
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
             Vec4::from_array([0, 1, 2, 3].map(|k| {
                 let h = self.0[k] & 15;
-                let [a, b] = crate::scene::node_hash::GRAD3_AXES[h as usize];
+                let [a, b] = crate::shader::hash::GRAD3_AXES[h as usize];
                 let axis = [x[k], y[k], z[k]];
                 let flip = |v: f32, bit: u32| f32::from_bits(v.to_bits() ^ (bit << 31));
                 flip(axis[a], h & 1) + flip(axis[b], (h >> 1) & 1)
@@ -254,7 +254,7 @@ mod lanes {
         }
     }
 
-    impl crate::scene::node_hash::HashWord for U32x4 {
+    impl crate::shader::hash::HashWord for U32x4 {
         fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
             U32x4(self.0.map(|v| v.rotate_left(L as u32)))
         }
@@ -302,7 +302,7 @@ pub mod avx2 {
         }
     }
 
-    impl crate::scene::node_hash::HashWord for U32x8 {
+    impl crate::shader::hash::HashWord for U32x8 {
         #[inline(always)]
         fn rotl<const L: i32, const R: i32>(self) -> U32x8 {
             // SAFETY: a U32x8 exists only where AVX2 does.
@@ -321,7 +321,7 @@ pub mod avx2 {
     /// The machine must have AVX2.
     #[inline(always)]
     pub unsafe fn mix(a: __m256i, b: __m256i, c: __m256i) -> (__m256i, __m256i, __m256i) {
-        let (a, b, c) = crate::scene::node_hash::mix(U32x8(a), U32x8(b), U32x8(c));
+        let (a, b, c) = crate::shader::hash::mix(U32x8(a), U32x8(b), U32x8(c));
         (a.0, b.0, c.0)
     }
 
@@ -331,7 +331,7 @@ pub mod avx2 {
     /// The machine must have AVX2.
     #[inline(always)]
     pub unsafe fn finish(a: __m256i, b: __m256i, c: __m256i) -> __m256i {
-        crate::scene::node_hash::finish(U32x8(a), U32x8(b), U32x8(c)).0
+        crate::shader::hash::finish(U32x8(a), U32x8(b), U32x8(c)).0
     }
 }
 
@@ -354,6 +354,65 @@ pub const GRAD3_AXES: [[usize; 2]; 16] = {
     }
     axes
 };
+
+// ----- the hashes of Blender's procedural textures ------------------------------------------
+
+/// Jenkins' lookup3 `final` mix of (a, b, c), returning c.
+#[inline(always)]
+pub(super) fn lookup3_final(a: u32, b: u32, c: u32) -> u32 {
+    finish(W(a), W(b), W(c)).0
+}
+
+pub(super) const LOOKUP3_SEED: u32 = 0xdead_beef;
+
+pub(super) fn hash1(x: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((1 << 2) + 13);
+    lookup3_final(s.wrapping_add(x), s, s)
+}
+
+pub(super) fn hash2(x: u32, y: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((2 << 2) + 13);
+    lookup3_final(s.wrapping_add(x), s.wrapping_add(y), s)
+}
+
+pub(super) fn hash3(x: u32, y: u32, z: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
+    lookup3_final(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z))
+}
+
+/// `hash_float2_to_float`: the hash of two floats' bits mapped to [0, 1].
+pub(super) fn hash_float2(x: f32, y: f32) -> f32 {
+    hash2(x.to_bits(), y.to_bits()) as f32 * (1.0 / 4_294_967_295.0)
+}
+
+pub(super) fn hash_float(x: f32) -> f32 {
+    hash1(x.to_bits()) as f32 * (1.0 / 4_294_967_295.0)
+}
+
+/// Jenkins' lookup3 `mix` of (a, b, c).
+#[inline(always)]
+pub(super) fn lookup3_mix(a: u32, b: u32, c: u32) -> (u32, u32, u32) {
+    let (a, b, c) = mix(W(a), W(b), W(c));
+    (a.0, b.0, c.0)
+}
+
+pub(super) fn hash4(x: u32, y: u32, z: u32, w: u32) -> u32 {
+    let s = LOOKUP3_SEED.wrapping_add((4 << 2) + 13);
+    let (a, b, c) = lookup3_mix(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z));
+    lookup3_final(a.wrapping_add(w), b, c)
+}
+
+pub(super) fn unit(h: u32) -> f32 {
+    h as f32 * (1.0 / 4_294_967_295.0)
+}
+
+/// Whether this machine has AVX2, for the eight-lane noise and Voronoi kernels (the
+/// detection is cached by the standard library).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) fn has_avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
 
 #[cfg(test)]
 mod tests {

@@ -1,0 +1,390 @@
+//! What a shader node gives (`Closure`: Principled parameters and emission) and the shader
+//! nodes themselves: the Principled, Diffuse, Glossy, Sheen, Glass, Refraction, Emission,
+//! Transparent, Holdout and Translucent BSDFs into `Closure`s, and Mix and Add Shader (see the
+//! module header of `shader` for how each maps).
+
+use super::inputs::{normal_input, Operands, PointInputs, ShadingInputs};
+use super::volume::{combine, VolumeClosure};
+use crate::math::{Vec3, Vec4};
+use std::f32::consts::PI;
+
+/// A shader node's result: Principled parameters and emission (see the module header).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Closure {
+    pub base_color: Vec3,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub transmission: f32,
+    pub ior: f32,
+    /// glTF's specularFactor and specularColorFactor (Blender's 2 × level × tint).
+    pub specular: f32,
+    pub specular_color: Vec3,
+    /// Emitted radiance (W·m⁻²·sr⁻¹).
+    pub emission: Vec3,
+    /// Shading normal from a Normal input (Blender's axes, world); zero: the surface's own.
+    pub normal: Vec3,
+    /// The Principled coat: weight, roughness, IOR, tint and normal (Blender's axes; zero:
+    /// the shading normal).
+    pub coat_weight: f32,
+    pub coat_roughness: f32,
+    pub coat_ior: f32,
+    pub coat_tint: Vec3,
+    pub coat_normal: Vec3,
+    /// The sheen: weight, roughness and tint (Principled's sheen layer, or a Sheen BSDF).
+    pub sheen_weight: f32,
+    pub sheen_roughness: f32,
+    pub sheen_tint: Vec3,
+    /// Anisotropy as `SurfaceMaterial::aspect` (α_y / α_x), along `tangent` (Blender's axes,
+    /// rotation applied; zero: the shading frame's).
+    pub aspect: f32,
+    pub tangent: Vec3,
+    /// Oren–Nayar roughness of the diffuse lobe (0: Lambert).
+    pub diffuse_roughness: f32,
+    /// The Principled Thin Film: thickness (nm) and IOR.
+    pub thin_film_thickness: f32,
+    pub thin_film_ior: f32,
+    /// A Transparent BSDF: its pass is not a bounce, and shadow rays go through it.
+    pub transparent: bool,
+    /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
+    pub translucent: bool,
+    /// A Refraction BSDF: the glass's transmission alone, of `base_color`, without Fresnel.
+    pub refraction: bool,
+    /// A Glass BSDF: its colour weighs the reflection and each crossing alike (Cycles'
+    /// closure weight), where the Principled BSDF's tints only the transmission, by its root.
+    pub glass: bool,
+    /// A Holdout: black, and transparent in the film's alpha where the camera sees it.
+    pub holdout: bool,
+    /// The GGX distribution without Multiscatter GGX's energy compensation of the metal and
+    /// specular lobes (a Principled, Glossy or Anisotropic BSDF set to GGX, as scenes made
+    /// before Blender 4.0 are).
+    pub single_scatter: bool,
+    /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
+    /// probability ½ and doubles it, so their sum is exact on average).
+    pub weight: f32,
+    /// A volume shader's medium (`super::volume`); its emission is `emission`.
+    pub volume: VolumeClosure,
+}
+
+impl Closure {
+    /// No BSDF and no emission (an unlinked Surface: black).
+    pub const BLACK: Closure = Closure {
+        base_color: Vec3::ZERO,
+        metallic: 0.0,
+        roughness: 1.0,
+        transmission: 0.0,
+        ior: 1.5,
+        specular: 0.0,
+        specular_color: Vec3::ZERO,
+        emission: Vec3::ZERO,
+        normal: Vec3::ZERO,
+        coat_weight: 0.0,
+        coat_roughness: 0.03,
+        coat_ior: 1.5,
+        coat_tint: Vec3::ONE,
+        coat_normal: Vec3::ZERO,
+        sheen_weight: 0.0,
+        sheen_roughness: 0.5,
+        sheen_tint: Vec3::ONE,
+        aspect: 1.0,
+        tangent: Vec3::ZERO,
+        diffuse_roughness: 0.0,
+        thin_film_thickness: 0.0,
+        thin_film_ior: 1.33,
+        transparent: false,
+        translucent: false,
+        refraction: false,
+        glass: false,
+        holdout: false,
+        single_scatter: false,
+        weight: 1.0,
+        volume: VolumeClosure::NONE,
+    };
+}
+
+/// The Transparent BSDF tinted by `color`: smooth transmission at IOR 1 (a straight pass).
+pub(super) fn transparent(color: Vec3) -> Closure {
+    Closure {
+        base_color: color,
+        roughness: 0.0,
+        ior: 1.0,
+        transmission: 1.0,
+        transparent: true,
+        ..Closure::BLACK
+    }
+}
+
+/// Mix Shader: `a` with probability 1 − t, else `b` (`u` picks, and is stretched back to
+/// [0, 1) for later picks), with their emissions mixed exactly.
+pub(super) fn mix_closures(u: &mut f32, t: f32, a: Closure, b: Closure) -> Closure {
+    let emission = a.emission.lerp(b.emission, t);
+    let mut picked = if *u < 1.0 - t {
+        *u /= (1.0 - t).max(1e-12);
+        a
+    } else {
+        *u = (*u - (1.0 - t)) / t.max(1e-12);
+        b
+    };
+    *u = u.clamp(0.0, 0.999_999_94);
+    picked.emission = emission;
+    picked
+}
+
+pub(super) fn is_black_bsdf(c: &Closure) -> bool {
+    c.base_color == Vec3::ZERO
+        && c.specular_color == Vec3::ZERO
+        && c.transmission == 0.0
+        && (c.sheen_weight == 0.0 || c.sheen_tint == Vec3::ZERO)
+        && c.coat_weight == 0.0
+}
+
+/// Blender's Principled Anisotropic A (clamped to [0, 1]) as α_y / α_x: sqrt(1 − 0.9 A).
+pub fn principled_aspect(anisotropic: f32) -> f32 {
+    let a = if anisotropic.is_finite() {
+        anisotropic.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (1.0 - 0.9 * a).sqrt()
+}
+
+/// A Tangent input: the given vector, or Blender's default when it is unlinked (zero).
+pub(super) fn tangent_input(given: Vec4, inputs: &ShadingInputs, at: &PointInputs) -> Vec3 {
+    let g = given.truncate();
+    if g == Vec3::ZERO {
+        default_tangent(inputs, at)
+    } else {
+        g
+    }
+}
+
+/// The tangent Cycles gives an unlinked Tangent input (its Geometry node's Tangent): around
+/// the object's Z axis through the middle of its texture space, from the Generated
+/// coordinates (−(y − ½), x − ½, 0) taken to world space as a normal is, then made
+/// perpendicular to the shading normal. Blender's axes, unit (zero where it is undefined).
+pub fn default_tangent(inputs: &ShadingInputs, at: &PointInputs) -> Vec3 {
+    let g = at.generated;
+    let radial = inputs.object_to_world_normal * Vec3::new(-(g.y - 0.5), g.x - 0.5, 0.0);
+    let n = inputs.normal;
+    n.cross(radial.cross(n).normalize_or_zero())
+}
+
+/// The Principled BSDF (its inputs in `spec`'s order); Alpha below 1 mixes it with a
+/// Transparent BSDF by alpha, as Cycles defines it (the BSDF and its emission weighted by
+/// alpha, a Transparent BSDF by 1 − alpha), `u` picking.
+#[inline(always)]
+pub(super) fn eval_principled(
+    multiscatter: bool,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    ins: &impl Operands,
+    u: &mut f32,
+) -> Closure {
+    let level = ins.float(5).max(0.0);
+    let tint = ins.vector(6);
+    let normal = ins.vector(10);
+    let anisotropic = ins.float(11).clamp(0.0, 1.0);
+    let (aspect, tangent) = if anisotropic > 0.0 {
+        let n = normal_input(ins.value(10), inputs.normal);
+        let t = tangent_input(ins.value(13), inputs, at);
+        let t = crate::math::rotate_around(t, n, ins.float(12) * 2.0 * PI);
+        (principled_aspect(anisotropic), t)
+    } else {
+        (1.0, Vec3::ZERO)
+    };
+    let principled = Closure {
+        base_color: ins.vector(0),
+        metallic: ins.float(1).clamp(0.0, 1.0),
+        roughness: ins.float(2).clamp(0.0, 1.0),
+        ior: ins.float(3),
+        specular: 1.0,
+        specular_color: 2.0 * level * tint,
+        transmission: ins.float(7).clamp(0.0, 1.0),
+        emission: ins.vector(8) * ins.float(9),
+        normal,
+        coat_weight: ins.float(14).max(0.0),
+        coat_roughness: ins.float(15).clamp(0.0, 1.0),
+        coat_ior: ins.float(16).max(1.0),
+        coat_tint: ins.vector(17).max(Vec3::ZERO),
+        coat_normal: ins.vector(18),
+        sheen_weight: ins.float(19).max(0.0),
+        sheen_roughness: ins.float(20).clamp(0.0, 1.0),
+        sheen_tint: ins.vector(21).max(Vec3::ZERO),
+        aspect,
+        tangent,
+        diffuse_roughness: ins.float(22).clamp(0.0, 1.0),
+        thin_film_thickness: ins.float(23).max(0.0),
+        thin_film_ior: ins.float(24).max(1e-5),
+        transparent: false,
+        translucent: false,
+        refraction: false,
+        glass: false,
+        holdout: false,
+        single_scatter: !multiscatter,
+        weight: 1.0,
+        volume: VolumeClosure::NONE,
+    };
+    let alpha = ins.float(4).clamp(0.0, 1.0);
+    if alpha < 1.0 {
+        mix_closures(u, alpha, transparent(Vec3::ONE), principled)
+    } else {
+        principled
+    }
+}
+
+/// The Diffuse BSDF: Color, Roughness (Oren–Nayar), Normal.
+#[inline(always)]
+pub(super) fn eval_diffuse(ins: &impl Operands) -> Closure {
+    Closure {
+        base_color: ins.vector(0),
+        roughness: 1.0,
+        diffuse_roughness: ins.float(1).clamp(0.0, 1.0),
+        normal: ins.vector(2),
+        ..Closure::BLACK
+    }
+}
+
+/// The Glossy BSDF: Color, Roughness, Normal, Anisotropy, Rotation, Tangent. Cycles'
+/// anisotropy: α_x = α (1 − a), α_y = α / (1 − a) for a > 0 (stretched along the bitangent:
+/// the tangent turned a quarter), α / (1 + a) and α (1 + a) for a < 0.
+#[inline(always)]
+pub(super) fn eval_glossy(
+    multiscatter: bool,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    ins: &impl Operands,
+) -> Closure {
+    let a = ins.float(3).clamp(-0.99, 0.99);
+    let (aspect, tangent) = if a.abs() > 1e-4 {
+        let n = normal_input(ins.value(2), inputs.normal);
+        let t = tangent_input(ins.value(5), inputs, at);
+        let turn = ins.float(4) + if a > 0.0 { 0.25 } else { 0.0 };
+        (
+            1.0 - a.abs(),
+            crate::math::rotate_around(t, n, turn * 2.0 * PI),
+        )
+    } else {
+        (1.0, Vec3::ZERO)
+    };
+    Closure {
+        base_color: ins.vector(0),
+        metallic: 1.0,
+        roughness: ins.float(1).clamp(0.0, 1.0),
+        normal: ins.vector(2),
+        aspect,
+        tangent,
+        single_scatter: !multiscatter,
+        ..Closure::BLACK
+    }
+}
+
+/// The Sheen BSDF (microfiber): Color, Roughness, Normal.
+#[inline(always)]
+pub(super) fn eval_sheen(ins: &impl Operands) -> Closure {
+    Closure {
+        sheen_weight: 1.0,
+        sheen_tint: ins.vector(0).max(Vec3::ZERO),
+        sheen_roughness: ins.float(1).clamp(0.0, 1.0),
+        normal: ins.vector(2),
+        ..Closure::BLACK
+    }
+}
+
+/// The Glass BSDF (or with `refraction` the Refraction BSDF): Color, Roughness, IOR, Normal.
+#[inline(always)]
+pub(super) fn eval_glass(refraction: bool, multiscatter: bool, ins: &impl Operands) -> Closure {
+    Closure {
+        base_color: ins.vector(0),
+        roughness: ins.float(1).clamp(0.0, 1.0),
+        ior: ins.float(2),
+        transmission: 1.0,
+        specular: 1.0,
+        specular_color: Vec3::ONE,
+        normal: ins.vector(3),
+        refraction,
+        glass: !refraction,
+        single_scatter: !refraction && !multiscatter,
+        ..Closure::BLACK
+    }
+}
+
+/// The Emission shader: Color, Strength.
+#[inline(always)]
+pub(super) fn eval_emission(ins: &impl Operands) -> Closure {
+    Closure {
+        emission: ins.vector(0) * ins.float(1),
+        ..Closure::BLACK
+    }
+}
+
+/// The Transparent BSDF: Color.
+#[inline(always)]
+pub(super) fn eval_transparent(ins: &impl Operands) -> Closure {
+    transparent(ins.vector(0))
+}
+
+/// The Holdout shader.
+#[inline(always)]
+pub(super) fn eval_holdout() -> Closure {
+    Closure {
+        holdout: true,
+        ..Closure::BLACK
+    }
+}
+
+/// The Translucent BSDF: Color, Normal.
+#[inline(always)]
+pub(super) fn eval_translucent(ins: &impl Operands) -> Closure {
+    Closure {
+        base_color: ins.vector(0),
+        roughness: 1.0,
+        transmission: 1.0,
+        normal: ins.vector(1),
+        translucent: true,
+        ..Closure::BLACK
+    }
+}
+
+/// The Mix Shader: Fac, and the two shaders `a` and `b`.
+#[inline(always)]
+pub(super) fn eval_mix_shader(ins: &impl Operands, a: Closure, b: Closure, u: &mut f32) -> Closure {
+    let t = ins.float(0).clamp(0.0, 1.0);
+    let volume = combine(&a.volume, &b.volume, Some(t));
+    Closure {
+        volume,
+        ..mix_closures(u, t, a, b)
+    }
+}
+
+/// The Add Shader: emission summed; of two BSDFs one with probability ½, doubled.
+#[inline(always)]
+pub(super) fn eval_add_shader(a: Closure, b: Closure, u: &mut f32) -> Closure {
+    let emission = a.emission + b.emission;
+    let a_bsdf = !is_black_bsdf(&a);
+    let b_bsdf = !is_black_bsdf(&b);
+    let mut picked = match (a_bsdf, b_bsdf) {
+        (true, false) => a,
+        (false, true) => b,
+        _ => {
+            // One of the two with probability ½, doubled: their sum on average, as
+            // Cycles sums closures. A Transparent BSDF carries it in its colour,
+            // which shadow rays read as their tint.
+            let mut one = if *u < 0.5 {
+                *u *= 2.0;
+                a
+            } else {
+                *u = 2.0 * *u - 1.0;
+                b
+            };
+            if one.transparent {
+                one.base_color *= 2.0;
+            } else {
+                one.weight *= 2.0;
+            }
+            one
+        }
+    };
+    *u = u.clamp(0.0, 0.999_999_94);
+    picked.emission = emission;
+    picked.volume = combine(&a.volume, &b.volume, None);
+    picked
+}

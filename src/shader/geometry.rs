@@ -1,0 +1,116 @@
+//! The input nodes: Texture Coordinate, UV Map, Color Attribute, Attribute, Geometry and Light
+//! Path (read off `ShadingInputs` and its `RayPath`).
+
+use super::color::gray;
+use super::inputs::{splat, v3, PointInputs, RayPath, ShadingInputs};
+use crate::math::Vec4;
+
+/// The Light Path node's outputs, in Blender's order.
+pub(super) const LIGHT_PATH_OUTPUTS: [&str; 14] = [
+    "Is Camera Ray",
+    "Is Shadow Ray",
+    "Is Diffuse Ray",
+    "Is Glossy Ray",
+    "Is Singular Ray",
+    "Is Reflection Ray",
+    "Is Transmission Ray",
+    "Is Volume Scatter Ray",
+    "Ray Length",
+    "Ray Depth",
+    "Diffuse Depth",
+    "Glossy Depth",
+    "Transparent Depth",
+    "Transmission Depth",
+];
+
+/// The Light Path outputs only a camera path's state tells (the lobe a ray left by and the
+/// bounces before it): Is Diffuse … Is Transmission Ray and the depths.
+pub(super) const RAY_STATE_OUTPUTS: u32 = 0b11_1110_0111_1100;
+
+/// Light Path's Ray Length.
+pub(super) const RAY_LENGTH_OUTPUT: u32 = 1 << 8;
+
+pub(super) fn uv_value(at: &PointInputs, set: u8) -> Vec4 {
+    let uv = at.uv[set as usize];
+    Vec4::new(uv.x, uv.y, 0.0, 1.0)
+}
+
+/// Texture Coordinate: Generated, Normal (object space), UV, Object, Reflection; only the
+/// outputs in `used` are computed (often one), the others are zero.
+#[inline(always)]
+pub(super) fn texture_coordinate(
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    uv_set: u8,
+    used: u32,
+) -> [Vec4; 5] {
+    let used = |k: u32| used & (1 << k) != 0;
+    let mut out = [Vec4::ZERO; 5];
+    if used(0) {
+        out[0] = v3(at.generated);
+    }
+    if used(1) {
+        out[1] = v3(inputs.object_normal);
+    }
+    if used(2) {
+        out[2] = uv_value(at, uv_set);
+    }
+    if used(3) {
+        out[3] = v3(at.object);
+    }
+    if used(4) {
+        let (n, i) = (inputs.normal, inputs.incoming);
+        out[4] = v3(2.0 * n.dot(i) * n - i);
+    }
+    out
+}
+
+/// Color Attribute: the vertex colour and its alpha.
+#[inline(always)]
+pub(super) fn vertex_color(at: &PointInputs) -> [Vec4; 2] {
+    [at.color, splat(at.color.w)]
+}
+
+/// Attribute (COLOR_0): Color, Vector, Fac, Alpha.
+#[inline(always)]
+pub(super) fn attribute(at: &PointInputs) -> [Vec4; 4] {
+    let rgb = at.color.truncate().extend(1.0);
+    [rgb, rgb, splat(gray(at.color)), splat(at.color.w)]
+}
+
+/// Geometry: Position, Normal, True Normal, Incoming, Backfacing.
+#[inline(always)]
+pub(super) fn geometry(inputs: &ShadingInputs, at: &PointInputs) -> [Vec4; 5] {
+    [
+        v3(at.position),
+        v3(inputs.normal),
+        v3(inputs.normal),
+        v3(inputs.incoming),
+        splat(if inputs.backfacing { 1.0 } else { 0.0 }),
+    ]
+}
+
+/// Light Path: `LIGHT_PATH_OUTPUTS` read off the ray the point is evaluated for.
+#[inline(always)]
+pub(super) fn light_path(inputs: &ShadingInputs) -> [Vec4; 14] {
+    let p = &inputs.path;
+    let flag = |f: u8| splat(if p.is(f) { 1.0 } else { 0.0 });
+    let count = |n: u16| splat(n as f32);
+    [
+        flag(RayPath::CAMERA),
+        flag(RayPath::SHADOW),
+        flag(RayPath::DIFFUSE),
+        flag(RayPath::GLOSSY),
+        flag(RayPath::SINGULAR),
+        flag(RayPath::REFLECT),
+        flag(RayPath::TRANSMIT),
+        // No volumes: never a volume scatter ray.
+        splat(0.0),
+        splat(inputs.ray_length),
+        count(p.depth),
+        count(p.diffuse),
+        count(p.glossy),
+        count(p.transparent),
+        count(p.transmission),
+    ]
+}

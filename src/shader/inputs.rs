@@ -1,0 +1,245 @@
+//! What a node tree reads about a shading point (`PointInputs`, `ShadingInputs`), the ray it
+//! is evaluated for (`RayPath`, as Cycles' path state describes it to the Light Path node),
+//! and how a node's evaluation reads its inputs (`Operands`).
+
+use crate::math::{Mat3, Vec2, Vec3, Vec4};
+
+/// UV maps node trees read (`TEXCOORD_0` …).
+pub const UV_SETS: usize = 4;
+const _: () = assert!(UV_SETS == 4, "PointInputs::uv holds UV_SETS maps");
+
+/// What a node tree reads about a shading point that moves with it, in Blender's axes (Z up):
+/// a Bump's offset points differ from the point in these alone.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointInputs {
+    /// World position.
+    pub position: Vec3,
+    /// The UV maps (`TEXCOORD_n`), in Blender's convention (v up: glTF's 1 − v); zero where
+    /// the mesh has none. (`UV_SETS` long: the literal works around a rustc internal error
+    /// with a named constant here.)
+    pub uv: [Vec2; 4],
+    /// Generated coordinates: the object's texture space mapped to [0, 1]³.
+    pub generated: Vec3,
+    /// Object-space position.
+    pub object: Vec3,
+    /// Vertex colour COLOR_0 (white when the mesh has none).
+    pub color: Vec4,
+    /// The mesh's tangent for UV map 0 (world, Blender's axes, not normalised) with the
+    /// bitangent sign in `w` (Blender's: bitangent = w × normal × tangent); zero when the mesh
+    /// has none.
+    pub tangent: Vec4,
+}
+
+/// What a node tree reads about the shading point, in Blender's axes (Z up).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ShadingInputs {
+    /// The shading point (`points[0]`) and, when the program `needs_offsets`, the points a
+    /// small step along its two tangents (else copies of the point), where a Bump node's
+    /// Height is read (as Cycles' SVM evaluates it at P + dPdx and P + dPdy).
+    pub points: [PointInputs; 3],
+    /// Unit shading normal (world).
+    pub normal: Vec3,
+    /// The normal in object coordinates.
+    pub object_normal: Vec3,
+    /// Unit direction towards the viewer (world; Cycles' I).
+    pub incoming: Vec3,
+    /// Seen from behind the surface's winding (`normal` is then turned to the viewer).
+    pub backfacing: bool,
+    /// The kind and bounces of the ray that reached the point (Light Path's outputs).
+    pub path: RayPath,
+    /// The distance the ray travelled to the point (Light Path's Ray Length: a camera ray's
+    /// from the near clip plane, as in Cycles; for an emitter sampled as a light, its distance
+    /// to the shaded point; 0 where photons leave it).
+    pub ray_length: f32,
+    /// Object-space normals to world space (Blender's axes; not normalising).
+    pub object_to_world_normal: Mat3,
+}
+
+impl ShadingInputs {
+    /// The inputs at one point: `point` at all three (a program without a Bump).
+    pub fn at_point(point: PointInputs) -> ShadingInputs {
+        ShadingInputs {
+            points: [point; 3],
+            ..ShadingInputs::default()
+        }
+    }
+}
+
+/// The kind of scattering a BSDF sample made (Cycles' closure labels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scattering {
+    Diffuse,
+    Glossy,
+    /// A delta lobe (smooth mirror or glass).
+    Singular,
+    /// Straight through a Transparent BSDF (not a bounce).
+    Transparent,
+}
+
+/// The ray a shading point is evaluated for, as Cycles' path state describes it to the Light
+/// Path node (`svm_node_light_path` reading the path flags and the bounce counters kept by
+/// `path_state_next`): what kind of ray it is and how many bounces of each kind the path made
+/// before it. The default is a ray of no kind after no bounce (photons, and the light the
+/// photon methods gather).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayPath {
+    /// `RayPath::CAMERA` … `RayPath::TRANSMIT`.
+    pub flags: u8,
+    /// Bounces so far, transparent ones excluded (Ray Depth; Cycles' `bounce`).
+    pub depth: u16,
+    /// Diffuse reflections, glossy (and singular) reflections, transmissions other than
+    /// transparent ones, and transparent surfaces passed through.
+    pub diffuse: u16,
+    pub glossy: u16,
+    pub transmission: u16,
+    pub transparent: u16,
+}
+
+impl RayPath {
+    pub const CAMERA: u8 = 1;
+    pub const SHADOW: u8 = 2;
+    pub const DIFFUSE: u8 = 4;
+    pub const GLOSSY: u8 = 8;
+    pub const SINGULAR: u8 = 16;
+    pub const REFLECT: u8 = 32;
+    pub const TRANSMIT: u8 = 64;
+
+    /// A camera ray.
+    pub const fn camera() -> RayPath {
+        RayPath {
+            flags: RayPath::CAMERA,
+            depth: 0,
+            diffuse: 0,
+            glossy: 0,
+            transmission: 0,
+            transparent: 0,
+        }
+    }
+
+    pub fn is(&self, flag: u8) -> bool {
+        self.flags & flag != 0
+    }
+
+    /// The ray that leaves after `scattering`, reflected or `transmitted` (Cycles'
+    /// `path_state_next`): a transparent pass keeps the ray's kind and counts only as a
+    /// transparent bounce; any other replaces the kind and counts as a bounce, of its lobe
+    /// when reflected (singular reflections count as glossy) or as a transmission.
+    pub fn after(self, scattering: Scattering, transmitted: bool) -> RayPath {
+        let mut next = self;
+        if scattering == Scattering::Transparent {
+            next.transparent = up_one(self.transparent);
+            return next;
+        }
+        next.depth = up_one(self.depth);
+        next.flags = if transmitted {
+            next.transmission = up_one(self.transmission);
+            RayPath::TRANSMIT
+        } else {
+            match scattering {
+                Scattering::Diffuse => next.diffuse = up_one(self.diffuse),
+                _ => next.glossy = up_one(self.glossy),
+            }
+            RayPath::REFLECT
+        };
+        next.flags |= match scattering {
+            Scattering::Diffuse => RayPath::DIFFUSE,
+            Scattering::Glossy => RayPath::GLOSSY,
+            _ => RayPath::GLOSSY | RayPath::SINGULAR,
+        };
+        next
+    }
+
+    /// What a shadow ray from a vertex of this path reads (Cycles evaluates shadow rays'
+    /// shaders with the shadow flag alone, one bounce further).
+    pub fn shadow(self) -> RayPath {
+        RayPath {
+            flags: RayPath::SHADOW,
+            depth: up_one(self.depth),
+            ..self
+        }
+    }
+
+    /// What an emitter sampled as a light from a vertex of this path reads (no kind, one
+    /// bounce further, as Cycles evaluates it with its emission flag).
+    pub fn emission(self) -> RayPath {
+        RayPath {
+            flags: 0,
+            depth: up_one(self.depth),
+            ..self
+        }
+    }
+}
+
+pub(super) fn up_one(n: u16) -> u16 {
+    n.saturating_add(1)
+}
+
+/// A node's inputs as its evaluation reads them: input `k` in the order of the node's socket
+/// table, at the point the node is evaluated for.
+pub trait Operands {
+    /// Input `k`'s value.
+    fn value(&self, k: usize) -> Vec4;
+
+    /// Input `k` as a float (its first component).
+    #[inline(always)]
+    fn float(&self, k: usize) -> f32 {
+        self.value(k).x
+    }
+
+    /// Input `k` as a vector or a colour without alpha.
+    #[inline(always)]
+    fn vector(&self, k: usize) -> Vec3 {
+        self.value(k).truncate()
+    }
+}
+
+/// A float output: `x` in the three components, alpha 1.
+#[inline(always)]
+pub fn splat(x: f32) -> Vec4 {
+    Vec4::new(x, x, x, 1.0)
+}
+
+/// A vector or colour output, alpha 1.
+#[inline(always)]
+pub fn v3(v: Vec3) -> Vec4 {
+    v.extend(1.0)
+}
+
+/// A Normal input: the given vector, or the shading normal when it is unlinked (zero).
+pub(super) fn normal_input(given: Vec4, normal: Vec3) -> Vec3 {
+    let g = given.truncate();
+    if g == Vec3::ZERO {
+        normal
+    } else {
+        g.normalize_or(normal)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ray_path_counts_bounces_as_cycles_path_state_does() {
+        // Camera → transparent → glossy reflection → smooth refraction → diffuse reflection.
+        let p = RayPath::camera().after(Scattering::Transparent, true);
+        assert_eq!((p.flags, p.depth, p.transparent), (RayPath::CAMERA, 0, 1));
+        let p = p.after(Scattering::Glossy, false);
+        assert_eq!(p.flags, RayPath::GLOSSY | RayPath::REFLECT);
+        let p = p.after(Scattering::Singular, true);
+        assert_eq!(
+            p.flags,
+            RayPath::GLOSSY | RayPath::SINGULAR | RayPath::TRANSMIT
+        );
+        let p = p.after(Scattering::Diffuse, false);
+        assert_eq!(p.flags, RayPath::DIFFUSE | RayPath::REFLECT);
+        assert_eq!(
+            (p.depth, p.diffuse, p.glossy, p.transmission, p.transparent),
+            (3, 1, 1, 1, 1)
+        );
+        // Shadow rays and sampled emitters: their own kind, one bounce further.
+        assert_eq!((p.shadow().flags, p.shadow().depth), (RayPath::SHADOW, 4));
+        assert_eq!((p.emission().flags, p.emission().depth), (0, 4));
+        assert_eq!(p.emission().diffuse, 1);
+    }
+}

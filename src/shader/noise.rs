@@ -1,0 +1,966 @@
+//! Perlin noise and the Noise Texture as Blender defines them (Cycles' `noise_fbm` over
+//! Perlin's improved noise (Perlin, 2002) with Jenkins' lookup3 lattice hashes, `hash`): 1D, 2D and 3D
+//! noise, fBm, distortion and colour, and the same noise at a Bump's three nearby points at
+//! once (`noise_texture_at3`). With AVX2, `noise_avx2` computes 3D noise with the same values
+//! bit for bit.
+
+use super::hash::{self, has_avx2, hash1, hash2, hash_float, hash_float2, U32x4, LOOKUP3_SEED};
+use super::inputs::{splat, v3, Operands};
+use crate::math::{Vec3, Vec4};
+use std::ops::{Add, Div, Mul};
+
+pub(super) fn fade(t: f32) -> f32 {
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+pub(super) fn negate_if(v: f32, condition: u32) -> f32 {
+    if condition != 0 {
+        -v
+    } else {
+        v
+    }
+}
+
+/// `a` when `c`, else `b`, without a branch (the gradient picks are unpredictable).
+pub(super) fn select(c: bool, a: f32, b: f32) -> f32 {
+    let mask = (c as u32).wrapping_neg();
+    f32::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+}
+
+/// −v when `bit` (0 or 1) is 1, without a branch: a flip of the sign bit, as negation is.
+pub(super) fn flip_sign(v: f32, bit: u32) -> f32 {
+    f32::from_bits(v.to_bits() ^ (bit << 31))
+}
+
+pub(super) fn floorfrac(x: f32) -> (i32, f32) {
+    let f = floor(x);
+    (f as i32, x - f)
+}
+
+/// `x.floor()` without the library call baseline x86-64 makes for it (bit for bit the same,
+/// −0 and NaN included): beyond 2²³ every float is an integer.
+pub(super) fn floor(x: f32) -> f32 {
+    if !(x.abs() < 8_388_608.0) {
+        return x;
+    }
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else if t < x {
+        t
+    } else {
+        x
+    }
+}
+
+pub(super) fn grad1(hash: u32, x: f32) -> f32 {
+    let h = hash & 15;
+    let g = 1.0 + (h & 7) as f32;
+    negate_if(g, h & 8) * x
+}
+
+pub(super) fn grad2(hash: u32, x: f32, y: f32) -> f32 {
+    let h = hash & 7;
+    let first = h < 4;
+    let (u, v) = (select(first, x, y), select(first, 2.0 * y, 2.0 * x));
+    flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
+}
+
+/// For each lattice corner (index dx + 2 dy + 4 dz) and hash `h & 15`, where Perlin's gradient's two
+/// components are in a cell's offsets `[fx, fy, fz, fx − 1, fy − 1, fz − 1]`: a table read
+/// instead of three selects per corner.
+pub(super) const GRAD3_PICKS: [[[u8; 2]; 16]; 8] = {
+    let mut picks = [[[0; 2]; 16]; 8];
+    let mut corner = 0;
+    while corner < 8 {
+        let step = [corner & 1, (corner >> 1) & 1, corner >> 2];
+        let mut h = 0;
+        while h < 16 {
+            let [u, v] = hash::GRAD3_AXES[h];
+            picks[corner][h] = [(u + 3 * step[u]) as u8, (v + 3 * step[v]) as u8];
+            h += 1;
+        }
+        corner += 1;
+    }
+    picks
+};
+
+pub(super) fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    (1.0 - t) * a + t * b
+}
+
+pub(super) fn perlin1(x: f32) -> f32 {
+    let (xi, fx) = floorfrac(x);
+    let u = fade(fx);
+    lerp(
+        grad1(hash1(xi as u32), fx),
+        grad1(hash1(xi.wrapping_add(1) as u32), fx - 1.0),
+        u,
+    )
+}
+
+pub(super) fn perlin2(x: f32, y: f32) -> f32 {
+    let (xi, fx) = floorfrac(x);
+    let (yi, fy) = floorfrac(y);
+    let (u, v) = (fade(fx), fade(fy));
+    let h = |dx: i32, dy: i32| hash2(xi.wrapping_add(dx) as u32, yi.wrapping_add(dy) as u32);
+    let v0 = grad2(h(0, 0), fx, fy);
+    let v1 = grad2(h(1, 0), fx - 1.0, fy);
+    let v2 = grad2(h(0, 1), fx, fy - 1.0);
+    let v3 = grad2(h(1, 1), fx - 1.0, fy - 1.0);
+    let x1 = 1.0 - u;
+    (1.0 - v) * (v0 * x1 + v1 * u) + v * (v2 * x1 + v3 * u)
+}
+
+/// `hash3` of a lattice cell's eight corners (index dx + 2 dy + 4 dz), four at a time
+/// (`hash::U32x4`): the near face's corners (dz = 0), then the far face's.
+pub(super) fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [U32x4; 2] {
+    let s = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
+    let (x0, y0, z0) = (xi as u32, yi as u32, zi as u32);
+    let a = U32x4::new([x0, x0.wrapping_add(1), x0, x0.wrapping_add(1)]);
+    let b = U32x4::new([y0, y0, y0.wrapping_add(1), y0.wrapping_add(1)]);
+    let (a, b) = (a + U32x4::splat(s), b + U32x4::splat(s));
+    let near = hash::finish(a, b, U32x4::splat(s.wrapping_add(z0)));
+    let far = hash::finish(a, b, U32x4::splat(s.wrapping_add(z0).wrapping_add(1)));
+    [near, far]
+}
+
+pub(super) fn perlin3(x: f32, y: f32, z: f32) -> f32 {
+    let (xi, fx) = floorfrac(x);
+    let (yi, fy) = floorfrac(y);
+    let (zi, fz) = floorfrac(z);
+    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+    let [near, far] = corner_hashes(xi, yi, zi);
+    // A face's four corners as lanes (dx + 2 dy), each lane the scalar code's operations:
+    // z1 · (y1 · (g000 · x1 + g100 · u) + v · (g010 · x1 + g110 · u)) + w · (same, far face).
+    let (gx, gy) = (fx - 1.0, fy - 1.0);
+    let (xs, ys) = (Vec4::new(fx, gx, fx, gx), Vec4::new(fy, fy, gy, gy));
+    let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
+    let along_x = Vec4::new(x1, u, x1, u);
+    let n = near.grad3(xs, ys, Vec4::splat(fz)) * along_x;
+    let f = far.grad3(xs, ys, Vec4::splat(fz - 1.0)) * along_x;
+    let rows = Vec4::new(n.x, n.z, f.x, f.z) + Vec4::new(n.y, n.w, f.y, f.w);
+    let faces = rows * Vec4::new(y1, v, y1, v);
+    z1 * (faces.x + faces.y) + w * (faces.z + faces.w)
+}
+
+/// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`: each
+/// coordinate taken modulo the period, plus ½ where it was at least 10⁶).
+pub(super) fn snoise(dimensions: u8, p: Vec3, w: f32) -> f32 {
+    // fmod is the identity below the period (and a library call).
+    let m = |x: f32| {
+        if x.abs() < 100_000.0 {
+            x
+        } else if x.abs() < 1_000_000.0 {
+            x % 100_000.0
+        } else {
+            x % 100_000.0 + 0.5
+        }
+    };
+    match dimensions {
+        1 => 0.25 * perlin1(m(w)),
+        2 => 0.6616 * perlin2(m(p.x), m(p.y)),
+        _ => 0.9820 * perlin3_fast(m(p.x), m(p.y), m(p.z)),
+    }
+}
+
+/// `perlin3`, its eight corners as the lanes of one AVX2 register where the machine has it
+/// (`noise_avx2::perlin3`, the same value bit for bit); NaN coordinates take `perlin3`.
+#[inline(always)]
+pub(super) fn perlin3_fast(x: f32, y: f32, z: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() && !(x.is_nan() || y.is_nan() || z.is_nan()) {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::perlin3(x, y, z) };
+    }
+    perlin3(x, y, z)
+}
+
+#[derive(Clone, Copy, PartialEq)]
+pub(super) struct Fractal {
+    pub(super) detail: f32,
+    pub(super) roughness: f32,
+    pub(super) lacunarity: f32,
+    pub(super) normalize: bool,
+}
+
+/// Cycles' `noise_fbm`.
+pub(super) fn fbm(dimensions: u8, p: Vec3, w: f32, f: &Fractal) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if dimensions == 3 && has_avx2() {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::fbm3(p, f) };
+    }
+    fractal_sum(f, 0.0, |scale| snoise(dimensions, scale * p, scale * w))
+}
+
+/// `noise_fbm`'s sum of octaves of `noise` (called with each octave's scale), for one point
+/// or several as lanes.
+pub(super) fn fractal_sum<T>(f: &Fractal, zero: T, noise: impl Fn(f32) -> T) -> T
+where
+    T: Copy + Add<Output = T> + Add<f32, Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>,
+{
+    let mut fscale = 1.0f32;
+    let mut amp = 1.0f32;
+    let mut maxamp = 0.0f32;
+    let mut sum = zero;
+    let octaves = f.detail as i32;
+    for _ in 0..=octaves {
+        sum = sum + noise(fscale) * amp;
+        maxamp += amp;
+        amp *= f.roughness;
+        fscale *= f.lacunarity;
+    }
+    let lerp = |a: T, b: T, t: f32| a * (1.0 - t) + b * t;
+    let rmd = f.detail - f.detail.floor();
+    if rmd != 0.0 {
+        let sum2 = sum + noise(fscale) * amp;
+        if f.normalize {
+            lerp(
+                sum * 0.5 / maxamp + 0.5,
+                sum2 * 0.5 / (maxamp + amp) + 0.5,
+                rmd,
+            )
+        } else {
+            lerp(sum, sum2, rmd)
+        }
+    } else if f.normalize {
+        sum * 0.5 / maxamp + 0.5
+    } else {
+        sum
+    }
+}
+
+/// Cycles' random offsets that seed the distortion and colour channels.
+pub(super) fn offset(dimensions: u8, seed: f32) -> (Vec3, f32) {
+    if dimensions == 1 {
+        return (Vec3::ZERO, 100.0 + hash_float(seed) * 100.0);
+    }
+    let c = |k: f32| 100.0 + hash_float2(seed, k) * 100.0;
+    (Vec3::new(c(0.0), c(1.0), c(2.0)), 0.0)
+}
+
+/// The Noise Texture (FBM type): its Fac and Color outputs.
+/// Without `color` the Color output is not computed (grey).
+pub(super) fn noise_texture(
+    dimensions: u8,
+    p: Vec3,
+    w: f32,
+    f: &Fractal,
+    distortion: f32,
+    color: bool,
+) -> (f32, Vec3) {
+    let (mut p, mut w) = (p, w);
+    let masked = |v: Vec3| match dimensions {
+        2 => Vec3::new(v.x, v.y, 0.0),
+        _ => v,
+    };
+    p = masked(p);
+    if distortion != 0.0 {
+        match dimensions {
+            1 => w += snoise(1, p, w + offset(1, 0.0).1) * distortion,
+            _ => {
+                let mut d = Vec3::ZERO;
+                for (k, seed) in [0.0f32, 1.0, 2.0]
+                    .iter()
+                    .enumerate()
+                    .take(dimensions as usize)
+                {
+                    d[k] =
+                        snoise(dimensions, p + masked(offset(dimensions, *seed).0), w) * distortion;
+                }
+                p += d;
+            }
+        }
+    }
+    let value = fbm(dimensions, p, w, f);
+    if !color {
+        return (value, Vec3::splat(value));
+    }
+    let (s1, s2) = match dimensions {
+        1 => (1.0, 2.0),
+        2 => (2.0, 3.0),
+        _ => (3.0, 4.0),
+    };
+    let shifted = |seed: f32| {
+        let (o, ow) = offset(dimensions, seed);
+        fbm(dimensions, p + masked(o), w + ow, f)
+    };
+    (value, Vec3::new(value, shifted(s1), shifted(s2)))
+}
+
+// ----- the same noise at a Bump's three points at once ---------------------------------------
+//
+// A Bump reads its height at the shading point and a small step along each tangent: three
+// points that nearly always lie in the same lattice cell of every octave. There the eight
+// corner hashes are computed once and the three points' gradients and interpolation run as
+// lanes of one vector, each lane the very operations of `perlin3` in the same order (no fused
+// multiply-add), so the values are the scalar code's bit for bit; points in different cells,
+// far coordinates and other dimensions take the scalar code.
+
+/// Three points' coordinates as lanes (the fourth repeats the first).
+pub(super) fn lanes(v: [f32; 3]) -> Vec4 {
+    Vec4::new(v[0], v[1], v[2], v[0])
+}
+
+#[inline(always)]
+pub(super) fn fade4(t: Vec4) -> Vec4 {
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+/// `grad3` for one hash over lanes of points: the hash picks the same components and signs
+/// in every lane (a sign is flipped by multiplying by −1, which is exact).
+#[inline(always)]
+pub(super) fn grad3_lanes(hash: u32, corner: usize, offsets: &[Vec4; 6]) -> Vec4 {
+    let h = hash & 15;
+    let [u, v] = GRAD3_PICKS[corner][h as usize];
+    let [su, sv] = GRAD3_SIGNS[h as usize];
+    offsets[u as usize] * su + offsets[v as usize] * sv
+}
+
+/// The signs of `grad3`'s two components for hash `h & 15`: hash bits 0 and 1.
+pub(super) const GRAD3_SIGNS: [[f32; 2]; 16] = {
+    let mut signs = [[1.0; 2]; 16];
+    let mut h = 0;
+    while h < 16 {
+        signs[h] = [
+            if h & 1 != 0 { -1.0 } else { 1.0 },
+            if h & 2 != 0 { -1.0 } else { 1.0 },
+        ];
+        h += 1;
+    }
+    signs
+};
+
+/// `floor` lane by lane for |v| < 2²² (the same values, −0 included): adding and taking
+/// away 1.5 · 2²³ rounds to an integer.
+#[inline(always)]
+pub(super) fn floor4(v: Vec4) -> Vec4 {
+    const ROUND: f32 = 12_582_912.0;
+    let t = (v + ROUND) - ROUND;
+    Vec4::select(t.cmpgt(v), t - 1.0, Vec4::select(t.cmplt(v), t, v))
+}
+
+/// `0.9820 * perlin3` (`snoise` in 3D) of three points given as lanes.
+pub(super) fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+    let near = |v: Vec4| v.abs().cmplt(Vec4::splat(100_000.0)).all();
+    let (cx, cy, cz) = (floor4(x), floor4(y), floor4(z));
+    let one_cell = |c: Vec4| c.cmpeq(Vec4::splat(c.x)).all();
+    if !(near(x) && near(y) && near(z) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+        let (xs, ys, zs) = (x.to_array(), y.to_array(), z.to_array());
+        let n = |k: usize| snoise(3, Vec3::new(xs[k], ys[k], zs[k]), 0.0);
+        return lanes([n(0), n(1), n(2)]);
+    }
+    let [near, far] = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
+    let (near, far) = (near.to_array(), far.to_array());
+    let h = [
+        near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
+    ];
+    let (fx, fy, fz) = (x - cx, y - cy, z - cz);
+    let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
+    let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
+    let g = |corner: usize| grad3_lanes(h[corner], corner, &offsets);
+    let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
+    let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
+    let (x1, y1, z1) = (Vec4::ONE - u, Vec4::ONE - v, Vec4::ONE - w);
+    let p = z1 * (y1 * (g000 * x1 + g100 * u) + v * (g010 * x1 + g110 * u))
+        + w * (y1 * (g001 * x1 + g101 * u) + v * (g011 * x1 + g111 * u));
+    0.9820 * p
+}
+
+/// `fbm` in 3D of three points given as lanes (with AVX2 `noise_avx2::fbm3_lanes`).
+pub(super) fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: AVX2 is present (checked above).
+        return unsafe { noise_avx2::fbm3_lanes(x, y, z, f) };
+    }
+    fractal_sum(f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z))
+}
+
+/// Perlin noise on AVX2 (x86-64 machines that have it; the callers check): the operations of
+/// `perlin3` and `snoise3_lanes`, lane by lane in the same order (no fused multiply-add), so
+/// the values are theirs bit for bit.
+#[cfg(target_arch = "x86_64")]
+mod noise_avx2 {
+    use crate::math::{Vec3, Vec4};
+    use crate::shader::hash::avx2 as hash;
+    use crate::shader::hash::LOOKUP3_SEED;
+    use crate::shader::noise::{fractal_sum, snoise, snoise3_lanes, Fractal};
+    use std::arch::x86_64::*;
+
+    const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
+
+    /// `super::fbm` in 3D, its octaves' noise inlined.
+    #[target_feature(enable = "avx2")]
+    pub fn fbm3(p: Vec3, f: &Fractal) -> f32 {
+        fractal_sum(f, 0.0, |scale| {
+            let q = scale * p;
+            // `snoise` in 3D, whose coordinates' fmod is the identity below the period.
+            let below = |v: f32| v.abs() < 100_000.0;
+            if below(q.x) && below(q.y) && below(q.z) {
+                0.9820 * perlin3(q.x, q.y, q.z)
+            } else {
+                snoise(3, q, 0.0)
+            }
+        })
+    }
+
+    /// `super::fbm3_lanes`, the octaves evaluated two at a time (`snoise3_pair`):
+    /// `fractal_sum` calls for scales s, s · lacunarity, .. in turn, so a call computes its
+    /// octave and the next (the very scale `fractal_sum` passes next), which the next call
+    /// returns.
+    #[target_feature(enable = "avx2")]
+    pub fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
+        let mut pending = None;
+        let pending = std::cell::Cell::from_mut(&mut pending);
+        // How many times `fractal_sum` calls: the last of an odd number is one octave alone
+        // (`snoise3_one`). (Were this count off, the values would be the same.)
+        let calls = (f.detail as i32 + 1).max(0) + (f.detail - f.detail.floor() != 0.0) as i32;
+        let mut call = 0;
+        let call = std::cell::Cell::from_mut(&mut call);
+        fractal_sum(f, Vec4::ZERO, |s| {
+            call.set(call.get() + 1);
+            if let Some(v) = pending.take() {
+                return v;
+            }
+            if call.get() == calls {
+                return snoise3_one(s * x, s * y, s * z);
+            }
+            let t = s * f.lacunarity;
+            let [a, b] = snoise3_pair([s * x, t * x], [s * y, t * y], [s * z, t * z]);
+            pending.set(Some(b));
+            a
+        })
+    }
+
+    /// `fade` lane by lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn fade(t: __m256) -> __m256 {
+        let s = _mm256_set1_ps;
+        let tt = _mm256_mul_ps(_mm256_mul_ps(t, t), t);
+        let inner = _mm256_sub_ps(_mm256_mul_ps(t, s(6.0)), s(15.0));
+        _mm256_mul_ps(tt, _mm256_add_ps(_mm256_mul_ps(t, inner), s(10.0)))
+    }
+
+    /// Cycles' `grad3` of each lane's hash at that lane's offset (x, y, z), as
+    /// `U32x4::grad3`: selects and a flip of the sign bit.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn grad3(h: __m256i, x: __m256, y: __m256, z: __m256) -> __m256 {
+        let k = _mm256_set1_epi32;
+        let h = _mm256_and_si256(h, k(15));
+        let below8 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(8), h));
+        let below4 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(4), h));
+        let v_is_x = _mm256_castsi256_ps(_mm256_or_si256(
+            _mm256_cmpeq_epi32(h, k(12)),
+            _mm256_cmpeq_epi32(h, k(14)),
+        ));
+        let u = _mm256_blendv_ps(y, x, below8);
+        let v = _mm256_blendv_ps(_mm256_blendv_ps(z, x, v_is_x), y, below4);
+        let sign_u = _mm256_castsi256_ps(_mm256_slli_epi32::<31>(_mm256_and_si256(h, k(1))));
+        let sign_v = _mm256_castsi256_ps(_mm256_slli_epi32::<30>(_mm256_and_si256(h, k(2))));
+        _mm256_add_ps(_mm256_xor_ps(u, sign_u), _mm256_xor_ps(v, sign_v))
+    }
+
+    /// Lane `K` (0x00, 0x55, 0xAA: lane 0, 1, 2) of `v` in all eight lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn lane<const K: i32>(v: __m128) -> __m256 {
+        _mm256_broadcastss_ps(_mm_permute_ps::<K>(v))
+    }
+
+    /// `super::perlin3` at one point (coordinates not NaN): its eight lattice corners
+    /// (dx + 2 dy + 4 dz) as lanes; the two pairwise sums of the interpolation are
+    /// horizontal adds (a + b is b + a bit for bit).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn perlin3(x: f32, y: f32, z: f32) -> f32 {
+        let p = _mm_set_ps(0.0, z, y, x);
+        let cell = _mm_floor_ps(p);
+        let f = _mm_sub_ps(p, cell);
+        let g = _mm_sub_ps(f, _mm_set1_ps(1.0));
+        let t = fade(_mm256_castps128_ps256(f));
+        let fade3 = _mm256_castps256_ps128(t);
+        let rest = _mm_sub_ps(_mm_set1_ps(1.0), fade3);
+        let c = _mm_add_epi32(_mm_cvttps_epi32(cell), _mm_set1_epi32(SEED3));
+        let a = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(c),
+            _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1),
+        );
+        let b = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0x55>(c)),
+            _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1),
+        );
+        let c = _mm256_add_epi32(
+            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0xAA>(c)),
+            _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1),
+        );
+        // SAFETY: this function runs only with AVX2.
+        let h = unsafe { hash::finish(a, b, c) };
+        let xs = _mm256_blend_ps::<0xAA>(lane::<0x00>(f), lane::<0x00>(g));
+        let ys = _mm256_blend_ps::<0xCC>(lane::<0x55>(f), lane::<0x55>(g));
+        let zs = _mm256_blend_ps::<0xF0>(lane::<0xAA>(f), lane::<0xAA>(g));
+        let along_x = _mm256_blend_ps::<0xAA>(lane::<0x00>(rest), lane::<0x00>(fade3));
+        let m = _mm256_mul_ps(grad3(h, xs, ys, zs), along_x);
+        // (g000 x1 + g100 u, g010 x1 + g110 u, ..) in lanes 0, 1 (near face), 4, 5 (far).
+        let rows = _mm256_hadd_ps(m, m);
+        let along_y = _mm256_blend_ps::<0xAA>(lane::<0x55>(rest), lane::<0x55>(fade3));
+        let faces = _mm256_mul_ps(rows, along_y);
+        let faces = _mm256_hadd_ps(faces, faces);
+        let near = _mm_cvtss_f32(_mm256_castps256_ps128(faces));
+        let far = _mm_cvtss_f32(_mm256_extractf128_ps::<1>(faces));
+        let (z1, w) = (
+            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(rest)),
+            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(fade3)),
+        );
+        z1 * near + w * far
+    }
+
+    /// `snoise3_lanes` of two sets of lanes (two octaves of a Bump's three points) at once:
+    /// each set in one lattice cell, whose eight corner hashes are computed for both sets in
+    /// two eight-lane hashes; a set that is not takes `snoise3_lanes`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn snoise3_pair(x: [Vec4; 2], y: [Vec4; 2], z: [Vec4; 2]) -> [Vec4; 2] {
+        let join = |v: [Vec4; 2]| _mm256_set_m128(v[1].into(), v[0].into());
+        let (px, py, pz) = (join(x), join(y), join(z));
+        let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
+        let near = |v: __m256| {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(
+                abs(v),
+                _mm256_set1_ps(100_000.0),
+            )) == 0xFF
+        };
+        let (cx, cy, cz) = (
+            _mm256_floor_ps(px),
+            _mm256_floor_ps(py),
+            _mm256_floor_ps(pz),
+        );
+        let one_cell = |c: __m256| {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(c, _mm256_permute_ps::<0>(c))) == 0xFF
+        };
+        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+            return [0, 1].map(|k| snoise3_lanes(x[k], y[k], z[k]));
+        }
+        let seeded = |c: __m256| _mm256_add_epi32(_mm256_cvttps_epi32(c), _mm256_set1_epi32(SEED3));
+        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
+        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
+        let c = seeded(cz);
+        // Corners 0–3 (near face), then 4–7 (far face), of each set's cell.
+        // SAFETY: this function runs only with AVX2.
+        let (near_h, far_h) = unsafe {
+            (
+                hash::finish(a, b, c),
+                hash::finish(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1))),
+            )
+        };
+        let one = _mm256_set1_ps(1.0);
+        let (fx, fy, fz) = (
+            _mm256_sub_ps(px, cx),
+            _mm256_sub_ps(py, cy),
+            _mm256_sub_ps(pz, cz),
+        );
+        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+        let (gx, gy, gz) = (
+            _mm256_sub_ps(fx, one),
+            _mm256_sub_ps(fy, one),
+            _mm256_sub_ps(fz, one),
+        );
+        let g000 = grad3(_mm256_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
+        let g100 = grad3(_mm256_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
+        let g010 = grad3(_mm256_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
+        let g110 = grad3(_mm256_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
+        let g001 = grad3(_mm256_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
+        let g101 = grad3(_mm256_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
+        let g011 = grad3(_mm256_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
+        let g111 = grad3(_mm256_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
+        let (x1, y1, z1) = (
+            _mm256_sub_ps(one, u),
+            _mm256_sub_ps(one, v),
+            _mm256_sub_ps(one, w),
+        );
+        let (add, mul) = (_mm256_add_ps, _mm256_mul_ps);
+        let row = |a: __m256, b: __m256| add(mul(a, x1), mul(b, u));
+        let face = |r0: __m256, r1: __m256| add(mul(y1, r0), mul(v, r1));
+        let p = add(
+            mul(z1, face(row(g000, g100), row(g010, g110))),
+            mul(w, face(row(g001, g101), row(g011, g111))),
+        );
+        let p = mul(_mm256_set1_ps(0.9820), p);
+        [
+            Vec4::from(_mm256_castps256_ps128(p)),
+            Vec4::from(_mm256_extractf128_ps::<1>(p)),
+        ]
+    }
+
+    /// `fade` lane by lane, on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn fade4(t: __m128) -> __m128 {
+        let s = _mm_set1_ps;
+        let tt = _mm_mul_ps(_mm_mul_ps(t, t), t);
+        let inner = _mm_sub_ps(_mm_mul_ps(t, s(6.0)), s(15.0));
+        _mm_mul_ps(tt, _mm_add_ps(_mm_mul_ps(t, inner), s(10.0)))
+    }
+
+    /// `grad3` on four lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn grad3_4(h: __m128i, x: __m128, y: __m128, z: __m128) -> __m128 {
+        let k = _mm_set1_epi32;
+        let h = _mm_and_si128(h, k(15));
+        let below8 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(8), h));
+        let below4 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(4), h));
+        let v_is_x = _mm_castsi128_ps(_mm_or_si128(
+            _mm_cmpeq_epi32(h, k(12)),
+            _mm_cmpeq_epi32(h, k(14)),
+        ));
+        let u = _mm_blendv_ps(y, x, below8);
+        let v = _mm_blendv_ps(_mm_blendv_ps(z, x, v_is_x), y, below4);
+        let sign_u = _mm_castsi128_ps(_mm_slli_epi32::<31>(_mm_and_si128(h, k(1))));
+        let sign_v = _mm_castsi128_ps(_mm_slli_epi32::<30>(_mm_and_si128(h, k(2))));
+        _mm_add_ps(_mm_xor_ps(u, sign_u), _mm_xor_ps(v, sign_v))
+    }
+
+    /// `snoise3_lanes` of one set of lanes (one octave of a Bump's three points) in one
+    /// lattice cell: its eight corner hashes in one eight-lane hash (lane dx + 2 dy + 4 dz),
+    /// each broadcast to the four lanes; a set that is not in one cell takes
+    /// `snoise3_lanes`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub fn snoise3_one(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
+        let (px, py, pz): (__m128, __m128, __m128) = (x.into(), y.into(), z.into());
+        let abs = |v: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), v);
+        let near = |v: __m128| _mm_movemask_ps(_mm_cmplt_ps(abs(v), _mm_set1_ps(100_000.0))) == 0xF;
+        let (cx, cy, cz) = (_mm_floor_ps(px), _mm_floor_ps(py), _mm_floor_ps(pz));
+        let one_cell = |c: __m128| _mm_movemask_ps(_mm_cmpeq_ps(c, _mm_permute_ps::<0>(c))) == 0xF;
+        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+            return snoise3_lanes(x, y, z);
+        }
+        // The cell's coordinates (lane 0 of each) in all eight lanes, seeded.
+        let seeded = |c: __m128| {
+            _mm256_add_epi32(
+                _mm256_broadcastd_epi32(_mm_cvttps_epi32(c)),
+                _mm256_set1_epi32(SEED3),
+            )
+        };
+        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
+        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
+        let c = _mm256_add_epi32(seeded(cz), _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1));
+        // SAFETY: this function runs only with AVX2.
+        let h = unsafe { hash::finish(a, b, c) };
+        let (near_h, far_h) = (_mm256_castsi256_si128(h), _mm256_extracti128_si256::<1>(h));
+        let one = _mm_set1_ps(1.0);
+        let (fx, fy, fz) = (_mm_sub_ps(px, cx), _mm_sub_ps(py, cy), _mm_sub_ps(pz, cz));
+        let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
+        let (gx, gy, gz) = (
+            _mm_sub_ps(fx, one),
+            _mm_sub_ps(fy, one),
+            _mm_sub_ps(fz, one),
+        );
+        let g000 = grad3_4(_mm_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
+        let g100 = grad3_4(_mm_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
+        let g010 = grad3_4(_mm_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
+        let g110 = grad3_4(_mm_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
+        let g001 = grad3_4(_mm_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
+        let g101 = grad3_4(_mm_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
+        let g011 = grad3_4(_mm_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
+        let g111 = grad3_4(_mm_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
+        let (x1, y1, z1) = (_mm_sub_ps(one, u), _mm_sub_ps(one, v), _mm_sub_ps(one, w));
+        let (add, mul) = (_mm_add_ps, _mm_mul_ps);
+        let row = |a: __m128, b: __m128| add(mul(a, x1), mul(b, u));
+        let face = |r0: __m128, r1: __m128| add(mul(y1, r0), mul(v, r1));
+        let p = add(
+            mul(z1, face(row(g000, g100), row(g010, g110))),
+            mul(w, face(row(g001, g101), row(g011, g111))),
+        );
+        Vec4::from(mul(_mm_set1_ps(0.9820), p))
+    }
+}
+
+/// One point's Noise Texture inputs: (scaled position, scaled W, fractal, distortion).
+pub(super) type NoiseInput = (Vec3, f32, Fractal, f32);
+
+/// `noise_texture` at a Bump's three points (its section header).
+pub(super) fn noise_texture_at3(
+    dimensions: u8,
+    at: &[NoiseInput; 3],
+    color: bool,
+) -> [(f32, Vec3); 3] {
+    let (_, _, f, distortion) = at[0];
+    let shared = at.iter().all(|a| a.2 == f && a.3 == distortion);
+    if dimensions != 3 || !shared {
+        return at.map(|(p, w, f, d)| noise_texture(dimensions, p, w, &f, d, color));
+    }
+    let (mut x, mut y, mut z) = (
+        lanes(at.map(|a| a.0.x)),
+        lanes(at.map(|a| a.0.y)),
+        lanes(at.map(|a| a.0.z)),
+    );
+    if distortion != 0.0 {
+        let d = [0.0f32, 1.0, 2.0].map(|seed| {
+            let o = offset(3, seed).0;
+            snoise3_lanes(x + o.x, y + o.y, z + o.z) * distortion
+        });
+        (x, y, z) = (x + d[0], y + d[1], z + d[2]);
+    }
+    let value = fbm3_lanes(x, y, z, &f);
+    let shifted = |seed: f32| {
+        let o = offset(3, seed).0;
+        fbm3_lanes(x + o.x, y + o.y, z + o.z, &f)
+    };
+    let (g, b) = if color {
+        (shifted(3.0), shifted(4.0))
+    } else {
+        (value, value)
+    };
+    [0, 1, 2].map(|k| (value[k], Vec3::new(value[k], g[k], b[k])))
+}
+
+/// One point's Noise Texture inputs (Vector, W, Scale, Detail, Roughness, Lacunarity,
+/// Offset, Gain, Distortion) as `noise_texture` takes them.
+#[inline(always)]
+pub(super) fn noise_input(normalize: bool, ins: &impl Operands) -> NoiseInput {
+    let scale = ins.float(2);
+    let p = ins.vector(0) * scale;
+    let f = Fractal {
+        detail: ins.float(3).clamp(0.0, 15.0),
+        roughness: ins.float(4).max(0.0),
+        lacunarity: ins.float(5),
+        normalize,
+    };
+    (p, ins.float(1) * scale, f, ins.float(8))
+}
+
+/// The Noise Texture (FBM): Fac and Color; the colour only when `used` reads it.
+#[inline(always)]
+pub(super) fn eval_noise(
+    dimensions: u8,
+    normalize: bool,
+    used: u32,
+    ins: &impl Operands,
+) -> [Vec4; 2] {
+    let (p, w, params, distortion) = noise_input(normalize, ins);
+    let color = used & 2 != 0;
+    let (fac, color) = noise_texture(dimensions, p, w, &params, distortion, color);
+    [splat(fac), v3(color)]
+}
+
+/// A Noise Texture and its copies at a Bump's two offset points (`NoiseAt3`): each point's
+/// Fac and Color; the colours only when one of `used` reads them.
+#[inline(always)]
+pub(super) fn eval_noise_at3(
+    dimensions: u8,
+    normalize: bool,
+    used: &[u32; 3],
+    ins: [&impl Operands; 3],
+) -> [[Vec4; 2]; 3] {
+    let color = used.iter().any(|u| u & 2 != 0);
+    let at = ins.map(|i| noise_input(normalize, i));
+    noise_texture_at3(dimensions, &at, color).map(|(fac, color)| [splat(fac), v3(color)])
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+
+    #[test]
+    fn noise_is_in_range_and_matches_known_structure() {
+        let f = Fractal {
+            detail: 2.0,
+            roughness: 0.5,
+            lacunarity: 2.0,
+            normalize: true,
+        };
+        // Perlin noise is zero at lattice points: one octave of normalized fBm gives 0.5 there.
+        let one = Fractal { detail: 0.0, ..f };
+        assert!((fbm(3, Vec3::new(3.0, -2.0, 7.0), 0.0, &one) - 0.5).abs() < 1e-6);
+        let mut lo = f32::MAX;
+        let mut hi = f32::MIN;
+        for i in 0..2000 {
+            let p = Vec3::new(i as f32 * 0.137, i as f32 * 0.071, i as f32 * 0.029);
+            let v = fbm(3, p, 0.0, &f);
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        assert!(lo > 0.0 && hi < 1.0 && hi - lo > 0.3, "{lo} {hi}");
+        // Continuity: nearby points give nearby values.
+        let a = fbm(3, Vec3::new(0.3, 0.4, 0.5), 0.0, &f);
+        let b = fbm(3, Vec3::new(0.3001, 0.4, 0.5), 0.0, &f);
+        assert!((a - b).abs() < 1e-3);
+    }
+
+    #[test]
+    fn floor_is_the_library_floor() {
+        for x in [
+            -0.0f32,
+            0.0,
+            -1.5,
+            2.0,
+            -3.0,
+            1e9,
+            -1e9,
+            8_388_607.5,
+            -8_388_607.5,
+        ] {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+        assert!(floor(f32::NAN).is_nan());
+        let mut rng = crate::rng::Rng::new(5);
+        for _ in 0..100_000 {
+            let x = (rng.uniform() - 0.5) * 2e7;
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "{x}");
+        }
+    }
+
+    #[test]
+    fn noise_at_a_bumps_three_points_is_the_scalar_noise_bit_for_bit() {
+        // Points a small step apart (mostly one lattice cell), some across cell walls, far
+        // ones (fmod), with and without distortion and colour, whole and fractional detail.
+        let mut rng = crate::rng::Rng::new(9);
+        let mut shared_cells = 0;
+        for k in 0..20_000 {
+            let scale = [1.0, 10.0, 300.0, 2.0e5][k % 4];
+            let c = |rng: &mut crate::rng::Rng| (rng.uniform() * 2.0 - 1.0) * scale;
+            let p = Vec3::new(c(&mut rng), c(&mut rng), c(&mut rng));
+            let step = [1e-4, 1e-2, 0.3][k % 3];
+            let points = [p, p + Vec3::X * step, p + Vec3::Y * step];
+            let f = Fractal {
+                detail: [0.0, 2.0, 3.5][k % 3],
+                roughness: 0.5,
+                lacunarity: 2.0,
+                normalize: k % 2 == 0,
+            };
+            let distortion = [0.0, 0.0, 1.5][(k / 3) % 3];
+            let color = k % 5 == 0;
+            let inputs = points.map(|p| (p, 0.0, f, distortion));
+            let fused = noise_texture_at3(3, &inputs, color);
+            for (q, (fac, col)) in points.iter().zip(fused) {
+                let (want, want_col) = noise_texture(3, *q, 0.0, &f, distortion, color);
+                assert_eq!(fac.to_bits(), want.to_bits(), "{q:?} {k}");
+                assert_eq!(
+                    col.to_array().map(f32::to_bits),
+                    want_col.to_array().map(f32::to_bits)
+                );
+            }
+            let cell = |v: Vec3| v.floor();
+            shared_cells += (cell(points[1]) == cell(p) && cell(points[2]) == cell(p)) as u32;
+        }
+        // Both paths ran: the shared-cell lanes and the scalar fallback.
+        assert!((5_000..19_000).contains(&shared_cells), "{shared_cells}");
+    }
+
+    /// Random coordinates at several scales, with −0, integers and cell walls mixed in.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn awkward_coordinate(rng: &mut crate::rng::Rng, k: usize) -> f32 {
+        let scale = [1.0, 10.0, 300.0, 9.0e4][k % 4];
+        let v = (rng.uniform() * 2.0 - 1.0) * scale;
+        match (k / 4) % 7 {
+            0 => -0.0,
+            1 => v.floor(),
+            2 => v.floor() - f32::EPSILON * v.abs(),
+            _ => v,
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_perlin3_is_perlin3_bit_for_bit() {
+        if !has_avx2() {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(21);
+        for k in 0..200_000 {
+            let [x, y, z] = [k, k / 3, k / 5].map(|j| awkward_coordinate(&mut rng, j));
+            // SAFETY: AVX2 is present (checked above).
+            let got = unsafe { noise_avx2::perlin3(x, y, z) };
+            assert_eq!(got.to_bits(), perlin3(x, y, z).to_bits(), "{x} {y} {z}");
+            let p = Vec3::new(x, y, z) * 37.0;
+            let want = 0.9820 * perlin3(p.x % 100_000.0, p.y % 100_000.0, p.z % 100_000.0);
+            if p.abs().max_element() < 100_000.0 {
+                assert_eq!(snoise(3, p, 0.0).to_bits(), want.to_bits());
+            }
+            // fBm: the octaves inlined, past the period too.
+            let f = Fractal {
+                detail: [0.0, 2.0, 3.5, 15.0][k % 4],
+                roughness: 0.5,
+                lacunarity: [2.0, 1.9][k % 2],
+                normalize: k % 3 == 0,
+            };
+            let m = |v: f32| {
+                if v.abs() < 100_000.0 {
+                    v
+                } else if v.abs() < 1_000_000.0 {
+                    v % 100_000.0
+                } else {
+                    v % 100_000.0 + 0.5
+                }
+            };
+            let reference = fractal_sum(&f, 0.0, |s| {
+                let q = s * p;
+                0.9820 * perlin3(m(q.x), m(q.y), m(q.z))
+            });
+            assert_eq!(fbm(3, p, 0.0, &f).to_bits(), reference.to_bits(), "{p}");
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_octave_pairs_are_snoise3_lanes_bit_for_bit() {
+        if !has_avx2() {
+            return;
+        }
+        let mut rng = crate::rng::Rng::new(22);
+        for k in 0..100_000 {
+            let set = |rng: &mut crate::rng::Rng, j: usize| {
+                let p = [j, j + 1, j + 2].map(|i| awkward_coordinate(rng, i));
+                let step = [1e-4, 1e-2, 0.3][j % 3];
+                let (x, y, z) = (
+                    lanes([p[0], p[0] + step, p[0]]),
+                    lanes([p[1], p[1], p[1] + step]),
+                    Vec4::splat(p[2]),
+                );
+                (x, y, z)
+            };
+            let (a, b) = (set(&mut rng, k), set(&mut rng, k / 2 + 1));
+            // SAFETY: AVX2 is present (checked above).
+            let one = unsafe { noise_avx2::snoise3_one(a.0, a.1, a.2) };
+            assert_eq!(
+                one.to_array().map(f32::to_bits),
+                snoise3_lanes(a.0, a.1, a.2).to_array().map(f32::to_bits)
+            );
+            // SAFETY: AVX2 is present (checked above).
+            let got = unsafe { noise_avx2::snoise3_pair([a.0, b.0], [a.1, b.1], [a.2, b.2]) };
+            for (g, (x, y, z)) in got.iter().zip([a, b]) {
+                let want = snoise3_lanes(x, y, z);
+                assert_eq!(
+                    g.to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "{x} {y} {z}"
+                );
+            }
+        }
+        // The octaves in pairs sum as one at a time.
+        for k in 0..20_000 {
+            let f = Fractal {
+                detail: [0.0, 1.0, 2.0, 2.5, 3.25, 15.0][k % 6],
+                roughness: 0.5,
+                lacunarity: [2.0, 1.7][k % 2],
+                normalize: k % 3 == 0,
+            };
+            let p = [0, 1, 2].map(|j| awkward_coordinate(&mut rng, k + j) * 0.01);
+            let (x, y, z) = (
+                lanes([p[0], p[0] + 1e-4, p[0]]),
+                Vec4::splat(p[1]),
+                Vec4::splat(p[2]),
+            );
+            let want = fractal_sum(&f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z));
+            assert_eq!(
+                fbm3_lanes(x, y, z, &f).to_array().map(f32::to_bits),
+                want.to_array().map(f32::to_bits)
+            );
+        }
+    }
+}

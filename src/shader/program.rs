@@ -1,0 +1,289 @@
+//! A compiled node tree (`NodeProgram`): a flat list of instructions (`Instr`, one node's
+//! operation `Op` with where its inputs come from, `Src`) over a small register file and a
+//! small closure array, as Cycles' SVM lays out its programs.
+
+use super::brick::BrickLayout;
+use super::bump::NormalMapSpace;
+use super::color::{Blend, MixData};
+use super::gradient::GradientKind;
+use super::math::{MapRangeKind, MathOp};
+use super::vector::{Euler, MappingKind, VectorOp};
+use super::volume::ScatterPhase;
+use super::voronoi::VoronoiKind;
+use super::wave::WaveKind;
+use crate::math::Vec4;
+
+/// Registers (node outputs) a program may use; larger trees are refused.
+pub const MAX_REGISTERS: usize = 256;
+/// Shader nodes a program may hold.
+pub const MAX_CLOSURES: usize = 32;
+
+/// How an input reads its value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Src {
+    Const(Vec4),
+    Reg(u16),
+    /// A colour read as a float (Rec. 709 luminance, as Cycles' default colour space).
+    Gray(u16),
+    /// A vector read as a float (the average of its components).
+    Average(u16),
+    Closure(u16),
+    /// The implicit Generated coordinates of an unlinked texture Vector input.
+    Generated,
+    /// The implicit UV (this UV map) of an unlinked Image Texture Vector input.
+    Uv(u8),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Ty {
+    Float,
+    Vector,
+    Color,
+    Shader,
+}
+
+/// One node's operation with its settings.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Op {
+    /// Texture Coordinate; its UV output reads this UV map (the mesh's default, Blender's
+    /// active render UV map, which the add-on names).
+    TexCoord {
+        uv_set: u8,
+    },
+    UvMap {
+        uv_set: u8,
+    },
+    /// Color Attribute and Attribute (COLOR_0).
+    VertexColor,
+    Attribute,
+    Geometry,
+    /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
+    LightPath,
+    Value(f32),
+    Rgb(Vec4),
+    /// Mapping; its rotation's sines and cosines when the Rotation input is constant.
+    Mapping(MappingKind, Option<Euler>),
+    Math {
+        op: MathOp,
+        clamp: bool,
+    },
+    Mix {
+        data: MixData,
+        blend: Blend,
+        clamp_factor: bool,
+        clamp_result: bool,
+    },
+    ColorRamp {
+        table: Vec<Vec4>,
+        interpolate: bool,
+    },
+    /// RGB Curves: the curves baked over [min_x, min_x + range] (combined curve first, then
+    /// each channel's, as Cycles bakes them), read with linear extrapolation.
+    RgbCurves {
+        table: Vec<Vec4>,
+        min_x: f32,
+        range: f32,
+    },
+    MapRange {
+        kind: MapRangeKind,
+        clamp: bool,
+    },
+    Clamp {
+        range: bool,
+    },
+    Invert,
+    SeparateXyz,
+    CombineXyz,
+    SeparateColor {
+        hsv: bool,
+    },
+    CombineColor {
+        hsv: bool,
+    },
+    Checker,
+    Gradient(GradientKind),
+    Noise {
+        dimensions: u8,
+        normalize: bool,
+    },
+    /// A Noise Texture and its two copies at a Bump's offset points, fused (`fuse_bump_noise`):
+    /// `ins` holds the three nodes' inputs one after the other, `outs` and `used` their first
+    /// output registers and read outputs.
+    NoiseAt3 {
+        dimensions: u8,
+        normalize: bool,
+        outs: [u16; 3],
+        used: [u32; 3],
+    },
+    /// An Image Texture: its texture in `Scene::textures`, and whether it is transparent black
+    /// outside [0, 1]² (Blender's Clip extension).
+    Image {
+        texture: u32,
+        clip: bool,
+        uv_set: u8,
+    },
+    Voronoi(VoronoiKind),
+    Wave(WaveKind),
+    /// White Noise: 1 to 4 dimensions.
+    WhiteNoise {
+        dimensions: u8,
+    },
+    /// Magic: its turbulence depth.
+    Magic {
+        depth: u8,
+    },
+    Brick(BrickLayout),
+    Blackbody,
+    HueSaturation,
+    Gamma,
+    BrightContrast,
+    VectorMath(VectorOp),
+    Bump {
+        invert: bool,
+    },
+    NormalMap(NormalMapSpace),
+    /// The Displacement node: its height along the normal, in object or world space.
+    Displacement {
+        object_space: bool,
+    },
+    Fresnel,
+    LayerWeight,
+    /// Principled BSDF; `multiscatter`: its distribution is Multiscatter GGX (else GGX).
+    Principled {
+        multiscatter: bool,
+    },
+    Diffuse,
+    /// Glossy and Anisotropic BSDF; `multiscatter` as the Principled's.
+    Glossy {
+        multiscatter: bool,
+    },
+    Sheen,
+    /// Glass BSDF; `multiscatter` as the Principled's (its lobe divided by its albedo).
+    Glass {
+        multiscatter: bool,
+    },
+    /// Blender's Refraction BSDF: the glass's transmission lobe alone.
+    Refraction,
+    /// Blender's Holdout: no light, and a hole in the film's alpha for camera rays.
+    Holdout,
+    Emission,
+    Transparent,
+    Translucent,
+    MixShader,
+    AddShader,
+    PrincipledVolume,
+    VolumeScatter(ScatterPhase),
+    VolumeAbsorption,
+}
+
+/// One instruction: an operation, where its inputs come from, and the first register (or the
+/// closure slot, for shader nodes) its outputs go to.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Instr {
+    pub(super) op: Op,
+    pub(super) ins: Vec<Src>,
+    pub(super) out: u16,
+    /// Which shading point it reads: 0 the point itself, 1 and 2 the points a small step
+    /// along the two surface tangents (copies of a Bump node's Height subtree, as Cycles'
+    /// SVM evaluates it at P + dPdx and P + dPdy).
+    pub(super) offset: u8,
+    /// Bit k: output k is read by some instruction (unread outputs may be skipped).
+    pub(super) used: u32,
+    /// True when every input is a register or a constant and `regs_in` holds them all.
+    pub(super) all_regs: bool,
+    /// Then the register each input reads, the constants' in `NodeProgram::constants`
+    /// (`fold_constants`), so reading an input is one load instead of a match on its `Src`.
+    /// Held in the instruction (no pointer to follow), and a `u8` indexes every register
+    /// (`MAX_REGISTERS` is 256), so the load needs no bounds check.
+    pub(super) regs_in: [u8; MAX_REGS_IN],
+}
+
+/// The most inputs an instruction reads through `Instr::regs_in` (more read their `Src`).
+pub(super) const MAX_REGS_IN: usize = 32;
+
+/// Bits of `NodeProgram::reads`: the `ShadingInputs` a program may read besides the position,
+/// the normal and the view (the others may be left unset): the UV maps, the vertex colour,
+/// the tangent, the Generated and Object coordinates, and the object-space normal with the
+/// object-to-world normal matrix.
+pub const READS_UV: u8 = 1;
+pub const READS_COLOR: u8 = 2;
+pub const READS_TANGENT: u8 = 4;
+pub const READS_COORDS: u8 = 8;
+pub const READS_OBJECT_NORMAL: u8 = 16;
+pub const READS_ALL: u8 =
+    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL;
+
+/// The `READS_*` bits of what `instrs` read of the shading points (`run`, `load`).
+pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
+    let bit = |on: bool, bit: u8| if on { bit } else { 0 };
+    let mut reads = 0;
+    for instr in instrs {
+        for s in &instr.ins {
+            reads |= match s {
+                Src::Generated => READS_COORDS,
+                Src::Uv(_) => READS_UV,
+                _ => 0,
+            };
+        }
+        let used = instr.used;
+        reads |= match instr.op {
+            // Outputs 0 and 3 are Generated and Object, 1 the object-space Normal, 2 the UV.
+            Op::TexCoord { .. } => {
+                bit(used & 0b1001 != 0, READS_COORDS)
+                    | bit(used & 0b10 != 0, READS_OBJECT_NORMAL)
+                    | bit(used & 0b100 != 0, READS_UV)
+            }
+            Op::UvMap { .. } => READS_UV,
+            Op::VertexColor | Op::Attribute => READS_COLOR,
+            Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
+            Op::Displacement { .. } => READS_OBJECT_NORMAL,
+            // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
+            // the object-to-world normal matrix, unless the anisotropy is a constant `run`
+            // reads as none.
+            Op::Principled { .. } => match instr.ins.get(11) {
+                Some(Src::Const(a)) if !(a.x.clamp(0.0, 1.0) > 0.0) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
+            Op::Glossy { .. } => match instr.ins.get(3) {
+                Some(Src::Const(a)) if !(a.x.clamp(-0.99, 0.99).abs() > 1e-4) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
+            _ => 0,
+        };
+    }
+    reads
+}
+
+/// A compiled node tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeProgram {
+    pub(super) instrs: Vec<Instr>,
+    pub(super) registers: usize,
+    /// The constant inputs, put in the registers after the first `registers` before each run.
+    pub(super) constants: Vec<Vec4>,
+    pub(super) closures: usize,
+    pub(super) output: Src,
+    /// True when some node emits (the material is a light candidate).
+    pub emits: bool,
+    /// True when some node reads the vertex colours.
+    pub reads_color: bool,
+    /// True when the program reads the points a step away (it has a Bump node): `eval` then
+    /// needs all three `ShadingInputs`.
+    pub needs_offsets: bool,
+    /// The `READS_*` bits: which position-dependent `ShadingInputs` `eval` reads (with the
+    /// displacement tree's).
+    pub reads: u8,
+    /// True when some Light Path output reads the camera path's state (`RAY_STATE_OUTPUTS`):
+    /// only the path tracer carries it to every shading point.
+    pub reads_ray_state: bool,
+    /// True when the tree can give a Transparent BSDF (a Transparent node, or a Principled
+    /// BSDF's Alpha): shadow rays must evaluate it to pass.
+    pub shadow_transparent: bool,
+    /// The Material Output's Displacement as Cycles' "bump only" method: a program whose
+    /// output is the bumped normal, which the surface tree then reads as the shading normal.
+    pub(super) displacement: Option<Box<NodeProgram>>,
+}
+
+/// What `compile` found that it could not evaluate: `(node name, message)`. The program
+/// replaces such a node by its fallback (named in the message).
+pub type CompileWarnings = Vec<String>;

@@ -1,0 +1,460 @@
+//! Whole node trees compiled and evaluated (the tests of one node family sit in its file), and
+//! Blender's own Noise and Voronoi values at chosen points.
+
+use super::noise::{noise_texture, Fractal};
+use super::program::Op;
+use super::voronoi::{voronoi, Metric, VoronoiFeature, VoronoiKind, VoronoiParams};
+use super::*;
+use crate::math::{Vec2, Vec3};
+use serde_json::{json, Value};
+
+fn at_generated(p: Vec3) -> ShadingInputs {
+    ShadingInputs::at_point(PointInputs {
+        generated: p,
+        ..PointInputs::default()
+    })
+}
+
+/// Shading inputs with `normal` at the three `positions` (the point, then its offsets).
+fn at_positions(positions: [Vec3; 3], normal: Vec3) -> ShadingInputs {
+    ShadingInputs {
+        points: positions.map(|position| PointInputs {
+            position,
+            ..PointInputs::default()
+        }),
+        normal,
+        ..ShadingInputs::default()
+    }
+}
+
+fn emission_of(tree: Value, at: &ShadingInputs) -> Vec3 {
+    let mut w = Vec::new();
+    let program = compile(&tree, 0, &mut w).expect("compiles");
+    program.eval(at, &[], 0.5).emission
+}
+
+#[test]
+fn displacement_bumps_the_normal_the_surface_reads() {
+    // Height = x along the normal, as the add-on writes "Bump Only": the normal tilts to
+    // (−1, 0, 1)/√2, and the surface's Geometry Normal (into Emission) reads it.
+    let displacement = json!({"nodes": [
+        {"name": "G", "type": "ShaderNodeNewGeometry"},
+        {"name": "X", "type": "ShaderNodeSeparateXYZ",
+         "inputs": {"Vector": {"node": 0, "output": "Position"}}},
+        {"name": "D", "type": "ShaderNodeDisplacement", "space": "WORLD",
+         "inputs": {"Height": {"node": 1, "output": "X"}, "Midlevel": 0.0, "Scale": 1.0}},
+        {"name": "N", "type": "ShaderNodeNewGeometry"},
+        {"name": "H", "type": "ShaderNodeVectorMath", "operation": "DOT_PRODUCT",
+         "inputs": {"Vector": {"node": 2, "output": "Displacement"},
+                    "Vector_001": {"node": 3, "output": "Normal"}}},
+        {"name": "B", "type": "ShaderNodeBump", "inputs": {
+            "Strength": 1.0, "Distance": 1.0, "Height": {"node": 4, "output": "Value"}}}
+    ], "output": {"node": 5, "output": "Normal"}});
+    let tree = json!({"nodes": [
+        {"name": "G", "type": "ShaderNodeNewGeometry"},
+        {"name": "E", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"node": 0, "output": "Normal"}, "Strength": 1.0}}
+    ], "output": {"node": 1, "output": "Emission"}, "displacement": displacement});
+    let mut w = Vec::new();
+    let program = compile(&tree, 0, &mut w).expect("compiles");
+    assert!(w.is_empty() && program.needs_offsets, "{w:?}");
+    let at = at_positions([Vec3::ZERO, Vec3::X * 1e-3, Vec3::Y * 1e-3], Vec3::Z);
+    let c = program.eval(&at, &[], 0.5);
+    let expected = Vec3::new(-1.0, 0.0, 1.0).normalize();
+    assert!((c.emission - expected).length() < 1e-3, "{}", c.emission);
+    assert!((c.normal - expected).length() < 1e-3, "{}", c.normal);
+}
+
+#[test]
+fn light_path_outputs_read_the_ray_path() {
+    let output = |name: &str, path: RayPath| {
+        let tree = json!({"nodes": [
+            {"name": "L", "type": "ShaderNodeLightPath"},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": name}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let at = ShadingInputs {
+            path,
+            ray_length: 2.5,
+            ..ShadingInputs::default()
+        };
+        emission_of(tree, &at).x
+    };
+    let p = RayPath::camera()
+        .after(Scattering::Transparent, true)
+        .after(Scattering::Transparent, true)
+        .after(Scattering::Singular, true)
+        .after(Scattering::Diffuse, false);
+    let expected = [
+        ("Is Camera Ray", 0.0),
+        ("Is Shadow Ray", 0.0),
+        ("Is Diffuse Ray", 1.0),
+        ("Is Glossy Ray", 0.0),
+        ("Is Singular Ray", 0.0),
+        ("Is Reflection Ray", 1.0),
+        ("Is Transmission Ray", 0.0),
+        ("Is Volume Scatter Ray", 0.0),
+        ("Ray Length", 2.5),
+        ("Ray Depth", 2.0),
+        ("Diffuse Depth", 1.0),
+        ("Glossy Depth", 0.0),
+        ("Transparent Depth", 2.0),
+        ("Transmission Depth", 1.0),
+    ];
+    for (name, value) in expected {
+        assert_eq!(output(name, p), value, "{name}");
+    }
+    assert_eq!(output("Is Shadow Ray", p.shadow()), 1.0);
+    assert_eq!(output("Is Camera Ray", RayPath::camera()), 1.0);
+    // Only the outputs of a camera path's state make the tree depend on it.
+    for (name, depends) in [
+        ("Is Camera Ray", false),
+        ("Is Shadow Ray", false),
+        ("Ray Length", false),
+        ("Is Glossy Ray", true),
+        ("Transparent Depth", true),
+    ] {
+        let tree = json!({"nodes": [
+            {"name": "L", "type": "ShaderNodeLightPath"},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": name}}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let program = compile(&tree, 0, &mut Vec::new()).expect("compiles");
+        assert_eq!(program.reads_ray_state, depends, "{name}");
+    }
+}
+
+#[test]
+fn transparent_closures_let_shadows_through() {
+    let tree = |alpha: Value| {
+        json!({"nodes": [
+            {"name": "P", "type": "ShaderNodeBsdfPrincipled", "inputs": {"Alpha": alpha}}
+        ], "output": {"node": 0, "output": "BSDF"}})
+    };
+    let compiled = |t: Value| compile(&t, 0, &mut Vec::new()).expect("compiles");
+    assert!(!compiled(tree(json!(1.0))).shadow_transparent);
+    assert!(compiled(tree(json!(0.5))).shadow_transparent);
+    let transparent = json!({"nodes": [
+        {"name": "T", "type": "ShaderNodeBsdfTransparent", "inputs": {"Color": [1, 1, 1, 1]}}
+    ], "output": {"node": 0, "output": "BSDF"}});
+    let program = compiled(transparent);
+    assert!(program.shadow_transparent);
+    let c = program.eval(&ShadingInputs::default(), &[], 0.5);
+    assert!(c.transparent && c.transmission == 1.0);
+}
+
+#[test]
+fn checker_tree_into_emission() {
+    let tree = json!({
+        "nodes": [
+            {"name": "Checker", "type": "ShaderNodeTexChecker",
+             "inputs": {"Color1": [1.0, 0.0, 0.0, 1.0], "Color2": [0.0, 0.0, 1.0, 1.0],
+                        "Scale": 2.0}},
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": "Color"}, "Strength": 3.0}}
+        ],
+        "output": {"node": 1, "output": "Emission"}
+    });
+    let e = emission_of(tree.clone(), &at_generated(Vec3::new(0.1, 0.1, 0.1)));
+    assert_eq!(e, Vec3::new(0.0, 0.0, 3.0));
+    let e = emission_of(tree, &at_generated(Vec3::new(0.6, 0.1, 0.1)));
+    assert_eq!(e, Vec3::new(3.0, 0.0, 0.0));
+}
+
+#[test]
+fn math_and_conversions_in_a_tree() {
+    // Separate the UV, multiply u by v, feed the float into a colour (float → colour).
+    let tree = json!({
+        "nodes": [
+            {"name": "UV", "type": "ShaderNodeUVMap", "uv_set": 2},
+            {"name": "Sep", "type": "ShaderNodeSeparateXYZ",
+             "inputs": {"Vector": {"node": 0, "output": "UV"}}},
+            {"name": "Mul", "type": "ShaderNodeMath", "operation": "MULTIPLY",
+             "inputs": {"Value": {"node": 1, "output": "X"},
+                        "Value_001": {"node": 1, "output": "Y"}}},
+            {"name": "Col", "type": "ShaderNodeRGB", "value": [0.0, 1.0, 0.0, 1.0]},
+            {"name": "Gray", "type": "ShaderNodeMath", "operation": "ADD",
+             "inputs": {"Value": {"node": 3, "output": "Color"}, "Value_001": 0.0}},
+            {"name": "Sum", "type": "ShaderNodeMath", "operation": "ADD",
+             "inputs": {"Value": {"node": 2, "output": "Value"},
+                        "Value_001": {"node": 4, "output": "Value"}}},
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 5, "output": "Value"}}}
+        ],
+        "output": {"node": 6, "output": "Emission"}
+    });
+    let at = ShadingInputs::at_point(PointInputs {
+        uv: [Vec2::ZERO, Vec2::ONE, Vec2::new(0.5, 0.25), Vec2::ONE],
+        ..PointInputs::default()
+    });
+    let e = emission_of(tree, &at);
+    assert!(
+        (e - Vec3::splat(0.125 + 0.7152)).abs().max_element() < 1e-6,
+        "{e}"
+    );
+}
+
+#[test]
+fn mix_shader_picks_by_factor_and_mixes_emission() {
+    let tree = json!({
+        "nodes": [
+            {"name": "D", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": [1.0, 0.0, 0.0, 1.0]}},
+            {"name": "G", "type": "ShaderNodeBsdfGlossy", "inputs": {"Color": [0.0, 1.0, 0.0, 1.0], "Roughness": 0.2}},
+            {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": 2.0}},
+            {"name": "M", "type": "ShaderNodeMixShader", "inputs": {"Fac": 0.25,
+                "Shader": {"node": 0, "output": "BSDF"}, "Shader_001": {"node": 1, "output": "BSDF"}}},
+            {"name": "A", "type": "ShaderNodeAddShader", "inputs": {
+                "Shader": {"node": 3, "output": "Shader"}, "Shader_001": {"node": 2, "output": "Emission"}}}
+        ],
+        "output": {"node": 4, "output": "Shader"}
+    });
+    let mut w = Vec::new();
+    let p = compile(&tree, 0, &mut w).unwrap();
+    let at = ShadingInputs::default();
+    let n = 10_000;
+    let mut metal = 0;
+    for i in 0..n {
+        let c = p.eval(&at, &[], (i as f32 + 0.5) / n as f32);
+        assert_eq!(c.emission, Vec3::splat(2.0));
+        if c.metallic == 1.0 {
+            assert_eq!(c.base_color, Vec3::new(0.0, 1.0, 0.0));
+            metal += 1;
+        } else {
+            assert_eq!(c.base_color, Vec3::new(1.0, 0.0, 0.0));
+            assert_eq!(c.specular_color, Vec3::ZERO);
+        }
+    }
+    assert_eq!(metal, n / 4);
+}
+
+#[test]
+fn invalid_programs_are_refused_with_a_reason() {
+    let mut w = Vec::new();
+    let forward = json!({"nodes": [
+        {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Color": {"node": 1, "output": "Color"}}},
+        {"name": "C", "type": "ShaderNodeRGB", "value": [1, 1, 1, 1]}
+    ], "output": {"node": 0, "output": "Emission"}});
+    let e = compile(&forward, 0, &mut w).unwrap_err();
+    assert!(e.contains("not earlier"), "{e}");
+    let value_as_shader = json!({"nodes": [
+        {"name": "C", "type": "ShaderNodeRGB", "value": [1, 1, 1, 1]}
+    ], "output": {"node": 0, "output": "Color"}});
+    assert!(compile(&value_as_shader, 0, &mut w)
+        .unwrap_err()
+        .contains("shader output"));
+    assert!(compile(&json!({"nodes": 3}), 0, &mut w).is_err());
+    let bad_ramp = json!({"nodes": [{"name": "R", "type": "ShaderNodeValToRGB", "table": [1]}]});
+    assert!(compile(&bad_ramp, 0, &mut w)
+        .unwrap_err()
+        .contains("Color Ramp"));
+}
+
+#[test]
+fn unknown_nodes_warn_and_fall_back() {
+    let mut w = Vec::new();
+    let tree = json!({"nodes": [
+        {"name": "Gabor", "type": "ShaderNodeTexGabor"},
+        {"name": "E", "type": "ShaderNodeEmission", "inputs": {
+            "Color": {"node": 0, "output": "Color"}, "Strength": 1.0}}
+    ], "output": {"node": 1, "output": "Emission"}});
+    let p = compile(&tree, 0, &mut w).unwrap();
+    assert_eq!(w.len(), 1);
+    assert!(w[0].contains("Gabor"), "{w:?}");
+    // The Emission colour's default (white) is used.
+    assert_eq!(
+        p.eval(&ShadingInputs::default(), &[], 0.5).emission,
+        Vec3::ONE
+    );
+}
+
+#[test]
+fn bump_tilts_the_normal_against_the_height_gradient() {
+    // Height = world x: the gradient is +X, so with distance 1 the normal leans to −X by
+    // 45°; the Height subtree is copied for the two offset points.
+    let tree = json!({"nodes": [
+        {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+        {"name": "Sep", "type": "ShaderNodeSeparateXYZ",
+         "inputs": {"Vector": {"node": 0, "output": "Position"}}},
+        {"name": "Bump", "type": "ShaderNodeBump",
+         "inputs": {"Distance": 1.0, "Strength": 1.0,
+                    "Height": {"node": 1, "output": "X"}}},
+        {"name": "D", "type": "ShaderNodeBsdfDiffuse",
+         "inputs": {"Normal": {"node": 2, "output": "Normal"}}}
+    ], "output": {"node": 3, "output": "BSDF"}});
+    let mut w = Vec::new();
+    let p = compile(&tree, 0, &mut w).unwrap();
+    assert!(p.needs_offsets && w.is_empty());
+    let e = 1e-3;
+    let c = p.eval(
+        &at_positions([Vec3::ZERO, Vec3::X * e, Vec3::Y * e], Vec3::Z),
+        &[],
+        0.5,
+    );
+    let want = Vec3::new(-1.0, 0.0, 1.0).normalize();
+    assert!((c.normal - want).length() < 1e-4, "{}", c.normal);
+    // Without offsets (all three points equal) the normal is the surface's.
+    let flat = p.eval(&at_positions([Vec3::ZERO; 3], Vec3::Z), &[], 0.5);
+    assert!((flat.normal - Vec3::Z).length() < 1e-6);
+}
+
+/// Blender's own Noise and Voronoi values at chosen points (near the origin, negative,
+/// −0, on cell walls, large, past Noise's period), recorded by
+/// `tests/blender/record_patterns.py` with Blender's geometry nodes, which evaluate the
+/// same definitions as Cycles' shader nodes.
+fn blender_patterns() -> (Value, Vec<Vec3>) {
+    let doc: Value = serde_json::from_str(include_str!("../../tests/data/blender_patterns.json"))
+        .expect("the recorded patterns are JSON");
+    let points = doc["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(vec3_of)
+        .collect();
+    (doc, points)
+}
+
+fn dims_of(config: &Value) -> u8 {
+    if config["dimensions"] == "2D" {
+        2
+    } else {
+        3
+    }
+}
+
+fn vec3_of(v: &Value) -> Vec3 {
+    let c = |k: usize| v[k].as_f64().expect("a number") as f32;
+    Vec3::new(c(0), c(1), c(2))
+}
+
+/// |a − b| within 2e-5 of the larger magnitude (at least 1): Blender's build may contract
+/// multiply-adds where Photon does not.
+fn assert_close(a: Vec3, b: Vec3, what: &str) {
+    let scale = a.abs().max(b.abs()).max_element().max(1.0);
+    assert!(
+        (a - b).abs().max_element() <= 2e-5 * scale,
+        "{what}: {a} vs Blender's {b}"
+    );
+}
+
+#[test]
+fn blender_noise_at_chosen_points() {
+    let (doc, points) = blender_patterns();
+    for n in doc["noise"].as_array().unwrap() {
+        let (dims, num) = (dims_of(n), |k: &str| n[k].as_f64().unwrap() as f32);
+        let f = Fractal {
+            detail: num("detail"),
+            roughness: num("roughness"),
+            lacunarity: num("lacunarity"),
+            normalize: n["normalize"].as_bool().unwrap(),
+        };
+        for (k, p) in points.iter().enumerate() {
+            let (fac, color) = noise_texture(dims, *p, 0.0, &f, num("distortion"), true);
+            let what = format!("{n} at {p}");
+            let want = n["fac"][k].as_f64().unwrap() as f32;
+            assert_close(Vec3::splat(fac), Vec3::splat(want), &what);
+            assert_close(color, vec3_of(&n["color"][k]), &what);
+        }
+    }
+}
+
+#[test]
+fn blender_voronoi_at_chosen_points() {
+    let (doc, points) = blender_patterns();
+    for v in doc["voronoi"].as_array().unwrap() {
+        let (dims, num) = (dims_of(v), |k: &str| v[k].as_f64().unwrap() as f32);
+        let feature = match v["feature"].as_str().unwrap() {
+            "F2" => VoronoiFeature::F2,
+            "SMOOTH_F1" => VoronoiFeature::SmoothF1,
+            _ => VoronoiFeature::F1,
+        };
+        let metric = match v["metric"].as_str().unwrap() {
+            "MANHATTAN" => Metric::Manhattan,
+            "CHEBYCHEV" => Metric::Chebychev,
+            "MINKOWSKI" => Metric::Minkowski,
+            _ => Metric::Euclidean,
+        };
+        let params = VoronoiParams {
+            scale: 1.0,
+            detail: num("detail"),
+            roughness: 0.5,
+            lacunarity: 2.0,
+            smoothness: (num("smoothness") / 2.0).clamp(0.0, 0.5),
+            exponent: num("exponent"),
+            randomness: num("randomness"),
+            kind: VoronoiKind {
+                dimensions: dims,
+                feature,
+                metric,
+                normalize: false,
+            },
+        };
+        for (k, p) in points.iter().enumerate() {
+            let mut p = *p;
+            if dims == 2 {
+                p.z = 0.0;
+            }
+            let (distance, color, position) = voronoi(&params, p, true);
+            let what = format!("{v} at {p}");
+            let want = v["distance"][k].as_f64().unwrap() as f32;
+            assert_close(Vec3::splat(distance), Vec3::splat(want), &what);
+            assert_close(color, vec3_of(&v["color"][k]), &what);
+            assert_close(position, vec3_of(&v["position"][k]), &what);
+        }
+    }
+}
+
+#[test]
+fn a_bumps_noise_copies_fuse_into_one_instruction() {
+    // Noise → Bump and Noise → Emission: the Noise and its two offset copies become one
+    // NoiseAt3 placed where the Noise was, and the tree's values are unchanged.
+    let tree = json!({"nodes": [
+        {"name": "T", "type": "ShaderNodeTexCoord"},
+        {"name": "N", "type": "ShaderNodeTexNoise", "inputs": {
+            "Vector": {"node": 0, "output": "Object"}, "Scale": 3.0, "Detail": 2.0}},
+        {"name": "B", "type": "ShaderNodeBump", "inputs": {
+            "Distance": 0.1, "Strength": 1.0, "Height": {"node": 1, "output": "Fac"}}},
+        {"name": "E", "type": "ShaderNodeEmission", "inputs": {
+            "Color": {"node": 1, "output": "Color"}, "Strength": 1.0}},
+        {"name": "D", "type": "ShaderNodeBsdfDiffuse",
+         "inputs": {"Normal": {"node": 2, "output": "Normal"}}},
+        {"name": "A", "type": "ShaderNodeAddShader", "inputs": {
+            "Shader": {"node": 3, "output": "Emission"},
+            "Shader_001": {"node": 4, "output": "BSDF"}}}
+    ], "output": {"node": 5, "output": "Shader"}});
+    let mut w = Vec::new();
+    let p = compile(&tree, 0, &mut w).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    let fused = p
+        .instrs
+        .iter()
+        .filter(|i| matches!(i.op, Op::NoiseAt3 { .. }))
+        .count();
+    let plain = p
+        .instrs
+        .iter()
+        .filter(|i| matches!(i.op, Op::Noise { .. }))
+        .count();
+    assert_eq!((fused, plain), (1, 0));
+    let q = Vec3::new(0.3, -0.2, 0.1);
+    let e = 1e-3;
+    let mut at = at_positions([q, q + Vec3::X * e, q + Vec3::Y * e], Vec3::Z);
+    for point in &mut at.points {
+        point.object = point.position;
+    }
+    let c = p.eval(&at, &[], 0.5);
+    let f = Fractal {
+        detail: 2.0,
+        roughness: 0.5,
+        lacunarity: 2.0,
+        normalize: true,
+    };
+    let (_, color) = noise_texture(3, q * 3.0, 0.0, &f, 0.0, true);
+    assert_eq!(c.emission, color);
+    let h = |v: Vec3| noise_texture(3, v * 3.0, 0.0, &f, 0.0, false).0;
+    let slope = Vec3::new(h(q + Vec3::X * e) - h(q), h(q + Vec3::Y * e) - h(q), 0.0);
+    assert!(
+        slope.length() > 0.0 && c.normal.dot(slope) < 0.0,
+        "{}",
+        c.normal
+    );
+}
