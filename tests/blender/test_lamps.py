@@ -92,17 +92,17 @@ def test_spot_lamp_seen_in_a_mirror(_addon, tmp_path):
 
 
 def test_lamp_flags_exported_and_partial_visibility_named(photon_addon, tmp_path):
-    from blender_addon import export, preflight
+    from blender_addon import lights, preflight
     scene = mirror_scene()
     lamp = common.light("Lamp", "POINT", (-1.2, -2.5, 2.5), energy=300.0, shadow_soft_size=0.2)
     lamp.visible_camera = True
     lamp.data.use_soft_falloff = False
     spot = common.light("Spot", "SPOT", (1.0, -2.5, 2.2), energy=600.0, shadow_soft_size=0.1)
     spot.visible_glossy = False
-    data = export.light_extension(lamp)
+    data = lights.light_extension(lamp)
     assert (data["soft_falloff"], data["visible_camera"], data["visible_bounces"]) == (
         False, True, True)
-    data = export.light_extension(spot)
+    data = lights.light_extension(spot)
     assert (data["soft_falloff"], data["visible_camera"], data["visible_bounces"]) == (
         True, False, False)
     messages = preflight.unsupported_features(scene, list(scene.objects))

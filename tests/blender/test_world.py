@@ -108,20 +108,20 @@ def test_camera_ray_sees_another_background(tmp_path):
 def test_world_problems_are_named(photon_addon):
     """What PHOTON_world does not carry is named for the pre-flight report: a Preetham sky, a
     Mix Shader factor from a texture; the export keeps the rest."""
-    from blender_addon import export
+    from blender_addon import world
     scene = ground_scene()
     tree, background = world_nodes(scene)
     sky = nishita(tree, 20.0, 0.0)
     sky.sky_type = "PREETHAM"
     tree.links.new(sky.outputs["Color"], background.inputs["Color"])
-    data, problems = export.world_description(scene.world)
+    data, problems = world.world_description(scene.world)
     assert "sky" not in data and len(problems) == 1 and "PREETHAM" in problems[0], problems
     sky.sky_type = "NISHITA"
     noise = tree.nodes.new("ShaderNodeTexNoise")
     other = tree.nodes.new("ShaderNodeBackground")
     mix = mix_into_output(tree, background, other)
     tree.links.new(noise.outputs["Fac"], mix.inputs["Fac"])
-    data, problems = export.world_description(scene.world)
+    data, problems = world.world_description(scene.world)
     assert len(problems) == 1 and "Noise Texture" in problems[0], problems
     assert [layer["weight"] for layer in data["mix"]] == pytest.approx([0.5, 0.5])
     assert data["mix"][0]["sky"]["sun_elevation"] == pytest.approx(math.radians(20.0))
