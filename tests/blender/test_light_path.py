@@ -1,4 +1,4 @@
-"""Light Path's outputs (issue 19) as Cycles defines them, against Cycles through the add-on.
+"""Light Path's outputs as Cycles defines them, against Cycles through the add-on.
 
 Every scene is 32x32, a 2 m floor seen from 3 m above (test_nodes.py's `plane_scene`), lit
 criterion (mean within 2 %, relMSE <= 0.01, `cycles_compare.compare`):

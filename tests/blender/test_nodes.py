@@ -1,4 +1,4 @@
-"""Shader node trees evaluated by Photon (PHOTON_material_nodes, issue 19), against Cycles.
+"""Shader node trees evaluated by Photon (PHOTON_material_nodes), against Cycles.
 
 Each scene is built with bpy and rendered by Cycles and by Photon through the add-on at 32x32:
 

@@ -1,4 +1,4 @@
-"""Converters and Add Shader (issue 19) against Cycles, each fed by a texture so its input
+"""Converters and Add Shader against Cycles, each fed by a texture so its input
 varies over the plane, wired into an Emission shader (relMSE <= 1e-3, `test_nodes.py`'s
 criterion for a node's value itself):
 

@@ -1,4 +1,4 @@
-"""Blender's Holdout shader (issue 19) against Cycles through the add-on: where the camera sees
+"""Blender's Holdout shader against Cycles through the add-on: where the camera sees
 a Holdout the image is black and its alpha 0, with a transparent film and with an opaque one;
 other rays meet it as a black surface (it casts a shadow, reflects nothing).
 

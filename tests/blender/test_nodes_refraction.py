@@ -1,4 +1,4 @@
-"""Blender's Refraction BSDF (issue 19) against Cycles through the add-on: the glass's
+"""Blender's Refraction BSDF against Cycles through the add-on: the glass's
 transmission lobe alone, of its colour, without Fresnel (nothing reflected; nothing passes at
 total internal reflection), smooth or GGX-rough.
 
@@ -11,7 +11,7 @@ photons stored on the slab's faces inside the glass kept the flux the camera pat
 them where its adjoint scales it by 1/eta^2, and were read through the narrow refraction lobe.
 Photons inside a medium are now scaled (`tracing::adjoint_scale`) and dielectrics without a
 Lambertian part are ray traced at any roughness (`classify`): -0.1 %, relMSE 0.0008 at 512 spp
-(docs/bench/measurements.md, issue 19, slab-19n).
+(docs/bench/photon_method.md, "Photons inside glass").
 """
 
 import bpy

@@ -1,4 +1,4 @@
-"""Blender's Translucent BSDF (issue 19) against Cycles through the add-on: Lambertian
+"""Blender's Translucent BSDF against Cycles through the add-on: Lambertian
 transmission, f = colour / pi on the side of the surface away from the light.
 
 Every scene is 32x32 under a black world, the lit criterion (mean within 2 %, relMSE <= 0.01,
