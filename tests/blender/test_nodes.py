@@ -32,6 +32,8 @@ import pytest
 import common
 from cycles_compare import compare
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 EMISSION_RELMSE_MAX = 1e-3
 SIZE = 32
 

@@ -22,6 +22,8 @@ import scenes_bpy
 from helpers import photon_binary, read_exr, rel_mse
 from test_nodes import node_material
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 SIZE = 32
 METHODS = {"path": 256, "photon": 256, "path-cache": 256}
 

@@ -17,6 +17,8 @@ import pytest
 from cycles_compare import compare
 from test_nodes import emission_matches, lit_scene, node_material, plane_scene
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 
 @pytest.fixture(autouse=True)
 def _addon(photon_addon, binary_env):

@@ -18,6 +18,8 @@ from helpers import read_exr
 from test_nodes import SIZE, node_material, plane_scene
 from test_nodes_refraction import checker_floor
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 
 @pytest.fixture(autouse=True)
 def _addon(photon_addon, binary_env):

@@ -66,6 +66,7 @@ def slab_over_a_checker_floor(node_type, roughness):
 PHOTON_BUDGET = dict(photon_spp=128, relmse_max=0.008)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("roughness,method", [(0.0, "PATH"), (0.3, "PATH"), (0.0, "PHOTON"),
                                               (0.3, "PHOTON")])
 def test_refraction_slab_over_a_checker_floor(tmp_path, roughness, method):
@@ -75,6 +76,7 @@ def test_refraction_slab_over_a_checker_floor(tmp_path, roughness, method):
             method=method, **budget)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("roughness,method", [(0.0, "PATH"), (0.3, "PATH"), (0.3, "PHOTON")])
 def test_tinted_glass_slab_over_a_checker_floor(tmp_path, roughness, method):
     """The Glass BSDF beside it (GGX): its colour weighs the reflection and each crossing

@@ -30,6 +30,8 @@ import common
 from blender_addon import node_tree
 from cycles_compare import compare
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 SIZE = 40
 CHANNEL_TOL = 0.03
 

@@ -23,6 +23,8 @@ import pytest
 import common
 from cycles_compare import compare
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 SIZE = 32
 RADIUS = (1.0, 0.4, 0.2)
 

@@ -27,6 +27,7 @@ def test_window_lit_room_default_render_matches_cycles(name):
     assert_matches_reference(name, 64, RELMSE_MAX, 0.03)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["room_thin", "room_thick"])
 def test_window_lit_room_mean_is_unbiased(name):
     assert_matches_reference(name, 256, RELMSE_MAX, 0.02)

@@ -18,6 +18,8 @@ import common
 from cycles_compare import compare
 from test_nodes import node_material, plane_scene
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 
 @pytest.fixture(autouse=True)
 def _addon(photon_addon, binary_env):

@@ -59,6 +59,7 @@ def nishita(tree, elevation_deg, rotation_deg):
     return sky
 
 
+@pytest.mark.slow
 @needs_nishita
 @pytest.mark.parametrize("elevation", [12.0, 50.0])
 def test_nishita_sky(tmp_path, elevation):
@@ -72,6 +73,7 @@ def test_nishita_sky(tmp_path, elevation):
     compare(f"nishita sky {elevation:.0f} deg", scene, tmp_path, photon_spp=512)
 
 
+@pytest.mark.slow
 def test_mix_of_two_backgrounds(tmp_path):
     """A blue and an orange background mixed 0.3 : 0.7 by a Mix Shader, with a sun."""
     scene = ground_scene()
@@ -86,6 +88,7 @@ def test_mix_of_two_backgrounds(tmp_path):
     compare("mix of two backgrounds", scene, tmp_path)
 
 
+@pytest.mark.slow
 @needs_nishita
 def test_camera_ray_sees_another_background(tmp_path):
     """Light Path "Is Camera Ray" mixes a Nishita sky (lighting the scene) with a plain grey the
