@@ -1,10 +1,10 @@
 //! Cameras: glTF's perspective and orthographic cameras with `PHOTON_camera`'s lens shift, thin
 //! lens, panoramic projections and motion, and the camera that frames a scene without one.
 
-use super::motion::read_poses;
+use super::container::named;
+use super::extensions::CameraExtension;
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3};
-use crate::scene::{Bounds, Camera, Projection, ThinLens};
-use serde_json::Value;
+use crate::scene::{Bounds, Camera, Projection};
 
 /// A camera found while walking the node tree.
 pub(super) struct FoundCamera {
@@ -13,12 +13,71 @@ pub(super) struct FoundCamera {
     pub(super) camera: Camera,
 }
 
-pub(super) fn convert_camera(
+/// The camera `node` holds, with its `PHOTON_camera` applied: its glTF camera, or a panoramic
+/// camera (Blender's exporter drops those and keeps their node, with a `panorama`). An error
+/// names the glTF camera at fault.
+pub(super) fn node_camera(
+    node: &gltf::Node,
+    world: &Mat4,
+    extension: Option<&CameraExtension>,
+) -> std::result::Result<Option<FoundCamera>, (String, String)> {
+    let mut found = match node.camera() {
+        Some(camera) => FoundCamera {
+            node_name: node.name().unwrap_or_default().to_string(),
+            camera_name: camera.name().unwrap_or_default().to_string(),
+            camera: convert_camera(node, &camera, world)
+                .map_err(|m| (named("camera", camera.index(), camera.name()), m))?,
+        },
+        None if extension.is_some_and(|e| e.panorama.is_some()) => {
+            let name = node.name().unwrap_or("panoramic camera").to_string();
+            let placeholder = Projection::Perspective { yfov: 0.6981 };
+            FoundCamera {
+                node_name: name.clone(),
+                camera_name: name.clone(),
+                camera: rigid_camera(name, world, placeholder, None, 0.0),
+            }
+        }
+        None => return Ok(None),
+    };
+    if let Some(extension) = extension {
+        let camera = &mut found.camera;
+        camera.shift = extension.shift;
+        camera.lens = extension.lens;
+        camera.motion = extension.motion.clone();
+        if let Some(panorama) = extension.panorama {
+            camera.projection = panorama;
+        }
+    }
+    Ok(Some(found))
+}
+
+/// A camera placed by `world` without its scale, with no shift, lens or motion.
+fn rigid_camera(
+    name: String,
+    world: &Mat4,
+    projection: Projection,
+    aspect_ratio: Option<f32>,
+    near_clip: f32,
+) -> Camera {
+    let (_, rotation, translation) = world.to_scale_rotation_translation();
+    Camera {
+        name,
+        to_world: Affine3A::from_rotation_translation(rotation.normalize(), translation),
+        projection,
+        aspect_ratio,
+        shift: Vec2::ZERO,
+        lens: None,
+        motion: Vec::new(),
+        near_clip,
+    }
+}
+
+/// glTF's perspective or orthographic camera, its values checked.
+fn convert_camera(
     node: &gltf::Node,
     camera: &gltf::Camera,
     world: &Mat4,
 ) -> std::result::Result<Camera, String> {
-    let (_, rotation, translation) = world.to_scale_rotation_translation();
     let near_clip = match camera.projection() {
         gltf::camera::Projection::Perspective(p) => p.znear(),
         gltf::camera::Projection::Orthographic(o) => o.znear(),
@@ -53,114 +112,17 @@ pub(super) fn convert_camera(
             return Err(format!("aspectRatio {a} must be positive and finite"));
         }
     }
-    Ok(Camera {
-        name: node
-            .name()
-            .or(camera.name())
-            .map_or_else(|| format!("camera {}", camera.index()), str::to_string),
-        to_world: Affine3A::from_rotation_translation(rotation.normalize(), translation),
+    let name = node
+        .name()
+        .or(camera.name())
+        .map_or_else(|| format!("camera {}", camera.index()), str::to_string);
+    Ok(rigid_camera(
+        name,
+        world,
         projection,
         aspect_ratio,
-        shift: Vec2::ZERO,
-        lens: None,
-        motion: Vec::new(),
         near_clip,
-    })
-}
-
-/// `PHOTON_camera` (see the module documentation) applied to `camera`.
-pub(super) fn read_camera_extension(
-    value: &Value,
-    camera: &mut Camera,
-) -> std::result::Result<(), String> {
-    let number =
-        |object: &Value, key: &str, default: f32, ok: fn(f32) -> bool| match object.get(key) {
-            None => Ok(default),
-            Some(v) => match v.as_f64().map(|x| x as f32) {
-                Some(x) if x.is_finite() && ok(x) => Ok(x),
-                _ => Err(format!("'{key}' is out of range: {v}")),
-            },
-        };
-    if let Some(v) = value.get("shift") {
-        camera.shift = match v.as_array().map(Vec::as_slice) {
-            Some([x, y]) => match (x.as_f64(), y.as_f64()) {
-                (Some(x), Some(y)) => Vec2::new(x as f32, y as f32),
-                _ => return Err(format!("'shift' must be two numbers, found {v}")),
-            },
-            _ => return Err(format!("'shift' must be two numbers, found {v}")),
-        };
-        if !camera.shift.is_finite() {
-            return Err(format!("'shift' must be finite, found {v}"));
-        }
-    }
-    if let Some(panorama) = value.get("panorama") {
-        camera.projection = read_panorama(panorama)?;
-    }
-    if let Some(v) = value.get("motion") {
-        // Cameras are rigid: the scale goes.
-        camera.motion = read_poses(v)?
-            .into_iter()
-            .map(|m| {
-                let (_, rotation, translation) = m.to_scale_rotation_translation();
-                Affine3A::from_rotation_translation(rotation.normalize(), translation)
-            })
-            .collect();
-    }
-    if let Some(dof) = value.get("dof") {
-        let radius = number(dof, "aperture_radius", 0.0, |x| x >= 0.0)?;
-        let focus_distance = number(dof, "focus_distance", 10.0, |x| x > 0.0)?;
-        let blades = number(dof, "blades", 0.0, |x| (0.0..=1000.0).contains(&x))?;
-        let rotation = number(dof, "rotation", 0.0, |_| true)?;
-        let ratio = number(dof, "ratio", 1.0, |x| x > 0.0)?;
-        camera.lens = (radius > 0.0).then_some(ThinLens {
-            radius,
-            focus_distance,
-            blades: blades as u32,
-            rotation,
-            ratio,
-        });
-    }
-    Ok(())
-}
-
-/// The `panorama` of `PHOTON_camera`: Cycles' equirectangular or fisheye projection.
-pub(super) fn read_panorama(value: &Value) -> std::result::Result<Projection, String> {
-    let pair = |key: &str, default: (f32, f32), ok: fn(f32) -> bool| match value.get(key) {
-        None => Ok(default),
-        Some(v) => match v.as_array().map(Vec::as_slice) {
-            Some([a, b]) => match (a.as_f64(), b.as_f64()) {
-                (Some(a), Some(b)) if ok(a as f32) && ok(b as f32) => Ok((a as f32, b as f32)),
-                _ => Err(format!("'{key}' is out of range: {v}")),
-            },
-            _ => Err(format!("'{key}' must be two numbers, found {v}")),
-        },
-    };
-    let number = |key: &str, default: f32| match value.get(key) {
-        None => Ok(default),
-        Some(v) => match v.as_f64().map(|x| x as f32) {
-            Some(x) if x.is_finite() && x > 0.0 => Ok(x),
-            _ => Err(format!("'{key}' must be a positive number, found {v}")),
-        },
-    };
-    let pi = std::f32::consts::PI;
-    match value.get("type").and_then(Value::as_str) {
-        Some("EQUIRECTANGULAR") => Ok(Projection::Equirectangular {
-            longitude: pair("longitude", (-pi, pi), |x| x.is_finite())?,
-            latitude: pair("latitude", (-0.5 * pi, 0.5 * pi), |x| x.is_finite())?,
-        }),
-        Some("FISHEYE_EQUIDISTANT") => Ok(Projection::FisheyeEquidistant {
-            fov: number("fov", pi)?,
-        }),
-        Some("FISHEYE_EQUISOLID") => Ok(Projection::FisheyeEquisolid {
-            lens: number("lens", 10.5)?,
-            fov: number("fov", pi)?,
-            sensor: pair("sensor", (36.0, 24.0), |x| x.is_finite() && x > 0.0)?,
-        }),
-        other => Err(format!(
-            "unknown panorama type {other:?} (EQUIRECTANGULAR, FISHEYE_EQUIDISTANT or \
-             FISHEYE_EQUISOLID)"
-        )),
-    }
+    ))
 }
 
 /// A 40° perspective camera in front of the bounds (+Z side, slightly above), looking at their

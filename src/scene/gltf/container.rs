@@ -4,6 +4,8 @@
 //! `Loader` defined here carries the document and the scene being built from it; each of the
 //! neighbouring files adds the methods of one concern.
 
+use super::encoding::{decode_base64, percent_decode};
+use super::extensions::{Invalid, NodeExtensions};
 use super::images::DecodedImage;
 use crate::error::{Error, Result};
 use crate::math::{Affine3A, Vec2, Vec3};
@@ -11,6 +13,7 @@ use crate::scene::{Camera, Projection, Scene, SceneRenderSettings, World};
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 /// Extensions Photon reads; any other in `extensionsRequired` makes the file unloadable.
 pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
@@ -56,11 +59,18 @@ pub(super) struct Loader {
     pub(super) instanced_meshes: std::collections::HashSet<usize>,
     /// Prototype indices of each instanced glTF mesh (one per primitive), once built.
     pub(super) prototype_ids: HashMap<usize, Vec<u32>>,
+    /// Each node's `PHOTON_*` extensions, by node index, read once.
+    pub(super) node_extensions: Rc<[NodeExtensions]>,
 }
 
 impl Loader {
     pub(super) fn err(&self, object: impl Into<String>, message: impl Into<String>) -> Error {
         Error::scene(&self.path, object, message)
+    }
+
+    /// The error for an extension of `object` refused when it was read.
+    pub(super) fn invalid(&self, object: &str, invalid: Invalid) -> Error {
+        Error::scene(&self.path, invalid.object(object), invalid.message)
     }
 
     /// Parse JSON (or split a GLB), check required extensions, validate, and load buffers.
@@ -122,6 +132,16 @@ impl Loader {
             other => Error::scene(path, "document", format!("invalid glTF: {other}")),
         })?;
 
+        let node_extensions = document
+            .nodes()
+            .map(|node| {
+                NodeExtensions::read(&node).map_err(|(extension, invalid)| {
+                    let node = named("node", node.index(), node.name());
+                    let object = invalid.object(&format!("{node} {extension}"));
+                    Error::scene(path, object, invalid.message)
+                })
+            })
+            .collect::<Result<Rc<[NodeExtensions]>>>()?;
         let mut loader = Loader {
             path: path.to_path_buf(),
             base: base.map(Path::to_path_buf),
@@ -159,6 +179,7 @@ impl Loader {
             quantized,
             instanced_meshes: Default::default(),
             prototype_ids: HashMap::new(),
+            node_extensions,
         };
         loader.load_buffers(blob)?;
         Ok(loader)
@@ -362,69 +383,9 @@ pub(super) fn use_webp_sources(
     Ok(())
 }
 
-/// Standard or URL-safe base64, padded or not, line breaks ignored; `None` when malformed.
-pub(super) fn decode_base64(text: &str) -> Option<Vec<u8>> {
-    let mut out = Vec::with_capacity(text.len() / 4 * 3);
-    let mut accumulator = 0u32;
-    let mut bits = 0;
-    for &c in text.trim_end_matches('=').as_bytes() {
-        let value = match c {
-            b'A'..=b'Z' => c - b'A',
-            b'a'..=b'z' => c - b'a' + 26,
-            b'0'..=b'9' => c - b'0' + 52,
-            b'+' | b'-' => 62,
-            b'/' | b'_' => 63,
-            b'\r' | b'\n' | b' ' => continue,
-            _ => return None,
-        };
-        accumulator = (accumulator << 6) | value as u32;
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((accumulator >> bits) as u8);
-        }
-    }
-    Some(out)
-}
-
-/// Decode %XX escapes in a URI path; `None` for malformed escapes or non-UTF-8 results.
-pub(super) fn percent_decode(text: &str) -> Option<String> {
-    let bytes = text.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while let Some(&b) = bytes.get(i) {
-        if b == b'%' {
-            let hex = std::str::from_utf8(bytes.get(i + 1..i + 3)?).ok()?;
-            out.push(u8::from_str_radix(hex, 16).ok()?);
-            i += 3;
-        } else {
-            out.push(b);
-            i += 1;
-        }
-    }
-    String::from_utf8(out).ok()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn base64_decodes_with_and_without_padding() {
-        assert_eq!(decode_base64("TWFu").unwrap(), b"Man");
-        assert_eq!(decode_base64("TWE=").unwrap(), b"Ma");
-        assert_eq!(decode_base64("TQ==").unwrap(), b"M");
-        assert_eq!(decode_base64("").unwrap(), b"");
-        assert!(decode_base64("T*E=").is_none());
-    }
-
-    #[test]
-    fn percent_decoding_rejects_malformed_escapes() {
-        assert_eq!(percent_decode("my%20wood.png").unwrap(), "my wood.png");
-        assert!(percent_decode("bad%zz").is_none());
-        assert!(percent_decode("cut%2").is_none());
-        assert!(percent_decode("%FF").is_none());
-    }
 
     #[test]
     fn glb_headers_are_checked() {

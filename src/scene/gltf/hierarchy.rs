@@ -3,14 +3,14 @@
 //! stored once as prototypes and placed by instances, and the walk that places meshes,
 //! cameras and lights in world space, carrying moving parents' poses to their children.
 
-use super::camera::{convert_camera, read_camera_extension, FoundCamera};
+use super::camera::{node_camera, FoundCamera};
 use super::container::{named, Loader};
-use super::motion::{moves, read_poses};
+use super::extensions::NodeExtensions;
 use crate::error::Result;
-use crate::math::{Affine3A, Mat3, Mat4, Vec2};
-use crate::scene::{Camera, Projection};
+use crate::math::{Affine3A, Mat3, Mat4};
 use gltf::mesh::Mode;
 use std::collections::HashMap;
+use std::rc::Rc;
 
 /// Scenes with more triangles than this (after instancing) are refused rather than exhausting
 /// memory.
@@ -74,7 +74,15 @@ impl Loader {
         let mut moving = std::collections::HashSet::new();
         let mut visited = 0;
         for node in gltf_scene.nodes() {
-            count_mesh_uses(&node, &mut uses, &mut moving, false, 0, &mut visited);
+            count_mesh_uses(
+                &node,
+                &self.node_extensions,
+                &mut uses,
+                &mut moving,
+                false,
+                0,
+                &mut visited,
+            );
         }
         self.instanced_meshes = uses
             .into_iter()
@@ -101,6 +109,33 @@ impl Loader {
             && (det > 0.0 || (moving && det < 0.0))
     }
 
+    /// Refuse the node `object` when it is its own ancestor, lies `depth` nodes deep, past
+    /// `MAX_NODE_DEPTH`, or is node instance number `instances`, past `MAX_NODE_INSTANCES`.
+    fn check_node(
+        &self,
+        object: &str,
+        is_own_ancestor: bool,
+        depth: usize,
+        instances: usize,
+    ) -> Result<()> {
+        if is_own_ancestor {
+            return Err(self.err(object, "is its own ancestor (cycle in the node hierarchy)"));
+        }
+        if depth >= MAX_NODE_DEPTH {
+            return Err(self.err(
+                object,
+                format!("node hierarchy deeper than {MAX_NODE_DEPTH}"),
+            ));
+        }
+        if instances > MAX_NODE_INSTANCES {
+            return Err(self.err(
+                object,
+                format!("the hierarchy instances more than {MAX_NODE_INSTANCES} nodes"),
+            ));
+        }
+        Ok(())
+    }
+
     pub(super) fn count_node(
         &self,
         node: &gltf::Node,
@@ -111,22 +146,9 @@ impl Loader {
         let parent = ancestors.last().map_or(Mat4::IDENTITY, |a| a.1);
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let object = named("node", node.index(), node.name());
-        if ancestors.iter().any(|a| a.0 == node.index()) {
-            return Err(self.err(object, "is its own ancestor (cycle in the node hierarchy)"));
-        }
-        if ancestors.len() >= MAX_NODE_DEPTH {
-            return Err(self.err(
-                object,
-                format!("node hierarchy deeper than {MAX_NODE_DEPTH}"),
-            ));
-        }
+        let is_own_ancestor = ancestors.iter().any(|a| a.0 == node.index());
         totals.instances += 1;
-        if totals.instances > MAX_NODE_INSTANCES {
-            return Err(self.err(
-                object,
-                format!("the hierarchy instances more than {MAX_NODE_INSTANCES} nodes"),
-            ));
-        }
+        self.check_node(&object, is_own_ancestor, ancestors.len(), totals.instances)?;
         if let Some(mesh) = node.mesh() {
             let (mut triangles, mut vertices) =
                 per_mesh.get(&mesh.index()).copied().unwrap_or_default();
@@ -174,46 +196,36 @@ impl Loader {
         cameras: &mut Vec<FoundCamera>,
     ) -> Result<()> {
         let object = named("node", node.index(), node.name());
-        if ancestors.contains(&node.index()) {
-            return Err(self.err(object, "is its own ancestor (cycle in the node hierarchy)"));
-        }
-        if ancestors.len() >= MAX_NODE_DEPTH {
-            return Err(self.err(
-                object,
-                format!("node hierarchy deeper than {MAX_NODE_DEPTH}"),
-            ));
-        }
         self.node_instances += 1;
-        if self.node_instances > MAX_NODE_INSTANCES {
-            return Err(self.err(
-                object,
-                format!("the hierarchy instances more than {MAX_NODE_INSTANCES} nodes"),
-            ));
-        }
+        let is_own_ancestor = ancestors.contains(&node.index());
+        self.check_node(
+            &object,
+            is_own_ancestor,
+            ancestors.len(),
+            self.node_instances,
+        )?;
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent.world * local;
         if !world.is_finite() {
             return Err(self.err(object, "transform is NaN or infinite"));
         }
         // Its own poses over the shutter (world matrices), or its moving parent's carrying it.
-        let motion = match node
-            .extension_value("PHOTON_object")
-            .and_then(|v| v.get("motion"))
-        {
-            Some(poses) => {
-                read_poses(poses).map_err(|m| self.err(format!("{object} PHOTON_object"), m))?
-            }
-            None => parent
+        let extensions = Rc::clone(&self.node_extensions);
+        let own = &extensions[node.index()];
+        let motion = if own.object.motion.is_empty() {
+            parent
                 .motion
                 .iter()
                 .map(|pose| *pose * Affine3A::from_mat4(local))
-                .collect(),
+                .collect()
+        } else {
+            own.object.motion.clone()
         };
         if let Some(mesh) = node.mesh() {
             if self.places_instance(node, &world, !motion.is_empty()) {
                 self.add_instance(node, &mesh, &world, &motion)?;
             } else {
-                if !motion.is_empty() || moves(node) {
+                if !motion.is_empty() || own.object.moves() {
                     self.scene.warnings.push(format!(
                         "{object}: motion blur is not rendered for it (a singular transform: \
                          only invertible ones are placed per moment)"
@@ -222,45 +234,10 @@ impl Loader {
                 self.add_mesh(node, &mesh, &world, false)?;
             }
         }
-        let extension = node.extension_value("PHOTON_camera");
-        if node.camera().is_none() && extension.is_some_and(|e| e.get("panorama").is_some()) {
-            // Blender's exporter drops panoramic cameras and keeps their node.
-            let (_, rotation, translation) = world.to_scale_rotation_translation();
-            let name = node.name().unwrap_or("panoramic camera").to_string();
-            let mut camera = Camera {
-                name: name.clone(),
-                to_world: Affine3A::from_rotation_translation(rotation.normalize(), translation),
-                projection: Projection::Perspective { yfov: 0.6981 },
-                aspect_ratio: None,
-                shift: Vec2::ZERO,
-                lens: None,
-                motion: Vec::new(),
-                near_clip: 0.0,
-            };
-            if let Some(extension) = extension {
-                read_camera_extension(extension, &mut camera)
-                    .map_err(|m| self.err(format!("{object} PHOTON_camera"), m))?;
-            }
-            cameras.push(FoundCamera {
-                node_name: name.clone(),
-                camera_name: name,
-                camera,
-            });
-        }
-        if let Some(camera) = node.camera() {
-            let mut converted = convert_camera(node, &camera, &world)
-                .map_err(|m| self.err(named("camera", camera.index(), camera.name()), m))?;
-            if let Some(extension) = node.extension_value("PHOTON_camera") {
-                read_camera_extension(extension, &mut converted)
-                    .map_err(|m| self.err(format!("{object} PHOTON_camera"), m))?;
-            }
-            cameras.push(FoundCamera {
-                node_name: node.name().unwrap_or_default().to_string(),
-                camera_name: camera.name().unwrap_or_default().to_string(),
-                camera: converted,
-            });
-        }
-        self.add_lights(node, &world)?;
+        let camera = node_camera(node, &world, own.camera.as_ref())
+            .map_err(|(object, message)| self.err(object, message))?;
+        cameras.extend(camera);
+        self.add_lights(node, &world, own.light.as_ref())?;
         ancestors.push(node.index());
         for child in node.children() {
             let placement = Placement {
@@ -280,6 +257,7 @@ impl Loader {
 /// hierarchy next).
 pub(super) fn count_mesh_uses(
     node: &gltf::Node,
+    extensions: &[NodeExtensions],
     uses: &mut HashMap<usize, usize>,
     moving: &mut std::collections::HashSet<usize>,
     moving_above: bool,
@@ -290,7 +268,7 @@ pub(super) fn count_mesh_uses(
     if depth >= MAX_NODE_DEPTH || *visited > MAX_NODE_INSTANCES {
         return;
     }
-    let moves = moving_above || moves(node);
+    let moves = moving_above || extensions[node.index()].object.moves();
     if let Some(mesh) = node.mesh() {
         *uses.entry(mesh.index()).or_default() += 1;
         if moves {
@@ -298,7 +276,7 @@ pub(super) fn count_mesh_uses(
         }
     }
     for child in node.children() {
-        count_mesh_uses(&child, uses, moving, moves, depth + 1, visited);
+        count_mesh_uses(&child, extensions, uses, moving, moves, depth + 1, visited);
     }
 }
 

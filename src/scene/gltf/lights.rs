@@ -2,116 +2,54 @@
 //! `PHOTON_light` additions: Cycles' power, colour and spot cone, lamp radius and visibility, and
 //! area lights (which Blender's exporter drops) built as one-sided emissive meshes.
 
-use super::container::{json_vec3, named, Loader};
+use super::container::{named, Loader};
+use super::extensions::{AreaLight, AreaShape, LightExtension, PunctualExtension};
 use crate::error::Result;
 use crate::math::{Mat3, Mat4, Vec3, Vec4};
-use crate::scene::{units, Lamp, Light, Material, Mesh};
-use serde_json::Value;
+use crate::scene::{units, Light, Material, Mesh};
 
 /// Segments of the fan that approximates disk and ellipse area lights.
 pub(super) const AREA_LIGHT_SEGMENTS: usize = 32;
 
-/// Parameters of a `PHOTON_light` area light.
-pub(super) struct AreaLight {
-    shape: String,
-    size: f32,
-    size_y: f32,
-    power: f32,
-    color: Vec3,
-    visible_camera: bool,
-    /// Full spread angle in radians; π emits over the whole hemisphere.
-    spread: f32,
-}
-
 impl Loader {
-    pub(super) fn add_lights(&mut self, node: &gltf::Node, world: &Mat4) -> Result<()> {
+    /// The lights of `node` placed by `world`: its KHR_lights_punctual light with what its
+    /// `PHOTON_light` (`extension`) adds, or the area light that extension describes.
+    pub(super) fn add_lights(
+        &mut self,
+        node: &gltf::Node,
+        world: &Mat4,
+        extension: Option<&LightExtension>,
+    ) -> Result<()> {
         let object = named("node", node.index(), node.name());
-        let extension = node.extension_value("PHOTON_light");
-        let number = |key: &str, default: f32| -> f32 {
-            extension
-                .and_then(|e| e.get(key))
-                .and_then(Value::as_f64)
-                .map_or(default, |v| v as f32)
-        };
         let position = world.transform_point3(Vec3::ZERO);
         let direction = world
             .transform_vector3(Vec3::NEG_Z)
             .normalize_or(Vec3::NEG_Z);
-        if extension
-            .and_then(|e| e.get("type"))
-            .and_then(Value::as_str)
-            == Some("area")
-        {
-            let area = AreaLight {
-                shape: extension
-                    .and_then(|e| e.get("shape"))
-                    .and_then(Value::as_str)
-                    .unwrap_or("SQUARE")
-                    .to_string(),
-                size: number("size", 1.0),
-                size_y: number("size_y", number("size", 1.0)),
-                power: number("power", 10.0),
-                color: extension
-                    .and_then(|e| e.get("color"))
-                    .and_then(json_vec3)
-                    .unwrap_or(Vec3::ONE),
-                visible_camera: extension
-                    .and_then(|e| e.get("visible_camera"))
-                    .and_then(Value::as_bool)
-                    .unwrap_or(false),
-                spread: number("spread", std::f32::consts::PI),
-            };
-            return self.add_area_light(node, world, &area, &object);
-        }
+        let default = PunctualExtension::default();
+        let extension = match extension {
+            Some(LightExtension::Area(area)) => {
+                return self.add_area_light(node, world, area, &object)
+            }
+            Some(LightExtension::Punctual(punctual)) => punctual,
+            None => &default,
+        };
         let Some(light) = node.light() else {
             return Ok(());
         };
-        let object = format!("{object} PHOTON_light");
-        let checked = |key: &str, ok: fn(f32) -> bool| -> Result<Option<f32>> {
-            match extension.and_then(|e| e.get(key)) {
-                None => Ok(None),
-                Some(v) => match v.as_f64().map(|x| x as f32) {
-                    Some(x) if x.is_finite() && ok(x) => Ok(Some(x)),
-                    _ => Err(self.err(&object, format!("'{key}' is out of range: {v}"))),
-                },
-            }
-        };
         // The extension's colour and power (Cycles' units) replace the photometric values.
-        let tint = match extension.and_then(|e| e.get("color")) {
-            None => None,
-            Some(v) => Some(
-                json_vec3(v)
-                    .filter(|c| c.is_finite() && c.min_element() >= 0.0)
-                    .ok_or_else(|| {
-                        self.err(&object, format!("'color' must be three numbers ≥ 0: {v}"))
-                    })?,
-            ),
-        };
+        let tint = extension.color;
         let color = tint.unwrap_or_else(|| Vec3::from(light.color()));
-        let power = checked("power", |x| x >= 0.0)?.filter(|_| tint.is_some());
+        let power = extension.power.filter(|_| tint.is_some());
         let intensity = match power {
             Some(watts) => color * units::blender_point_power_to_intensity(watts),
             None => color * units::candela_to_watts_per_sr(light.intensity()),
         };
-        let flag = |key: &str, default: bool| -> Result<bool> {
-            match extension.and_then(|e| e.get(key)) {
-                None => Ok(default),
-                Some(v) => v.as_bool().ok_or_else(|| {
-                    self.err(&object, format!("'{key}' must be true or false: {v}"))
-                }),
-            }
-        };
-        let defaults = Lamp::default();
-        let lamp = Lamp {
-            soft_falloff: flag("soft_falloff", defaults.soft_falloff)?,
-            camera: flag("visible_camera", defaults.camera)?,
-            bounces: flag("visible_bounces", defaults.bounces)?,
-        };
+        let lamp = extension.lamp;
         let light = match light.kind() {
             gltf::khr_lights_punctual::Kind::Point => Light::Point {
                 position,
                 intensity,
-                radius: number("radius", 0.0),
+                radius: extension.radius,
                 lamp,
             },
             gltf::khr_lights_punctual::Kind::Spot {
@@ -119,12 +57,10 @@ impl Loader {
                 outer_cone_angle,
             } => {
                 // Cycles' cone: smoothstep((cos θ − cos(size/2)) / ((1 − cos(size/2)) × blend)).
-                let size = checked("spot_size", |x| x > 0.0 && x <= std::f32::consts::PI)?;
-                let blend = checked("spot_blend", |x| (0.0..=1.0).contains(&x))?;
-                let (cos_inner, cos_outer) = match size {
+                let (cos_inner, cos_outer) = match extension.spot_size {
                     Some(size) => {
                         let cos_outer = (0.5 * size).cos();
-                        let blend = blend.unwrap_or(0.0);
+                        let blend = extension.spot_blend.unwrap_or(0.0);
                         (cos_outer + (1.0 - cos_outer) * blend, cos_outer)
                     }
                     None => (inner_cone_angle.cos(), outer_cone_angle.cos()),
@@ -135,19 +71,19 @@ impl Loader {
                     intensity,
                     cos_inner,
                     cos_outer,
-                    radius: number("radius", 0.0),
+                    radius: extension.radius,
                     lamp,
                 }
             }
             gltf::khr_lights_punctual::Kind::Directional => {
-                let strength = checked("strength", |x| x >= 0.0)?.filter(|_| tint.is_some());
+                let strength = extension.strength.filter(|_| tint.is_some());
                 Light::Sun {
                     direction,
                     irradiance: match strength {
                         Some(e) => color * e,
                         None => color * units::lux_to_watts_per_m2(light.intensity()),
                     },
-                    angle: number("angle", 0.0),
+                    angle: extension.angle,
                 }
             }
         };
@@ -162,18 +98,13 @@ impl Loader {
         light: &AreaLight,
         object: &str,
     ) -> Result<()> {
-        let (half_x, half_y) = match light.shape.as_str() {
-            "SQUARE" | "DISK" => (0.5 * light.size, 0.5 * light.size),
-            "RECTANGLE" | "ELLIPSE" => (0.5 * light.size, 0.5 * light.size_y),
-            other => {
-                return Err(self.err(
-                    format!("{object} PHOTON_light"),
-                    format!("unknown area light shape '{other}'"),
-                ))
-            }
+        let (half_x, half_y) = match light.shape {
+            AreaShape::Square | AreaShape::Disk => (0.5 * light.size, 0.5 * light.size),
+            AreaShape::Rectangle | AreaShape::Ellipse => (0.5 * light.size, 0.5 * light.size_y),
         };
         // Local outline, counter-clockwise seen from −Z, so the winding normal points along −Z.
-        let outline: Vec<Vec3> = if matches!(light.shape.as_str(), "SQUARE" | "RECTANGLE") {
+        let outline: Vec<Vec3> = if matches!(light.shape, AreaShape::Square | AreaShape::Rectangle)
+        {
             vec![
                 Vec3::new(-half_x, -half_y, 0.0),
                 Vec3::new(-half_x, half_y, 0.0),
@@ -217,12 +148,6 @@ impl Loader {
             ));
         }
         let spread = light.spread;
-        if !(0.0..=std::f32::consts::PI).contains(&spread) {
-            return Err(self.err(
-                format!("{object} PHOTON_light"),
-                format!("area light spread {spread} is not an angle in [0, π] radians"),
-            ));
-        }
         let normal = (linear.inverse().transpose() * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
         let name = node.name().unwrap_or("area light").to_string();
         let material = Material {

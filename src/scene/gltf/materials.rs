@@ -4,9 +4,10 @@
 //! KHR_texture_transform, and Photon's subsurface and node-tree extensions.
 
 use super::container::{json_vec3, Loader};
+use super::extensions::read_subsurface;
 use crate::error::Result;
 use crate::math::{Vec2, Vec3, Vec4};
-use crate::scene::{AlphaMode, Material, Subsurface, SubsurfaceMethod, TextureRef};
+use crate::scene::{AlphaMode, Material, TextureRef};
 use serde_json::Value;
 
 impl Loader {
@@ -168,7 +169,8 @@ impl Loader {
             out.attenuation_color = Vec3::from(volume.attenuation_color());
         }
         if let Some(sss) = material.extension_value("PHOTON_material_subsurface") {
-            out.subsurface = self.read_subsurface(sss, &object)?;
+            out.subsurface = read_subsurface(sss)
+                .map_err(|e| self.invalid(&format!("{object} PHOTON_material_subsurface"), e))?;
         }
         let nodes_extension = material.extension_value("PHOTON_material_nodes");
         if let Some(list) = nodes_extension
@@ -215,50 +217,6 @@ impl Loader {
         }
         let uv_set_warnings = std::mem::take(&mut self.uv_set_warnings);
         self.scene.warnings.extend(uv_set_warnings);
-        Ok(out)
-    }
-
-    /// `PHOTON_material_subsurface`: every field optional (Blender's defaults), every value
-    /// finite; weight in [0, 1], radius and scale ≥ 0, IOR > 0, anisotropy in (−1, 1).
-    pub(super) fn read_subsurface(&self, value: &Value, object: &str) -> Result<Subsurface> {
-        let object = format!("{object} PHOTON_material_subsurface");
-        let mut out = Subsurface::default();
-        let number = |key: &str, ok: fn(f32) -> bool, default: f32| -> Result<f32> {
-            match value.get(key) {
-                None => Ok(default),
-                Some(v) => match v.as_f64().map(|x| x as f32) {
-                    Some(x) if x.is_finite() && ok(x) => Ok(x),
-                    _ => Err(self.err(&object, format!("'{key}' is out of range: {v}"))),
-                },
-            }
-        };
-        out.weight = number("weight", |x| (0.0..=1.0).contains(&x), out.weight)?;
-        out.scale = number("scale", |x| x >= 0.0, out.scale)?;
-        out.ior = number("ior", |x| x > 0.0, out.ior)?;
-        out.anisotropy = number("anisotropy", |x| x.abs() < 1.0, out.anisotropy)?;
-        if let Some(v) = value.get("method") {
-            out.method = v
-                .as_str()
-                .and_then(SubsurfaceMethod::from_blender)
-                .ok_or_else(|| {
-                    self.err(
-                        &object,
-                        format!(
-                            "'method' must be \"BURLEY\", \"RANDOM_WALK\" or \"RANDOM_WALK_SKIN\", found {v}"
-                        ),
-                    )
-                })?;
-        }
-        if let Some(v) = value.get("radius") {
-            out.radius = json_vec3(v)
-                .filter(|r| r.is_finite() && r.min_element() >= 0.0)
-                .ok_or_else(|| {
-                    self.err(
-                        &object,
-                        format!("'radius' must be three numbers ≥ 0, found {v}"),
-                    )
-                })?;
-        }
         Ok(out)
     }
 

@@ -3,14 +3,13 @@
 //! (winding and tangent handedness flipped), flat shading where normals are missing, and the
 //! Blender object space node trees read.
 
-use super::container::{json_vec3, named, Loader};
+use super::container::Loader;
 use super::hierarchy::{MAX_TRIANGLES, MAX_VERTICES};
-use super::motion::{deformation_of, read_deform};
 use crate::error::Result;
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use crate::scene::{Bounds, Instance, Mesh, ObjectSpace};
 use gltf::mesh::Mode;
-use serde_json::Value;
+use std::rc::Rc;
 
 impl Loader {
     /// Place `mesh` by `world` as instances of its prototypes (built on first use).
@@ -29,7 +28,9 @@ impl Loader {
             self.prototype_ids.insert(mesh.index(), ids);
         }
         let to_world = Affine3A::from_mat4(*world);
-        let (camera_visible, casts_shadows, holdout) = self.visibility(node)?;
+        let object = &self.node_extensions[node.index()].object;
+        let (camera_visible, casts_shadows, holdout) =
+            (object.camera_visible, object.casts_shadows, object.holdout);
         for &prototype in &self.prototype_ids[&mesh.index()] {
             let mut instance = Instance::new(prototype, to_world);
             instance.motion = motion.to_vec();
@@ -39,27 +40,6 @@ impl Loader {
             self.scene.instances.push(instance);
         }
         Ok(())
-    }
-
-    /// `PHOTON_object`'s camera and shadow ray visibility of `node` (default: both true) and
-    /// whether it is a holdout (default: false).
-    pub(super) fn visibility(&self, node: &gltf::Node) -> Result<(bool, bool, bool)> {
-        let Some(v) = node.extension_value("PHOTON_object") else {
-            return Ok((true, true, false));
-        };
-        let flag = |key: &str, default: bool| match v.get(key) {
-            None => Ok(default),
-            Some(Value::Bool(b)) => Ok(*b),
-            Some(other) => Err(self.err(
-                format!("{} PHOTON_object", named("node", node.index(), node.name())),
-                format!("'{key}' must be true or false, found {other}"),
-            )),
-        };
-        Ok((
-            flag("visible_camera", true)?,
-            flag("visible_shadow", true)?,
-            flag("holdout", false)?,
-        ))
     }
 
     /// Read `mesh`'s primitives placed by `world` into `Scene::meshes`, or with the identity
@@ -78,19 +58,8 @@ impl Loader {
         let linear = Mat3::from_mat4(*world);
         let normal_matrix = linear.inverse().transpose();
         let mirrored = linear.determinant() < 0.0;
-        let visibility = self.visibility(node)?;
-        let deform = match node
-            .extension_value("PHOTON_object")
-            .and_then(|v| v.get("deform"))
-        {
-            Some(value) if prototype => Some(read_deform(value).map_err(|m| {
-                self.err(
-                    format!("{} PHOTON_object", named("node", node.index(), node.name())),
-                    m,
-                )
-            })?),
-            _ => None,
-        };
+        let extensions = Rc::clone(&self.node_extensions);
+        let extension = &extensions[node.index()].object;
         for primitive in mesh.primitives() {
             let object = format!("{mesh_name} primitive {}", primitive.index());
             let mode = primitive.mode();
@@ -195,7 +164,7 @@ impl Loader {
             if colors.iter().any(|c: &Vec4| !c.is_finite()) {
                 return Err(self.err(&object, "a COLOR_0 value is NaN or infinite"));
             }
-            let object_space = Some(self.object_space(node, &positions, world)?);
+            let object_space = Some(self.object_space(node, &positions, world));
             check_length(&uvs, vertex_count)
                 .map_err(|m| self.err(&object, format!("TEXCOORD_0 {m}")))?;
             check_length(&tangents, vertex_count)
@@ -221,7 +190,6 @@ impl Loader {
                 .collect();
 
             let material = self.material_index(primitive.material().index());
-            let (camera_visible, casts_shadows, holdout) = visibility;
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",
@@ -236,10 +204,10 @@ impl Loader {
                 tangents: world_tangents,
                 indices,
                 material,
-                camera_visible,
-                holdout,
+                camera_visible: extension.camera_visible,
+                holdout: extension.holdout,
                 emission_spread: None,
-                casts_shadows,
+                casts_shadows: extension.casts_shadows,
                 colors,
                 object_space,
                 deformation: Vec::new(),
@@ -259,8 +227,8 @@ impl Loader {
                 None => make_flat(&mut out),
             }
             if prototype {
-                if let Some((frame, steps)) = &deform {
-                    match deformation_of(&positions, frame, steps) {
+                if let Some(deform) = &extension.deform {
+                    match deform.of(&positions) {
                         Some(deformation) => out.deformation = deformation,
                         None => self.scene.warnings.push(format!(
                             "{object}: its deformation is not blurred (its vertices are not \
@@ -285,7 +253,7 @@ impl Loader {
         node: &gltf::Node,
         local: &[Vec3],
         world: &Mat4,
-    ) -> Result<ObjectSpace> {
+    ) -> ObjectSpace {
         let axes = Affine3A::from_cols_array(&[
             1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0,
         ]);
@@ -295,38 +263,25 @@ impl Loader {
         } else {
             axes
         };
-        let mut bounds = Bounds::EMPTY;
-        for &p in local {
-            bounds.grow(axes.transform_point3(p));
-        }
-        let (mut location, mut size) = if bounds.is_empty() {
-            (Vec3::ZERO, Vec3::ONE)
-        } else {
-            (bounds.center(), 0.5 * (bounds.max - bounds.min))
+        let (location, size) = match self.node_extensions[node.index()].object.texture_space {
+            Some(given) => given,
+            None => {
+                let mut bounds = Bounds::EMPTY;
+                for &p in local {
+                    bounds.grow(axes.transform_point3(p));
+                }
+                if bounds.is_empty() {
+                    (Vec3::ZERO, Vec3::ONE)
+                } else {
+                    (bounds.center(), 0.5 * (bounds.max - bounds.min))
+                }
+            }
         };
-        let given = node
-            .extension_value("PHOTON_object")
-            .and_then(|v| v.get("texture_space"));
-        if let Some(space) = given {
-            let object = format!(
-                "{} PHOTON_object texture_space",
-                named("node", node.index(), node.name())
-            );
-            let read = |key: &str| {
-                space
-                    .get(key)
-                    .and_then(json_vec3)
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| self.err(&object, format!("'{key}' must be three numbers")))
-            };
-            location = read("location")?;
-            size = read("size")?;
-        }
-        Ok(ObjectSpace {
+        ObjectSpace {
             to_object,
             texspace_location: location,
             texspace_size: size,
-        })
+        }
     }
 
     /// The primitive's triangles as index triples (strips and fans converted), or `None` when

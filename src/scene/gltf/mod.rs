@@ -7,8 +7,9 @@
 //! extensions, specified field by field in `docs/gltf_extensions.md` (with how Photon reads
 //! the KHR extensions Blender's importer interprets, its limits and its units). The reading is
 //! split by concern:
-//! - `container`: the `.glb`/`.gltf` container, buffers and URIs, and the `Loader` that
-//!   carries the document and the scene being built;
+//! - `container`: the `.glb`/`.gltf` container, buffers and URIs (`encoding`: base64 and
+//!   percent-escapes), and the `Loader` that carries the document and the scene being built;
+//! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
 //! - `build`: the entry points, the walk of the default scene and the choice of camera;
 //! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
 //! - `accessors`: accessors read with every byte range checked;
@@ -24,6 +25,8 @@ mod accessors;
 mod build;
 mod camera;
 mod container;
+mod encoding;
+mod extensions;
 mod hierarchy;
 mod images;
 mod lights;
