@@ -30,8 +30,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-FILES = ("__init__.py", "engine.py", "export.py", "node_tree.py", "points_curves.py",
-         "preflight.py", "preview.py", "properties.py", "runner.py", "ui.py", "README.md")
+# The add-on's modules (every .py here but this script) and its README.
+FILES = (*sorted(p.name for p in HERE.glob("*.py") if p.name != Path(__file__).name), "README.md")
 
 
 def blender_platform() -> str:

@@ -6,10 +6,11 @@
 - `extension` is the JSON the renderer compiles (src/scene/nodes.rs, documented in
   src/scene/gltf.rs): `{"nodes": [...], "output": {"node": i, "output": id}}`, the nodes in an
   order where every link points to an earlier node. Node groups are flattened (a node inside a
-  group is named "Group/Node"), reroutes and muted nodes are followed, unconnected inputs are
-  written as constants (Blender's socket values), links carry the output's identifier, and only
-  the nodes reachable from the Surface are written. Colour Ramps are baked into 256 entries
-  with Blender's own `ColorRamp.evaluate`, so every interpolation mode matches.
+  group is named "Group/Node"), links are followed as Cycles follows them (node_graph.py:
+  reroutes, muted links and nodes), unconnected inputs are written as constants (Blender's
+  socket values), links carry the output's identifier, and only the nodes reachable from the
+  Surface are written. Colour Ramps are baked into 256 entries with Blender's own
+  `ColorRamp.evaluate`, so every interpolation mode matches.
 - `problems` names every node (or node setting, or linked input) the renderer cannot evaluate.
   When there is one, `extension` is None: the material keeps the glTF path (Blender's exporter
   and its metallic-roughness values) and the pre-flight report names what is lost, so nothing
@@ -24,6 +25,11 @@ It needs no bpy import: it reads nodes through their attributes (and runs in the
 """
 
 from __future__ import annotations
+
+try:
+    from .node_graph import Source, active_output, source
+except ImportError:  # loaded by export.py as a top-level module in the export's child process
+    from node_graph import Source, active_output, source
 
 # Nodes the renderer evaluates, by bl_idname, with the settings it reads.
 SETTINGS = {
@@ -191,18 +197,6 @@ def _image_source(image):
     return None, path, ""
 
 
-def _active_output(tree):
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
-               and getattr(n, "target", "ALL") in ("ALL", "CYCLES")]
-    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-
-
-def _group_output(tree):
-    outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
-    return next((n for n in outputs if getattr(n, "is_active_output", False)),
-                outputs[0] if outputs else None)
-
-
 def _value(socket):
     v = getattr(socket, "default_value", None)
     if v is None:
@@ -274,43 +268,6 @@ class _Walker:
         self.index: dict[tuple, int] = {}
         self.problems: list[str] = []
         self.trivial = True
-
-    def source(self, socket, groups: tuple):
-        """Where input `socket` (inside the group path `groups`) takes its value from:
-        ("link", node, output socket, groups) or ("const", socket) for an unlinked one."""
-        while True:
-            links = [l for l in socket.links if not l.is_muted and l.is_valid]
-            if not links:
-                return ("const", socket)
-            link = links[0]
-            node, out = link.from_node, link.from_socket
-            if node.bl_idname == "NodeReroute":
-                socket = node.inputs[0]
-                continue
-            if node.mute:
-                passed = [l for l in node.internal_links if l.to_socket == out]
-                if not passed:
-                    return ("const", socket)
-                socket = passed[0].from_socket
-                continue
-            if node.bl_idname == "ShaderNodeGroup":
-                inner = _group_output(node.node_tree) if node.node_tree else None
-                match = None if inner is None else next(
-                    (s for s in inner.inputs if s.identifier == out.identifier), None)
-                if match is None:
-                    return ("const", socket)
-                socket, groups = match, groups + (node,)
-                continue
-            if node.bl_idname == "NodeGroupInput":
-                if not groups:
-                    return ("const", socket)
-                group = groups[-1]
-                match = next((s for s in group.inputs if s.identifier == out.identifier), None)
-                if match is None:
-                    return ("const", socket)
-                socket, groups = match, groups[:-1]
-                continue
-            return ("link", node, out, groups)
 
     def image_uri(self, image) -> str:
         """The file name of `image` beside the .glb (written there when exporting)."""
@@ -405,17 +362,17 @@ class _Walker:
         for socket in node.inputs:
             if not socket.enabled:
                 continue
-            src = self.source(socket, groups)
+            src = source(socket, groups)
             if (name, socket.identifier) in self.unlinked:
-                src = ("const", socket)
+                src = Source(None, None, groups, socket)
             if read is not None and socket.identifier not in read:
-                if src[0] == "link":
+                if src.linked:
                     self.problems.append(f"{self.what}: input '{socket.name}' of "
                                          f"{node.bl_label} node '{name}' is linked; Photon "
                                          f"does not evaluate it")
                 continue
-            if src[0] == "link":
-                _, from_node, out, from_groups = src
+            if src.linked:
+                from_node, out, from_groups = src.node, src.output, src.groups
                 allowed = READ_OUTPUTS.get(from_node.bl_idname)
                 if allowed is not None and out.identifier not in allowed:
                     self.problems.append(
@@ -428,7 +385,7 @@ class _Walker:
                 inputs[socket.identifier] = {"node": index, "output": out.identifier}
                 self.trivial = False
             else:
-                const = src[1]
+                const = src.socket
                 if const.type == "SHADER" or (const.type == "VECTOR" and const.hide_value):
                     continue  # implicit: no closure, or the texture's default coordinates
                 value = _value(const)
@@ -448,15 +405,15 @@ def material_nodes(material, folder=None, *, keep_trivial=False, unlinked=frozen
     tree = material.node_tree if getattr(material, "use_nodes", False) else None
     if tree is None:
         return None, []
-    output = _active_output(tree)
+    output = active_output(tree, "ShaderNodeOutputMaterial")
     if output is None:
         return None, []
     walker = _Walker(material, folder, unlinked)
-    src = walker.source(output.inputs["Surface"], ())
-    if src[0] != "link":
+    src = source(output.inputs["Surface"])
+    if not src.linked:
         return None, []
-    _, node, out, groups = src
-    index = walker.visit(node, groups)
+    out = src.output
+    index = walker.visit(src.node, src.groups)
     displacement, problems = _displacement_as_bump(material, output, walker)
     problems = walker.problems + problems
     if problems or index is None:
@@ -480,15 +437,15 @@ def _displacement_as_bump(material, output, surface):
         return None, []
     walker = _Walker(material, surface.folder, surface.unlinked)
     walker.images = surface.images
-    src = walker.source(socket, ())
-    if src[0] != "link":
+    src = source(socket)
+    if not src.linked:
         return None, []
     method = getattr(material, "displacement_method", "BUMP")
     if method != "BUMP":
         return None, [f"{walker.what}: displacement method {method} moves the surface; Photon "
                       f"renders displacement as bump only"]
-    _, node, out, groups = src
-    index = walker.visit(node, groups)
+    out = src.output
+    index = walker.visit(src.node, src.groups)
     if walker.problems or index is None:
         return None, walker.problems
     geometry = len(walker.nodes)

@@ -7,9 +7,9 @@ empty list, so the rules below only flag what really changes the image:
 
 - shader nodes feeding a material's surface that Blender's glTF exporter does not map onto
   glTF's metallic-roughness material (Principled BSDF, Emission, image textures and the few
-  helper nodes it follows), unless the whole tree is one Photon evaluates itself (node_tree.py:
+  other nodes it follows), unless the whole tree is one Photon evaluates itself (node_tree.py:
   it is then exported as PHOTON_material_nodes and nothing is dropped), and what of the world's
-  node tree PHOTON_world does not carry (export.world_problems: anything but Background,
+  node tree PHOTON_world does not carry (world.world_problems: anything but Background,
   Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
   Ray" factor and Add Shader);
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
@@ -32,14 +32,21 @@ empty list, so the rules below only flag what really changes the image:
 
 from __future__ import annotations
 
+from .camera import PANORAMAS
+from .lights import light_node_problems
+from .motion import deforms
+from .node_graph import active_output, source, upstream
+from .node_tree import material_nodes
+from .shared import GEOMETRY_TYPES
+from .world import world_problems, world_uses_nodes
 
 # Node types (`node.type`) on the way to a material's Surface that the glTF exporter follows
-# (or that only route links). MIX, MATH and MIX_SHADER are checked separately.
+# (reroutes, muted nodes and groups are passed through: node_graph.py). MIX, MATH and
+# MIX_SHADER are checked separately.
 MATERIAL_NODES = {
     "OUTPUT_MATERIAL", "BSDF_PRINCIPLED", "EMISSION", "TEX_IMAGE", "NORMAL_MAP", "UVMAP",
     "TEX_COORD", "MAPPING", "SEPARATE_COLOR", "SEPRGB", "VERTEX_COLOR", "ATTRIBUTE", "RGB",
-    "VALUE", "REROUTE", "GROUP", "GROUP_INPUT", "GROUP_OUTPUT", "ADD_SHADER",
-    "BSDF_TRANSPARENT", "LIGHT_PATH",
+    "VALUE", "ADD_SHADER", "BSDF_TRANSPARENT", "LIGHT_PATH",
 }
 # Ray visibility not carried (camera and shadow visibility are: PHOTON_object).
 RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
@@ -77,7 +84,7 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
         if rolling != "NONE":
             messages.append("motion blur: the rolling shutter is not exported; every row is "
                             "exposed over the same shutter")
-        # Meshes' deformation is exported (export.deformation_recorded); other objects' not.
+        # Meshes' deformation is exported (motion.deformation_recorded); other objects' not.
         deforming = [obj.name for obj in objects
                      if getattr(obj, "type", "") != "MESH" and deforms(obj)]
         if deforming:
@@ -87,17 +94,6 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
                             f"blurred (armatures or animated shape keys: {listed}{more}); "
                             f"meshes' deformation, moving objects and the camera are")
     return messages
-
-
-def deforms(obj) -> bool:
-    """Whether `obj`'s geometry changes with time: an armature modifier, or shape keys with
-    keyframes or drivers."""
-    obj = getattr(obj, "original", obj)  # the depsgraph's copy has its shape keys applied
-    if any(m.type == "ARMATURE" for m in getattr(obj, "modifiers", ())):
-        return True
-    keys = getattr(getattr(obj, "data", None), "shape_keys", None)
-    data = keys.animation_data if keys is not None else None
-    return data is not None and (data.action is not None or len(data.drivers) > 0)
 
 
 def _object_features(obj) -> list[str]:
@@ -115,7 +111,7 @@ def _object_features(obj) -> list[str]:
             messages.append(f"{what}: particle system '{system.name}' rendered as "
                             f"{system.settings.render_type} is not exported (objects and "
                             f"collections are)")
-    if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
+    if obj.type in GEOMETRY_TYPES:
         hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:
             messages.append(f"{what}: ray visibility is not exported (it is hidden from "
@@ -126,7 +122,6 @@ def _object_features(obj) -> list[str]:
 def light_features(obj) -> list[str]:
     light, messages = obj.data, []
     what = f"light '{obj.name}'"
-    from .export import light_node_problems
     messages += [f"{what}: {problem}" for problem in light_node_problems(light)]
     if not getattr(light, "use_shadow", True):
         messages.append(f"{what}: 'Cast Shadow' off is not exported; it casts shadows in Photon")
@@ -144,37 +139,44 @@ def material_features(material) -> list[str]:
     if tree is None:
         return []
     what = f"material '{material.name}'"
-    output = _active_output(tree, "OUTPUT_MATERIAL")
+    output = active_output(tree, "ShaderNodeOutputMaterial")
     if output is None:
         return []
     messages = []
-    from .node_tree import material_nodes
     extension = material_nodes(material)[0]
     evaluated = extension is not None
-    for node in [] if evaluated else _upstream(output.inputs["Surface"]):
-        reason = _material_node_reason(node)
+    feeding = [] if evaluated else upstream(output.inputs["Surface"])
+    for found in feeding:
+        reason = _material_node_reason(found)
         if reason:
-            messages.append(f"{what}: {node.bl_label} node '{node.name}' {reason}")
-    for node in [] if evaluated else _upstream(output.inputs["Surface"]):
+            messages.append(f"{what}: {found.node.bl_label} node '{found.node.name}' {reason}")
+    for found in feeding:
+        node = found.node
         film = node.inputs.get("Thin Film Thickness") if node.type == "BSDF_PRINCIPLED" else None
-        if film is not None and (film.is_linked or film.default_value > 0.0):
+        if film is not None and (source(film, found.groups).linked or film.default_value > 0.0):
             messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film is not rendered "
                             f"(the node tree is not evaluated, and glTF carries no film); the "
                             f"surface renders without its iridescence")
-    if output.inputs["Volume"].is_linked:
-        node = output.inputs["Volume"].links[0].from_node
-        messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "
-                        f"renders no volumes")
+    messages += _volume_features(output, what)
     displacement = output.inputs.get("Displacement")
-    if displacement is not None and displacement.is_linked and not (
-            evaluated and "displacement" in extension):
-        messages.append(f"{what}: displacement ('{displacement.links[0].from_node.name}') is "
-                        f"not exported")
+    displaced = source(displacement).node if displacement is not None else None
+    if displaced is not None and not (evaluated and "displacement" in extension):
+        messages.append(f"{what}: displacement ('{displaced.name}') is not exported")
     return messages
 
 
-def _material_node_reason(node) -> str:
-    """Why the exporter drops `node` ('' when it does not)."""
+def _volume_features(output, what: str) -> list[str]:
+    """The message for a volume shader on a material or world output (Photon has none)."""
+    volume = source(output.inputs["Volume"]).node
+    if volume is None:
+        return []
+    return [f"{what}: the volume shader ('{volume.name}') is not exported; Photon renders no "
+            f"volumes"]
+
+
+def _material_node_reason(found) -> str:
+    """Why the exporter drops the node `found` (a `node_graph.Source`); '' when it does not."""
+    node = found.node
     kind = node.type
     if kind in MATERIAL_NODES:
         return ""
@@ -183,7 +185,8 @@ def _material_node_reason(node) -> str:
     if kind == "MATH" and node.operation == "MULTIPLY":
         return ""  # a factor times a texture channel
     if kind == "MIX_SHADER":
-        shaders = [s.links[0].from_node.type for s in node.inputs[1:3] if s.is_linked]
+        shaders = [mixed.node.type for mixed in (source(s, found.groups) for s in node.inputs[1:3])
+                   if mixed.linked]
         if sum(t not in ("BSDF_TRANSPARENT", "EMISSION") for t in shaders) <= 1:
             return ""  # alpha (Transparent BSDF) or emission mixed in: the exporter maps both
         return "mixes two shaders; the export keeps only one of them"
@@ -196,25 +199,17 @@ def _material_node_reason(node) -> str:
 
 
 def world_features(world) -> list[str]:
-    from .export import world_problems, world_uses_nodes
     if not world_uses_nodes(world):
         return []
-    output = _active_output(world.node_tree, "OUTPUT_WORLD")
+    output = active_output(world.node_tree, "ShaderNodeOutputWorld")
     if output is None:
         return []
-    what = f"world '{world.name}'"
-    messages = world_problems(world)
-    if output.inputs["Volume"].is_linked:
-        node = output.inputs["Volume"].links[0].from_node
-        messages.append(f"{what}: the volume shader ('{node.name}') is not exported; Photon "
-                        f"renders no volumes")
-    return messages
+    return world_problems(world) + _volume_features(output, f"world '{world.name}'")
 
 
 def _camera_features(camera_object) -> list[str]:
     camera, messages = camera_object.data, []
     what = f"camera '{camera_object.name}'"
-    from .export import PANORAMAS
     if camera.type == "PANO" and camera.panorama_type not in PANORAMAS:
         messages.append(f"{what}: the {camera.panorama_type} panoramic projection is not "
                         f"exported; Photon renders a perspective view")
@@ -239,33 +234,3 @@ def _layer_collections(view_layer):
         if not layer.exclude:
             stack.extend(layer.children)
     return found
-
-
-def _active_output(tree, kind):
-    """The output node Cycles uses: the active one among those of `kind` targeting all engines
-    or Cycles."""
-    outputs = [n for n in tree.nodes if n.type == kind and getattr(n, "target", "ALL")
-               in ("ALL", "CYCLES")]
-    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-
-
-def _upstream(socket):
-    """Every node linked, directly or not, into `socket`, each once, in order of discovery;
-    group nodes are followed inside (from their Group Output) as well as to their inputs."""
-    seen, order, stack = set(), [], [socket]
-    while stack:
-        sock = stack.pop()
-        for link in sock.links:
-            if link.is_muted:
-                continue
-            node = link.from_node
-            if node.as_pointer() in seen:
-                continue
-            seen.add(node.as_pointer())
-            order.append(node)
-            stack.extend(i for i in node.inputs if i.is_linked)
-            if node.type == "GROUP" and node.node_tree is not None:
-                for inner in node.node_tree.nodes:
-                    if inner.type == "GROUP_OUTPUT":
-                        stack.extend(i for i in inner.inputs if i.is_linked)
-    return order

@@ -19,7 +19,7 @@ not. So `write_scene` writes the preview depsgraph itself, as `scene.gltf` + `sc
   the Principled BSDF's unlinked Base Color, Metallic, Roughness, emission and transmission, or
   the material's viewport display colour without one (magenta for a missing base colour
   image, as in a render);
-- lights as in the glTF export (`export.light_extension`; point, spot and sun lights are
+- lights as in the glTF export (lights.py; point, spot and sun lights are
   KHR_lights_punctual lights whose colour and power PHOTON_light replaces);
 - the camera (perspective or orthographic, fitted as Blender fits the sensor) with
   PHOTON_camera, and the scene's PHOTON_world and PHOTON_render.
@@ -43,6 +43,11 @@ from pathlib import Path
 import numpy as np
 
 from . import export, node_tree
+from .camera import camera_extension
+from .lights import light_extension
+from .node_graph import source
+from .shared import GEOMETRY_TYPES
+from .world import world_extension
 
 # Blender (x, y, z) -> glTF (x, z, -y).
 AXES = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -58,7 +63,7 @@ def write_scene(depsgraph, folder: Path) -> Path:
     for instance in depsgraph.object_instances:
         obj = instance.object
         matrix = np.array(instance.matrix_world, dtype=np.float64)
-        if obj.type in export.GEOMETRY_TYPES:
+        if obj.type in GEOMETRY_TYPES:
             writer.add_mesh_object(obj, matrix)
         elif obj.type == "LIGHT":
             writer.add_light(obj, matrix)
@@ -93,16 +98,13 @@ def camera_hiding_bsdf(material) -> str | None:
     material preview hides its floor so. None otherwise."""
     bsdf = export.principled_bsdf(material)
     alpha = bsdf.inputs.get("Alpha") if bsdf is not None else None
-    if alpha is None or not alpha.is_linked:
+    math_node = source(alpha).node if alpha is not None else None
+    if math_node is None or math_node.type != "MATH" or math_node.operation != "SUBTRACT":
         return None
-    math_node = alpha.links[0].from_node
-    if math_node.type != "MATH" or math_node.operation != "SUBTRACT":
+    one, ray = source(math_node.inputs[0]), source(math_node.inputs[1])
+    if one.linked or float(one.socket.default_value) != 1.0 or not ray.linked:
         return None
-    one, ray = math_node.inputs[0], math_node.inputs[1]
-    if one.is_linked or float(one.default_value) != 1.0 or not ray.is_linked:
-        return None
-    link = ray.links[0]
-    if link.from_node.type != "LIGHT_PATH" or link.from_socket.name != "Is Camera Ray":
+    if ray.node.type != "LIGHT_PATH" or ray.output.name != "Is Camera Ray":
         return None
     return bsdf.name
 
@@ -119,7 +121,7 @@ def fallback_material(material) -> dict:
 
     def constant(name, default):
         socket = bsdf.inputs.get(name)
-        if socket is None or socket.is_linked:
+        if socket is None or source(socket).linked:
             return default
         value = socket.default_value
         return [float(v) for v in value] if hasattr(value, "__len__") else float(value)
@@ -303,7 +305,7 @@ class _Writer:
         return self.material_index[material.name_full]
 
     def add_light(self, obj, matrix: np.ndarray):
-        data = export.light_extension(obj)
+        data = light_extension(obj)
         if not data:
             return
         node = {"name": obj.name, "matrix": _node_matrix(matrix, geometry=False),
@@ -329,7 +331,7 @@ class _Writer:
         self.gltf["cameras"].append(camera_projection(obj.data, width, height))
         node = {"name": obj.name, "camera": len(self.gltf["cameras"]) - 1,
                 "matrix": _node_matrix(matrix, geometry=False)}
-        data = export.camera_extension(obj, scene)
+        data = camera_extension(obj, scene)
         if data:
             node["extensions"] = {"PHOTON_camera": data}
             self.used.add("PHOTON_camera")
@@ -339,7 +341,7 @@ class _Writer:
     def finish(self, scene) -> Path:
         gltf = self.gltf
         gltf["scenes"] = [{"nodes": list(range(len(gltf["nodes"]))), "extensions": {
-            "PHOTON_world": export.world_extension(scene.world, self.folder),
+            "PHOTON_world": world_extension(scene.world, self.folder),
             "PHOTON_render": export.render_extension(scene)}}]
         gltf["scene"] = 0
         self.used.update(("PHOTON_world", "PHOTON_render"))

@@ -252,9 +252,8 @@ fn build<T: Boundable>(boxes: &[T]) -> CwBvh {
     let mut build_time = Duration::ZERO;
     obvhs::cwbvh::builder::build_cwbvh(
         boxes,
-        // Large scenes build faster with a lower search effort: on a 1 M-triangle scene
-        // (scenes/make_large.py) fast_build took 1.73 s instead of medium's 2.26 s, with
-        // no measurable change in traversal speed (examples/ray_throughput, loaded machine).
+        // Large scenes build faster with a lower search effort, with no measurable change in
+        // traversal speed (docs/bench/build_and_cpu.md, "The BVH's build effort").
         if boxes.len() > LARGE_SCENE_TRIANGLES {
             BvhBuildParams::fast_build()
         } else {

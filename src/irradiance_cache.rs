@@ -7,14 +7,13 @@
 //! the surfaces the gather rays hit, and per colour channel a rotation and a translation
 //! gradient. Rᵢ is also held below twice the nearest hit distance: the harmonic mean lets a
 //! record on a box face reach the floor it stands on, across the non-linear drop where the
-//! face starts to see the box's own shadow (measured: +3.5 % and pixels 2.5× too bright along
-//! the Cornell box's contact at 640 × 480; +0.5 % with the bound, for 2.3× the records). Hits on
-//! a surface facing within ~26° of the record's normal do not count as nearest: on a concave
+//! face starts to see the box's own shadow (docs/bench/photon_method.md, "Record radii"). Hits
+//! on a surface facing within ~26° of the record's normal do not count as nearest: on a concave
 //! curved surface (the inside of a sphere or a cove) grazing rays meet the same surface at
-//! distances going to zero, where irradiance changes smoothly (the furnace at 256 px: 749
-//! records for all hits, 146 with this rule, same error). Eᵢ comes from stratified cosine sampling on T × P cells,
-//! θ_t = asin(√((t − ξ)/T)), φ_p = 2π(p − ψ)/P, E ≈ π/(TP) Σ L (every cell has projected solid
-//! angle π/(TP)); T ≈ √(N/π) and P = ⌈N/T⌉ from one "gather rays" setting N.
+//! distances going to zero, where irradiance changes smoothly, and would only add records. Eᵢ
+//! comes from stratified cosine sampling on T × P cells, θ_t = asin(√((t − ξ)/T)),
+//! φ_p = 2π(p − ψ)/P, E ≈ π/(TP) Σ L (every cell has projected solid angle π/(TP));
+//! T ≈ √(N/π) and P = ⌈N/T⌉ from one "gather rays" setting N.
 //!
 //! **Gradients** from the same samples, radiance taken as constant over each cell:
 //! - rotation: ∇_r = ∫ L (Nᵢ × ω) dω, summed cell by cell with the exact integral of sin θ over
@@ -64,8 +63,8 @@ pub struct IcSettings {
     /// Gather rays per record, split into T × P strata (default 256).
     pub gather_rays: u32,
     /// Smallest radius a record covers, in pixels (default 3: in corners, where Ward's Rᵢ goes
-    /// to zero, records 1.5 px apart cost 40–60 % more records than 3 px for no lower error;
-    /// `photon-ic` at 4–64 spp on the Cornell box, furnace, interior and fractal Cornell box).
+    /// to zero, closer records cost more for no lower error; docs/bench/photon_method.md,
+    /// "Record radii").
     pub min_spacing: f32,
     /// Largest radius a record covers, in pixels (default 48; `build` lowers it on frames
     /// under 640 pixels, `MAX_FRAME_SHARE`).
@@ -551,7 +550,7 @@ fn clamp_radius(rec: &mut Record, settings: &IcSettings) {
 /// 640-pixel frame. A record whose rays missed small, distant geometry sees nothing near and
 /// reaches as far as it may; on a 48-pixel render the 48-pixel bound let one such record cover
 /// the frame, and the glass cube's floor, lit only through the cube, got half its indirect
-/// light (docs/bench/measurements.md, "The irradiance cache on an open floor").
+/// light (docs/bench/photon_method.md, "The irradiance cache on an open floor").
 const MAX_FRAME_SHARE: f32 = 0.075;
 
 /// Place records over a `width` × `height` image, coarse to fine (see the module header).

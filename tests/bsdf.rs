@@ -1061,7 +1061,7 @@ fn refraction_transmits_its_colour_without_fresnel() {
 
 /// A smooth specular layer under a thin film (black base: the layer alone) reflects what
 /// Blender 4.5's Cycles renders for it (a mirror plane under a white world, seen straight on
-/// and at 60° by an orthographic camera; docs/bench/measurements.md, "Issue 19: Thin Film"),
+/// and at 60° by an orthographic camera; docs/bench/materials_vs_cycles.md, "Thin film"),
 /// with its Specular IOR Level and Tint, a film under 30 nm and an IOR below 1.
 #[test]
 fn thin_film_layer_matches_cycles() {

@@ -327,7 +327,7 @@ fn photon_method_honours_the_bounce_limit() {
     // and +6 % too bright on a Cornell box. Means over the pixels below 1 in both images (the
     // lamp's edge pixels carry the noise of its sub-pixel coverage). Against a converged path
     // image (8192 spp) these 32-spp photon renders are 3.5 %, 3.3 % and 3.2 % dark at limits 1,
-    // 2 and 3 (issue 21's report), so the bound is 5 %. That is the filter's doing, not the
+    // 2 and 3, so the bound is 5 %. That is the filter's doing, not the
     // photon method's: it drops the pixels a noisy image pushes above 1, so it lowers the mean
     // of any noisy image (a 32-spp path image: 2.0 and 1.5 % dark at limit 1 with seeds 1 and 2),
     // and over all pixels the photon image at limit 1 is +0.6 % and at limit 2 +0.3 %.

@@ -1,4 +1,4 @@
-//! The photon method on dielectrics against the path tracer (issue 19, slab-19n): a rough glass
+//! The photon method on dielectrics against the path tracer: a rough glass
 //! slab over a floor under a grey world, and a diffuse floor sealed inside a smooth glass box.
 //!
 //! Before the fix the photon method rendered the rough slab +9 % too bright (a Blender Glass

@@ -1,5 +1,5 @@
 """Build `glossy_spheres.glb`: a second glossy scene for the path tracer's noise against Cycles'
-(issue 21), without glass, so that no caustic of a small light rules its error.
+(docs/bench/lights.md), without glass, so that no caustic of a small light rules its error.
 
 Four spheres (radius 0.6, smooth shaded) on a rough glossy floor: a polished gold metal
 (roughness 0.15), a rough silver metal (0.45), a red base under a clear coat (base roughness

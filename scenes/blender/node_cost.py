@@ -1,4 +1,4 @@
-"""The node-tree cost benchmark of issue 19: one scene, exported twice through the add-on, once
+"""The node-tree cost benchmark: one scene, exported twice through the add-on, once
 with every material a procedural tree of 21 nodes and once with constant Principled materials.
 
 The scene: a 4 m ground plane and three spheres under a sun and a grey-blue sky, seen from
@@ -6,8 +6,8 @@ above at an angle so the objects fill the 160 x 160 frame. Each procedural mater
 Coordinate → Mapping → Noise, Voronoi, Checker, Wave (with distortion) and Gradient, combined
 through a Color Ramp, Math, Map Range, Clamp, Mix, Hue/Saturation, Invert, Gamma,
 Bright/Contrast and Separate Color into a Principled BSDF's Base Color and Roughness, and a Bump
-of the Noise into its Normal (21 nodes with the Material Output; docs/bench/measurements.md,
-"Node trees"); the constant materials are lone
+of the Noise into its Normal (21 nodes with the Material Output; docs/bench/node_trees.md,
+"Node-tree cost"); the constant materials are lone
 Principled BSDFs of similar colour and roughness (glTF's path).
 
 Usage:  .venv/bin/python scenes/blender/node_cost.py OUT_DIR

@@ -8,9 +8,9 @@
 //! A dielectric without a Lambertian part (glass, a Refraction BSDF) is specular at any
 //! roughness (`Bsdf::is_glossy_dielectric`): photons on both of its sides would have to be
 //! estimated through its narrow refraction lobe, from the few of the k nearest that fall in
-//! it, and a rough slab rendered so took 16 s for relMSE 0.066 at 32 × 32 and 512 spp where
-//! ray tracing it, as the path tracer does, takes 3 s for relMSE 0.0005 (issue 19,
-//! docs/bench/measurements.md); light through it onto diffuse surfaces is a caustic.
+//! it, which is slow and noisy where ray tracing it, as the path tracer does, converges fast
+//! (docs/bench/photon_method.md, "Photons inside glass"); light through it onto diffuse
+//! surfaces is a caustic.
 
 use crate::bsdf::{Bsdf, ViewedBsdf};
 use crate::material::{eval_material, from_closure};

@@ -282,6 +282,25 @@ impl Volume {
         }
     }
 
+    /// The medium a volume tree describes: homogeneous when the program reads nothing of the
+    /// point (evaluated once), else heterogeneous (its majorant set by
+    /// `Scene::bound_volumes`); `None` when it is empty (no scattering, absorption or
+    /// emission).
+    pub fn of(program: crate::shader::NodeProgram) -> Option<Volume> {
+        if program.varies() {
+            return Some(Volume {
+                constant: None,
+                program: Some(std::sync::Arc::new(program)),
+                majorant: 0.0,
+            });
+        }
+        let at = world_volume_inputs(Vec3::ZERO);
+        let c = program.eval_volume(&at, &[]);
+        let empty = c.extinction() == Vec3::ZERO && c.emission == Vec3::ZERO;
+        (!empty && c.extinction().is_finite() && c.emission.is_finite())
+            .then(|| Volume::homogeneous(c))
+    }
+
     /// The medium at world point `p`, inside the object of `mesh` and `instance` (as
     /// `accel::Hit` has them; `None` for the world's volume), at moment `time`.
     pub fn at(
@@ -949,6 +968,80 @@ impl Scene {
             None => (blender_axes(p), blender_axes(p)),
         };
         ShadingInputs::at_point(point)
+    }
+
+    /// Sets the majorant of every heterogeneous volume: the largest extinction coefficient of
+    /// its program at points spread over the bounds of the objects it fills (a jittered 12³
+    /// lattice in each of at most 64 boxes; the world's over the scene's bounds), times 1.5
+    /// for what the lattice misses. Where a point's extinction still exceeds it, free flights
+    /// clamp their null collisions (`crate::medium`), a small bias.
+    pub fn bound_volumes(&mut self) {
+        const SIDE: usize = 12;
+        const MAX_BOXES: usize = 64;
+        let mut boxes: Vec<Vec<(u32, u32, Bounds)>> = vec![Vec::new(); self.materials.len()];
+        for (k, mesh) in self.meshes.iter().enumerate() {
+            if let Some(list) = boxes.get_mut(mesh.material as usize) {
+                list.push((k as u32, u32::MAX, mesh.bounds()));
+            }
+        }
+        let local: Vec<Bounds> = self.prototypes.iter().map(|m| m.bounds()).collect();
+        for (i, instance) in self.instances.iter().enumerate() {
+            let prototype = instance.prototype as usize;
+            let material = self.prototypes[prototype].material as usize;
+            if let Some(list) = boxes.get_mut(material) {
+                let b = instance_bounds(instance, local[prototype]);
+                list.push((prototype as u32, i as u32, b));
+            }
+        }
+        let bound = |scene: &Scene, volume: &Volume, places: &[(Option<(u32, u32)>, Bounds)]| {
+            let mut most = 0.0f32;
+            for (object, b) in places.iter().take(MAX_BOXES) {
+                if b.is_empty() {
+                    continue;
+                }
+                for i in 0..SIDE * SIDE * SIDE {
+                    let cell = Vec3::new(
+                        (i % SIDE) as f32,
+                        ((i / SIDE) % SIDE) as f32,
+                        (i / (SIDE * SIDE)) as f32,
+                    );
+                    // A fixed jitter per cell (a golden-ratio sequence): reproducible.
+                    let j = (i as f32 * 0.618_034).fract();
+                    let f = (cell + Vec3::new(j, (j * 1.618).fract(), (j * 2.618).fract()))
+                        / SIDE as f32;
+                    let p = b.min + (b.max - b.min) * f;
+                    let c = volume.at(scene, *object, p, 0.5);
+                    let sigma = c.extinction().max_element();
+                    if sigma.is_finite() {
+                        most = most.max(sigma);
+                    }
+                }
+            }
+            1.5 * most
+        };
+        for m in 0..self.materials.len() {
+            let Some(volume) = self.materials[m]
+                .volume
+                .as_ref()
+                .filter(|v| v.constant.is_none())
+            else {
+                continue;
+            };
+            let places: Vec<_> = boxes[m]
+                .iter()
+                .map(|&(mesh, instance, b)| (Some((mesh, instance)), b))
+                .collect();
+            let majorant = bound(self, volume, &places);
+            if let Some(v) = self.materials[m].volume.as_mut() {
+                v.majorant = majorant;
+            }
+        }
+        if let Some(volume) = self.world.volume.as_ref().filter(|v| v.constant.is_none()) {
+            let majorant = bound(self, volume, &[(None, self.bounds())]);
+            if let Some(v) = self.world.volume.as_mut() {
+                v.majorant = majorant;
+            }
+        }
     }
 
     /// The world or some material has a volume (participating media).

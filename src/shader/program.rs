@@ -284,6 +284,33 @@ pub struct NodeProgram {
     pub(super) displacement: Option<Box<NodeProgram>>,
 }
 
+impl NodeProgram {
+    /// Whether the program's result may differ from point to point: it reads a coordinate, the
+    /// geometry, an attribute, the view or the ray (a texture's implicit coordinates included).
+    pub fn varies(&self) -> bool {
+        self.instrs.iter().any(|i| {
+            i.ins
+                .iter()
+                .any(|s| matches!(s, Src::Generated | Src::Uv(_)))
+                || matches!(
+                    i.op,
+                    Op::TexCoord { .. }
+                        | Op::UvMap { .. }
+                        | Op::VertexColor
+                        | Op::Attribute
+                        | Op::Geometry
+                        | Op::LightPath
+                        | Op::Bump { .. }
+                        | Op::NormalMap(_)
+                        | Op::Displacement { .. }
+                        | Op::Fresnel
+                        | Op::LayerWeight
+                        | Op::NoiseAt3 { .. }
+                )
+        }) || self.displacement.is_some()
+    }
+}
+
 /// What `compile` found that it could not evaluate: `(node name, message)`. The program
 /// replaces such a node by its fallback (named in the message).
 pub type CompileWarnings = Vec<String>;

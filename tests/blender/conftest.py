@@ -2,6 +2,9 @@
 
 Run with the project venv: `.venv/bin/python -m pytest tests/blender` (create it with
 tests/setup_python.sh). Tests that render need $PHOTON_BINARY; without it they fail, never skip.
+
+Tests marked `slow` render Cycles references or take more than about 10 s; `-m "not slow"`
+leaves them out for a quick check, and tests/run runs them all.
 """
 
 import sys
@@ -15,9 +18,15 @@ sys.path.insert(0, str(HERE.parents[1] / "scenes" / "blender"))
 import pytest  # noqa: E402
 
 
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers", "slow: renders Cycles references or takes more than about 10 s (deselect "
+        "with -m \"not slow\")")
+
+
 @pytest.fixture(scope="session")
 def photon_addon():
-    """The add-on registered from the source folder (blender_addon/) for the whole session, and
+    """The add-on registered from the source folder (blender_addon/) for the whole test run, and
     unregistered at the end: a still-registered Python RenderEngine makes the bpy module hang at
     interpreter exit."""
     import bpy  # noqa: F401 - imported here so the runner tests need no bpy

@@ -20,6 +20,8 @@ import scenes_bpy
 from helpers import photon_binary, rel_mse
 from refimage import read_exr
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 PHOTON_SPP = 64
 CYCLES_SPP = 256
 MEAN_TOL = 0.02

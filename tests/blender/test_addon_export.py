@@ -85,9 +85,9 @@ def test_background_blender_route_writes_the_same_file(lights_scene, tmp_path):
 
 
 @pytest.mark.parametrize("autoexec", [True, False])
-def test_background_blender_runs_python_drivers_as_the_session(photon_addon, tmp_path, autoexec):
+def test_background_blender_runs_python_drivers_as_the_user_does(photon_addon, tmp_path, autoexec):
     """The background Blender of the UI route runs the file's Python drivers when the user's
-    session does (Blender's -y), and not otherwise: a driver that only Python can evaluate
+    Blender does (Blender's -y), and not otherwise: a driver that only Python can evaluate
     (it calls str) turns the cube by 0.35 rad per frame; exported at frame 3."""
     from blender_addon import export, runner
     bpy.ops.wm.read_factory_settings()
@@ -118,16 +118,16 @@ def test_background_blender_runs_python_drivers_as_the_session(photon_addon, tmp
 def test_world_without_nodes_uses_world_colour(photon_addon):
     """Blender 4: a world with use_nodes off renders its colour. Blender 5 always renders the
     node tree (World.use_nodes is deprecated), so there the Background node is read."""
-    from blender_addon import export
+    from blender_addon import world as world_module
     world = bpy.data.worlds.new("Plain")
     if bpy.app.version >= (5, 0, 0):
         world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.1, 0.2, 0.3, 1)
     else:
         world.use_nodes = False
     world.color = (0.1, 0.2, 0.3)
-    assert export.world_extension(world) == {"color": pytest.approx([0.1, 0.2, 0.3]),
-                                             "strength": 1.0}
-    assert export.world_extension(None)["color"] == [0.0, 0.0, 0.0]
+    assert world_module.world_extension(world) == {"color": pytest.approx([0.1, 0.2, 0.3]),
+                                                   "strength": 1.0}
+    assert world_module.world_extension(None)["color"] == [0.0, 0.0, 0.0]
 
 
 def test_export_time_one_million_triangles(photon_addon, tmp_path):
@@ -232,7 +232,7 @@ def test_byte_srgb_environment_is_linearised(photon_addon, tmp_path):
     import OpenEXR
     import numpy as np
     import scenes_bpy
-    from blender_addon import export
+    from blender_addon import world
     scene = scenes_bpy.hdri_scene()
     node = scene.world.node_tree.nodes["Environment Texture"]
     image = bpy.data.images.new("Bytes", 2, 1, alpha=True, float_buffer=False)
@@ -242,7 +242,7 @@ def test_byte_srgb_environment_is_linearised(photon_addon, tmp_path):
     mapping = scene.world.node_tree.nodes["Mapping"]
     mapping.vector_type = "TEXTURE"
     mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.4)
-    data = export.world_extension(scene.world, tmp_path)
+    data = world.world_extension(scene.world, tmp_path)
     assert data["environment"]["rotation"] == pytest.approx([0.0, 0.0, -0.4], abs=1e-6)
     with OpenEXR.File(str(tmp_path / data["environment"]["uri"]), separate_channels=True) as f:
         r = f.channels()["R"].pixels

@@ -15,6 +15,8 @@ import scenes_bpy
 from helpers import photon_binary
 from refimage import read_exr
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 SPP = 16
 
 

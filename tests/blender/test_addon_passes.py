@@ -30,6 +30,7 @@ def render_multilayer(scene, engine, path):
                 for name, chan in part.channels.items()}
 
 
+@pytest.mark.slow
 def test_passes_are_loaded(photon_addon, tmp_path):
     photon_binary()
     scene = scenes_bpy.default_scene()

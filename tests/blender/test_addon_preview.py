@@ -157,6 +157,7 @@ def test_every_preview_shape_renders(captured, shape):
     assert coverage > 0.1, f"{shape}: the shape covers {coverage:.2f} of the preview"
 
 
+@pytest.mark.slow
 def test_material_preview_matches_cycles(captured):
     """Photon's preview of a red material next to Cycles' (the preview scene's own Cycles
     settings): Blender's preview scene (its lights, camera and the floor hidden from the

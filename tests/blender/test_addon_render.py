@@ -50,18 +50,22 @@ def compare(name, build, tmp_path, cycles_spp=CYCLES_SPP, methods=(("AUTO", PHOT
         assert err <= RELMSE_MAX, msg
 
 
+@pytest.mark.slow
 def test_default_scene_matches_cycles(tmp_path):
     compare("default scene", scenes_bpy.default_scene, tmp_path)
 
 
+@pytest.mark.slow
 def test_area_light_matches_cycles(tmp_path):
     compare("area light", scenes_bpy.area_light_scene, tmp_path)
 
 
+@pytest.mark.slow
 def test_sun_and_world_match_cycles(tmp_path):
     compare("sun + world", scenes_bpy.sun_world_scene, tmp_path)
 
 
+@pytest.mark.slow
 def test_hdri_world_matches_cycles(tmp_path):
     """Lit only by an equirectangular environment image (PHOTON_world environment, written as
     EXR by the add-on): orientation, rotation and brightness as in Cycles."""

@@ -17,6 +17,8 @@ import common
 import scenes_bpy
 from helpers import photon_binary, rel_mse
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 PHOTON_SPP = 256
 CYCLES_SPP = 1024
 MEAN_TOL = 0.02

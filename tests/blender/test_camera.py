@@ -15,6 +15,8 @@ import pytest
 import common
 from cycles_compare import compare
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 
 # Ignoring the depth of field costs relMSE 0.007-0.02 on these scenes at 48x32 (measured with
 # the extension left out); rendered with it Photon stays below 0.001, so the bound is tighter.

@@ -21,6 +21,7 @@ CORNELL_MEAN_TOL = 0.03
 PLANE_MEAN_TOL = 0.02
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["cornell_lambert", "cornell"])
 def test_cornell_matches_cycles(name):
     assert_matches_reference(name, CORNELL_SPP, RELMSE_MAX, CORNELL_MEAN_TOL)

@@ -80,6 +80,7 @@ def test_area_lamp_faces_the_nodes_minus_z(tmp_path):
     assert math.isclose(lamp.data.energy, 60.0, rel_tol=1e-6)
 
 
+@pytest.mark.slow
 def test_area_lamp_lights_the_floor_as_photon_does(tmp_path):
     import cycles_time
     glb = write_scene(tmp_path)

@@ -13,6 +13,8 @@ import scenes_bpy
 from helpers import photon_binary, rel_mse
 from refimage import read_exr
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 SPP = 256
 WIDTH, HEIGHT = 48, 32
 

@@ -47,6 +47,7 @@ def mirror_scene(floor=0.0):
     return scene
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["PATH", "PHOTON"])
 def test_mirror_sphere_reflects_a_point_lamp(_addon, tmp_path, method):
     scene = mirror_scene()
@@ -60,6 +61,7 @@ def test_mirror_sphere_reflects_a_point_lamp(_addon, tmp_path, method):
     assert img.max() > 0.5 * ref.max(), (img.max(), ref.max())
 
 
+@pytest.mark.slow
 def test_photon_method_counts_the_lamp_once_beside_its_caustic(_addon, tmp_path):
     """On a lit floor the sphere throws a caustic of the lamp (the caustic map's photons) and
     the camera sees the lamp in the sphere (the camera path): each counted once, the mean
@@ -70,6 +72,7 @@ def test_photon_method_counts_the_lamp_once_beside_its_caustic(_addon, tmp_path)
             cycles_spp=2048, method="PHOTON")
 
 
+@pytest.mark.slow
 def test_glossy_floor_lit_by_a_small_lamp(_addon, tmp_path):
     """A glossy floor (roughness 0.1) under a point lamp of radius 0.1: the highlight is the
     lamp's blurred reflection, found by BSDF rays and light samples together (MIS)."""
@@ -81,6 +84,7 @@ def test_glossy_floor_lit_by_a_small_lamp(_addon, tmp_path):
     compare("glossy floor lamp r=0.1", scene, tmp_path, photon_spp=256)
 
 
+@pytest.mark.slow
 def test_spot_lamp_seen_in_a_mirror(_addon, tmp_path):
     """A spot lamp of radius 0.25 aimed at the mirror sphere: its reflection is its disc, dimmed
     by the cone evaluated along each reflected ray."""
@@ -92,17 +96,17 @@ def test_spot_lamp_seen_in_a_mirror(_addon, tmp_path):
 
 
 def test_lamp_flags_exported_and_partial_visibility_named(photon_addon, tmp_path):
-    from blender_addon import export, preflight
+    from blender_addon import lights, preflight
     scene = mirror_scene()
     lamp = common.light("Lamp", "POINT", (-1.2, -2.5, 2.5), energy=300.0, shadow_soft_size=0.2)
     lamp.visible_camera = True
     lamp.data.use_soft_falloff = False
     spot = common.light("Spot", "SPOT", (1.0, -2.5, 2.2), energy=600.0, shadow_soft_size=0.1)
     spot.visible_glossy = False
-    data = export.light_extension(lamp)
+    data = lights.light_extension(lamp)
     assert (data["soft_falloff"], data["visible_camera"], data["visible_bounces"]) == (
         False, True, True)
-    data = export.light_extension(spot)
+    data = lights.light_extension(spot)
     assert (data["soft_falloff"], data["visible_camera"], data["visible_bounces"]) == (
         True, False, False)
     messages = preflight.unsupported_features(scene, list(scene.objects))
@@ -110,6 +114,7 @@ def test_lamp_flags_exported_and_partial_visibility_named(photon_addon, tmp_path
     assert len(named) == 1 and "'Spot'" in named[0] and "glossy" in named[0], messages
 
 
+@pytest.mark.slow
 def test_path_tracer_finds_the_open_rings_lamp_caustic():
     """The ring's outside reflects its lamp onto the floor next to the wall: the path tracer now
     meets the lamp through the mirror (before, it saw none of that light: -18 % in the band

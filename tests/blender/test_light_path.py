@@ -1,4 +1,4 @@
-"""Light Path's outputs (issue 19) as Cycles defines them, against Cycles through the add-on.
+"""Light Path's outputs as Cycles defines them, against Cycles through the add-on.
 
 Every scene is 32x32, a 2 m floor seen from 3 m above (test_nodes.py's `plane_scene`), lit
 criterion (mean within 2 %, relMSE <= 0.01, `cycles_compare.compare`):
@@ -53,6 +53,7 @@ def white_box():
     return common.box("Box", (0.4, 0.4, 0.4), mat, (0.55, -0.5, 0.0), 30.0)
 
 
+@pytest.mark.slow
 def test_lamp_seen_through_by_the_camera(tmp_path):
     """A lamp whose camera rays pass (Transparent) and whose other rays see its emission: the
     camera sees the floor under it, lit by it."""
@@ -67,6 +68,7 @@ def test_lamp_seen_through_by_the_camera(tmp_path):
     compare("lamp seen through", scene, tmp_path, photon_spp=256, cycles_spp=512)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["PATH", "PHOTON"])
 def test_box_without_a_shadow(tmp_path, method):
     """A red box that shadow rays pass (Is Shadow Ray -> Transparent BSDF) on a floor under a
@@ -84,6 +86,7 @@ def test_box_without_a_shadow(tmp_path, method):
             cycles_spp=512, method=method)
 
 
+@pytest.mark.slow
 def test_emission_only_up_to_one_bounce(tmp_path):
     """A lamp emitting for Ray Depth < 1.5 over a floor beside a white wall: the camera sees it
     (depth 0) and it lights what it sees (light samples and bounce rays both read depth 1),
@@ -122,6 +125,7 @@ def see_through(name, corners, shader, **inputs):
     return common.quad(name, corners, mat)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("output", OUTPUTS)
 def test_output_chooses_the_floor_colour(tmp_path, output):
     """The floor's base colour is Mix(orange, blue) by `output` / 2, seen directly, through a

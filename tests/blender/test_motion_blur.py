@@ -61,6 +61,7 @@ def compare_blurred(name, scene, tmp_path):
     assert away > 3 * rel_mse(img, ref), away
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("position", ["CENTER", "START"])
 def test_camera_motion_blur(tmp_path, position):
     scene = sliding_camera_scene(position)
@@ -89,6 +90,7 @@ def test_deforming_curves_are_named_by_the_preflight():
     assert preflight.unsupported_features(scene, scene.objects) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("position", ["CENTER", "END"])
 def test_object_motion_blur(tmp_path, position):
     """A still camera; the middle box slides 2 m sideways and turns 60° per frame, the left one
@@ -166,6 +168,7 @@ def checker():
     return mat
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("material", [glass, emissive, checker])
 def test_moving_objects_of_any_material_are_blurred(tmp_path, material):
     """The middle box, glass, emitting or textured by a node tree, slides and turns while the
@@ -198,6 +201,7 @@ def scatter(scene, moving_points=False):
     return grid
 
 
+@pytest.mark.slow
 def test_moving_geometry_nodes_instances_are_blurred(tmp_path):
     """A Geometry Nodes scatter (boxes instanced on a grid's points) whose object slides and
     turns: its instances move with it."""
@@ -224,6 +228,7 @@ def test_instances_moving_on_their_own_are_named(tmp_path):
     assert not any("on their own" in w for w in warnings), warnings
 
 
+@pytest.mark.slow
 def test_shape_key_deformation_is_blurred(tmp_path):
     """The middle box's shape key, keyed from 0 to 1 over a frame, stretches its top 1.2 m
     sideways and 0.6 m up: the vertices are exported at the shutter's steps and interpolated
@@ -246,6 +251,7 @@ def test_shape_key_deformation_is_blurred(tmp_path):
     compare_blurred("shape key deformation", scene, tmp_path)
 
 
+@pytest.mark.slow
 def test_armature_deformation_is_blurred(tmp_path):
     """The middle box's top, bound to a bone that bends 100° about the x axis over a frame:
     an armature deformation blurred over the shutter as Cycles blurs it."""

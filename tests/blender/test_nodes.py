@@ -1,4 +1,4 @@
-"""Shader node trees evaluated by Photon (PHOTON_material_nodes, issue 19), against Cycles.
+"""Shader node trees evaluated by Photon (PHOTON_material_nodes), against Cycles.
 
 Each scene is built with bpy and rendered by Cycles and by Photon through the add-on at 32x32:
 
@@ -31,6 +31,8 @@ import pytest
 
 import common
 from cycles_compare import compare
+
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
 EMISSION_RELMSE_MAX = 1e-3
 SIZE = 32

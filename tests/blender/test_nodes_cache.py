@@ -1,4 +1,4 @@
-"""A textured scene (issue 19) by every method that reads node trees at a diffuse bounce:
+"""A textured scene by every method that reads node trees at a diffuse bounce:
 path tracing, photon mapping (photon tracing, gathering and the irradiance cache read the
 floor's tree) and path tracing with the irradiance cache (`--method path-cache`, whose records
 are path-traced from points on the textured floor), against Cycles and against each other.
@@ -21,6 +21,8 @@ import common
 import scenes_bpy
 from helpers import photon_binary, read_exr, rel_mse
 from test_nodes import node_material
+
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
 SIZE = 32
 METHODS = {"path": 256, "photon": 256, "path-cache": 256}

@@ -1,4 +1,4 @@
-"""Converters and Add Shader (issue 19) against Cycles, each fed by a texture so its input
+"""Converters and Add Shader against Cycles, each fed by a texture so its input
 varies over the plane, wired into an Emission shader (relMSE <= 1e-3, `test_nodes.py`'s
 criterion for a node's value itself):
 
@@ -16,6 +16,8 @@ import pytest
 
 from cycles_compare import compare
 from test_nodes import emission_matches, lit_scene, node_material, plane_scene
+
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
 
 @pytest.fixture(autouse=True)

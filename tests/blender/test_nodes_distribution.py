@@ -25,6 +25,7 @@ def _addon(photon_addon, binary_env):
     return photon_addon
 
 
+@pytest.mark.slow
 def test_principled_ggx_metal_is_darker_than_multiscatter(tmp_path):
     """A rough gold Principled metal in GGX through the tree, against Cycles; the same sphere
     in Multiscatter GGX (glTF route) is brighter in both engines."""
@@ -44,6 +45,7 @@ def test_principled_ggx_metal_is_darker_than_multiscatter(tmp_path):
     assert abs(photon_gain - cycles_gain) < 0.02, (photon_gain, cycles_gain)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("distribution", ["GGX", "MULTI_GGX"])
 def test_glossy_bsdf_distribution(tmp_path, distribution):
     """A rough copper Glossy BSDF node in either distribution."""
@@ -59,6 +61,7 @@ def test_glossy_bsdf_distribution(tmp_path, distribution):
     matches(f"glossy {distribution.lower()}", sphere_scene(mat), tmp_path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("distribution", ["GGX", "MULTI_GGX"])
 def test_rough_glass_sphere(tmp_path, distribution):
     """A rough (0.5) Glass BSDF sphere in either distribution. Before its lobe was compensated,
@@ -77,6 +80,7 @@ def test_rough_glass_sphere(tmp_path, distribution):
             cycles_spp=1024, relmse_max=0.05)
 
 
+@pytest.mark.slow
 def test_rough_principled_transmission_through_gltf(tmp_path):
     """A lone Principled BSDF of transmission 1 and roughness 0.5 (KHR_materials_transmission):
     Multiscatter GGX, Blender's default, so its glass lobe is compensated too."""
@@ -110,6 +114,7 @@ def test_other_distributions_are_named(node_type, distribution):
     assert [m for m in messages if node.name in m and distribution in m], messages
 
 
+@pytest.mark.slow
 def test_instanced_thin_glass_panes_and_ggx_boxes(tmp_path):
     """Instances, open meshes and thin walls: a Geometry Nodes scatter of single-quad panes of
     rough Multiscatter GGX glass (open, one wall thick) and of boxes of a GGX gold metal, over

@@ -1,4 +1,4 @@
-"""Blender's Holdout shader (issue 19) against Cycles through the add-on: where the camera sees
+"""Blender's Holdout shader against Cycles through the add-on: where the camera sees
 a Holdout the image is black and its alpha 0, with a transparent film and with an opaque one;
 other rays meet it as a black surface (it casts a shadow, reflects nothing).
 
@@ -17,6 +17,8 @@ from cycles_compare import compare
 from helpers import read_exr
 from test_nodes import SIZE, node_material, plane_scene
 from test_nodes_refraction import checker_floor
+
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
 
 @pytest.fixture(autouse=True)

@@ -1,4 +1,4 @@
-"""Blender's Refraction BSDF (issue 19) against Cycles through the add-on: the glass's
+"""Blender's Refraction BSDF against Cycles through the add-on: the glass's
 transmission lobe alone, of its colour, without Fresnel (nothing reflected; nothing passes at
 total internal reflection), smooth or GGX-rough.
 
@@ -11,7 +11,7 @@ photons stored on the slab's faces inside the glass kept the flux the camera pat
 them where its adjoint scales it by 1/eta^2, and were read through the narrow refraction lobe.
 Photons inside a medium are now scaled (`tracing::adjoint_scale`) and dielectrics without a
 Lambertian part are ray traced at any roughness (`classify`): -0.1 %, relMSE 0.0008 at 512 spp
-(docs/bench/measurements.md, issue 19, slab-19n).
+(docs/bench/photon_method.md, "Photons inside glass").
 """
 
 import bpy
@@ -66,6 +66,7 @@ def slab_over_a_checker_floor(node_type, roughness):
 PHOTON_BUDGET = dict(photon_spp=128, relmse_max=0.008)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("roughness,method", [(0.0, "PATH"), (0.3, "PATH"), (0.0, "PHOTON"),
                                               (0.3, "PHOTON")])
 def test_refraction_slab_over_a_checker_floor(tmp_path, roughness, method):
@@ -75,6 +76,7 @@ def test_refraction_slab_over_a_checker_floor(tmp_path, roughness, method):
             method=method, **budget)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("roughness,method", [(0.0, "PATH"), (0.3, "PATH"), (0.3, "PHOTON")])
 def test_tinted_glass_slab_over_a_checker_floor(tmp_path, roughness, method):
     """The Glass BSDF beside it (GGX): its colour weighs the reflection and each crossing

@@ -1,4 +1,4 @@
-"""The Principled BSDF's Thin Film (iridescence) against Cycles 4.5 (issue 19).
+"""The Principled BSDF's Thin Film (iridescence) against Cycles 4.5.
 
 Blender's glTF exporter writes no film, so a Principled BSDF with one takes the node-tree route
 (PHOTON_material_nodes); Photon renders it as Cycles does (`src/bsdf/thin_film.rs`). Each
@@ -18,8 +18,8 @@ Cycles and by Photon through the add-on (F12): mean within 2 % and relMSE <= 0.0
   changes nothing in Cycles), and so does Photon.
 
 Without the film the first sphere would be +12 % against Cycles' (red −5 %, green +30 %;
-Cycles against Cycles), the glass +10 % in green and +13 % in blue: see docs/bench/measurements.md,
-"Issue 19: Thin Film (thinfilm-19m)".
+Cycles against Cycles), the glass +10 % in green and +13 % in blue: see
+docs/bench/materials_vs_cycles.md, "Thin film".
 """
 
 import bpy
@@ -29,6 +29,8 @@ import pytest
 import common
 from blender_addon import node_tree
 from cycles_compare import compare
+
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
 SIZE = 40
 CHANNEL_TOL = 0.03

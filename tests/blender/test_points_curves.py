@@ -13,6 +13,8 @@ import pytest
 import common
 from cycles_compare import compare
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 
 @pytest.fixture(autouse=True)
 def _addon(photon_addon, binary_env):

@@ -36,6 +36,8 @@ import common
 from blender_addon import node_tree
 from cycles_compare import compare
 
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
+
 SIZE = 48
 
 
@@ -112,7 +114,7 @@ def test_coated_red_sphere_keeps_its_highlight(tmp_path, method):
     # BSDF rays) with a per-pixel standard deviation of 18 % at 512 spp, Sobol samples and
     # random numbers alike, so the 3 % read 0.95-1.05 of Cycles' from seed to seed at 512 spp
     # (path tracer, seed 1: 0.951; photon method: 1.062), 0.008 above it on average over 12
-    # seeds (issue 21).
+    # seeds (docs/bench/sampling_and_film.md).
     img, ref = matches(f"coated sphere {method.lower()}", sphere_scene(mat), tmp_path,
                        photon_spp=2048, method=method)
     # Without the coat the rough red base has no sharp highlight: the coat's is white.

@@ -1,5 +1,5 @@
 """Translucent objects (Principled BSDF, Subsurface Method Random Walk, Blender's default)
-against Cycles' random walk through the add-on (issue 21): Photon walks the same medium
+against Cycles' random walk through the add-on: Photon walks the same medium
 (`src/integrator/random_walk.rs`), so the images agree without the dipole's bias.
 
 Every scene is 32x32 with a coloured Subsurface Radius (1.0, 0.4, 0.2), rendered by the path
@@ -22,6 +22,8 @@ import pytest
 
 import common
 from cycles_compare import compare
+
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
 SIZE = 32
 RADIUS = (1.0, 0.4, 0.2)

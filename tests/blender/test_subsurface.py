@@ -94,6 +94,7 @@ BUST_CYCLES_SPP = 512
 BUST_SPP = 128
 
 
+@pytest.mark.slow
 def test_gallery_bust_against_random_walk(tmp_path):
     import cycles_time
     out = tmp_path / "photon.exr"

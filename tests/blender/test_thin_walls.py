@@ -11,8 +11,8 @@ most landed on the walls' outsides, and the room's mean moved from one seed to t
 -3.8..+2.9 % at 64 spp. Now seeds 0-6 give -1.6..+2.2 % (thick walls) and -1.2..+1.5 % (thin),
 the spread of the camera samples themselves (the path tracer at 64 spp: -1.2..+1.8 %); this
 test's seed 1 is the thick room's highest, +2.2 %. Over 8 seeds at 256 spp the mean is +0.40 %
-where the path tracer's is +0.4..+0.5 % at 1024-2048 spp (docs/bench/measurements.md, "Guided
-photons").
+where the path tracer's is +0.4..+0.5 % at 1024-2048 spp (docs/bench/photon_method.md,
+"Guided photons").
 """
 
 import pytest
@@ -27,6 +27,7 @@ def test_window_lit_room_default_render_matches_cycles(name):
     assert_matches_reference(name, 64, RELMSE_MAX, 0.03)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["room_thin", "room_thick"])
 def test_window_lit_room_mean_is_unbiased(name):
     assert_matches_reference(name, 256, RELMSE_MAX, 0.02)

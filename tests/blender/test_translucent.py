@@ -1,4 +1,4 @@
-"""Blender's Translucent BSDF (issue 19) against Cycles through the add-on: Lambertian
+"""Blender's Translucent BSDF against Cycles through the add-on: Lambertian
 transmission, f = colour / pi on the side of the surface away from the light.
 
 Every scene is 32x32 under a black world, the lit criterion (mean within 2 %, relMSE <= 0.01,
@@ -17,6 +17,8 @@ import pytest
 import common
 from cycles_compare import compare
 from test_nodes import node_material, plane_scene
+
+pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
 
 @pytest.fixture(autouse=True)

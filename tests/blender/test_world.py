@@ -59,6 +59,7 @@ def nishita(tree, elevation_deg, rotation_deg):
     return sky
 
 
+@pytest.mark.slow
 @needs_nishita
 @pytest.mark.parametrize("elevation", [12.0, 50.0])
 def test_nishita_sky(tmp_path, elevation):
@@ -72,6 +73,7 @@ def test_nishita_sky(tmp_path, elevation):
     compare(f"nishita sky {elevation:.0f} deg", scene, tmp_path, photon_spp=512)
 
 
+@pytest.mark.slow
 def test_mix_of_two_backgrounds(tmp_path):
     """A blue and an orange background mixed 0.3 : 0.7 by a Mix Shader, with a sun."""
     scene = ground_scene()
@@ -86,6 +88,7 @@ def test_mix_of_two_backgrounds(tmp_path):
     compare("mix of two backgrounds", scene, tmp_path)
 
 
+@pytest.mark.slow
 @needs_nishita
 def test_camera_ray_sees_another_background(tmp_path):
     """Light Path "Is Camera Ray" mixes a Nishita sky (lighting the scene) with a plain grey the
@@ -108,20 +111,20 @@ def test_camera_ray_sees_another_background(tmp_path):
 def test_world_problems_are_named(photon_addon):
     """What PHOTON_world does not carry is named for the pre-flight report: a Preetham sky, a
     Mix Shader factor from a texture; the export keeps the rest."""
-    from blender_addon import export
+    from blender_addon import world
     scene = ground_scene()
     tree, background = world_nodes(scene)
     sky = nishita(tree, 20.0, 0.0)
     sky.sky_type = "PREETHAM"
     tree.links.new(sky.outputs["Color"], background.inputs["Color"])
-    data, problems = export.world_description(scene.world)
+    data, problems = world.world_description(scene.world)
     assert "sky" not in data and len(problems) == 1 and "PREETHAM" in problems[0], problems
     sky.sky_type = "NISHITA"
     noise = tree.nodes.new("ShaderNodeTexNoise")
     other = tree.nodes.new("ShaderNodeBackground")
     mix = mix_into_output(tree, background, other)
     tree.links.new(noise.outputs["Fac"], mix.inputs["Fac"])
-    data, problems = export.world_description(scene.world)
+    data, problems = world.world_description(scene.world)
     assert len(problems) == 1 and "Noise Texture" in problems[0], problems
     assert [layer["weight"] for layer in data["mix"]] == pytest.approx([0.5, 0.5])
     assert data["mix"][0]["sky"]["sun_elevation"] == pytest.approx(math.radians(20.0))

@@ -48,7 +48,7 @@ fn trace_map(
     };
     // Photons bounce as far as the render's bounce limit (Blender's Max Bounces): photons past
     // it could light nothing the render counts, and a lower cap of their own made the photon
-    // method darker than the path tracer wherever light bounces often (docs/bench/README.md).
+    // method darker than the path tracer wherever light bounces often.
     let max = ctx.max_depth;
     let label = format!("{map:?}");
     let stream = Stream {

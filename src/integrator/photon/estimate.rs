@@ -40,7 +40,7 @@ const RECORD_REACH: f32 = 0.5;
 /// is then independent of the value it holds. With one set of photons for both, records whose
 /// estimate came out low (a large radius, a sparse neighbourhood) reached further and served
 /// more points, and the records read low by a bias proportional to 1/k that more photons never
-/// removed (docs/bench/README.md, "records").
+/// removed.
 pub fn precompute_irradiance(
     map: &PhotonMap,
     stride: u32,

@@ -58,7 +58,7 @@ use std::f32::consts::PI;
 
 /// Least probability with which a final-gather hit traces its glossy layer (`glossy_rest`):
 /// below it the rare traced layers, weighted by 1/q, add more noise than the rays save
-/// (docs/bench/measurements.md, "Glossy layers at final-gather hits").
+/// (docs/bench/photon_method.md, "Glossy layers at final-gather hits").
 const MIN_GLOSSY_PROBABILITY: f32 = 0.25;
 
 /// A final-gather hit nearer to the point that gathers than this many times the radius of its

@@ -13,9 +13,9 @@
 //!
 //! The dipole assumes a flat semi-infinite medium, so on thick-kernel materials it loses light
 //! where the kernel reaches past the object's surface (measured against Cycles' random walk in
-//! `docs/bench/measurements.md`). Photons stand in for Jensen & Buhler's irradiance points:
+//! `docs/bench/subsurface.md`). Photons stand in for Jensen & Buhler's irradiance points:
 //! points over the surface with their irradiance from the global map measured darker at the
-//! object's edges (the same file).
+//! object's edges (the same page).
 
 use super::settings::{PhotonInfo, PhotonSettings};
 use super::tracing::{trace_photons, trace_subsurface_photon, Emitters, Stream};

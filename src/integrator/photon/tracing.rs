@@ -687,12 +687,10 @@ fn walk_photon(
 /// `crate::bsdf`), f(wo, wi) = (η_i/η_o)² f(wi, wo) for a transmitted pair, so its adjoint, by
 /// which photons must scatter for their density to estimate the radiance camera paths compute,
 /// is the sampled weight times (η_from/η_to)² at each crossing. Photons scattered by the
-/// camera's BSDF, which conserves their flux, were η² too bright wherever they were stored
-/// inside glass: on a rough slab's faces (+2.5 % for a Refraction BSDF slab, +9 % for a Glass
-/// one), on the floor inside the gallery's tilted glass cube (+9.6 % there against the path
-/// tracer, now +0.6 %) and under the cognac glass's foot (+21 %, now −3.5 %;
-/// docs/bench/measurements.md, issue 19). The factors of a photon's crossings cancel once it
-/// is back outside, so the scale is applied to what is stored, from the medium the photon is
+/// camera's BSDF, which conserves their flux, would be η² too bright wherever they are stored
+/// inside glass: on a rough slab's faces, on the floor inside the gallery's tilted glass cube,
+/// under the cognac glass's foot (docs/bench/photon_method.md, "Photons inside glass"). The
+/// factors of a photon's crossings cancel once it is back outside, so the scale is applied to what is stored, from the medium the photon is
 /// in (followed as the absorbing medium is, `Shading::ior_after`: one level, no nesting), and
 /// photons outside any medium are stored exactly as before.
 pub fn adjoint_scale(ior: f32) -> f32 {

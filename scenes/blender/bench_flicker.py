@@ -1,6 +1,6 @@
 """Frame-to-frame flicker of the photon method against the path tracer (not a test: run by hand).
 
-    PHOTON_BINARY=target/release/photon .venv/bin/python tests/blender/bench_flicker.py \
+    PHOTON_BINARY=target/release/photon .venv/bin/python scenes/blender/bench_flicker.py \
         [--frames 5] [--spp 64]
 
 A static scene (the red box on a grey floor under a 1 m area light, scenes_bpy.area_light_scene,
@@ -25,7 +25,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parents[1] / "scenes" / "blender"))
+sys.path.insert(0, str(HERE.parents[1] / "tests" / "blender"))  # scenes_bpy: the test scenes
 sys.path.insert(0, str(HERE.parents[1]))
 
 

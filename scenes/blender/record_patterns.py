@@ -6,7 +6,7 @@ shader nodes (BLI_noise, ported from Cycles' kernel): a mesh whose vertices are 
 points gets a Geometry Nodes modifier that stores each texture's outputs at its position, and
 the evaluated mesh's attributes are written to tests/data/blender_patterns.json.
 
-Usage:  .venv/bin/python tests/blender/record_patterns.py
+Usage:  .venv/bin/python scenes/blender/record_patterns.py
 """
 
 from __future__ import annotations
@@ -134,4 +134,4 @@ def main(out: Path):
 
 
 if __name__ == "__main__":
-    main(Path(__file__).resolve().parents[1] / "data" / "blender_patterns.json")
+    main(Path(__file__).resolve().parents[2] / "tests" / "data" / "blender_patterns.json")

@@ -1,6 +1,6 @@
 """Per-frame overhead of an animation rendered through the add-on (not a test: run by hand).
 
-    PHOTON_BINARY=target/release/photon .venv/bin/python tests/blender/bench_animation.py \
+    PHOTON_BINARY=target/release/photon .venv/bin/python scenes/blender/bench_animation.py \
         [--frames 4] [--route inprocess|subprocess] [--levels 5]
 
 The scene: Suzanne with a Subdivision Surface modifier (viewport level 1, render level 5:

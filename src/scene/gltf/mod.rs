@@ -1,0 +1,40 @@
+//! The only code that reads glTF: `.glb` and `.gltf` files (external buffers and images, or data
+//! URIs) become a plain-data, validated `Scene` in world space. The `gltf` crate parses and
+//! validates the JSON; buffers, accessors and images are read here with every byte range checked,
+//! so a broken file gives an `Error::Scene` naming the glTF object, never a panic.
+//!
+//! Blender's exporter drops what glTF cannot say; the add-on writes it back in Photon's `PHOTON_*`
+//! extensions, specified field by field in `docs/gltf_extensions.md` (with how Photon reads
+//! the KHR extensions Blender's importer interprets, its limits and its units). The reading is
+//! split by concern:
+//! - `container`: the `.glb`/`.gltf` container, buffers and URIs (`encoding`: base64 and
+//!   percent-escapes), and the `Loader` that carries the document and the scene being built;
+//! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
+//! - `build`: the entry points, the walk of the default scene and the choice of camera;
+//! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
+//! - `accessors`: accessors read with every byte range checked;
+//! - `meshes`: primitives into meshes and prototypes;
+//! - `motion`: poses over the shutter and deforming vertices;
+//! - `materials`: materials and their KHR and `PHOTON_*` extensions;
+//! - `textures` and `images`: glTF textures and node trees' images, and their decoding;
+//! - `lights`: punctual and area lights;
+//! - `world`: the world and the render settings;
+//! - `camera`: cameras, and the camera that frames a scene without one.
+
+mod accessors;
+mod build;
+mod camera;
+mod container;
+mod encoding;
+mod extensions;
+mod hierarchy;
+mod images;
+mod lights;
+mod materials;
+mod meshes;
+mod motion;
+mod textures;
+mod world;
+
+pub use build::{load, load_slice, LoadOptions};
+pub use hierarchy::{MAX_NODE_INSTANCES, MAX_TRIANGLES, MAX_VERTICES};
