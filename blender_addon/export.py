@@ -148,8 +148,11 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
 
     def gather_scene_hook(self, gltf_scene, blender_scene, export_settings):
         folder = Path(export_settings["gltf_filedirectory"])
-        self._add(gltf_scene, "PHOTON_world",
-                  world.world_extension(blender_scene.world, folder))
+        described = world.world_extension(blender_scene.world, folder)
+        volume = world_volume(blender_scene.world, folder)
+        if volume is not None:
+            described = {**described, "volume": volume}
+        self._add(gltf_scene, "PHOTON_world", described)
         self._add(gltf_scene, "PHOTON_render", render_extension(blender_scene))
 
 
@@ -287,14 +290,26 @@ def film_filter(scene) -> dict:
 
 
 def render_extension(scene) -> dict:
-    """PHOTON_render: the final image size (resolution x percentage), transparent film and the
-    pixel filter."""
+    """PHOTON_render: the final image size (resolution x percentage), transparent film, the
+    pixel filter and Blender's Volume bounces (Light Paths, Cycles' setting)."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
+    cycles = getattr(scene, "cycles", None)
     return {"width": max(1, int(r.resolution_x * scale)),
             "height": max(1, int(r.resolution_y * scale)),
             "film_transparent": bool(r.film_transparent),
-            "filter": film_filter(scene)}
+            "filter": film_filter(scene),
+            "volume_bounces": int(getattr(cycles, "volume_bounces", 0))}
+
+
+def world_volume(blender_world, folder=None):
+    """The tree feeding the world's Volume socket (node_tree.volume_tree), or None."""
+    if blender_world is None or not world.world_uses_nodes(blender_world):
+        return None
+    output = active_output(blender_world.node_tree, "ShaderNodeOutputWorld")
+    if output is None:
+        return None
+    return node_tree.volume_tree(blender_world, output, folder=folder)[0]
 
 
 # ---------------------------------------------------------------------------------------------

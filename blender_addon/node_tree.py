@@ -17,7 +17,10 @@
   is dropped without a word. What feeds the Material Output's Displacement is written as
   `extension["displacement"]`, a tree of the same form whose output is the normal Cycles'
   "Bump Only" method gives (a Bump node of distance 1 over the displacement's component along
-  the normal); other displacement methods are problems. `extension` is also None for trees
+  the normal); other displacement methods are problems. What feeds the Volume socket is
+  written as `extension["volume"]`, a tree of the same form whose output is the volume shader
+  (`volume_tree`, also used for the world's); a material with a Volume and no Surface is
+  `{"nodes": [], "volume": …}`: its surface only bounds the medium. `extension` is also None for trees
   glTF carries exactly (a lone
   Principled BSDF with nothing linked into it), so such materials render as before.
 
@@ -85,6 +88,9 @@ SETTINGS = {
     "ShaderNodeHoldout": (),
     "ShaderNodeMixShader": (),
     "ShaderNodeAddShader": (),
+    "ShaderNodeVolumePrincipled": (),
+    "ShaderNodeVolumeScatter": ("phase",),
+    "ShaderNodeVolumeAbsorption": (),
 }
 
 # Inputs the renderer reads, per node type (others must stay unlinked; their values are
@@ -107,6 +113,13 @@ READ_INPUTS = {
     "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
     "ShaderNodeBsdfTransparent": {"Color"},
+    # The attribute names (Density Attribute, …) name grids of Volume objects, which meshes
+    # have none of.
+    "ShaderNodeVolumePrincipled": {"Color", "Density", "Anisotropy", "Absorption Color",
+                                   "Emission Strength", "Emission Color",
+                                   "Blackbody Intensity", "Blackbody Tint", "Temperature"},
+    "ShaderNodeVolumeScatter": {"Color", "Density", "Anisotropy", "Alpha", "Diameter"},
+    "ShaderNodeVolumeAbsorption": {"Color", "Density"},
 }
 
 # Outputs the renderer provides where a node has more.
@@ -135,6 +148,7 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeBsdfGlass", "distribution"): {"BECKMANN"},
     ("ShaderNodeBsdfGlossy", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
     ("ShaderNodeBsdfAnisotropic", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
+    ("ShaderNodeVolumeScatter", "phase"): {"FOURNIER_FORAND"},
 }
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold
@@ -409,22 +423,49 @@ def material_nodes(material, folder=None, *, keep_trivial=False, unlinked=frozen
     if output is None:
         return None, []
     walker = _Walker(material, folder, unlinked)
+    volume, volume_problems = volume_tree(material, output, walker)
     src = source(output.inputs["Surface"])
     if not src.linked:
-        return None, []
+        if volume_problems:
+            return None, [f"{p}; the material renders without its volume"
+                          for p in volume_problems]
+        # A Volume alone: the surface only bounds the medium.
+        return ({"nodes": [], "volume": volume}, []) if volume is not None else (None, [])
     out = src.output
     index = walker.visit(src.node, src.groups)
     displacement, problems = _displacement_as_bump(material, output, walker)
-    problems = walker.problems + problems
+    problems = walker.problems + problems + volume_problems
     if problems or index is None:
         return None, [f"{p}; the material falls back to glTF's metallic-roughness values "
                       f"(Blender's exporter)" for p in problems]
-    if walker.trivial and displacement is None and not keep_trivial:
+    if walker.trivial and displacement is None and volume is None and not keep_trivial:
         return None, []
     extension = {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}
     if displacement is not None:
         extension["displacement"] = displacement
+    if volume is not None:
+        extension["volume"] = volume
     return extension, []
+
+
+def volume_tree(owner, output, surface=None, folder=None):
+    """`(tree or None, problems)`: what feeds the Volume socket of `output` (a Material or
+    World Output of `owner`), a tree of `material_nodes`' form whose output is the volume
+    shader. `surface`: the surface's walker, whose images it shares."""
+    socket = output.inputs.get("Volume")
+    src = source(socket) if socket is not None else None
+    if src is None or not src.linked:
+        return None, []
+    walker = _Walker(owner, surface.folder if surface else folder,
+                     surface.unlinked if surface else frozenset())
+    if surface is not None:
+        walker.images = surface.images
+    else:
+        walker.what = f"world '{owner.name}'"
+    index = walker.visit(src.node, src.groups)
+    if walker.problems or index is None:
+        return None, walker.problems
+    return {"nodes": walker.nodes, "output": {"node": index, "output": src.output.identifier}}, []
 
 
 def _displacement_as_bump(material, output, surface):

@@ -14,7 +14,10 @@ empty list, so the rules below only flag what really changes the image:
   Ray" factor and Add Shader);
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
   (the tree route renders it; glTF carries no film);
-- volumes: a material's or the world's Volume output linked, and Volume objects;
+- volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
+  Volume, Volume Scatter but its Fournier-Forand phase, Volume Absorption, Emission, Mix and
+  Add Shader over the texture and converter nodes the surface trees have), and Volume objects
+  (OpenVDB grids, smoke and fire simulations), which are not exported;
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement as bump: node_tree.py);
 - particles rendered as halos or paths (hair particle systems, Curves objects and point
@@ -36,7 +39,7 @@ from .camera import PANORAMAS
 from .lights import light_node_problems
 from .motion import deforms
 from .node_graph import active_output, source, upstream
-from .node_tree import material_nodes
+from .node_tree import material_nodes, volume_tree
 from .shared import GEOMETRY_TYPES
 from .world import world_problems, world_uses_nodes
 
@@ -100,7 +103,8 @@ def _object_features(obj) -> list[str]:
     messages = []
     what = f"object '{obj.name}'"
     if obj.type == "VOLUME":
-        messages.append(f"{what}: Volume objects are not exported; Photon renders no volumes")
+        messages.append(f"{what}: Volume objects (OpenVDB grids, smoke and fire simulations) "
+                        f"are not exported; Photon renders mesh and world volumes only")
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):
@@ -157,7 +161,7 @@ def material_features(material) -> list[str]:
             messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film is not rendered "
                             f"(the node tree is not evaluated, and glTF carries no film); the "
                             f"surface renders without its iridescence")
-    messages += _volume_features(output, what)
+    messages += _volume_features(material, output)
     displacement = output.inputs.get("Displacement")
     displaced = source(displacement).node if displacement is not None else None
     if displaced is not None and not (evaluated and "displacement" in extension):
@@ -165,13 +169,9 @@ def material_features(material) -> list[str]:
     return messages
 
 
-def _volume_features(output, what: str) -> list[str]:
-    """The message for a volume shader on a material or world output (Photon has none)."""
-    volume = source(output.inputs["Volume"]).node
-    if volume is None:
-        return []
-    return [f"{what}: the volume shader ('{volume.name}') is not exported; Photon renders no "
-            f"volumes"]
+def _volume_features(owner, output) -> list[str]:
+    """What of the volume shader on a material's or world's output Photon does not render."""
+    return [f"{p}; the volume is not rendered" for p in volume_tree(owner, output)[1]]
 
 
 def _material_node_reason(found) -> str:
@@ -204,7 +204,7 @@ def world_features(world) -> list[str]:
     output = active_output(world.node_tree, "ShaderNodeOutputWorld")
     if output is None:
         return []
-    return world_problems(world) + _volume_features(output, f"world '{world.name}'")
+    return world_problems(world) + _volume_features(world, output)
 
 
 def _camera_features(camera_object) -> list[str]:

@@ -175,5 +175,4 @@ def test_scatter_cube_with_two_volume_bounces(tmp_path):
     cube("Cloud", mat, 1.2, (0.0, 0.0, 0.8))
     sun()
     scene.cycles.volume_bounces = 2
-    scene.photon.volume_bounces = 2
     compare("two volume bounces", scene, tmp_path, photon_spp=512)

@@ -184,7 +184,9 @@ impl Loader {
                 self.scene.export_notes.push(w.to_string());
             }
         }
-        if let Some(tree) = nodes_extension.filter(|t| t.get("nodes").is_some()) {
+        // (A Volume alone may come without "nodes": glTF writers drop empty lists.)
+        let described = |t: &&Value| t.get("nodes").is_some() || t.get("volume").is_some();
+        if let Some(tree) = nodes_extension.filter(described) {
             let mut warnings = Vec::new();
             let tree = self.load_node_images(tree, &object)?;
             if let Some(volume) = tree.get("volume").filter(|v| !v.is_null()) {
