@@ -460,7 +460,7 @@ def volume_tree(owner, output, surface=None, folder=None):
                      surface.unlinked if surface else frozenset())
     if surface is not None:
         walker.images = surface.images
-    else:
+    if type(owner).__name__ == "World":
         walker.what = f"world '{owner.name}'"
     index = walker.visit(src.node, src.groups)
     if walker.problems or index is None:

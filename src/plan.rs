@@ -18,7 +18,8 @@
 //!   photons and evaluates the dipole (`integrator::photon::subsurface`). Random Walk materials
 //!   (Blender's default) need no pass: both methods walk them (`integrator::random_walk`).
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
-//!   the background); Christensen–Burley materials → photon mapping (subsurface photons); otherwise,
+//!   the background); participating media (volumes) → the path tracer (the photon method path
+//!   traces past its first surface in them); Christensen–Burley materials → photon mapping (subsurface photons); otherwise,
 //!   when caustics or indirect light are possible, two pilots measure them and predict both
 //!   methods' cost at the render's budget (`Cost`, in rays): photon mapping when the caustics
 //!   of lamps and emitting meshes carry a visible share of what the camera sees
@@ -987,6 +988,11 @@ pub fn plan_with_pilot(
         (
             Method::Path,
             "node trees read Light Path's ray kind or depths, which only the path tracer's camera paths carry".into(),
+        )
+    } else if scene.has_media() {
+        (
+            Method::Path,
+            "participating media: the photon method's final gathering does not cross them, so it would path trace them too".into(),
         )
     } else if subsurface.needed {
         (
