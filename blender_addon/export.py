@@ -27,7 +27,7 @@ PHOTON_material_nodes on materials whose node tree Photon evaluates (node_tree.p
 space of each object goes in PHOTON_object for Generated coordinates), PHOTON_world
 (background colour x strength, or an equirectangular environment image written next to the .glb
 as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
-are documented in the renderer's src/scene/gltf.rs.
+are specified in docs/gltf_extensions.md.
 
 This file runs both inside the add-on and as the child's script, so it imports only bpy, the
 standard library and numpy (shipped with Blender).
