@@ -27,7 +27,7 @@ PHOTON_material_nodes on materials whose node tree Photon evaluates (node_tree.p
 space of each object goes in PHOTON_object for Generated coordinates), PHOTON_world
 (background colour x strength, or an equirectangular environment image written next to the .glb
 as a float EXR) and PHOTON_render (final resolution, transparent film) on the scene. The fields
-are documented in the renderer's src/scene/gltf.rs.
+are specified in docs/gltf_extensions.md.
 
 The hooks take each extension from the module that knows it: lights.py (PHOTON_light),
 camera.py (PHOTON_camera), motion.py (the poses and deformation over the shutter), world.py

@@ -3,8 +3,8 @@
 `material_nodes(material)` walks the tree from the active Material Output's Surface and returns
 `(extension, problems)`:
 
-- `extension` is the JSON the renderer compiles (src/scene/nodes.rs, documented in
-  src/scene/gltf.rs): `{"nodes": [...], "output": {"node": i, "output": id}}`, the nodes in an
+- `extension` is the JSON the renderer compiles (src/shader/, documented in
+  docs/gltf_extensions.md): `{"nodes": [...], "output": {"node": i, "output": id}}`, the nodes in an
   order where every link points to an earlier node. Node groups are flattened (a node inside a
   group is named "Group/Node"), links are followed as Cycles follows them (node_graph.py:
   reroutes, muted links and nodes), unconnected inputs are written as constants (Blender's
@@ -159,7 +159,7 @@ GLTF_EXACT_PRINCIPLED = {"Coat IOR": (1.5,), "Coat Tint": ((1.0, 1.0, 1.0, 1.0),
                          "Sheen Weight": (0.0, 1.0), "Diffuse Roughness": (0.0,),
                          "Thin Film Thickness": (0.0,)}
 
-# The Math operations the renderer evaluates (src/scene/nodes.rs `math_op`).
+# The Math operations the renderer evaluates (src/shader/parse.rs).
 MATH_OPS = {
     "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT",
     "INVERSE_SQRT", "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN",
@@ -236,7 +236,7 @@ def _active_uv_maps(material) -> set[str]:
             if mesh.uv_layers.active is not None}
 
 
-# UV maps the renderer reads (src/scene/nodes.rs UV_SETS): TEXCOORD_0 to _3.
+# UV maps the renderer reads (src/shader/ UV_SETS): TEXCOORD_0 to _3.
 UV_SETS = 4
 
 

@@ -4,7 +4,7 @@
 Standard library only; the output is deterministic, so re-running gives identical files.
 All scenes are Y-up and in metres. Punctual lights use the photometric units Blender's exporter
 writes in "Standard" mode (candela and lux at 683 lm/W); Photon's own extensions (PHOTON_world,
-PHOTON_light, PHOTON_render) carry what glTF lacks and are documented in src/scene/gltf.rs.
+PHOTON_light, PHOTON_render) carry what glTF lacks and are documented in docs/gltf_extensions.md.
 
 Usage: python3 scenes/build_scenes.py
 """

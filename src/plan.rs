@@ -415,7 +415,7 @@ pub fn cache_ray_budget(spp: u32, gather_rays: u32) -> f32 {
 /// below the pixels' own noise, which falls as the samples grow. The count grows with the
 /// samples from `MIN_CACHE_GATHER_RAYS` to the cache's default (256) at 32 spp. Measured with
 /// `photon-ic` on the Cornell box at 256 px (5000 photons per spp, against a 4096-spp path
-/// reference; docs/bench/measurements.md, "Gather rays per record"): 64 rays instead of 256
+/// reference; docs/bench/photon_method.md, "Gather rays per record"): 64 rays instead of 256
 /// cost +2 % relMSE at 4 spp, +8 % at 8 and +22 % at 16, for a quarter of the cache's time,
 /// which at 8 spp is half the render's.
 const CACHE_GATHER_RAYS_PER_SAMPLE: u32 = 8;
@@ -432,7 +432,7 @@ pub fn cache_gather_rays(spp: u32, full: u32) -> u32 {
 /// the cache's settings say; below, Ward's accuracy and the smallest record spacing grow as
 /// √(`DENSE_CACHE_SPP` / spp), up to `COARSE_CACHE_FACTOR` times: with a few samples the
 /// records' interpolation error hides under the pixels' noise. `photon-ic` at 4 and 8 spp,
-/// accuracy 0.3 and spacing 5 px against 0.2 and 3 px (docs/bench/measurements.md, "Coarser
+/// accuracy 0.3 and spacing 5 px against 0.2 and 3 px (docs/bench/photon_method.md, "Coarser
 /// records at a few samples"): the Cornell box at 256 px 1338 records instead of 2954, −50 ms,
 /// relMSE +2 % / +6 %; at 96 px the window-lit room +1 % for −7..−12 % time, the interior
 /// +0.4 / +3 % for −11 %, the fractal Cornell box +0.2 / +1 % for −32 %.
@@ -502,7 +502,7 @@ const PHOTON_SAMPLE_COST: f32 = 0.5;
 /// `PilotShares::noise_left` + `NOISE_LEFT_FLOOR` times the path tracer's: the noise it
 /// leaves, and its own noise and bias from the maps and the cache. Fitted to `photon bench` at
 /// 48 px on the Cornell boxes, a window-lit room, the furnace and an interior
-/// (docs/bench/measurements.md, "The planner's cost rule"); the ratio grows with the samples on
+/// (docs/bench/planner.md, "The planner's cost rule"); the ratio grows with the samples on
 /// scenes of fine detail, whose photon-method bias then rules.
 const NOISE_LEFT_SCALE: f32 = 1.5;
 const NOISE_LEFT_FLOOR: f32 = 0.1;
@@ -519,7 +519,7 @@ const MIN_PHOTON_SHARE: f32 = 0.05;
 /// render. The path tracer's error then falls slower than its time grows (rare bright paths);
 /// at 48 px, the gallery's caustic scenes cost the photon method 4–6 times the path tracer and
 /// render to far less error, except at 4 spp, where the path tracer's noise exceeds the light it
-/// misses on three of eight (docs/bench/measurements.md, "The planner's cost rule").
+/// misses on three of eight (docs/bench/planner.md, "The planner's cost rule").
 const CAUSTIC_COST_RATIO: f32 = 16.0;
 
 /// Emission rays per camera sample of the photon method when the camera sees emitters, and the
@@ -527,7 +527,7 @@ const CAUSTIC_COST_RATIO: f32 = 16.0;
 /// seeing them. The photon method leaves little noise but the edges of what the camera sees
 /// emit (its camera samples are Sobol points, which smooth light integrals far better than
 /// edges), and its preparation outweighs its camera samples, so emission rays cost it little:
-/// `photon-ic` at 8 spp and 96 px, 3 rays against none (docs/bench/measurements.md, "Emission
+/// `photon-ic` at 8 spp and 96 px, 3 rays against none (docs/bench/photon_method.md, "Emission
 /// rays"): the Cornell box relMSE 0.0145 → 0.0020 for 10 % more CPU time, the fractal Cornell
 /// box 0.0192 → 0.0029 for 8 %, Cornell spheres (16 spp, 48 px) 0.071 → 0.057; scenes whose
 /// error is elsewhere (the interior: seen share 1.1 %; sphereflake, glossy caustic) unchanged
@@ -539,7 +539,7 @@ const CAUSTIC_COST_RATIO: f32 = 16.0;
 /// at 256 px, relMSE ÷ 2.5 at 16 spp and ÷ 1.6 at 32 for +40 % CPU time, and at 64 px and 64 spp
 /// ÷ 1.25 for +45 %, so only renders of at most `EMISSION_RAYS_MAX_SPP` get them, unless the
 /// emitters cover at most `EMISSION_RAYS_FEW_PIXELS` of the image: only pixels that may see
-/// one trace them (`EmitterPixels`), and then they cost little (docs/bench/measurements.md,
+/// one trace them (`EmitterPixels`), and then they cost little (docs/bench/photon_method.md,
 /// "Emission rays where an emitter can be seen").
 const PHOTON_EMISSION_RAYS: u32 = 3;
 const SEEN_SHARE_FOR_EMISSION_RAYS: f32 = 0.02;

@@ -1,5 +1,5 @@
 """Record Blender's own Noise and Voronoi values at chosen points, for the pattern tests of
-`src/scene/nodes.rs` (`blender_noise_at_chosen_points`, `blender_voronoi_at_chosen_points`).
+`src/shader/tests.rs` (`blender_noise_at_chosen_points`, `blender_voronoi_at_chosen_points`).
 
 Blender's geometry nodes evaluate the same Noise and Voronoi Texture definitions as Cycles'
 shader nodes (BLI_noise, ported from Cycles' kernel): a mesh whose vertices are the chosen

@@ -1019,7 +1019,7 @@ impl Scene {
             }
             1.5 * most
         };
-        for m in 0..self.materials.len() {
+        for (m, list) in boxes.iter().enumerate() {
             let Some(volume) = self.materials[m]
                 .volume
                 .as_ref()
@@ -1027,7 +1027,7 @@ impl Scene {
             else {
                 continue;
             };
-            let places: Vec<_> = boxes[m]
+            let places: Vec<_> = list
                 .iter()
                 .map(|&(mesh, instance, b)| (Some((mesh, instance)), b))
                 .collect();

@@ -1,7 +1,13 @@
 //! The Blackbody node: Cycles' piecewise fit of Planck's law in Rec. 709.
 
-use super::inputs::{v3, Operands};
+use super::inputs::{input, v3, Operands, Socket, Ty};
 use crate::math::{Vec3, Vec4};
+
+/// The Blackbody node's inputs.
+pub(super) const BLACKBODY_INPUTS: &[Socket] = &[Socket::float("Temperature", 1500.0)];
+
+/// The Blackbody node's outputs.
+pub(super) const BLACKBODY_OUTPUTS: &[Socket] = &[Socket::output("Color", Ty::Color)];
 
 /// Fits of the black-body colour in Rec.709 (Cycles' `blackbody_table_r/g/b`, fitted to
 /// Planck's law normalised to unit luminance), per temperature interval: R and G as
@@ -58,7 +64,8 @@ pub(super) fn blackbody(t: f32) -> Vec3 {
 /// The Blackbody node: Temperature to Color (negative channels clipped).
 #[inline(always)]
 pub(super) fn eval_blackbody(ins: &impl Operands) -> Vec4 {
-    v3(blackbody(ins.float(0)).max(Vec3::ZERO))
+    const TEMPERATURE: usize = input(BLACKBODY_INPUTS, "Temperature");
+    v3(blackbody(ins.float(TEMPERATURE)).max(Vec3::ZERO))
 }
 
 #[cfg(test)]

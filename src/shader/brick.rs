@@ -1,8 +1,28 @@
 //! The Brick Texture (Cycles' `svm_brick`, with Blender's integer noise for each brick's
 //! tint).
 
-use super::inputs::{splat, v3, Operands};
+use super::inputs::{input, splat, v3, Operands, Socket, Ty, GREY};
 use crate::math::{Vec3, Vec4};
+
+/// The Brick node's inputs.
+pub(super) const BRICK_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::color("Color1", GREY),
+    Socket::color("Color2", Vec4::new(0.2, 0.2, 0.2, 1.0)),
+    Socket::color("Mortar", Vec4::new(0.0, 0.0, 0.0, 1.0)),
+    Socket::float("Scale", 5.0),
+    Socket::float("Mortar Size", 0.02),
+    Socket::float("Mortar Smooth", 0.1),
+    Socket::float("Bias", 0.0),
+    Socket::float("Brick Width", 0.5),
+    Socket::float("Row Height", 0.25),
+];
+
+/// The Brick node's outputs.
+pub(super) const BRICK_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Fac", Ty::Float),
+];
 
 /// The Brick texture's settings (node properties, not sockets).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,10 +85,21 @@ pub(super) fn brick(layout: &BrickLayout, p: Vec3, sizes: [f32; 5]) -> (f32, f32
 /// Bias, Brick Width, Row Height to Color and Fac.
 #[inline(always)]
 pub(super) fn eval_brick(layout: &BrickLayout, ins: &impl Operands) -> [Vec4; 2] {
-    let p = ins.vector(0) * ins.float(4);
-    let [size, smooth, bias, width, height] = [5, 6, 7, 8, 9].map(|k| ins.float(k));
+    const VECTOR: usize = input(BRICK_INPUTS, "Vector");
+    const COLOR1: usize = input(BRICK_INPUTS, "Color1");
+    const COLOR2: usize = input(BRICK_INPUTS, "Color2");
+    const MORTAR: usize = input(BRICK_INPUTS, "Mortar");
+    const SCALE: usize = input(BRICK_INPUTS, "Scale");
+    let p = ins.vector(VECTOR) * ins.float(SCALE);
+    const MORTAR_SIZE: usize = input(BRICK_INPUTS, "Mortar Size");
+    const MORTAR_SMOOTH: usize = input(BRICK_INPUTS, "Mortar Smooth");
+    const BIAS: usize = input(BRICK_INPUTS, "Bias");
+    const BRICK_WIDTH: usize = input(BRICK_INPUTS, "Brick Width");
+    const ROW_HEIGHT: usize = input(BRICK_INPUTS, "Row Height");
+    let [size, smooth, bias, width, height] =
+        [MORTAR_SIZE, MORTAR_SMOOTH, BIAS, BRICK_WIDTH, ROW_HEIGHT].map(|k| ins.float(k));
     let (tint, mortar) = brick(layout, p, [size, smooth, bias, width, height]);
-    let (c1, c2, mortar_color) = (ins.value(1), ins.value(2), ins.value(3));
+    let (c1, c2, mortar_color) = (ins.value(COLOR1), ins.value(COLOR2), ins.value(MORTAR));
     let brick_color = if mortar != 1.0 {
         c1.truncate().lerp(c2.truncate(), tint)
     } else {

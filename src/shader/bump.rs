@@ -2,8 +2,44 @@
 //! at the point and at two points a small step along its tangents), Displacement (as Cycles'
 //! "bump only" method) and Normal Map (`svm_node_normal_map`).
 
-use super::inputs::{normal_input, v3, Operands, PointInputs, ShadingInputs};
+use super::inputs::{input, normal_input, v3, Operands, PointInputs, ShadingInputs, Socket, Ty};
 use crate::math::{Vec3, Vec4};
+
+/// The Bump node's inputs.
+pub(super) const BUMP_INPUTS: &[Socket] = &[
+    Socket::float("Strength", 1.0),
+    Socket::float("Distance", 1.0),
+    Socket::float("Filter Width", 0.1),
+    Socket::float("Height", 1.0),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Bump node's outputs.
+pub(super) const BUMP_OUTPUTS: &[Socket] = &[Socket::output("Normal", Ty::Vector)];
+
+/// The Bump's extra inputs after its sockets: the Height at the two points a small step along
+/// the tangents (the Height subtree's copies, `compile_tree`).
+pub(super) const HEIGHT_AT_STEPS: [usize; 2] = [BUMP_INPUTS.len(), BUMP_INPUTS.len() + 1];
+
+/// The Displacement node's inputs.
+pub(super) const DISPLACEMENT_INPUTS: &[Socket] = &[
+    Socket::float("Height", 0.0),
+    Socket::float("Midlevel", 0.5),
+    Socket::float("Scale", 1.0),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Displacement node's outputs.
+pub(super) const DISPLACEMENT_OUTPUTS: &[Socket] = &[Socket::output("Displacement", Ty::Vector)];
+
+/// The Normal Map node's inputs.
+pub(super) const NORMAL_MAP_INPUTS: &[Socket] = &[
+    Socket::float("Strength", 1.0),
+    Socket::color("Color", Vec4::new(0.5, 0.5, 1.0, 1.0)),
+];
+
+/// The Normal Map node's outputs.
+pub(super) const NORMAL_MAP_OUTPUTS: &[Socket] = &[Socket::output("Normal", Ty::Vector)];
 
 /// The Normal Map node's spaces (Blender's `space`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,15 +108,27 @@ pub(super) fn normal_map(
 /// distance × height.
 #[inline(always)]
 pub(super) fn eval_bump(invert: bool, inputs: &ShadingInputs, ins: &impl Operands) -> Vec4 {
-    let strength = ins.float(0).max(0.0);
-    let distance = if invert { -ins.float(1) } else { ins.float(1) };
-    let given = ins.vector(4);
+    const STRENGTH: usize = input(BUMP_INPUTS, "Strength");
+    const DISTANCE: usize = input(BUMP_INPUTS, "Distance");
+    const HEIGHT: usize = input(BUMP_INPUTS, "Height");
+    const NORMAL: usize = input(BUMP_INPUTS, "Normal");
+    let strength = ins.float(STRENGTH).max(0.0);
+    let distance = if invert {
+        -ins.float(DISTANCE)
+    } else {
+        ins.float(DISTANCE)
+    };
+    let given = ins.vector(NORMAL);
     let n = if given == Vec3::ZERO {
         inputs.normal
     } else {
         given.normalize_or(inputs.normal)
     };
-    let (hc, hx, hy) = (ins.float(3), ins.float(5), ins.float(6));
+    let (hc, hx, hy) = (
+        ins.float(HEIGHT),
+        ins.float(HEIGHT_AT_STEPS[0]),
+        ins.float(HEIGHT_AT_STEPS[1]),
+    );
     let dx = inputs.points[1].position - inputs.points[0].position;
     let dy = inputs.points[2].position - inputs.points[0].position;
     let rx = dy.cross(n);
@@ -103,8 +151,12 @@ pub(super) fn eval_displacement(
     inputs: &ShadingInputs,
     ins: &impl Operands,
 ) -> Vec4 {
-    let n = normal_input(ins.value(3), inputs.normal);
-    let height = (ins.float(0) - ins.float(1)) * ins.float(2);
+    const HEIGHT: usize = input(DISPLACEMENT_INPUTS, "Height");
+    const MIDLEVEL: usize = input(DISPLACEMENT_INPUTS, "Midlevel");
+    const SCALE: usize = input(DISPLACEMENT_INPUTS, "Scale");
+    const NORMAL: usize = input(DISPLACEMENT_INPUTS, "Normal");
+    let n = normal_input(ins.value(NORMAL), inputs.normal);
+    let height = (ins.float(HEIGHT) - ins.float(MIDLEVEL)) * ins.float(SCALE);
     let direction = if object_space {
         // Cycles: the normal to object space (normalised), scaled, and back as a
         // direction, so the object's scale scales the displacement.
@@ -124,7 +176,15 @@ pub(super) fn eval_normal_map(
     at: &PointInputs,
     ins: &impl Operands,
 ) -> Vec4 {
-    v3(normal_map(space, ins.vector(1), ins.float(0), inputs, at))
+    const STRENGTH: usize = input(NORMAL_MAP_INPUTS, "Strength");
+    const COLOR: usize = input(NORMAL_MAP_INPUTS, "Color");
+    v3(normal_map(
+        space,
+        ins.vector(COLOR),
+        ins.float(STRENGTH),
+        inputs,
+        at,
+    ))
 }
 
 #[cfg(test)]

@@ -1,7 +1,21 @@
 //! The Checker Texture (Cycles' `svm_checker`).
 
-use super::inputs::{splat, Operands};
+use super::inputs::{input, splat, Operands, Socket, Ty, GREY};
 use crate::math::{Vec3, Vec4};
+
+/// The Checker node's inputs.
+pub(super) const CHECKER_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::color("Color1", GREY),
+    Socket::color("Color2", Vec4::new(0.2, 0.2, 0.2, 1.0)),
+    Socket::float("Scale", 5.0),
+];
+
+/// The Checker node's outputs.
+pub(super) const CHECKER_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Fac", Ty::Float),
+];
 
 /// Cycles' `svm_checker`: 1 on the cells of Color1, 0 on those of Color2.
 pub fn checker(p: Vec3) -> f32 {
@@ -19,12 +33,16 @@ pub fn checker(p: Vec3) -> f32 {
 /// The Checker Texture: Vector, Color1, Color2, Scale to Color and Fac.
 #[inline(always)]
 pub(super) fn eval_checker(ins: &impl Operands) -> [Vec4; 2] {
-    let p = ins.vector(0) * ins.float(3);
+    const VECTOR: usize = input(CHECKER_INPUTS, "Vector");
+    const COLOR1: usize = input(CHECKER_INPUTS, "Color1");
+    const COLOR2: usize = input(CHECKER_INPUTS, "Color2");
+    const SCALE: usize = input(CHECKER_INPUTS, "Scale");
+    let p = ins.vector(VECTOR) * ins.float(SCALE);
     let fac = checker(p);
     let color = if fac == 1.0 {
-        ins.value(1)
+        ins.value(COLOR1)
     } else {
-        ins.value(2)
+        ins.value(COLOR2)
     };
     [color, splat(fac)]
 }

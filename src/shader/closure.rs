@@ -3,10 +3,166 @@
 //! Transparent, Holdout and Translucent BSDFs into `Closure`s, and Mix and Add Shader (see the
 //! module header of `shader` for how each maps).
 
-use super::inputs::{normal_input, Operands, PointInputs, ShadingInputs};
-use super::volume::{combine, VolumeClosure};
+use super::inputs::{input, normal_input, Operands, PointInputs, ShadingInputs, Socket, Ty, GREY};
 use crate::math::{Vec3, Vec4};
+use crate::phase::Phase;
 use std::f32::consts::PI;
+
+/// The Principled node's inputs.
+pub(super) const PRINCIPLED_INPUTS: &[Socket] = &[
+    Socket::color("Base Color", GREY),
+    Socket::float("Metallic", 0.0),
+    Socket::float("Roughness", 0.5),
+    Socket::float("IOR", 1.5),
+    Socket::float("Alpha", 1.0),
+    Socket::float("Specular IOR Level", 0.5),
+    Socket::color("Specular Tint", Vec4::ONE),
+    Socket::float("Transmission Weight", 0.0),
+    Socket::color("Emission Color", Vec4::ONE),
+    Socket::float("Emission Strength", 0.0),
+    Socket::vector("Normal", Vec4::ZERO),
+    Socket::float("Anisotropic", 0.0),
+    Socket::float("Anisotropic Rotation", 0.0),
+    Socket::vector("Tangent", Vec4::ZERO),
+    Socket::float("Coat Weight", 0.0),
+    Socket::float("Coat Roughness", 0.03),
+    Socket::float("Coat IOR", 1.5),
+    Socket::color("Coat Tint", Vec4::ONE),
+    Socket::vector("Coat Normal", Vec4::ZERO),
+    Socket::float("Sheen Weight", 0.0),
+    Socket::float("Sheen Roughness", 0.5),
+    Socket::color("Sheen Tint", Vec4::ONE),
+    Socket::float("Diffuse Roughness", 0.0),
+    Socket::float("Thin Film Thickness", 0.0),
+    Socket::float("Thin Film IOR", 1.33),
+];
+
+/// The Principled node's outputs.
+pub(super) const PRINCIPLED_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Diffuse node's inputs.
+pub(super) const DIFFUSE_INPUTS: &[Socket] = &[
+    Socket::color("Color", GREY),
+    Socket::float("Roughness", 0.0),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Diffuse node's outputs.
+pub(super) const DIFFUSE_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Sheen node's inputs.
+pub(super) const SHEEN_INPUTS: &[Socket] = &[
+    Socket::color("Color", GREY),
+    Socket::float("Roughness", 0.5),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Sheen node's outputs.
+pub(super) const SHEEN_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Glossy node's inputs.
+pub(super) const GLOSSY_INPUTS: &[Socket] = &[
+    Socket::color("Color", GREY),
+    Socket::float("Roughness", 0.5),
+    Socket::vector("Normal", Vec4::ZERO),
+    Socket::float("Anisotropy", 0.0),
+    Socket::float("Rotation", 0.0),
+    Socket::vector("Tangent", Vec4::ZERO),
+];
+
+/// The Glossy node's outputs.
+pub(super) const GLOSSY_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Glass and Refraction BSDF node's inputs.
+pub(super) const GLASS_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::ONE),
+    Socket::float("Roughness", 0.0),
+    Socket::float("IOR", 1.5),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Glass and Refraction BSDF node's outputs.
+pub(super) const GLASS_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Emission node's inputs.
+pub(super) const EMISSION_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::ONE),
+    Socket::float("Strength", 1.0),
+];
+
+/// The Emission node's outputs.
+pub(super) const EMISSION_OUTPUTS: &[Socket] = &[Socket::output("Emission", Ty::Shader)];
+
+/// The Transparent node's inputs.
+pub(super) const TRANSPARENT_INPUTS: &[Socket] = &[Socket::color("Color", Vec4::ONE)];
+
+/// The Transparent node's outputs.
+pub(super) const TRANSPARENT_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Holdout node's outputs.
+pub(super) const HOLDOUT_OUTPUTS: &[Socket] = &[Socket::output("Holdout", Ty::Shader)];
+
+/// The Translucent node's inputs.
+pub(super) const TRANSLUCENT_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::ONE),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Translucent node's outputs.
+pub(super) const TRANSLUCENT_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Mix Shader node's inputs.
+pub(super) const MIX_SHADER_INPUTS: &[Socket] = &[
+    Socket::float("Fac", 0.5),
+    Socket::shader("Shader"),
+    Socket::shader("Shader_001"),
+];
+
+/// The Mix Shader node's outputs.
+pub(super) const MIX_SHADER_OUTPUTS: &[Socket] = &[Socket::output("Shader", Ty::Shader)];
+
+/// The Add Shader node's inputs.
+pub(super) const ADD_SHADER_INPUTS: &[Socket] =
+    &[Socket::shader("Shader"), Socket::shader("Shader_001")];
+
+/// The Add Shader node's outputs.
+pub(super) const ADD_SHADER_OUTPUTS: &[Socket] = &[Socket::output("Shader", Ty::Shader)];
+
+/// The volume part of a closure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeClosure {
+    pub scattering: Vec3,
+    pub absorption: Vec3,
+    pub phase: Phase,
+}
+
+impl VolumeClosure {
+    /// No medium.
+    pub const NONE: VolumeClosure = VolumeClosure {
+        scattering: Vec3::ZERO,
+        absorption: Vec3::ZERO,
+        phase: Phase::HenyeyGreenstein(0.0),
+    };
+}
+
+/// The volume part of a Mix Shader of `a` and `b` by factor `t` (`t` = 1: all `b`), or with
+/// `t` = None of an Add Shader.
+fn combine(a: &VolumeClosure, b: &VolumeClosure, t: Option<f32>) -> VolumeClosure {
+    let (wa, wb) = match t {
+        Some(t) => (1.0 - t, t),
+        None => (1.0, 1.0),
+    };
+    let (sa, sb) = (a.scattering * wa, b.scattering * wb);
+    VolumeClosure {
+        scattering: sa + sb,
+        absorption: a.absorption * wa + b.absorption * wb,
+        phase: if sb.element_sum() > sa.element_sum() {
+            b.phase
+        } else {
+            a.phase
+        },
+    }
+}
 
 /// A shader node's result: Principled parameters and emission (see the module header).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,7 +217,8 @@ pub struct Closure {
     /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
     /// probability ½ and doubles it, so their sum is exact on average).
     pub weight: f32,
-    /// A volume shader's medium (`super::volume`); its emission is `emission`.
+    /// A volume shader's medium (the volume nodes, `super::volume`); its emission is
+    /// `emission`.
     pub volume: VolumeClosure,
 }
 
@@ -179,41 +336,66 @@ pub(super) fn eval_principled(
     ins: &impl Operands,
     u: &mut f32,
 ) -> Closure {
-    let level = ins.float(5).max(0.0);
-    let tint = ins.vector(6);
-    let normal = ins.vector(10);
-    let anisotropic = ins.float(11).clamp(0.0, 1.0);
+    const BASE_COLOR: usize = input(PRINCIPLED_INPUTS, "Base Color");
+    const METALLIC: usize = input(PRINCIPLED_INPUTS, "Metallic");
+    const ROUGHNESS: usize = input(PRINCIPLED_INPUTS, "Roughness");
+    const IOR: usize = input(PRINCIPLED_INPUTS, "IOR");
+    const ALPHA: usize = input(PRINCIPLED_INPUTS, "Alpha");
+    const SPECULAR_IOR_LEVEL: usize = input(PRINCIPLED_INPUTS, "Specular IOR Level");
+    const SPECULAR_TINT: usize = input(PRINCIPLED_INPUTS, "Specular Tint");
+    const TRANSMISSION_WEIGHT: usize = input(PRINCIPLED_INPUTS, "Transmission Weight");
+    const EMISSION_COLOR: usize = input(PRINCIPLED_INPUTS, "Emission Color");
+    const EMISSION_STRENGTH: usize = input(PRINCIPLED_INPUTS, "Emission Strength");
+    const NORMAL: usize = input(PRINCIPLED_INPUTS, "Normal");
+    const ANISOTROPIC: usize = input(PRINCIPLED_INPUTS, "Anisotropic");
+    const ANISOTROPIC_ROTATION: usize = input(PRINCIPLED_INPUTS, "Anisotropic Rotation");
+    const TANGENT: usize = input(PRINCIPLED_INPUTS, "Tangent");
+    const COAT_WEIGHT: usize = input(PRINCIPLED_INPUTS, "Coat Weight");
+    const COAT_ROUGHNESS: usize = input(PRINCIPLED_INPUTS, "Coat Roughness");
+    const COAT_IOR: usize = input(PRINCIPLED_INPUTS, "Coat IOR");
+    const COAT_TINT: usize = input(PRINCIPLED_INPUTS, "Coat Tint");
+    const COAT_NORMAL: usize = input(PRINCIPLED_INPUTS, "Coat Normal");
+    const SHEEN_WEIGHT: usize = input(PRINCIPLED_INPUTS, "Sheen Weight");
+    const SHEEN_ROUGHNESS: usize = input(PRINCIPLED_INPUTS, "Sheen Roughness");
+    const SHEEN_TINT: usize = input(PRINCIPLED_INPUTS, "Sheen Tint");
+    const DIFFUSE_ROUGHNESS: usize = input(PRINCIPLED_INPUTS, "Diffuse Roughness");
+    const THIN_FILM_THICKNESS: usize = input(PRINCIPLED_INPUTS, "Thin Film Thickness");
+    const THIN_FILM_IOR: usize = input(PRINCIPLED_INPUTS, "Thin Film IOR");
+    let level = ins.float(SPECULAR_IOR_LEVEL).max(0.0);
+    let tint = ins.vector(SPECULAR_TINT);
+    let normal = ins.vector(NORMAL);
+    let anisotropic = ins.float(ANISOTROPIC).clamp(0.0, 1.0);
     let (aspect, tangent) = if anisotropic > 0.0 {
-        let n = normal_input(ins.value(10), inputs.normal);
-        let t = tangent_input(ins.value(13), inputs, at);
-        let t = crate::math::rotate_around(t, n, ins.float(12) * 2.0 * PI);
+        let n = normal_input(ins.value(NORMAL), inputs.normal);
+        let t = tangent_input(ins.value(TANGENT), inputs, at);
+        let t = crate::math::rotate_around(t, n, ins.float(ANISOTROPIC_ROTATION) * 2.0 * PI);
         (principled_aspect(anisotropic), t)
     } else {
         (1.0, Vec3::ZERO)
     };
     let principled = Closure {
-        base_color: ins.vector(0),
-        metallic: ins.float(1).clamp(0.0, 1.0),
-        roughness: ins.float(2).clamp(0.0, 1.0),
-        ior: ins.float(3),
+        base_color: ins.vector(BASE_COLOR),
+        metallic: ins.float(METALLIC).clamp(0.0, 1.0),
+        roughness: ins.float(ROUGHNESS).clamp(0.0, 1.0),
+        ior: ins.float(IOR),
         specular: 1.0,
         specular_color: 2.0 * level * tint,
-        transmission: ins.float(7).clamp(0.0, 1.0),
-        emission: ins.vector(8) * ins.float(9),
+        transmission: ins.float(TRANSMISSION_WEIGHT).clamp(0.0, 1.0),
+        emission: ins.vector(EMISSION_COLOR) * ins.float(EMISSION_STRENGTH),
         normal,
-        coat_weight: ins.float(14).max(0.0),
-        coat_roughness: ins.float(15).clamp(0.0, 1.0),
-        coat_ior: ins.float(16).max(1.0),
-        coat_tint: ins.vector(17).max(Vec3::ZERO),
-        coat_normal: ins.vector(18),
-        sheen_weight: ins.float(19).max(0.0),
-        sheen_roughness: ins.float(20).clamp(0.0, 1.0),
-        sheen_tint: ins.vector(21).max(Vec3::ZERO),
+        coat_weight: ins.float(COAT_WEIGHT).max(0.0),
+        coat_roughness: ins.float(COAT_ROUGHNESS).clamp(0.0, 1.0),
+        coat_ior: ins.float(COAT_IOR).max(1.0),
+        coat_tint: ins.vector(COAT_TINT).max(Vec3::ZERO),
+        coat_normal: ins.vector(COAT_NORMAL),
+        sheen_weight: ins.float(SHEEN_WEIGHT).max(0.0),
+        sheen_roughness: ins.float(SHEEN_ROUGHNESS).clamp(0.0, 1.0),
+        sheen_tint: ins.vector(SHEEN_TINT).max(Vec3::ZERO),
         aspect,
         tangent,
-        diffuse_roughness: ins.float(22).clamp(0.0, 1.0),
-        thin_film_thickness: ins.float(23).max(0.0),
-        thin_film_ior: ins.float(24).max(1e-5),
+        diffuse_roughness: ins.float(DIFFUSE_ROUGHNESS).clamp(0.0, 1.0),
+        thin_film_thickness: ins.float(THIN_FILM_THICKNESS).max(0.0),
+        thin_film_ior: ins.float(THIN_FILM_IOR).max(1e-5),
         transparent: false,
         translucent: false,
         refraction: false,
@@ -223,7 +405,7 @@ pub(super) fn eval_principled(
         weight: 1.0,
         volume: VolumeClosure::NONE,
     };
-    let alpha = ins.float(4).clamp(0.0, 1.0);
+    let alpha = ins.float(ALPHA).clamp(0.0, 1.0);
     if alpha < 1.0 {
         mix_closures(u, alpha, transparent(Vec3::ONE), principled)
     } else {
@@ -234,11 +416,14 @@ pub(super) fn eval_principled(
 /// The Diffuse BSDF: Color, Roughness (Oren–Nayar), Normal.
 #[inline(always)]
 pub(super) fn eval_diffuse(ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(DIFFUSE_INPUTS, "Color");
+    const ROUGHNESS: usize = input(DIFFUSE_INPUTS, "Roughness");
+    const NORMAL: usize = input(DIFFUSE_INPUTS, "Normal");
     Closure {
-        base_color: ins.vector(0),
+        base_color: ins.vector(COLOR),
         roughness: 1.0,
-        diffuse_roughness: ins.float(1).clamp(0.0, 1.0),
-        normal: ins.vector(2),
+        diffuse_roughness: ins.float(ROUGHNESS).clamp(0.0, 1.0),
+        normal: ins.vector(NORMAL),
         ..Closure::BLACK
     }
 }
@@ -253,11 +438,17 @@ pub(super) fn eval_glossy(
     at: &PointInputs,
     ins: &impl Operands,
 ) -> Closure {
-    let a = ins.float(3).clamp(-0.99, 0.99);
+    const COLOR: usize = input(GLOSSY_INPUTS, "Color");
+    const ROUGHNESS: usize = input(GLOSSY_INPUTS, "Roughness");
+    const NORMAL: usize = input(GLOSSY_INPUTS, "Normal");
+    const ANISOTROPY: usize = input(GLOSSY_INPUTS, "Anisotropy");
+    const ROTATION: usize = input(GLOSSY_INPUTS, "Rotation");
+    const TANGENT: usize = input(GLOSSY_INPUTS, "Tangent");
+    let a = ins.float(ANISOTROPY).clamp(-0.99, 0.99);
     let (aspect, tangent) = if a.abs() > 1e-4 {
-        let n = normal_input(ins.value(2), inputs.normal);
-        let t = tangent_input(ins.value(5), inputs, at);
-        let turn = ins.float(4) + if a > 0.0 { 0.25 } else { 0.0 };
+        let n = normal_input(ins.value(NORMAL), inputs.normal);
+        let t = tangent_input(ins.value(TANGENT), inputs, at);
+        let turn = ins.float(ROTATION) + if a > 0.0 { 0.25 } else { 0.0 };
         (
             1.0 - a.abs(),
             crate::math::rotate_around(t, n, turn * 2.0 * PI),
@@ -266,10 +457,10 @@ pub(super) fn eval_glossy(
         (1.0, Vec3::ZERO)
     };
     Closure {
-        base_color: ins.vector(0),
+        base_color: ins.vector(COLOR),
         metallic: 1.0,
-        roughness: ins.float(1).clamp(0.0, 1.0),
-        normal: ins.vector(2),
+        roughness: ins.float(ROUGHNESS).clamp(0.0, 1.0),
+        normal: ins.vector(NORMAL),
         aspect,
         tangent,
         single_scatter: !multiscatter,
@@ -280,11 +471,14 @@ pub(super) fn eval_glossy(
 /// The Sheen BSDF (microfiber): Color, Roughness, Normal.
 #[inline(always)]
 pub(super) fn eval_sheen(ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(SHEEN_INPUTS, "Color");
+    const ROUGHNESS: usize = input(SHEEN_INPUTS, "Roughness");
+    const NORMAL: usize = input(SHEEN_INPUTS, "Normal");
     Closure {
         sheen_weight: 1.0,
-        sheen_tint: ins.vector(0).max(Vec3::ZERO),
-        sheen_roughness: ins.float(1).clamp(0.0, 1.0),
-        normal: ins.vector(2),
+        sheen_tint: ins.vector(COLOR).max(Vec3::ZERO),
+        sheen_roughness: ins.float(ROUGHNESS).clamp(0.0, 1.0),
+        normal: ins.vector(NORMAL),
         ..Closure::BLACK
     }
 }
@@ -292,14 +486,18 @@ pub(super) fn eval_sheen(ins: &impl Operands) -> Closure {
 /// The Glass BSDF (or with `refraction` the Refraction BSDF): Color, Roughness, IOR, Normal.
 #[inline(always)]
 pub(super) fn eval_glass(refraction: bool, multiscatter: bool, ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(GLASS_INPUTS, "Color");
+    const ROUGHNESS: usize = input(GLASS_INPUTS, "Roughness");
+    const IOR: usize = input(GLASS_INPUTS, "IOR");
+    const NORMAL: usize = input(GLASS_INPUTS, "Normal");
     Closure {
-        base_color: ins.vector(0),
-        roughness: ins.float(1).clamp(0.0, 1.0),
-        ior: ins.float(2),
+        base_color: ins.vector(COLOR),
+        roughness: ins.float(ROUGHNESS).clamp(0.0, 1.0),
+        ior: ins.float(IOR),
         transmission: 1.0,
         specular: 1.0,
         specular_color: Vec3::ONE,
-        normal: ins.vector(3),
+        normal: ins.vector(NORMAL),
         refraction,
         glass: !refraction,
         single_scatter: !refraction && !multiscatter,
@@ -310,8 +508,10 @@ pub(super) fn eval_glass(refraction: bool, multiscatter: bool, ins: &impl Operan
 /// The Emission shader: Color, Strength.
 #[inline(always)]
 pub(super) fn eval_emission(ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(EMISSION_INPUTS, "Color");
+    const STRENGTH: usize = input(EMISSION_INPUTS, "Strength");
     Closure {
-        emission: ins.vector(0) * ins.float(1),
+        emission: ins.vector(COLOR) * ins.float(STRENGTH),
         ..Closure::BLACK
     }
 }
@@ -319,7 +519,8 @@ pub(super) fn eval_emission(ins: &impl Operands) -> Closure {
 /// The Transparent BSDF: Color.
 #[inline(always)]
 pub(super) fn eval_transparent(ins: &impl Operands) -> Closure {
-    transparent(ins.vector(0))
+    const COLOR: usize = input(TRANSPARENT_INPUTS, "Color");
+    transparent(ins.vector(COLOR))
 }
 
 /// The Holdout shader.
@@ -334,11 +535,13 @@ pub(super) fn eval_holdout() -> Closure {
 /// The Translucent BSDF: Color, Normal.
 #[inline(always)]
 pub(super) fn eval_translucent(ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(TRANSLUCENT_INPUTS, "Color");
+    const NORMAL: usize = input(TRANSLUCENT_INPUTS, "Normal");
     Closure {
-        base_color: ins.vector(0),
+        base_color: ins.vector(COLOR),
         roughness: 1.0,
         transmission: 1.0,
-        normal: ins.vector(1),
+        normal: ins.vector(NORMAL),
         translucent: true,
         ..Closure::BLACK
     }
@@ -347,7 +550,8 @@ pub(super) fn eval_translucent(ins: &impl Operands) -> Closure {
 /// The Mix Shader: Fac, and the two shaders `a` and `b`.
 #[inline(always)]
 pub(super) fn eval_mix_shader(ins: &impl Operands, a: Closure, b: Closure, u: &mut f32) -> Closure {
-    let t = ins.float(0).clamp(0.0, 1.0);
+    const FAC: usize = input(MIX_SHADER_INPUTS, "Fac");
+    let t = ins.float(FAC).clamp(0.0, 1.0);
     let volume = combine(&a.volume, &b.volume, Some(t));
     Closure {
         volume,

@@ -2,8 +2,94 @@
 //! Gamma, Brightness/Contrast, Invert Color, RGB Curves and Color Ramp (`rgb_ramp_lookup` over
 //! the table the add-on bakes), and the RGB–HSV conversions.
 
-use super::inputs::{splat, v3, Operands};
+use super::inputs::{input, splat, v3, Operands, Socket, Ty, GREY};
 use crate::math::{Vec3, Vec4};
+
+/// The Mix (float) node's inputs.
+pub(super) const MIX_FLOAT_INPUTS: &[Socket] = &[
+    Socket::float("Factor_Float", 0.5),
+    Socket::float("A_Float", 0.0),
+    Socket::float("B_Float", 0.0),
+];
+
+/// The Mix (float) node's outputs.
+pub(super) const MIX_FLOAT_OUTPUTS: &[Socket] = &[Socket::output("Result_Float", Ty::Float)];
+
+/// The Mix (vector) node's inputs.
+pub(super) const MIX_VECTOR_INPUTS: &[Socket] = &[
+    Socket::float("Factor_Float", 0.5),
+    Socket::vector("A_Vector", Vec4::ZERO),
+    Socket::vector("B_Vector", Vec4::ZERO),
+];
+
+/// The Mix (vector) node's outputs.
+pub(super) const MIX_VECTOR_OUTPUTS: &[Socket] = &[Socket::output("Result_Vector", Ty::Vector)];
+
+/// The Mix (colour) node's inputs.
+pub(super) const MIX_COLOR_INPUTS: &[Socket] = &[
+    Socket::float("Factor_Float", 0.5),
+    Socket::color("A_Color", Vec4::new(0.5, 0.5, 0.5, 1.0)),
+    Socket::color("B_Color", Vec4::new(0.5, 0.5, 0.5, 1.0)),
+];
+
+/// The Mix (colour) node's outputs.
+pub(super) const MIX_COLOR_OUTPUTS: &[Socket] = &[Socket::output("Result_Color", Ty::Color)];
+
+/// The RGB Curves node's inputs.
+pub(super) const RGB_CURVES_INPUTS: &[Socket] =
+    &[Socket::float("Fac", 1.0), Socket::color("Color", Vec4::ONE)];
+
+/// The RGB Curves node's outputs.
+pub(super) const RGB_CURVES_OUTPUTS: &[Socket] = &[Socket::output("Color", Ty::Color)];
+
+/// The Color Ramp node's inputs.
+pub(super) const COLOR_RAMP_INPUTS: &[Socket] = &[Socket::float("Fac", 0.5)];
+
+/// The Color Ramp node's outputs.
+pub(super) const COLOR_RAMP_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Alpha", Ty::Float),
+];
+
+/// The Invert node's inputs.
+pub(super) const INVERT_INPUTS: &[Socket] = &[
+    Socket::float("Fac", 1.0),
+    Socket::color("Color", Vec4::ZERO),
+];
+
+/// The Invert node's outputs.
+pub(super) const INVERT_OUTPUTS: &[Socket] = &[Socket::output("Color", Ty::Color)];
+
+/// The Hue/Saturation/Value node's inputs.
+pub(super) const HUE_SATURATION_INPUTS: &[Socket] = &[
+    Socket::float("Hue", 0.5),
+    Socket::float("Saturation", 1.0),
+    Socket::float("Value", 1.0),
+    Socket::float("Fac", 1.0),
+    Socket::color("Color", GREY),
+];
+
+/// The Hue/Saturation/Value node's outputs.
+pub(super) const HUE_SATURATION_OUTPUTS: &[Socket] = &[Socket::output("Color", Ty::Color)];
+
+/// The Gamma node's inputs.
+pub(super) const GAMMA_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::ONE),
+    Socket::float("Gamma", 1.0),
+];
+
+/// The Gamma node's outputs.
+pub(super) const GAMMA_OUTPUTS: &[Socket] = &[Socket::output("Color", Ty::Color)];
+
+/// The Brightness/Contrast node's inputs.
+pub(super) const BRIGHT_CONTRAST_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::ONE),
+    Socket::float("Bright", 0.0),
+    Socket::float("Contrast", 0.0),
+];
+
+/// The Brightness/Contrast node's outputs.
+pub(super) const BRIGHT_CONTRAST_OUTPUTS: &[Socket] = &[Socket::output("Color", Ty::Color)];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum MixData {
@@ -244,11 +330,20 @@ pub(super) fn eval_mix(
     clamp_result: bool,
     ins: &impl Operands,
 ) -> Vec4 {
-    let mut t = ins.float(0);
+    const FACTOR: usize = input(MIX_FLOAT_INPUTS, "Factor_Float");
+    const A: usize = input(MIX_FLOAT_INPUTS, "A_Float");
+    const B: usize = input(MIX_FLOAT_INPUTS, "B_Float");
+    const _: () = assert!(
+        A == input(MIX_VECTOR_INPUTS, "A_Vector") && A == input(MIX_COLOR_INPUTS, "A_Color")
+    );
+    const _: () = assert!(
+        B == input(MIX_VECTOR_INPUTS, "B_Vector") && B == input(MIX_COLOR_INPUTS, "B_Color")
+    );
+    let mut t = ins.float(FACTOR);
     if clamp_factor {
         t = t.clamp(0.0, 1.0);
     }
-    let (a, b) = (ins.value(1), ins.value(2));
+    let (a, b) = (ins.value(A), ins.value(B));
     match data {
         MixData::Float => splat(a.x + (b.x - a.x) * t),
         MixData::Vector => v3(a.truncate().lerp(b.truncate(), t)),
@@ -267,8 +362,10 @@ pub(super) fn eval_mix(
 /// RGB Curves: Fac, Color through the baked curves over [min_x, min_x + range].
 #[inline(always)]
 pub(super) fn eval_rgb_curves(table: &[Vec4], min_x: f32, range: f32, ins: &impl Operands) -> Vec4 {
-    let fac = ins.float(0);
-    let c = ins.value(1);
+    const FAC: usize = input(RGB_CURVES_INPUTS, "Fac");
+    const COLOR: usize = input(RGB_CURVES_INPUTS, "Color");
+    let fac = ins.float(FAC);
+    let c = ins.value(COLOR);
     let rel = (c.truncate() - Vec3::splat(min_x)) / range;
     let curve = Vec3::new(
         ramp_extrapolated(table, rel.x).x,
@@ -281,15 +378,18 @@ pub(super) fn eval_rgb_curves(table: &[Vec4], min_x: f32, range: f32, ins: &impl
 /// Color Ramp: Fac to Color and Alpha.
 #[inline(always)]
 pub(super) fn eval_color_ramp(table: &[Vec4], interpolate: bool, ins: &impl Operands) -> [Vec4; 2] {
-    let c = ramp_lookup(table, ins.float(0), interpolate);
+    const FAC: usize = input(COLOR_RAMP_INPUTS, "Fac");
+    let c = ramp_lookup(table, ins.float(FAC), interpolate);
     [c, splat(c.w)]
 }
 
 /// Invert Color: Fac, Color.
 #[inline(always)]
 pub(super) fn eval_invert(ins: &impl Operands) -> Vec4 {
-    let t = ins.float(0);
-    let c = ins.value(1);
+    const FAC: usize = input(INVERT_INPUTS, "Fac");
+    const COLOR: usize = input(INVERT_INPUTS, "Color");
+    let t = ins.float(FAC);
+    let c = ins.value(COLOR);
     let inv = Vec3::ONE - c.truncate();
     c.truncate().lerp(inv, t).extend(c.w)
 }
@@ -297,8 +397,18 @@ pub(super) fn eval_invert(ins: &impl Operands) -> Vec4 {
 /// Hue/Saturation/Value: Hue, Saturation, Value, Fac, Color.
 #[inline(always)]
 pub(super) fn eval_hue_saturation(ins: &impl Operands) -> Vec4 {
-    let (hue, sat, val, fac) = (ins.float(0), ins.float(1), ins.float(2), ins.float(3));
-    let input = ins.value(4);
+    const HUE: usize = input(HUE_SATURATION_INPUTS, "Hue");
+    const SATURATION: usize = input(HUE_SATURATION_INPUTS, "Saturation");
+    const VALUE: usize = input(HUE_SATURATION_INPUTS, "Value");
+    const FAC: usize = input(HUE_SATURATION_INPUTS, "Fac");
+    const COLOR: usize = input(HUE_SATURATION_INPUTS, "Color");
+    let (hue, sat, val, fac) = (
+        ins.float(HUE),
+        ins.float(SATURATION),
+        ins.float(VALUE),
+        ins.float(FAC),
+    );
+    let input = ins.value(COLOR);
     let mut hsv = rgb_to_hsv(input.truncate());
     hsv.x = (hsv.x + hue + 0.5) % 1.0;
     hsv.y = (hsv.y * sat).clamp(0.0, 1.0);
@@ -311,8 +421,10 @@ pub(super) fn eval_hue_saturation(ins: &impl Operands) -> Vec4 {
 /// Gamma: Color, Gamma (positive channels raised to it).
 #[inline(always)]
 pub(super) fn eval_gamma(ins: &impl Operands) -> Vec4 {
-    let c = ins.value(0);
-    let g = ins.float(1);
+    const COLOR: usize = input(GAMMA_INPUTS, "Color");
+    const GAMMA: usize = input(GAMMA_INPUTS, "Gamma");
+    let c = ins.value(COLOR);
+    let g = ins.float(GAMMA);
     let p = |x: f32| if x > 0.0 { x.powf(g) } else { x };
     Vec4::new(p(c.x), p(c.y), p(c.z), c.w)
 }
@@ -320,8 +432,11 @@ pub(super) fn eval_gamma(ins: &impl Operands) -> Vec4 {
 /// Brightness/Contrast: Color, Bright, Contrast.
 #[inline(always)]
 pub(super) fn eval_bright_contrast(ins: &impl Operands) -> Vec4 {
-    let c = ins.value(0);
-    let (bright, contrast) = (ins.float(1), ins.float(2));
+    const COLOR: usize = input(BRIGHT_CONTRAST_INPUTS, "Color");
+    const BRIGHT: usize = input(BRIGHT_CONTRAST_INPUTS, "Bright");
+    const CONTRAST: usize = input(BRIGHT_CONTRAST_INPUTS, "Contrast");
+    let c = ins.value(COLOR);
+    let (bright, contrast) = (ins.float(BRIGHT), ins.float(CONTRAST));
     let a = 1.0 + contrast;
     let b = bright - contrast * 0.5;
     (a * c.truncate() + Vec3::splat(b))

@@ -2,15 +2,18 @@
 //! constants with socket type conversions decided here, a Bump's Height subtree copied for its
 //! two offset points, unread outputs marked, then `optimise`.
 
+use super::bump::{BUMP_INPUTS, HEIGHT_AT_STEPS};
+use super::closure::{EMISSION_INPUTS, PRINCIPLED_INPUTS};
 use super::geometry::{RAY_LENGTH_OUTPUT, RAY_STATE_OUTPUTS};
+use super::inputs::{input, Socket, Ty};
 use super::optimise::{fold_constants, fuse_bump_noise};
 use super::parse::{const_value, parse_op, setting};
 use super::program::{
-    input_reads, CompileWarnings, Instr, NodeProgram, Op, Src, Ty, MAX_CLOSURES, MAX_REGISTERS,
+    input_reads, CompileWarnings, Instr, NodeProgram, Op, Src, MAX_CLOSURES, MAX_REGISTERS,
     MAX_REGS_IN,
 };
-use super::sockets::{spec, OutputSpec};
-use super::vector::Euler;
+use super::sockets::spec;
+use super::vector::{Euler, MAPPING_INPUTS};
 use crate::math::{Vec3, Vec4};
 use serde_json::Value;
 
@@ -50,7 +53,7 @@ pub(super) fn compile_tree(
         .and_then(Value::as_array)
         .ok_or("'nodes' must be an array")?;
     // Per node: (first register or closure slot, output names and types), or None when skipped.
-    let mut placed: Vec<Option<(u16, Vec<OutputSpec>)>> = Vec::with_capacity(nodes.len());
+    let mut placed: Vec<Option<(u16, &'static [Socket])>> = Vec::with_capacity(nodes.len());
     let mut instrs: Vec<Instr> = Vec::new();
     let mut registers = 0usize;
     let mut closures = 0usize;
@@ -100,8 +103,9 @@ pub(super) fn compile_tree(
         );
         let mut ins = Vec::with_capacity(spec.inputs.len());
         let mut reads = Vec::new();
-        for (id, ty, default) in &spec.inputs {
-            let given = inputs.and_then(|i| i.get(id.as_str()));
+        for socket in spec.inputs {
+            let (id, ty, default) = (socket.name, &socket.ty, &socket.default);
+            let given = inputs.and_then(|i| i.get(id));
             let src = match given {
                 None if *ty == Ty::Shader => Src::Const(Vec4::ZERO),
                 None if texture_vector && id == "Vector" => Src::Generated,
@@ -131,7 +135,7 @@ pub(super) fn compile_tree(
                         },
                         Some((base, outs)) => {
                             reads.push(from);
-                            let k = outs.iter().position(|(n, _)| *n == output);
+                            let k = outs.iter().position(|s| s.name == output);
                             let Some(k) = k else {
                                 // An output the renderer does not provide (e.g. Texture
                                 // Coordinate's Camera): fall back to the input's default.
@@ -143,7 +147,7 @@ pub(super) fn compile_tree(
                                 ins.push(Src::Const(*default));
                                 continue;
                             };
-                            let (from_ty, reg) = (outs[k].1, base + k as u16);
+                            let (from_ty, reg) = (outs[k].ty, base + k as u16);
                             match (from_ty, *ty) {
                                 (Ty::Shader, Ty::Shader) => Src::Closure(reg),
                                 (Ty::Shader, _) | (_, Ty::Shader) => {
@@ -165,7 +169,7 @@ pub(super) fn compile_tree(
             };
             ins.push(src);
         }
-        let shader = spec.outputs.first().is_some_and(|o| o.1 == Ty::Shader);
+        let shader = spec.outputs.first().is_some_and(|o| o.ty == Ty::Shader);
         let out = if shader {
             closures += 1;
             closures - 1
@@ -179,24 +183,31 @@ pub(super) fn compile_tree(
             ));
         }
         // A light candidate unless its emission inputs are constant black.
+        const COLOR: usize = input(EMISSION_INPUTS, "Color");
+        const STRENGTH: usize = input(EMISSION_INPUTS, "Strength");
+        const EMISSION_COLOR: usize = input(PRINCIPLED_INPUTS, "Emission Color");
+        const EMISSION_STRENGTH: usize = input(PRINCIPLED_INPUTS, "Emission Strength");
+        const ALPHA: usize = input(PRINCIPLED_INPUTS, "Alpha");
         let black = |k: usize| matches!(ins[k], Src::Const(v) if v.truncate() == Vec3::ZERO);
         emits |= match op {
-            Op::Emission => !black(0) && !black(1),
-            Op::Principled { .. } => !black(8) && !black(9),
+            Op::Emission => !black(COLOR) && !black(STRENGTH),
+            Op::Principled { .. } => !black(EMISSION_COLOR) && !black(EMISSION_STRENGTH),
             _ => false,
         };
         reads_color |= matches!(op, Op::VertexColor | Op::Attribute);
         shadow_transparent |= match op {
             Op::Transparent => true,
-            Op::Principled { .. } => !matches!(ins[4], Src::Const(v) if v.x >= 1.0),
+            Op::Principled { .. } => !matches!(ins[ALPHA], Src::Const(v) if v.x >= 1.0),
             _ => false,
         };
         if matches!(op, Op::Bump { .. }) {
             // The Height subtree again at the two offset points; the heights there are the
-            // Bump's inputs 5 and 6.
-            let height = ins[3];
+            // Bump's inputs `HEIGHT_AT_STEPS`, pushed after its sockets' below.
+            const HEIGHT: usize = input(BUMP_INPUTS, "Height");
+            const _: () = assert!(HEIGHT_AT_STEPS[0] == BUMP_INPUTS.len());
+            let height = ins[HEIGHT];
             // Only what feeds Height: the nodes whose registers Height reads, and upstream.
-            let feeds_height = |n: usize, placed: &[Option<(u16, Vec<OutputSpec>)>]| {
+            let feeds_height = |n: usize, placed: &[Option<(u16, &'static [Socket])>]| {
                 placed[n].as_ref().is_some_and(|(b, o)| {
                     let r = match height {
                         Src::Reg(r) | Src::Gray(r) | Src::Average(r) => r,
@@ -265,11 +276,12 @@ pub(super) fn compile_tree(
             }
         }
         let needs = matches!(op, Op::Bump { .. });
-        placed.push(Some((out as u16, spec.outputs.clone())));
+        placed.push(Some((out as u16, spec.outputs)));
         node_instr.push(if shader { None } else { Some(instrs.len()) });
         deps.push(reads);
         needs_offsets |= needs;
-        let op = match (op, ins.get(2)) {
+        const ROTATION: usize = input(MAPPING_INPUTS, "Rotation");
+        let op = match (op, ins.get(ROTATION)) {
             // A constant rotation's sines and cosines, once.
             (Op::Mapping(kind, None), Some(Src::Const(r))) => {
                 Op::Mapping(kind, Some(Euler::new(r.truncate())))
@@ -299,11 +311,11 @@ pub(super) fn compile_tree(
             let name = setting(v, "output").unwrap_or("");
             match &placed[from] {
                 None => Src::Const(Vec4::ZERO),
-                Some((base, outs)) => match outs.iter().position(|(n, _)| *n == name) {
-                    Some(k) if outs[k].1 == output_type && output_type == Ty::Shader => {
+                Some((base, outs)) => match outs.iter().position(|s| s.name == name) {
+                    Some(k) if outs[k].ty == output_type && output_type == Ty::Shader => {
                         Src::Closure(base + k as u16)
                     }
-                    Some(k) if outs[k].1 == output_type => Src::Reg(base + k as u16),
+                    Some(k) if outs[k].ty == output_type => Src::Reg(base + k as u16),
                     _ => {
                         return Err(format!(
                             "'output' must be a {} output, found '{name}'",
@@ -332,7 +344,7 @@ pub(super) fn compile_tree(
     }
     for instr in instrs.iter_mut() {
         let outputs = spec(&instr.op).outputs;
-        if outputs.first().is_some_and(|o| o.1 != Ty::Shader) {
+        if outputs.first().is_some_and(|o| o.ty != Ty::Shader) {
             instr.used = (0..outputs.len())
                 .filter(|&k| read[instr.out as usize + k])
                 .fold(0, |mask, k| mask | 1 << k);

@@ -1,7 +1,28 @@
 //! The Fresnel and Layer Weight nodes (Cycles' `fresnel_dielectric_cos`).
 
-use super::inputs::{normal_input, splat, Operands, ShadingInputs};
+use super::inputs::{input, normal_input, splat, Operands, ShadingInputs, Socket, Ty};
 use crate::math::Vec4;
+
+/// The Fresnel node's inputs.
+pub(super) const FRESNEL_INPUTS: &[Socket] = &[
+    Socket::float("IOR", 1.5),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Fresnel node's outputs.
+pub(super) const FRESNEL_OUTPUTS: &[Socket] = &[Socket::output("Fac", Ty::Float)];
+
+/// The Layer Weight node's inputs.
+pub(super) const LAYER_WEIGHT_INPUTS: &[Socket] = &[
+    Socket::float("Blend", 0.5),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Layer Weight node's outputs.
+pub(super) const LAYER_WEIGHT_OUTPUTS: &[Socket] = &[
+    Socket::output("Fresnel", Ty::Float),
+    Socket::output("Facing", Ty::Float),
+];
 
 /// Cycles' `fresnel_dielectric_cos`: unpolarised Fresnel reflectance at cosine `cos` for
 /// relative IOR `eta` (1 under total internal reflection).
@@ -21,8 +42,10 @@ pub(super) fn fresnel_dielectric_cos(cos: f32, eta: f32) -> f32 {
 /// The Fresnel node: IOR, Normal.
 #[inline(always)]
 pub(super) fn eval_fresnel(inputs: &ShadingInputs, ins: &impl Operands) -> Vec4 {
-    let n = normal_input(ins.value(1), inputs.normal);
-    let eta = ins.float(0).max(1e-5);
+    const IOR: usize = input(FRESNEL_INPUTS, "IOR");
+    const NORMAL: usize = input(FRESNEL_INPUTS, "Normal");
+    let n = normal_input(ins.value(NORMAL), inputs.normal);
+    let eta = ins.float(IOR).max(1e-5);
     let eta = if inputs.backfacing { 1.0 / eta } else { eta };
     splat(fresnel_dielectric_cos(inputs.incoming.dot(n), eta))
 }
@@ -30,8 +53,10 @@ pub(super) fn eval_fresnel(inputs: &ShadingInputs, ins: &impl Operands) -> Vec4 
 /// The Layer Weight node: Blend, Normal to Fresnel and Facing.
 #[inline(always)]
 pub(super) fn eval_layer_weight(inputs: &ShadingInputs, ins: &impl Operands) -> [Vec4; 2] {
-    let n = normal_input(ins.value(1), inputs.normal);
-    let blend = ins.float(0);
+    const BLEND: usize = input(LAYER_WEIGHT_INPUTS, "Blend");
+    const NORMAL: usize = input(LAYER_WEIGHT_INPUTS, "Normal");
+    let n = normal_input(ins.value(NORMAL), inputs.normal);
+    let blend = ins.float(BLEND);
     let eta = (1.0 - blend).max(1e-5);
     let eta = if inputs.backfacing { eta } else { 1.0 / eta };
     let cos = inputs.incoming.dot(n);

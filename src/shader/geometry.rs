@@ -2,26 +2,67 @@
 //! Path (read off `ShadingInputs` and its `RayPath`).
 
 use super::color::gray;
-use super::inputs::{splat, v3, PointInputs, RayPath, ShadingInputs};
+use super::inputs::{splat, v3, PointInputs, RayPath, ShadingInputs, Socket, Ty};
 use crate::math::Vec4;
 
-/// The Light Path node's outputs, in Blender's order.
-pub(super) const LIGHT_PATH_OUTPUTS: [&str; 14] = [
-    "Is Camera Ray",
-    "Is Shadow Ray",
-    "Is Diffuse Ray",
-    "Is Glossy Ray",
-    "Is Singular Ray",
-    "Is Reflection Ray",
-    "Is Transmission Ray",
-    "Is Volume Scatter Ray",
-    "Ray Length",
-    "Ray Depth",
-    "Diffuse Depth",
-    "Glossy Depth",
-    "Transparent Depth",
-    "Transmission Depth",
+/// The Texture Coordinate node's outputs.
+pub(super) const TEX_COORD_OUTPUTS: &[Socket] = &[
+    Socket::output("Generated", Ty::Vector),
+    Socket::output("Normal", Ty::Vector),
+    Socket::output("UV", Ty::Vector),
+    Socket::output("Object", Ty::Vector),
+    Socket::output("Reflection", Ty::Vector),
 ];
+
+/// The UV Map node's outputs.
+pub(super) const UV_MAP_OUTPUTS: &[Socket] = &[Socket::output("UV", Ty::Vector)];
+
+/// The Color Attribute node's outputs.
+pub(super) const VERTEX_COLOR_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Alpha", Ty::Float),
+];
+
+/// The Attribute node's outputs.
+pub(super) const ATTRIBUTE_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Vector", Ty::Vector),
+    Socket::output("Fac", Ty::Float),
+    Socket::output("Alpha", Ty::Float),
+];
+
+/// The Geometry node's outputs.
+pub(super) const GEOMETRY_OUTPUTS: &[Socket] = &[
+    Socket::output("Position", Ty::Vector),
+    Socket::output("Normal", Ty::Vector),
+    Socket::output("True Normal", Ty::Vector),
+    Socket::output("Incoming", Ty::Vector),
+    Socket::output("Backfacing", Ty::Float),
+];
+
+/// Light Path's outputs, in Blender's order.
+pub(super) const LIGHT_PATH_OUTPUTS: &[Socket] = &[
+    Socket::output("Is Camera Ray", Ty::Float),
+    Socket::output("Is Shadow Ray", Ty::Float),
+    Socket::output("Is Diffuse Ray", Ty::Float),
+    Socket::output("Is Glossy Ray", Ty::Float),
+    Socket::output("Is Singular Ray", Ty::Float),
+    Socket::output("Is Reflection Ray", Ty::Float),
+    Socket::output("Is Transmission Ray", Ty::Float),
+    Socket::output("Is Volume Scatter Ray", Ty::Float),
+    Socket::output("Ray Length", Ty::Float),
+    Socket::output("Ray Depth", Ty::Float),
+    Socket::output("Diffuse Depth", Ty::Float),
+    Socket::output("Glossy Depth", Ty::Float),
+    Socket::output("Transparent Depth", Ty::Float),
+    Socket::output("Transmission Depth", Ty::Float),
+];
+
+/// The Value node's outputs.
+pub(super) const VALUE_OUTPUTS: &[Socket] = &[Socket::output("Value", Ty::Float)];
+
+/// The RGB node's outputs.
+pub(super) const RGB_OUTPUTS: &[Socket] = &[Socket::output("Color", Ty::Color)];
 
 /// The Light Path outputs only a camera path's state tells (the lobe a ray left by and the
 /// bounces before it): Is Diffuse … Is Transmission Ray and the depths.

@@ -1,8 +1,17 @@
 //! The Gradient Texture (Cycles' `svm_gradient`).
 
-use super::inputs::{splat, Operands};
+use super::inputs::{input, splat, Operands, Socket, Ty};
 use crate::math::{Vec3, Vec4};
 use std::f32::consts::PI;
+
+/// The Gradient node's inputs.
+pub(super) const GRADIENT_INPUTS: &[Socket] = &[Socket::vector("Vector", Vec4::ZERO)];
+
+/// The Gradient node's outputs.
+pub(super) const GRADIENT_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Fac", Ty::Float),
+];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum GradientKind {
@@ -43,7 +52,8 @@ pub(super) fn gradient(kind: GradientKind, p: Vec3) -> f32 {
 /// The Gradient Texture: Vector to Color and Fac.
 #[inline(always)]
 pub(super) fn eval_gradient(kind: GradientKind, ins: &impl Operands) -> [Vec4; 2] {
-    let fac = gradient(kind, ins.vector(0));
+    const VECTOR: usize = input(GRADIENT_INPUTS, "Vector");
+    let fac = gradient(kind, ins.vector(VECTOR));
     [splat(fac), splat(fac)]
 }
 

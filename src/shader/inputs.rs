@@ -174,6 +174,102 @@ pub(super) fn up_one(n: u16) -> u16 {
     n.saturating_add(1)
 }
 
+/// A socket's type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Ty {
+    Float,
+    Vector,
+    Color,
+    Shader,
+}
+
+/// One socket of a node: its identifier (Blender's socket `identifier`), its type and, for an
+/// input, Blender's default value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Socket {
+    pub name: &'static str,
+    pub ty: Ty,
+    pub default: Vec4,
+}
+
+/// Blender's default grey (0.8) of colour inputs.
+pub const GREY: Vec4 = Vec4::new(0.8, 0.8, 0.8, 1.0);
+
+impl Socket {
+    /// A float input of default `x`.
+    pub const fn float(name: &'static str, x: f32) -> Socket {
+        Socket {
+            name,
+            ty: Ty::Float,
+            default: Vec4::new(x, x, x, 1.0),
+        }
+    }
+
+    /// A vector input.
+    pub const fn vector(name: &'static str, default: Vec4) -> Socket {
+        Socket {
+            name,
+            ty: Ty::Vector,
+            default,
+        }
+    }
+
+    /// A colour input.
+    pub const fn color(name: &'static str, default: Vec4) -> Socket {
+        Socket {
+            name,
+            ty: Ty::Color,
+            default,
+        }
+    }
+
+    /// A shader input (unlinked: no shader).
+    pub const fn shader(name: &'static str) -> Socket {
+        Socket {
+            name,
+            ty: Ty::Shader,
+            default: Vec4::ZERO,
+        }
+    }
+
+    /// An output.
+    pub const fn output(name: &'static str, ty: Ty) -> Socket {
+        Socket {
+            name,
+            ty,
+            default: Vec4::ZERO,
+        }
+    }
+}
+
+/// The position of the socket `name` in `sockets`. Called in a `const` (as every evaluation
+/// names the inputs it reads), a name not in the table fails the build.
+pub const fn input(sockets: &[Socket], name: &str) -> usize {
+    let mut k = 0;
+    while k < sockets.len() {
+        if same_name(sockets[k].name, name) {
+            return k;
+        }
+        k += 1;
+    }
+    panic!("no socket of that name");
+}
+
+const fn same_name(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut k = 0;
+    while k < a.len() {
+        if a[k] != b[k] {
+            return false;
+        }
+        k += 1;
+    }
+    true
+}
+
 /// A node's inputs as its evaluation reads them: input `k` in the order of the node's socket
 /// table, at the point the node is evaluated for.
 pub trait Operands {

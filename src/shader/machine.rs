@@ -2,10 +2,11 @@
 //! and closure array, the loop over the instructions, and the dispatch of each instruction to
 //! its node family's evaluation.
 
-use super::closure::Closure;
+use super::closure::{Closure, ADD_SHADER_INPUTS, MIX_SHADER_INPUTS};
 use super::color::gray;
 use super::geometry::uv_value;
-use super::inputs::{splat, v3, Operands, PointInputs, ShadingInputs};
+use super::inputs::{input, splat, v3, Operands, PointInputs, ShadingInputs};
+use super::noise::NOISE_INPUTS;
 use super::program::{Instr, NodeProgram, Op, Src, MAX_CLOSURES, MAX_REGISTERS};
 use super::{
     blackbody, brick, bump, checker, closure, color, convert, fresnel, geometry, gradient, image,
@@ -249,7 +250,7 @@ pub(super) fn run(
                 m,
                 at: &inputs.points[k],
                 instr,
-                first: 9 * k,
+                first: NOISE_INPUTS.len() * k,
             };
             let readers = [at_point(0), at_point(1), at_point(2)];
             let values = noise::eval_noise_at3(
@@ -299,11 +300,15 @@ pub(super) fn run(
         Op::Holdout => m.closures[o] = closure::eval_holdout(),
         Op::Translucent => m.closures[o] = closure::eval_translucent(ins),
         Op::MixShader => {
-            let (a, b) = (read_closure(m, instr.ins[1]), read_closure(m, instr.ins[2]));
+            const A: usize = input(MIX_SHADER_INPUTS, "Shader");
+            const B: usize = input(MIX_SHADER_INPUTS, "Shader_001");
+            let (a, b) = (read_closure(m, instr.ins[A]), read_closure(m, instr.ins[B]));
             m.closures[o] = closure::eval_mix_shader(ins, a, b, u)
         }
         Op::AddShader => {
-            let (a, b) = (read_closure(m, instr.ins[0]), read_closure(m, instr.ins[1]));
+            const A: usize = input(ADD_SHADER_INPUTS, "Shader");
+            const B: usize = input(ADD_SHADER_INPUTS, "Shader_001");
+            let (a, b) = (read_closure(m, instr.ins[A]), read_closure(m, instr.ins[B]));
             m.closures[o] = closure::eval_add_shader(a, b, u)
         }
         Op::PrincipledVolume => m.closures[o] = volume::eval_principled_volume(ins),

@@ -1,8 +1,21 @@
 //! The Magic Texture (Cycles' `svm_magic`).
 
-use super::inputs::{splat, v3, Operands};
+use super::inputs::{input, splat, v3, Operands, Socket, Ty};
 use crate::math::{Vec3, Vec4};
 use std::f32::consts::PI;
+
+/// The Magic node's inputs.
+pub(super) const MAGIC_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::float("Scale", 5.0),
+    Socket::float("Distortion", 1.0),
+];
+
+/// The Magic node's outputs.
+pub(super) const MAGIC_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Fac", Ty::Float),
+];
 
 /// Cycles' `svm_magic`: Blender's Magic texture, `depth` rounds of sines and cosines feeding
 /// each other, the coordinates first wrapped to one period (2π) to keep precision.
@@ -44,6 +57,14 @@ pub(super) fn magic(p: Vec3, scale: f32, depth: u8, distortion: f32) -> Vec3 {
 /// The Magic Texture: Vector, Scale, Distortion to Color and Fac.
 #[inline(always)]
 pub(super) fn eval_magic(depth: u8, ins: &impl Operands) -> [Vec4; 2] {
-    let c = magic(ins.vector(0), ins.float(1), depth, ins.float(2));
+    const VECTOR: usize = input(MAGIC_INPUTS, "Vector");
+    const SCALE: usize = input(MAGIC_INPUTS, "Scale");
+    const DISTORTION: usize = input(MAGIC_INPUTS, "Distortion");
+    let c = magic(
+        ins.vector(VECTOR),
+        ins.float(SCALE),
+        depth,
+        ins.float(DISTORTION),
+    );
     [v3(c), splat((c.x + c.y + c.z) / 3.0)]
 }

@@ -1,9 +1,42 @@
 //! The Math, Map Range and Clamp nodes, with Blender's safe definitions (Cycles' `svm_math`,
 //! `svm_node_map_range`).
 
-use super::inputs::{splat, Operands};
+use super::inputs::{input, splat, Operands, Socket, Ty};
 use crate::math::Vec4;
 use std::f32::consts::PI;
+
+/// The Math node's inputs.
+pub(super) const MATH_INPUTS: &[Socket] = &[
+    Socket::float("Value", 0.5),
+    Socket::float("Value_001", 0.5),
+    Socket::float("Value_002", 0.5),
+];
+
+/// The Math node's outputs.
+pub(super) const MATH_OUTPUTS: &[Socket] = &[Socket::output("Value", Ty::Float)];
+
+/// The Map Range node's inputs.
+pub(super) const MAP_RANGE_INPUTS: &[Socket] = &[
+    Socket::float("Value", 1.0),
+    Socket::float("From Min", 0.0),
+    Socket::float("From Max", 1.0),
+    Socket::float("To Min", 0.0),
+    Socket::float("To Max", 1.0),
+    Socket::float("Steps", 4.0),
+];
+
+/// The Map Range node's outputs.
+pub(super) const MAP_RANGE_OUTPUTS: &[Socket] = &[Socket::output("Result", Ty::Float)];
+
+/// The Clamp node's inputs.
+pub(super) const CLAMP_INPUTS: &[Socket] = &[
+    Socket::float("Value", 1.0),
+    Socket::float("Min", 0.0),
+    Socket::float("Max", 1.0),
+];
+
+/// The Clamp node's outputs.
+pub(super) const CLAMP_OUTPUTS: &[Socket] = &[Socket::output("Result", Ty::Float)];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum MathOp {
@@ -313,21 +346,39 @@ pub(super) fn smootherstep(edge0: f32, edge1: f32, x: f32) -> f32 {
 /// The Math node: Value, Value_001, Value_002 combined by `op`, clamped to [0, 1] on request.
 #[inline(always)]
 pub(super) fn eval_math(op: MathOp, clamp: bool, ins: &impl Operands) -> Vec4 {
-    let r = math(op, ins.float(0), ins.float(1), ins.float(2));
+    const VALUE: usize = input(MATH_INPUTS, "Value");
+    const VALUE_001: usize = input(MATH_INPUTS, "Value_001");
+    const VALUE_002: usize = input(MATH_INPUTS, "Value_002");
+    let r = math(
+        op,
+        ins.float(VALUE),
+        ins.float(VALUE_001),
+        ins.float(VALUE_002),
+    );
     splat(if clamp { r.clamp(0.0, 1.0) } else { r })
 }
 
 /// The Map Range node (float): Value, From Min, From Max, To Min, To Max, Steps.
 #[inline(always)]
 pub(super) fn eval_map_range(kind: MapRangeKind, clamp: bool, ins: &impl Operands) -> Vec4 {
-    let [v, a, b, c, d, steps] = [0, 1, 2, 3, 4, 5].map(|k| ins.float(k));
+    const VALUE: usize = input(MAP_RANGE_INPUTS, "Value");
+    const FROM_MIN: usize = input(MAP_RANGE_INPUTS, "From Min");
+    const FROM_MAX: usize = input(MAP_RANGE_INPUTS, "From Max");
+    const TO_MIN: usize = input(MAP_RANGE_INPUTS, "To Min");
+    const TO_MAX: usize = input(MAP_RANGE_INPUTS, "To Max");
+    const STEPS: usize = input(MAP_RANGE_INPUTS, "Steps");
+    let [v, a, b, c, d, steps] =
+        [VALUE, FROM_MIN, FROM_MAX, TO_MIN, TO_MAX, STEPS].map(|k| ins.float(k));
     splat(map_range(kind, clamp, v, a, b, c, d, steps))
 }
 
 /// The Clamp node: Value between Min and Max (`range`: whichever is smaller first).
 #[inline(always)]
 pub(super) fn eval_clamp(range: bool, ins: &impl Operands) -> Vec4 {
-    let (v, lo, hi) = (ins.float(0), ins.float(1), ins.float(2));
+    const VALUE: usize = input(CLAMP_INPUTS, "Value");
+    const MIN: usize = input(CLAMP_INPUTS, "Min");
+    const MAX: usize = input(CLAMP_INPUTS, "Max");
+    let (v, lo, hi) = (ins.float(VALUE), ins.float(MIN), ins.float(MAX));
     let r = if range && lo > hi {
         v.clamp(hi, lo)
     } else {

@@ -50,15 +50,17 @@
 //! it picks one with probability ½, which halves their sum (approximate; exact when one side
 //! only emits, the common case).
 //!
-//! The files, as Cycles' `kernel/svm/` lays out its own: what a tree reads (`inputs`) and what
-//! a shader node gives (`closure`); compiling: the socket tables (`sockets`), each node's JSON
-//! into its operation (`parse`), the tree into a program (`compile`, `program`) and its
-//! optimisations (`optimise`); running it (`machine`: the registers and the dispatch loop, each
-//! instruction one call into its node family's file); and one file per node family: `geometry`
-//! (the input nodes), `math`, `vector`, `color`, `convert`, `bump`, `fresnel`, `closure` (the
-//! shader nodes), and the textures `noise`, `voronoi`, `checker`, `gradient`, `brick`, `magic`,
+//! The files, as Cycles' `kernel/svm/` lays out its own: what a tree reads (`inputs`, with the
+//! `Socket` tables and `Operands`, inputs read by name checked at compile time) and what a
+//! shader node gives (`closure`); compiling: which socket tables a node has (`sockets`), each
+//! node's JSON into its operation (`parse`), the tree into a program (`compile`, `program`) and
+//! its optimisations (`optimise`); running it (`machine`: the registers and the dispatch loop,
+//! each instruction one call into its node family's file); and one file per node family, with
+//! its socket tables and evaluation: `geometry` (the input nodes), `math`, `vector`, `color`,
+//! `convert`, `bump`, `fresnel`, `closure` (the shader nodes), and the textures `noise` (with
+//! its AVX2 kernels), `voronoi` (`voronoi_avx2`), `checker`, `gradient`, `brick`, `magic`,
 //! `wave`, `white_noise`, `image`, with `blackbody`, and the volume shaders (`volume`); `hash` is Jenkins' lookup3 the textures
-//! draw from, and `noise_avx2`, `voronoi_avx2` the eight-lane kernels.
+//! draw from. ARCHITECTURE.md says how to add a node.
 
 mod blackbody;
 mod brick;
@@ -90,14 +92,13 @@ mod voronoi_avx2;
 mod wave;
 mod white_noise;
 
-pub use closure::{default_tangent, principled_aspect, Closure};
+pub use closure::{default_tangent, principled_aspect, Closure, VolumeClosure};
 pub use compile::compile;
 pub use inputs::{PointInputs, RayPath, Scattering, ShadingInputs, UV_SETS};
 pub use program::{
     CompileWarnings, NodeProgram, MAX_CLOSURES, MAX_REGISTERS, READS_ALL, READS_COLOR,
     READS_COORDS, READS_OBJECT_NORMAL, READS_TANGENT, READS_UV,
 };
-pub use volume::VolumeClosure;
 
 #[cfg(test)]
 mod tests;

@@ -1,15 +1,39 @@
-//! Perlin noise and the Noise Texture as Blender defines them (Cycles' `noise_fbm` over
-//! Perlin's improved noise (Perlin, 2002) with Jenkins' lookup3 lattice hashes, `hash`): 1D, 2D and 3D
-//! noise, fBm, distortion and colour, and the same noise at a Bump's three nearby points at
-//! once (`noise_texture_at3`). With AVX2, `noise_avx2` computes 3D noise with the same values
-//! bit for bit.
+//! Perlin noise and the Noise Texture as Blender defines them (Cycles' `noise_fbm` over Perlin's
+//! improved noise (Perlin, 2002) with Jenkins' lookup3 lattice hashes, `hash`): 1D, 2D and 3D
+//! noise, fBm, distortion and colour, and the same noise at a Bump's three nearby points at once
+//! (`noise_texture_at3`). With AVX2, `noise_avx2` computes 3D noise with the same values bit for
+//! bit.
 
 use super::hash::{self, has_avx2, hash1, hash2, hash_float, hash_float2, U32x4, LOOKUP3_SEED};
-use super::inputs::{splat, v3, Operands};
+use super::inputs::{input, splat, v3, Operands, Socket, Ty};
 use crate::math::{Vec3, Vec4};
-use std::ops::{Add, Div, Mul};
+use std::ops::{Add, Div, Mul, Sub};
 
-pub(super) fn fade(t: f32) -> f32 {
+/// The Noise node's inputs.
+pub(super) const NOISE_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::float("W", 0.0),
+    Socket::float("Scale", 5.0),
+    Socket::float("Detail", 2.0),
+    Socket::float("Roughness", 0.5),
+    Socket::float("Lacunarity", 2.0),
+    Socket::float("Offset", 0.0),
+    Socket::float("Gain", 1.0),
+    Socket::float("Distortion", 0.0),
+];
+
+/// The Noise node's outputs.
+pub(super) const NOISE_OUTPUTS: &[Socket] = &[
+    Socket::output("Fac", Ty::Float),
+    Socket::output("Color", Ty::Color),
+];
+
+/// Perlin's interpolant 6t⁵ − 15t⁴ + 10t³, for one value or lanes of them.
+#[inline(always)]
+pub(super) fn fade<T>(t: T) -> T
+where
+    T: Copy + Mul<Output = T> + Mul<f32, Output = T> + Sub<f32, Output = T> + Add<f32, Output = T>,
+{
     t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
 }
 
@@ -303,11 +327,6 @@ pub(super) fn lanes(v: [f32; 3]) -> Vec4 {
     Vec4::new(v[0], v[1], v[2], v[0])
 }
 
-#[inline(always)]
-pub(super) fn fade4(t: Vec4) -> Vec4 {
-    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
-}
-
 /// `grad3` for one hash over lanes of points: the hash picks the same components and signs
 /// in every lane (a sign is flipped by multiplying by −1, which is exact).
 #[inline(always)]
@@ -357,7 +376,7 @@ pub(super) fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
         near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
     ];
     let (fx, fy, fz) = (x - cx, y - cy, z - cz);
-    let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
+    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
     let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
     let g = |corner: usize| grad3_lanes(h[corner], corner, &offsets);
     let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
@@ -723,15 +742,22 @@ pub(super) fn noise_texture_at3(
 /// Offset, Gain, Distortion) as `noise_texture` takes them.
 #[inline(always)]
 pub(super) fn noise_input(normalize: bool, ins: &impl Operands) -> NoiseInput {
-    let scale = ins.float(2);
-    let p = ins.vector(0) * scale;
+    const VECTOR: usize = input(NOISE_INPUTS, "Vector");
+    const W: usize = input(NOISE_INPUTS, "W");
+    const SCALE: usize = input(NOISE_INPUTS, "Scale");
+    const DETAIL: usize = input(NOISE_INPUTS, "Detail");
+    const ROUGHNESS: usize = input(NOISE_INPUTS, "Roughness");
+    const LACUNARITY: usize = input(NOISE_INPUTS, "Lacunarity");
+    const DISTORTION: usize = input(NOISE_INPUTS, "Distortion");
+    let scale = ins.float(SCALE);
+    let p = ins.vector(VECTOR) * scale;
     let f = Fractal {
-        detail: ins.float(3).clamp(0.0, 15.0),
-        roughness: ins.float(4).max(0.0),
-        lacunarity: ins.float(5),
+        detail: ins.float(DETAIL).clamp(0.0, 15.0),
+        roughness: ins.float(ROUGHNESS).max(0.0),
+        lacunarity: ins.float(LACUNARITY),
         normalize,
     };
-    (p, ins.float(1) * scale, f, ins.float(8))
+    (p, ins.float(W) * scale, f, ins.float(DISTORTION))
 }
 
 /// The Noise Texture (FBM): Fac and Color; the colour only when `used` reads it.

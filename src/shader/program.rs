@@ -4,8 +4,10 @@
 
 use super::brick::BrickLayout;
 use super::bump::NormalMapSpace;
+use super::closure::{GLOSSY_INPUTS, PRINCIPLED_INPUTS};
 use super::color::{Blend, MixData};
 use super::gradient::GradientKind;
+use super::inputs::input;
 use super::math::{MapRangeKind, MathOp};
 use super::vector::{Euler, MappingKind, VectorOp};
 use super::volume::ScatterPhase;
@@ -32,14 +34,6 @@ pub(super) enum Src {
     Generated,
     /// The implicit UV (this UV map) of an unlinked Image Texture Vector input.
     Uv(u8),
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) enum Ty {
-    Float,
-    Vector,
-    Color,
-    Shader,
 }
 
 /// One node's operation with its settings.
@@ -240,11 +234,11 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
             // the object-to-world normal matrix, unless the anisotropy is a constant `run`
             // reads as none.
-            Op::Principled { .. } => match instr.ins.get(11) {
+            Op::Principled { .. } => match instr.ins.get(input(PRINCIPLED_INPUTS, "Anisotropic")) {
                 Some(Src::Const(a)) if !(a.x.clamp(0.0, 1.0) > 0.0) => 0,
                 _ => READS_COORDS | READS_OBJECT_NORMAL,
             },
-            Op::Glossy { .. } => match instr.ins.get(3) {
+            Op::Glossy { .. } => match instr.ins.get(input(GLOSSY_INPUTS, "Anisotropy")) {
                 Some(Src::Const(a)) if !(a.x.clamp(-0.99, 0.99).abs() > 1e-4) => 0,
                 _ => READS_COORDS | READS_OBJECT_NORMAL,
             },

@@ -299,7 +299,7 @@ fn bump_tilts_the_normal_against_the_height_gradient() {
 
 /// Blender's own Noise and Voronoi values at chosen points (near the origin, negative,
 /// −0, on cell walls, large, past Noise's period), recorded by
-/// `tests/blender/record_patterns.py` with Blender's geometry nodes, which evaluate the
+/// `scenes/blender/record_patterns.py` with Blender's geometry nodes, which evaluate the
 /// same definitions as Cycles' shader nodes.
 fn blender_patterns() -> (Value, Vec<Vec3>) {
     let doc: Value = serde_json::from_str(include_str!("../../tests/data/blender_patterns.json"))

@@ -1,8 +1,33 @@
 //! The Mapping and Vector Math nodes, and Blender's Euler rotations (Cycles' `svm_mapping`,
 //! `svm_vector_math`).
 
-use super::inputs::{splat, v3, Operands};
+use super::inputs::{input, splat, v3, Operands, Socket, Ty};
 use crate::math::{Vec3, Vec4};
+
+/// The Mapping node's inputs.
+pub(super) const MAPPING_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::vector("Location", Vec4::ZERO),
+    Socket::vector("Rotation", Vec4::ZERO),
+    Socket::vector("Scale", Vec4::ONE),
+];
+
+/// The Mapping node's outputs.
+pub(super) const MAPPING_OUTPUTS: &[Socket] = &[Socket::output("Vector", Ty::Vector)];
+
+/// The Vector Math node's inputs.
+pub(super) const VECTOR_MATH_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::vector("Vector_001", Vec4::ZERO),
+    Socket::vector("Vector_002", Vec4::ZERO),
+    Socket::float("Scale", 1.0),
+];
+
+/// The Vector Math node's outputs.
+pub(super) const VECTOR_MATH_OUTPUTS: &[Socket] = &[
+    Socket::output("Vector", Ty::Vector),
+    Socket::output("Value", Ty::Float),
+];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum MappingKind {
@@ -143,22 +168,30 @@ pub(super) fn vector_math(op: VectorOp, a: Vec3, b: Vec3, c: Vec3, scale: f32) -
 /// cosines when the Rotation input is constant.
 #[inline(always)]
 pub(super) fn eval_mapping(kind: MappingKind, fixed: &Option<Euler>, ins: &impl Operands) -> Vec4 {
-    let v = ins.vector(0);
-    let loc = ins.vector(1);
-    let rot = fixed.unwrap_or_else(|| Euler::new(ins.vector(2)));
-    let scale = ins.vector(3);
+    const VECTOR: usize = input(MAPPING_INPUTS, "Vector");
+    const LOCATION: usize = input(MAPPING_INPUTS, "Location");
+    const ROTATION: usize = input(MAPPING_INPUTS, "Rotation");
+    const SCALE: usize = input(MAPPING_INPUTS, "Scale");
+    let v = ins.vector(VECTOR);
+    let loc = ins.vector(LOCATION);
+    let rot = fixed.unwrap_or_else(|| Euler::new(ins.vector(ROTATION)));
+    let scale = ins.vector(SCALE);
     v3(mapping(kind, v, loc, &rot, scale))
 }
 
 /// The Vector Math node: its Vector and Value outputs.
 #[inline(always)]
 pub(super) fn eval_vector_math(op: VectorOp, ins: &impl Operands) -> [Vec4; 2] {
+    const VECTOR: usize = input(VECTOR_MATH_INPUTS, "Vector");
+    const VECTOR_001: usize = input(VECTOR_MATH_INPUTS, "Vector_001");
+    const VECTOR_002: usize = input(VECTOR_MATH_INPUTS, "Vector_002");
+    const SCALE: usize = input(VECTOR_MATH_INPUTS, "Scale");
     let (v, value) = vector_math(
         op,
-        ins.vector(0),
-        ins.vector(1),
-        ins.vector(2),
-        ins.float(3),
+        ins.vector(VECTOR),
+        ins.vector(VECTOR_001),
+        ins.vector(VECTOR_002),
+        ins.float(SCALE),
     );
     [v3(v), splat(value)]
 }

@@ -15,30 +15,13 @@
 //! function of the part that scatters more.
 
 use super::blackbody::blackbody;
-use super::closure::Closure;
-use super::inputs::{Operands, ShadingInputs};
+use super::closure::{Closure, VolumeClosure};
+use super::inputs::{input, Operands, ShadingInputs, Socket, Ty, GREY};
 use super::program::NodeProgram;
-use crate::math::Vec3;
+use crate::math::{Vec3, Vec4};
 use crate::medium::Coefficients;
 use crate::phase::Phase;
 use crate::scene::texture::Texture;
-
-/// The volume part of a closure.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct VolumeClosure {
-    pub scattering: Vec3,
-    pub absorption: Vec3,
-    pub phase: Phase,
-}
-
-impl VolumeClosure {
-    /// No medium.
-    pub const NONE: VolumeClosure = VolumeClosure {
-        scattering: Vec3::ZERO,
-        absorption: Vec3::ZERO,
-        phase: Phase::HenyeyGreenstein(0.0),
-    };
-}
 
 /// Volume Scatter's phase functions (its `phase` setting), with what each reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,71 +32,53 @@ pub(super) enum ScatterPhase {
     Mie,
 }
 
-/// Principled Volume's inputs, in the socket table's order (`sockets::spec`).
-pub(super) const PRINCIPLED_VOLUME_INPUTS: [&str; 9] = [
-    "Color",
-    "Density",
-    "Anisotropy",
-    "Absorption Color",
-    "Emission Strength",
-    "Emission Color",
-    "Blackbody Intensity",
-    "Blackbody Tint",
-    "Temperature",
+/// Principled Volume's inputs (its attribute names, which name grids of Volume objects, are
+/// not read: meshes have none, as in Cycles).
+pub(super) const PRINCIPLED_VOLUME_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::new(0.5, 0.5, 0.5, 1.0)),
+    Socket::float("Density", 1.0),
+    Socket::float("Anisotropy", 0.0),
+    Socket::color("Absorption Color", Vec4::new(0.0, 0.0, 0.0, 1.0)),
+    Socket::float("Emission Strength", 0.0),
+    Socket::color("Emission Color", Vec4::ONE),
+    Socket::float("Blackbody Intensity", 0.0),
+    Socket::color("Blackbody Tint", Vec4::ONE),
+    Socket::float("Temperature", 1000.0),
 ];
 
-/// Volume Scatter's inputs, in the socket table's order.
-pub(super) const SCATTER_INPUTS: [&str; 5] =
-    ["Color", "Density", "Anisotropy", "Alpha", "Diameter"];
+/// Volume Scatter's inputs read (IOR and Backscatter are Fournier-Forand's, not rendered).
+pub(super) const SCATTER_INPUTS: &[Socket] = &[
+    Socket::color("Color", GREY),
+    Socket::float("Density", 1.0),
+    Socket::float("Anisotropy", 0.0),
+    Socket::float("Alpha", 0.5),
+    Socket::float("Diameter", 20.0),
+];
 
-/// Volume Absorption's inputs, in the socket table's order.
-pub(super) const ABSORPTION_INPUTS: [&str; 2] = ["Color", "Density"];
+/// Volume Absorption's inputs.
+pub(super) const ABSORPTION_INPUTS: &[Socket] =
+    &[Socket::color("Color", GREY), Socket::float("Density", 1.0)];
 
-/// The index of input `name` in `inputs`; a name not there fails the build where it is used in
-/// a constant.
-const fn input(inputs: &[&str], name: &str) -> usize {
-    let mut k = 0;
-    while k < inputs.len() {
-        if str_eq(inputs[k], name) {
-            return k;
-        }
-        k += 1;
-    }
-    panic!("no such input")
-}
+/// The volume nodes' one output.
+pub(super) const VOLUME_OUTPUTS: &[Socket] = &[Socket::output("Volume", Ty::Shader)];
 
-const fn str_eq(a: &str, b: &str) -> bool {
-    let (a, b) = (a.as_bytes(), b.as_bytes());
-    if a.len() != b.len() {
-        return false;
-    }
-    let mut k = 0;
-    while k < a.len() {
-        if a[k] != b[k] {
-            return false;
-        }
-        k += 1;
-    }
-    true
-}
+const COLOR: usize = input(PRINCIPLED_VOLUME_INPUTS, "Color");
+const DENSITY: usize = input(PRINCIPLED_VOLUME_INPUTS, "Density");
+const ANISOTROPY: usize = input(PRINCIPLED_VOLUME_INPUTS, "Anisotropy");
+const ABSORPTION: usize = input(PRINCIPLED_VOLUME_INPUTS, "Absorption Color");
+const EMISSION_STRENGTH: usize = input(PRINCIPLED_VOLUME_INPUTS, "Emission Strength");
+const EMISSION_COLOR: usize = input(PRINCIPLED_VOLUME_INPUTS, "Emission Color");
+const BLACKBODY_INTENSITY: usize = input(PRINCIPLED_VOLUME_INPUTS, "Blackbody Intensity");
+const BLACKBODY_TINT: usize = input(PRINCIPLED_VOLUME_INPUTS, "Blackbody Tint");
+const TEMPERATURE: usize = input(PRINCIPLED_VOLUME_INPUTS, "Temperature");
 
-const COLOR: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Color");
-const DENSITY: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Density");
-const ANISOTROPY: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Anisotropy");
-const ABSORPTION: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Absorption Color");
-const EMISSION_STRENGTH: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Emission Strength");
-const EMISSION_COLOR: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Emission Color");
-const BLACKBODY_INTENSITY: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Blackbody Intensity");
-const BLACKBODY_TINT: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Blackbody Tint");
-const TEMPERATURE: usize = input(&PRINCIPLED_VOLUME_INPUTS, "Temperature");
-
-const ABSORPTION_COLOR: usize = input(&ABSORPTION_INPUTS, "Color");
-const ABSORPTION_DENSITY: usize = input(&ABSORPTION_INPUTS, "Density");
-const SCATTER_COLOR: usize = input(&SCATTER_INPUTS, "Color");
-const SCATTER_DENSITY: usize = input(&SCATTER_INPUTS, "Density");
-const SCATTER_ANISOTROPY: usize = input(&SCATTER_INPUTS, "Anisotropy");
-const SCATTER_ALPHA: usize = input(&SCATTER_INPUTS, "Alpha");
-const SCATTER_DIAMETER: usize = input(&SCATTER_INPUTS, "Diameter");
+const ABSORPTION_COLOR: usize = input(ABSORPTION_INPUTS, "Color");
+const ABSORPTION_DENSITY: usize = input(ABSORPTION_INPUTS, "Density");
+const SCATTER_COLOR: usize = input(SCATTER_INPUTS, "Color");
+const SCATTER_DENSITY: usize = input(SCATTER_INPUTS, "Density");
+const SCATTER_ANISOTROPY: usize = input(SCATTER_INPUTS, "Anisotropy");
+const SCATTER_ALPHA: usize = input(SCATTER_INPUTS, "Alpha");
+const SCATTER_DIAMETER: usize = input(SCATTER_INPUTS, "Diameter");
 
 /// The Principled Volume node.
 #[inline(always)]
@@ -192,25 +157,6 @@ pub(super) fn eval_volume_absorption(ins: &impl Operands) -> Closure {
             ..VolumeClosure::NONE
         },
         ..Closure::BLACK
-    }
-}
-
-/// The volume part of a Mix Shader of `a` and `b` by factor `t` (`t` = 1: all `b`), or with
-/// `t` = None of an Add Shader.
-pub(super) fn combine(a: &VolumeClosure, b: &VolumeClosure, t: Option<f32>) -> VolumeClosure {
-    let (wa, wb) = match t {
-        Some(t) => (1.0 - t, t),
-        None => (1.0, 1.0),
-    };
-    let (sa, sb) = (a.scattering * wa, b.scattering * wb);
-    VolumeClosure {
-        scattering: sa + sb,
-        absorption: a.absorption * wa + b.absorption * wb,
-        phase: if sb.element_sum() > sa.element_sum() {
-            b.phase
-        } else {
-            a.phase
-        },
     }
 }
 

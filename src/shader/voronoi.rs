@@ -1,18 +1,38 @@
-//! The Voronoi Texture (Worley's cellular texture, Worley 1996) as Blender defines it (Cycles' `voronoi.h`: F1, F2 and Smooth F1 over
-//! 2D and 3D cells, four metrics, fractal octaves), cell points from Jenkins' lookup3
-//! (`hash`). The F1 search visits cells nearest first and skips those that cannot hold a
-//! nearer point; in 3D with the Euclidean metric four cells at a time, or eight with AVX2
-//! (`voronoi_avx2`), with the same result bit for bit.
+//! The Voronoi Texture (Worley's cellular texture, Worley 1996) as Blender defines it (Cycles'
+//! `voronoi.h`: F1, F2 and Smooth F1 over 2D and 3D cells, four metrics, fractal octaves), cell
+//! points from Jenkins' lookup3 (`hash`). The F1 search visits cells nearest first and skips those
+//! that cannot hold a nearer point; in 3D with the Euclidean metric four cells at a time, or eight
+//! with AVX2 (`voronoi_avx2`), with the same result bit for bit.
 
 use super::hash::{
     self, has_avx2, hash2, hash3, lookup3_final, lookup3_mix, unit, U32x4, LOOKUP3_SEED,
 };
-use super::inputs::{splat, v3, Operands};
+use super::inputs::{input, splat, v3, Operands, Socket, Ty};
 use super::math::smoothstep;
 use super::noise::{floor, lerp};
 #[cfg(target_arch = "x86_64")]
 use super::voronoi_avx2;
 use crate::math::{Vec3, Vec4};
+
+/// The Voronoi node's inputs.
+pub(super) const VORONOI_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::float("W", 0.0),
+    Socket::float("Scale", 5.0),
+    Socket::float("Detail", 0.0),
+    Socket::float("Roughness", 0.5),
+    Socket::float("Lacunarity", 2.0),
+    Socket::float("Smoothness", 1.0),
+    Socket::float("Exponent", 0.5),
+    Socket::float("Randomness", 1.0),
+];
+
+/// The Voronoi node's outputs.
+pub(super) const VORONOI_OUTPUTS: &[Socket] = &[
+    Socket::output("Distance", Ty::Float),
+    Socket::output("Color", Ty::Color),
+    Socket::output("Position", Ty::Vector),
+];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum VoronoiFeature {
@@ -443,18 +463,26 @@ pub(super) fn voronoi(p: &VoronoiParams, coord: Vec3, with_color: bool) -> (f32,
 /// Exponent, Randomness to Distance, Color (only when `used` reads it) and Position.
 #[inline(always)]
 pub(super) fn eval_voronoi(kind: VoronoiKind, used: u32, ins: &impl Operands) -> [Vec4; 3] {
-    let scale = ins.float(2);
+    const VECTOR: usize = input(VORONOI_INPUTS, "Vector");
+    const SCALE: usize = input(VORONOI_INPUTS, "Scale");
+    const DETAIL: usize = input(VORONOI_INPUTS, "Detail");
+    const ROUGHNESS: usize = input(VORONOI_INPUTS, "Roughness");
+    const LACUNARITY: usize = input(VORONOI_INPUTS, "Lacunarity");
+    const SMOOTHNESS: usize = input(VORONOI_INPUTS, "Smoothness");
+    const EXPONENT: usize = input(VORONOI_INPUTS, "Exponent");
+    const RANDOMNESS: usize = input(VORONOI_INPUTS, "Randomness");
+    let scale = ins.float(SCALE);
     let params = VoronoiParams {
         scale,
-        detail: ins.float(3).clamp(0.0, 15.0),
-        roughness: ins.float(4).clamp(0.0, 1.0),
-        lacunarity: ins.float(5),
-        smoothness: (ins.float(6) / 2.0).clamp(0.0, 0.5),
-        exponent: ins.float(7),
-        randomness: ins.float(8).clamp(0.0, 1.0),
+        detail: ins.float(DETAIL).clamp(0.0, 15.0),
+        roughness: ins.float(ROUGHNESS).clamp(0.0, 1.0),
+        lacunarity: ins.float(LACUNARITY),
+        smoothness: (ins.float(SMOOTHNESS) / 2.0).clamp(0.0, 0.5),
+        exponent: ins.float(EXPONENT),
+        randomness: ins.float(RANDOMNESS).clamp(0.0, 1.0),
         kind,
     };
-    let mut p = ins.vector(0) * scale;
+    let mut p = ins.vector(VECTOR) * scale;
     if kind.dimensions == 2 {
         p.z = 0.0;
     }

@@ -1,9 +1,26 @@
 //! The Wave Texture (Cycles' `svm_wave`), its distortion a Perlin fBm (`noise`).
 
-use super::inputs::{splat, Operands};
+use super::inputs::{input, splat, Operands, Socket, Ty};
 use super::noise::{fbm, Fractal};
 use crate::math::{Vec3, Vec4};
 use std::f32::consts::PI;
+
+/// The Wave node's inputs.
+pub(super) const WAVE_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::float("Scale", 5.0),
+    Socket::float("Distortion", 0.0),
+    Socket::float("Detail", 2.0),
+    Socket::float("Detail Scale", 1.0),
+    Socket::float("Detail Roughness", 0.5),
+    Socket::float("Phase Offset", 0.0),
+];
+
+/// The Wave node's outputs.
+pub(super) const WAVE_OUTPUTS: &[Socket] = &[
+    Socket::output("Color", Ty::Color),
+    Socket::output("Fac", Ty::Float),
+];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum WaveProfile {
@@ -68,16 +85,23 @@ pub(super) fn wave(kind: WaveKind, p: Vec3, detail: [f32; 5]) -> f32 {
 /// Phase Offset to Color and Fac.
 #[inline(always)]
 pub(super) fn eval_wave(kind: WaveKind, ins: &impl Operands) -> [Vec4; 2] {
-    let p = ins.vector(0) * ins.float(1);
+    const VECTOR: usize = input(WAVE_INPUTS, "Vector");
+    const SCALE: usize = input(WAVE_INPUTS, "Scale");
+    const DISTORTION: usize = input(WAVE_INPUTS, "Distortion");
+    const DETAIL: usize = input(WAVE_INPUTS, "Detail");
+    const DETAIL_SCALE: usize = input(WAVE_INPUTS, "Detail Scale");
+    const DETAIL_ROUGHNESS: usize = input(WAVE_INPUTS, "Detail Roughness");
+    const PHASE_OFFSET: usize = input(WAVE_INPUTS, "Phase Offset");
+    let p = ins.vector(VECTOR) * ins.float(SCALE);
     let fac = wave(
         kind,
         p,
         [
-            ins.float(2),
-            ins.float(3).clamp(0.0, 15.0),
-            ins.float(4),
-            ins.float(5),
-            ins.float(6),
+            ins.float(DISTORTION),
+            ins.float(DETAIL).clamp(0.0, 15.0),
+            ins.float(DETAIL_SCALE),
+            ins.float(DETAIL_ROUGHNESS),
+            ins.float(PHASE_OFFSET),
         ],
     );
     [splat(fac), splat(fac)]

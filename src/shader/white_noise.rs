@@ -2,8 +2,20 @@
 //! coordinates' bits (Jenkins' lookup3, `hash`).
 
 use super::hash::{hash1, hash2, hash3, hash4, unit};
-use super::inputs::{splat, v3, Operands};
+use super::inputs::{input, splat, v3, Operands, Socket, Ty};
 use crate::math::{Vec3, Vec4};
+
+/// The White Noise node's inputs.
+pub(super) const WHITE_NOISE_INPUTS: &[Socket] = &[
+    Socket::vector("Vector", Vec4::ZERO),
+    Socket::float("W", 0.0),
+];
+
+/// The White Noise node's outputs.
+pub(super) const WHITE_NOISE_OUTPUTS: &[Socket] = &[
+    Socket::output("Value", Ty::Float),
+    Socket::output("Color", Ty::Color),
+];
 
 /// `hash_floatN_to_float` and `hash_floatN_to_float3` of the White Noise texture: the value
 /// and colour of the hash of the point's (and W's) bits, 1D reading W only, 2D x and y.
@@ -23,7 +35,9 @@ pub(super) fn white_noise(dimensions: u8, p: Vec3, w: f32) -> (f32, Vec3) {
 /// The White Noise Texture: Vector, W to Value and Color.
 #[inline(always)]
 pub(super) fn eval_white_noise(dimensions: u8, ins: &impl Operands) -> [Vec4; 2] {
-    let (value, color) = white_noise(dimensions, ins.vector(0), ins.float(1));
+    const VECTOR: usize = input(WHITE_NOISE_INPUTS, "Vector");
+    const W: usize = input(WHITE_NOISE_INPUTS, "W");
+    let (value, color) = white_noise(dimensions, ins.vector(VECTOR), ins.float(W));
     [splat(value), v3(color)]
 }
 

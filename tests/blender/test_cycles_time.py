@@ -1,6 +1,6 @@
 """`scenes/blender/cycles_time.py` renders a glTF scene in Cycles as Photon renders it: a
 `PHOTON_light` area lamp (which Blender's glTF importer drops, leaving an empty at the node)
-emits along the node's local −Z, as `scene/gltf.rs` reads it.
+emits along the node's local −Z, as `scene/gltf/lights.rs` reads it.
 
 A floor and a block lit by one tilted square area lamp, with a dim world, built here with
 scenes/build_scenes.py's writer: the lamp's direction after the import against the node's

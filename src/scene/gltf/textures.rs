@@ -56,9 +56,10 @@ impl Loader {
         Ok(slot)
     }
 
-    /// Decode a PNG, JPEG or WebP image to RGBA8. An external image file that does not exist becomes
-    /// one magenta texel, with a warning naming the image: Blender and Cycles show missing
-    /// textures magenta so that they are noticed.
+    /// The bytes of glTF image `image` (a buffer view, a data URI or a file), decoded. An
+    /// external image file that does not exist becomes one magenta texel, with a warning
+    /// naming the image: Blender and Cycles show missing textures magenta so that they are
+    /// noticed.
     pub(super) fn decode_image(&mut self, image: &gltf::Image) -> Result<DecodedImage> {
         let json = self
             .document
