@@ -14,6 +14,7 @@ use super::{
 };
 use super::{math, noise, vector, volume, voronoi, wave, white_noise};
 use crate::math::{Vec3, Vec4};
+use crate::medium::Coefficients;
 use crate::scene::texture::Texture;
 
 pub(super) struct Machine {
@@ -58,6 +59,20 @@ impl Machine {
             if used & (1 << k) != 0 {
                 self.regs[o + k] = v;
             }
+        }
+    }
+}
+
+impl NodeProgram {
+    /// The medium a volume tree describes at the point `at` (what feeds a Volume socket: its
+    /// scattering, absorption, emission and phase function).
+    pub fn eval_volume(&self, at: &ShadingInputs, textures: &[Texture]) -> Coefficients {
+        let c = self.eval(at, textures, 0.5);
+        Coefficients {
+            scattering: c.volume.scattering,
+            absorption: c.volume.absorption,
+            emission: c.emission,
+            phase: c.volume.phase,
         }
     }
 }

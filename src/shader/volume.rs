@@ -2,8 +2,8 @@
 //! Volume, Volume Scatter and Volume Absorption into the volume part of a `Closure`
 //! (`VolumeClosure`: scattering and absorption coefficients and the phase function; an Emission
 //! node in a volume tree is the volume's emission per unit length, `Closure::emission`), as
-//! Cycles' `svm_node_principled_volume` and `svm_node_closure_volume` define them, and
-//! `NodeProgram::eval_volume`, which reads a volume tree at a point in the medium.
+//! Cycles' `svm_node_principled_volume` and `svm_node_closure_volume` define them (a volume
+//! tree is read at a point in the medium by `NodeProgram::eval_volume`, in `machine`).
 //!
 //! Principled Volume: σ_s = Color × Density, σ_a = max(1 − Color, 0) × max(1 − √Absorption
 //! Color, 0) × Density, Henyey–Greenstein of Anisotropy; emission Emission Color × Emission
@@ -16,12 +16,9 @@
 
 use super::blackbody::blackbody;
 use super::closure::{Closure, VolumeClosure};
-use super::inputs::{input, Operands, ShadingInputs, Socket, Ty, GREY};
-use super::program::NodeProgram;
+use super::inputs::{input, Operands, Socket, Ty, GREY};
 use crate::math::{Vec3, Vec4};
-use crate::medium::Coefficients;
 use crate::phase::Phase;
-use crate::scene::texture::Texture;
 
 /// Volume Scatter's phase functions (its `phase` setting), with what each reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,19 +154,5 @@ pub(super) fn eval_volume_absorption(ins: &impl Operands) -> Closure {
             ..VolumeClosure::NONE
         },
         ..Closure::BLACK
-    }
-}
-
-impl NodeProgram {
-    /// The medium a volume tree describes at the point `at` (what feeds a Volume socket: its
-    /// scattering, absorption, emission and phase function).
-    pub fn eval_volume(&self, at: &ShadingInputs, textures: &[Texture]) -> Coefficients {
-        let c = self.eval(at, textures, 0.5);
-        Coefficients {
-            scattering: c.volume.scattering,
-            absorption: c.volume.absorption,
-            emission: c.emission,
-            phase: c.volume.phase,
-        }
     }
 }
