@@ -14,7 +14,10 @@ sets them.
 - a World with a Principled Volume and a sun: black, as Cycles renders it (the sun is
   attenuated over an infinite medium);
 - a spot light in a fog box (Volume Scatter) over a sphere: the light cone;
-- a Volume Scatter cube with two volume bounces.
+- a Volume Scatter cube with two volume bounces;
+- a glass sphere in a fog box under an area light (a volumetric caustic; relMSE over 4x4
+  blocks <= 0.01, both engines' per-pixel noise being large there);
+- a window-lit room of thin walls filled with haze, the sun through the window (god rays).
 """
 
 import math
@@ -24,6 +27,7 @@ import pytest
 
 import common
 from cycles_compare import compare
+from helpers import rel_mse
 
 SIZE = 32
 
@@ -33,6 +37,12 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(autouse=True)
 def _addon(photon_addon, binary_env):
     return photon_addon
+
+
+def block_means(image, k=4):
+    """The image's mean over k x k blocks."""
+    h, w = image.shape[0] // k * k, image.shape[1] // k * k
+    return image[:h, :w].reshape(h // k, k, w // k, k, -1).mean(axis=(1, 3))
 
 
 def volume_material(name, kind, **inputs):
@@ -176,3 +186,55 @@ def test_scatter_cube_with_two_volume_bounces(tmp_path):
     sun()
     scene.cycles.volume_bounces = 2
     compare("two volume bounces", scene, tmp_path, photon_spp=512)
+
+
+def test_glass_sphere_in_fog(tmp_path):
+    """A glass sphere inside a fog box under a small area light: the light the glass focuses
+    into the fog (a volumetric caustic) is found by phase-sampled rays through the glass in
+    both engines; the fog continues inside the glass (it has no volume of its own)."""
+    scene = floor_scene(world=0.0)
+    mat, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.2)
+    cube("Fog", mat, 5.0, (0.0, 0.0, 2.49))
+    glass = bpy.data.materials.new("Glass")
+    if bpy.app.version < (5, 0, 0):
+        glass.use_nodes = True
+    tree = glass.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    bsdf = tree.nodes.new("ShaderNodeBsdfGlass")
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.inputs["IOR"].default_value = 1.45
+    tree.links.new(bsdf.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    sphere("Glass", glass, 0.6, (0.0, 0.0, 1.2))
+    common.light("Area", "AREA", (0.0, 0.0, 3.5), (0.0, 0.0, 0.0), energy=300.0, size=0.6)
+    # Per pixel both engines are noisy (the caustic is found by phase-sampled rays alone):
+    # relMSE over 4x4 blocks, where that noise averages out, is the criterion.
+    img, ref = compare("glass in fog", scene, tmp_path, photon_spp=1024, cycles_spp=2048,
+                       relmse_max=0.05)
+    blocks = rel_mse(block_means(img), block_means(ref))
+    print(f"glass in fog: relMSE of 4x4 blocks {blocks:.5f}")
+    assert blocks <= 0.01
+
+
+def test_window_lit_room_with_haze(tmp_path):
+    """God rays: a room of one-sided thin walls with a window, a sun through it, and haze
+    (Volume Scatter) filling the room; the camera inside sees the shaft of light."""
+    scene = common.reset_scene(SIZE, SIZE)
+    wall = common.principled("Wall", (0.7, 0.7, 0.7), roughness=1.0)
+    w, d, h = 2.0, 2.0, 2.5
+    common.quad("Floor", [(-w, -d, 0), (w, -d, 0), (w, d, 0), (-w, d, 0)], wall)
+    common.quad("Ceiling", [(-w, -d, h), (-w, d, h), (w, d, h), (w, -d, h)], wall)
+    common.quad("Back", [(-w, d, 0), (w, d, 0), (w, d, h), (-w, d, h)], wall)
+    common.quad("Front", [(-w, -d, 0), (-w, -d, h), (w, -d, h), (w, -d, 0)], wall)
+    common.quad("Right", [(w, -d, 0), (w, -d, h), (w, d, h), (w, d, 0)], wall)
+    # The left wall with a window 1.2 m wide and 1 m high.
+    x = -w
+    for corners in ([(x, -d, 0), (x, d, 0), (x, d, 0.9), (x, -d, 0.9)],
+                    [(x, -d, 1.9), (x, d, 1.9), (x, d, h), (x, -d, h)],
+                    [(x, -d, 0.9), (x, -0.6, 0.9), (x, -0.6, 1.9), (x, -d, 1.9)],
+                    [(x, 0.6, 0.9), (x, d, 0.9), (x, d, 1.9), (x, 0.6, 1.9)]):
+        common.quad("Left", corners, wall)
+    haze, _ = volume_material("Haze", "ShaderNodeVolumeScatter", Density=0.15)
+    cube("Haze", haze, 3.9, (0.0, 0.0, 1.2))
+    common.light("Sun", "SUN", (0, 0, 5), (50.0, 0.0, -90.0), energy=5.0)
+    common.camera("Camera", (1.6, -1.6, 1.3), (85.0, 0.0, 45.0), 80.0)
+    compare("god rays", scene, tmp_path, photon_spp=1024, cycles_spp=2048, relmse_max=0.02)
