@@ -1,0 +1,132 @@
+"""The two volume scenes of tests/blender/test_volumes.py at 64 x 64, for timing Photon's methods
+against Cycles (docs/bench/volumes.md).
+
+- `glass_fog`: a diffuse 6 m floor, a 5 m box of Volume Scatter (density 0.2, Surface unlinked)
+  standing on it, a glass sphere (Glass BSDF, roughness 0, IOR 1.45, radius 0.6 m, at height
+  1.2 m) inside the fog, and a 0.6 m square area light of 300 W at height 3.5 m facing down;
+  black world. The glass focuses the light into the fog (a volumetric caustic).
+- `god_rays`: a 4 x 4 x 2.5 m room of one-sided thin walls (Principled, base colour 0.7,
+  roughness 1) with a 1.2 x 1 m window in the wall x = -2, a 5 W/m^2 sun through it, and a
+  3.9 m cube of haze (Volume Scatter, density 0.15) filling the room; the camera inside sees
+  the shaft of light; black world.
+
+Volume bounces stay at Blender's default, 0. The test module cannot be imported outside pytest
+(its scenes are built inside the test functions), so the scene construction is repeated here.
+
+Usage:  .venv/bin/python scenes/blender/volume_scenes.py OUT_DIR
+writes OUT_DIR/{glass_fog,god_rays}.blend (for scenes/blender/cycles_time.py) and
+OUT_DIR/{glass_fog,god_rays}.glb, exported through the add-on (for `photon bench`).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parents[1]))
+
+import bpy  # noqa: E402
+
+import common  # noqa: E402
+
+SIZE = 64
+
+
+def volume_material(name, kind, **inputs):
+    """A material whose Material Output has only a Volume: node `kind` with `inputs` set."""
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    tree = mat.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    node = tree.nodes.new(kind)
+    for key, value in inputs.items():
+        node.inputs[key].default_value = value
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Volume"])
+    return mat
+
+
+def cube(name, material, size, location):
+    s = size / 2
+    verts = [(-s, -s, -s), (s, -s, -s), (s, s, -s), (-s, s, -s),
+             (-s, -s, s), (s, -s, s), (s, s, s), (-s, s, s)]
+    faces = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    return common.mesh_object(name, verts, faces, material, location)
+
+
+def glass_fog():
+    scene = common.reset_scene(SIZE, SIZE)
+    floor = common.principled("Floor", (0.8, 0.8, 0.8), roughness=1.0)
+    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
+    common.camera("Camera", (0.0, -4.0, 3.0), (53.0, 0.0, 0.0), 45.0)
+    cube("Fog", volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.2), 5.0,
+         (0.0, 0.0, 2.49))
+    glass = bpy.data.materials.new("Glass")
+    if bpy.app.version < (5, 0, 0):
+        glass.use_nodes = True
+    tree = glass.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    bsdf = tree.nodes.new("ShaderNodeBsdfGlass")
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.inputs["IOR"].default_value = 1.45
+    tree.links.new(bsdf.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.6, location=(0.0, 0.0, 1.2), segments=48,
+                                         ring_count=24)
+    ball = bpy.context.active_object
+    ball.name = "Glass"
+    ball.data.materials.append(glass)
+    bpy.ops.object.shade_smooth()
+    common.light("Area", "AREA", (0.0, 0.0, 3.5), (0.0, 0.0, 0.0), energy=300.0, size=0.6)
+    return scene
+
+
+def god_rays():
+    scene = common.reset_scene(SIZE, SIZE)
+    wall = common.principled("Wall", (0.7, 0.7, 0.7), roughness=1.0)
+    w, d, h = 2.0, 2.0, 2.5
+    common.quad("Floor", [(-w, -d, 0), (w, -d, 0), (w, d, 0), (-w, d, 0)], wall)
+    common.quad("Ceiling", [(-w, -d, h), (-w, d, h), (w, d, h), (w, -d, h)], wall)
+    common.quad("Back", [(-w, d, 0), (w, d, 0), (w, d, h), (-w, d, h)], wall)
+    common.quad("Front", [(-w, -d, 0), (-w, -d, h), (w, -d, h), (w, -d, 0)], wall)
+    common.quad("Right", [(w, -d, 0), (w, -d, h), (w, d, h), (w, d, 0)], wall)
+    x = -w  # the left wall, around a window 1.2 m wide and 1 m high
+    for corners in ([(x, -d, 0), (x, d, 0), (x, d, 0.9), (x, -d, 0.9)],
+                    [(x, -d, 1.9), (x, d, 1.9), (x, d, h), (x, -d, h)],
+                    [(x, -d, 0.9), (x, -0.6, 0.9), (x, -0.6, 1.9), (x, -d, 1.9)],
+                    [(x, 0.6, 0.9), (x, d, 0.9), (x, d, 1.9), (x, 0.6, 1.9)]):
+        common.quad("Left", corners, wall)
+    cube("Haze", volume_material("Haze", "ShaderNodeVolumeScatter", Density=0.15), 3.9,
+         (0.0, 0.0, 1.2))
+    common.light("Sun", "SUN", (0, 0, 5), (50.0, 0.0, -90.0), energy=5.0)
+    common.camera("Camera", (1.6, -1.6, 1.3), (85.0, 0.0, 45.0), 80.0)
+    return scene
+
+
+SCENES = {"glass_fog": glass_fog, "god_rays": god_rays}
+
+
+def main(out_dir: Path):
+    import blender_addon
+    from blender_addon import export
+
+    blender_addon.register()
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        for name, build in SCENES.items():
+            build()
+            blend = out_dir / f"{name}.blend"
+            bpy.ops.wm.save_as_mainfile(filepath=str(blend.resolve()))
+            glb = out_dir / f"{name}.glb"
+            for warning in export.export_in_process(glb, "blender_addon"):
+                print(f"{name}: export warning: {warning}")
+            print(f"wrote {blend} and {glb}")
+    finally:
+        blender_addon.unregister()
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        sys.exit(__doc__)
+    main(Path(sys.argv[1]))
