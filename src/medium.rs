@@ -293,6 +293,15 @@ impl SegmentSampler {
         }
     }
 
+    /// The probability that a free flight at rate `s` ends within the segment.
+    fn reach(&self, s: f32) -> f32 {
+        if self.length.is_finite() {
+            1.0 - (-s * self.length).exp()
+        } else {
+            1.0
+        }
+    }
+
     fn has_distance(&self) -> bool {
         self.channel_p.element_sum() > 0.0
     }
@@ -320,12 +329,7 @@ impl SegmentSampler {
             };
             let s = self.rates[c];
             if s > 0.0 {
-                let span = if self.length.is_finite() {
-                    1.0 - (-s * self.length).exp()
-                } else {
-                    1.0
-                };
-                -(1.0 - u[1] * span).ln() / s
+                -(1.0 - u[1] * self.reach(s)).ln() / s
             } else {
                 u[1] * self.length
             }
@@ -345,12 +349,7 @@ impl SegmentSampler {
                 continue;
             }
             distance += p * if s > 0.0 {
-                let span = if self.length.is_finite() {
-                    1.0 - (-s * self.length).exp()
-                } else {
-                    1.0
-                };
-                s * (-s * t).exp() / span
+                s * (-s * t).exp() / self.reach(s)
             } else {
                 1.0 / self.length
             };

@@ -112,6 +112,10 @@ pub struct MaterialKinds {
     pub dipole: usize,
     /// Non-emissive materials that reflect nothing.
     pub black: usize,
+    /// Materials with a volume (a medium inside their objects), and of those the
+    /// heterogeneous ones (a node tree evaluated at points).
+    pub volumes: usize,
+    pub heterogeneous_volumes: usize,
 }
 
 /// Emitters by kind.
@@ -139,6 +143,8 @@ pub struct SceneSummary {
     pub materials: MaterialKinds,
     pub lights: LightKinds,
     pub bounds: Bounds,
+    /// The world's volume: "homogeneous", "heterogeneous" or none.
+    pub world_volume: Option<&'static str>,
 }
 
 /// Whether a pass runs, and why.
@@ -259,6 +265,10 @@ fn summarise(scene: &Scene) -> SceneSummary {
         materials.translucent += scene.materials[index].is_translucent() as usize;
         materials.dipole += scene.materials[index].uses_dipole() as usize;
         materials.black += (!t.emissive && !t.diffuse && !t.glossy && !t.specular) as usize;
+        if let Some(volume) = &scene.materials[index].volume {
+            materials.volumes += 1;
+            materials.heterogeneous_volumes += volume.constant.is_none() as usize;
+        }
     }
     let mut lights = LightKinds {
         world: scene.world.emits(),
@@ -292,6 +302,13 @@ fn summarise(scene: &Scene) -> SceneSummary {
         materials,
         lights,
         bounds: scene.bounds(),
+        world_volume: scene.world.volume.as_ref().map(|v| {
+            if v.constant.is_some() {
+                "homogeneous"
+            } else {
+                "heterogeneous"
+            }
+        }),
     }
 }
 
@@ -1199,6 +1216,15 @@ impl fmt::Display for Plan {
             "materials in use: {} ({} diffuse, {} glossy, {} specular of which {} refractive, {} emissive, {} translucent, {} black)",
             m.used, m.diffuse, m.glossy, m.specular, m.refractive, m.emissive, m.translucent, m.black
         )?;
+        if m.volumes > 0 || s.world_volume.is_some() {
+            writeln!(
+                f,
+                "volumes: {} material(s) ({} heterogeneous), world volume {}",
+                m.volumes,
+                m.heterogeneous_volumes,
+                s.world_volume.unwrap_or("none")
+            )?;
+        }
         writeln!(
             f,
             "lights: {} emissive triangles, {} point, {} spot, {} sun, world {}",

@@ -45,9 +45,9 @@ def block_means(image, k=4):
     return image[:h, :w].reshape(h // k, k, w // k, k, -1).mean(axis=(1, 3))
 
 
-def volume_material(name, kind, **inputs):
-    """A material with only a Volume: node `kind` (a bl_idname) with `inputs` set, into the
-    Material Output's Volume; Surface unlinked. Returns (material, node)."""
+def shader_material(name, kind, socket, **inputs):
+    """A material of one shader node `kind` (a bl_idname) with `inputs` set, into the Material
+    Output's `socket` (Surface or Volume; the other unlinked). Returns (material, node)."""
     mat = bpy.data.materials.new(name)
     if bpy.app.version < (5, 0, 0):
         mat.use_nodes = True
@@ -56,8 +56,13 @@ def volume_material(name, kind, **inputs):
     node = tree.nodes.new(kind)
     for key, value in inputs.items():
         node.inputs[key].default_value = value
-    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Volume"])
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs[socket])
     return mat, node
+
+
+def volume_material(name, kind, **inputs):
+    """A material with only a Volume (`shader_material` into the Volume socket)."""
+    return shader_material(name, kind, "Volume", **inputs)
 
 
 def cube(name, material, size, location):
@@ -106,14 +111,7 @@ def test_principled_volume_cube_over_a_sunlit_floor(tmp_path, method):
 
 def test_absorption_cube_before_an_emitting_wall(tmp_path):
     scene = floor_scene(world=0.0)
-    wall = bpy.data.materials.new("Wall")
-    if bpy.app.version < (5, 0, 0):
-        wall.use_nodes = True
-    tree = wall.node_tree
-    tree.nodes.remove(tree.nodes["Principled BSDF"])
-    emission = tree.nodes.new("ShaderNodeEmission")
-    emission.inputs["Strength"].default_value = 1.0
-    tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    wall, _ = shader_material("Wall", "ShaderNodeEmission", "Surface", Strength=1.0)
     common.quad("Wall", [(-3, 2, 0), (3, 2, 0), (3, 2, 4), (-3, 2, 4)], wall)
     mat, _ = volume_material("Ink", "ShaderNodeVolumeAbsorption",
                              Color=(0.8, 0.4, 0.2, 1.0), Density=1.5)
@@ -195,15 +193,8 @@ def test_glass_sphere_in_fog(tmp_path):
     scene = floor_scene(world=0.0)
     mat, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.2)
     cube("Fog", mat, 5.0, (0.0, 0.0, 2.49))
-    glass = bpy.data.materials.new("Glass")
-    if bpy.app.version < (5, 0, 0):
-        glass.use_nodes = True
-    tree = glass.node_tree
-    tree.nodes.remove(tree.nodes["Principled BSDF"])
-    bsdf = tree.nodes.new("ShaderNodeBsdfGlass")
-    bsdf.inputs["Roughness"].default_value = 0.0
-    bsdf.inputs["IOR"].default_value = 1.45
-    tree.links.new(bsdf.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    glass, _ = shader_material("Glass", "ShaderNodeBsdfGlass", "Surface", Roughness=0.0,
+                               IOR=1.45)
     sphere("Glass", glass, 0.6, (0.0, 0.0, 1.2))
     common.light("Area", "AREA", (0.0, 0.0, 3.5), (0.0, 0.0, 0.0), energy=300.0, size=0.6)
     # Per pixel both engines are noisy (the caustic is found by phase-sampled rays alone):
