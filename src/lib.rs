@@ -33,3 +33,4 @@ pub mod sampling;
 pub mod scene;
 pub mod sobol;
 pub mod subsurface;
+pub mod volume_photon_map;
