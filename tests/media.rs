@@ -1,7 +1,9 @@
 //! Participating media against closed forms: a scattering sphere in a white world is a white
 //! furnace (radiance 1 everywhere once every volume bounce is followed), an absorbing and
 //! emitting sphere seen through its centre gives Beer–Lambert and its emission integral, and a
-//! world volume stops the light of the sun entirely (as Cycles renders it).
+//! world volume stops the light of the sun entirely (as Cycles renders it). The photon method's
+//! volume photon map agrees with the path tracer where light scatters many times in fog, and
+//! converges as its generations shrink their radii.
 
 #[path = "support/scenes.rs"]
 mod scenes;
@@ -9,6 +11,7 @@ mod scenes;
 use photon::film::Image;
 use photon::math::Vec3;
 use photon::medium::Coefficients;
+use photon::metrics::compare;
 use photon::phase::Phase;
 use photon::render::{render, Method, RenderSettings};
 use photon::scene::nodes::{compile, CompileWarnings};
@@ -206,5 +209,73 @@ fn photons_cross_fog_as_camera_paths_do() {
     assert!(
         (ratio - Vec3::ONE).abs().max_element() < 0.04,
         "photon {photon} / path {path}"
+    );
+}
+
+/// A floor under a sphere of fog it cuts, lit by a point light above the fog, with
+/// `volume_bounces` scatterings in the fog followed: the glow the fog scatters several times.
+/// (A spot's light samples from the fog are mostly outside its cone: noisier means.)
+fn lamp_over_fog(volume_bounces: u32) -> Scene {
+    let fog = Coefficients {
+        scattering: Vec3::new(0.6, 0.7, 0.8),
+        absorption: Vec3::splat(0.05),
+        emission: Vec3::ZERO,
+        phase: Phase::henyey_greenstein(0.3),
+    };
+    let mut s = scene(
+        vec![
+            floor(6.0, 0.0, 0),
+            sphere(Vec3::new(0.0, 0.6, 0.0), 1.8, 32, 64, false, 1),
+        ],
+        vec![
+            Material::diffuse("floor", Vec3::splat(0.7)),
+            volume_material(fog),
+        ],
+        vec![Light::Point {
+            position: Vec3::new(0.3, 2.9, 0.2),
+            intensity: Vec3::splat(30.0),
+            radius: 0.0,
+            lamp: Lamp::default(),
+        }],
+        camera_looking_at(
+            Vec3::new(0.0, 2.2, 4.5),
+            Vec3::new(0.0, 0.6, 0.0),
+            Projection::Perspective { yfov: 0.9 },
+        ),
+        Vec3::ZERO,
+    );
+    s.render_settings.volume_bounces = volume_bounces;
+    s
+}
+
+/// The photon method (single scattering by light samples, the rest from the volume photon
+/// map) against the path tracer where light scatters many times in fog: means within 2 %.
+#[test]
+fn the_volume_photon_map_matches_the_path_tracer_with_multiple_scattering() {
+    let s = lamp_over_fog(6);
+    let path = render_with(&s, Method::Path, 16, 1024).mean_rgb();
+    let photon = render_with(&s, Method::Photon, 16, 256).mean_rgb();
+    let ratio = photon / path;
+    assert!(path.x > 0.01, "lit: {path}");
+    assert!(
+        (ratio - Vec3::ONE).abs().max_element() < 0.02,
+        "photon {photon} / path {path}"
+    );
+}
+
+/// The photon method converges in fog: its error against a path-traced reference falls as its
+/// generations of photon maps shrink their radii.
+#[test]
+fn the_photon_method_converges_in_fog() {
+    let s = lamp_over_fog(4);
+    let reference = render_with(&s, Method::Path, 12, 8192);
+    let error = |spp: u32| {
+        let image = render_with(&s, Method::Photon, 12, spp);
+        compare(&image.rgba, &reference.rgba).rel_mse
+    };
+    let (early, late) = (error(64), error(512));
+    assert!(
+        late < 0.6 * early,
+        "relMSE {early} at 64 spp, {late} at 512"
     );
 }

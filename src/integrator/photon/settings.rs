@@ -39,7 +39,7 @@ pub struct PhotonSettings {
     /// scattering media).
     pub volume_photons: u32,
     /// Radius of a volume photon's disc in the beam estimate, as a fraction of the scene's
-    /// bounding radius (default 0.03).
+    /// bounding radius (default 0.015).
     pub volume_radius: f32,
 }
 
@@ -59,7 +59,7 @@ impl Default for PhotonSettings {
             subsurface_accuracy: 0.2,
             subsurface_brute_force: false,
             volume_photons: 200_000,
-            volume_radius: 0.03,
+            volume_radius: 0.015,
         }
     }
 }

@@ -33,6 +33,15 @@
 //! as an approximation: shading y's glossy lobe as if its light came evenly from all
 //! directions is a bias that no number of photons removes.
 //!
+//! **Media** (Jensen & Christensen 1998): along every segment of the camera path and of the
+//! final-gather rays that runs through a medium, the light the medium scatters towards the ray
+//! is single scattering, one light sample from a point on the segment (not MIS-weighted: the
+//! path does not go on by the phase function), plus the volume photon map's beam estimate
+//! (`crate::volume_photon_map`), which holds only photons that scattered before, so each light
+//! path is counted once; the path itself is only attenuated (`Scatter::scatters_in_media`).
+//! Gather rays cross the transparent boundaries of volumes, entering and leaving their media,
+//! and the irradiance cache's gather rays find the media at their origin first.
+//!
 //! Light passes, as seen from x: its light sample and the emission its gather rays find are
 //! Direct, emission through its delta lobes Emission, the global estimates and the cache
 //! Indirect, the caustic estimate Caustic, the dipole term Subsurface; glossy vertices on the
