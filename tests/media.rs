@@ -9,6 +9,7 @@
 mod scenes;
 
 use photon::film::Image;
+use photon::integrator::photon::settings::PhotonSettings;
 use photon::math::Vec3;
 use photon::medium::Coefficients;
 use photon::metrics::compare;
@@ -278,4 +279,98 @@ fn the_photon_method_converges_in_fog() {
         late < 0.6 * early,
         "relMSE {early} at 64 spp, {late} at 512"
     );
+}
+
+/// A spot light shining down through a sphere of fog onto a floor: the light cone, the glow
+/// around it and the fog's shadow, with `volume_bounces` scatterings followed.
+fn spot_in_fog(volume_bounces: u32) -> Scene {
+    let mut s = lamp_over_fog(volume_bounces);
+    let cone = |degrees: f32| (0.5 * degrees.to_radians()).cos();
+    s.lights = vec![Light::Spot {
+        position: Vec3::new(0.3, 2.9, 0.2),
+        direction: Vec3::new(-0.1, -1.0, 0.0).normalize(),
+        intensity: Vec3::splat(60.0),
+        cos_inner: cone(30.0),
+        cos_outer: cone(40.0),
+        radius: 0.0,
+        lamp: Lamp::default(),
+    }];
+    s
+}
+
+/// Measurement, not a check (docs/bench/volumes.md): the time the path tracer and the photon
+/// method take to reach a relMSE against a path-traced reference on the spot in fog and the
+/// lamp over fog, 48 × 48, budgets of samples per pixel with the photon counts scaled as
+/// `photon bench` scales them (the scene files `photon bench` reads carry no media yet). Run with `cargo test --release --test media -- --ignored
+/// --nocapture time_to_error`.
+#[test]
+#[ignore]
+fn time_to_error_in_fog() {
+    let size = 48;
+    let settings = |method, spp: u32, seed| {
+        let b = spp.min(64);
+        RenderSettings {
+            width: size,
+            height: size,
+            spp,
+            max_depth: 256,
+            seed,
+            method,
+            photon: PhotonSettings {
+                global_photons: 5_000 * b,
+                caustic_photons: 2_500 * b,
+                volume_photons: 5_000 * b,
+                ..PhotonSettings::default()
+            },
+            ..RenderSettings::default()
+        }
+    };
+    for (name, s) in [
+        ("spot in fog", spot_in_fog(4)),
+        ("lamp over fog", lamp_over_fog(4)),
+    ] {
+        let reference_spp = 8192;
+        let (reference, _) =
+            with_progress(|p| render(&s, &settings(Method::Path, reference_spp, 1), p))
+                .expect("reference");
+        println!("{name}: reference path {reference_spp} spp");
+        for method in [Method::Path, Method::Photon] {
+            let mut points = Vec::new();
+            let budgets: &[u32] = match method {
+                Method::Path => &[1, 4, 16, 64, 256, 1024, 2048],
+                _ => &[1, 2, 4, 8, 16, 32, 64, 128],
+            };
+            for &spp in budgets {
+                let start = std::time::Instant::now();
+                let (image, _) =
+                    with_progress(|p| render(&s, &settings(method, spp, 7), p)).expect("render");
+                let seconds = start.elapsed().as_secs_f64();
+                let error = compare(&image.rgba, &reference.rgba);
+                println!(
+                    "{name} {method:?} {spp} spp: {seconds:.3} s, relMSE {:.5}, mean {:+.2} %",
+                    error.rel_mse,
+                    100.0 * (error.mean_image / error.mean_reference - 1.0)
+                );
+                points.push((seconds, error.rel_mse));
+            }
+            for target in [0.01, 0.001] {
+                println!(
+                    "{name} {method:?}: time to relMSE {target}: {}",
+                    time_to(&points, target).map_or("not reached".into(), |t| format!("{t:.3} s"))
+                );
+            }
+        }
+    }
+}
+
+/// The time at which the (time, error) points first reach `target`, interpolated log-log
+/// between the two points that bracket it (the first point's time when it is already below).
+fn time_to(points: &[(f64, f64)], target: f64) -> Option<f64> {
+    let first = points.iter().position(|&(_, e)| e <= target)?;
+    if first == 0 {
+        return Some(points[0].0);
+    }
+    let ((t0, e0), (t1, e1)) = (points[first - 1], points[first]);
+    let f = (target.ln() - e0.ln()) / (e1.ln() - e0.ln());
+    Some((t0.ln() + f * (t1.ln() - t0.ln())).exp())
 }
