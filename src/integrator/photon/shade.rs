@@ -445,9 +445,9 @@ impl<'a> Gather<'a> {
         if bs.transmitted {
             media = media.crossed(scene, &s.sh.hit, s.sh.material, wi.dot(s.sh.ng) < 0.0);
         }
-        let path = RayPath::camera()
-            .after(Scattering::Diffuse, false)
-            .after(bs.scattering, bs.transmitted);
+        // The kind of a ray one bounce from the camera (the light samples in media along it
+        // read it; deeper gather rays take it too).
+        let path = RayPath::camera().after(bs.scattering, bs.transmitted);
         let mut along = Along {
             through: Vec3::ONE,
             lamps: Vec3::ZERO,
