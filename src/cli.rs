@@ -346,6 +346,7 @@ impl RenderArgs {
             subsurface_accuracy: self.subsurface_accuracy.unwrap_or(d.subsurface_accuracy),
             subsurface_brute_force: self.subsurface_brute_force,
             memory_limit_mib: self.memory_limit.unwrap_or_else(default_memory_limit_mib),
+            ..d
         })
     }
 }

@@ -34,3 +34,4 @@ pub mod scene;
 pub mod shader;
 pub mod sobol;
 pub mod subsurface;
+pub mod volume_photon_map;

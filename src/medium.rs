@@ -71,6 +71,31 @@ pub trait Media {
     fn majorant(&self) -> f32;
 }
 
+/// Media seen without their scattering: light they scatter counts as absorbed (σ_a + σ_s, no
+/// σ_s), so `fly` through them attenuates and adds emission but never scatters. For estimators
+/// that add the scattered light themselves (the photon method's volume photon map).
+pub struct WithoutScattering<'a, M: Media>(pub &'a M);
+
+impl<M: Media> Media for WithoutScattering<'_, M> {
+    fn at(&self, p: Vec3, u: f32) -> Coefficients {
+        absorbing(self.0.at(p, u))
+    }
+    fn homogeneous(&self) -> Option<Coefficients> {
+        self.0.homogeneous().map(absorbing)
+    }
+    fn majorant(&self) -> f32 {
+        self.0.majorant()
+    }
+}
+
+fn absorbing(c: Coefficients) -> Coefficients {
+    Coefficients {
+        scattering: Vec3::ZERO,
+        absorption: c.absorption + c.scattering,
+        ..c
+    }
+}
+
 /// What a free flight along a segment met.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Flight {

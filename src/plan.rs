@@ -18,8 +18,8 @@
 //!   photons and evaluates the dipole (`integrator::photon::subsurface`). Random Walk materials
 //!   (Blender's default) need no pass: both methods walk them (`integrator::random_walk`).
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
-//!   the background); participating media (volumes) → the path tracer (the photon method path
-//!   traces past its first surface in them); Christensen–Burley materials → photon mapping (subsurface photons); otherwise,
+//!   the background); participating media (volumes) → the path tracer (faster to Cycles' error
+//!   than the photon method's volume map at default settings); Christensen–Burley materials → photon mapping (subsurface photons); otherwise,
 //!   when caustics or indirect light are possible, two pilots measure them and predict both
 //!   methods' cost at the render's budget (`Cost`, in rays): photon mapping when the caustics
 //!   of lamps and emitting meshes carry a visible share of what the camera sees
@@ -1009,7 +1009,7 @@ pub fn plan_with_pilot(
     } else if scene.has_media() {
         (
             Method::Path,
-            "participating media: the photon method's final gathering does not cross them, so it would path trace them too".into(),
+            "participating media: the path tracer reaches Cycles' error sooner there than the photon method's volume photon map at default settings (docs/bench/volumes.md)".into(),
         )
     } else if subsurface.needed {
         (

@@ -716,6 +716,8 @@ impl RenderSettings {
             k_caustic: k(self.photon.k_caustic),
             global_radius: self.photon.global_radius * f.sqrt(),
             caustic_radius: self.photon.caustic_radius * f.sqrt(),
+            volume_photons: n(self.photon.volume_photons),
+            volume_radius: self.photon.volume_radius * f.sqrt(),
             ..self.photon.clone()
         };
         let ic = &self.irradiance_cache;

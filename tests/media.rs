@@ -1,14 +1,18 @@
 //! Participating media against closed forms: a scattering sphere in a white world is a white
 //! furnace (radiance 1 everywhere once every volume bounce is followed), an absorbing and
 //! emitting sphere seen through its centre gives Beer–Lambert and its emission integral, and a
-//! world volume stops the light of the sun entirely (as Cycles renders it).
+//! world volume stops the light of the sun entirely (as Cycles renders it). The photon method's
+//! volume photon map agrees with the path tracer where light scatters many times in fog, and
+//! converges as its generations shrink their radii.
 
 #[path = "support/scenes.rs"]
 mod scenes;
 
 use photon::film::Image;
+use photon::integrator::photon::settings::PhotonSettings;
 use photon::math::Vec3;
 use photon::medium::Coefficients;
+use photon::metrics::compare;
 use photon::phase::Phase;
 use photon::render::{render, Method, RenderSettings};
 use photon::scene::{Lamp, Light, Material, Projection, Scene, Volume};
@@ -207,4 +211,166 @@ fn photons_cross_fog_as_camera_paths_do() {
         (ratio - Vec3::ONE).abs().max_element() < 0.04,
         "photon {photon} / path {path}"
     );
+}
+
+/// A floor under a sphere of fog it cuts, lit by a point light above the fog, with
+/// `volume_bounces` scatterings in the fog followed: the glow the fog scatters several times.
+/// (A spot's light samples from the fog are mostly outside its cone: noisier means.)
+fn lamp_over_fog(volume_bounces: u32) -> Scene {
+    let fog = Coefficients {
+        scattering: Vec3::new(0.6, 0.7, 0.8),
+        absorption: Vec3::splat(0.05),
+        emission: Vec3::ZERO,
+        phase: Phase::henyey_greenstein(0.3),
+    };
+    let mut s = scene(
+        vec![
+            floor(6.0, 0.0, 0),
+            sphere(Vec3::new(0.0, 0.6, 0.0), 1.8, 32, 64, false, 1),
+        ],
+        vec![
+            Material::diffuse("floor", Vec3::splat(0.7)),
+            volume_material(fog),
+        ],
+        vec![Light::Point {
+            position: Vec3::new(0.3, 2.9, 0.2),
+            intensity: Vec3::splat(30.0),
+            radius: 0.0,
+            lamp: Lamp::default(),
+        }],
+        camera_looking_at(
+            Vec3::new(0.0, 2.2, 4.5),
+            Vec3::new(0.0, 0.6, 0.0),
+            Projection::Perspective { yfov: 0.9 },
+        ),
+        Vec3::ZERO,
+    );
+    s.render_settings.volume_bounces = volume_bounces;
+    s
+}
+
+/// The photon method (single scattering by light samples, the rest from the volume photon
+/// map) against the path tracer where light scatters many times in fog: means within 2 %.
+#[test]
+fn the_volume_photon_map_matches_the_path_tracer_with_multiple_scattering() {
+    let s = lamp_over_fog(6);
+    let path = render_with(&s, Method::Path, 16, 1024).mean_rgb();
+    let photon = render_with(&s, Method::Photon, 16, 256).mean_rgb();
+    let ratio = photon / path;
+    assert!(path.x > 0.01, "lit: {path}");
+    assert!(
+        (ratio - Vec3::ONE).abs().max_element() < 0.02,
+        "photon {photon} / path {path}"
+    );
+}
+
+/// The photon method converges in fog: its error against a path-traced reference falls as its
+/// generations of photon maps shrink their radii.
+#[test]
+fn the_photon_method_converges_in_fog() {
+    let s = lamp_over_fog(4);
+    let reference = render_with(&s, Method::Path, 12, 8192);
+    let error = |spp: u32| {
+        let image = render_with(&s, Method::Photon, 12, spp);
+        compare(&image.rgba, &reference.rgba).rel_mse
+    };
+    let (early, late) = (error(64), error(512));
+    assert!(
+        late < 0.6 * early,
+        "relMSE {early} at 64 spp, {late} at 512"
+    );
+}
+
+/// A spot light shining down through a sphere of fog onto a floor: the light cone, the glow
+/// around it and the fog's shadow, with `volume_bounces` scatterings followed.
+fn spot_in_fog(volume_bounces: u32) -> Scene {
+    let mut s = lamp_over_fog(volume_bounces);
+    let cone = |degrees: f32| (0.5 * degrees.to_radians()).cos();
+    s.lights = vec![Light::Spot {
+        position: Vec3::new(0.3, 2.9, 0.2),
+        direction: Vec3::new(-0.1, -1.0, 0.0).normalize(),
+        intensity: Vec3::splat(60.0),
+        cos_inner: cone(30.0),
+        cos_outer: cone(40.0),
+        radius: 0.0,
+        lamp: Lamp::default(),
+    }];
+    s
+}
+
+/// Measurement, not a check (docs/bench/volumes.md): the time the path tracer and the photon
+/// method take to reach a relMSE against a path-traced reference on the spot in fog and the
+/// lamp over fog, 48 × 48, budgets of samples per pixel with the photon counts scaled as
+/// `photon bench` scales them (the scene files `photon bench` reads carry no media yet). Run with `cargo test --release --test media -- --ignored
+/// --nocapture time_to_error`.
+#[test]
+#[ignore]
+fn time_to_error_in_fog() {
+    let size = 48;
+    let settings = |method, spp: u32, seed| {
+        let b = spp.min(64);
+        RenderSettings {
+            width: size,
+            height: size,
+            spp,
+            max_depth: 256,
+            seed,
+            method,
+            photon: PhotonSettings {
+                global_photons: 5_000 * b,
+                caustic_photons: 2_500 * b,
+                volume_photons: 5_000 * b,
+                ..PhotonSettings::default()
+            },
+            ..RenderSettings::default()
+        }
+    };
+    for (name, s) in [
+        ("spot in fog", spot_in_fog(4)),
+        ("lamp over fog", lamp_over_fog(4)),
+    ] {
+        let reference_spp = 8192;
+        let (reference, _) =
+            with_progress(|p| render(&s, &settings(Method::Path, reference_spp, 1), p))
+                .expect("reference");
+        println!("{name}: reference path {reference_spp} spp");
+        for method in [Method::Path, Method::Photon] {
+            let mut points = Vec::new();
+            let budgets: &[u32] = match method {
+                Method::Path => &[1, 4, 16, 64, 256, 1024, 2048],
+                _ => &[1, 2, 4, 8, 16, 32, 64, 128],
+            };
+            for &spp in budgets {
+                let start = std::time::Instant::now();
+                let (image, _) =
+                    with_progress(|p| render(&s, &settings(method, spp, 7), p)).expect("render");
+                let seconds = start.elapsed().as_secs_f64();
+                let error = compare(&image.rgba, &reference.rgba);
+                println!(
+                    "{name} {method:?} {spp} spp: {seconds:.3} s, relMSE {:.5}, mean {:+.2} %",
+                    error.rel_mse,
+                    100.0 * (error.mean_image / error.mean_reference - 1.0)
+                );
+                points.push((seconds, error.rel_mse));
+            }
+            for target in [0.01, 0.001] {
+                println!(
+                    "{name} {method:?}: time to relMSE {target}: {}",
+                    time_to(&points, target).map_or("not reached".into(), |t| format!("{t:.3} s"))
+                );
+            }
+        }
+    }
+}
+
+/// The time at which the (time, error) points first reach `target`, interpolated log-log
+/// between the two points that bracket it (the first point's time when it is already below).
+fn time_to(points: &[(f64, f64)], target: f64) -> Option<f64> {
+    let first = points.iter().position(|&(_, e)| e <= target)?;
+    if first == 0 {
+        return Some(points[0].0);
+    }
+    let ((t0, e0), (t1, e1)) = (points[first - 1], points[first]);
+    let f = (target.ln() - e0.ln()) / (e1.ln() - e0.ln());
+    Some((t0.ln() + f * (t1.ln() - t0.ln())).exp())
 }

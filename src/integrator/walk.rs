@@ -34,6 +34,7 @@ use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::medium::{
     fly, transmittance as medium_transmittance, Coefficients, Flight, Media, SegmentSampler,
+    WithoutScattering,
 };
 use crate::rng::Rng;
 use crate::scene::{Scene, Subsurface};
@@ -204,26 +205,33 @@ impl PathState {
 
     /// The ray to the next vertex through the media over `reach` (its distance to the surface
     /// it meets, or infinity): the media's emission on the way (with `emission`) and a free
-    /// flight that may scatter before the surface.
+    /// flight that may scatter before the surface (with `scatters`; else the flight only
+    /// attenuates, `medium::WithoutScattering`).
     fn through_media(
         &mut self,
         ctx: &Context,
         reach: f32,
         emission: bool,
+        scatters: bool,
         rng: &mut Rng,
     ) -> Flight {
         let dir = self.ray.direction.normalize();
         let mut emitted = Vec3::ZERO;
         let media = self.media;
-        let flight = fly(
-            &media.media(ctx),
-            self.ray.origin,
-            dir,
-            reach,
-            &mut self.beta,
-            &mut emitted,
-            rng,
-        );
+        let in_media = media.media(ctx);
+        let (origin, beta) = (self.ray.origin, &mut self.beta);
+        let flight = match scatters {
+            true => fly(&in_media, origin, dir, reach, beta, &mut emitted, rng),
+            false => fly(
+                &WithoutScattering(&in_media),
+                origin,
+                dir,
+                reach,
+                beta,
+                &mut emitted,
+                rng,
+            ),
+        };
         if emission && emitted != Vec3::ZERO {
             self.add(0, emitted);
         }
@@ -231,72 +239,21 @@ impl PathState {
     }
 
     /// The light the media along the ray to the next vertex (over `reach`) scatter towards
-    /// it, one light sample through the phase function (MIS-weighted against phase sampling)
-    /// from one point drawn on the segment by distance or equiangular sampling
-    /// (`medium::SegmentSampler`, centred on a point drawn on a light from the segment's
-    /// middle), added to the next vertex's pass. The scattering the walk then continues from
-    /// (`scatter_in_medium`) takes no light sample of its own.
+    /// it (`light_scattered_along`, MIS-weighted against phase sampling), added to the next
+    /// vertex's pass. The scattering the walk then continues from (`scatter_in_medium`) takes
+    /// no light sample of its own.
     fn light_in_media(&mut self, ctx: &Context, reach: f32, rng: &mut Rng) {
-        let ray = self.ray;
-        let dir = ray.direction.normalize();
-        let (path, media) = (self.light_path, self.media);
-        let in_media = media.media(ctx);
-        let homogeneous = in_media.homogeneous();
-        let rates = match homogeneous {
-            Some(c) => c.extinction(),
-            None => Vec3::splat(in_media.majorant()),
-        };
-        let middle = if reach.is_finite() {
-            ray.origin + dir * (0.5 * reach)
-        } else {
-            ray.origin
-        };
-        let (choice, point) = rng.uniform3();
-        let centre = ctx
-            .lights
-            .sample(
-                ctx.scene,
-                Receiver::at(middle),
-                path,
-                ray.time,
-                true,
-                choice,
-                point,
-            )
-            .filter(|ls| !ls.target.distant)
-            .map(|ls| ls.target.p);
-        let sampler = SegmentSampler::new(ray.origin, dir, reach, rates, self.beta, centre);
-        let Some((t, pdf)) = sampler.sample([rng.uniform(), rng.uniform(), rng.uniform()]) else {
-            return;
-        };
-        let p = ray.origin + dir * t;
-        let (through, at) = match homogeneous {
-            Some(c) => ((-c.extinction() * t).exp(), c),
-            None => (
-                medium_transmittance(&in_media, ray.origin, dir, t, rng),
-                in_media.at(p, rng.uniform()),
-            ),
-        };
-        let weight = self.beta * through * at.scattering / pdf;
-        if weight == Vec3::ZERO || !weight.is_finite() {
-            return;
-        }
-        let phase = at.phase;
-        let vertex = Vertex::Medium { p, time: ray.time };
-        let l = sample_direct_from(
+        let (ray, media, path, beta) = (self.ray, self.media, self.light_path, self.beta);
+        let l = light_scattered_along(
             ctx,
-            vertex,
-            None,
-            path,
+            &ray,
+            reach,
             &media,
-            weight,
+            path,
+            beta,
             true,
             rng,
             &mut self.rays,
-            |wi| {
-                let cos = dir.dot(wi);
-                (Vec3::splat(phase.eval(cos)), phase.pdf(cos))
-            },
         );
         self.add(1, l);
     }
@@ -438,6 +395,18 @@ pub trait Scatter {
         true
     }
 
+    /// Whether the walk samples free flights through media, scattering and going on from
+    /// there with a light sample along each segment (the default), or only attenuates the path
+    /// through them, the integrator adding the light they scatter (`media_segment`).
+    fn scatters_in_media(&self) -> bool {
+        true
+    }
+
+    /// Where `scatters_in_media` is false: add to `path` the light the media along its ray to
+    /// the next vertex (`reach` away) scatter towards it. Called where the walk would take its
+    /// light sample along the segment.
+    fn media_segment(&mut self, _path: &mut PathState, _reach: f32, _rng: &mut Rng) {}
+
     /// At surface `s`, after its emission counted: add what the integrator estimates here to
     /// `path` and say how the path goes on (the integrator may change the BSDF it continues
     /// with).
@@ -512,10 +481,15 @@ fn walk_from(
             state.lamps(ctx, reach, visibility == Visibility::Camera, rng);
         }
         if !state.media.is_vacuum(ctx.scene) {
+            let scatters = integrator.scatters_in_media();
             if emission && !state.emission_only && depth < ctx.max_depth {
-                state.light_in_media(ctx, reach, rng);
+                state.depth = depth;
+                match scatters {
+                    true => state.light_in_media(ctx, reach, rng),
+                    false => integrator.media_segment(state, reach, rng),
+                }
             }
-            match state.through_media(ctx, reach, counts, rng) {
+            match state.through_media(ctx, reach, counts, scatters, rng) {
                 Flight::Passed => {}
                 Flight::Absorbed => {
                     if depth == 0 {
@@ -621,6 +595,84 @@ fn walk_from(
             break;
         }
     }
+}
+
+/// The light that the media along `ray` (of kind `path`, through `media`, over `reach`)
+/// scatter towards its origin straight from the lights, times `beta`: one light sample through
+/// the phase function (MIS-weighted against phase sampling with `mis`) from one point drawn
+/// on the segment by distance or equiangular sampling (`medium::SegmentSampler`, centred on a
+/// point drawn on a light from the segment's middle). Counts its shadow rays in `rays`.
+#[allow(clippy::too_many_arguments)]
+pub fn light_scattered_along(
+    ctx: &Context,
+    ray: &Ray,
+    reach: f32,
+    media: &MediumStack,
+    path: RayPath,
+    beta: Vec3,
+    mis: bool,
+    rng: &mut Rng,
+    rays: &mut u32,
+) -> Vec3 {
+    let dir = ray.direction.normalize();
+    let in_media = media.media(ctx);
+    let homogeneous = in_media.homogeneous();
+    let rates = match homogeneous {
+        Some(c) => c.extinction(),
+        None => Vec3::splat(in_media.majorant()),
+    };
+    let middle = if reach.is_finite() {
+        ray.origin + dir * (0.5 * reach)
+    } else {
+        ray.origin
+    };
+    let (choice, point) = rng.uniform3();
+    let centre = ctx
+        .lights
+        .sample(
+            ctx.scene,
+            Receiver::at(middle),
+            path,
+            ray.time,
+            true,
+            choice,
+            point,
+        )
+        .filter(|ls| !ls.target.distant)
+        .map(|ls| ls.target.p);
+    let sampler = SegmentSampler::new(ray.origin, dir, reach, rates, beta, centre);
+    let Some((t, pdf)) = sampler.sample([rng.uniform(), rng.uniform(), rng.uniform()]) else {
+        return Vec3::ZERO;
+    };
+    let p = ray.origin + dir * t;
+    let (through, at) = match homogeneous {
+        Some(c) => ((-c.extinction() * t).exp(), c),
+        None => (
+            medium_transmittance(&in_media, ray.origin, dir, t, rng),
+            in_media.at(p, rng.uniform()),
+        ),
+    };
+    let weight = beta * through * at.scattering / pdf;
+    if weight == Vec3::ZERO || !weight.is_finite() {
+        return Vec3::ZERO;
+    }
+    let phase = at.phase;
+    let vertex = Vertex::Medium { p, time: ray.time };
+    sample_direct_from(
+        ctx,
+        vertex,
+        None,
+        path,
+        media,
+        weight,
+        mis,
+        rng,
+        rays,
+        |wi| {
+            let cos = dir.dot(wi);
+            (Vec3::splat(phase.eval(cos)), phase.pdf(cos))
+        },
+    )
 }
 
 /// The throughput, medium and length of a specular chain as `follow_specular` walks it.

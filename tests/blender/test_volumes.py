@@ -13,11 +13,13 @@ sets them.
 - an emitting Principled Volume sphere (emission strength 2, orange);
 - a World with a Principled Volume and a sun: black, as Cycles renders it (the sun is
   attenuated over an infinite medium);
-- a spot light in a fog box (Volume Scatter) over a sphere: the light cone;
+- a spot light in a fog box (Volume Scatter) over a sphere: the light cone (the path tracer and
+  the photon method, whose volume photon map holds the light scattered more than once);
 - a Volume Scatter cube with two volume bounces;
 - a glass sphere in a fog box under an area light (a volumetric caustic; relMSE over 4x4
   blocks <= 0.01, both engines' per-pixel noise being large there);
-- a window-lit room of thin walls filled with haze, the sun through the window (god rays).
+- a window-lit room of thin walls filled with haze, the sun through the window (god rays; both
+  methods).
 """
 
 import math
@@ -159,7 +161,8 @@ def test_world_volume_stops_the_sun(tmp_path):
     assert img.max() < 1e-4
 
 
-def test_spot_light_in_a_fog_box(tmp_path):
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_spot_light_in_a_fog_box(tmp_path, method):
     scene = floor_scene(world=0.0)
     mat, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.15)
     cube("Fog", mat, 5.0, (0.0, 0.0, 2.49))
@@ -173,7 +176,8 @@ def test_spot_light_in_a_fog_box(tmp_path):
     obj = common.link(bpy.data.objects.new("Spot", spot))
     obj.location = (0.8, 0.5, 3.5)
     obj.rotation_euler = (math.radians(12.0), math.radians(10.0), 0.0)
-    compare("spot in fog", scene, tmp_path, photon_spp=512)
+    compare(f"spot in fog {method.lower()}", scene, tmp_path,
+            photon_spp=512 if method == "PATH" else 128, method=method)
 
 
 def test_scatter_cube_with_two_volume_bounces(tmp_path):
@@ -206,7 +210,8 @@ def test_glass_sphere_in_fog(tmp_path):
     assert blocks <= 0.01
 
 
-def test_window_lit_room_with_haze(tmp_path):
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_window_lit_room_with_haze(tmp_path, method):
     """God rays: a room of one-sided thin walls with a window, a sun through it, and haze
     (Volume Scatter) filling the room; the camera inside sees the shaft of light."""
     scene = common.reset_scene(SIZE, SIZE)
@@ -228,4 +233,6 @@ def test_window_lit_room_with_haze(tmp_path):
     cube("Haze", haze, 3.9, (0.0, 0.0, 1.2))
     common.light("Sun", "SUN", (0, 0, 5), (50.0, 0.0, -90.0), energy=5.0)
     common.camera("Camera", (1.6, -1.6, 1.3), (85.0, 0.0, 45.0), 80.0)
-    compare("god rays", scene, tmp_path, photon_spp=1024, cycles_spp=2048, relmse_max=0.02)
+    compare(f"god rays {method.lower()}", scene, tmp_path,
+            photon_spp=1024 if method == "PATH" else 128, cycles_spp=2048, relmse_max=0.02,
+            method=method)

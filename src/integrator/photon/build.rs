@@ -1,16 +1,18 @@
 //! Building what the photon method reads: the global and caustic maps (Jensen 2001, ch. 5–6:
-//! traced, then balanced into kd-trees), the precomputed irradiance (Christensen 1999) and the
-//! subsurface samples (`super::subsurface`).
+//! traced, then balanced into kd-trees), the precomputed irradiance (Christensen 1999), the
+//! subsurface samples (`super::subsurface`) and, in scenes with media, the volume photon map
+//! (Jensen & Christensen 1998, `crate::volume_photon_map`).
 
 use super::estimate::precompute_irradiance;
 use super::settings::{PhotonInfo, PhotonSettings};
 use super::subsurface::{self, SubsurfaceMaps};
-use super::tracing::{trace_photon, trace_photons, Emitters, MapKind, Stream};
+use super::tracing::{trace_photon, trace_photons, trace_volume_photon, Emitters, MapKind, Stream};
 use crate::error::Result;
 use crate::integrator::Context;
 use crate::photon_map::{Photon, PhotonMap};
 use crate::progress::Progress;
 use crate::rng::Sampler;
+use crate::volume_photon_map::VolumePhotonMap;
 use std::time::Instant;
 
 /// The photon maps, the precomputed irradiance, the subsurface samples and the lookup
@@ -22,6 +24,8 @@ pub struct PhotonMaps {
     pub irradiance: Option<PhotonMap>,
     /// Subsurface samples of translucent materials.
     pub subsurface: Option<SubsurfaceMaps>,
+    /// Photons scattered in media (only in scenes with media).
+    pub volume: Option<VolumePhotonMap>,
     pub settings: PhotonSettings,
     /// Squared maximum search radii (scene units) of the global and caustic estimates, and of
     /// the `photons` view's dots.
@@ -138,12 +142,35 @@ pub fn build_maps(
     info.irradiance_seconds = start.elapsed().as_secs_f64();
     let subsurface =
         subsurface::build(ctx, emitters, settings, seed, sampler, progress, &mut info)?;
+    let start = Instant::now();
+    let volume = if ctx.scene.has_media() && settings.volume_photons > 0 {
+        let stored = info.global_stored + info.caustic_stored;
+        let budget = settings.memory_budget_bytes();
+        let stream = Stream::unaimed("Volume", 0x5e1f_0a7d, budget, stored, sampler);
+        let max = ctx.max_depth;
+        let photons = trace_photons(
+            ctx,
+            emitters,
+            stream,
+            settings.volume_photons,
+            seed,
+            progress,
+            |ray, power, rng, out| trace_volume_photon(ctx, ray, power, max, rng, out),
+        )?;
+        info.volume_emitted = settings.volume_photons as u64;
+        info.volume_stored = photons.len();
+        VolumePhotonMap::new(photons, settings.volume_radius * radius)
+    } else {
+        None
+    };
+    info.volume_seconds = start.elapsed().as_secs_f64();
     Ok((
         PhotonMaps {
             global,
             caustic,
             irradiance,
             subsurface,
+            volume,
             settings: settings.clone(),
             global_radius2: sq(settings.global_radius),
             caustic_radius2: sq(settings.caustic_radius),

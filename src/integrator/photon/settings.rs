@@ -35,6 +35,12 @@ pub struct PhotonSettings {
     pub subsurface_accuracy: f32,
     /// Sum every subsurface sample instead of the octree (for tests and measurements).
     pub subsurface_brute_force: bool,
+    /// Photons emitted for the volume photon map (default 200 000; only in scenes with
+    /// scattering media).
+    pub volume_photons: u32,
+    /// Radius of a volume photon's disc in the beam estimate, as a fraction of the scene's
+    /// bounding radius (default 0.015).
+    pub volume_radius: f32,
 }
 
 impl Default for PhotonSettings {
@@ -52,6 +58,8 @@ impl Default for PhotonSettings {
             subsurface_photons: 1_000_000,
             subsurface_accuracy: 0.2,
             subsurface_brute_force: false,
+            volume_photons: 200_000,
+            volume_radius: 0.015,
         }
     }
 }
@@ -87,6 +95,10 @@ pub struct PhotonInfo {
     pub subsurface_skipped: Option<String>,
     /// Tracing the subsurface photons and building their octrees.
     pub subsurface_seconds: f64,
+    pub volume_emitted: u64,
+    pub volume_stored: usize,
+    /// Tracing the volume photons and building their kd-tree.
+    pub volume_seconds: f64,
 }
 
 impl PhotonInfo {
@@ -111,5 +123,8 @@ impl PhotonInfo {
         self.subsurface_skipped =
             (self.subsurface_skipped.take()).or(other.subsurface_skipped.clone());
         self.subsurface_seconds += other.subsurface_seconds;
+        self.volume_emitted += other.volume_emitted;
+        self.volume_stored += other.volume_stored;
+        self.volume_seconds += other.volume_seconds;
     }
 }

@@ -33,6 +33,15 @@
 //! as an approximation: shading y's glossy lobe as if its light came evenly from all
 //! directions is a bias that no number of photons removes.
 //!
+//! **Media** (Jensen & Christensen 1998): along every segment of the camera path and of the
+//! final-gather rays that runs through a medium, the light the medium scatters towards the ray
+//! is single scattering, one light sample from a point on the segment (not MIS-weighted: the
+//! path does not go on by the phase function), plus the volume photon map's beam estimate
+//! (`crate::volume_photon_map`), which holds only photons that scattered before, so each light
+//! path is counted once; the path itself is only attenuated (`Scatter::scatters_in_media`).
+//! Gather rays cross the transparent boundaries of volumes, entering and leaving their media,
+//! and the irradiance cache's gather rays find the media at their origin first.
+//!
 //! Light passes, as seen from x: its light sample and the emission its gather rays find are
 //! Direct, emission through its delta lobes Emission, the global estimates and the cache
 //! Indirect, the caustic estimate Caustic, the dipole term Subsurface; glossy vertices on the
@@ -41,19 +50,24 @@
 use super::build::PhotonMaps;
 use super::estimate::{nearest_irradiance, radiance_estimate, Walls};
 use crate::accel::{Hit, Ray, Visibility};
-use crate::bsdf::BsdfSample;
+use crate::bsdf::{BsdfSample, Scattering};
 use crate::integrator::classify::{diffuse_reflectance, stores_photons};
 use crate::integrator::direct::{sample_direct, Previous};
+use crate::integrator::media::MediumStack;
 use crate::integrator::shading::{transmittance, without_diffuse, CachedDiffuse, Shading};
-use crate::integrator::walk::{follow_specular, walk, Chain, Next, PathState, Scatter};
+use crate::integrator::walk::{
+    follow_specular, light_scattered_along, walk, Chain, Next, PathState, Scatter,
+};
 use crate::integrator::{CameraSample, Context};
 use crate::irradiance_cache::{Incoming, IrradianceCache};
 use crate::light::emitted_radiance;
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec2, Vec3};
+use crate::medium::{transmittance as medium_transmittance, Media};
 use crate::photon_map::Neighbors;
 use crate::rng::Rng;
 use crate::scene::{Subsurface, SubsurfaceMethod};
+use crate::shader::RayPath;
 use std::f32::consts::PI;
 
 /// Least probability with which a final-gather hit traces its glossy layer (`glossy_rest`):
@@ -67,6 +81,29 @@ const SHORT_GATHER: f32 = 1.0;
 
 /// Photons record their bounces up to this count (`Photon::bounces` saturates there).
 const MAX_STORED_BOUNCES: u32 = 15;
+
+/// Most transparent volume boundaries a final-gather ray crosses (`Gather::cast`).
+const MAX_VOLUME_BOUNDARIES: u32 = 16;
+
+/// The surface a final-gather ray met (`Gather::cast`): the ray's last segment and its hit,
+/// the surface shaded (with the media the ray reached it through), the vertex the ray left
+/// (for MIS) and the distance travelled.
+struct Met {
+    ray: Ray,
+    hit: Hit,
+    y: Shading,
+    previous: Previous,
+    distance: f32,
+}
+
+/// What a final-gather ray met on its way (`Gather::cast`), seen from where it left: the
+/// media's transmittance, the lamps (attenuated, MIS-weighted) and the light the media
+/// scattered towards it.
+struct Along {
+    through: Vec3,
+    lamps: Vec3,
+    scattered: Vec3,
+}
 
 /// What the photon method shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -224,8 +261,9 @@ impl<'a> Gather<'a> {
     }
 
     /// What a BSDF-sampled ray from a final-gather hit `s` brings back: the emission it meets,
-    /// MIS-weighted against `glossy_rest`'s light sample, and the gather estimate of the surface
-    /// that stores photons behind specular ones, `after` + 1 bounces beyond the shaded point.
+    /// MIS-weighted against `glossy_rest`'s light sample, the light the media along it scatter
+    /// towards `s`, and the gather estimate of the surface that stores photons behind specular
+    /// ones, `after` + 1 bounces beyond the shaded point.
     fn glossy_ray(
         &mut self,
         s: &Shading,
@@ -234,23 +272,28 @@ impl<'a> Gather<'a> {
         after: u32,
         rng: &mut Rng,
     ) -> Vec3 {
-        let (ray, hit, previous) = match self.cast(s, bs, wi) {
+        let absorption = s.absorption_after(bs, wi, Vec3::ZERO);
+        let (met, along) = match self.cast(s, bs, wi, absorption, true, rng) {
             Ok(met) => met,
-            Err(escaped) => return escaped,
+            Err((escaped, scattered)) => return escaped + scattered,
         };
         let ctx = self.ctx;
-        let z = Shading::new(ctx, &ray, &hit, false);
+        let z = met.y;
         let mut l = emitted_radiance(ctx.scene, &z.sh, z.wo, z.surface.emission);
         if l != Vec3::ZERO {
-            l *= previous.weight_at(ctx, &z.sh);
+            l *= met.previous.weight_at(ctx, &z.sh) * along.through;
         }
-        l += self.lamps(&ray, Some(&hit), Vec3::ZERO, &previous);
+        l += along.lamps;
         let mut chain = Chain {
-            length: hit.t * ray.direction.length(),
+            length: met.distance,
+            beta: along.through,
             ..Chain::new(Vec3::ZERO)
         };
         if let Some(d) = follow_specular(ctx, z, &mut chain, rng, &mut self.rays, Some(&mut l)) {
             l += chain.beta * self.gather_estimate(&d, after + 1, chain.length, rng);
+        }
+        if along.scattered != Vec3::ZERO {
+            l += along.scattered;
         }
         l
     }
@@ -291,56 +334,179 @@ impl<'a> Gather<'a> {
         s.light_sample(self.ctx, Vec3::ONE, mis, rng, &mut self.rays)
     }
 
-    /// The lamps `ray` meets before `hit` (all along it without one), through a medium of
-    /// absorption `absorption`, MIS-weighted against the light sample at `previous`.
-    fn lamps(&self, ray: &Ray, hit: Option<&Hit>, absorption: Vec3, previous: &Previous) -> Vec3 {
-        let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+    /// The lamps `ray` meets before `reach`, through a medium of absorption `absorption` and
+    /// the participating `media` when given, MIS-weighted against the light sample at
+    /// `previous`.
+    fn lamps(
+        &self,
+        ray: &Ray,
+        reach: f32,
+        absorption: Vec3,
+        media: Option<&MediumStack>,
+        previous: &Previous,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        let ctx = self.ctx;
         let mut l = Vec3::ZERO;
-        self.ctx
-            .lights
+        ctx.lights
             .lamps_met(ray, previous.receiver(), reach, false, |le, lpdf, t| {
-                l += (-absorption * t).exp() * le * previous.weight(lpdf);
+                let mut through = (-absorption * t).exp();
+                if let Some(media) = media {
+                    let dir = ray.direction.normalize();
+                    through *= medium_transmittance(&media.media(ctx), ray.origin, dir, t, rng);
+                }
+                l += through * le * previous.weight(lpdf);
             });
         l
     }
 
-    /// The ray leaving `s` by the BSDF sample `bs` (world direction `wi`), the surface it meets
-    /// and the vertex it left (for the MIS weight of emission there); `Err` with the world's
-    /// emission, MIS-weighted against light sampling, when it meets none.
+    /// The light the media along `ray` (of kind `path`, through `media`, over `reach`)
+    /// scatter towards its origin: single scattering by one light sample
+    /// (`walk::light_scattered_along`, not MIS-weighted: nothing samples the phase function
+    /// here) and the volume photon map's beam estimate for the light scattered more often.
+    fn in_media(
+        &mut self,
+        ray: &Ray,
+        reach: f32,
+        media: &MediumStack,
+        path: RayPath,
+        rng: &mut Rng,
+    ) -> (Vec3, Vec3) {
+        let ctx = self.ctx;
+        let single = light_scattered_along(
+            ctx,
+            ray,
+            reach,
+            media,
+            path,
+            Vec3::ONE,
+            false,
+            rng,
+            &mut self.rays,
+        );
+        (single, self.volume_estimate(ray, reach, media, rng))
+    }
+
+    /// The volume photon map's beam estimate along `ray` through `media` over `reach`
+    /// (`crate::volume_photon_map`): each photon weighed by the transmittance to it and the
+    /// phase function there between its direction and the ray's.
+    fn volume_estimate(
+        &mut self,
+        ray: &Ray,
+        reach: f32,
+        media: &MediumStack,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        let Some(map) = &self.maps.volume else {
+            return Vec3::ZERO;
+        };
+        let dir = ray.direction.normalize();
+        let in_media = media.media(self.ctx);
+        match in_media.homogeneous() {
+            Some(c) => {
+                let sigma_t = c.extinction();
+                map.beam(ray.origin, dir, reach, |t, photon| {
+                    (-sigma_t * t).exp() * c.phase.eval(dir.dot(photon.incoming()))
+                })
+            }
+            None => map.beam(ray.origin, dir, reach, |t, photon| {
+                let through = medium_transmittance(&in_media, ray.origin, dir, t, rng);
+                let at = in_media.at(photon.position(), rng.uniform());
+                through * at.phase.eval(dir.dot(photon.incoming()))
+            }),
+        }
+    }
+
+    /// The ray leaving `s` by the BSDF sample `bs` (world direction `wi`) through a medium of
+    /// absorption `absorption`, up to the first surface it meets that is more than a volume's
+    /// transparent boundary (those it crosses, entering and leaving their media), with what it
+    /// met on the way: the transmittance of the media, the lamps, and with `scattered` the
+    /// light the media scatter towards `s` (`in_media`). `Err` with the world's emission and
+    /// the lamps (MIS-weighted against light sampling, attenuated) and that scattered light
+    /// when it meets no surface.
     fn cast(
         &mut self,
         s: &Shading,
         bs: &BsdfSample,
         wi: Vec3,
-    ) -> Result<(Ray, Hit, Previous), Vec3> {
+        absorption: Vec3,
+        scattered: bool,
+        rng: &mut Rng,
+    ) -> Result<(Met, Along), (Vec3, Vec3)> {
+        let ctx = self.ctx;
+        let scene = ctx.scene;
         let previous = Previous {
             p: s.sh.p,
             horizon: s.horizon(),
             pdf: bs.pdf,
             delta: bs.delta,
         };
-        let ray = s.sh.spawn(wi);
-        match self.intersect(&ray) {
-            Some(hit) => Ok((ray, hit, previous)),
-            None => {
-                let absorption = s.absorption_after(bs, wi, Vec3::ZERO);
-                let mut l = self.lamps(&ray, None, absorption, &previous);
-                self.ctx
-                    .lights
-                    .escaped(previous.receiver(), ray.direction, |le, lpdf| {
-                        l += le * previous.weight(lpdf)
-                    });
-                Err(l)
-            }
+        let mut media = s.media;
+        if bs.transmitted {
+            media = media.crossed(scene, &s.sh.hit, s.sh.material, wi.dot(s.sh.ng) < 0.0);
         }
+        // The kind of a ray one bounce from the camera (the light samples in media along it
+        // read it; deeper gather rays take it too).
+        let path = RayPath::camera().after(bs.scattering, bs.transmitted);
+        let mut along = Along {
+            through: Vec3::ONE,
+            lamps: Vec3::ZERO,
+            scattered: Vec3::ZERO,
+        };
+        let mut distance = 0.0;
+        let mut ray = s.sh.spawn(wi);
+        for _ in 0..MAX_VOLUME_BOUNDARIES {
+            let hit = self.intersect(&ray);
+            let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+            let in_media = (!media.is_vacuum(scene)).then_some(&media);
+            let lamps = self.lamps(&ray, reach, absorption, in_media, &previous, rng);
+            along.lamps += along.through * lamps;
+            if let Some(media) = in_media {
+                if scattered {
+                    let (single, multiple) = self.in_media(&ray, reach, media, path, rng);
+                    along.scattered += along.through * (single + multiple);
+                }
+                let dir = ray.direction.normalize();
+                along.through *=
+                    medium_transmittance(&media.media(ctx), ray.origin, dir, reach, rng);
+            }
+            let Some(hit) = hit else {
+                let (through, mut l) = (along.through, along.lamps);
+                ctx.lights
+                    .escaped(previous.receiver(), ray.direction, |le, lpdf| {
+                        l += through * (le * previous.weight(lpdf))
+                    });
+                return Err((l, along.scattered));
+            };
+            distance += reach;
+            let mut y = Shading::new(ctx, &ray, &hit, false);
+            if scene.materials[y.sh.material as usize].volume.is_some() && y.surface.transparent {
+                along.through *= y.surface.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+                let entering = ray.direction.dot(y.sh.ng) < 0.0;
+                media = media.crossed(scene, &hit, y.sh.material, entering);
+                ray = y.sh.spawn(ray.direction);
+                continue;
+            }
+            y.media = media;
+            let met = Met {
+                ray,
+                hit,
+                y,
+                previous,
+                distance,
+            };
+            return Ok((met, along));
+        }
+        Err((Vec3::ZERO, along.scattered))
     }
 
     /// A final-gather ray leaving `s` by the BSDF sample `bs` (world direction `wi`): the
     /// emission it finds, MIS-weighted against light sampling, and with `estimate` the global
-    /// estimate at the first surface that stores photons behind specular ones, returned apart
-    /// (the passes and the irradiance cache treat them apart). A ray that left through a delta
-    /// lobe also counts the emission along the specular chain, and reads the full global
-    /// estimate. `s` lies `after` bounces beyond the shaded point (1: it is the shaded point).
+    /// estimate at the first surface that stores photons behind specular ones plus the light
+    /// the media along the ray scatter towards `s`, returned apart (the passes and the
+    /// irradiance cache treat them apart). A ray that left through a delta lobe also counts the
+    /// emission along the specular chain, and reads the full global estimate. `s` lies `after`
+    /// bounces beyond the shaded point (1: it is the shaded point).
     fn gather_ray(
         &mut self,
         s: &Shading,
@@ -351,22 +517,28 @@ impl<'a> Gather<'a> {
         rng: &mut Rng,
     ) -> (Vec3, Vec3) {
         let absorption = s.absorption_after(bs, wi, Vec3::ZERO);
-        let (ray, hit, previous) = match self.cast(s, bs, wi) {
+        let (met, along) = match self.cast(s, bs, wi, absorption, estimate, rng) {
             Ok(met) => met,
-            Err(escaped) => return (escaped, Vec3::ZERO),
+            Err(escaped) => return escaped,
         };
         let ctx = self.ctx;
+        let Met {
+            ray,
+            hit,
+            y,
+            previous,
+            distance,
+        } = met;
         let t = transmittance(absorption, &hit, &ray);
-        // y: the surface the gather ray meets.
-        let y = Shading::new(ctx, &ray, &hit, false);
         let mut l = emitted_radiance(ctx.scene, &y.sh, y.wo, y.surface.emission);
         if l != Vec3::ZERO {
-            l *= previous.weight_at(ctx, &y.sh);
+            l *= previous.weight_at(ctx, &y.sh) * along.through;
         }
         let mut e = Vec3::ZERO;
         if estimate {
             let mut chain = Chain {
-                length: hit.t * ray.direction.length(),
+                length: distance,
+                beta: along.through,
                 ..Chain::new(absorption)
             };
             let emission = previous.delta.then_some(&mut l);
@@ -379,8 +551,11 @@ impl<'a> Gather<'a> {
                 e = chain.beta * at_end;
             }
         }
-        let lamps = self.lamps(&ray, Some(&hit), absorption, &previous);
-        (t * l + lamps, t * e)
+        let mut e = t * e;
+        if along.scattered != Vec3::ZERO {
+            e += along.scattered;
+        }
+        (t * l + along.lamps, e)
     }
 
     /// Direct light at `s` when no final-gather ray leaves it (its indirect light is cached):
@@ -527,19 +702,37 @@ impl Scatter for PhotonCamera<'_> {
                 || self.gather.maps.subsurface.is_none())
     }
 
+    /// The full view reads media from the volume photon map instead of scattering in them.
+    fn scatters_in_media(&self) -> bool {
+        self.view != View::Full
+    }
+
+    /// Single scattering by a light sample and the volume map's estimate of the rest (the light
+    /// of photons that scattered before), the camera path only attenuated through the media.
+    fn media_segment(&mut self, path: &mut PathState, reach: f32, rng: &mut Rng) {
+        let g = &mut self.gather;
+        g.depth = path.depth;
+        let (ray, media, kind, beta) = (path.ray, path.media, path.light_path, path.beta);
+        let ctx = g.ctx;
+        let single = light_scattered_along(
+            ctx,
+            &ray,
+            reach,
+            &media,
+            kind,
+            beta,
+            false,
+            rng,
+            &mut g.rays,
+        );
+        path.add(1, single);
+        let multiple = g.volume_estimate(&ray, reach, &media, rng);
+        path.add(2, beta * multiple);
+    }
+
     fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
         let g = &mut self.gather;
         g.depth = path.depth;
-        // Final gathering does not cross media: a scene with media is path traced past its
-        // first surface (the maps were built through the media and stay right for what they
-        // hold; the path only never reads them).
-        if self.view == View::Full && g.ctx.scene.has_media() {
-            let light_sampled = s.bsdf.has_non_delta();
-            if light_sampled {
-                path.light_sample(g.ctx, s, rng);
-            }
-            return Next::Continue { light_sampled };
-        }
         if stores_photons(&s.bsdf) {
             let mut l = Passes::default();
             match self.view {
@@ -580,7 +773,9 @@ pub fn trace(
 
 /// Radiance arriving at `s` along `wi` for an irradiance-cache record, with the distance of the
 /// first hit: the global estimate behind specular surfaces, as a final-gather ray reads it, but
-/// without emission (the cached point samples its lights itself).
+/// without emission (the cached point samples its lights itself); through media, attenuated
+/// and with the light they scatter towards `s` (the media at the ray's origin found as
+/// `MediumStack::at` finds them: a record's shading point does not know them).
 pub fn cache_gather(
     ctx: &Context,
     maps: &PhotonMaps,
@@ -589,23 +784,44 @@ pub fn cache_gather(
     rng: &mut Rng,
 ) -> Incoming {
     let mut gather = Gather::new(ctx, maps, None);
-    let ray = s.sh.spawn(wi);
-    let Some(hit) = gather.intersect(&ray) else {
-        return Incoming::NONE;
+    let mut from = *s;
+    if ctx.scene.has_media() {
+        let ray = s.sh.spawn(wi);
+        from.media = MediumStack::at(ctx, ray.origin, ray.time);
+    }
+    let bs = BsdfSample {
+        wi: s.frame.to_local(wi),
+        weight: Vec3::ONE,
+        pdf: 1.0,
+        delta: false,
+        transmitted: false,
+        scattering: Scattering::Diffuse,
     };
-    let d = Shading::new(ctx, &ray, &hit, false);
-    let normal = d.frame.n;
+    let (met, along) = match gather.cast(&from, &bs, wi, Vec3::ZERO, true, rng) {
+        Ok(met) => met,
+        Err((_, scattered)) => {
+            return Incoming {
+                radiance: scattered,
+                ..Incoming::NONE
+            }
+        }
+    };
+    let normal = met.y.frame.n;
     let mut chain = Chain {
-        length: hit.t * ray.direction.length(),
+        length: met.distance,
+        beta: along.through,
         ..Chain::new(Vec3::ZERO)
     };
-    let radiance = match follow_specular(ctx, d, &mut chain, rng, &mut gather.rays, None) {
+    let mut radiance = match follow_specular(ctx, met.y, &mut chain, rng, &mut gather.rays, None) {
         Some(d) => chain.beta * gather.gather_estimate(&d, 2, chain.length, rng),
         None => Vec3::ZERO,
     };
+    if along.scattered != Vec3::ZERO {
+        radiance += along.scattered;
+    }
     Incoming {
         radiance,
-        distance: hit.t * ray.direction.length(),
+        distance: met.distance,
         normal,
     }
 }

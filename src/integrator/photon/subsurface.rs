@@ -23,7 +23,6 @@ use crate::error::Result;
 use crate::integrator::shading::Shading;
 use crate::integrator::Context;
 use crate::math::Vec3;
-use crate::photon_map::Photon;
 use crate::progress::Progress;
 use crate::rng::Sampler;
 use crate::scene::{Scene, SubsurfaceMethod};
@@ -221,15 +220,8 @@ pub fn build(
     let start = Instant::now();
     let max = ctx.max_depth;
     let stored = info.global_stored + info.caustic_stored;
-    let stream = Stream {
-        label: "Subsurface",
-        tag: 0x5ab5_0f7e,
-        aimed: false,
-        budget_bytes: settings
-            .memory_budget_bytes()
-            .saturating_sub((stored * std::mem::size_of::<Photon>()) as u64),
-        sampler,
-    };
+    let budget = settings.memory_budget_bytes();
+    let stream = Stream::unaimed("Subsurface", 0x5ab5_0f7e, budget, stored, sampler);
     let samples = trace_photons(
         ctx,
         emitters,

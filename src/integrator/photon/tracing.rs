@@ -149,10 +149,11 @@ impl Emitters {
                     let Some(e) = emitters.emit_with(ctx, light, None, (0.5, u1, u2), rng) else {
                         return;
                     };
-                    walk_photon(ctx, e.ray, e.power, ctx.max_depth, rng, |s, power, _, _| {
+                    let reached = |s: &Shading, power: Vec3, _, _| {
                         out.push((s.sh.p, s.ng, luminance(power)));
                         true
-                    });
+                    };
+                    walk_photon(ctx, e.ray, e.power, ctx.max_depth, rng, reached, None);
                 };
                 emitters.guide = EmissionGuide::new(ctx, &region, &shares, seed, trace);
             }
@@ -371,6 +372,12 @@ struct Targets {
     spheres: Vec<(Vec3, f32)>,
 }
 
+/// Whether a material can start a caustic path: specular, and not a volume's boundary (a
+/// volume's material is specular only for its transparent surface, which starts none).
+fn is_caustic_start(scene: &Scene, material: u32) -> bool {
+    is_specular(scene, material) && scene.materials[material as usize].volume.is_none()
+}
+
 /// More specular instances than this are aimed at as one sphere around them all: every photon
 /// sums the density of every sphere.
 const MAX_INSTANCE_TARGETS: usize = 64;
@@ -381,7 +388,7 @@ fn instance_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
     let specular: Vec<bool> = scene
         .prototypes
         .iter()
-        .map(|m| !m.positions.is_empty() && is_specular(scene, m.material))
+        .map(|m| !m.positions.is_empty() && is_caustic_start(scene, m.material))
         .collect();
     let local: Vec<Bounds> = scene.prototypes.iter().map(|m| m.bounds()).collect();
     let boxes: Vec<Bounds> = scene
@@ -417,7 +424,7 @@ impl Targets {
         let mut spheres: Vec<(Vec3, f32)> = scene
             .meshes
             .iter()
-            .filter(|m| !m.positions.is_empty() && is_specular(scene, m.material))
+            .filter(|m| !m.positions.is_empty() && is_caustic_start(scene, m.material))
             .map(|m| {
                 let (lo, hi) = m.positions.iter().fold(
                     (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
@@ -539,7 +546,25 @@ pub fn trace_photon(
                 }
             }
         },
+        None,
     );
+}
+
+/// Trace one photon for the volume photon map (`crate::volume_photon_map`) from `ray` with
+/// `power`, appending a photon at each of its scatterings in a medium after its first
+/// scattering anywhere: light that reaches a medium straight from a light is what the camera
+/// paths' light samples along their segments add (`walk::light_scattered_along`).
+pub fn trace_volume_photon(
+    ctx: &Context,
+    ray: Ray,
+    power: Vec3,
+    max_bounces: u32,
+    rng: &mut Rng,
+    out: &mut Vec<Photon>,
+) {
+    let mut keep = |photon| out.push(photon);
+    let surfaces = |_: &Shading, _, _, _| true;
+    walk_photon(ctx, ray, power, max_bounces, rng, surfaces, Some(&mut keep));
 }
 
 /// Trace one photon for the subsurface samples: at every hit on a translucent surface, the
@@ -555,7 +580,7 @@ pub fn trace_subsurface_photon(
     rng: &mut Rng,
     out: &mut Vec<(u32, Sample)>,
 ) {
-    walk_photon(ctx, ray, power, max_bounces, rng, |s, power, _, _| {
+    let reached = |s: &Shading, power: Vec3, _, _| {
         let w = s.surface.subsurface.weight;
         if w > 0.0 {
             let flux = power * (w * s.bsdf.base_transmittance());
@@ -565,12 +590,15 @@ pub fn trace_subsurface_photon(
             }
         }
         true
-    });
+    };
+    walk_photon(ctx, ray, power, max_bounces, rng, reached, None);
 }
 
 /// The photon random walk shared by every photon map and the subsurface samples: `store(shading, power, bounces, caustic)` is
 /// called at each hit on a surface that stores photons (`caustic`: only specular bounces so
-/// far) and returns whether the walk goes on.
+/// far) and returns whether the walk goes on; `in_medium` is given a photon at each scattering
+/// in a medium after the photon's first scattering anywhere (its power as the free flight
+/// weighed it, before the phase function's sample).
 fn walk_photon(
     ctx: &Context,
     mut ray: Ray,
@@ -578,15 +606,24 @@ fn walk_photon(
     max_bounces: u32,
     rng: &mut Rng,
     mut store: impl FnMut(&Shading, Vec3, u32, bool) -> bool,
+    mut in_medium: Option<&mut dyn FnMut(Photon)>,
 ) {
     // True while every bounce so far was specular (light → S*).
     let mut specular_path = true;
+    // Surfaces it scattered from, not counting the transparent boundaries of volumes (light
+    // through them alone is direct light, which shadow rays find through them).
+    let mut surface_bounces = 0;
+    // The photon scattered somewhere (a transparent pass is no scattering): light that did not
+    // is what light samples find.
+    let mut scattered = false;
     let mut absorption = Vec3::ZERO;
     // Index of refraction of the medium the photon travels through (1: outside any object).
     let mut ior = 1.0f32;
     // The participating media it travels through, and its scatterings in them.
     let mut media = MediumStack::at(ctx, ray.origin, ray.time);
     let mut volume_bounces = 0;
+    // The scatterings in media the photon may make (`None` until its first scattering).
+    let mut volume_allowance: Option<u32> = None;
     for bounce in 0..=max_bounces {
         let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
         if !media.is_vacuum(ctx.scene) {
@@ -608,14 +645,20 @@ fn walk_photon(
                 Flight::Absorbed => return,
                 Flight::Scattered { t, at } => {
                     // Blender's Volume bounces: a camera path continues from that many
-                    // scatterings in media, and lights from one more.
+                    // scatterings in media, and lights from one more: the scattering its
+                    // light sample leaves from, the photon's first if it was in a medium.
                     volume_bounces += 1;
-                    if bounce == max_bounces
-                        || volume_bounces > ctx.scene.render_settings.volume_bounces + 1
-                    {
+                    let limit = ctx.scene.render_settings.volume_bounces;
+                    if volume_bounces > *volume_allowance.get_or_insert(limit + 1) {
                         return;
                     }
                     let p = ray.origin + dir * t;
+                    if let (true, Some(keep)) = (scattered, in_medium.as_deref_mut()) {
+                        keep(Photon::new(p, power, -dir, bounce, false));
+                    }
+                    if bounce == max_bounces {
+                        return;
+                    }
                     let (wi, f, pdf) = at
                         .phase
                         .sample(dir, [rng.uniform(), rng.uniform(), rng.uniform()]);
@@ -630,6 +673,7 @@ fn walk_photon(
                     }
                     power /= q;
                     specular_path = false;
+                    scattered = true;
                     ray = Ray {
                         origin: p,
                         direction: wi,
@@ -652,7 +696,7 @@ fn walk_photon(
         } else {
             power * adjoint_scale(ior)
         };
-        if storing && !store(&s, stored, bounce, bounce > 0 && specular_path) {
+        if storing && !store(&s, stored, bounce, surface_bounces > 0 && specular_path) {
             return;
         }
         if bounce == max_bounces {
@@ -662,6 +706,16 @@ fn walk_photon(
             return;
         };
         specular_path &= bs.delta || !storing;
+        let scene = ctx.scene;
+        let volume_boundary = bs.scattering == crate::bsdf::Scattering::Transparent
+            && scene.materials[s.sh.material as usize].volume.is_some();
+        if !volume_boundary {
+            surface_bounces += 1;
+        }
+        if bs.scattering != crate::bsdf::Scattering::Transparent {
+            scattered = true;
+            volume_allowance.get_or_insert(ctx.scene.render_settings.volume_bounces);
+        }
         // Russian roulette on the scattering weight keeps the photon's power nearly constant.
         let q = max_component(bs.weight).min(1.0);
         if !(q > 0.0) || rng.uniform() >= q {
@@ -765,6 +819,27 @@ pub struct Stream<'a> {
     /// quasi-random walks): its emission and every bounce draw well-spread numbers across
     /// the run's photons, so the maps' density is less noisy than with independent streams.
     pub sampler: Sampler,
+}
+
+impl<'a> Stream<'a> {
+    /// An unaimed run that may store what `budget_bytes` leaves after the `stored` photons of
+    /// the runs before it.
+    pub fn unaimed(
+        label: &'a str,
+        tag: u64,
+        budget_bytes: u64,
+        stored: usize,
+        sampler: Sampler,
+    ) -> Stream<'a> {
+        let used = (stored * std::mem::size_of::<Photon>()) as u64;
+        Stream {
+            label,
+            tag,
+            aimed: false,
+            budget_bytes: budget_bytes.saturating_sub(used),
+            sampler,
+        }
+    }
 }
 
 /// Trace `count` photons in parallel batches with `trace(ray, power, rng, out)` (power already
