@@ -294,12 +294,14 @@ def render_extension(scene) -> dict:
     pixel filter and Blender's Volume bounces (Light Paths, Cycles' setting)."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
-    cycles = getattr(scene, "cycles", None)
-    return {"width": max(1, int(r.resolution_x * scale)),
-            "height": max(1, int(r.resolution_y * scale)),
-            "film_transparent": bool(r.film_transparent),
-            "filter": film_filter(scene),
-            "volume_bounces": int(getattr(cycles, "volume_bounces", 0))}
+    extension = {"width": max(1, int(r.resolution_x * scale)),
+                 "height": max(1, int(r.resolution_y * scale)),
+                 "film_transparent": bool(r.film_transparent),
+                 "filter": film_filter(scene)}
+    volume_bounces = int(getattr(getattr(scene, "cycles", None), "volume_bounces", 0))
+    if volume_bounces:  # 0, Blender's default, is the extension's too
+        extension["volume_bounces"] = volume_bounces
+    return extension
 
 
 def world_volume(blender_world, folder=None):
