@@ -176,8 +176,9 @@ def test_spot_light_in_a_fog_box(tmp_path, method):
     obj = common.link(bpy.data.objects.new("Spot", spot))
     obj.location = (0.8, 0.5, 3.5)
     obj.rotation_euler = (math.radians(12.0), math.radians(10.0), 0.0)
-    compare(f"spot in fog {method.lower()}", scene, tmp_path,
-            photon_spp=512 if method == "PATH" else 128, method=method)
+    # The photon method's radii shrink every 64 spp: at 128 its map still blurs the cone's
+    # edge (+2.4 %), at 512 it is within 1 %.
+    compare(f"spot in fog {method.lower()}", scene, tmp_path, photon_spp=512, method=method)
 
 
 def test_scatter_cube_with_two_volume_bounces(tmp_path):
