@@ -10,8 +10,8 @@ against Cycles (docs/bench/volumes.md).
   3.9 m cube of haze (Volume Scatter, density 0.15) filling the room; the camera inside sees
   the shaft of light; black world.
 
-Volume bounces stay at Blender's default, 0. The test module cannot be imported outside pytest
-(its scenes are built inside the test functions), so the scene construction is repeated here.
+Volume bounces stay at Blender's default, 0. tests/blender/test_volumes.py builds its scenes
+with the functions here.
 
 Usage:  .venv/bin/python scenes/blender/volume_scenes.py OUT_DIR
 writes OUT_DIR/{glass_fog,god_rays}.blend (for scenes/blender/cycles_time.py) and
@@ -34,8 +34,9 @@ import common  # noqa: E402
 SIZE = 64
 
 
-def volume_material(name, kind, **inputs):
-    """A material whose Material Output has only a Volume: node `kind` with `inputs` set."""
+def shader_material(name, kind, socket, **inputs):
+    """A material of one shader node `kind` (a bl_idname) with `inputs` set, into the Material
+    Output's `socket` (Surface or Volume; the other unlinked). Returns (material, node)."""
     mat = bpy.data.materials.new(name)
     if bpy.app.version < (5, 0, 0):
         mat.use_nodes = True
@@ -44,8 +45,13 @@ def volume_material(name, kind, **inputs):
     node = tree.nodes.new(kind)
     for key, value in inputs.items():
         node.inputs[key].default_value = value
-    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Volume"])
-    return mat
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs[socket])
+    return mat, node
+
+
+def volume_material(name, kind, **inputs):
+    """A material with only a Volume (`shader_material` into the Volume socket)."""
+    return shader_material(name, kind, "Volume", **inputs)
 
 
 def cube(name, material, size, location):
@@ -56,34 +62,33 @@ def cube(name, material, size, location):
     return common.mesh_object(name, verts, faces, material, location)
 
 
-def glass_fog():
-    scene = common.reset_scene(SIZE, SIZE)
+def sphere(name, material, radius, location):
+    """A smooth UV sphere."""
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=radius, location=location, segments=48,
+                                         ring_count=24)
+    obj = bpy.context.active_object
+    obj.name = name
+    obj.data.materials.append(material)
+    bpy.ops.object.shade_smooth()
+    return obj
+
+
+def glass_fog(size=SIZE):
+    scene = common.reset_scene(size, size)
     floor = common.principled("Floor", (0.8, 0.8, 0.8), roughness=1.0)
     common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
     common.camera("Camera", (0.0, -4.0, 3.0), (53.0, 0.0, 0.0), 45.0)
-    cube("Fog", volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.2), 5.0,
+    cube("Fog", volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.2)[0], 5.0,
          (0.0, 0.0, 2.49))
-    glass = bpy.data.materials.new("Glass")
-    if bpy.app.version < (5, 0, 0):
-        glass.use_nodes = True
-    tree = glass.node_tree
-    tree.nodes.remove(tree.nodes["Principled BSDF"])
-    bsdf = tree.nodes.new("ShaderNodeBsdfGlass")
-    bsdf.inputs["Roughness"].default_value = 0.0
-    bsdf.inputs["IOR"].default_value = 1.45
-    tree.links.new(bsdf.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.6, location=(0.0, 0.0, 1.2), segments=48,
-                                         ring_count=24)
-    ball = bpy.context.active_object
-    ball.name = "Glass"
-    ball.data.materials.append(glass)
-    bpy.ops.object.shade_smooth()
+    glass, _ = shader_material("Glass", "ShaderNodeBsdfGlass", "Surface", Roughness=0.0,
+                               IOR=1.45)
+    sphere("Glass", glass, 0.6, (0.0, 0.0, 1.2))
     common.light("Area", "AREA", (0.0, 0.0, 3.5), (0.0, 0.0, 0.0), energy=300.0, size=0.6)
     return scene
 
 
-def god_rays():
-    scene = common.reset_scene(SIZE, SIZE)
+def god_rays(size=SIZE):
+    scene = common.reset_scene(size, size)
     wall = common.principled("Wall", (0.7, 0.7, 0.7), roughness=1.0)
     w, d, h = 2.0, 2.0, 2.5
     common.quad("Floor", [(-w, -d, 0), (w, -d, 0), (w, d, 0), (-w, d, 0)], wall)
@@ -97,7 +102,7 @@ def god_rays():
                     [(x, -d, 0.9), (x, -0.6, 0.9), (x, -0.6, 1.9), (x, -d, 1.9)],
                     [(x, 0.6, 0.9), (x, d, 0.9), (x, d, 1.9), (x, 0.6, 1.9)]):
         common.quad("Left", corners, wall)
-    cube("Haze", volume_material("Haze", "ShaderNodeVolumeScatter", Density=0.15), 3.9,
+    cube("Haze", volume_material("Haze", "ShaderNodeVolumeScatter", Density=0.15)[0], 3.9,
          (0.0, 0.0, 1.2))
     common.light("Sun", "SUN", (0, 0, 5), (50.0, 0.0, -90.0), energy=5.0)
     common.camera("Camera", (1.6, -1.6, 1.3), (85.0, 0.0, 45.0), 80.0)

@@ -30,6 +30,7 @@ import pytest
 import common
 from cycles_compare import compare
 from helpers import rel_mse
+from volume_scenes import cube, glass_fog, god_rays, shader_material, sphere, volume_material
 
 SIZE = 32
 
@@ -45,44 +46,6 @@ def block_means(image, k=4):
     """The image's mean over k x k blocks."""
     h, w = image.shape[0] // k * k, image.shape[1] // k * k
     return image[:h, :w].reshape(h // k, k, w // k, k, -1).mean(axis=(1, 3))
-
-
-def shader_material(name, kind, socket, **inputs):
-    """A material of one shader node `kind` (a bl_idname) with `inputs` set, into the Material
-    Output's `socket` (Surface or Volume; the other unlinked). Returns (material, node)."""
-    mat = bpy.data.materials.new(name)
-    if bpy.app.version < (5, 0, 0):
-        mat.use_nodes = True
-    tree = mat.node_tree
-    tree.nodes.remove(tree.nodes["Principled BSDF"])
-    node = tree.nodes.new(kind)
-    for key, value in inputs.items():
-        node.inputs[key].default_value = value
-    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs[socket])
-    return mat, node
-
-
-def volume_material(name, kind, **inputs):
-    """A material with only a Volume (`shader_material` into the Volume socket)."""
-    return shader_material(name, kind, "Volume", **inputs)
-
-
-def cube(name, material, size, location):
-    s = size / 2
-    verts = [(-s, -s, -s), (s, -s, -s), (s, s, -s), (-s, s, -s),
-             (-s, -s, s), (s, -s, s), (s, s, s), (-s, s, s)]
-    faces = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
-    return common.mesh_object(name, verts, faces, material, location)
-
-
-def sphere(name, material, radius, location):
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=radius, location=location, segments=48,
-                                         ring_count=24)
-    obj = bpy.context.active_object
-    obj.name = name
-    obj.data.materials.append(material)
-    bpy.ops.object.shade_smooth()
-    return obj
 
 
 def floor_scene(world=0.05):
@@ -195,13 +158,7 @@ def test_glass_sphere_in_fog(tmp_path):
     """A glass sphere inside a fog box under a small area light: the light the glass focuses
     into the fog (a volumetric caustic) is found by phase-sampled rays through the glass in
     both engines; the fog continues inside the glass (it has no volume of its own)."""
-    scene = floor_scene(world=0.0)
-    mat, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.2)
-    cube("Fog", mat, 5.0, (0.0, 0.0, 2.49))
-    glass, _ = shader_material("Glass", "ShaderNodeBsdfGlass", "Surface", Roughness=0.0,
-                               IOR=1.45)
-    sphere("Glass", glass, 0.6, (0.0, 0.0, 1.2))
-    common.light("Area", "AREA", (0.0, 0.0, 3.5), (0.0, 0.0, 0.0), energy=300.0, size=0.6)
+    scene = glass_fog(SIZE)
     # Per pixel both engines are noisy (the caustic is found by phase-sampled rays alone):
     # relMSE over 4x4 blocks, where that noise averages out, is the criterion.
     img, ref = compare("glass in fog", scene, tmp_path, photon_spp=1024, cycles_spp=2048,
@@ -215,25 +172,7 @@ def test_glass_sphere_in_fog(tmp_path):
 def test_window_lit_room_with_haze(tmp_path, method):
     """God rays: a room of one-sided thin walls with a window, a sun through it, and haze
     (Volume Scatter) filling the room; the camera inside sees the shaft of light."""
-    scene = common.reset_scene(SIZE, SIZE)
-    wall = common.principled("Wall", (0.7, 0.7, 0.7), roughness=1.0)
-    w, d, h = 2.0, 2.0, 2.5
-    common.quad("Floor", [(-w, -d, 0), (w, -d, 0), (w, d, 0), (-w, d, 0)], wall)
-    common.quad("Ceiling", [(-w, -d, h), (-w, d, h), (w, d, h), (w, -d, h)], wall)
-    common.quad("Back", [(-w, d, 0), (w, d, 0), (w, d, h), (-w, d, h)], wall)
-    common.quad("Front", [(-w, -d, 0), (-w, -d, h), (w, -d, h), (w, -d, 0)], wall)
-    common.quad("Right", [(w, -d, 0), (w, -d, h), (w, d, h), (w, d, 0)], wall)
-    # The left wall with a window 1.2 m wide and 1 m high.
-    x = -w
-    for corners in ([(x, -d, 0), (x, d, 0), (x, d, 0.9), (x, -d, 0.9)],
-                    [(x, -d, 1.9), (x, d, 1.9), (x, d, h), (x, -d, h)],
-                    [(x, -d, 0.9), (x, -0.6, 0.9), (x, -0.6, 1.9), (x, -d, 1.9)],
-                    [(x, 0.6, 0.9), (x, d, 0.9), (x, d, 1.9), (x, 0.6, 1.9)]):
-        common.quad("Left", corners, wall)
-    haze, _ = volume_material("Haze", "ShaderNodeVolumeScatter", Density=0.15)
-    cube("Haze", haze, 3.9, (0.0, 0.0, 1.2))
-    common.light("Sun", "SUN", (0, 0, 5), (50.0, 0.0, -90.0), energy=5.0)
-    common.camera("Camera", (1.6, -1.6, 1.3), (85.0, 0.0, 45.0), 80.0)
+    scene = god_rays(SIZE)
     compare(f"god rays {method.lower()}", scene, tmp_path,
             photon_spp=1024 if method == "PATH" else 128, cycles_spp=2048, relmse_max=0.02,
             method=method)
