@@ -19,7 +19,9 @@ sets them.
 - a glass sphere in a fog box under an area light (a volumetric caustic; relMSE over 4x4
   blocks <= 0.01, both engines' per-pixel noise being large there);
 - a window-lit room of thin walls filled with haze, the sun through the window (god rays; both
-  methods).
+  methods);
+- three linked duplicates of one smoke cube (instances of one prototype), each reading its own
+  object space through a Noise Texture on Object coordinates.
 """
 
 import math
@@ -176,3 +178,30 @@ def test_window_lit_room_with_haze(tmp_path, method):
     compare(f"god rays {method.lower()}", scene, tmp_path,
             photon_spp=1024 if method == "PATH" else 128, cycles_spp=2048, relmse_max=0.02,
             method=method)
+
+
+def test_instanced_smoke_cubes(tmp_path):
+    """Three linked duplicates of one smoke cube (one mesh, three objects: instances of one
+    prototype), its density a Noise Texture on Object coordinates, so each instance reads its
+    own object space; turned and scaled differently, over a sunlit floor."""
+    scene = floor_scene()
+    mat, node = volume_material("Instanced smoke", "ShaderNodeVolumePrincipled")
+    tree = mat.node_tree
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 2.5
+    times = tree.nodes.new("ShaderNodeMath")
+    times.operation = "MULTIPLY"
+    times.inputs[1].default_value = 5.0
+    tree.links.new(coords.outputs["Object"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Fac"], times.inputs[0])
+    tree.links.new(times.outputs[0], node.inputs["Density"])
+    first = cube("Smoke", mat, 0.8, (-1.2, 0.0, 0.5))
+    for k, (x, turn, scale) in enumerate([(0.0, 30.0, 1.2), (1.2, 60.0, 0.8)]):
+        twin = bpy.data.objects.new(f"Smoke {k}", first.data)
+        twin.location = (x, 0.3 * k, 0.5)
+        twin.rotation_euler = (0.0, 0.0, math.radians(turn))
+        twin.scale = (scale, scale, scale)
+        common.link(twin)
+    sun()
+    compare("instanced smoke", scene, tmp_path, photon_spp=256)
