@@ -39,7 +39,7 @@ SETTINGS = {
     "ShaderNodeTexCoord": (),
     "ShaderNodeUVMap": (),
     "ShaderNodeVertexColor": (),
-    "ShaderNodeAttribute": (),
+    "ShaderNodeAttribute": ("attribute_name", "attribute_type"),
     "ShaderNodeNewGeometry": (),
     "ShaderNodeLightPath": (),
     "ShaderNodeValue": (),
@@ -113,8 +113,7 @@ READ_INPUTS = {
     "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
     "ShaderNodeBsdfTransparent": {"Color"},
-    # The attribute names (Density Attribute, …) name grids of Volume objects, which meshes
-    # have none of.
+    # The attribute names (Density Attribute, …) are written as the node's "attributes".
     "ShaderNodeVolumePrincipled": {"Color", "Density", "Anisotropy", "Absorption Color",
                                    "Emission Strength", "Emission Color",
                                    "Blackbody Intensity", "Blackbody Tint", "Temperature"},
@@ -345,6 +344,10 @@ class _Walker:
             entry["interpolation"] = "LINEAR"
             entry["table"] = [list(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)))
                               for i in range(RAMP_TABLE_SIZE)]
+        if kind == "ShaderNodeVolumePrincipled":
+            entry["attributes"] = {
+                key: node.inputs[f"{key.capitalize()} Attribute"].default_value
+                for key in ("density", "color", "temperature")}
         if kind == "ShaderNodeRGBCurve":
             entry.update(_baked_curves(node.mapping))
         if kind in ("ShaderNodeTexCoord", "ShaderNodeUVMap", "ShaderNodeTexImage"):

@@ -439,6 +439,7 @@ fn node_inputs_reading(
         path: view.path,
         ray_length: view.ray_length,
         object_to_world_normal,
+        attributes: Default::default(),
     }
 }
 

@@ -30,6 +30,7 @@ fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
         colors: Vec::new(),
         object_space: None,
         deformation: Vec::new(),
+        volume_grids: None,
     };
     scenes::scene(
         vec![mesh],

@@ -149,6 +149,7 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
         colors: Vec::new(),
         object_space: None,
         deformation: Vec::new(),
+        volume_grids: None,
     }
 }
 

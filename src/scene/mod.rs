@@ -9,6 +9,7 @@
 
 pub mod builtin;
 pub mod gltf;
+pub mod grids;
 pub mod load;
 pub mod sky;
 pub mod texture;
@@ -16,7 +17,7 @@ pub mod units;
 
 use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 pub use crate::medium::Coefficients;
-use crate::shader::{PointInputs, ShadingInputs};
+use crate::shader::{NamedAttributes, PointInputs, ShadingInputs, NAMED_ATTRIBUTES};
 pub use texture::{Texture, TextureRef};
 
 /// Blender's axes (Z up) for a glTF (Y up) vector: (x, y, z) ↦ (x, −z, y).
@@ -68,6 +69,9 @@ pub struct Mesh {
     /// nearest. Empty: the mesh keeps `positions`, which are always those of the frame (and
     /// what textures read). Only prototypes deform.
     pub deformation: Vec<Vec<Vec3>>,
+    /// The voxel grids of a Volume object (its medium's named attributes, read in
+    /// `object_space`'s coordinates); `None` for other meshes.
+    pub volume_grids: Option<std::sync::Arc<grids::VolumeGrids>>,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
@@ -317,11 +321,29 @@ impl Volume {
             return Coefficients::VACUUM;
         };
         let inputs = match object {
-            Some((mesh, instance)) => scene.volume_inputs(mesh, instance, p, time),
+            Some((mesh, instance)) => {
+                scene.volume_inputs(mesh, instance, p, time, &program.attributes)
+            }
             None => world_volume_inputs(p),
         };
         program.eval_volume(&inputs, &scene.textures)
     }
+}
+
+/// The `named` attributes a volume tree reads, of those `grids` has: `value` of each.
+fn grid_attributes(
+    grids: &grids::VolumeGrids,
+    named: &[String],
+    value: impl Fn(&grids::Grid) -> Vec4,
+) -> NamedAttributes {
+    let mut out = NamedAttributes::default();
+    for (k, name) in named.iter().enumerate().take(NAMED_ATTRIBUTES) {
+        if let Some(grid) = grids.get(name) {
+            out.values[k] = value(grid);
+            out.found |= 1 << k;
+        }
+    }
+    out
 }
 
 /// What the world's volume tree reads at world point `p`: the position, which its Object and
@@ -945,8 +967,16 @@ impl Scene {
     /// What a volume's node tree reads at world point `p` inside the object of `mesh` (an
     /// index into `meshes`, or into `prototypes` placed by `instance`, as `accel::Hit` has
     /// them) at moment `time`: the position, and the Object and Generated coordinates of the
-    /// object's texture space (what Cycles' volume shading points read).
-    pub fn volume_inputs(&self, mesh: u32, instance: u32, p: Vec3, time: f32) -> ShadingInputs {
+    /// object's texture space (what Cycles' volume shading points read), and the `named`
+    /// attributes the object's grids have, sampled at the point.
+    pub fn volume_inputs(
+        &self,
+        mesh: u32,
+        instance: u32,
+        p: Vec3,
+        time: f32,
+        named: &[String],
+    ) -> ShadingInputs {
         let placed = self.instances.get(instance as usize);
         let (mesh, stored) = match placed {
             Some(inst) => (
@@ -967,7 +997,11 @@ impl Scene {
             }
             None => (blender_axes(p), blender_axes(p)),
         };
-        ShadingInputs::at_point(point)
+        let mut inputs = ShadingInputs::at_point(point);
+        if let Some(grids) = &mesh.volume_grids {
+            inputs.attributes = grid_attributes(grids, named, |g| g.sample(point.object));
+        }
+        inputs
     }
 
     /// Sets the majorant of every heterogeneous volume: the largest extinction coefficient of
@@ -1016,6 +1050,9 @@ impl Scene {
                         most = most.max(sigma);
                     }
                 }
+                if let Some((mesh, instance)) = *object {
+                    most = most.max(scene.grid_bound(volume, mesh, instance));
+                }
             }
             1.5 * most
         };
@@ -1042,6 +1079,60 @@ impl Scene {
                 v.majorant = majorant;
             }
         }
+    }
+
+    /// The largest extinction of `volume` inside the object of `mesh` and `instance` that
+    /// its voxel grids can give: the program evaluated over blocks of the first grid it reads
+    /// with every grid's largest value touching the block, which bounds the programs that
+    /// grow with their attributes (density × Density, the usual); 0 without grids.
+    fn grid_bound(&self, volume: &Volume, mesh: u32, instance: u32) -> f32 {
+        let Some(program) = &volume.program else {
+            return 0.0;
+        };
+        let placed = self.instances.get(instance as usize);
+        let stored = match placed {
+            Some(inst) => &self.prototypes[inst.prototype as usize],
+            None => &self.meshes[mesh as usize],
+        };
+        let (Some(grids), Some(space)) = (&stored.volume_grids, &stored.object_space) else {
+            return 0.0;
+        };
+        let Some(first) = program.attributes.iter().find_map(|n| grids.get(n)) else {
+            return 0.0;
+        };
+        // Object point → world point.
+        let to_stored = space.to_object.inverse();
+        let to_world = placed.map_or(Affine3A::IDENTITY, |inst| inst.to_world_at(0.5));
+        const BLOCKS: usize = 32;
+        let edge = first.size.map(|s| s.div_ceil(BLOCKS).max(4));
+        let mut most = 0.0f32;
+        for bz in 0..first.size[2].div_ceil(edge[2]) {
+            for by in 0..first.size[1].div_ceil(edge[1]) {
+                for bx in 0..first.size[0].div_ceil(edge[0]) {
+                    let lo = Vec3::new(
+                        (bx * edge[0]) as f32,
+                        (by * edge[1]) as f32,
+                        (bz * edge[2]) as f32,
+                    ) - Vec3::ONE;
+                    let hi =
+                        lo + Vec3::new(edge[0] as f32, edge[1] as f32, edge[2] as f32) + Vec3::ONE;
+                    let centre = first.object_point(0.5 * (lo + hi));
+                    let p = to_world.transform_point3(to_stored.transform_point3(centre));
+                    let mut inputs =
+                        self.volume_inputs(mesh, instance, p, 0.5, &program.attributes);
+                    inputs.attributes = grid_attributes(grids, &program.attributes, |g| {
+                        let (glo, ghi) = g.voxel_box_of(first, lo, hi);
+                        g.max_over(glo, ghi).extend(1.0)
+                    });
+                    let c = program.eval_volume(&inputs, &self.textures);
+                    let sigma = c.extinction().max_element();
+                    if sigma.is_finite() {
+                        most = most.max(sigma);
+                    }
+                }
+            }
+        }
+        most
     }
 
     /// The world or some material has a volume (participating media).

@@ -61,6 +61,7 @@ pub(super) fn compile_tree(
     let mut reads_color = false;
     let mut needs_offsets = false;
     let mut shadow_transparent = false;
+    let mut attributes: Vec<String> = Vec::new();
     // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
     let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
     let mut deps: Vec<Vec<usize>> = Vec::with_capacity(nodes.len());
@@ -69,7 +70,9 @@ pub(super) fn compile_tree(
     for (index, node) in nodes.iter().enumerate() {
         let name = setting(node, "name").unwrap_or("?").to_string();
         let kind = setting(node, "type").unwrap_or("?").to_string();
-        let op = match parse_op(node).map_err(|m| format!("node {index} '{name}': {m}"))? {
+        let op = match parse_op(node, &mut attributes, warnings)
+            .map_err(|m| format!("node {index} '{name}': {m}"))?
+        {
             Some(op) => op,
             None => {
                 warnings.push(format!(
@@ -194,7 +197,7 @@ pub(super) fn compile_tree(
             Op::Principled { .. } => !black(EMISSION_COLOR) && !black(EMISSION_STRENGTH),
             _ => false,
         };
-        reads_color |= matches!(op, Op::VertexColor | Op::Attribute);
+        reads_color |= matches!(op, Op::VertexColor | Op::Attribute { .. });
         shadow_transparent |= match op {
             Op::Transparent => true,
             Op::Principled { .. } => !matches!(ins[ALPHA], Src::Const(v) if v.x >= 1.0),
@@ -379,5 +382,6 @@ pub(super) fn compile_tree(
         reads_ray_state: light_path_reads & RAY_STATE_OUTPUTS != 0,
         shadow_transparent,
         displacement: None,
+        attributes,
     })
 }

@@ -112,9 +112,15 @@ pub(super) fn vertex_color(at: &PointInputs) -> [Vec4; 2] {
     [at.color, splat(at.color.w)]
 }
 
-/// Attribute (COLOR_0): Color, Vector, Fac, Alpha.
+/// Attribute: Color, Vector, Fac, Alpha of its `named` attribute where the object has it (a
+/// grid's value; Fac the colour's average as Cycles gives it), else of COLOR_0.
 #[inline(always)]
-pub(super) fn attribute(at: &PointInputs) -> [Vec4; 4] {
+pub(super) fn attribute(at: &PointInputs, named: Option<Vec4>) -> [Vec4; 4] {
+    if let Some(v) = named {
+        let rgb = v.truncate().extend(1.0);
+        let fac = (v.x + v.y + v.z) / 3.0;
+        return [rgb, rgb, splat(fac), splat(1.0)];
+    }
     let rgb = at.color.truncate().extend(1.0);
     [rgb, rgb, splat(gray(at.color)), splat(at.color.w)]
 }

@@ -53,6 +53,34 @@ pub struct ShadingInputs {
     pub ray_length: f32,
     /// Object-space normals to world space (Blender's axes; not normalising).
     pub object_to_world_normal: Mat3,
+    /// The named attributes the program reads (`NodeProgram::attributes`) at the point: the
+    /// voxel grids of a Volume object, sampled where a volume tree is evaluated.
+    pub attributes: NamedAttributes,
+}
+
+/// Values of a program's named attributes at a point, slot `k` for
+/// `NodeProgram::attributes[k]`, with which of them the object has (Cycles' attribute lookup
+/// finds or misses each one; a node reading a missed one falls back as Cycles' does).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NamedAttributes {
+    pub values: [Vec4; NAMED_ATTRIBUTES],
+    /// Bit `k` set: slot `k` was found.
+    pub found: u8,
+}
+
+/// Named attributes a program reads at most.
+pub const NAMED_ATTRIBUTES: usize = 4;
+
+/// The slot of a node that reads no named attribute.
+pub const NO_ATTRIBUTE: u8 = u8::MAX;
+
+impl NamedAttributes {
+    /// The value of `slot`, when it names an attribute the object has.
+    #[inline(always)]
+    pub fn get(&self, slot: u8) -> Option<Vec4> {
+        let k = slot as usize;
+        (k < NAMED_ATTRIBUTES && self.found & (1 << k) != 0).then(|| self.values[k])
+    }
 }
 
 impl ShadingInputs {

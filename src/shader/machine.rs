@@ -221,7 +221,7 @@ pub(super) fn run(
         }
         Op::UvMap { uv_set } => m.regs[o] = geometry::uv_value(at, *uv_set),
         Op::VertexColor => m.put(o, geometry::vertex_color(at)),
-        Op::Attribute => m.put(o, geometry::attribute(at)),
+        Op::Attribute { slot } => m.put(o, geometry::attribute(at, inputs.attributes.get(*slot))),
         Op::Geometry => m.put(o, geometry::geometry(inputs, at)),
         Op::LightPath => m.put_used(o, used, geometry::light_path(inputs)),
         Op::Value(v) => m.regs[o] = splat(*v),
@@ -326,7 +326,10 @@ pub(super) fn run(
             let (a, b) = (read_closure(m, instr.ins[A]), read_closure(m, instr.ins[B]));
             m.closures[o] = closure::eval_add_shader(a, b, u)
         }
-        Op::PrincipledVolume => m.closures[o] = volume::eval_principled_volume(ins),
+        Op::PrincipledVolume { attributes } => {
+            let named = attributes.map(|slot| inputs.attributes.get(slot));
+            m.closures[o] = volume::eval_principled_volume(ins, named)
+        }
         Op::VolumeScatter(phase) => m.closures[o] = volume::eval_volume_scatter(*phase, ins),
         Op::VolumeAbsorption => m.closures[o] = volume::eval_volume_absorption(ins),
     }

@@ -94,7 +94,9 @@ mod white_noise;
 
 pub use closure::{default_tangent, principled_aspect, Closure, VolumeClosure};
 pub use compile::compile;
-pub use inputs::{PointInputs, RayPath, Scattering, ShadingInputs, UV_SETS};
+pub use inputs::{
+    NamedAttributes, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES, UV_SETS,
+};
 pub use program::{
     CompileWarnings, NodeProgram, MAX_CLOSURES, MAX_REGISTERS, READS_ALL, READS_COLOR,
     READS_COORDS, READS_OBJECT_NORMAL, READS_TANGENT, READS_UV,

@@ -5,8 +5,9 @@ use super::brick::BrickLayout;
 use super::bump::NormalMapSpace;
 use super::color::{blend_mode, MixData};
 use super::gradient::GradientKind;
-use super::inputs::UV_SETS;
+use super::inputs::{NAMED_ATTRIBUTES, NO_ATTRIBUTE, UV_SETS};
 use super::math::{math_op, MapRangeKind};
+use super::program::CompileWarnings;
 use super::program::Op;
 use super::vector::{MappingKind, VectorOp};
 use super::volume::ScatterPhase;
@@ -48,8 +49,37 @@ pub(super) fn uv_set(node: &Value) -> Result<u8, String> {
     }
 }
 
+/// The slot of the named attribute `name` in `names` (added when new); `NO_ATTRIBUTE` for no
+/// name, or past `NAMED_ATTRIBUTES` names (with a warning).
+fn attribute_slot(
+    name: Option<&str>,
+    names: &mut Vec<String>,
+    warnings: &mut CompileWarnings,
+) -> u8 {
+    let Some(name) = name.filter(|n| !n.is_empty()) else {
+        return NO_ATTRIBUTE;
+    };
+    if let Some(k) = names.iter().position(|n| n == name) {
+        return k as u8;
+    }
+    if names.len() == NAMED_ATTRIBUTES {
+        warnings.push(format!(
+            "attribute '{name}' is not read: Photon reads {NAMED_ATTRIBUTES} named attributes \
+             per node tree"
+        ));
+        return NO_ATTRIBUTE;
+    }
+    names.push(name.to_string());
+    (names.len() - 1) as u8
+}
+
 /// The operation of one exported node. `Ok(None)`: a node type the renderer does not evaluate.
-pub(super) fn parse_op(node: &Value) -> Result<Option<Op>, String> {
+/// Named attributes the node reads are given slots in `names`.
+pub(super) fn parse_op(
+    node: &Value,
+    names: &mut Vec<String>,
+    warnings: &mut CompileWarnings,
+) -> Result<Option<Op>, String> {
     let kind = setting(node, "type").ok_or("a node has no 'type'")?;
     let kind = kind.strip_prefix("ShaderNode").unwrap_or(kind);
     let bad = |what: &str| format!("{kind}: unknown {what}");
@@ -61,7 +91,13 @@ pub(super) fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             uv_set: uv_set(node)?,
         },
         "VertexColor" => Op::VertexColor,
-        "Attribute" => Op::Attribute,
+        "Attribute" => Op::Attribute {
+            // Geometry attributes (Blender's default type) are the ones objects carry.
+            slot: match setting(node, "attribute_type").unwrap_or("GEOMETRY") {
+                "GEOMETRY" => attribute_slot(setting(node, "attribute_name"), names, warnings),
+                _ => NO_ATTRIBUTE,
+            },
+        },
         "NewGeometry" => Op::Geometry,
         "LightPath" => Op::LightPath,
         "Value" => Op::Value(
@@ -386,7 +422,16 @@ pub(super) fn parse_op(node: &Value) -> Result<Option<Op>, String> {
         "BsdfTranslucent" => Op::Translucent,
         "MixShader" => Op::MixShader,
         "AddShader" => Op::AddShader,
-        "VolumePrincipled" => Op::PrincipledVolume,
+        "VolumePrincipled" => {
+            let attributes = node.get("attributes");
+            let mut slot = |key: &str| {
+                let name = attributes.and_then(|a| a.get(key)).and_then(Value::as_str);
+                attribute_slot(name, names, warnings)
+            };
+            Op::PrincipledVolume {
+                attributes: [slot("density"), slot("color"), slot("temperature")],
+            }
+        }
         "VolumeAbsorption" => Op::VolumeAbsorption,
         "VolumeScatter" => match setting(node, "phase").unwrap_or("HENYEY_GREENSTEIN") {
             "HENYEY_GREENSTEIN" => Op::VolumeScatter(ScatterPhase::HenyeyGreenstein),

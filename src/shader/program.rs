@@ -47,9 +47,12 @@ pub(super) enum Op {
     UvMap {
         uv_set: u8,
     },
-    /// Color Attribute and Attribute (COLOR_0).
+    /// Color Attribute, and Attribute: its named attribute's slot in
+    /// `NodeProgram::attributes` (a voxel grid where the object has it), else COLOR_0.
     VertexColor,
-    Attribute,
+    Attribute {
+        slot: u8,
+    },
     Geometry,
     /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
     LightPath,
@@ -165,7 +168,10 @@ pub(super) enum Op {
     Translucent,
     MixShader,
     AddShader,
-    PrincipledVolume,
+    /// Principled Volume with the slots of its Density, Color and Temperature attributes.
+    PrincipledVolume {
+        attributes: [u8; 3],
+    },
     VolumeScatter(ScatterPhase),
     VolumeAbsorption,
 }
@@ -228,7 +234,7 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
                     | bit(used & 0b100 != 0, READS_UV)
             }
             Op::UvMap { .. } => READS_UV,
-            Op::VertexColor | Op::Attribute => READS_COLOR,
+            Op::VertexColor | Op::Attribute { .. } => READS_COLOR,
             Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
             Op::Displacement { .. } => READS_OBJECT_NORMAL,
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
@@ -276,6 +282,9 @@ pub struct NodeProgram {
     /// The Material Output's Displacement as Cycles' "bump only" method: a program whose
     /// output is the bumped normal, which the surface tree then reads as the shading normal.
     pub(super) displacement: Option<Box<NodeProgram>>,
+    /// The named attributes the program reads (Attribute nodes, Principled Volume's attribute
+    /// inputs), at most `NAMED_ATTRIBUTES`: `ShadingInputs::attributes` holds their values.
+    pub attributes: Vec<String>,
 }
 
 impl NodeProgram {
@@ -291,7 +300,7 @@ impl NodeProgram {
                     Op::TexCoord { .. }
                         | Op::UvMap { .. }
                         | Op::VertexColor
-                        | Op::Attribute
+                        | Op::Attribute { .. }
                         | Op::Geometry
                         | Op::LightPath
                         | Op::Bump { .. }
@@ -301,6 +310,8 @@ impl NodeProgram {
                         | Op::LayerWeight
                         | Op::NoiseAt3 { .. }
                 )
+                || matches!(i.op, Op::PrincipledVolume { attributes }
+                    if attributes.iter().any(|&s| s != super::inputs::NO_ATTRIBUTE))
         }) || self.displacement.is_some()
     }
 }

@@ -21,7 +21,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::TexCoord { .. } => (&[], geometry::TEX_COORD_OUTPUTS),
         Op::UvMap { .. } => (&[], geometry::UV_MAP_OUTPUTS),
         Op::VertexColor => (&[], geometry::VERTEX_COLOR_OUTPUTS),
-        Op::Attribute => (&[], geometry::ATTRIBUTE_OUTPUTS),
+        Op::Attribute { .. } => (&[], geometry::ATTRIBUTE_OUTPUTS),
         Op::Geometry => (&[], geometry::GEOMETRY_OUTPUTS),
         Op::LightPath => (&[], geometry::LIGHT_PATH_OUTPUTS),
         Op::Value(_) => (&[], geometry::VALUE_OUTPUTS),
@@ -84,7 +84,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Translucent => (closure::TRANSLUCENT_INPUTS, closure::TRANSLUCENT_OUTPUTS),
         Op::MixShader => (closure::MIX_SHADER_INPUTS, closure::MIX_SHADER_OUTPUTS),
         Op::AddShader => (closure::ADD_SHADER_INPUTS, closure::ADD_SHADER_OUTPUTS),
-        Op::PrincipledVolume => (volume::PRINCIPLED_VOLUME_INPUTS, volume::VOLUME_OUTPUTS),
+        Op::PrincipledVolume { .. } => (volume::PRINCIPLED_VOLUME_INPUTS, volume::VOLUME_OUTPUTS),
         Op::VolumeScatter(_) => (volume::SCATTER_INPUTS, volume::VOLUME_OUTPUTS),
         Op::VolumeAbsorption => (volume::ABSORPTION_INPUTS, volume::VOLUME_OUTPUTS),
     };

@@ -29,8 +29,7 @@ pub(super) enum ScatterPhase {
     Mie,
 }
 
-/// Principled Volume's inputs (its attribute names, which name grids of Volume objects, are
-/// not read: meshes have none, as in Cycles).
+/// Principled Volume's inputs (its attribute names are settings: `Op::PrincipledVolume`).
 pub(super) const PRINCIPLED_VOLUME_INPUTS: &[Socket] = &[
     Socket::color("Color", Vec4::new(0.5, 0.5, 0.5, 1.0)),
     Socket::float("Density", 1.0),
@@ -77,11 +76,20 @@ const SCATTER_ANISOTROPY: usize = input(SCATTER_INPUTS, "Anisotropy");
 const SCATTER_ALPHA: usize = input(SCATTER_INPUTS, "Alpha");
 const SCATTER_DIAMETER: usize = input(SCATTER_INPUTS, "Diameter");
 
-/// The Principled Volume node.
+/// The Principled Volume node, with the values of its Density, Color and Temperature
+/// attributes where the object has them (`named`): each scales its input, as Cycles'
+/// `svm_node_principled_volume` does.
 #[inline(always)]
-pub(super) fn eval_principled_volume(ins: &impl Operands) -> Closure {
-    let density = ins.float(DENSITY).max(0.0);
-    let color = ins.vector(COLOR);
+pub(super) fn eval_principled_volume(ins: &impl Operands, named: [Option<Vec4>; 3]) -> Closure {
+    let [density_attribute, color_attribute, temperature_attribute] = named;
+    let mut density = ins.float(DENSITY).max(0.0);
+    if let Some(v) = density_attribute {
+        density = (density * v.x).max(0.0);
+    }
+    let mut color = ins.vector(COLOR);
+    if let Some(v) = color_attribute {
+        color *= v.truncate();
+    }
     let mut volume = VolumeClosure::NONE;
     if density > 0.0 {
         let absorption_color = ins.vector(ABSORPTION).max(Vec3::ZERO);
@@ -103,7 +111,10 @@ pub(super) fn eval_principled_volume(ins: &impl Operands) -> Closure {
         emission += ins.vector(EMISSION_COLOR) * strength;
     }
     let b = ins.float(BLACKBODY_INTENSITY);
-    let t = ins.float(TEMPERATURE);
+    let mut t = ins.float(TEMPERATURE);
+    if let Some(v) = temperature_attribute {
+        t = (t * v.x).max(0.0);
+    }
     if b > 0.0 && t > 0.0 {
         // Stefan–Boltzmann's σ, per steradian, in Cycles' units.
         let sigma = 5.670_373e-8 * 1e-6 / std::f32::consts::PI;

@@ -78,6 +78,7 @@ pub fn sphere(
         colors: Vec::new(),
         object_space: None,
         deformation: Vec::new(),
+        volume_grids: None,
     }
 }
 
@@ -105,6 +106,7 @@ pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
         colors: Vec::new(),
         object_space: None,
         deformation: Vec::new(),
+        volume_grids: None,
     }
 }
 

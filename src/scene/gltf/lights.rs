@@ -178,6 +178,7 @@ impl Loader {
             colors: Vec::new(),
             object_space: None,
             deformation: Vec::new(),
+            volume_grids: None,
         });
         Ok(())
     }

@@ -211,6 +211,7 @@ impl Loader {
                 colors,
                 object_space,
                 deformation: Vec::new(),
+                volume_grids: None,
             };
             match normals {
                 Some(normals) => {

@@ -1,0 +1,198 @@
+//! The voxel grids that fill a Blender Volume object (smoke, fire, clouds; read from OpenVDB
+//! files by `super::vdb`): named float or colour grids in the object's space, sampled by
+//! trilinear interpolation between voxel centres as Cycles samples them with linear
+//! interpolation, and bounded over boxes for the media's majorants. Outside a grid's voxels
+//! its value is zero (the background of density-like grids).
+
+use crate::math::{Affine3A, Mat4, Vec3, Vec4};
+
+/// Bytes of voxel values a scene may hold in all (a dense 1024³ float grid): grids past it are
+/// refused before they are allocated.
+pub const MAX_GRID_BYTES: u64 = 4 << 30;
+
+/// One named grid, dense over a box of voxels.
+#[derive(Debug)]
+pub struct Grid {
+    pub name: String,
+    /// 1 (float grids) or 3 (colour and vector grids).
+    pub channels: usize,
+    /// Voxels per axis.
+    pub size: [usize; 3],
+    /// The values, x fastest: `values[((z * size[1] + y) * size[0] + x) * channels + c]`.
+    values: Vec<f32>,
+    /// Blender object coordinates → the dense box's voxel coordinates (voxel centres at
+    /// integers, the first voxel at 0).
+    object_to_voxel: Affine3A,
+    /// The inverse: voxel coordinates → object coordinates.
+    voxel_to_object: Affine3A,
+}
+
+impl Grid {
+    /// A grid of `channels` values per voxel over `size` voxels, whose first voxel sits at
+    /// `voxel_to_object` × 0; `None` when the values do not fill the box or the transform is
+    /// singular.
+    pub fn new(
+        name: String,
+        channels: usize,
+        size: [usize; 3],
+        values: Vec<f32>,
+        voxel_to_object: Mat4,
+    ) -> Option<Grid> {
+        let count = size.iter().try_fold(channels, |n, &s| n.checked_mul(s))?;
+        let voxel_to_object = Affine3A::from_mat4(voxel_to_object);
+        let object_to_voxel = voxel_to_object.inverse();
+        let usable = matches!(channels, 1 | 3)
+            && values.len() == count
+            && voxel_to_object.matrix3.determinant().abs() > 0.0
+            && object_to_voxel.is_finite();
+        usable.then_some(Grid {
+            name,
+            channels,
+            size,
+            values,
+            object_to_voxel,
+            voxel_to_object,
+        })
+    }
+
+    /// Bytes its values take.
+    pub fn bytes(&self) -> u64 {
+        (self.values.len() * std::mem::size_of::<f32>()) as u64
+    }
+
+    /// The value at object point `p`: trilinear between the eight nearest voxel centres, a
+    /// float grid's value in all three channels; alpha 1.
+    #[inline]
+    pub fn sample(&self, p: Vec3) -> Vec4 {
+        let v = self.object_to_voxel.transform_point3(p);
+        let f = v.floor();
+        let t = v - f;
+        let base = [f.x as i64, f.y as i64, f.z as i64];
+        let mut sum = Vec3::ZERO;
+        for corner in 0..8 {
+            let step = [corner & 1, (corner >> 1) & 1, corner >> 2];
+            let mut w = 1.0;
+            for a in 0..3 {
+                w *= if step[a] == 1 { t[a] } else { 1.0 - t[a] };
+            }
+            if w > 0.0 {
+                sum += w * self.voxel(
+                    base[0] + step[0] as i64,
+                    base[1] + step[1] as i64,
+                    base[2] + step[2] as i64,
+                );
+            }
+        }
+        sum.extend(1.0)
+    }
+
+    /// The value of voxel (x, y, z), zero outside the box.
+    #[inline]
+    fn voxel(&self, x: i64, y: i64, z: i64) -> Vec3 {
+        let [sx, sy, sz] = self.size.map(|s| s as i64);
+        if x < 0 || y < 0 || z < 0 || x >= sx || y >= sy || z >= sz {
+            return Vec3::ZERO;
+        }
+        let i = (((z * sy + y) * sx + x) as usize) * self.channels;
+        match self.channels {
+            3 => Vec3::new(self.values[i], self.values[i + 1], self.values[i + 2]),
+            _ => Vec3::splat(self.values[i]),
+        }
+    }
+
+    /// The largest value of each channel that `sample` can take at object points whose voxel
+    /// coordinates fall in the box from voxel `lo` to voxel `hi` (inclusive corners, clamped
+    /// to the grid): the largest voxel value touching it.
+    pub fn max_over(&self, lo: [i64; 3], hi: [i64; 3]) -> Vec3 {
+        let mut most = Vec3::ZERO; // interpolation outside the voxels reaches zero too
+        let clamp = |v: i64, a: usize| v.clamp(0, self.size[a] as i64 - 1);
+        for z in clamp(lo[2], 2)..=clamp(hi[2], 2) {
+            for y in clamp(lo[1], 1)..=clamp(hi[1], 1) {
+                for x in clamp(lo[0], 0)..=clamp(hi[0], 0) {
+                    most = most.max(self.voxel(x, y, z));
+                }
+            }
+        }
+        most
+    }
+
+    /// The voxels of this grid (rounded outwards, one more each side for interpolation) that
+    /// cover the box of `other`'s voxel coordinates from `lo` to `hi`.
+    pub fn voxel_box_of(&self, other: &Grid, lo: Vec3, hi: Vec3) -> ([i64; 3], [i64; 3]) {
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::splat(f32::NEG_INFINITY);
+        for corner in 0..8 {
+            let pick = |bit: usize, a: f32, b: f32| if corner >> bit & 1 == 0 { a } else { b };
+            let v = Vec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            );
+            let mine = self.object_to_voxel.transform_point3(other.object_point(v));
+            min = min.min(mine);
+            max = max.max(mine);
+        }
+        let lo = min.floor() - Vec3::ONE;
+        let hi = max.ceil() + Vec3::ONE;
+        let to_i = |v: Vec3| [v.x, v.y, v.z].map(|x| x.clamp(-1e9, 1e9) as i64);
+        (to_i(lo), to_i(hi))
+    }
+
+    /// Object coordinates of voxel coordinates `v`.
+    pub fn object_point(&self, v: Vec3) -> Vec3 {
+        self.voxel_to_object.transform_point3(v)
+    }
+}
+
+/// The grids of one Volume object.
+#[derive(Debug, Default)]
+pub struct VolumeGrids {
+    pub grids: Vec<Grid>,
+}
+
+impl VolumeGrids {
+    /// The grid called `name`.
+    pub fn get(&self, name: &str) -> Option<&Grid> {
+        self.grids.iter().find(|g| g.name == name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp() -> Grid {
+        // 4 × 2 × 2 voxels of value x, voxels 0.5 apart from (1, 0, 0).
+        let values = (0..16).map(|i| (i % 4) as f32).collect();
+        let to_object =
+            Mat4::from_translation(Vec3::new(1.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::splat(0.5));
+        Grid::new("density".into(), 1, [4, 2, 2], values, to_object).unwrap()
+    }
+
+    #[test]
+    fn samples_interpolate_between_voxel_centres() {
+        let g = ramp();
+        assert_eq!(g.sample(Vec3::new(1.0, 0.0, 0.0)).x, 0.0);
+        assert!((g.sample(Vec3::new(1.75, 0.25, 0.25)).x - 1.5).abs() < 1e-6);
+        // Halfway past the last voxel the value falls towards the zero outside.
+        assert!((g.sample(Vec3::new(2.75, 0.0, 0.0)).x - 1.5).abs() < 1e-6);
+        assert_eq!(
+            g.sample(Vec3::new(-5.0, 0.0, 0.0)),
+            Vec4::new(0.0, 0.0, 0.0, 1.0)
+        );
+    }
+
+    #[test]
+    fn the_bound_over_a_box_holds_every_sample_in_it() {
+        let g = ramp();
+        assert_eq!(g.max_over([0, 0, 0], [1, 1, 1]).x, 1.0);
+        assert_eq!(g.max_over([-3, -3, -3], [9, 9, 9]).x, 3.0);
+    }
+
+    #[test]
+    fn grids_whose_values_do_not_fill_the_box_are_refused() {
+        assert!(Grid::new("d".into(), 1, [2, 2, 2], vec![0.0; 7], Mat4::IDENTITY).is_none());
+        assert!(Grid::new("d".into(), 2, [1, 1, 1], vec![0.0; 2], Mat4::IDENTITY).is_none());
+        assert!(Grid::new("d".into(), 1, [1, 1, 1], vec![0.0], Mat4::ZERO).is_none());
+    }
+}
