@@ -51,7 +51,7 @@ from pathlib import Path
 import bpy
 
 try:
-    from . import camera, lights, motion, node_tree, points_curves, world
+    from . import camera, lights, motion, node_tree, points_curves, volumes, world
     from .node_graph import active_output, source, upstream
     from .shared import GEOMETRY_TYPES, LOG
 except ImportError:  # run as the child's script: the add-on's folder holds the other modules
@@ -61,6 +61,7 @@ except ImportError:  # run as the child's script: the add-on's folder holds the 
     import motion
     import node_tree
     import points_curves
+    import volumes
     import world
     from node_graph import active_output, source, upstream
     from shared import GEOMETRY_TYPES, LOG
@@ -123,6 +124,8 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             space = texture_space(blender_object)
             if space and uses_node_materials(blender_object):
                 data["texture_space"] = space
+            if blender_object.name in volumes.BOXES:
+                data["volume"] = volumes.BOXES[blender_object.name]
             if data:
                 self._add(gltf_node, "PHOTON_object", data)
         if blender_object is not None and blender_object.type == "CAMERA":
@@ -501,7 +504,7 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             args["export_tangents"] = True
         with collected_warnings() as warnings, render_visibility(scene), \
                 shape_keys_applied(scene), points_curves.as_meshes(scene), \
-                motion.shutter_poses_recorded(scene):
+                volumes.as_boxes(scene), motion.shutter_poses_recorded(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None

@@ -16,8 +16,9 @@ empty list, so the rules below only flag what really changes the image:
   (the tree route renders it; glTF carries no film);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
   Volume, Volume Scatter but its Fournier-Forand phase, Volume Absorption, Emission, Mix and
-  Add Shader over the texture and converter nodes the surface trees have), and Volume objects
-  (OpenVDB grids, smoke and fire simulations), which are not exported;
+  Add Shader over the texture and converter nodes the surface trees have), Volume objects whose
+  grids Photon cannot read (volumes.problems: packed or missing files, modifiers, grid types),
+  and smoke and fire in fluid domains (Photon renders their bake as a Volume object);
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement as bump: node_tree.py);
 - particles rendered as halos or paths (hair particle systems, Curves objects and point
@@ -41,6 +42,7 @@ from .motion import deforms
 from .node_graph import active_output, source, upstream
 from .node_tree import material_nodes, volume_tree
 from .shared import GEOMETRY_TYPES
+from .volumes import problems as volume_problems
 from .world import world_problems, world_uses_nodes
 
 # Node types (`node.type`) on the way to a material's Surface that the glTF exporter follows
@@ -103,8 +105,13 @@ def _object_features(obj) -> list[str]:
     messages = []
     what = f"object '{obj.name}'"
     if obj.type == "VOLUME":
-        messages.append(f"{what}: Volume objects (OpenVDB grids, smoke and fire simulations) "
-                        f"are not exported; Photon renders mesh and world volumes only")
+        messages += volume_problems(obj)
+    for modifier in getattr(obj, "modifiers", ()):
+        if modifier.type == "FLUID" and modifier.fluid_type == "DOMAIN" \
+                and modifier.domain_settings.domain_type == "GAS":
+            messages.append(f"{what}: the smoke and fire of fluid domains are not rendered "
+                            f"(import the bake's OpenVDB files as a Volume object to render "
+                            f"them); its material fills the domain's box")
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):
