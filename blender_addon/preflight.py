@@ -77,6 +77,10 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
         messages += world_features(scene.world)
     if scene.camera is not None:
         messages += _camera_features(scene.camera)
+    rate = getattr(getattr(scene, "cycles", None), "volume_step_rate", 1.0)
+    if abs(rate - 1.0) > 1e-6:
+        messages.append(f"render settings: Volume Step Rate {rate:g} is not used: Photon "
+                        f"tracks volumes exactly, without ray-marching steps")
     for layer_collection in _layer_collections(view_layer):
         what = f"collection '{layer_collection.name}'"
         if layer_collection.exclude:
@@ -106,14 +110,14 @@ def _object_features(obj) -> list[str]:
     what = f"object '{obj.name}'"
     if obj.type == "VOLUME":
         messages += volume_problems(obj)
+    elif obj.type == "LIGHT":
+        messages += light_features(obj)
     for modifier in getattr(obj, "modifiers", ()):
         if modifier.type == "FLUID" and modifier.fluid_type == "DOMAIN" \
                 and modifier.domain_settings.domain_type == "GAS":
             messages.append(f"{what}: the smoke and fire of fluid domains are not rendered "
                             f"(import the bake's OpenVDB files as a Volume object to render "
                             f"them); its material fills the domain's box")
-    elif obj.type == "LIGHT":
-        messages += light_features(obj)
     for system in getattr(obj, "particle_systems", ()):
         # Objects and collections go as instances, hair strands (PATH) as tubes.
         carried = ("OBJECT", "COLLECTION", "NONE", "PATH" if system.settings.type == "HAIR"
@@ -178,7 +182,19 @@ def material_features(material) -> list[str]:
 
 def _volume_features(owner, output) -> list[str]:
     """What of the volume shader on a material's or world's output Photon does not render."""
-    return [f"{p}; the volume is not rendered" for p in volume_tree(owner, output)[1]]
+    tree, problems = volume_tree(owner, output)
+    messages = [f"{p}; the volume is not rendered" for p in problems]
+    settings = getattr(owner, "cycles", None)
+    if tree is not None and settings is not None:
+        what = f"material '{owner.name}'"
+        rate = getattr(settings, "volume_step_rate", 1.0)
+        if abs(rate - 1.0) > 1e-6:
+            messages.append(f"{what}: Volume Step Rate {rate:g} is not used: Photon tracks "
+                            f"volumes exactly, without ray-marching steps (as Cycles does "
+                            f"from Blender 5)")
+        if getattr(settings, "volume_interpolation", "LINEAR") == "CUBIC":
+            messages.append(f"{what}: cubic volume interpolation is rendered as linear")
+    return messages
 
 
 def _material_node_reason(found) -> str:

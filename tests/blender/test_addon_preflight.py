@@ -153,11 +153,26 @@ def test_other_rules(photon_addon):
 
     messages = messages_for(scene)
     expected = ("light 'Light': the Wavelength node",
-                "object 'Cloud': Volume objects",
+                "Volume object 'Cloud' is not rendered: it has no OpenVDB file",
                 "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages
+
+
+def test_volume_settings_photon_does_not_use_are_named(photon_addon):
+    """A smoke domain (its simulation is not rendered), a Volume Step Rate other than 1 (Photon
+    tracks volumes without steps) and a Volume object with modifiers: one message each."""
+    bpy.ops.wm.read_factory_settings()
+    scene = bpy.context.scene
+    domain = bpy.data.objects["Cube"].modifiers.new("Fluid", "FLUID")
+    domain.fluid_type = "DOMAIN"
+    scene.cycles.volume_step_rate = 4.0
+    assert len(messages_for(scene)) == 2, messages_for(scene)
+    expected = ("object 'Cube': the smoke and fire of fluid domains",
+                "render settings: Volume Step Rate 4")
+    for start in expected:
+        assert sum(m.startswith(start) for m in messages_for(scene)) == 1, messages_for(scene)
 
 
 def test_indirect_only_is_named_and_holdouts_are_carried(photon_addon):
