@@ -69,6 +69,12 @@ pub trait Media {
     fn homogeneous(&self) -> Option<Coefficients>;
     /// A grey bound of σ_t's channels over the media (tentative collisions' rate).
     fn majorant(&self) -> f32;
+    /// A grey bound of σ_t along the ray `origin + t dir` from `t` on, and the distance
+    /// where it stops holding (a majorant grid's block ends); by default `majorant` for the
+    /// whole ray.
+    fn majorant_along(&self, _origin: Vec3, _dir: Vec3, _t: f32) -> (f32, f32) {
+        (self.majorant(), f32::INFINITY)
+    }
 }
 
 /// Media seen without their scattering: light they scatter counts as absorbed (σ_a + σ_s, no
@@ -85,6 +91,9 @@ impl<M: Media> Media for WithoutScattering<'_, M> {
     }
     fn majorant(&self) -> f32 {
         self.0.majorant()
+    }
+    fn majorant_along(&self, origin: Vec3, dir: Vec3, t: f32) -> (f32, f32) {
+        self.0.majorant_along(origin, dir, t)
     }
 }
 
@@ -126,16 +135,12 @@ pub fn fly(
     if let Some(c) = media.homogeneous() {
         return fly_homogeneous(&c, length, beta, emitted, rng);
     }
-    let majorant = media.majorant();
-    if !(majorant > 0.0) {
-        return Flight::Passed;
-    }
     let mut t = 0.0;
     for _ in 0..MAX_COLLISIONS {
-        t -= (1.0 - rng.uniform()).ln() / majorant;
-        if !(t < length) {
+        let Some((next, majorant)) = tentative_collision(media, origin, dir, t, length, rng) else {
             return Flight::Passed;
-        }
+        };
+        t = next;
         let at = media.at(origin + t * dir, rng.uniform());
         *emitted += *beta * at.emission / majorant;
         let p_scatter = (mean(at.scattering) / majorant).clamp(0.0, 1.0);
@@ -150,6 +155,35 @@ pub fn fly(
         }
     }
     Flight::Absorbed
+}
+
+/// The next tentative collision after `t` (and before `length`) along the ray, with the
+/// majorant there: exponential steps at the rate of each stretch of the piecewise-constant
+/// majorant (`Media::majorant_along`), a step that leaves its stretch starting afresh at the
+/// stretch's end (the exponential distribution forgets how far it went). `None` past `length`.
+fn tentative_collision(
+    media: &impl Media,
+    origin: Vec3,
+    dir: Vec3,
+    mut t: f32,
+    length: f32,
+    rng: &mut Rng,
+) -> Option<(f32, f32)> {
+    for _ in 0..MAX_COLLISIONS {
+        let (majorant, end) = media.majorant_along(origin, dir, t);
+        let end = end.min(length);
+        if majorant > 0.0 {
+            let next = t - (1.0 - rng.uniform()).ln() / majorant;
+            if next < end {
+                return Some((next, majorant));
+            }
+        }
+        if !(end < length) {
+            return None;
+        }
+        t = end;
+    }
+    None
 }
 
 /// `fly` through homogeneous media `c`: closed-form emission and transmittance, a scattering
@@ -230,17 +264,13 @@ pub fn transmittance(
     if let Some(c) = media.homogeneous() {
         return (-c.extinction() * length).exp();
     }
-    let majorant = media.majorant();
-    if !(majorant > 0.0) {
-        return Vec3::ONE;
-    }
     let mut through = Vec3::ONE;
     let mut t = 0.0;
     for _ in 0..MAX_COLLISIONS {
-        t -= (1.0 - rng.uniform()).ln() / majorant;
-        if !(t < length) {
+        let Some((next, majorant)) = tentative_collision(media, origin, dir, t, length, rng) else {
             return through;
-        }
+        };
+        t = next;
         let at = media.at(origin + t * dir, 0.0);
         through *= (Vec3::ONE - at.extinction() / majorant).max(Vec3::ZERO);
         // Russian roulette once little is left: unbiased, and it ends long dense tracks.
@@ -441,6 +471,68 @@ mod tests {
         } else {
             sigma * length
         }
+    }
+
+    /// Absorbing media of σ_t 1 for x < 1 and 3 beyond, tracked against a majorant twice
+    /// σ_t in each stretch (`majorant_along` stepping at x = 1): transmittance and free
+    /// flights (their weight where they pass) both follow e^(−∫σ_t) over the two stretches.
+    #[test]
+    fn tracking_steps_through_a_piecewise_majorant() {
+        struct Steps;
+        impl Media for Steps {
+            fn at(&self, p: Vec3, _u: f32) -> Coefficients {
+                let sigma = if p.x < 1.0 { 1.0 } else { 3.0 };
+                Coefficients {
+                    absorption: Vec3::splat(sigma),
+                    ..Coefficients::VACUUM
+                }
+            }
+            fn homogeneous(&self) -> Option<Coefficients> {
+                None
+            }
+            fn majorant(&self) -> f32 {
+                6.0
+            }
+            fn majorant_along(&self, origin: Vec3, dir: Vec3, t: f32) -> (f32, f32) {
+                let x = origin.x + t * dir.x;
+                if x < 1.0 {
+                    (2.0, (1.0 - origin.x) / dir.x)
+                } else {
+                    (6.0, f32::INFINITY)
+                }
+            }
+        }
+        let want = (-(1.0f32 + 3.0 * 0.5)).exp();
+        let mut rng = Rng::new(11);
+        let n = 40_000;
+        let mut through = 0.0;
+        let mut passed = 0.0;
+        for _ in 0..n {
+            through += transmittance(&Steps, Vec3::ZERO, Vec3::X, 1.5, &mut rng).x;
+            let (mut beta, mut emitted) = (Vec3::ONE, Vec3::ZERO);
+            if fly(
+                &Steps,
+                Vec3::ZERO,
+                Vec3::X,
+                1.5,
+                &mut beta,
+                &mut emitted,
+                &mut rng,
+            ) == Flight::Passed
+            {
+                passed += beta.x;
+            }
+        }
+        let mean = through / n as f32;
+        assert!(
+            (mean - want).abs() < 0.005,
+            "transmittance {mean} vs {want}"
+        );
+        let flown = passed / n as f32;
+        assert!(
+            (flown - want).abs() < 0.006,
+            "flights' weight {flown} vs {want}"
+        );
     }
 
     /// Segment samples integrate a function of the distance exactly on average, with either

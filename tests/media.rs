@@ -119,11 +119,12 @@ fn an_absorbing_emitting_sphere_follows_beer_lambert() {
 /// (black: absorption only, σ_a = density), the grid 1 + 2x over Blender's x in [−1.75, 1.25]
 /// (linear, which trilinear interpolation keeps exactly) in a white world. Seen along the
 /// chord at x = 0.5 it follows Beer–Lambert with the grid's value there; at x = −0.5, where
-/// the grid is zero, nothing is absorbed.
+/// the grid is zero, nothing is absorbed. Tracked against the grid's majorant blocks.
 #[test]
 fn a_density_grid_attenuates_by_its_value_along_the_ray() {
-    use photon::math::Mat4;
+    use photon::math::{Affine3A, Mat4};
     use photon::scene::grids::{Grid, VolumeGrids};
+    use photon::scene::{ObjectSpace, BLENDER_AXES};
     let tree = serde_json::json!({
         "nodes": [{"name": "P", "type": "ShaderNodeVolumePrincipled",
                    "attributes": {"density": "density", "color": "", "temperature": ""},
@@ -145,8 +146,22 @@ fn a_density_grid_attenuates_by_its_value_along_the_ray() {
     let grid = Grid::new("density".into(), 1, [n, n, n], values, to_object).unwrap();
     let mut s = sphere_scene(Coefficients::VACUUM, 1.0, 0.01);
     s.materials[0].volume = Volume::of(program);
-    s.meshes[0].volume_grids = Some(Arc::new(VolumeGrids { grids: vec![grid] }));
+    s.meshes[0].volume_grids = Some(Arc::new(VolumeGrids {
+        grids: vec![grid],
+        majorant: None,
+    }));
+    // Object coordinates: the world's in Blender's axes (as a Volume object at the origin).
+    s.meshes[0].object_space = Some(ObjectSpace {
+        to_object: Affine3A::from_mat3(BLENDER_AXES),
+        texspace_location: Vec3::ZERO,
+        texspace_size: Vec3::ONE,
+    });
     s.bound_volumes();
+    let blocks = s.meshes[0].volume_grids.as_ref().unwrap().majorant.as_ref();
+    assert!(
+        blocks.is_some(),
+        "the grid's majorant is bounded block by block"
+    );
     s.camera = camera_looking_at(
         Vec3::new(0.5, 0.0, 4.0),
         Vec3::new(0.5, 0.0, 0.0),

@@ -179,4 +179,16 @@ impl Media for StackMedia<'_> {
             .map(|(v, _)| v.majorant)
             .sum()
     }
+
+    /// The media's majorants along the ray summed, holding until the first of them changes.
+    fn majorant_along(&self, origin: Vec3, dir: Vec3, t: f32) -> (f32, f32) {
+        let mut sum = 0.0;
+        let mut end = f32::INFINITY;
+        for (volume, object) in self.stack.volumes(self.scene) {
+            let (majorant, until) = volume.majorant_along(self.scene, object, origin, dir, t);
+            sum += majorant;
+            end = end.min(until);
+        }
+        (sum, end)
+    }
 }

@@ -1,8 +1,10 @@
 //! The voxel grids that fill a Blender Volume object (smoke, fire, clouds; read from OpenVDB
 //! files by `super::vdb`): named float or colour grids in the object's space, sampled by
 //! trilinear interpolation between voxel centres as Cycles samples them with linear
-//! interpolation, and bounded over boxes for the media's majorants. Outside a grid's voxels
-//! its value is zero (the background of density-like grids).
+//! interpolation, and bounded block by block for the media's majorants (`MajorantGrid`: a
+//! piecewise-constant bound that free flights step through, the majorant grid of Cycles 5's
+//! null-scattering volumes). Outside a grid's voxels its value is zero (the background of
+//! density-like grids).
 
 use crate::math::{Affine3A, Mat4, Vec3, Vec4};
 
@@ -138,16 +140,73 @@ impl Grid {
         (to_i(lo), to_i(hi))
     }
 
+    /// Object coordinates → voxel coordinates.
+    pub fn object_to_voxel(&self) -> Affine3A {
+        self.object_to_voxel
+    }
+
     /// Object coordinates of voxel coordinates `v`.
     pub fn object_point(&self, v: Vec3) -> Vec3 {
         self.voxel_to_object.transform_point3(v)
     }
 }
 
-/// The grids of one Volume object.
+/// The grids of one Volume object, and the bound of its medium's extinction over blocks of
+/// them (set once the material is known: `Scene::bound_volumes`).
 #[derive(Debug, Default)]
 pub struct VolumeGrids {
     pub grids: Vec<Grid>,
+    pub majorant: Option<MajorantGrid>,
+}
+
+/// A bound of a medium's extinction over blocks of voxels of one grid: constant in each block,
+/// the first and last blocks of each axis reaching on to infinity (interpolation past the
+/// grid's edge only fades towards zero).
+#[derive(Debug)]
+pub struct MajorantGrid {
+    /// Blocks per axis.
+    pub blocks: [usize; 3],
+    /// Voxels per block edge.
+    pub edge: [usize; 3],
+    /// The bound per block, x fastest.
+    pub values: Vec<f32>,
+    /// Object coordinates → the grid's voxel coordinates (block k of axis a covers
+    /// [k × edge[a], (k + 1) × edge[a])).
+    pub object_to_voxel: Affine3A,
+}
+
+impl MajorantGrid {
+    /// The bound along the ray `origin + t dir` (object coordinates) at `t`, and where along
+    /// the ray it stops holding (the ray leaves the block; infinite when it never does).
+    pub fn along(&self, origin: Vec3, dir: Vec3, t: f32) -> (f32, f32) {
+        let o = self.object_to_voxel.transform_point3(origin);
+        let d = self.object_to_voxel.transform_vector3(dir);
+        let p = o + t * d;
+        let mut index = [0usize; 3];
+        let mut end = f32::INFINITY;
+        for a in 0..3 {
+            let e = self.edge[a] as f32;
+            let last = self.blocks[a] - 1;
+            let k = ((p[a] / e).floor().max(0.0) as usize).min(last);
+            index[a] = k;
+            let wall = if d[a] > 0.0 && k < last {
+                Some((k + 1) as f32 * e)
+            } else if d[a] < 0.0 && k > 0 {
+                Some(k as f32 * e)
+            } else {
+                None
+            };
+            if let Some(wall) = wall {
+                end = end.min((wall - o[a]) / d[a]);
+            }
+        }
+        // Rounding can put the wall behind `t`: step past it.
+        if !(end > t) {
+            end = t + 1e-5 * (1.0 + t.abs());
+        }
+        let [bx, by, _] = self.blocks;
+        (self.values[(index[2] * by + index[1]) * bx + index[0]], end)
+    }
 }
 
 impl VolumeGrids {
@@ -187,6 +246,24 @@ mod tests {
         let g = ramp();
         assert_eq!(g.max_over([0, 0, 0], [1, 1, 1]).x, 1.0);
         assert_eq!(g.max_over([-3, -3, -3], [9, 9, 9]).x, 3.0);
+    }
+
+    #[test]
+    fn a_ray_steps_through_the_majorant_blocks_it_crosses() {
+        let m = MajorantGrid {
+            blocks: [3, 1, 1],
+            edge: [2, 2, 2],
+            values: vec![1.0, 5.0, 2.0],
+            object_to_voxel: Affine3A::from_scale(Vec3::splat(2.0)),
+        };
+        // Voxel x = 2 t − 1: block 0 until t = 1.5, block 1 until 2.5, block 2 for ever.
+        let origin = Vec3::new(-0.5, 0.2, 0.2);
+        let x = Vec3::X;
+        assert_eq!(m.along(origin, x, 0.0), (1.0, 1.5));
+        assert_eq!(m.along(origin, x, 1.5), (5.0, 2.5));
+        assert_eq!(m.along(origin, x, 2.5), (2.0, f32::INFINITY));
+        // Backwards from the far side: the last block reaches to infinity behind.
+        assert_eq!(m.along(Vec3::new(10.0, 0.0, 0.0), -x, 0.0), (2.0, 8.0));
     }
 
     #[test]

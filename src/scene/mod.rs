@@ -330,6 +330,46 @@ impl Volume {
     }
 }
 
+impl Volume {
+    /// The bound of this medium's extinction along the ray `origin + t dir` (world) at `t`,
+    /// inside the object of `object` (as `Volume::at` has it), and where along the ray it
+    /// stops holding: a Volume object's majorant grid block by block, else `majorant` for
+    /// the whole ray.
+    pub fn majorant_along(
+        &self,
+        scene: &Scene,
+        object: Option<(u32, u32)>,
+        origin: Vec3,
+        dir: Vec3,
+        t: f32,
+    ) -> (f32, f32) {
+        let everywhere = (self.majorant, f32::INFINITY);
+        let Some((mesh, instance)) = object else {
+            return everywhere;
+        };
+        let placed = scene.instances.get(instance as usize);
+        let stored = match placed {
+            Some(inst) => &scene.prototypes[inst.prototype as usize],
+            None => &scene.meshes[mesh as usize],
+        };
+        let (Some(grids), Some(space)) = (&stored.volume_grids, &stored.object_space) else {
+            return everywhere;
+        };
+        let Some(majorant) = &grids.majorant else {
+            return everywhere;
+        };
+        let to_object = match placed {
+            Some(inst) => space.to_object * inst.to_object_at(0.5),
+            None => space.to_object,
+        };
+        majorant.along(
+            to_object.transform_point3(origin),
+            to_object.transform_vector3(dir),
+            t,
+        )
+    }
+}
+
 /// The `named` attributes a volume tree reads, of those `grids` has: `value` of each.
 fn grid_attributes(
     grids: &grids::VolumeGrids,
@@ -1050,12 +1090,46 @@ impl Scene {
                         most = most.max(sigma);
                     }
                 }
-                if let Some((mesh, instance)) = *object {
-                    most = most.max(scene.grid_bound(volume, mesh, instance));
-                }
             }
             1.5 * most
         };
+        // Volume objects' majorant grids, their largest value a floor of the material's.
+        let mut grid_most = vec![0.0f32; self.materials.len()];
+        for (m, list) in boxes.iter().enumerate() {
+            let Some(volume) = self.materials[m].volume.as_ref() else {
+                continue;
+            };
+            for &(mesh, instance, _) in list {
+                let stored = match self.instances.get(instance as usize) {
+                    Some(inst) => &self.prototypes[inst.prototype as usize],
+                    None => &self.meshes[mesh as usize],
+                };
+                let bounded = stored
+                    .volume_grids
+                    .as_ref()
+                    .is_some_and(|g| g.majorant.is_some());
+                if bounded {
+                    continue;
+                }
+                let Some(majorant) = self.grid_majorant(volume, mesh, instance) else {
+                    continue;
+                };
+                let most = majorant.values.iter().fold(0.0f32, |a, &b| a.max(b));
+                grid_most[m] = grid_most[m].max(most);
+                let stored = match self.instances.get(instance as usize) {
+                    Some(inst) => &mut self.prototypes[inst.prototype as usize],
+                    None => &mut self.meshes[mesh as usize],
+                };
+                // Shared grids (a file read for two objects) keep the scalar majorant.
+                if let Some(grids) = stored
+                    .volume_grids
+                    .as_mut()
+                    .and_then(std::sync::Arc::get_mut)
+                {
+                    grids.majorant = Some(majorant);
+                }
+            }
+        }
         for (m, list) in boxes.iter().enumerate() {
             let Some(volume) = self.materials[m]
                 .volume
@@ -1068,7 +1142,7 @@ impl Scene {
                 .iter()
                 .map(|&(mesh, instance, b)| (Some((mesh, instance)), b))
                 .collect();
-            let majorant = bound(self, volume, &places);
+            let majorant = bound(self, volume, &places).max(grid_most[m]);
             if let Some(v) = self.materials[m].volume.as_mut() {
                 v.majorant = majorant;
             }
@@ -1081,58 +1155,78 @@ impl Scene {
         }
     }
 
-    /// The largest extinction of `volume` inside the object of `mesh` and `instance` that
-    /// its voxel grids can give: the program evaluated over blocks of the first grid it reads
-    /// with every grid's largest value touching the block, which bounds the programs that
-    /// grow with their attributes (density × Density, the usual); 0 without grids.
-    fn grid_bound(&self, volume: &Volume, mesh: u32, instance: u32) -> f32 {
-        let Some(program) = &volume.program else {
-            return 0.0;
-        };
+    /// The bound of `volume`'s extinction inside the object of `mesh` and `instance` that its
+    /// voxel grids give, block by block of the first grid its tree reads (`MajorantGrid`):
+    /// the tree evaluated at each block's centre and corners with every grid's largest value
+    /// touching the block, which bounds the trees that grow with their attributes (density ×
+    /// Density, the usual), times 1.5 for the rest; `None` without grids.
+    fn grid_majorant(
+        &self,
+        volume: &Volume,
+        mesh: u32,
+        instance: u32,
+    ) -> Option<grids::MajorantGrid> {
+        let program = volume.program.as_ref()?;
         let placed = self.instances.get(instance as usize);
         let stored = match placed {
             Some(inst) => &self.prototypes[inst.prototype as usize],
             None => &self.meshes[mesh as usize],
         };
-        let (Some(grids), Some(space)) = (&stored.volume_grids, &stored.object_space) else {
-            return 0.0;
-        };
-        let Some(first) = program.attributes.iter().find_map(|n| grids.get(n)) else {
-            return 0.0;
-        };
+        let (grids, space) = (stored.volume_grids.as_ref()?, stored.object_space.as_ref()?);
+        let first = program.attributes.iter().find_map(|n| grids.get(n))?;
         // Object point → world point.
         let to_stored = space.to_object.inverse();
         let to_world = placed.map_or(Affine3A::IDENTITY, |inst| inst.to_world_at(0.5));
         const BLOCKS: usize = 32;
         let edge = first.size.map(|s| s.div_ceil(BLOCKS).max(4));
-        let mut most = 0.0f32;
-        for bz in 0..first.size[2].div_ceil(edge[2]) {
-            for by in 0..first.size[1].div_ceil(edge[1]) {
-                for bx in 0..first.size[0].div_ceil(edge[0]) {
+        let blocks = [0, 1, 2].map(|a| first.size[a].div_ceil(edge[a]));
+        let mut values = Vec::with_capacity(blocks.iter().product());
+        for bz in 0..blocks[2] {
+            for by in 0..blocks[1] {
+                for bx in 0..blocks[0] {
                     let lo = Vec3::new(
                         (bx * edge[0]) as f32,
                         (by * edge[1]) as f32,
                         (bz * edge[2]) as f32,
-                    ) - Vec3::ONE;
-                    let hi =
-                        lo + Vec3::new(edge[0] as f32, edge[1] as f32, edge[2] as f32) + Vec3::ONE;
-                    let centre = first.object_point(0.5 * (lo + hi));
-                    let p = to_world.transform_point3(to_stored.transform_point3(centre));
-                    let mut inputs =
-                        self.volume_inputs(mesh, instance, p, 0.5, &program.attributes);
-                    inputs.attributes = grid_attributes(grids, &program.attributes, |g| {
+                    );
+                    let hi = lo + Vec3::new(edge[0] as f32, edge[1] as f32, edge[2] as f32);
+                    let attributes = grid_attributes(grids, &program.attributes, |g| {
                         let (glo, ghi) = g.voxel_box_of(first, lo, hi);
                         g.max_over(glo, ghi).extend(1.0)
                     });
-                    let c = program.eval_volume(&inputs, &self.textures);
-                    let sigma = c.extinction().max_element();
-                    if sigma.is_finite() {
-                        most = most.max(sigma);
+                    let mut most = 0.0f32;
+                    for corner in 0..9 {
+                        let pick = |bit: usize, a: f32, b: f32| match corner {
+                            8 => 0.5 * (a + b),
+                            _ if corner >> bit & 1 == 0 => a,
+                            _ => b,
+                        };
+                        let v = Vec3::new(
+                            pick(0, lo.x, hi.x),
+                            pick(1, lo.y, hi.y),
+                            pick(2, lo.z, hi.z),
+                        );
+                        let o = first.object_point(v);
+                        let p = to_world.transform_point3(to_stored.transform_point3(o));
+                        let mut inputs =
+                            self.volume_inputs(mesh, instance, p, 0.5, &program.attributes);
+                        inputs.attributes = attributes;
+                        let c = program.eval_volume(&inputs, &self.textures);
+                        let sigma = c.extinction().max_element();
+                        if sigma.is_finite() {
+                            most = most.max(sigma);
+                        }
                     }
+                    values.push(1.5 * most);
                 }
             }
         }
-        most
+        Some(grids::MajorantGrid {
+            blocks,
+            edge,
+            values,
+            object_to_voxel: first.object_to_voxel(),
+        })
     }
 
     /// The world or some material has a volume (participating media).
