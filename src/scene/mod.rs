@@ -14,6 +14,7 @@ pub mod load;
 pub mod sky;
 pub mod texture;
 pub mod units;
+pub mod vdb;
 
 use crate::math::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 pub use crate::medium::Coefficients;
