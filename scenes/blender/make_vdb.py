@@ -26,6 +26,7 @@ import sys
 import tempfile
 
 import bpy
+from volume_scenes import bake_volume, openvdb_module
 
 ARGS = [a for a in sys.argv[1:] if not a.startswith("-")]
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -33,36 +34,10 @@ OUT = os.path.abspath(ARGS[0]) if ARGS else os.path.join(HERE, "..", "..", "test
 WORK = tempfile.mkdtemp(prefix="make_vdb_")
 
 
-def new_scene():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-
-
 def bake_geometry(name, build):
     """Bakes the geometry a node group makes (build(ng) returns its output socket) to disk and
     copies the one .vdb it writes to OUT/name."""
-    new_scene()
-    bpy.ops.mesh.primitive_cube_add()
-    obj = bpy.context.object
-    mod = obj.modifiers.new("GN", "NODES")
-    ng = bpy.data.node_groups.new("vol", "GeometryNodeTree")
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    bake = ng.nodes.new("GeometryNodeBake")
-    out = ng.nodes.new("NodeGroupOutput")
-    ng.links.new(build(ng), bake.inputs[0])
-    ng.links.new(bake.outputs[0], out.inputs[0])
-    mod.node_group = ng
-    bpy.context.view_layer.update()
-    b = mod.bakes[0]
-    b.bake_mode = "STILL"
-    b.bake_target = "DISK"
-    b.use_custom_path = True
-    b.directory = os.path.join(WORK, name)
-    bpy.ops.object.geometry_node_bake_single(
-        session_uid=obj.id_data.session_uid, modifier_name=mod.name, bake_id=b.bake_id
-    )
-    files = glob.glob(os.path.join(WORK, name, "blobs", "*.vdb"))
-    assert len(files) == 1, files
-    shutil.copy(files[0], os.path.join(OUT, name))
+    shutil.copy(bake_volume(os.path.join(WORK, name), build), os.path.join(OUT, name))
 
 
 def ramp_cube(resolution, lo, hi, background=0.0):
@@ -121,15 +96,6 @@ def mesh_to_volume(ng):
     m2v.inputs["Density"].default_value = 0.75
     ng.links.new(move.outputs[0], m2v.inputs["Mesh"])
     return m2v.outputs[0]
-
-
-def openvdb_module():
-    version = "%d.%d" % bpy.app.version[:2]
-    root = bpy.__file__[: bpy.__file__.index(os.sep + version + os.sep)]
-    sys.path.append(os.path.join(root, version, "python", "lib", "python3.11", "site-packages"))
-    import openvdb
-
-    return openvdb
 
 
 def python_files():

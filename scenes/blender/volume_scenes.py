@@ -20,6 +20,7 @@ OUT_DIR/{glass_fog,god_rays}.glb, exported through the add-on (for `photon bench
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -70,6 +71,143 @@ def sphere(name, material, radius, location):
     obj.name = name
     obj.data.materials.append(material)
     bpy.ops.object.shade_smooth()
+    return obj
+
+
+def bake_volume(folder, build):
+    """Bakes the geometry a Geometry Nodes group makes (`build(group)` adds its nodes and
+    returns the output socket) to disk in `folder` with a Bake node and returns the path of
+    the one OpenVDB file Blender writes. Starts from and leaves an empty scene."""
+    import glob
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_cube_add()
+    obj = bpy.context.object
+    modifier = obj.modifiers.new("Bake", "NODES")
+    group = bpy.data.node_groups.new("Bake", "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    bake = group.nodes.new("GeometryNodeBake")
+    output = group.nodes.new("NodeGroupOutput")
+    group.links.new(build(group), bake.inputs[0])
+    group.links.new(bake.outputs[0], output.inputs[0])
+    modifier.node_group = group
+    bpy.context.view_layer.update()
+    settings = modifier.bakes[0]
+    settings.bake_mode = "STILL"
+    settings.bake_target = "DISK"
+    settings.use_custom_path = True
+    settings.directory = str(folder)
+    bpy.ops.object.geometry_node_bake_single(session_uid=obj.id_data.session_uid,
+                                             modifier_name=modifier.name,
+                                             bake_id=settings.bake_id)
+    found = glob.glob(str(Path(folder) / "blobs" / "*.vdb"))
+    assert len(found) == 1, found
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return found[0]
+
+
+def baked_smoke_vdb(folder, resolution=12):
+    """Bakes a Geometry Nodes Volume Cube over [-1, 1]³ (`resolution` voxels a side) to an
+    OpenVDB file in `folder` and returns its path: its "density" grid a soft ball,
+    max(0, 1 − |p| / 0.9), times a Noise Texture. Leaves an empty scene behind."""
+
+    def build(group):
+        nodes, links = group.nodes, group.links
+        position = nodes.new("GeometryNodeInputPosition")
+        length = nodes.new("ShaderNodeVectorMath")
+        length.operation = "LENGTH"
+        links.new(position.outputs[0], length.inputs[0])
+        ball = nodes.new("ShaderNodeMapRange")
+        ball.inputs["From Max"].default_value = 0.9
+        ball.inputs["To Min"].default_value = 1.0
+        ball.inputs["To Max"].default_value = 0.0
+        links.new(length.outputs["Value"], ball.inputs["Value"])
+        noise = nodes.new("ShaderNodeTexNoise")
+        noise.inputs["Scale"].default_value = 1.5
+        links.new(position.outputs[0], noise.inputs["Vector"])
+        times = nodes.new("ShaderNodeMath")
+        times.operation = "MULTIPLY"
+        links.new(ball.outputs["Result"], times.inputs[0])
+        links.new(noise.outputs["Fac"], times.inputs[1])
+        volume_cube = nodes.new("GeometryNodeVolumeCube")
+        for axis in "XYZ":
+            volume_cube.inputs[f"Resolution {axis}"].default_value = resolution
+        links.new(times.outputs[0], volume_cube.inputs["Density"])
+        return volume_cube.outputs[0]
+
+    return bake_volume(folder, build)
+
+
+def openvdb_module():
+    """The `openvdb` Python module bpy ships (in its own site-packages, off sys.path)."""
+    version = "%d.%d" % bpy.app.version[:2]
+    top = bpy.__file__[: bpy.__file__.index(f"/{version}/")]
+    root = Path(top) / version / "python" / "lib" / "python3.11" / "site-packages"
+    if str(root) not in sys.path:
+        sys.path.append(str(root))
+    import openvdb
+    return openvdb
+
+
+def fire_vdb(path, n=20):
+    """Writes an OpenVDB file of a small fire to `path`: `n`³ voxels 1/`n` apart, centred on
+    the origin, with a "density" grid (a ball, thinning outwards), a "temperature" grid (1.7 at
+    the centre, falling to 0 at the ball's edge: times Principled Volume's Temperature in K) and
+    a "color" grid (yellow at the top, red at the bottom)."""
+    import numpy as np
+    vdb = openvdb_module()
+    axis = (np.arange(n) + 0.5) / n - 0.5
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    r = np.sqrt(x * x + y * y + z * z) / 0.45
+    ball = np.clip(1.0 - r, 0.0, None)
+    grids = []
+    for name, values in (("density", 4.0 * ball), ("temperature", 1.7 * np.sqrt(ball))):
+        grid = vdb.FloatGrid()
+        grid.copyFromArray(values.astype(np.float32))
+        grid.name = name
+        grids.append(grid)
+    up = np.clip(z / 0.9 + 0.5, 0.0, 1.0)
+    color = np.stack([np.ones_like(up), 0.2 + 0.7 * up, 0.1 * up], axis=-1)
+    grid = vdb.Vec3SGrid()
+    grid.copyFromArray(color.astype(np.float32))
+    grid.name = "color"
+    grids.append(grid)
+    for grid in grids:
+        grid.transform = vdb.createLinearTransform(
+            [[1 / n, 0, 0, 0], [0, 1 / n, 0, 0], [0, 0, 1 / n, 0], [-0.5, -0.5, -0.5, 1]])
+    vdb.write(str(path), grids=grids)
+    return path
+
+
+def checker_vdb(path, n=4):
+    """Writes an OpenVDB file of one "density" grid to `path`: `n`³ voxels half a unit apart
+    over [−1, 1]³, each column along z of value (i + 2j) mod 3 — coarse enough that where
+    voxel values sit shows at a glance."""
+    import numpy as np
+    vdb = openvdb_module()
+    values = np.zeros((n, n, n), np.float32)
+    for i in range(n):
+        for j in range(n):
+            values[i, j, :] = (i + 2 * j) % 3
+    grid = vdb.FloatGrid()
+    grid.copyFromArray(values)
+    grid.name = "density"
+    grid.transform = vdb.createLinearTransform(
+        [[2 / n, 0, 0, 0], [0, 2 / n, 0, 0], [0, 0, 2 / n, 0], [-1, -1, -1, 1]])
+    vdb.write(str(path), grids=[grid])
+    return path
+
+
+def volume_object(name, path, material, location, scale=1.0, rotation_z=0.0):
+    """A Volume object showing the OpenVDB file at `path`, with `material` (None: none)."""
+    volume = bpy.data.volumes.new(name)
+    volume.filepath = str(path)
+    obj = bpy.data.objects.new(name, volume)
+    obj.location = location
+    obj.scale = (scale, scale, scale)
+    obj.rotation_euler = (0.0, 0.0, math.radians(rotation_z))
+    if material is not None:
+        volume.materials.append(material)
+    common.link(obj)
     return obj
 
 

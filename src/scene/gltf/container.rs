@@ -61,6 +61,8 @@ pub(super) struct Loader {
     pub(super) prototype_ids: HashMap<usize, Vec<u32>>,
     /// Each node's `PHOTON_*` extensions, by node index, read once.
     pub(super) node_extensions: Rc<[NodeExtensions]>,
+    /// Bytes of voxel grids read so far (`scene::grids::MAX_GRID_BYTES` at most).
+    pub(super) grid_bytes: u64,
 }
 
 impl Loader {
@@ -176,6 +178,7 @@ impl Loader {
             triangle_total: 0,
             vertex_total: 0,
             node_instances: 0,
+            grid_bytes: 0,
             quantized,
             instanced_meshes: Default::default(),
             prototype_ids: HashMap::new(),

@@ -220,6 +220,35 @@ pub(super) struct ObjectExtension {
     /// World poses at evenly spaced moments of the shutter; empty: still.
     pub(super) motion: Vec<Affine3A>,
     pub(super) deform: Option<Deformation>,
+    /// A Volume object's grids: the OpenVDB file and the names of its grids.
+    pub(super) volume: Option<VolumeFile>,
+}
+
+/// `PHOTON_object`'s "volume": the OpenVDB file that holds a Volume object's grids (a path,
+/// absolute or relative to the glTF file) and the names of the grids in it.
+pub(super) struct VolumeFile {
+    pub(super) uri: String,
+    pub(super) grids: Vec<String>,
+}
+
+impl VolumeFile {
+    fn read(value: &Value) -> Read<VolumeFile> {
+        let fields = Fields::of(value)?;
+        let uri = fields
+            .string("uri")?
+            .ok_or_else(|| fields.fail("'uri' must be a string".into()))?;
+        let grids = match fields.get("grids") {
+            None => Vec::new(),
+            Some(list) => list
+                .as_array()
+                .and_then(|a| a.iter().map(|g| g.as_str().map(str::to_string)).collect())
+                .ok_or_else(|| fields.fail("'grids' must be a list of names".into()))?,
+        };
+        Ok(VolumeFile {
+            uri: uri.to_string(),
+            grids,
+        })
+    }
 }
 
 impl Default for ObjectExtension {
@@ -231,6 +260,7 @@ impl Default for ObjectExtension {
             texture_space: None,
             motion: Vec::new(),
             deform: None,
+            volume: None,
         }
     }
 }
@@ -260,6 +290,7 @@ impl ObjectExtension {
                 .transpose()?
                 .unwrap_or_default(),
             deform: fields.get("deform").map(Deformation::read).transpose()?,
+            volume: fields.get("volume").map(VolumeFile::read).transpose()?,
         })
     }
 

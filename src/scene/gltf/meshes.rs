@@ -213,6 +213,9 @@ impl Loader {
                 deformation: Vec::new(),
                 volume_grids: None,
             };
+            if let Some(file) = &extension.volume {
+                out.volume_grids = self.volume_grids(&object, file, material)?;
+            }
             match normals {
                 Some(normals) => {
                     check_length(&normals, vertex_count)

@@ -34,6 +34,7 @@ mod materials;
 mod meshes;
 mod motion;
 mod textures;
+mod volumes;
 mod world;
 
 pub use build::{load, load_slice, LoadOptions};

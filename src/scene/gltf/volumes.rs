@@ -1,0 +1,82 @@
+//! Volume objects' voxel grids (`PHOTON_object`'s "volume"): the grids a Volume object's
+//! material reads, read from its OpenVDB file (`scene::vdb`) within the scene's grid memory
+//! limit and attached to the box mesh that stands for the object.
+
+use super::container::Loader;
+use super::extensions::VolumeFile;
+use crate::error::Result;
+use crate::math::{Mat4, Vec3};
+use crate::scene::grids::{Grid, VolumeGrids, MAX_GRID_BYTES};
+use crate::scene::vdb;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+impl Loader {
+    /// The grids of `file` that the volume of `material` reads (its node tree's named
+    /// attributes), for the mesh of `object`; `None` when it reads none of them.
+    pub(super) fn volume_grids(
+        &mut self,
+        object: &str,
+        file: &VolumeFile,
+        material: u32,
+    ) -> Result<Option<Arc<VolumeGrids>>> {
+        let wanted: Vec<String> = self.scene.materials[material as usize]
+            .volume
+            .as_ref()
+            .and_then(|v| v.program.as_ref())
+            .map(|p| p.attributes.clone())
+            .unwrap_or_default();
+        let wanted: Vec<&String> = wanted
+            .iter()
+            .filter(|n| file.grids.is_empty() || file.grids.contains(n))
+            .collect();
+        if wanted.is_empty() {
+            return Ok(None);
+        }
+        let mut path = PathBuf::from(&file.uri);
+        if path.is_relative() {
+            if let Some(base) = &self.base {
+                path = base.join(path);
+            }
+        }
+        let in_file = vdb::grid_names(&path).map_err(|e| self.err(object, e.to_string()))?;
+        let mut grids = VolumeGrids::default();
+        for name in wanted {
+            if !in_file.iter().any(|(n, _)| n == name) {
+                self.scene.warnings.push(format!(
+                    "{object}: its OpenVDB file {} has no grid '{name}'",
+                    path.display()
+                ));
+                continue;
+            }
+            let left = MAX_GRID_BYTES - self.grid_bytes;
+            let read = vdb::read_grid(&path, name, left).map_err(|e| {
+                self.err(
+                    object,
+                    format!(
+                        "{e} (Photon holds at most {} MiB of voxel grids)",
+                        MAX_GRID_BYTES >> 20
+                    ),
+                )
+            })?;
+            // Blender puts a voxel's value at the centre of its cell: index + ½.
+            let first = Vec3::new(
+                read.origin[0] as f32 + 0.5,
+                read.origin[1] as f32 + 0.5,
+                read.origin[2] as f32 + 0.5,
+            );
+            let voxel_to_object = read.index_to_local * Mat4::from_translation(first);
+            let grid = Grid::new(
+                read.name,
+                read.channels,
+                read.size,
+                read.values,
+                voxel_to_object,
+            )
+            .ok_or_else(|| self.err(object, format!("grid '{name}' has a singular transform")))?;
+            self.grid_bytes += grid.bytes();
+            grids.grids.push(grid);
+        }
+        Ok((!grids.grids.is_empty()).then(|| Arc::new(grids)))
+    }
+}
