@@ -15,7 +15,7 @@ empty list, so the rules below only flag what really changes the image:
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
   (the tree route renders it; glTF carries no film);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
-  Volume, Volume Scatter but its Fournier-Forand phase, Volume Absorption, Emission, Mix and
+  Volume, Volume Scatter, Volume Absorption, Emission, Mix and
   Add Shader over the texture and converter nodes the surface trees have), and Volume objects
   (OpenVDB grids, smoke and fire simulations), which are not exported;
 - displacement linked into a material output (unless Photon evaluates the tree and its

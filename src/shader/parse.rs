@@ -393,7 +393,7 @@ pub(super) fn parse_op(node: &Value) -> Result<Option<Op>, String> {
             "RAYLEIGH" => Op::VolumeScatter(ScatterPhase::Rayleigh),
             "DRAINE" => Op::VolumeScatter(ScatterPhase::Draine),
             "MIE" => Op::VolumeScatter(ScatterPhase::Mie),
-            // Fournier-Forand is not rendered.
+            "FOURNIER_FORAND" => Op::VolumeScatter(ScatterPhase::FournierForand),
             _ => return Ok(None),
         },
         _ => return Ok(None),
