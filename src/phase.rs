@@ -100,53 +100,62 @@ impl FournierForand {
         }
     }
 
-    /// The density per steradian at x = sin²(θ/2) in (0, 1], in f64.
-    fn density(&self, x: f64) -> f64 {
+    /// F(x), the probability of scattering by less than θ, and the density per steradian p(x)
+    /// at x = sin²(θ/2) in (0, 1], in f64 (they share δ^ν).
+    fn cdf_and_density(&self, x: f64) -> (f64, f64) {
         let (nu, c) = (self.nu as f64, self.c as f64);
         let delta = self.delta_scale as f64 * x;
         let cos = 1.0 - 2.0 * x;
         let e = delta - 1.0;
-        let main = if e.abs() < FF_NEAR_ONE {
+        let (cdf, density) = if e.abs() < FF_NEAR_ONE {
+            let cdf = 1.0 + nu * (1.0 - x) * (1.0 - 0.5 * (nu + 1.0) * e);
             let p0 = nu * ((nu - 1.0) - (nu + 1.0) / x) / (8.0 * std::f64::consts::PI);
             let p1 = nu * (nu + 1.0) * ((2.0 * nu + 1.0) / x - 2.0 * (nu - 1.0))
                 / (24.0 * std::f64::consts::PI);
-            p0 + p1 * e
+            (cdf, p0 + p1 * e)
         } else {
             let m = 1.0 - delta;
             let pow = delta.powf(nu);
-            (nu * m - (1.0 - pow) + (delta * (1.0 - pow) - nu * m) / x)
-                / (4.0 * std::f64::consts::PI * m * m * pow)
+            let cdf = (1.0 - pow * delta - (1.0 - pow) * x) / (m * pow);
+            let density = (nu * m - (1.0 - pow) + (delta * (1.0 - pow) - nu * m) / x)
+                / (4.0 * std::f64::consts::PI * m * m * pow);
+            (cdf, density)
         };
-        main + c * (3.0 * cos * cos - 1.0) / (16.0 * std::f64::consts::PI)
+        (
+            cdf + 0.125 * c * cos * (1.0 - cos * cos),
+            density + c * (3.0 * cos * cos - 1.0) / (16.0 * std::f64::consts::PI),
+        )
     }
 
-    /// F(x): the probability of scattering by less than θ, x = sin²(θ/2), in f64.
+    /// The density per steradian at x = sin²(θ/2) in (0, 1].
+    fn density(&self, x: f64) -> f64 {
+        self.cdf_and_density(x).1
+    }
+
+    /// F(x) for any x in [0, 1] (the tests read it).
+    #[cfg(test)]
     fn cdf(&self, x: f64) -> f64 {
-        if x <= 0.0 {
-            return 0.0;
+        match x > 0.0 {
+            true => self.cdf_and_density(x.min(1.0)).0,
+            false => 0.0,
         }
-        let x = x.min(1.0);
-        let (nu, c) = (self.nu as f64, self.c as f64);
-        let delta = self.delta_scale as f64 * x;
-        let cos = 1.0 - 2.0 * x;
-        let e = delta - 1.0;
-        let main = if e.abs() < FF_NEAR_ONE {
-            1.0 + nu * (1.0 - x) * (1.0 - 0.5 * (nu + 1.0) * e)
-        } else {
-            let pow = delta.powf(nu);
-            (1.0 - pow * delta - (1.0 - pow) * x) / ((1.0 - delta) * pow)
-        };
-        main + 0.125 * c * cos * (1.0 - cos * cos)
     }
 
     /// The x = sin²(θ/2) at which F reaches `u` (F is increasing from F(0) = 0 to F(1) = 1):
     /// Newton steps on F(x) − u, dF/dx = 4π p(x), each kept inside the bracket that the
-    /// signs of F − u so far leave (a bisection where a step would leave it).
+    /// signs of F − u so far leave (a bisection where a step would leave it). The first guess
+    /// is the forward peak's power law, F ≈ δ^−ν for small δ.
     fn invert(&self, u: f64) -> f64 {
         let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        let mut x = 0.5;
+        let guess = u.powf(-1.0 / self.nu as f64) / self.delta_scale as f64;
+        let mut x = if guess.is_finite() {
+            guess.clamp(FF_MIN_X, 0.5)
+        } else {
+            0.5
+        };
         for _ in 0..64 {
-            let residual = self.cdf(x) - u;
+            let (cdf, density) = self.cdf_and_density(x);
+            let residual = cdf - u;
             if residual.abs() < 1e-9 {
                 break;
             }
@@ -158,7 +167,7 @@ impl FournierForand {
             if hi - lo < 1e-15 * hi.max(FF_MIN_X) {
                 break;
             }
-            let slope = 4.0 * std::f64::consts::PI * self.density(x);
+            let slope = 4.0 * std::f64::consts::PI * density;
             let step = x - residual / slope;
             // Bisect in log space below the middle of a wide bracket (the forward peak spans
             // many orders of magnitude of x), linearly above.
