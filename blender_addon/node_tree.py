@@ -117,7 +117,8 @@ READ_INPUTS = {
     "ShaderNodeVolumePrincipled": {"Color", "Density", "Anisotropy", "Absorption Color",
                                    "Emission Strength", "Emission Color",
                                    "Blackbody Intensity", "Blackbody Tint", "Temperature"},
-    "ShaderNodeVolumeScatter": {"Color", "Density", "Anisotropy", "Alpha", "Diameter"},
+    "ShaderNodeVolumeScatter": {"Color", "Density", "Anisotropy", "IOR", "Backscatter", "Alpha",
+                                "Diameter"},
     "ShaderNodeVolumeAbsorption": {"Color", "Density"},
 }
 
@@ -147,7 +148,6 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeBsdfGlass", "distribution"): {"BECKMANN"},
     ("ShaderNodeBsdfGlossy", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
     ("ShaderNodeBsdfAnisotropic", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
-    ("ShaderNodeVolumeScatter", "phase"): {"FOURNIER_FORAND"},
 }
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold

@@ -106,10 +106,14 @@ class PhotonViewLayerSettings(bpy.types.PropertyGroup):
 
 # Light passes: (Blender pass name, the view-layer setting that enables it, the object holding
 # that setting). Emission, Diffuse Direct and Diffuse Indirect are Blender's own toggles (Photon
-# puts all its direct and indirect light there, glossy included); the renderer writes its passes
-# under the same names (src/image_io.rs LIGHT_PASS_NAMES).
+# puts all its direct and indirect light from surfaces there, glossy included), Volume Direct
+# and Indirect Cycles' (`view_layer.cycles`, with Cycles' pass names); the renderer writes its
+# passes under the same names (src/image_io.rs LIGHT_PASS_NAMES; the volume passes only when
+# the image has volume light: Blender leaves a pass the file lacks black).
 LIGHT_PASSES = (("Emit", "use_pass_emit", None), ("DiffDir", "use_pass_diffuse_direct", None),
                 ("DiffInd", "use_pass_diffuse_indirect", None),
+                ("VolumeDir", "use_pass_volume_direct", "cycles"),
+                ("VolumeInd", "use_pass_volume_indirect", "cycles"),
                 ("Caustic", "use_pass_caustic", "photon"),
                 ("Subsurface", "use_pass_subsurface", "photon"))
 
@@ -118,7 +122,7 @@ def enabled_light_passes(view_layer) -> list[str]:
     """Names of the light passes enabled on `view_layer`."""
     names = []
     for name, prop, group in LIGHT_PASSES:
-        owner = getattr(view_layer, group) if group else view_layer
+        owner = getattr(view_layer, group, None) if group else view_layer
         if getattr(owner, prop, False):
             names.append(name)
     return names

@@ -264,6 +264,10 @@ class VIEWLAYER_PT_photon_light_passes(PhotonPanel, bpy.types.Panel):
         col.prop(layer, "use_pass_emit", text="Emission")
         col.prop(layer, "use_pass_diffuse_direct", text="Direct")
         col.prop(layer, "use_pass_diffuse_indirect", text="Indirect")
+        cycles = getattr(layer, "cycles", None)  # Cycles' settings, there while Cycles is
+        if cycles is not None:
+            col.prop(cycles, "use_pass_volume_direct", text="Volume Direct")
+            col.prop(cycles, "use_pass_volume_indirect", text="Volume Indirect")
         col.prop(layer.photon, "use_pass_caustic")
         col.prop(layer.photon, "use_pass_subsurface")
 

@@ -4,6 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::film::Image;
+use crate::light_pass::LightPass;
 use crate::math::{linear_to_srgb, Vec3};
 use exr::prelude::*;
 use std::path::{Path, PathBuf};
@@ -16,7 +17,8 @@ pub enum ExrLayout {
     Rgba,
     /// Blender's multilayer naming `<view layer>.<pass>.<channel>` (Combined, Depth, Normal,
     /// Denoising Albedo, Denoising Normal), which `RenderResult.load_from_file` reads; with
-    /// `light_passes`, also the light-path passes under the names in `LIGHT_PASS_NAMES`.
+    /// `light_passes`, also the light-path passes under the names in `LIGHT_PASS_NAMES` (the
+    /// volume passes only when the image has volume light).
     Blender {
         view_layer: String,
         light_passes: bool,
@@ -25,9 +27,22 @@ pub enum ExrLayout {
 
 /// Blender pass names of the light-path passes, in `LightPass` order. Emission, Direct and
 /// Indirect use the names of Blender's own view-layer passes (Emission, Diffuse Direct, Diffuse
-/// Indirect, which Photon fills with all of its direct and indirect light, glossy included);
-/// Caustic and Subsurface have no Blender counterpart and are the add-on's own.
-pub const LIGHT_PASS_NAMES: [&str; 5] = ["Emit", "DiffDir", "DiffInd", "Caustic", "Subsurface"];
+/// Indirect, which Photon fills with all of its direct and indirect light from surfaces, glossy
+/// included), Volume Direct and Indirect those of Cycles' (`VolumeDir`, `VolumeInd`); Caustic
+/// and Subsurface have no Blender counterpart and are the add-on's own.
+pub const LIGHT_PASS_NAMES: [&str; 7] = [
+    "Emit",
+    "DiffDir",
+    "DiffInd",
+    "Caustic",
+    "Subsurface",
+    "VolumeDir",
+    "VolumeInd",
+];
+
+/// The light passes written only when some pixel has light in them (images of scenes without
+/// media keep the channels they always had); Blender leaves a pass the file lacks black.
+const WRITTEN_WHEN_LIT: [LightPass; 2] = [LightPass::VolumeDirect, LightPass::VolumeIndirect];
 
 /// The temporary path a file is written to before it is renamed to `path`.
 pub fn temporary_path(path: &Path) -> PathBuf {
@@ -124,6 +139,10 @@ fn exr_channels(image: &Image, layout: &ExrLayout) -> Vec<(String, Vec<f32>)> {
             ];
             if *light_passes {
                 for (p, pass) in LIGHT_PASS_NAMES.iter().enumerate() {
+                    let lit = || image.passes.iter().any(|v| v.0[p] != Vec3::ZERO);
+                    if WRITTEN_WHEN_LIT.contains(&LightPass::ALL[p]) && !lit() {
+                        continue;
+                    }
                     for (c, chan) in ["R", "G", "B"].iter().enumerate() {
                         let values = plane(&|i| image.passes[i].0[p][c]);
                         channels.push((name(pass, chan), values));

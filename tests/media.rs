@@ -16,9 +16,7 @@ use photon::metrics::compare;
 use photon::phase::Phase;
 use photon::render::{render, Method, RenderSettings};
 use photon::scene::{Lamp, Light, Material, Projection, Scene, Volume};
-use photon::shader::{compile, CompileWarnings};
-use scenes::{camera_looking_at, floor, scene, sphere, with_progress};
-use std::sync::Arc;
+use scenes::{camera_looking_at, floor, scene, sphere, volume_material, with_progress};
 
 fn render_with(scene: &Scene, method: Method, size: u32, spp: u32) -> Image {
     let settings = RenderSettings {
@@ -33,23 +31,6 @@ fn render_with(scene: &Scene, method: Method, size: u32, spp: u32) -> Image {
     let (image, stats) = with_progress(|p| render(scene, &settings, p)).expect("render");
     assert_eq!(stats.nonfinite_samples, 0);
     image
-}
-
-/// A material whose surface lets every ray through (a white Transparent BSDF, as a Blender
-/// material with only a Volume) and whose inside is `c`.
-fn volume_material(c: Coefficients) -> Material {
-    let tree = serde_json::json!({
-        "nodes": [{"name": "T", "type": "ShaderNodeBsdfTransparent",
-                   "inputs": {"Color": [1, 1, 1, 1]}}],
-        "output": {"node": 0, "output": "BSDF"}
-    });
-    let mut warnings = CompileWarnings::new();
-    let program = compile(&tree, 0, &mut warnings).expect("transparent tree");
-    Material {
-        nodes: Some(Arc::new(program)),
-        volume: Some(Volume::homogeneous(c)),
-        ..Material::diffuse("volume", Vec3::ONE)
-    }
 }
 
 /// A unit sphere of medium `c` at the origin under a uniform world of radiance `world`, seen
@@ -125,6 +106,8 @@ fn a_density_grid_attenuates_by_its_value_along_the_ray() {
     use photon::math::{Affine3A, Mat4};
     use photon::scene::grids::{Grid, VolumeGrids};
     use photon::scene::{ObjectSpace, BLENDER_AXES};
+    use photon::shader::{compile, CompileWarnings};
+    use std::sync::Arc;
     let tree = serde_json::json!({
         "nodes": [{"name": "P", "type": "ShaderNodeVolumePrincipled",
                    "attributes": {"density": "density", "color": "", "temperature": ""},

@@ -30,7 +30,7 @@ use super::{CameraSample, Context};
 use crate::accel::{hit_holdout, hit_mesh, Ray, Visibility};
 use crate::bsdf::{BsdfSample, Scattering};
 use crate::light::{emitted_radiance, Receiver};
-use crate::light_pass::{LightPass, Passes};
+use crate::light_pass::{FirstVertex, LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::medium::{
     fly, transmittance as medium_transmittance, Coefficients, Flight, Media, SegmentSampler,
@@ -57,8 +57,12 @@ pub struct PathState {
     pub media: MediumStack,
     /// Scatterings in media so far (Blender's Volume bounces limit them).
     pub volume_bounces: u32,
-    /// Non-delta vertices so far.
+    /// Non-delta vertices so far (surface vertices with a non-delta lobe and scatterings in
+    /// media).
     pub diffuse: u32,
+    /// Where the first of them lies (meaningful once `diffuse` > 0): it chooses between the
+    /// surface and the volume light passes.
+    pub first: FirstVertex,
     /// Bounces before the current vertex (0 at the camera ray's hit).
     pub depth: u32,
     /// The path went through a translucent material (its light is `LightPass::Subsurface`).
@@ -95,6 +99,7 @@ impl PathState {
             media: MediumStack::default(),
             volume_bounces: 0,
             diffuse: 0,
+            first: FirstVertex::Surface,
             depth: 0,
             subsurface: false,
             diffuse_ancestor: gather,
@@ -110,18 +115,42 @@ impl PathState {
     }
 
     /// The pass of light reaching the camera through this path and `vertices` more non-delta
-    /// vertices (a light sample counts its own vertex).
-    pub fn pass(&self, vertices: u32) -> LightPass {
+    /// vertices (a light sample counts its own vertex), the next of them at `next`.
+    pub fn pass(&self, vertices: u32, next: FirstVertex) -> LightPass {
         if self.subsurface {
             LightPass::Subsurface
         } else {
-            LightPass::after(self.diffuse + vertices)
+            let first = if self.diffuse > 0 { self.first } else { next };
+            LightPass::after_first(self.diffuse + vertices, first)
         }
     }
 
-    /// Add `radiance` (already times `beta`) to the pass after `vertices` more vertices.
+    /// Add `radiance` (already times `beta`) to the pass after `vertices` more vertices, the
+    /// next of them on a surface.
     pub fn add(&mut self, vertices: u32, radiance: Vec3) {
-        self.passes.add(self.pass(vertices), radiance);
+        self.passes
+            .add(self.pass(vertices, FirstVertex::Surface), radiance);
+    }
+
+    /// Add `radiance` (already times `beta`) to the pass after `vertices` more vertices, the
+    /// next of them a scattering in the medium along the ray.
+    pub fn add_in_medium(&mut self, vertices: u32, radiance: Vec3) {
+        self.passes
+            .add(self.pass(vertices, FirstVertex::Medium), radiance);
+    }
+
+    /// The Emission pass so far: at the first vertex, what the camera sees directly (the light
+    /// the media along the camera ray scatter towards it is in the volume passes).
+    fn seen_emission(&self) -> Vec3 {
+        self.passes.0[LightPass::Emission as usize]
+    }
+
+    /// Count one more non-delta vertex, at `kind`.
+    fn count_vertex(&mut self, kind: FirstVertex) {
+        if self.diffuse == 0 {
+            self.first = kind;
+        }
+        self.diffuse += 1;
     }
 
     /// Add `estimate` × `beta`, an estimate by pass made at the current vertex
@@ -132,7 +161,8 @@ impl PathState {
             self.passes
                 .add(LightPass::Subsurface, self.beta * estimate.total());
         } else {
-            self.passes.add_after(estimate, self.beta, self.diffuse);
+            self.passes
+                .add_after(estimate, self.beta, self.diffuse, self.first);
         }
     }
 
@@ -170,7 +200,7 @@ impl PathState {
 
     /// The ray left the scene: the world's light, MIS-weighted.
     fn escaped(&mut self, ctx: &Context) {
-        let pass = self.pass(0);
+        let pass = self.pass(0, FirstVertex::Surface);
         let (beta, previous) = (self.beta, self.previous);
         let passes = &mut self.passes;
         ctx.lights
@@ -182,7 +212,7 @@ impl PathState {
     /// The lamps the ray to the next vertex meets before `reach` (`Lights::lamps_met`),
     /// attenuated by the medium up to them, MIS-weighted.
     fn lamps(&mut self, ctx: &Context, reach: f32, camera: bool, rng: &mut Rng) {
-        let pass = self.pass(0);
+        let pass = self.pass(0, FirstVertex::Surface);
         let (beta, previous, absorption) = (self.beta, self.previous, self.absorption);
         let passes = &mut self.passes;
         let (ray, media) = (self.ray, self.media);
@@ -239,8 +269,8 @@ impl PathState {
     }
 
     /// The light the media along the ray to the next vertex (over `reach`) scatter towards
-    /// it (`light_scattered_along`, MIS-weighted against phase sampling), added to the next
-    /// vertex's pass. The scattering the walk then continues from (`scatter_in_medium`) takes
+    /// it (`light_scattered_along`, MIS-weighted against phase sampling), added to the pass of
+    /// a scattering in the medium. The scattering the walk then continues from (`scatter_in_medium`) takes
     /// no light sample of its own.
     fn light_in_media(&mut self, ctx: &Context, reach: f32, rng: &mut Rng) {
         let (ray, media, path, beta) = (self.ray, self.media, self.light_path, self.beta);
@@ -255,7 +285,7 @@ impl PathState {
             rng,
             &mut self.rays,
         );
-        self.add(1, l);
+        self.add_in_medium(1, l);
     }
 
     /// A scattering at distance `t` along the ray in media `at`: the path goes on along a
@@ -277,7 +307,7 @@ impl PathState {
             return false;
         }
         self.beta *= f / pdf;
-        self.diffuse += 1;
+        self.count_vertex(FirstVertex::Medium);
         self.volume_bounces += 1;
         if self.volume_bounces > ctx.scene.render_settings.volume_bounces {
             self.emission_only = true;
@@ -330,7 +360,7 @@ impl PathState {
             return false;
         }
         if !bs.delta {
-            self.diffuse += 1;
+            self.count_vertex(FirstVertex::Surface);
         }
         if bs.scattering == Scattering::Diffuse {
             self.diffuse_ancestor = true;
@@ -493,13 +523,13 @@ fn walk_from(
                 Flight::Passed => {}
                 Flight::Absorbed => {
                     if depth == 0 {
-                        out.seen_emission = state.passes.total();
+                        out.seen_emission = state.seen_emission();
                     }
                     break;
                 }
                 Flight::Scattered { t, at } => {
                     if depth == 0 {
-                        out.seen_emission = state.passes.total();
+                        out.seen_emission = state.seen_emission();
                     }
                     if depth == ctx.max_depth
                         || state.emission_only
@@ -525,7 +555,7 @@ fn walk_from(
                 }
             }
             if depth == 0 {
-                out.seen_emission = state.passes.total();
+                out.seen_emission = state.seen_emission();
             }
             break;
         };
@@ -533,7 +563,7 @@ fn walk_from(
         let material = hit_mesh(ctx.scene, &hit).material;
         if state.emission_only && !ctx.scene.materials[material as usize].is_emissive() {
             if depth == 0 {
-                out.seen_emission = state.passes.total();
+                out.seen_emission = state.seen_emission();
             }
             break;
         }
@@ -545,7 +575,7 @@ fn walk_from(
         s.media = state.media;
         // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
         if primary && (s.surface.holdout || hit_holdout(ctx.scene, &hit)) {
-            out.seen_emission = state.passes.total();
+            out.seen_emission = state.seen_emission();
             out.holdout = true;
             break;
         }
@@ -559,7 +589,7 @@ fn walk_from(
             state.emitted(ctx, &s);
         }
         if depth == 0 {
-            out.seen_emission = state.passes.total();
+            out.seen_emission = state.seen_emission();
         }
         if depth == ctx.max_depth || state.emission_only {
             break;

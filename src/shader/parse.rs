@@ -438,7 +438,7 @@ pub(super) fn parse_op(
             "RAYLEIGH" => Op::VolumeScatter(ScatterPhase::Rayleigh),
             "DRAINE" => Op::VolumeScatter(ScatterPhase::Draine),
             "MIE" => Op::VolumeScatter(ScatterPhase::Mie),
-            // Fournier-Forand is not rendered.
+            "FOURNIER_FORAND" => Op::VolumeScatter(ScatterPhase::FournierForand),
             _ => return Ok(None),
         },
         _ => return Ok(None),

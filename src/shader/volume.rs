@@ -27,6 +27,7 @@ pub(super) enum ScatterPhase {
     Rayleigh,
     Draine,
     Mie,
+    FournierForand,
 }
 
 /// Principled Volume's inputs (its attribute names are settings: `Op::PrincipledVolume`).
@@ -42,11 +43,13 @@ pub(super) const PRINCIPLED_VOLUME_INPUTS: &[Socket] = &[
     Socket::float("Temperature", 1000.0),
 ];
 
-/// Volume Scatter's inputs read (IOR and Backscatter are Fournier-Forand's, not rendered).
+/// Volume Scatter's inputs read.
 pub(super) const SCATTER_INPUTS: &[Socket] = &[
     Socket::color("Color", GREY),
     Socket::float("Density", 1.0),
     Socket::float("Anisotropy", 0.0),
+    Socket::float("IOR", 1.33),
+    Socket::float("Backscatter", 0.1),
     Socket::float("Alpha", 0.5),
     Socket::float("Diameter", 20.0),
 ];
@@ -75,6 +78,8 @@ const SCATTER_DENSITY: usize = input(SCATTER_INPUTS, "Density");
 const SCATTER_ANISOTROPY: usize = input(SCATTER_INPUTS, "Anisotropy");
 const SCATTER_ALPHA: usize = input(SCATTER_INPUTS, "Alpha");
 const SCATTER_DIAMETER: usize = input(SCATTER_INPUTS, "Diameter");
+const SCATTER_IOR: usize = input(SCATTER_INPUTS, "IOR");
+const SCATTER_BACKSCATTER: usize = input(SCATTER_INPUTS, "Backscatter");
 
 /// The Principled Volume node, with the values of its Density, Color and Temperature
 /// attributes where the object has them (`named`): each scales its input, as Cycles'
@@ -144,6 +149,9 @@ pub(super) fn eval_volume_scatter(phase: ScatterPhase, ins: &impl Operands) -> C
             other => other,
         },
         ScatterPhase::Mie => Phase::mie(ins.float(SCATTER_DIAMETER)),
+        ScatterPhase::FournierForand => {
+            Phase::fournier_forand(ins.float(SCATTER_BACKSCATTER), ins.float(SCATTER_IOR))
+        }
     };
     Closure {
         volume: VolumeClosure {

@@ -147,3 +147,21 @@ def render(scene, engine: str, path: Path, samples: int) -> np.ndarray:
     if not path.exists():
         raise AssertionError(f"{engine} wrote no image at {path}")
     return read_exr(path)
+
+
+def render_layers(scene, engine: str, path: Path, samples: int) -> dict:
+    """Render the scene camera with `engine` to a multilayer EXR at `path` (the view layers'
+    passes) and return its channels by full name (`ViewLayer.Combined.R`, …)."""
+    import OpenEXR
+
+    common.configure_cycles(scene, samples, seed=1, threads=THREADS)
+    common.set_multilayer_exr(scene.render.image_settings)
+    scene.render.engine = engine
+    scene.photon.samples = samples
+    scene.render.filepath = str(path)
+    scene.render.use_file_extension = False
+    bpy.ops.render.render(write_still=True)
+    # Blender 5 writes one part per pass, Blender 4 a single part: read every part.
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {name: np.array(chan.pixels) for part in f.parts
+                for name, chan in part.channels.items()}

@@ -111,7 +111,8 @@ def test_view_layer_panel_draws_the_pass_toggles(photon_addon):
         (layer.photon, "use_pass_denoising_data")]
     assert drawn(ui.VIEWLAYER_PT_photon_light_passes, context) == [
         (layer, "use_pass_emit"), (layer, "use_pass_diffuse_direct"),
-        (layer, "use_pass_diffuse_indirect"), (layer.photon, "use_pass_caustic"),
+        (layer, "use_pass_diffuse_indirect"), (layer.cycles, "use_pass_volume_direct"),
+        (layer.cycles, "use_pass_volume_indirect"), (layer.photon, "use_pass_caustic"),
         (layer.photon, "use_pass_subsurface")]
     assert drawn(ui.RENDER_PT_photon_film, context) == [
         (scene.render, "film_transparent"), (scene.cycles, "pixel_filter_type"),

@@ -5,7 +5,6 @@ Blender), and at the cube's centre pixel they agree with Cycles'.
 
 import bpy
 import numpy as np
-import OpenEXR
 import pytest
 
 import common
@@ -17,17 +16,7 @@ PASSES = ["Combined.R", "Combined.A", "Depth.Z", "Normal.X", "Normal.Y", "Normal
 
 
 def render_multilayer(scene, engine, path):
-    common.configure_cycles(scene, 32, seed=1, threads=scenes_bpy.THREADS)
-    common.set_multilayer_exr(scene.render.image_settings)
-    scene.render.engine = engine
-    scene.photon.samples = 32
-    scene.render.filepath = str(path)
-    scene.render.use_file_extension = False
-    bpy.ops.render.render(write_still=True)
-    # Blender 5 writes one part per pass, Blender 4 a single part: read every part.
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        return {name: np.array(chan.pixels) for part in f.parts
-                for name, chan in part.channels.items()}
+    return scenes_bpy.render_layers(scene, engine, path, 32)
 
 
 @pytest.mark.slow

@@ -54,8 +54,8 @@ def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
 
 def add_unsupported_features(scene):
     """A Gabor Texture (a node Photon does not evaluate yet: Noise, for one, it does) into the
-    cube's base colour, a second cube whose volume scatters with the Fournier-Forand phase
-    function (the volume shaders Photon renders: others), and a particle
+    cube's base colour, a second cube whose volume's density is a Gabor Texture too (volume
+    trees are evaluated with the nodes surface trees have), and a particle
     system on the cube rendered as halos (hair particles are carried: points_curves.py)."""
     cube = bpy.data.objects["Cube"]
     tree = cube.active_material.node_tree
@@ -71,7 +71,9 @@ def add_unsupported_features(scene):
     nodes = fog.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
     volume = nodes.new("ShaderNodeVolumeScatter")
-    volume.phase = "FOURNIER_FORAND"
+    wisps = nodes.new("ShaderNodeTexGabor")
+    wisps.name = "Wisps"
+    fog.node_tree.links.new(wisps.outputs["Value"], volume.inputs["Density"])
     fog.node_tree.links.new(volume.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
     smoke.data.materials.clear()
     smoke.data.materials.append(fog)
@@ -96,7 +98,7 @@ def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, r
     warnings, status = render_warnings(capfd, route, monkeypatch)
     expected = {
         "gabor node": lambda w: "material 'Material'" in w and "Gabor Texture node 'Clouds'" in w,
-        "volume": lambda w: "material 'Fog'" in w and "FOURNIER_FORAND" in w,
+        "volume": lambda w: "material 'Fog'" in w and "Gabor Texture node 'Wisps'" in w,
         "halos": lambda w: "object 'Cube'" in w and "'Sparks' rendered as HALO" in w,
     }
     for feature, matches in expected.items():

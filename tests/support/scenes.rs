@@ -4,12 +4,16 @@
 
 use photon::film::Image;
 use photon::math::{Affine3A, Vec2, Vec3};
+use photon::medium::Coefficients;
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{render, RenderSettings, RenderStats};
 use photon::scene::{
-    Background, Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, World,
+    Background, Camera, Light, Material, Mesh, Projection, Scene, SceneRenderSettings, Volume,
+    World,
 };
+use photon::shader::{compile, CompileWarnings};
 use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 /// Run `f` with a progress sink that is never cancelled and reports nothing.
 pub fn with_progress<T>(f: impl FnOnce(&Progress) -> T) -> T {
@@ -306,4 +310,21 @@ pub fn render_quietly(
     settings: &RenderSettings,
 ) -> photon::error::Result<(Image, RenderStats)> {
     with_progress(|progress| render(scene, settings, progress))
+}
+
+/// A material whose surface lets every ray through (a white Transparent BSDF, as a Blender
+/// material with only a Volume) and whose inside is the homogeneous medium `c`.
+pub fn volume_material(c: Coefficients) -> Material {
+    let tree = serde_json::json!({
+        "nodes": [{"name": "T", "type": "ShaderNodeBsdfTransparent",
+                   "inputs": {"Color": [1, 1, 1, 1]}}],
+        "output": {"node": 0, "output": "BSDF"}
+    });
+    let mut warnings = CompileWarnings::new();
+    let program = compile(&tree, 0, &mut warnings).expect("transparent tree");
+    Material {
+        nodes: Some(Arc::new(program)),
+        volume: Some(Volume::homogeneous(c)),
+        ..Material::diffuse("volume", Vec3::ONE)
+    }
 }

@@ -45,7 +45,10 @@
 //! Light passes, as seen from x: its light sample and the emission its gather rays find are
 //! Direct, emission through its delta lobes Emission, the global estimates and the cache
 //! Indirect, the caustic estimate Caustic, the dipole term Subsurface; glossy vertices on the
-//! camera path before x move Emission and Direct one step further (`Passes::add_after`).
+//! camera path before x move Emission and Direct one step further (`Passes::add_after`). Along
+//! the camera path's segments through media, single scattering is Volume Direct and the volume
+//! map's estimate Volume Indirect (both Indirect once a glossy vertex came before);
+//! what media scatter along x's gather rays is part of x's Indirect light.
 
 use super::build::PhotonMaps;
 use super::estimate::{nearest_irradiance, radiance_estimate, Walls};
@@ -725,9 +728,9 @@ impl Scatter for PhotonCamera<'_> {
             rng,
             &mut g.rays,
         );
-        path.add(1, single);
+        path.add_in_medium(1, single);
         let multiple = g.volume_estimate(&ray, reach, &media, rng);
-        path.add(2, beta * multiple);
+        path.add_in_medium(2, beta * multiple);
     }
 
     fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
