@@ -10,12 +10,16 @@ against Cycles (docs/bench/volumes.md).
   3.9 m cube of haze (Volume Scatter, density 0.15) filling the room; the camera inside sees
   the shaft of light; black world.
 
+- `vdb_smoke`: a 256³ OpenVDB smoke grid Blender bakes (`baked_smoke_vdb`) as a Volume object
+  (Principled Volume, Density 6) under a sun: the memory and load time of a large grid.
+
 Volume bounces stay at Blender's default, 0. tests/blender/test_volumes.py builds its scenes
 with the functions here.
 
 Usage:  .venv/bin/python scenes/blender/volume_scenes.py OUT_DIR
-writes OUT_DIR/{glass_fog,god_rays}.blend (for scenes/blender/cycles_time.py) and
-OUT_DIR/{glass_fog,god_rays}.glb, exported through the add-on (for `photon bench`).
+writes OUT_DIR/{glass_fog,god_rays,vdb_smoke}.blend (for scenes/blender/cycles_time.py) and
+OUT_DIR/{glass_fog,god_rays,vdb_smoke}.glb, exported through the add-on (for `photon bench`;
+the smoke's .vdb stays in OUT_DIR/vdb_smoke_bake, where the .glb names it).
 """
 
 from __future__ import annotations
@@ -247,7 +251,18 @@ def god_rays(size=SIZE):
     return scene
 
 
-SCENES = {"glass_fog": glass_fog, "god_rays": god_rays}
+def vdb_smoke(out_dir, size=SIZE, resolution=256):
+    path = baked_smoke_vdb(Path(out_dir).resolve() / "vdb_smoke_bake", resolution)
+    scene = common.reset_scene(size, size)
+    mat, node = volume_material("Smoke", "ShaderNodeVolumePrincipled")
+    node.inputs["Density"].default_value = 6.0
+    volume_object("Smoke", path, mat, (0.0, 0.0, 1.0))
+    common.camera("Camera", (0.0, -4.0, 3.0), (53.0, 0.0, 0.0), 45.0)
+    common.light("Sun", "SUN", (0, 0, 5), (30.0, 10.0, 40.0), energy=3.0)
+    return scene
+
+
+SCENES = {"glass_fog": glass_fog, "god_rays": god_rays, "vdb_smoke": vdb_smoke}
 
 
 def main(out_dir: Path):
@@ -258,7 +273,7 @@ def main(out_dir: Path):
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         for name, build in SCENES.items():
-            build()
+            build(out_dir) if build is vdb_smoke else build()
             blend = out_dir / f"{name}.blend"
             bpy.ops.wm.save_as_mainfile(filepath=str(blend.resolve()))
             glb = out_dir / f"{name}.glb"
