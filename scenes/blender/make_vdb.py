@@ -184,7 +184,7 @@ def python_files():
     hv.saveFloatAsHalf = True
     vdb.write(os.path.join(OUT, "pyvdb_half.vdb"), grids=[h, hv])
 
-    # Types the reader refuses, before and after one it reads.
+    # Types the reader refuses (and steps over in a file without offsets), before one it reads.
     d = vdb.DoubleGrid()
     d.name = "double"
     d.getAccessor().setValueOn((1, 2, 3), 1.5)
@@ -197,7 +197,7 @@ def python_files():
     f = vdb.FloatGrid()
     f.name = "float"
     f.getAccessor().setValueOn((1, 2, 3), 0.5)
-    vdb.write(os.path.join(OUT, "pyvdb_types.vdb"), grids=[d, i, f, b])
+    vdb.write(os.path.join(OUT, "pyvdb_types.vdb"), grids=[d, b, i, f])
     return vdb
 
 

@@ -462,6 +462,8 @@ fn walk_grids(data: &[u8], mut stop: impl FnMut(&GridEntry) -> bool) -> Parse<Ve
                     Ok(end) if end >= c.pos && end <= data.len() => c.pos = end,
                     _ => return damaged(format!("grid '{}' ends outside the file", entry.name)),
                 }
+            } else if entry.kind == ValueKind::Opaque && grids.len() + 1 == count as usize {
+                // Nothing follows a last grid the reader cannot step over: list it anyway.
             } else {
                 skip_grid(&mut c, &entry)?;
             }
@@ -753,8 +755,8 @@ impl<'a, 'c> TreeReader<'a, 'c> {
     /// decoding, leaves the `count` values in `self.values`.
     fn value_array(&mut self, count: usize, value_mask: &[u64]) -> Parse<()> {
         if self.kind == ValueKind::Bool && count == LEAF_VOXELS {
-            // Boolean leaves store their values as a second bit mask.
-            self.c.take(LEAF_VOXELS / 8)?;
+            // Boolean leaves store their origin and their values as a second bit mask.
+            self.c.take(3 * 4 + LEAF_VOXELS / 8)?;
             return Ok(());
         }
         let code = self.c.u8()?;
