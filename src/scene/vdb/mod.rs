@@ -304,6 +304,17 @@ impl<'a> Cursor<'a> {
         Ok(String::from_utf8_lossy(self.take(n)?).into_owned())
     }
 
+    fn leaf_mask(&mut self) -> Parse<[u64; LEAF_WORDS]> {
+        let mut mask = [0u64; LEAF_WORDS];
+        for (word, bytes) in mask
+            .iter_mut()
+            .zip(self.take(LEAF_WORDS * 8)?.chunks_exact(8))
+        {
+            *word = u64::from_le_bytes(bytes.try_into().unwrap_or_default());
+        }
+        Ok(mask)
+    }
+
     fn mask(&mut self, words: usize) -> Parse<Vec<u64>> {
         let bytes = self.take(words * 8)?;
         Ok(bytes
@@ -739,11 +750,9 @@ impl<'a, 'c> TreeReader<'a, 'c> {
             if log2 == UPPER_LOG2 {
                 self.internal(topology, child_origin(i), LOWER_LOG2)?;
             } else {
-                let mut mask = [0u64; LEAF_WORDS];
-                mask.copy_from_slice(&self.c.mask(LEAF_WORDS)?);
                 topology.leaves.push(Leaf {
                     origin: child_origin(i),
-                    mask,
+                    mask: self.c.leaf_mask()?,
                 });
             }
         }
@@ -872,8 +881,7 @@ impl<'a, 'c> TreeReader<'a, 'c> {
         mut visit: impl FnMut(&Leaf, &[f32]),
     ) -> Parse<()> {
         for leaf in order.iter().flat_map(|r| &topology.leaves[r.clone()]) {
-            let mask = self.c.mask(LEAF_WORDS)?;
-            if mask != leaf.mask {
+            if self.c.leaf_mask()? != leaf.mask {
                 return damaged("a leaf's value mask differs between topology and buffers");
             }
             self.value_array(LEAF_VOXELS, &leaf.mask)?;
@@ -1085,6 +1093,17 @@ impl Dense {
     /// Writes a leaf's 8³ values (x slowest, z fastest in the leaf) into the box.
     fn leaf(&mut self, origin: [i64; 3], values: &[f32]) {
         let c = self.channels;
+        let far = origin.map(|o| o + 7);
+        if (0..3).all(|k| origin[k] >= self.lo[k] && far[k] <= self.hi[k]) {
+            // Wholly inside: no test per voxel.
+            let base = self.index(origin[0], origin[1], origin[2]);
+            let (row, slice) = (self.size[0] * c, self.size[0] * self.size[1] * c);
+            for (n, value) in values.chunks_exact(c).enumerate() {
+                let at = base + (n >> 6) * c + ((n >> 3) & 7) * row + (n & 7) * slice;
+                self.values[at..at + c].copy_from_slice(value);
+            }
+            return;
+        }
         for (n, value) in values.chunks_exact(c).enumerate() {
             let x = origin[0] + (n >> 6) as i64;
             let y = origin[1] + ((n >> 3) & 7) as i64;
