@@ -150,7 +150,7 @@ def python_files():
     hv.saveFloatAsHalf = True
     vdb.write(os.path.join(OUT, "pyvdb_half.vdb"), grids=[h, hv])
 
-    # Types the reader refuses, before and after one it reads.
+    # Types the reader refuses (and steps over in a file without offsets), before one it reads.
     d = vdb.DoubleGrid()
     d.name = "double"
     d.getAccessor().setValueOn((1, 2, 3), 1.5)
@@ -163,7 +163,7 @@ def python_files():
     f = vdb.FloatGrid()
     f.name = "float"
     f.getAccessor().setValueOn((1, 2, 3), 0.5)
-    vdb.write(os.path.join(OUT, "pyvdb_types.vdb"), grids=[d, i, f, b])
+    vdb.write(os.path.join(OUT, "pyvdb_types.vdb"), grids=[d, b, i, f])
     return vdb
 
 
@@ -213,7 +213,7 @@ static GridPtrVec grids() {
             for (int z = 2; z < 7; ++z) acc.setValueOn(Coord(x, y, z), x + 10.f * y + 100.f * z);
     // Leaves whose inactive values are: the background and one other (code 4); three values
     // (code 6, all stored); one value (code 2); two other values (code 5); minus the
-    // background (code 1).
+    // background (code 1); both signs of the background (code 3, a selection mask).
     acc.setValueOff(Coord(1, 1, 1), 7.f);
     acc.setValueOff(Coord(9, 1, 1), 7.f);
     acc.setValueOff(Coord(9, 1, 0), -3.f);
@@ -225,6 +225,8 @@ static GridPtrVec grids() {
     leafOf(24, 7.f);
     acc.setValueOff(Coord(26, 4, 4), -3.f);
     leafOf(32, -0.5f);
+    leafOf(40, -0.5f);
+    acc.setValueOff(Coord(40, 4, 4), 0.5f);
     ramp->setTransform(math::Transform::createLinearTransform(0.25));
     ramp->transform().postTranslate(Vec3d(1, 2, 3));
     out.push_back(ramp);
@@ -252,7 +254,8 @@ static void samples(std::ofstream& txt, const std::string& file, const GridPtrVe
         for (auto it = box.begin(); it; ++it, ++n) {
             const Coord c0 = *it;
             const bool chosen = c0 == Coord(1, 1, 1) || c0 == Coord(9, 1, 0) || c0 == Coord(26, 4, 4)
-                || c0 == Coord(17, 2, 3) || c0 == Coord(16, 0, 0) || c0 == Coord(33, 7, 7) || c0 == Coord(20, 8, 8);
+                || c0 == Coord(17, 2, 3) || c0 == Coord(16, 0, 0) || c0 == Coord(33, 7, 7) || c0 == Coord(20, 8, 8)
+                || c0 == Coord(40, 4, 4) || c0 == Coord(41, 4, 4);
             if (n % step != 0 && !chosen) continue;
             Coord c = *it;
             if (auto g = GridBase::grid<FloatGrid>(base)) {

@@ -307,3 +307,37 @@ fn truncated_and_damaged_files_never_panic() {
         }
     }
 }
+
+/// Read time and peak memory of a large grid: `PHOTON_VDB_BENCH=file.vdb cargo test --release
+/// --lib vdb::tests::read_time -- --ignored --nocapture` (make one with make_vdb.py --large).
+#[test]
+#[ignore]
+fn read_time() {
+    let path = PathBuf::from(std::env::var("PHOTON_VDB_BENCH").expect("PHOTON_VDB_BENCH"));
+    let peak_kib = || {
+        let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix("VmHWM:"))
+            .and_then(|v| v.trim().trim_end_matches(" kB").trim().parse::<u64>().ok())
+            .unwrap_or(0)
+    };
+    let before = peak_kib();
+    let start = std::time::Instant::now();
+    let names = grid_names(&path).unwrap();
+    let names_time = start.elapsed();
+    for (name, _) in &names {
+        let start = std::time::Instant::now();
+        let g = read_grid(&path, name, u64::MAX).unwrap();
+        let time = start.elapsed();
+        println!(
+            "{name}: {:?} voxels, {} MiB dense, read in {:.3} s; grid_names {:.3} s; peak RSS {} MiB (before {} MiB)",
+            g.size,
+            (g.values.len() * 4) >> 20,
+            time.as_secs_f64(),
+            names_time.as_secs_f64(),
+            peak_kib() >> 10,
+            before >> 10
+        );
+    }
+}
