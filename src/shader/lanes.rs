@@ -7,10 +7,12 @@
 
 use super::hash::{HashWord, W};
 use crate::math::Vec4;
-use std::ops::{Add, BitAnd, BitOr, Mul, Sub};
+use std::ops::{Add, BitAnd, BitOr, BitXor, Mul, Sub};
 
 /// Lanes of 32-bit words: lookup3's arithmetic and what Perlin's gradient reads of a hash.
 pub(super) trait Words: HashWord + BitAnd<Output = Self> + BitOr<Output = Self> {
+    /// How many lanes.
+    const N: usize;
     fn splat(v: u32) -> Self;
     /// All ones in the lanes whose word, as a signed integer, is less than `v`, else zero.
     fn less_than(self, v: u32) -> Self;
@@ -65,6 +67,7 @@ pub(super) trait Lanes:
 }
 
 impl Words for W {
+    const N: usize = 1;
     #[inline(always)]
     fn splat(v: u32) -> W {
         W(v)
@@ -239,6 +242,7 @@ mod four {
     }
 
     impl Words for U32x4 {
+        const N: usize = 4;
         #[inline(always)]
         fn splat(v: u32) -> U32x4 {
             // SAFETY: SSE2 is always present on x86-64.
@@ -404,6 +408,7 @@ mod four {
     }
 
     impl Words for U32x4 {
+        const N: usize = 4;
         fn splat(v: u32) -> U32x4 {
             U32x4([v; 4])
         }
@@ -481,6 +486,190 @@ mod four {
 }
 
 pub(super) use four::U32x4;
+
+/// Twice the lanes of `T` in two of them (`.0` the first half): eight lanes where the machine
+/// has no AVX2, as two SSE registers.
+#[derive(Clone, Copy)]
+pub(super) struct Pair<T>(pub T, pub T);
+
+/// An operation on both halves (with `f32`: of a float and each lane).
+macro_rules! pair_op {
+    ($trait:ident, $method:ident) => {
+        impl<T: $trait<Output = T>> $trait for Pair<T> {
+            type Output = Pair<T>;
+            #[inline(always)]
+            fn $method(self, o: Pair<T>) -> Pair<T> {
+                Pair(self.0.$method(o.0), self.1.$method(o.1))
+            }
+        }
+    };
+    ($trait:ident, $method:ident, f32) => {
+        pair_op!($trait, $method);
+        impl<F: Lanes> $trait<f32> for Pair<F> {
+            type Output = Pair<F>;
+            #[inline(always)]
+            fn $method(self, o: f32) -> Pair<F> {
+                Pair(self.0.$method(o), self.1.$method(o))
+            }
+        }
+    };
+}
+pair_op!(Add, add, f32);
+pair_op!(Sub, sub, f32);
+pair_op!(Mul, mul, f32);
+pair_op!(BitAnd, bitand);
+pair_op!(BitOr, bitor);
+pair_op!(BitXor, bitxor);
+
+impl<T: Words> HashWord for Pair<T> {
+    #[inline(always)]
+    fn rotl<const L: i32, const R: i32>(self) -> Pair<T> {
+        Pair(self.0.rotl::<L, R>(), self.1.rotl::<L, R>())
+    }
+}
+
+impl<T: Words> Words for Pair<T> {
+    const N: usize = 2 * T::N;
+    #[inline(always)]
+    fn splat(v: u32) -> Pair<T> {
+        Pair(T::splat(v), T::splat(v))
+    }
+    #[inline(always)]
+    fn less_than(self, v: u32) -> Pair<T> {
+        Pair(self.0.less_than(v), self.1.less_than(v))
+    }
+    #[inline(always)]
+    fn equals(self, v: u32) -> Pair<T> {
+        Pair(self.0.equals(v), self.1.equals(v))
+    }
+    #[inline(always)]
+    fn shifted_left<const N: i32>(self) -> Pair<T> {
+        Pair(self.0.shifted_left::<N>(), self.1.shifted_left::<N>())
+    }
+    #[inline(always)]
+    fn bitmask(self) -> u32 {
+        self.0.bitmask() | self.1.bitmask() << T::N
+    }
+}
+
+impl<F: Lanes> Pair<F> {
+    /// The second half's share of eight values, first.
+    #[inline(always)]
+    fn upper<T: Copy + Default>(v: &[T; 8]) -> [T; 8] {
+        let mut out = [T::default(); 8];
+        out[..8 - F::N].copy_from_slice(&v[F::N..]);
+        out
+    }
+}
+
+impl<F: Lanes> Lanes for Pair<F> {
+    type Words = Pair<F::Words>;
+    const N: usize = 2 * F::N;
+    #[inline(always)]
+    fn splat(v: f32) -> Pair<F> {
+        Pair(F::splat(v), F::splat(v))
+    }
+    #[inline(always)]
+    fn load(v: &[f32; 8]) -> Pair<F> {
+        Pair(F::load(v), F::load(&Self::upper(v)))
+    }
+    #[inline(always)]
+    fn store(self) -> [f32; 8] {
+        let mut out = self.0.store();
+        out[F::N..].copy_from_slice(&self.1.store()[..8 - F::N]);
+        out
+    }
+    #[inline(always)]
+    fn lookup(table: [f32; 4], picks: &[i32; 8]) -> Pair<F> {
+        Pair(
+            F::lookup(table, picks),
+            F::lookup(table, &Self::upper(picks)),
+        )
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Pair<F> {
+        Pair(self.0.sqrt(), self.1.sqrt())
+    }
+    #[inline(always)]
+    fn least(self) -> f32 {
+        self.0.least().min(self.1.least())
+    }
+    #[inline(always)]
+    fn at_most(self, v: f32) -> Pair<F::Words> {
+        Pair(self.0.at_most(v), self.1.at_most(v))
+    }
+    #[inline(always)]
+    fn above(self, v: f32) -> Pair<F::Words> {
+        Pair(self.0.above(v), self.1.above(v))
+    }
+    #[inline(always)]
+    fn equal(self, v: f32) -> Pair<F::Words> {
+        Pair(self.0.equal(v), self.1.equal(v))
+    }
+    #[inline(always)]
+    fn select(mask: Pair<F::Words>, a: Pair<F>, b: Pair<F>) -> Pair<F> {
+        Pair(F::select(mask.0, a.0, b.0), F::select(mask.1, a.1, b.1))
+    }
+    #[inline(always)]
+    fn xor_bits(self, bits: Pair<F::Words>) -> Pair<F> {
+        Pair(self.0.xor_bits(bits.0), self.1.xor_bits(bits.1))
+    }
+    #[inline(always)]
+    fn to_bits(self) -> Pair<F::Words> {
+        Pair(self.0.to_bits(), self.1.to_bits())
+    }
+    #[inline(always)]
+    fn unit(h: Pair<F::Words>) -> Pair<F> {
+        Pair(F::unit(h.0), F::unit(h.1))
+    }
+    #[inline(always)]
+    fn floor(self) -> Pair<F> {
+        Pair(self.0.floor(), self.1.floor())
+    }
+    #[inline(always)]
+    fn all_below(self, limit: f32) -> bool {
+        self.0.all_below(limit) && self.1.all_below(limit)
+    }
+    #[inline(always)]
+    fn uniform_quads(self) -> bool {
+        self.0.uniform_quads() && self.1.uniform_quads()
+    }
+}
+
+/// Eight lanes that hold a lattice cell's corners (lane dx + 2 dy + 4 dz), for Perlin noise
+/// at one point: `F32x8`, or a `Pair` of `Vec4` (near face, far face).
+pub(super) trait CornerLanes: Lanes {
+    /// `b` in the lanes whose bit `BIT` is set, else `a`.
+    fn by_bit<const BIT: usize>(a: f32, b: f32) -> Self;
+    /// Each pair of neighbouring lanes' sum, in each group of four lanes
+    /// (a0 + a1, a2 + a3, a0 + a1, a2 + a3).
+    fn pair_sums(self) -> Self;
+    /// Lanes 0 and 4.
+    fn first_of_halves(self) -> [f32; 2];
+}
+
+impl CornerLanes for Pair<Vec4> {
+    #[inline(always)]
+    fn by_bit<const BIT: usize>(a: f32, b: f32) -> Pair<Vec4> {
+        match BIT {
+            0 => Pair(Vec4::new(a, b, a, b), Vec4::new(a, b, a, b)),
+            1 => Pair(Vec4::new(a, a, b, b), Vec4::new(a, a, b, b)),
+            _ => Pair(Vec4::splat(a), Vec4::splat(b)),
+        }
+    }
+    #[inline(always)]
+    fn pair_sums(self) -> Pair<Vec4> {
+        let sums = |v: Vec4| {
+            let (a, b) = (Vec4::new(v.x, v.z, v.x, v.z), Vec4::new(v.y, v.w, v.y, v.w));
+            a + b
+        };
+        Pair(sums(self.0), sums(self.1))
+    }
+    #[inline(always)]
+    fn first_of_halves(self) -> [f32; 2] {
+        [self.0.x, self.1.x]
+    }
+}
 
 /// `x.floor()` without the library call baseline x86-64 makes for it (bit for bit the same,
 /// −0 and NaN included): beyond 2²³ every float is an integer.
@@ -604,6 +793,7 @@ pub(super) mod eight {
     }
 
     impl Words for U32x8 {
+        const N: usize = 8;
         #[inline(always)]
         fn splat(v: u32) -> U32x8 {
             // SAFETY: a U32x8 is made only where AVX2 is.
@@ -752,6 +942,33 @@ pub(super) mod eight {
                 _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, first)) == 0xFF
             }
         }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl CornerLanes for eight::F32x8 {
+    #[inline(always)]
+    fn by_bit<const BIT: usize>(a: f32, b: f32) -> eight::F32x8 {
+        use std::arch::x86_64::*;
+        // SAFETY: an F32x8 is made only where AVX2 is.
+        unsafe {
+            let (a, b) = (_mm256_set1_ps(a), _mm256_set1_ps(b));
+            eight::F32x8(match BIT {
+                0 => _mm256_blend_ps::<0xAA>(a, b),
+                1 => _mm256_blend_ps::<0xCC>(a, b),
+                _ => _mm256_blend_ps::<0xF0>(a, b),
+            })
+        }
+    }
+    #[inline(always)]
+    fn pair_sums(self) -> eight::F32x8 {
+        // SAFETY: an F32x8 exists only where AVX2 does.
+        unsafe { eight::F32x8(std::arch::x86_64::_mm256_hadd_ps(self.0, self.0)) }
+    }
+    #[inline(always)]
+    fn first_of_halves(self) -> [f32; 2] {
+        let [a, b] = self.halves();
+        [a.x, b.x]
     }
 }
 

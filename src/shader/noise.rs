@@ -9,7 +9,7 @@
 use super::hash::{self, has_avx2, hash1, hash2, hash_float, hash_float2, LOOKUP3_SEED};
 use super::inputs::{input, splat, v3, Operands, Socket, Ty};
 pub(super) use super::lanes::floor;
-use super::lanes::{grad3, Lanes, U32x4, Words};
+use super::lanes::{grad3, CornerLanes, Lanes, Pair, U32x4, Words};
 use crate::math::{Vec3, Vec4};
 use std::ops::{Add, Div, Mul, Sub};
 
@@ -124,19 +124,27 @@ pub(super) fn perlin3(x: f32, y: f32, z: f32) -> f32 {
     let (xi, fx) = floorfrac(x);
     let (yi, fy) = floorfrac(y);
     let (zi, fz) = floorfrac(z);
-    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
     let [near, far] = corner_hashes(xi, yi, zi);
-    // A face's four corners as lanes (dx + 2 dy), each lane the scalar code's operations:
-    // z1 · (y1 · (g000 · x1 + g100 · u) + v · (g010 · x1 + g110 · u)) + w · (same, far face).
-    let (gx, gy) = (fx - 1.0, fy - 1.0);
-    let (xs, ys) = (Vec4::new(fx, gx, fx, gx), Vec4::new(fy, fy, gy, gy));
-    let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
-    let along_x = Vec4::new(x1, u, x1, u);
-    let n = grad3(near, xs, ys, Vec4::splat(fz)) * along_x;
-    let f = grad3(far, xs, ys, Vec4::splat(fz - 1.0)) * along_x;
-    let rows = Vec4::new(n.x, n.z, f.x, f.z) + Vec4::new(n.y, n.w, f.y, f.w);
-    let faces = rows * Vec4::new(y1, v, y1, v);
-    z1 * (faces.x + faces.y) + w * (faces.z + faces.w)
+    let f = Vec4::new(fx, fy, fz, 0.0);
+    perlin3_corners::<Pair<Vec4>>(Pair(near, far), f, f - 1.0)
+}
+
+/// `perlin3` at one point given its lattice cell's eight corner hashes `h` as lanes (index
+/// dx + 2 dy + 4 dz) and its offsets `f` from the cell's lower corner and `g` = `f` − 1 (x,
+/// y, z in lanes 0–2): each corner's gradient in its lane, the interpolation along x and y
+/// as sums of neighbouring lanes (a + b is b + a bit for bit), as
+/// z1 · (y1 · (g000 · x1 + g100 · u) + v · (g010 · x1 + g110 · u)) + w · (same, far face).
+#[inline(always)]
+pub(super) fn perlin3_corners<C: CornerLanes>(h: C::Words, f: Vec4, g: Vec4) -> f32 {
+    let t = fade(f);
+    let rest = Vec4::ONE - t;
+    let xs = C::by_bit::<0>(f.x, g.x);
+    let ys = C::by_bit::<1>(f.y, g.y);
+    let zs = C::by_bit::<2>(f.z, g.z);
+    let rows = (grad3(h, xs, ys, zs) * C::by_bit::<0>(rest.x, t.x)).pair_sums();
+    let faces = (rows * C::by_bit::<0>(rest.y, t.y)).pair_sums();
+    let [near, far] = faces.first_of_halves();
+    rest.z * near + t.z * far
 }
 
 /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`: each
@@ -364,13 +372,32 @@ mod noise_avx2 {
     use crate::math::{Vec3, Vec4};
     use crate::shader::hash::{self, LOOKUP3_SEED};
     use crate::shader::lanes::eight::{F32x8, U32x8};
-    use crate::shader::lanes::{grad3, U32x4, Words};
+    use crate::shader::lanes::{U32x4, Words};
     use crate::shader::noise::{
-        fade, fractal_sum, one_cell, snoise, snoise3_in_cell, snoise3_lanes, Fractal,
+        fractal_sum, one_cell, perlin3_corners, snoise, snoise3_in_cell, snoise3_lanes, Fractal,
     };
     use std::arch::x86_64::*;
 
     const SEED3: u32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
+
+    /// The words `$words` of the eight corner hashes for `snoise3_in_cell`: each group of four
+    /// lanes of `$near` (its corners 0–3) and `$far` (4–7) holds its cell's corners, each
+    /// corner broadcast to the group by `$shuffle`.
+    macro_rules! broadcast_corners {
+        ($shuffle:ident, $words:ident, $near:expr, $far:expr) => {{
+            let (near, far) = ($near, $far);
+            [
+                $words($shuffle::<0x00>(near)),
+                $words($shuffle::<0x55>(near)),
+                $words($shuffle::<0xAA>(near)),
+                $words($shuffle::<0xFF>(near)),
+                $words($shuffle::<0x00>(far)),
+                $words($shuffle::<0x55>(far)),
+                $words($shuffle::<0xAA>(far)),
+                $words($shuffle::<0xFF>(far)),
+            ]
+        }};
+    }
 
     /// `super::fbm` in 3D, its octaves' noise inlined.
     #[target_feature(enable = "avx2")]
@@ -444,48 +471,21 @@ mod noise_avx2 {
         )
     }
 
-    /// Lane `K` (0x00, 0x55, 0xAA: lane 0, 1, 2) of `v` in all eight lanes.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn lane<const K: i32>(v: __m128) -> __m256 {
-        _mm256_broadcastss_ps(_mm_permute_ps::<K>(v))
-    }
-
-    /// `super::perlin3` at one point (coordinates not NaN): its eight lattice corners
-    /// (dx + 2 dy + 4 dz) as lanes; the two pairwise sums of the interpolation are
-    /// horizontal adds (a + b is b + a bit for bit).
+    /// `super::perlin3` at one point (coordinates not NaN), its eight lattice corners as
+    /// the lanes of one register (`perlin3_corners`).
     #[target_feature(enable = "avx2")]
     #[inline]
     pub fn perlin3(x: f32, y: f32, z: f32) -> f32 {
         let p = _mm_set_ps(0.0, z, y, x);
         let cell = _mm_floor_ps(p);
-        let f = _mm_sub_ps(p, cell);
-        let g = _mm_sub_ps(f, _mm_set1_ps(1.0));
-        let fade3: __m128 = fade(Vec4::from(f)).into();
-        let rest = _mm_sub_ps(_mm_set1_ps(1.0), fade3);
+        let f = Vec4::from(_mm_sub_ps(p, cell));
         let c = _mm_cvttps_epi32(cell);
         let h = cell_corner_hashes(
             c,
             _mm_shuffle_epi32::<0x55>(c),
             _mm_shuffle_epi32::<0xAA>(c),
         );
-        let xs = _mm256_blend_ps::<0xAA>(lane::<0x00>(f), lane::<0x00>(g));
-        let ys = _mm256_blend_ps::<0xCC>(lane::<0x55>(f), lane::<0x55>(g));
-        let zs = _mm256_blend_ps::<0xF0>(lane::<0xAA>(f), lane::<0xAA>(g));
-        let along_x = _mm256_blend_ps::<0xAA>(lane::<0x00>(rest), lane::<0x00>(fade3));
-        let m = grad3(h, F32x8(xs), F32x8(ys), F32x8(zs)) * F32x8(along_x);
-        // (g000 x1 + g100 u, g010 x1 + g110 u, ..) in lanes 0, 1 (near face), 4, 5 (far).
-        let rows = _mm256_hadd_ps(m.0, m.0);
-        let along_y = _mm256_blend_ps::<0xAA>(lane::<0x55>(rest), lane::<0x55>(fade3));
-        let faces = _mm256_mul_ps(rows, along_y);
-        let faces = _mm256_hadd_ps(faces, faces);
-        let near = _mm_cvtss_f32(_mm256_castps256_ps128(faces));
-        let far = _mm_cvtss_f32(_mm256_extractf128_ps::<1>(faces));
-        let (z1, w) = (
-            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(rest)),
-            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(fade3)),
-        );
-        z1 * near + w * far
+        perlin3_corners::<F32x8>(h, f, f - 1.0)
     }
 
     /// `snoise3_lanes` of two sets of lanes (two octaves of a Bump's three points) at once
@@ -503,16 +503,7 @@ mod noise_avx2 {
         let (a, b, c) = (word(cell[0]), word(cell[1]), word(cell[2]));
         let near = corner_hashes8(a, b, c).0;
         let far = corner_hashes8(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1))).0;
-        let h = [
-            U32x8(_mm256_shuffle_epi32::<0x00>(near)),
-            U32x8(_mm256_shuffle_epi32::<0x55>(near)),
-            U32x8(_mm256_shuffle_epi32::<0xAA>(near)),
-            U32x8(_mm256_shuffle_epi32::<0xFF>(near)),
-            U32x8(_mm256_shuffle_epi32::<0x00>(far)),
-            U32x8(_mm256_shuffle_epi32::<0x55>(far)),
-            U32x8(_mm256_shuffle_epi32::<0xAA>(far)),
-            U32x8(_mm256_shuffle_epi32::<0xFF>(far)),
-        ];
+        let h = broadcast_corners!(_mm256_shuffle_epi32, U32x8, near, far);
         snoise3_in_cell(h, p, cell).halves()
     }
 
@@ -531,16 +522,7 @@ mod noise_avx2 {
             _mm256_castsi256_si128(corners),
             _mm256_extracti128_si256::<1>(corners),
         );
-        let h = [
-            U32x4(_mm_shuffle_epi32::<0x00>(near)),
-            U32x4(_mm_shuffle_epi32::<0x55>(near)),
-            U32x4(_mm_shuffle_epi32::<0xAA>(near)),
-            U32x4(_mm_shuffle_epi32::<0xFF>(near)),
-            U32x4(_mm_shuffle_epi32::<0x00>(far)),
-            U32x4(_mm_shuffle_epi32::<0x55>(far)),
-            U32x4(_mm_shuffle_epi32::<0xAA>(far)),
-            U32x4(_mm_shuffle_epi32::<0xFF>(far)),
-        ];
+        let h = broadcast_corners!(_mm_shuffle_epi32, U32x4, near, far);
         snoise3_in_cell(h, [x, y, z], cell)
     }
 }
@@ -733,6 +715,44 @@ pub(super) mod tests {
             1 => v.floor(),
             2 => v.floor() - f32::EPSILON * v.abs(),
             _ => v,
+        }
+    }
+
+    #[test]
+    fn perlin3_is_cycles_perlin3_bit_for_bit() {
+        // Cycles' `perlin_3d` written out: a hash per corner, its branching `grad3`, `lerp`s.
+        let grad = |hash: u32, x: f32, y: f32, z: f32| {
+            let h = hash & 15;
+            let u = if h < 8 { x } else { y };
+            let v = if h < 4 {
+                y
+            } else if h == 12 || h == 14 {
+                x
+            } else {
+                z
+            };
+            negate_if(u, h & 1) + negate_if(v, h & 2)
+        };
+        let tri_mix = |v: [f32; 8], x: f32, y: f32, z: f32| {
+            let (x1, y1, z1) = (1.0 - x, 1.0 - y, 1.0 - z);
+            z1 * (y1 * (v[0] * x1 + v[1] * x) + y * (v[2] * x1 + v[3] * x))
+                + z * (y1 * (v[4] * x1 + v[5] * x) + y * (v[6] * x1 + v[7] * x))
+        };
+        let mut rng = crate::rng::Rng::new(20);
+        for k in 0..200_000 {
+            let [x, y, z] = [k, k / 3, k / 5].map(|j| awkward_coordinate(&mut rng, j));
+            let ((xi, fx), (yi, fy), (zi, fz)) = (floorfrac(x), floorfrac(y), floorfrac(z));
+            let corners = [0, 1, 2, 3, 4, 5, 6, 7].map(|c: i32| {
+                let (dx, dy, dz) = (c & 1, c >> 1 & 1, c >> 2);
+                let h = super::hash::hash3(
+                    xi.wrapping_add(dx) as u32,
+                    yi.wrapping_add(dy) as u32,
+                    zi.wrapping_add(dz) as u32,
+                );
+                grad(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
+            });
+            let want = tri_mix(corners, fade(fx), fade(fy), fade(fz));
+            assert_eq!(perlin3(x, y, z).to_bits(), want.to_bits(), "{x} {y} {z}");
         }
     }
 
