@@ -66,6 +66,71 @@ pub(super) trait Lanes:
     fn uniform_quads(self) -> bool;
 }
 
+/// The operators, `HashWord` and `Words` of a type of words in one SIMD register, `$t(pub
+/// reg)` of `$n` lanes, from its intrinsics (add, sub, xor, and, or, shift left, shift right,
+/// splat, signed greater-than, equal, the float sign-bit mask and the cast to floats).
+#[cfg(target_arch = "x86_64")]
+macro_rules! simd_words {
+    ($t:ident, $n:expr, $add:ident, $sub:ident, $xor:ident, $and:ident, $or:ident, $shl:ident,
+     $shr:ident, $splat:ident, $gt:ident, $eq:ident, $movemask:ident, $cast:ident) => {
+        $crate::shader::lanes::simd_words!(@op $t, Add, add, $add);
+        $crate::shader::lanes::simd_words!(@op $t, Sub, sub, $sub);
+        $crate::shader::lanes::simd_words!(@op $t, BitXor, bitxor, $xor);
+        $crate::shader::lanes::simd_words!(@op $t, BitAnd, bitand, $and);
+        $crate::shader::lanes::simd_words!(@op $t, BitOr, bitor, $or);
+
+        impl $crate::shader::hash::HashWord for $t {
+            #[inline(always)]
+            fn rotl<const L: i32, const R: i32>(self) -> $t {
+                // SAFETY: the type is made only where its instructions run (SSE2 is in every
+                // x86-64; eight lanes only after the check for AVX2).
+                unsafe { $t($or($shl::<L>(self.0), $shr::<R>(self.0))) }
+            }
+        }
+
+        impl $crate::shader::lanes::Words for $t {
+            const N: usize = $n;
+            #[inline(always)]
+            fn splat(v: u32) -> $t {
+                // SAFETY: as `rotl`'s.
+                unsafe { $t($splat(v as i32)) }
+            }
+            #[inline(always)]
+            fn less_than(self, v: u32) -> $t {
+                // SAFETY: as `rotl`'s.
+                unsafe { $t($gt($splat(v as i32), self.0)) }
+            }
+            #[inline(always)]
+            fn equals(self, v: u32) -> $t {
+                // SAFETY: as `rotl`'s.
+                unsafe { $t($eq(self.0, $splat(v as i32))) }
+            }
+            #[inline(always)]
+            fn shifted_left<const N: i32>(self) -> $t {
+                // SAFETY: as `rotl`'s.
+                unsafe { $t($shl::<N>(self.0)) }
+            }
+            #[inline(always)]
+            fn bitmask(self) -> u32 {
+                // SAFETY: as `rotl`'s.
+                unsafe { $movemask($cast(self.0)) as u32 }
+            }
+        }
+    };
+    (@op $t:ident, $trait:ident, $method:ident, $intrinsic:ident) => {
+        impl std::ops::$trait for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn $method(self, o: $t) -> $t {
+                // SAFETY: as `rotl`'s.
+                unsafe { $t($intrinsic(self.0, o.0)) }
+            }
+        }
+    };
+}
+#[cfg(target_arch = "x86_64")]
+use simd_words;
+
 impl Words for W {
     const N: usize = 1;
     #[inline(always)]
@@ -186,7 +251,7 @@ impl Lanes for f32 {
 #[cfg(target_arch = "x86_64")]
 mod four {
     use crate::math::Vec4;
-    use crate::shader::lanes::{Lanes, Words};
+    use crate::shader::lanes::Lanes;
     use std::arch::x86_64::*;
 
     /// Four 32-bit words in one SSE2 register (SSE2 is part of every x86-64).
@@ -209,66 +274,22 @@ mod four {
         }
     }
 
-    /// One SSE2 operation on two registers.
-    macro_rules! sse_op {
-        ($trait:ident, $method:ident, $intrinsic:ident) => {
-            impl std::ops::$trait for U32x4 {
-                type Output = U32x4;
-                #[inline(always)]
-                fn $method(self, o: U32x4) -> U32x4 {
-                    // SAFETY: SSE2 is always present on x86-64.
-                    unsafe { U32x4($intrinsic(self.0, o.0)) }
-                }
-            }
-        };
-    }
-    sse_op!(Add, add, _mm_add_epi32);
-    sse_op!(Sub, sub, _mm_sub_epi32);
-    sse_op!(BitXor, bitxor, _mm_xor_si128);
-    sse_op!(BitAnd, bitand, _mm_and_si128);
-    sse_op!(BitOr, bitor, _mm_or_si128);
-
-    impl crate::shader::hash::HashWord for U32x4 {
-        #[inline(always)]
-        fn rotl<const L: i32, const R: i32>(self) -> U32x4 {
-            // SAFETY: SSE2 is always present on x86-64.
-            unsafe {
-                U32x4(_mm_or_si128(
-                    _mm_slli_epi32::<L>(self.0),
-                    _mm_srli_epi32::<R>(self.0),
-                ))
-            }
-        }
-    }
-
-    impl Words for U32x4 {
-        const N: usize = 4;
-        #[inline(always)]
-        fn splat(v: u32) -> U32x4 {
-            // SAFETY: SSE2 is always present on x86-64.
-            unsafe { U32x4(_mm_set1_epi32(v as i32)) }
-        }
-        #[inline(always)]
-        fn less_than(self, v: u32) -> U32x4 {
-            // SAFETY: SSE2 is always present on x86-64.
-            unsafe { U32x4(_mm_cmplt_epi32(self.0, _mm_set1_epi32(v as i32))) }
-        }
-        #[inline(always)]
-        fn equals(self, v: u32) -> U32x4 {
-            // SAFETY: SSE2 is always present on x86-64.
-            unsafe { U32x4(_mm_cmpeq_epi32(self.0, _mm_set1_epi32(v as i32))) }
-        }
-        #[inline(always)]
-        fn shifted_left<const N: i32>(self) -> U32x4 {
-            // SAFETY: SSE2 is always present on x86-64.
-            unsafe { U32x4(_mm_slli_epi32::<N>(self.0)) }
-        }
-        #[inline(always)]
-        fn bitmask(self) -> u32 {
-            // SAFETY: SSE2 is always present on x86-64.
-            unsafe { _mm_movemask_ps(_mm_castsi128_ps(self.0)) as u32 }
-        }
-    }
+    crate::shader::lanes::simd_words!(
+        U32x4,
+        4,
+        _mm_add_epi32,
+        _mm_sub_epi32,
+        _mm_xor_si128,
+        _mm_and_si128,
+        _mm_or_si128,
+        _mm_slli_epi32,
+        _mm_srli_epi32,
+        _mm_set1_epi32,
+        _mm_cmpgt_epi32,
+        _mm_cmpeq_epi32,
+        _mm_movemask_ps,
+        _mm_castsi128_ps
+    );
 
     impl Lanes for Vec4 {
         type Words = U32x4;
@@ -703,7 +724,7 @@ pub(super) fn floor_by_rounding(v: Vec4) -> Vec4 {
 #[cfg(target_arch = "x86_64")]
 pub(super) mod eight {
     use crate::math::Vec4;
-    use crate::shader::lanes::{Lanes, Words};
+    use crate::shader::lanes::Lanes;
     use std::arch::x86_64::*;
 
     /// Eight 32-bit words.
@@ -735,24 +756,22 @@ pub(super) mod eight {
         }
     }
 
-    /// One AVX2 operation on two registers of words.
-    macro_rules! word_op {
-        ($trait:ident, $method:ident, $intrinsic:ident) => {
-            impl std::ops::$trait for U32x8 {
-                type Output = U32x8;
-                #[inline(always)]
-                fn $method(self, o: U32x8) -> U32x8 {
-                    // SAFETY: a U32x8 exists only where AVX2 does.
-                    unsafe { U32x8($intrinsic(self.0, o.0)) }
-                }
-            }
-        };
-    }
-    word_op!(Add, add, _mm256_add_epi32);
-    word_op!(Sub, sub, _mm256_sub_epi32);
-    word_op!(BitXor, bitxor, _mm256_xor_si256);
-    word_op!(BitAnd, bitand, _mm256_and_si256);
-    word_op!(BitOr, bitor, _mm256_or_si256);
+    crate::shader::lanes::simd_words!(
+        U32x8,
+        8,
+        _mm256_add_epi32,
+        _mm256_sub_epi32,
+        _mm256_xor_si256,
+        _mm256_and_si256,
+        _mm256_or_si256,
+        _mm256_slli_epi32,
+        _mm256_srli_epi32,
+        _mm256_set1_epi32,
+        _mm256_cmpgt_epi32,
+        _mm256_cmpeq_epi32,
+        _mm256_movemask_ps,
+        _mm256_castsi256_ps
+    );
 
     /// One AVX operation on two registers of floats, and on a register and a float.
     macro_rules! float_op {
@@ -778,48 +797,6 @@ pub(super) mod eight {
     float_op!(Add, add, _mm256_add_ps);
     float_op!(Sub, sub, _mm256_sub_ps);
     float_op!(Mul, mul, _mm256_mul_ps);
-
-    impl crate::shader::hash::HashWord for U32x8 {
-        #[inline(always)]
-        fn rotl<const L: i32, const R: i32>(self) -> U32x8 {
-            // SAFETY: a U32x8 exists only where AVX2 does.
-            unsafe {
-                U32x8(_mm256_or_si256(
-                    _mm256_slli_epi32::<L>(self.0),
-                    _mm256_srli_epi32::<R>(self.0),
-                ))
-            }
-        }
-    }
-
-    impl Words for U32x8 {
-        const N: usize = 8;
-        #[inline(always)]
-        fn splat(v: u32) -> U32x8 {
-            // SAFETY: a U32x8 is made only where AVX2 is.
-            unsafe { U32x8(_mm256_set1_epi32(v as i32)) }
-        }
-        #[inline(always)]
-        fn less_than(self, v: u32) -> U32x8 {
-            // SAFETY: a U32x8 exists only where AVX2 does.
-            unsafe { U32x8(_mm256_cmpgt_epi32(_mm256_set1_epi32(v as i32), self.0)) }
-        }
-        #[inline(always)]
-        fn equals(self, v: u32) -> U32x8 {
-            // SAFETY: a U32x8 exists only where AVX2 does.
-            unsafe { U32x8(_mm256_cmpeq_epi32(self.0, _mm256_set1_epi32(v as i32))) }
-        }
-        #[inline(always)]
-        fn shifted_left<const N: i32>(self) -> U32x8 {
-            // SAFETY: a U32x8 exists only where AVX2 does.
-            unsafe { U32x8(_mm256_slli_epi32::<N>(self.0)) }
-        }
-        #[inline(always)]
-        fn bitmask(self) -> u32 {
-            // SAFETY: a U32x8 exists only where AVX2 does.
-            unsafe { _mm256_movemask_ps(_mm256_castsi256_ps(self.0)) as u32 }
-        }
-    }
 
     impl F32x8 {
         /// A comparison of every lane with `v`.
