@@ -58,9 +58,10 @@
 //! each instruction one call into its node family's file); and one file per node family, with
 //! its socket tables and evaluation: `geometry` (the input nodes), `math`, `vector`, `color`,
 //! `convert`, `bump`, `fresnel`, `closure` (the shader nodes), and the textures `noise` (with
-//! its AVX2 kernels), `voronoi` (`voronoi_avx2`), `checker`, `gradient`, `brick`, `magic`,
+//! its AVX2 kernels), `voronoi`, `checker`, `gradient`, `brick`, `magic`,
 //! `wave`, `white_noise`, `image`, with `blackbody`, and the volume shaders (`volume`); `hash` is Jenkins' lookup3 the textures
-//! draw from. ARCHITECTURE.md says how to add a node.
+//! draw from, and `lanes` the one, four or eight lanes of floats and words the noise and the
+//! Voronoi search are written over. ARCHITECTURE.md says how to add a node.
 
 mod blackbody;
 mod brick;
@@ -76,6 +77,7 @@ mod gradient;
 mod hash;
 mod image;
 mod inputs;
+mod lanes;
 mod machine;
 mod magic;
 mod math;
@@ -87,8 +89,6 @@ mod sockets;
 mod vector;
 mod volume;
 mod voronoi;
-#[cfg(target_arch = "x86_64")]
-mod voronoi_avx2;
 mod wave;
 mod white_noise;
 

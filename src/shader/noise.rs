@@ -1,11 +1,15 @@
 //! Perlin noise and the Noise Texture as Blender defines them (Cycles' `noise_fbm` over Perlin's
 //! improved noise (Perlin, 2002) with Jenkins' lookup3 lattice hashes, `hash`): 1D, 2D and 3D
 //! noise, fBm, distortion and colour, and the same noise at a Bump's three nearby points at once
-//! (`noise_texture_at3`). With AVX2, `noise_avx2` computes 3D noise with the same values bit for
-//! bit.
+//! (`noise_texture_at3`). The 3D gradients and interpolation are written once over `Lanes`: a
+//! point's eight lattice corners as lanes (`perlin3`, four lanes, or eight with AVX2), or
+//! points of one lattice cell as lanes (`snoise3_in_cell`, four lanes, or eight with AVX2 in
+//! `noise_avx2`), with the same values bit for bit.
 
-use super::hash::{self, has_avx2, hash1, hash2, hash_float, hash_float2, U32x4, LOOKUP3_SEED};
+use super::hash::{self, has_avx2, hash1, hash2, hash_float, hash_float2, LOOKUP3_SEED};
 use super::inputs::{input, splat, v3, Operands, Socket, Ty};
+pub(super) use super::lanes::floor;
+use super::lanes::{grad3, CornerLanes, Lanes, Pair, U32x4, Words};
 use crate::math::{Vec3, Vec4};
 use std::ops::{Add, Div, Mul, Sub};
 
@@ -61,22 +65,6 @@ pub(super) fn floorfrac(x: f32) -> (i32, f32) {
     (f as i32, x - f)
 }
 
-/// `x.floor()` without the library call baseline x86-64 makes for it (bit for bit the same,
-/// −0 and NaN included): beyond 2²³ every float is an integer.
-pub(super) fn floor(x: f32) -> f32 {
-    if !(x.abs() < 8_388_608.0) {
-        return x;
-    }
-    let t = x as i32 as f32;
-    if t > x {
-        t - 1.0
-    } else if t < x {
-        t
-    } else {
-        x
-    }
-}
-
 pub(super) fn grad1(hash: u32, x: f32) -> f32 {
     let h = hash & 15;
     let g = 1.0 + (h & 7) as f32;
@@ -89,25 +77,6 @@ pub(super) fn grad2(hash: u32, x: f32, y: f32) -> f32 {
     let (u, v) = (select(first, x, y), select(first, 2.0 * y, 2.0 * x));
     flip_sign(u, h & 1) + flip_sign(v, (h >> 1) & 1)
 }
-
-/// For each lattice corner (index dx + 2 dy + 4 dz) and hash `h & 15`, where Perlin's gradient's two
-/// components are in a cell's offsets `[fx, fy, fz, fx − 1, fy − 1, fz − 1]`: a table read
-/// instead of three selects per corner.
-pub(super) const GRAD3_PICKS: [[[u8; 2]; 16]; 8] = {
-    let mut picks = [[[0; 2]; 16]; 8];
-    let mut corner = 0;
-    while corner < 8 {
-        let step = [corner & 1, (corner >> 1) & 1, corner >> 2];
-        let mut h = 0;
-        while h < 16 {
-            let [u, v] = hash::GRAD3_AXES[h];
-            picks[corner][h] = [(u + 3 * step[u]) as u8, (v + 3 * step[v]) as u8];
-            h += 1;
-        }
-        corner += 1;
-    }
-    picks
-};
 
 pub(super) fn lerp(a: f32, b: f32, t: f32) -> f32 {
     (1.0 - t) * a + t * b
@@ -143,29 +112,39 @@ pub(super) fn corner_hashes(xi: i32, yi: i32, zi: i32) -> [U32x4; 2] {
     let (x0, y0, z0) = (xi as u32, yi as u32, zi as u32);
     let a = U32x4::new([x0, x0.wrapping_add(1), x0, x0.wrapping_add(1)]);
     let b = U32x4::new([y0, y0, y0.wrapping_add(1), y0.wrapping_add(1)]);
-    let (a, b) = (a + U32x4::splat(s), b + U32x4::splat(s));
-    let near = hash::finish(a, b, U32x4::splat(s.wrapping_add(z0)));
-    let far = hash::finish(a, b, U32x4::splat(s.wrapping_add(z0).wrapping_add(1)));
-    [near, far]
+    let (a, b) = (
+        a + <U32x4 as Words>::splat(s),
+        b + <U32x4 as Words>::splat(s),
+    );
+    let z = |dz: u32| <U32x4 as Words>::splat(s.wrapping_add(z0).wrapping_add(dz));
+    [hash::finish(a, b, z(0)), hash::finish(a, b, z(1))]
 }
 
 pub(super) fn perlin3(x: f32, y: f32, z: f32) -> f32 {
     let (xi, fx) = floorfrac(x);
     let (yi, fy) = floorfrac(y);
     let (zi, fz) = floorfrac(z);
-    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
     let [near, far] = corner_hashes(xi, yi, zi);
-    // A face's four corners as lanes (dx + 2 dy), each lane the scalar code's operations:
-    // z1 · (y1 · (g000 · x1 + g100 · u) + v · (g010 · x1 + g110 · u)) + w · (same, far face).
-    let (gx, gy) = (fx - 1.0, fy - 1.0);
-    let (xs, ys) = (Vec4::new(fx, gx, fx, gx), Vec4::new(fy, fy, gy, gy));
-    let (x1, y1, z1) = (1.0 - u, 1.0 - v, 1.0 - w);
-    let along_x = Vec4::new(x1, u, x1, u);
-    let n = near.grad3(xs, ys, Vec4::splat(fz)) * along_x;
-    let f = far.grad3(xs, ys, Vec4::splat(fz - 1.0)) * along_x;
-    let rows = Vec4::new(n.x, n.z, f.x, f.z) + Vec4::new(n.y, n.w, f.y, f.w);
-    let faces = rows * Vec4::new(y1, v, y1, v);
-    z1 * (faces.x + faces.y) + w * (faces.z + faces.w)
+    let f = Vec4::new(fx, fy, fz, 0.0);
+    perlin3_corners::<Pair<Vec4>>(Pair(near, far), f, f - 1.0)
+}
+
+/// `perlin3` at one point given its lattice cell's eight corner hashes `h` as lanes (index
+/// dx + 2 dy + 4 dz) and its offsets `f` from the cell's lower corner and `g` = `f` − 1 (x,
+/// y, z in lanes 0–2): each corner's gradient in its lane, the interpolation along x and y
+/// as sums of neighbouring lanes (a + b is b + a bit for bit), as
+/// z1 · (y1 · (g000 · x1 + g100 · u) + v · (g010 · x1 + g110 · u)) + w · (same, far face).
+#[inline(always)]
+pub(super) fn perlin3_corners<C: CornerLanes>(h: C::Words, f: Vec4, g: Vec4) -> f32 {
+    let t = fade(f);
+    let rest = Vec4::ONE - t;
+    let xs = C::by_bit::<0>(f.x, g.x);
+    let ys = C::by_bit::<1>(f.y, g.y);
+    let zs = C::by_bit::<2>(f.z, g.z);
+    let rows = (grad3(h, xs, ys, zs) * C::by_bit::<0>(rest.x, t.x)).pair_sums();
+    let faces = (rows * C::by_bit::<0>(rest.y, t.y)).pair_sums();
+    let [near, far] = faces.first_of_halves();
+    rest.z * near + t.z * far
 }
 
 /// Signed noise in about [−1, 1], repeating every 100000 (Cycles' `snoise_*d`: each
@@ -327,64 +306,52 @@ pub(super) fn lanes(v: [f32; 3]) -> Vec4 {
     Vec4::new(v[0], v[1], v[2], v[0])
 }
 
-/// `grad3` for one hash over lanes of points: the hash picks the same components and signs
-/// in every lane (a sign is flipped by multiplying by −1, which is exact).
+/// The lattice cells (x, y, z) of points given as lanes, when every group of four lanes lies
+/// in one cell and near enough (below `snoise`'s period) for `snoise3_in_cell`.
 #[inline(always)]
-pub(super) fn grad3_lanes(hash: u32, corner: usize, offsets: &[Vec4; 6]) -> Vec4 {
-    let h = hash & 15;
-    let [u, v] = GRAD3_PICKS[corner][h as usize];
-    let [su, sv] = GRAD3_SIGNS[h as usize];
-    offsets[u as usize] * su + offsets[v as usize] * sv
+pub(super) fn one_cell<F: Lanes>(x: F, y: F, z: F) -> Option<[F; 3]> {
+    let (cx, cy, cz) = (x.floor(), y.floor(), z.floor());
+    let near = x.all_below(100_000.0) && y.all_below(100_000.0) && z.all_below(100_000.0);
+    let one = cx.uniform_quads() && cy.uniform_quads() && cz.uniform_quads();
+    (near && one).then_some([cx, cy, cz])
 }
 
-/// The signs of `grad3`'s two components for hash `h & 15`: hash bits 0 and 1.
-pub(super) const GRAD3_SIGNS: [[f32; 2]; 16] = {
-    let mut signs = [[1.0; 2]; 16];
-    let mut h = 0;
-    while h < 16 {
-        signs[h] = [
-            if h & 1 != 0 { -1.0 } else { 1.0 },
-            if h & 2 != 0 { -1.0 } else { 1.0 },
-        ];
-        h += 1;
-    }
-    signs
-};
-
-/// `floor` lane by lane for |v| < 2²² (the same values, −0 included): adding and taking
-/// away 1.5 · 2²³ rounds to an integer.
+/// `0.9820 * perlin3` (`snoise` in 3D) of points given as lanes in the cells `one_cell`
+/// found, each lane the very operations of `perlin3` in the same order; `h` holds the cells'
+/// eight corner hashes (index dx + 2 dy + 4 dz, each group's in all its four lanes).
 #[inline(always)]
-pub(super) fn floor4(v: Vec4) -> Vec4 {
-    const ROUND: f32 = 12_582_912.0;
-    let t = (v + ROUND) - ROUND;
-    Vec4::select(t.cmpgt(v), t - 1.0, Vec4::select(t.cmplt(v), t, v))
+pub(super) fn snoise3_in_cell<F: Lanes>(h: [F::Words; 8], p: [F; 3], cell: [F; 3]) -> F {
+    let ([x, y, z], [cx, cy, cz]) = (p, cell);
+    let (fx, fy, fz) = (x - cx, y - cy, z - cz);
+    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+    let (gx, gy, gz) = (fx - 1.0, fy - 1.0, fz - 1.0);
+    let g000 = grad3(h[0], fx, fy, fz);
+    let g100 = grad3(h[1], gx, fy, fz);
+    let g010 = grad3(h[2], fx, gy, fz);
+    let g110 = grad3(h[3], gx, gy, fz);
+    let g001 = grad3(h[4], fx, fy, gz);
+    let g101 = grad3(h[5], gx, fy, gz);
+    let g011 = grad3(h[6], fx, gy, gz);
+    let g111 = grad3(h[7], gx, gy, gz);
+    let one = F::splat(1.0);
+    let (x1, y1, z1) = (one - u, one - v, one - w);
+    let near = y1 * (g000 * x1 + g100 * u) + v * (g010 * x1 + g110 * u);
+    let far = y1 * (g001 * x1 + g101 * u) + v * (g011 * x1 + g111 * u);
+    (z1 * near + w * far) * 0.9820
 }
 
-/// `0.9820 * perlin3` (`snoise` in 3D) of three points given as lanes.
+/// `snoise3_in_cell` of three points given as lanes, or the scalar noise of each where they
+/// are not in one cell (with AVX2 `noise_avx2::snoise3_one`).
 pub(super) fn snoise3_lanes(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
-    let near = |v: Vec4| v.abs().cmplt(Vec4::splat(100_000.0)).all();
-    let (cx, cy, cz) = (floor4(x), floor4(y), floor4(z));
-    let one_cell = |c: Vec4| c.cmpeq(Vec4::splat(c.x)).all();
-    if !(near(x) && near(y) && near(z) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+    let Some(cell) = one_cell(x, y, z) else {
         let (xs, ys, zs) = (x.to_array(), y.to_array(), z.to_array());
         let n = |k: usize| snoise(3, Vec3::new(xs[k], ys[k], zs[k]), 0.0);
         return lanes([n(0), n(1), n(2)]);
-    }
-    let [near, far] = corner_hashes(cx.x as i32, cy.x as i32, cz.x as i32);
-    let (near, far) = (near.to_array(), far.to_array());
-    let h = [
-        near[0], near[1], near[2], near[3], far[0], far[1], far[2], far[3],
-    ];
-    let (fx, fy, fz) = (x - cx, y - cy, z - cz);
-    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-    let offsets = [fx, fy, fz, fx - 1.0, fy - 1.0, fz - 1.0];
-    let g = |corner: usize| grad3_lanes(h[corner], corner, &offsets);
-    let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
-    let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
-    let (x1, y1, z1) = (Vec4::ONE - u, Vec4::ONE - v, Vec4::ONE - w);
-    let p = z1 * (y1 * (g000 * x1 + g100 * u) + v * (g010 * x1 + g110 * u))
-        + w * (y1 * (g001 * x1 + g101 * u) + v * (g011 * x1 + g111 * u));
-    0.9820 * p
+    };
+    let [near, far] = corner_hashes(cell[0].x as i32, cell[1].x as i32, cell[2].x as i32);
+    let (n, f) = (near.to_array(), far.to_array());
+    let h = [n[0], n[1], n[2], n[3], f[0], f[1], f[2], f[3]].map(<U32x4 as Words>::splat);
+    snoise3_in_cell(h, [x, y, z], cell)
 }
 
 /// `fbm` in 3D of three points given as lanes (with AVX2 `noise_avx2::fbm3_lanes`).
@@ -397,18 +364,40 @@ pub(super) fn fbm3_lanes(x: Vec4, y: Vec4, z: Vec4, f: &Fractal) -> Vec4 {
     fractal_sum(f, Vec4::ZERO, |s| snoise3_lanes(s * x, s * y, s * z))
 }
 
-/// Perlin noise on AVX2 (x86-64 machines that have it; the callers check): the operations of
-/// `perlin3` and `snoise3_lanes`, lane by lane in the same order (no fused multiply-add), so
-/// the values are theirs bit for bit.
+/// Perlin noise on AVX2 (x86-64 machines that have it; the callers check): `perlin3`'s
+/// corners as eight lanes, and `snoise3_in_cell` on four or eight lanes, each lane the scalar
+/// operations in the same order (no fused multiply-add), so the values are theirs bit for bit.
 #[cfg(target_arch = "x86_64")]
 mod noise_avx2 {
     use crate::math::{Vec3, Vec4};
-    use crate::shader::hash::avx2 as hash;
-    use crate::shader::hash::LOOKUP3_SEED;
-    use crate::shader::noise::{fractal_sum, snoise, snoise3_lanes, Fractal};
+    use crate::shader::hash::{self, LOOKUP3_SEED};
+    use crate::shader::lanes::eight::{F32x8, U32x8};
+    use crate::shader::lanes::{U32x4, Words};
+    use crate::shader::noise::{
+        fractal_sum, one_cell, perlin3_corners, snoise, snoise3_in_cell, snoise3_lanes, Fractal,
+    };
     use std::arch::x86_64::*;
 
-    const SEED3: i32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13) as i32;
+    const SEED3: u32 = LOOKUP3_SEED.wrapping_add((3 << 2) + 13);
+
+    /// The words `$words` of the eight corner hashes for `snoise3_in_cell`: each group of four
+    /// lanes of `$near` (its corners 0–3) and `$far` (4–7) holds its cell's corners, each
+    /// corner broadcast to the group by `$shuffle`.
+    macro_rules! broadcast_corners {
+        ($shuffle:ident, $words:ident, $near:expr, $far:expr) => {{
+            let (near, far) = ($near, $far);
+            [
+                $words($shuffle::<0x00>(near)),
+                $words($shuffle::<0x55>(near)),
+                $words($shuffle::<0xAA>(near)),
+                $words($shuffle::<0xFF>(near)),
+                $words($shuffle::<0x00>(far)),
+                $words($shuffle::<0x55>(far)),
+                $words($shuffle::<0xAA>(far)),
+                $words($shuffle::<0xFF>(far)),
+            ]
+        }};
+    }
 
     /// `super::fbm` in 3D, its octaves' noise inlined.
     #[target_feature(enable = "avx2")]
@@ -453,249 +442,88 @@ mod noise_avx2 {
         })
     }
 
-    /// `fade` lane by lane.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn fade(t: __m256) -> __m256 {
-        let s = _mm256_set1_ps;
-        let tt = _mm256_mul_ps(_mm256_mul_ps(t, t), t);
-        let inner = _mm256_sub_ps(_mm256_mul_ps(t, s(6.0)), s(15.0));
-        _mm256_mul_ps(tt, _mm256_add_ps(_mm256_mul_ps(t, inner), s(10.0)))
+    /// lookup3's `hash3` of lattice corners, eight at once: lane k of the cells' coordinates
+    /// `x`, `y` plus (k & 1, k >> 1 & 1), and `z` as given.
+    #[inline(always)]
+    fn corner_hashes8(x: __m256i, y: __m256i, z: __m256i) -> U32x8 {
+        // SAFETY: the callers run only with AVX2.
+        let (dx, dy) = unsafe {
+            (
+                _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1),
+                _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1),
+            )
+        };
+        let seed = <U32x8 as Words>::splat(SEED3);
+        let (x, y, z) = (U32x8(x) + seed, U32x8(y) + seed, U32x8(z) + seed);
+        hash::finish(x + U32x8(dx), y + U32x8(dy), z)
     }
 
-    /// Cycles' `grad3` of each lane's hash at that lane's offset (x, y, z), as
-    /// `U32x4::grad3`: selects and a flip of the sign bit.
+    /// The eight corners of one cell (lane dx + 2 dy + 4 dz) of integer coordinates the
+    /// first lanes of `x`, `y`, `z`, hashed at once.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn grad3(h: __m256i, x: __m256, y: __m256, z: __m256) -> __m256 {
-        let k = _mm256_set1_epi32;
-        let h = _mm256_and_si256(h, k(15));
-        let below8 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(8), h));
-        let below4 = _mm256_castsi256_ps(_mm256_cmpgt_epi32(k(4), h));
-        let v_is_x = _mm256_castsi256_ps(_mm256_or_si256(
-            _mm256_cmpeq_epi32(h, k(12)),
-            _mm256_cmpeq_epi32(h, k(14)),
-        ));
-        let u = _mm256_blendv_ps(y, x, below8);
-        let v = _mm256_blendv_ps(_mm256_blendv_ps(z, x, v_is_x), y, below4);
-        let sign_u = _mm256_castsi256_ps(_mm256_slli_epi32::<31>(_mm256_and_si256(h, k(1))));
-        let sign_v = _mm256_castsi256_ps(_mm256_slli_epi32::<30>(_mm256_and_si256(h, k(2))));
-        _mm256_add_ps(_mm256_xor_ps(u, sign_u), _mm256_xor_ps(v, sign_v))
+    fn cell_corner_hashes(x: __m128i, y: __m128i, z: __m128i) -> U32x8 {
+        let dz = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+        corner_hashes8(
+            _mm256_broadcastd_epi32(x),
+            _mm256_broadcastd_epi32(y),
+            _mm256_add_epi32(_mm256_broadcastd_epi32(z), dz),
+        )
     }
 
-    /// Lane `K` (0x00, 0x55, 0xAA: lane 0, 1, 2) of `v` in all eight lanes.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn lane<const K: i32>(v: __m128) -> __m256 {
-        _mm256_broadcastss_ps(_mm_permute_ps::<K>(v))
-    }
-
-    /// `super::perlin3` at one point (coordinates not NaN): its eight lattice corners
-    /// (dx + 2 dy + 4 dz) as lanes; the two pairwise sums of the interpolation are
-    /// horizontal adds (a + b is b + a bit for bit).
+    /// `super::perlin3` at one point (coordinates not NaN), its eight lattice corners as
+    /// the lanes of one register (`perlin3_corners`).
     #[target_feature(enable = "avx2")]
     #[inline]
     pub fn perlin3(x: f32, y: f32, z: f32) -> f32 {
         let p = _mm_set_ps(0.0, z, y, x);
         let cell = _mm_floor_ps(p);
-        let f = _mm_sub_ps(p, cell);
-        let g = _mm_sub_ps(f, _mm_set1_ps(1.0));
-        let t = fade(_mm256_castps128_ps256(f));
-        let fade3 = _mm256_castps256_ps128(t);
-        let rest = _mm_sub_ps(_mm_set1_ps(1.0), fade3);
-        let c = _mm_add_epi32(_mm_cvttps_epi32(cell), _mm_set1_epi32(SEED3));
-        let a = _mm256_add_epi32(
-            _mm256_broadcastd_epi32(c),
-            _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1),
+        let f = Vec4::from(_mm_sub_ps(p, cell));
+        let c = _mm_cvttps_epi32(cell);
+        let h = cell_corner_hashes(
+            c,
+            _mm_shuffle_epi32::<0x55>(c),
+            _mm_shuffle_epi32::<0xAA>(c),
         );
-        let b = _mm256_add_epi32(
-            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0x55>(c)),
-            _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1),
-        );
-        let c = _mm256_add_epi32(
-            _mm256_broadcastd_epi32(_mm_shuffle_epi32::<0xAA>(c)),
-            _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1),
-        );
-        // SAFETY: this function runs only with AVX2.
-        let h = unsafe { hash::finish(a, b, c) };
-        let xs = _mm256_blend_ps::<0xAA>(lane::<0x00>(f), lane::<0x00>(g));
-        let ys = _mm256_blend_ps::<0xCC>(lane::<0x55>(f), lane::<0x55>(g));
-        let zs = _mm256_blend_ps::<0xF0>(lane::<0xAA>(f), lane::<0xAA>(g));
-        let along_x = _mm256_blend_ps::<0xAA>(lane::<0x00>(rest), lane::<0x00>(fade3));
-        let m = _mm256_mul_ps(grad3(h, xs, ys, zs), along_x);
-        // (g000 x1 + g100 u, g010 x1 + g110 u, ..) in lanes 0, 1 (near face), 4, 5 (far).
-        let rows = _mm256_hadd_ps(m, m);
-        let along_y = _mm256_blend_ps::<0xAA>(lane::<0x55>(rest), lane::<0x55>(fade3));
-        let faces = _mm256_mul_ps(rows, along_y);
-        let faces = _mm256_hadd_ps(faces, faces);
-        let near = _mm_cvtss_f32(_mm256_castps256_ps128(faces));
-        let far = _mm_cvtss_f32(_mm256_extractf128_ps::<1>(faces));
-        let (z1, w) = (
-            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(rest)),
-            _mm_cvtss_f32(_mm_permute_ps::<0xAA>(fade3)),
-        );
-        z1 * near + w * far
+        perlin3_corners::<F32x8>(h, f, f - 1.0)
     }
 
-    /// `snoise3_lanes` of two sets of lanes (two octaves of a Bump's three points) at once:
-    /// each set in one lattice cell, whose eight corner hashes are computed for both sets in
-    /// two eight-lane hashes; a set that is not takes `snoise3_lanes`.
+    /// `snoise3_lanes` of two sets of lanes (two octaves of a Bump's three points) at once
+    /// (`snoise3_in_cell` on eight lanes): each set's eight corner hashes in two eight-lane
+    /// hashes (near face, far face), each broadcast to its set's four lanes.
     #[target_feature(enable = "avx2")]
     #[inline]
     pub fn snoise3_pair(x: [Vec4; 2], y: [Vec4; 2], z: [Vec4; 2]) -> [Vec4; 2] {
-        let join = |v: [Vec4; 2]| _mm256_set_m128(v[1].into(), v[0].into());
-        let (px, py, pz) = (join(x), join(y), join(z));
-        let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
-        let near = |v: __m256| {
-            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(
-                abs(v),
-                _mm256_set1_ps(100_000.0),
-            )) == 0xFF
-        };
-        let (cx, cy, cz) = (
-            _mm256_floor_ps(px),
-            _mm256_floor_ps(py),
-            _mm256_floor_ps(pz),
-        );
-        let one_cell = |c: __m256| {
-            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(c, _mm256_permute_ps::<0>(c))) == 0xFF
-        };
-        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+        let join = |v: [Vec4; 2]| F32x8::join(v[0], v[1]);
+        let p = [join(x), join(y), join(z)];
+        let Some(cell) = one_cell(p[0], p[1], p[2]) else {
             return [0, 1].map(|k| snoise3_lanes(x[k], y[k], z[k]));
-        }
-        let seeded = |c: __m256| _mm256_add_epi32(_mm256_cvttps_epi32(c), _mm256_set1_epi32(SEED3));
-        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
-        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
-        let c = seeded(cz);
-        // Corners 0–3 (near face), then 4–7 (far face), of each set's cell.
-        // SAFETY: this function runs only with AVX2.
-        let (near_h, far_h) = unsafe {
-            (
-                hash::finish(a, b, c),
-                hash::finish(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1))),
-            )
         };
-        let one = _mm256_set1_ps(1.0);
-        let (fx, fy, fz) = (
-            _mm256_sub_ps(px, cx),
-            _mm256_sub_ps(py, cy),
-            _mm256_sub_ps(pz, cz),
-        );
-        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
-        let (gx, gy, gz) = (
-            _mm256_sub_ps(fx, one),
-            _mm256_sub_ps(fy, one),
-            _mm256_sub_ps(fz, one),
-        );
-        let g000 = grad3(_mm256_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
-        let g100 = grad3(_mm256_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
-        let g010 = grad3(_mm256_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
-        let g110 = grad3(_mm256_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
-        let g001 = grad3(_mm256_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
-        let g101 = grad3(_mm256_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
-        let g011 = grad3(_mm256_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
-        let g111 = grad3(_mm256_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
-        let (x1, y1, z1) = (
-            _mm256_sub_ps(one, u),
-            _mm256_sub_ps(one, v),
-            _mm256_sub_ps(one, w),
-        );
-        let (add, mul) = (_mm256_add_ps, _mm256_mul_ps);
-        let row = |a: __m256, b: __m256| add(mul(a, x1), mul(b, u));
-        let face = |r0: __m256, r1: __m256| add(mul(y1, r0), mul(v, r1));
-        let p = add(
-            mul(z1, face(row(g000, g100), row(g010, g110))),
-            mul(w, face(row(g001, g101), row(g011, g111))),
-        );
-        let p = mul(_mm256_set1_ps(0.9820), p);
-        [
-            Vec4::from(_mm256_castps256_ps128(p)),
-            Vec4::from(_mm256_extractf128_ps::<1>(p)),
-        ]
+        let word = |c: F32x8| _mm256_cvttps_epi32(c.0);
+        let (a, b, c) = (word(cell[0]), word(cell[1]), word(cell[2]));
+        let near = corner_hashes8(a, b, c).0;
+        let far = corner_hashes8(a, b, _mm256_add_epi32(c, _mm256_set1_epi32(1))).0;
+        let h = broadcast_corners!(_mm256_shuffle_epi32, U32x8, near, far);
+        snoise3_in_cell(h, p, cell).halves()
     }
 
-    /// `fade` lane by lane, on four lanes.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn fade4(t: __m128) -> __m128 {
-        let s = _mm_set1_ps;
-        let tt = _mm_mul_ps(_mm_mul_ps(t, t), t);
-        let inner = _mm_sub_ps(_mm_mul_ps(t, s(6.0)), s(15.0));
-        _mm_mul_ps(tt, _mm_add_ps(_mm_mul_ps(t, inner), s(10.0)))
-    }
-
-    /// `grad3` on four lanes.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn grad3_4(h: __m128i, x: __m128, y: __m128, z: __m128) -> __m128 {
-        let k = _mm_set1_epi32;
-        let h = _mm_and_si128(h, k(15));
-        let below8 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(8), h));
-        let below4 = _mm_castsi128_ps(_mm_cmpgt_epi32(k(4), h));
-        let v_is_x = _mm_castsi128_ps(_mm_or_si128(
-            _mm_cmpeq_epi32(h, k(12)),
-            _mm_cmpeq_epi32(h, k(14)),
-        ));
-        let u = _mm_blendv_ps(y, x, below8);
-        let v = _mm_blendv_ps(_mm_blendv_ps(z, x, v_is_x), y, below4);
-        let sign_u = _mm_castsi128_ps(_mm_slli_epi32::<31>(_mm_and_si128(h, k(1))));
-        let sign_v = _mm_castsi128_ps(_mm_slli_epi32::<30>(_mm_and_si128(h, k(2))));
-        _mm_add_ps(_mm_xor_ps(u, sign_u), _mm_xor_ps(v, sign_v))
-    }
-
-    /// `snoise3_lanes` of one set of lanes (one octave of a Bump's three points) in one
-    /// lattice cell: its eight corner hashes in one eight-lane hash (lane dx + 2 dy + 4 dz),
-    /// each broadcast to the four lanes; a set that is not in one cell takes
-    /// `snoise3_lanes`.
+    /// `snoise3_lanes` of one set of lanes (one octave of a Bump's three points): its cell's
+    /// eight corner hashes in one eight-lane hash, each broadcast to the four lanes.
     #[target_feature(enable = "avx2")]
     #[inline]
     pub fn snoise3_one(x: Vec4, y: Vec4, z: Vec4) -> Vec4 {
-        let (px, py, pz): (__m128, __m128, __m128) = (x.into(), y.into(), z.into());
-        let abs = |v: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), v);
-        let near = |v: __m128| _mm_movemask_ps(_mm_cmplt_ps(abs(v), _mm_set1_ps(100_000.0))) == 0xF;
-        let (cx, cy, cz) = (_mm_floor_ps(px), _mm_floor_ps(py), _mm_floor_ps(pz));
-        let one_cell = |c: __m128| _mm_movemask_ps(_mm_cmpeq_ps(c, _mm_permute_ps::<0>(c))) == 0xF;
-        if !(near(px) && near(py) && near(pz) && one_cell(cx) && one_cell(cy) && one_cell(cz)) {
+        let Some(cell) = one_cell(x, y, z) else {
             return snoise3_lanes(x, y, z);
-        }
-        // The cell's coordinates (lane 0 of each) in all eight lanes, seeded.
-        let seeded = |c: __m128| {
-            _mm256_add_epi32(
-                _mm256_broadcastd_epi32(_mm_cvttps_epi32(c)),
-                _mm256_set1_epi32(SEED3),
-            )
         };
-        let a = _mm256_add_epi32(seeded(cx), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
-        let b = _mm256_add_epi32(seeded(cy), _mm256_setr_epi32(0, 0, 1, 1, 0, 0, 1, 1));
-        let c = _mm256_add_epi32(seeded(cz), _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1));
-        // SAFETY: this function runs only with AVX2.
-        let h = unsafe { hash::finish(a, b, c) };
-        let (near_h, far_h) = (_mm256_castsi256_si128(h), _mm256_extracti128_si256::<1>(h));
-        let one = _mm_set1_ps(1.0);
-        let (fx, fy, fz) = (_mm_sub_ps(px, cx), _mm_sub_ps(py, cy), _mm_sub_ps(pz, cz));
-        let (u, v, w) = (fade4(fx), fade4(fy), fade4(fz));
-        let (gx, gy, gz) = (
-            _mm_sub_ps(fx, one),
-            _mm_sub_ps(fy, one),
-            _mm_sub_ps(fz, one),
+        let word = |c: Vec4| _mm_cvttps_epi32(c.into());
+        let (a, b, c) = (word(cell[0]), word(cell[1]), word(cell[2]));
+        let corners = cell_corner_hashes(a, b, c).0;
+        let (near, far) = (
+            _mm256_castsi256_si128(corners),
+            _mm256_extracti128_si256::<1>(corners),
         );
-        let g000 = grad3_4(_mm_shuffle_epi32::<0x00>(near_h), fx, fy, fz);
-        let g100 = grad3_4(_mm_shuffle_epi32::<0x55>(near_h), gx, fy, fz);
-        let g010 = grad3_4(_mm_shuffle_epi32::<0xAA>(near_h), fx, gy, fz);
-        let g110 = grad3_4(_mm_shuffle_epi32::<0xFF>(near_h), gx, gy, fz);
-        let g001 = grad3_4(_mm_shuffle_epi32::<0x00>(far_h), fx, fy, gz);
-        let g101 = grad3_4(_mm_shuffle_epi32::<0x55>(far_h), gx, fy, gz);
-        let g011 = grad3_4(_mm_shuffle_epi32::<0xAA>(far_h), fx, gy, gz);
-        let g111 = grad3_4(_mm_shuffle_epi32::<0xFF>(far_h), gx, gy, gz);
-        let (x1, y1, z1) = (_mm_sub_ps(one, u), _mm_sub_ps(one, v), _mm_sub_ps(one, w));
-        let (add, mul) = (_mm_add_ps, _mm_mul_ps);
-        let row = |a: __m128, b: __m128| add(mul(a, x1), mul(b, u));
-        let face = |r0: __m128, r1: __m128| add(mul(y1, r0), mul(v, r1));
-        let p = add(
-            mul(z1, face(row(g000, g100), row(g010, g110))),
-            mul(w, face(row(g001, g101), row(g011, g111))),
-        );
-        Vec4::from(mul(_mm_set1_ps(0.9820), p))
+        let h = broadcast_corners!(_mm_shuffle_epi32, U32x4, near, far);
+        snoise3_in_cell(h, [x, y, z], cell)
     }
 }
 
@@ -879,7 +707,6 @@ pub(super) mod tests {
     }
 
     /// Random coordinates at several scales, with −0, integers and cell walls mixed in.
-    #[cfg(target_arch = "x86_64")]
     pub(crate) fn awkward_coordinate(rng: &mut crate::rng::Rng, k: usize) -> f32 {
         let scale = [1.0, 10.0, 300.0, 9.0e4][k % 4];
         let v = (rng.uniform() * 2.0 - 1.0) * scale;
@@ -888,6 +715,44 @@ pub(super) mod tests {
             1 => v.floor(),
             2 => v.floor() - f32::EPSILON * v.abs(),
             _ => v,
+        }
+    }
+
+    #[test]
+    fn perlin3_is_cycles_perlin3_bit_for_bit() {
+        // Cycles' `perlin_3d` written out: a hash per corner, its branching `grad3`, `lerp`s.
+        let grad = |hash: u32, x: f32, y: f32, z: f32| {
+            let h = hash & 15;
+            let u = if h < 8 { x } else { y };
+            let v = if h < 4 {
+                y
+            } else if h == 12 || h == 14 {
+                x
+            } else {
+                z
+            };
+            negate_if(u, h & 1) + negate_if(v, h & 2)
+        };
+        let tri_mix = |v: [f32; 8], x: f32, y: f32, z: f32| {
+            let (x1, y1, z1) = (1.0 - x, 1.0 - y, 1.0 - z);
+            z1 * (y1 * (v[0] * x1 + v[1] * x) + y * (v[2] * x1 + v[3] * x))
+                + z * (y1 * (v[4] * x1 + v[5] * x) + y * (v[6] * x1 + v[7] * x))
+        };
+        let mut rng = crate::rng::Rng::new(20);
+        for k in 0..200_000 {
+            let [x, y, z] = [k, k / 3, k / 5].map(|j| awkward_coordinate(&mut rng, j));
+            let ((xi, fx), (yi, fy), (zi, fz)) = (floorfrac(x), floorfrac(y), floorfrac(z));
+            let corners = [0, 1, 2, 3, 4, 5, 6, 7].map(|c: i32| {
+                let (dx, dy, dz) = (c & 1, c >> 1 & 1, c >> 2);
+                let h = super::hash::hash3(
+                    xi.wrapping_add(dx) as u32,
+                    yi.wrapping_add(dy) as u32,
+                    zi.wrapping_add(dz) as u32,
+                );
+                grad(h, fx - dx as f32, fy - dy as f32, fz - dz as f32)
+            });
+            let want = tri_mix(corners, fade(fx), fade(fy), fade(fz));
+            assert_eq!(perlin3(x, y, z).to_bits(), want.to_bits(), "{x} {y} {z}");
         }
     }
 

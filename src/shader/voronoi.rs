@@ -1,17 +1,15 @@
 //! The Voronoi Texture (Worley's cellular texture, Worley 1996) as Blender defines it (Cycles'
 //! `voronoi.h`: F1, F2 and Smooth F1 over 2D and 3D cells, four metrics, fractal octaves), cell
 //! points from Jenkins' lookup3 (`hash`). The F1 search visits cells nearest first and skips those
-//! that cannot hold a nearer point; in 3D with the Euclidean metric four cells at a time, or eight
-//! with AVX2 (`voronoi_avx2`), with the same result bit for bit.
+//! that cannot hold a nearer point; in 3D with the Euclidean metric several cells at a time, the
+//! search written once over `lanes::Lanes` and run on four lanes, or eight with AVX2, with the
+//! same result bit for bit.
 
-use super::hash::{
-    self, has_avx2, hash2, hash3, lookup3_final, lookup3_mix, unit, U32x4, LOOKUP3_SEED,
-};
+use super::hash::{self, has_avx2, hash2, hash3, unit, LOOKUP3_SEED};
 use super::inputs::{input, splat, v3, Operands, Socket, Ty};
+use super::lanes::{floor, Lanes, Words};
 use super::math::smoothstep;
-use super::noise::{floor, lerp};
-#[cfg(target_arch = "x86_64")]
-use super::voronoi_avx2;
+use super::noise::lerp;
 use crate::math::{Vec3, Vec4};
 
 /// The Voronoi node's inputs.
@@ -70,18 +68,11 @@ pub(super) struct VoronoiParams {
 
 /// `hash_float2_to_float2` (2D) or `hash_float3_to_float3` (3D): a cell's point offset.
 pub(super) fn cell_point(dimensions: u8, c: Vec3) -> Vec3 {
-    let (x, y, z) = (c.x.to_bits(), c.y.to_bits(), c.z.to_bits());
+    let (x, y) = (c.x.to_bits(), c.y.to_bits());
     if dimensions == 2 {
         Vec3::new(unit(hash2(x, y)), unit(hash3(x, y, 1f32.to_bits())), 0.0)
     } else {
-        // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
-        let s = LOOKUP3_SEED.wrapping_add((4 << 2) + 13);
-        let (a, b, c) = lookup3_mix(s.wrapping_add(x), s.wrapping_add(y), s.wrapping_add(z));
-        Vec3::new(
-            unit(hash3(x, y, z)),
-            unit(lookup3_final(a.wrapping_add(1f32.to_bits()), b, c)),
-            unit(lookup3_final(a.wrapping_add(2f32.to_bits()), b, c)),
-        )
+        Vec3::from_array(cell_points(c.x, c.y, c.z))
     }
 }
 
@@ -235,26 +226,26 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
     }
 }
 
-/// `cell_point` in 3D of four cells given as lanes: the same hashes, lane by lane.
+/// `hash_float3_to_float3` of cells given as lanes (one, four or eight): the point offsets
+/// of 3D cells, `hash3` for x and `hash4` with w = 1.0 and 2.0 for y and z.
 #[inline(always)]
-pub(super) fn cell_points4(x: Vec4, y: Vec4, z: Vec4) -> [Vec4; 3] {
-    let bits = |v: Vec4| U32x4::new(v.to_array().map(f32::to_bits));
-    let (x, y, z) = (bits(x), bits(y), bits(z));
-    let s3 = U32x4::splat(LOOKUP3_SEED.wrapping_add((3 << 2) + 13));
+pub(super) fn cell_points<F: Lanes>(x: F, y: F, z: F) -> [F; 3] {
+    let (x, y, z) = (x.to_bits(), y.to_bits(), z.to_bits());
+    let s3 = F::Words::splat(LOOKUP3_SEED.wrapping_add((3 << 2) + 13));
     let first = hash::finish(x + s3, y + s3, z + s3);
     // hash4(x, y, z, w) for w = 1.0 and 2.0 share their first mix.
-    let s4 = U32x4::splat(LOOKUP3_SEED.wrapping_add((4 << 2) + 13));
+    let s4 = F::Words::splat(LOOKUP3_SEED.wrapping_add((4 << 2) + 13));
     let (a, b, c) = hash::mix(x + s4, y + s4, z + s4);
-    let second = hash::finish(a + U32x4::splat(1f32.to_bits()), b, c);
-    let third = hash::finish(a + U32x4::splat(2f32.to_bits()), b, c);
-    let unit4 = |h: U32x4| Vec4::from_array(h.to_array().map(unit));
-    [unit4(first), unit4(second), unit4(third)]
+    let second = hash::finish(a + F::Words::splat(1f32.to_bits()), b, c);
+    let third = hash::finish(a + F::Words::splat(2f32.to_bits()), b, c);
+    [F::unit(first), F::unit(second), F::unit(third)]
 }
 
 /// The Voronoi F1 search in 3D with the Euclidean metric (`voronoi_octave`'s, exact):
 /// (distance, offset, point) of the nearest cell point to `local` in `cell`'s frame; `gap2`
 /// holds per axis the squared gaps from `local` to the boxes of offsets −1, 0, 1. Eight cells
-/// at a time where the machine has AVX2 (`voronoi_avx2`), else four (the same result).
+/// at a time where the machine has AVX2, else four (`nearest_point_euclidean_3d_lanes`, the
+/// same result).
 pub(super) fn nearest_point_euclidean_3d(
     cell: Vec3,
     local: Vec3,
@@ -264,97 +255,226 @@ pub(super) fn nearest_point_euclidean_3d(
     #[cfg(target_arch = "x86_64")]
     if has_avx2() {
         // SAFETY: AVX2 is present (checked above).
-        return unsafe { voronoi_avx2::nearest_point_euclidean_3d(cell, local, randomness, gap2) };
+        return unsafe { nearest_point_euclidean_3d_avx2(cell, local, randomness, gap2) };
     }
-    nearest_point_euclidean_3d_lanes4(cell, local, randomness, gap2)
+    nearest_point_euclidean_3d_lanes::<Vec4>(cell, local, randomness, gap2)
 }
 
-/// `nearest_point_euclidean_3d` four cells at a time: the home cell and, per axis, the face
-/// neighbour on `local`'s nearer side are searched first, four at once; then the other cells
-/// nearest first, skipping those whose box lies farther than the best point so far, the
-/// others queued and searched four at a time.
-pub(super) fn nearest_point_euclidean_3d_lanes4(
+/// `nearest_point_euclidean_3d_lanes` on eight lanes, for machines with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(super) fn nearest_point_euclidean_3d_avx2(
     cell: Vec3,
     local: Vec3,
     randomness: f32,
     gap2: &[[f32; 3]; 3],
 ) -> (f32, Vec3, Vec3) {
-    let mut nearest = (f32::MAX, usize::MAX, Vec3::ZERO, Vec3::ZERO);
-    let side = |l: f32| if l < 0.5 { -1.0f32 } else { 1.0 };
-    let (sx, sy, sz) = (side(local.x), side(local.y), side(local.z));
-    // Cycles' index of offset (i, j, k): z outermost, x innermost.
-    let index = |o: Vec3| (o.x + 1.0 + 3.0 * (o.y + 1.0) + 9.0 * (o.z + 1.0)) as usize;
-    let first = [
-        Vec3::ZERO,
-        Vec3::new(sx, 0.0, 0.0),
-        Vec3::new(0.0, sy, 0.0),
-        Vec3::new(0.0, 0.0, sz),
-    ]
-    .map(|o| (index(o), o));
-    nearest_of_four(&first, cell, local, randomness, &mut nearest);
-    let done = first.iter().fold(0u32, |m, (i, _)| m | 1 << i);
-    let mut batch = [first[0]; 4];
-    let mut queued = 0;
-    // Squared, without the root (the bound's margin covers the rounding); it changes only
-    // when a batch finds a nearer point.
-    let limit = |nearest: f32| {
-        let bound = nearest * (1.0 + 1e-6);
-        bound * bound
-    };
-    let mut far = limit(nearest.0);
-    for &(index, [a, b, c], offset) in &NEAREST_FIRST_3D_BOXES {
-        if done >> index & 1 != 0 {
-            continue;
-        }
-        if gap2[0][a] + gap2[1][b] + gap2[2][c] > far {
-            continue;
-        }
-        batch[queued] = (index, offset);
-        queued += 1;
-        if queued == 4 {
-            nearest_of_four(&batch, cell, local, randomness, &mut nearest);
-            far = limit(nearest.0);
-            queued = 0;
-        }
+    use super::lanes::eight::F32x8;
+    nearest_point_euclidean_3d_lanes::<F32x8>(cell, local, randomness, gap2)
+}
+
+/// The nearest point found so far: (distance, Cycles' index of its cell, offset, point).
+type Nearest = (f32, usize, Vec3, Vec3);
+
+/// `nearest_point_euclidean_3d` with `F::N` cells at a time. The cells of the 2 × 2 × 2 block
+/// on `local`'s nearer side of the home cell along each axis are searched first, nearest
+/// first, `F::N` of them at once; then the box of each other cell is tested against the best
+/// distance so far, `F::N` boxes at once, and those within it searched `F::N` at a time. The
+/// nearest point is the least (distance, Cycles' index) over the searched cells, so the order
+/// of the search does not matter.
+#[inline(always)]
+pub(super) fn nearest_point_euclidean_3d_lanes<F: Lanes>(
+    cell: Vec3,
+    local: Vec3,
+    randomness: f32,
+    gap2: &[[f32; 3]; 3],
+) -> (f32, Vec3, Vec3) {
+    let mut nearest: Nearest = (f32::MAX, usize::MAX, Vec3::ZERO, Vec3::ZERO);
+    let up = |l: f32| !(l < 0.5);
+    let sides = up(local.x) as usize | (up(local.y) as usize) << 1 | (up(local.z) as usize) << 2;
+    let block = &SIDE_BLOCKS[sides];
+    let load = |o: &[[f32; 8]; 3]| [F::load(&o[0]), F::load(&o[1]), F::load(&o[2])];
+    let first = load(&block.offsets);
+    nearest_of_lanes(&block.index, first, cell, local, randomness, &mut nearest);
+    // The other cells whose box lies within the bound (squared, without the root: its
+    // margin covers the rounding).
+    let bound = nearest.0 * (1.0 + 1e-6);
+    let far = bound * bound;
+    let axis = |g: &[f32; 3]| [g[0], g[1], g[2], f32::MAX];
+    let tables = [axis(&gap2[0]), axis(&gap2[1]), axis(&gap2[2])];
+    let mut within = 0u32;
+    let mut group = 0;
+    while group * F::N < 27 {
+        let pick = |a: usize| {
+            let picks: &[i32; 8] = GAP_PICKS[a][group * F::N..][..8].try_into().unwrap();
+            F::lookup(tables[a], picks)
+        };
+        let sum = pick(0) + pick(1) + pick(2);
+        // Not farther: as the test that skips a cell, NaN included.
+        let near = !sum.above(far).bitmask() & ((1 << F::N) - 1);
+        within |= near << (group * F::N);
+        group += 1;
     }
-    if queued > 0 {
-        // The empty lanes repeat the batch's first cell (a tie with itself: no change).
-        for k in queued..4 {
-            batch[k] = batch[0];
+    let mut left = within & !block.searched[F::N] & ((1 << 27) - 1);
+    while left != 0 {
+        let mut index = [0usize; 8];
+        let mut offsets = [[0.0f32; 8]; 3];
+        let mut n = 0;
+        while left != 0 && n < F::N {
+            let i = left.trailing_zeros() as usize;
+            left &= left - 1;
+            index[n] = i;
+            for (lane, o) in offsets.iter_mut().zip(OFFSETS[i]) {
+                lane[n] = o;
+            }
+            n += 1;
         }
-        nearest_of_four(&batch, cell, local, randomness, &mut nearest);
+        // The empty lanes repeat the batch's first cell (a tie with itself: no change).
+        for k in n..F::N {
+            index[k] = index[0];
+            for lane in &mut offsets {
+                lane[k] = lane[0];
+            }
+        }
+        nearest_of_lanes(
+            &index,
+            load(&offsets),
+            cell,
+            local,
+            randomness,
+            &mut nearest,
+        );
     }
     (nearest.0, nearest.2, nearest.3)
 }
 
-/// The Euclidean F1 search over four cells (index in Cycles' order, offset) at once: their
-/// points, distances to `local` (`a.distance(b)`'s operations lane by lane) and the update of
-/// `nearest` = (distance, index, offset, point) with Cycles' tie rule (the first in its order).
-pub(super) fn nearest_of_four(
-    cells: &[(usize, Vec3); 4],
+/// The Euclidean F1 search over `F::N` cells (Cycles' indices and offsets as lanes) at once:
+/// their points, distances to `local` (`a.distance(b)`'s operations lane by lane) and the
+/// update of `nearest` with Cycles' tie rule (the first in its order).
+#[inline(always)]
+fn nearest_of_lanes<F: Lanes>(
+    index: &[usize; 8],
+    offset: [F; 3],
     cell: Vec3,
     local: Vec3,
     randomness: f32,
-    nearest: &mut (f32, usize, Vec3, Vec3),
+    nearest: &mut Nearest,
 ) {
-    let lane = |f: fn(Vec3) -> f32| Vec4::from_array(cells.map(|(_, o)| f(o)));
-    let (ox, oy, oz) = (lane(|o| o.x), lane(|o| o.y), lane(|o| o.z));
-    let [hx, hy, hz] = cell_points4(ox + cell.x, oy + cell.y, oz + cell.z);
+    let [ox, oy, oz] = offset;
+    let [hx, hy, hz] = cell_points(ox + cell.x, oy + cell.y, oz + cell.z);
     let (px, py, pz) = (
         ox + hx * randomness,
         oy + hy * randomness,
         oz + hz * randomness,
     );
     let (dx, dy, dz) = (px - local.x, py - local.y, pz - local.z);
-    let d = (dx * dx + dy * dy + dz * dz).sqrt().to_array();
-    let (px, py, pz) = (px.to_array(), py.to_array(), pz.to_array());
-    for k in 0..4 {
-        let (index, offset) = cells[k];
-        if d[k] < nearest.0 || (d[k] == nearest.0 && index < nearest.1) {
-            *nearest = (d[k], index, offset, Vec3::new(px[k], py[k], pz[k]));
+    let d = (dx * dx + dy * dy + dz * dz).sqrt();
+    let within = d.at_most(nearest.0);
+    let hits = within.bitmask();
+    if hits == 0 {
+        return;
+    }
+    // The least distance among the lanes not farther than the best (NaN never is), then
+    // the least index among its lanes: the rule below applied lane by lane in any order
+    // keeps the least (distance, index).
+    let d = F::select(within, d, F::splat(f32::INFINITY));
+    let least = d.least();
+    let mut ties = hits & d.equal(least).bitmask();
+    let mut k = ties.trailing_zeros() as usize;
+    ties &= ties - 1;
+    while ties != 0 {
+        let j = ties.trailing_zeros() as usize;
+        ties &= ties - 1;
+        if index[j] < index[k] {
+            k = j;
         }
     }
+    if least < nearest.0 || (least == nearest.0 && index[k] < nearest.1) {
+        let (px, py, pz) = (px.store(), py.store(), pz.store());
+        let o = OFFSETS[index[k]];
+        *nearest = (
+            least,
+            index[k],
+            Vec3::from_array(o),
+            Vec3::new(px[k], py[k], pz[k]),
+        );
+    }
 }
+
+/// The offset of the cell of Cycles' index `i` (z outermost, x innermost).
+const OFFSETS: [[f32; 3]; 27] = {
+    let mut o = [[0.0; 3]; 27];
+    let mut i = 0;
+    while i < 27 {
+        o[i] = [
+            (i % 3) as f32 - 1.0,
+            ((i / 3) % 3) as f32 - 1.0,
+            (i / 9) as f32 - 1.0,
+        ];
+        i += 1;
+    }
+    o
+};
+
+/// The 2 × 2 × 2 cells on one side of the home cell's centre, nearest first.
+#[derive(Clone, Copy)]
+struct SideBlock {
+    /// Cycles' indices.
+    index: [usize; 8],
+    /// Per axis, the offsets (each zero a +0).
+    offsets: [[f32; 8]; 3],
+    /// The set of the first n cells, for each n.
+    searched: [u32; 9],
+}
+
+/// For each side of the home cell's centre `local` is on (bit a set where it is at least
+/// ½ along axis a), its `SideBlock`: the home cell, the three sharing a face with it, the
+/// three sharing an edge, the one sharing a corner.
+const SIDE_BLOCKS: [SideBlock; 8] = {
+    const STEPS: [usize; 8] = [0b000, 0b001, 0b010, 0b100, 0b011, 0b101, 0b110, 0b111];
+    let empty = SideBlock {
+        index: [0; 8],
+        offsets: [[0.0; 8]; 3],
+        searched: [0; 9],
+    };
+    let mut blocks = [empty, empty, empty, empty, empty, empty, empty, empty];
+    let mut sides = 0;
+    while sides < 8 {
+        let mut lane = 0;
+        while lane < 8 {
+            let mut index = 13;
+            let mut axis = 0;
+            while axis < 3 {
+                if STEPS[lane] >> axis & 1 != 0 {
+                    let up = sides >> axis & 1 != 0;
+                    blocks[sides].offsets[axis][lane] = if up { 1.0 } else { -1.0 };
+                    let stride = [1, 3, 9][axis];
+                    index = if up { index + stride } else { index - stride };
+                }
+                axis += 1;
+            }
+            blocks[sides].index[lane] = index;
+            blocks[sides].searched[lane + 1] = blocks[sides].searched[lane] | 1 << index;
+            lane += 1;
+        }
+        sides += 1;
+    }
+    blocks
+};
+
+/// For each axis, which of the box gaps (offset + 1) the cell of Cycles' index i reads
+/// (3: none, for the lanes past the 27 cells).
+const GAP_PICKS: [[i32; 40]; 3] = {
+    let mut picks = [[3; 40]; 3];
+    let mut i = 0;
+    while i < 27 {
+        picks[0][i] = (i % 3) as i32;
+        picks[1][i] = ((i / 3) % 3) as i32;
+        picks[2][i] = (i / 9) as i32;
+        i += 1;
+    }
+    picks
+};
 
 /// The cells around a Voronoi point's home cell as (Cycles' visiting order, offset), nearest
 /// first: the home cell, then the cells sharing a face, an edge, a corner with it.
@@ -384,23 +504,6 @@ pub(super) const fn nearest_first<const N: usize>(dims: usize) -> [(u8, [i8; 3])
 
 pub(super) const NEAREST_FIRST_2D: [(u8, [i8; 3]); 9] = nearest_first::<9>(2);
 pub(super) const NEAREST_FIRST_3D: [(u8, [i8; 3]); 27] = nearest_first::<27>(3);
-
-/// `NEAREST_FIRST_3D` as the 3D Euclidean search reads it: (index, the offset's per-axis
-/// indices into the box gaps (offset + 1), offset).
-pub(super) const NEAREST_FIRST_3D_BOXES: [(usize, [usize; 3], Vec3); 27] = {
-    let mut boxes = [(0, [0; 3], Vec3::ZERO); 27];
-    let mut n = 0;
-    while n < 27 {
-        let (index, [i, j, k]) = NEAREST_FIRST_3D[n];
-        boxes[n] = (
-            index as usize,
-            [(i + 1) as usize, (j + 1) as usize, (k + 1) as usize],
-            Vec3::new(i as f32, j as f32, k as f32),
-        );
-        n += 1;
-    }
-    boxes
-};
 
 /// Cycles' `fractal_voronoi_x_fx` with the node's normalisation: (distance, colour, position).
 /// Without `color` the F1 colour is not computed (zero).
@@ -493,6 +596,7 @@ pub(super) fn eval_voronoi(kind: VoronoiKind, used: u32, ins: &impl Operands) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shader::noise::tests::awkward_coordinate;
 
     #[test]
     fn voronoi_f1_is_the_nearest_of_the_neighbouring_cells_points() {
@@ -545,6 +649,43 @@ mod tests {
                         assert_eq!((d, found), (nearest, position), "{metric:?} {x}");
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn voronoi_search_is_the_same_on_one_four_and_eight_lanes() {
+        let mut rng = crate::rng::Rng::new(23);
+        for k in 0..200_000 {
+            let coord =
+                Vec3::from_array([k, k / 3, k / 5].map(|j| awkward_coordinate(&mut rng, j)));
+            let randomness = [1.0, 0.5, 0.0, 0.93, 1e-3][k % 5];
+            let cell = Vec3::new(floor(coord.x), floor(coord.y), floor(coord.z));
+            let local = coord - cell;
+            let gap2 = [local.x, local.y, local.z].map(|l| {
+                [-1.0f32, 0.0, 1.0].map(|o| {
+                    let g = (o - l).max(l - (o + randomness)).max(0.0);
+                    g * g
+                })
+            });
+            let bits = |(d, o, p): (f32, Vec3, Vec3)| {
+                (
+                    d.to_bits(),
+                    o.to_array().map(f32::to_bits),
+                    p.to_array().map(f32::to_bits),
+                )
+            };
+            let want = bits(nearest_point_euclidean_3d_lanes::<f32>(
+                cell, local, randomness, &gap2,
+            ));
+            let four = nearest_point_euclidean_3d_lanes::<Vec4>(cell, local, randomness, &gap2);
+            assert_eq!(bits(four), want, "{coord} {randomness}");
+            #[cfg(target_arch = "x86_64")]
+            if has_avx2() {
+                // SAFETY: AVX2 is present (checked above).
+                let eight =
+                    unsafe { nearest_point_euclidean_3d_avx2(cell, local, randomness, &gap2) };
+                assert_eq!(bits(eight), want, "{coord} {randomness}");
             }
         }
     }
