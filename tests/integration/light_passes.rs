@@ -4,8 +4,7 @@
 //! camera sees it, a one-bounce render has no Indirect light, and `--passes` names the EXR
 //! channels as Blender's view layer expects.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::film::Image;
 use photon::image_io::{write_image, ExrLayout, LIGHT_PASS_NAMES};
