@@ -3,8 +3,12 @@
 //! the EXR with every pass). A change meant to move no pixel is checked bit for bit this way; a
 //! change meant to move pixels re-records the file (`PHOTON_RECORD_HASHES=1 cargo test --release
 //! --test image_hashes`) and says in its commit which images changed and by how much.
+//! A crate of its own rather than a module of `integration/`: it runs the `photon` binary and
+//! never links the library, and this command is the one every change is checked with.
 
-#[path = "support/binary.rs"]
+// The integration tests' helpers for running the binary (this crate uses only some of them).
+#[path = "integration/support/binary.rs"]
+#[allow(dead_code)]
 mod binary;
 
 use binary::{assert_success, photon, temp_dir};

@@ -2,7 +2,9 @@
 //! layer, no file imports one of a higher layer, and no files import each other, directly or
 //! through others. Imports are read from the source text: `use` trees and `crate::` / `super::`
 //! / `self::` paths in code (and `photon::` in the binary's files), without comments, strings
-//! and test modules.
+//! and test modules. A crate of its own rather than a module of `integration/`: it reads source
+//! text and never links the library, and `cargo test --release --test layers` is the command
+//! every change of layout is checked with.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

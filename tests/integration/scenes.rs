@@ -2,8 +2,7 @@
 //! with the path tracer and with the method `--method auto` picks: no NaN or Inf, no dropped
 //! samples, something visible. The furnace scene also gives its analytic radiance.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::plan::{plan, Quality};
 use photon::render::{Method, RenderSettings};

@@ -5,8 +5,7 @@
 //! volume photon map agrees with the path tracer where light scatters many times in fog, and
 //! converges as its generations shrink their radii.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::film::Image;
 use photon::integrator::photon::settings::PhotonSettings;
@@ -358,8 +357,8 @@ fn spot_in_fog(volume_bounces: u32) -> Scene {
 /// Measurement, not a check (docs/bench/volumes.md): the time the path tracer and the photon
 /// method take to reach a relMSE against a path-traced reference on the spot in fog and the
 /// lamp over fog, 48 × 48, budgets of samples per pixel with the photon counts scaled as
-/// `photon bench` scales them (the scene files `photon bench` reads carry no media yet). Run with `cargo test --release --test media -- --ignored
-/// --nocapture time_to_error`.
+/// `photon bench` scales them (the scene files `photon bench` reads carry no media yet). Run
+/// with `cargo test --release --test integration -- --ignored --nocapture media::time_to_error`.
 #[test]
 #[ignore]
 fn time_to_error_in_fog() {

@@ -9,8 +9,7 @@
 //! and final gathering (`classify::stores_photons`) instead of estimated from photons there:
 //! the same mean as the path tracer, and the path tracer's noise.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::film::Image;
 use photon::integrator::photon::settings::PhotonSettings;

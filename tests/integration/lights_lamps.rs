@@ -4,8 +4,7 @@
 //! MIS weights sum to one), ray visibility, the hierarchy over many lamps, and MIS lowering the
 //! path tracer's error on a glossy floor at equal samples.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::accel::{Ray, FRAME_TIME};
 use photon::light::{Lights, Receiver};

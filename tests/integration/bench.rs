@@ -2,8 +2,7 @@
 //! writes the CSV, the report (time to a target error, auto against the fixed methods) and
 //! summary.json.
 
-#[path = "support/binary.rs"]
-mod binary;
+use crate::support::binary;
 use binary::*;
 
 #[test]

@@ -5,8 +5,6 @@
 //! regularised incomplete gamma function. The significance level 0.01 is Šidák-corrected for the
 //! number of tests run.
 
-#![allow(dead_code)]
-
 use photon::math::Vec3;
 use std::f64::consts::PI;
 

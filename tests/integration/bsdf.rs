@@ -4,9 +4,7 @@
 //! agreement of sample weights with eval/pdf, hemisphere rules, reciprocity, white furnace,
 //! layering, smooth-glass Fresnel split and robustness at extreme inputs.
 
-mod common;
-
-use common::chi2::chi2_sphere;
+use crate::support::chi2::chi2_sphere;
 use photon::bsdf::fresnel::fresnel_dielectric;
 use photon::bsdf::Bsdf;
 use photon::material::SurfaceMaterial;

@@ -4,8 +4,7 @@
 //! with exit code 2 and a message naming the material; `photon info` lists the nodes Photon
 //! does not evaluate.
 
-#[path = "support/binary.rs"]
-mod binary;
+use crate::support::binary;
 use binary::*;
 
 use serde_json::{json, Value};

@@ -4,9 +4,8 @@
 //! worlds PHOTON_world builds from several backgrounds: a Nishita sky (a baked map and a sun),
 //! a weighted mix, and what camera rays see instead.
 
-mod common;
-
-use common::chi2::chi2_sphere;
+use crate::support::binary::temp_dir;
+use crate::support::chi2::chi2_sphere;
 use photon::error::Error;
 use photon::light::{EnvironmentLight, Lights};
 use photon::math::{Mat3, Vec2, Vec3};
@@ -137,12 +136,6 @@ fn lookups_follow_blenders_orientation() {
     // Straight up: the top row; straight down: the bottom row.
     assert!(pixel_of(Vec3::new(0.01, 0.0, 1.0)) < w);
     assert!(pixel_of(Vec3::new(0.01, 0.0, -1.0)) >= (h - 1) * w);
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("photon-env-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// A .gltf with no geometry whose world is the environment `environment`.

@@ -1,7 +1,6 @@
-//! Helpers for tests that run the `photon` binary: the command, the committed scenes, a fresh
-//! temporary directory per test, and a success check that shows the binary's stderr. Included
-//! by tests with `#[path = "support/binary.rs"] mod binary;`.
-#![allow(dead_code)]
+//! Helpers for tests that run the `photon` binary or read and write files: the command, the
+//! committed scenes, a fresh temporary directory per test, and a success check that shows the
+//! binary's stderr. `tests/image_hashes.rs` includes this file too.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -18,13 +17,12 @@ pub fn scene_path(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// An empty directory for one test, named after the test file, `name` and the process.
+/// An empty directory for one test, named after the calling test's file, `name` and the process.
+#[track_caller]
 pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "photon-{}-{name}-{}",
-        env!("CARGO_CRATE_NAME"),
-        std::process::id()
-    ));
+    let file = Path::new(std::panic::Location::caller().file());
+    let topic = file.file_stem().expect("a source file").to_string_lossy();
+    let dir = std::env::temp_dir().join(format!("photon-{topic}-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir

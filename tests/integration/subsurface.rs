@@ -4,8 +4,7 @@
 //! force, the exitance cache, the render's lattice interpolation against brute force, and
 //! rendered slabs under a sun against R_d·E/π.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use scenes::with_progress;
 

@@ -2,8 +2,7 @@
 //! emitted power, second-hit power the reflected power), the closed furnace sphere renders ≈ 1,
 //! agreement with the path tracer on the Cornell box, and determinism across thread counts.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use scenes::with_progress;
 

@@ -7,8 +7,7 @@
 //!
 //! `PHOTON_FUZZ_ITERATIONS` (default 200 per scene) runs it longer, e.g. for a night.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::error::Error;
 use photon::render::RenderSettings;

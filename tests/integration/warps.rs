@@ -1,8 +1,6 @@
 //! Chi-square tests of every warp in `photon::sampling` against its density.
 
-mod common;
-
-use common::chi2::{chi2_sphere, chi2_test};
+use crate::support::chi2::{chi2_sphere, chi2_test};
 use photon::film::{FilterKind, FilterSettings, PixelFilter};
 use photon::math::Vec2;
 use photon::rng::Rng;

@@ -2,6 +2,7 @@
 //! fixtures built here (transforms, normals, lights, cameras), and broken files that must give a
 //! `Error::Scene` naming the object at fault, never a panic.
 
+use crate::support::binary::{base64, scene_path, temp_dir};
 use photon::error::Error;
 use photon::film::{FilterKind, FilterSettings};
 use photon::math::{Vec3, Vec4};
@@ -10,7 +11,6 @@ use photon::scene::texture::Texels;
 use photon::scene::{Lamp, Light, Projection, Scene, SubsurfaceMethod};
 use serde_json::{json, Value};
 use std::f32::consts::PI;
-use std::path::{Path, PathBuf};
 
 // ----- fixture builder ----------------------------------------------------------------------
 
@@ -207,18 +207,6 @@ fn assert_scene_error(result: photon::error::Result<Scene>, needles: &[&str]) {
     }
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("photon-gltf-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn scene_file(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
-
 /// Index of the (first) mesh made for a PHOTON_light area light.
 fn area_light_index(scene: &Scene) -> usize {
     let found = scene
@@ -260,7 +248,7 @@ fn png_bytes(
 // ----- the built scenes -----------------------------------------------------------------------
 
 fn load_built(name: &str) -> Scene {
-    load(&scene_file(name), &LoadOptions::default()).unwrap()
+    load(&scene_path(name), &LoadOptions::default()).unwrap()
 }
 
 fn count_lights(scene: &Scene) -> (usize, usize, usize) {
@@ -427,7 +415,7 @@ fn built_scenes_are_small() {
         "lights.glb",
         "glass_caustic.glb",
     ] {
-        let size = std::fs::metadata(scene_file(name)).unwrap().len();
+        let size = std::fs::metadata(scene_path(name)).unwrap().len();
         assert!(size < 500_000, "{name} is {size} bytes");
     }
 }
@@ -928,24 +916,6 @@ fn gltf_with_external_buffer_and_image_loads_from_disk() {
     assert_eq!(scene.triangle_count(), 1);
 }
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for g in bytes.chunks(3) {
-        let n = (g[0] as u32) << 16
-            | (*g.get(1).unwrap_or(&0) as u32) << 8
-            | *g.get(2).unwrap_or(&0) as u32;
-        for i in 0..4 {
-            out.push(if i <= g.len() {
-                A[(n >> (18 - 6 * i) & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
-    out
-}
-
 // ----- lights -------------------------------------------------------------------------------
 
 fn with_light(doc: &mut Doc, light: Value, node: Value) {
@@ -1357,7 +1327,7 @@ fn nan_positions_are_refused() {
 
 #[test]
 fn coordinates_whose_distances_overflow_are_refused() {
-    // Found by tests/fuzz_gltf.rs: a vertex at 1.4e27 made the scene's diagonal infinite and
+    // Found by fuzz_gltf.rs: a vertex at 1.4e27 made the scene's diagonal infinite and
     // the BVH builder index out of bounds. Also reachable through a node's scale.
     let mut doc = Doc::new();
     let mesh = doc.mesh(

@@ -3,8 +3,7 @@
 //! sample, across rounds and with the photon method too, and the image does not depend on the
 //! thread count.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::adaptive::AdaptiveSettings;
 use photon::film::Image;

@@ -1,6 +1,5 @@
 //! Small scenes built in code for the renderer's tests: analytic configurations whose answer is
-//! known exactly. Included by tests with `#[path = "support/scenes.rs"] mod scenes;`.
-#![allow(dead_code)]
+//! known exactly.
 
 use photon::film::Image;
 use photon::math::{Affine3A, Vec2, Vec3};
@@ -23,6 +22,35 @@ pub fn with_progress<T>(f: impl FnOnce(&Progress) -> T) -> T {
         cancel: &cancel,
         report: &report,
     })
+}
+
+/// A mesh of `positions` with per-vertex `normals` and triangles `indices`, seen by the camera,
+/// casting shadows, with no UVs, colours or motion.
+pub fn mesh(
+    name: &str,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    indices: Vec<[u32; 3]>,
+    material: u32,
+) -> Mesh {
+    Mesh {
+        name: name.into(),
+        positions,
+        normals,
+        uvs: Vec::new(),
+        extra_uvs: Vec::new(),
+        tangents: Vec::new(),
+        indices,
+        material,
+        camera_visible: true,
+        holdout: false,
+        emission_spread: None,
+        casts_shadows: true,
+        colors: Vec::new(),
+        object_space: None,
+        deformation: Vec::new(),
+        volume_grids: None,
+    }
 }
 
 /// A unit sphere tessellated by latitude/longitude, with normals pointing outward (or inward).
@@ -66,52 +94,24 @@ pub fn sphere(
             }
         }
     }
-    Mesh {
-        name: "sphere".into(),
-        positions,
-        normals,
-        uvs: Vec::new(),
-        extra_uvs: Vec::new(),
-        tangents: Vec::new(),
-        indices,
-        material,
-        camera_visible: true,
-        holdout: false,
-        emission_spread: None,
-        casts_shadows: true,
-        colors: Vec::new(),
-        object_space: None,
-        deformation: Vec::new(),
-        volume_grids: None,
-    }
+    mesh("sphere", positions, normals, indices, material)
 }
 
 /// A square of side `size` in the plane y = `height`, facing +Y.
 pub fn floor(size: f32, height: f32, material: u32) -> Mesh {
     let h = 0.5 * size;
-    Mesh {
-        name: "floor".into(),
-        positions: vec![
+    mesh(
+        "floor",
+        vec![
             Vec3::new(-h, height, -h),
             Vec3::new(-h, height, h),
             Vec3::new(h, height, h),
             Vec3::new(h, height, -h),
         ],
-        normals: vec![Vec3::Y; 4],
-        uvs: Vec::new(),
-        extra_uvs: Vec::new(),
-        tangents: Vec::new(),
-        indices: vec![[0, 1, 2], [0, 2, 3]],
+        vec![Vec3::Y; 4],
+        vec![[0, 1, 2], [0, 2, 3]],
         material,
-        camera_visible: true,
-        holdout: false,
-        emission_spread: None,
-        casts_shadows: true,
-        colors: Vec::new(),
-        object_space: None,
-        deformation: Vec::new(),
-        volume_grids: None,
-    }
+    )
 }
 
 /// A camera at `eye` looking at `target`, +Y up.

@@ -7,8 +7,7 @@
 //! Indirect after more scatterings), the two methods agree on Volume Direct, and the passes
 //! still add up to Combined.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::film::Image;
 use photon::image_io::{write_image, ExrLayout, LIGHT_PASS_NAMES};

@@ -2,8 +2,7 @@
 //! diffuse floor (Cycles' unit conventions), a convex sphere under a uniform sky, determinism
 //! across thread counts, cancellation and the pixel filter.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::error::Error;
 use photon::film::Image;

@@ -2,36 +2,18 @@
 //! spawn routine (pbrt-v4's habit): rays leaving random triangles at scales from 1e-4 to 1e5 must
 //! never hit the surface they leave, and shadow rays between two surface points must reach.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::accel::{Accel, Ray, Visibility};
 use photon::interaction::{spawn_to, LightPoint, SurfaceHit};
 use photon::math::Vec3;
 use photon::rng::Rng;
 use photon::sampling::{square_to_triangle, square_to_uniform_sphere};
-use photon::scene::{Material, Mesh, Projection};
+use photon::scene::{Material, Projection};
 
 fn triangle_scene(v: [Vec3; 3]) -> photon::scene::Scene {
     let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
-    let mesh = Mesh {
-        name: "tri".into(),
-        positions: v.to_vec(),
-        normals: vec![n; 3],
-        uvs: Vec::new(),
-        extra_uvs: Vec::new(),
-        tangents: Vec::new(),
-        indices: vec![[0, 1, 2]],
-        material: 0,
-        camera_visible: true,
-        holdout: false,
-        emission_spread: None,
-        casts_shadows: true,
-        colors: Vec::new(),
-        object_space: None,
-        deformation: Vec::new(),
-        volume_grids: None,
-    };
+    let mesh = scenes::mesh("tri", v.to_vec(), vec![n; 3], vec![[0, 1, 2]], 0);
     scenes::scene(
         vec![mesh],
         vec![Material::diffuse("m", Vec3::ONE)],

@@ -1,8 +1,7 @@
 //! The scene planner skips what each scene does not need; `photon info` prints the plan;
 //! `--time-limit` stops adding rounds when the time is up.
 
-#[path = "support/binary.rs"]
-mod binary;
+use crate::support::binary;
 use binary::*;
 
 use photon::plan::{plan, Pilot, Quality, MIN_PILOT_SCALE};

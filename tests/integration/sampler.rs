@@ -4,9 +4,7 @@
 //! independent random numbers, and the estimates of a small bright feature are unbiased per
 //! pixel with errors independent from one pixel to the next.
 
-mod common;
-
-use common::chi2::chi2_test;
+use crate::support::chi2::chi2_test;
 use photon::math::Vec2;
 use photon::rng::Rng;
 

@@ -6,8 +6,8 @@
 //! 50,000 instances of a 20,000-triangle mesh
 //! load and render at 96×64 in seconds and little memory.
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::binary::base64;
+use crate::support::scenes;
 
 use photon::render::{Method, RenderSettings};
 use photon::scene::gltf::{load_slice, LoadOptions};
@@ -450,28 +450,6 @@ fn fifty_thousand_instances_of_twenty_thousand_triangles() {
     assert!(mean.is_finite() && mean > 0.0);
     assert!(total.as_secs_f32() < 60.0, "{total:?}");
     assert!(rss < 2 << 30, "peak RSS {rss} bytes");
-}
-
-/// Standard base64 of `bytes` (for PHOTON_object "deform").
-fn base64(bytes: &[u8]) -> String {
-    const TABLE: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(TABLE[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 /// A node whose mesh deforms while the shutter is open (PHOTON_object "deform": its vertices

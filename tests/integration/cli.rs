@@ -1,8 +1,7 @@
 //! The `photon` binary as users and the Blender add-on run it: exit codes, clear errors, output
 //! written atomically, and cancellation by signal leaving nothing behind.
 
-#[path = "support/binary.rs"]
-mod binary;
+use crate::support::binary;
 use binary::*;
 
 use std::path::Path;

@@ -5,8 +5,7 @@
 //! brightness inside the range the scene's physics allows (analytic where the scene has an
 //! answer, the same as a simpler twin scene where one exists).
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support::scenes;
 
 use photon::integrator::photon::settings::PhotonSettings;
 use photon::math::Vec3;
@@ -131,26 +130,11 @@ fn triangles(name: &str, tris: &[[Vec3; 3]], material: u32) -> Mesh {
     let n = (tris[0][1] - tris[0][0])
         .cross(tris[0][2] - tris[0][0])
         .normalize_or_zero();
-    Mesh {
-        name: name.into(),
-        normals: vec![if n == Vec3::ZERO { Vec3::Y } else { n }; positions.len()],
-        positions,
-        uvs: Vec::new(),
-        extra_uvs: Vec::new(),
-        tangents: Vec::new(),
-        indices: (0..tris.len() as u32)
-            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-            .collect(),
-        material,
-        camera_visible: true,
-        holdout: false,
-        emission_spread: None,
-        casts_shadows: true,
-        colors: Vec::new(),
-        object_space: None,
-        deformation: Vec::new(),
-        volume_grids: None,
-    }
+    let normals = vec![if n == Vec3::ZERO { Vec3::Y } else { n }; positions.len()];
+    let indices = (0..tris.len() as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect();
+    scenes::mesh(name, positions, normals, indices, material)
 }
 
 fn cases() -> Vec<Case> {
