@@ -7,6 +7,7 @@
 //!
 //! `PHOTON_FUZZ_ITERATIONS` (default 200 per scene) runs it longer, e.g. for a night.
 
+use crate::support::gltf;
 use crate::support::scenes;
 
 use photon::error::Error;
@@ -58,28 +59,7 @@ impl Glb {
     }
 
     fn write(&self) -> Vec<u8> {
-        let mut json = serde_json::to_vec(&self.json).unwrap();
-        while !json.len().is_multiple_of(4) {
-            json.push(b' ');
-        }
-        let mut bin = self.bin.clone();
-        while !bin.len().is_multiple_of(4) {
-            bin.push(0);
-        }
-        let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
-        let mut out = Vec::with_capacity(total);
-        out.extend_from_slice(b"glTF");
-        out.extend_from_slice(&2u32.to_le_bytes());
-        out.extend_from_slice(&(total as u32).to_le_bytes());
-        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"JSON");
-        out.extend_from_slice(&json);
-        if !bin.is_empty() {
-            out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-            out.extend_from_slice(b"BIN\0");
-            out.extend_from_slice(&bin);
-        }
-        out
+        gltf::glb(&self.json, &self.bin)
     }
 }
 

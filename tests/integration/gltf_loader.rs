@@ -3,6 +3,7 @@
 //! `Error::Scene` naming the object at fault, never a panic.
 
 use crate::support::binary::{base64, scene_path, temp_dir};
+use crate::support::gltf;
 use photon::error::Error;
 use photon::film::{FilterKind, FilterSettings};
 use photon::math::{Vec3, Vec4};
@@ -133,26 +134,7 @@ impl Doc {
     }
 
     fn glb(&self) -> Vec<u8> {
-        let mut text = serde_json::to_vec(&self.finish_json(None)).unwrap();
-        while !text.len().is_multiple_of(4) {
-            text.push(b' ');
-        }
-        let mut bin = self.bin.clone();
-        while !bin.len().is_multiple_of(4) {
-            bin.push(0);
-        }
-        let total = 12 + 8 + text.len() + 8 + bin.len();
-        let mut out = Vec::new();
-        out.extend(b"glTF");
-        out.extend(2u32.to_le_bytes());
-        out.extend((total as u32).to_le_bytes());
-        out.extend((text.len() as u32).to_le_bytes());
-        out.extend(b"JSON");
-        out.extend(&text);
-        out.extend((bin.len() as u32).to_le_bytes());
-        out.extend(b"BIN\0");
-        out.extend(&bin);
-        out
+        gltf::glb(&self.finish_json(None), &self.bin)
     }
 }
 

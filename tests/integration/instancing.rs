@@ -7,6 +7,7 @@
 //! load and render at 96×64 in seconds and little memory.
 
 use crate::support::binary::base64;
+use crate::support::gltf;
 use crate::support::scenes;
 
 use photon::render::{Method, RenderSettings};
@@ -107,24 +108,7 @@ fn grid_glb(n: usize, placements: &[Value], copies: bool, material: Value) -> Ve
     }
     doc["scenes"][0]["nodes"] = json!(roots);
     doc["buffers"] = json!([{"byteLength": bin.len()}]);
-    let mut text = serde_json::to_vec(&doc).unwrap();
-    while !text.len().is_multiple_of(4) {
-        text.push(b' ');
-    }
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
-    let mut out = Vec::new();
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
-    out.extend((text.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(&text);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(&bin);
-    out
+    gltf::glb(&doc, &bin)
 }
 
 fn load(glb: &[u8]) -> Scene {
