@@ -478,7 +478,7 @@ const PILOT_SPP: u32 = 4;
 /// per pilot photon, down to `MIN_PILOT_SCALE` of their full size: at full size the pilots cost
 /// about a quarter of a 128-pixel render at 1 spp (the furnace: 0.05 s of 0.20 s). At a quarter
 /// (1024 photons) the shares still decide every scene in scenes/ and the gallery as at full
-/// size (tests/plan.rs).
+/// size (tests/integration/plan.rs).
 const RENDER_SAMPLES_PER_PILOT_SAMPLE: f32 = 32.0;
 pub const MIN_PILOT_SCALE: f32 = 0.25;
 

@@ -2,7 +2,7 @@
 //! discrete distribution used to pick lights by power, the 2D piecewise-constant one used for
 //! environment maps, and the MIS power heuristic.
 //! Formulas follow pbrt-v4, chapter A.5 ("Sampling multidimensional functions").
-//! Every warp is checked against its pdf by the chi-square tests in `tests/warps.rs`.
+//! Every warp is checked against its pdf by the chi-square tests in `tests/integration/warps.rs`.
 
 use crate::math::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
