@@ -275,6 +275,9 @@ pub struct Volume {
     pub program: Option<std::sync::Arc<crate::shader::NodeProgram>>,
     /// A grey bound of the extinction coefficient over the medium, per scene unit.
     pub majorant: f32,
+    /// Whether the medium emits light somewhere (for heterogeneous media: whether emission
+    /// was seen where `Scene::bound_volumes` sampled it).
+    pub emits: bool,
 }
 
 /// How light travels under a translucent surface: Blender's Principled BSDF "Subsurface

@@ -16,6 +16,7 @@ impl Volume {
             constant: Some(c),
             program: None,
             majorant: c.extinction().max_element(),
+            emits: c.emission != Vec3::ZERO,
         }
     }
 
@@ -29,6 +30,7 @@ impl Volume {
                 constant: None,
                 program: Some(std::sync::Arc::new(program)),
                 majorant: 0.0,
+                emits: false,
             });
         }
         let at = world_volume_inputs(Vec3::ZERO);
@@ -198,6 +200,7 @@ impl Scene {
         }
         let bound = |scene: &Scene, volume: &Volume, places: &[(Option<(u32, u32)>, Bounds)]| {
             let mut most = 0.0f32;
+            let mut emits = false;
             for (object, b) in places.iter().take(MAX_BOXES) {
                 if b.is_empty() {
                     continue;
@@ -218,12 +221,14 @@ impl Scene {
                     if sigma.is_finite() {
                         most = most.max(sigma);
                     }
+                    emits |= c.emission.max_element() > 0.0;
                 }
             }
-            1.5 * most
+            (1.5 * most, emits)
         };
         // Volume objects' majorant grids, their largest value a floor of the material's.
         let mut grid_most = vec![0.0f32; self.materials.len()];
+        let mut grid_emits = vec![false; self.materials.len()];
         for (m, list) in boxes.iter().enumerate() {
             let Some(volume) = self.materials[m].volume.as_ref() else {
                 continue;
@@ -240,9 +245,10 @@ impl Scene {
                 if bounded {
                     continue;
                 }
-                let Some(majorant) = self.grid_majorant(volume, mesh, instance) else {
+                let Some((majorant, emits)) = self.grid_majorant(volume, mesh, instance) else {
                     continue;
                 };
+                grid_emits[m] |= emits;
                 let most = majorant.values.iter().fold(0.0f32, |a, &b| a.max(b));
                 grid_most[m] = grid_most[m].max(most);
                 let stored = match self.instances.get(instance as usize) {
@@ -271,15 +277,16 @@ impl Scene {
                 .iter()
                 .map(|&(mesh, instance, b)| (Some((mesh, instance)), b))
                 .collect();
-            let majorant = bound(self, volume, &places).max(grid_most[m]);
+            let (majorant, emits) = bound(self, volume, &places);
             if let Some(v) = self.materials[m].volume.as_mut() {
-                v.majorant = majorant;
+                v.majorant = majorant.max(grid_most[m]);
+                v.emits = emits || grid_emits[m];
             }
         }
         if let Some(volume) = self.world.volume.as_ref().filter(|v| v.constant.is_none()) {
-            let majorant = bound(self, volume, &[(None, self.bounds())]);
+            let (majorant, emits) = bound(self, volume, &[(None, self.bounds())]);
             if let Some(v) = self.world.volume.as_mut() {
-                v.majorant = majorant;
+                (v.majorant, v.emits) = (majorant, emits);
             }
         }
     }
@@ -288,13 +295,14 @@ impl Scene {
     /// voxel grids give, block by block of the first grid its tree reads (`MajorantGrid`):
     /// the tree evaluated at each block's centre and corners with every grid's largest value
     /// touching the block, which bounds the trees that grow with their attributes (density ×
-    /// Density, the usual), times 1.5 for the rest; `None` without grids.
+    /// Density, the usual), times 1.5 for the rest, and whether the tree emitted light at any
+    /// of those points; `None` without grids.
     fn grid_majorant(
         &self,
         volume: &Volume,
         mesh: u32,
         instance: u32,
-    ) -> Option<grids::MajorantGrid> {
+    ) -> Option<(grids::MajorantGrid, bool)> {
         let program = volume.program.as_ref()?;
         let placed = self.instances.get(instance as usize);
         let stored = match placed {
@@ -310,6 +318,7 @@ impl Scene {
         let edge = first.size.map(|s| s.div_ceil(BLOCKS).max(4));
         let blocks = [0, 1, 2].map(|a| first.size[a].div_ceil(edge[a]));
         let mut values = Vec::with_capacity(blocks.iter().product());
+        let mut emits = false;
         for bz in 0..blocks[2] {
             for by in 0..blocks[1] {
                 for bx in 0..blocks[0] {
@@ -345,21 +354,31 @@ impl Scene {
                         if sigma.is_finite() {
                             most = most.max(sigma);
                         }
+                        emits |= c.emission.max_element() > 0.0;
                     }
                     values.push(1.5 * most);
                 }
             }
         }
-        Some(grids::MajorantGrid {
+        let grid = grids::MajorantGrid {
             blocks,
             edge,
             values,
             object_to_voxel: first.object_to_voxel(),
-        })
+        };
+        Some((grid, emits))
     }
 
     /// The world or some material has a volume (participating media).
     pub fn has_media(&self) -> bool {
         self.world.volume.is_some() || self.materials.iter().any(|m| m.volume.is_some())
+    }
+
+    /// The world or some material has a volume that emits light.
+    pub fn media_emit(&self) -> bool {
+        let volumes = self.materials.iter().map(|m| &m.volume);
+        std::iter::once(&self.world.volume)
+            .chain(volumes)
+            .any(|v| v.as_ref().is_some_and(|v| v.emits))
     }
 }

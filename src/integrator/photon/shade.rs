@@ -66,7 +66,7 @@ use crate::irradiance_cache::{Incoming, IrradianceCache};
 use crate::light::emitted_radiance;
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec2, Vec3};
-use crate::medium::{transmittance as medium_transmittance, Media};
+use crate::medium::{fly, transmittance as medium_transmittance, Flight, Media, WithoutScattering};
 use crate::photon_map::Neighbors;
 use crate::rng::Rng;
 use crate::scene::{Subsurface, SubsurfaceMethod};
@@ -100,8 +100,8 @@ struct Met {
 }
 
 /// What a final-gather ray met on its way (`Gather::cast`), seen from where it left: the
-/// media's transmittance, the lamps (attenuated, MIS-weighted) and the light the media
-/// scattered towards it.
+/// media's transmittance, the light it met (lamps, MIS-weighted, and the media's emission,
+/// attenuated) and the light the media scattered towards it.
 struct Along {
     through: Vec3,
     lamps: Vec3,
@@ -470,8 +470,22 @@ impl<'a> Gather<'a> {
                     along.scattered += along.through * (single + multiple);
                 }
                 let dir = ray.direction.normalize();
-                along.through *=
-                    medium_transmittance(&media.media(ctx), ray.origin, dir, reach, rng);
+                if scene.media_emit() {
+                    // The media's emission is light no light sample finds: counted here whole.
+                    let (mut beta, mut emitted) = (Vec3::ONE, Vec3::ZERO);
+                    let in_media = media.media(ctx);
+                    let without = WithoutScattering(&in_media);
+                    if fly(&without, ray.origin, dir, reach, &mut beta, &mut emitted, rng)
+                        == Flight::Absorbed
+                    {
+                        beta = Vec3::ZERO;
+                    }
+                    along.lamps += along.through * emitted;
+                    along.through *= beta;
+                } else {
+                    along.through *=
+                        medium_transmittance(&media.media(ctx), ray.origin, dir, reach, rng);
+                }
             }
             let Some(hit) = hit else {
                 let (through, mut l) = (along.through, along.lamps);
@@ -567,13 +581,15 @@ impl<'a> Gather<'a> {
     /// opening shows the world (most of its samples blocked, the few through it weighted by
     /// the inverse of the world's small share of the samples). So wherever a ray can meet a
     /// light, one BSDF-sampled ray adds the emission it finds and both are MIS-weighted, as in
-    /// the path tracer. Scenes lit only by point, spot and sharp sun lamps keep light sampling
-    /// alone.
+    /// the path tracer. The ray also finds the light of emitting media, which no light sample
+    /// draws. Scenes lit only by point, spot and sharp sun lamps, without emitting media, keep
+    /// light sampling alone.
     fn direct_without_gather(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
-        if !self.ctx.lights.hittable() {
+        let hittable = self.ctx.lights.hittable();
+        if !hittable && !self.ctx.scene.media_emit() {
             return self.direct(s, false, rng);
         }
-        let mut l = self.direct(s, true, rng);
+        let mut l = self.direct(s, hittable, rng);
         if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
             if !bs.delta {
                 let (emission, _) = self.gather_ray(s, &bs, wi, false, 1, rng);
