@@ -850,15 +850,7 @@ fn pilot_shares(
     for _ in 0..photon_count {
         if let Some(e) = emitters.emit(&ctx, false, &mut rng) {
             emitted += 1;
-            trace_photon(
-                &ctx,
-                e.ray,
-                e.power,
-                MapKind::Global,
-                16,
-                &mut rng,
-                &mut photons,
-            );
+            trace_photon(&ctx, &e, MapKind::Global, 16, &mut rng, &mut photons);
         }
     }
     if emitted > 0 {
@@ -878,16 +870,9 @@ fn pilot_shares(
     photons.clear();
     for _ in 0..photon_count {
         if let Some(e) = emitters.emit(&ctx, true, &mut rng) {
-            if !matches!(lights.sources[e.light], LightSource::World { .. }) {
-                trace_photon(
-                    &ctx,
-                    e.ray,
-                    e.power,
-                    MapKind::Caustic,
-                    16,
-                    &mut rng,
-                    &mut photons,
-                );
+            let world = e.light.map(|l| &lights.sources[l]);
+            if !matches!(world, Some(LightSource::World { .. })) {
+                trace_photon(&ctx, &e, MapKind::Caustic, 16, &mut rng, &mut photons);
             }
         }
     }

@@ -79,6 +79,17 @@ impl MediumStack {
         stack
     }
 
+    /// Whether the ray is in the medium of `material` entered by the surface of `mesh` and
+    /// `instance` (as `accel::Hit` names them).
+    pub fn holds(&self, material: u32, mesh: u32, instance: u32) -> bool {
+        let entry = Entry {
+            material,
+            mesh,
+            instance,
+        };
+        self.entries.iter().map_while(|e| *e).any(|e| e == entry)
+    }
+
     /// The stack after crossing the surface of `hit` (of material `material`): `entering`
     /// when the ray goes against the surface's winding normal (into the object).
     pub fn crossed(&self, scene: &Scene, hit: &Hit, material: u32, entering: bool) -> MediumStack {

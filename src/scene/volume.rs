@@ -33,6 +33,11 @@ impl Volume {
                 emits: false,
             });
         }
+        Volume::constant(&program)
+    }
+
+    /// The homogeneous medium of a program whose result is the same everywhere.
+    fn constant(program: &crate::shader::NodeProgram) -> Option<Volume> {
         let at = world_volume_inputs(Vec3::ZERO);
         let c = program.eval_volume(&at, &[]);
         let empty = c.extinction() == Vec3::ZERO && c.emission == Vec3::ZERO;
@@ -181,6 +186,7 @@ impl Scene {
     /// for what the lattice misses. Where a point's extinction still exceeds it, free flights
     /// clamp their null collisions (`crate::medium`), a small bias.
     pub fn bound_volumes(&mut self) {
+        self.settle_volumes_without_grids();
         const SIDE: usize = 12;
         const MAX_BOXES: usize = 64;
         let mut boxes: Vec<Vec<(u32, u32, Bounds)>> = vec![Vec::new(); self.materials.len()];
@@ -287,6 +293,30 @@ impl Scene {
             let (majorant, emits) = bound(self, volume, &[(None, self.bounds())]);
             if let Some(v) = self.world.volume.as_mut() {
                 (v.majorant, v.emits) = (majorant, emits);
+            }
+        }
+    }
+
+    /// Makes homogeneous the volumes that vary only by the named attributes Principled Volume
+    /// reads (its Density Attribute is "density" by default) when no object of their material
+    /// has grids: the attributes are never found there, so the medium is the same everywhere
+    /// and is integrated exactly instead of tracked.
+    fn settle_volumes_without_grids(&mut self) {
+        let mut with_grids = vec![false; self.materials.len()];
+        for mesh in self.meshes.iter().chain(&self.prototypes) {
+            if let (Some(slot), Some(_)) = (
+                with_grids.get_mut(mesh.material as usize),
+                &mesh.volume_grids,
+            ) {
+                *slot = true;
+            }
+        }
+        for (material, has_grids) in self.materials.iter_mut().zip(with_grids) {
+            let Some(program) = material.volume.as_ref().and_then(|v| v.program.as_ref()) else {
+                continue;
+            };
+            if !has_grids && !program.varies_without_named_attributes() {
+                material.volume = Volume::constant(program);
             }
         }
     }

@@ -291,6 +291,17 @@ impl NodeProgram {
     /// Whether the program's result may differ from point to point: it reads a coordinate, the
     /// geometry, an attribute, the view or the ray (a texture's implicit coordinates included).
     pub fn varies(&self) -> bool {
+        self.varies_by(true)
+    }
+
+    /// Whether the result may differ from point to point where no named attribute is found
+    /// (a volume in objects without grids): as `varies`, but Principled Volume's attribute
+    /// inputs, which then read nothing, do not count.
+    pub fn varies_without_named_attributes(&self) -> bool {
+        self.varies_by(false)
+    }
+
+    fn varies_by(&self, named_attributes: bool) -> bool {
         self.instrs.iter().any(|i| {
             i.ins
                 .iter()
@@ -310,8 +321,8 @@ impl NodeProgram {
                         | Op::LayerWeight
                         | Op::NoiseAt3 { .. }
                 )
-                || matches!(i.op, Op::PrincipledVolume { attributes }
-                    if attributes.iter().any(|&s| s != super::inputs::NO_ATTRIBUTE))
+                || matches!(i.op, Op::PrincipledVolume { attributes } if named_attributes
+                    && attributes.iter().any(|&s| s != super::inputs::NO_ATTRIBUTE))
         }) || self.displacement.is_some()
     }
 }

@@ -10,7 +10,8 @@ sets them.
 - a cube of Volume Absorption in front of an emitting wall (Beer–Lambert through the cube);
 - a cube of smoke whose density is a Noise Texture × 6 (heterogeneous, the node program
   evaluated at points in the medium);
-- an emitting Principled Volume sphere (emission strength 2, orange);
+- an emitting Principled Volume sphere (emission strength 2, orange), which lights the floor
+  (both methods: the photon method emits photons from the medium);
 - a World with a Principled Volume and a sun: black, as Cycles renders it (the sun is
   attenuated over an infinite medium);
 - a spot light in a fog box (Volume Scatter) over a sphere: the light cone (the path tracer and
@@ -103,13 +104,15 @@ def test_noise_density_smoke(tmp_path):
     compare("noise density", scene, tmp_path, photon_spp=256)
 
 
-def test_emitting_principled_volume_sphere(tmp_path):
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_emitting_principled_volume_sphere(tmp_path, method):
     scene = floor_scene(world=0.0)
     mat, _ = volume_material("Glow", "ShaderNodeVolumePrincipled", Density=0.5,
                              **{"Emission Strength": 2.0,
                                 "Emission Color": (1.0, 0.4, 0.1, 1.0)})
     sphere("Glow", mat, 0.8, (0.0, 0.0, 1.0))
-    compare("emitting volume", scene, tmp_path, photon_spp=256)
+    compare(f"emitting volume {method}", scene, tmp_path, photon_spp=256 if method == "PATH" else 64,
+            method=method)
 
 
 def test_world_volume_stops_the_sun(tmp_path):
@@ -224,7 +227,8 @@ def test_openvdb_smoke_volume_objects(tmp_path):
     compare("openvdb smoke", scene, tmp_path, photon_spp=256)
 
 
-def test_openvdb_fire_with_temperature_and_color_grids(tmp_path):
+@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+def test_openvdb_fire_with_temperature_and_color_grids(tmp_path, method):
     """A Volume object of a small fire written with bpy's openvdb module: Principled Volume
     reading its "density", "color" (a vec3 grid) and "temperature" grids (Blackbody Intensity
     1: emission from the temperature grid × 1500 K), beside a diffuse sphere it lights, under
@@ -240,7 +244,8 @@ def test_openvdb_fire_with_temperature_and_color_grids(tmp_path):
     volume_object("Fire", path, mat, (-0.3, 0.0, 0.6), scale=1.2)
     sphere("Ball", common.principled("Ball", (0.8, 0.8, 0.8), roughness=1.0), 0.4,
            (0.8, 0.2, 0.4))
-    compare("openvdb fire", scene, tmp_path, photon_spp=256)
+    compare(f"openvdb fire {method}", scene, tmp_path, photon_spp=256 if method == "PATH" else 64,
+            method=method)
 
 
 def test_openvdb_voxels_sit_where_blender_puts_them(tmp_path):

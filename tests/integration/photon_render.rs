@@ -486,15 +486,7 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
             for _ in 0..n {
                 let mut out = Vec::new();
                 if let Some(e) = emitters.emit(&ctx, aimed, &mut rng) {
-                    trace_photon(
-                        &ctx,
-                        e.ray,
-                        e.power,
-                        MapKind::Caustic,
-                        16,
-                        &mut rng,
-                        &mut out,
-                    );
+                    trace_photon(&ctx, &e, MapKind::Caustic, 16, &mut rng, &mut out);
                 }
                 let v: f64 = out.iter().map(|p| p.power().x as f64).sum();
                 sum += v;
@@ -634,15 +626,7 @@ fn guided_photons_bring_the_same_light_into_a_window_lit_room() {
         for _ in 0..n {
             out.clear();
             if let Some(e) = emitters.emit(&ctx, false, &mut rng) {
-                trace_photon(
-                    &ctx,
-                    e.ray,
-                    e.power,
-                    MapKind::Global,
-                    16,
-                    &mut rng,
-                    &mut out,
-                );
+                trace_photon(&ctx, &e, MapKind::Global, 16, &mut rng, &mut out);
             }
             let v: f64 = out
                 .iter()

@@ -69,7 +69,7 @@ fn trace_map(
         count,
         seed,
         progress,
-        |ray, power, rng, out| trace_photon(ctx, ray, power, map, max, rng, out),
+        |e, rng, out| trace_photon(ctx, e, map, max, rng, out),
     )
 }
 
@@ -155,7 +155,7 @@ pub fn build_maps(
             settings.volume_photons,
             seed,
             progress,
-            |ray, power, rng, out| trace_volume_photon(ctx, ray, power, max, rng, out),
+            |e, rng, out| trace_volume_photon(ctx, e, max, rng, out),
         )?;
         info.volume_emitted = settings.volume_photons as u64;
         info.volume_stored = photons.len();

@@ -2,6 +2,7 @@
 //! "Realistic Image Synthesis Using Photon Mapping"), split by job:
 //! - `settings`: the settings and the statistics of photon tracing;
 //! - `tracing`: photon emission and the photon random walk;
+//! - `volume_emitters`: photons from emitting media;
 //! - `guide`: guided emission, towards what the render reads (Peter & Pietrek 1998);
 //! - `estimate`: density estimation from the maps and Christensen's precomputed irradiance;
 //! - `subsurface`: the diffusion photon mode for Christensen–Burley translucent materials
@@ -19,3 +20,4 @@ pub mod settings;
 pub mod shade;
 pub mod subsurface;
 pub mod tracing;
+pub mod volume_emitters;

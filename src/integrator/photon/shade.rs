@@ -475,8 +475,15 @@ impl<'a> Gather<'a> {
                     let (mut beta, mut emitted) = (Vec3::ONE, Vec3::ZERO);
                     let in_media = media.media(ctx);
                     let without = WithoutScattering(&in_media);
-                    if fly(&without, ray.origin, dir, reach, &mut beta, &mut emitted, rng)
-                        == Flight::Absorbed
+                    if fly(
+                        &without,
+                        ray.origin,
+                        dir,
+                        reach,
+                        &mut beta,
+                        &mut emitted,
+                        rng,
+                    ) == Flight::Absorbed
                     {
                         beta = Vec3::ZERO;
                     }

@@ -229,7 +229,7 @@ pub fn build(
         settings.subsurface_photons,
         seed,
         progress,
-        |ray, power, rng, out| trace_subsurface_photon(ctx, ray, power, max, rng, out),
+        |e, rng, out| trace_subsurface_photon(ctx, e, max, rng, out),
     )?;
     info.subsurface_emitted = settings.subsurface_photons as u64;
     info.subsurface_stored = samples.len();

@@ -13,7 +13,9 @@
 //!   jitter the direction within their cone), E·πR²;
 //! - world: a direction as `Lights::sample_world` draws it (uniform for a constant colour, by
 //!   importance for an environment map), then a disc of radius R outside the scene facing it,
-//!   L(ω)·πR²/pdf(ω).
+//!   L(ω)·πR²/pdf(ω);
+//! - emitting medium: a point where it emits, a uniform direction, 4π·ε(x)/pdf(x)
+//!   (`super::volume_emitters`).
 //!
 //! Global and subsurface photons of the sun, the world and point and spot lights may be guided
 //! (`super::guide`): drawn where they reach what the render reads, their power divided by that
@@ -26,6 +28,7 @@
 //! stores 441 677 of 500 000 emitted caustic photons instead of 25 600.
 
 use super::guide::{EmissionGuide, ReadRegion};
+use super::volume_emitters::{volume_emitters, VolumeEmitter};
 use crate::accel::{Ray, Visibility, FRAME_TIME};
 use crate::bsdf::BsdfSample;
 use crate::error::{Error, Result};
@@ -59,13 +62,25 @@ pub struct Emitted {
     pub ray: Ray,
     /// Its power, before dividing by the photon count.
     pub power: Vec3,
-    /// The light it left: an index into `Lights::sources`.
-    pub light: usize,
+    /// The light it left: an index into `Lights::sources`; `None` for an emitting medium.
+    pub light: Option<usize>,
+    /// The media where it leaves, when the emitter found them (else the walk finds them).
+    media: Option<MediumStack>,
 }
 
-/// The lights as photon sources, chosen in proportion to their flux (luminance).
+impl Emitted {
+    /// Whether it left an emitting medium (its first vertex is in the medium, which no light
+    /// sample of the camera paths draws from).
+    fn from_medium(&self) -> bool {
+        self.light.is_none()
+    }
+}
+
+/// The lights and the emitting media as photon sources, chosen in proportion to their flux
+/// (luminance): the first `Lights::sources.len()` choices are the lights.
 pub struct Emitters {
     select: Distribution1D,
+    volumes: Vec<VolumeEmitter>,
     center: Vec3,
     radius: f32,
     /// Where caustic photons are aimed; `None` when no mesh is specular.
@@ -114,14 +129,15 @@ fn light_flux(ctx: &Context, source: &LightSource, radius: f32) -> Vec3 {
 impl Emitters {
     pub fn new(ctx: &Context) -> Emitters {
         let (center, radius) = ctx.lights.scene_sphere();
-        let power: Vec<f32> = ctx
-            .lights
-            .sources
-            .iter()
+        let volumes = volume_emitters(ctx);
+        let lights = ctx.lights.sources.iter();
+        let power: Vec<f32> = lights
             .map(|s| luminance(light_flux(ctx, s, radius)))
+            .chain(volumes.iter().map(|v| luminance(v.flux())))
             .collect();
         Emitters {
             select: Distribution1D::new(&power),
+            volumes,
             center,
             radius,
             targets: Targets::new(ctx),
@@ -153,7 +169,7 @@ impl Emitters {
                         out.push((s.sh.p, s.ng, luminance(power)));
                         true
                     };
-                    walk_photon(ctx, e.ray, e.power, ctx.max_depth, rng, reached, None);
+                    walk_photon(ctx, &e, ctx.max_depth, rng, reached, None);
                 };
                 emitters.guide = EmissionGuide::new(ctx, &region, &shares, seed, trace);
             }
@@ -171,13 +187,12 @@ impl Emitters {
         self.targets.is_some()
     }
 
-    /// Total emitted flux (RGB) as the photons carry it, for tests and statistics.
+    /// Total emitted flux (RGB) as the photons carry it (the emitting media's as their pilots
+    /// estimate it), for tests and statistics.
     pub fn total_flux(&self, ctx: &Context) -> Vec3 {
-        ctx.lights
-            .sources
-            .iter()
-            .map(|s| light_flux(ctx, s, self.radius))
-            .sum()
+        let lights = ctx.lights.sources.iter();
+        let lights: Vec3 = lights.map(|s| light_flux(ctx, s, self.radius)).sum();
+        lights + self.volumes.iter().map(|v| v.flux()).sum::<Vec3>()
     }
 
     /// Emit one photon. `aimed` photons (for the caustic map) leave only towards the specular
@@ -187,6 +202,20 @@ impl Emitters {
         let aim = if aimed { self.targets.as_ref() } else { None };
         let (index, pmf, u_pick) = self.select.sample_remapped(rng.uniform())?;
         let (mut u1, mut u2) = (rng.uniform2(), rng.uniform2());
+        if let Some(volume) = index
+            .checked_sub(ctx.lights.sources.len())
+            .and_then(|k| self.volumes.get(k))
+        {
+            let time = self.moment(rng);
+            let (ray, power, media) = volume.emit(ctx, (u_pick, u1, rng.uniform()), u2, time)?;
+            let e = Emitted {
+                ray,
+                power: power / pmf,
+                light: None,
+                media: Some(media),
+            };
+            return (e.power.is_finite() && max_component(e.power) > 0.0).then_some(e);
+        }
         let mut density = 1.0;
         if let (None, Some(guide)) = (aim, &self.guide) {
             if let Some(warped) = guide.sample(index, u1, u2) {
@@ -196,6 +225,16 @@ impl Emitters {
         let mut e = self.emit_with(ctx, index, aim, (u_pick, u1, u2), rng)?;
         e.power /= pmf * density;
         (e.power.is_finite() && max_component(e.power) > 0.0).then_some(e)
+    }
+
+    /// The moment a photon leaves at: drawn only with motion, so that still scenes keep their
+    /// photon streams.
+    fn moment(&self, rng: &mut Rng) -> f32 {
+        if self.motion {
+            rng.uniform()
+        } else {
+            FRAME_TIME
+        }
     }
 
     /// A photon of light `index` placed by the unit-square points `u1` and `u2` (`aim` as in
@@ -209,12 +248,7 @@ impl Emitters {
         (u_pick, u1, u2): (f32, Vec2, Vec2),
         rng: &mut Rng,
     ) -> Option<Emitted> {
-        // A moment only with motion: still scenes keep their photon streams.
-        let time = if self.motion {
-            rng.uniform()
-        } else {
-            FRAME_TIME
-        };
+        let time = self.moment(rng);
         let ray = |origin, direction| Ray {
             origin,
             direction,
@@ -332,7 +366,8 @@ impl Emitters {
         Some(Emitted {
             ray: r,
             power,
-            light: index,
+            light: Some(index),
+            media: None,
         })
     }
 
@@ -518,8 +553,7 @@ pub enum MapKind {
 /// the photons it leaves to `out`.
 pub fn trace_photon(
     ctx: &Context,
-    ray: Ray,
-    power: Vec3,
+    emitted: &Emitted,
     map: MapKind,
     max_bounces: u32,
     rng: &mut Rng,
@@ -527,8 +561,7 @@ pub fn trace_photon(
 ) {
     walk_photon(
         ctx,
-        ray,
-        power,
+        emitted,
         max_bounces,
         rng,
         |s, power, bounce, caustic| {
@@ -556,15 +589,14 @@ pub fn trace_photon(
 /// paths' light samples along their segments add (`walk::light_scattered_along`).
 pub fn trace_volume_photon(
     ctx: &Context,
-    ray: Ray,
-    power: Vec3,
+    emitted: &Emitted,
     max_bounces: u32,
     rng: &mut Rng,
     out: &mut Vec<Photon>,
 ) {
     let mut keep = |photon| out.push(photon);
     let surfaces = |_: &Shading, _, _, _| true;
-    walk_photon(ctx, ray, power, max_bounces, rng, surfaces, Some(&mut keep));
+    walk_photon(ctx, emitted, max_bounces, rng, surfaces, Some(&mut keep));
 }
 
 /// Trace one photon for the subsurface samples: at every hit on a translucent surface, the
@@ -574,8 +606,7 @@ pub fn trace_volume_photon(
 /// limit), so light reaching the object after other bounces is counted too.
 pub fn trace_subsurface_photon(
     ctx: &Context,
-    ray: Ray,
-    power: Vec3,
+    emitted: &Emitted,
     max_bounces: u32,
     rng: &mut Rng,
     out: &mut Vec<(u32, Sample)>,
@@ -591,7 +622,7 @@ pub fn trace_subsurface_photon(
         }
         true
     };
-    walk_photon(ctx, ray, power, max_bounces, rng, reached, None);
+    walk_photon(ctx, emitted, max_bounces, rng, reached, None);
 }
 
 /// The photon random walk shared by every photon map and the subsurface samples: `store(shading, power, bounces, caustic)` is
@@ -601,29 +632,38 @@ pub fn trace_subsurface_photon(
 /// weighed it, before the phase function's sample).
 fn walk_photon(
     ctx: &Context,
-    mut ray: Ray,
-    mut power: Vec3,
+    emitted: &Emitted,
     max_bounces: u32,
     rng: &mut Rng,
     mut store: impl FnMut(&Shading, Vec3, u32, bool) -> bool,
     mut in_medium: Option<&mut dyn FnMut(Photon)>,
 ) {
+    let (mut ray, mut power) = (emitted.ray, emitted.power);
     // True while every bounce so far was specular (light → S*).
     let mut specular_path = true;
     // Surfaces it scattered from, not counting the transparent boundaries of volumes (light
     // through them alone is direct light, which shadow rays find through them).
     let mut surface_bounces = 0;
     // The photon scattered somewhere (a transparent pass is no scattering): light that did not
-    // is what light samples find.
-    let mut scattered = false;
+    // is what light samples find. Light from an emitting medium is found by no light sample:
+    // its photons count from where they leave.
+    let mut scattered = emitted.from_medium();
     let mut absorption = Vec3::ZERO;
     // Index of refraction of the medium the photon travels through (1: outside any object).
     let mut ior = 1.0f32;
     // The participating media it travels through, and its scatterings in them.
-    let mut media = MediumStack::at(ctx, ray.origin, ray.time);
+    let mut media = match emitted.media {
+        Some(media) => media,
+        None => MediumStack::at(ctx, ray.origin, ray.time),
+    };
     let mut volume_bounces = 0;
-    // The scatterings in media the photon may make (`None` until its first scattering).
-    let mut volume_allowance: Option<u32> = None;
+    // The scatterings in media the photon may make (`None` until its first scattering
+    // anywhere): as many as a camera path continues from (Blender's Volume bounces), and one
+    // more where the photon reaches the medium from a light or leaves an emitting medium
+    // (the one a camera path's light sample leaves from, or after which it counts only the
+    // emission it meets).
+    let limit = ctx.scene.render_settings.volume_bounces;
+    let mut volume_allowance = emitted.from_medium().then_some(limit + 1);
     for bounce in 0..=max_bounces {
         let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
         if !media.is_vacuum(ctx.scene) {
@@ -648,7 +688,6 @@ fn walk_photon(
                     // scatterings in media, and lights from one more: the scattering its
                     // light sample leaves from, the photon's first if it was in a medium.
                     volume_bounces += 1;
-                    let limit = ctx.scene.render_settings.volume_bounces;
                     if volume_bounces > *volume_allowance.get_or_insert(limit + 1) {
                         return;
                     }
@@ -714,7 +753,7 @@ fn walk_photon(
         }
         if bs.scattering != crate::bsdf::Scattering::Transparent {
             scattered = true;
-            volume_allowance.get_or_insert(ctx.scene.render_settings.volume_bounces);
+            volume_allowance.get_or_insert(limit);
         }
         // Russian roulette on the scattering weight keeps the photon's power nearly constant.
         let q = max_component(bs.weight).min(1.0);
@@ -842,7 +881,7 @@ impl<'a> Stream<'a> {
     }
 }
 
-/// Trace `count` photons in parallel batches with `trace(ray, power, rng, out)` (power already
+/// Trace `count` photons in parallel batches with `trace(emitted, rng, out)` (its power already
 /// divided by the count), concatenated in batch order.
 pub fn trace_photons<T: Send + Clone>(
     ctx: &Context,
@@ -851,7 +890,7 @@ pub fn trace_photons<T: Send + Clone>(
     count: u32,
     seed: u64,
     progress: &Progress,
-    trace: impl Fn(Ray, Vec3, &mut Rng, &mut Vec<T>) + Sync,
+    trace: impl Fn(&Emitted, &mut Rng, &mut Vec<T>) + Sync,
 ) -> Result<Vec<T>> {
     let batches = count.div_ceil(BATCH);
     let done = AtomicU64::new(0);
@@ -875,8 +914,9 @@ pub fn trace_photons<T: Send + Clone>(
                     }
                     Sampler::Random => &mut random,
                 };
-                if let Some(e) = emitters.emit(ctx, stream.aimed, rng) {
-                    trace(e.ray, e.power * scale, rng, &mut out);
+                if let Some(mut e) = emitters.emit(ctx, stream.aimed, rng) {
+                    e.power *= scale;
+                    trace(&e, rng, &mut out);
                 }
             }
             // Partial sums never exceed the final count, so whether this fails does not depend
