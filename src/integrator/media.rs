@@ -26,6 +26,14 @@ struct Entry {
     instance: u32,
 }
 
+impl Entry {
+    /// Whether this is the medium of `material` in the object whose surface `hit` is on (the
+    /// instance too: copies of one prototype may overlap).
+    fn is_of(&self, material: u32, hit: &Hit) -> bool {
+        self.material == material && self.mesh == hit.mesh && self.instance == hit.instance
+    }
+}
+
 /// The object media a ray is in (the world's volume is under all of them).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MediumStack {
@@ -65,7 +73,7 @@ impl MediumStack {
             let sh = SurfaceHit::new(scene, &ray, &hit);
             let entering = dir.dot(sh.ng) < 0.0;
             if scene.materials[sh.material as usize].volume.is_some() {
-                let key = |e: &Entry| e.material == sh.material && e.mesh == hit.mesh;
+                let key = |e: &Entry| e.is_of(sh.material, &hit);
                 if entering {
                     entered = entered.crossed(scene, &hit, sh.material, true);
                 } else if entered.entries.iter().flatten().any(key) {
@@ -109,7 +117,7 @@ impl MediumStack {
         } else if let Some(k) = out
             .entries
             .iter()
-            .position(|e| e.is_some_and(|e| e.material == material && e.mesh == hit.mesh))
+            .position(|e| e.is_some_and(|e| e.is_of(material, hit)))
         {
             // Remove it, keeping the others in order.
             out.entries.copy_within(k + 1.., k);
