@@ -16,7 +16,7 @@ use photon::plan::{
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
-use photon::scene::load::{image_size, load_scene};
+use photon::scene::load::{image_size, load_scene, load_scene_with, LoadOptions};
 use photon::scene::{Projection, SubsurfaceMethod};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -187,6 +187,10 @@ struct RenderArgs {
     /// Camera to render through (glTF node or camera name; default: the first camera).
     #[arg(long)]
     camera: Option<String>,
+    /// Material variant to show (glTF KHR_materials_variants, by name; default: each
+    /// primitive's own material).
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
     /// How progress is shown on stderr.
     #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
     progress: ProgressMode,
@@ -454,7 +458,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
             serde_json::json!({"stage": "load", "fraction": 0.0, "message": "loading scene"}),
         );
     }
-    let mut scene = load_scene(args.scene.as_deref(), args.camera.clone())?;
+    let options = LoadOptions {
+        camera: args.camera.clone(),
+        variant: args.variant.clone(),
+    };
+    let mut scene = load_scene_with(args.scene.as_deref(), &options)?;
     let method = match args.subsurface {
         SubsurfaceArg::Material => None,
         SubsurfaceArg::Walk => Some(SubsurfaceMethod::RandomWalk),

@@ -13,6 +13,9 @@ use std::path::Path;
 pub struct LoadOptions {
     /// Use the camera whose glTF node or camera name matches; `None` picks the first camera.
     pub camera: Option<String>,
+    /// Show the `KHR_materials_variants` variant of this name; `None`: each primitive's own
+    /// material (the file's default).
+    pub variant: Option<String>,
 }
 
 /// Load a `.glb` or `.gltf` file.
@@ -31,6 +34,9 @@ pub fn load_slice(bytes: &[u8], name: &str, options: &LoadOptions) -> Result<Sce
 impl Loader {
     /// Walk the default scene and assemble everything.
     pub(super) fn build(mut self, options: &LoadOptions) -> Result<Scene> {
+        if let Some(name) = &options.variant {
+            self.choose_variant(name)?;
+        }
         self.load_materials()?;
         let document = self.document.clone();
         let gltf_scene = document

@@ -27,8 +27,12 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_anisotropy",
     "KHR_materials_iridescence",
+    "KHR_materials_unlit",
+    "KHR_materials_pbrSpecularGlossiness",
+    "KHR_materials_variants",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
+    "KHR_animation_pointer",
     "EXT_texture_webp",
 ];
 
@@ -63,6 +67,8 @@ pub(super) struct Loader {
     pub(super) node_extensions: Rc<[NodeExtensions]>,
     /// Bytes of voxel grids read so far (`scene::grids::MAX_GRID_BYTES` at most).
     pub(super) grid_bytes: u64,
+    /// The `KHR_materials_variants` variant chosen (`LoadOptions::variant`), by index.
+    pub(super) variant: Option<usize>,
 }
 
 impl Loader {
@@ -82,8 +88,14 @@ impl Loader {
         } else {
             (bytes, None)
         };
-        let mut root: gltf::json::Root = serde_json::from_slice(json)
-            .map_err(|e| Error::scene(path, "JSON", format!("malformed glTF JSON: {e}")))?;
+        let malformed = |e| Error::scene(path, "JSON", format!("malformed glTF JSON: {e}"));
+        let mut json: Value = serde_json::from_slice(json).map_err(malformed)?;
+        // A still render needs no animation; the gltf crate's schema refuses valid channels
+        // (KHR_animation_pointer's have no `node`).
+        if let Some(object) = json.as_object_mut() {
+            object.remove("animations");
+        }
+        let mut root: gltf::json::Root = serde_json::from_value(json).map_err(malformed)?;
 
         let unsupported: Vec<&String> = root
             .extensions_required
@@ -183,6 +195,7 @@ impl Loader {
             instanced_meshes: Default::default(),
             prototype_ids: HashMap::new(),
             node_extensions,
+            variant: None,
         };
         loader.load_buffers(blob)?;
         Ok(loader)

@@ -189,7 +189,8 @@ impl Loader {
                 })
                 .collect();
 
-            let material = self.material_index(primitive.material().index());
+            let material = self.variant_material(&primitive)?;
+            let material = self.material_index(material);
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",

@@ -15,7 +15,9 @@
 //! - `accessors`: accessors read with every byte range checked;
 //! - `meshes`: primitives into meshes and prototypes;
 //! - `motion`: poses over the shutter and deforming vertices;
-//! - `materials`: materials and their KHR and `PHOTON_*` extensions;
+//! - `materials`: materials and their KHR and `PHOTON_*` extensions; `imported_trees`: the
+//!   unlit and specular-glossiness materials as the node trees Blender's importer builds;
+//!   `variants`: `KHR_materials_variants`;
 //! - `textures` and `images`: glTF textures and node trees' images, and their decoding;
 //! - `lights`: punctual and area lights;
 //! - `world`: the world and the render settings;
@@ -29,11 +31,13 @@ mod encoding;
 mod extensions;
 mod hierarchy;
 mod images;
+mod imported_trees;
 mod lights;
 mod materials;
 mod meshes;
 mod motion;
 mod textures;
+mod variants;
 mod volumes;
 mod world;
 

@@ -1,0 +1,153 @@
+//! Integration tests of the glTF loader on files other tools write: the Khronos extensions read
+//! as Blender's importer reads them (unlit, specular-glossiness, material variants, animation
+//! pointers tolerated), and the clear refusal of an unknown required extension. Each test
+//! writes its file here with `support::gltf::Doc`; `tests/blender/test_gltf_import.py` renders
+//! the same kinds of file against Cycles.
+
+use crate::support::binary::{photon, temp_dir};
+use crate::support::gltf::{triangle_doc, Doc};
+use photon::math::Vec4;
+use photon::scene::gltf::{load_slice, LoadOptions};
+use photon::scene::Scene;
+use serde_json::json;
+
+/// `doc` with `materials`, its first primitive showing material 0.
+fn with_materials(mut doc: Doc, materials: serde_json::Value) -> Doc {
+    doc.json["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc.json["materials"] = materials;
+    doc
+}
+
+fn load_with(doc: &Doc, options: &LoadOptions) -> photon::error::Result<Scene> {
+    load_slice(&doc.glb(), "core.glb", options)
+}
+
+fn load(doc: &Doc) -> Scene {
+    load_with(doc, &LoadOptions::default()).expect("the file loads")
+}
+
+fn require(doc: &mut Doc, extension: &str) {
+    for key in ["extensionsUsed", "extensionsRequired"] {
+        let list = doc
+            .json
+            .as_object_mut()
+            .unwrap()
+            .entry(key)
+            .or_insert(json!([]));
+        list.as_array_mut().unwrap().push(json!(extension));
+    }
+}
+
+#[test]
+fn unlit_is_a_node_tree_the_camera_sees_as_emission() {
+    let mut doc = with_materials(
+        triangle_doc(),
+        json!([{"name": "Flat", "extensions": {"KHR_materials_unlit": {}},
+                "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 0.5]},
+                "alphaMode": "BLEND"}]),
+    );
+    require(&mut doc, "KHR_materials_unlit");
+    let scene = load(&doc);
+    let material = &scene.materials[0];
+    let program = material.nodes.as_ref().expect("a node tree");
+    assert!(program.emits);
+    // The alpha test still reads the base colour's alpha.
+    assert_eq!(material.base_color, Vec4::new(0.2, 0.4, 0.6, 0.5));
+}
+
+#[test]
+fn specular_glossiness_is_a_principled_tree_with_the_diffuse_colour() {
+    let mut doc = with_materials(
+        triangle_doc(),
+        json!([{"name": "SG", "extensions": {"KHR_materials_pbrSpecularGlossiness": {
+            "diffuseFactor": [0.5, 0.25, 0.125, 1.0], "specularFactor": [0.1, 0.1, 0.1],
+            "glossinessFactor": 0.25}}}]),
+    );
+    require(&mut doc, "KHR_materials_pbrSpecularGlossiness");
+    let scene = load(&doc);
+    let material = &scene.materials[0];
+    assert!(material.nodes.is_some());
+    assert!(!material.nodes.as_ref().unwrap().emits);
+    assert_eq!(material.base_color, Vec4::new(0.5, 0.25, 0.125, 1.0));
+
+    // A malformed factor is refused by name.
+    doc.json["materials"][0]["extensions"]["KHR_materials_pbrSpecularGlossiness"]
+        ["specularFactor"] = json!([1.0]);
+    let error = load_with(&doc, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("specularFactor"), "{error}");
+}
+
+fn variants_doc() -> Doc {
+    let mut doc = with_materials(
+        triangle_doc(),
+        json!([{"name": "Red"}, {"name": "Blue"}, {"name": "Gold"}]),
+    );
+    require(&mut doc, "KHR_materials_variants");
+    doc.json["extensions"] = json!({"KHR_materials_variants": {"variants": [
+        {"name": "Blue"}, {"name": "Gold"}, {"name": "Plain"}]}});
+    doc.json["meshes"][0]["primitives"][0]["extensions"] = json!({"KHR_materials_variants":
+        {"mappings": [{"material": 1, "variants": [0]}, {"material": 2, "variants": [1]}]}});
+    doc
+}
+
+#[test]
+fn material_variants_default_to_the_primitives_own_material() {
+    let doc = variants_doc();
+    let shown = |variant: Option<&str>| {
+        let options = LoadOptions {
+            variant: variant.map(str::to_string),
+            ..LoadOptions::default()
+        };
+        let scene = load_with(&doc, &options).expect("the file loads");
+        scene.materials[scene.meshes[0].material as usize]
+            .name
+            .clone()
+    };
+    assert_eq!(shown(None), "Red");
+    assert_eq!(shown(Some("Blue")), "Blue");
+    assert_eq!(shown(Some("Gold")), "Gold");
+    // A variant the primitive does not map keeps its own material.
+    assert_eq!(shown(Some("Plain")), "Red");
+    let options = LoadOptions {
+        variant: Some("Green".into()),
+        ..LoadOptions::default()
+    };
+    let error = load_with(&doc, &options).unwrap_err().to_string();
+    assert!(
+        error.contains("'Green'") && error.contains("'Blue', 'Gold', 'Plain'"),
+        "{error}"
+    );
+}
+
+#[test]
+fn animation_pointer_channels_are_tolerated() {
+    let mut doc = triangle_doc();
+    doc.json["extensionsUsed"] = json!(["KHR_animation_pointer"]);
+    let times = doc.floats(&[0.0, 1.0], "SCALAR");
+    let values = doc.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0], "VEC3");
+    doc.json["animations"] = json!([{"samplers": [{"input": times, "output": values}],
+        "channels": [{"sampler": 0, "target": {"path": "pointer", "extensions":
+            {"KHR_animation_pointer": {"pointer": "/nodes/0/translation"}}}}]}]);
+    let scene = load(&doc);
+    assert_eq!(scene.meshes.len(), 1);
+}
+
+#[test]
+fn an_unknown_required_extension_is_named_with_exit_code_2() {
+    let mut doc = triangle_doc();
+    require(&mut doc, "EXT_made_up_compression");
+    let dir = temp_dir("gltf_core_unknown");
+    let path = dir.join("unknown.glb");
+    std::fs::write(&path, doc.glb()).unwrap();
+    let out = photon()
+        .args(["render", path.to_str().unwrap(), "-o"])
+        .arg(dir.join("x.exr"))
+        .args(["--width", "8", "--height", "8", "--spp", "1"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("EXT_made_up_compression"), "{stderr}");
+}
