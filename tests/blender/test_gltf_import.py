@@ -386,3 +386,120 @@ def test_animation_pointer_is_tolerated(tmp_path):
                                   {"pointer": f"/materials/{green}/pbrMetallicRoughness/"
                                               "baseColorFactor"}}}}]}]
     compare_with_blender(doc.write(tmp_path / "pointer.glb"), tmp_path)
+
+
+def test_gpu_instancing(tmp_path):
+    """EXT_mesh_gpu_instancing (required): one small box mesh drawn nine times on a 3x3 grid,
+    each instance with its own translation, rotation about Y and scale (one mirrored in X),
+    the node itself turned and raised; Blender's importer makes each instance an object."""
+    doc = stage()
+    doc.use("EXT_mesh_gpu_instancing", required=True)
+    orange = doc.material({"name": "Orange", "pbrMetallicRoughness":
+                           {"baseColorFactor": [0.8, 0.35, 0.1, 1.0], "metallicFactor": 0.0}})
+    box = doc.box("Box", 0.25, orange)
+    translations, rotations, scales = [], [], []
+    for i in range(9):
+        x, z = (i % 3 - 1) * 1.1, (i // 3 - 1) * 1.1
+        translations += [x, 0.25, z]
+        angle = 0.35 * i
+        rotations += [0.0, math.sin(angle / 2), 0.0, math.cos(angle / 2)]
+        s = 0.7 + 0.1 * i
+        scales += [-s if i == 4 else s, s, s]
+    attributes = {"TRANSLATION": doc.accessor(translations, "VEC3"),
+                  "ROTATION": doc.accessor(rotations, "VEC4"),
+                  "SCALE": doc.accessor(scales, "VEC3")}
+    doc.node({"name": "Scatter", "mesh": box, "translation": [0.0, 0.05, 0.0],
+              "rotation": [0.0, math.sin(0.2), 0.0, math.cos(0.2)],
+              "extensions": {"EXT_mesh_gpu_instancing": {"attributes": attributes}}})
+    compare_with_blender(doc.write(tmp_path / "instancing.glb"), tmp_path)
+
+
+@pytest.mark.parametrize("sampler", [
+    None,
+    {"wrapS": 33648, "wrapT": 33071, "magFilter": 9728},
+    {"wrapS": 10497, "wrapT": 33648, "minFilter": 9728, "magFilter": 9729},
+], ids=["repeat_linear", "mirror_clamp_nearest", "repeat_mirror_linear"])
+def test_texture_transform(tmp_path, sampler):
+    """KHR_texture_transform: a standing square with the striped texture offset by (0.1, 0.2),
+    turned by 0.4 rad and scaled by (2, 1.5), under three samplers: repeating and bilinear;
+    mirrored in s and clamped in t with a nearest magnification filter only (Blender's importer
+    then takes the nearest texel); and repeating in s, mirrored in t, nearest minification
+    with linear magnification (bilinear, as the importer decides)."""
+    doc = stage()
+    doc.use("KHR_texture_transform")
+    texture = doc.texture(stripes(), sampler)
+    transform = {"offset": [0.1, 0.2], "rotation": 0.4, "scale": [2.0, 1.5]}
+    material = doc.material({"name": "Striped", "pbrMetallicRoughness": {
+        "baseColorTexture": {"index": texture, "extensions":
+                             {"KHR_texture_transform": transform}},
+        "metallicFactor": 0.0, "roughnessFactor": 0.8}})
+    standing_quad(doc, "Sign", material)
+    compare_with_blender(doc.write(tmp_path / "texture_transform.glb"), tmp_path)
+
+
+# The integer POSITION types (glTF component type numbers), each plain and normalized, with the
+# largest value each holds.
+POSITION_TYPES = [(c, n) for c in (5120, 5121, 5122, 5123) for n in (False, True)]
+INTEGER_RANGE = {5120: 127, 5121: 255, 5122: 32767, 5123: 65535}
+
+
+def test_mesh_quantization(tmp_path):
+    """KHR_mesh_quantization (required): eight small textured squares in a row, each with its
+    POSITION stored as another integer type (signed and unsigned bytes and shorts, each plain
+    and normalized) and dequantized by its node's scale, with NORMAL as normalized signed
+    bytes or shorts and TEXCOORD_0 as normalized unsigned bytes or shorts or plain floats."""
+    doc = stage()
+    doc.use("KHR_mesh_quantization", required=True)
+    # Nearest texels: Cycles filters an 8-bit sRGB image's encoded values, Photon's glTF
+    # materials its decoded ones, which differ by 1 % in the mean on these minified stripes.
+    texture = doc.texture(stripes(period=2), {"magFilter": 9728, "minFilter": 9728})
+    material = doc.material({"name": "Tiles", "pbrMetallicRoughness": {
+        "baseColorTexture": {"index": texture}, "metallicFactor": 0.0}})
+    for i, (component, normalized) in enumerate(POSITION_TYPES):
+        full = INTEGER_RANGE[component]
+        # The square's side in stored integers (a third of the range), which the node's scale
+        # turns into 0.6 m.
+        side = full // 3
+        stored = side / full if normalized else side
+        positions = [0, 0, 0, side, 0, 0, side, side, 0, 0, side, 0]
+        n_type, n_full = (5120, 127) if i % 2 == 0 else (5122, 32767)
+        normals = [0, 0, n_full] * 4
+        uv_type = [5121, 5123, 5126][i % 3]
+        uv_full = {5121: 255, 5123: 65535, 5126: 1.0}[uv_type]
+        uvs = [0, uv_full, uv_full, uv_full, uv_full, 0, 0, 0]
+        attributes = {
+            "POSITION": doc.accessor(positions, "VEC3", component, normalized, bounds=True),
+            "NORMAL": doc.accessor(normals, "VEC3", n_type, True),
+            "TEXCOORD_0": doc.accessor(uvs, "VEC2", uv_type, uv_type != 5126)}
+        mesh = doc.push("meshes", {"name": f"Q{i}", "primitives": [{
+            "attributes": attributes, "material": material,
+            "indices": doc.accessor([0, 1, 2, 0, 2, 3], "SCALAR", 5125)}]})
+        doc.node({"name": f"Q{i}", "mesh": mesh, "scale": [0.6 / stored] * 3,
+                  "translation": [-1.5 + 0.8 * (i % 4), 0.1 + 0.8 * (i // 4), 0.0]})
+    compare_with_blender(doc.write(tmp_path / "quantized.glb"), tmp_path)
+
+
+def test_sparse_accessor(tmp_path):
+    """A sparse accessor: a standing square whose POSITION accessor replaces two of its four
+    corners (the top ones, pulled back and apart) through sparse indices and values, and a
+    view-less sparse accessor of normals (all zero but the substituted +Z ones)."""
+    doc = stage()
+    purple = doc.material({"name": "Purple", "pbrMetallicRoughness":
+                           {"baseColorFactor": [0.5, 0.2, 0.7, 1.0], "metallicFactor": 0.0}})
+    mesh = doc.quad("Sail", 0.8, purple)
+    primitive = doc.json["meshes"][mesh]["primitives"][0]
+    positions = doc.json["accessors"][primitive["attributes"]["POSITION"]]
+    positions["sparse"] = {
+        "count": 2,
+        "indices": {"bufferView": doc.view(struct.pack("<2H", 2, 3)), "componentType": 5123},
+        "values": {"bufferView": doc.view(struct.pack("<6f", 1.2, 0.8, -0.5, -1.1, 0.9,
+                                                      -0.3))}}
+    positions["min"], positions["max"] = [-1.1, -0.8, -0.5], [1.2, 0.9, 0.0]
+    normals = {"componentType": 5126, "count": 4, "type": "VEC3", "sparse": {
+        "count": 4,
+        "indices": {"bufferView": doc.view(struct.pack("<4B", 0, 1, 2, 3)),
+                    "componentType": 5121},
+        "values": {"bufferView": doc.view(struct.pack("<12f", *([0.0, 0.0, 1.0] * 4)))}}}
+    primitive["attributes"]["NORMAL"] = doc.push("accessors", normals)
+    doc.node({"name": "Sail", "mesh": mesh, "translation": [0.0, 0.9, 0.0]})
+    compare_with_blender(doc.write(tmp_path / "sparse.glb"), tmp_path)

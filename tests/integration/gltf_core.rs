@@ -1,12 +1,14 @@
 //! Integration tests of the glTF loader on files other tools write: the Khronos extensions read
 //! as Blender's importer reads them (unlit, specular-glossiness, material variants, animation
-//! pointers tolerated), and the clear refusal of an unknown required extension. Each test
+//! pointers tolerated, GPU instancing, samplers' filters, quantized and sparse accessors), and
+//! the clear refusal of an unknown required extension. Each test
 //! writes its file here with `support::gltf::Doc`; `tests/blender/test_gltf_import.py` renders
 //! the same kinds of file against Cycles.
 
+use crate::gltf_loader::png_bytes;
 use crate::support::binary::{photon, temp_dir};
 use crate::support::gltf::{triangle_doc, Doc};
-use photon::math::Vec4;
+use photon::math::{Vec3, Vec4};
 use photon::scene::gltf::{load_slice, LoadOptions};
 use photon::scene::Scene;
 use serde_json::json;
@@ -150,4 +152,110 @@ fn an_unknown_required_extension_is_named_with_exit_code_2() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("EXT_made_up_compression"), "{stderr}");
+}
+
+/// `doc`'s first node given EXT_mesh_gpu_instancing with these TRANSLATION and SCALE rows.
+fn gpu_instanced(translations: &[f32], scales: &[f32]) -> Doc {
+    let mut doc = triangle_doc();
+    require(&mut doc, "EXT_mesh_gpu_instancing");
+    let t = doc.floats(translations, "VEC3");
+    let s = doc.floats(scales, "VEC3");
+    doc.json["nodes"][0]["translation"] = json!([0.0, 0.0, -1.0]);
+    doc.json["nodes"][0]["extensions"] =
+        json!({"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": t, "SCALE": s}}});
+    doc
+}
+
+#[test]
+fn gpu_instances_place_one_prototype() {
+    let doc = gpu_instanced(
+        &[0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0, 0.0],
+        &[1.0, 1.0, 1.0, -1.0, 1.0, 1.0, 2.0, 2.0, 2.0],
+    );
+    let scene = load(&doc);
+    assert!(scene.meshes.is_empty(), "the node's own mesh is not drawn");
+    assert_eq!(scene.prototypes.len(), 1);
+    assert_eq!(scene.instances.len(), 3);
+    let placed: Vec<Vec3> = scene
+        .instances
+        .iter()
+        .map(|i| i.to_world.transform_point3(Vec3::X))
+        .collect();
+    // Node × instance: the instance's scale and translation, then the node's translation.
+    assert_eq!(placed[0], Vec3::new(1.0, 0.0, -1.0));
+    assert_eq!(placed[1], Vec3::new(1.0, 0.0, -1.0));
+    assert_eq!(placed[2], Vec3::new(2.0, 3.0, -1.0));
+    assert!(scene.instances[1].mirrored && !scene.instances[2].mirrored);
+
+    let uneven = gpu_instanced(&[0.0; 6], &[1.0; 3]);
+    let error = load_with(&uneven, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("EXT_mesh_gpu_instancing") && error.contains("SCALE"),
+        "{error}"
+    );
+}
+
+#[test]
+fn samplers_filter_by_nearest_texels_as_blenders_importer_decides() {
+    // (minFilter, magFilter) → nearest texels?
+    let cases = [
+        (None, None, false),
+        (Some(9728), None, true),
+        (None, Some(9728), true),
+        (Some(9984), Some(9728), true),
+        (Some(9729), Some(9728), false),
+        (Some(9728), Some(9729), false),
+    ];
+    for (min, mag, nearest) in cases {
+        let mut doc = with_materials(
+            triangle_doc(),
+            json!([{"pbrMetallicRoughness":
+            {"baseColorTexture": {"index": 0}}}]),
+        );
+        let rgba = [200u8, 100, 50, 255];
+        let png = png_bytes(1, 1, png::ColorType::Rgba, png::BitDepth::Eight, &rgba);
+        let view = doc.view(&png);
+        let mut sampler = json!({});
+        if let Some(min) = min {
+            sampler["minFilter"] = json!(min);
+        }
+        if let Some(mag) = mag {
+            sampler["magFilter"] = json!(mag);
+        }
+        doc.json["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
+        doc.json["samplers"] = json!([sampler]);
+        doc.json["textures"] = json!([{"source": 0, "sampler": 0}]);
+        let scene = load(&doc);
+        assert_eq!(scene.textures[0].bilinear, !nearest, "{min:?} {mag:?}");
+    }
+}
+
+#[test]
+fn quantized_second_uv_sets_and_sparse_positions_are_read() {
+    let mut doc = triangle_doc();
+    require(&mut doc, "KHR_mesh_quantization");
+    // TEXCOORD_0 as floats, TEXCOORD_1 as normalized unsigned shorts.
+    let uv0 = doc.floats(&[0.0; 6], "VEC2");
+    let uv1 = doc.integers(&[0, 0, 65535, 0, 0, 32768], 5123, "VEC2", true);
+    let attributes = &mut doc.json["meshes"][0]["primitives"][0]["attributes"];
+    attributes["TEXCOORD_0"] = json!(uv0);
+    attributes["TEXCOORD_1"] = json!(uv1);
+    // The third vertex moved by a sparse substitution.
+    let indices = doc.view(&[2u8]);
+    let values: Vec<u8> = [0.0f32, 2.0, 0.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let values = doc.view(&values);
+    doc.json["accessors"][0]["sparse"] = json!({"count": 1,
+        "indices": {"bufferView": indices, "componentType": 5121},
+        "values": {"bufferView": values}});
+    doc.json["accessors"][0]["max"] = json!([1.0, 2.0, 0.0]);
+    let scene = load(&doc);
+    let mesh = &scene.meshes[0];
+    assert_eq!(mesh.positions[2], Vec3::new(0.0, 2.0, 0.0));
+    assert_eq!(mesh.extra_uvs[0][1].x, 1.0);
+    assert!((mesh.extra_uvs[0][2].y - 0.5).abs() < 1e-4);
 }

@@ -72,7 +72,7 @@ fn face_normal(scene: &Scene, mesh: usize, triangle: usize) -> Vec3 {
     (b - a).cross(c - a).normalize()
 }
 
-fn png_bytes(
+pub(crate) fn png_bytes(
     width: u32,
     height: u32,
     color: png::ColorType,
@@ -1398,7 +1398,7 @@ fn degenerate_cameras_are_refused() {
 
 impl Doc {
     /// An accessor of integer components (`component_type` 5120–5123) holding `data`.
-    fn integers(
+    pub(crate) fn integers(
         &mut self,
         data: &[i32],
         component_type: u32,

@@ -33,6 +33,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "KHR_mesh_quantization",
     "KHR_animation_pointer",
+    "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
 ];
 

@@ -149,11 +149,22 @@ impl Loader {
         let is_own_ancestor = ancestors.iter().any(|a| a.0 == node.index());
         totals.instances += 1;
         self.check_node(&object, is_own_ancestor, ancestors.len(), totals.instances)?;
+        let gpu_instances = match node.mesh() {
+            Some(_) => self.gpu_instance_count(node)?,
+            None => None,
+        };
+        if let Some(count) = gpu_instances {
+            totals.instances = totals.instances.saturating_add(count);
+            self.check_node(&object, false, ancestors.len(), totals.instances)?;
+        }
         if let Some(mesh) = node.mesh() {
             let (mut triangles, mut vertices) =
                 per_mesh.get(&mesh.index()).copied().unwrap_or_default();
-            // Moving mirrored nodes are counted as flattened: an upper bound.
-            if world.is_finite() && self.places_instance(node, &world, false) {
+            // Moving mirrored nodes are counted as flattened: an upper bound. GPU instances
+            // are all instances of one prototype.
+            if gpu_instances.is_some()
+                || world.is_finite() && self.places_instance(node, &world, false)
+            {
                 // Stored once, however many instances place it.
                 if !totals.counted_prototypes.insert(mesh.index()) {
                     (triangles, vertices) = (0, 0);
@@ -222,7 +233,9 @@ impl Loader {
             own.object.motion.clone()
         };
         if let Some(mesh) = node.mesh() {
-            if self.places_instance(node, &world, !motion.is_empty()) {
+            if let Some(transforms) = self.gpu_instances(node)? {
+                self.add_gpu_instances(node, &mesh, &world, &transforms)?;
+            } else if self.places_instance(node, &world, !motion.is_empty()) {
                 self.add_instance(node, &mesh, &world, &motion)?;
             } else {
                 if !motion.is_empty() || own.object.moves() {
@@ -270,7 +283,9 @@ pub(super) fn count_mesh_uses(
     }
     let moves = moving_above || extensions[node.index()].object.moves();
     if let Some(mesh) = node.mesh() {
-        *uses.entry(mesh.index()).or_default() += 1;
+        // A node with EXT_mesh_gpu_instancing places its mesh many times: a prototype.
+        let gpu_instanced = node.extension_value("EXT_mesh_gpu_instancing").is_some();
+        *uses.entry(mesh.index()).or_default() += if gpu_instanced { 2 } else { 1 };
         if moves {
             moving.insert(mesh.index());
         }

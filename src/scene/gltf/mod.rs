@@ -12,6 +12,7 @@
 //! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
 //! - `build`: the entry points, the walk of the default scene and the choice of camera;
 //! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
+//!   `gpu_instancing`: `EXT_mesh_gpu_instancing`'s instances;
 //! - `accessors`: accessors read with every byte range checked;
 //! - `meshes`: primitives into meshes and prototypes;
 //! - `motion`: poses over the shutter and deforming vertices;
@@ -29,6 +30,7 @@ mod camera;
 mod container;
 mod encoding;
 mod extensions;
+mod gpu_instancing;
 mod hierarchy;
 mod images;
 mod imported_trees;
