@@ -191,6 +191,10 @@ struct RenderArgs {
     /// primitive's own material).
     #[arg(long, value_name = "NAME")]
     variant: Option<String>,
+    /// Render the file's animations at this time in seconds: node transforms, skins and morph
+    /// weights (default: the nodes' own values).
+    #[arg(long, value_name = "SECONDS")]
+    time: Option<f32>,
     /// How progress is shown on stderr.
     #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
     progress: ProgressMode,
@@ -461,6 +465,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let options = LoadOptions {
         camera: args.camera.clone(),
         variant: args.variant.clone(),
+        time: args.time,
     };
     let mut scene = load_scene_with(args.scene.as_deref(), &options)?;
     let method = match args.subsurface {

@@ -217,8 +217,10 @@ def stage() -> Gltf:
     return doc
 
 
-def render_cycles(path: Path, out: Path, size: int, samples: int) -> np.ndarray:
-    """Blender's import of the glTF file `path` rendered by Cycles (RGB, row 0 at the top)."""
+def render_cycles(path: Path, out: Path, size: int, samples: int,
+                  frame: int | None = None) -> np.ndarray:
+    """Blender's import of the glTF file `path` rendered by Cycles (RGB, row 0 at the top), at
+    `frame` when given."""
     import bpy
 
     import common
@@ -229,6 +231,8 @@ def render_cycles(path: Path, out: Path, size: int, samples: int) -> np.ndarray:
     scene.camera = next(o for o in scene.objects if o.type == "CAMERA")
     scene.render.resolution_x = scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
+    if frame is not None:
+        scene.frame_set(frame)
     scene.render.engine = "CYCLES"
     common.configure_cycles(scene, samples, seed=1, threads=2)
     scene.render.filepath = str(out)
@@ -256,11 +260,13 @@ def block_means(image: np.ndarray, block: int = 4) -> np.ndarray:
 
 
 def compare_with_blender(path: Path, tmp_path: Path, *, size=48, photon_spp=512,
-                         cycles_spp=512, photon_args=None, cycles_path: Path | None = None):
+                         cycles_spp=512, photon_args=None, cycles_path: Path | None = None,
+                         frame: int | None = None):
     """Photon's render of `path` against Cycles' render of Blender's import of `cycles_path`
     (default: the same file); asserts the agreement and returns (photon, cycles)."""
     name = path.stem
-    ref = render_cycles(cycles_path or path, tmp_path / f"{name}_cycles.exr", size, cycles_spp)
+    ref = render_cycles(cycles_path or path, tmp_path / f"{name}_cycles.exr", size, cycles_spp,
+                        frame)
     img = render_photon(path, tmp_path / f"{name}_photon.exr", size, photon_spp, photon_args)
     assert img.shape == ref.shape, (img.shape, ref.shape)
     diff = float(img.mean() / ref.mean()) - 1.0
@@ -503,3 +509,113 @@ def test_sparse_accessor(tmp_path):
     primitive["attributes"]["NORMAL"] = doc.push("accessors", normals)
     doc.node({"name": "Sail", "mesh": mesh, "translation": [0.0, 0.9, 0.0]})
     compare_with_blender(doc.write(tmp_path / "sparse.glb"), tmp_path)
+
+
+def tube_doc(animated: bool) -> Gltf:
+    """A skinned tube 2 m tall (8 sides, radius 0.25 m, 9 rings) on the floor, bound to two
+    joints: "Root" at the origin and its child "Bend" 1 m up, turned 40° about Z, so the
+    upper half bends over; rings between 0.6 and 1.4 m blend the two joints. Beside it a
+    3x3-vertex square with two morph targets (the middle vertex pushed out, the top edge
+    lifted) at the mesh's weights 0.7 and 0.4. With `animated`, one animation (LINEAR keys at
+    0, 0.5 and 1 s) turns "Bend" from 0 to 40° to 80°, moves the square and changes its
+    weights, and a STEP channel and a CUBICSPLINE channel drive the tube's "Root" rotation
+    and the square's scale."""
+    doc = stage()
+    blue = doc.material({"name": "Blue", "pbrMetallicRoughness":
+                         {"baseColorFactor": [0.15, 0.3, 0.8, 1.0], "metallicFactor": 0.0}})
+    rings, sides, radius = 9, 8, 0.25
+    positions, normals, joints, weights, indices = [], [], [], [], []
+    for r in range(rings):
+        h = 2.0 * r / (rings - 1)
+        upper = min(max((h - 0.6) / 0.8, 0.0), 1.0)
+        for s in range(sides):
+            a = 2 * math.pi * s / sides
+            positions += [radius * math.cos(a), h, radius * math.sin(a)]
+            normals += [math.cos(a), 0.0, math.sin(a)]
+            joints += [0, 1, 0, 0]
+            weights += [1.0 - upper, upper, 0.0, 0.0]
+    for r in range(rings - 1):
+        for s in range(sides):
+            a, b = r * sides + s, r * sides + (s + 1) % sides
+            c, d = a + sides, b + sides
+            indices += [a, c, b, b, c, d]
+    attributes = {"POSITION": doc.accessor(positions, "VEC3", bounds=True),
+                  "NORMAL": doc.accessor(normals, "VEC3"),
+                  "JOINTS_0": doc.accessor(joints, "VEC4", 5121),
+                  "WEIGHTS_0": doc.accessor(weights, "VEC4")}
+    tube = doc.push("meshes", {"name": "Tube", "primitives": [{
+        "attributes": attributes, "material": blue,
+        "indices": doc.accessor(indices, "SCALAR", 5125)}]})
+    bend = doc.node({"name": "Bend", "translation": [0.0, 1.0, 0.0],
+                     "rotation": [0.0, 0.0, math.sin(math.radians(20)),
+                                  math.cos(math.radians(20))]}, root=False)
+    root = doc.node({"name": "Root", "translation": [-0.6, 0.0, 0.0], "children": [bend]})
+    identity = [1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0, 0, 0, 0, 0, 1.0]
+    down = identity[:13] + [-1.0] + identity[14:]
+    inverse_binds = doc.accessor(identity[:12] + [0.6, 0.0, 0.0, 1.0] + down[:12]
+                                 + [0.6, -1.0, 0.0, 1.0], "MAT4")
+    doc.push("skins", {"joints": [root, bend], "inverseBindMatrices": inverse_binds,
+                       "skeleton": root})
+    doc.node({"name": "Tube", "mesh": tube, "skin": 0})
+
+    # The morphed square.
+    grid = [(x, y) for y in (0, 1, 2) for x in (0, 1, 2)]
+    square_positions = [v for x, y in grid for v in (0.5 * x - 0.5, 0.5 * y, 0.0)]
+    middle = [v for x, y in grid for v in (0.0, 0.0, 0.5 if (x, y) == (1, 1) else 0.0)]
+    top = [v for x, y in grid for v in (0.0, 0.4 if y == 2 else 0.0, 0.0)]
+    square_indices = []
+    for y in range(2):
+        for x in range(2):
+            a = 3 * y + x
+            square_indices += [a, a + 1, a + 4, a, a + 4, a + 3]
+    orange = doc.material({"name": "Orange", "doubleSided": True, "pbrMetallicRoughness":
+                           {"baseColorFactor": [0.8, 0.4, 0.1, 1.0], "metallicFactor": 0.0}})
+    square = doc.push("meshes", {"name": "Square", "weights": [0.7, 0.4], "primitives": [{
+        "attributes": {"POSITION": doc.accessor(square_positions, "VEC3", bounds=True)},
+        "targets": [{"POSITION": doc.accessor(middle, "VEC3", bounds=True)},
+                    {"POSITION": doc.accessor(top, "VEC3", bounds=True)}],
+        "material": orange, "indices": doc.accessor(square_indices, "SCALAR", 5125)}]})
+    square_node = doc.node({"name": "Square", "mesh": square, "translation": [0.8, 0.1, 0.3],
+                            "rotation": [0.0, math.sin(-0.3), 0.0, math.cos(-0.3)]})
+    if animated:
+        times = doc.accessor([0.0, 0.5, 1.0], "SCALAR", bounds=True)
+        turns = [v for deg in (0, 40, 80) for v in
+                 (0.0, 0.0, math.sin(math.radians(deg / 2)), math.cos(math.radians(deg / 2)))]
+        moves = [0.8, 0.1, 0.3, 0.7, 0.3, 0.5, 0.9, 0.1, 0.6]
+        morphs = [0.0, 0.0, 1.0, 0.2, 0.2, 1.0]
+        step_turns = [v for deg in (0, 10, 30) for v in
+                      (0.0, math.sin(math.radians(deg / 2)), 0.0, math.cos(math.radians(deg / 2)))]
+        # CUBICSPLINE: (in-tangent, value, out-tangent) per key.
+        cubic = [0, 0, 0, 1, 1, 1, 0.4, 0.4, 0.4,
+                 0.2, 0.2, 0.2, 1.2, 1.2, 1.2, 0, 0, 0,
+                 0, 0, 0, 0.9, 0.9, 0.9, 0, 0, 0]
+        samplers = [{"input": times, "output": doc.accessor(turns, "VEC4")},
+                    {"input": times, "output": doc.accessor(moves, "VEC3")},
+                    {"input": times, "output": doc.accessor(morphs, "SCALAR")},
+                    {"input": times, "output": doc.accessor(step_turns, "VEC4"),
+                     "interpolation": "STEP"},
+                    {"input": times, "output": doc.accessor(cubic, "VEC3"),
+                     "interpolation": "CUBICSPLINE"}]
+        channels = [{"sampler": 0, "target": {"node": bend, "path": "rotation"}},
+                    {"sampler": 1, "target": {"node": square_node, "path": "translation"}},
+                    {"sampler": 2, "target": {"node": square_node, "path": "weights"}},
+                    {"sampler": 3, "target": {"node": root, "path": "rotation"}},
+                    {"sampler": 4, "target": {"node": square_node, "path": "scale"}}]
+        doc.json["animations"] = [{"name": "Act", "samplers": samplers, "channels": channels}]
+    return doc
+
+
+def test_skin_and_morph_targets(tmp_path):
+    """Skins at the joints' node transforms and morph targets at the mesh's default weights
+    (`tube_doc`): the tube bends over and the square bulges, as in Blender's import."""
+    compare_with_blender(tube_doc(False).write(tmp_path / "skin_morph.glb"), tmp_path)
+
+
+@pytest.mark.parametrize("seconds", [0.25, 0.75])
+def test_time_poses_the_animation(tmp_path, seconds):
+    """`--time SECONDS` against Blender at frame SECONDS × 24 (its importer keys glTF time t at
+    frame t × fps): the bend, the square's place, scale and weights and the tube's stepped
+    turn between keys (`tube_doc(animated=True)`)."""
+    path = tube_doc(True).write(tmp_path / "animated.glb")
+    compare_with_blender(path, tmp_path, photon_args=["--time", str(seconds)],
+                         frame=round(seconds * 24))

@@ -259,3 +259,95 @@ fn quantized_second_uv_sets_and_sparse_positions_are_read() {
     assert_eq!(mesh.extra_uvs[0][1].x, 1.0);
     assert!((mesh.extra_uvs[0][2].y - 0.5).abs() < 1e-4);
 }
+
+/// The triangle with two morph targets (the first vertex moved along +Z, the second along
+/// +Y) at mesh weights 0.5 and 0.25, and a joint "Joint" 2 m along X its third vertex follows.
+fn deformed_doc() -> Doc {
+    let mut doc = triangle_doc();
+    let up = doc.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], "VEC3");
+    let side = doc.floats(&[0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0], "VEC3");
+    doc.json["meshes"][0]["weights"] = json!([0.5, 0.25]);
+    doc.json["meshes"][0]["primitives"][0]["targets"] =
+        json!([{"POSITION": up}, {"POSITION": side}]);
+    doc
+}
+
+fn skinned_doc() -> Doc {
+    let mut doc = triangle_doc();
+    let joints = doc.integers(&[0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0], 5121, "VEC4", false);
+    let weights = doc.floats(&[1.0, 0.0, 0.0, 0.0].repeat(3), "VEC4");
+    let attributes = &mut doc.json["meshes"][0]["primitives"][0]["attributes"];
+    attributes["JOINTS_0"] = json!(joints);
+    attributes["WEIGHTS_0"] = json!(weights);
+    let still = doc.node(json!({"name": "Still"}), true);
+    let joint = doc.node(
+        json!({"name": "Joint", "translation": [2.0, 0.0, 0.0]}),
+        true,
+    );
+    doc.json["skins"] = json!([{"joints": [still, joint]}]);
+    doc.json["nodes"][0]["skin"] = json!(0);
+    // The skinned node's own transform is ignored.
+    doc.json["nodes"][0]["translation"] = json!([0.0, 0.0, 7.0]);
+    doc
+}
+
+#[test]
+fn morph_targets_take_the_meshs_weights_and_skins_their_joints() {
+    let scene = load(&deformed_doc());
+    let positions = &scene.meshes[0].positions;
+    assert_eq!(positions[0], Vec3::new(0.0, 0.0, 0.5));
+    assert_eq!(positions[1], Vec3::new(1.0, 0.25, 0.0));
+
+    let scene = load(&skinned_doc());
+    let positions = &scene.meshes[0].positions;
+    assert_eq!(positions[0], Vec3::ZERO);
+    assert_eq!(positions[2], Vec3::new(2.0, 1.0, 0.0));
+}
+
+#[test]
+fn time_poses_linear_step_cubic_and_pointer_channels() {
+    let mut doc = deformed_doc();
+    let times = doc.floats(&[0.0, 1.0], "SCALAR");
+    let moves = doc.floats(&[0.0, 0.0, 0.0, 4.0, 0.0, 0.0], "VEC3");
+    let steps = doc.floats(&[1.0, 1.0, 1.0, 3.0, 3.0, 3.0], "VEC3");
+    let weights = doc.floats(&[0.0, 0.0, 1.0, 0.0], "SCALAR");
+    // CUBICSPLINE keys (in-tangent, value, out-tangent): 0 with slope 0, then 2 with slope 0.
+    let mut cubic_keys = [0.0; 18];
+    cubic_keys[13] = 2.0;
+    let cubic = doc.floats(&cubic_keys, "VEC3");
+    let mut samplers = vec![
+        json!({"input": times, "output": moves}),
+        json!({"input": times, "output": steps, "interpolation": "STEP"}),
+        json!({"input": times, "output": weights}),
+    ];
+    let mut channels = vec![
+        json!({"sampler": 0, "target": {"path": "pointer", "extensions":
+            {"KHR_animation_pointer": {"pointer": "/nodes/0/translation"}}}}),
+        json!({"sampler": 1, "target": {"node": 0, "path": "scale"}}),
+        json!({"sampler": 2, "target": {"node": 0, "path": "weights"}}),
+    ];
+    samplers.push(json!({"input": times, "output": cubic, "interpolation": "CUBICSPLINE"}));
+    channels.push(json!({"sampler": 3, "target": {"node": 1, "path": "translation"}}));
+    doc.json["animations"] = json!([{"samplers": samplers, "channels": channels}]);
+    let at = |time: Option<f32>| {
+        let options = LoadOptions {
+            time,
+            ..LoadOptions::default()
+        };
+        load_with(&doc, &options).expect("the file loads")
+    };
+    // Without a time: the nodes' own values.
+    let scene = at(None);
+    assert_eq!(scene.meshes[0].positions[0], Vec3::new(0.0, 0.0, 0.5));
+    let scene = at(Some(0.5));
+    let positions = &scene.meshes[0].positions;
+    // Translated by 2 (linear), scaled by 1 (a step holds its key), weights (0.5, 0).
+    assert_eq!(positions[0], Vec3::new(2.0, 0.0, 0.5));
+    assert_eq!(positions[1], Vec3::new(3.0, 0.0, 0.0));
+    // Hermite halfway between 0 and 2 with flat tangents: 1.
+    let camera = scene.camera.to_world.translation;
+    assert!((camera.y - 1.0).abs() < 1e-6, "{camera:?}");
+    // After the last key the last value holds.
+    let scene = at(Some(9.0));
+    assert_eq!(scene.meshes[0].positions[1], Vec3::new(4.0 + 3.0, 0.0, 0.0));
+}

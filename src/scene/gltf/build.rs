@@ -16,6 +16,9 @@ pub struct LoadOptions {
     /// Show the `KHR_materials_variants` variant of this name; `None`: each primitive's own
     /// material (the file's default).
     pub variant: Option<String>,
+    /// Pose the file's animations at this time in seconds (node transforms, skins and morph
+    /// weights); `None`: the nodes' own values.
+    pub time: Option<f32>,
 }
 
 /// Load a `.glb` or `.gltf` file.
@@ -36,6 +39,9 @@ impl Loader {
     pub(super) fn build(mut self, options: &LoadOptions) -> Result<Scene> {
         if let Some(name) = &options.variant {
             self.choose_variant(name)?;
+        }
+        if let Some(time) = options.time {
+            self.pose = self.pose_at(time)?;
         }
         self.load_materials()?;
         let document = self.document.clone();

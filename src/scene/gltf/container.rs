@@ -68,6 +68,10 @@ pub(super) struct Loader {
     pub(super) node_extensions: Rc<[NodeExtensions]>,
     /// Bytes of voxel grids read so far (`scene::grids::MAX_GRID_BYTES` at most).
     pub(super) grid_bytes: u64,
+    /// The file's `animations`, as JSON (posed by `animation` at `LoadOptions::time`).
+    pub(super) animations: Vec<Value>,
+    /// What the animations set on each node at `LoadOptions::time` (empty without a time).
+    pub(super) pose: HashMap<usize, super::animation::NodePose>,
     /// The `KHR_materials_variants` variant chosen (`LoadOptions::variant`), by index.
     pub(super) variant: Option<usize>,
 }
@@ -91,11 +95,12 @@ impl Loader {
         };
         let malformed = |e| Error::scene(path, "JSON", format!("malformed glTF JSON: {e}"));
         let mut json: Value = serde_json::from_slice(json).map_err(malformed)?;
-        // A still render needs no animation; the gltf crate's schema refuses valid channels
-        // (KHR_animation_pointer's have no `node`).
-        if let Some(object) = json.as_object_mut() {
-            object.remove("animations");
-        }
+        // Animations are read here (`animation`), not by the gltf crate, whose schema refuses
+        // valid channels (KHR_animation_pointer's have no `node`).
+        let animations = match json.as_object_mut().and_then(|o| o.remove("animations")) {
+            Some(Value::Array(list)) => list,
+            _ => Vec::new(),
+        };
         let mut root: gltf::json::Root = serde_json::from_value(json).map_err(malformed)?;
 
         let unsupported: Vec<&String> = root
@@ -197,6 +202,8 @@ impl Loader {
             prototype_ids: HashMap::new(),
             node_extensions,
             variant: None,
+            animations,
+            pose: HashMap::new(),
         };
         loader.load_buffers(blob)?;
         Ok(loader)

@@ -103,8 +103,16 @@ impl Loader {
         let Some(mesh) = node.mesh() else {
             return false;
         };
+        // Skinned and morphed copies have vertices of their own.
+        let own_vertices = node.skin().is_some()
+            || node.weights().is_some()
+            || self
+                .pose
+                .get(&node.index())
+                .is_some_and(|p| p.weights.is_some());
         let det = Mat3::from_mat4(*world).determinant();
-        self.instanced_meshes.contains(&mesh.index())
+        !own_vertices
+            && self.instanced_meshes.contains(&mesh.index())
             && det.is_finite()
             && (det > 0.0 || (moving && det < 0.0))
     }
@@ -144,7 +152,7 @@ impl Loader {
         totals: &mut SizeTotals,
     ) -> Result<()> {
         let parent = ancestors.last().map_or(Mat4::IDENTITY, |a| a.1);
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * self.local_matrix(node);
         let object = named("node", node.index(), node.name());
         let is_own_ancestor = ancestors.iter().any(|a| a.0 == node.index());
         totals.instances += 1;
@@ -215,7 +223,7 @@ impl Loader {
             ancestors.len(),
             self.node_instances,
         )?;
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let local = self.local_matrix(node);
         let world = parent.world * local;
         if !world.is_finite() {
             return Err(self.err(object, "transform is NaN or infinite"));

@@ -14,7 +14,8 @@
 //! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
 //!   `gpu_instancing`: `EXT_mesh_gpu_instancing`'s instances;
 //! - `accessors`: accessors read with every byte range checked;
-//! - `meshes`: primitives into meshes and prototypes;
+//! - `meshes`: primitives into meshes and prototypes; `skinning`: morph targets and skins;
+//! - `animation`: the animations posed at a chosen time (`LoadOptions::time`);
 //! - `motion`: poses over the shutter and deforming vertices;
 //! - `materials`: materials and their KHR and `PHOTON_*` extensions; `imported_trees`: the
 //!   unlit and specular-glossiness materials as the node trees Blender's importer builds;
@@ -25,6 +26,7 @@
 //! - `camera`: cameras, and the camera that frames a scene without one.
 
 mod accessors;
+mod animation;
 mod build;
 mod camera;
 mod container;
@@ -38,6 +40,7 @@ mod lights;
 mod materials;
 mod meshes;
 mod motion;
+mod skinning;
 mod textures;
 mod variants;
 mod volumes;
