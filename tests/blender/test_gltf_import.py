@@ -619,3 +619,14 @@ def test_time_poses_the_animation(tmp_path, seconds):
     path = tube_doc(True).write(tmp_path / "animated.glb")
     compare_with_blender(path, tmp_path, photon_args=["--time", str(seconds)],
                          frame=round(seconds * 24))
+
+
+def test_mesh_without_material(tmp_path):
+    """A box with no material: Blender's importer leaves the object without one and Cycles
+    shades it with its default surface (a Diffuse BSDF of colour 0.8), which Photon follows
+    rather than glTF's default material (a white rough metal, brighter)."""
+    doc = stage()
+    box = doc.box("Plain", 0.6)
+    doc.node({"name": "Plain", "mesh": box, "translation": [0.0, 0.6, 0.0],
+              "rotation": [0.0, math.sin(0.4), 0.0, math.cos(0.4)]})
+    compare_with_blender(doc.write(tmp_path / "no_material.glb"), tmp_path)

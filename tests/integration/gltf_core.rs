@@ -138,20 +138,40 @@ fn animation_pointer_channels_are_tolerated() {
 
 #[test]
 fn an_unknown_required_extension_is_named_with_exit_code_2() {
-    let mut doc = triangle_doc();
-    require(&mut doc, "EXT_made_up_compression");
-    let dir = temp_dir("gltf_core_unknown");
-    let path = dir.join("unknown.glb");
-    std::fs::write(&path, doc.glb()).unwrap();
-    let out = photon()
-        .args(["render", path.to_str().unwrap(), "-o"])
-        .arg(dir.join("x.exr"))
-        .args(["--width", "8", "--height", "8", "--spp", "1"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("EXT_made_up_compression"), "{stderr}");
+    // An unknown one, and the compressions Photon does not decode, each with its reason.
+    for (extension, reason) in [
+        ("EXT_made_up_compression", ""),
+        (
+            "KHR_draco_mesh_compression",
+            "Draco-compressed geometry is not decoded",
+        ),
+        (
+            "EXT_meshopt_compression",
+            "meshoptimizer-compressed buffers",
+        ),
+        (
+            "KHR_texture_basisu",
+            "Basis Universal textures are not decoded",
+        ),
+    ] {
+        let mut doc = triangle_doc();
+        require(&mut doc, extension);
+        let dir = temp_dir("gltf_core_unknown");
+        let path = dir.join("unknown.glb");
+        std::fs::write(&path, doc.glb()).unwrap();
+        let out = photon()
+            .args(["render", path.to_str().unwrap(), "-o"])
+            .arg(dir.join("x.exr"))
+            .args(["--width", "8", "--height", "8", "--spp", "1"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains(extension) && stderr.contains(reason),
+            "{stderr}"
+        );
+    }
 }
 
 /// `doc`'s first node given EXT_mesh_gpu_instancing with these TRANSLATION and SCALE rows.

@@ -109,7 +109,13 @@ impl Loader {
             .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
             .collect();
         if !unsupported.is_empty() {
-            let names: Vec<&str> = unsupported.iter().map(|s| s.as_str()).collect();
+            let names: Vec<String> = unsupported
+                .iter()
+                .map(|name| match unsupported_reason(name) {
+                    Some(why) => format!("{name} ({why})"),
+                    None => name.to_string(),
+                })
+                .collect();
             return Err(Error::scene(
                 path,
                 "extensionsRequired",
@@ -276,6 +282,23 @@ impl Loader {
         })?;
         Ok(base.join(decoded))
     }
+}
+
+/// Why Photon does not read a known extension a file may require.
+fn unsupported_reason(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "KHR_draco_mesh_compression" => {
+            "Draco-compressed geometry is not decoded: export the file without compression"
+        }
+        "EXT_meshopt_compression" => {
+            "meshoptimizer-compressed buffers are not decoded: export the file without compression"
+        }
+        "KHR_texture_basisu" => "KTX2 / Basis Universal textures are not decoded",
+        "KHR_materials_dispersion" | "KHR_materials_diffuse_transmission" => {
+            "not rendered; Blender's importer does not read it either"
+        }
+        _ => return None,
+    })
 }
 
 /// "node 3 'Cube'" or "node 3".

@@ -9,6 +9,11 @@
 //!   is the reflectance at normal incidence) and Roughness 1 − glossiness (texture alpha ×
 //!   factor), plus the emission and normal texture.
 //!
+//! - a primitive without a material: Blender's importer leaves its object without one, which
+//!   Cycles shades with its default surface, a Diffuse BSDF of colour 0.8 (not glTF's default
+//!   material, a white rough metal): `photon render` shows the file as Blender does, and as
+//!   Photon shows a Blender object without a material, which Blender's exporter writes so.
+//!
 //! Texture references follow the importer too: an Image Texture node, through a Mapping node in
 //! Blender's UV space for `KHR_texture_transform`, multiplied by its factor; base colours also
 //! by the vertex colour `COLOR_0` when the file has one. Alpha stays with the material's glTF
@@ -71,6 +76,25 @@ impl Loader {
         };
         self.install_surface_tree(out, &tree, object, Vec::new())?;
         Ok(true)
+    }
+
+    /// The material of primitives without one: Cycles' default surface.
+    pub(super) fn default_surface(&mut self) -> Result<Material> {
+        let grey = Vec4::new(0.8, 0.8, 0.8, 1.0);
+        let mut out = Material {
+            name: "default surface".into(),
+            base_color: grey,
+            metallic: 0.0,
+            ..Material::default()
+        };
+        let mut tree = Tree::default();
+        let diffuse = tree.add(
+            "BsdfDiffuse",
+            json!({"inputs": {"Color": rgb_value(grey), "Roughness": 0.0}}),
+        );
+        let tree = tree.finish(diffuse, "BSDF");
+        self.install_surface_tree(&mut out, &tree, "default surface", Vec::new())?;
+        Ok(out)
     }
 
     /// Unlit: the base colour (factor × texture × vertex colour) as an Emission of strength 1

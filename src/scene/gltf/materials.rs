@@ -20,15 +20,20 @@ impl Loader {
         Ok(())
     }
 
-    /// Scene material index for a glTF material index (`None`: the glTF default material).
-    pub(super) fn material_index(&mut self, gltf_index: Option<usize>) -> u32 {
-        match gltf_index {
-            Some(i) => i as u32,
-            None => *self.default_material.get_or_insert_with(|| {
-                self.scene.materials.push(Material::default());
-                (self.scene.materials.len() - 1) as u32
-            }),
+    /// Scene material index for a glTF material index (`None`: a primitive without a
+    /// material, which shows Cycles' default surface, `Loader::default_surface`).
+    pub(super) fn material_index(&mut self, gltf_index: Option<usize>) -> Result<u32> {
+        if let Some(i) = gltf_index {
+            return Ok(i as u32);
         }
+        if let Some(i) = self.default_material {
+            return Ok(i);
+        }
+        let material = self.default_surface()?;
+        self.scene.materials.push(material);
+        let index = (self.scene.materials.len() - 1) as u32;
+        self.default_material = Some(index);
+        Ok(index)
     }
 
     pub(super) fn convert_material(&mut self, material: &gltf::Material) -> Result<Material> {

@@ -208,7 +208,7 @@ impl Loader {
                 .collect();
 
             let material = self.variant_material(&primitive)?;
-            let material = self.material_index(material);
+            let material = self.material_index(material)?;
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",
