@@ -373,17 +373,19 @@ def test_material_variants(tmp_path, variant):
 
 def test_animation_pointer_is_tolerated(tmp_path):
     """KHR_animation_pointer: a box whose translation and a material's base colour are
-    animated by pointers (channels without a `node`), keyed at 0 s at the file's own values;
-    the still render shows those values, as Blender shows frame 1 after importing."""
+    animated by pointers (channels without a `node`), held at the file's own values for the
+    first second; the still render shows those values, as Blender shows frame 1 after
+    importing."""
     doc = stage()
     doc.use("KHR_animation_pointer")
     green = doc.material({"name": "Green", "pbrMetallicRoughness":
                           {"baseColorFactor": [0.1, 0.6, 0.2, 1.0], "metallicFactor": 0.0}})
     box = doc.box("Box", 0.5, green)
     node = doc.node({"name": "Box", "mesh": box, "translation": [0.0, 0.5, 0.0]})
-    times = doc.accessor([0.0, 1.0], "SCALAR", bounds=True)
-    moves = doc.accessor([0.0, 0.5, 0.0, 1.0, 0.5, 0.0], "VEC3")
-    colours = doc.accessor([0.1, 0.6, 0.2, 1.0, 0.9, 0.1, 0.1, 1.0], "VEC4")
+    # Held from 0 to 1 s: Blender shows frame 1, 1/24 s in.
+    times = doc.accessor([0.0, 1.0, 2.0], "SCALAR", bounds=True)
+    moves = doc.accessor([0.0, 0.5, 0.0] * 2 + [1.0, 0.5, 0.0], "VEC3")
+    colours = doc.accessor([0.1, 0.6, 0.2, 1.0] * 2 + [0.9, 0.1, 0.1, 1.0], "VEC4")
     doc.json["animations"] = [{"name": "Pointers", "samplers": [
         {"input": times, "output": moves}, {"input": times, "output": colours}], "channels": [
         {"sampler": 0, "target": {"path": "pointer", "extensions": {"KHR_animation_pointer":
