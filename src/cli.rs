@@ -16,7 +16,7 @@ use photon::plan::{
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
-use photon::scene::load::{image_size, load_scene, load_scene_with, LoadOptions};
+use photon::scene::load::{image_size, load_scene_with, LoadOptions};
 use photon::scene::{Projection, SubsurfaceMethod};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -61,6 +61,12 @@ enum Command {
         /// Camera to use (glTF node or camera name).
         #[arg(long)]
         camera: Option<String>,
+        /// Material variant to describe (as `render --variant`).
+        #[arg(long, value_name = "NAME")]
+        variant: Option<String>,
+        /// Animation time to describe (as `render --time`).
+        #[arg(long, value_name = "SECONDS")]
+        time: Option<f32>,
         /// Quality preset the plan is made for.
         #[arg(long, value_enum, default_value_t = QualityArg::Default)]
         quality: QualityArg,
@@ -391,8 +397,17 @@ pub fn main() -> i32 {
             Command::Info {
                 scene,
                 camera,
+                variant,
+                time,
                 quality,
-            } => run_info(&scene, camera, quality.into()),
+            } => {
+                let options = LoadOptions {
+                    camera,
+                    variant,
+                    time,
+                };
+                run_info(&scene, &options, quality.into())
+            }
             Command::Bench(args) => crate::bench::run_bench(args),
             Command::Compare {
                 image,
@@ -825,8 +840,8 @@ fn summarise(
     }
 }
 
-fn run_info(path: &Path, camera: Option<String>, quality: Quality) -> Result<()> {
-    let scene = load_scene(Some(path), camera)?;
+fn run_info(path: &Path, options: &LoadOptions, quality: Quality) -> Result<()> {
+    let scene = load_scene_with(Some(path), options)?;
     let (width, height) = image_size(&scene, None, None);
     println!("scene: {}", path.display());
     println!("textures: {}", scene.textures.len());
