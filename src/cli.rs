@@ -16,7 +16,7 @@ use photon::plan::{
 use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
-use photon::scene::load::{image_size, load_scene};
+use photon::scene::load::{image_size, load_scene_with, LoadOptions};
 use photon::scene::{Projection, SubsurfaceMethod};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -61,6 +61,12 @@ enum Command {
         /// Camera to use (glTF node or camera name).
         #[arg(long)]
         camera: Option<String>,
+        /// Material variant to describe (as `render --variant`).
+        #[arg(long, value_name = "NAME")]
+        variant: Option<String>,
+        /// Animation time to describe (as `render --time`).
+        #[arg(long, value_name = "SECONDS")]
+        time: Option<f32>,
         /// Quality preset the plan is made for.
         #[arg(long, value_enum, default_value_t = QualityArg::Default)]
         quality: QualityArg,
@@ -187,6 +193,14 @@ struct RenderArgs {
     /// Camera to render through (glTF node or camera name; default: the first camera).
     #[arg(long)]
     camera: Option<String>,
+    /// Material variant to show (glTF KHR_materials_variants, by name; default: each
+    /// primitive's own material).
+    #[arg(long, value_name = "NAME")]
+    variant: Option<String>,
+    /// Render the file's animations at this time in seconds: node transforms, skins and morph
+    /// weights (default: the nodes' own values).
+    #[arg(long, value_name = "SECONDS")]
+    time: Option<f32>,
     /// How progress is shown on stderr.
     #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
     progress: ProgressMode,
@@ -383,8 +397,17 @@ pub fn main() -> i32 {
             Command::Info {
                 scene,
                 camera,
+                variant,
+                time,
                 quality,
-            } => run_info(&scene, camera, quality.into()),
+            } => {
+                let options = LoadOptions {
+                    camera,
+                    variant,
+                    time,
+                };
+                run_info(&scene, &options, quality.into())
+            }
             Command::Bench(args) => crate::bench::run_bench(args),
             Command::Compare {
                 image,
@@ -454,7 +477,12 @@ fn run_render(args: RenderArgs) -> Result<()> {
             serde_json::json!({"stage": "load", "fraction": 0.0, "message": "loading scene"}),
         );
     }
-    let mut scene = load_scene(args.scene.as_deref(), args.camera.clone())?;
+    let options = LoadOptions {
+        camera: args.camera.clone(),
+        variant: args.variant.clone(),
+        time: args.time,
+    };
+    let mut scene = load_scene_with(args.scene.as_deref(), &options)?;
     let method = match args.subsurface {
         SubsurfaceArg::Material => None,
         SubsurfaceArg::Walk => Some(SubsurfaceMethod::RandomWalk),
@@ -812,8 +840,8 @@ fn summarise(
     }
 }
 
-fn run_info(path: &Path, camera: Option<String>, quality: Quality) -> Result<()> {
-    let scene = load_scene(Some(path), camera)?;
+fn run_info(path: &Path, options: &LoadOptions, quality: Quality) -> Result<()> {
+    let scene = load_scene_with(Some(path), options)?;
     let (width, height) = image_size(&scene, None, None);
     println!("scene: {}", path.display());
     println!("textures: {}", scene.textures.len());

@@ -1,7 +1,8 @@
 //! Opening a scene for rendering: a glTF file or the embedded Cornell box, and the image size a
 //! render of it takes when the caller gives none or only one side.
 
-use super::gltf::{load, LoadOptions};
+use super::gltf::load;
+pub use super::gltf::LoadOptions;
 use super::{builtin, Scene};
 use crate::error::Result;
 use std::path::Path;
@@ -9,10 +10,19 @@ use std::path::Path;
 /// The scene in the glTF file at `path`, or the embedded Cornell box without one, seen through
 /// `camera` (a glTF node or camera name; default: the first camera).
 pub fn load_scene(path: Option<&Path>, camera: Option<String>) -> Result<Scene> {
-    let options = LoadOptions { camera };
+    let options = LoadOptions {
+        camera,
+        ..LoadOptions::default()
+    };
+    load_scene_with(path, &options)
+}
+
+/// The scene in the glTF file at `path` (or the embedded Cornell box) as `options` choose it:
+/// camera, material variant, animation time.
+pub fn load_scene_with(path: Option<&Path>, options: &LoadOptions) -> Result<Scene> {
     match path {
-        Some(p) => load(p, &options),
-        None => builtin::cornell_box(&options),
+        Some(p) => load(p, options),
+        None => builtin::cornell_box(options),
     }
 }
 

@@ -3,7 +3,7 @@
 //! `Error::Scene` naming the object at fault, never a panic.
 
 use crate::support::binary::{base64, scene_path, temp_dir};
-use crate::support::gltf;
+use crate::support::gltf::{triangle_doc, Doc};
 use photon::error::Error;
 use photon::film::{FilterKind, FilterSettings};
 use photon::math::{Vec3, Vec4};
@@ -15,145 +15,8 @@ use std::f32::consts::PI;
 
 // ----- fixture builder ----------------------------------------------------------------------
 
-/// A glTF document under construction with one binary buffer.
-struct Doc {
-    json: Value,
-    bin: Vec<u8>,
-}
-
-impl Doc {
-    fn new() -> Doc {
-        Doc {
-            json: json!({
-                "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": []}],
-                "nodes": [], "meshes": [], "accessors": [], "bufferViews": []
-            }),
-            bin: Vec::new(),
-        }
-    }
-
-    fn push(&mut self, key: &str, item: Value) -> usize {
-        let list = self.json[key].as_array_mut().unwrap();
-        list.push(item);
-        list.len() - 1
-    }
-
-    fn view(&mut self, bytes: &[u8]) -> usize {
-        while !self.bin.len().is_multiple_of(4) {
-            self.bin.push(0);
-        }
-        let offset = self.bin.len();
-        self.bin.extend_from_slice(bytes);
-        self.push(
-            "bufferViews",
-            json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()}),
-        )
-    }
-
-    fn floats(&mut self, data: &[f32], kind: &str) -> usize {
-        let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let width = match kind {
-            "VEC2" => 2,
-            "VEC3" => 3,
-            "VEC4" => 4,
-            _ => 1,
-        };
-        let view = self.view(&bytes);
-        let mut accessor = json!({"bufferView": view, "componentType": 5126, "count": data.len() / width, "type": kind});
-        if width == 3 {
-            // glTF requires min/max on POSITION; non-finite values are left out of them.
-            let bound = |i: usize, f: fn(f32, f32) -> f32, start: f32| {
-                data.iter()
-                    .skip(i)
-                    .step_by(3)
-                    .filter(|v| v.is_finite())
-                    .fold(start, |a, &b| f(a, b))
-            };
-            accessor["min"] = json!([0, 1, 2].map(|i| bound(i, f32::min, f32::MAX)));
-            accessor["max"] = json!([0, 1, 2].map(|i| bound(i, f32::max, f32::MIN)));
-        }
-        self.push("accessors", accessor)
-    }
-
-    fn indices(&mut self, data: &[u32]) -> usize {
-        let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let view = self.view(&bytes);
-        self.push(
-            "accessors",
-            json!({"bufferView": view, "componentType": 5125, "count": data.len(), "type": "SCALAR"}),
-        )
-    }
-
-    /// A mesh with one primitive; `normals` may be empty.
-    fn mesh(&mut self, name: &str, positions: &[f32], normals: &[f32], indices: &[u32]) -> usize {
-        let mut attributes = json!({"POSITION": self.floats(positions, "VEC3")});
-        if !normals.is_empty() {
-            attributes["NORMAL"] = json!(self.floats(normals, "VEC3"));
-        }
-        let mut primitive = json!({"attributes": attributes});
-        if !indices.is_empty() {
-            primitive["indices"] = json!(self.indices(indices));
-        }
-        self.push("meshes", json!({"name": name, "primitives": [primitive]}))
-    }
-
-    /// Add a node; root nodes are listed in the scene.
-    fn node(&mut self, node: Value, root: bool) -> usize {
-        let index = self.push("nodes", node);
-        if root {
-            self.json["scenes"][0]["nodes"]
-                .as_array_mut()
-                .unwrap()
-                .push(json!(index));
-        }
-        index
-    }
-
-    fn camera(&mut self, node_name: &str, camera_name: &str, translation: [f32; 3]) -> usize {
-        let list = self.json.as_object_mut().unwrap();
-        let cameras = list.entry("cameras").or_insert(json!([]));
-        cameras.as_array_mut().unwrap().push(json!({
-            "name": camera_name, "type": "perspective",
-            "perspective": {"yfov": 0.5, "aspectRatio": 1.5, "znear": 0.1}
-        }));
-        let index = cameras.as_array().unwrap().len() - 1;
-        self.node(
-            json!({"name": node_name, "camera": index, "translation": translation}),
-            true,
-        )
-    }
-
-    fn finish_json(&self, buffer_uri: Option<&str>) -> Value {
-        let mut json = self.json.clone();
-        let mut buffer = json!({"byteLength": self.bin.len()});
-        if let Some(uri) = buffer_uri {
-            buffer["uri"] = json!(uri);
-        }
-        json["buffers"] = json!([buffer]);
-        json
-    }
-
-    fn glb(&self) -> Vec<u8> {
-        gltf::glb(&self.finish_json(None), &self.bin)
-    }
-}
-
 fn load_glb(doc: &Doc) -> photon::error::Result<Scene> {
     load_slice(&doc.glb(), "fixture.glb", &LoadOptions::default())
-}
-
-/// A unit right triangle in the XY plane with +Z normals, and a camera.
-fn triangle_doc() -> Doc {
-    let mut doc = Doc::new();
-    let mesh = doc.mesh(
-        "Tri",
-        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
-        &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
-        &[0, 1, 2],
-    );
-    doc.node(json!({"name": "TriNode", "mesh": mesh}), true);
-    doc.camera("Camera", "CameraData", [0.0, 0.0, 5.0]);
-    doc
 }
 
 impl Doc {
@@ -209,7 +72,7 @@ fn face_normal(scene: &Scene, mesh: usize, triangle: usize) -> Vec3 {
     (b - a).cross(c - a).normalize()
 }
 
-fn png_bytes(
+pub(crate) fn png_bytes(
     width: u32,
     height: u32,
     color: png::ColorType,
@@ -587,7 +450,8 @@ fn material_extensions_and_defaults_are_read() {
             "KHR_materials_volume": {"thicknessFactor": 0.2, "attenuationDistance": 3.0, "attenuationColor": [0.9, 0.5, 0.1]}
         }
     }));
-    // A second primitive without material gets the glTF default material.
+    // A second primitive without material gets Cycles' default surface (a grey diffuse), as
+    // after Blender's import.
     let positions = doc.json["meshes"][0]["primitives"][0]["attributes"]["POSITION"].clone();
     doc.json["meshes"][0]["primitives"]
         .as_array_mut()
@@ -608,10 +472,8 @@ fn material_extensions_and_defaults_are_read() {
     assert!(close(m.attenuation_color, Vec3::new(0.9, 0.5, 0.1)));
     assert_eq!(scene.materials.len(), 2);
     let default = &scene.materials[1];
-    assert_eq!(
-        (default.metallic, default.roughness, default.ior),
-        (1.0, 1.0, 1.5)
-    );
+    assert_eq!(default.base_color, Vec4::new(0.8, 0.8, 0.8, 1.0));
+    assert!(default.nodes.is_some() && default.metallic == 0.0);
     assert!(!default.double_sided);
     assert_eq!(scene.meshes[1].material, 1);
 }
@@ -1069,6 +931,7 @@ fn cameras_are_selected_by_node_or_camera_name() {
     let pick = |name: &str| {
         let options = LoadOptions {
             camera: Some(name.to_string()),
+            ..LoadOptions::default()
         };
         load_slice(&doc.glb(), "fixture.glb", &options)
     };
@@ -1534,7 +1397,7 @@ fn degenerate_cameras_are_refused() {
 
 impl Doc {
     /// An accessor of integer components (`component_type` 5120–5123) holding `data`.
-    fn integers(
+    pub(crate) fn integers(
         &mut self,
         data: &[i32],
         component_type: u32,
@@ -1765,6 +1628,7 @@ fn photon_camera_panoramas_are_read_also_on_camera_less_nodes() {
     );
     let options = LoadOptions {
         camera: Some("Pano".into()),
+        ..LoadOptions::default()
     };
     let scene = load_slice(&doc.glb(), "fixture.glb", &options).unwrap();
     assert_eq!(

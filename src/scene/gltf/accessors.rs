@@ -292,10 +292,16 @@ pub(super) fn check_attribute_type(
     quantized: bool,
 ) -> std::result::Result<(), String> {
     use DataType::{F32, I16, I8, U16, U8};
+    // Every texture coordinate and colour set as the first.
+    let what = match what {
+        w if w.starts_with("TEXCOORD_") => "TEXCOORD",
+        w if w.starts_with("COLOR_") => "COLOR",
+        w => w,
+    };
     let allowed = match (what, data_type) {
         (_, F32) => !normalized,
-        ("TEXCOORD_0" | "COLOR_0", U8 | U16) if normalized => true,
-        ("POSITION" | "TEXCOORD_0", I8 | U8 | I16 | U16) => quantized,
+        ("TEXCOORD" | "COLOR", U8 | U16) if normalized => true,
+        ("POSITION" | "TEXCOORD", I8 | U8 | I16 | U16) => quantized,
         ("NORMAL" | "TANGENT", I8 | I16) => quantized && normalized,
         _ => false,
     };

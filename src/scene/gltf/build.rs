@@ -13,6 +13,12 @@ use std::path::Path;
 pub struct LoadOptions {
     /// Use the camera whose glTF node or camera name matches; `None` picks the first camera.
     pub camera: Option<String>,
+    /// Show the `KHR_materials_variants` variant of this name; `None`: each primitive's own
+    /// material (the file's default).
+    pub variant: Option<String>,
+    /// Pose the file's animations at this time in seconds (node transforms, skins and morph
+    /// weights); `None`: the nodes' own values.
+    pub time: Option<f32>,
 }
 
 /// Load a `.glb` or `.gltf` file.
@@ -31,6 +37,12 @@ pub fn load_slice(bytes: &[u8], name: &str, options: &LoadOptions) -> Result<Sce
 impl Loader {
     /// Walk the default scene and assemble everything.
     pub(super) fn build(mut self, options: &LoadOptions) -> Result<Scene> {
+        if let Some(name) = &options.variant {
+            self.choose_variant(name)?;
+        }
+        if let Some(time) = options.time {
+            self.pose = self.pose_at(time)?;
+        }
         self.load_materials()?;
         let document = self.document.clone();
         let gltf_scene = document

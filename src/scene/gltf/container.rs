@@ -27,8 +27,13 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_anisotropy",
     "KHR_materials_iridescence",
+    "KHR_materials_unlit",
+    "KHR_materials_pbrSpecularGlossiness",
+    "KHR_materials_variants",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
+    "KHR_animation_pointer",
+    "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
 ];
 
@@ -63,6 +68,12 @@ pub(super) struct Loader {
     pub(super) node_extensions: Rc<[NodeExtensions]>,
     /// Bytes of voxel grids read so far (`scene::grids::MAX_GRID_BYTES` at most).
     pub(super) grid_bytes: u64,
+    /// The file's `animations`, as JSON (posed by `animation` at `LoadOptions::time`).
+    pub(super) animations: Vec<Value>,
+    /// What the animations set on each node at `LoadOptions::time` (empty without a time).
+    pub(super) pose: HashMap<usize, super::animation::NodePose>,
+    /// The `KHR_materials_variants` variant chosen (`LoadOptions::variant`), by index.
+    pub(super) variant: Option<usize>,
 }
 
 impl Loader {
@@ -82,8 +93,15 @@ impl Loader {
         } else {
             (bytes, None)
         };
-        let mut root: gltf::json::Root = serde_json::from_slice(json)
-            .map_err(|e| Error::scene(path, "JSON", format!("malformed glTF JSON: {e}")))?;
+        let malformed = |e| Error::scene(path, "JSON", format!("malformed glTF JSON: {e}"));
+        let mut json: Value = serde_json::from_slice(json).map_err(malformed)?;
+        // Animations are read here (`animation`), not by the gltf crate, whose schema refuses
+        // valid channels (KHR_animation_pointer's have no `node`).
+        let animations = match json.as_object_mut().and_then(|o| o.remove("animations")) {
+            Some(Value::Array(list)) => list,
+            _ => Vec::new(),
+        };
+        let mut root: gltf::json::Root = serde_json::from_value(json).map_err(malformed)?;
 
         let unsupported: Vec<&String> = root
             .extensions_required
@@ -91,7 +109,13 @@ impl Loader {
             .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
             .collect();
         if !unsupported.is_empty() {
-            let names: Vec<&str> = unsupported.iter().map(|s| s.as_str()).collect();
+            let names: Vec<String> = unsupported
+                .iter()
+                .map(|name| match unsupported_reason(name) {
+                    Some(why) => format!("{name} ({why})"),
+                    None => name.to_string(),
+                })
+                .collect();
             return Err(Error::scene(
                 path,
                 "extensionsRequired",
@@ -183,6 +207,9 @@ impl Loader {
             instanced_meshes: Default::default(),
             prototype_ids: HashMap::new(),
             node_extensions,
+            variant: None,
+            animations,
+            pose: HashMap::new(),
         };
         loader.load_buffers(blob)?;
         Ok(loader)
@@ -255,6 +282,23 @@ impl Loader {
         })?;
         Ok(base.join(decoded))
     }
+}
+
+/// Why Photon does not read a known extension a file may require.
+fn unsupported_reason(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "KHR_draco_mesh_compression" => {
+            "Draco-compressed geometry is not decoded: export the file without compression"
+        }
+        "EXT_meshopt_compression" => {
+            "meshoptimizer-compressed buffers are not decoded: export the file without compression"
+        }
+        "KHR_texture_basisu" => "KTX2 / Basis Universal textures are not decoded",
+        "KHR_materials_dispersion" | "KHR_materials_diffuse_transmission" => {
+            "not rendered; Blender's importer does not read it either"
+        }
+        _ => return None,
+    })
 }
 
 /// "node 3 'Cube'" or "node 3".

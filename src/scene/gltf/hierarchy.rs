@@ -103,8 +103,16 @@ impl Loader {
         let Some(mesh) = node.mesh() else {
             return false;
         };
+        // Skinned and morphed copies have vertices of their own.
+        let own_vertices = node.skin().is_some()
+            || node.weights().is_some()
+            || self
+                .pose
+                .get(&node.index())
+                .is_some_and(|p| p.weights.is_some());
         let det = Mat3::from_mat4(*world).determinant();
-        self.instanced_meshes.contains(&mesh.index())
+        !own_vertices
+            && self.instanced_meshes.contains(&mesh.index())
             && det.is_finite()
             && (det > 0.0 || (moving && det < 0.0))
     }
@@ -144,16 +152,27 @@ impl Loader {
         totals: &mut SizeTotals,
     ) -> Result<()> {
         let parent = ancestors.last().map_or(Mat4::IDENTITY, |a| a.1);
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * self.local_matrix(node);
         let object = named("node", node.index(), node.name());
         let is_own_ancestor = ancestors.iter().any(|a| a.0 == node.index());
         totals.instances += 1;
         self.check_node(&object, is_own_ancestor, ancestors.len(), totals.instances)?;
+        let gpu_instances = match node.mesh() {
+            Some(_) => self.gpu_instance_count(node)?,
+            None => None,
+        };
+        if let Some(count) = gpu_instances {
+            totals.instances = totals.instances.saturating_add(count);
+            self.check_node(&object, false, ancestors.len(), totals.instances)?;
+        }
         if let Some(mesh) = node.mesh() {
             let (mut triangles, mut vertices) =
                 per_mesh.get(&mesh.index()).copied().unwrap_or_default();
-            // Moving mirrored nodes are counted as flattened: an upper bound.
-            if world.is_finite() && self.places_instance(node, &world, false) {
+            // Moving mirrored nodes are counted as flattened: an upper bound. GPU instances
+            // are all instances of one prototype.
+            if gpu_instances.is_some()
+                || world.is_finite() && self.places_instance(node, &world, false)
+            {
                 // Stored once, however many instances place it.
                 if !totals.counted_prototypes.insert(mesh.index()) {
                     (triangles, vertices) = (0, 0);
@@ -204,7 +223,7 @@ impl Loader {
             ancestors.len(),
             self.node_instances,
         )?;
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let local = self.local_matrix(node);
         let world = parent.world * local;
         if !world.is_finite() {
             return Err(self.err(object, "transform is NaN or infinite"));
@@ -222,7 +241,9 @@ impl Loader {
             own.object.motion.clone()
         };
         if let Some(mesh) = node.mesh() {
-            if self.places_instance(node, &world, !motion.is_empty()) {
+            if let Some(transforms) = self.gpu_instances(node)? {
+                self.add_gpu_instances(node, &mesh, &world, &transforms)?;
+            } else if self.places_instance(node, &world, !motion.is_empty()) {
                 self.add_instance(node, &mesh, &world, &motion)?;
             } else {
                 if !motion.is_empty() || own.object.moves() {
@@ -270,7 +291,9 @@ pub(super) fn count_mesh_uses(
     }
     let moves = moving_above || extensions[node.index()].object.moves();
     if let Some(mesh) = node.mesh() {
-        *uses.entry(mesh.index()).or_default() += 1;
+        // A node with EXT_mesh_gpu_instancing places its mesh many times: a prototype.
+        let gpu_instanced = node.extension_value("EXT_mesh_gpu_instancing").is_some();
+        *uses.entry(mesh.index()).or_default() += if gpu_instanced { 2 } else { 1 };
         if moves {
             moving.insert(mesh.index());
         }

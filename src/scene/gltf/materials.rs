@@ -20,15 +20,20 @@ impl Loader {
         Ok(())
     }
 
-    /// Scene material index for a glTF material index (`None`: the glTF default material).
-    pub(super) fn material_index(&mut self, gltf_index: Option<usize>) -> u32 {
-        match gltf_index {
-            Some(i) => i as u32,
-            None => *self.default_material.get_or_insert_with(|| {
-                self.scene.materials.push(Material::default());
-                (self.scene.materials.len() - 1) as u32
-            }),
+    /// Scene material index for a glTF material index (`None`: a primitive without a
+    /// material, which shows Cycles' default surface, `Loader::default_surface`).
+    pub(super) fn material_index(&mut self, gltf_index: Option<usize>) -> Result<u32> {
+        if let Some(i) = gltf_index {
+            return Ok(i as u32);
         }
+        if let Some(i) = self.default_material {
+            return Ok(i);
+        }
+        let material = self.default_surface()?;
+        self.scene.materials.push(material);
+        let index = (self.scene.materials.len() - 1) as u32;
+        self.default_material = Some(index);
+        Ok(index)
     }
 
     pub(super) fn convert_material(&mut self, material: &gltf::Material) -> Result<Material> {
@@ -60,6 +65,9 @@ impl Loader {
         out.metallic_roughness_texture =
             self.texture_info(pbr.metallic_roughness_texture(), false, &object)?;
         out.emissive_texture = self.texture_info(material.emissive_texture(), true, &object)?;
+        if self.imported_tree(material, &mut out, &object)? {
+            return Ok(out);
+        }
         if let Some(normal) = material.normal_texture() {
             let transform = normal.extension_value("KHR_texture_transform");
             out.normal_texture = Some(self.texture_ref(
@@ -212,36 +220,52 @@ impl Loader {
             } else {
                 tree
             };
-            let program = crate::shader::compile(&tree, self.scene.textures.len(), &mut warnings)
-                .map_err(|m| self.err(format!("{object} PHOTON_material_nodes"), m))?;
             if let Some(list) = tree.get("warnings").and_then(Value::as_array) {
                 warnings.extend(list.iter().filter_map(Value::as_str).map(str::to_string));
             }
-            for w in warnings {
-                self.scene.warnings.push(format!("{object}: {w}"));
-            }
-            // Light sampling weighs emitters by this radiance: the tree's value at a default
-            // point, or 1 when the tree may emit there and is black at that point.
-            if program.emits {
-                let at = crate::shader::ShadingInputs::default();
-                let e = program.eval(&at, &self.scene.textures, 0.5).emission;
-                out.emission = if e.max_element() > 0.0 && e.is_finite() {
-                    e
-                } else {
-                    Vec3::ONE
-                };
-            } else {
-                out.emission = Vec3::ZERO;
-            }
-            // The tree's own Normal Map nodes replace the glTF normal texture Blender's
-            // exporter writes for them, and its UV maps the glTF textures'.
-            out.normal_texture = None;
-            self.uv_set_warnings.clear();
-            out.nodes = Some(std::sync::Arc::new(program));
+            let label = format!("{object} PHOTON_material_nodes");
+            self.install_surface_tree(&mut out, &tree, &label, warnings)?;
         }
         let uv_set_warnings = std::mem::take(&mut self.uv_set_warnings);
         self.scene.warnings.extend(uv_set_warnings);
         Ok(out)
+    }
+
+    /// Compile the node tree `tree` (a surface; `label` names it in errors) into `out`, which
+    /// it then shades at every point, with the compiler's `warnings` and those given.
+    pub(super) fn install_surface_tree(
+        &mut self,
+        out: &mut Material,
+        tree: &Value,
+        label: &str,
+        mut warnings: Vec<String>,
+    ) -> Result<()> {
+        let program = crate::shader::compile(tree, self.scene.textures.len(), &mut warnings)
+            .map_err(|m| self.err(label, m))?;
+        for w in warnings {
+            self.scene
+                .warnings
+                .push(format!("material '{}': {w}", out.name));
+        }
+        // Light sampling weighs emitters by this radiance: the tree's value at a default
+        // point, or 1 when the tree may emit there and is black at that point.
+        if program.emits {
+            let at = crate::shader::ShadingInputs::default();
+            let e = program.eval(&at, &self.scene.textures, 0.5).emission;
+            out.emission = if e.max_element() > 0.0 && e.is_finite() {
+                e
+            } else {
+                Vec3::ONE
+            };
+        } else {
+            out.emission = Vec3::ZERO;
+        }
+        // The tree's own Normal Map nodes replace the glTF normal texture (Blender's exporter
+        // writes one for them), and its UV maps the glTF textures'.
+        out.normal_texture = None;
+        self.uv_set_warnings.clear();
+        out.nodes = Some(std::sync::Arc::new(program));
+        Ok(())
     }
 
     /// The number `key` of an extension object (`default` when absent), clamped to

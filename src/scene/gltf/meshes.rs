@@ -55,6 +55,12 @@ impl Loader {
             || format!("mesh {}", mesh.index()),
             |n| format!("mesh '{n}'"),
         );
+        // A skinned mesh's vertices are placed by its joints (`deform_vertices`), not its node.
+        let world = if node.skin().is_some() {
+            &Mat4::IDENTITY
+        } else {
+            world
+        };
         let linear = Mat3::from_mat4(*world);
         let normal_matrix = linear.inverse().transpose();
         let mirrored = linear.determinant() < 0.0;
@@ -79,7 +85,7 @@ impl Loader {
                 continue;
             };
             // Reading is bounded by the buffer sizes; the total is bounded here.
-            let positions = self.read_vec3(&position_accessor, &object, "POSITION")?;
+            let mut positions = self.read_vec3(&position_accessor, &object, "POSITION")?;
             self.vertex_total = self.vertex_total.saturating_add(positions.len());
             if self.vertex_total > MAX_VERTICES {
                 return Err(self.err(
@@ -106,7 +112,7 @@ impl Loader {
                 }
             }
 
-            let normals = match primitive.get(&gltf::Semantic::Normals) {
+            let mut normals = match primitive.get(&gltf::Semantic::Normals) {
                 Some(a) => Some(self.read_vec3(&a, &object, "NORMAL")?),
                 None => None,
             };
@@ -134,7 +140,7 @@ impl Loader {
                     .map_err(|m| self.err(&object, format!("{label} {m}")))?;
                 extra_uvs.push(uvs);
             }
-            let tangents = match primitive.get(&gltf::Semantic::Tangents) {
+            let mut tangents = match primitive.get(&gltf::Semantic::Tangents) {
                 Some(a) => {
                     let flat = self.read_float_attribute(&a, &object, "TANGENT", 4)?;
                     flat.chunks_exact(4)
@@ -164,11 +170,23 @@ impl Loader {
             if colors.iter().any(|c: &Vec4| !c.is_finite()) {
                 return Err(self.err(&object, "a COLOR_0 value is NaN or infinite"));
             }
+            check_length(&tangents, vertex_count)
+                .map_err(|m| self.err(&object, format!("TANGENT {m}")))?;
+            if let Some(normals) = &normals {
+                check_length(normals, vertex_count)
+                    .map_err(|m| self.err(&object, format!("NORMAL {m}")))?;
+            }
+            self.deform_vertices(
+                node,
+                &primitive,
+                &mut positions,
+                &mut normals,
+                &mut tangents,
+                &object,
+            )?;
             let object_space = Some(self.object_space(node, &positions, world));
             check_length(&uvs, vertex_count)
                 .map_err(|m| self.err(&object, format!("TEXCOORD_0 {m}")))?;
-            check_length(&tangents, vertex_count)
-                .map_err(|m| self.err(&object, format!("TANGENT {m}")))?;
 
             let world_positions: Vec<Vec3> = positions
                 .iter()
@@ -189,7 +207,8 @@ impl Loader {
                 })
                 .collect();
 
-            let material = self.material_index(primitive.material().index());
+            let material = self.variant_material(&primitive)?;
+            let material = self.material_index(material)?;
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",
@@ -218,8 +237,6 @@ impl Loader {
             }
             match normals {
                 Some(normals) => {
-                    check_length(&normals, vertex_count)
-                        .map_err(|m| self.err(&object, format!("NORMAL {m}")))?;
                     out.normals = normals
                         .iter()
                         .map(|&n| (normal_matrix * n).normalize_or_zero())

@@ -12,28 +12,37 @@
 //! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
 //! - `build`: the entry points, the walk of the default scene and the choice of camera;
 //! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
+//!   `gpu_instancing`: `EXT_mesh_gpu_instancing`'s instances;
 //! - `accessors`: accessors read with every byte range checked;
-//! - `meshes`: primitives into meshes and prototypes;
+//! - `meshes`: primitives into meshes and prototypes; `skinning`: morph targets and skins;
+//! - `animation`: the animations posed at a chosen time (`LoadOptions::time`);
 //! - `motion`: poses over the shutter and deforming vertices;
-//! - `materials`: materials and their KHR and `PHOTON_*` extensions;
+//! - `materials`: materials and their KHR and `PHOTON_*` extensions; `imported_trees`: the
+//!   unlit and specular-glossiness materials as the node trees Blender's importer builds;
+//!   `variants`: `KHR_materials_variants`;
 //! - `textures` and `images`: glTF textures and node trees' images, and their decoding;
 //! - `lights`: punctual and area lights;
 //! - `world`: the world and the render settings;
 //! - `camera`: cameras, and the camera that frames a scene without one.
 
 mod accessors;
+mod animation;
 mod build;
 mod camera;
 mod container;
 mod encoding;
 mod extensions;
+mod gpu_instancing;
 mod hierarchy;
 mod images;
+mod imported_trees;
 mod lights;
 mod materials;
 mod meshes;
 mod motion;
+mod skinning;
 mod textures;
+mod variants;
 mod volumes;
 mod world;
 

@@ -50,7 +50,7 @@ impl Loader {
                 convert_wrap(sampler.wrap_s()),
                 convert_wrap(sampler.wrap_t()),
             ],
-            sampler.mag_filter() != Some(gltf::texture::MagFilter::Nearest),
+            !nearest_filtering(&sampler),
         );
         self.texture_slots.insert((texture.index(), srgb), slot);
         Ok(slot)
@@ -205,6 +205,23 @@ impl Loader {
         });
         (self.scene.textures.len() - 1) as u32
     }
+}
+
+/// Whether a texture is sampled by its nearest texel, as Blender's importer decides it: both
+/// filters nearest (mipmapped or not), or one nearest and the other not given; else bilinear.
+pub(super) fn nearest_filtering(sampler: &gltf::texture::Sampler) -> bool {
+    use gltf::texture::{MagFilter, MinFilter};
+    let min = sampler.min_filter().map(|f| {
+        matches!(
+            f,
+            MinFilter::Nearest | MinFilter::NearestMipmapNearest | MinFilter::NearestMipmapLinear
+        )
+    });
+    let mag = sampler.mag_filter().map(|f| f == MagFilter::Nearest);
+    matches!(
+        (min, mag),
+        (Some(true), Some(true)) | (Some(true), None) | (None, Some(true))
+    )
 }
 
 pub(super) fn convert_wrap(mode: gltf::texture::WrappingMode) -> Wrap {
