@@ -287,7 +287,8 @@ def standing_quad(doc: Gltf, name: str, material: int, extra=None) -> int:
     return doc.node({"name": name, "mesh": mesh, "translation": [0.0, 0.8, 0.0]})
 
 
-def test_unlit(tmp_path):
+@pytest.mark.parametrize("method", ["path", "photon"])
+def test_unlit(tmp_path, method):
     """KHR_materials_unlit (required): a standing square whose base colour (a factor times a
     striped texture) is seen by the camera as it is, unshaded; Blender's importer makes it an
     Emission that only camera rays see, so it neither lights the floor nor shadows it."""
@@ -298,10 +299,10 @@ def test_unlit(tmp_path):
                           "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.8, 0.6, 1.0],
                                                    "baseColorTexture": {"index": texture}}})
     standing_quad(doc, "Sign", unlit)
-    # The path tracer: the photon method counts the sun through the square twice (a photon
-    # crossing its Transparent BSDF is stored as a caustic, and the shadow ray passes too).
+    # Both methods: light through the square's Transparent BSDF is direct light (shadow rays
+    # pass it), never a caustic photon.
     compare_with_blender(doc.write(tmp_path / "unlit.glb"), tmp_path,
-                         photon_args=["--method", "path"])
+                         photon_args=["--method", method])
 
 
 def specular_glossiness_doc(textured: bool) -> Gltf:

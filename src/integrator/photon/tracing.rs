@@ -641,8 +641,9 @@ fn walk_photon(
     let (mut ray, mut power) = (emitted.ray, emitted.power);
     // True while every bounce so far was specular (light → S*).
     let mut specular_path = true;
-    // Surfaces it scattered from, not counting the transparent boundaries of volumes (light
-    // through them alone is direct light, which shadow rays find through them).
+    // Surfaces it scattered from, not counting transparent passes (a volume's boundary, a
+    // Transparent BSDF, alpha): light through them alone is direct light, which shadow rays
+    // find through them, not a caustic.
     let mut surface_bounces = 0;
     // The photon scattered somewhere (a transparent pass is no scattering): light that did not
     // is what light samples find. Light from an emitting medium is found by no light sample:
@@ -745,13 +746,8 @@ fn walk_photon(
             return;
         };
         specular_path &= bs.delta || !storing;
-        let scene = ctx.scene;
-        let volume_boundary = bs.scattering == crate::bsdf::Scattering::Transparent
-            && scene.materials[s.sh.material as usize].volume.is_some();
-        if !volume_boundary {
-            surface_bounces += 1;
-        }
         if bs.scattering != crate::bsdf::Scattering::Transparent {
+            surface_bounces += 1;
             scattered = true;
             volume_allowance.get_or_insert(limit);
         }
