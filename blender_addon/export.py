@@ -294,16 +294,24 @@ def film_filter(scene) -> dict:
 
 def render_extension(scene) -> dict:
     """PHOTON_render: the final image size (resolution x percentage), transparent film, the
-    pixel filter and Blender's Volume bounces (Light Paths, Cycles' setting)."""
+    pixel filter and Blender's Volume bounces and Clamp Direct / Clamp Indirect (Light Paths,
+    Cycles' settings)."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
     extension = {"width": max(1, int(r.resolution_x * scale)),
                  "height": max(1, int(r.resolution_y * scale)),
                  "film_transparent": bool(r.film_transparent),
                  "filter": film_filter(scene)}
-    volume_bounces = int(getattr(getattr(scene, "cycles", None), "volume_bounces", 0))
+    cycles = getattr(scene, "cycles", None)
+    volume_bounces = int(getattr(cycles, "volume_bounces", 0))
     if volume_bounces:  # 0, Blender's default, is the extension's too
         extension["volume_bounces"] = volume_bounces
+    # 0 (no limit) is the extension's default; Blender's Clamp Indirect defaults to 10.
+    for key, setting in (("clamp_direct", "sample_clamp_direct"),
+                         ("clamp_indirect", "sample_clamp_indirect")):
+        limit = float(getattr(cycles, setting, 0.0))
+        if limit > 0.0:
+            extension[key] = limit
     return extension
 
 

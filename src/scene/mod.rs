@@ -749,6 +749,11 @@ pub struct SceneRenderSettings {
     /// Blender's Light Paths › Max Bounces › Volume: scatterings in media a path may continue
     /// from (0, Blender's default: single scattering, each lit by light samples alone).
     pub volume_bounces: u32,
+    /// Blender's Light Paths › Clamping › Direct and Indirect (Cycles' sample clamps): the
+    /// largest contribution one path sample may add, per colour channel on average; 0: no limit
+    /// (`integrator::walk::Clamp`).
+    pub clamp_direct: f32,
+    pub clamp_indirect: f32,
 }
 
 /// Everything there is to render.

@@ -677,6 +677,9 @@ pub(super) struct RenderExtension {
     pub(super) filter: Option<FilterSettings>,
     /// Blender's Volume bounces (0 when absent, as Blender's default).
     pub(super) volume_bounces: u32,
+    /// Blender's Clamp Direct and Clamp Indirect (0, no limit, when absent).
+    pub(super) clamp_direct: f32,
+    pub(super) clamp_indirect: f32,
 }
 
 impl RenderExtension {
@@ -705,6 +708,8 @@ impl RenderExtension {
                     }
                 },
             },
+            clamp_direct: fields.number("clamp_direct", 0.0, non_negative)?,
+            clamp_indirect: fields.number("clamp_indirect", 0.0, non_negative)?,
         })
     }
 }
