@@ -85,17 +85,22 @@ def glass_sphere_scene():
 
 
 def glossy_spheres_scene():
+    """Two glossy spheres on the floor under a small bright lamp (its highlights on the spheres
+    are Direct light and stay; the floor sees the lamp through the spheres' glossy layers,
+    Indirect light Cycles clamps)."""
     scene = floor_in_sunlight()
+    bpy.data.objects.remove(bpy.data.objects["Sun"])
+    common.light("Lamp", "POINT", (1.2, -1.0, 2.5), energy=600.0, shadow_soft_size=0.15)
     coated = common.principled("Coated", (0.7, 0.15, 0.1), roughness=0.5)
     bsdf = coated.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Coat Weight"].default_value = 1.0
-    bsdf.inputs["Coat Roughness"].default_value = 0.02
+    bsdf.inputs["Coat Roughness"].default_value = 0.05
     sphere("Coated sphere", coated, (-0.6, 0.0, 0.45), 0.45)
     mat, tree = node_material("Mixed")
     diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
     diffuse.inputs["Color"].default_value = (0.1, 0.3, 0.7, 1.0)
     glossy = tree.nodes.new("ShaderNodeBsdfAnisotropic")  # Glossy BSDF
-    glossy.inputs["Roughness"].default_value = 0.03
+    glossy.inputs["Roughness"].default_value = 0.08
     mix = tree.nodes.new("ShaderNodeMixShader")
     mix.inputs["Fac"].default_value = 0.5
     tree.links.new(diffuse.outputs["BSDF"], mix.inputs[1])
