@@ -104,6 +104,14 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
     def __init__(self):
         from io_scene_gltf2.io.com.gltf2_io_extensions import Extension
         self._extension = Extension
+        # Blender's light and shadow linking as numbered sets (lights.light_linking).
+        self._emitters, self._receivers, _ = lights.light_linking(bpy.context.scene.objects)
+
+    def _light_linking(self, blender_object) -> dict:
+        """PHOTON_object's "light_linking" of `blender_object`: its sets as an emitter and
+        those it is left out of; {} without linking."""
+        name = blender_object.name
+        return {**self._emitters.get(name, {}), **self._receivers.get(name, {})}
 
     def _add(self, gltf_object, name, data):
         if gltf_object.extensions is None:
@@ -115,6 +123,9 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             data = lights.light_extension(blender_object)
             if data:
                 self._add(gltf_node, "PHOTON_light", data)
+            linking = self._light_linking(blender_object)
+            if linking:
+                self._add(gltf_node, "PHOTON_object", {"light_linking": linking})
         if blender_object is not None and blender_object.type in GEOMETRY_TYPES:
             data = visibility_extension(blender_object)
             if blender_object.name in motion.SHUTTER_POSES:
@@ -126,6 +137,9 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
                 data["texture_space"] = space
             if blender_object.name in volumes.BOXES:
                 data["volume"] = volumes.BOXES[blender_object.name]
+            linking = self._light_linking(blender_object)
+            if linking:
+                data["light_linking"] = linking
             if data:
                 self._add(gltf_node, "PHOTON_object", data)
         if blender_object is not None and blender_object.type == "CAMERA":

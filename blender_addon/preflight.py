@@ -34,6 +34,9 @@ empty list, so the rules below only flag what really changes the image:
 - objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
   Visibility; camera and shadow visibility and holdout objects and collections are carried),
   'indirect only' collections;
+- light linking with photon mapping (photons ignore it) or past 63 linking collections;
+- render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
+  Indirect with the photon method (its estimates are clamped whole);
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
   field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
   objects other than meshes (armatures, animated shape keys of curves, surfaces, text:
@@ -43,7 +46,7 @@ empty list, so the rules below only flag what really changes the image:
 from __future__ import annotations
 
 from .camera import PANORAMAS
-from .lights import light_node_problems
+from .lights import light_linking, light_node_problems
 from .motion import deforms
 from .node_graph import active_output, source, upstream
 from .node_tree import material_nodes, volume_tree
@@ -87,6 +90,8 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     if abs(rate - 1.0) > 1e-6:
         messages.append(f"render settings: Volume Step Rate {rate:g} is not used: Photon "
                         f"tracks volumes exactly, without ray-marching steps")
+    messages += light_path_features(scene)
+    messages += light_linking_features(scene, objects)
     for layer_collection in _layer_collections(view_layer):
         what = f"collection '{layer_collection.name}'"
         if layer_collection.exclude:
@@ -108,6 +113,46 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
             messages.append(f"motion blur: the deformation of objects other than meshes is not "
                             f"blurred (armatures or animated shape keys: {listed}{more}); "
                             f"meshes' deformation, moving objects and the camera are")
+    return messages
+
+
+def light_path_features(scene) -> list[str]:
+    """What of Render > Light Paths Photon does not render as Cycles does (Clamp Direct and
+    Clamp Indirect are carried: export.render_extension)."""
+    cycles = getattr(scene, "cycles", None)
+    if cycles is None:
+        return []
+    messages = []
+    for prop, label in (("caustics_reflective", "Reflective"),
+                        ("caustics_refractive", "Refractive")):
+        if not getattr(cycles, prop, True):
+            messages.append(f"render settings: {label} Caustics off is not exported; Photon "
+                            f"renders those caustics")
+    # Photon renders as Filter Glossy 0; Blender's default of 1 is not named.
+    blur = float(getattr(cycles, "blur_glossy", 1.0))
+    if blur > 1.0 + 1e-6:
+        messages.append(f"render settings: Filter Glossy {blur:g} is not used; Photon renders "
+                        f"glossy surfaces unfiltered after diffuse bounces")
+    method = getattr(getattr(scene, "photon", None), "method", "")
+    if method == "PHOTON" and float(getattr(cycles, "sample_clamp_indirect", 0.0)) > 0.0:
+        messages.append("render settings: with the photon method, Clamp Indirect holds each "
+                        "photon-map estimate as one contribution: caustics of small lights "
+                        "that Cycles' clamp removes stay (the path tracer clamps as Cycles)")
+    return messages
+
+
+def light_linking_features(scene, objects) -> list[str]:
+    """What of Blender's light and shadow linking Photon does not render (lights.light_linking
+    carries the rest): more sets than Photon numbers, and linking with photon mapping, whose
+    photons ignore it."""
+    emitters, _, problems = light_linking(objects)
+    messages = list(problems)
+    method = getattr(getattr(scene, "photon", None), "method", "")
+    if emitters and method != "PATH":
+        names = ", ".join(f"'{name}'" for name in sorted(emitters)[:3])
+        messages.append(f"light linking ({names}): photon maps ignore it; the path tracer "
+                        f"(Method: Path Tracing) renders it, photon mapping only in its light "
+                        f"samples and the light its rays meet")
     return messages
 
 

@@ -33,7 +33,7 @@ use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{hit_holdout, hit_mesh, Ray, Visibility};
 use crate::bsdf::{BsdfSample, Scattering};
-use crate::light::{emitted_radiance, Receiver};
+use crate::light::{emitted_radiance, hit_links, Receiver};
 use crate::light_pass::{FirstVertex, LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::medium::{
@@ -160,6 +160,7 @@ impl PathState {
             horizon: None,
             pdf: 0.0,
             delta: true,
+            lit_by: u64::MAX,
         };
         PathState {
             previous,
@@ -404,6 +405,7 @@ impl PathState {
             horizon: None,
             pdf,
             delta: false,
+            lit_by: u64::MAX,
         };
         self.ray = Ray {
             origin: p,
@@ -461,6 +463,7 @@ impl PathState {
                 horizon: s.horizon(),
                 pdf: bs.pdf,
                 delta: bs.delta || !light_sampled,
+                lit_by: hit_links(scene, &s.sh.hit).lit_by,
             };
         }
         self.absorption = s.absorption_after(bs, wi, self.absorption);
@@ -544,7 +547,11 @@ pub fn walk(
     };
     let emission = integrator.counts_emission();
     // A cache record's gather rays carry an average, clamped where a camera path reads it.
-    let clamp = if gather { Clamp::NONE } else { Clamp::of(ctx.scene) };
+    let clamp = if gather {
+        Clamp::NONE
+    } else {
+        Clamp::of(ctx.scene)
+    };
     let mut state = PathState::new(ray, gather, false, clamp);
     state.media = MediumStack::at(ctx, ray.origin, ray.time);
     walk_from(ctx, &mut state, rng, gather, emission, integrator, &mut out);

@@ -197,6 +197,7 @@ pub(super) fn sample_punctual(
                 n: Vec3::ZERO,
                 distant: false,
             },
+            blockers: 0,
         };
         return Some(PunctualSample {
             sample,
@@ -226,6 +227,7 @@ pub(super) fn sample_punctual(
         pdf: cone.pdf(spread),
         delta: !lamp.bounces,
         target,
+        blockers: 0,
     };
     Some(PunctualSample {
         sample,

@@ -73,6 +73,8 @@ pub struct Mesh {
     /// The voxel grids of a Volume object (its medium's named attributes, read in
     /// `object_space`'s coordinates); `None` for other meshes.
     pub volume_grids: Option<std::sync::Arc<grids::VolumeGrids>>,
+    /// Blender's light and shadow linking of the mesh's object (`LightLinks`).
+    pub links: LightLinks,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
@@ -125,6 +127,8 @@ pub struct Instance {
     pub casts_shadows: bool,
     /// The placing object is a holdout (`Mesh::holdout`).
     pub holdout: bool,
+    /// Blender's light and shadow linking of the placing object (`LightLinks`).
+    pub links: LightLinks,
 }
 
 impl Instance {
@@ -141,6 +145,7 @@ impl Instance {
             camera_visible: true,
             casts_shadows: true,
             holdout: false,
+            links: LightLinks::NONE,
         }
     }
 
@@ -778,6 +783,49 @@ pub struct Scene {
     /// pre-flight report already showed each in Blender): `photon info` lists them with the
     /// warnings; a render does not repeat them.
     pub export_notes: Vec<String>,
+    /// Light linking of `lights` as emitters, index for index (missing: none).
+    pub light_links: Vec<LightLinks>,
+}
+
+/// Blender's light and shadow linking (Object › Shading › Light Linking), as Cycles' light
+/// sets: an emitter with a receiver collection lights only the objects of its receiver set,
+/// one with a blocker collection is shadowed only by the objects of its blocker set. Sets are
+/// numbered 1 to 63; set 0 holds every object, for emitters without a collection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightLinks {
+    /// Bit k: the object is in receiver set k (lit by the emitters of that set).
+    pub lit_by: u64,
+    /// Bit k: the object is in blocker set k (casts the shadows of that set's emitters).
+    pub blocks: u64,
+    /// As an emitter: its receiver set and its blocker set (0: none, everything).
+    pub receiver_set: u8,
+    pub blocker_set: u8,
+}
+
+impl LightLinks {
+    /// No linking: in every set, an emitter of none.
+    pub const NONE: LightLinks = LightLinks {
+        lit_by: u64::MAX,
+        blocks: u64::MAX,
+        receiver_set: 0,
+        blocker_set: 0,
+    };
+
+    /// Whether an object of these links is lit by `emitter`.
+    pub fn lit_by(&self, emitter: &LightLinks) -> bool {
+        self.lit_by >> emitter.receiver_set & 1 == 1
+    }
+
+    /// Whether an object of these links blocks light from `emitter`.
+    pub fn blocks(&self, emitter: &LightLinks) -> bool {
+        self.blocks >> emitter.blocker_set & 1 == 1
+    }
+}
+
+impl Default for LightLinks {
+    fn default() -> Self {
+        LightLinks::NONE
+    }
 }
 
 impl Mesh {

@@ -72,7 +72,7 @@ use crate::integrator::walk::{
 };
 use crate::integrator::{CameraSample, Context};
 use crate::irradiance_cache::{Incoming, IrradianceCache};
-use crate::light::emitted_radiance;
+use crate::light::{emitted_radiance, hit_links};
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec2, Vec3};
 use crate::medium::{transmittance as medium_transmittance, Media};
@@ -166,8 +166,7 @@ impl<'a> Gather<'a> {
     /// `l`, light reaching the shaded point, clamped as the contribution it adds to the camera
     /// path (`direct`: one sampled at the shaded point, else an indirect one).
     fn clamped(&self, l: Vec3, direct: bool) -> Vec3 {
-        self.clamp
-            .behind(self.beta, l, direct && self.direct_clamp)
+        self.clamp.behind(self.beta, l, direct && self.direct_clamp)
     }
 
     fn intersect(&mut self, ray: &Ray) -> Option<Hit> {
@@ -467,6 +466,7 @@ impl<'a> Gather<'a> {
             horizon: s.horizon(),
             pdf: bs.pdf,
             delta: bs.delta,
+            lit_by: hit_links(scene, &s.sh.hit).lit_by,
         };
         let mut media = s.media;
         if bs.transmitted {
@@ -658,7 +658,10 @@ impl<'a> Gather<'a> {
             let emission = self.clamped(bs.weight * emission, true);
             if bs.delta {
                 sum.add(LightPass::Emission, emission);
-                sum.add(LightPass::Indirect, self.clamped(bs.weight * estimate, false));
+                sum.add(
+                    LightPass::Indirect,
+                    self.clamped(bs.weight * estimate, false),
+                );
             } else {
                 let w = cached.map_or(bs.weight, |d| d.non_diffuse_weight(&bs));
                 sum.add(LightPass::Direct, emission);

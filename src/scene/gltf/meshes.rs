@@ -37,6 +37,7 @@ impl Loader {
             instance.camera_visible = camera_visible;
             instance.casts_shadows = casts_shadows;
             instance.holdout = holdout;
+            instance.links = object.links;
             self.scene.instances.push(instance);
         }
         Ok(())
@@ -212,6 +213,7 @@ impl Loader {
                 object_space,
                 deformation: Vec::new(),
                 volume_grids: None,
+                links: extension.links,
             };
             if let Some(file) = &extension.volume {
                 out.volume_grids = self.volume_grids(&object, file, material)?;
