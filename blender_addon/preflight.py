@@ -34,7 +34,7 @@ empty list, so the rules below only flag what really changes the image:
 - objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
   Visibility; camera and shadow visibility and holdout objects and collections are carried),
   'indirect only' collections;
-- light linking with photon mapping (photons ignore it) or past 63 linking collections;
+- shadow linking with photon mapping (photons ignore it), past 63 linking collections;
 - render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
   Indirect with the photon method (its estimates are clamped whole);
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
@@ -143,16 +143,17 @@ def light_path_features(scene) -> list[str]:
 
 def light_linking_features(scene, objects) -> list[str]:
     """What of Blender's light and shadow linking Photon does not render (lights.light_linking
-    carries the rest): more sets than Photon numbers, and linking with photon mapping, whose
-    photons ignore it."""
+    carries the rest): more sets than Photon numbers, and shadow linking with photon mapping,
+    whose photons ignore it."""
     emitters, _, problems = light_linking(objects)
     messages = list(problems)
     method = getattr(getattr(scene, "photon", None), "method", "")
-    if emitters and method != "PATH":
-        names = ", ".join(f"'{name}'" for name in sorted(emitters)[:3])
-        messages.append(f"light linking ({names}): photon maps ignore it; the path tracer "
-                        f"(Method: Path Tracing) renders it, photon mapping only in its light "
-                        f"samples and the light its rays meet")
+    shadowed = sorted(name for name, sets in emitters.items() if "blocker_set" in sets)
+    if shadowed and method != "PATH":
+        names = ", ".join(f"'{name}'" for name in shadowed[:3])
+        messages.append(f"shadow linking ({names}): photons ignore it (the light they bounce "
+                        f"is still shadowed by every object); the path tracer (Method: Path "
+                        f"Tracing) renders it in full")
     return messages
 
 

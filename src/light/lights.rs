@@ -25,7 +25,7 @@ use super::lamps::{sample_punctual_light, LampSet};
 use super::linking::{hit_links, scene_is_linked};
 use super::selection::{LocalSelection, Reach};
 use super::source::{LightSample, LightSource, Receiver};
-use crate::accel::{Hit, Ray};
+use crate::accel::{Accel, Hit, Ray, Visibility};
 use crate::interaction::{LightPoint, SurfaceHit};
 use crate::math::{luminance, Frame, Mat3, Vec2, Vec3};
 use crate::sampling::{
@@ -309,6 +309,21 @@ impl Lights {
         }
         let l = hit_links(scene, hit);
         from.lit_by >> l.receiver_set & 1 == 1 && l.blocker_set == 0
+    }
+
+    /// Whether a photon of source `index` leaving along `ray` may go on: false when light
+    /// linking keeps that light from the object the photon meets first, where its light
+    /// neither lands nor scatters (without media, which the photon could scatter in first).
+    pub fn photon_lands(&self, scene: &Scene, accel: &Accel, index: usize, ray: &Ray) -> bool {
+        let Some(l) = self.links.get(index) else {
+            return true;
+        };
+        if l.receiver_set == 0 || scene.has_media() {
+            return true;
+        }
+        accel
+            .intersect(scene, ray, Visibility::Secondary)
+            .is_none_or(|hit| hit_links(scene, &hit).lit_by >> l.receiver_set & 1 == 1)
     }
 
     /// Whether the scene links any light or object (`Scene::light_links`, `Mesh::links`).

@@ -74,12 +74,17 @@ def render_photon_unlinked(scene, path, samples):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name,build", [("receiver collection", receiver_scene),
-                                        ("blocker collection", blocker_scene)])
-def test_light_linking_matches_cycles(tmp_path, name, build):
+@pytest.mark.parametrize("name,build,method", [
+    ("receiver collection", receiver_scene, "PATH"),
+    ("receiver collection", receiver_scene, "PHOTON"),
+    ("blocker collection", blocker_scene, "PATH"),
+    ("blocker collection", blocker_scene, "PHOTON")])
+def test_light_linking_matches_cycles(tmp_path, name, build, method):
     scene = build()
     ref = scenes_bpy.render(scene, "CYCLES", tmp_path / "cycles.exr", 1024)
-    scene.photon.method = "PATH"
-    img = scenes_bpy.render(scene, "PHOTON", tmp_path / "photon.exr", 512)
-    unlinked = render_photon_unlinked(scene, tmp_path / "unlinked.exr", 512)
+    scene.photon.method = method
+    spp = 512 if method == "PATH" else 128
+    img = scenes_bpy.render(scene, "PHOTON", tmp_path / "photon.exr", spp)
+    unlinked = render_photon_unlinked(scene, tmp_path / "unlinked.exr", spp)
+    name = f"{name} ({method.lower()})"
     assert_matches_only_with(name, img, ref, unlinked, "linking")

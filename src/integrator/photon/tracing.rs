@@ -875,7 +875,10 @@ pub fn trace_photons<T: Send + Clone>(
                     }
                     Sampler::Random => &mut random,
                 };
-                if let Some(e) = emitters.emit(ctx, stream.aimed, rng) {
+                if let Some(e) = emitters.emit(ctx, stream.aimed, rng).filter(|e| {
+                    ctx.lights
+                        .photon_lands(ctx.scene, ctx.accel, e.light, &e.ray)
+                }) {
                     trace(e.ray, e.power * scale, rng, &mut out);
                 }
             }
