@@ -192,13 +192,16 @@ def uses_node_materials(obj) -> bool:
 
 def visibility_extension(obj) -> dict:
     """PHOTON_object: the object's camera and shadow ray visibility when one is off (the
-    other ray types are named by the pre-flight report), and "holdout" when the object is a
-    holdout (its own setting, or a holdout collection of the view layer holding it)."""
+    other ray types are named by the pre-flight report), "holdout" when the object is a
+    holdout (its own setting, or a holdout collection of the view layer holding it), and
+    "shadow_catcher" when it is one."""
     seen = bool(getattr(obj, "visible_camera", True))
     shadow = bool(getattr(obj, "visible_shadow", True))
     data = {} if seen and shadow else {"visible_camera": seen, "visible_shadow": shadow}
     if getattr(obj, "is_holdout", False) or obj.name in holdout_objects(bpy.context.view_layer):
         data["holdout"] = True
+    if getattr(obj, "is_shadow_catcher", False):
+        data["shadow_catcher"] = True
     return data
 
 

@@ -35,6 +35,7 @@ empty list, so the rules below only flag what really changes the image:
   Visibility; camera and shadow visibility and holdout objects and collections are carried),
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
+- shadow catchers without a transparent film, Cycles' Shadow Catcher pass;
 - render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
   Indirect with the photon method (its estimates are clamped whole);
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
@@ -92,6 +93,7 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
                         f"tracks volumes exactly, without ray-marching steps")
     messages += light_path_features(scene)
     messages += light_linking_features(scene, objects)
+    messages += shadow_catcher_features(scene, objects, view_layer)
     for layer_collection in _layer_collections(view_layer):
         what = f"collection '{layer_collection.name}'"
         if layer_collection.exclude:
@@ -138,6 +140,24 @@ def light_path_features(scene) -> list[str]:
         messages.append("render settings: with the photon method, Clamp Indirect holds each "
                         "photon-map estimate as one contribution: caustics of small lights "
                         "that Cycles' clamp removes stay (the path tracer clamps as Cycles)")
+    return messages
+
+
+def shadow_catcher_features(scene, objects, view_layer) -> list[str]:
+    """What of Blender's shadow catchers Photon does not render: catchers without a
+    transparent film (rendered as the objects they are), and Cycles' Shadow Catcher pass."""
+    catchers = sorted(obj.name for obj in objects if getattr(obj, "is_shadow_catcher", False))
+    if not catchers:
+        return []
+    names = ", ".join(f"'{name}'" for name in catchers[:3])
+    messages = []
+    if not scene.render.film_transparent:
+        messages.append(f"shadow catcher ({names}): only rendered with Film > Transparent; "
+                        f"Photon renders it as the object it is")
+    layer_cycles = getattr(view_layer, "cycles", None)
+    if getattr(layer_cycles, "use_pass_shadow_catcher", False):
+        messages.append("view layer: the Shadow Catcher pass is not written (the Combined pass "
+                        "holds the caught shadows in its alpha)")
     return messages
 
 

@@ -31,7 +31,7 @@ use super::media::MediumStack;
 use super::random_walk;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
-use crate::accel::{hit_holdout, hit_mesh, Ray, Visibility};
+use crate::accel::{hit_holdout, hit_mesh, Hit, Ray, Visibility, NO_INSTANCE};
 use crate::bsdf::{BsdfSample, Scattering};
 use crate::light::{emitted_radiance, hit_links, Receiver};
 use crate::light_pass::{FirstVertex, LightPass, Passes};
@@ -676,6 +676,7 @@ fn walk_from(
         }
         if depth == 0 {
             out.hit = true;
+            out.catcher = primary && hit_catcher(ctx.scene, &hit);
             out.albedo = s.surface.base_color;
             out.normal = s.sh.frame.n;
             out.depth = hit.t * ray.direction.length();
@@ -719,6 +720,15 @@ fn walk_from(
         if depth >= 3 && !state.roulette(rng) {
             break;
         }
+    }
+}
+
+/// Whether `hit` lies on a shadow catcher.
+fn hit_catcher(scene: &Scene, hit: &Hit) -> bool {
+    if hit.instance == NO_INSTANCE {
+        scene.meshes[hit.mesh as usize].shadow_catcher
+    } else {
+        scene.instances[hit.instance as usize].shadow_catcher
     }
 }
 

@@ -75,6 +75,8 @@ pub struct Mesh {
     pub volume_grids: Option<std::sync::Arc<grids::VolumeGrids>>,
     /// Blender's light and shadow linking of the mesh's object (`LightLinks`).
     pub links: LightLinks,
+    /// Blender's shadow catcher (`crate::shadow_catcher`).
+    pub shadow_catcher: bool,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
@@ -129,6 +131,8 @@ pub struct Instance {
     pub holdout: bool,
     /// Blender's light and shadow linking of the placing object (`LightLinks`).
     pub links: LightLinks,
+    /// The placing object is a shadow catcher (`Mesh::shadow_catcher`).
+    pub shadow_catcher: bool,
 }
 
 impl Instance {
@@ -146,6 +150,7 @@ impl Instance {
             casts_shadows: true,
             holdout: false,
             links: LightLinks::NONE,
+            shadow_catcher: false,
         }
     }
 

@@ -224,6 +224,7 @@ pub(super) struct ObjectExtension {
     pub(super) volume: Option<VolumeFile>,
     /// Blender's light and shadow linking ("light_linking").
     pub(super) links: LightLinks,
+    pub(super) shadow_catcher: bool,
 }
 
 /// `PHOTON_object`'s "volume": the OpenVDB file that holds a Volume object's grids (a path,
@@ -264,6 +265,7 @@ impl Default for ObjectExtension {
             deform: None,
             volume: None,
             links: LightLinks::NONE,
+            shadow_catcher: false,
         }
     }
 }
@@ -298,6 +300,7 @@ impl ObjectExtension {
                 Some(linking) => read_light_links(linking)?,
                 None => LightLinks::NONE,
             },
+            shadow_catcher: fields.flag("shadow_catcher", false)?,
         })
     }
 

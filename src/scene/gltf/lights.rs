@@ -186,6 +186,7 @@ impl Loader {
             deformation: Vec::new(),
             volume_grids: None,
             links: self.node_extensions[node.index()].object.links,
+            shadow_catcher: false,
         });
         Ok(())
     }

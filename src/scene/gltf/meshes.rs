@@ -38,6 +38,7 @@ impl Loader {
             instance.casts_shadows = casts_shadows;
             instance.holdout = holdout;
             instance.links = object.links;
+            instance.shadow_catcher = object.shadow_catcher;
             self.scene.instances.push(instance);
         }
         Ok(())
@@ -214,6 +215,7 @@ impl Loader {
                 deformation: Vec::new(),
                 volume_grids: None,
                 links: extension.links,
+                shadow_catcher: extension.shadow_catcher,
             };
             if let Some(file) = &extension.volume {
                 out.volume_grids = self.volume_grids(&object, file, material)?;

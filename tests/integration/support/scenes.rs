@@ -51,6 +51,7 @@ pub fn mesh(
         deformation: Vec::new(),
         volume_grids: None,
         links: Default::default(),
+        shadow_catcher: false,
     }
 }
 
