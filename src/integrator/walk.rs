@@ -295,6 +295,9 @@ impl PathState {
     /// The lamps the ray to the next vertex meets before `reach` (`Lights::lamps_met`),
     /// attenuated by the medium up to them, MIS-weighted.
     fn lamps(&mut self, ctx: &Context, reach: f32, camera: bool, rng: &mut Rng) {
+        if !ctx.lights.has_lamps() {
+            return;
+        }
         let pass = self.pass(0, FirstVertex::Surface);
         let (beta, previous, absorption) = (self.beta, self.previous, self.absorption);
         let (clamp, direct) = (self.clamp, self.direct_clamp(0));

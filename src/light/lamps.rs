@@ -309,6 +309,11 @@ pub(super) struct LampNode {
 }
 
 impl LampSet {
+    /// Whether no ray can meet a lamp.
+    pub(super) fn is_empty(&self) -> bool {
+        self.lamps.is_empty()
+    }
+
     pub(super) fn new(sources: &[LightSource]) -> LampSet {
         let mut lamps: Vec<u32> = Vec::new();
         let mut seen_by_bounces = false;

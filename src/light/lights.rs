@@ -326,6 +326,11 @@ impl Lights {
             .is_none_or(|hit| hit_links(scene, &hit).lit_by >> l.receiver_set & 1 == 1)
     }
 
+    /// Whether a ray can meet a lamp (`lamps_met`).
+    pub fn has_lamps(&self) -> bool {
+        !self.lamps.is_empty()
+    }
+
     /// Whether the scene links any light or object (`Scene::light_links`, `Mesh::links`).
     pub fn linked(&self) -> bool {
         !self.links.is_empty()
@@ -381,15 +386,15 @@ impl Lights {
             (Some(local), _, true) => local.sample(from, u_select, &self.select)?,
             _ => self.select.sample_remapped(u_select)?,
         };
-        let links = self.links.get(index).copied().unwrap_or(LightLinks::NONE);
-        if from.lit_by >> links.receiver_set & 1 == 0 {
+        let links = self.links.get(index);
+        if links.is_some_and(|l| from.lit_by >> l.receiver_set & 1 == 0) {
             return None;
         }
         let mut s = self.sample_source(scene, index, (p, path), time, u_pick, u)?;
         s.pdf *= pmf;
-        if links.blocker_set != 0 {
+        if let Some(l) = links.filter(|l| l.blocker_set != 0) {
             s.delta = true;
-            s.blockers = links.blocker_set;
+            s.blockers = l.blocker_set;
         }
         (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
     }
@@ -624,7 +629,6 @@ impl Lights {
     /// light-sampling density for MIS at `from`, the vertex the ray left: returns (radiance,
     /// pdf) per emitter via `visit`.
     pub fn escaped(&self, from: Receiver, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
-        let linked = !self.links.is_empty();
         if let Some(w) = self.world {
             let (radiance, pdf) = self.world_radiance(dir);
             visit(radiance, self.pick_pmf(from, w as usize) * pdf);
@@ -636,10 +640,7 @@ impl Lights {
                 cos_max,
             } = self.sources[s as usize]
             {
-                if cos_max < 1.0
-                    && dir.dot(to_sun) >= cos_max
-                    && (!linked || self.meets(from, s as usize))
-                {
+                if cos_max < 1.0 && dir.dot(to_sun) >= cos_max && self.meets(from, s as usize) {
                     visit(
                         sun_disk_radiance(irradiance, cos_max),
                         self.pick_pmf(from, s as usize) * uniform_cone_pdf(cos_max),
