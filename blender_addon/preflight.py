@@ -146,7 +146,9 @@ def light_path_features(scene) -> list[str]:
 def shadow_catcher_features(scene, objects, view_layer) -> list[str]:
     """What of Blender's shadow catchers Photon does not render: catchers without a
     transparent film (rendered as the objects they are), and Cycles' Shadow Catcher pass."""
-    catchers = sorted(obj.name for obj in objects if getattr(obj, "is_shadow_catcher", False))
+    # Light objects report is_shadow_catcher too; only geometry catches shadows.
+    catchers = sorted(obj.name for obj in objects if obj.type in GEOMETRY_TYPES
+                      and getattr(obj, "is_shadow_catcher", False))
     if not catchers:
         return []
     names = ", ".join(f"'{name}'" for name in catchers[:3])
