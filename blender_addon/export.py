@@ -104,6 +104,14 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
     def __init__(self):
         from io_scene_gltf2.io.com.gltf2_io_extensions import Extension
         self._extension = Extension
+        # Blender's light and shadow linking as numbered sets (lights.light_linking).
+        self._emitters, self._receivers, _ = lights.light_linking(bpy.context.scene.objects)
+
+    def _light_linking(self, blender_object) -> dict:
+        """PHOTON_object's "light_linking" of `blender_object`: its sets as an emitter and
+        those it is left out of; {} without linking."""
+        name = blender_object.name
+        return {**self._emitters.get(name, {}), **self._receivers.get(name, {})}
 
     def _add(self, gltf_object, name, data):
         if gltf_object.extensions is None:
@@ -115,6 +123,9 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             data = lights.light_extension(blender_object)
             if data:
                 self._add(gltf_node, "PHOTON_light", data)
+            linking = self._light_linking(blender_object)
+            if linking:
+                self._add(gltf_node, "PHOTON_object", {"light_linking": linking})
         if blender_object is not None and blender_object.type in GEOMETRY_TYPES:
             data = visibility_extension(blender_object)
             if blender_object.name in motion.SHUTTER_POSES:
@@ -126,6 +137,9 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
                 data["texture_space"] = space
             if blender_object.name in volumes.BOXES:
                 data["volume"] = volumes.BOXES[blender_object.name]
+            linking = self._light_linking(blender_object)
+            if linking:
+                data["light_linking"] = linking
             if data:
                 self._add(gltf_node, "PHOTON_object", data)
         if blender_object is not None and blender_object.type == "CAMERA":
@@ -178,13 +192,16 @@ def uses_node_materials(obj) -> bool:
 
 def visibility_extension(obj) -> dict:
     """PHOTON_object: the object's camera and shadow ray visibility when one is off (the
-    other ray types are named by the pre-flight report), and "holdout" when the object is a
-    holdout (its own setting, or a holdout collection of the view layer holding it)."""
+    other ray types are named by the pre-flight report), "holdout" when the object is a
+    holdout (its own setting, or a holdout collection of the view layer holding it), and
+    "shadow_catcher" when it is one."""
     seen = bool(getattr(obj, "visible_camera", True))
     shadow = bool(getattr(obj, "visible_shadow", True))
     data = {} if seen and shadow else {"visible_camera": seen, "visible_shadow": shadow}
     if getattr(obj, "is_holdout", False) or obj.name in holdout_objects(bpy.context.view_layer):
         data["holdout"] = True
+    if getattr(obj, "is_shadow_catcher", False):
+        data["shadow_catcher"] = True
     return data
 
 
@@ -294,16 +311,24 @@ def film_filter(scene) -> dict:
 
 def render_extension(scene) -> dict:
     """PHOTON_render: the final image size (resolution x percentage), transparent film, the
-    pixel filter and Blender's Volume bounces (Light Paths, Cycles' setting)."""
+    pixel filter and Blender's Volume bounces and Clamp Direct / Clamp Indirect (Light Paths,
+    Cycles' settings)."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
     extension = {"width": max(1, int(r.resolution_x * scale)),
                  "height": max(1, int(r.resolution_y * scale)),
                  "film_transparent": bool(r.film_transparent),
                  "filter": film_filter(scene)}
-    volume_bounces = int(getattr(getattr(scene, "cycles", None), "volume_bounces", 0))
+    cycles = getattr(scene, "cycles", None)
+    volume_bounces = int(getattr(cycles, "volume_bounces", 0))
     if volume_bounces:  # 0, Blender's default, is the extension's too
         extension["volume_bounces"] = volume_bounces
+    # 0 (no limit) is the extension's default; Blender's Clamp Indirect defaults to 10.
+    for key, setting in (("clamp_direct", "sample_clamp_direct"),
+                         ("clamp_indirect", "sample_clamp_indirect")):
+        limit = float(getattr(cycles, setting, 0.0))
+        if limit > 0.0:
+            extension[key] = limit
     return extension
 
 

@@ -151,3 +151,74 @@ def light_node_problems(light) -> list[str]:
             problems.append(f"Light Falloff '{node.name}': a linked strength or a smooth "
                             f"falloff is not exported")
     return problems
+
+
+# Light sets Photon numbers (Cycles' light sets: set 0 holds every object).
+MAX_LINK_SETS = 63
+
+
+def _linked_states(collection) -> dict:
+    """The link state ('INCLUDE' or 'EXCLUDE') of every object in a light or shadow linking
+    `collection`, by object name: an object's own entry, or the state of the child collection
+    entry it is reached through (the outermost one wins)."""
+    states: dict = {}
+
+    def visit(coll, inherited, seen):
+        if coll.name in seen:
+            return
+        seen = seen | {coll.name}
+        # collection_objects and collection_children hold the link states of `objects` and
+        # `children`, entry for entry.
+        for obj, entry in zip(coll.objects, getattr(coll, "collection_objects", ())):
+            states.setdefault(obj.name, inherited or entry.light_linking.link_state)
+        for child, entry in zip(coll.children, getattr(coll, "collection_children", ())):
+            visit(child, inherited or entry.light_linking.link_state, seen)
+
+    visit(collection, None, frozenset())
+    return states
+
+
+def _in_set(name: str, states: dict) -> bool:
+    """Blender's rule: with included objects, only those (less the excluded ones); with only
+    excluded ones, every object but those."""
+    if any(state == "INCLUDE" for state in states.values()):
+        return states.get(name) == "INCLUDE"
+    return states.get(name) != "EXCLUDE"
+
+
+def light_linking(objects) -> tuple[dict, dict, list[str]]:
+    """Blender's light and shadow linking of `objects` as numbered sets: ({emitter name:
+    {"receiver_set": k, "blocker_set": k}}, {object name: {"not_lit_by": [k...],
+    "not_blocking": [k...]}}, problems). Emitters sharing a collection share its set; past
+    MAX_LINK_SETS collections the rest are not linked (named in problems)."""
+    objects = list(objects)
+    emitters: dict = {}
+    sets = {"receiver_set": {}, "blocker_set": {}}
+    problems = []
+    for obj in objects:
+        linking = getattr(obj, "light_linking", None)
+        if linking is None:
+            continue
+        for key, prop in (("receiver_set", "receiver_collection"),
+                          ("blocker_set", "blocker_collection")):
+            coll = getattr(linking, prop, None)
+            if coll is None:
+                continue
+            numbered = sets[key]
+            if coll.name not in numbered:
+                if len(numbered) >= MAX_LINK_SETS:
+                    problems.append(f"object '{obj.name}': more than {MAX_LINK_SETS} light "
+                                    f"linking collections; '{coll.name}' is not linked")
+                    continue
+                numbered[coll.name] = (len(numbered) + 1, _linked_states(coll))
+            emitters.setdefault(obj.name, {})[key] = numbered[coll.name][0]
+    receivers: dict = {}
+    for obj in objects:
+        data = {}
+        for key, out in (("receiver_set", "not_lit_by"), ("blocker_set", "not_blocking")):
+            left_out = [k for k, states in sets[key].values() if not _in_set(obj.name, states)]
+            if left_out:
+                data[out] = sorted(left_out)
+        if data:
+            receivers[obj.name] = data
+    return emitters, receivers, problems

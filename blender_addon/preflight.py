@@ -34,6 +34,10 @@ empty list, so the rules below only flag what really changes the image:
 - objects hidden from diffuse, glossy or transmission rays (Object > Visibility > Ray
   Visibility; camera and shadow visibility and holdout objects and collections are carried),
   'indirect only' collections;
+- shadow linking with photon mapping (photons ignore it), past 63 linking collections;
+- shadow catchers without a transparent film, Cycles' Shadow Catcher pass;
+- render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
+  Indirect with the photon method (its estimates are clamped whole);
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
   field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
   objects other than meshes (armatures, animated shape keys of curves, surfaces, text:
@@ -43,7 +47,7 @@ empty list, so the rules below only flag what really changes the image:
 from __future__ import annotations
 
 from .camera import PANORAMAS
-from .lights import light_node_problems
+from .lights import light_linking, light_node_problems
 from .motion import deforms
 from .node_graph import active_output, source, upstream
 from .node_tree import material_nodes, volume_tree
@@ -87,6 +91,9 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     if abs(rate - 1.0) > 1e-6:
         messages.append(f"render settings: Volume Step Rate {rate:g} is not used: Photon "
                         f"tracks volumes exactly, without ray-marching steps")
+    messages += light_path_features(scene)
+    messages += light_linking_features(scene, objects)
+    messages += shadow_catcher_features(scene, objects, view_layer)
     for layer_collection in _layer_collections(view_layer):
         what = f"collection '{layer_collection.name}'"
         if layer_collection.exclude:
@@ -108,6 +115,67 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
             messages.append(f"motion blur: the deformation of objects other than meshes is not "
                             f"blurred (armatures or animated shape keys: {listed}{more}); "
                             f"meshes' deformation, moving objects and the camera are")
+    return messages
+
+
+def light_path_features(scene) -> list[str]:
+    """What of Render > Light Paths Photon does not render as Cycles does (Clamp Direct and
+    Clamp Indirect are carried: export.render_extension)."""
+    cycles = getattr(scene, "cycles", None)
+    if cycles is None:
+        return []
+    messages = []
+    for prop, label in (("caustics_reflective", "Reflective"),
+                        ("caustics_refractive", "Refractive")):
+        if not getattr(cycles, prop, True):
+            messages.append(f"render settings: {label} Caustics off is not exported; Photon "
+                            f"renders those caustics")
+    # Photon renders as Filter Glossy 0; Blender's default of 1 is not named.
+    blur = float(getattr(cycles, "blur_glossy", 1.0))
+    if blur > 1.0 + 1e-6:
+        messages.append(f"render settings: Filter Glossy {blur:g} is not used; Photon renders "
+                        f"glossy surfaces unfiltered after diffuse bounces")
+    method = getattr(getattr(scene, "photon", None), "method", "")
+    if method == "PHOTON" and float(getattr(cycles, "sample_clamp_indirect", 0.0)) > 0.0:
+        messages.append("render settings: with the photon method, Clamp Indirect holds each "
+                        "photon-map estimate as one contribution: caustics of small lights "
+                        "that Cycles' clamp removes stay (the path tracer clamps as Cycles)")
+    return messages
+
+
+def shadow_catcher_features(scene, objects, view_layer) -> list[str]:
+    """What of Blender's shadow catchers Photon does not render: catchers without a
+    transparent film (rendered as the objects they are), and Cycles' Shadow Catcher pass."""
+    # Light objects report is_shadow_catcher too; only geometry catches shadows.
+    catchers = sorted(obj.name for obj in objects if obj.type in GEOMETRY_TYPES
+                      and getattr(obj, "is_shadow_catcher", False))
+    if not catchers:
+        return []
+    names = ", ".join(f"'{name}'" for name in catchers[:3])
+    messages = []
+    if not scene.render.film_transparent:
+        messages.append(f"shadow catcher ({names}): only rendered with Film > Transparent; "
+                        f"Photon renders it as the object it is")
+    layer_cycles = getattr(view_layer, "cycles", None)
+    if getattr(layer_cycles, "use_pass_shadow_catcher", False):
+        messages.append("view layer: the Shadow Catcher pass is not written (the Combined pass "
+                        "holds the caught shadows in its alpha)")
+    return messages
+
+
+def light_linking_features(scene, objects) -> list[str]:
+    """What of Blender's light and shadow linking Photon does not render (lights.light_linking
+    carries the rest): more sets than Photon numbers, and shadow linking with photon mapping,
+    whose photons ignore it."""
+    emitters, _, problems = light_linking(objects)
+    messages = list(problems)
+    method = getattr(getattr(scene, "photon", None), "method", "")
+    shadowed = sorted(name for name, sets in emitters.items() if "blocker_set" in sets)
+    if shadowed and method != "PATH":
+        names = ", ".join(f"'{name}'" for name in shadowed[:3])
+        messages.append(f"shadow linking ({names}): photons ignore it (the light they bounce "
+                        f"is still shadowed by every object); the path tracer (Method: Path "
+                        f"Tracing) renders it in full")
     return messages
 
 

@@ -174,6 +174,20 @@ class RENDER_PT_photon_sampling(PhotonPanel, bpy.types.Panel):
         col.prop(settings, "threads")
 
 
+class RENDER_PT_photon_light_paths(PhotonPanel, bpy.types.Panel):
+    """Cycles' Light Paths settings Photon reads: Clamping (export.render_extension)."""
+    bl_label = "Light Paths"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        cycles = getattr(context.scene, "cycles", None)
+        if cycles is None:
+            return
+        col = _split(self.layout)
+        col.prop(cycles, "sample_clamp_direct", text="Clamp Direct")
+        col.prop(cycles, "sample_clamp_indirect", text="Clamp Indirect")
+
+
 class RENDER_PT_photon_photons(PhotonPanel, bpy.types.Panel):
     bl_label = "Photon Mapping"
     bl_options = {"DEFAULT_CLOSED"}
@@ -288,8 +302,8 @@ class WORLD_PT_photon_preview(PhotonPanel, bpy.types.Panel):
         self.layout.template_preview(context.world)
 
 
-classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_photons, RENDER_PT_photon_film,
-           RENDER_PT_photon_motion_blur, VIEWLAYER_PT_photon_passes, VIEWLAYER_PT_photon_data_passes,
+classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_light_paths, RENDER_PT_photon_photons,
+           RENDER_PT_photon_film, RENDER_PT_photon_motion_blur, VIEWLAYER_PT_photon_passes, VIEWLAYER_PT_photon_data_passes,
            VIEWLAYER_PT_photon_light_passes, WORLD_PT_photon_preview)
 
 

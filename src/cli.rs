@@ -184,6 +184,13 @@ struct RenderArgs {
     /// Maximum number of bounces.
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(0..=1024))]
     max_depth: u32,
+    /// Blender's Clamp Direct: the largest light-sample or emitter contribution a path adds at
+    /// its first bounce, per colour channel on average; 0: no limit [default: the scene's].
+    #[arg(long, value_name = "LIMIT", value_parser = non_negative_limit)]
+    clamp_direct: Option<f32>,
+    /// Blender's Clamp Indirect: the same for light after more bounces [default: the scene's].
+    #[arg(long, value_name = "LIMIT", value_parser = non_negative_limit)]
+    clamp_indirect: Option<f32>,
     /// Worker threads (0: one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -448,6 +455,14 @@ fn json_line(value: serde_json::Value) {
     let _ = writeln!(err, "{value}");
 }
 
+/// A clamp limit: a finite number ≥ 0.
+fn non_negative_limit(text: &str) -> std::result::Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err(format!("expected a number >= 0, found {text:?}")),
+    }
+}
+
 fn run_render(args: RenderArgs) -> Result<()> {
     let filter = args
         .filter
@@ -493,6 +508,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
             material.subsurface.method = method;
         }
     }
+    let settings = &mut scene.render_settings;
+    settings.clamp_direct = args.clamp_direct.unwrap_or(settings.clamp_direct);
+    settings.clamp_indirect = args.clamp_indirect.unwrap_or(settings.clamp_indirect);
     for w in &scene.warnings {
         if mode == ProgressMode::Json {
             json_line(serde_json::json!({"stage": "load", "fraction": 1.0, "warning": w}));

@@ -32,6 +32,7 @@ pub mod rounds;
 pub mod sampling;
 pub mod scene;
 pub mod shader;
+pub mod shadow_catcher;
 pub mod sobol;
 pub mod subsurface;
 pub mod volume_photon_map;

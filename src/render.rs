@@ -30,6 +30,7 @@ use crate::progress::{Progress, ProgressEvent};
 use crate::rng::Rng;
 pub use crate::rng::Sampler;
 use crate::scene::Scene;
+use crate::shadow_catcher::{CatcherScene, CatcherSum};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -268,6 +269,13 @@ pub fn render_scheduled(
             .or(scene.render_settings.filter)
             .unwrap_or_default(),
     );
+    // Blender's shadow catchers, composed with a transparent film (with an opaque one they
+    // render as the objects they are, which the add-on's pre-flight report names).
+    let catchers = match ctx.transparent_background {
+        true => CatcherScene::new(scene),
+        false => None,
+    };
+    let catcher_ctx = catchers.as_ref().map(|c| c.context(&ctx));
     let emitter_pixels = (settings.emission_rays > 0).then(|| {
         EmitterPixels::new(
             &ctx,
@@ -371,6 +379,7 @@ pub fn render_scheduled(
                 settings: &round_settings,
                 window,
                 moving: camera.moves() || ctx.scene.has_motion(),
+                catcher: catcher_ctx.as_ref(),
             };
             let part = render_round(&round, progress, &mut stats, adaptive.as_mut())?;
             image = Some(match image {
@@ -405,6 +414,9 @@ struct RoundSetup<'a> {
     /// Something moves while the shutter is open (the camera or an instance): samples take a
     /// moment within it.
     moving: bool,
+    /// The scene with its shadow catchers alone, when it has some and the film is transparent
+    /// (`crate::shadow_catcher`).
+    catcher: Option<&'a Context<'a>>,
 }
 
 /// Render `settings.spp` samples per pixel of the window with `settings.seed`, adding the time,
@@ -508,7 +520,10 @@ fn render_round(
             }
             let n = px.n as f32;
             let c = px.sum / n;
-            image.rgba[k] = [c.x, c.y, c.z, alpha(px)];
+            image.rgba[k] = match round.catcher {
+                None => [c.x, c.y, c.z, alpha(px)],
+                Some(_) => px.catcher.compose(px.sum, px.coverage, n),
+            };
             image.albedo[k] = px.albedo / n;
             image.normal[k] = px.normal.normalize_or_zero();
             // Depth as Cycles writes it: distance along the camera's axis, averaged over the
@@ -541,6 +556,8 @@ struct PixelSum {
     coverage: f32,
     /// Samples whose camera ray met a Holdout.
     holdouts: f32,
+    /// Samples whose camera ray met a shadow catcher.
+    catcher: CatcherSum,
     albedo: Vec3,
     normal: Vec3,
     depth_sum: f32,
@@ -906,9 +923,18 @@ fn render_tile(
             if ray.t_max <= 0.0 {
                 continue; // outside a fisheye's image: black, as in Cycles
             }
+            // The shadow catcher's second path draws the same numbers (`shadow_catcher`).
+            let catcher_rng = round.catcher.map(|_| rng.clone());
             let mut sample = integrator.trace(ctx, ray, &mut rng);
             if round.emitter_pixels.is_some_and(|e| e.may_see(x, y)) {
                 tile_rays += see_emission(round, &mut sample, pixel_index, s, (x, y)) as u64;
+            }
+            if let (true, Some(only), Some(mut r)) = (sample.catcher, round.catcher, catcher_rng) {
+                let without = path::trace(only, ray, &mut r);
+                tile_rays += without.rays as u64;
+                if sample.radiance.is_finite() && without.radiance.is_finite() {
+                    px.catcher.add(sample.radiance, without.radiance);
+                }
             }
             tile_rays += sample.rays as u64;
             if sample.radiance.is_finite() {

@@ -5,13 +5,18 @@
 //! Shadow rays pass surfaces whose node tree gives a Transparent BSDF for them (Cycles'
 //! transparent shadows: the surface's shader is evaluated for the shadow ray, which Light
 //! Path's Is Shadow Ray reads, and its transparent weight tints what passes).
+//!
+//! Blender's light linking: a light sample from an object that the chosen light does not
+//! light adds nothing, and emission met by a ray counts only if its emitter lights the object
+//! the ray left (`Previous::lit_by`); shadow linking: the shadow rays of a light with a blocker
+//! set pass every object outside it.
 
 use super::media::MediumStack;
 use super::Context;
 use crate::accel::Ray;
 use crate::accel::Visibility;
 use crate::interaction::{spawn_to, LightPoint, SurfaceHit, View};
-use crate::light::Receiver;
+use crate::light::{hit_links, LightSample, Receiver};
 use crate::material::eval_surface;
 use crate::math::Vec3;
 use crate::medium::transmittance;
@@ -63,7 +68,15 @@ pub fn sample_direct_from(
     scattering: impl FnOnce(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
     let (choice, point) = rng.uniform3();
-    let from = Receiver { p: at.p(), horizon };
+    let lit_by = match at {
+        Vertex::Surface(sh) if ctx.lights.linked() => hit_links(ctx.scene, &sh.hit).lit_by,
+        _ => u64::MAX,
+    };
+    let from = Receiver {
+        p: at.p(),
+        horizon,
+        lit_by,
+    };
     let Some(ls) = ctx
         .lights
         .sample(ctx.scene, from, path, at.time(), mis, choice, point)
@@ -77,7 +90,7 @@ pub fn sample_direct_from(
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let through = shadow_transmittance(ctx, at, &ls.target, path, media, rng, rays);
+    let through = shadow_transmittance(ctx, at, &ls, path, media, rng, rays);
     if through == Vec3::ZERO {
         return Vec3::ZERO;
     }
@@ -128,7 +141,8 @@ impl Vertex<'_> {
     }
 }
 
-/// What reaches `at` from `target` along a shadow ray of path `path` leaving in `media`: one
+/// What reaches `at` from the light sample `light` (its target, and its blocker set: only
+/// objects in it block) along a shadow ray of path `path` leaving in `media`: one
 /// when nothing is in between, zero when something opaque is, and otherwise the product of the
 /// transparent weights of the surfaces passed (each evaluated for the shadow ray, its Mix
 /// Shader picks drawn from a hash of the ray, so the product is right on average) and of the
@@ -137,13 +151,14 @@ impl Vertex<'_> {
 pub fn shadow_transmittance(
     ctx: &Context,
     at: Vertex,
-    target: &LightPoint,
+    light: &LightSample,
     path: RayPath,
     media: &MediumStack,
     rng: &mut Rng,
     rays: &mut u32,
 ) -> Vec3 {
     *rays += 1;
+    let target = &light.target;
     let mut ray = at.spawn_to(target);
     let scene = ctx.scene;
     let mut media = *media;
@@ -159,7 +174,7 @@ pub fn shadow_transmittance(
         let dir = ray.direction / length;
         transmittance(&media.media(ctx), ray.origin, dir, t * length, rng)
     };
-    if !ctx.lights.transparent_shadows {
+    if !ctx.lights.transparent_shadows && light.blockers == 0 {
         return if ctx.accel.unoccluded(scene, &ray) {
             through_media(&media, &ray, ray.t_max, rng)
         } else {
@@ -176,6 +191,19 @@ pub fn shadow_transmittance(
             return through;
         }
         let sh = SurfaceHit::new(scene, &ray, &hit);
+        if light.blockers != 0 {
+            let links = hit_links(scene, &hit);
+            if links.blocks >> light.blockers & 1 == 0 {
+                // Not in the light's blocker set: the shadow ray passes it.
+                media = media.crossed(scene, &hit, sh.material, ray.direction.dot(sh.ng) < 0.0);
+                *rays += 1;
+                ray = sh.spawn_to(target);
+                continue;
+            }
+            if !ctx.lights.transparent_shadows {
+                return Vec3::ZERO;
+            }
+        }
         let material = &scene.materials[sh.material as usize];
         if !material
             .nodes
@@ -219,6 +247,8 @@ pub struct Previous {
     /// The ray left through a delta lobe, or light sampling did not run there: emission it
     /// meets counts in full.
     pub delta: bool,
+    /// The receiver sets of the object the ray left (`Receiver::lit_by`).
+    pub lit_by: u64,
 }
 
 impl Previous {
@@ -227,6 +257,7 @@ impl Previous {
         Receiver {
             p: self.p,
             horizon: self.horizon,
+            lit_by: self.lit_by,
         }
     }
 
@@ -240,8 +271,15 @@ impl Previous {
         }
     }
 
-    /// Weight of the emission of the surface `hit` the ray met.
+    /// Weight of the emission of the surface `hit` the ray met (0 when light linking keeps
+    /// its emitter from lighting the object the ray left).
     pub fn weight_at(&self, ctx: &Context, hit: &SurfaceHit) -> f32 {
+        if !ctx
+            .lights
+            .emission_counts(ctx.scene, self.receiver(), &hit.hit)
+        {
+            return 0.0;
+        }
         if self.delta {
             1.0
         } else {

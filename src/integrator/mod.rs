@@ -53,6 +53,8 @@ pub struct CameraSample {
     /// The camera ray met a Holdout: a hole in the alpha even with an opaque film, as Cycles
     /// makes it.
     pub holdout: bool,
+    /// The camera ray met a shadow catcher first (`crate::shadow_catcher`).
+    pub catcher: bool,
     pub albedo: Vec3,
     /// World-space shading normal at the first hit.
     pub normal: Vec3,

@@ -18,6 +18,10 @@
 //! integrator says which materials it walks (`Scatter::walks_subsurface`): the photon method
 //! leaves Christensen–Burley ones to its dipole.
 //!
+//! Blender's Light Paths › Clamping (`Clamp`) is applied where the walk adds a contribution
+//! (`PathState::add` and the emission it meets), as Cycles clamps each contribution on its way
+//! to the film.
+//!
 //! `follow_specular` follows the surfaces the photon method ray traces (delta and glossy-only
 //! lobes, `classify::stores_photons` false) from a hit to the first surface that stores photons.
 
@@ -27,9 +31,9 @@ use super::media::MediumStack;
 use super::random_walk;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
-use crate::accel::{hit_holdout, hit_mesh, Ray, Visibility};
+use crate::accel::{hit_holdout, hit_mesh, Hit, Ray, Visibility, NO_INSTANCE};
 use crate::bsdf::{BsdfSample, Scattering};
-use crate::light::{emitted_radiance, Receiver};
+use crate::light::{emitted_radiance, hit_links, Receiver};
 use crate::light_pass::{FirstVertex, LightPass, Passes};
 use crate::math::{max_component, Vec3};
 use crate::medium::{
@@ -42,6 +46,67 @@ use crate::shader::RayPath;
 
 /// Longest chain of specular surfaces `follow_specular` follows.
 pub const MAX_SPECULAR_CHAIN: u32 = 12;
+
+/// Blender's Light Paths › Clamping as Cycles applies it: every contribution a camera path adds
+/// (throughput × light × MIS weight: one light sample, one emitter or world met) whose summed
+/// absolute colour channels exceed three times the limit is scaled down to that sum, its hue
+/// kept. Light that reaches the camera after at most one bounce (a light sample at the first
+/// hit, emission met by the camera ray or by the first hit's scattered ray) is held to the
+/// Direct limit, the rest to the Indirect one; bounces count every scattering but transparent
+/// passes, as Cycles counts them.
+#[derive(Clone, Copy, Debug)]
+pub struct Clamp {
+    /// Limits on |r| + |g| + |b| (infinite: off).
+    direct: f32,
+    indirect: f32,
+}
+
+impl Clamp {
+    /// No limit.
+    pub const NONE: Clamp = Clamp {
+        direct: f32::INFINITY,
+        indirect: f32::INFINITY,
+    };
+
+    /// The scene's Clamp Direct and Clamp Indirect (0: off).
+    pub fn of(scene: &Scene) -> Clamp {
+        let limit = |c: f32| if c > 0.0 { 3.0 * c } else { f32::INFINITY };
+        let settings = &scene.render_settings;
+        Clamp {
+            direct: limit(settings.clamp_direct),
+            indirect: limit(settings.clamp_indirect),
+        }
+    }
+
+    /// Whether any limit is set.
+    pub fn is_on(self) -> bool {
+        self.direct.is_finite() || self.indirect.is_finite()
+    }
+
+    /// `radiance` (a contribution, throughput included) held to the Direct limit when `direct`,
+    /// else to the Indirect one.
+    pub fn apply(self, radiance: Vec3, direct: bool) -> Vec3 {
+        let limit = if direct { self.direct } else { self.indirect };
+        let sum = radiance.abs().element_sum();
+        if sum > limit {
+            radiance * (limit / sum)
+        } else {
+            radiance
+        }
+    }
+
+    /// `radiance` scaled as `apply` scales the contribution `beta` × `radiance`: for estimates
+    /// that the throughput multiplies later.
+    pub fn behind(self, beta: Vec3, radiance: Vec3, direct: bool) -> Vec3 {
+        let limit = if direct { self.direct } else { self.indirect };
+        let sum = (beta * radiance).abs().element_sum();
+        if sum > limit {
+            radiance * (limit / sum)
+        } else {
+            radiance
+        }
+    }
+}
 
 /// The state of one camera path between its vertices.
 pub struct PathState {
@@ -78,18 +143,24 @@ pub struct PathState {
     /// The kind of the ray to the next vertex and the bounces before it, as node trees'
     /// Light Path reads them.
     pub light_path: RayPath,
+    /// Bounces so far as Cycles counts them for clamping: every scattering on a surface or in a
+    /// medium but transparent passes.
+    pub bounces: u32,
+    /// Blender's clamping of the contributions this path adds.
+    pub clamp: Clamp,
 }
 
 impl PathState {
     /// A camera ray's path, or (`gather`) a cache record's gather ray's: a diffuse bounce.
     /// `emission_only`: the walk ends at the first surface, after its emission.
-    fn new(ray: Ray, gather: bool, emission_only: bool) -> PathState {
+    fn new(ray: Ray, gather: bool, emission_only: bool, clamp: Clamp) -> PathState {
         // Emission seen by the camera ray counts in full.
         let previous = Previous {
             p: ray.origin,
             horizon: None,
             pdf: 0.0,
             delta: true,
+            lit_by: u64::MAX,
         };
         PathState {
             previous,
@@ -111,7 +182,15 @@ impl PathState {
             } else {
                 RayPath::camera()
             },
+            bounces: 0,
+            clamp,
         }
+    }
+
+    /// Whether light reaching the camera through this path and `vertices` more vertices (a
+    /// light sample counts its own) is held to the Direct clamp (`Clamp`).
+    pub fn direct_clamp(&self, vertices: u32) -> bool {
+        self.bounces + vertices <= 1
     }
 
     /// The pass of light reaching the camera through this path and `vertices` more non-delta
@@ -128,6 +207,7 @@ impl PathState {
     /// Add `radiance` (already times `beta`) to the pass after `vertices` more vertices, the
     /// next of them on a surface.
     pub fn add(&mut self, vertices: u32, radiance: Vec3) {
+        let radiance = self.clamp.apply(radiance, self.direct_clamp(vertices));
         self.passes
             .add(self.pass(vertices, FirstVertex::Surface), radiance);
     }
@@ -135,6 +215,7 @@ impl PathState {
     /// Add `radiance` (already times `beta`) to the pass after `vertices` more vertices, the
     /// next of them a scattering in the medium along the ray.
     pub fn add_in_medium(&mut self, vertices: u32, radiance: Vec3) {
+        let radiance = self.clamp.apply(radiance, self.direct_clamp(vertices));
         self.passes
             .add(self.pass(vertices, FirstVertex::Medium), radiance);
     }
@@ -202,18 +283,24 @@ impl PathState {
     fn escaped(&mut self, ctx: &Context) {
         let pass = self.pass(0, FirstVertex::Surface);
         let (beta, previous) = (self.beta, self.previous);
+        let (clamp, direct) = (self.clamp, self.direct_clamp(0));
         let passes = &mut self.passes;
         ctx.lights
             .escaped(previous.receiver(), self.ray.direction, |le, light_pdf| {
-                passes.add(pass, beta * le * previous.weight(light_pdf));
+                let l = beta * le * previous.weight(light_pdf);
+                passes.add(pass, clamp.apply(l, direct));
             });
     }
 
     /// The lamps the ray to the next vertex meets before `reach` (`Lights::lamps_met`),
     /// attenuated by the medium up to them, MIS-weighted.
     fn lamps(&mut self, ctx: &Context, reach: f32, camera: bool, rng: &mut Rng) {
+        if !ctx.lights.has_lamps() {
+            return;
+        }
         let pass = self.pass(0, FirstVertex::Surface);
         let (beta, previous, absorption) = (self.beta, self.previous, self.absorption);
+        let (clamp, direct) = (self.clamp, self.direct_clamp(0));
         let passes = &mut self.passes;
         let (ray, media) = (self.ray, self.media);
         let in_media = !media.is_vacuum(ctx.scene);
@@ -228,7 +315,8 @@ impl PathState {
                     let dir = ray.direction.normalize();
                     through *= medium_transmittance(&media.media(ctx), ray.origin, dir, t, rng);
                 }
-                passes.add(pass, beta * through * le * previous.weight(light_pdf));
+                let l = beta * through * le * previous.weight(light_pdf);
+                passes.add(pass, clamp.apply(l, direct));
             },
         );
     }
@@ -307,6 +395,7 @@ impl PathState {
             return false;
         }
         self.beta *= f / pdf;
+        self.bounces += 1;
         self.count_vertex(FirstVertex::Medium);
         self.volume_bounces += 1;
         if self.volume_bounces > ctx.scene.render_settings.volume_bounces {
@@ -319,6 +408,7 @@ impl PathState {
             horizon: None,
             pdf,
             delta: false,
+            lit_by: u64::MAX,
         };
         self.ray = Ray {
             origin: p,
@@ -370,11 +460,13 @@ impl PathState {
         // light sample of the vertex before, whose shadow ray passed it too (as Cycles keeps
         // its MIS state through transparent surfaces).
         if bs.scattering != Scattering::Transparent {
+            self.bounces += 1;
             self.previous = Previous {
                 p: s.sh.p,
                 horizon: s.horizon(),
                 pdf: bs.pdf,
                 delta: bs.delta || !light_sampled,
+                lit_by: hit_links(scene, &s.sh.hit).lit_by,
             };
         }
         self.absorption = s.absorption_after(bs, wi, self.absorption);
@@ -457,7 +549,13 @@ pub fn walk(
         ..CameraSample::default()
     };
     let emission = integrator.counts_emission();
-    let mut state = PathState::new(ray, gather, false);
+    // A cache record's gather rays carry an average, clamped where a camera path reads it.
+    let clamp = if gather {
+        Clamp::NONE
+    } else {
+        Clamp::of(ctx.scene)
+    };
+    let mut state = PathState::new(ray, gather, false, clamp);
     state.media = MediumStack::at(ctx, ray.origin, ray.time);
     walk_from(ctx, &mut state, rng, gather, emission, integrator, &mut out);
     out.radiance = state.passes.total();
@@ -478,7 +576,7 @@ pub fn seen_emission(ctx: &Context, ray: Ray, rng: &mut Rng) -> (Vec3, u32) {
             Next::End
         }
     }
-    let mut state = PathState::new(ray, false, true);
+    let mut state = PathState::new(ray, false, true, Clamp::of(ctx.scene));
     state.media = MediumStack::at(ctx, ray.origin, ray.time);
     let mut out = CameraSample::default();
     walk_from(ctx, &mut state, rng, false, true, &mut Nothing, &mut out);
@@ -581,6 +679,7 @@ fn walk_from(
         }
         if depth == 0 {
             out.hit = true;
+            out.catcher = primary && hit_catcher(ctx.scene, &hit);
             out.albedo = s.surface.base_color;
             out.normal = s.sh.frame.n;
             out.depth = hit.t * ray.direction.length();
@@ -624,6 +723,15 @@ fn walk_from(
         if depth >= 3 && !state.roulette(rng) {
             break;
         }
+    }
+}
+
+/// Whether `hit` lies on a shadow catcher.
+fn hit_catcher(scene: &Scene, hit: &Hit) -> bool {
+    if hit.instance == NO_INSTANCE {
+        scene.meshes[hit.mesh as usize].shadow_catcher
+    } else {
+        scene.instances[hit.instance as usize].shadow_catcher
     }
 }
 

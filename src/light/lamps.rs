@@ -197,6 +197,7 @@ pub(super) fn sample_punctual(
                 n: Vec3::ZERO,
                 distant: false,
             },
+            blockers: 0,
         };
         return Some(PunctualSample {
             sample,
@@ -226,6 +227,7 @@ pub(super) fn sample_punctual(
         pdf: cone.pdf(spread),
         delta: !lamp.bounces,
         target,
+        blockers: 0,
     };
     Some(PunctualSample {
         sample,
@@ -307,6 +309,11 @@ pub(super) struct LampNode {
 }
 
 impl LampSet {
+    /// Whether no ray can meet a lamp.
+    pub(super) fn is_empty(&self) -> bool {
+        self.lamps.is_empty()
+    }
+
     pub(super) fn new(sources: &[LightSource]) -> LampSet {
         let mut lamps: Vec<u32> = Vec::new();
         let mut seen_by_bounces = false;

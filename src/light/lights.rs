@@ -22,16 +22,17 @@ use super::emission::{
 };
 use super::environment::{sun_disk_radiance, EnvironmentLight};
 use super::lamps::{sample_punctual_light, LampSet};
+use super::linking::{hit_links, scene_is_linked};
 use super::selection::{LocalSelection, Reach};
 use super::source::{LightSample, LightSource, Receiver};
-use crate::accel::Ray;
+use crate::accel::{Accel, Hit, Ray, Visibility};
 use crate::interaction::{LightPoint, SurfaceHit};
 use crate::math::{luminance, Frame, Mat3, Vec2, Vec3};
 use crate::sampling::{
     square_to_uniform_cone, square_to_uniform_sphere, uniform_cone_pdf, Distribution1D,
     UNIFORM_SPHERE_PDF,
 };
-use crate::scene::{Light, Scene};
+use crate::scene::{Light, LightLinks, Scene};
 use crate::shader::RayPath;
 use std::f32::consts::PI;
 
@@ -69,6 +70,10 @@ pub struct Lights {
     /// Some material lets shadow rays through where its node tree gives a Transparent BSDF:
     /// shadow rays then evaluate the surfaces they meet (`direct::shadow_transmittance`).
     pub transparent_shadows: bool,
+    /// Each source's light linking as an emitter (Blender's light and shadow linking), index
+    /// for index; empty when the scene links nothing. A light of a blocker set is left to light
+    /// sampling alone (rays do not meet it), its shadow rays passing what is not in the set.
+    links: Vec<LightLinks>,
 }
 
 impl Lights {
@@ -244,6 +249,26 @@ impl Lights {
                 .is_some_and(|program| program.shadow_transparent)
         });
         let lamps = LampSet::new(&sources);
+        let links = match scene_is_linked(scene) {
+            false => Vec::new(),
+            true => {
+                // Point, spot and sun sources follow `Scene::lights` in order.
+                let mut punctual = scene.light_links.iter().copied();
+                sources
+                    .iter()
+                    .map(|source| match *source {
+                        LightSource::Triangle { mesh, .. } => scene.meshes[mesh as usize].links,
+                        LightSource::Instance { instance, .. } => {
+                            scene.instances[instance as usize].links
+                        }
+                        LightSource::Point { .. }
+                        | LightSource::Spot { .. }
+                        | LightSource::Sun { .. } => punctual.next().unwrap_or(LightLinks::NONE),
+                        LightSource::World { .. } => LightLinks::NONE,
+                    })
+                    .collect()
+            }
+        };
         let local = local_possible
             .then(|| LocalSelection::new(&power, &reach, &reach_scale))
             .flatten();
@@ -263,7 +288,52 @@ impl Lights {
             suns,
             scene_center,
             scene_radius,
+            links,
         }
+    }
+
+    /// Whether a ray leaving `from` counts the light of source `index` it meets: the light
+    /// lights `from`'s object and is not left to light sampling by shadow linking.
+    fn meets(&self, from: Receiver, index: usize) -> bool {
+        match self.links.get(index) {
+            None => true,
+            Some(l) => from.lit_by >> l.receiver_set & 1 == 1 && l.blocker_set == 0,
+        }
+    }
+
+    /// Whether a ray leaving `from` counts the emission of the surface it hit (`hit`), as
+    /// `meets` for lamps.
+    pub fn emission_counts(&self, scene: &Scene, from: Receiver, hit: &Hit) -> bool {
+        if self.links.is_empty() {
+            return true;
+        }
+        let l = hit_links(scene, hit);
+        from.lit_by >> l.receiver_set & 1 == 1 && l.blocker_set == 0
+    }
+
+    /// Whether a photon of source `index` leaving along `ray` may go on: false when light
+    /// linking keeps that light from the object the photon meets first, where its light
+    /// neither lands nor scatters (without media, which the photon could scatter in first).
+    pub fn photon_lands(&self, scene: &Scene, accel: &Accel, index: usize, ray: &Ray) -> bool {
+        let Some(l) = self.links.get(index) else {
+            return true;
+        };
+        if l.receiver_set == 0 || scene.has_media() {
+            return true;
+        }
+        accel
+            .intersect(scene, ray, Visibility::Secondary)
+            .is_none_or(|hit| hit_links(scene, &hit).lit_by >> l.receiver_set & 1 == 1)
+    }
+
+    /// Whether a ray can meet a lamp (`lamps_met`).
+    pub fn has_lamps(&self) -> bool {
+        !self.lamps.is_empty()
+    }
+
+    /// Whether the scene links any light or object (`Scene::light_links`, `Mesh::links`).
+    pub fn linked(&self) -> bool {
+        !self.links.is_empty()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -316,8 +386,16 @@ impl Lights {
             (Some(local), _, true) => local.sample(from, u_select, &self.select)?,
             _ => self.select.sample_remapped(u_select)?,
         };
+        let links = self.links.get(index);
+        if links.is_some_and(|l| from.lit_by >> l.receiver_set & 1 == 0) {
+            return None;
+        }
         let mut s = self.sample_source(scene, index, (p, path), time, u_pick, u)?;
         s.pdf *= pmf;
+        if let Some(l) = links.filter(|l| l.blocker_set != 0) {
+            s.delta = true;
+            s.blockers = l.blocker_set;
+        }
         (s.pdf > 0.0 && s.pdf.is_finite()).then_some(s)
     }
 
@@ -417,6 +495,7 @@ impl Lights {
                     pdf: dist2 / (cos_l * area),
                     delta: false,
                     target: emitter.point,
+                    blockers: 0,
                 })
             }
             LightSource::Point { .. } | LightSource::Spot { .. } => {
@@ -434,6 +513,7 @@ impl Lights {
                         pdf: 1.0,
                         delta: true,
                         target: self.far_point(p, to_sun),
+                        blockers: 0,
                     });
                 }
                 let wi = Frame::from_normal(to_sun).to_world(square_to_uniform_cone(u, cos_max));
@@ -443,6 +523,7 @@ impl Lights {
                     pdf: uniform_cone_pdf(cos_max),
                     delta: false,
                     target: self.far_point(p, wi),
+                    blockers: 0,
                 })
             }
             LightSource::World { .. } => {
@@ -453,6 +534,7 @@ impl Lights {
                     pdf,
                     delta: false,
                     target: self.far_point(p, wi),
+                    blockers: 0,
                 })
             }
         }
@@ -537,7 +619,9 @@ impl Lights {
     ) {
         self.lamps
             .met(&self.sources, ray, reach, camera, |i, radiance, pdf, t| {
-                visit(radiance, self.pick_pmf(from, i as usize) * pdf, t)
+                if self.meets(from, i as usize) {
+                    visit(radiance, self.pick_pmf(from, i as usize) * pdf, t)
+                }
             });
     }
 
@@ -556,7 +640,7 @@ impl Lights {
                 cos_max,
             } = self.sources[s as usize]
             {
-                if cos_max < 1.0 && dir.dot(to_sun) >= cos_max {
+                if cos_max < 1.0 && dir.dot(to_sun) >= cos_max && self.meets(from, s as usize) {
                     visit(
                         sun_disk_radiance(irradiance, cos_max),
                         self.pick_pmf(from, s as usize) * uniform_cone_pdf(cos_max),

@@ -11,7 +11,8 @@
 //!   that rays meet (`Lights::lamps_met`);
 //! - `environment`: the environment map as a light, importance-sampled (pbrt-v4 §12.5.2);
 //! - `emission`: the radiance surfaces emit, Cycles' area-light spread, and the points drawn on
-//!   emitters.
+//!   emitters;
+//! - `linking`: Blender's light and shadow linking of the object a ray hit.
 //!
 //! Units follow Cycles (docs/ARCHITECTURE.md): triangle and world radiance as given, point and spot
 //! intensity in W/sr, sun irradiance in W/m².
@@ -20,6 +21,7 @@ mod emission;
 mod environment;
 mod lamps;
 mod lights;
+mod linking;
 mod selection;
 mod source;
 
@@ -29,4 +31,5 @@ pub use emission::{
 pub use environment::EnvironmentLight;
 pub use lamps::lamp_of;
 pub use lights::Lights;
+pub use linking::hit_links;
 pub use source::{LightSample, LightSource, Receiver};

@@ -230,6 +230,7 @@ mod tests {
         let above = |p: Vec3, n: Vec3| Receiver {
             p,
             horizon: Some(n),
+            lit_by: u64::MAX,
         };
         for from in [
             Receiver::at(Vec3::new(0.0, 3.0, 0.2)),

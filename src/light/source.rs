@@ -72,6 +72,9 @@ pub struct LightSample {
     pub delta: bool,
     /// Where the shadow ray must reach.
     pub target: LightPoint,
+    /// The light's blocker set (Blender's shadow linking): only objects in it cast its
+    /// shadows; 0: every object.
+    pub blockers: u8,
 }
 
 /// Where a light sample is drawn from: the point and, on an opaque surface, its geometric
@@ -81,11 +84,18 @@ pub struct LightSample {
 pub struct Receiver {
     pub p: Vec3,
     pub horizon: Option<Vec3>,
+    /// The receiver sets of the object the point lies on (`LightLinks::lit_by`): lights
+    /// linked to other sets do not light it.
+    pub lit_by: u64,
 }
 
 impl Receiver {
-    /// A point that may be lit from every direction.
+    /// A point that may be lit from every direction, by every light.
     pub fn at(p: Vec3) -> Receiver {
-        Receiver { p, horizon: None }
+        Receiver {
+            p,
+            horizon: None,
+            lit_by: u64::MAX,
+        }
     }
 }

@@ -73,6 +73,10 @@ pub struct Mesh {
     /// The voxel grids of a Volume object (its medium's named attributes, read in
     /// `object_space`'s coordinates); `None` for other meshes.
     pub volume_grids: Option<std::sync::Arc<grids::VolumeGrids>>,
+    /// Blender's light and shadow linking of the mesh's object (`LightLinks`).
+    pub links: LightLinks,
+    /// Blender's shadow catcher (`crate::shadow_catcher`).
+    pub shadow_catcher: bool,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
@@ -125,6 +129,10 @@ pub struct Instance {
     pub casts_shadows: bool,
     /// The placing object is a holdout (`Mesh::holdout`).
     pub holdout: bool,
+    /// Blender's light and shadow linking of the placing object (`LightLinks`).
+    pub links: LightLinks,
+    /// The placing object is a shadow catcher (`Mesh::shadow_catcher`).
+    pub shadow_catcher: bool,
 }
 
 impl Instance {
@@ -141,6 +149,8 @@ impl Instance {
             camera_visible: true,
             casts_shadows: true,
             holdout: false,
+            links: LightLinks::NONE,
+            shadow_catcher: false,
         }
     }
 
@@ -752,6 +762,11 @@ pub struct SceneRenderSettings {
     /// Blender's Light Paths › Max Bounces › Volume: scatterings in media a path may continue
     /// from (0, Blender's default: single scattering, each lit by light samples alone).
     pub volume_bounces: u32,
+    /// Blender's Light Paths › Clamping › Direct and Indirect (Cycles' sample clamps): the
+    /// largest contribution one path sample may add, per colour channel on average; 0: no limit
+    /// (`integrator::walk::Clamp`).
+    pub clamp_direct: f32,
+    pub clamp_indirect: f32,
 }
 
 /// Everything there is to render.
@@ -776,6 +791,49 @@ pub struct Scene {
     /// pre-flight report already showed each in Blender): `photon info` lists them with the
     /// warnings; a render does not repeat them.
     pub export_notes: Vec<String>,
+    /// Light linking of `lights` as emitters, index for index (missing: none).
+    pub light_links: Vec<LightLinks>,
+}
+
+/// Blender's light and shadow linking (Object › Shading › Light Linking), as Cycles' light
+/// sets: an emitter with a receiver collection lights only the objects of its receiver set,
+/// one with a blocker collection is shadowed only by the objects of its blocker set. Sets are
+/// numbered 1 to 63; set 0 holds every object, for emitters without a collection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightLinks {
+    /// Bit k: the object is in receiver set k (lit by the emitters of that set).
+    pub lit_by: u64,
+    /// Bit k: the object is in blocker set k (casts the shadows of that set's emitters).
+    pub blocks: u64,
+    /// As an emitter: its receiver set and its blocker set (0: none, everything).
+    pub receiver_set: u8,
+    pub blocker_set: u8,
+}
+
+impl LightLinks {
+    /// No linking: in every set, an emitter of none.
+    pub const NONE: LightLinks = LightLinks {
+        lit_by: u64::MAX,
+        blocks: u64::MAX,
+        receiver_set: 0,
+        blocker_set: 0,
+    };
+
+    /// Whether an object of these links is lit by `emitter`.
+    pub fn lit_by(&self, emitter: &LightLinks) -> bool {
+        self.lit_by >> emitter.receiver_set & 1 == 1
+    }
+
+    /// Whether an object of these links blocks light from `emitter`.
+    pub fn blocks(&self, emitter: &LightLinks) -> bool {
+        self.blocks >> emitter.blocker_set & 1 == 1
+    }
+}
+
+impl Default for LightLinks {
+    fn default() -> Self {
+        LightLinks::NONE
+    }
 }
 
 impl Mesh {

@@ -21,6 +21,7 @@ mod gltf_loader;
 mod instancing;
 mod irradiance_cache;
 mod light_passes;
+mod light_paths;
 mod lights_lamps;
 mod media;
 mod nodes;

@@ -49,6 +49,15 @@
 //! the camera path's segments through media, single scattering is Volume Direct and the volume
 //! map's estimate Volume Indirect (both Indirect once a glossy vertex came before);
 //! what media scatter along x's gather rays is part of x's Indirect light.
+//!
+//! **Clamping** (Blender's Clamp Direct and Indirect, `walk::Clamp`): the camera path's own
+//! contributions are clamped as the path tracer's are. At x, each contribution a Cycles path
+//! would add is clamped with the camera path's throughput: the light sample, and each
+//! final-gather ray's emission (Direct when x is the first hit) and its estimate (Indirect) as
+//! one sample of x's next bounce; the caustic, global and cached estimates, each one Indirect
+//! contribution. An estimate averages many light paths, so the photon method keeps light that
+//! Cycles' clamp removes from its rare bright samples (caustics of small lights seen through
+//! diffuse bounces).
 
 use super::build::PhotonMaps;
 use super::estimate::{nearest_irradiance, radiance_estimate, Walls};
@@ -59,11 +68,11 @@ use crate::integrator::direct::{sample_direct, Previous};
 use crate::integrator::media::MediumStack;
 use crate::integrator::shading::{transmittance, without_diffuse, CachedDiffuse, Shading};
 use crate::integrator::walk::{
-    follow_specular, light_scattered_along, walk, Chain, Next, PathState, Scatter,
+    follow_specular, light_scattered_along, walk, Chain, Clamp, Next, PathState, Scatter,
 };
 use crate::integrator::{CameraSample, Context};
 use crate::irradiance_cache::{Incoming, IrradianceCache};
-use crate::light::emitted_radiance;
+use crate::light::{emitted_radiance, hit_links};
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec2, Vec3};
 use crate::medium::{fly, transmittance as medium_transmittance, Flight, Media, WithoutScattering};
@@ -132,6 +141,11 @@ struct Gather<'a> {
     rays: u32,
     /// Bounces on the camera path before the point being shaded.
     depth: u32,
+    /// The camera path's clamping and its throughput to the point being shaded, and whether
+    /// light sampled there is held to the Direct limit (`walk::Clamp`).
+    clamp: Clamp,
+    beta: Vec3,
+    direct_clamp: bool,
 }
 
 impl<'a> Gather<'a> {
@@ -143,7 +157,16 @@ impl<'a> Gather<'a> {
             buf: Neighbors::default(),
             rays: 0,
             depth: 0,
+            clamp: Clamp::NONE,
+            beta: Vec3::ONE,
+            direct_clamp: false,
         }
+    }
+
+    /// `l`, light reaching the shaded point, clamped as the contribution it adds to the camera
+    /// path (`direct`: one sampled at the shaded point, else an indirect one).
+    fn clamped(&self, l: Vec3, direct: bool) -> Vec3 {
+        self.clamp.behind(self.beta, l, direct && self.direct_clamp)
     }
 
     fn intersect(&mut self, ray: &Ray) -> Option<Hit> {
@@ -443,6 +466,7 @@ impl<'a> Gather<'a> {
             horizon: s.horizon(),
             pdf: bs.pdf,
             delta: bs.delta,
+            lit_by: hit_links(scene, &s.sh.hit).lit_by,
         };
         let mut media = s.media;
         if bs.transmitted {
@@ -594,13 +618,15 @@ impl<'a> Gather<'a> {
     fn direct_without_gather(&mut self, s: &Shading, rng: &mut Rng) -> Vec3 {
         let hittable = self.ctx.lights.hittable();
         if !hittable && !self.ctx.scene.media_emit() {
-            return self.direct(s, false, rng);
+            let l = self.direct(s, false, rng);
+            return self.clamped(l, true);
         }
-        let mut l = self.direct(s, hittable, rng);
+        let l = self.direct(s, hittable, rng);
+        let mut l = self.clamped(l, true);
         if let Some((bs, wi)) = s.sample(rng.uniform(), rng.uniform2()) {
             if !bs.delta {
                 let (emission, _) = self.gather_ray(s, &bs, wi, false, 1, rng);
-                l += bs.weight * emission;
+                l += self.clamped(bs.weight * emission, true);
             }
         }
         l
@@ -616,8 +642,9 @@ impl<'a> Gather<'a> {
         let cached: Option<CachedDiffuse> = self.cache.and_then(|c| s.cached_diffuse(c));
         if let Some(d) = cached.filter(|d| d.lambertian) {
             passes.add(LightPass::Direct, self.direct_without_gather(s, rng));
-            passes.add(LightPass::Caustic, self.caustic(s, 1));
-            passes.add(LightPass::Indirect, d.radiance);
+            let caustic = self.caustic(s, 1);
+            passes.add(LightPass::Caustic, self.clamped(caustic, false));
+            passes.add(LightPass::Indirect, self.clamped(d.radiance, false));
             return passes;
         }
         // Where the cache serves the diffuse lobe, the gather rays carry only the rest of the
@@ -627,10 +654,13 @@ impl<'a> Gather<'a> {
             Some(_) => self.maps.settings.gather_rays.min(1),
             None => self.maps.settings.gather_rays,
         };
-        passes.add(LightPass::Direct, self.direct(s, m > 0, rng));
-        passes.add(LightPass::Caustic, self.caustic(s, 1));
+        let direct = self.direct(s, m > 0, rng);
+        passes.add(LightPass::Direct, self.clamped(direct, true));
+        let caustic = self.caustic(s, 1);
+        passes.add(LightPass::Caustic, self.clamped(caustic, false));
         if m == 0 {
-            passes.add(LightPass::Indirect, self.global(s, 1));
+            let global = self.global(s, 1);
+            passes.add(LightPass::Indirect, self.clamped(global, false));
             return passes;
         }
         let n = (m as f32).sqrt() as u32;
@@ -648,21 +678,23 @@ impl<'a> Gather<'a> {
                 continue;
             };
             let (emission, estimate) = self.gather_ray(s, &bs, wi, true, 1, rng);
+            let emission = self.clamped(bs.weight * emission, true);
             if bs.delta {
-                sum.add(LightPass::Emission, bs.weight * emission);
-                sum.add(LightPass::Indirect, bs.weight * estimate);
+                sum.add(LightPass::Emission, emission);
+                sum.add(
+                    LightPass::Indirect,
+                    self.clamped(bs.weight * estimate, false),
+                );
             } else {
                 let w = cached.map_or(bs.weight, |d| d.non_diffuse_weight(&bs));
-                sum.add(LightPass::Direct, bs.weight * emission);
-                sum.add(LightPass::Indirect, w * estimate);
+                sum.add(LightPass::Direct, emission);
+                sum.add(LightPass::Indirect, self.clamped(w * estimate, false));
             }
         }
         sum.scale(1.0 / m as f32);
         passes += sum;
-        passes.add(
-            LightPass::Indirect,
-            cached.map_or(Vec3::ZERO, |d| d.radiance),
-        );
+        let cached = cached.map_or(Vec3::ZERO, |d| self.clamped(d.radiance, false));
+        passes.add(LightPass::Indirect, cached);
         passes
     }
 
@@ -683,7 +715,7 @@ impl<'a> Gather<'a> {
                     ..*s
                 };
                 let mut passes = self.shade(&rest, rng);
-                passes.add(LightPass::Subsurface, l);
+                passes.add(LightPass::Subsurface, self.clamped(l, false));
                 passes
             }
         }
@@ -760,6 +792,11 @@ impl Scatter for PhotonCamera<'_> {
         let g = &mut self.gather;
         g.depth = path.depth;
         if stores_photons(&s.bsdf) {
+            if path.clamp.is_on() {
+                g.clamp = path.clamp;
+                g.beta = path.beta;
+                g.direct_clamp = path.direct_clamp(1);
+            }
             let mut l = Passes::default();
             match self.view {
                 View::Full => l = g.shade_full(s, rng),

@@ -910,7 +910,14 @@ pub fn trace_photons<T: Send + Clone>(
                     }
                     Sampler::Random => &mut random,
                 };
-                if let Some(mut e) = emitters.emit(ctx, stream.aimed, rng) {
+                // Light linking: a photon is dropped where its light does not light the
+                // object it meets first (emitting media are linked to everything).
+                let lands = |e: &Emitted| {
+                    e.light.is_none_or(|light| {
+                        ctx.lights.photon_lands(ctx.scene, ctx.accel, light, &e.ray)
+                    })
+                };
+                if let Some(mut e) = emitters.emit(ctx, stream.aimed, rng).filter(lands) {
                     e.power *= scale;
                     trace(&e, rng, &mut out);
                 }

@@ -198,6 +198,7 @@ impl Loader {
                 render_settings: SceneRenderSettings::default(),
                 warnings: Vec::new(),
                 export_notes: Vec::new(),
+                light_links: Vec::new(),
             },
             triangle_total: 0,
             vertex_total: 0,

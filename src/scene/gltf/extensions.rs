@@ -11,7 +11,7 @@ use crate::error::Error;
 use crate::film::{FilterKind, FilterSettings};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3};
 use crate::scene::sky::NishitaSettings;
-use crate::scene::{Lamp, Projection, Subsurface, SubsurfaceMethod, ThinLens};
+use crate::scene::{Lamp, LightLinks, Projection, Subsurface, SubsurfaceMethod, ThinLens};
 use serde_json::Value;
 use std::f32::consts::PI;
 
@@ -222,6 +222,9 @@ pub(super) struct ObjectExtension {
     pub(super) deform: Option<Deformation>,
     /// A Volume object's grids: the OpenVDB file and the names of its grids.
     pub(super) volume: Option<VolumeFile>,
+    /// Blender's light and shadow linking ("light_linking").
+    pub(super) links: LightLinks,
+    pub(super) shadow_catcher: bool,
 }
 
 /// `PHOTON_object`'s "volume": the OpenVDB file that holds a Volume object's grids (a path,
@@ -261,6 +264,8 @@ impl Default for ObjectExtension {
             motion: Vec::new(),
             deform: None,
             volume: None,
+            links: LightLinks::NONE,
+            shadow_catcher: false,
         }
     }
 }
@@ -291,6 +296,11 @@ impl ObjectExtension {
                 .unwrap_or_default(),
             deform: fields.get("deform").map(Deformation::read).transpose()?,
             volume: fields.get("volume").map(VolumeFile::read).transpose()?,
+            links: match fields.object("light_linking")? {
+                Some(linking) => read_light_links(linking)?,
+                None => LightLinks::NONE,
+            },
+            shadow_catcher: fields.flag("shadow_catcher", false)?,
         })
     }
 
@@ -669,6 +679,40 @@ fn mapping_rotation(texture: &Fields) -> Read<Mat3> {
         * Mat3::from_rotation_x(rotation.x))
 }
 
+/// `PHOTON_object`'s "light_linking": as an emitter its `receiver_set` and `blocker_set`
+/// (1–63), as an object the sets it is left out of, `not_lit_by` and `not_blocking`.
+fn read_light_links(linking: Fields) -> Read<LightLinks> {
+    let set = |key: &str| match linking.get(key) {
+        None => Ok(0),
+        Some(v) => match v.as_u64().filter(|k| (1..64).contains(k)) {
+            Some(k) => Ok(k as u8),
+            None => Err(linking.fail(format!("'{key}' must be an integer in 1..=63, found {v}"))),
+        },
+    };
+    let mask = |key: &str| match linking.get(key) {
+        None => Ok(u64::MAX),
+        Some(v) => {
+            let sets: Option<Vec<u64>> = v.as_array().and_then(|a| {
+                a.iter()
+                    .map(|k| k.as_u64().filter(|k| (1..64).contains(k)))
+                    .collect()
+            });
+            match sets {
+                Some(sets) => Ok(sets.iter().fold(u64::MAX, |m, &k| m & !(1u64 << k))),
+                None => Err(linking.fail(format!(
+                    "'{key}' must be a list of integers in 1..=63, found {v}"
+                ))),
+            }
+        }
+    };
+    Ok(LightLinks {
+        lit_by: mask("not_lit_by")?,
+        blocks: mask("not_blocking")?,
+        receiver_set: set("receiver_set")?,
+        blocker_set: set("blocker_set")?,
+    })
+}
+
 /// `PHOTON_render` on a scene.
 pub(super) struct RenderExtension {
     pub(super) width: Option<u32>,
@@ -677,6 +721,9 @@ pub(super) struct RenderExtension {
     pub(super) filter: Option<FilterSettings>,
     /// Blender's Volume bounces (0 when absent, as Blender's default).
     pub(super) volume_bounces: u32,
+    /// Blender's Clamp Direct and Clamp Indirect (0, no limit, when absent).
+    pub(super) clamp_direct: f32,
+    pub(super) clamp_indirect: f32,
 }
 
 impl RenderExtension {
@@ -705,6 +752,8 @@ impl RenderExtension {
                     }
                 },
             },
+            clamp_direct: fields.number("clamp_direct", 0.0, non_negative)?,
+            clamp_indirect: fields.number("clamp_indirect", 0.0, non_negative)?,
         })
     }
 }

@@ -6,7 +6,7 @@ use super::container::{named, Loader};
 use super::extensions::{AreaLight, AreaShape, LightExtension, PunctualExtension};
 use crate::error::Result;
 use crate::math::{Mat3, Mat4, Vec3, Vec4};
-use crate::scene::{units, Light, Material, Mesh};
+use crate::scene::{units, Light, LightLinks, Material, Mesh};
 
 /// Segments of the fan that approximates disk and ellipse area lights.
 pub(super) const AREA_LIGHT_SEGMENTS: usize = 32;
@@ -88,6 +88,12 @@ impl Loader {
             }
         };
         self.scene.lights.push(light);
+        let links = self.node_extensions[node.index()].object.links;
+        if links != LightLinks::NONE {
+            let lights = self.scene.lights.len();
+            self.scene.light_links.resize(lights - 1, LightLinks::NONE);
+            self.scene.light_links.push(links);
+        }
         Ok(())
     }
 
@@ -179,6 +185,8 @@ impl Loader {
             object_space: None,
             deformation: Vec::new(),
             volume_grids: None,
+            links: self.node_extensions[node.index()].object.links,
+            shadow_catcher: false,
         });
         Ok(())
     }

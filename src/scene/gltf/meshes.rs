@@ -37,6 +37,8 @@ impl Loader {
             instance.camera_visible = camera_visible;
             instance.casts_shadows = casts_shadows;
             instance.holdout = holdout;
+            instance.links = object.links;
+            instance.shadow_catcher = object.shadow_catcher;
             self.scene.instances.push(instance);
         }
         Ok(())
@@ -231,6 +233,8 @@ impl Loader {
                 object_space,
                 deformation: Vec::new(),
                 volume_grids: None,
+                links: extension.links,
+                shadow_catcher: extension.shadow_catcher,
             };
             if let Some(file) = &extension.volume {
                 out.volume_grids = self.volume_grids(&object, file, material)?;

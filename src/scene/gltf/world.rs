@@ -135,6 +135,8 @@ impl Loader {
                 transparent_film: render.film_transparent,
                 filter: render.filter,
                 volume_bounces: render.volume_bounces,
+                clamp_direct: render.clamp_direct,
+                clamp_indirect: render.clamp_indirect,
             };
         }
         Ok(())

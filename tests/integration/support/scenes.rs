@@ -50,6 +50,8 @@ pub fn mesh(
         object_space: None,
         deformation: Vec::new(),
         volume_grids: None,
+        links: Default::default(),
+        shadow_catcher: false,
     }
 }
 
@@ -162,6 +164,7 @@ pub fn scene(
         render_settings: SceneRenderSettings::default(),
         warnings: Vec::new(),
         export_notes: Vec::new(),
+        light_links: Vec::new(),
     }
 }
 
