@@ -41,6 +41,7 @@ SETTINGS = {
     "ShaderNodeVertexColor": (),
     "ShaderNodeAttribute": ("attribute_name", "attribute_type"),
     "ShaderNodeNewGeometry": (),
+    "ShaderNodeObjectInfo": (),
     "ShaderNodeLightPath": (),
     "ShaderNodeValue": (),
     "ShaderNodeRGB": (),
@@ -131,6 +132,8 @@ READ_OUTPUTS = {
 
 # Settings values the renderer does not evaluate.
 UNSUPPORTED_SETTINGS = {
+    # Object, instancer and view-layer attributes: only the meshes' own (Geometry) are read.
+    ("ShaderNodeAttribute", "attribute_type"): {"OBJECT", "INSTANCER", "VIEW_LAYER"},
     ("ShaderNodeMix", "data_type"): {"ROTATION"},
     ("ShaderNodeMapRange", "data_type"): {"FLOAT_VECTOR"},
     ("ShaderNodeSeparateColor", "mode"): {"HSL"},
@@ -337,6 +340,8 @@ class _Walker:
         if kind == "ShaderNodeMath" and node.operation not in MATH_OPS:
             self.problems.append(f"{self.what}: Math node '{name}' with operation "
                                  f"{node.operation} is not evaluated by Photon")
+        if kind == "ShaderNodeObjectInfo":
+            entry["material_index"] = int(self.material.pass_index)
         if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
             entry["value"] = _value(node.outputs[0])
         if kind == "ShaderNodeValToRGB":

@@ -237,6 +237,9 @@ impl SurfaceHit {
         let instance = scene.instances.get(self.hit.instance as usize);
         let placed = instance.map(|inst| Mat3::from(inst.to_world_at(self.time).matrix3));
         let mut inputs = node_inputs_reading(mesh, tri, b1, b2, self.p, n, view, placed, reads);
+        if let Some(inst) = instance {
+            inputs.object = inst.object_info;
+        }
         if !offsets {
             return inputs;
         }
@@ -439,7 +442,11 @@ fn node_inputs_reading(
         path: view.path,
         ray_length: view.ray_length,
         object_to_world_normal,
-        attributes: Default::default(),
+        attributes: mesh
+            .node_attributes
+            .at(mesh.indices[triangle as usize], b1, b2),
+        // An instance's own is set by `SurfaceHit::node_inputs`.
+        object: mesh.object_info,
     }
 }
 

@@ -7,6 +7,7 @@
 //! Units are Cycles' units (docs/ARCHITECTURE.md): radiance in W·m⁻²·sr⁻¹, point/spot intensity in W/sr,
 //! sun irradiance in W/m². Conversions from glTF's photometric units live in `scene::units`.
 
+pub mod attributes;
 pub mod builtin;
 pub mod gltf;
 pub mod grids;
@@ -73,6 +74,11 @@ pub struct Mesh {
     /// The voxel grids of a Volume object (its medium's named attributes, read in
     /// `object_space`'s coordinates); `None` for other meshes.
     pub volume_grids: Option<std::sync::Arc<grids::VolumeGrids>>,
+    /// What node trees' Object Info reads of the mesh's object (a prototype's instances carry
+    /// their own: `Instance::object_info`).
+    pub object_info: crate::shader::ObjectInfo,
+    /// The named attributes its material's node tree reads, per vertex.
+    pub node_attributes: attributes::NodeAttributes,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
@@ -125,6 +131,8 @@ pub struct Instance {
     pub casts_shadows: bool,
     /// The placing object is a holdout (`Mesh::holdout`).
     pub holdout: bool,
+    /// What node trees' Object Info reads of this instance.
+    pub object_info: crate::shader::ObjectInfo,
 }
 
 impl Instance {
@@ -141,6 +149,7 @@ impl Instance {
             camera_visible: true,
             casts_shadows: true,
             holdout: false,
+            object_info: Default::default(),
         }
     }
 

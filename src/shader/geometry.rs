@@ -1,5 +1,5 @@
-//! The input nodes: Texture Coordinate, UV Map, Color Attribute, Attribute, Geometry and Light
-//! Path (read off `ShadingInputs` and its `RayPath`).
+//! The input nodes: Texture Coordinate, UV Map, Color Attribute, Attribute, Geometry, Object
+//! Info and Light Path (read off `ShadingInputs`, its `ObjectInfo` and its `RayPath`).
 
 use super::color::gray;
 use super::inputs::{splat, v3, PointInputs, RayPath, ShadingInputs, Socket, Ty};
@@ -29,6 +29,16 @@ pub(super) const ATTRIBUTE_OUTPUTS: &[Socket] = &[
     Socket::output("Vector", Ty::Vector),
     Socket::output("Fac", Ty::Float),
     Socket::output("Alpha", Ty::Float),
+];
+
+/// The Object Info node's outputs.
+pub(super) const OBJECT_INFO_OUTPUTS: &[Socket] = &[
+    Socket::output("Location", Ty::Vector),
+    Socket::output("Color", Ty::Color),
+    Socket::output("Alpha", Ty::Float),
+    Socket::output("Object Index", Ty::Float),
+    Socket::output("Material Index", Ty::Float),
+    Socket::output("Random", Ty::Float),
 ];
 
 /// The Geometry node's outputs.
@@ -113,16 +123,32 @@ pub(super) fn vertex_color(at: &PointInputs) -> [Vec4; 2] {
 }
 
 /// Attribute: Color, Vector, Fac, Alpha of its `named` attribute where the object has it (a
-/// grid's value; Fac the colour's average as Cycles gives it), else of COLOR_0.
+/// grid's or a mesh attribute's value; Fac the colour's average as Cycles gives it, Alpha a
+/// colour's alpha, else 1), else of COLOR_0.
 #[inline(always)]
 pub(super) fn attribute(at: &PointInputs, named: Option<Vec4>) -> [Vec4; 4] {
     if let Some(v) = named {
         let rgb = v.truncate().extend(1.0);
         let fac = (v.x + v.y + v.z) / 3.0;
-        return [rgb, rgb, splat(fac), splat(1.0)];
+        return [rgb, rgb, splat(fac), splat(v.w)];
     }
     let rgb = at.color.truncate().extend(1.0);
     [rgb, rgb, splat(gray(at.color)), splat(at.color.w)]
+}
+
+/// Object Info: the object's location, colour, alpha, pass index and random number
+/// (`ShadingInputs::object`), and the material's pass index (`material_index`).
+#[inline(always)]
+pub(super) fn object_info(inputs: &ShadingInputs, material_index: f32) -> [Vec4; 6] {
+    let object = &inputs.object;
+    [
+        v3(object.location),
+        object.color.truncate().extend(1.0),
+        splat(object.color.w),
+        splat(object.pass_index),
+        splat(material_index),
+        splat(object.random),
+    ]
 }
 
 /// Geometry: Position, Normal, True Normal, Incoming, Backfacing.

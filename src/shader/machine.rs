@@ -223,6 +223,9 @@ pub(super) fn run(
         Op::VertexColor => m.put(o, geometry::vertex_color(at)),
         Op::Attribute { slot } => m.put(o, geometry::attribute(at, inputs.attributes.get(*slot))),
         Op::Geometry => m.put(o, geometry::geometry(inputs, at)),
+        Op::ObjectInfo { material_index } => {
+            m.put(o, geometry::object_info(inputs, *material_index))
+        }
         Op::LightPath => m.put_used(o, used, geometry::light_path(inputs)),
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,

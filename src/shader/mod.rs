@@ -95,7 +95,8 @@ mod white_noise;
 pub use closure::{default_tangent, principled_aspect, Closure, VolumeClosure};
 pub use compile::compile;
 pub use inputs::{
-    NamedAttributes, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES, UV_SETS,
+    NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES,
+    UV_SETS,
 };
 pub use program::{
     CompileWarnings, NodeProgram, MAX_CLOSURES, MAX_REGISTERS, READS_ALL, READS_COLOR,

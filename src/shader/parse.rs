@@ -99,6 +99,9 @@ pub(super) fn parse_op(
             },
         },
         "NewGeometry" => Op::Geometry,
+        "ObjectInfo" => Op::ObjectInfo {
+            material_index: node.get("material_index").and_then(number).unwrap_or(0.0),
+        },
         "LightPath" => Op::LightPath,
         "Value" => Op::Value(
             node.get("value")

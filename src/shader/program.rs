@@ -54,6 +54,10 @@ pub(super) enum Op {
         slot: u8,
     },
     Geometry,
+    /// Object Info, with the material's pass index (its Material Index output).
+    ObjectInfo {
+        material_index: f32,
+    },
     /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
     LightPath,
     Value(f32),
@@ -302,6 +306,7 @@ impl NodeProgram {
                         | Op::VertexColor
                         | Op::Attribute { .. }
                         | Op::Geometry
+                        | Op::ObjectInfo { .. }
                         | Op::LightPath
                         | Op::Bump { .. }
                         | Op::NormalMap(_)

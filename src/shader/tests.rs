@@ -5,7 +5,7 @@ use super::noise::{noise_texture, Fractal};
 use super::program::Op;
 use super::voronoi::{voronoi, Metric, VoronoiFeature, VoronoiKind, VoronoiParams};
 use super::*;
-use crate::math::{Vec2, Vec3};
+use crate::math::{Vec2, Vec3, Vec4};
 use serde_json::{json, Value};
 
 fn at_generated(p: Vec3) -> ShadingInputs {
@@ -457,4 +457,31 @@ fn a_bumps_noise_copies_fuse_into_one_instruction() {
         "{}",
         c.normal
     );
+}
+
+#[test]
+fn object_info_reads_the_object_and_the_material_index() {
+    let output = |name: &str| {
+        let tree = json!({"nodes": [
+            {"name": "O", "type": "ShaderNodeObjectInfo", "material_index": 4},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": name}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let at = ShadingInputs {
+            object: ObjectInfo {
+                location: Vec3::new(1.0, -2.0, 3.0),
+                color: Vec4::new(0.5, 0.25, 0.125, 0.75),
+                pass_index: 6.0,
+                random: ObjectInfo::random_of(u32::MAX / 4),
+            },
+            ..ShadingInputs::default()
+        };
+        emission_of(tree, &at)
+    };
+    assert_eq!(output("Location"), Vec3::new(1.0, -2.0, 3.0));
+    assert_eq!(output("Color"), Vec3::new(0.5, 0.25, 0.125));
+    assert_eq!(output("Alpha"), Vec3::splat(0.75));
+    assert_eq!(output("Object Index"), Vec3::splat(6.0));
+    assert_eq!(output("Material Index"), Vec3::splat(4.0));
+    assert!((output("Random").x - 0.25).abs() < 1e-6);
 }

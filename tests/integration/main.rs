@@ -23,6 +23,7 @@ mod light_passes;
 mod lights_lamps;
 mod media;
 mod nodes;
+mod object_attributes;
 mod photon_map;
 mod photon_render;
 mod plan;

@@ -222,6 +222,8 @@ pub(super) struct ObjectExtension {
     pub(super) deform: Option<Deformation>,
     /// A Volume object's grids: the OpenVDB file and the names of its grids.
     pub(super) volume: Option<VolumeFile>,
+    /// What the Object Info node reads of the object (`object_info`).
+    pub(super) info: crate::shader::ObjectInfo,
 }
 
 /// `PHOTON_object`'s "volume": the OpenVDB file that holds a Volume object's grids (a path,
@@ -261,6 +263,7 @@ impl Default for ObjectExtension {
             motion: Vec::new(),
             deform: None,
             volume: None,
+            info: Default::default(),
         }
     }
 }
@@ -291,6 +294,11 @@ impl ObjectExtension {
                 .unwrap_or_default(),
             deform: fields.get("deform").map(Deformation::read).transpose()?,
             volume: fields.get("volume").map(VolumeFile::read).transpose()?,
+            info: fields
+                .get("info")
+                .map(super::object_info::read)
+                .transpose()?
+                .unwrap_or_default(),
         })
     }
 

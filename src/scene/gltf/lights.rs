@@ -179,6 +179,8 @@ impl Loader {
             object_space: None,
             deformation: Vec::new(),
             volume_grids: None,
+            object_info: Default::default(),
+            node_attributes: Default::default(),
         });
         Ok(())
     }

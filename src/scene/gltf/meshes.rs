@@ -37,6 +37,7 @@ impl Loader {
             instance.camera_visible = camera_visible;
             instance.casts_shadows = casts_shadows;
             instance.holdout = holdout;
+            instance.object_info = object.info;
             self.scene.instances.push(instance);
         }
         Ok(())
@@ -212,6 +213,13 @@ impl Loader {
                 object_space,
                 deformation: Vec::new(),
                 volume_grids: None,
+                object_info: extension.info,
+                node_attributes: self.node_attributes(
+                    &primitive,
+                    material,
+                    &object,
+                    vertex_count,
+                )?,
             };
             if let Some(file) = &extension.volume {
                 out.volume_grids = self.volume_grids(&object, file, material)?;
@@ -367,6 +375,7 @@ pub(super) fn make_flat(mesh: &mut Mesh) {
         .collect();
     mesh.tangents = spread(&mesh.tangents, &corners);
     mesh.colors = spread(&mesh.colors, &corners);
+    mesh.node_attributes.spread(&corners);
     mesh.indices = (0..mesh.indices.len() as u32)
         .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
         .collect();

@@ -22,6 +22,7 @@
 //! - `camera`: cameras, and the camera that frames a scene without one.
 
 mod accessors;
+mod attributes;
 mod build;
 mod camera;
 mod container;
@@ -33,6 +34,7 @@ mod lights;
 mod materials;
 mod meshes;
 mod motion;
+mod object_info;
 mod textures;
 mod volumes;
 mod world;

@@ -50,6 +50,7 @@ pub fn mesh(
         object_space: None,
         deformation: Vec::new(),
         volume_grids: None,
+        ..Mesh::default()
     }
 }
 
