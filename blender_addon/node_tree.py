@@ -65,6 +65,7 @@ SETTINGS = {
     "ShaderNodeTexWave": ("wave_type", "bands_direction", "rings_direction", "wave_profile"),
     "ShaderNodeTexWhiteNoise": ("noise_dimensions",),
     "ShaderNodeTexMagic": ("turbulence_depth",),
+    "ShaderNodeTexGabor": ("gabor_type",),
     "ShaderNodeTexBrick": ("offset", "offset_frequency", "squash", "squash_frequency"),
     "ShaderNodeBlackbody": (),
     "ShaderNodeHueSaturation": (),

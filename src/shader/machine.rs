@@ -9,8 +9,8 @@ use super::inputs::{input, splat, v3, Operands, PointInputs, ShadingInputs};
 use super::noise::NOISE_INPUTS;
 use super::program::{Instr, NodeProgram, Op, Src, MAX_CLOSURES, MAX_REGISTERS};
 use super::{
-    blackbody, brick, bump, checker, closure, color, convert, fresnel, geometry, gradient, image,
-    magic,
+    blackbody, brick, bump, checker, closure, color, convert, fresnel, gabor, geometry, gradient,
+    image, magic,
 };
 use super::{math, noise, vector, volume, voronoi, wave, white_noise};
 use crate::math::{Vec3, Vec4};
@@ -288,6 +288,7 @@ pub(super) fn run(
         Op::Wave(kind) => m.put(o, wave::eval_wave(*kind, ins)),
         Op::WhiteNoise { dimensions } => m.put(o, white_noise::eval_white_noise(*dimensions, ins)),
         Op::Magic { depth } => m.put(o, magic::eval_magic(*depth, ins)),
+        Op::Gabor { three_d } => m.put(o, gabor::eval_gabor(*three_d, ins)),
         Op::Brick(layout) => m.put(o, brick::eval_brick(layout, ins)),
         Op::Blackbody => m.regs[o] = blackbody::eval_blackbody(ins),
         Op::HueSaturation => m.regs[o] = color::eval_hue_saturation(ins),

@@ -218,6 +218,13 @@ pub(super) fn parse_op(
             }
         }
         "TexChecker" => Op::Checker,
+        "TexGabor" => Op::Gabor {
+            three_d: match setting(node, "gabor_type").unwrap_or("2D") {
+                "2D" => false,
+                "3D" => true,
+                _ => return Err(bad("gabor_type")),
+            },
+        },
         "TexGradient" => Op::Gradient(match setting(node, "gradient_type").unwrap_or("LINEAR") {
             "LINEAR" => GradientKind::Linear,
             "QUADRATIC" => GradientKind::Quadratic,

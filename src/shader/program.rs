@@ -124,6 +124,10 @@ pub(super) enum Op {
         uv_set: u8,
     },
     Voronoi(VoronoiKind),
+    /// Gabor: 2D, or 3D when `three_d`.
+    Gabor {
+        three_d: bool,
+    },
     Wave(WaveKind),
     /// White Noise: 1 to 4 dimensions.
     WhiteNoise {

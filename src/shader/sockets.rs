@@ -5,7 +5,7 @@
 use super::color::MixData;
 use super::inputs::Socket;
 use super::program::Op;
-use super::{blackbody, brick, bump, checker, closure, color, convert, fresnel, geometry};
+use super::{blackbody, brick, bump, checker, closure, color, convert, fresnel, gabor, geometry};
 use super::{gradient, image, magic, math, noise, vector, volume, voronoi, wave, white_noise};
 
 /// A node's input sockets (identifier, type, Blender's default) and output sockets
@@ -62,6 +62,7 @@ pub(super) fn spec(op: &Op) -> Spec {
             white_noise::WHITE_NOISE_OUTPUTS,
         ),
         Op::Magic { .. } => (magic::MAGIC_INPUTS, magic::MAGIC_OUTPUTS),
+        Op::Gabor { .. } => (gabor::GABOR_INPUTS, gabor::GABOR_OUTPUTS),
         Op::Brick(_) => (brick::BRICK_INPUTS, brick::BRICK_OUTPUTS),
         Op::Blackbody => (blackbody::BLACKBODY_INPUTS, blackbody::BLACKBODY_OUTPUTS),
         Op::Fresnel => (fresnel::FRESNEL_INPUTS, fresnel::FRESNEL_OUTPUTS),
