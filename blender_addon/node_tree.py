@@ -81,6 +81,7 @@ SETTINGS = {
     "ShaderNodeBsdfDiffuse": (),
     "ShaderNodeBsdfGlossy": ("distribution",),
     "ShaderNodeBsdfAnisotropic": ("distribution",),
+    "ShaderNodeBsdfMetallic": ("distribution", "fresnel_type"),
     "ShaderNodeBsdfSheen": ("distribution",),
     "ShaderNodeBsdfGlass": ("distribution",),
     "ShaderNodeBsdfRefraction": ("distribution",),
@@ -111,6 +112,8 @@ READ_INPUTS = {
     "ShaderNodeBsdfAnisotropic": {"Color", "Roughness", "Normal", "Anisotropy", "Rotation",
                                   "Tangent"},
     "ShaderNodeBsdfSheen": {"Color", "Roughness", "Normal"},
+    "ShaderNodeBsdfMetallic": {"Base Color", "Edge Tint", "IOR", "Extinction", "Roughness",
+                               "Anisotropy", "Rotation", "Normal", "Tangent"},
     "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
@@ -152,6 +155,7 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeBsdfGlass", "distribution"): {"BECKMANN"},
     ("ShaderNodeBsdfGlossy", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
     ("ShaderNodeBsdfAnisotropic", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
+    ("ShaderNodeBsdfMetallic", "distribution"): {"BECKMANN"},
 }
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold

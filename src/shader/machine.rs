@@ -309,6 +309,10 @@ pub(super) fn run(
         Op::Glossy { multiscatter } => {
             m.closures[o] = closure::eval_glossy(*multiscatter, inputs, at, ins)
         }
+        Op::Metallic {
+            physical,
+            multiscatter,
+        } => m.closures[o] = closure::eval_metallic(*physical, *multiscatter, inputs, at, ins),
         Op::Sheen => m.closures[o] = closure::eval_sheen(ins),
         Op::Glass { multiscatter } => {
             m.closures[o] = closure::eval_glass(false, *multiscatter, ins)

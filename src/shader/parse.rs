@@ -413,6 +413,19 @@ pub(super) fn parse_op(
                 _ => return Ok(None),
             }
         }
+        "BsdfMetallic" => Op::Metallic {
+            physical: match setting(node, "fresnel_type").unwrap_or("F82") {
+                "F82" => false,
+                "PHYSICAL_CONDUCTOR" => true,
+                _ => return Err(bad("fresnel_type")),
+            },
+            multiscatter: match setting(node, "distribution").unwrap_or("MULTI_GGX") {
+                "MULTI_GGX" => true,
+                "GGX" => false,
+                // Beckmann microfacets are not rendered.
+                _ => return Ok(None),
+            },
+        },
         "BsdfSheen" => match setting(node, "distribution").unwrap_or("MICROFIBER") {
             "MICROFIBER" => Op::Sheen,
             _ => return Ok(None),

@@ -4,7 +4,7 @@
 
 use super::brick::BrickLayout;
 use super::bump::NormalMapSpace;
-use super::closure::{GLOSSY_INPUTS, PRINCIPLED_INPUTS};
+use super::closure::{GLOSSY_INPUTS, METALLIC_INPUTS, PRINCIPLED_INPUTS};
 use super::color::{Blend, MixData};
 use super::gradient::GradientKind;
 use super::inputs::input;
@@ -162,6 +162,12 @@ pub(super) enum Op {
     Glossy {
         multiscatter: bool,
     },
+    /// Metallic BSDF: F82 tint, or a physical conductor (`physical`); `multiscatter` as the
+    /// Principled's.
+    Metallic {
+        physical: bool,
+        multiscatter: bool,
+    },
     Sheen,
     /// Glass BSDF; `multiscatter` as the Principled's (its lobe divided by its albedo).
     Glass {
@@ -254,6 +260,10 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
             },
             Op::Glossy { .. } => match instr.ins.get(input(GLOSSY_INPUTS, "Anisotropy")) {
                 Some(Src::Const(a)) if !(a.x.clamp(-0.99, 0.99).abs() > 1e-4) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
+            Op::Metallic { .. } => match instr.ins.get(input(METALLIC_INPUTS, "Anisotropy")) {
+                Some(Src::Const(a)) if !(a.x.clamp(0.0, 1.0) > 0.0) => 0,
                 _ => READS_COORDS | READS_OBJECT_NORMAL,
             },
             _ => 0,

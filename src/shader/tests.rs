@@ -485,3 +485,27 @@ fn object_info_reads_the_object_and_the_material_index() {
     assert_eq!(output("Material Index"), Vec3::splat(4.0));
     assert!((output("Random").x - 0.25).abs() < 1e-6);
 }
+
+#[test]
+fn metallic_conductor_meets_its_exact_fresnel_at_normal_incidence_and_82_degrees() {
+    use super::closure::conductor_fresnel;
+    // Copper's complex index: F0 from n and k, and the F82-tint model through both points.
+    let (n, k) = (Vec3::new(0.27, 0.68, 1.32), Vec3::new(3.61, 2.63, 2.29));
+    let f0 = conductor_fresnel(1.0, n, k);
+    let expected =
+        ((n - Vec3::ONE) * (n - Vec3::ONE) + k * k) / ((n + Vec3::ONE) * (n + Vec3::ONE) + k * k);
+    assert!((f0 - expected).length() < 1e-5, "{f0} {expected}");
+    assert!((conductor_fresnel(0.0, n, k) - Vec3::ONE).length() < 1e-5);
+    let tree = json!({"nodes": [
+        {"name": "M", "type": "ShaderNodeBsdfMetallic", "fresnel_type": "PHYSICAL_CONDUCTOR",
+         "inputs": {"IOR": [0.27, 0.68, 1.32], "Extinction": [3.61, 2.63, 2.29]}}
+    ], "output": {"node": 0, "output": "BSDF"}});
+    let mut w = Vec::new();
+    let program = compile(&tree, 0, &mut w).expect("compiles");
+    let c = program.eval(&ShadingInputs::default(), &[], 0.5);
+    assert!((c.base_color - f0).length() < 1e-5 && c.metallic == 1.0);
+    let tint = c.metal_tint.expect("the conductor's F82 tint");
+    let mu = 1.0f32 / 7.0;
+    let schlick = f0 + (Vec3::ONE - f0) * (1.0 - mu).powi(5);
+    assert!((schlick * tint - conductor_fresnel(mu, n, k)).length() < 1e-4);
+}
