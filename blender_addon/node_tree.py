@@ -42,6 +42,7 @@ SETTINGS = {
     "ShaderNodeAttribute": ("attribute_name", "attribute_type"),
     "ShaderNodeNewGeometry": (),
     "ShaderNodeObjectInfo": (),
+    "ShaderNodeWireframe": ("use_pixel_size",),
     "ShaderNodeLightPath": (),
     "ShaderNodeValue": (),
     "ShaderNodeRGB": (),

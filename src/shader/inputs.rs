@@ -58,6 +58,12 @@ pub struct ShadingInputs {
     pub attributes: NamedAttributes,
     /// The object (or instance) the point lies on, as the Object Info node reads it.
     pub object: ObjectInfo,
+    /// The triangle the point lies on (world, Blender's axes), where the program reads it
+    /// (`READS_TRIANGLE`: the Wireframe node).
+    pub triangle: [Vec3; 3],
+    /// The ray's footprint at the point, as Cycles' compact differential `dP` (the width one
+    /// pixel of the camera covers there), for the Wireframe node's pixel size.
+    pub pixel_width: f32,
 }
 
 /// What Blender's Object Info node reads of the object (or the instance) a point lies on,

@@ -223,6 +223,9 @@ pub(super) fn run(
         Op::VertexColor => m.put(o, geometry::vertex_color(at)),
         Op::Attribute { slot } => m.put(o, geometry::attribute(at, inputs.attributes.get(*slot))),
         Op::Geometry => m.put(o, geometry::geometry(inputs, at)),
+        Op::Wireframe { pixel_size } => {
+            m.regs[o] = geometry::eval_wireframe(*pixel_size, inputs, at, ins)
+        }
         Op::ObjectInfo { material_index } => {
             m.put(o, geometry::object_info(inputs, *material_index))
         }

@@ -99,6 +99,12 @@ pub(super) fn parse_op(
             },
         },
         "NewGeometry" => Op::Geometry,
+        "Wireframe" => Op::Wireframe {
+            pixel_size: node
+                .get("use_pixel_size")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
+        },
         "ObjectInfo" => Op::ObjectInfo {
             material_index: node.get("material_index").and_then(number).unwrap_or(0.0),
         },

@@ -58,6 +58,10 @@ pub(super) enum Op {
     ObjectInfo {
         material_index: f32,
     },
+    /// Wireframe: its Size in pixels (`pixel_size`) or in scene units.
+    Wireframe {
+        pixel_size: bool,
+    },
     /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
     LightPath,
     Value(f32),
@@ -224,8 +228,10 @@ pub const READS_COLOR: u8 = 2;
 pub const READS_TANGENT: u8 = 4;
 pub const READS_COORDS: u8 = 8;
 pub const READS_OBJECT_NORMAL: u8 = 16;
+/// The triangle's vertices and the ray's footprint (`ShadingInputs::triangle`, `pixel_width`).
+pub const READS_TRIANGLE: u8 = 32;
 pub const READS_ALL: u8 =
-    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL;
+    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL | READS_TRIANGLE;
 
 /// The `READS_*` bits of what `instrs` read of the shading points (`run`, `load`).
 pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
@@ -251,6 +257,7 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
             Op::VertexColor | Op::Attribute { .. } => READS_COLOR,
             Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
             Op::Displacement { .. } => READS_OBJECT_NORMAL,
+            Op::Wireframe { .. } => READS_TRIANGLE,
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
             // the object-to-world normal matrix, unless the anisotropy is a constant `run`
             // reads as none.
@@ -321,6 +328,7 @@ impl NodeProgram {
                         | Op::Attribute { .. }
                         | Op::Geometry
                         | Op::ObjectInfo { .. }
+                        | Op::Wireframe { .. }
                         | Op::LightPath
                         | Op::Bump { .. }
                         | Op::NormalMap(_)

@@ -24,6 +24,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Attribute { .. } => (&[], geometry::ATTRIBUTE_OUTPUTS),
         Op::Geometry => (&[], geometry::GEOMETRY_OUTPUTS),
         Op::ObjectInfo { .. } => (&[], geometry::OBJECT_INFO_OUTPUTS),
+        Op::Wireframe { .. } => (geometry::WIREFRAME_INPUTS, geometry::WIREFRAME_OUTPUTS),
         Op::LightPath => (&[], geometry::LIGHT_PATH_OUTPUTS),
         Op::Value(_) => (&[], geometry::VALUE_OUTPUTS),
         Op::Rgb(_) => (&[], geometry::RGB_OUTPUTS),

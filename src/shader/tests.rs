@@ -509,3 +509,26 @@ fn metallic_conductor_meets_its_exact_fresnel_at_normal_incidence_and_82_degrees
     let schlick = f0 + (Vec3::ONE - f0) * (1.0 - mu).powi(5);
     assert!((schlick * tint - conductor_fresnel(mu, n, k)).length() < 1e-4);
 }
+
+#[test]
+fn wireframe_marks_points_within_half_its_size_of_an_edge() {
+    let fac = |p: Vec3, pixel_size: bool, pixel_width: f32| {
+        let tree = json!({"nodes": [
+            {"name": "W", "type": "ShaderNodeWireframe", "use_pixel_size": pixel_size,
+             "inputs": {"Size": 0.2}},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": "Fac"}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let mut at = at_positions([p; 3], Vec3::Z);
+        at.incoming = Vec3::Z;
+        at.triangle = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        at.pixel_width = pixel_width;
+        emission_of(tree, &at).x
+    };
+    // 0.05 from the edge along x: within 0.1; 0.25 from every edge: not.
+    assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), false, 0.0), 1.0);
+    assert_eq!(fac(Vec3::new(0.25, 0.25, 0.0), false, 0.0), 0.0);
+    // In pixels: Size times the footprint (seen straight on, the footprint itself).
+    assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), true, 0.4), 0.0);
+    assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), true, 4.0), 1.0);
+}
