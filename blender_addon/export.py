@@ -148,6 +148,14 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             if data:
                 self._add(gltf_node, "PHOTON_camera", data)
 
+    def gather_attribute_keep(self, keep_attribute, export_settings):
+        """Keep the mesh attributes node trees read by name (Attribute nodes of type
+        Geometry), written as `_NAME`."""
+        if keep_attribute.attr_name in NAMED_ATTRIBUTES:
+            keep_attribute.keep = True
+            if not keep_attribute.attr_name.startswith("_"):
+                keep_attribute.attr_name = "_" + keep_attribute.attr_name
+
     def gather_material_hook(self, gltf_material, blender_material, export_settings):
         data = subsurface_extension(blender_material)
         if data:
@@ -171,6 +179,13 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             described = {**described, "volume": volume}
         self._add(gltf_scene, "PHOTON_world", described)
         self._add(gltf_scene, "PHOTON_render", render_extension(blender_scene))
+        if reads_object_info():
+            for gltf_node, info in object_infos(export_settings["vtree"]):
+                known = (gltf_node.extensions or {}).get("PHOTON_object")
+                if known is not None:
+                    known.extension["info"] = info
+                else:
+                    self._add(gltf_node, "PHOTON_object", {"info": info})
 
 
 def texture_space(obj) -> dict:
@@ -203,6 +218,76 @@ def visibility_extension(obj) -> dict:
     if getattr(obj, "is_shadow_catcher", False):
         data["shadow_catcher"] = True
     return data
+
+
+def reads_object_info() -> bool:
+    """Whether some material or node group has an Object Info node."""
+    trees = [m.node_tree for m in bpy.data.materials if m.node_tree is not None]
+    trees += list(bpy.data.node_groups)
+    return any(n.bl_idname == "ShaderNodeObjectInfo" for t in trees for n in t.nodes)
+
+
+def object_infos(vtree):
+    """`(glTF node, PHOTON_object "info")` of every mesh node the exporter wrote: what
+    Object Info reads of its object as Cycles syncs it (blender/object.cpp): the location of
+    the node, the colour and pass index of the object it shows, and the random id of the
+    depsgraph instance it is (found by its world matrix: Geometry Nodes and particle
+    instances, objects of instanced collections), else Cycles' hash of the object's name."""
+    def key(matrix):
+        return tuple(round(float(matrix[r][c]), 4) for r in range(3) for c in range(4))
+
+    instances = {}
+    for inst in bpy.context.evaluated_depsgraph_get().object_instances:
+        if inst.is_instance:
+            instances.setdefault(key(inst.matrix_world), []).append(
+                (inst.object.original.name, getattr(inst.object.data, "name", None),
+                 inst.random_id & 0xFFFFFFFF, inst.object))
+    for vnode in vtree.nodes.values():
+        gltf_node = getattr(vnode, "node", None)
+        if gltf_node is None or gltf_node.mesh is None or vnode.matrix_world is None:
+            continue
+        obj = vnode.blender_object
+        candidates = instances.get(key(vnode.matrix_world), [])
+        if obj is not None:
+            found = [c for c in candidates if c[0] == obj.name]
+        else:
+            data = getattr(vnode.data, "name", None)
+            found = [c for c in candidates if c[1] == data] or candidates
+        if found:
+            random_id, shown = found[0][2], found[0][3]
+        elif obj is not None:
+            random_id, shown = cycles_name_hash(obj.name), obj
+        else:
+            continue
+        yield gltf_node, {
+            "location": [float(v) for v in vnode.matrix_world.translation],
+            "color": [float(v) for v in shown.color],
+            "pass_index": int(shown.pass_index),
+            "random_id": random_id,
+        }
+
+
+def cycles_name_hash(name: str) -> int:
+    """Cycles' random id of an object that is not an instance: Jenkins' lookup3 of two words
+    (`hash_uint2`) over the name's multiplicative string hash (each byte a signed char) and 0."""
+    mask = 0xFFFFFFFF
+    h = 0
+    for byte in name.encode("utf-8"):
+        h = (h * 37 + (byte if byte < 128 else byte - 256)) & mask
+
+    def rot(x, k):
+        return ((x << k) | (x >> (32 - k))) & mask
+
+    b = c = (0xDEADBEEF + (2 << 2) + 13) & mask
+    a = (b + h) & mask  # the second word, 0, leaves b as it is
+    c = ((c ^ b) - rot(b, 14)) & mask
+    a = ((a ^ c) - rot(c, 11)) & mask
+    b = ((b ^ a) - rot(a, 25)) & mask
+    c = ((c ^ b) - rot(b, 16)) & mask
+    a = ((a ^ c) - rot(c, 4)) & mask
+    b = ((b ^ a) - rot(a, 14)) & mask
+    c = ((c ^ b) - rot(b, 24)) & mask
+    return c
 
 
 def holdout_objects(view_layer) -> set:
@@ -499,6 +584,17 @@ def node_trees(scene) -> list[dict]:
     return trees
 
 
+# The names of the mesh attributes the scene's node trees read, during an export.
+NAMED_ATTRIBUTES: set[str] = set()
+
+
+def named_attributes(trees) -> set[str]:
+    """The attribute names the trees' Attribute nodes of type Geometry read."""
+    return {n["attribute_name"] for tree in trees for n in tree["nodes"]
+            if n["type"] == "ShaderNodeAttribute" and n.get("attribute_name")
+            and n.get("attribute_type", "GEOMETRY") == "GEOMETRY"}
+
+
 def reads_vertex_colors(trees) -> bool:
     """Whether a tree reads vertex colours (a Color Attribute or Attribute node)."""
     return any(n["type"] in ("ShaderNodeVertexColor", "ShaderNodeAttribute")
@@ -523,6 +619,11 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             # The exporter writes COLOR_0 only for colours wired straight into Base Color;
             # node trees Photon evaluates read the active colour attribute as COLOR_0.
             args["export_vertex_color"] = "ACTIVE"
+        NAMED_ATTRIBUTES.clear()
+        NAMED_ATTRIBUTES.update(named_attributes(trees))
+        if NAMED_ATTRIBUTES:
+            # Blender's exporter writes the attributes the hook keeps (`_NAME`).
+            args["export_attributes"] = True
         if any(node_tree.uses_tangents(tree) for tree in trees):
             # Normal Map nodes in tangent space read the meshes' tangents (MikkTSpace, as
             # Cycles computes them).
@@ -534,6 +635,7 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None
     finally:
+        NAMED_ATTRIBUTES.clear()
         if added is not None:
             prefs.addons.remove(added)
     if "FINISHED" not in result or not Path(glb).is_file():

@@ -41,6 +41,8 @@ SETTINGS = {
     "ShaderNodeVertexColor": (),
     "ShaderNodeAttribute": ("attribute_name", "attribute_type"),
     "ShaderNodeNewGeometry": (),
+    "ShaderNodeObjectInfo": (),
+    "ShaderNodeWireframe": ("use_pixel_size",),
     "ShaderNodeLightPath": (),
     "ShaderNodeValue": (),
     "ShaderNodeRGB": (),
@@ -64,6 +66,7 @@ SETTINGS = {
     "ShaderNodeTexWave": ("wave_type", "bands_direction", "rings_direction", "wave_profile"),
     "ShaderNodeTexWhiteNoise": ("noise_dimensions",),
     "ShaderNodeTexMagic": ("turbulence_depth",),
+    "ShaderNodeTexGabor": ("gabor_type",),
     "ShaderNodeTexBrick": ("offset", "offset_frequency", "squash", "squash_frequency"),
     "ShaderNodeBlackbody": (),
     "ShaderNodeHueSaturation": (),
@@ -79,6 +82,7 @@ SETTINGS = {
     "ShaderNodeBsdfDiffuse": (),
     "ShaderNodeBsdfGlossy": ("distribution",),
     "ShaderNodeBsdfAnisotropic": ("distribution",),
+    "ShaderNodeBsdfMetallic": ("distribution", "fresnel_type"),
     "ShaderNodeBsdfSheen": ("distribution",),
     "ShaderNodeBsdfGlass": ("distribution",),
     "ShaderNodeBsdfRefraction": ("distribution",),
@@ -109,6 +113,8 @@ READ_INPUTS = {
     "ShaderNodeBsdfAnisotropic": {"Color", "Roughness", "Normal", "Anisotropy", "Rotation",
                                   "Tangent"},
     "ShaderNodeBsdfSheen": {"Color", "Roughness", "Normal"},
+    "ShaderNodeBsdfMetallic": {"Base Color", "Edge Tint", "IOR", "Extinction", "Roughness",
+                               "Anisotropy", "Rotation", "Normal", "Tangent"},
     "ShaderNodeBsdfGlass": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
@@ -131,6 +137,8 @@ READ_OUTPUTS = {
 
 # Settings values the renderer does not evaluate.
 UNSUPPORTED_SETTINGS = {
+    # Object, instancer and view-layer attributes: only the meshes' own (Geometry) are read.
+    ("ShaderNodeAttribute", "attribute_type"): {"OBJECT", "INSTANCER", "VIEW_LAYER"},
     ("ShaderNodeMix", "data_type"): {"ROTATION"},
     ("ShaderNodeMapRange", "data_type"): {"FLOAT_VECTOR"},
     ("ShaderNodeSeparateColor", "mode"): {"HSL"},
@@ -148,6 +156,7 @@ UNSUPPORTED_SETTINGS = {
     ("ShaderNodeBsdfGlass", "distribution"): {"BECKMANN"},
     ("ShaderNodeBsdfGlossy", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
     ("ShaderNodeBsdfAnisotropic", "distribution"): {"BECKMANN", "ASHIKHMIN_SHIRLEY"},
+    ("ShaderNodeBsdfMetallic", "distribution"): {"BECKMANN"},
 }
 
 # A lone Principled BSDF goes through glTF (Blender's exporter) only when these inputs hold
@@ -337,6 +346,8 @@ class _Walker:
         if kind == "ShaderNodeMath" and node.operation not in MATH_OPS:
             self.problems.append(f"{self.what}: Math node '{name}' with operation "
                                  f"{node.operation} is not evaluated by Photon")
+        if kind == "ShaderNodeObjectInfo":
+            entry["material_index"] = int(self.material.pass_index)
         if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
             entry["value"] = _value(node.outputs[0])
         if kind == "ShaderNodeValToRGB":

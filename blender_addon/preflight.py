@@ -275,6 +275,10 @@ def _material_node_reason(found) -> str:
     """Why the exporter drops the node `found` (a `node_graph.Source`); '' when it does not."""
     node = found.node
     kind = node.type
+    if kind == "ATTRIBUTE" and node.attribute_type != "GEOMETRY":
+        return (f"reads an attribute of type {node.attribute_type.title().replace('_', ' ')}, "
+                f"which Photon does not read (only the meshes' own); the material renders "
+                f"without it")
     if kind in MATERIAL_NODES:
         return ""
     if kind == "MIX" and getattr(node, "blend_type", "") == "MULTIPLY":

@@ -11,7 +11,7 @@ use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
 use crate::scene::{blender_axes, Mesh, Scene, TextureRef, BLENDER_AXES};
 use crate::shader::{
     PointInputs, RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
-    READS_TANGENT, READS_UV,
+    READS_TANGENT, READS_TRIANGLE, READS_UV,
 };
 
 /// Everything shading needs about a surface point.
@@ -237,6 +237,22 @@ impl SurfaceHit {
         let instance = scene.instances.get(self.hit.instance as usize);
         let placed = instance.map(|inst| Mat3::from(inst.to_world_at(self.time).matrix3));
         let mut inputs = node_inputs_reading(mesh, tri, b1, b2, self.p, n, view, placed, reads);
+        if let Some(inst) = instance {
+            inputs.object = inst.object_info;
+        }
+        if reads & READS_TRIANGLE != 0 {
+            let to_world = instance.map(|inst| inst.to_world_at(self.time));
+            let corners = mesh.triangle_at(tri, self.time);
+            inputs.triangle =
+                corners.map(|q| blender_axes(to_world.map_or(q, |m| m.transform_point3(q))));
+            // Cycles' camera rays carry their footprint from the camera, not the near plane.
+            let from_camera = if view.path.is(RayPath::CAMERA) {
+                scene.camera.near_clip_distance(-view.wo)
+            } else {
+                0.0
+            };
+            inputs.pixel_width = pixel_width(scene, view.wo, view.ray_length + from_camera);
+        }
         if !offsets {
             return inputs;
         }
@@ -439,7 +455,45 @@ fn node_inputs_reading(
         path: view.path,
         ray_length: view.ray_length,
         object_to_world_normal,
-        attributes: Default::default(),
+        attributes: mesh
+            .node_attributes
+            .at(mesh.indices[triangle as usize], b1, b2),
+        // An instance's own is set by `SurfaceHit::node_inputs`, with its placed triangle.
+        object: mesh.object_info,
+        triangle: if reads & READS_TRIANGLE != 0 {
+            mesh.triangle_at(triangle, crate::accel::FRAME_TIME)
+                .map(blender_axes)
+        } else {
+            [Vec3::ZERO; 3]
+        },
+        pixel_width: 0.0,
+    }
+}
+
+/// The width one camera pixel covers at a point seen along `toward_viewer` at `distance`
+/// (Cycles' compact ray differential there: a perspective camera's per-pixel
+/// angle at that direction times the distance, an orthographic camera's pixel size), from the
+/// image height the scene gives (zero without one, and for panoramic cameras).
+fn pixel_width(scene: &Scene, toward_viewer: Vec3, distance: f32) -> f32 {
+    let camera = &scene.camera;
+    let Some(height) = scene.render_settings.height.filter(|&h| h > 0) else {
+        return 0.0;
+    };
+    match camera.projection {
+        crate::scene::Projection::Perspective { yfov } => {
+            // d(D/|D|) over one pixel's step on the plane at unit distance, averaged over the
+            // image's two axes, as Cycles makes its camera rays' differentials compact.
+            let step = 2.0 * (0.5 * yfov).tan() / height as f32;
+            let to_camera = camera.to_world.inverse();
+            let d = to_camera
+                .transform_vector3(-toward_viewer)
+                .normalize_or_zero();
+            let cos = (-d.z).max(0.0);
+            let spread = 0.5 * step * cos * ((1.0 - d.x * d.x).sqrt() + (1.0 - d.y * d.y).sqrt());
+            spread * distance
+        }
+        crate::scene::Projection::Orthographic { ymag, .. } => 2.0 * ymag / height as f32,
+        _ => 0.0,
     }
 }
 

@@ -83,6 +83,9 @@ pub struct SurfaceMaterial {
     /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
     /// one and doubles it).
     pub weight: f32,
+    /// A node tree's metal F82 tint (`shader::Closure::metal_tint`); `None`: the normalised
+    /// specular colour.
+    pub metal_tint: Option<Vec3>,
 }
 
 impl Default for SurfaceMaterial {
@@ -123,6 +126,7 @@ impl Default for SurfaceMaterial {
             holdout: false,
             single_scatter: false,
             weight: 1.0,
+            metal_tint: None,
         }
     }
 }
@@ -314,6 +318,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         holdout: c.holdout,
         single_scatter: c.single_scatter,
         weight: c.weight,
+        metal_tint: c.metal_tint,
     }
 }
 

@@ -338,7 +338,7 @@ impl Bsdf {
             spec_film_substrate: if ior < 1.0 { 1.0 / spec_eta } else { spec_eta },
             spec_f0_real: f0_from_ior(spec_eta),
             film_weight,
-            metal_fresnel: F82Tint::new(clamped_base, tint),
+            metal_fresnel: F82Tint::new(clamped_base, m.metal_tint.unwrap_or(tint)),
             glass_ior: ior,
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
             // A Transparent BSDF passes its colour (Cycles' weight); glass tints by the

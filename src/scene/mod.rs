@@ -7,6 +7,7 @@
 //! Units are Cycles' units (docs/ARCHITECTURE.md): radiance in W·m⁻²·sr⁻¹, point/spot intensity in W/sr,
 //! sun irradiance in W/m². Conversions from glTF's photometric units live in `scene::units`.
 
+pub mod attributes;
 pub mod builtin;
 pub mod gltf;
 pub mod grids;
@@ -77,6 +78,11 @@ pub struct Mesh {
     pub links: LightLinks,
     /// Blender's shadow catcher (`crate::shadow_catcher`).
     pub shadow_catcher: bool,
+    /// What node trees' Object Info reads of the mesh's object (a prototype's instances carry
+    /// their own: `Instance::object_info`).
+    pub object_info: crate::shader::ObjectInfo,
+    /// The named attributes its material's node tree reads, per vertex.
+    pub node_attributes: attributes::NodeAttributes,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's
@@ -133,6 +139,8 @@ pub struct Instance {
     pub links: LightLinks,
     /// The placing object is a shadow catcher (`Mesh::shadow_catcher`).
     pub shadow_catcher: bool,
+    /// What node trees' Object Info reads of this instance.
+    pub object_info: crate::shader::ObjectInfo,
 }
 
 impl Instance {
@@ -151,6 +159,7 @@ impl Instance {
             holdout: false,
             links: LightLinks::NONE,
             shadow_catcher: false,
+            object_info: Default::default(),
         }
     }
 

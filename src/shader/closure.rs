@@ -73,6 +73,22 @@ pub(super) const GLOSSY_INPUTS: &[Socket] = &[
 /// The Glossy node's outputs.
 pub(super) const GLOSSY_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
 
+/// The Metallic BSDF node's inputs.
+pub(super) const METALLIC_INPUTS: &[Socket] = &[
+    Socket::color("Base Color", Vec4::new(0.617, 0.577, 0.540, 1.0)),
+    Socket::color("Edge Tint", Vec4::new(0.695, 0.726, 0.770, 1.0)),
+    Socket::vector("IOR", Vec4::new(2.757, 2.513, 2.231, 1.0)),
+    Socket::vector("Extinction", Vec4::new(3.867, 3.404, 3.009, 1.0)),
+    Socket::float("Roughness", 0.5),
+    Socket::float("Anisotropy", 0.0),
+    Socket::float("Rotation", 0.0),
+    Socket::vector("Normal", Vec4::ZERO),
+    Socket::vector("Tangent", Vec4::ZERO),
+];
+
+/// The Metallic BSDF node's outputs.
+pub(super) const METALLIC_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
 /// The Glass and Refraction BSDF node's inputs.
 pub(super) const GLASS_INPUTS: &[Socket] = &[
     Socket::color("Color", Vec4::ONE),
@@ -217,6 +233,9 @@ pub struct Closure {
     /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
     /// probability ½ and doubles it, so their sum is exact on average).
     pub weight: f32,
+    /// The metal's F82 tint as Cycles takes it (the Principled BSDF's Specular Tint, the
+    /// Metallic BSDF's Edge Tint); `None`: the normalised `specular_color` (glTF's).
+    pub metal_tint: Option<Vec3>,
     /// A volume shader's medium (the volume nodes, `super::volume`); its emission is
     /// `emission`.
     pub volume: VolumeClosure,
@@ -254,6 +273,7 @@ impl Closure {
         holdout: false,
         single_scatter: false,
         weight: 1.0,
+        metal_tint: None,
         volume: VolumeClosure::NONE,
     };
 }
@@ -364,15 +384,14 @@ pub(super) fn eval_principled(
     let level = ins.float(SPECULAR_IOR_LEVEL).max(0.0);
     let tint = ins.vector(SPECULAR_TINT);
     let normal = ins.vector(NORMAL);
-    let anisotropic = ins.float(ANISOTROPIC).clamp(0.0, 1.0);
-    let (aspect, tangent) = if anisotropic > 0.0 {
-        let n = normal_input(ins.value(NORMAL), inputs.normal);
-        let t = tangent_input(ins.value(TANGENT), inputs, at);
-        let t = crate::math::rotate_around(t, n, ins.float(ANISOTROPIC_ROTATION) * 2.0 * PI);
-        (principled_aspect(anisotropic), t)
-    } else {
-        (1.0, Vec3::ZERO)
-    };
+    let (aspect, tangent) = principled_anisotropy(
+        inputs,
+        at,
+        ins.float(ANISOTROPIC),
+        ins.float(ANISOTROPIC_ROTATION),
+        ins.value(NORMAL),
+        ins.value(TANGENT),
+    );
     let principled = Closure {
         base_color: ins.vector(BASE_COLOR),
         metallic: ins.float(METALLIC).clamp(0.0, 1.0),
@@ -403,6 +422,7 @@ pub(super) fn eval_principled(
         holdout: false,
         single_scatter: !multiscatter,
         weight: 1.0,
+        metal_tint: Some(tint.max(Vec3::ZERO)),
         volume: VolumeClosure::NONE,
     };
     let alpha = ins.float(ALPHA).clamp(0.0, 1.0);
@@ -444,18 +464,14 @@ pub(super) fn eval_glossy(
     const ANISOTROPY: usize = input(GLOSSY_INPUTS, "Anisotropy");
     const ROTATION: usize = input(GLOSSY_INPUTS, "Rotation");
     const TANGENT: usize = input(GLOSSY_INPUTS, "Tangent");
-    let a = ins.float(ANISOTROPY).clamp(-0.99, 0.99);
-    let (aspect, tangent) = if a.abs() > 1e-4 {
-        let n = normal_input(ins.value(NORMAL), inputs.normal);
-        let t = tangent_input(ins.value(TANGENT), inputs, at);
-        let turn = ins.float(ROTATION) + if a > 0.0 { 0.25 } else { 0.0 };
-        (
-            1.0 - a.abs(),
-            crate::math::rotate_around(t, n, turn * 2.0 * PI),
-        )
-    } else {
-        (1.0, Vec3::ZERO)
-    };
+    let (aspect, tangent) = glossy_anisotropy(
+        inputs,
+        at,
+        ins.float(ANISOTROPY),
+        ins.float(ROTATION),
+        ins.value(NORMAL),
+        ins.value(TANGENT),
+    );
     Closure {
         base_color: ins.vector(COLOR),
         metallic: 1.0,
@@ -466,6 +482,127 @@ pub(super) fn eval_glossy(
         single_scatter: !multiscatter,
         ..Closure::BLACK
     }
+}
+
+/// The Principled BSDF's anisotropy (and the Metallic BSDF's, Cycles' conductor closure), as
+/// `Closure::aspect` and the tangent α_x runs along: `principled_aspect` of the anisotropy in
+/// [0, 1], along the tangent turned by `rotation` (turns) around the normal.
+fn principled_anisotropy(
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    anisotropy: f32,
+    rotation: f32,
+    normal: Vec4,
+    tangent: Vec4,
+) -> (f32, Vec3) {
+    let anisotropy = anisotropy.clamp(0.0, 1.0);
+    if anisotropy > 0.0 {
+        let n = normal_input(normal, inputs.normal);
+        let t = tangent_input(tangent, inputs, at);
+        let t = crate::math::rotate_around(t, n, rotation * 2.0 * PI);
+        (principled_aspect(anisotropy), t)
+    } else {
+        (1.0, Vec3::ZERO)
+    }
+}
+
+/// Cycles' anisotropy of the Glossy BSDF, as `Closure::aspect` and the tangent
+/// α_x runs along: α_x = α (1 − a), α_y = α / (1 − a) for a > 0 (stretched along the
+/// bitangent: the tangent turned a quarter), α / (1 + a) and α (1 + a) for a < 0, turned by
+/// `rotation` (turns) around the normal.
+fn glossy_anisotropy(
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    anisotropy: f32,
+    rotation: f32,
+    normal: Vec4,
+    tangent: Vec4,
+) -> (f32, Vec3) {
+    let a = anisotropy.clamp(-0.99, 0.99);
+    if a.abs() > 1e-4 {
+        let n = normal_input(normal, inputs.normal);
+        let t = tangent_input(tangent, inputs, at);
+        let turn = rotation + if a > 0.0 { 0.25 } else { 0.0 };
+        (
+            1.0 - a.abs(),
+            crate::math::rotate_around(t, n, turn * 2.0 * PI),
+        )
+    } else {
+        (1.0, Vec3::ZERO)
+    }
+}
+
+/// The Metallic BSDF: a GGX conductor of F0 Base Color and F82 tint Edge Tint (Cycles'
+/// F82-tint Fresnel, as the Principled BSDF's metal), or with `physical` of complex index
+/// IOR + i Extinction, given to the same Fresnel model by its exact values at normal
+/// incidence and at μ = 1/7 (82°) (Cycles evaluates the conductor's Fresnel exactly; the two
+/// curves meet at both angles). Roughness, Anisotropy and Rotation as the Principled BSDF's.
+#[inline(always)]
+pub(super) fn eval_metallic(
+    physical: bool,
+    multiscatter: bool,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    ins: &impl Operands,
+) -> Closure {
+    const BASE_COLOR: usize = input(METALLIC_INPUTS, "Base Color");
+    const EDGE_TINT: usize = input(METALLIC_INPUTS, "Edge Tint");
+    const IOR: usize = input(METALLIC_INPUTS, "IOR");
+    const EXTINCTION: usize = input(METALLIC_INPUTS, "Extinction");
+    const ROUGHNESS: usize = input(METALLIC_INPUTS, "Roughness");
+    const ANISOTROPY: usize = input(METALLIC_INPUTS, "Anisotropy");
+    const ROTATION: usize = input(METALLIC_INPUTS, "Rotation");
+    const NORMAL: usize = input(METALLIC_INPUTS, "Normal");
+    const TANGENT: usize = input(METALLIC_INPUTS, "Tangent");
+    let (f0, tint) = if physical {
+        let (n, k) = (ins.vector(IOR), ins.vector(EXTINCTION));
+        let f0 = conductor_fresnel(1.0, n, k);
+        let mu = 1.0f32 / 7.0;
+        let schlick_82 = f0 + (Vec3::ONE - f0) * (1.0 - mu).powi(5);
+        (
+            f0,
+            conductor_fresnel(mu, n, k) / schlick_82.max(Vec3::splat(1e-6)),
+        )
+    } else {
+        (ins.vector(BASE_COLOR), ins.vector(EDGE_TINT))
+    };
+    let (aspect, tangent) = principled_anisotropy(
+        inputs,
+        at,
+        ins.float(ANISOTROPY),
+        ins.float(ROTATION),
+        ins.value(NORMAL),
+        ins.value(TANGENT),
+    );
+    Closure {
+        base_color: f0.clamp(Vec3::ZERO, Vec3::ONE),
+        metallic: 1.0,
+        roughness: ins.float(ROUGHNESS).clamp(0.0, 1.0),
+        normal: ins.vector(NORMAL),
+        aspect,
+        tangent,
+        single_scatter: !multiscatter,
+        metal_tint: Some(tint.clamp(Vec3::ZERO, Vec3::ONE)),
+        ..Closure::BLACK
+    }
+}
+
+/// The Fresnel reflectance of a conductor of complex index n + ik per channel, unpolarised,
+/// at the cosine `cos_i` of the angle of incidence (from outside, in air).
+pub(super) fn conductor_fresnel(cos_i: f32, n: Vec3, k: Vec3) -> Vec3 {
+    let c2 = cos_i * cos_i;
+    let s2 = 1.0 - c2;
+    let t0 = n * n - k * k - Vec3::splat(s2);
+    let a2b2 = (t0 * t0 + 4.0 * n * n * k * k).max(Vec3::ZERO);
+    let a2b2 = Vec3::new(a2b2.x.sqrt(), a2b2.y.sqrt(), a2b2.z.sqrt());
+    let a = (0.5 * (a2b2 + t0)).max(Vec3::ZERO);
+    let a = Vec3::new(a.x.sqrt(), a.y.sqrt(), a.z.sqrt());
+    let two_ac = 2.0 * cos_i * a;
+    let rs = (a2b2 + Vec3::splat(c2) - two_ac) / (a2b2 + Vec3::splat(c2) + two_ac);
+    let t1 = c2 * a2b2 + Vec3::splat(s2 * s2);
+    let t2 = two_ac * s2;
+    let rp = rs * (t1 - t2) / (t1 + t2);
+    0.5 * (rs + rp)
 }
 
 /// The Sheen BSDF (microfiber): Color, Roughness, Normal.

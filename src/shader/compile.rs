@@ -103,6 +103,7 @@ pub(super) fn compile_tree(
                 | Op::Wave(_)
                 | Op::Magic { .. }
                 | Op::Brick(_)
+                | Op::Gabor { .. }
         );
         let mut ins = Vec::with_capacity(spec.inputs.len());
         let mut reads = Vec::new();

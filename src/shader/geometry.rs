@@ -1,9 +1,9 @@
-//! The input nodes: Texture Coordinate, UV Map, Color Attribute, Attribute, Geometry and Light
-//! Path (read off `ShadingInputs` and its `RayPath`).
+//! The input nodes: Texture Coordinate, UV Map, Color Attribute, Attribute, Geometry, Object
+//! Info and Light Path (read off `ShadingInputs`, its `ObjectInfo` and its `RayPath`).
 
 use super::color::gray;
-use super::inputs::{splat, v3, PointInputs, RayPath, ShadingInputs, Socket, Ty};
-use crate::math::Vec4;
+use super::inputs::{input, splat, v3, Operands, PointInputs, RayPath, ShadingInputs, Socket, Ty};
+use crate::math::{Vec3, Vec4};
 
 /// The Texture Coordinate node's outputs.
 pub(super) const TEX_COORD_OUTPUTS: &[Socket] = &[
@@ -30,6 +30,20 @@ pub(super) const ATTRIBUTE_OUTPUTS: &[Socket] = &[
     Socket::output("Fac", Ty::Float),
     Socket::output("Alpha", Ty::Float),
 ];
+
+/// The Object Info node's outputs.
+pub(super) const OBJECT_INFO_OUTPUTS: &[Socket] = &[
+    Socket::output("Location", Ty::Vector),
+    Socket::output("Color", Ty::Color),
+    Socket::output("Alpha", Ty::Float),
+    Socket::output("Object Index", Ty::Float),
+    Socket::output("Material Index", Ty::Float),
+    Socket::output("Random", Ty::Float),
+];
+
+/// The Wireframe node's input and output.
+pub(super) const WIREFRAME_INPUTS: &[Socket] = &[Socket::float("Size", 0.01)];
+pub(super) const WIREFRAME_OUTPUTS: &[Socket] = &[Socket::output("Fac", Ty::Float)];
 
 /// The Geometry node's outputs.
 pub(super) const GEOMETRY_OUTPUTS: &[Socket] = &[
@@ -113,16 +127,75 @@ pub(super) fn vertex_color(at: &PointInputs) -> [Vec4; 2] {
 }
 
 /// Attribute: Color, Vector, Fac, Alpha of its `named` attribute where the object has it (a
-/// grid's value; Fac the colour's average as Cycles gives it), else of COLOR_0.
+/// grid's or a mesh attribute's value; Fac the colour's average as Cycles gives it, Alpha a
+/// colour's alpha, else 1), else of COLOR_0.
 #[inline(always)]
 pub(super) fn attribute(at: &PointInputs, named: Option<Vec4>) -> [Vec4; 4] {
     if let Some(v) = named {
         let rgb = v.truncate().extend(1.0);
         let fac = (v.x + v.y + v.z) / 3.0;
-        return [rgb, rgb, splat(fac), splat(1.0)];
+        return [rgb, rgb, splat(fac), splat(v.w)];
     }
     let rgb = at.color.truncate().extend(1.0);
     [rgb, rgb, splat(gray(at.color)), splat(at.color.w)]
+}
+
+/// Object Info: the object's location, colour, alpha, pass index and random number
+/// (`ShadingInputs::object`), and the material's pass index (`material_index`).
+#[inline(always)]
+pub(super) fn object_info(inputs: &ShadingInputs, material_index: f32) -> [Vec4; 6] {
+    let object = &inputs.object;
+    [
+        v3(object.location),
+        object.color.truncate().extend(1.0),
+        splat(object.color.w),
+        splat(object.pass_index),
+        splat(material_index),
+        splat(object.random),
+    ]
+}
+
+/// Wireframe (Cycles' `wireframe`): 1 where the point lies within half of Size of one of its
+/// triangle's edges (both triangles beside an edge draw their half), Size in scene units or,
+/// with `pixel_size`, in pixels: times the ray's footprint, as Cycles spreads its compact
+/// differential over two directions in the surface (`make_orthonormals` of the normal) and
+/// measures them across the view.
+#[inline(always)]
+pub(super) fn eval_wireframe(
+    pixel_size: bool,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    ins: &impl Operands,
+) -> Vec4 {
+    const SIZE: usize = input(WIREFRAME_INPUTS, "Size");
+    let mut width = 1.0;
+    if pixel_size {
+        let (dx, dy) = orthonormals(inputs.normal);
+        let wi = inputs.incoming;
+        let across = |d: Vec3| (d - d.dot(wi) * wi).length();
+        width = inputs.pixel_width * 0.5 * (across(dx) + across(dy));
+    }
+    let reach = 0.5 * ins.float(SIZE) * width;
+    let reach2 = reach * reach;
+    let co = inputs.triangle;
+    let near = (0..3).any(|i| {
+        let previous = co[(i + 2) % 3];
+        let along = (previous - co[i]).normalize_or_zero();
+        (at.position - co[i]).cross(along).length_squared() < reach2
+    });
+    splat(if near { 1.0 } else { 0.0 })
+}
+
+/// Two unit vectors perpendicular to `n` and to each other, as Cycles' `make_orthonormals`
+/// chooses them.
+fn orthonormals(n: Vec3) -> (Vec3, Vec3) {
+    let a = if n.x != n.y || n.x != n.z {
+        Vec3::new(n.z - n.y, n.x - n.z, n.y - n.x)
+    } else {
+        Vec3::new(n.z - n.y, n.x + n.z, -n.y - n.x)
+    }
+    .normalize_or_zero();
+    (a, n.cross(a))
 }
 
 /// Geometry: Position, Normal, True Normal, Incoming, Backfacing.

@@ -56,6 +56,48 @@ pub struct ShadingInputs {
     /// The named attributes the program reads (`NodeProgram::attributes`) at the point: the
     /// voxel grids of a Volume object, sampled where a volume tree is evaluated.
     pub attributes: NamedAttributes,
+    /// The object (or instance) the point lies on, as the Object Info node reads it.
+    pub object: ObjectInfo,
+    /// The triangle the point lies on (world, Blender's axes), where the program reads it
+    /// (`READS_TRIANGLE`: the Wireframe node).
+    pub triangle: [Vec3; 3],
+    /// The ray's footprint at the point, as Cycles' compact differential `dP` (the width one
+    /// pixel of the camera covers there), for the Wireframe node's pixel size.
+    pub pixel_width: f32,
+}
+
+/// What Blender's Object Info node reads of the object (or the instance) a point lies on,
+/// as Cycles keeps it per object (`KernelObject`): its world location, its colour and alpha
+/// (`Object.color`), its pass index, and its random number, the object's 32-bit random id
+/// (Blender's `DepsgraphObjectInstance.random_id` for an instance, Cycles' hash of the
+/// object's name otherwise) scaled to [0, 1] as Cycles scales it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObjectInfo {
+    /// World location (Blender's axes).
+    pub location: Vec3,
+    pub color: Vec4,
+    pub pass_index: f32,
+    pub random: f32,
+}
+
+impl Default for ObjectInfo {
+    /// Blender's defaults: at the origin, white, index 0, random 0.
+    fn default() -> ObjectInfo {
+        ObjectInfo {
+            location: Vec3::ZERO,
+            color: Vec4::ONE,
+            pass_index: 0.0,
+            random: 0.0,
+        }
+    }
+}
+
+impl ObjectInfo {
+    /// The random number of an object of 32-bit random id `id`: id / (2³² − 1) in single
+    /// precision, as Cycles computes it (the divisor rounds to 2³²).
+    pub fn random_of(id: u32) -> f32 {
+        id as f32 * (1.0 / u32::MAX as f32)
+    }
 }
 
 /// Values of a program's named attributes at a point, slot `k` for

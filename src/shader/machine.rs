@@ -9,8 +9,8 @@ use super::inputs::{input, splat, v3, Operands, PointInputs, ShadingInputs};
 use super::noise::NOISE_INPUTS;
 use super::program::{Instr, NodeProgram, Op, Src, MAX_CLOSURES, MAX_REGISTERS};
 use super::{
-    blackbody, brick, bump, checker, closure, color, convert, fresnel, geometry, gradient, image,
-    magic,
+    blackbody, brick, bump, checker, closure, color, convert, fresnel, gabor, geometry, gradient,
+    image, magic,
 };
 use super::{math, noise, vector, volume, voronoi, wave, white_noise};
 use crate::math::{Vec3, Vec4};
@@ -223,6 +223,12 @@ pub(super) fn run(
         Op::VertexColor => m.put(o, geometry::vertex_color(at)),
         Op::Attribute { slot } => m.put(o, geometry::attribute(at, inputs.attributes.get(*slot))),
         Op::Geometry => m.put(o, geometry::geometry(inputs, at)),
+        Op::Wireframe { pixel_size } => {
+            m.regs[o] = geometry::eval_wireframe(*pixel_size, inputs, at, ins)
+        }
+        Op::ObjectInfo { material_index } => {
+            m.put(o, geometry::object_info(inputs, *material_index))
+        }
         Op::LightPath => m.put_used(o, used, geometry::light_path(inputs)),
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
@@ -285,6 +291,7 @@ pub(super) fn run(
         Op::Wave(kind) => m.put(o, wave::eval_wave(*kind, ins)),
         Op::WhiteNoise { dimensions } => m.put(o, white_noise::eval_white_noise(*dimensions, ins)),
         Op::Magic { depth } => m.put(o, magic::eval_magic(*depth, ins)),
+        Op::Gabor { three_d } => m.put(o, gabor::eval_gabor(*three_d, ins)),
         Op::Brick(layout) => m.put(o, brick::eval_brick(layout, ins)),
         Op::Blackbody => m.regs[o] = blackbody::eval_blackbody(ins),
         Op::HueSaturation => m.regs[o] = color::eval_hue_saturation(ins),
@@ -305,6 +312,10 @@ pub(super) fn run(
         Op::Glossy { multiscatter } => {
             m.closures[o] = closure::eval_glossy(*multiscatter, inputs, at, ins)
         }
+        Op::Metallic {
+            physical,
+            multiscatter,
+        } => m.closures[o] = closure::eval_metallic(*physical, *multiscatter, inputs, at, ins),
         Op::Sheen => m.closures[o] = closure::eval_sheen(ins),
         Op::Glass { multiscatter } => {
             m.closures[o] = closure::eval_glass(false, *multiscatter, ins)

@@ -58,7 +58,7 @@
 //! each instruction one call into its node family's file); and one file per node family, with
 //! its socket tables and evaluation: `geometry` (the input nodes), `math`, `vector`, `color`,
 //! `convert`, `bump`, `fresnel`, `closure` (the shader nodes), and the textures `noise` (with
-//! its AVX2 kernels), `voronoi`, `checker`, `gradient`, `brick`, `magic`,
+//! its AVX2 kernels), `voronoi`, `checker`, `gradient`, `brick`, `magic`, `gabor`,
 //! `wave`, `white_noise`, `image`, with `blackbody`, and the volume shaders (`volume`); `hash` is Jenkins' lookup3 the textures
 //! draw from, and `lanes` the one, four or eight lanes of floats and words the noise and the
 //! Voronoi search are written over. ARCHITECTURE.md says how to add a node.
@@ -72,6 +72,7 @@ mod color;
 mod compile;
 mod convert;
 mod fresnel;
+mod gabor;
 mod geometry;
 mod gradient;
 mod hash;
@@ -95,11 +96,12 @@ mod white_noise;
 pub use closure::{default_tangent, principled_aspect, Closure, VolumeClosure};
 pub use compile::compile;
 pub use inputs::{
-    NamedAttributes, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES, UV_SETS,
+    NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES,
+    UV_SETS,
 };
 pub use program::{
     CompileWarnings, NodeProgram, MAX_CLOSURES, MAX_REGISTERS, READS_ALL, READS_COLOR,
-    READS_COORDS, READS_OBJECT_NORMAL, READS_TANGENT, READS_UV,
+    READS_COORDS, READS_OBJECT_NORMAL, READS_TANGENT, READS_TRIANGLE, READS_UV,
 };
 
 #[cfg(test)]

@@ -99,6 +99,15 @@ pub(super) fn parse_op(
             },
         },
         "NewGeometry" => Op::Geometry,
+        "Wireframe" => Op::Wireframe {
+            pixel_size: node
+                .get("use_pixel_size")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
+        },
+        "ObjectInfo" => Op::ObjectInfo {
+            material_index: node.get("material_index").and_then(number).unwrap_or(0.0),
+        },
         "LightPath" => Op::LightPath,
         "Value" => Op::Value(
             node.get("value")
@@ -215,6 +224,13 @@ pub(super) fn parse_op(
             }
         }
         "TexChecker" => Op::Checker,
+        "TexGabor" => Op::Gabor {
+            three_d: match setting(node, "gabor_type").unwrap_or("2D") {
+                "2D" => false,
+                "3D" => true,
+                _ => return Err(bad("gabor_type")),
+            },
+        },
         "TexGradient" => Op::Gradient(match setting(node, "gradient_type").unwrap_or("LINEAR") {
             "LINEAR" => GradientKind::Linear,
             "QUADRATIC" => GradientKind::Quadratic,
@@ -403,6 +419,19 @@ pub(super) fn parse_op(
                 _ => return Ok(None),
             }
         }
+        "BsdfMetallic" => Op::Metallic {
+            physical: match setting(node, "fresnel_type").unwrap_or("F82") {
+                "F82" => false,
+                "PHYSICAL_CONDUCTOR" => true,
+                _ => return Err(bad("fresnel_type")),
+            },
+            multiscatter: match setting(node, "distribution").unwrap_or("MULTI_GGX") {
+                "MULTI_GGX" => true,
+                "GGX" => false,
+                // Beckmann microfacets are not rendered.
+                _ => return Ok(None),
+            },
+        },
         "BsdfSheen" => match setting(node, "distribution").unwrap_or("MICROFIBER") {
             "MICROFIBER" => Op::Sheen,
             _ => return Ok(None),

@@ -4,7 +4,7 @@
 
 use super::brick::BrickLayout;
 use super::bump::NormalMapSpace;
-use super::closure::{GLOSSY_INPUTS, PRINCIPLED_INPUTS};
+use super::closure::{GLOSSY_INPUTS, METALLIC_INPUTS, PRINCIPLED_INPUTS};
 use super::color::{Blend, MixData};
 use super::gradient::GradientKind;
 use super::inputs::input;
@@ -54,6 +54,14 @@ pub(super) enum Op {
         slot: u8,
     },
     Geometry,
+    /// Object Info, with the material's pass index (its Material Index output).
+    ObjectInfo {
+        material_index: f32,
+    },
+    /// Wireframe: its Size in pixels (`pixel_size`) or in scene units.
+    Wireframe {
+        pixel_size: bool,
+    },
     /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
     LightPath,
     Value(f32),
@@ -120,6 +128,10 @@ pub(super) enum Op {
         uv_set: u8,
     },
     Voronoi(VoronoiKind),
+    /// Gabor: 2D, or 3D when `three_d`.
+    Gabor {
+        three_d: bool,
+    },
     Wave(WaveKind),
     /// White Noise: 1 to 4 dimensions.
     WhiteNoise {
@@ -152,6 +164,12 @@ pub(super) enum Op {
     Diffuse,
     /// Glossy and Anisotropic BSDF; `multiscatter` as the Principled's.
     Glossy {
+        multiscatter: bool,
+    },
+    /// Metallic BSDF: F82 tint, or a physical conductor (`physical`); `multiscatter` as the
+    /// Principled's.
+    Metallic {
+        physical: bool,
         multiscatter: bool,
     },
     Sheen,
@@ -210,8 +228,10 @@ pub const READS_COLOR: u8 = 2;
 pub const READS_TANGENT: u8 = 4;
 pub const READS_COORDS: u8 = 8;
 pub const READS_OBJECT_NORMAL: u8 = 16;
+/// The triangle's vertices and the ray's footprint (`ShadingInputs::triangle`, `pixel_width`).
+pub const READS_TRIANGLE: u8 = 32;
 pub const READS_ALL: u8 =
-    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL;
+    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL | READS_TRIANGLE;
 
 /// The `READS_*` bits of what `instrs` read of the shading points (`run`, `load`).
 pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
@@ -237,6 +257,7 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
             Op::VertexColor | Op::Attribute { .. } => READS_COLOR,
             Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
             Op::Displacement { .. } => READS_OBJECT_NORMAL,
+            Op::Wireframe { .. } => READS_TRIANGLE,
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
             // the object-to-world normal matrix, unless the anisotropy is a constant `run`
             // reads as none.
@@ -246,6 +267,10 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
             },
             Op::Glossy { .. } => match instr.ins.get(input(GLOSSY_INPUTS, "Anisotropy")) {
                 Some(Src::Const(a)) if !(a.x.clamp(-0.99, 0.99).abs() > 1e-4) => 0,
+                _ => READS_COORDS | READS_OBJECT_NORMAL,
+            },
+            Op::Metallic { .. } => match instr.ins.get(input(METALLIC_INPUTS, "Anisotropy")) {
+                Some(Src::Const(a)) if !(a.x.clamp(0.0, 1.0) > 0.0) => 0,
                 _ => READS_COORDS | READS_OBJECT_NORMAL,
             },
             _ => 0,
@@ -313,6 +338,8 @@ impl NodeProgram {
                         | Op::VertexColor
                         | Op::Attribute { .. }
                         | Op::Geometry
+                        | Op::ObjectInfo { .. }
+                        | Op::Wireframe { .. }
                         | Op::LightPath
                         | Op::Bump { .. }
                         | Op::NormalMap(_)

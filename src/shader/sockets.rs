@@ -5,7 +5,7 @@
 use super::color::MixData;
 use super::inputs::Socket;
 use super::program::Op;
-use super::{blackbody, brick, bump, checker, closure, color, convert, fresnel, geometry};
+use super::{blackbody, brick, bump, checker, closure, color, convert, fresnel, gabor, geometry};
 use super::{gradient, image, magic, math, noise, vector, volume, voronoi, wave, white_noise};
 
 /// A node's input sockets (identifier, type, Blender's default) and output sockets
@@ -23,6 +23,8 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::VertexColor => (&[], geometry::VERTEX_COLOR_OUTPUTS),
         Op::Attribute { .. } => (&[], geometry::ATTRIBUTE_OUTPUTS),
         Op::Geometry => (&[], geometry::GEOMETRY_OUTPUTS),
+        Op::ObjectInfo { .. } => (&[], geometry::OBJECT_INFO_OUTPUTS),
+        Op::Wireframe { .. } => (geometry::WIREFRAME_INPUTS, geometry::WIREFRAME_OUTPUTS),
         Op::LightPath => (&[], geometry::LIGHT_PATH_OUTPUTS),
         Op::Value(_) => (&[], geometry::VALUE_OUTPUTS),
         Op::Rgb(_) => (&[], geometry::RGB_OUTPUTS),
@@ -61,6 +63,7 @@ pub(super) fn spec(op: &Op) -> Spec {
             white_noise::WHITE_NOISE_OUTPUTS,
         ),
         Op::Magic { .. } => (magic::MAGIC_INPUTS, magic::MAGIC_OUTPUTS),
+        Op::Gabor { .. } => (gabor::GABOR_INPUTS, gabor::GABOR_OUTPUTS),
         Op::Brick(_) => (brick::BRICK_INPUTS, brick::BRICK_OUTPUTS),
         Op::Blackbody => (blackbody::BLACKBODY_INPUTS, blackbody::BLACKBODY_OUTPUTS),
         Op::Fresnel => (fresnel::FRESNEL_INPUTS, fresnel::FRESNEL_OUTPUTS),
@@ -77,6 +80,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Diffuse => (closure::DIFFUSE_INPUTS, closure::DIFFUSE_OUTPUTS),
         Op::Sheen => (closure::SHEEN_INPUTS, closure::SHEEN_OUTPUTS),
         Op::Glossy { .. } => (closure::GLOSSY_INPUTS, closure::GLOSSY_OUTPUTS),
+        Op::Metallic { .. } => (closure::METALLIC_INPUTS, closure::METALLIC_OUTPUTS),
         Op::Glass { .. } | Op::Refraction => (closure::GLASS_INPUTS, closure::GLASS_OUTPUTS),
         Op::Emission => (closure::EMISSION_INPUTS, closure::EMISSION_OUTPUTS),
         Op::Transparent => (closure::TRANSPARENT_INPUTS, closure::TRANSPARENT_OUTPUTS),

@@ -5,7 +5,7 @@ use super::noise::{noise_texture, Fractal};
 use super::program::Op;
 use super::voronoi::{voronoi, Metric, VoronoiFeature, VoronoiKind, VoronoiParams};
 use super::*;
-use crate::math::{Vec2, Vec3};
+use crate::math::{Vec2, Vec3, Vec4};
 use serde_json::{json, Value};
 
 fn at_generated(p: Vec3) -> ShadingInputs {
@@ -253,13 +253,13 @@ fn invalid_programs_are_refused_with_a_reason() {
 fn unknown_nodes_warn_and_fall_back() {
     let mut w = Vec::new();
     let tree = json!({"nodes": [
-        {"name": "Gabor", "type": "ShaderNodeTexGabor"},
+        {"name": "AO", "type": "ShaderNodeAmbientOcclusion"},
         {"name": "E", "type": "ShaderNodeEmission", "inputs": {
             "Color": {"node": 0, "output": "Color"}, "Strength": 1.0}}
     ], "output": {"node": 1, "output": "Emission"}});
     let p = compile(&tree, 0, &mut w).unwrap();
     assert_eq!(w.len(), 1);
-    assert!(w[0].contains("Gabor"), "{w:?}");
+    assert!(w[0].contains("AO"), "{w:?}");
     // The Emission colour's default (white) is used.
     assert_eq!(
         p.eval(&ShadingInputs::default(), &[], 0.5).emission,
@@ -457,4 +457,78 @@ fn a_bumps_noise_copies_fuse_into_one_instruction() {
         "{}",
         c.normal
     );
+}
+
+#[test]
+fn object_info_reads_the_object_and_the_material_index() {
+    let output = |name: &str| {
+        let tree = json!({"nodes": [
+            {"name": "O", "type": "ShaderNodeObjectInfo", "material_index": 4},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": name}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let at = ShadingInputs {
+            object: ObjectInfo {
+                location: Vec3::new(1.0, -2.0, 3.0),
+                color: Vec4::new(0.5, 0.25, 0.125, 0.75),
+                pass_index: 6.0,
+                random: ObjectInfo::random_of(u32::MAX / 4),
+            },
+            ..ShadingInputs::default()
+        };
+        emission_of(tree, &at)
+    };
+    assert_eq!(output("Location"), Vec3::new(1.0, -2.0, 3.0));
+    assert_eq!(output("Color"), Vec3::new(0.5, 0.25, 0.125));
+    assert_eq!(output("Alpha"), Vec3::splat(0.75));
+    assert_eq!(output("Object Index"), Vec3::splat(6.0));
+    assert_eq!(output("Material Index"), Vec3::splat(4.0));
+    assert!((output("Random").x - 0.25).abs() < 1e-6);
+}
+
+#[test]
+fn metallic_conductor_meets_its_exact_fresnel_at_normal_incidence_and_82_degrees() {
+    use super::closure::conductor_fresnel;
+    // Copper's complex index: F0 from n and k, and the F82-tint model through both points.
+    let (n, k) = (Vec3::new(0.27, 0.68, 1.32), Vec3::new(3.61, 2.63, 2.29));
+    let f0 = conductor_fresnel(1.0, n, k);
+    let expected =
+        ((n - Vec3::ONE) * (n - Vec3::ONE) + k * k) / ((n + Vec3::ONE) * (n + Vec3::ONE) + k * k);
+    assert!((f0 - expected).length() < 1e-5, "{f0} {expected}");
+    assert!((conductor_fresnel(0.0, n, k) - Vec3::ONE).length() < 1e-5);
+    let tree = json!({"nodes": [
+        {"name": "M", "type": "ShaderNodeBsdfMetallic", "fresnel_type": "PHYSICAL_CONDUCTOR",
+         "inputs": {"IOR": [0.27, 0.68, 1.32], "Extinction": [3.61, 2.63, 2.29]}}
+    ], "output": {"node": 0, "output": "BSDF"}});
+    let mut w = Vec::new();
+    let program = compile(&tree, 0, &mut w).expect("compiles");
+    let c = program.eval(&ShadingInputs::default(), &[], 0.5);
+    assert!((c.base_color - f0).length() < 1e-5 && c.metallic == 1.0);
+    let tint = c.metal_tint.expect("the conductor's F82 tint");
+    let mu = 1.0f32 / 7.0;
+    let schlick = f0 + (Vec3::ONE - f0) * (1.0 - mu).powi(5);
+    assert!((schlick * tint - conductor_fresnel(mu, n, k)).length() < 1e-4);
+}
+
+#[test]
+fn wireframe_marks_points_within_half_its_size_of_an_edge() {
+    let fac = |p: Vec3, pixel_size: bool, pixel_width: f32| {
+        let tree = json!({"nodes": [
+            {"name": "W", "type": "ShaderNodeWireframe", "use_pixel_size": pixel_size,
+             "inputs": {"Size": 0.2}},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": "Fac"}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let mut at = at_positions([p; 3], Vec3::Z);
+        at.incoming = Vec3::Z;
+        at.triangle = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        at.pixel_width = pixel_width;
+        emission_of(tree, &at).x
+    };
+    // 0.05 from the edge along x: within 0.1; 0.25 from every edge: not.
+    assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), false, 0.0), 1.0);
+    assert_eq!(fac(Vec3::new(0.25, 0.25, 0.0), false, 0.0), 0.0);
+    // In pixels: Size times the footprint (seen straight on, the footprint itself).
+    assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), true, 0.4), 0.0);
+    assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), true, 4.0), 1.0);
 }

@@ -53,15 +53,15 @@ def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
 
 
 def add_unsupported_features(scene):
-    """A Gabor Texture (a node Photon does not evaluate yet: Noise, for one, it does) into the
-    cube's base colour, a second cube whose volume's density is a Gabor Texture too (volume
+    """An Ambient Occlusion node (a node Photon does not evaluate yet: Noise, for one, it does)
+    into the cube's base colour, a second cube whose volume's density is one too (volume
     trees are evaluated with the nodes surface trees have), and a particle
     system on the cube rendered as halos (hair particles are carried: points_curves.py)."""
     cube = bpy.data.objects["Cube"]
     tree = cube.active_material.node_tree
-    noise = tree.nodes.new("ShaderNodeTexGabor")
+    noise = tree.nodes.new("ShaderNodeAmbientOcclusion")
     noise.name = "Clouds"
-    tree.links.new(noise.outputs["Value"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    tree.links.new(noise.outputs["AO"], tree.nodes["Principled BSDF"].inputs["Base Color"])
 
     smoke = bpy.data.objects.new("Smoke", cube.data.copy())
     smoke.location = (3.0, 0.0, 0.0)
@@ -71,9 +71,9 @@ def add_unsupported_features(scene):
     nodes = fog.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
     volume = nodes.new("ShaderNodeVolumeScatter")
-    wisps = nodes.new("ShaderNodeTexGabor")
+    wisps = nodes.new("ShaderNodeAmbientOcclusion")
     wisps.name = "Wisps"
-    fog.node_tree.links.new(wisps.outputs["Value"], volume.inputs["Density"])
+    fog.node_tree.links.new(wisps.outputs["AO"], volume.inputs["Density"])
     fog.node_tree.links.new(volume.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
     smoke.data.materials.clear()
     smoke.data.materials.append(fog)
@@ -97,8 +97,8 @@ def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, r
     add_unsupported_features(scene)
     warnings, status = render_warnings(capfd, route, monkeypatch)
     expected = {
-        "gabor node": lambda w: "material 'Material'" in w and "Gabor Texture node 'Clouds'" in w,
-        "volume": lambda w: "material 'Fog'" in w and "Gabor Texture node 'Wisps'" in w,
+        "ao node": lambda w: "material 'Material'" in w and "Occlusion node 'Clouds'" in w,
+        "volume": lambda w: "material 'Fog'" in w and "Occlusion node 'Wisps'" in w,
         "halos": lambda w: "object 'Cube'" in w and "'Sparks' rendered as HALO" in w,
     }
     for feature, matches in expected.items():

@@ -25,6 +25,7 @@ mod light_paths;
 mod lights_lamps;
 mod media;
 mod nodes;
+mod object_attributes;
 mod photon_map;
 mod photon_render;
 mod plan;

@@ -71,7 +71,7 @@ pub struct Emitted {
 impl Emitted {
     /// Whether it left an emitting medium (its first vertex is in the medium, which no light
     /// sample of the camera paths draws from).
-    fn from_medium(&self) -> bool {
+    fn left_a_medium(&self) -> bool {
         self.light.is_none()
     }
 }
@@ -648,7 +648,7 @@ fn walk_photon(
     // The photon scattered somewhere (a transparent pass is no scattering): light that did not
     // is what light samples find. Light from an emitting medium is found by no light sample:
     // its photons count from where they leave.
-    let mut scattered = emitted.from_medium();
+    let mut scattered = emitted.left_a_medium();
     let mut absorption = Vec3::ZERO;
     // Index of refraction of the medium the photon travels through (1: outside any object).
     let mut ior = 1.0f32;
@@ -664,7 +664,7 @@ fn walk_photon(
     // (the one a camera path's light sample leaves from, or after which it counts only the
     // emission it meets).
     let limit = ctx.scene.render_settings.volume_bounces;
-    let mut volume_allowance = emitted.from_medium().then_some(limit + 1);
+    let mut volume_allowance = emitted.left_a_medium().then_some(limit + 1);
     for bounce in 0..=max_bounces {
         let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
         if !media.is_vacuum(ctx.scene) {

@@ -225,6 +225,8 @@ pub(super) struct ObjectExtension {
     /// Blender's light and shadow linking ("light_linking").
     pub(super) links: LightLinks,
     pub(super) shadow_catcher: bool,
+    /// What the Object Info node reads of the object (`object_info`).
+    pub(super) info: crate::shader::ObjectInfo,
 }
 
 /// `PHOTON_object`'s "volume": the OpenVDB file that holds a Volume object's grids (a path,
@@ -266,6 +268,7 @@ impl Default for ObjectExtension {
             volume: None,
             links: LightLinks::NONE,
             shadow_catcher: false,
+            info: Default::default(),
         }
     }
 }
@@ -301,6 +304,11 @@ impl ObjectExtension {
                 None => LightLinks::NONE,
             },
             shadow_catcher: fields.flag("shadow_catcher", false)?,
+            info: fields
+                .get("info")
+                .map(super::object_info::read)
+                .transpose()?
+                .unwrap_or_default(),
         })
     }
 

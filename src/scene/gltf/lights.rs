@@ -187,6 +187,8 @@ impl Loader {
             volume_grids: None,
             links: self.node_extensions[node.index()].object.links,
             shadow_catcher: false,
+            object_info: Default::default(),
+            node_attributes: Default::default(),
         });
         Ok(())
     }

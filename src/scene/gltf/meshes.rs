@@ -39,6 +39,7 @@ impl Loader {
             instance.holdout = holdout;
             instance.links = object.links;
             instance.shadow_catcher = object.shadow_catcher;
+            instance.object_info = object.info;
             self.scene.instances.push(instance);
         }
         Ok(())
@@ -235,6 +236,13 @@ impl Loader {
                 volume_grids: None,
                 links: extension.links,
                 shadow_catcher: extension.shadow_catcher,
+                object_info: extension.info,
+                node_attributes: self.node_attributes(
+                    &primitive,
+                    material,
+                    &object,
+                    vertex_count,
+                )?,
             };
             if let Some(file) = &extension.volume {
                 out.volume_grids = self.volume_grids(&object, file, material)?;
@@ -388,6 +396,7 @@ pub(super) fn make_flat(mesh: &mut Mesh) {
         .collect();
     mesh.tangents = spread(&mesh.tangents, &corners);
     mesh.colors = spread(&mesh.colors, &corners);
+    mesh.node_attributes.spread(&corners);
     mesh.indices = (0..mesh.indices.len() as u32)
         .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
         .collect();

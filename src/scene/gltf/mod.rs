@@ -27,6 +27,7 @@
 
 mod accessors;
 mod animation;
+mod attributes;
 mod build;
 mod camera;
 mod container;
@@ -40,6 +41,7 @@ mod lights;
 mod materials;
 mod meshes;
 mod motion;
+mod object_info;
 mod skinning;
 mod textures;
 mod variants;

@@ -50,8 +50,7 @@ pub fn mesh(
         object_space: None,
         deformation: Vec::new(),
         volume_grids: None,
-        links: Default::default(),
-        shadow_catcher: false,
+        ..Mesh::default()
     }
 }
 
