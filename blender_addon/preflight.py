@@ -15,16 +15,10 @@ empty list, so the rules below only flag what really changes the image:
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
   (the tree route renders it; glTF carries no film);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
-<<<<<<< HEAD
-  Volume, Volume Scatter but its Fournier-Forand phase, Volume Absorption, Emission, Mix and
-  Add Shader over the texture and converter nodes the surface trees have), Volume objects whose
-  grids Photon cannot read (volumes.problems: packed or missing files, modifiers, grid types),
-  and smoke and fire in fluid domains (Photon renders their bake as a Volume object);
-=======
-  Volume, Volume Scatter, Volume Absorption, Emission, Mix and
-  Add Shader over the texture and converter nodes the surface trees have), and Volume objects
-  (OpenVDB grids, smoke and fire simulations), which are not exported;
->>>>>>> volume-passes
+  Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
+  converter nodes the surface trees have), Volume objects whose grids Photon cannot read
+  (volumes.problems: packed or missing files, modifiers, grid types), and smoke and fire in
+  fluid domains (Photon renders their bake as a Volume object);
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement as bump: node_tree.py);
 - particles rendered as halos or paths (hair particle systems, Curves objects and point
