@@ -303,8 +303,9 @@ class WORLD_PT_photon_preview(PhotonPanel, bpy.types.Panel):
 
 
 classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_light_paths, RENDER_PT_photon_photons,
-           RENDER_PT_photon_film, RENDER_PT_photon_motion_blur, VIEWLAYER_PT_photon_passes, VIEWLAYER_PT_photon_data_passes,
-           VIEWLAYER_PT_photon_light_passes, WORLD_PT_photon_preview)
+           RENDER_PT_photon_film, RENDER_PT_photon_motion_blur, VIEWLAYER_PT_photon_passes,
+           VIEWLAYER_PT_photon_data_passes, VIEWLAYER_PT_photon_light_passes,
+           WORLD_PT_photon_preview)
 
 
 def builtin_panels():
