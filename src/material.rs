@@ -83,6 +83,8 @@ pub struct SurfaceMaterial {
     /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
     /// one and doubles it).
     pub weight: f32,
+    /// A node tree's Toon BSDF: its lobe alone, of `base_color`.
+    pub toon: Option<crate::shader::Toon>,
     /// A node tree's metal F82 tint (`shader::Closure::metal_tint`); `None`: the normalised
     /// specular colour.
     pub metal_tint: Option<Vec3>,
@@ -126,6 +128,7 @@ impl Default for SurfaceMaterial {
             holdout: false,
             single_scatter: false,
             weight: 1.0,
+            toon: None,
             metal_tint: None,
         }
     }
@@ -318,6 +321,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         holdout: c.holdout,
         single_scatter: c.single_scatter,
         weight: c.weight,
+        toon: c.toon,
         metal_tint: c.metal_tint,
     }
 }

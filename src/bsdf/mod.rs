@@ -24,6 +24,9 @@
 //!   alone: Lambertian transmission, f = colour / π for directions on the other side of the
 //!   surface from the viewer, sampled cosine-weighted into that hemisphere (Cycles'
 //!   `bsdf_translucent`); it is reciprocal, so photons scatter by the same lobe;
+//! - Blender's Toon BSDF (`SurfaceMaterial::toon`) is a lobe of its own too, alone, as Cycles'
+//!   `bsdf_toon`: `shader::Toon`'s intensity around the normal (diffuse) or the mirror
+//!   direction (glossy), sampled uniformly in the cone it reaches, with that cone's density;
 //! - the specular layer and the metal are anisotropic GGX (α_x = α / aspect along the frame's
 //!   x axis, the tangent; α_y = α · aspect), the glass and the coat isotropic.
 //!
@@ -58,7 +61,9 @@ pub mod thin_film;
 
 use crate::material::SurfaceMaterial;
 use crate::math::{max_component, reflect, refract, Frame, Vec2, Vec3};
-use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::sampling::{
+    cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_uniform_cone, uniform_cone_pdf,
+};
 pub use crate::shader::Scattering;
 use fresnel::{f0_from_ior, fresnel_blend_factor, fresnel_dielectric, ior_from_f0, F82Tint};
 use microfacet::{
@@ -206,6 +211,8 @@ pub struct Bsdf {
     /// What the whole BSDF is multiplied by (`SurfaceMaterial::weight`; 1 but for a node
     /// tree's Add Shader): applied to `ViewedBsdf`'s values and samples, not to densities.
     weight: f32,
+    /// A Toon BSDF (`SurfaceMaterial::toon`), its lobe alone, of `base_color`.
+    toon: Option<crate::shader::Toon>,
 }
 
 /// One sampled direction.
@@ -314,13 +321,14 @@ impl Bsdf {
             roughness: clean(m.sheen_roughness, 0.0, 1.0),
         };
 
-        // A Translucent BSDF is its lobe alone.
-        let (metallic, transmission) = if m.translucent {
+        // A Translucent or Toon BSDF is its lobe alone.
+        let alone = m.translucent || m.toon.is_some();
+        let (metallic, transmission) = if alone {
             (0.0, 0.0)
         } else {
             (metallic, transmission)
         };
-        let dielectric = if m.translucent { 0.0 } else { 1.0 - metallic };
+        let dielectric = if alone { 0.0 } else { 1.0 - metallic };
         Bsdf {
             base_color,
             base_weight: dielectric * (1.0 - transmission),
@@ -365,6 +373,7 @@ impl Bsdf {
             },
             glass_reflect_tint: if m.glass { clamped_base } else { Vec3::ONE },
             weight: clean(m.weight, 0.0, f32::MAX),
+            toon: m.toon,
         }
     }
 
@@ -585,7 +594,8 @@ const GLASS: usize = 3;
 const COAT: usize = 4;
 const SHEEN: usize = 5;
 const TRANSLUCENT: usize = 6;
-const LOBES: usize = 7;
+const TOON: usize = 7;
+const LOBES: usize = 8;
 
 /// Energy compensation of a GGX dielectric reflector (Cycles' `microfacet_ggx_preserve_energy`
 /// with Fresnel mix(F0·tint, 1, s)) seen at cosine `mu`: its single-scattering multiplier
@@ -763,6 +773,9 @@ impl LobeSet {
             albedo[GLASS] = (r + tr) * glass_scale;
         }
         albedo[TRANSLUCENT] = b.translucent;
+        if b.toon.is_some() {
+            albedo[TOON] = b.base_color;
+        }
 
         // Sample in proportion to the estimated albedo; a tiny floor keeps every lobe that can
         // carry light reachable.
@@ -787,6 +800,9 @@ impl LobeSet {
         }
         if b.has_translucent() {
             prob[TRANSLUCENT] = average(albedo[TRANSLUCENT]).max(1e-4);
+        }
+        if b.toon.is_some() {
+            prob[TOON] = average(albedo[TOON]).max(1e-4);
         }
         let total: f32 = prob.iter().sum();
         if !(total > 0.0) || !total.is_finite() {
@@ -943,6 +959,16 @@ fn refraction_geometry(wo: Vec3, wi: Vec3, eta: f32) -> Option<RefractionGeometr
     })
 }
 
+/// The axis of a Toon lobe in the viewer-up frame: the normal, or the mirror direction of
+/// `wo` for the glossy one.
+fn toon_axis(toon: &crate::shader::Toon, wo: Vec3) -> Vec3 {
+    if toon.glossy {
+        Vec3::new(-wo.x, -wo.y, wo.z)
+    } else {
+        Vec3::Z
+    }
+}
+
 /// f·|cos θi| and the solid-angle pdf (per lobe, before lobe probabilities), over non-delta
 /// lobes, for `wo` and `wi` in the viewer-up frame.
 fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
@@ -964,6 +990,15 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
             let d = l.sheen.density(l.sheen_frame.to_local(wi));
             f += l.sheen_color * d;
             pdf += l.prob[SHEEN] * d;
+        }
+        if let (Some(toon), true) = (&b.toon, l.prob[TOON] > 0.0) {
+            let cos = toon_axis(toon, wo).dot(wi).max(0.0);
+            let intensity = toon.intensity(cos.min(1.0).acos());
+            if intensity > 0.0 {
+                let density = uniform_cone_pdf(toon.cos_cone());
+                f += b.base_color * (intensity * density);
+                pdf += l.prob[TOON] * density;
+            }
         }
         if l.prob[COAT] > 0.0 && !b.coat.smooth {
             let (wo_c, wi_c) = (l.coat_wo, l.in_coat_frame(wi));
@@ -1210,6 +1245,11 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
             let d = square_to_cosine_hemisphere(u);
             (Vec3::new(d.x, d.y, -d.z), false)
         }
+        TOON => {
+            let toon = b.toon.as_ref()?;
+            let d = square_to_uniform_cone(u, toon.cos_cone());
+            (Frame::from_normal(toon_axis(toon, wo_up)).to_world(d), true)
+        }
         _ => {
             let eta = l.glass_eta;
             if b.smooth || b.glass_passes_straight() {
@@ -1252,7 +1292,9 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
         pdf,
         delta: false,
         transmitted: wi.z * wo.z < 0.0,
-        scattering: if matches!(lobe, DIFFUSE | SHEEN | TRANSLUCENT) {
+        scattering: if matches!(lobe, DIFFUSE | SHEEN | TRANSLUCENT)
+            || (lobe == TOON && !b.toon.is_some_and(|t| t.glossy))
+        {
             Scattering::Diffuse
         } else {
             Scattering::Glossy

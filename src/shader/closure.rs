@@ -6,7 +6,7 @@
 use super::inputs::{input, normal_input, Operands, PointInputs, ShadingInputs, Socket, Ty, GREY};
 use crate::math::{Vec3, Vec4};
 use crate::phase::Phase;
-use std::f32::consts::PI;
+use std::f32::consts::{FRAC_PI_2, PI};
 
 /// The Principled node's inputs.
 pub(super) const PRINCIPLED_INPUTS: &[Socket] = &[
@@ -144,6 +144,66 @@ pub(super) const ADD_SHADER_INPUTS: &[Socket] =
 /// The Add Shader node's outputs.
 pub(super) const ADD_SHADER_OUTPUTS: &[Socket] = &[Socket::output("Shader", Ty::Shader)];
 
+/// Blender's Toon BSDF (Cycles' `bsdf_toon`): full intensity within `size` · 90° of its axis
+/// (the normal, or with `glossy` the mirror direction of the view), fading linearly to zero
+/// over a further `smooth` · 90°, sampled uniformly in the cone out to where it ends (at most
+/// 90°), with that cone's density: f·cos = colour · intensity / (2π (1 − cos of the cone)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Toon {
+    pub size: f32,
+    pub smooth: f32,
+    pub glossy: bool,
+}
+
+impl Toon {
+    /// The cosine of the cone the lobe is sampled in.
+    pub fn cos_cone(&self) -> f32 {
+        (FRAC_PI_2 * (self.size + self.smooth)).min(FRAC_PI_2).cos()
+    }
+
+    /// The intensity at angle `angle` (radians) from the axis.
+    pub fn intensity(&self, angle: f32) -> f32 {
+        let (max_angle, smooth) = (self.size * FRAC_PI_2, self.smooth * FRAC_PI_2);
+        if angle < max_angle {
+            1.0
+        } else if angle < max_angle + smooth && smooth != 0.0 {
+            1.0 - (angle - max_angle) / smooth
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The Toon node's inputs.
+pub(super) const TOON_INPUTS: &[Socket] = &[
+    Socket::color("Color", GREY),
+    Socket::float("Size", 0.5),
+    Socket::float("Smooth", 0.0),
+    Socket::vector("Normal", Vec4::ZERO),
+];
+
+/// The Toon node's outputs.
+pub(super) const TOON_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// The Toon BSDF: Color, Size, Smooth, Normal; `glossy`: its Glossy component.
+#[inline(always)]
+pub(super) fn eval_toon(glossy: bool, ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(TOON_INPUTS, "Color");
+    const SIZE: usize = input(TOON_INPUTS, "Size");
+    const SMOOTH: usize = input(TOON_INPUTS, "Smooth");
+    const NORMAL: usize = input(TOON_INPUTS, "Normal");
+    Closure {
+        base_color: ins.vector(COLOR),
+        normal: ins.vector(NORMAL),
+        toon: Some(Toon {
+            size: ins.float(SIZE).clamp(0.0, 1.0),
+            smooth: ins.float(SMOOTH).clamp(0.0, 1.0),
+            glossy,
+        }),
+        ..Closure::BLACK
+    }
+}
+
 /// The volume part of a closure.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeClosure {
@@ -233,6 +293,8 @@ pub struct Closure {
     /// What the whole BSDF is multiplied by (1; Add Shader picks one of two BSDFs with
     /// probability ½ and doubles it, so their sum is exact on average).
     pub weight: f32,
+    /// A Toon BSDF: the lobe alone, of `base_color`.
+    pub toon: Option<Toon>,
     /// The metal's F82 tint as Cycles takes it (the Principled BSDF's Specular Tint, the
     /// Metallic BSDF's Edge Tint); `None`: the normalised `specular_color` (glTF's).
     pub metal_tint: Option<Vec3>,
@@ -273,6 +335,7 @@ impl Closure {
         holdout: false,
         single_scatter: false,
         weight: 1.0,
+        toon: None,
         metal_tint: None,
         volume: VolumeClosure::NONE,
     };
@@ -422,6 +485,7 @@ pub(super) fn eval_principled(
         holdout: false,
         single_scatter: !multiscatter,
         weight: 1.0,
+        toon: None,
         metal_tint: Some(tint.max(Vec3::ZERO)),
         volume: VolumeClosure::NONE,
     };

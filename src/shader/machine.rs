@@ -317,6 +317,7 @@ pub(super) fn run(
             multiscatter,
         } => m.closures[o] = closure::eval_metallic(*physical, *multiscatter, inputs, at, ins),
         Op::Sheen => m.closures[o] = closure::eval_sheen(ins),
+        Op::Toon { glossy } => m.closures[o] = closure::eval_toon(*glossy, ins),
         Op::Glass { multiscatter } => {
             m.closures[o] = closure::eval_glass(false, *multiscatter, ins)
         }

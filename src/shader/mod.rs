@@ -42,7 +42,10 @@
 //! reflection); Emission → emission and
 //! a black BSDF; Transparent → smooth transmission with IOR 1 (a straight pass-through tinted by
 //! the colour, marked `Closure::transparent`: no bounce, and shadow rays pass it); Translucent →
-//! the BSDF's Lambertian transmission lobe alone (`Closure::translucent`). Mix Shader mixes emission exactly and picks one BSDF per shading point with
+//! the BSDF's Lambertian transmission lobe alone (`Closure::translucent`); Toon → its lobe
+//! alone (`Closure::toon`, `crate::bsdf`); Metallic → metallic 1 with Base Color as F0 and Edge
+//! Tint as the F82 tint (`Closure::metal_tint`), a physical conductor by its exact Fresnel at
+//! 0° and 82°. Mix Shader mixes emission exactly and picks one BSDF per shading point with
 //! probability given by the factor, as Cycles samples one closure by its weight: the BSDF is
 //! linear in its closures, so every integrator (path tracing, photon tracing and gathering,
 //! caches) gets the exact mixture in expectation, where interpolating parameters would not be
@@ -93,7 +96,7 @@ mod voronoi;
 mod wave;
 mod white_noise;
 
-pub use closure::{default_tangent, principled_aspect, Closure, VolumeClosure};
+pub use closure::{default_tangent, principled_aspect, Closure, Toon, VolumeClosure};
 pub use compile::compile;
 pub use inputs::{
     NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES,

@@ -419,6 +419,13 @@ pub(super) fn parse_op(
                 _ => return Ok(None),
             }
         }
+        "BsdfToon" => Op::Toon {
+            glossy: match setting(node, "component").unwrap_or("DIFFUSE") {
+                "DIFFUSE" => false,
+                "GLOSSY" => true,
+                _ => return Err(bad("component")),
+            },
+        },
         "BsdfMetallic" => Op::Metallic {
             physical: match setting(node, "fresnel_type").unwrap_or("F82") {
                 "F82" => false,

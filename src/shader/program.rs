@@ -173,6 +173,10 @@ pub(super) enum Op {
         multiscatter: bool,
     },
     Sheen,
+    /// Toon BSDF, its Diffuse or (`glossy`) Glossy component.
+    Toon {
+        glossy: bool,
+    },
     /// Glass BSDF; `multiscatter` as the Principled's (its lobe divided by its albedo).
     Glass {
         multiscatter: bool,

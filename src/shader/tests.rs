@@ -532,3 +532,34 @@ fn wireframe_marks_points_within_half_its_size_of_an_edge() {
     assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), true, 0.4), 0.0);
     assert_eq!(fac(Vec3::new(0.5, 0.05, 0.0), true, 4.0), 1.0);
 }
+
+#[test]
+fn toon_is_full_within_its_size_and_fades_over_its_smooth_edge() {
+    let toon = Toon {
+        size: 0.5,
+        smooth: 0.2,
+        glossy: false,
+    };
+    let quarter = std::f32::consts::FRAC_PI_2;
+    assert_eq!(toon.intensity(0.4 * quarter), 1.0);
+    assert!((toon.intensity(0.6 * quarter) - 0.5).abs() < 1e-5);
+    assert_eq!(toon.intensity(0.75 * quarter), 0.0);
+    assert!((toon.cos_cone() - (0.7 * quarter).cos()).abs() < 1e-6);
+    let tree = json!({"nodes": [
+        {"name": "T", "type": "ShaderNodeBsdfToon", "component": "GLOSSY",
+         "inputs": {"Color": [0.9, 0.4, 0.2, 1.0], "Size": 0.2, "Smooth": 2.0}}
+    ], "output": {"node": 0, "output": "BSDF"}});
+    let mut w = Vec::new();
+    let c = compile(&tree, 0, &mut w)
+        .unwrap()
+        .eval(&ShadingInputs::default(), &[], 0.5);
+    let expected = Toon {
+        size: 0.2,
+        smooth: 1.0,
+        glossy: true,
+    };
+    assert_eq!(
+        (c.toon, c.base_color),
+        (Some(expected), Vec3::new(0.9, 0.4, 0.2))
+    );
+}

@@ -19,16 +19,23 @@ def _addon(photon_addon, binary_env):
     return photon_addon
 
 
-@pytest.mark.parametrize("fresnel, anisotropy", [("F82", 0.0), ("PHYSICAL_CONDUCTOR", 0.0),
-                                                 ("F82", 0.6)])
-def test_metallic_sphere_under_a_lamp(tmp_path, fresnel, anisotropy):
+def shader_on_a_fresh_material(name, node_type):
+    """A fresh scene and a material whose surface is one new node of `node_type`."""
     reset()
-    mat = bpy.data.materials.new(f"Metal {fresnel}")
+    mat = bpy.data.materials.new(name)
     if bpy.app.version < (5, 0, 0):
         mat.use_nodes = True
     nodes = mat.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
-    metal = nodes.new("ShaderNodeBsdfMetallic")
+    shader = nodes.new(node_type)
+    mat.node_tree.links.new(shader.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
+    return mat, shader
+
+
+@pytest.mark.parametrize("fresnel, anisotropy", [("F82", 0.0), ("PHYSICAL_CONDUCTOR", 0.0),
+                                                 ("F82", 0.6)])
+def test_metallic_sphere_under_a_lamp(tmp_path, fresnel, anisotropy):
+    mat, metal = shader_on_a_fresh_material(f"Metal {fresnel}", "ShaderNodeBsdfMetallic")
     metal.fresnel_type = fresnel
     values = {"Base Color": (0.9, 0.55, 0.2, 1.0), "Edge Tint": (0.5, 0.7, 0.9, 1.0),
               "IOR": (0.27, 0.68, 1.32), "Extinction": (3.61, 2.63, 2.29), "Roughness": 0.35,
@@ -36,7 +43,6 @@ def test_metallic_sphere_under_a_lamp(tmp_path, fresnel, anisotropy):
     for socket in metal.inputs:  # those the other Fresnel type hides are not found by name
         if socket.identifier in values:
             socket.default_value = values[socket.identifier]
-    mat.node_tree.links.new(metal.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
     scene = sphere_scene(mat)
     matches_cycles(f"metallic {fresnel.lower()} anisotropy {anisotropy}", scene, tmp_path,
                    spp=512)
