@@ -7,20 +7,11 @@
 //! left at the file's values. Animations are read from the JSON here because the gltf crate's
 //! schema refuses valid pointer channels.
 
-use super::container::Loader;
+use super::container::{Loader, NodePose};
 use crate::error::Result;
 use crate::math::{Mat4, Quat, Vec3};
 use serde_json::Value;
 use std::collections::HashMap;
-
-/// What the animations set on one node at the chosen moment.
-#[derive(Clone, Debug, Default)]
-pub(super) struct NodePose {
-    pub(super) translation: Option<Vec3>,
-    pub(super) rotation: Option<Quat>,
-    pub(super) scale: Option<Vec3>,
-    pub(super) weights: Option<Vec<f32>>,
-}
 
 /// The property a channel animates.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -8,7 +8,7 @@ use super::encoding::{decode_base64, percent_decode};
 use super::extensions::{Invalid, NodeExtensions};
 use super::images::DecodedImage;
 use crate::error::{Error, Result};
-use crate::math::{Affine3A, Vec2, Vec3};
+use crate::math::{Affine3A, Quat, Vec2, Vec3};
 use crate::scene::{Camera, Projection, Scene, SceneRenderSettings, World};
 use serde_json::Value;
 use std::collections::HashMap;
@@ -71,7 +71,7 @@ pub(super) struct Loader {
     /// The file's `animations`, as JSON (posed by `animation` at `LoadOptions::time`).
     pub(super) animations: Vec<Value>,
     /// What the animations set on each node at `LoadOptions::time` (empty without a time).
-    pub(super) pose: HashMap<usize, super::animation::NodePose>,
+    pub(super) pose: HashMap<usize, NodePose>,
     /// The `KHR_materials_variants` variant chosen (`LoadOptions::variant`), by index.
     pub(super) variant: Option<usize>,
 }
@@ -429,6 +429,15 @@ pub(super) fn use_webp_sources(
         texture.source = gltf::json::Index::new(source as u32);
     }
     Ok(())
+}
+
+/// What the animations set on one node at the chosen moment (`animation`).
+#[derive(Clone, Debug, Default)]
+pub(super) struct NodePose {
+    pub(super) translation: Option<Vec3>,
+    pub(super) rotation: Option<Quat>,
+    pub(super) scale: Option<Vec3>,
+    pub(super) weights: Option<Vec<f32>>,
 }
 
 #[cfg(test)]
