@@ -46,7 +46,8 @@ impl Volume {
     }
 
     /// The medium at world point `p`, inside the object of `mesh` and `instance` (as
-    /// `accel::Hit` has them; `None` for the world's volume), at moment `time`.
+    /// `accel::Hit` has them; `None` for the world's volume), at moment `time`; a Volume
+    /// object's scaled by `Scene::object_space_density`.
     pub fn at(
         &self,
         scene: &Scene,
@@ -60,13 +61,20 @@ impl Volume {
         let Some(program) = &self.program else {
             return Coefficients::VACUUM;
         };
-        let inputs = match object {
-            Some((mesh, instance)) => {
-                scene.volume_inputs(mesh, instance, p, time, &program.attributes)
-            }
-            None => world_volume_inputs(p),
+        let (inputs, density) = match object {
+            Some((mesh, instance)) => (
+                scene.volume_inputs(mesh, instance, p, time, &program.attributes),
+                scene.object_space_density(mesh, instance, time),
+            ),
+            None => (world_volume_inputs(p), 1.0),
         };
-        program.eval_volume(&inputs, &scene.textures)
+        let c = program.eval_volume(&inputs, &scene.textures);
+        Coefficients {
+            scattering: density * c.scattering,
+            absorption: density * c.absorption,
+            emission: density * c.emission,
+            phase: c.phase,
+        }
     }
 }
 
@@ -102,11 +110,25 @@ impl Volume {
             Some(inst) => space.to_object * inst.to_object_at(0.5),
             None => space.to_object,
         };
-        majorant.along(
+        let (bound, end) = majorant.along(
             to_object.transform_point3(origin),
             to_object.transform_vector3(dir),
             t,
-        )
+        );
+        (bound * object_space_density(to_object), end)
+    }
+}
+
+/// How many times denser per unit of world length a Volume object's medium is than its tree
+/// says, given its world → object map `to_object`: Blender's volume space "Object" (the
+/// default) keeps a Volume object's density per unit of the object's own length, so that it
+/// looks the same at any scale. Non-uniform scales count by their geometric mean.
+fn object_space_density(to_object: Affine3A) -> f32 {
+    let density = to_object.matrix3.determinant().abs().cbrt();
+    if density.is_finite() && density > 0.0 {
+        density
+    } else {
+        1.0
     }
 }
 
@@ -178,6 +200,25 @@ impl Scene {
             inputs.attributes = grid_attributes(grids, named, |g| g.sample(point.object));
         }
         inputs
+    }
+
+    /// How many times denser per unit of world length the medium inside the object of `mesh`
+    /// and `instance` (as `accel::Hit` has them) is than its tree says at moment `time`: a
+    /// Volume object's (one with voxel grids) by its scale (`object_space_density`), 1 for
+    /// other objects.
+    pub fn object_space_density(&self, mesh: u32, instance: u32, time: f32) -> f32 {
+        let placed = self.instances.get(instance as usize);
+        let stored = match placed {
+            Some(inst) => &self.prototypes[inst.prototype as usize],
+            None => &self.meshes[mesh as usize],
+        };
+        let (Some(_), Some(space)) = (&stored.volume_grids, &stored.object_space) else {
+            return 1.0;
+        };
+        object_space_density(match placed {
+            Some(inst) => space.to_object * inst.to_object_at(time),
+            None => space.to_object,
+        })
     }
 
     /// Sets the majorant of every heterogeneous volume: the largest extinction coefficient of
@@ -256,7 +297,8 @@ impl Scene {
                 };
                 grid_emits[m] |= emits;
                 let most = majorant.values.iter().fold(0.0f32, |a, &b| a.max(b));
-                grid_most[m] = grid_most[m].max(most);
+                let density = self.object_space_density(mesh, instance, 0.5);
+                grid_most[m] = grid_most[m].max(most * density);
                 let stored = match self.instances.get(instance as usize) {
                     Some(inst) => &mut self.prototypes[inst.prototype as usize],
                     None => &mut self.meshes[mesh as usize],
@@ -326,7 +368,8 @@ impl Scene {
     /// the tree evaluated at each block's centre and corners with every grid's largest value
     /// touching the block, which bounds the trees that grow with their attributes (density ×
     /// Density, the usual), times 1.5 for the rest, and whether the tree emitted light at any
-    /// of those points; `None` without grids.
+    /// of those points; `None` without grids. Its values are per unit of the object's own
+    /// length: `Volume::majorant_along` scales them as `Volume::at` scales the medium.
     fn grid_majorant(
         &self,
         volume: &Volume,

@@ -35,4 +35,5 @@ mod sampler;
 mod scenes;
 mod stress;
 mod subsurface;
+mod volume_objects;
 mod warps;
