@@ -755,10 +755,6 @@ pub fn light_scattered_along(
     let dir = ray.direction.normalize();
     let in_media = media.media(ctx);
     let homogeneous = in_media.homogeneous();
-    let rates = match homogeneous {
-        Some(c) => c.extinction(),
-        None => Vec3::splat(in_media.majorant()),
-    };
     let middle = if reach.is_finite() {
         ray.origin + dir * (0.5 * reach)
     } else {
@@ -778,7 +774,10 @@ pub fn light_scattered_along(
         )
         .filter(|ls| !ls.target.distant)
         .map(|ls| ls.target.p);
-    let sampler = SegmentSampler::new(ray.origin, dir, reach, rates, beta, centre);
+    let sampler = match homogeneous {
+        Some(c) => SegmentSampler::new(ray.origin, dir, reach, c.extinction(), beta, centre),
+        None => SegmentSampler::through_majorant(&in_media, ray.origin, dir, reach, centre),
+    };
     let Some((t, pdf)) = sampler.sample([rng.uniform(), rng.uniform(), rng.uniform()]) else {
         return Vec3::ZERO;
     };

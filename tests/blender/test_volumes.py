@@ -22,7 +22,8 @@ sets them.
 - a window-lit room of thin walls filled with haze, the sun through the window (god rays; both
   methods);
 - three linked duplicates of one smoke cube (instances of one prototype), each reading its own
-  object space through a Noise Texture on Object coordinates.
+  object space through a Noise Texture on Object coordinates;
+- three overlapping Volume objects of one OpenVDB file at different scales (their media add).
 """
 
 import math
@@ -266,3 +267,17 @@ def test_openvdb_voxels_sit_where_blender_puts_them(tmp_path):
     scene.camera.data.type = "ORTHO"
     scene.camera.data.ortho_scale = 3.0
     compare("openvdb voxels", scene, tmp_path, photon_spp=64, cycles_spp=256)
+
+
+def test_overlapping_volume_objects(tmp_path):
+    """Three Volume objects of one OpenVDB file, at scales 0.7, 0.9 and 0.6, overlapping (their
+    media add where they meet, as Cycles' volume stack adds them), over a sunlit floor."""
+    path = baked_smoke_vdb(tmp_path / "bake")
+    scene = floor_scene()
+    mat, node = volume_material("Smoke", "ShaderNodeVolumePrincipled")
+    node.inputs["Color"].default_value = (0.9, 0.5, 0.2, 1.0)
+    node.inputs["Density"].default_value = 4.0
+    for k, (x, scale, turn) in enumerate([(-0.6, 0.7, 0.0), (0.1, 0.9, 30.0), (0.7, 0.6, 60.0)]):
+        volume_object(f"Smoke {k}", path, mat, (x, 0.1 * k, 0.9), scale=scale, rotation_z=turn)
+    sun()
+    compare("overlapping volume objects", scene, tmp_path, photon_spp=256)
