@@ -5,8 +5,9 @@ The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered V
 whose grids come from a file on disk has a mesh object beside it: a box around its grids (one
 voxel of margin, where interpolation still reaches), at its place, with its material, or with
 Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
-`gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame and
-its grid names; the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
+`gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
+grid names and the volume's space (its density per unit of the object's length or of the
+world's); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
 
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
@@ -120,7 +121,8 @@ def as_boxes(scene):
             box.data.materials.append(material or _default_material())
             BOXES[box.name] = {"uri": path,
                                "grids": [g.name for g in obj.data.grids
-                                         if g.data_type in READ_TYPES]}
+                                         if g.data_type in READ_TYPES],
+                               "space": obj.data.render.space.lower()}
             made.append(box)
         if made:
             bpy.context.view_layer.update()

@@ -157,6 +157,9 @@ impl Grid {
 pub struct VolumeGrids {
     pub grids: Vec<Grid>,
     pub majorant: Option<MajorantGrid>,
+    /// The medium's density is per unit of world length (Blender's volume space "World"),
+    /// not of the object's own ("Object", the default: `Scene::object_space_density`).
+    pub world_space: bool,
 }
 
 /// A bound of a medium's extinction over blocks of voxels of one grid: constant in each block,

@@ -115,7 +115,12 @@ impl Volume {
             to_object.transform_vector3(dir),
             t,
         );
-        (bound * object_space_density(to_object), end)
+        let density = if grids.world_space {
+            1.0
+        } else {
+            object_space_density(to_object)
+        };
+        (bound * density, end)
     }
 }
 
@@ -205,16 +210,19 @@ impl Scene {
     /// How many times denser per unit of world length the medium inside the object of `mesh`
     /// and `instance` (as `accel::Hit` has them) is than its tree says at moment `time`: a
     /// Volume object's (one with voxel grids) by its scale (`object_space_density`), 1 for
-    /// other objects.
+    /// other objects and for Volume objects whose density is per unit of world length.
     pub fn object_space_density(&self, mesh: u32, instance: u32, time: f32) -> f32 {
         let placed = self.instances.get(instance as usize);
         let stored = match placed {
             Some(inst) => &self.prototypes[inst.prototype as usize],
             None => &self.meshes[mesh as usize],
         };
-        let (Some(_), Some(space)) = (&stored.volume_grids, &stored.object_space) else {
+        let (Some(grids), Some(space)) = (&stored.volume_grids, &stored.object_space) else {
             return 1.0;
         };
+        if grids.world_space {
+            return 1.0;
+        }
         object_space_density(match placed {
             Some(inst) => space.to_object * inst.to_object_at(time),
             None => space.to_object,

@@ -41,8 +41,9 @@ impl Inside<'_> {
 
 /// A unit sphere holding a Volume object scaled by `scale` about the origin: a "density"
 /// grid of a soft ball (1 − r/1.6 in object units, Principled Volume of Density 2, black) over
-/// 9³ voxels spanning the object's [−2, 2]³.
-fn scaled_smoke(scale: f32) -> Scene {
+/// 9³ voxels spanning the object's [−2, 2]³; its density per unit of world length with
+/// `world_space` (Blender's volume space "World").
+fn scaled_smoke(scale: f32, world_space: bool) -> Scene {
     let tree = serde_json::json!({
         "nodes": [{"name": "P", "type": "ShaderNodeVolumePrincipled",
                    "attributes": {"density": "density", "color": "", "temperature": ""},
@@ -81,6 +82,7 @@ fn scaled_smoke(scale: f32) -> Scene {
     s.meshes[0].volume_grids = Some(Arc::new(VolumeGrids {
         grids: vec![grid],
         majorant: None,
+        world_space,
     }));
     s.meshes[0].object_space = Some(ObjectSpace {
         to_object: Affine3A::from_mat3(
@@ -110,8 +112,8 @@ fn optical_depth(media: &Inside, origin: Vec3, dir: Vec3, length: f32) -> f32 {
 
 #[test]
 fn volume_objects_keep_their_opacity_at_any_scale() {
-    let full = scaled_smoke(1.0);
-    let half = scaled_smoke(0.5);
+    let full = scaled_smoke(1.0, false);
+    let half = scaled_smoke(0.5, false);
     let (full, half) = (Inside(&full), Inside(&half));
     // Through the centre: the half-size object is twice as dense over half the length.
     let whole = optical_depth(&full, Vec3::new(0.0, 0.0, -2.0), Vec3::Z, 4.0);
@@ -124,8 +126,36 @@ fn volume_objects_keep_their_opacity_at_any_scale() {
 }
 
 #[test]
+fn world_space_volume_objects_keep_their_density_per_world_unit() {
+    let full = scaled_smoke(1.0, true);
+    let half = scaled_smoke(0.5, true);
+    let (full, half) = (Inside(&full), Inside(&half));
+    // Through the centre: as dense as before over half the length.
+    let whole = optical_depth(&full, Vec3::new(0.0, 0.0, -2.0), Vec3::Z, 4.0);
+    let scaled = optical_depth(&half, Vec3::new(0.0, 0.0, -1.0), Vec3::Z, 2.0);
+    assert!(
+        (scaled - 0.5 * whole).abs() < 1e-3 * whole,
+        "optical depth {scaled} at half scale vs {whole} at full"
+    );
+    // The majorant grid still bounds it.
+    let mut rng = Rng::new(5);
+    let dir = Vec3::new(0.2, 0.1, 1.0).normalize();
+    let origin = -1.2 * dir;
+    let exact = (-optical_depth(&half, origin, dir, 2.4)).exp();
+    let n = 40_000;
+    let tracked = (0..n)
+        .map(|_| transmittance(&half, origin, dir, 2.4, &mut rng).x as f64)
+        .sum::<f64>()
+        / n as f64;
+    assert!(
+        (tracked as f32 - exact).abs() < 0.015 * exact + 2e-3,
+        "ratio tracking {tracked} vs Beer–Lambert {exact}"
+    );
+}
+
+#[test]
 fn volume_objects_track_their_scaled_density() {
-    let s = scaled_smoke(0.6);
+    let s = scaled_smoke(0.6, false);
     let media = Inside(&s);
     let mut rng = Rng::new(11);
     for ray in 0..6 {

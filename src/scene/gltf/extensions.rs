@@ -230,10 +230,13 @@ pub(super) struct ObjectExtension {
 }
 
 /// `PHOTON_object`'s "volume": the OpenVDB file that holds a Volume object's grids (a path,
-/// absolute or relative to the glTF file) and the names of the grids in it.
+/// absolute or relative to the glTF file), the names of the grids in it, and whether its
+/// density is per unit of world length (Blender's volume space "World") rather than of the
+/// object's own ("Object", the default).
 pub(super) struct VolumeFile {
     pub(super) uri: String,
     pub(super) grids: Vec<String>,
+    pub(super) world_space: bool,
 }
 
 impl VolumeFile {
@@ -249,9 +252,19 @@ impl VolumeFile {
                 .and_then(|a| a.iter().map(|g| g.as_str().map(str::to_string)).collect())
                 .ok_or_else(|| fields.fail("'grids' must be a list of names".into()))?,
         };
+        let world_space = match fields.string("space")? {
+            None | Some("object") => false,
+            Some("world") => true,
+            Some(other) => {
+                return Err(fields.fail(format!(
+                    "'space' must be \"object\" or \"world\", not \"{other}\""
+                )))
+            }
+        };
         Ok(VolumeFile {
             uri: uri.to_string(),
             grids,
+            world_space,
         })
     }
 }

@@ -40,7 +40,10 @@ impl Loader {
             }
         }
         let in_file = vdb::grid_names(&path).map_err(|e| self.err(object, e.to_string()))?;
-        let mut grids = VolumeGrids::default();
+        let mut grids = VolumeGrids {
+            world_space: file.world_space,
+            ..VolumeGrids::default()
+        };
         for name in wanted {
             if !in_file.iter().any(|(n, _)| n == name) {
                 self.scene.warnings.push(format!(
