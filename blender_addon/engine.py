@@ -266,7 +266,8 @@ def summary(stats: dict) -> str:
     if not stats:
         return "done"
     return (f"{stats.get('width')}x{stats.get('height')}, {stats.get('spp')} spp in "
-            f"{stats.get('render_seconds', 0):.2f} s, {stats.get('mrays_per_second', 0):.1f} "
+            f"{stats.get('total_seconds', stats.get('render_seconds', 0)):.2f} s, "
+            f"{stats.get('mrays_per_second', 0):.1f} "
             f"M rays/s, {stats.get('triangles')} triangles")
 
 

@@ -464,6 +464,7 @@ fn non_negative_limit(text: &str) -> std::result::Result<f32, String> {
 }
 
 fn run_render(args: RenderArgs) -> Result<()> {
+    let process = Instant::now();
     let filter = args
         .filter
         .as_deref()
@@ -498,6 +499,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         time: args.time,
     };
     let mut scene = load_scene_with(args.scene.as_deref(), &options)?;
+    let load_seconds = process.elapsed().as_secs_f64();
     let method = match args.subsurface {
         SubsurfaceArg::Material => None,
         SubsurfaceArg::Walk => Some(SubsurfaceMethod::RandomWalk),
@@ -730,20 +732,73 @@ fn run_render(args: RenderArgs) -> Result<()> {
         },
         None => ExrLayout::Rgba,
     };
+    let writing = Instant::now();
     write_image(&args.output, &image, &layout, &cancel)?;
+    let timing = ProcessTiming {
+        total: process.elapsed().as_secs_f64(),
+        load: load_seconds,
+        write: writing.elapsed().as_secs_f64(),
+    };
     let pixels = image.width as u64 * image.height as u64;
-    summarise(&args.output, &settings, &stats, pixels, threads, mode);
+    summarise(
+        &args.output,
+        &settings,
+        &stats,
+        &timing,
+        pixels,
+        threads,
+        mode,
+    );
     Ok(())
+}
+
+/// Where a render's process spent its time, beside what `RenderStats` times.
+struct ProcessTiming {
+    /// From the start of `run_render` to the image written.
+    total: f64,
+    /// Reading the scene.
+    load: f64,
+    /// Writing the image.
+    write: f64,
+}
+
+impl ProcessTiming {
+    /// The process's parts, in seconds, named as the summary line names them: each stage
+    /// timed, and what is left of the whole (planning, pilots, threads) as "other".
+    fn parts(&self, stats: &RenderStats) -> Vec<(&'static str, f64)> {
+        let mut parts = vec![("loading", self.load), ("BVH", stats.build_seconds)];
+        if let Some(p) = &stats.photon {
+            let maps = p.trace_seconds
+                + p.guide_seconds
+                + p.kdtree_seconds
+                + p.volume_seconds
+                + p.subsurface_seconds;
+            parts.push(("photon maps", maps));
+            if p.irradiance_records > 0 {
+                parts.push(("irradiance records", p.irradiance_seconds));
+            }
+        }
+        if let Some(c) = &stats.irradiance_cache {
+            parts.push(("irradiance cache", c.seconds));
+        }
+        parts.push(("rendering", stats.render_seconds));
+        parts.push(("writing", self.write));
+        let timed: f64 = parts.iter().map(|(_, t)| t).sum();
+        parts.push(("other", (self.total - timed).max(0.0)));
+        parts
+    }
 }
 
 fn summarise(
     output: &Path,
     settings: &RenderSettings,
     stats: &RenderStats,
+    timing: &ProcessTiming,
     pixels: u64,
     threads: usize,
     mode: ProgressMode,
 ) {
+    let parts = timing.parts(stats);
     // Samples per pixel on average: fewer than `spp` where adaptive sampling stopped pixels.
     let mean_spp = stats.camera_samples as f64 / pixels.max(1) as f64;
     let mrays = stats.rays as f64 / stats.render_seconds.max(1e-9) / 1e6;
@@ -828,6 +883,9 @@ fn summarise(
                 "width": settings.width, "height": settings.height, "spp": settings.spp,
                 "threads": threads, "triangles": stats.triangles, "lights": stats.lights,
                 "build_seconds": stats.build_seconds, "render_seconds": stats.render_seconds,
+                "total_seconds": timing.total,
+                "parts_seconds": parts.iter().map(|(name, t)| (name.to_string(), serde_json::json!(t)))
+                    .collect::<serde_json::Map<_, _>>(),
                 "rays": stats.rays, "mrays_per_second": mrays,
                 "nonfinite_samples": stats.nonfinite_samples, "peak_memory_mib": memory,
                 "camera_samples": stats.camera_samples, "mean_spp": mean_spp,
@@ -835,7 +893,7 @@ fn summarise(
         }));
     } else {
         eprintln!(
-            "photon: wrote {} ({}x{}, {} spp{}) in {:.2} s on {} threads: {:.1} M rays/s, build {:.3} s, peak memory {:.0} MiB{}",
+            "photon: wrote {} ({}x{}, {} spp{}) in {:.2} s on {} threads ({}): {:.1} M rays/s rendering, peak memory {:.0} MiB{}",
             output.display(),
             settings.width,
             settings.height,
@@ -844,10 +902,14 @@ fn summarise(
                 Some(_) => format!(", adaptive: {mean_spp:.1} on average"),
                 None => String::new(),
             },
-            stats.render_seconds,
+            timing.total,
             threads,
+            parts
+                .iter()
+                .map(|(name, t)| format!("{name} {t:.2} s"))
+                .collect::<Vec<_>>()
+                .join(", "),
             mrays,
-            stats.build_seconds,
             memory,
             if stats.nonfinite_samples > 0 {
                 format!(", {} non-finite samples dropped", stats.nonfinite_samples)

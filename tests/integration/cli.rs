@@ -81,6 +81,18 @@ fn json_progress_is_one_object_per_line() {
     let message = plan["message"].as_str().unwrap_or_default();
     assert!(message.starts_with("auto: path tracer ("), "{message}");
     assert!(last["stats"]["build_seconds"].as_f64().unwrap() > 0.0);
+    // The whole process's time, and its parts adding up to it.
+    let total = last["stats"]["total_seconds"].as_f64().unwrap();
+    let parts = last["stats"]["parts_seconds"].as_object().unwrap();
+    let sum: f64 = parts.values().map(|t| t.as_f64().unwrap()).sum();
+    assert!(total >= last["stats"]["render_seconds"].as_f64().unwrap());
+    assert!(
+        (sum - total).abs() < 1e-6 * total.max(1.0),
+        "{parts:?} vs {total}"
+    );
+    for part in ["loading", "BVH", "rendering", "writing", "other"] {
+        assert!(parts.contains_key(part), "{part} in {parts:?}");
+    }
 }
 
 #[test]
