@@ -46,6 +46,90 @@ pub fn spread_factor(spread: Option<f32>, cos: f32) -> f32 {
     ((tan_half - tan_a) * normalize).max(0.0)
 }
 
+/// The part of an area light's triangle that can light a point through the light's spread
+/// (Cycles samples only the part of a spread area light that the soft box lets through, as
+/// this does): the spread's cone from the point meets the light's plane in a disc about the
+/// point's projection, of radius (distance to the plane) × tan(spread / 2); outside it the
+/// emission towards the point is zero (`spread_factor`). The window is the disc's bounding
+/// square clipped to the triangle's bounding box, in the triangle's plane, and points are
+/// drawn uniformly in it (those off the triangle are no sample): where it is smaller than the
+/// triangle, this puts more of the samples where the light reaches the point.
+#[derive(Clone, Copy, Debug)]
+pub struct SpreadWindow {
+    /// The triangle's first corner and the plane's axes (x along its first edge).
+    origin: Vec3,
+    x: Vec3,
+    y: Vec3,
+    /// The triangle's second and third corners in the plane (its first at the origin).
+    second: f32,
+    third: Vec2,
+    /// The window, in the plane's coordinates.
+    lo: Vec2,
+    hi: Vec2,
+}
+
+impl SpreadWindow {
+    /// The window of triangle `v` (world space) seen from `p` through a spread of `spread`
+    /// radians; `None` where it is no smaller than the triangle (a wide spread, or a point
+    /// far from the plane), and sampling the whole triangle is as good.
+    pub fn new(v: [Vec3; 3], p: Vec3, spread: f32) -> Option<SpreadWindow> {
+        let half = 0.5 * spread.max(MIN_SPREAD);
+        if !(half < 1.5) {
+            return None;
+        }
+        let (edge1, edge2) = (v[1] - v[0], v[2] - v[0]);
+        let second = edge1.length();
+        let n = edge1.cross(edge2).normalize_or_zero();
+        if !(second > 0.0) || n == Vec3::ZERO {
+            return None;
+        }
+        let x = edge1 / second;
+        let y = n.cross(x);
+        let third = Vec2::new(edge2.dot(x), edge2.dot(y));
+        let rel = p - v[0];
+        let centre = Vec2::new(rel.dot(x), rel.dot(y));
+        let radius = rel.dot(n).abs() * half.tan();
+        let box_lo = Vec2::new(third.x.min(0.0), third.y.min(0.0));
+        let box_hi = Vec2::new(third.x.max(second), third.y.max(0.0));
+        let window = SpreadWindow {
+            origin: v[0],
+            x,
+            y,
+            second,
+            third,
+            lo: (centre - Vec2::splat(radius)).max(box_lo),
+            hi: (centre + Vec2::splat(radius)).min(box_hi),
+        };
+        let triangle = 0.5 * second * third.y.abs();
+        (window.area() < triangle).then_some(window)
+    }
+
+    /// The window's area (zero when the disc misses the triangle's box).
+    pub fn area(&self) -> f32 {
+        let size = (self.hi - self.lo).max(Vec2::ZERO);
+        size.x * size.y
+    }
+
+    /// The barycentric coordinates (of the second and third corners) of the point drawn
+    /// uniformly in the window with `u`; `None` when it falls off the triangle.
+    pub fn sample(&self, u: Vec2) -> Option<Vec2> {
+        if !(self.area() > 0.0) {
+            return None;
+        }
+        let q = self.lo + (self.hi - self.lo) * u;
+        let b2 = q.y / self.third.y;
+        let b1 = (q.x - b2 * self.third.x) / self.second;
+        (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0).then_some(Vec2::new(b1, b2))
+    }
+
+    /// Whether `point` (on the triangle's plane) lies in the window.
+    pub fn contains(&self, point: Vec3) -> bool {
+        let rel = point - self.origin;
+        let q = Vec2::new(rel.dot(self.x), rel.dot(self.y));
+        q.cmpge(self.lo).all() && q.cmple(self.hi).all()
+    }
+}
+
 /// Emitted radiance of a surface towards `wo` (unit, pointing away from the surface), whose
 /// material evaluated there emits `emission` (`SurfaceMaterial::emission`).
 pub fn emitted_radiance(scene: &Scene, hit: &SurfaceHit, wo: Vec3, emission: Vec3) -> Vec3 {
@@ -134,12 +218,26 @@ pub fn sample_emitter_point(
     u: Vec2,
     seen_from: Option<(Vec3, RayPath)>,
 ) -> EmitterPoint {
+    let b = square_to_triangle(u);
+    emitter_point_at(scene, m, triangle, placed, time, b, seen_from)
+}
+
+/// `sample_emitter_point`'s point at barycentric coordinates `b` (of the triangle's second and
+/// third corners) instead of a drawn one.
+pub fn emitter_point_at(
+    scene: &Scene,
+    m: &Mesh,
+    triangle: u32,
+    placed: Option<Affine3A>,
+    time: f32,
+    b: Vec2,
+    seen_from: Option<(Vec3, RayPath)>,
+) -> EmitterPoint {
     let idx = m.indices[triangle as usize];
     let v = m.triangle_at(triangle, time).map(|q| match placed {
         Some(to_world) => to_world.transform_point3(q),
         None => q,
     });
-    let b = square_to_triangle(u);
     let b0 = 1.0 - b.x - b.y;
     let p = v[0] * b0 + v[1] * b.x + v[2] * b.y;
     let p_error =
@@ -231,6 +329,50 @@ pub(super) fn placed_area(mesh: &Mesh, triangle: u32, to_world: Affine3A, time: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Points drawn in a spread window estimate the light a point receives from the
+    /// triangle as points drawn on the whole triangle do (same mean), for points near and far
+    /// from the light, and a window is used only where it is smaller than the triangle.
+    #[test]
+    fn spread_windows_estimate_what_the_whole_triangle_does() {
+        let v = [
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(1.5, 0.0, 2.0),
+            Vec3::new(0.2, 1.2, 2.0),
+        ];
+        let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        let spread = 20f32.to_radians();
+        let received = |p: Vec3, q: Vec3| {
+            let d = q - p;
+            let cos_l = d.normalize().dot(n).abs();
+            spread_factor(Some(spread), cos_l) * cos_l / d.length_squared()
+        };
+        let mut rng = crate::rng::Rng::new(3);
+        for p in [Vec3::new(0.5, 0.4, 0.0), Vec3::new(0.9, 0.2, 1.2)] {
+            let window = SpreadWindow::new(v, p, spread).expect("narrower than the triangle");
+            let samples = 400_000;
+            let (mut whole, mut windowed) = (0.0f64, 0.0f64);
+            for _ in 0..samples {
+                let u = Vec2::new(rng.uniform(), rng.uniform());
+                let b = square_to_triangle(u);
+                let q = v[0] * (1.0 - b.x - b.y) + v[1] * b.x + v[2] * b.y;
+                whole += (received(p, q) * area(v)) as f64;
+                if let Some(b) = window.sample(u) {
+                    let q = v[0] * (1.0 - b.x - b.y) + v[1] * b.x + v[2] * b.y;
+                    assert!(window.contains(q));
+                    windowed += (received(p, q) * window.area()) as f64;
+                }
+            }
+            let (whole, windowed) = (whole / samples as f64, windowed / samples as f64);
+            assert!(whole > 0.0);
+            assert!(
+                (windowed - whole).abs() < 0.02 * whole,
+                "{p}: window {windowed} vs whole triangle {whole}"
+            );
+        }
+        // Far below, the cone covers the triangle: no window.
+        assert!(SpreadWindow::new(v, Vec3::new(0.5, 0.4, -20.0), spread).is_none());
+    }
 
     /// The spread keeps the light's power: ∫ factor · cos dω over the hemisphere is π, for wide
     /// and narrow spreads (the narrow ones through the series branch).

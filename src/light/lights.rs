@@ -18,7 +18,8 @@
 //! light.
 
 use super::emission::{
-    placed_area, sample_emitter_point, spread_factor, triangle_areas, EmitterSample,
+    emitter_point_at, placed_area, sample_emitter_point, spread_factor, triangle_areas,
+    EmitterSample, SpreadWindow,
 };
 use super::environment::{sun_disk_radiance, EnvironmentLight};
 use super::lamps::{sample_punctual_light, LampSet};
@@ -469,7 +470,26 @@ impl Lights {
                     area,
                     two_sided,
                     spread,
-                } = self.sample_emitter(scene, index, u_pick, u, time, Some(from))?;
+                } = match self.spread_window(scene, index, p, time) {
+                    Some((window, mesh, triangle)) => {
+                        let b = window.sample(u)?;
+                        let m = &scene.meshes[mesh as usize];
+                        let point = emitter_point_at(scene, m, triangle, None, time, b, Some(from));
+                        EmitterSample {
+                            emitter: point,
+                            area: window.area(),
+                            two_sided: matches!(
+                                self.sources[index],
+                                LightSource::Triangle {
+                                    two_sided: true,
+                                    ..
+                                }
+                            ),
+                            spread: m.emission_spread,
+                        }
+                    }
+                    None => self.sample_emitter(scene, index, u_pick, u, time, Some(from))?,
+                };
                 let (q, n) = (emitter.point.p, emitter.point.n);
                 let d = q - p;
                 let dist2 = d.length_squared();
@@ -558,6 +578,12 @@ impl Lights {
         let LightSource::Triangle { area, .. } = self.sources[index] else {
             return 0.0;
         };
+        // A spread area light seen from `from` is drawn in its window only.
+        let area = match self.spread_window(scene, index, from.p, hit.time) {
+            Some((window, ..)) if window.contains(hit.p) => window.area(),
+            Some(_) => return 0.0,
+            None => area,
+        };
         let d = hit.p - from.p;
         let dist2 = d.length_squared();
         let cos_l = (d.normalize_or_zero().dot(hit.ng)).abs();
@@ -565,6 +591,25 @@ impl Lights {
             return 0.0;
         }
         self.pick_pmf(from, index) * dist2 / (cos_l * area)
+    }
+
+    /// The window of emitting triangle `index` (a `LightSource::Triangle` of a mesh with an
+    /// area-light spread) that light sampling from `p` draws points in, with the triangle's
+    /// mesh and index; `None` where the whole triangle is drawn from.
+    fn spread_window(
+        &self,
+        scene: &Scene,
+        index: usize,
+        p: Vec3,
+        time: f32,
+    ) -> Option<(SpreadWindow, u32, u32)> {
+        let LightSource::Triangle { mesh, triangle, .. } = self.sources[index] else {
+            return None;
+        };
+        let m = &scene.meshes[mesh as usize];
+        let spread = m.emission_spread?;
+        let window = SpreadWindow::new(m.triangle_at(triangle, time), p, spread)?;
+        Some((window, mesh, triangle))
     }
 
     /// `triangle_pdf` of a point on an instance: the instance's share, its triangle's, and the

@@ -133,13 +133,13 @@ def instance_on_points(obj, instanced, *, rotation_max=None, rise_with_time=Fals
     return modifier
 
 
-def render(scene, engine: str, path: Path, samples: int) -> np.ndarray:
+def render(scene, engine: str, path: Path, samples: int, seed: int = 1) -> np.ndarray:
     """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back."""
-    common.configure_cycles(scene, samples, seed=1, threads=THREADS)
+    common.configure_cycles(scene, samples, seed=seed, threads=THREADS)
     scene.render.engine = engine
     if engine == "PHOTON":
         scene.photon.samples = samples
-        scene.photon.seed = 1
+        scene.photon.seed = seed
         scene.photon.threads = 0
     scene.render.filepath = str(path)
     scene.render.use_file_extension = False
