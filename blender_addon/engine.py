@@ -8,8 +8,10 @@ every warning of the glTF exporter (from either export route) and of the rendere
 as a WARNING (Blender's info log; the console in background mode), and the final status line
 counts them. Every failure the user can act on (no binary, no camera, export failure, renderer
 error, unreadable image) ends as one `report({'ERROR'}, ...)` with the renderer's own message,
-never a traceback and never a silently black image. Esc (`test_break`) stops the child within a second; the
-temporary folder is always removed.
+never a traceback and never a silently black image (in `blender -b` such a report also makes
+Blender exit non-zero). With Denoise on, the loaded image is denoised (denoise.py) before
+Blender gets it; a missing denoiser is a warning. Esc (`test_break`) stops the child within a
+second; the temporary folder is always removed.
 """
 
 import dataclasses
@@ -238,8 +240,9 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self._warn(f"Denoise is on, but the image is not denoised: {exc}")
         except denoise.Cancelled:
             raise runner.Cancelled() from None
-        if lib is not None:
-            self.timings["denoise_seconds"] = time.perf_counter() - start
+        else:
+            if lib is not None:
+                self.timings["denoise_seconds"] = time.perf_counter() - start
 
 
     def _timing_summary(self) -> str:
