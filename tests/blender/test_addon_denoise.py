@@ -56,6 +56,28 @@ def test_library_is_found_in_the_bpy_module():
     assert hasattr(lib, "oidnNewFilter")
 
 
+@pytest.mark.parametrize("platform, executable, library", [
+    ("linux", "blender", "lib/libOpenImageDenoise.so.2"),
+    ("darwin", "Blender.app/Contents/MacOS/Blender",
+     "Blender.app/Contents/Resources/lib/libOpenImageDenoise.2.3.3.dylib"),
+    ("win32", "blender.exe", "blender.shared/OpenImageDenoise.dll"),
+])
+def test_library_is_found_beside_blender(tmp_path, platform, executable, library):
+    """Blender's layouts on Linux, macOS and Windows (empty files in a temporary folder): the
+    main library is a candidate, its `_core` and `_device` modules are not."""
+    dn = load_denoise()
+    for name in (executable, library):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).touch()
+    folder = (tmp_path / library).parent
+    for module in ("_core", "_device_cpu"):
+        (folder / library.split("/")[-1].replace("OpenImageDenoise", "OpenImageDenoise" + module)
+         ).touch()
+    paths = dn.candidates(tmp_path / executable, None, environ={}, platform=platform)
+    assert paths[0] == str((tmp_path / library).resolve()), paths
+    assert not any("_core" in p or "_device" in p for p in paths), paths
+
+
 def test_environment_variable_comes_first(tmp_path):
     dn = load_denoise()
     paths = dn.candidates(None, bpy_folder(), environ={dn.ENV_VAR: str(tmp_path / "oidn.so")})
