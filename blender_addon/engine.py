@@ -8,10 +8,13 @@ every warning of the glTF exporter (from either export route) and of the rendere
 as a WARNING (Blender's info log; the console in background mode), and the final status line
 counts them. Every failure the user can act on (no binary, no camera, export failure, renderer
 error, unreadable image) ends as one `report({'ERROR'}, ...)` with the renderer's own message,
-never a traceback and never a silently black image. Esc (`test_break`) stops the child within a second; the
-temporary folder is always removed.
+never a traceback and never a silently black image (in `blender -b` such a report also makes
+Blender exit non-zero). With Denoise on, the loaded image is denoised (denoise.py) before
+Blender gets it; a missing denoiser is a warning. Esc (`test_break`) stops the child within a
+second; the temporary folder is always removed.
 """
 
+import dataclasses
 import shutil
 import tempfile
 import time
@@ -20,7 +23,7 @@ from pathlib import Path
 
 import bpy
 
-from . import export, preflight, preview, properties, runner
+from . import denoise, export, preflight, preview, properties, runner
 
 ADDON_DIR = Path(__file__).resolve().parent
 
@@ -44,13 +47,18 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
     def update_render_passes(self, scene=None, renderlayer=None):
         """Passes the renderer writes: Combined always; Depth, Normal, the denoising data (so
         the compositor's Denoise node can use them) and the light passes (which add up to
-        Combined) when the view layer asks for them."""
+        Combined) when the view layer asks for them. With Denoise on, Combined is the denoised
+        image, "Noisy Image" (Cycles' name) the renderer's, and the denoising data the guides
+        the denoiser read."""
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         if renderlayer.use_pass_z:
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
         if renderlayer.use_pass_normal:
             self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
-        if renderlayer.photon.use_pass_denoising_data:
+        denoising = getattr(getattr(scene, "photon", None), "use_denoising", False)
+        if denoising:
+            self.register_pass(scene, renderlayer, "Noisy Image", 4, "RGBA", "COLOR")
+        if renderlayer.photon.use_pass_denoising_data or denoising:
             self.register_pass(scene, renderlayer, "Denoising Normal", 3, "XYZ", "VECTOR")
             self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
         for name in properties.enabled_light_passes(renderlayer):
@@ -97,14 +105,17 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self.timings["exported"] = time.perf_counter()
             command = runner.render_command(
                 binary, glb, exr, width=width, height=height,
-                settings=properties.render_settings(settings), camera=scene.camera.name,
+                settings=dataclasses.replace(properties.render_settings(settings),
+                                             seed=properties.frame_seed(scene)),
+                camera=scene.camera.name,
                 view_layer=view_layer.name, region=region,
                 passes=bool(properties.enabled_light_passes(view_layer)),
                 adaptive=properties.adaptive_sampling(scene))
             stats = runner.run(command, self._on_event, self.test_break)
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]
-            self._load(exr, view_layer.name, width, height)
+            self._load(exr, view_layer.name, width, height,
+                       denoising=settings if settings.use_denoising else None)
         line = f"Photon: {summary(stats)}; {self._timing_summary()}"
         if self.warnings:
             count = len(self.warnings)
@@ -187,9 +198,10 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         self.update_progress(lo + (hi - lo) * min(max(fraction, 0.0), 1.0))
         self.update_stats("", f"Photon: {stage} {100 * fraction:.0f}% {message}".rstrip())
 
-    def _load(self, exr, layer_name, width, height):
+    def _load(self, exr, layer_name, width, height, denoising=None):
         """Fill the render result from the EXR, after checking that Blender's loader will find
-        the channels (it loads nothing, silently, when the names do not match)."""
+        the channels (it loads nothing, silently, when the names do not match); with
+        `denoising` (the scene's settings), denoise it before handing it to Blender."""
         if not exr.is_file():
             raise runner.PhotonError("the renderer exited normally but wrote no image")
         wanted = f"{layer_name}.Combined.R"
@@ -203,7 +215,34 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         except RuntimeError as exc:
             self.end_result(result, cancel=True)
             raise runner.PhotonError(f"Blender could not load the rendered image: {exc}") from None
-        self.end_result(result)
+        try:
+            if denoising is not None:
+                self._denoise(result.layers[0], width, height, denoising)
+        finally:
+            self.end_result(result)
+
+    def _denoise(self, layer, width, height, settings):
+        """Denoise the layer's Combined with OpenImageDenoise (denoise.py), keeping the noisy
+        image in "Noisy Image". Without the library, or when it fails, a warning says so and
+        Combined stays noisy."""
+        self.update_stats("", "Photon: denoising (OpenImageDenoise)")
+        start = time.perf_counter()
+        lib = None
+        try:
+            lib = denoise.library(bpy.app.binary_path, Path(bpy.__file__).resolve().parent)
+        except denoise.DenoiserMissing as exc:
+            self._warn(f"Denoise is on, but the image is not denoised: {exc}")
+        try:
+            denoise.denoise_layer(lib, layer, width, height,
+                                  prefilter=settings.denoising_prefilter,
+                                  threads=settings.threads, should_cancel=self.test_break)
+        except denoise.DenoiseError as exc:
+            self._warn(f"Denoise is on, but the image is not denoised: {exc}")
+        except denoise.Cancelled:
+            raise runner.Cancelled() from None
+        else:
+            if lib is not None:
+                self.timings["denoise_seconds"] = time.perf_counter() - start
 
 
     def _timing_summary(self) -> str:
@@ -213,6 +252,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         start = t["start"]
         parts = [f"{name} {t[key] - start:.2f} s" for name, key in
                  (("export", "exported"), ("first progress", "first_progress")) if key in t]
+        if "denoise_seconds" in t:
+            parts.append(f"denoise {t['denoise_seconds']:.2f} s")
         return ", ".join(parts + [f"total {time.perf_counter() - start:.2f} s"])
 
 

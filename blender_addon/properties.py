@@ -12,7 +12,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from .runner import RenderSettings
+from .runner import RenderSettings, animated_seed
 
 D = RenderSettings()
 
@@ -63,6 +63,16 @@ class PhotonRenderSettings(bpy.types.PropertyGroup):
         items=[("DEFAULT", "Renderer Default", "Let the renderer decide"),
                ("ON", "On", "Use the irradiance cache"),
                ("OFF", "Off", "Final-gather at every shading point")])
+    use_denoising: BoolProperty(
+        name="Denoise", description="Denoise the final render with OpenImageDenoise (the "
+        "library Blender ships), guided by the albedo and normal of the first surface; the "
+        "noisy image is kept in the Noisy Image pass", default=False)
+    denoising_prefilter: EnumProperty(
+        name="Prefilter", description="How the albedo and normal guides are prefiltered, as "
+        "Cycles' setting of that name", default="ACCURATE",
+        items=[("NONE", "None", "No prefiltering: the guides are taken as noise-free"),
+               ("FAST", "Fast", "The guides are denoised together with the image"),
+               ("ACCURATE", "Accurate", "The guides are denoised first, then the image")])
     ic_accuracy: FloatProperty(
         name="Cache Accuracy", description="Irradiance-cache accuracy (Ward's a): smaller is "
         "more accurate, with more records", default=D.ic_accuracy, min=0.01, max=1.0,
@@ -79,6 +89,17 @@ def adaptive_sampling(scene):
         return None
     return (float(getattr(cycles, "adaptive_threshold", 0.01)),
             int(getattr(cycles, "adaptive_min_samples", 0)))
+
+
+def frame_seed(scene) -> int:
+    """The seed of the frame being rendered: Photon's Seed, or with Cycles' Animated Seed
+    (Render > Sampling, `scene.cycles.use_animated_seed`) that seed mixed with the frame and
+    subframe, so each frame has its own noise and every frame is still the same wherever and
+    in whatever order it is rendered."""
+    seed = scene.photon.seed
+    if not getattr(getattr(scene, "cycles", None), "use_animated_seed", False):
+        return seed
+    return animated_seed(seed, scene.frame_current, scene.frame_subframe)
 
 
 def render_settings(props) -> RenderSettings:

@@ -105,6 +105,24 @@ class RenderSettings:
     ic_accuracy: float = 0.15     # --ic-accuracy (Ward's a), passed with --irradiance-cache on
 
 
+def animated_seed(seed: int, frame: int, subframe: float = 0.0) -> int:
+    """A seed for `frame` (and `subframe`) of an animation from the scene's `seed`: a 64-bit
+    mix (SplitMix64's finaliser, Steele, Lea & Flood 2014) of the three, so neighbouring frames
+    get unrelated seeds and the same frame always the same one."""
+    mask = (1 << 64) - 1
+
+    def mix(x):
+        x = (x + 0x9E3779B97F4A7C15) & mask
+        x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & mask
+        x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & mask
+        return x ^ (x >> 31)
+
+    value = mix(mix(seed & mask) ^ (frame & mask))
+    if subframe:
+        value = mix(value ^ round(subframe * (1 << 32)))
+    return value
+
+
 def settings_arguments(settings: RenderSettings) -> list[str]:
     """The `photon render` flags for `settings`. Values that mean "the renderer decides" are left
     out, so the renderer's own defaults and planner apply."""

@@ -171,7 +171,26 @@ class RENDER_PT_photon_sampling(PhotonPanel, bpy.types.Panel):
             sub.prop(cycles, "adaptive_min_samples", text="Min Samples")
         col.prop(settings, "max_bounces")
         col.prop(settings, "seed")
+        if cycles is not None:
+            col.prop(cycles, "use_animated_seed", text="Animated Seed")
         col.prop(settings, "threads")
+
+
+class RENDER_PT_photon_denoise(PhotonPanel, bpy.types.Panel):
+    """Render › Sampling › Denoise, as Cycles': OpenImageDenoise on the final render."""
+    bl_label = "Denoise"
+    bl_parent_id = "RENDER_PT_photon_sampling"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.photon, "use_denoising", text="")
+
+    def draw(self, context):
+        settings = context.scene.photon
+        col = _split(self.layout)
+        col.active = settings.use_denoising
+        col.label(text="OpenImageDenoise, with albedo and normal")
+        col.prop(settings, "denoising_prefilter")
 
 
 class RENDER_PT_photon_light_paths(PhotonPanel, bpy.types.Panel):
@@ -302,8 +321,8 @@ class WORLD_PT_photon_preview(PhotonPanel, bpy.types.Panel):
         self.layout.template_preview(context.world)
 
 
-classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_light_paths, RENDER_PT_photon_photons,
-           RENDER_PT_photon_film, RENDER_PT_photon_motion_blur, VIEWLAYER_PT_photon_passes,
+classes = (RENDER_PT_photon_sampling, RENDER_PT_photon_denoise, RENDER_PT_photon_light_paths,
+           RENDER_PT_photon_photons, RENDER_PT_photon_film, RENDER_PT_photon_motion_blur, VIEWLAYER_PT_photon_passes,
            VIEWLAYER_PT_photon_data_passes, VIEWLAYER_PT_photon_light_passes,
            WORLD_PT_photon_preview)
 
