@@ -9,6 +9,8 @@ sphere, and a coated sphere beside one mixing a diffuse and a smooth glossy BSDF
 tracer must match Cycles with the same clamps (mean within 1 %, relMSE of 4x4-pixel block
 means at most BLOCK_RELMSE_MAX, pixels' relMSE at most PIXEL_RELMSE_MAX), and must not without
 them (the unclamped caustics and bright floor pixels are the difference the test sees).
+The photon method's clamped caustic map must match Cycles on the glass sphere the same way
+(before its caustic photons were clamped: +6.6 %, 4x4-block relMSE 2.9; now -0.03 %).
 """
 
 import math
@@ -166,3 +168,18 @@ def test_clamp_matches_cycles(tmp_path, name, build):
     unclamped = render(scene, "PHOTON", tmp_path / "unclamped.exr", PHOTON_SPP, (0.0, 0.0))
     assert_matches_only_with(name, img, ref, unclamped, "clamping",
                              pixel_relmse_max=PIXEL_RELMSE_MAX)
+
+
+@pytest.mark.slow
+def test_photon_method_clamps_caustics_as_cycles(tmp_path):
+    """The photon method's caustic map keeps of each caustic photon what Clamp Indirect leaves
+    of the camera path that would find it (the floor's reflectance x the glass's throughput x
+    the sun disc's radiance, clamped): the sun's caustic under the glass sphere is almost all
+    removed, as in Cycles; without clamping it is back."""
+    scene = glass_sphere_scene()
+    clamp = (0.0, 10.0)
+    ref = render(scene, "CYCLES", tmp_path / "cycles.exr", CYCLES_SPP, clamp)
+    scene.photon.method = "PHOTON"
+    img = render(scene, "PHOTON", tmp_path / "photon.exr", 64, clamp)
+    unclamped = render(scene, "PHOTON", tmp_path / "unclamped.exr", 64, (0.0, 0.0))
+    assert_matches_only_with("glass sphere, photon method", img, ref, unclamped, "clamping")

@@ -55,9 +55,10 @@
 //! would add is clamped with the camera path's throughput: the light sample, and each
 //! final-gather ray's emission (Direct when x is the first hit) and its estimate (Indirect) as
 //! one sample of x's next bounce; the caustic, global and cached estimates, each one Indirect
-//! contribution. An estimate averages many light paths, so the photon method keeps light that
-//! Cycles' clamp removes from its rare bright samples (caustics of small lights seen through
-//! diffuse bounces).
+//! contribution. An estimate averages many light paths, whose rare bright ones Cycles' clamp
+//! would have cut: caustic photons carry only the share of their flux that Clamp Indirect
+//! leaves of the camera path that would find them (`tracing::caustic_clamp`), so the caustics
+//! of a sun or a small lamp mostly vanish at Blender's default limit, as in Cycles.
 
 use super::build::PhotonMaps;
 use super::estimate::{nearest_irradiance, radiance_estimate, Walls};

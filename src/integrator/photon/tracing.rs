@@ -35,6 +35,7 @@ use crate::error::{Error, Result};
 use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::media::MediumStack;
 use crate::integrator::shading::{transmittance, Shading};
+use crate::integrator::walk::Clamp;
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
 use crate::light::{smoothstep, spread_factor, EmitterSample, LightSource};
@@ -66,6 +67,11 @@ pub struct Emitted {
     pub light: Option<usize>,
     /// The media where it leaves, when the emitter found them (else the walk finds them).
     media: Option<MediumStack>,
+    /// The radiance a camera path's ray meets at the emitter where the photon leaves, along
+    /// the photon's first ray (infinite for lights no ray meets: a point light of no radius,
+    /// a sun of no angle); what Blender's Clamp Indirect weighs a caustic path's contribution
+    /// by (`caustic_clamp`). `None` for an emitting medium.
+    radiance: Option<Vec3>,
 }
 
 impl Emitted {
@@ -213,6 +219,7 @@ impl Emitters {
                 power: power / pmf,
                 light: None,
                 media: Some(media),
+                radiance: None,
             };
             return (e.power.is_finite() && max_component(e.power) > 0.0).then_some(e);
         }
@@ -255,7 +262,7 @@ impl Emitters {
             t_max: f32::INFINITY,
             time,
         };
-        let (r, power) = match ctx.lights.sources[index] {
+        let (r, power, seen) = match ctx.lights.sources[index] {
             LightSource::Triangle { .. } | LightSource::Instance { .. } => {
                 let EmitterSample {
                     emitter,
@@ -304,7 +311,8 @@ impl Emitters {
                         (dir, emitter.radiance * (weight * area * sides))
                     }
                 };
-                (ray(offset_origin(q, q_error, n, dir), dir), power)
+                let seen = emitter.radiance * spread_factor(spread, dir.dot(side).abs());
+                (ray(offset_origin(q, q_error, n, dir), dir), power, seen)
             }
             // Photons leave point and spot lights from their centre whatever their radius: the
             // radius only softens shadows, which the photon maps do not resolve, and widens a
@@ -312,23 +320,29 @@ impl Emitters {
             LightSource::Point {
                 position,
                 intensity,
+                radius,
                 ..
-            } => match aim {
-                None => (
-                    ray(position, square_to_uniform_sphere(u1)),
-                    intensity * (4.0 * PI),
-                ),
-                Some(t) => {
-                    let (dir, pdf) = t.sample_direction(position, rng.uniform(), u1)?;
-                    (ray(position, dir), intensity / pdf)
+            } => {
+                let seen = lamp_radiance(intensity, radius);
+                match aim {
+                    None => (
+                        ray(position, square_to_uniform_sphere(u1)),
+                        intensity * (4.0 * PI),
+                        seen,
+                    ),
+                    Some(t) => {
+                        let (dir, pdf) = t.sample_direction(position, rng.uniform(), u1)?;
+                        (ray(position, dir), intensity / pdf, seen)
+                    }
                 }
-            },
+            }
             LightSource::Spot {
                 position,
                 direction,
                 intensity,
                 cos_inner,
                 cos_outer,
+                radius,
                 ..
             } => {
                 let cos_outer = cos_outer.clamp(-1.0, 1.0);
@@ -341,7 +355,8 @@ impl Emitters {
                     Some(t) => t.sample_direction(position, rng.uniform(), u1)?,
                 };
                 let falloff = smoothstep(cos_outer, cos_inner, dir.dot(direction));
-                (ray(position, dir), intensity * (falloff / pdf))
+                let seen = lamp_radiance(intensity * falloff, radius);
+                (ray(position, dir), intensity * (falloff / pdf), seen)
             }
             LightSource::Sun {
                 to_sun,
@@ -355,12 +370,19 @@ impl Emitters {
                     to_sun
                 };
                 let (origin, area) = self.parallel_origin(toward, aim, u1, rng)?;
-                (ray(origin, -toward), irradiance * area)
+                // The sun's disc: its irradiance spread over the solid angle it fills.
+                let disc = 2.0 * PI * (1.0 - cos_max);
+                let seen = if disc > 0.0 {
+                    irradiance / disc
+                } else {
+                    Vec3::splat(f32::INFINITY)
+                };
+                (ray(origin, -toward), irradiance * area, seen)
             }
             LightSource::World { .. } => {
                 let (toward, radiance, pdf) = ctx.lights.sample_world(u2)?;
                 let (origin, area) = self.parallel_origin(toward, aim, u1, rng)?;
-                (ray(origin, -toward), radiance * (area / pdf))
+                (ray(origin, -toward), radiance * (area / pdf), radiance)
             }
         };
         Some(Emitted {
@@ -368,6 +390,7 @@ impl Emitters {
             power,
             light: Some(index),
             media: None,
+            radiance: Some(seen),
         })
     }
 
@@ -639,6 +662,10 @@ fn walk_photon(
     mut in_medium: Option<&mut dyn FnMut(Photon)>,
 ) {
     let (mut ray, mut power) = (emitted.ray, emitted.power);
+    // The product of the scattering weights so far (the path's throughput, without Russian
+    // roulette's reweighting), for Clamp Indirect on caustics (`caustic_clamp`).
+    let mut throughput = Vec3::ONE;
+    let clamp = Clamp::of(ctx.scene);
     // True while every bounce so far was specular (light → S*).
     let mut specular_path = true;
     // Surfaces it scattered from, not counting transparent passes (a volume's boundary, a
@@ -727,16 +754,22 @@ fn walk_photon(
         let Some(hit) = hit else {
             return;
         };
-        power *= transmittance(absorption, &hit, &ray);
+        let through = transmittance(absorption, &hit, &ray);
+        power *= through;
+        throughput *= through;
         let s = Shading::new(ctx, &ray, &hit, false);
         let storing = stores_photons(&s.bsdf);
         // Inside a medium of index η a photon stands for 1/η² of its flux (`adjoint_scale`).
-        let stored = if ior == 1.0 {
+        let mut stored = if ior == 1.0 {
             power
         } else {
             power * adjoint_scale(ior)
         };
-        if storing && !store(&s, stored, bounce, surface_bounces > 0 && specular_path) {
+        let caustic = surface_bounces > 0 && specular_path;
+        if storing && caustic && clamp.is_on() {
+            stored *= caustic_clamp(clamp, &s, throughput, emitted.radiance);
+        }
+        if storing && !store(&s, stored, bounce, caustic) {
             return;
         }
         if bounce == max_bounces {
@@ -757,6 +790,7 @@ fn walk_photon(
             return;
         }
         power *= bs.weight / q;
+        throughput *= bs.weight;
         if !power.is_finite() {
             return;
         }
@@ -943,4 +977,41 @@ pub fn trace_photons<T: Send + Clone>(
         })
         .collect::<Result<_>>()?;
     Ok(parts.concat())
+}
+
+/// The share of a caustic photon that Blender's Clamp Indirect leaves (`walk::Clamp`): Cycles
+/// finds a caustic by a path from the camera that leaves the diffuse surface by its BSDF,
+/// passes the specular surfaces and meets the emitter, and clamps that path's contribution,
+/// the surface's reflectance × the specular chain's `throughput` × the emitter's `radiance`
+/// there, to the limit (a camera seeing the surface directly). Cycles' clamped contribution
+/// is the photon's times the share this returns, so the caustic estimate keeps what Cycles'
+/// clamped caustic keeps on average (nothing of a sun's or a small lamp's caustic at the
+/// default limit, 10). `radiance` `None` (an emitting medium): no clamp.
+fn caustic_clamp(clamp: Clamp, s: &Shading, throughput: Vec3, radiance: Option<Vec3>) -> f32 {
+    let Some(radiance) = radiance else {
+        return 1.0;
+    };
+    let reflectance = s.bsdf.diffuse_reflectance();
+    let contribution = reflectance * throughput * radiance;
+    // A channel that carries nothing carries nothing of an infinite radiance either.
+    let contribution = Vec3::select(contribution.is_nan_mask(), Vec3::ZERO, contribution);
+    let sum = contribution.abs().element_sum();
+    if !sum.is_finite() {
+        // A light no ray meets: no path from the camera finds its caustic.
+        return 0.0;
+    }
+    if !(sum > 0.0) {
+        return 1.0;
+    }
+    clamp.apply(contribution, false).abs().element_sum() / sum
+}
+
+/// The radiance a ray meets on a point or spot lamp of `intensity` and `radius` (a sphere of
+/// radiance I/(πr²), `light::lamps`); infinite for a point light of no radius.
+fn lamp_radiance(intensity: Vec3, radius: f32) -> Vec3 {
+    if radius > 0.0 {
+        intensity / (PI * radius * radius)
+    } else {
+        Vec3::splat(f32::INFINITY)
+    }
 }
