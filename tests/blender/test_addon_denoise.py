@@ -11,9 +11,9 @@ the Noisy Image pass (the same image as Combined of the render without Denoise),
 and a Combined that differs from the noisy image; against a 1024-spp Photon render of the
 same scene the denoised Combined's relMSE is lower than the noisy image's by at least
 DENOISE_GAIN (1.1x and 6x; measured 1.2x and 12.5x). Without the library the render ends with
-the noisy image in Combined and a warning, not an error. `-k cycles` renders
-the same scenes with Cycles (16 spp denoised against 1024 spp) and prints both engines' numbers
-side by side, the table in docs/bench/denoise.md.
+the noisy image in Combined and a warning, not an error. The same scenes rendered by Cycles
+(16 spp denoised against its own 1024 spp): Photon's denoised error at most 1.5x Cycles'
+(both engines' numbers are printed: the table in docs/bench/denoise.md).
 """
 
 from __future__ import annotations
@@ -235,6 +235,13 @@ def test_f12_denoise(name, photon_addon, binary_env, tmp_path):
     # The noisy pass is the renderer's image: Combined of the same render without Denoise.
     assert np.array_equal(noisy, rgb(plain, "Combined"))
     assert denoised_err * DENOISE_GAIN[name] <= noisy_err, (noisy_err, denoised_err)
+    # Beside Cycles' own denoised render at the same samples (each against its own 1024-spp
+    # render; the numbers of docs/bench/denoise.md): as good within half again.
+    c_noisy, c_denoised, c_t_noisy, c_t_denoised, _, _ = measure(name, "CYCLES", tmp_path)
+    print(f"{name}: cycles {SPP} spp relMSE {c_noisy:.5f} noisy, {c_denoised:.5f} denoised "
+          f"({c_noisy / c_denoised:.1f}x); F12 {c_t_noisy:.2f} s noisy, {c_t_denoised:.2f} s "
+          f"denoised")
+    assert denoised_err <= 1.5 * c_denoised, (denoised_err, c_denoised)
 
 
 def test_without_the_library_the_noisy_image_stays(photon_addon, binary_env, tmp_path,
@@ -251,17 +258,3 @@ def test_without_the_library_the_noisy_image_stays(photon_addon, binary_env, tmp
     assert np.array_equal(rgb(passes, "Combined"), rgb(passes, "Noisy Image"))
     out = capfd.readouterr()
     assert "Denoise is on, but the image is not denoised" in out.out + out.err
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", list(SCENES))
-def test_cycles_beside(name, photon_addon, binary_env, tmp_path):
-    """Not a check of Photon: the numbers of docs/bench/denoise.md, both engines at 16 spp,
-    each against its own 1024-spp render."""
-    rows = []
-    for engine in ("PHOTON", "CYCLES"):
-        noisy_err, denoised_err, t_noisy, t_denoised, _, _ = measure(name, engine, tmp_path)
-        rows.append(f"| {name} | {engine.title()} | {noisy_err:.5f} | {denoised_err:.5f} | "
-                    f"{noisy_err / denoised_err:.1f}x | {t_noisy:.2f} | {t_denoised:.2f} |")
-        assert denoised_err < noisy_err
-    print("\n" + "\n".join(rows))
