@@ -6,8 +6,8 @@ whose grids come from a file on disk has a mesh object beside it: a box around i
 voxel of margin, where interpolation still reaches), at its place, with its material, or with
 Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
 `gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
-grid names and the volume's space (its density per unit of the object's length or of the
-world's); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
+grid names, the volume's space (its density per unit of the object's length or of the
+world's) and its clipping value (voxels below it hold no medium); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
 
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
@@ -122,7 +122,8 @@ def as_boxes(scene):
             BOXES[box.name] = {"uri": path,
                                "grids": [g.name for g in obj.data.grids
                                          if g.data_type in READ_TYPES],
-                               "space": obj.data.render.space.lower()}
+                               "space": obj.data.render.space.lower(),
+                               "clipping": obj.data.render.clipping}
             made.append(box)
         if made:
             bpy.context.view_layer.update()

@@ -160,6 +160,83 @@ pub struct VolumeGrids {
     /// The medium's density is per unit of world length (Blender's volume space "World"),
     /// not of the object's own ("Object", the default: `Scene::object_space_density`).
     pub world_space: bool,
+    /// Where the medium is (`ActiveLeaves`); `None`: the whole box.
+    pub leaves: Option<ActiveLeaves>,
+}
+
+/// The part of a Volume object that holds its medium, as Cycles bounds it: the voxels of the
+/// grids its material reads whose value reaches the volume's Clipping (Blender's
+/// `volume.render.clipping`), grown by one voxel to each face neighbour (linear
+/// interpolation's reach), and every OpenVDB leaf node (8³ voxels, at index multiples of 8)
+/// holding one of them. Cycles builds the mesh it renders the medium in from those leaves;
+/// outside them a tree that does not follow the grids (a constant emission) has no medium.
+#[derive(Debug)]
+pub struct ActiveLeaves {
+    /// Object coordinates → the grids' OpenVDB index coordinates (voxel centres at whole
+    /// indices).
+    pub object_to_index: Affine3A,
+    /// The first leaf (index ÷ 8) of the mask and the leaves per axis.
+    pub first: [i64; 3],
+    pub dims: [usize; 3],
+    /// Whether each leaf holds medium, x fastest.
+    pub mask: Vec<bool>,
+}
+
+/// Voxels per OpenVDB leaf node edge.
+const LEAF: i64 = 8;
+
+impl ActiveLeaves {
+    /// The leaves of the voxels at `indices` (OpenVDB index coordinates), each grown by one
+    /// voxel to its face neighbours; `None` when there are none.
+    pub fn of_voxels(
+        object_to_index: Affine3A,
+        indices: impl Iterator<Item = [i64; 3]>,
+    ) -> Option<ActiveLeaves> {
+        let mut leaves = std::collections::HashSet::new();
+        for v in indices {
+            leaves.insert(v.map(|i| i.div_euclid(LEAF)));
+            for a in 0..3 {
+                for step in [-1, 1] {
+                    let mut n = v;
+                    n[a] += step;
+                    leaves.insert(n.map(|i| i.div_euclid(LEAF)));
+                }
+            }
+        }
+        let first = [0, 1, 2].map(|a| leaves.iter().map(|l| l[a]).min());
+        let last = [0, 1, 2].map(|a| leaves.iter().map(|l| l[a]).max());
+        let first = [first[0]?, first[1]?, first[2]?];
+        let dims = [0, 1, 2].map(|a| (last[a].unwrap_or(first[a]) - first[a] + 1) as usize);
+        let mut mask = vec![false; dims.iter().product()];
+        for l in leaves {
+            let [x, y, z] = [0, 1, 2].map(|a| (l[a] - first[a]) as usize);
+            mask[(z * dims[1] + y) * dims[0] + x] = true;
+        }
+        Some(ActiveLeaves {
+            object_to_index,
+            first,
+            dims,
+            mask,
+        })
+    }
+
+    /// Whether object point `p` lies in a leaf that holds medium.
+    pub fn contains(&self, p: Vec3) -> bool {
+        let index = self.object_to_index.transform_point3(p);
+        let mut at = [0usize; 3];
+        for a in 0..3 {
+            let leaf = (index[a] / LEAF as f32).floor();
+            if !leaf.is_finite() {
+                return false;
+            }
+            let k = leaf as i64 - self.first[a];
+            if k < 0 || k >= self.dims[a] as i64 {
+                return false;
+            }
+            at[a] = k as usize;
+        }
+        self.mask[(at[2] * self.dims[1] + at[1]) * self.dims[0] + at[0]]
+    }
 }
 
 /// A bound of a medium's extinction over blocks of voxels of one grid: constant in each block,
@@ -242,6 +319,24 @@ mod tests {
             g.sample(Vec3::new(-5.0, 0.0, 0.0)),
             Vec4::new(0.0, 0.0, 0.0, 1.0)
         );
+    }
+
+    /// Leaves (8³ voxels at index multiples of 8) hold the medium where an active voxel or a
+    /// face neighbour of one lies, and nowhere else.
+    #[test]
+    fn active_leaves_are_the_leaves_of_the_voxels_and_their_neighbours() {
+        // Object coordinates are index coordinates halved.
+        let object_to_index = Affine3A::from_scale(Vec3::splat(2.0));
+        let leaves =
+            ActiveLeaves::of_voxels(object_to_index, [[0, 0, 0], [20, 3, 3]].into_iter()).unwrap();
+        let at = |i: [f32; 3]| leaves.contains(Vec3::from(i) * 0.5);
+        assert!(at([3.0, 3.0, 3.0]) && at([7.9, 0.0, 0.0]));
+        // Voxel 0's neighbour −1 lies in leaf −1; leaf 1 (indices 8..16) holds nothing.
+        assert!(at([-0.5, 0.0, 0.0]) && at([-8.0, 0.0, 0.0]));
+        assert!(!at([12.0, 3.0, 3.0]) && !at([3.0, 12.0, 3.0]));
+        assert!(at([16.0, 0.0, 0.0]) && at([23.9, 7.0, 7.0]));
+        assert!(!at([30.0, 3.0, 3.0]) && !at([f32::NAN, 0.0, 0.0]));
+        assert!(ActiveLeaves::of_voxels(object_to_index, std::iter::empty()).is_none());
     }
 
     #[test]

@@ -62,10 +62,13 @@ impl Volume {
             return Coefficients::VACUUM;
         };
         let (inputs, density) = match object {
-            Some((mesh, instance)) => (
-                scene.volume_inputs(mesh, instance, p, time, &program.attributes),
-                scene.object_space_density(mesh, instance, time),
-            ),
+            Some((mesh, instance)) => {
+                let inputs = scene.volume_inputs(mesh, instance, p, time, &program.attributes);
+                if !scene.holds_medium(mesh, instance, inputs.points[0].object) {
+                    return Coefficients::VACUUM;
+                }
+                (inputs, scene.object_space_density(mesh, instance, time))
+            }
             None => (world_volume_inputs(p), 1.0),
         };
         let c = program.eval_volume(&inputs, &scene.textures);
@@ -205,6 +208,21 @@ impl Scene {
             inputs.attributes = grid_attributes(grids, named, |g| g.sample(point.object));
         }
         inputs
+    }
+
+    /// Whether object point `object_point` of the object of `mesh` and `instance` (as
+    /// `volume_inputs` has them) holds its medium: inside a Volume object's active leaves
+    /// (`grids::ActiveLeaves`), anywhere in other objects.
+    fn holds_medium(&self, mesh: u32, instance: u32, object_point: Vec3) -> bool {
+        let stored = match self.instances.get(instance as usize) {
+            Some(inst) => &self.prototypes[inst.prototype as usize],
+            None => &self.meshes[mesh as usize],
+        };
+        stored
+            .volume_grids
+            .as_ref()
+            .and_then(|g| g.leaves.as_ref())
+            .is_none_or(|leaves| leaves.contains(object_point))
     }
 
     /// How many times denser per unit of world length the medium inside the object of `mesh`

@@ -24,7 +24,9 @@ sets them.
 - three linked duplicates of one smoke cube (instances of one prototype), each reading its own
   object space through a Noise Texture on Object coordinates;
 - three overlapping Volume objects of one OpenVDB file at different scales (their media add);
-- a scaled Volume object in volume space World (its density per metre).
+- a scaled Volume object in volume space World (its density per metre);
+- a Volume object emitting a constant colour: only where its voxels are (the leaves Cycles
+  builds its volume mesh from), not in the whole box.
 """
 
 import math
@@ -297,3 +299,18 @@ def test_world_space_volume_object(tmp_path):
     # Read in Object space it is -1.5 %, relMSE 0.0066: bounds tight enough to tell.
     compare("world-space volume object", scene, tmp_path, photon_spp=256, mean_tol=0.005,
             relmse_max=0.002)
+
+
+def test_constant_emission_only_where_the_voxels_are(tmp_path):
+    """A Volume object whose Principled Volume emits a constant colour (Emission Strength, not
+    driven by a grid) glows only where its grids have voxels above the Clipping value (the
+    OpenVDB leaves Cycles builds its volume mesh from), not through the whole box around them."""
+    path = baked_smoke_vdb(tmp_path / "bake")
+    scene = floor_scene(world=0.02)
+    mat, node = volume_material("Glowing smoke", "ShaderNodeVolumePrincipled")
+    node.inputs["Color"].default_value = (0.2, 0.2, 0.2, 1.0)
+    node.inputs["Density"].default_value = 3.0
+    node.inputs["Emission Strength"].default_value = 1.5
+    node.inputs["Emission Color"].default_value = (1.0, 0.5, 0.2, 1.0)
+    volume_object("Glowing smoke", path, mat, (0.0, 0.0, 1.0), scale=0.9, rotation_z=15.0)
+    compare("constant emission in smoke", scene, tmp_path, photon_spp=256)

@@ -237,6 +237,9 @@ pub(super) struct VolumeFile {
     pub(super) uri: String,
     pub(super) grids: Vec<String>,
     pub(super) world_space: bool,
+    /// Voxels below this value hold no medium (Blender's `volume.render.clipping`; Cycles'
+    /// default 0.001).
+    pub(super) clipping: f32,
 }
 
 impl VolumeFile {
@@ -261,10 +264,18 @@ impl VolumeFile {
                 )))
             }
         };
+        let clipping = match fields.get("clipping") {
+            None => 0.001,
+            Some(v) => match v.as_f64() {
+                Some(c) if c.is_finite() && c >= 0.0 => c as f32,
+                _ => return Err(fields.fail("'clipping' must be a number >= 0".into())),
+            },
+        };
         Ok(VolumeFile {
             uri: uri.to_string(),
             grids,
             world_space,
+            clipping,
         })
     }
 }

@@ -5,8 +5,8 @@
 use super::container::Loader;
 use super::extensions::VolumeFile;
 use crate::error::Result;
-use crate::math::{Mat4, Vec3};
-use crate::scene::grids::{Grid, VolumeGrids, MAX_GRID_BYTES};
+use crate::math::{Affine3A, Mat4, Vec3};
+use crate::scene::grids::{ActiveLeaves, Grid, VolumeGrids, MAX_GRID_BYTES};
 use crate::scene::vdb;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -44,6 +44,10 @@ impl Loader {
             world_space: file.world_space,
             ..VolumeGrids::default()
         };
+        // The voxels at or above the clipping value, in the first grid's index space (`None`
+        // once a grid of another index space is read: then the whole box holds the medium).
+        let mut active: Option<(Mat4, Vec<[i64; 3]>)> = None;
+        let mut comparable = true;
         for name in wanted {
             if !in_file.iter().any(|(n, _)| n == name) {
                 self.scene.warnings.push(format!(
@@ -62,6 +66,17 @@ impl Loader {
                     ),
                 )
             })?;
+            if comparable {
+                let (space, list) = active.get_or_insert_with(|| (read.index_to_local, Vec::new()));
+                comparable = *space == read.index_to_local;
+                let [sx, sy, _] = read.size;
+                for (i, value) in read.values.chunks(read.channels).enumerate() {
+                    if value.iter().any(|v| v.abs() >= file.clipping) {
+                        let local = [i % sx, (i / sx) % sy, i / (sx * sy)];
+                        list.push([0, 1, 2].map(|a| read.origin[a] as i64 + local[a] as i64));
+                    }
+                }
+            }
             // Blender puts a voxel's value at the centre of its cell: index + ½.
             let first = Vec3::new(
                 read.origin[0] as f32 + 0.5,
@@ -79,6 +94,12 @@ impl Loader {
             .ok_or_else(|| self.err(object, format!("grid '{name}' has a singular transform")))?;
             self.grid_bytes += grid.bytes();
             grids.grids.push(grid);
+        }
+        if let (true, Some((index_to_local, voxels))) = (comparable, active) {
+            let object_to_index = Affine3A::from_mat4(index_to_local).inverse();
+            if object_to_index.is_finite() {
+                grids.leaves = ActiveLeaves::of_voxels(object_to_index, voxels.into_iter());
+            }
         }
         Ok((!grids.grids.is_empty()).then(|| Arc::new(grids)))
     }
