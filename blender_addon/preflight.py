@@ -273,6 +273,9 @@ def _material_node_reason(found) -> str:
         return (f"reads an attribute of type {node.attribute_type.title().replace('_', ' ')}, "
                 f"which Photon does not read (only the meshes' own); the material renders "
                 f"without it")
+    if kind == "BSDF_HAIR_PRINCIPLED" and getattr(node, "model", "") == "HUANG":
+        return ("uses the Huang model, which Photon does not render (its Principled Hair is "
+                "the Chiang model); the material renders without it")
     if kind in MATERIAL_NODES:
         return ""
     if kind == "MIX" and getattr(node, "blend_type", "") == "MULTIPLY":
