@@ -13,7 +13,8 @@ empty list, so the rules below only flag what really changes the image:
   Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
   Ray" factor and Add Shader);
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
-  (the tree route renders it; glTF carries no film);
+  (the tree route renders it; glTF carries no film); a Principled Hair BSDF of the Huang model
+  (Photon's is Chiang's);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
   Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
   converter nodes the surface trees have), Volume objects whose grids Photon cannot read

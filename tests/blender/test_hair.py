@@ -1,16 +1,31 @@
-"""Hair BSDFs on curves against Cycles through the add-on (path tracer): a patch of a few
-hundred hair curves (test_points_curves' Curves object, Cycles' round 3D curves) over a grey
-floor under a sun and a dim world, the camera close. The Principled Hair BSDF (Chiang model)
-with Melanin Concentration 0.8 and with Direct Coloring, and the Hair BSDF's Reflection and
-Transmission. Photon renders each curve as an 8-sided tube enlarged to the curve's mean width
-(blender_addon/points_curves.py), the fibre's offset h taken from the tube's smooth normal.
+"""Hair BSDFs on curves against Cycles through the add-on (path tracer): a patch of 400 hair
+curves (test_points_curves' Curves object, Cycles' round 3D curves) over a grey floor under a
+sun and a dim world, the camera close, 64x48, Photon 256 spp against Cycles 1024. The
+Principled Hair BSDF (Chiang model) with Melanin Concentration 0.8 and with Direct Coloring,
+and the Hair BSDF's Reflection and Transmission.
+
+Bounds: mean within MEAN_TOL (2.5 %) and 4x4-block relMSE within 0.002 (the Hair BSDF's:
+0.005, where a single firefly in either image, Cycles' own at 1024 spp among them, weighs
+0.001 to 0.002).
+Photon renders each curve as an 8-sided tube enlarged to the curve's mean width
+(blender_addon/points_curves.py), the fibre's offset h taken from the tube's smooth normal;
+the curve's shape alone moves this image by about 1 %: Cycles' own rounded ribbons are +1.04 %
+against its 3D curves here (Melanin, same seed), and the same patch with an opaque Principled
+BSDF is −0.98 % in Photon. Measured: Melanin +1.30 %, Direct Coloring +1.74 %, Hair BSDF
+Reflection +1.62 %, Transmission +1.57 % (4x4-block relMSE 0.00047, 0.00145, 0.0035,
+0.00085); the code before
+hair BSDFs rendered the strands with the glTF fallback: +230 %, +61 %, +96 %, +177 %.
 """
 
+import bpy
 import pytest
 
-import common
 from cycles_compare import compare
+from helpers import rel_mse
 from test_points_curves import hair, lit_floor
+from test_volumes import block_means
+
+MEAN_TOL = 0.025
 
 pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
@@ -21,11 +36,11 @@ def _addon(photon_addon, binary_env):
 
 
 def hair_material(name, node_type):
-    """A material whose surface is one `node_type` node; returns (material, node)."""
-    import bpy
-
+    """A material whose surface is one `node_type` node; returns (material, node). (As
+    test_nodes_metallic's `shader_on_a_fresh_material`, without resetting the scene.)"""
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
     tree = mat.node_tree
     tree.nodes.remove(tree.nodes["Principled BSDF"])
     node = tree.nodes.new(node_type)
@@ -44,6 +59,17 @@ def hair_scene(material):
     return scene
 
 
+def matches_cycles(name, scene, tmp_path, block_relmse_max):
+    """Photon at 256 spp against Cycles at 1024: mean within MEAN_TOL, 4x4-block relMSE within
+    `block_relmse_max` (per-pixel relMSE left to the blocks: single pixels of thin strands are
+    noisy at 256 spp)."""
+    img, ref = compare(name, scene, tmp_path, photon_spp=256, cycles_spp=1024,
+                       mean_tol=MEAN_TOL, relmse_max=1.0)
+    blocks = rel_mse(block_means(img), block_means(ref))
+    print(f"{name}: 4x4-block relMSE {blocks:.5f}")
+    assert blocks <= block_relmse_max, (name, blocks)
+
+
 @pytest.mark.parametrize("parametrization", ["MELANIN", "COLOR"])
 def test_principled_hair_on_curves(tmp_path, parametrization):
     def material():
@@ -57,8 +83,8 @@ def test_principled_hair_on_curves(tmp_path, parametrization):
         node.parametrization = parametrization
         return mat
 
-    compare(f"principled hair {parametrization.lower()}", hair_scene(material), tmp_path,
-            photon_spp=256, cycles_spp=1024)
+    matches_cycles(f"principled hair {parametrization.lower()}", hair_scene(material), tmp_path,
+                   0.002)
 
 
 @pytest.mark.parametrize("component", ["Reflection", "Transmission"])
@@ -71,5 +97,4 @@ def test_hair_bsdf_on_curves(tmp_path, component):
         node.inputs["RoughnessV"].default_value = 0.5
         return mat
 
-    compare(f"hair bsdf {component.lower()}", hair_scene(material), tmp_path,
-            photon_spp=256, cycles_spp=1024)
+    matches_cycles(f"hair bsdf {component.lower()}", hair_scene(material), tmp_path, 0.005)
