@@ -2,7 +2,8 @@
 curves (test_points_curves' Curves object, Cycles' round 3D curves) over a grey floor under a
 sun and a dim world, the camera close, 64x48, Photon 256 spp against Cycles 1024. The
 Principled Hair BSDF (Chiang model) with Melanin Concentration 0.8 and with Direct Coloring,
-and the Hair BSDF's Reflection and Transmission.
+and the Hair BSDF's Reflection and Transmission; and Melanin 0.8 on a hair particle system
+(400 strands: 100 parents' interpolated children).
 
 Bounds: mean within MEAN_TOL (2.5 %) and 4x4-block relMSE within 0.002 (the Hair BSDF's:
 0.005, where a single firefly in either image, Cycles' own at 1024 spp among them, weighs
@@ -12,14 +13,15 @@ Photon renders each curve as an 8-sided tube enlarged to the curve's mean width
 the curve's shape alone moves this image by about 1 %: Cycles' own rounded ribbons are +1.04 %
 against its 3D curves here (Melanin, same seed), and the same patch with an opaque Principled
 BSDF is −0.98 % in Photon. Measured: Melanin +1.30 %, Direct Coloring +1.74 %, Hair BSDF
-Reflection +1.62 %, Transmission +1.57 % (4x4-block relMSE 0.00047, 0.00145, 0.0035,
-0.00085); the code before
-hair BSDFs rendered the strands with the glTF fallback: +230 %, +61 %, +96 %, +177 %.
+Reflection +1.62 %, Transmission +1.57 %, particle hair +0.97 % (4x4-block relMSE 0.00047,
+0.00145, 0.0035, 0.00085, 0.00033); the code before hair BSDFs rendered the strands with the
+glTF fallback: +230 %, +61 %, +96 %, +177 % (the curves).
 """
 
 import bpy
 import pytest
 
+import common
 from cycles_compare import compare
 from helpers import rel_mse
 from test_points_curves import hair, lit_floor
@@ -98,3 +100,31 @@ def test_hair_bsdf_on_curves(tmp_path, component):
         return mat
 
     matches_cycles(f"hair bsdf {component.lower()}", hair_scene(material), tmp_path, 0.005)
+
+
+def test_principled_hair_on_particle_hair(tmp_path):
+    """The user's case: a hair particle system (parents and interpolated children) on a patch
+    of the floor, Principled Hair with Melanin 0.8."""
+    scene = lit_floor()
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    scene.cycles_curves.shape = "THICK"
+    scene.camera.location = (0.0, -2.2, 1.6)
+    patch = common.quad("Patch", [(-0.8, -0.8, 0.01), (0.8, -0.8, 0.01), (0.8, 0.8, 0.01),
+                                  (-0.8, 0.8, 0.01)], common.principled("Skin", (0.3, 0.2, 0.15)))
+    mat, node = hair_material("Particle hair", "ShaderNodeBsdfHairPrincipled")
+    node.parametrization = "MELANIN"
+    node.inputs["Melanin"].default_value = 0.8
+    patch.data.materials.append(mat)
+    patch.modifiers.new("Fur", "PARTICLE_SYSTEM")
+    settings = patch.particle_systems[0].settings
+    settings.type = "HAIR"
+    settings.count = 100
+    settings.hair_length = 0.8
+    settings.material = 2
+    settings.child_type = "INTERPOLATED"
+    settings.rendered_child_count = 3
+    settings.radius_scale = 0.024
+    settings.root_radius = 1.0
+    settings.tip_radius = 0.5
+    patch.particle_systems[0].seed = 4
+    matches_cycles("principled hair particles", scene, tmp_path, 0.002)
