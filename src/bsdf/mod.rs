@@ -495,7 +495,7 @@ impl Bsdf {
 
     /// True when every lobe but delta ones is glossy and some light crosses through the glass
     /// lobe: a rough (or smooth) dielectric, with no Lambertian, Oren–Nayar or Translucent lobe
-    /// (a coat or sheen may lie above it).
+    /// (a coat or sheen may lie above it); or a hair fibre, glossy lobes that cross it.
     pub fn is_glossy_dielectric(&self) -> bool {
         (self.glass_weight > 0.0 && self.base_weight == 0.0 && !self.has_translucent())
             || self.hair.is_some()
