@@ -15,6 +15,11 @@ The sphere and the tube are polygons inscribed in the true shapes; both are enla
 their mean projected size is the true one: a convex body's mean projected area is a quarter of
 its surface area (Cauchy), and a regular n-gon's mean width is its perimeter over π.
 
+A tube's UV map (`TUBE_UV_MAP`) holds the curve's parameter from root (0) to tip (1) in u:
+the renderer takes the fibre's direction, which hair BSDFs scatter around, from its gradient
+(src/material.rs, `fibre_tangent`), and the offset across the fibre from the view and the
+tube's smooth normal (src/bsdf/hair.rs).
+
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
 """
@@ -37,6 +42,10 @@ SPHERE_SUBDIVISIONS = 5
 SPHERE_SCALE = 1.0 / math.sqrt(0.99881)
 # Sides of a hair's tube.
 TUBE_SIDES = 8
+# The tube's UV map: u runs from the curve's root (0) to its tip (1).
+TUBE_UV_MAP = "UVMap"
+# The curve parameter carried from the curve's points to the tube's vertices (removed after).
+_CURVE_FACTOR = "photon_curve_factor"
 
 
 def tube_profile_radius(sides: int = TUBE_SIDES) -> float:
@@ -81,13 +90,33 @@ def _build_group():
     profile = nodes.new("GeometryNodeCurvePrimitiveCircle")
     profile.inputs["Resolution"].default_value = TUBE_SIDES
     profile.inputs["Radius"].default_value = tube_profile_radius()
+    factor = nodes.new("GeometryNodeStoreNamedAttribute")
+    factor.data_type, factor.domain = "FLOAT", "POINT"
+    factor.inputs["Name"].default_value = _CURVE_FACTOR
+    links.new(parts.outputs["Curve"], factor.inputs["Geometry"])
+    links.new(nodes.new("GeometryNodeSplineParameter").outputs["Factor"],
+              factor.inputs["Value"])
     tube = nodes.new("GeometryNodeCurveToMesh")
-    links.new(parts.outputs["Curve"], tube.inputs["Curve"])
+    links.new(factor.outputs["Geometry"], tube.inputs["Curve"])
     links.new(profile.outputs["Curve"], tube.inputs["Profile Curve"])
     links.new(nodes.new("GeometryNodeInputRadius").outputs[0], tube.inputs["Scale"])
+    # The parameter along the curve as the tube's UV map (u), then dropped.
+    read = nodes.new("GeometryNodeInputNamedAttribute")
+    read.data_type = "FLOAT"
+    read.inputs["Name"].default_value = _CURVE_FACTOR
+    as_uv = nodes.new("ShaderNodeCombineXYZ")
+    links.new(read.outputs["Attribute"], as_uv.inputs["X"])
+    uv = nodes.new("GeometryNodeStoreNamedAttribute")
+    uv.data_type, uv.domain = "FLOAT2", "CORNER"
+    uv.inputs["Name"].default_value = TUBE_UV_MAP
+    links.new(tube.outputs["Mesh"], uv.inputs["Geometry"])
+    links.new(as_uv.outputs["Vector"], uv.inputs["Value"])
+    dropped = nodes.new("GeometryNodeRemoveAttribute")
+    dropped.inputs["Name"].default_value = _CURVE_FACTOR
+    links.new(uv.outputs["Geometry"], dropped.inputs["Geometry"])
     # As an instance: the exporter writes a Curves object's instances, not its own geometry.
     tube_instance = nodes.new("GeometryNodeGeometryToInstance")
-    links.new(finished(tube.outputs["Mesh"]), tube_instance.inputs["Geometry"])
+    links.new(finished(dropped.outputs["Geometry"]), tube_instance.inputs["Geometry"])
 
     for socket in (parts.outputs["Mesh"], parts.outputs["Instances"],
                    on_points.outputs["Instances"], tube_instance.outputs["Instances"]):

@@ -13,7 +13,8 @@ empty list, so the rules below only flag what really changes the image:
   Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
   Ray" factor and Add Shader);
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
-  (the tree route renders it; glTF carries no film);
+  (the tree route renders it; glTF carries no film); a Principled Hair BSDF of the Huang model
+  (Photon's is Chiang's);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
   Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
   converter nodes the surface trees have), Volume objects whose grids Photon cannot read
@@ -273,6 +274,9 @@ def _material_node_reason(found) -> str:
         return (f"reads an attribute of type {node.attribute_type.title().replace('_', ' ')}, "
                 f"which Photon does not read (only the meshes' own); the material renders "
                 f"without it")
+    if kind == "BSDF_HAIR_PRINCIPLED" and getattr(node, "model", "") == "HUANG":
+        return ("uses the Huang model, which Photon does not render (its Principled Hair is "
+                "the Chiang model); the material renders without it")
     if kind in MATERIAL_NODES:
         return ""
     if kind == "MIX" and getattr(node, "blend_type", "") == "MULTIPLY":

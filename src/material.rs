@@ -85,6 +85,9 @@ pub struct SurfaceMaterial {
     pub weight: f32,
     /// A node tree's Toon BSDF: its lobe alone, of `base_color`.
     pub toon: Option<crate::shader::Toon>,
+    /// A node tree's hair BSDF: the fibre's lobes alone (`bsdf::hair`), the fibre running
+    /// along `tangent`.
+    pub hair: Option<crate::shader::Hair>,
     /// A node tree's metal F82 tint (`shader::Closure::metal_tint`); `None`: the normalised
     /// specular colour.
     pub metal_tint: Option<Vec3>,
@@ -129,6 +132,7 @@ impl Default for SurfaceMaterial {
             single_scatter: false,
             weight: 1.0,
             toon: None,
+            hair: None,
             metal_tint: None,
         }
     }
@@ -261,15 +265,78 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
             }
             s
         }
-        Some(program) => from_closure(
-            material,
-            &program.eval(
-                &sh.node_inputs(scene, program.needs_offsets, program.reads, view),
-                &scene.textures,
-                u,
-            ),
-        ),
+        Some(program) => {
+            let mut s = from_closure(
+                material,
+                &program.eval(
+                    &sh.node_inputs(scene, program.needs_offsets, program.reads, view),
+                    &scene.textures,
+                    u,
+                ),
+            );
+            if s.hair.is_some() {
+                on_fibre(scene, sh, view, &mut s);
+            }
+            s
+        }
     }
+}
+
+/// A hair closure on a tube swept along a curve (`blender_addon/points_curves.py`): seen from
+/// outside, the fibre runs along the tube's direction at the point (`fibre_tangent`), which
+/// the shading frame takes as its tangent (the offset h across the fibre then follows from the
+/// view and the smooth normal: `bsdf::hair`); seen from inside, the tube is the far side of a
+/// fibre whose scattering the BSDF at its near side already holds, and light passes it
+/// straight, as a Transparent BSDF (no bounce, and shadow rays cross it).
+fn on_fibre(scene: &Scene, sh: &SurfaceHit, view: View, s: &mut SurfaceMaterial) {
+    if view.backfacing {
+        *s = SurfaceMaterial {
+            base_color: Vec3::ONE,
+            roughness: 0.0,
+            ior: 1.0,
+            transmission: 1.0,
+            specular: 0.0,
+            specular_color: Vec3::ZERO,
+            transparent: true,
+            emission: s.emission,
+            ..SurfaceMaterial::default()
+        };
+        return;
+    }
+    s.tangent = Some(fibre_tangent(scene, sh));
+}
+
+/// The direction of the fibre at surface point `sh` (world, unit), from root to tip: the
+/// gradient of the first UV map's u over the triangle, which the add-on sets to the curve's
+/// parameter along each tube; without UVs (a hair BSDF on a mesh that is not a tube), the
+/// direction the triangle's three vertex normals are most nearly perpendicular to (a tube's
+/// axis, of either sense).
+pub fn fibre_tangent(scene: &Scene, sh: &SurfaceHit) -> Vec3 {
+    let mesh = hit_mesh(scene, &sh.hit);
+    let idx = mesh.indices[sh.hit.triangle as usize];
+    let p = mesh.triangle_at(sh.hit.triangle, sh.time);
+    let along_u = (!mesh.uvs.is_empty()).then(|| {
+        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+        let uv = idx.map(|i| mesh.uvs[i as usize]);
+        let (du1, du2) = (uv[1].x - uv[0].x, uv[2].x - uv[0].x);
+        // The in-plane gradient g of u: g·e1 = du1, g·e2 = du2 (up to a positive factor).
+        let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        (du1 * c - du2 * b) * e1 + (du2 * a - du1 * b) * e2
+    });
+    let local = along_u
+        .filter(|g| g.length_squared() > 0.0 && g.is_finite())
+        .unwrap_or_else(|| {
+            let n = idx.map(|i| mesh.normals[i as usize]);
+            [n[0].cross(n[1]), n[1].cross(n[2]), n[2].cross(n[0])]
+                .into_iter()
+                .max_by(|x, y| x.length_squared().total_cmp(&y.length_squared()))
+                .unwrap_or(Vec3::ZERO)
+        });
+    let world = match scene.instances.get(sh.hit.instance as usize) {
+        Some(inst) => inst.to_world_at(sh.time).transform_vector3(local),
+        None => local,
+    };
+    world.normalize_or(sh.frame.t)
 }
 
 /// A node tree's closure as the material every integrator reads; the volume and subsurface
@@ -322,6 +389,7 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         single_scatter: c.single_scatter,
         weight: c.weight,
         toon: c.toon,
+        hair: c.hair,
         metal_tint: c.metal_tint,
     }
 }

@@ -27,6 +27,9 @@
 //! - Blender's Toon BSDF (`SurfaceMaterial::toon`) is a lobe of its own too, alone, as Cycles'
 //!   `bsdf_toon`: `shader::Toon`'s intensity around the normal (diffuse) or the mirror
 //!   direction (glossy), sampled uniformly in the cone it reaches, with that cone's density;
+//! - Blender's hair BSDFs (`SurfaceMaterial::hair`) are their fibre's lobes alone (`hair`:
+//!   Chiang et al. 2016's Principled Hair, and the older Hair BSDF), the frame's x axis along
+//!   the fibre; light crosses the fibre, so the surface is never turned to the viewer's side;
 //! - the specular layer and the metal are anisotropic GGX (α_x = α / aspect along the frame's
 //!   x axis, the tangent; α_y = α · aspect), the glass and the coat isotropic.
 //!
@@ -53,6 +56,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod fresnel;
+pub mod hair;
 pub mod microfacet;
 pub mod oren_nayar;
 pub mod sheen;
@@ -213,6 +217,8 @@ pub struct Bsdf {
     weight: f32,
     /// A Toon BSDF (`SurfaceMaterial::toon`), its lobe alone, of `base_color`.
     toon: Option<crate::shader::Toon>,
+    /// A hair fibre (`SurfaceMaterial::hair`), its lobes alone, times `base_color`.
+    hair: Option<hair::HairBsdf>,
 }
 
 /// One sampled direction.
@@ -322,7 +328,7 @@ impl Bsdf {
         };
 
         // A Translucent or Toon BSDF is its lobe alone.
-        let alone = m.translucent || m.toon.is_some();
+        let alone = m.translucent || m.toon.is_some() || m.hair.is_some();
         let (metallic, transmission) = if alone {
             (0.0, 0.0)
         } else {
@@ -374,6 +380,7 @@ impl Bsdf {
             glass_reflect_tint: if m.glass { clamped_base } else { Vec3::ONE },
             weight: clean(m.weight, 0.0, f32::MAX),
             toon: m.toon,
+            hair: m.hair.as_ref().map(hair::HairBsdf::new),
         }
     }
 
@@ -426,10 +433,19 @@ impl Bsdf {
     /// This BSDF seen from `wo`: what depends on `wo` alone is computed here, once, for any
     /// number of evaluations and samples.
     pub fn viewed_from(&self, wo: Vec3) -> ViewedBsdf {
-        ViewedBsdf {
-            bsdf: *self,
-            wo,
-            lobes: LobeSet::new(self, wo),
+        match &self.hair {
+            Some(fibre) => ViewedBsdf {
+                bsdf: *self,
+                wo,
+                lobes: None,
+                hair: fibre.viewed_from(wo),
+            },
+            None => ViewedBsdf {
+                bsdf: *self,
+                wo,
+                lobes: LobeSet::new(self, wo),
+                hair: None,
+            },
         }
     }
 
@@ -479,9 +495,10 @@ impl Bsdf {
 
     /// True when every lobe but delta ones is glossy and some light crosses through the glass
     /// lobe: a rough (or smooth) dielectric, with no Lambertian, Oren–Nayar or Translucent lobe
-    /// (a coat or sheen may lie above it).
+    /// (a coat or sheen may lie above it); or a hair fibre, glossy lobes that cross it.
     pub fn is_glossy_dielectric(&self) -> bool {
-        self.glass_weight > 0.0 && self.base_weight == 0.0 && !self.has_translucent()
+        (self.glass_weight > 0.0 && self.base_weight == 0.0 && !self.has_translucent())
+            || self.hair.is_some()
     }
 
     fn glass_passes_straight(&self) -> bool {
@@ -497,6 +514,7 @@ impl Bsdf {
             || self.has_sheen()
             || (self.coat.reflects() && !self.coat.smooth)
             || self.has_translucent()
+            || self.hair.is_some()
     }
 
     fn has_translucent(&self) -> bool {
@@ -521,13 +539,13 @@ impl Bsdf {
     /// integrator must not flip the frame to the viewer's side, and `wo.z < 0` means inside
     /// the object.
     pub fn is_transmissive(&self) -> bool {
-        self.glass_weight > 0.0 || self.has_translucent()
+        self.glass_weight > 0.0 || self.has_translucent() || self.hair.is_some()
     }
 
     /// True when some lobe is glossy or specular (anything but the Lambertian base): paths that
     /// leave through it can carry caustics.
     pub fn has_specular(&self) -> bool {
-        self.base_has_specular() || self.coat.reflects()
+        self.base_has_specular() || self.coat.reflects() || self.hair.is_some()
     }
 
     fn base_has_specular(&self) -> bool {
@@ -537,7 +555,9 @@ impl Bsdf {
     /// Perceptual roughness of the smoothest glossy lobe (the base's, or the coat's when it is
     /// smoother); the base's when there is none.
     pub fn roughness(&self) -> f32 {
-        if self.coat.reflects()
+        if let Some(fibre) = &self.hair {
+            fibre.roughness()
+        } else if self.coat.reflects()
             && (self.coat.roughness < self.roughness || !self.base_has_specular())
         {
             self.coat.roughness
@@ -1080,8 +1100,11 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
 pub struct ViewedBsdf {
     bsdf: Bsdf,
     wo: Vec3,
-    /// `None` when nothing scatters towards `wo` (an opaque surface seen from behind).
+    /// `None` when nothing scatters towards `wo` (an opaque surface seen from behind, or a
+    /// hair fibre).
     lobes: Option<LobeSet>,
+    /// A hair fibre seen from `wo` (`None`: no fibre, or one seen along its length).
+    hair: Option<hair::ViewedHair>,
 }
 
 impl std::ops::Deref for ViewedBsdf {
@@ -1104,6 +1127,10 @@ impl ViewedBsdf {
 
     /// `eval` and `pdf` together (one half-vector computation).
     pub fn eval_and_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        if let Some(fibre) = &self.hair {
+            let (f, pdf) = fibre.eval_and_pdf(wi);
+            return (f * self.bsdf.base_color * self.bsdf.weight, pdf);
+        }
         match &self.lobes {
             Some(l) => {
                 let (f, pdf) = eval_and_pdf(&self.bsdf, l, l.mirror(wi));
@@ -1117,6 +1144,9 @@ impl ViewedBsdf {
     /// photon survival); exact for the diffuse and metal-free white cases up to table
     /// interpolation.
     pub fn albedo(&self) -> Vec3 {
+        if let Some(fibre) = &self.hair {
+            return fibre.albedo() * self.bsdf.base_color * self.bsdf.weight;
+        }
         self.lobes
             .as_ref()
             .map_or(Vec3::ZERO, |l| l.albedo.iter().copied().sum::<Vec3>())
@@ -1156,6 +1186,17 @@ impl ViewedBsdf {
     /// Sample a direction: `u_lobe` picks the lobe (and, remapped, reflection or refraction for
     /// glass), `u` the direction within it.
     pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if self.bsdf.hair.is_some() {
+            let s = self.hair.as_ref()?.sample(u_lobe, u)?;
+            return Some(BsdfSample {
+                wi: s.wi,
+                weight: s.f / s.pdf * self.bsdf.base_color * self.bsdf.weight,
+                pdf: s.pdf,
+                delta: false,
+                transmitted: s.wi.z * self.wo.z < 0.0,
+                scattering: Scattering::Glossy,
+            });
+        }
         let mut s = sample(&self.bsdf, self.lobes.as_ref()?, self.wo, u_lobe, u)?;
         s.weight *= self.bsdf.weight;
         Some(s)

@@ -10,7 +10,8 @@
 //! estimated through its narrow refraction lobe, from the few of the k nearest that fall in
 //! it, which is slow and noisy where ray tracing it, as the path tracer does, converges fast
 //! (docs/bench/photon_method.md, "Photons inside glass"); light through it onto diffuse
-//! surfaces is a caustic.
+//! surfaces is a caustic. A hair fibre counts as such a dielectric (`Bsdf::is_glossy_dielectric`):
+//! a photon estimate on a strand would gather its neighbours' photons.
 
 use crate::bsdf::{Bsdf, ViewedBsdf};
 use crate::material::{eval_material, from_closure};

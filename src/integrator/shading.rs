@@ -90,8 +90,8 @@ impl Shading {
         // A node tree's normal (Bump), on the side of the surface's own.
         let toward = |n: Vec3| if n.dot(sh.frame.n) < 0.0 { -n } else { n };
         let mut frame = match (surface.normal, surface.tangent) {
-            // Anisotropic lobes run along the material's tangent.
-            (n, Some(t)) if surface.aspect < 1.0 => {
+            // Anisotropic lobes and hair fibres run along the material's tangent.
+            (n, Some(t)) if surface.aspect < 1.0 || surface.hair.is_some() => {
                 Frame::from_normal_tangent(n.map_or(sh.frame.n, toward), t)
             }
             (Some(n), _) => Frame::from_normal(toward(n)),

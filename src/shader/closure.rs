@@ -204,6 +204,173 @@ pub(super) fn eval_toon(glossy: bool, ins: &impl Operands) -> Closure {
     }
 }
 
+/// A hair fibre's scattering as Blender's hair BSDFs give it, evaluated by `crate::bsdf::hair`
+/// along the fibre's tangent.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Hair {
+    /// The Principled Hair BSDF, Chiang model (Chiang, Bitterli, Tappan & Burley 2016), with
+    /// its inputs resolved as Cycles resolves them: `sigma` the absorption coefficient per
+    /// unit of the fibre's diameter, `roughness` and `radial_roughness` Roughness and Radial
+    /// Roughness after Random Roughness, `coat` (the primary reflection's roughness is
+    /// (1 − coat) × roughness), `ior`, `tilt` the cuticle tilt (Offset, radians).
+    Chiang {
+        sigma: Vec3,
+        roughness: f32,
+        radial_roughness: f32,
+        coat: f32,
+        ior: f32,
+        tilt: f32,
+    },
+    /// Blender's older Hair BSDF, its Reflection or (`transmission`) Transmission component:
+    /// `color` times a Gaussian-like lobe of widths `roughness_u` (along the fibre) and
+    /// `roughness_v` (around it), its highlight shifted by `offset` (radians).
+    Gaussian {
+        transmission: bool,
+        color: Vec3,
+        offset: f32,
+        roughness_u: f32,
+        roughness_v: f32,
+    },
+}
+
+/// How the Principled Hair BSDF's colour is given (its Parametrization).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HairColoring {
+    /// Direct Coloring: the absorption that gives Color after many scatterings.
+    Color,
+    /// Melanin Concentration (with Melanin Redness, Tint and Random Color).
+    Melanin,
+    /// Absorption Coefficient, as given.
+    Absorption,
+}
+
+/// The Principled Hair node's inputs (Blender 4.5's, Huang's among them, unread).
+pub(super) const PRINCIPLED_HAIR_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::new(0.017513, 0.005763, 0.002059, 1.0)),
+    Socket::float("Melanin", 0.8),
+    Socket::float("Melanin Redness", 1.0),
+    Socket::color("Tint", Vec4::ONE),
+    Socket::vector(
+        "Absorption Coefficient",
+        Vec4::new(0.245531, 0.52, 1.365, 0.0),
+    ),
+    Socket::float("Aspect Ratio", 0.85),
+    Socket::float("Roughness", 0.3),
+    Socket::float("Radial Roughness", 0.3),
+    Socket::float("Coat", 0.0),
+    Socket::float("IOR", 1.55),
+    Socket::float("Offset", 2.0 * PI / 180.0),
+    Socket::float("Random Color", 0.0),
+    Socket::float("Random Roughness", 0.0),
+    Socket::float("Random", 0.0),
+];
+
+/// The Principled Hair node's outputs.
+pub(super) const PRINCIPLED_HAIR_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// Absorption per unit diameter of eumelanin and pheomelanin concentrations (d'Eon et al.
+/// 2011's pigment spectra as RGB, the values Cycles uses).
+fn hair_sigma_from_melanin(eumelanin: f32, pheomelanin: f32) -> Vec3 {
+    eumelanin * Vec3::new(0.506, 0.841, 1.653) + pheomelanin * Vec3::new(0.343, 0.733, 1.924)
+}
+
+/// The absorption whose multiply-scattered colour is `color` at radial roughness `radial`
+/// (Chiang et al. 2016's fit, §4.2).
+fn hair_sigma_from_color(color: Vec3, radial: f32) -> Vec3 {
+    let x = radial;
+    let fit = (((((0.245 * x) + 5.574) * x - 10.73) * x + 2.532) * x - 0.215) * x + 5.969;
+    let per = |c: f32| (c.max(1e-6).ln() / fit).powi(2);
+    Vec3::new(per(color.x), per(color.y), per(color.z))
+}
+
+/// The Principled Hair BSDF (Chiang model) as Cycles resolves its inputs: Random scales
+/// the roughnesses by 1 + 2 (random − ½) × Random Roughness (and Melanin by the same with
+/// Random Color); Melanin m in [0, 1) becomes the concentration −ln(1 − m), split by Melanin
+/// Redness into pheomelanin and eumelanin, plus the Tint's absorption.
+#[inline(always)]
+pub(super) fn eval_principled_hair(coloring: HairColoring, ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(PRINCIPLED_HAIR_INPUTS, "Color");
+    const MELANIN: usize = input(PRINCIPLED_HAIR_INPUTS, "Melanin");
+    const REDNESS: usize = input(PRINCIPLED_HAIR_INPUTS, "Melanin Redness");
+    const TINT: usize = input(PRINCIPLED_HAIR_INPUTS, "Tint");
+    const ABSORPTION: usize = input(PRINCIPLED_HAIR_INPUTS, "Absorption Coefficient");
+    const ROUGHNESS: usize = input(PRINCIPLED_HAIR_INPUTS, "Roughness");
+    const RADIAL: usize = input(PRINCIPLED_HAIR_INPUTS, "Radial Roughness");
+    const COAT: usize = input(PRINCIPLED_HAIR_INPUTS, "Coat");
+    const IOR: usize = input(PRINCIPLED_HAIR_INPUTS, "IOR");
+    const OFFSET: usize = input(PRINCIPLED_HAIR_INPUTS, "Offset");
+    const RANDOM_COLOR: usize = input(PRINCIPLED_HAIR_INPUTS, "Random Color");
+    const RANDOM_ROUGHNESS: usize = input(PRINCIPLED_HAIR_INPUTS, "Random Roughness");
+    const RANDOM: usize = input(PRINCIPLED_HAIR_INPUTS, "Random");
+    let random = ins.float(RANDOM);
+    let rough_factor = 1.0 + 2.0 * (random - 0.5) * ins.float(RANDOM_ROUGHNESS);
+    let roughness = ins.float(ROUGHNESS) * rough_factor;
+    let radial_roughness = ins.float(RADIAL) * rough_factor;
+    let sigma = match coloring {
+        HairColoring::Absorption => ins.vector(ABSORPTION),
+        HairColoring::Color => hair_sigma_from_color(ins.vector(COLOR), radial_roughness),
+        HairColoring::Melanin => {
+            let random_color = ins.float(RANDOM_COLOR).clamp(0.0, 1.0);
+            let melanin = ins.float(MELANIN) * (1.0 + 2.0 * (random - 0.5) * random_color);
+            let concentration = -(1.0 - melanin).max(1e-4).ln();
+            let redness = ins.float(REDNESS);
+            hair_sigma_from_melanin(concentration * (1.0 - redness), concentration * redness)
+                + hair_sigma_from_color(ins.vector(TINT), radial_roughness)
+        }
+    };
+    hair_closure(Hair::Chiang {
+        sigma: sigma.max(Vec3::ZERO),
+        roughness,
+        radial_roughness,
+        coat: ins.float(COAT),
+        ior: ins.float(IOR),
+        tilt: ins.float(OFFSET),
+    })
+}
+
+/// The Hair BSDF node's inputs.
+pub(super) const HAIR_INPUTS: &[Socket] = &[
+    Socket::color("Color", GREY),
+    Socket::float("Offset", 0.0),
+    Socket::float("RoughnessU", 0.1),
+    Socket::float("RoughnessV", 1.0),
+    Socket::vector("Tangent", Vec4::ZERO),
+];
+
+/// The Hair BSDF node's outputs.
+pub(super) const HAIR_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
+/// Blender's Hair BSDF: Color, Offset, RoughnessU, RoughnessV; its Reflection or
+/// (`transmission`) Transmission component.
+#[inline(always)]
+pub(super) fn eval_hair(transmission: bool, ins: &impl Operands) -> Closure {
+    const COLOR: usize = input(HAIR_INPUTS, "Color");
+    const OFFSET: usize = input(HAIR_INPUTS, "Offset");
+    const ROUGHNESS_U: usize = input(HAIR_INPUTS, "RoughnessU");
+    const ROUGHNESS_V: usize = input(HAIR_INPUTS, "RoughnessV");
+    let mut c = hair_closure(Hair::Gaussian {
+        transmission,
+        color: ins.vector(COLOR).max(Vec3::ZERO),
+        offset: ins.float(OFFSET),
+        roughness_u: ins.float(ROUGHNESS_U),
+        roughness_v: ins.float(ROUGHNESS_V),
+    });
+    c.base_color = ins.vector(COLOR).max(Vec3::ZERO);
+    c
+}
+
+/// A hair closure: light crosses the fibre (`transmission` 1), so no integrator turns its
+/// frame to the viewer's side.
+fn hair_closure(hair: Hair) -> Closure {
+    Closure {
+        base_color: Vec3::ONE,
+        transmission: 1.0,
+        ior: 1.0,
+        hair: Some(hair),
+        ..Closure::BLACK
+    }
+}
+
 /// The volume part of a closure.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeClosure {
@@ -295,6 +462,8 @@ pub struct Closure {
     pub weight: f32,
     /// A Toon BSDF: the lobe alone, of `base_color`.
     pub toon: Option<Toon>,
+    /// A hair BSDF (`Hair`): the fibre's lobes alone.
+    pub hair: Option<Hair>,
     /// The metal's F82 tint as Cycles takes it (the Principled BSDF's Specular Tint, the
     /// Metallic BSDF's Edge Tint); `None`: the normalised `specular_color` (glTF's).
     pub metal_tint: Option<Vec3>,
@@ -336,6 +505,7 @@ impl Closure {
         single_scatter: false,
         weight: 1.0,
         toon: None,
+        hair: None,
         metal_tint: None,
         volume: VolumeClosure::NONE,
     };
@@ -486,6 +656,7 @@ pub(super) fn eval_principled(
         single_scatter: !multiscatter,
         weight: 1.0,
         toon: None,
+        hair: None,
         metal_tint: Some(tint.max(Vec3::ZERO)),
         volume: VolumeClosure::NONE,
     };

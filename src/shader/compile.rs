@@ -200,7 +200,8 @@ pub(super) fn compile_tree(
         };
         reads_color |= matches!(op, Op::VertexColor | Op::Attribute { .. });
         shadow_transparent |= match op {
-            Op::Transparent => true,
+            // Seen from inside its tube a fibre passes light (`crate::material`).
+            Op::Transparent | Op::PrincipledHair { .. } | Op::Hair { .. } => true,
             Op::Principled { .. } => !matches!(ins[ALPHA], Src::Const(v) if v.x >= 1.0),
             _ => false,
         };

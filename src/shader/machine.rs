@@ -318,6 +318,10 @@ pub(super) fn run(
         } => m.closures[o] = closure::eval_metallic(*physical, *multiscatter, inputs, at, ins),
         Op::Sheen => m.closures[o] = closure::eval_sheen(ins),
         Op::Toon { glossy } => m.closures[o] = closure::eval_toon(*glossy, ins),
+        Op::PrincipledHair { coloring } => {
+            m.closures[o] = closure::eval_principled_hair(*coloring, ins)
+        }
+        Op::Hair { transmission } => m.closures[o] = closure::eval_hair(*transmission, ins),
         Op::Glass { multiscatter } => {
             m.closures[o] = closure::eval_glass(false, *multiscatter, ins)
         }

@@ -96,7 +96,7 @@ mod voronoi;
 mod wave;
 mod white_noise;
 
-pub use closure::{default_tangent, principled_aspect, Closure, Toon, VolumeClosure};
+pub use closure::{default_tangent, principled_aspect, Closure, Hair, Toon, VolumeClosure};
 pub use compile::compile;
 pub use inputs::{
     NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES,

@@ -3,6 +3,7 @@
 
 use super::brick::BrickLayout;
 use super::bump::NormalMapSpace;
+use super::closure::HairColoring;
 use super::color::{blend_mode, MixData};
 use super::gradient::GradientKind;
 use super::inputs::{NAMED_ATTRIBUTES, NO_ATTRIBUTE, UV_SETS};
@@ -419,6 +420,24 @@ pub(super) fn parse_op(
                 _ => return Ok(None),
             }
         }
+        "BsdfHairPrincipled" => match setting(node, "model").unwrap_or("CHIANG") {
+            "CHIANG" => Op::PrincipledHair {
+                coloring: match setting(node, "parametrization").unwrap_or("COLOR") {
+                    "COLOR" => HairColoring::Color,
+                    "MELANIN" => HairColoring::Melanin,
+                    "ABSORPTION" => HairColoring::Absorption,
+                    _ => return Err(bad("parametrization")),
+                },
+            },
+            _ => return Ok(None),
+        },
+        "BsdfHair" => Op::Hair {
+            transmission: match setting(node, "component").unwrap_or("Reflection") {
+                "Reflection" => false,
+                "Transmission" => true,
+                _ => return Err(bad("component")),
+            },
+        },
         "BsdfToon" => Op::Toon {
             glossy: match setting(node, "component").unwrap_or("DIFFUSE") {
                 "DIFFUSE" => false,

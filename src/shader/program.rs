@@ -177,6 +177,14 @@ pub(super) enum Op {
     Toon {
         glossy: bool,
     },
+    /// Principled Hair BSDF (Chiang model) with its colour parametrization.
+    PrincipledHair {
+        coloring: super::closure::HairColoring,
+    },
+    /// Hair BSDF, its Reflection or (`transmission`) Transmission component.
+    Hair {
+        transmission: bool,
+    },
     /// Glass BSDF; `multiscatter` as the Principled's (its lobe divided by its albedo).
     Glass {
         multiscatter: bool,

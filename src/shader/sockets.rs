@@ -82,6 +82,11 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Glossy { .. } => (closure::GLOSSY_INPUTS, closure::GLOSSY_OUTPUTS),
         Op::Metallic { .. } => (closure::METALLIC_INPUTS, closure::METALLIC_OUTPUTS),
         Op::Toon { .. } => (closure::TOON_INPUTS, closure::TOON_OUTPUTS),
+        Op::PrincipledHair { .. } => (
+            closure::PRINCIPLED_HAIR_INPUTS,
+            closure::PRINCIPLED_HAIR_OUTPUTS,
+        ),
+        Op::Hair { .. } => (closure::HAIR_INPUTS, closure::HAIR_OUTPUTS),
         Op::Glass { .. } | Op::Refraction => (closure::GLASS_INPUTS, closure::GLASS_OUTPUTS),
         Op::Emission => (closure::EMISSION_INPUTS, closure::EMISSION_OUTPUTS),
         Op::Transparent => (closure::TRANSPARENT_INPUTS, closure::TRANSPARENT_OUTPUTS),

@@ -563,3 +563,45 @@ fn toon_is_full_within_its_size_and_fades_over_its_smooth_edge() {
         (Some(expected), Vec3::new(0.9, 0.4, 0.2))
     );
 }
+
+#[test]
+fn principled_hair_resolves_melanin_and_its_model() {
+    let hair = |settings: Value| {
+        let mut node = json!({"name": "H", "type": "ShaderNodeBsdfHairPrincipled",
+            "inputs": {"Melanin": 0.8, "Melanin Redness": 1.0, "Roughness": 0.4,
+                       "Random Roughness": 0.5, "Random": 1.0}});
+        node.as_object_mut()
+            .unwrap()
+            .extend(settings.as_object().unwrap().clone());
+        let tree = json!({"nodes": [node], "output": {"node": 0, "output": "BSDF"}});
+        let mut w = Vec::new();
+        compile(&tree, 0, &mut w)
+            .unwrap()
+            .eval(&ShadingInputs::default(), &[], 0.5)
+    };
+    let c = hair(json!({"model": "CHIANG", "parametrization": "MELANIN"}));
+    // Melanin 0.8 is the concentration −ln 0.2, all pheomelanin at Redness 1; a white Tint
+    // absorbs nothing; Random 1 scales the roughness by 1 + Random Roughness.
+    let concentration = -(0.2f32.ln());
+    match c.hair {
+        Some(Hair::Chiang {
+            sigma, roughness, ..
+        }) => {
+            let expected = concentration * Vec3::new(0.343, 0.733, 1.924);
+            assert!((sigma - expected).abs().max_element() < 1e-4, "{sigma}");
+            assert!((roughness - 0.6).abs() < 1e-6);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!((c.transmission, c.base_color), (1.0, Vec3::ONE));
+    // The Huang model is not evaluated: the node falls back with a warning.
+    let tree = json!({"nodes": [{"name": "H", "type": "ShaderNodeBsdfHairPrincipled",
+        "model": "HUANG"}], "output": {"node": 0, "output": "BSDF"}});
+    let mut w = Vec::new();
+    assert!(compile(&tree, 0, &mut w)
+        .unwrap()
+        .eval(&ShadingInputs::default(), &[], 0.5)
+        .hair
+        .is_none());
+    assert!(!w.is_empty());
+}

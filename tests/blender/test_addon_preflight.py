@@ -246,7 +246,8 @@ def test_thin_film_is_named_only_where_it_is_not_rendered(photon_addon):
     tree.links.new(value.outputs[0], bsdf.inputs["Thin Film Thickness"])
     assert material_nodes(mat)[0] is not None
     assert messages_for(scene) == [], "a linked Thin Film is rendered"
-    hair = tree.nodes.new("ShaderNodeBsdfHairPrincipled")  # a BSDF Photon does not evaluate
+    hair = tree.nodes.new("ShaderNodeBsdfHairPrincipled")
+    hair.model = "HUANG"  # a model Photon does not evaluate
     mix = tree.nodes.new("ShaderNodeMixShader")
     output = tree.nodes["Material Output"]
     tree.links.new(bsdf.outputs["BSDF"], mix.inputs[1])
@@ -254,7 +255,7 @@ def test_thin_film_is_named_only_where_it_is_not_rendered(photon_addon):
     tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
     messages = messages_for(scene)
     assert [m for m in messages if "Thin Film is not rendered" in m], messages
-    assert [m for m in messages if hair.name in m], messages
+    assert [m for m in messages if hair.name in m and "Huang" in m], messages
     tree.links.remove(bsdf.inputs["Thin Film Thickness"].links[0])
     bsdf.inputs["Thin Film Thickness"].default_value = 0.0
     messages = messages_for(scene)
