@@ -32,7 +32,7 @@ empty list, so the rules below only flag what really changes the image:
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
 - shadow catchers without a transparent film, Cycles' Shadow Catcher pass;
 - render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
-  Indirect with the photon method (its estimates are clamped whole);
+  Indirect with the photon method (its global-map and cache estimates are clamped whole);
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
   field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
   objects other than meshes (armatures, animated shape keys of curves, surfaces, text:
@@ -133,8 +133,10 @@ def light_path_features(scene) -> list[str]:
     method = getattr(getattr(scene, "photon", None), "method", "")
     if method == "PHOTON" and float(getattr(cycles, "sample_clamp_indirect", 0.0)) > 0.0:
         messages.append("render settings: with the photon method, Clamp Indirect holds each "
-                        "photon-map estimate as one contribution: caustics of small lights "
-                        "that Cycles' clamp removes stay (the path tracer clamps as Cycles)")
+                        "global photon-map and cache estimate as one contribution (caustic "
+                        "photons are clamped as Cycles' paths): light of small, very bright "
+                        "lamps after two diffuse bounces that Cycles' clamp removes stays (the "
+                        "path tracer clamps as Cycles)")
     return messages
 
 
