@@ -396,8 +396,8 @@ def film_filter(scene) -> dict:
 
 def render_extension(scene) -> dict:
     """PHOTON_render: the final image size (resolution x percentage), transparent film, the
-    pixel filter and Blender's Volume bounces and Clamp Direct / Clamp Indirect (Light Paths,
-    Cycles' settings)."""
+    pixel filter, Blender's Volume bounces and Clamp Direct / Clamp Indirect (Light Paths,
+    Cycles' settings) and the file's working colour space."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
     extension = {"width": max(1, int(r.resolution_x * scale)),
@@ -414,7 +414,17 @@ def render_extension(scene) -> dict:
         limit = float(getattr(cycles, setting, 0.0))
         if limit > 0.0:
             extension[key] = limit
+    space = working_space()
+    if space != "lin_rec709_scene":  # Rec.709, Blender 4's only space, is the default
+        extension["working_space"] = space
     return extension
+
+
+def working_space() -> str:
+    """The file's working colour space as its Color Interop Forum id (Blender 5's
+    `bpy.data.colorspace`; Blender 4 renders in linear Rec.709)."""
+    colorspace = getattr(bpy.data, "colorspace", None)
+    return getattr(colorspace, "working_space_interop_id", "") or "lin_rec709_scene"
 
 
 def world_volume(blender_world, folder=None):

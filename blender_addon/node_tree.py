@@ -183,8 +183,10 @@ RAMP_TABLE_SIZE = 256
 
 # Image files the renderer decodes, by Blender's file_format, with their file extension.
 IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp", "OPEN_EXR": "exr"}
-# Colour spaces of image textures the renderer reads (sRGB decoded, or the values as they are).
-IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color", "Linear Rec.709": "Non-Color"}
+# Colour spaces of image textures the renderer reads: colour (sRGB decoded, or linear Rec.709;
+# both taken into the working space) or data ("Non-Color", the values as they are).
+IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color",
+                     "Linear Rec.709": "Linear Rec.709"}
 
 
 def _baked_curves(mapping) -> dict:

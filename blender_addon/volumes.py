@@ -5,8 +5,8 @@ The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered V
 whose grids come from a file on disk has a mesh object beside it: a box around its grids (one
 voxel of margin, where interpolation still reaches), at its place, with its material, or with
 Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
-`gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame and
-its grid names; the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
+`gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame,
+its grid names and where this Blender puts a voxel's value; the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
 
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
@@ -24,6 +24,9 @@ BOXES: dict[str, dict] = {}
 DEFAULT_MATERIAL = "Photon default volume"
 # Grid value types the renderer reads (float and three-float grids).
 READ_TYPES = ("FLOAT", "DOUBLE", "VECTOR_FLOAT", "VECTOR_DOUBLE")
+# Blender 5 puts a voxel's value at its index in the grid (OpenVDB's convention), Blender 4 at
+# index + ½ (the centre of the cell from index to index + 1).
+VALUES_AT_INDEX = bpy.app.version >= (5, 0, 0)
 
 
 def volume_file(obj) -> tuple[str | None, str | None]:
@@ -121,6 +124,8 @@ def as_boxes(scene):
             BOXES[box.name] = {"uri": path,
                                "grids": [g.name for g in obj.data.grids
                                          if g.data_type in READ_TYPES]}
+            if VALUES_AT_INDEX:
+                BOXES[box.name]["values_at_index"] = True
             made.append(box)
         if made:
             bpy.context.view_layer.update()

@@ -144,7 +144,7 @@ def _world_background_layer(node, groups, folder, written, problems) -> dict:
             if written[texture.name]:
                 layer["environment"] = written[texture.name]
         return layer
-    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type == "NISHITA":
+    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type in NISHITA_SKY_TYPES:
         layer["color"] = [0.0, 0.0, 0.0]
         layer["sky"] = sky_extension(texture, color.groups)
         return layer
@@ -155,15 +155,22 @@ def _world_background_layer(node, groups, folder, written, problems) -> dict:
     return layer
 
 
+# Sky Texture models Photon evaluates: Nishita's single scattering, named "Nishita" up to
+# Blender 4.5 and "Single Scattering" from Blender 5.0.
+NISHITA_SKY_TYPES = ("NISHITA", "SINGLE_SCATTERING")
+
+
 def sky_extension(node, groups: tuple = ()) -> dict:
     """The "sky" of PHOTON_world for a Sky Texture node of the Nishita model (inside the group
     nodes `groups`): its settings (radians, metres, factors) and the rotation of a Mapping node
-    feeding its vector."""
+    feeding its vector. Blender 5 calls the dust density "aerosol density"."""
+    dust = getattr(node, "aerosol_density", None)
     return {"type": "NISHITA", "sun_disc": bool(node.sun_disc),
             "sun_size": float(node.sun_size), "sun_intensity": float(node.sun_intensity),
             "sun_elevation": float(node.sun_elevation),
             "sun_rotation": float(node.sun_rotation), "altitude": float(node.altitude),
-            "air": float(node.air_density), "dust": float(node.dust_density),
+            "air": float(node.air_density),
+            "dust": float(node.dust_density if dust is None else dust),
             "ozone": float(node.ozone_density), "rotation": _mapping_rotation(node, groups)}
 
 
