@@ -53,7 +53,7 @@ import bpy
 try:
     from . import camera, lights, motion, node_tree, points_curves, volumes, world
     from .node_graph import active_output, source, upstream
-    from .shared import GEOMETRY_TYPES, LOG
+    from .shared import GEOMETRY_TYPES, LOG, REC709, working_space
 except ImportError:  # run as the child's script: the add-on's folder holds the other modules
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import camera
@@ -64,7 +64,7 @@ except ImportError:  # run as the child's script: the add-on's folder holds the 
     import volumes
     import world
     from node_graph import active_output, source, upstream
-    from shared import GEOMETRY_TYPES, LOG
+    from shared import GEOMETRY_TYPES, LOG, REC709, working_space
 
 GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
@@ -415,16 +415,9 @@ def render_extension(scene) -> dict:
         if limit > 0.0:
             extension[key] = limit
     space = working_space()
-    if space != "lin_rec709_scene":  # Rec.709, Blender 4's only space, is the default
+    if space != REC709:  # the extension's default
         extension["working_space"] = space
     return extension
-
-
-def working_space() -> str:
-    """The file's working colour space as its Color Interop Forum id (Blender 5's
-    `bpy.data.colorspace`; Blender 4 renders in linear Rec.709)."""
-    colorspace = getattr(bpy.data, "colorspace", None)
-    return getattr(colorspace, "working_space_interop_id", "") or "lin_rec709_scene"
 
 
 def world_volume(blender_world, folder=None):

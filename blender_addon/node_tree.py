@@ -31,8 +31,10 @@ from __future__ import annotations
 
 try:
     from .node_graph import Source, active_output, source
+    from .shared import REC709, working_space
 except ImportError:  # loaded by export.py as a top-level module in the export's child process
     from node_graph import Source, active_output, source
+    from shared import REC709, working_space
 
 # Nodes the renderer evaluates, by bl_idname, with the settings it reads.
 SETTINGS = {
@@ -329,6 +331,8 @@ class _Walker:
             self.index[key] = None
             return None
         entry = {"name": name, "type": kind}
+        if kind == "ShaderNodeBlackbody" and working_space() != REC709:
+            entry["working_space"] = working_space()  # its colour is given in that space
         for setting in SETTINGS[kind]:
             value = getattr(node, setting, None)
             if value is None:

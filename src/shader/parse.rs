@@ -13,6 +13,7 @@ use super::vector::{MappingKind, VectorOp};
 use super::volume::ScatterPhase;
 use super::voronoi::{Metric, VoronoiFeature, VoronoiKind};
 use super::wave::{WaveKind, WaveProfile};
+use crate::color_space::WorkingSpace;
 use crate::math::Vec4;
 use serde_json::Value;
 
@@ -350,7 +351,13 @@ pub(super) fn parse_op(
                 squash_frequency: float("squash_frequency", 2.0) as i32,
             })
         }
-        "Blackbody" => Op::Blackbody,
+        "Blackbody" => Op::Blackbody(match setting(node, "working_space") {
+            None => WorkingSpace::Rec709,
+            Some(id) => match WorkingSpace::from_interop_id(id) {
+                Some(space) => space,
+                None => return Err(format!("unknown working space '{id}'")),
+            },
+        }),
         "HueSaturation" => Op::HueSaturation,
         "Gamma" => Op::Gamma,
         "BrightContrast" => Op::BrightContrast,

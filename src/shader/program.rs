@@ -142,7 +142,8 @@ pub(super) enum Op {
         depth: u8,
     },
     Brick(BrickLayout),
-    Blackbody,
+    /// Blackbody: the working colour space its colour is given in.
+    Blackbody(crate::color_space::WorkingSpace),
     HueSaturation,
     Gamma,
     BrightContrast,

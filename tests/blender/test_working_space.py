@@ -1,11 +1,12 @@
 """The file's working colour space (PHOTON_render "working_space"): Blender 5 renders in the
 file's linear space (Rec.709, Rec.2020 or ACEScg) and Photon with it. Colours in node trees are
-already in that space; an sRGB image and the Nishita sky are converted into it.
+already in that space; an sRGB image, the Nishita sky and a black body's colour are converted
+into it.
 
 Under Blender 5 the scene is made in an ACEScg file; under Blender 4.5, which has Linear Rec.709
 only, the same scene renders in Rec.709. Either way it is rendered by Cycles and by Photon
-through the add-on: a floor textured by a saturated sRGB image and a saturated emitting panel,
-lit by the sky (mean within 2 %, relMSE <= 0.01). Without the conversion the ACEScg render is
+through the add-on: a floor textured by a saturated sRGB image, a saturated emitting panel and
+one emitting a Blackbody node's colour, lit by the sky (mean within 2 %, relMSE <= 0.01). Without the conversion the ACEScg render is
 off by more than that (the docstring of `test_image_and_sky_in_the_working_space`).
 """
 
@@ -55,18 +56,12 @@ def working_space_scene(tmp_path):
     uv = plane.data.uv_layers.new(name="UVMap")
     for loop, (u, v) in zip(plane.data.loops, [(0, 0), (1, 0), (1, 1), (0, 1)]):
         uv.data[loop.index].uv = (u, v)
-    panel = bpy.data.materials.new("Panel")
-    if bpy.app.version < (5, 0, 0):
-        panel.use_nodes = True
-    nodes = panel.node_tree.nodes
-    nodes.remove(nodes["Principled BSDF"])
-    emission = nodes.new("ShaderNodeEmission")
-    emission.inputs["Color"].default_value = (0.05, 0.9, 0.1, 1.0)
-    emission.inputs["Strength"].default_value = 2.0
-    panel.node_tree.links.new(emission.outputs["Emission"],
-                              nodes["Material Output"].inputs["Surface"])
-    common.quad("Panel", [(1.0, 0.5, 0.01), (2.0, 0.5, 0.01), (2.0, 1.5, 0.01),
-                          (1.0, 1.5, 0.01)], panel)
+    green = emitting_panel("Green", (1.0, 0.5, 0.01))
+    green.inputs["Color"].default_value = (0.05, 0.9, 0.1, 1.0)
+    blackbody = emitting_panel("Blackbody", (-2.0, 0.5, 0.01))
+    kelvin = blackbody.id_data.nodes.new("ShaderNodeBlackbody")
+    kelvin.inputs["Temperature"].default_value = 2000.0
+    blackbody.id_data.links.new(kelvin.outputs["Color"], blackbody.inputs["Color"])
     world = scene.world.node_tree
     sky = world.nodes.new("ShaderNodeTexSky")
     sky.sky_type = "SINGLE_SCATTERING" if bpy.app.version >= (5, 0, 0) else "NISHITA"
@@ -77,6 +72,22 @@ def working_space_scene(tmp_path):
     world.links.new(sky.outputs["Color"], background.inputs["Color"])
     common.camera("Camera", (0.0, -5.0, 2.2), (70.0, 0.0, 0.0), 50.0)
     return scene
+
+
+def emitting_panel(name, corner):
+    """A 1 m square on the floor at `corner` emitting (strength 2); its Emission node."""
+    material = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        material.use_nodes = True
+    nodes = material.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 2.0
+    material.node_tree.links.new(emission.outputs["Emission"],
+                                 nodes["Material Output"].inputs["Surface"])
+    x, y, z = corner
+    common.quad(name, [(x, y, z), (x + 1, y, z), (x + 1, y + 1, z), (x, y + 1, z)], material)
+    return emission
 
 
 @pytest.mark.slow
