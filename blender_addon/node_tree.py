@@ -182,6 +182,8 @@ MATH_OPS = {
 }
 
 RAMP_TABLE_SIZE = 256
+# Nodes with a black body's colour, which the renderer takes into the working colour space.
+BLACKBODY_NODES = ("ShaderNodeBlackbody", "ShaderNodeVolumePrincipled")
 
 # Image files the renderer decodes, by Blender's file_format, with their file extension.
 IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp", "OPEN_EXR": "exr"}
@@ -331,8 +333,8 @@ class _Walker:
             self.index[key] = None
             return None
         entry = {"name": name, "type": kind}
-        if kind == "ShaderNodeBlackbody" and working_space() != REC709:
-            entry["working_space"] = working_space()  # its colour is given in that space
+        if kind in BLACKBODY_NODES and working_space() != REC709:
+            entry["working_space"] = working_space()  # its black body's colour is given in it
         for setting in SETTINGS[kind]:
             value = getattr(node, setting, None)
             if value is None:

@@ -338,9 +338,9 @@ pub(super) fn run(
             let (a, b) = (read_closure(m, instr.ins[A]), read_closure(m, instr.ins[B]));
             m.closures[o] = closure::eval_add_shader(a, b, u)
         }
-        Op::PrincipledVolume { attributes } => {
+        Op::PrincipledVolume { attributes, space } => {
             let named = attributes.map(|slot| inputs.attributes.get(slot));
-            m.closures[o] = volume::eval_principled_volume(ins, named)
+            m.closures[o] = volume::eval_principled_volume(ins, named, *space)
         }
         Op::VolumeScatter(phase) => m.closures[o] = volume::eval_volume_scatter(*phase, ins),
         Op::VolumeAbsorption => m.closures[o] = volume::eval_volume_absorption(ins),

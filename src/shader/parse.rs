@@ -36,6 +36,17 @@ pub(super) fn const_value(v: &Value) -> Option<Vec4> {
     }
 }
 
+/// The working colour space a node's colours are given in (its `working_space`; Rec.709 when
+/// absent).
+fn working_space(node: &Value) -> Result<WorkingSpace, String> {
+    match setting(node, "working_space") {
+        None => Ok(WorkingSpace::Rec709),
+        Some(id) => {
+            WorkingSpace::from_interop_id(id).ok_or_else(|| format!("unknown working space '{id}'"))
+        }
+    }
+}
+
 pub(super) fn setting<'a>(node: &'a Value, key: &str) -> Option<&'a str> {
     node.get(key).and_then(Value::as_str)
 }
@@ -351,13 +362,7 @@ pub(super) fn parse_op(
                 squash_frequency: float("squash_frequency", 2.0) as i32,
             })
         }
-        "Blackbody" => Op::Blackbody(match setting(node, "working_space") {
-            None => WorkingSpace::Rec709,
-            Some(id) => match WorkingSpace::from_interop_id(id) {
-                Some(space) => space,
-                None => return Err(format!("unknown working space '{id}'")),
-            },
-        }),
+        "Blackbody" => Op::Blackbody(working_space(node)?),
         "HueSaturation" => Op::HueSaturation,
         "Gamma" => Op::Gamma,
         "BrightContrast" => Op::BrightContrast,
@@ -473,6 +478,7 @@ pub(super) fn parse_op(
             };
             Op::PrincipledVolume {
                 attributes: [slot("density"), slot("color"), slot("temperature")],
+                space: working_space(node)?,
             }
         }
         "VolumeAbsorption" => Op::VolumeAbsorption,

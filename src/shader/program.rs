@@ -194,6 +194,8 @@ pub(super) enum Op {
     /// Principled Volume with the slots of its Density, Color and Temperature attributes.
     PrincipledVolume {
         attributes: [u8; 3],
+        /// The working colour space its black body's colour is given in.
+        space: crate::color_space::WorkingSpace,
     },
     VolumeScatter(ScatterPhase),
     VolumeAbsorption,
@@ -353,7 +355,7 @@ impl NodeProgram {
                         | Op::LayerWeight
                         | Op::NoiseAt3 { .. }
                 )
-                || matches!(i.op, Op::PrincipledVolume { attributes } if named_attributes
+                || matches!(i.op, Op::PrincipledVolume { attributes, .. } if named_attributes
                     && attributes.iter().any(|&s| s != super::inputs::NO_ATTRIBUTE))
         }) || self.displacement.is_some()
     }
