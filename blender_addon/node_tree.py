@@ -31,10 +31,10 @@ from __future__ import annotations
 
 try:
     from .node_graph import Source, active_output, source
-    from .shared import REC709, working_space
+    from .shared import REC709, material_tree, working_space
 except ImportError:  # loaded by export.py as a top-level module in the export's child process
     from node_graph import Source, active_output, source
-    from shared import REC709, working_space
+    from shared import REC709, material_tree, working_space
 
 # Nodes the renderer evaluates, by bl_idname, with the settings it reads.
 SETTINGS = {
@@ -440,7 +440,7 @@ def material_nodes(material, folder=None, *, keep_trivial=False, unlinked=frozen
     .glb's), the images of Image Texture nodes are written there. `keep_trivial`: describe a
     tree glTF carries exactly too (the preview writer, preview.py, has no glTF material).
     `unlinked`: inputs, as (node name, input identifier), read as their unlinked values."""
-    tree = material.node_tree if getattr(material, "use_nodes", False) else None
+    tree = material_tree(material)
     if tree is None:
         return None, []
     output = active_output(tree, "ShaderNodeOutputMaterial")

@@ -45,7 +45,7 @@ from .lights import light_linking, light_node_problems
 from .motion import deforms
 from .node_graph import active_output, source, upstream
 from .node_tree import material_nodes, volume_tree
-from .shared import GEOMETRY_TYPES
+from .shared import GEOMETRY_TYPES, material_tree
 from .volumes import problems as volume_problems
 from .world import world_problems, world_uses_nodes
 
@@ -218,7 +218,7 @@ def light_features(obj) -> list[str]:
 
 def material_features(material) -> list[str]:
     """Messages for the parts of `material`'s node tree that the export drops."""
-    tree = material.node_tree if material.use_nodes else None
+    tree = material_tree(material)
     if tree is None:
         return []
     what = f"material '{material.name}'"

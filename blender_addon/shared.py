@@ -21,3 +21,14 @@ def working_space() -> str:
     import bpy
     colorspace = getattr(bpy.data, "colorspace", None)
     return getattr(colorspace, "working_space_interop_id", "") or REC709
+
+
+def material_tree(material):
+    """The node tree a material renders with, or None. Blender 5 always renders a material's
+    tree (Material.use_nodes is deprecated there and reading it warns); Blender 4 only with
+    use_nodes on."""
+    import bpy
+    tree = getattr(material, "node_tree", None)
+    if tree is None or bpy.app.version >= (5, 0, 0):
+        return tree
+    return tree if getattr(material, "use_nodes", False) else None

@@ -63,7 +63,8 @@ def _default_material():
     material = bpy.data.materials.get(DEFAULT_MATERIAL)
     if material is None:
         material = bpy.data.materials.new(DEFAULT_MATERIAL)
-        material.use_nodes = True
+        if bpy.app.version < (5, 0, 0):  # always on (and deprecated) in Blender 5
+            material.use_nodes = True
         nodes = material.node_tree.nodes
         nodes.clear()
         principled = nodes.new("ShaderNodeVolumePrincipled")
