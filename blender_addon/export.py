@@ -53,7 +53,7 @@ import bpy
 try:
     from . import camera, lights, motion, node_tree, points_curves, volumes, world
     from .node_graph import active_output, source, upstream
-    from .shared import GEOMETRY_TYPES, LOG
+    from .shared import GEOMETRY_TYPES, LOG, REC709, working_space
 except ImportError:  # run as the child's script: the add-on's folder holds the other modules
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import camera
@@ -64,7 +64,7 @@ except ImportError:  # run as the child's script: the add-on's folder holds the 
     import volumes
     import world
     from node_graph import active_output, source, upstream
-    from shared import GEOMETRY_TYPES, LOG
+    from shared import GEOMETRY_TYPES, LOG, REC709, working_space
 
 GLTF_EXPORT_ARGS = dict(
     export_format="GLB", export_lights=True, export_cameras=True, export_extras=True,
@@ -396,8 +396,8 @@ def film_filter(scene) -> dict:
 
 def render_extension(scene) -> dict:
     """PHOTON_render: the final image size (resolution x percentage), transparent film, the
-    pixel filter and Blender's Volume bounces and Clamp Direct / Clamp Indirect (Light Paths,
-    Cycles' settings)."""
+    pixel filter, Blender's Volume bounces and Clamp Direct / Clamp Indirect (Light Paths,
+    Cycles' settings) and the file's working colour space."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
     extension = {"width": max(1, int(r.resolution_x * scale)),
@@ -414,6 +414,9 @@ def render_extension(scene) -> dict:
         limit = float(getattr(cycles, setting, 0.0))
         if limit > 0.0:
             extension[key] = limit
+    space = working_space()
+    if space != REC709:  # the extension's default
+        extension["working_space"] = space
     return extension
 
 
@@ -630,7 +633,8 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             args["export_tangents"] = True
         with collected_warnings() as warnings, render_visibility(scene), \
                 shape_keys_applied(scene), points_curves.as_meshes(scene), \
-                volumes.as_boxes(scene), motion.shutter_poses_recorded(scene):
+                volumes.as_boxes(scene), motion.shutter_poses_recorded(scene), \
+                lights.temperature_hidden(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
         raise ExportError(f"glTF export failed: {exc}") from None

@@ -10,12 +10,40 @@ child process too.
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 try:
     from .node_graph import active_output, linked_node, source
 except ImportError:  # loaded by export.py as a top-level module in the export's child process
     from node_graph import active_output, linked_node, source
+
+
+# Blackbody colours of the lights whose Temperature switch `temperature_hidden` turned off for
+# the export, by light name.
+HIDDEN_TEMPERATURE_COLORS: dict[str, list[float]] = {}
+
+
+@contextlib.contextmanager
+def temperature_hidden(scene):
+    """Within the block, the scene's lights have their Temperature switch off (and
+    `light_tint` reads their blackbody colour from `HIDDEN_TEMPERATURE_COLORS`): Blender 5.0's
+    glTF exporter fails on a light with Temperature on (it multiplies a channel by the whole
+    colour), and PHOTON_light carries the colour anyway. Linked lights are left as they are."""
+    lights = {obj.data for obj in scene.objects
+              if obj.type == "LIGHT" and getattr(obj.data, "use_temperature", False)
+              and obj.data.library is None}
+    try:
+        for light in lights:
+            HIDDEN_TEMPERATURE_COLORS[light.name_full] = [float(c) for c in
+                                                          light.temperature_color[:3]]
+            light.use_temperature = False
+        yield
+    finally:
+        for light in lights:
+            if light.name_full in HIDDEN_TEMPERATURE_COLORS:
+                light.use_temperature = True
+                del HIDDEN_TEMPERATURE_COLORS[light.name_full]
 
 
 def light_extension(obj) -> dict:
@@ -63,8 +91,11 @@ def light_tint(light) -> tuple[list[float], float]:
     (or the strength of a Light Falloff node's Quadratic output feeding it). What the node tree
     does beyond that is named by `light_node_problems` (the pre-flight report)."""
     color = [float(c) for c in light.color[:3]]
-    if getattr(light, "use_temperature", False):
-        color = [c * float(t) for c, t in zip(color, light.temperature_color[:3])]
+    temperature = HIDDEN_TEMPERATURE_COLORS.get(light.name_full)
+    if temperature is None and getattr(light, "use_temperature", False):
+        temperature = light.temperature_color[:3]
+    if temperature is not None:
+        color = [c * float(t) for c, t in zip(color, temperature)]
     emission = light_emission_node(light)
     if emission is None:
         return color, 1.0

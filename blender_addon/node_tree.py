@@ -31,8 +31,10 @@ from __future__ import annotations
 
 try:
     from .node_graph import Source, active_output, source
+    from .shared import REC709, material_tree, working_space
 except ImportError:  # loaded by export.py as a top-level module in the export's child process
     from node_graph import Source, active_output, source
+    from shared import REC709, material_tree, working_space
 
 # Nodes the renderer evaluates, by bl_idname, with the settings it reads.
 SETTINGS = {
@@ -189,11 +191,15 @@ MATH_OPS = {
 }
 
 RAMP_TABLE_SIZE = 256
+# Nodes with a black body's colour, which the renderer takes into the working colour space.
+BLACKBODY_NODES = ("ShaderNodeBlackbody", "ShaderNodeVolumePrincipled")
 
 # Image files the renderer decodes, by Blender's file_format, with their file extension.
 IMAGE_FORMATS = {"PNG": "png", "JPEG": "jpg", "WEBP": "webp", "OPEN_EXR": "exr"}
-# Colour spaces of image textures the renderer reads (sRGB decoded, or the values as they are).
-IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color", "Linear Rec.709": "Non-Color"}
+# Colour spaces of image textures the renderer reads: colour (sRGB decoded, or linear Rec.709;
+# both taken into the working space) or data ("Non-Color", the values as they are).
+IMAGE_COLORSPACES = {"sRGB": "sRGB", "Non-Color": "Non-Color",
+                     "Linear Rec.709": "Linear Rec.709"}
 
 
 def _baked_curves(mapping) -> dict:
@@ -336,6 +342,8 @@ class _Walker:
             self.index[key] = None
             return None
         entry = {"name": name, "type": kind}
+        if kind in BLACKBODY_NODES and working_space() != REC709:
+            entry["working_space"] = working_space()  # its black body's colour is given in it
         for setting in SETTINGS[kind]:
             value = getattr(node, setting, None)
             if value is None:
@@ -441,7 +449,7 @@ def material_nodes(material, folder=None, *, keep_trivial=False, unlinked=frozen
     .glb's), the images of Image Texture nodes are written there. `keep_trivial`: describe a
     tree glTF carries exactly too (the preview writer, preview.py, has no glTF material).
     `unlinked`: inputs, as (node name, input identifier), read as their unlinked values."""
-    tree = material.node_tree if getattr(material, "use_nodes", False) else None
+    tree = material_tree(material)
     if tree is None:
         return None, []
     output = active_output(tree, "ShaderNodeOutputMaterial")

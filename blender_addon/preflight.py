@@ -13,8 +13,9 @@ empty list, so the rules below only flag what really changes the image:
   Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
   Ray" factor and Add Shader);
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
-  (the tree route renders it; glTF carries no film); a Principled Hair BSDF of the Huang model
-  (Photon's is Chiang's);
+  (the tree route renders it; glTF carries no film), and under Blender 5 the film on a metallic
+  Principled BSDF (Blender 5 puts it on the metal too, Photon as 4.5 does not); a Principled
+  Hair BSDF of the Huang model (Photon's is Chiang's);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
   Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
   converter nodes the surface trees have), Volume objects whose grids Photon cannot read
@@ -41,12 +42,14 @@ empty list, so the rules below only flag what really changes the image:
 
 from __future__ import annotations
 
+import bpy
+
 from .camera import PANORAMAS
 from .lights import light_linking, light_node_problems
 from .motion import deforms
 from .node_graph import active_output, source, upstream
 from .node_tree import material_nodes, volume_tree
-from .shared import GEOMETRY_TYPES
+from .shared import GEOMETRY_TYPES, material_tree
 from .volumes import problems as volume_problems
 from .world import world_problems, world_uses_nodes
 
@@ -221,7 +224,7 @@ def light_features(obj) -> list[str]:
 
 def material_features(material) -> list[str]:
     """Messages for the parts of `material`'s node tree that the export drops."""
-    tree = material.node_tree if material.use_nodes else None
+    tree = material_tree(material)
     if tree is None:
         return []
     what = f"material '{material.name}'"
@@ -243,11 +246,30 @@ def material_features(material) -> list[str]:
             messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film is not rendered "
                             f"(the node tree is not evaluated, and glTF carries no film); the "
                             f"surface renders without its iridescence")
+    if evaluated and bpy.app.version >= (5, 0, 0):
+        messages += _metallic_thin_film(what, upstream(output.inputs["Surface"]))
     messages += _volume_features(material, output)
     displacement = output.inputs.get("Displacement")
     displaced = source(displacement).node if displacement is not None else None
     if displaced is not None and not (evaluated and "displacement" in extension):
         messages.append(f"{what}: displacement ('{displaced.name}') is not exported")
+    return messages
+
+
+def _metallic_thin_film(what, feeding) -> list[str]:
+    """Blender 5 puts a Principled BSDF's Thin Film on its metallic layer too; Photon renders
+    the film as Blender 4.5 does, on the specular layer and glass only."""
+    messages = []
+    for found in feeding:
+        node = found.node
+        if node.type != "BSDF_PRINCIPLED":
+            continue
+        used = [source(node.inputs[name], found.groups).linked
+                or node.inputs[name].default_value > 0.0
+                for name in ("Metallic", "Thin Film Thickness")]
+        if all(used):
+            messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film on the metallic "
+                            f"layer (Blender 5) is not rendered; the metal renders without it")
     return messages
 
 

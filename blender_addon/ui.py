@@ -23,6 +23,7 @@ BUILTIN_PANELS = {
     "render": """
         RENDER_PT_color_management RENDER_PT_color_management_display_settings
         RENDER_PT_color_management_curves RENDER_PT_color_management_white_balance
+        RENDER_PT_color_management_working_space RENDER_PT_color_management_advanced
     """,
     "output": """
         RENDER_PT_format RENDER_PT_frame_range RENDER_PT_time_stretching RENDER_PT_output

@@ -6,8 +6,9 @@ whose grids come from a file on disk has a mesh object beside it: a box around i
 voxel of margin, where interpolation still reaches), at its place, with its material, or with
 Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
 `gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
-grid names, the volume's space (its density per unit of the object's length or of the
-world's) and its clipping value (voxels below it hold no medium); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
+grid names, where this Blender puts a voxel's value, the volume's space (its density per unit
+of the object's length or of the world's) and its clipping value (voxels below it hold no
+medium); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
 
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
@@ -25,6 +26,9 @@ BOXES: dict[str, dict] = {}
 DEFAULT_MATERIAL = "Photon default volume"
 # Grid value types the renderer reads (float and three-float grids).
 READ_TYPES = ("FLOAT", "DOUBLE", "VECTOR_FLOAT", "VECTOR_DOUBLE")
+# Blender 5 puts a voxel's value at its index in the grid (OpenVDB's convention), Blender 4 at
+# index + ½ (the centre of the cell from index to index + 1).
+VALUES_AT_INDEX = bpy.app.version >= (5, 0, 0)
 
 
 def volume_file(obj) -> tuple[str | None, str | None]:
@@ -61,7 +65,8 @@ def _default_material():
     material = bpy.data.materials.get(DEFAULT_MATERIAL)
     if material is None:
         material = bpy.data.materials.new(DEFAULT_MATERIAL)
-        material.use_nodes = True
+        if bpy.app.version < (5, 0, 0):  # always on (and deprecated) in Blender 5
+            material.use_nodes = True
         nodes = material.node_tree.nodes
         nodes.clear()
         principled = nodes.new("ShaderNodeVolumePrincipled")
@@ -124,6 +129,8 @@ def as_boxes(scene):
                                          if g.data_type in READ_TYPES],
                                "space": obj.data.render.space.lower(),
                                "clipping": obj.data.render.clipping}
+            if VALUES_AT_INDEX:
+                BOXES[box.name]["values_at_index"] = True
             made.append(box)
         if made:
             bpy.context.view_layer.update()

@@ -18,10 +18,10 @@ import bpy
 
 try:
     from .node_graph import active_output, source
-    from .shared import LOG
+    from .shared import LOG, REC709, working_space
 except ImportError:  # loaded by export.py as a top-level module in the export's child process
     from node_graph import active_output, source
-    from shared import LOG
+    from shared import LOG, REC709, working_space
 
 
 def world_extension(world, folder: Path | None = None) -> dict:
@@ -144,7 +144,7 @@ def _world_background_layer(node, groups, folder, written, problems) -> dict:
             if written[texture.name]:
                 layer["environment"] = written[texture.name]
         return layer
-    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type == "NISHITA":
+    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type in NISHITA_SKY_TYPES:
         layer["color"] = [0.0, 0.0, 0.0]
         layer["sky"] = sky_extension(texture, color.groups)
         return layer
@@ -155,22 +155,30 @@ def _world_background_layer(node, groups, folder, written, problems) -> dict:
     return layer
 
 
+# Sky Texture models Photon evaluates: Nishita's single scattering, named "Nishita" up to
+# Blender 4.5 and "Single Scattering" from Blender 5.0.
+NISHITA_SKY_TYPES = ("NISHITA", "SINGLE_SCATTERING")
+
+
 def sky_extension(node, groups: tuple = ()) -> dict:
     """The "sky" of PHOTON_world for a Sky Texture node of the Nishita model (inside the group
     nodes `groups`): its settings (radians, metres, factors) and the rotation of a Mapping node
-    feeding its vector."""
+    feeding its vector. Blender 5 calls the dust density "aerosol density"."""
+    dust = getattr(node, "aerosol_density", None)
     return {"type": "NISHITA", "sun_disc": bool(node.sun_disc),
             "sun_size": float(node.sun_size), "sun_intensity": float(node.sun_intensity),
             "sun_elevation": float(node.sun_elevation),
             "sun_rotation": float(node.sun_rotation), "altitude": float(node.altitude),
-            "air": float(node.air_density), "dust": float(node.dust_density),
+            "air": float(node.air_density),
+            "dust": float(node.dust_density if dust is None else dust),
             "ozone": float(node.ozone_density), "rotation": _mapping_rotation(node, groups)}
 
 
 def environment_extension(node, folder: Path, groups: tuple = ()) -> dict:
     """The "environment" of PHOTON_world for an Environment Texture node (inside the group nodes
     `groups`): its image written to
-    `folder` as a float EXR (linear RGB; 8-bit sRGB images are linearised as Cycles does), the
+    `folder` as a float EXR (linear RGB; 8-bit sRGB images are linearised as Cycles does and
+    taken into the file's working colour space), the
     rotation of a Mapping node feeding its vector, and its interpolation. Empty (with a warning
     on LOG) when the node has no image, the image has no pixels or the projection is not
     equirectangular: the world is then black, as in Cycles."""
@@ -194,11 +202,22 @@ def environment_extension(node, folder: Path, groups: tuple = ()) -> dict:
         rgb = np.repeat(rgb[:, :, :1], 3, axis=2)
     if not image.is_float and image.colorspace_settings.name == "sRGB":
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+        if working_space() != REC709:
+            rgb = rgb @ _rec709_to_working().T
     safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in image.name)
     uri = f"world_{safe}.exr"
     write_exr_rgb(folder / uri, np.ascontiguousarray(rgb, dtype=np.float32))
     return {"uri": uri, "rotation": _mapping_rotation(node, groups),
             "interpolation": "closest" if node.interpolation == "Closest" else "linear"}
+
+
+def _rec709_to_working():
+    """Blender's matrix from linear Rec.709 to the file's working colour space (numpy 3x3)."""
+    import numpy as np
+    from mathutils import Color
+    columns = [Color(e).from_rec709_linear_to_scene_linear()
+               for e in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
+    return np.array([[c[row] for c in columns] for row in range(3)], dtype=np.float32)
 
 
 def _mapping_rotation(node, groups: tuple) -> list[float]:

@@ -9,6 +9,7 @@ pub mod accel;
 pub mod adaptive;
 pub mod bsdf;
 pub mod camera;
+pub mod color_space;
 pub mod emitter_pixels;
 pub mod error;
 pub mod film;

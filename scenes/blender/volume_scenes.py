@@ -90,6 +90,8 @@ def bake_volume(folder, build):
     group = bpy.data.node_groups.new("Bake", "GeometryNodeTree")
     group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     bake = group.nodes.new("GeometryNodeBake")
+    if len(bake.bake_items) == 0:  # Blender 5 adds a Bake node without its Geometry item
+        bake.bake_items.new("GEOMETRY", "Geometry")
     output = group.nodes.new("NodeGroupOutput")
     group.links.new(build(group), bake.inputs[0])
     group.links.new(bake.outputs[0], output.inputs[0])

@@ -776,6 +776,8 @@ pub struct SceneRenderSettings {
     /// (`integrator::walk::Clamp`).
     pub clamp_direct: f32,
     pub clamp_indirect: f32,
+    /// The file's working colour space, the one the image is computed and written in.
+    pub working_space: crate::color_space::WorkingSpace,
 }
 
 /// Everything there is to render.

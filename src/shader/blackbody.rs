@@ -1,6 +1,7 @@
 //! The Blackbody node: Cycles' piecewise fit of Planck's law in Rec. 709.
 
 use super::inputs::{input, v3, Operands, Socket, Ty};
+use crate::color_space::WorkingSpace;
 use crate::math::{Vec3, Vec4};
 
 /// The Blackbody node's inputs.
@@ -61,11 +62,14 @@ pub(super) fn blackbody(t: f32) -> Vec3 {
     )
 }
 
-/// The Blackbody node: Temperature to Color (negative channels clipped).
+/// The Blackbody node: Temperature to Color in the working colour space `space` (negative
+/// channels clipped), as Cycles takes its Rec.709 fit into the scene's space.
 #[inline(always)]
-pub(super) fn eval_blackbody(ins: &impl Operands) -> Vec4 {
+pub(super) fn eval_blackbody(space: WorkingSpace, ins: &impl Operands) -> Vec4 {
     const TEMPERATURE: usize = input(BLACKBODY_INPUTS, "Temperature");
-    v3(blackbody(ins.float(TEMPERATURE)).max(Vec3::ZERO))
+    v3(space
+        .convert_rec709(blackbody(ins.float(TEMPERATURE)))
+        .max(Vec3::ZERO))
 }
 
 #[cfg(test)]

@@ -293,7 +293,7 @@ pub(super) fn run(
         Op::Magic { depth } => m.put(o, magic::eval_magic(*depth, ins)),
         Op::Gabor { three_d } => m.put(o, gabor::eval_gabor(*three_d, ins)),
         Op::Brick(layout) => m.put(o, brick::eval_brick(layout, ins)),
-        Op::Blackbody => m.regs[o] = blackbody::eval_blackbody(ins),
+        Op::Blackbody(space) => m.regs[o] = blackbody::eval_blackbody(*space, ins),
         Op::HueSaturation => m.regs[o] = color::eval_hue_saturation(ins),
         Op::Gamma => m.regs[o] = color::eval_gamma(ins),
         Op::BrightContrast => m.regs[o] = color::eval_bright_contrast(ins),
@@ -342,9 +342,9 @@ pub(super) fn run(
             let (a, b) = (read_closure(m, instr.ins[A]), read_closure(m, instr.ins[B]));
             m.closures[o] = closure::eval_add_shader(a, b, u)
         }
-        Op::PrincipledVolume { attributes } => {
+        Op::PrincipledVolume { attributes, space } => {
             let named = attributes.map(|slot| inputs.attributes.get(slot));
-            m.closures[o] = volume::eval_principled_volume(ins, named)
+            m.closures[o] = volume::eval_principled_volume(ins, named, *space)
         }
         Op::VolumeScatter(phase) => m.closures[o] = volume::eval_volume_scatter(*phase, ins),
         Op::VolumeAbsorption => m.closures[o] = volume::eval_volume_absorption(ins),

@@ -14,6 +14,7 @@ use super::vector::{MappingKind, VectorOp};
 use super::volume::ScatterPhase;
 use super::voronoi::{Metric, VoronoiFeature, VoronoiKind};
 use super::wave::{WaveKind, WaveProfile};
+use crate::color_space::WorkingSpace;
 use crate::math::Vec4;
 use serde_json::Value;
 
@@ -33,6 +34,17 @@ pub(super) fn const_value(v: &Value) -> Option<Vec4> {
         3 => Some(Vec4::new(c[0], c[1], c[2], 1.0)),
         4 => Some(Vec4::new(c[0], c[1], c[2], c[3])),
         _ => None,
+    }
+}
+
+/// The working colour space a node's colours are given in (its `working_space`; Rec.709 when
+/// absent).
+fn working_space(node: &Value) -> Result<WorkingSpace, String> {
+    match setting(node, "working_space") {
+        None => Ok(WorkingSpace::Rec709),
+        Some(id) => {
+            WorkingSpace::from_interop_id(id).ok_or_else(|| format!("unknown working space '{id}'"))
+        }
     }
 }
 
@@ -351,7 +363,7 @@ pub(super) fn parse_op(
                 squash_frequency: float("squash_frequency", 2.0) as i32,
             })
         }
-        "Blackbody" => Op::Blackbody,
+        "Blackbody" => Op::Blackbody(working_space(node)?),
         "HueSaturation" => Op::HueSaturation,
         "Gamma" => Op::Gamma,
         "BrightContrast" => Op::BrightContrast,
@@ -485,6 +497,7 @@ pub(super) fn parse_op(
             };
             Op::PrincipledVolume {
                 attributes: [slot("density"), slot("color"), slot("temperature")],
+                space: working_space(node)?,
             }
         }
         "VolumeAbsorption" => Op::VolumeAbsorption,

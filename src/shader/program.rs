@@ -142,7 +142,8 @@ pub(super) enum Op {
         depth: u8,
     },
     Brick(BrickLayout),
-    Blackbody,
+    /// Blackbody: the working colour space its colour is given in.
+    Blackbody(crate::color_space::WorkingSpace),
     HueSaturation,
     Gamma,
     BrightContrast,
@@ -201,6 +202,8 @@ pub(super) enum Op {
     /// Principled Volume with the slots of its Density, Color and Temperature attributes.
     PrincipledVolume {
         attributes: [u8; 3],
+        /// The working colour space its black body's colour is given in.
+        space: crate::color_space::WorkingSpace,
     },
     VolumeScatter(ScatterPhase),
     VolumeAbsorption,
@@ -360,7 +363,7 @@ impl NodeProgram {
                         | Op::LayerWeight
                         | Op::NoiseAt3 { .. }
                 )
-                || matches!(i.op, Op::PrincipledVolume { attributes } if named_attributes
+                || matches!(i.op, Op::PrincipledVolume { attributes, .. } if named_attributes
                     && attributes.iter().any(|&s| s != super::inputs::NO_ATTRIBUTE))
         }) || self.displacement.is_some()
     }

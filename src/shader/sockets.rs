@@ -65,7 +65,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Magic { .. } => (magic::MAGIC_INPUTS, magic::MAGIC_OUTPUTS),
         Op::Gabor { .. } => (gabor::GABOR_INPUTS, gabor::GABOR_OUTPUTS),
         Op::Brick(_) => (brick::BRICK_INPUTS, brick::BRICK_OUTPUTS),
-        Op::Blackbody => (blackbody::BLACKBODY_INPUTS, blackbody::BLACKBODY_OUTPUTS),
+        Op::Blackbody(_) => (blackbody::BLACKBODY_INPUTS, blackbody::BLACKBODY_OUTPUTS),
         Op::Fresnel => (fresnel::FRESNEL_INPUTS, fresnel::FRESNEL_OUTPUTS),
         Op::LayerWeight => (fresnel::LAYER_WEIGHT_INPUTS, fresnel::LAYER_WEIGHT_OUTPUTS),
         Op::Bump { .. } => (bump::BUMP_INPUTS, bump::BUMP_OUTPUTS),

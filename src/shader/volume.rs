@@ -17,6 +17,7 @@
 use super::blackbody::blackbody;
 use super::closure::{Closure, VolumeClosure};
 use super::inputs::{input, Operands, Socket, Ty, GREY};
+use crate::color_space::WorkingSpace;
 use crate::math::{Vec3, Vec4};
 use crate::phase::Phase;
 
@@ -85,7 +86,11 @@ const SCATTER_BACKSCATTER: usize = input(SCATTER_INPUTS, "Backscatter");
 /// attributes where the object has them (`named`): each scales its input, as Cycles'
 /// `svm_node_principled_volume` does.
 #[inline(always)]
-pub(super) fn eval_principled_volume(ins: &impl Operands, named: [Option<Vec4>; 3]) -> Closure {
+pub(super) fn eval_principled_volume(
+    ins: &impl Operands,
+    named: [Option<Vec4>; 3],
+    space: WorkingSpace,
+) -> Closure {
     let [density_attribute, color_attribute, temperature_attribute] = named;
     let mut density = ins.float(DENSITY).max(0.0);
     if let Some(v) = density_attribute {
@@ -124,7 +129,7 @@ pub(super) fn eval_principled_volume(ins: &impl Operands, named: [Option<Vec4>; 
         // Stefan–Boltzmann's σ, per steradian, in Cycles' units.
         let sigma = 5.670_373e-8 * 1e-6 / std::f32::consts::PI;
         let intensity = sigma * (1.0 + b * (t * t * t * t - 1.0));
-        emission += ins.vector(BLACKBODY_TINT) * blackbody(t) * intensity;
+        emission += ins.vector(BLACKBODY_TINT) * space.convert_rec709(blackbody(t)) * intensity;
     }
     Closure {
         emission,

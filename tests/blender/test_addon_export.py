@@ -254,7 +254,6 @@ def test_byte_srgb_environment_is_linearised(photon_addon, tmp_path):
     assert b[0, 1] == pytest.approx(srgb(51 / 255), rel=1e-4)
 
 
-@pytest.mark.skipif(bpy.app.version >= (5, 0, 0), reason="Blender 5 has no Nishita sky model")
 def test_background_route_carries_sky_hair_points_and_camera_motion(photon_addon, tmp_path):
     """A Nishita sky, a moving camera with motion blur on, a Point Cloud, a Curves object and a
     hair particle system: both export routes write the same file, with the sky's settings, the
@@ -267,6 +266,7 @@ def test_background_route_carries_sky_hair_points_and_camera_motion(photon_addon
     scene = test_motion_blur.sliding_camera_scene("CENTER")
     tree = scene.world.node_tree
     sky = tree.nodes.new("ShaderNodeTexSky")
+    sky.sky_type = "SINGLE_SCATTERING" if bpy.app.version >= (5, 0, 0) else "NISHITA"
     sky.sun_elevation = math.radians(30.0)
     tree.links.new(sky.outputs["Color"], tree.nodes["Background"].inputs["Color"])
     material = common.principled("Fur", (0.5, 0.3, 0.2))

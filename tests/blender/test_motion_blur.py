@@ -9,6 +9,7 @@ Rendered by Cycles and by Photon through the add-on at 48x32: mean within 2 % an
 import math
 
 import bpy
+from bpy_extras.anim_utils import action_get_channelbag_for_slot
 
 import pytest
 
@@ -21,6 +22,13 @@ from helpers import rel_mse
 @pytest.fixture(autouse=True)
 def _addon(photon_addon, binary_env):
     return photon_addon
+
+
+def fcurves(animation_data):
+    """The F-curves of the action animating `animation_data` (its slot's channel bag: Blender 5
+    no longer has Action.fcurves)."""
+    bag = action_get_channelbag_for_slot(animation_data.action, animation_data.action_slot)
+    return bag.fcurves
 
 
 def sliding_camera_scene(position):
@@ -40,7 +48,7 @@ def sliding_camera_scene(position):
         camera.rotation_euler.z = math.radians(turn)
         camera.keyframe_insert("location", frame=frame)
         camera.keyframe_insert("rotation_euler", frame=frame)
-    for fcurve in camera.animation_data.action.fcurves:
+    for fcurve in fcurves(camera.animation_data):
         for key in fcurve.keyframe_points:
             key.interpolation = "LINEAR"
     scene.frame_set(1, subframe=0.5)
@@ -108,7 +116,7 @@ def test_object_motion_blur(tmp_path, position):
         for frame, path, value in keys:
             setattr(box, path, value)
             box.keyframe_insert(path, frame=frame)
-        for fcurve in box.animation_data.action.fcurves:
+        for fcurve in fcurves(box.animation_data):
             for key in fcurve.keyframe_points:
                 key.interpolation = "LINEAR"
     scene.frame_set(1, subframe=0.5)
@@ -120,7 +128,7 @@ def animate(obj, keys):
     for frame, path, value in keys:
         setattr(obj, path, value)
         obj.keyframe_insert(path, frame=frame)
-    for fcurve in obj.animation_data.action.fcurves:
+    for fcurve in fcurves(obj.animation_data):
         for key in fcurve.keyframe_points:
             key.interpolation = "LINEAR"
 
@@ -244,7 +252,7 @@ def test_shape_key_deformation_is_blurred(tmp_path):
     for frame, value in ((1, 0.0), (2, 1.0)):
         key.value = value
         key.keyframe_insert("value", frame=frame)
-    for fcurve in box.data.shape_keys.animation_data.action.fcurves:
+    for fcurve in fcurves(box.data.shape_keys.animation_data):
         for point in fcurve.keyframe_points:
             point.interpolation = "LINEAR"
     scene.frame_set(1, subframe=0.5)
@@ -273,7 +281,7 @@ def test_armature_deformation_is_blurred(tmp_path):
     for frame, angle in ((1, 0.0), (2, 100.0)):
         pose.rotation_euler = (math.radians(angle), 0.0, 0.0)
         pose.keyframe_insert("rotation_euler", frame=frame)
-    for fcurve in rig.animation_data.action.fcurves:
+    for fcurve in fcurves(rig.animation_data):
         for point in fcurve.keyframe_points:
             point.interpolation = "LINEAR"
     scene.frame_set(1, subframe=0.5)

@@ -60,7 +60,13 @@ def render_layers(scene, engine, path, samples, method="PATH"):
     return scenes_bpy.render_layers(scene, engine, path, samples)
 
 
+# Blender 5 writes Cycles' passes under their full names.
+FULL_NAMES = {"VolumeDir": "Volume Direct", "VolumeInd": "Volume Indirect"}
+
+
 def rgb(image, layer, name):
+    if f"{layer}.{name}.R" not in image:
+        name = FULL_NAMES.get(name, name)
     return np.stack([image[f"{layer}.{name}.{c}"] for c in "RGB"], axis=-1)
 
 

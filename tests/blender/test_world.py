@@ -14,10 +14,10 @@ import common
 from cycles_compare import compare
 
 
-# Blender 5 replaced the Nishita model by "Single" and "Multiple Scattering" ones, which
-# PHOTON_world does not carry (the pre-flight report names them).
-needs_nishita = pytest.mark.skipif(bpy.app.version >= (5, 0, 0),
-                                   reason="Blender 5 has no Nishita sky model")
+# Nishita's single-scattering sky: Blender 5 calls it "Single Scattering".
+NISHITA = ("SINGLE_SCATTERING" if "SINGLE_SCATTERING" in
+           bpy.types.ShaderNodeTexSky.bl_rna.properties["sky_type"].enum_items.keys()
+           else "NISHITA")
 
 
 @pytest.fixture(autouse=True)
@@ -53,14 +53,13 @@ def mix_into_output(tree, first, second):
 
 def nishita(tree, elevation_deg, rotation_deg):
     sky = tree.nodes.new("ShaderNodeTexSky")
-    sky.sky_type = "NISHITA"
+    sky.sky_type = NISHITA
     sky.sun_elevation = math.radians(elevation_deg)
     sky.sun_rotation = math.radians(rotation_deg)
     return sky
 
 
 @pytest.mark.slow
-@needs_nishita
 @pytest.mark.parametrize("elevation", [12.0, 50.0])
 def test_nishita_sky(tmp_path, elevation):
     """The sun in front of the camera and to the right (rotation 150°), low and high; the
@@ -89,7 +88,6 @@ def test_mix_of_two_backgrounds(tmp_path):
 
 
 @pytest.mark.slow
-@needs_nishita
 def test_camera_ray_sees_another_background(tmp_path):
     """Light Path "Is Camera Ray" mixes a Nishita sky (lighting the scene) with a plain grey the
     camera sees: the ground is lit by the sky, the horizon shows grey."""
@@ -107,7 +105,6 @@ def test_camera_ray_sees_another_background(tmp_path):
     compare("camera ray sees grey, sky lights", scene, tmp_path, photon_spp=512)
 
 
-@needs_nishita
 def test_world_problems_are_named(photon_addon):
     """What PHOTON_world does not carry is named for the pre-flight report: a Preetham sky, a
     Mix Shader factor from a texture; the export keeps the rest."""
@@ -119,7 +116,7 @@ def test_world_problems_are_named(photon_addon):
     tree.links.new(sky.outputs["Color"], background.inputs["Color"])
     data, problems = world.world_description(scene.world)
     assert "sky" not in data and len(problems) == 1 and "PREETHAM" in problems[0], problems
-    sky.sky_type = "NISHITA"
+    sky.sky_type = NISHITA
     noise = tree.nodes.new("ShaderNodeTexNoise")
     other = tree.nodes.new("ShaderNodeBackground")
     mix = mix_into_output(tree, background, other)

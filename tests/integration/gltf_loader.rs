@@ -4,6 +4,7 @@
 
 use crate::support::binary::{base64, scene_path, temp_dir};
 use crate::support::gltf::{triangle_doc, Doc};
+use photon::color_space::WorkingSpace;
 use photon::error::Error;
 use photon::film::{FilterKind, FilterSettings};
 use photon::math::{Vec3, Vec4};
@@ -1023,6 +1024,25 @@ fn the_pixel_filter_is_read_and_bad_ones_are_refused() {
     assert_scene_error(
         with_filter(json!({"type": "BOX", "width": "wide"})),
         &["PHOTON_render filter", "must be a number"],
+    );
+}
+
+#[test]
+fn the_working_space_is_read_and_unknown_ones_are_refused() {
+    let with_space = |space: Value| {
+        let mut doc = triangle_doc();
+        doc.json["scenes"][0]["extensions"] = json!({"PHOTON_render": {"working_space": space}});
+        load_glb(&doc)
+    };
+    let scene = load_glb(&triangle_doc()).unwrap();
+    assert_eq!(scene.render_settings.working_space, WorkingSpace::Rec709);
+    let scene = with_space(json!("lin_ap1_scene")).unwrap();
+    assert_eq!(scene.render_settings.working_space, WorkingSpace::AcesCg);
+    let scene = with_space(json!("lin_rec2020_scene")).unwrap();
+    assert_eq!(scene.render_settings.working_space, WorkingSpace::Rec2020);
+    assert_scene_error(
+        with_space(json!("srgb_tx")),
+        &["PHOTON_render", "unknown working space 'srgb_tx'"],
     );
 }
 

@@ -43,11 +43,15 @@ impl Loader {
         if let Some(time) = options.time {
             self.pose = self.pose_at(time)?;
         }
-        self.load_materials()?;
         let document = self.document.clone();
         let gltf_scene = document
             .default_scene()
             .or_else(|| document.scenes().next());
+        if let Some(gltf_scene) = &gltf_scene {
+            // Images and the sky are taken into the working space as they load.
+            self.read_working_space(gltf_scene)?;
+        }
+        self.load_materials()?;
         let mut cameras = Vec::new();
         if let Some(gltf_scene) = &gltf_scene {
             self.check_sizes(gltf_scene)?;

@@ -7,6 +7,7 @@
 //! `crate::shader` compiles from the JSON itself.
 
 use super::motion::Deformation;
+use crate::color_space::WorkingSpace;
 use crate::error::Error;
 use crate::film::{FilterKind, FilterSettings};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3};
@@ -240,6 +241,9 @@ pub(super) struct VolumeFile {
     /// Voxels below this value hold no medium (Blender's `volume.render.clipping`; Cycles'
     /// default 0.001).
     pub(super) clipping: f32,
+    /// A voxel's value sits at its index (Blender 5, OpenVDB's convention), else at index + ½
+    /// (Blender 4).
+    pub(super) values_at_index: bool,
 }
 
 impl VolumeFile {
@@ -276,6 +280,7 @@ impl VolumeFile {
             grids,
             world_space,
             clipping,
+            values_at_index: fields.flag("values_at_index", false)?,
         })
     }
 }
@@ -756,6 +761,8 @@ pub(super) struct RenderExtension {
     /// Blender's Clamp Direct and Clamp Indirect (0, no limit, when absent).
     pub(super) clamp_direct: f32,
     pub(super) clamp_indirect: f32,
+    /// Blender's working colour space (Rec.709 when absent).
+    pub(super) working_space: WorkingSpace,
 }
 
 impl RenderExtension {
@@ -786,6 +793,15 @@ impl RenderExtension {
             },
             clamp_direct: fields.number("clamp_direct", 0.0, non_negative)?,
             clamp_indirect: fields.number("clamp_indirect", 0.0, non_negative)?,
+            working_space: match fields.string("working_space")? {
+                None => WorkingSpace::Rec709,
+                Some(id) => WorkingSpace::from_interop_id(id).ok_or_else(|| {
+                    fields.fail(format!(
+                        "unknown working space '{id}' (lin_rec709_scene, lin_rec2020_scene or \
+                         lin_ap1_scene)"
+                    ))
+                })?,
+            },
         })
     }
 }

@@ -5,8 +5,9 @@
 
 use super::container::Loader;
 use super::images::{decode_bytes, DecodedImage, EXR_MAGIC};
+use crate::color_space::WorkingSpace;
 use crate::error::{Error, Result};
-use crate::math::srgb_to_linear;
+use crate::math::{srgb_to_linear, Vec3};
 use crate::scene::texture::{Texels, Wrap};
 use crate::scene::Texture;
 use serde_json::Value;
@@ -45,6 +46,7 @@ impl Loader {
         let sampler = texture.sampler();
         let slot = self.push_texture(
             decoded,
+            srgb,
             srgb,
             [
                 convert_wrap(sampler.wrap_s()),
@@ -116,7 +118,7 @@ impl Loader {
     }
 
     /// The tree of `PHOTON_material_nodes` with each Image Texture node's `image` (`{"uri":
-    /// file, "colorspace": "sRGB" | "Non-Color"}`, beside the glTF file) loaded as a texture
+    /// file, "colorspace": "sRGB" | "Linear Rec.709" | "Non-Color"}`, beside the glTF file) loaded as a texture
     /// of the scene and named by its index in `texture`, with the node's `extension` (REPEAT,
     /// EXTEND, CLIP, MIRROR) and `interpolation` (Closest or else bilinear) as its sampler.
     pub(super) fn load_node_images(&mut self, tree: &Value, object: &str) -> Result<Value> {
@@ -133,7 +135,10 @@ impl Loader {
                 .get("uri")
                 .and_then(Value::as_str)
                 .ok_or_else(|| self.err(&label, "'uri' must be a string"))?;
-            let srgb = image.get("colorspace").and_then(Value::as_str) != Some("Non-Color");
+            // Colour images are sRGB-encoded or linear Rec.709; "Non-Color" is data.
+            let colorspace = image.get("colorspace").and_then(Value::as_str);
+            let color = colorspace != Some("Non-Color");
+            let srgb = color && colorspace != Some("Linear Rec.709");
             let file = self.resolve_file(uri, &label)?;
             let decoded = if file.exists() {
                 let bytes = std::fs::read(&file).map_err(|e| Error::io(&file, e))?;
@@ -169,20 +174,30 @@ impl Loader {
                 _ => Wrap::Repeat,
             };
             let bilinear = node.get("interpolation").and_then(Value::as_str) != Some("Closest");
-            node["texture"] = Value::from(self.push_texture(decoded, srgb, [wrap; 2], bilinear));
+            let texture = self.push_texture(decoded, srgb, color, [wrap; 2], bilinear);
+            node["texture"] = Value::from(texture);
         }
         Ok(tree)
     }
 
-    /// Add a texture of `decoded` sampled with `wrap` (s, t) and `bilinear`; its index.
+    /// Add a texture of `decoded` sampled with `wrap` (s, t) and `bilinear`; its index. A
+    /// `color` image (sRGB-encoded when `srgb`, else linear Rec.709) is taken into the scene's
+    /// working colour space, decoded, when that is not Rec.709.
     pub(super) fn push_texture(
         &mut self,
         decoded: DecodedImage,
         srgb: bool,
+        color: bool,
         wrap: [Wrap; 2],
         bilinear: bool,
     ) -> u32 {
-        let texels = match decoded.texels {
+        let space = self.scene.render_settings.working_space;
+        let (texels, srgb) = if color && space != WorkingSpace::Rec709 {
+            (to_working_space(decoded.texels, srgb, space), false)
+        } else {
+            (decoded.texels, srgb)
+        };
+        let texels = match texels {
             Texels::Linear(values) if srgb => Texels::Linear(
                 values
                     .into_iter()
@@ -205,6 +220,22 @@ impl Loader {
         });
         (self.scene.textures.len() - 1) as u32
     }
+}
+
+/// Colour texels (sRGB-encoded bytes when `srgb`) as linear RGBA in `space`.
+fn to_working_space(texels: Texels, srgb: bool, space: WorkingSpace) -> Texels {
+    let decode = |c: f32| if srgb { srgb_to_linear(c) } else { c };
+    let convert = |[r, g, b, a]: [f32; 4]| {
+        let c = space.convert_rec709(Vec3::new(decode(r), decode(g), decode(b)));
+        [c.x, c.y, c.z, a]
+    };
+    Texels::Linear(match texels {
+        Texels::Bytes(bytes) => bytes
+            .into_iter()
+            .map(|t| convert(t.map(|x| x as f32 / 255.0)))
+            .collect(),
+        Texels::Linear(values) => values.into_iter().map(convert).collect(),
+    })
 }
 
 /// Whether a texture is sampled by its nearest texel, as Blender's importer decides it: both

@@ -77,12 +77,10 @@ impl Loader {
                     }
                 }
             }
-            // Blender puts a voxel's value at the centre of its cell: index + ½.
-            let first = Vec3::new(
-                read.origin[0] as f32 + 0.5,
-                read.origin[1] as f32 + 0.5,
-                read.origin[2] as f32 + 0.5,
-            );
+            // Blender 4 puts a voxel's value at the centre of its cell, index + ½; Blender 5 at
+            // the index itself.
+            let offset = if file.values_at_index { 0.0 } else { 0.5 };
+            let first = Vec3::from(read.origin.map(|i| i as f32 + offset));
             let voxel_to_object = read.index_to_local * Mat4::from_translation(first);
             let grid = Grid::new(
                 read.name,

@@ -7,6 +7,7 @@ use super::extensions::{
     BackgroundLayer, BackgroundSource, EnvironmentTexture, RenderExtension, SkyTexture,
     WorldExtension,
 };
+use crate::color_space::WorkingSpace;
 use crate::error::Result;
 use crate::math::Vec3;
 use crate::scene::sky::NishitaSky;
@@ -68,7 +69,11 @@ impl Loader {
                     maps.push(self.load_environment(env, layer.strength)?)
                 }
                 BackgroundSource::Sky(sky) => {
-                    let (map, sun) = bake_sky(sky, layer.strength);
+                    let (map, sun) = bake_sky(
+                        sky,
+                        layer.strength,
+                        self.scene.render_settings.working_space,
+                    );
                     maps.push(map);
                     suns.extend(sun);
                 }
@@ -100,6 +105,16 @@ impl Loader {
             }
         };
         Ok((Background { color, environment }, suns))
+    }
+
+    /// The working colour space of `PHOTON_render` (before anything else of the file is read).
+    pub(super) fn read_working_space(&mut self, gltf_scene: &gltf::Scene) -> Result<()> {
+        if let Some(render) = gltf_scene.extension_value("PHOTON_render") {
+            let render = RenderExtension::read(render)
+                .map_err(|e| self.invalid("scene PHOTON_render", e))?;
+            self.scene.render_settings.working_space = render.working_space;
+        }
+        Ok(())
     }
 
     /// `PHOTON_world` and `PHOTON_render` of the scene.
@@ -137,6 +152,7 @@ impl Loader {
                 volume_bounces: render.volume_bounces,
                 clamp_direct: render.clamp_direct,
                 clamp_indirect: render.clamp_indirect,
+                working_space: render.working_space,
             };
         }
         Ok(())
@@ -144,16 +160,16 @@ impl Loader {
 }
 
 /// Blender's Sky Texture (Nishita) baked × `strength` into an environment map, and its sun
-/// disc as a sun light (in scene directions).
-fn bake_sky(sky: &SkyTexture, strength: f32) -> (Environment, Option<Light>) {
+/// disc as a sun light (in scene directions), in the working colour space `space`.
+fn bake_sky(sky: &SkyTexture, strength: f32, space: WorkingSpace) -> (Environment, Option<Light>) {
     let to_map = sky.rotation * Environment::Y_UP_TO_Z_UP;
     let model = NishitaSky::new(&sky.settings);
     let map = Environment::bake(SKY_MAP_WIDTH, SKY_MAP_WIDTH / 2, to_map, 3, |d| {
-        model.sky_radiance(d) * strength
+        space.convert_rec709(model.sky_radiance(d)) * strength
     });
     let sun = model.sun().map(|sun| Light::Sun {
         direction: -(to_map.transpose() * sun.direction),
-        irradiance: sun.irradiance * strength,
+        irradiance: space.convert_rec709(sun.irradiance) * strength,
         angle: sun.angle,
     });
     (map, sun)
