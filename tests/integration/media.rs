@@ -322,6 +322,39 @@ fn the_volume_photon_map_matches_the_path_tracer_with_multiple_scattering() {
     );
 }
 
+/// At Blender's default of 0 Volume bounces, with no emitting medium, no volume photon is
+/// traced (light samples carry all the light fog scatters towards the camera) and the photon
+/// method still agrees with the path tracer; from 1 bounce up they are traced.
+#[test]
+fn volume_photons_are_traced_only_where_camera_paths_gather_them() {
+    let stats = |s: &Scene| {
+        let settings = RenderSettings {
+            width: 12,
+            height: 12,
+            spp: 16,
+            method: Method::Photon,
+            ..RenderSettings::default()
+        };
+        let (image, stats) = with_progress(|p| render(s, &settings, p)).expect("render");
+        (image, stats.photon.expect("photon statistics"))
+    };
+    let single = lamp_over_fog(0);
+    let (photon, info) = stats(&single);
+    assert_eq!((info.volume_emitted, info.volume_stored), (0, 0));
+    let path = render_with(&single, Method::Path, 12, 1024).mean_rgb();
+    let ratio = photon.mean_rgb() / path;
+    assert!(
+        (ratio - Vec3::ONE).abs().max_element() < 0.03,
+        "photon {} / path {path}",
+        photon.mean_rgb()
+    );
+    let (_, info) = stats(&lamp_over_fog(1));
+    assert!(
+        info.volume_emitted > 0 && info.volume_stored > 0,
+        "{info:?}"
+    );
+}
+
 /// The photon method converges in fog: its error against a path-traced reference falls as its
 /// generations of photon maps shrink their radii.
 #[test]

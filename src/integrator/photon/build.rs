@@ -6,7 +6,10 @@
 use super::estimate::precompute_irradiance;
 use super::settings::{PhotonInfo, PhotonSettings};
 use super::subsurface::{self, SubsurfaceMaps};
-use super::tracing::{trace_photon, trace_photons, trace_volume_photon, Emitters, MapKind, Stream};
+use super::tracing::{
+    stores_volume_photons, trace_photon, trace_photons, trace_volume_photon, Emitters, MapKind,
+    Stream,
+};
 use crate::error::Result;
 use crate::integrator::Context;
 use crate::photon_map::{Photon, PhotonMap};
@@ -143,7 +146,7 @@ pub fn build_maps(
     let subsurface =
         subsurface::build(ctx, emitters, settings, seed, sampler, progress, &mut info)?;
     let start = Instant::now();
-    let volume = if ctx.scene.has_media() && settings.volume_photons > 0 {
+    let volume = if settings.volume_photons > 0 && stores_volume_photons(ctx.scene) {
         let stored = info.global_stored + info.caustic_stored;
         let budget = settings.memory_budget_bytes();
         let stream = Stream::unaimed("Volume", 0x5e1f_0a7d, budget, stored, sampler);

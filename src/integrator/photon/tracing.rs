@@ -622,6 +622,16 @@ pub fn trace_volume_photon(
     walk_photon(ctx, emitted, max_bounces, rng, surfaces, Some(&mut keep));
 }
 
+/// Whether `trace_volume_photon` can store anything in `scene`: volume photons are kept only
+/// where a camera path would continue from a scattering in a medium to gather the light they
+/// stand for, which Blender's Volume bounces allow from 1 up, or where they leave an emitting
+/// medium (light no light sample finds). At the default of 0 bounces, without emitting media,
+/// light samples carry all the light the media scatter towards the camera, and tracing volume
+/// photons would only spend time.
+pub fn stores_volume_photons(scene: &Scene) -> bool {
+    scene.has_media() && (scene.render_settings.volume_bounces > 0 || scene.media_emit())
+}
+
 /// Trace one photon for the subsurface samples: at every hit on a translucent surface, the
 /// flux entering it (power × subsurface weight × the base's share behind the specular layer,
 /// seen from the photon's direction) is appended to `out` with the material index. The photon
