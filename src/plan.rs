@@ -18,8 +18,7 @@
 //!   photons and evaluates the dipole (`integrator::photon::subsurface`). Random Walk materials
 //!   (Blender's default) need no pass: both methods walk them (`integrator::random_walk`).
 //! - **method for `auto`**: no light → the path tracer (there is nothing to trace: the image is
-//!   the background); participating media (volumes) → the path tracer (faster to Cycles' error
-//!   than the photon method's volume map at default settings); Christensen–Burley materials → photon mapping (subsurface photons); otherwise,
+//!   the background); Christensen–Burley materials → photon mapping (subsurface photons); otherwise,
 //!   when caustics or indirect light are possible, two pilots measure them and predict both
 //!   methods' cost at the render's budget (`Cost`, in rays): photon mapping when the caustics
 //!   of lamps and emitting meshes carry a visible share of what the camera sees
@@ -28,11 +27,15 @@
 //!   the reflected light in a small path-traced image is indirect (`INDIRECT_SHARE_FOR_PHOTONS`)
 //!   and the photon method should reach less error in the render's time
 //!   (`Cost::photons_win`), the path tracer otherwise. The photons scale with the budget
-//!   (`FULL_PHOTON_SAMPLES`).
+//!   (`FULL_PHOTON_SAMPLES`), the volume photons too. Scenes with participating media are
+//!   planned alike: their light samples in media are the same in both methods, the photon
+//!   method trades the noise of indirect light for its maps, and volume photons are traced only
+//!   where camera paths gather them (`stores_volume_photons`).
 
 use crate::accel::Accel;
 use crate::integrator::classify::{bsdf_is_specular, classifying_bsdf};
 use crate::integrator::photon::settings::PhotonSettings;
+use crate::integrator::photon::tracing::stores_volume_photons;
 use crate::math::Vec3;
 use crate::render::{photon_growth, Method, GENERATION_SPP};
 use crate::scene::{Bounds, Light, Mesh, Scene};
@@ -973,6 +976,7 @@ pub fn plan_with_pilot(
             ),
         )
     };
+    let volume_needed = stores_volume_photons(scene);
     let defaults = PhotonSettings::default();
     let scale = |count: u32| (count as f32 * quality.photon_scale()).round() as u32;
     // Global photons per preset photon, from the pilot's share seen by the camera.
@@ -990,11 +994,6 @@ pub fn plan_with_pilot(
         (
             Method::Path,
             "node trees read Light Path's ray kind or depths, which only the path tracer's camera paths carry".into(),
-        )
-    } else if scene.has_media() {
-        (
-            Method::Path,
-            "participating media: the path tracer reaches Cycles' error sooner there than the photon method's volume photon map at default settings (docs/bench/volumes.md)".into(),
         )
     } else if subsurface.needed {
         (
@@ -1045,8 +1044,11 @@ pub fn plan_with_pilot(
             .map_or(budget_share * scale(defaults.caustic_photons) as f32, |n| {
                 n as f32
             });
-        let photons =
-            global_map.needed as u32 as f32 * global + caustic_map.needed as u32 as f32 * caustic;
+        let volume =
+            volume_needed as u32 as f32 * budget_share * scale(defaults.volume_photons) as f32;
+        let photons = global_map.needed as u32 as f32 * global
+            + caustic_map.needed as u32 as f32 * caustic
+            + volume;
         let cost = Cost::predict(&shares, samples, spp, photons);
         let cost_note = format!(
             "; predicted cost in rays: path tracer {:.2e}, photon method {:.2e} ({:.2e} of it preparation); {:.0} % of the path tracer's noise is not indirect light, {:.0} % is emission seen directly{}",
@@ -1118,11 +1120,18 @@ pub fn plan_with_pilot(
         } else {
             0
         },
+        volume_photons: if volume_needed {
+            (scale(defaults.volume_photons) as f32 * budget_share).round() as u32
+        } else {
+            0
+        },
         ..defaults
     };
     let scene_radius = 0.5 * summary.bounds.diagonal();
     let photon_bytes = if method == Method::Photon {
-        (photon.global_photons as u64 * GLOBAL_STORED_PER_EMITTED + photon.caustic_photons as u64)
+        (photon.global_photons as u64 * GLOBAL_STORED_PER_EMITTED
+            + photon.caustic_photons as u64
+            + photon.volume_photons as u64)
             * PHOTON_BYTES
             + photon.subsurface_photons as u64 * SUBSURFACE_SAMPLE_BYTES
     } else {

@@ -355,6 +355,20 @@ fn volume_photons_are_traced_only_where_camera_paths_gather_them() {
     );
 }
 
+/// Auto plans scenes with media as it plans others, from its pilots: the volume photons scale
+/// with the budget as the surface photons do, and none are planned where none would be stored.
+#[test]
+fn auto_plans_volume_photons_only_where_they_are_stored() {
+    use photon::plan::{plan_for_image, Quality};
+    let full = PhotonSettings::default().volume_photons;
+    let p = plan_for_image(&lamp_over_fog(0), Quality::Default, 16, 16);
+    assert_eq!(p.photon.volume_photons, 0);
+    assert!(!p.method_reason.contains("media"), "{}", p.method_reason);
+    let p = plan_for_image(&lamp_over_fog(2), Quality::Default, 16, 16);
+    let volume = p.photon.volume_photons;
+    assert!(volume > 0 && volume < full, "{volume} volume photons at 16 px");
+}
+
 /// The photon method converges in fog: its error against a path-traced reference falls as its
 /// generations of photon maps shrink their radii.
 #[test]
