@@ -645,7 +645,9 @@ struct PilotShares {
     rays_per_path: f32,
     /// Of a path-traced pixel's relative variance (averaged over the pilot image's pixels), the
     /// share that is not indirect light: the noise left when photon maps and the cache carry the
-    /// indirect light smoothly. 1 without a pilot image.
+    /// indirect light smoothly. The light media scatter straight from the lights counts with the
+    /// noise the photon method's light samples along each segment leave in it, not the path
+    /// tracer's free flights'. 1 without a pilot image.
     noise_left: f32,
     /// The share of that variance that is emission the camera sees directly: the edges of lamps,
     /// windows, emitting screens against what lies around them, which emission rays average
@@ -775,24 +777,48 @@ fn pilot_shares(
     // Relative variance of the pixels' indirect light, of the emission they see directly, and of
     // the rest.
     let (mut rays, mut noise_indirect, mut noise_seen, mut noise_rest) = (0u64, 0.0, 0.0, 0.0);
+    // The light media scatter straight from the lights: its noise in the path tracer's free
+    // flights, and in the photon method's light samples along each segment, which it leaves.
+    let (mut noise_media, mut noise_segments) = (0.0, 0.0);
+    let media = scene.has_media();
     for y in 0..height {
         for x in 0..width {
             let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
-            // Sums and sums of squares of the pixel's samples: indirect light, emission seen
-            // directly, the rest.
-            let mut sums = [[0.0f64; 2]; 3];
-            let mut mean = 0.0;
+            // Sums and sums of squares of the pixel's samples: indirect light (on surfaces and
+            // in media), emission seen directly, the light media scatter straight from the
+            // lights towards the camera, the rest; and that light in media as the photon
+            // method estimates it.
+            let mut sums = [[0.0f64; 2]; 5];
+            let (mut mean, mut other_mean) = (0.0, 0.0);
             for _ in 0..PILOT_SPP {
                 let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
-                let sample = path::trace(&ctx, camera.ray(film), &mut rng);
+                let camera_ray = camera.ray(film);
+                let sample = path::trace(&ctx, camera_ray, &mut rng);
                 rays += sample.rays as u64;
                 let pass = |p: LightPass| luminance(sample.passes.0[p as usize]) as f64;
                 indirect += pass(LightPass::Indirect);
                 reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
                 let whole = luminance(sample.radiance) as f64;
                 let seen = luminance(sample.seen_emission) as f64;
-                let parts = [pass(LightPass::Indirect), seen];
-                let parts = [parts[0], parts[1], whole - parts[0] - parts[1]];
+                // With media, the pixel's mean is taken over both estimators' samples: a few
+                // path-traced samples that all miss a lit cone of fog would make the other's
+                // noise there look unbounded.
+                let (scattered, media_direct, segments) = match media {
+                    true => {
+                        let segments = path::trace_through_media(&ctx, camera_ray, &mut rng);
+                        other_mean += luminance(segments.radiance) as f64;
+                        let direct = LightPass::VolumeDirect as usize;
+                        (
+                            pass(LightPass::VolumeIndirect),
+                            pass(LightPass::VolumeDirect),
+                            luminance(segments.passes.0[direct]) as f64,
+                        )
+                    }
+                    false => (0.0, 0.0, 0.0),
+                };
+                let indirect_light = pass(LightPass::Indirect) + scattered;
+                let rest = whole - indirect_light - seen - media_direct;
+                let parts = [indirect_light, seen, media_direct, rest, segments];
                 for (sum, v) in sums.iter_mut().zip(parts) {
                     *sum = [sum[0] + v, sum[1] + v * v];
                 }
@@ -804,15 +830,20 @@ fn pilot_shares(
             }
             let n = PILOT_SPP as f64;
             mean /= n;
+            if media {
+                mean = 0.5 * (mean + other_mean / n);
+            }
             if mean > 0.0 {
                 let variance = |[sum, squares]: [f64; 2]| (squares - sum * sum / n).max(0.0);
                 noise_indirect += variance(sums[0]) / (mean * mean);
                 noise_seen += variance(sums[1]) / (mean * mean);
-                noise_rest += variance(sums[2]) / (mean * mean);
+                noise_media += variance(sums[2]) / (mean * mean);
+                noise_rest += variance(sums[3]) / (mean * mean);
+                noise_segments += variance(sums[4]) / (mean * mean);
             }
         }
     }
-    let noise_total = noise_indirect + noise_seen + noise_rest;
+    let noise_total = noise_indirect + noise_seen + noise_media + noise_rest;
     let indirect = match global {
         true => (share_sum / pixels.max(1) as f64) as f32,
         false => 0.0,
@@ -820,7 +851,7 @@ fn pilot_shares(
     let rays_per_path = rays as f32 / (width * height * PILOT_SPP) as f32;
     let (noise_left, noise_seen) = match noise_total > 0.0 {
         true => (
-            ((noise_seen + noise_rest) / noise_total) as f32,
+            ((noise_seen + noise_rest + noise_segments) / noise_total) as f32,
             (noise_seen / noise_total) as f32,
         ),
         false => (1.0, 0.0),

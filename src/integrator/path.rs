@@ -95,6 +95,39 @@ pub fn trace_cached(
     walk(ctx, camera_ray, rng, false, &mut tracer)
 }
 
+/// The path tracer with the photon method's way through media: the path is only attenuated by
+/// them, and the light they scatter towards it straight from the lights is one light sample
+/// along each segment (`light_scattered_along`), where the path tracer samples free flights.
+/// The planner's pilot measures the noise this leaves in the Volume Direct pass.
+struct ThroughMedia<'a>(PathTracer<'a>);
+
+impl Scatter for ThroughMedia<'_> {
+    fn scatters_in_media(&self) -> bool {
+        false
+    }
+
+    fn media_segment(&mut self, path: &mut PathState, reach: f32, rng: &mut Rng) {
+        let mut rays = 0;
+        let single = path.light_scattered_on_segment(self.0.ctx, reach, rng, &mut rays);
+        path.rays += rays;
+        path.add_in_medium(1, single);
+    }
+
+    fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
+        self.0.scatter(path, s, rng)
+    }
+}
+
+/// `trace` with media crossed as the photon method crosses them (`ThroughMedia`).
+pub fn trace_through_media(ctx: &Context, camera_ray: Ray, rng: &mut Rng) -> CameraSample {
+    let mut tracer = ThroughMedia(PathTracer {
+        ctx,
+        cache: None,
+        on_chain: false,
+    });
+    walk(ctx, camera_ray, rng, false, &mut tracer)
+}
+
 /// Radiance arriving along `ray` (a gather ray of an irradiance record) without the emission of
 /// the first surface it meets or the world it escapes to, with that surface's distance and
 /// normal.

@@ -220,6 +220,21 @@ impl PathState {
             .add(self.pass(vertices, FirstVertex::Medium), radiance);
     }
 
+    /// The light the media along the path's ray over `reach` scatter towards it straight from
+    /// the lights, times the throughput: one light sample along the segment without MIS
+    /// (`light_scattered_along`), for integrators that only attenuate paths through media.
+    /// Counts its shadow rays in `rays`.
+    pub fn light_scattered_on_segment(
+        &self,
+        ctx: &Context,
+        reach: f32,
+        rng: &mut Rng,
+        rays: &mut u32,
+    ) -> Vec3 {
+        let (ray, media, kind, beta) = (self.ray, self.media, self.light_path, self.beta);
+        light_scattered_along(ctx, &ray, reach, &media, kind, beta, false, rng, rays)
+    }
+
     /// The Emission pass so far: at the first vertex, what the camera sees directly (the light
     /// the media along the camera ray scatter towards it is in the volume passes).
     fn seen_emission(&self) -> Vec3 {

@@ -366,7 +366,23 @@ fn auto_plans_volume_photons_only_where_they_are_stored() {
     assert!(!p.method_reason.contains("media"), "{}", p.method_reason);
     let p = plan_for_image(&lamp_over_fog(2), Quality::Default, 16, 16);
     let volume = p.photon.volume_photons;
-    assert!(volume > 0 && volume < full, "{volume} volume photons at 16 px");
+    assert!(
+        volume > 0 && volume < full,
+        "{volume} volume photons at 16 px"
+    );
+}
+
+/// Where light scatters several times in fog, the photon method reaches relMSE 0.01 in about
+/// half the path tracer's time (docs/bench/volumes.md, `time_to_error_in_fog`): auto's pilot
+/// counts the fog's direct light with the noise the photon method's light samples along each
+/// segment leave, and picks it.
+#[test]
+fn auto_takes_the_photon_method_for_light_scattered_in_fog() {
+    use photon::plan::{plan_for_image, Quality};
+    for s in [lamp_over_fog(4), spot_in_fog(4)] {
+        let p = plan_for_image(&s, Quality::Default, 48, 48);
+        assert_eq!(p.method, Method::Photon, "{}", p.method_reason);
+    }
 }
 
 /// The photon method converges in fog: its error against a path-traced reference falls as its

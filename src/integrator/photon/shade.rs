@@ -771,22 +771,10 @@ impl Scatter for PhotonCamera<'_> {
     fn media_segment(&mut self, path: &mut PathState, reach: f32, rng: &mut Rng) {
         let g = &mut self.gather;
         g.depth = path.depth;
-        let (ray, media, kind, beta) = (path.ray, path.media, path.light_path, path.beta);
-        let ctx = g.ctx;
-        let single = light_scattered_along(
-            ctx,
-            &ray,
-            reach,
-            &media,
-            kind,
-            beta,
-            false,
-            rng,
-            &mut g.rays,
-        );
+        let single = path.light_scattered_on_segment(g.ctx, reach, rng, &mut g.rays);
         path.add_in_medium(1, single);
-        let multiple = g.volume_estimate(&ray, reach, &media, rng);
-        path.add_in_medium(2, beta * multiple);
+        let multiple = g.volume_estimate(&path.ray, reach, &path.media, rng);
+        path.add_in_medium(2, path.beta * multiple);
     }
 
     fn scatter(&mut self, path: &mut PathState, s: &mut Shading, rng: &mut Rng) -> Next {
