@@ -531,13 +531,6 @@ impl Bsdf {
             || self.hair.is_some()
     }
 
-    /// Some lobe transmits diffusely (a Translucent BSDF, or a base with diffuse transmission):
-    /// light arriving on the other side of the surface leaves towards the viewer by a broad
-    /// lobe.
-    pub fn transmits_lambertian(&self) -> bool {
-        self.has_translucent()
-    }
-
     fn has_translucent(&self) -> bool {
         self.translucent != Vec3::ZERO || self.transmits_diffusely()
     }

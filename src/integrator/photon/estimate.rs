@@ -201,13 +201,11 @@ impl Walls {
     }
 }
 
-/// Radiance leaving `s` towards its viewer estimated from `map`: Σ f ΔΦ / (π r²), with a cone
+/// Radiance leaving `s` towards its viewer estimated from `map`: Σ f_r ΔΦ / (π r²), with a cone
 /// filter (k = 1, normalised by 1 − 2/3) when `cone` is set. With `walls` (`Walls::around` `s`
 /// at the search radius, which the closure receives) photons behind a wall are left out and
 /// the area is the open part of the disc. With `max_bounces` only photons stored after at most
-/// that many bounces count (the render's bounce limit). A surface with a Lambertian
-/// transmission lobe (a Translucent BSDF, a diffuse-transmitting base) adds the estimate of the
-/// photons stored on its other side, which that lobe transmits towards the viewer.
+/// that many bounces count (the render's bounce limit).
 #[allow(clippy::too_many_arguments)]
 pub fn radiance_estimate(
     map: &PhotonMap,
@@ -216,50 +214,10 @@ pub fn radiance_estimate(
     cone: bool,
     s: &Shading,
     buf: &mut Neighbors,
-    mut walls: Option<&mut dyn FnMut(f32) -> Walls>,
+    walls: Option<&mut dyn FnMut(f32) -> Walls>,
     max_bounces: Option<u32>,
 ) -> Vec3 {
-    let mut l = one_side_estimate(
-        map,
-        k,
-        max_radius2,
-        cone,
-        s,
-        s.ng,
-        buf,
-        &mut walls,
-        max_bounces,
-    );
-    if s.bsdf.transmits_lambertian() {
-        l += one_side_estimate(
-            map,
-            k,
-            max_radius2,
-            cone,
-            s,
-            -s.ng,
-            buf,
-            &mut walls,
-            max_bounces,
-        );
-    }
-    l
-}
-
-/// `radiance_estimate` from the photons stored on the side of `s` that `side` (±`s.ng`) faces.
-#[allow(clippy::too_many_arguments)]
-fn one_side_estimate(
-    map: &PhotonMap,
-    k: u32,
-    max_radius2: f32,
-    cone: bool,
-    s: &Shading,
-    side: Vec3,
-    buf: &mut Neighbors,
-    walls: &mut Option<&mut dyn FnMut(f32) -> Walls>,
-    max_bounces: Option<u32>,
-) -> Vec3 {
-    let counts = |q: &Photon| same_side(q, side) && max_bounces.is_none_or(|m| q.bounces() <= m);
+    let counts = |q: &Photon| same_side(q, s.ng) && max_bounces.is_none_or(|m| q.bounces() <= m);
     map.nearest_where(s.sh.p, k as usize, max_radius2, buf, counts);
     if buf.is_empty() {
         return Vec3::ZERO;
@@ -273,10 +231,10 @@ fn one_side_estimate(
     let rho = s.bsdf.diffuse_reflectance();
     let lambert = s.is_opaque_lambertian();
     let mut sum = Vec3::ZERO;
-    let walls = walls.as_mut().map(|around| around(r));
+    let walls = walls.map(|around| around(r));
     for nb in buf.iter().filter(|nb| Some(nb.index) != boundary) {
         let ph = &map.photons()[nb.index as usize];
-        if !on_surface(ph, s.sh.p, side, r) {
+        if !on_surface(ph, s.sh.p, s.ng, r) {
             continue;
         }
         if walls
