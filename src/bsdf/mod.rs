@@ -12,8 +12,9 @@
 //!   specular layer over a Lambertian diffuse (or, with Diffuse Roughness, Cycles' Oren–Nayar
 //!   lobe: `oren_nayar`), the diffuse scaled by 1 − (the layer's directional albedo), so a
 //!   white base conserves energy; with KHR_materials_diffuse_transmission a share of that
-//!   diffuse light is Lambertian transmission of its own colour instead (the extension's
-//!   mix(diffuse BRDF, diffuse BTDF, factor), under the same layers), the translucent lobe below;
+//!   diffuse light is instead Lambertian transmission of the extension's colour, into the
+//!   other side (the extension's mix(diffuse BRDF, diffuse BTDF, factor), under the same
+//!   layers), sampled and evaluated as the Translucent BSDF's lobe (below);
 //! - above them, top down as Cycles stacks them: a sheen layer (`sheen`: the microfiber sheen of
 //!   Zeltner et al. 2022, weight `sheen weight × sheen tint`, around the normal mixed towards
 //!   the coat's by the coat weight), then a coat (an untinted energy-compensated GGX dielectric
