@@ -69,6 +69,12 @@ pub struct SurfaceMaterial {
     /// A node tree's Translucent BSDF: Lambertian transmission of `base_color` alone (with
     /// `transmission` 1, so light crosses the surface).
     pub translucent: bool,
+    /// KHR_materials_diffuse_transmission: the share of the dielectric base's diffuse lobe
+    /// that is Lambertian transmission into the other side instead of reflection
+    /// (diffuseTransmissionFactor × texture A), and the colour it transmits
+    /// (diffuseTransmissionColorFactor × texture RGB).
+    pub diffuse_transmission: f32,
+    pub diffuse_transmission_color: Vec3,
     /// A node tree's Refraction BSDF: the glass lobe (`transmission` 1) transmits
     /// `base_color` with no Fresnel and reflects nothing.
     pub refraction: bool,
@@ -126,6 +132,8 @@ impl Default for SurfaceMaterial {
             thin_film_weight: 1.0,
             transparent: false,
             translucent: false,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_color: Vec3::ONE,
             refraction: false,
             glass: false,
             holdout: false,
@@ -135,6 +143,14 @@ impl Default for SurfaceMaterial {
             hair: None,
             metal_tint: None,
         }
+    }
+}
+
+impl SurfaceMaterial {
+    /// No light crosses the surface (no glass, Translucent or diffuse-transmission lobe): the
+    /// shading point turns it to the viewer's side.
+    pub fn is_opaque(&self) -> bool {
+        self.transmission <= 0.0 && !(self.diffuse_transmission > 0.0)
     }
 }
 
@@ -163,7 +179,7 @@ pub fn absorption_coefficient(attenuation_color: Vec3, attenuation_distance: f32
 /// specifies (base colour × RGBA texture, metallic × B, roughness × G, emission × RGB,
 /// transmission × R, clearcoat × R, clearcoat roughness × G, sheen colour × RGB, sheen
 /// roughness × A, anisotropy strength × B, iridescence × R, iridescence thickness between
-/// its minimum and maximum by G). The coat's normal and the anisotropy's direction
+/// its minimum and maximum by G, diffuse transmission × A, its colour × RGB). The coat's normal and the anisotropy's direction
 /// need the surface point: `eval_surface` adds them.
 pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMaterial {
     let base = material.base_color * lookup(scene, &material.base_color_texture, uv);
@@ -211,6 +227,12 @@ pub fn eval_material(scene: &Scene, material: &Material, uv: Vec2) -> SurfaceMat
             }
         };
         s.thin_film_ior = material.iridescence_ior;
+    }
+    if material.diffuse_transmission > 0.0 {
+        s.diffuse_transmission = material.diffuse_transmission
+            * lookup(scene, &material.diffuse_transmission_texture, uv).w;
+        s.diffuse_transmission_color = material.diffuse_transmission_color
+            * lookup(scene, &material.diffuse_transmission_color_texture, uv).truncate();
     }
     if material.anisotropy != 0.0 {
         let strength = material.anisotropy * lookup(scene, &material.anisotropy_texture, uv).z;
@@ -383,6 +405,8 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         thin_film_weight: 1.0,
         transparent: c.transparent,
         translucent: c.translucent,
+        diffuse_transmission: 0.0,
+        diffuse_transmission_color: Vec3::ONE,
         refraction: c.refraction,
         glass: c.glass,
         holdout: c.holdout,

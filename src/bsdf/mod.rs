@@ -11,7 +11,10 @@
 //! - dielectric base, weight `(1 − metallic)(1 − transmission)`: an energy-compensated GGX
 //!   specular layer over a Lambertian diffuse (or, with Diffuse Roughness, Cycles' Oren–Nayar
 //!   lobe: `oren_nayar`), the diffuse scaled by 1 − (the layer's directional albedo), so a
-//!   white base conserves energy;
+//!   white base conserves energy; with KHR_materials_diffuse_transmission a share of that
+//!   diffuse light is instead Lambertian transmission of the extension's colour, into the
+//!   other side (the extension's mix(diffuse BRDF, diffuse BTDF, factor), under the same
+//!   layers), sampled and evaluated as the Translucent BSDF's lobe (below);
 //! - above them, top down as Cycles stacks them: a sheen layer (`sheen`: the microfiber sheen of
 //!   Zeltner et al. 2022, weight `sheen weight × sheen tint`, around the normal mixed towards
 //!   the coat's by the coat weight), then a coat (an untinted energy-compensated GGX dielectric
@@ -212,6 +215,11 @@ pub struct Bsdf {
     /// The Translucent BSDF's colour: f = translucent / π for directions on the other side
     /// of the surface from the viewer (zero: no such lobe).
     translucent: Vec3,
+    /// KHR_materials_diffuse_transmission: the share of the dielectric base's diffuse lobe
+    /// that transmits (Lambertian, into the other side) instead of reflecting, and the
+    /// colour it transmits (`SurfaceMaterial::diffuse_transmission`).
+    diffuse_transmission: f32,
+    diffuse_transmission_color: Vec3,
     /// What the whole BSDF is multiplied by (`SurfaceMaterial::weight`; 1 but for a node
     /// tree's Add Shader): applied to `ViewedBsdf`'s values and samples, not to densities.
     weight: f32,
@@ -335,6 +343,11 @@ impl Bsdf {
             (metallic, transmission)
         };
         let dielectric = if alone { 0.0 } else { 1.0 - metallic };
+        let diffuse_transmission = if alone {
+            0.0
+        } else {
+            clean(m.diffuse_transmission, 0.0, 1.0)
+        };
         Bsdf {
             base_color,
             base_weight: dielectric * (1.0 - transmission),
@@ -377,6 +390,8 @@ impl Bsdf {
             } else {
                 Vec3::ZERO
             },
+            diffuse_transmission,
+            diffuse_transmission_color: clean3(m.diffuse_transmission_color),
             glass_reflect_tint: if m.glass { clamped_base } else { Vec3::ONE },
             weight: clean(m.weight, 0.0, f32::MAX),
             toon: m.toon,
@@ -518,7 +533,14 @@ impl Bsdf {
     }
 
     fn has_translucent(&self) -> bool {
-        self.translucent != Vec3::ZERO
+        self.translucent != Vec3::ZERO || self.transmits_diffusely()
+    }
+
+    /// The dielectric base transmits part of its diffuse light (KHR_materials_diffuse_transmission).
+    fn transmits_diffusely(&self) -> bool {
+        self.base_weight > 0.0
+            && self.diffuse_transmission > 0.0
+            && self.diffuse_transmission_color != Vec3::ZERO
     }
 
     /// True when every lobe is a delta (smooth metal or glass): no light sampling, no MIS.
@@ -579,6 +601,10 @@ struct LobeSet {
     diffuse: Vec3,
     /// The Oren–Nayar lobe seen from `wo` (`None`: Lambert).
     rough_diffuse: Option<OrenNayar>,
+    /// The Lambertian transmission lobe's weight: f = translucent / π into the hemisphere
+    /// opposite the viewer (a Translucent BSDF, or the base's diffuse transmission under the
+    /// layers above it).
+    translucent: Vec3,
     /// Fraction of the light that crosses the sheen, the coat and the specular layer into the
     /// base (its grey part: the coat's tint is left out).
     base_transmittance: f32,
@@ -747,7 +773,14 @@ impl LobeSet {
         } else {
             base_share * above * average(tint)
         };
-        let diffuse = b.base_color * under * (base_share * b.diffuse_scale);
+        let diffuse_share = under * (base_share * b.diffuse_scale);
+        let diffuse = b.base_color * diffuse_share * (1.0 - b.diffuse_transmission);
+        // The spec's mix(diffuse BRDF, diffuse BTDF, diffuseTransmission) under the same layers.
+        let translucent = if b.transmits_diffusely() {
+            b.translucent + b.diffuse_transmission_color * diffuse_share * b.diffuse_transmission
+        } else {
+            b.translucent
+        };
         let rough_diffuse = OrenNayar::new(b.diffuse_roughness, b.base_color, mu);
         albedo[DIFFUSE] = rough_diffuse.map_or(diffuse, |on| diffuse * on.albedo());
 
@@ -792,7 +825,7 @@ impl LobeSet {
             let (r, tr) = glass_split(b, mu, glass_eta);
             albedo[GLASS] = (r + tr) * glass_scale;
         }
-        albedo[TRANSLUCENT] = b.translucent;
+        albedo[TRANSLUCENT] = translucent;
         if b.toon.is_some() {
             albedo[TOON] = b.base_color;
         }
@@ -837,6 +870,7 @@ impl LobeSet {
             wo,
             diffuse,
             rough_diffuse,
+            translucent,
             base_transmittance,
             spec_scale,
             metal_scale,
@@ -1072,11 +1106,15 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
             f += r * (l.glass_scale * single);
             pdf += l.prob[GLASS] * reflect_pdf * glass_reflect_probability(r, t, false);
         }
-    } else if l.prob[TRANSLUCENT] > 0.0 {
-        // Lambertian transmission, into the hemisphere opposite the viewer.
-        f += b.translucent * (FRAC_1_PI * -wi.z);
-        pdf += l.prob[TRANSLUCENT] * cosine_hemisphere_pdf(-wi.z);
-    } else if l.prob[GLASS] > 0.0 && !b.smooth && !b.glass_passes_straight() {
+    } else {
+        if l.prob[TRANSLUCENT] > 0.0 {
+            // Lambertian transmission, into the hemisphere opposite the viewer.
+            f += l.translucent * (FRAC_1_PI * -wi.z);
+            pdf += l.prob[TRANSLUCENT] * cosine_hemisphere_pdf(-wi.z);
+        }
+        if !(l.prob[GLASS] > 0.0 && !b.smooth && !b.glass_passes_straight()) {
+            return (f, pdf);
+        }
         let eta = l.glass_eta;
         if let Some(g) = refraction_geometry(wo, wi, eta) {
             let d = ggx_d(b.alpha, g.h);

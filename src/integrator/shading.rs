@@ -97,7 +97,7 @@ impl Shading {
             (Some(n), _) => Frame::from_normal(toward(n)),
             (None, _) => sh.frame,
         };
-        let opaque = surface.transmission <= 0.0;
+        let opaque = surface.is_opaque();
         let mut ng = sh.ng;
         if opaque && wo.dot(ng) < 0.0 {
             frame.n = -frame.n;

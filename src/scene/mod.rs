@@ -275,6 +275,12 @@ pub struct Material {
     pub iridescence_ior: f32,
     pub iridescence_thickness: [f32; 2],
     pub iridescence_thickness_texture: Option<TextureRef>,
+    /// KHR_materials_diffuse_transmission: diffuseTransmissionFactor (× texture A) of the
+    /// diffuse base transmits, of diffuseTransmissionColorFactor (× texture RGB).
+    pub diffuse_transmission: f32,
+    pub diffuse_transmission_texture: Option<TextureRef>,
+    pub diffuse_transmission_color: Vec3,
+    pub diffuse_transmission_color_texture: Option<TextureRef>,
     /// The Blender node tree (our `PHOTON_material_nodes` extension), compiled: when present
     /// it replaces every factor and texture above at each shading point (`crate::material`).
     pub nodes: Option<std::sync::Arc<crate::shader::NodeProgram>>,
@@ -412,6 +418,10 @@ impl Default for Material {
             iridescence_ior: 1.3,
             iridescence_thickness: [100.0, 400.0],
             iridescence_thickness_texture: None,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_texture: None,
+            diffuse_transmission_color: Vec3::ONE,
+            diffuse_transmission_color_texture: None,
             nodes: None,
             volume: None,
         }

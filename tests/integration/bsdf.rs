@@ -151,6 +151,15 @@ fn rough_cases() -> Vec<Case> {
         translucent(Vec3::new(0.9, 0.6, 0.3)),
         true,
     ));
+    // KHR_materials_diffuse_transmission: the base's diffuse lobe split into reflection and
+    // Lambertian transmission, without the specular layer and under it.
+    for specular in [0.0, 1.0] {
+        cases.push(case(
+            &format!("translucent base specular={specular}"),
+            transmitting_base(Vec3::new(0.3, 0.75, 0.4), 0.7, specular),
+            true,
+        ));
+    }
     for r in [0.3, 0.8] {
         cases.push(case(
             &format!("refraction r={r}"),
@@ -189,6 +198,54 @@ fn film(m: SurfaceMaterial, thickness: f32) -> SurfaceMaterial {
         thin_film_thickness: thickness,
         thin_film_ior: 1.33,
         ..m
+    }
+}
+
+/// A dielectric base of colour `base` whose diffuse lobe transmits the share `share` in orange
+/// (KHR_materials_diffuse_transmission), roughness 0.5, with the specular layer's level
+/// `specular`.
+fn transmitting_base(base: Vec3, share: f32, specular: f32) -> SurfaceMaterial {
+    SurfaceMaterial {
+        specular,
+        diffuse_transmission: share,
+        diffuse_transmission_color: Vec3::new(1.0, 0.55, 0.25),
+        ..material(base, 0.0, 0.5, 0.0)
+    }
+}
+
+#[test]
+fn diffuse_transmission_splits_the_diffuse_base() {
+    // Without a specular layer: f = (1 − t)·base / π on the viewer's side and t·colour / π on
+    // the other, seen from either side, and the density is the lobes' cosine densities.
+    let base = Vec3::new(0.3, 0.75, 0.4);
+    let b = Bsdf::new(&transmitting_base(base, 0.7, 0.0));
+    assert!(b.is_transmissive());
+    let reflect = base * 0.3 / std::f32::consts::PI;
+    let transmit = Vec3::new(1.0, 0.55, 0.25) * 0.7 / std::f32::consts::PI;
+    let mut rng = Rng::new(11);
+    for _ in 0..2000 {
+        let a = photon::sampling::square_to_uniform_sphere(rng.uniform2());
+        let c = photon::sampling::square_to_uniform_sphere(rng.uniform2());
+        if a.z.abs() < 1e-3 || c.z.abs() < 1e-3 {
+            continue;
+        }
+        let f = b.viewed_from(a).eval(c) / c.z.abs();
+        let expected = if a.z * c.z < 0.0 { transmit } else { reflect };
+        assert!((f - expected).length() < 1e-5, "{f:?} vs {expected:?}");
+    }
+    // White furnace: a white base transmitting half its diffuse light in white, under the
+    // energy-compensated specular layer, scatters all the light from either side.
+    let white = Bsdf::new(&SurfaceMaterial {
+        diffuse_transmission: 0.5,
+        ..material(Vec3::ONE, 0.0, 0.5, 0.0)
+    });
+    for &mu in &[1.0, 0.5, 0.1, -0.5] {
+        let (albedo, err) = measured_albedo(&white, view(mu), 200_000, 12);
+        println!("white transmitting base μ={mu}: {albedo:?} ± {err}");
+        assert!(
+            (albedo - Vec3::ONE).abs().max_element() < 0.025,
+            "μ={mu}: {albedo:?}"
+        );
     }
 }
 
@@ -547,6 +604,10 @@ fn white_furnace_never_creates_energy() {
         }
     }
     configs.push(translucent(Vec3::ONE));
+    configs.push(SurfaceMaterial {
+        diffuse_transmission_color: Vec3::ONE,
+        ..transmitting_base(Vec3::ONE, 0.4, 1.0)
+    });
     // Thin films on the specular layer and the glass (Cycles 4.5's Principled Thin Film).
     for &thickness in &[250.0, 500.0, 800.0] {
         for &roughness in &[0.0, 0.3, 0.8] {

@@ -137,6 +137,42 @@ fn animation_pointer_channels_are_tolerated() {
 }
 
 #[test]
+fn diffuse_transmission_is_read_and_dispersion_is_named() {
+    let mut doc = with_materials(
+        triangle_doc(),
+        json!([{"name": "Leaf", "extensions": {
+            "KHR_materials_diffuse_transmission": {
+                "diffuseTransmissionFactor": 0.25,
+                "diffuseTransmissionColorFactor": [1.0, 0.5, 0.25]},
+            "KHR_materials_dispersion": {"dispersion": 0.3}}}]),
+    );
+    require(&mut doc, "KHR_materials_diffuse_transmission");
+    doc.json["extensionsUsed"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!("KHR_materials_dispersion"));
+    let scene = load(&doc);
+    let material = &scene.materials[0];
+    assert_eq!(material.diffuse_transmission, 0.25);
+    assert_eq!(
+        material.diffuse_transmission_color,
+        Vec3::new(1.0, 0.5, 0.25)
+    );
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("KHR_materials_dispersion") && w.contains("not rendered")),
+        "{:?}",
+        scene.warnings
+    );
+    // Required, dispersion is refused with its reason.
+    require(&mut doc, "KHR_materials_dispersion");
+    let err = load_with(&doc, &LoadOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("no dispersion"), "{err}");
+}
+
+#[test]
 fn an_unknown_required_extension_is_named_with_exit_code_2() {
     // An unknown one, and the compressions Photon does not decode, each with its reason.
     for (extension, reason) in [

@@ -27,6 +27,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_anisotropy",
     "KHR_materials_iridescence",
+    "KHR_materials_diffuse_transmission",
     "KHR_materials_unlit",
     "KHR_materials_pbrSpecularGlossiness",
     "KHR_materials_variants",
@@ -295,8 +296,9 @@ fn unsupported_reason(name: &str) -> Option<&'static str> {
             "meshoptimizer-compressed buffers are not decoded: export the file without compression"
         }
         "KHR_texture_basisu" => "KTX2 / Basis Universal textures are not decoded",
-        "KHR_materials_dispersion" | "KHR_materials_diffuse_transmission" => {
-            "not rendered; Blender's importer does not read it either"
+        "KHR_materials_dispersion" => {
+            "not rendered: Blender 4.5 and Cycles have no dispersion, and Blender's importer does \
+             not read it"
         }
         _ => return None,
     })

@@ -1,6 +1,6 @@
 //! glTF materials become Principled materials as Blender's importer reads them: the core
 //! metallic-roughness model and the KHR_materials extensions (transmission, IOR, volume,
-//! specular, clearcoat, sheen, anisotropy, iridescence), texture references with
+//! specular, clearcoat, sheen, anisotropy, iridescence, diffuse transmission), texture references with
 //! KHR_texture_transform, and Photon's subsurface and node-tree extensions.
 
 use super::container::{json_vec3, Loader};
@@ -117,17 +117,7 @@ impl Loader {
         if let Some(ext) = material.extension_value("KHR_materials_sheen") {
             let label = format!("{object} KHR_materials_sheen");
             out.sheen = true;
-            out.sheen_color = match ext.get("sheenColorFactor") {
-                None => Vec3::ZERO,
-                Some(v) => json_vec3(v)
-                    .filter(|c| c.is_finite() && c.min_element() >= 0.0)
-                    .ok_or_else(|| {
-                        self.err(
-                            &label,
-                            format!("'sheenColorFactor' must be three numbers ≥ 0, found {v}"),
-                        )
-                    })?,
-            };
+            out.sheen_color = self.ext_color(ext, "sheenColorFactor", Vec3::ZERO, &label)?;
             out.sheen_color_texture =
                 self.raw_texture_info(ext.get("sheenColorTexture"), true, &label)?;
             out.sheen_roughness =
@@ -170,6 +160,26 @@ impl Loader {
             ];
             out.iridescence_thickness_texture =
                 self.raw_texture_info(ext.get("iridescenceThicknessTexture"), false, &label)?;
+        }
+        if let Some(ext) = material.extension_value("KHR_materials_diffuse_transmission") {
+            let label = format!("{object} KHR_materials_diffuse_transmission");
+            out.diffuse_transmission =
+                self.ext_number(ext, "diffuseTransmissionFactor", 0.0, 0.0, 1.0, &label)?;
+            out.diffuse_transmission_texture =
+                self.raw_texture_info(ext.get("diffuseTransmissionTexture"), false, &label)?;
+            out.diffuse_transmission_color =
+                self.ext_color(ext, "diffuseTransmissionColorFactor", Vec3::ONE, &label)?;
+            out.diffuse_transmission_color_texture =
+                self.raw_texture_info(ext.get("diffuseTransmissionColorTexture"), true, &label)?;
+        }
+        if let Some(ext) = material.extension_value("KHR_materials_dispersion") {
+            let label = format!("{object} KHR_materials_dispersion");
+            if self.ext_number(ext, "dispersion", 0.0, 0.0, f32::MAX, &label)? > 0.0 {
+                self.scene.warnings.push(format!(
+                    "{label}: not rendered (Blender 4.5 and Cycles have no dispersion); the \
+                     material refracts at its IOR alone"
+                ));
+            }
         }
         if let Some(volume) = material.volume() {
             out.thickness = volume.thickness_factor();
@@ -285,6 +295,22 @@ impl Loader {
                 Some(x) if x.is_finite() => Ok(x.clamp(lo, hi)),
                 _ => Err(self.err(object, format!("'{key}' must be a number, found {v}"))),
             },
+        }
+    }
+
+    /// The colour `key` of an extension object (`default` when absent): three finite numbers
+    /// ≥ 0, anything else refused.
+    fn ext_color(&self, ext: &Value, key: &str, default: Vec3, object: &str) -> Result<Vec3> {
+        match ext.get(key) {
+            None => Ok(default),
+            Some(v) => json_vec3(v)
+                .filter(|c| c.is_finite() && c.min_element() >= 0.0)
+                .ok_or_else(|| {
+                    self.err(
+                        object,
+                        format!("'{key}' must be three numbers ≥ 0, found {v}"),
+                    )
+                }),
         }
     }
 
