@@ -134,7 +134,18 @@ def instance_on_points(obj, instanced, *, rotation_max=None, rise_with_time=Fals
 
 
 def render(scene, engine: str, path: Path, samples: int, seed: int = 1) -> np.ndarray:
-    """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back."""
+    """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back. A
+    Cycles render of a scene that this test function already rendered at the same samples and
+    seed is shared (reference_cache.py)."""
+    if engine == "CYCLES":
+        import reference_cache
+        image, _ = reference_cache.cached_render(
+            lambda: _render(scene, engine, path, samples, seed), path, samples, seed)
+        return image
+    return _render(scene, engine, path, samples, seed)
+
+
+def _render(scene, engine: str, path: Path, samples: int, seed: int) -> np.ndarray:
     common.configure_cycles(scene, samples, seed=seed, threads=THREADS)
     scene.render.engine = engine
     if engine == "PHOTON":
