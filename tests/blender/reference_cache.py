@@ -3,12 +3,13 @@ scene at the same settings (the cases of one parametrized test that differ only 
 method or sample count, say), so that each distinct Cycles image is paid for once.
 
 An entry's key is the test function (its pytest node id without the parameters: references are
-never shared between different test functions), the engine settings that are not part of the
-scene (samples, seed) and a digest of everything in `bpy.data` that a render can see: every
-ID's plain properties (numbers, strings, enums, arrays) and those of the structs it holds (node
-trees with their nodes, sockets and links, modifiers, light linking, render and Cycles
-settings), the names of the IDs it points to, mesh and curve coordinates, and image pixels.
-Photon's own settings (`scene.photon`, which Cycles never reads) are left out. Two scenes that
+never shared between different test functions) and a digest, taken just before the render with
+every setting already made, of everything in `bpy.data` that a render can see: every ID's plain
+properties (numbers, strings, enums, arrays) and those of the structs it holds (node trees with
+their nodes, sockets and links, modifiers, light linking, render and Cycles settings with the
+samples and seed), the names of the IDs it points to, mesh and curve coordinates, and image
+pixels. Photon's own settings (`scene.photon`, which Cycles never reads) and the output path
+are left out. Two scenes that
 differ in anything a render reads get different digests and so different references; a digest
 that left out some property could at worst make two cases of one test share a reference they
 should not, which their differing Photon images would then show as a failure, never as a pass.
@@ -71,6 +72,8 @@ def _walk(struct, out: list, depth: int) -> None:
         return
     # A socket's node and links lead back into the tree, which is walked once from the top.
     back = {"node", "links"} if isinstance(struct, bpy.types.NodeSocket) else set()
+    if isinstance(struct, bpy.types.RenderSettings):
+        back = {"filepath"}  # where the image is written, not what it shows
     for prop in struct.bl_rna.properties:
         ident = prop.identifier
         if ident in SKIPPED or ident in back:
@@ -118,10 +121,7 @@ def _geometry(block, digest) -> None:
 
     if isinstance(block, bpy.types.Mesh):
         add(block.vertices, "co", 3)
-        add(block.loops, "vertex_index", 1)
-        add(block.polygons, "loop_total", 1)
-        for layer in block.uv_layers:
-            add(layer.uv, "vector", 2)
+        digest.update(_faces(block).encode())
         for attribute in block.attributes:
             digest.update(attribute.name.encode())
     elif isinstance(block, bpy.types.Image) and block.size[0] * block.size[1] > 0:
@@ -132,6 +132,29 @@ def _geometry(block, digest) -> None:
         add(block.points, "position", 3)
     elif hasattr(bpy.types, "PointCloud") and isinstance(block, bpy.types.PointCloud):
         add(block.points, "co", 3)
+
+
+def _faces(mesh) -> str:
+    """The mesh's faces as a sorted list of their corners (vertex index and UVs), each face
+    starting at its lowest vertex: the same for two builds of one mesh whose faces come out in
+    another order (Blender's UV sphere orders them differently from one call to the next)."""
+    def values(collection, attribute, width, dtype):
+        out = np.zeros(len(collection) * width, dtype=dtype)
+        collection.foreach_get(attribute, out)
+        return out
+
+    corners = values(mesh.loops, "vertex_index", 1, np.int32)
+    starts = values(mesh.polygons, "loop_start", 1, np.int32)
+    totals = values(mesh.polygons, "loop_total", 1, np.int32)
+    uvs = [np.round(values(layer.uv, "vector", 2, np.float32), 6).reshape(-1, 2).tolist()
+           for layer in mesh.uv_layers]
+    faces = []
+    for start, total in zip(starts.tolist(), totals.tolist()):
+        ring = list(range(start, start + total))
+        first = min(range(total), key=lambda k: corners[ring[k]])
+        ring = ring[first:] + ring[:first]
+        faces.append(tuple((int(corners[c]),) + tuple(tuple(uv[c]) for uv in uvs) for c in ring))
+    return repr(sorted(faces))
 
 
 def scene_digest() -> str:
@@ -157,12 +180,13 @@ def test_function() -> str:
     return current.split(" ")[0].split("[")[0]
 
 
-def cached_render(render, path: Path, samples: int, seed: int):
+def cached_render(render, path: Path):
+    """`render()` (which renders the scene as it is now set up, writes the EXR at `path` and
+    returns its image) run once per test function and scene digest, taken with every setting
+    the render reads already set; later calls with the same key copy the first EXR to `path`
+    and return its image. Returns (image, whether it was shared)."""
     path = Path(path)
-    """`render()` (which writes the reference EXR at `path` and returns its image) run once per
-    test function, scene digest, sample count and seed; later calls with the same key copy the
-    first EXR to `path` and return its image. Returns (image, whether it was shared)."""
-    key = (test_function(), scene_digest(), samples, seed, Path(path).suffix)
+    key = (test_function(), scene_digest(), path.suffix)
     stored = _entries.get(key)
     if stored is not None:
         shutil.copyfile(stored, path)
@@ -171,7 +195,7 @@ def cached_render(render, path: Path, samples: int, seed: int):
         return read_exr(path), True
     image = render()
     if folder is not None:
-        stored = folder / f"{len(_entries)}{Path(path).suffix}"
+        stored = folder / f"{len(_entries)}{path.suffix}"
         shutil.copyfile(path, stored)
         _entries[key] = stored
     return image, False

@@ -135,17 +135,8 @@ def instance_on_points(obj, instanced, *, rotation_max=None, rise_with_time=Fals
 
 def render(scene, engine: str, path: Path, samples: int, seed: int = 1) -> np.ndarray:
     """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back. A
-    Cycles render of a scene that this test function already rendered at the same samples and
-    seed is shared (reference_cache.py)."""
-    if engine == "CYCLES":
-        import reference_cache
-        image, _ = reference_cache.cached_render(
-            lambda: _render(scene, engine, path, samples, seed), path, samples, seed)
-        return image
-    return _render(scene, engine, path, samples, seed)
-
-
-def _render(scene, engine: str, path: Path, samples: int, seed: int) -> np.ndarray:
+    Cycles render of what this test function already rendered with Cycles (the same scene and
+    settings) is shared (reference_cache.py)."""
     common.configure_cycles(scene, samples, seed=seed, threads=THREADS)
     scene.render.engine = engine
     if engine == "PHOTON":
@@ -154,6 +145,14 @@ def _render(scene, engine: str, path: Path, samples: int, seed: int) -> np.ndarr
         scene.photon.threads = 0
     scene.render.filepath = str(path)
     scene.render.use_file_extension = False
+    if engine == "CYCLES":
+        import reference_cache
+        image, _ = reference_cache.cached_render(lambda: _write_still(engine, path), path)
+        return image
+    return _write_still(engine, path)
+
+
+def _write_still(engine: str, path: Path) -> np.ndarray:
     bpy.ops.render.render(write_still=True)
     if not path.exists():
         raise AssertionError(f"{engine} wrote no image at {path}")
