@@ -3,7 +3,7 @@ scene at the same settings (the cases of one parametrized test that differ only 
 method or sample count, say), so that each distinct Cycles image is paid for once.
 
 An entry's key is the test function (its pytest node id without the parameters: references are
-never shared between different test functions) and a digest, taken just before the render with
+shared between different test functions only where they name a common scope) and a digest, taken just before the render with
 every setting already made, of everything in `bpy.data` that a render can see: every ID's plain
 properties (numbers, strings, enums, arrays) and those of the structs it holds (node trees with
 their nodes, sockets and links, modifiers, light linking, render and Cycles settings with the
@@ -180,13 +180,14 @@ def test_function() -> str:
     return current.split(" ")[0].split("[")[0]
 
 
-def cached_render(render, path: Path):
+def cached_render(render, path: Path, scope: str | None = None):
     """`render()` (which renders the scene as it is now set up, writes the EXR at `path` and
-    returns its image) run once per test function and scene digest, taken with every setting
-    the render reads already set; later calls with the same key copy the first EXR to `path`
-    and return its image. Returns (image, whether it was shared)."""
+    returns its image) run once per test function (or `scope`, a name the tests that share
+    references across their functions pass) and scene digest, taken with every setting the
+    render reads already set; later calls with the same key copy the first EXR to `path` and
+    return its image. Returns (image, whether it was shared)."""
     path = Path(path)
-    key = (test_function(), scene_digest(), path.suffix)
+    key = (scope or test_function(), scene_digest(), path.suffix)
     stored = _entries.get(key)
     if stored is not None:
         shutil.copyfile(stored, path)
