@@ -351,12 +351,13 @@ fn sample_weight_is_eval_over_pdf() {
     for c in rough_cases() {
         for wo in view_directions(c.inside) {
             let mut rng = Rng::new(5);
+            let viewed = c.bsdf.viewed_from(wo);
             for _ in 0..5000 {
-                let Some(s) = c.bsdf.viewed_from(wo).sample(rng.uniform(), rng.uniform2()) else {
+                let Some(s) = viewed.sample(rng.uniform(), rng.uniform2()) else {
                     continue;
                 };
-                let pdf = c.bsdf.viewed_from(wo).pdf(s.wi);
-                let f = c.bsdf.viewed_from(wo).eval(s.wi);
+                let pdf = viewed.pdf(s.wi);
+                let f = viewed.eval(s.wi);
                 assert!(
                     close(pdf, s.pdf, 1e-3),
                     "{}: pdf {} vs {}",
@@ -488,8 +489,9 @@ fn single_scattering_lobes_are_reciprocal() {
 fn measured_albedo(b: &Bsdf, wo: Vec3, n: usize, seed: u64) -> (Vec3, f32) {
     let mut rng = Rng::new(seed);
     let (mut sum, mut sum2) = (Vec3::ZERO, 0.0f64);
+    let viewed = b.viewed_from(wo);
     for _ in 0..n {
-        if let Some(s) = b.viewed_from(wo).sample(rng.uniform(), rng.uniform2()) {
+        if let Some(s) = viewed.sample(rng.uniform(), rng.uniform2()) {
             sum += s.weight;
             sum2 += (s.weight.max_element() as f64).powi(2);
         }
