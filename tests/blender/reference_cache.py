@@ -3,16 +3,16 @@ scene at the same settings (the cases of one parametrized test that differ only 
 method or sample count, say), so that each distinct Cycles image is paid for once.
 
 An entry's key is the test function (its pytest node id without the parameters: references are
-shared between different test functions only where they name a common scope) and a digest, taken just before the render with
-every setting already made, of everything in `bpy.data` that a render can see: every ID's plain
-properties (numbers, strings, enums, arrays) and those of the structs it holds (node trees with
-their nodes, sockets and links, modifiers, light linking, render and Cycles settings with the
-samples and seed), the names of the IDs it points to, mesh and curve coordinates, and image
-pixels. Photon's own settings (`scene.photon`, which Cycles never reads) and the output path
-are left out. Two scenes that
-differ in anything a render reads get different digests and so different references; a digest
-that left out some property could at worst make two cases of one test share a reference they
-should not, which their differing Photon images would then show as a failure, never as a pass.
+shared between different test functions only where they name a common scope) and a digest,
+taken just before the render with every setting already made, of everything in `bpy.data` that
+a render can see: every ID's plain properties (numbers, strings, enums, arrays) and those of the
+structs it holds (node trees with their nodes, sockets and links, modifiers, light linking,
+render and Cycles settings with the samples and seed), the names of the IDs it points to, mesh
+and curve coordinates, and image pixels. Photon's own settings (`scene.photon`, which Cycles
+never reads) and the output path are left out. A property the digest missed could let two cases
+that differ only in it share one reference, and a Photon that ignored that property would then
+pass: every shared reference is named in the test's output ("shared with an earlier case"), so
+that a new parametrized test can be checked for it.
 """
 
 from __future__ import annotations
