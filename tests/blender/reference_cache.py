@@ -102,7 +102,9 @@ def _walk(struct, out: list, depth: int) -> None:
             if count > MAX_ITEMS:
                 continue
             for item in value:
-                if isinstance(item, bpy.types.ID):
+                if item is None:
+                    out.append(None)
+                elif isinstance(item, bpy.types.ID):
                     out.append(("ID", type(item).__name__, item.name))
                 else:
                     out.append("[")
