@@ -189,7 +189,11 @@ def cached_render(render, path: Path, scope: str | None = None):
     render reads already set; later calls with the same key copy the first EXR to `path` and
     return its image. Returns (image, whether it was shared)."""
     path = Path(path)
-    key = (scope or test_function(), scene_digest(), path.suffix)
+    try:
+        key = (scope or test_function(), scene_digest(), path.suffix)
+    except Exception as exc:  # noqa: BLE001 - a scene the walk cannot read is rendered, not shared
+        print(f"cycles reference {path.name}: not shared ({type(exc).__name__}: {exc})")
+        return render(), False
     stored = _entries.get(key)
     if stored is not None:
         shutil.copyfile(stored, path)
