@@ -37,6 +37,15 @@ def photon_addon():
     blender_addon.unregister()
 
 
+@pytest.fixture(scope="session", autouse=True)
+def shared_cycles_references(tmp_path_factory):
+    """The folder where reference_cache.py keeps each Cycles reference for the test run."""
+    import reference_cache
+    reference_cache.folder = tmp_path_factory.mktemp("cycles_references")
+    yield reference_cache.folder
+    reference_cache.folder = None
+
+
 @pytest.fixture
 def binary_env():
     """$PHOTON_BINARY checked to be a usable executable (fails the test otherwise)."""

@@ -133,8 +133,12 @@ def instance_on_points(obj, instanced, *, rotation_max=None, rise_with_time=Fals
     return modifier
 
 
-def render(scene, engine: str, path: Path, samples: int, seed: int = 1) -> np.ndarray:
-    """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back."""
+def render(scene, engine: str, path: Path, samples: int, seed: int = 1,
+           reference_scope: str | None = None) -> np.ndarray:
+    """Render the scene camera with 'PHOTON' or 'CYCLES' to `path` (EXR) and read it back. A
+    Cycles render of what this test function (or the tests that pass the same
+    `reference_scope`) already rendered with Cycles, the same scene and settings, is shared
+    (reference_cache.py)."""
     common.configure_cycles(scene, samples, seed=seed, threads=THREADS)
     scene.render.engine = engine
     if engine == "PHOTON":
@@ -143,6 +147,15 @@ def render(scene, engine: str, path: Path, samples: int, seed: int = 1) -> np.nd
         scene.photon.threads = 0
     scene.render.filepath = str(path)
     scene.render.use_file_extension = False
+    if engine == "CYCLES":
+        import reference_cache
+        image, _ = reference_cache.cached_render(lambda: _write_still(engine, path), path,
+                                                 reference_scope)
+        return image
+    return _write_still(engine, path)
+
+
+def _write_still(engine: str, path: Path) -> np.ndarray:
     bpy.ops.render.render(write_still=True)
     if not path.exists():
         raise AssertionError(f"{engine} wrote no image at {path}")

@@ -127,7 +127,9 @@ def render(scene, engine, path, samples, clamp):
 
     common.configure_cycles = configure_with_clamp
     try:
-        return scenes_bpy.render(scene, engine, path, samples)
+        # The glass sphere's Cycles reference with Blender's clamps serves both the path
+        # tracer's test and the photon method's.
+        return scenes_bpy.render(scene, engine, path, samples, reference_scope=__name__)
     finally:
         common.configure_cycles = configure
 

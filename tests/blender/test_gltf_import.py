@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from helpers import photon_binary, read_exr, rel_mse
+import reference_cache
 
 MEAN_TOL = 0.01
 BLOCK_RELMSE_MAX = 0.01
@@ -237,8 +238,13 @@ def render_cycles(path: Path, out: Path, size: int, samples: int,
     common.configure_cycles(scene, samples, seed=1, threads=2)
     scene.render.filepath = str(out)
     scene.render.use_file_extension = False
-    bpy.ops.render.render(write_still=True)
-    return read_exr(out)
+
+    def render():
+        bpy.ops.render.render(write_still=True)
+        return read_exr(out)
+
+    # One render per test of what its cases import alike (reference_cache.py).
+    return reference_cache.cached_render(render, out)[0]
 
 
 def render_photon(path: Path, out: Path, size: int, samples: int,
