@@ -20,7 +20,8 @@ Cycles from both sides unless told). Anything else Photon reads and Cycles would
 render differently is listed as a warning before rendering.
 
 Usage (the Cycles settings are the references' of common.configure_cycles: no clamping, no
-glossy filter, light tree, adaptive sampling and denoising off):
+glossy filter, light tree, adaptive sampling and denoising off; a .blend keeps its Clamp Direct
+and Indirect, which the add-on's export gives Photon):
 
     .venv/bin/python scenes/blender/cycles_time.py scenes/cornell_box.glb \\
         --bench-dir bench_out --spp 16,32,64,128,256 --threads 2 [--json cycles.json]
@@ -254,7 +255,11 @@ def prepare(scene_path: Path, size: tuple[int, int], threads: int,
     scene.render.engine = "CYCLES"
     scene.render.resolution_x, scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
+    # A .blend keeps its Clamp Direct / Indirect: the add-on's export carries them to Photon.
+    clamps = (scene.cycles.sample_clamp_direct, scene.cycles.sample_clamp_indirect)
     common.configure_cycles(scene, 1, seed=1, threads=threads)
+    if scene_path.suffix.lower() == ".blend":
+        scene.cycles.sample_clamp_direct, scene.cycles.sample_clamp_indirect = clamps
     scene.render.film_transparent = bool(render_ext.get("film_transparent", False))
     if filter_arg is not None:
         kind, width = parse_filter(filter_arg)
