@@ -146,10 +146,6 @@ fn an_unknown_required_extension_is_named_with_exit_code_2() {
             "Draco-compressed geometry is not decoded",
         ),
         (
-            "EXT_meshopt_compression",
-            "meshoptimizer-compressed buffers",
-        ),
-        (
             "KHR_texture_basisu",
             "Basis Universal textures are not decoded",
         ),

@@ -35,6 +35,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_animation_pointer",
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
+    "EXT_meshopt_compression",
 ];
 
 /// A parsed document with its buffers loaded, and the scene being built from it.
@@ -44,6 +45,9 @@ pub(super) struct Loader {
     pub(super) base: Option<PathBuf>,
     pub(super) document: gltf::Document,
     pub(super) buffers: Vec<Vec<u8>>,
+    /// The bytes of each buffer view stored with `EXT_meshopt_compression`, decoded, by view
+    /// index: read in place of the view's own buffer range.
+    pub(super) decoded_views: HashMap<usize, Vec<u8>>,
     /// Scene material index of each glTF material, in document order; the glTF default
     /// material, when used, is appended after them.
     pub(super) default_material: Option<u32>,
@@ -173,6 +177,7 @@ impl Loader {
             base: base.map(Path::to_path_buf),
             document,
             buffers: Vec::new(),
+            decoded_views: HashMap::new(),
             default_material: None,
             images: HashMap::new(),
             texture_slots: HashMap::new(),
@@ -213,6 +218,7 @@ impl Loader {
             pose: HashMap::new(),
         };
         loader.load_buffers(blob)?;
+        loader.decode_meshopt_views()?;
         Ok(loader)
     }
 
@@ -220,6 +226,10 @@ impl Loader {
         let mut buffers = Vec::new();
         for buffer in self.document.buffers() {
             let object = named("buffer", buffer.index(), buffer.name());
+            if self.is_meshopt_placeholder(&buffer, blob.is_some()) {
+                buffers.push(Vec::new());
+                continue;
+            }
             let mut data = match buffer.source() {
                 gltf::buffer::Source::Bin => blob
                     .take()
@@ -290,9 +300,6 @@ fn unsupported_reason(name: &str) -> Option<&'static str> {
     Some(match name {
         "KHR_draco_mesh_compression" => {
             "Draco-compressed geometry is not decoded: export the file without compression"
-        }
-        "EXT_meshopt_compression" => {
-            "meshoptimizer-compressed buffers are not decoded: export the file without compression"
         }
         "KHR_texture_basisu" => "KTX2 / Basis Universal textures are not decoded",
         "KHR_materials_dispersion" | "KHR_materials_diffuse_transmission" => {

@@ -9,6 +9,7 @@
 //! split by concern:
 //! - `container`: the `.glb`/`.gltf` container, buffers and URIs (`encoding`: base64 and
 //!   percent-escapes), and the `Loader` that carries the document and the scene being built;
+//!   `meshopt`: buffer views compressed with `EXT_meshopt_compression`, decoded once;
 //! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
 //! - `build`: the entry points, the walk of the default scene and the choice of camera;
 //! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
@@ -40,6 +41,7 @@ mod imported_trees;
 mod lights;
 mod materials;
 mod meshes;
+mod meshopt;
 mod motion;
 mod object_info;
 mod skinning;
