@@ -1,11 +1,12 @@
-//! Compressed glTF geometry: `EXT_meshopt_compression` files written here with meshoptimizer's
+//! Compressed glTF data: `EXT_meshopt_compression` files written here with meshoptimizer's
 //! encoders (the `meshopt` crate; gltfpack lays its files out the same way: the compressed bytes in
 //! the binary chunk, the decoded views in a placeholder buffer with no bytes) load to the same
 //! scene as the uncompressed file and render the same image: bit for bit without filters, within
-//! the filters' quantization with them. Damaged or oversized compressed views are scene errors
-//! (exit code 2), never a panic.
+//! the filters' quantization with them. `KHR_texture_basisu` textures (KTX2 files in
+//! `tests/data/ktx2`) render as the PNG they were encoded from. Damaged or oversized compressed
+//! data is a scene error (exit code 2), never a panic.
 
-use crate::support::binary::{photon, temp_dir};
+use crate::support::binary::{render_tiny, temp_dir};
 use crate::support::gltf;
 use crate::support::scenes;
 
@@ -522,14 +523,7 @@ fn gltf_compression_meshopt_required_renders_and_damage_exits_with_code_2() {
     let file = scene_file(stores, false);
     let good = dir.join("meshopt.glb");
     std::fs::write(&good, &file).unwrap();
-    let run = |path: &std::path::Path| {
-        photon()
-            .args(["render", path.to_str().unwrap(), "-o"])
-            .arg(dir.join("x.exr"))
-            .args(["--width", "8", "--height", "8", "--spp", "1"])
-            .output()
-            .unwrap()
-    };
+    let run = |path: &std::path::Path| render_tiny(path, &dir);
     let out = run(&good);
     assert_eq!(
         out.status.code(),
@@ -548,4 +542,100 @@ fn gltf_compression_meshopt_required_renders_and_damage_exits_with_code_2() {
         stderr.contains("EXT_meshopt_compression") && stderr.contains("damaged"),
         "{stderr}"
     );
+}
+
+/// The stripes image and its KTX2 encodings (`tests/data/ktx2/README.md`).
+fn ktx2_data(file: &str) -> Vec<u8> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/ktx2/");
+    std::fs::read(format!("{dir}{file}")).unwrap()
+}
+
+/// A square facing the camera that shows its emission texture, image 0 (nearest texels):
+/// `images` are (bytes, MIME type); `texture` is the glTF texture object.
+fn textured_square(images: &[(Vec<u8>, &str)], texture: Value, required: &[&str]) -> Vec<u8> {
+    let mut doc = gltf::Doc::new();
+    let positions = [
+        -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
+    ];
+    let normals = [0.0, 0.0, 1.0].repeat(4);
+    let mesh = doc.mesh("Square", &positions, &normals, &[0, 1, 2, 0, 2, 3]);
+    let uvs = doc.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
+    let primitive = &mut doc.json["meshes"][mesh]["primitives"][0];
+    primitive["attributes"]["TEXCOORD_0"] = json!(uvs);
+    primitive["material"] = json!(0);
+    doc.node(json!({"name": "Square", "mesh": mesh}), true);
+    doc.camera("Camera", "CameraData", [0.0, 0.0, 2.6]);
+    let images: Vec<Value> = images
+        .iter()
+        .map(|(bytes, mime)| json!({"bufferView": doc.view(bytes), "mimeType": mime}))
+        .collect();
+    doc.json["images"] = json!(images);
+    doc.json["samplers"] = json!([{"magFilter": 9728, "minFilter": 9728}]);
+    doc.json["textures"] = json!([texture]);
+    doc.json["materials"] = json!([{"pbrMetallicRoughness": {
+        "baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0},
+        "emissiveFactor": [1.0, 1.0, 1.0], "emissiveTexture": {"index": 0}}]);
+    doc.json["extensionsUsed"] = json!(["KHR_texture_basisu"]);
+    doc.json["extensionsRequired"] = json!(required);
+    doc.glb()
+}
+
+fn render_square(file: &[u8]) -> Vec<[f32; 4]> {
+    let settings = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 4,
+        ..RenderSettings::default()
+    };
+    scenes::render_quietly(&load(file), &settings)
+        .unwrap()
+        .0
+        .rgba
+}
+
+#[test]
+fn gltf_compression_basisu_textures_render_as_their_png() {
+    let png = (ktx2_data("stripes.png"), "image/png");
+    let reference = render_square(&textured_square(
+        std::slice::from_ref(&png),
+        json!({"source": 0, "sampler": 0}),
+        &[],
+    ));
+    let basisu = |image: usize| json!({"sampler": 0, "extensions": {"KHR_texture_basisu": {"source": image}}});
+    // UASTC keeps these texels exactly; ETC1S (its lowest quality) darkens them by about 1 %.
+    for (file, rel_mse_max, mean_max) in [
+        ("stripes_uastc.ktx2", 1e-4, 1e-3),
+        ("stripes_etc1s.ktx2", 1e-3, 0.02),
+    ] {
+        let ktx2 = (ktx2_data(file), "image/ktx2");
+        let square = textured_square(&[ktx2], basisu(0), &["KHR_texture_basisu"]);
+        let error = metrics::compare(&render_square(&square), &reference);
+        println!(
+            "{file}: relMSE {:.2e}, mean {:+.2e}",
+            error.rel_mse, error.mean_relative_difference
+        );
+        assert!(
+            error.rel_mse < rel_mse_max && error.mean_relative_difference.abs() < mean_max,
+            "{file}: {error:?}"
+        );
+    }
+    // With a PNG source as well, the PNG is read (as Blender's importer reads it): a damaged
+    // KTX2 image beside it is never decoded.
+    let damaged = (ktx2_data("stripes_etc1s.ktx2")[..60].to_vec(), "image/ktx2");
+    let mut both = basisu(1);
+    both["source"] = json!(0);
+    let square = textured_square(&[png, damaged.clone()], both, &[]);
+    assert!(render_square(&square) == reference);
+    // Alone, the damaged image is refused with exit code 2.
+    let dir = temp_dir("gltf_compression_ktx2");
+    let path = dir.join("damaged_ktx2.glb");
+    std::fs::write(
+        &path,
+        textured_square(&[damaged], basisu(0), &["KHR_texture_basisu"]),
+    )
+    .unwrap();
+    let out = render_tiny(&path, &dir);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("KTX2"), "{stderr}");
 }

@@ -36,6 +36,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
     "EXT_meshopt_compression",
+    "KHR_texture_basisu",
 ];
 
 /// A parsed document with its buffers loaded, and the scene being built from it.
@@ -131,7 +132,7 @@ impl Loader {
             ));
         }
         check_attribute_indices(&root).map_err(|(object, m)| Error::scene(path, object, m))?;
-        use_webp_sources(&mut root).map_err(|(object, m)| Error::scene(path, object, m))?;
+        use_extension_sources(&mut root).map_err(|(object, m)| Error::scene(path, object, m))?;
         // Everything left is supported here, even the extensions the gltf crate's validation does
         // not list as "enabled" (volume, specular); required-ness has been checked.
         root.extensions_required.clear();
@@ -301,7 +302,6 @@ fn unsupported_reason(name: &str) -> Option<&'static str> {
         "KHR_draco_mesh_compression" => {
             "Draco-compressed geometry is not decoded: export the file without compression"
         }
-        "KHR_texture_basisu" => "KTX2 / Basis Universal textures are not decoded",
         "KHR_materials_dispersion" | "KHR_materials_diffuse_transmission" => {
             "not rendered; Blender's importer does not read it either"
         }
@@ -405,28 +405,37 @@ pub(super) fn split_glb(bytes: &[u8]) -> std::result::Result<(&[u8], Option<&[u8
     Ok((json, bin))
 }
 
-/// Point each texture that has `EXT_texture_webp` at the extension's WebP image, which Photon
-/// decodes, so that the rest of the loader reads `source` only. A texture with neither a
-/// `source` nor the extension is left for validation to refuse.
-pub(super) fn use_webp_sources(
+/// Point each texture that has `EXT_texture_webp` at the extension's WebP image, and each
+/// texture with `KHR_texture_basisu` and no `source` of its own at the extension's KTX2 image
+/// (with a PNG or JPEG `source` as well, that is read, as Blender's importer reads it), all of
+/// which Photon decodes, so that the rest of the loader reads `source` only. A texture with
+/// neither a `source` nor an extension is left for validation to refuse.
+pub(super) fn use_extension_sources(
     root: &mut gltf::json::Root,
 ) -> std::result::Result<(), (String, String)> {
     let images = root.images.len();
     for (index, texture) in root.textures.iter_mut().enumerate() {
-        let Some(webp) = texture
-            .extensions
-            .as_ref()
-            .and_then(|e| e.others.get("EXT_texture_webp"))
-        else {
+        let Some(others) = texture.extensions.as_ref().map(|e| &e.others) else {
             continue;
         };
-        let object = || format!("texture {index} (EXT_texture_webp)");
-        let source = webp.get("source").and_then(|s| s.as_u64()).ok_or_else(|| {
-            (
-                object(),
-                "'source' is missing or not an image index".to_string(),
-            )
-        })?;
+        let has_source = texture.source.value() < images;
+        let extension = if others.contains_key("EXT_texture_webp") {
+            "EXT_texture_webp"
+        } else if others.contains_key("KHR_texture_basisu") && !has_source {
+            "KHR_texture_basisu"
+        } else {
+            continue;
+        };
+        let object = || format!("texture {index} ({extension})");
+        let source = others[extension]
+            .get("source")
+            .and_then(|s| s.as_u64())
+            .ok_or_else(|| {
+                (
+                    object(),
+                    "'source' is missing or not an image index".to_string(),
+                )
+            })?;
         if source >= images as u64 {
             return Err((
                 object(),

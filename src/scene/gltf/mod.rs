@@ -21,7 +21,8 @@
 //! - `materials`: materials and their KHR and `PHOTON_*` extensions; `imported_trees`: the
 //!   unlit and specular-glossiness materials as the node trees Blender's importer builds;
 //!   `variants`: `KHR_materials_variants`;
-//! - `textures` and `images`: glTF textures and node trees' images, and their decoding;
+//! - `textures` and `images`: glTF textures and node trees' images, and their decoding (`ktx2`:
+//!   KTX2 images of `KHR_texture_basisu`);
 //! - `lights`: punctual and area lights;
 //! - `world`: the world and the render settings;
 //! - `camera`: cameras, and the camera that frames a scene without one.
@@ -38,6 +39,7 @@ mod gpu_instancing;
 mod hierarchy;
 mod images;
 mod imported_trees;
+mod ktx2;
 mod lights;
 mod materials;
 mod meshes;
