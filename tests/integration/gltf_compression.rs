@@ -351,6 +351,11 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
 
 const PLAIN: [Store; 6] = [Store::Plain; 6];
 
+/// The test scene with every filter and both index modes, for the fuzzer (`fuzz_gltf`).
+pub fn filtered_file() -> Vec<u8> {
+    scene_file(FILTERED, true)
+}
+
 /// Every view compressed without a filter.
 const LOSSLESS: [Store; 6] = [
     Store::Attributes,
