@@ -1,6 +1,6 @@
-//! Encoded images (PNG, JPEG, WebP; KTX2 by `ktx2`) decoded to texels with the image crate: 8-bit images as
-//! bytes, 16-bit ones as floats that keep their 16 bits. Where the bytes come from (buffer
-//! views, data URIs, files) is `textures`' business.
+//! Encoded images decoded to texels: PNG, JPEG and WebP with the image crate (8-bit images as
+//! bytes, 16-bit ones as floats that keep their 16 bits), KTX2 by `ktx2`. Where the bytes come
+//! from (buffer views, data URIs, files) is `textures`' business.
 
 use crate::scene::texture::Texels;
 use image::{DynamicImage, ImageFormat};
