@@ -1,5 +1,6 @@
 //! A structure-aware fuzzer for the glTF loader (cargo-fuzz needs a nightly toolchain, which this
-//! project does not have): every shipped scene is mutated many times, at the JSON level (a value
+//! project does not have): every shipped scene, and a file of `EXT_meshopt_compression` views
+//! (`gltf_compression`), is mutated many times, at the JSON level (a value
 //! replaced by an extreme or ill-typed one, a key deleted, an array emptied or grown) and at the
 //! byte level (binary chunk bytes overwritten, the file truncated), with a deterministic random
 //! stream. Each mutant must load to a valid scene or fail with a scene error, never panic; one in
@@ -199,14 +200,25 @@ fn mutated_scenes_load_or_fail_cleanly() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(200);
     let (mut loaded, mut refused) = (0u64, 0u64);
-    for (file_index, path) in scene_files().iter().enumerate() {
-        let original = Glb::parse(&std::fs::read(path).expect("scene file"));
+    let mut files: Vec<(String, Vec<u8>)> = scene_files()
+        .iter()
+        .map(|path| {
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            (name, std::fs::read(path).expect("scene file"))
+        })
+        .collect();
+    // Compressed geometry, which no shipped scene has.
+    files.push((
+        "meshopt.glb".into(),
+        crate::gltf_compression::filtered_file(),
+    ));
+    for (file_index, (name, file)) in files.iter().enumerate() {
+        let original = Glb::parse(file);
         for i in 0..iterations {
             let mut rng = Rng::for_item(0xf022, file_index as u64, i);
             let (bytes, what) = mutate(&original, &mut rng);
-            let name = path.file_name().unwrap().to_string_lossy().to_string();
             let outcome = std::panic::catch_unwind(|| {
-                match load_slice(&bytes, &name, &LoadOptions::default()) {
+                match load_slice(&bytes, name, &LoadOptions::default()) {
                     Ok(scene) => {
                         assert!(scene.validate().is_ok(), "loaded an invalid scene");
                         if i % 8 == 0 {

@@ -16,6 +16,7 @@ mod cli;
 mod emitter_pixels;
 mod environment;
 mod fuzz_gltf;
+mod gltf_compression;
 mod gltf_core;
 mod gltf_loader;
 mod instancing;

@@ -207,28 +207,7 @@ impl Loader {
         element_size: usize,
         object: &str,
     ) -> Result<Option<(&[u8], usize)>> {
-        let view_object = format!("buffer view {}", view.index());
-        let buffer = self.buffers.get(view.buffer().index()).ok_or_else(|| {
-            self.err(
-                &view_object,
-                format!("buffer {} is not loaded", view.buffer().index()),
-            )
-        })?;
-        let view_end = view.offset().checked_add(view.length());
-        let view_bytes = view_end
-            .and_then(|end| buffer.get(view.offset()..end))
-            .ok_or_else(|| {
-                self.err(
-                    &view_object,
-                    format!(
-                        "bytes {}..{} lie outside buffer {} ({} bytes)",
-                        view.offset(),
-                        view.offset().saturating_add(view.length()),
-                        view.buffer().index(),
-                        buffer.len()
-                    ),
-                )
-            })?;
+        let view_bytes = self.view_bytes(view)?;
         if count == 0 {
             return Ok(None);
         }
@@ -255,6 +234,36 @@ impl Loader {
                 ),
             )),
         }
+    }
+
+    /// A buffer view's bytes: its range of its buffer, or its decoded bytes when it is stored
+    /// compressed (`meshopt`).
+    fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8]> {
+        if let Some(decoded) = self.decoded_views.get(&view.index()) {
+            return Ok(decoded);
+        }
+        let view_object = format!("buffer view {}", view.index());
+        let buffer = self.buffers.get(view.buffer().index()).ok_or_else(|| {
+            self.err(
+                &view_object,
+                format!("buffer {} is not loaded", view.buffer().index()),
+            )
+        })?;
+        let view_end = view.offset().checked_add(view.length());
+        view_end
+            .and_then(|end| buffer.get(view.offset()..end))
+            .ok_or_else(|| {
+                self.err(
+                    &view_object,
+                    format!(
+                        "bytes {}..{} lie outside buffer {} ({} bytes)",
+                        view.offset(),
+                        view.offset().saturating_add(view.length()),
+                        view.buffer().index(),
+                        buffer.len()
+                    ),
+                )
+            })
     }
 }
 

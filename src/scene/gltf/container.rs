@@ -36,6 +36,8 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_animation_pointer",
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
+    "EXT_meshopt_compression",
+    "KHR_texture_basisu",
 ];
 
 /// A parsed document with its buffers loaded, and the scene being built from it.
@@ -45,6 +47,9 @@ pub(super) struct Loader {
     pub(super) base: Option<PathBuf>,
     pub(super) document: gltf::Document,
     pub(super) buffers: Vec<Vec<u8>>,
+    /// The bytes of each buffer view stored with `EXT_meshopt_compression`, decoded, by view
+    /// index: read in place of the view's own buffer range.
+    pub(super) decoded_views: HashMap<usize, Vec<u8>>,
     /// Scene material index of each glTF material, in document order; the glTF default
     /// material, when used, is appended after them.
     pub(super) default_material: Option<u32>,
@@ -128,7 +133,7 @@ impl Loader {
             ));
         }
         check_attribute_indices(&root).map_err(|(object, m)| Error::scene(path, object, m))?;
-        use_webp_sources(&mut root).map_err(|(object, m)| Error::scene(path, object, m))?;
+        use_extension_sources(&mut root).map_err(|(object, m)| Error::scene(path, object, m))?;
         // Everything left is supported here, even the extensions the gltf crate's validation does
         // not list as "enabled" (volume, specular); required-ness has been checked.
         root.extensions_required.clear();
@@ -174,6 +179,7 @@ impl Loader {
             base: base.map(Path::to_path_buf),
             document,
             buffers: Vec::new(),
+            decoded_views: HashMap::new(),
             default_material: None,
             images: HashMap::new(),
             texture_slots: HashMap::new(),
@@ -214,6 +220,7 @@ impl Loader {
             pose: HashMap::new(),
         };
         loader.load_buffers(blob)?;
+        loader.decode_meshopt_views()?;
         Ok(loader)
     }
 
@@ -221,6 +228,10 @@ impl Loader {
         let mut buffers = Vec::new();
         for buffer in self.document.buffers() {
             let object = named("buffer", buffer.index(), buffer.name());
+            if self.is_meshopt_placeholder(&buffer, blob.is_some()) {
+                buffers.push(Vec::new());
+                continue;
+            }
             let mut data = match buffer.source() {
                 gltf::buffer::Source::Bin => blob
                     .take()
@@ -292,10 +303,6 @@ fn unsupported_reason(name: &str) -> Option<&'static str> {
         "KHR_draco_mesh_compression" => {
             "Draco-compressed geometry is not decoded: export the file without compression"
         }
-        "EXT_meshopt_compression" => {
-            "meshoptimizer-compressed buffers are not decoded: export the file without compression"
-        }
-        "KHR_texture_basisu" => "KTX2 / Basis Universal textures are not decoded",
         "KHR_materials_dispersion" => {
             "not rendered: Blender 4.5 and Cycles have no dispersion, and Blender's importer does \
              not read it"
@@ -400,28 +407,37 @@ pub(super) fn split_glb(bytes: &[u8]) -> std::result::Result<(&[u8], Option<&[u8
     Ok((json, bin))
 }
 
-/// Point each texture that has `EXT_texture_webp` at the extension's WebP image, which Photon
-/// decodes, so that the rest of the loader reads `source` only. A texture with neither a
-/// `source` nor the extension is left for validation to refuse.
-pub(super) fn use_webp_sources(
+/// Point each texture that has `EXT_texture_webp` at the extension's WebP image, and each
+/// texture with `KHR_texture_basisu` and no `source` of its own at the extension's KTX2 image
+/// (with a PNG or JPEG `source` as well, that is read, as Blender's importer reads it), all of
+/// which Photon decodes, so that the rest of the loader reads `source` only. A texture with
+/// neither a `source` nor an extension is left for validation to refuse.
+pub(super) fn use_extension_sources(
     root: &mut gltf::json::Root,
 ) -> std::result::Result<(), (String, String)> {
     let images = root.images.len();
     for (index, texture) in root.textures.iter_mut().enumerate() {
-        let Some(webp) = texture
-            .extensions
-            .as_ref()
-            .and_then(|e| e.others.get("EXT_texture_webp"))
-        else {
+        let Some(others) = texture.extensions.as_ref().map(|e| &e.others) else {
             continue;
         };
-        let object = || format!("texture {index} (EXT_texture_webp)");
-        let source = webp.get("source").and_then(|s| s.as_u64()).ok_or_else(|| {
-            (
-                object(),
-                "'source' is missing or not an image index".to_string(),
-            )
-        })?;
+        let has_source = texture.source.value() < images;
+        let extension = if others.contains_key("EXT_texture_webp") {
+            "EXT_texture_webp"
+        } else if others.contains_key("KHR_texture_basisu") && !has_source {
+            "KHR_texture_basisu"
+        } else {
+            continue;
+        };
+        let object = || format!("texture {index} ({extension})");
+        let source = others[extension]
+            .get("source")
+            .and_then(|s| s.as_u64())
+            .ok_or_else(|| {
+                (
+                    object(),
+                    "'source' is missing or not an image index".to_string(),
+                )
+            })?;
         if source >= images as u64 {
             return Err((
                 object(),

@@ -1,6 +1,6 @@
-//! Encoded images (PNG, JPEG, WebP) decoded to texels with the image crate: 8-bit images as
-//! bytes, 16-bit ones as floats that keep their 16 bits. Where the bytes come from (buffer
-//! views, data URIs, files) is `textures`' business.
+//! Encoded images decoded to texels: PNG, JPEG and WebP with the image crate (8-bit images as
+//! bytes, 16-bit ones as floats that keep their 16 bits), KTX2 by `ktx2`. Where the bytes come
+//! from (buffer views, data URIs, files) is `textures`' business.
 
 use crate::scene::texture::Texels;
 use image::{DynamicImage, ImageFormat};
@@ -47,6 +47,16 @@ pub(super) fn decode_bytes(
     label: String,
     claimed: Option<String>,
 ) -> std::result::Result<DecodedImage, String> {
+    if encoded.starts_with(&super::ktx2::KTX2_MAGIC) {
+        let (width, height, texels) = super::ktx2::decode(encoded)?;
+        let texels = Texels::Bytes(texels);
+        return Ok(DecodedImage {
+            name: label,
+            width,
+            height,
+            texels,
+        });
+    }
     let format = sniff_image_format(encoded).ok_or_else(|| {
         let claimed = claimed.unwrap_or_else(|| "unknown format".into());
         format!("unsupported image format ({claimed}); Photon reads PNG, JPEG and WebP")

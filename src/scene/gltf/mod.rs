@@ -9,6 +9,7 @@
 //! split by concern:
 //! - `container`: the `.glb`/`.gltf` container, buffers and URIs (`encoding`: base64 and
 //!   percent-escapes), and the `Loader` that carries the document and the scene being built;
+//!   `meshopt`: buffer views compressed with `EXT_meshopt_compression`, decoded once;
 //! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
 //! - `build`: the entry points, the walk of the default scene and the choice of camera;
 //! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
@@ -20,7 +21,8 @@
 //! - `materials`: materials and their KHR and `PHOTON_*` extensions; `imported_trees`: the
 //!   unlit and specular-glossiness materials as the node trees Blender's importer builds;
 //!   `variants`: `KHR_materials_variants`;
-//! - `textures` and `images`: glTF textures and node trees' images, and their decoding;
+//! - `textures` and `images`: glTF textures and node trees' images, and their decoding (`ktx2`:
+//!   KTX2 images of `KHR_texture_basisu`);
 //! - `lights`: punctual and area lights;
 //! - `world`: the world and the render settings;
 //! - `camera`: cameras, and the camera that frames a scene without one.
@@ -37,9 +39,11 @@ mod gpu_instancing;
 mod hierarchy;
 mod images;
 mod imported_trees;
+mod ktx2;
 mod lights;
 mod materials;
 mod meshes;
+mod meshopt;
 mod motion;
 mod object_info;
 mod skinning;

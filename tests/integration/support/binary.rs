@@ -37,6 +37,17 @@ pub fn assert_success(output: &Output) {
     );
 }
 
+/// `photon render FILE` at 8 × 8 pixels and one sample, the image written into `dir`: for tests
+/// of what a file does to the process (its exit code, its messages).
+pub fn render_tiny(file: &Path, dir: &Path) -> Output {
+    photon()
+        .args(["render", file.to_str().unwrap(), "-o"])
+        .arg(dir.join("x.exr"))
+        .args(["--width", "8", "--height", "8", "--spp", "1"])
+        .output()
+        .unwrap()
+}
+
 /// Standard base64 with padding (for data URIs in test glTF files).
 pub fn base64(bytes: &[u8]) -> String {
     const B64: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
