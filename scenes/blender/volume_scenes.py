@@ -4,7 +4,8 @@ against Cycles (docs/bench/volumes.md).
 - `glass_fog`: a diffuse 6 m floor, a 5 m box of Volume Scatter (density 0.2, Surface unlinked)
   standing on it, a glass sphere (Glass BSDF, roughness 0, IOR 1.45, radius 0.6 m, at height
   1.2 m) inside the fog, and a 0.6 m square area light of 300 W at height 3.5 m facing down;
-  black world. The glass focuses the light into the fog (a volumetric caustic).
+  black world. The glass focuses the light on the floor; at 0 Volume bounces neither renderer
+  shows that caustic in the fog itself (a camera path does not go on from a scattering).
 - `god_rays`: a 4 x 4 x 2.5 m room of one-sided thin walls (Principled, base colour 0.7,
   roughness 1) with a 1.2 x 1 m window in the wall x = -2, a 5 W/m^2 sun through it, and a
   3.9 m cube of haze (Volume Scatter, density 0.15) filling the room; the camera inside sees

@@ -17,10 +17,10 @@ sets them.
 - a spot light in a fog box (Volume Scatter) over a sphere: the light cone (the path tracer and
   the photon method, whose volume photon map holds the light scattered more than once);
 - a Volume Scatter cube with two volume bounces;
-- a glass sphere in a fog box under an area light (a volumetric caustic; relMSE over 4x4
-  blocks <= 0.01, both engines' per-pixel noise being large there);
+- a glass sphere in a fog box under an area light (its caustic on the floor and its shadow in
+  the fog; relMSE over 4x4 blocks <= 0.01, both engines' per-pixel noise being large there);
 - a window-lit room of thin walls filled with haze, the sun through the window (god rays; both
-  methods);
+  methods, and auto, which takes the photon method there);
 - three linked duplicates of one smoke cube (instances of one prototype), each reading its own
   object space through a Noise Texture on Object coordinates;
 - three overlapping Volume objects of one OpenVDB file at different scales (their media add);
@@ -165,11 +165,13 @@ def test_scatter_cube_with_two_volume_bounces(tmp_path):
 
 
 def test_glass_sphere_in_fog(tmp_path):
-    """A glass sphere inside a fog box under a small area light: the light the glass focuses
-    into the fog (a volumetric caustic) is found by phase-sampled rays through the glass in
-    both engines; the fog continues inside the glass (it has no volume of its own)."""
+    """A glass sphere inside a fog box under a small area light: the glass's caustic on the
+    floor (found by BSDF-sampled rays through the glass in both engines) and its shadow in the
+    fog; the fog continues inside the glass (it has no volume of its own). At Blender's default
+    of 0 Volume bounces a camera path does not go on from a scattering in the fog, so neither
+    engine shows the caustic in the fog itself."""
     scene = glass_fog(SIZE)
-    # Per pixel both engines are noisy (the caustic is found by phase-sampled rays alone):
+    # Per pixel both engines are noisy (the caustic is found by BSDF-sampled rays alone):
     # relMSE over 4x4 blocks, where that noise averages out, is the criterion.
     img, ref = compare("glass in fog", scene, tmp_path, photon_spp=1024, cycles_spp=2048,
                        relmse_max=0.05)
@@ -178,10 +180,12 @@ def test_glass_sphere_in_fog(tmp_path):
     assert blocks <= 0.01
 
 
-@pytest.mark.parametrize("method", ["PATH", "PHOTON"])
+@pytest.mark.parametrize("method", ["PATH", "PHOTON", "AUTO"])
 def test_window_lit_room_with_haze(tmp_path, method):
     """God rays: a room of one-sided thin walls with a window, a sun through it, and haze
-    (Volume Scatter) filling the room; the camera inside sees the shaft of light."""
+    (Volume Scatter) filling the room; the camera inside sees the shaft of light. Auto (the
+    add-on's default) takes the photon method here (its pilot counts the haze's direct light
+    with the noise the photon method's segment light samples leave)."""
     scene = god_rays(SIZE)
     compare(f"god rays {method.lower()}", scene, tmp_path,
             photon_spp=1024 if method == "PATH" else 128, cycles_spp=2048, relmse_max=0.02,
