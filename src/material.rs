@@ -2,13 +2,15 @@
 //! `SurfaceMaterial` that shading reads (yocto-gl's `eval_material` habit), following the glTF
 //! 2.0 specification §3.9 (metallic-roughness) and the KHR_materials_transmission, _ior,
 //! _specular, _emissive_strength and _volume extensions. A material with a Blender node tree
-//! (`shader`) is evaluated by its program instead, at the full shading point.
+//! (`shader`) is evaluated by its program instead, at the full shading point, its Ambient
+//! Occlusion and Bevel nodes tracing rays from the point through the scene's BVH
+//! (`TracedScene`).
 
-use crate::accel::{hit_mesh, interpolate};
+use crate::accel::{hit_mesh, interpolate, Accel, Hit, Ray, Visibility, NO_INSTANCE};
 use crate::interaction::{SurfaceHit, View};
 use crate::math::{Vec2, Vec3, Vec4};
-use crate::scene::{Material, Scene, Subsurface, TextureRef};
-use crate::shader::Closure;
+use crate::scene::{blender_axes, Material, Scene, Subsurface, TextureRef};
+use crate::shader::{Closure, LocalHit, SceneRays, Tracing};
 
 /// A material's values at one point, with textures applied. Colours are linear RGB.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -246,12 +248,27 @@ fn gltf_axes(v: Vec3) -> Vec3 {
     Vec3::new(v.x, v.z, -v.y)
 }
 
+/// What a node tree's Ambient Occlusion and Bevel nodes trace where a surface is shaded: the
+/// scene's BVH, and the seed of their random numbers (fixed by the path and the point).
+#[derive(Clone, Copy)]
+pub struct Rays<'a> {
+    pub accel: &'a Accel,
+    pub seed: u64,
+}
+
 /// The material at surface point `sh` seen from `view`: its node tree when it has one (`u` in
 /// [0, 1) picks the
-/// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV with the base
+/// BSDF of Mix and Add Shader nodes; its Ambient Occlusion and Bevel nodes trace `rays`, or
+/// read 1 and the normal without), else `eval_material` at the point's UV with the base
 /// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1),
 /// the clearcoat normal texture and the anisotropy's direction.
-pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> SurfaceMaterial {
+pub fn eval_surface(
+    scene: &Scene,
+    sh: &SurfaceHit,
+    view: View,
+    u: f32,
+    rays: Option<Rays>,
+) -> SurfaceMaterial {
     let material = &scene.materials[sh.material as usize];
     match &material.nodes {
         None => {
@@ -288,12 +305,22 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
             s
         }
         Some(program) => {
+            let traced = rays.map(|r| TracedScene {
+                scene,
+                accel: r.accel,
+                from: sh,
+            });
+            let tracing = traced.as_ref().zip(rays).map(|(t, r)| Tracing {
+                scene: t,
+                seed: r.seed,
+            });
             let mut s = from_closure(
                 material,
-                &program.eval(
+                &program.eval_tracing(
                     &sh.node_inputs(scene, program.needs_offsets, program.reads, view),
                     &scene.textures,
                     u,
+                    tracing.as_ref(),
                 ),
             );
             if s.hair.is_some() {
@@ -301,6 +328,101 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
             }
             s
         }
+    }
+}
+
+/// The scene as the nodes that trace rays see it from the surface point `from`
+/// (`shader::SceneRays`, in Blender's axes). A point's object is its instance, or for a
+/// world-space mesh every mesh of the same glTF node (an object's material slots are meshes
+/// of their own).
+struct TracedScene<'a> {
+    scene: &'a Scene,
+    accel: &'a Accel,
+    from: &'a SurfaceHit,
+}
+
+/// Surfaces a segment of `SceneRays::local_hits` (or an Only Local occlusion ray) passes at
+/// most: past them the rest of the segment is left.
+const MAX_CROSSINGS: usize = 16;
+
+impl TracedScene<'_> {
+    /// Whether `hit` lies on the object of the point the rays leave from.
+    fn on_own_object(&self, hit: &Hit) -> bool {
+        let own = &self.from.hit;
+        if hit.instance != NO_INSTANCE || own.instance != NO_INSTANCE {
+            return hit.instance == own.instance;
+        }
+        let node = |mesh: u32| {
+            let name = &self.scene.meshes[mesh as usize].name;
+            name.split_once('/').map_or(name.as_str(), |(node, _)| node)
+        };
+        hit.mesh == own.mesh || node(hit.mesh) == node(own.mesh)
+    }
+
+    /// Each surface of the point's own object along `ray` in turn, until `visit` returns
+    /// false.
+    fn own_surfaces(&self, mut ray: Ray, mut visit: impl FnMut(&SurfaceHit) -> bool) {
+        for _ in 0..MAX_CROSSINGS {
+            let Some(hit) = self
+                .accel
+                .intersect(self.scene, &ray, Visibility::Secondary)
+            else {
+                return;
+            };
+            let at = SurfaceHit::new(self.scene, &ray, &hit);
+            if self.on_own_object(&hit) && !visit(&at) {
+                return;
+            }
+            ray = Ray {
+                t_max: ray.t_max - hit.t,
+                ..at.spawn(ray.direction)
+            };
+        }
+    }
+}
+
+impl SceneRays for TracedScene<'_> {
+    fn occluded(&self, direction: Vec3, distance: f32, local: bool) -> bool {
+        let ray = Ray {
+            t_max: distance,
+            ..self.from.spawn(gltf_axes(direction))
+        };
+        if !local {
+            return !self.accel.unoccluded(self.scene, &ray);
+        }
+        let mut met = false;
+        self.own_surfaces(ray, |_| {
+            met = true;
+            false
+        });
+        met
+    }
+
+    fn local_hits(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        length: f32,
+        visit: &mut dyn FnMut(LocalHit),
+    ) {
+        let ray = Ray {
+            origin: gltf_axes(origin),
+            direction: gltf_axes(direction),
+            t_max: length,
+            time: self.from.time,
+        };
+        self.own_surfaces(ray, |at| {
+            visit(LocalHit {
+                position: blender_axes(at.p),
+                geometric_normal: blender_axes(at.ng),
+                normal: blender_axes(at.frame.n),
+            });
+            true
+        });
+    }
+
+    fn geometric_normal(&self) -> Vec3 {
+        blender_axes(self.from.ng)
     }
 }
 
