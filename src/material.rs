@@ -323,12 +323,54 @@ pub fn eval_surface(
                     tracing.as_ref(),
                 ),
             );
+            // Cycles' geometric and shading normals are the viewer's side's.
+            let side = if view.backfacing { -1.0 } else { 1.0 };
+            let (ng, shading) = (side * sh.ng, side * sh.frame.n);
+            let valid = |n: Vec3| reflecting_normal(ng, shading, view.wo, n);
+            s.normal = s.normal.map(valid);
+            s.coat_normal = s.coat_normal.map(valid);
             if s.hair.is_some() {
                 on_fibre(scene, sh, view, &mut s);
             }
             s
         }
     }
+}
+
+/// A node tree's normal `n` (unit), as Cycles corrects every BSDF node's normal that differs
+/// from the `shading` normal (`ensure_valid_specular_reflection`): turned towards the
+/// geometric normal `ng`, in the plane of the two, just enough that the mirror direction of
+/// the view `i` about it rises above the surface by min(0.9 cos θ, 0.01) (θ the view's angle
+/// to `ng`; `ng`, `shading` and `i` on the viewer's side). Cycles bends the normal of its
+/// microfacet lobes alone and keeps the diffuse lobe's; Photon's lobes share one frame, and its
+/// diffuse lobe is black seen from below its normal, so the bent normal serves them all
+/// (closer to Cycles than an unbent one: a Bevel's edges seen at a grazing angle, a strong
+/// Bump).
+fn reflecting_normal(ng: Vec3, shading: Vec3, i: Vec3, n: Vec3) -> Vec3 {
+    if n.dot(shading) > 1.0 - 1e-6 {
+        return n;
+    }
+    let iz = i.dot(ng);
+    let rise = (0.9 * iz).min(0.01);
+    if (2.0 * n.dot(i) * n - i).dot(ng) >= rise || !(iz > 0.0) {
+        return n;
+    }
+    // With x the unit direction of n across ng, the normal sought is s x + c ng (s, c ≥ 0,
+    // s² + c² = 1) whose mirror direction rises by `rise`: 2 (s Ix + c Iz) c − Iz = rise.
+    // Squared, a quadratic in z = c²: 4 (Ix² + Iz²) z² − 4 (Ix² + Iz² + Iz rise) z
+    // + (Iz + rise)² = 0, of which the root where s c Ix has the sign of rise + Iz − 2 z Iz.
+    let x = (n - n.dot(ng) * ng).normalize_or(n);
+    let ix = i.dot(x);
+    let a = ix * ix + iz * iz;
+    let b = a + iz * rise;
+    let root = (b * b - a * (iz + rise) * (iz + rise)).max(0.0).sqrt();
+    let z = if ix < 0.0 {
+        (b + root) / (2.0 * a)
+    } else {
+        (b - root) / (2.0 * a)
+    };
+    let z = z.clamp(0.0, 1.0);
+    ((1.0 - z).sqrt() * x + z.sqrt() * ng).normalize_or(n)
 }
 
 /// The scene as the nodes that trace rays see it from the surface point `from`
@@ -543,6 +585,32 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_normal_turned_from_the_viewer_is_bent_until_its_mirror_direction_clears_the_surface() {
+        let ng = Vec3::Z;
+        let rises = |i: Vec3, n: Vec3| (2.0 * n.dot(i) * n - i).dot(ng);
+        for (i, n) in [
+            // A grazing view, the normal leaning away from it (and past it).
+            (Vec3::new(0.95, 0.0, 0.3122), Vec3::new(-0.6, 0.0, 0.8)),
+            (Vec3::new(0.95, 0.0, 0.3122), Vec3::new(-0.8, 0.3, 0.52)),
+            // The normal leaning towards the view too far: the mirror goes under.
+            (Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.9, 0.0, 0.4359)),
+        ] {
+            let (i, n) = (i.normalize(), n.normalize());
+            let bent = reflecting_normal(ng, ng, i, n);
+            let rise = (0.9 * i.z).min(0.01);
+            assert!(rises(i, n) < rise);
+            assert!((rises(i, bent) - rise).abs() < 1e-3, "{i} {n} -> {bent}");
+            assert!((bent.length() - 1.0).abs() < 1e-5);
+        }
+        // A valid normal, and the shading normal itself, are kept.
+        let i = Vec3::new(0.6, 0.0, 0.8);
+        let n = Vec3::new(0.1, 0.2, 0.97).normalize();
+        assert_eq!(reflecting_normal(ng, ng, i, n), n);
+        let flat = Vec3::new(-0.9, 0.0, 0.1).normalize();
+        assert_eq!(reflecting_normal(ng, flat, i, flat), flat);
+    }
 
     #[test]
     fn absorption_follows_beer_lambert() {
