@@ -57,15 +57,15 @@ def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
 
 
 def add_unsupported_features(scene):
-    """An Ambient Occlusion node (a node Photon does not evaluate yet: Noise, for one, it does)
+    """A Particle Info node (a node Photon does not evaluate: Noise, for one, it does)
     into the cube's base colour, a second cube whose volume's density is one too (volume
     trees are evaluated with the nodes surface trees have), and a particle
     system on the cube rendered as halos (hair particles are carried: points_curves.py)."""
     cube = bpy.data.objects["Cube"]
     tree = cube.active_material.node_tree
-    noise = tree.nodes.new("ShaderNodeAmbientOcclusion")
+    noise = tree.nodes.new("ShaderNodeParticleInfo")
     noise.name = "Clouds"
-    tree.links.new(noise.outputs["AO"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    tree.links.new(noise.outputs["Random"], tree.nodes["Principled BSDF"].inputs["Base Color"])
 
     smoke = bpy.data.objects.new("Smoke", cube.data.copy())
     smoke.location = (3.0, 0.0, 0.0)
@@ -75,9 +75,9 @@ def add_unsupported_features(scene):
     nodes = fog.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
     volume = nodes.new("ShaderNodeVolumeScatter")
-    wisps = nodes.new("ShaderNodeAmbientOcclusion")
+    wisps = nodes.new("ShaderNodeParticleInfo")
     wisps.name = "Wisps"
-    fog.node_tree.links.new(wisps.outputs["AO"], volume.inputs["Density"])
+    fog.node_tree.links.new(wisps.outputs["Random"], volume.inputs["Density"])
     fog.node_tree.links.new(volume.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
     smoke.data.materials.clear()
     smoke.data.materials.append(fog)
@@ -101,8 +101,8 @@ def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, r
     add_unsupported_features(scene)
     warnings, status = render_warnings(capfd, route, monkeypatch)
     expected = {
-        "ao node": lambda w: "material 'Material'" in w and "Occlusion node 'Clouds'" in w,
-        "volume": lambda w: "material 'Fog'" in w and "Occlusion node 'Wisps'" in w,
+        "node": lambda w: "material 'Material'" in w and "Particle Info node 'Clouds'" in w,
+        "volume": lambda w: "material 'Fog'" in w and "Particle Info node 'Wisps'" in w,
         "halos": lambda w: "object 'Cube'" in w and "'Sparks' rendered as HALO" in w,
     }
     for feature, matches in expected.items():
