@@ -4,9 +4,10 @@
 //! aspect. Blender's lens shift moves the image window in its plane, and a thin lens (Blender's
 //! depth of field: aperture radius, focus distance, polygonal blades, anamorphic ratio) spreads
 //! ray origins over the aperture while rays through one film point meet on the focus plane, as
-//! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant and equisolid
-//! fisheye) map the image onto directions around the camera; film positions a fisheye does not
-//! cover give a ray that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
+//! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant, equisolid and
+//! polynomial fisheye, mirror ball, equiangular cube-map face) map the image onto directions
+//! around the camera; film positions a fisheye or the mirror ball does not cover give a ray
+//! that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
 //! is open (Blender's motion blur) is placed, per sample, at the pose of a moment within it.
 
 use crate::accel::{Ray, FRAME_TIME};
@@ -157,6 +158,26 @@ impl CameraRays {
                     fisheye_direction(p, r, 2.0 * (r / (2.0 * lens)).asin())
                 }
             }
+            Projection::FisheyePolynomial { k, fov, sensor } => {
+                let p = Vec2::new((u - 0.5) * sensor.0, (v - 0.5) * sensor.1);
+                let r = p.length();
+                let theta = -(k[0] + r * (k[1] + r * (k[2] + r * (k[3] + r * k[4]))));
+                if theta.abs() > 0.5 * fov {
+                    Vec3::ZERO
+                } else {
+                    fisheye_direction(p, r, theta)
+                }
+            }
+            Projection::MirrorBall => mirror_ball_direction(2.0 * u - 1.0, 2.0 * v - 1.0),
+            Projection::CubeMapFace => {
+                let quarter = std::f32::consts::FRAC_PI_2;
+                Vec3::new(
+                    ((u - 0.5) * quarter).tan(),
+                    ((v - 0.5) * quarter).tan(),
+                    -1.0,
+                )
+                .normalize()
+            }
         };
         (Vec3::ZERO, dir)
     }
@@ -188,6 +209,20 @@ fn fisheye_direction(p: Vec2, r: f32, theta: f32) -> Vec3 {
         (1.0, 0.0)
     };
     Vec3::new(cos_phi * theta.sin(), sin_phi * theta.sin(), -theta.cos())
+}
+
+/// The direction a mirror sphere reflects at image point (`a`, `b`) ∈ [−1, 1]² of its outline
+/// (`a` along the image's width, `b` up), the viewer far along the camera's +X: the centre
+/// reflects back towards +X, the rim grazes towards −X; zero outside the outline.
+fn mirror_ball_direction(a: f32, b: f32) -> Vec3 {
+    let r2 = a * a + b * b;
+    if r2 > 1.0 {
+        return Vec3::ZERO;
+    }
+    // The sphere's normal there, and the reflection of the ray from the viewer about it.
+    let normal = Vec3::new((1.0 - r2).max(0.0).sqrt(), b, -a);
+    let to_viewer = Vec3::X;
+    (2.0 * normal.dot(to_viewer) * normal - to_viewer).normalize()
 }
 
 /// A point of the aperture (camera-space x, y), uniform over its area: a disk without blades,

@@ -13,6 +13,9 @@ pub mod gltf;
 pub mod grids;
 pub mod load;
 pub mod sky;
+pub mod sky_hosek;
+mod sky_hosek_data;
+pub mod sky_preetham;
 pub mod texture;
 pub mod units;
 pub mod vdb;
@@ -550,6 +553,20 @@ pub enum Projection {
         fov: f32,
         sensor: (f32, f32),
     },
+    /// Cycles' polynomial fisheye: on a sensor of `sensor` (width, height, millimetres) the
+    /// angle to the camera's −Z at distance r from the centre is −(k0 + k1 r + … + k4 r⁴), cut
+    /// at `fov / 2`.
+    FisheyePolynomial {
+        k: [f32; 5],
+        fov: f32,
+        sensor: (f32, f32),
+    },
+    /// Cycles' mirror ball: the image is a mirror sphere filling the frame, seen from far
+    /// along the camera's +X, each pixel the direction its point of the sphere reflects.
+    MirrorBall,
+    /// Cycles' equiangular cube-map face: the 90° square in front of the camera (−Z), the
+    /// angle (not its tangent) growing linearly across the image.
+    CubeMapFace,
 }
 
 impl Projection {
@@ -1254,6 +1271,13 @@ impl Scene {
             Projection::FisheyeEquisolid { lens, fov, sensor } => [lens, fov, sensor.0, sensor.1]
                 .iter()
                 .all(|v| v.is_finite() && *v > 0.0),
+            Projection::FisheyePolynomial { k, fov, sensor } => {
+                k.iter().all(|v| v.is_finite())
+                    && [fov, sensor.0, sensor.1]
+                        .iter()
+                        .all(|v| v.is_finite() && *v > 0.0)
+            }
+            Projection::MirrorBall | Projection::CubeMapFace => true,
         };
         if !panorama_ok {
             return Err(format!(
