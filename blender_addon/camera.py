@@ -53,8 +53,8 @@ PANORAMAS = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID",
 
 def panorama_extension(camera, width: float, height: float) -> dict:
     """The "panorama" of PHOTON_camera for a panoramic camera (Cycles' projection and its
-    parameters; the equisolid and polynomial fisheyes' sensor fitted to an image of `width` x `height` as Cycles fits
-    it); empty for a projection Photon does not render."""
+    parameters; the equisolid and polynomial fisheyes' sensor fitted to an image of `width` x
+    `height` as Cycles fits it); empty for a projection Photon does not render."""
     kind = camera.panorama_type
     if kind == "EQUIRECTANGULAR":
         return {"type": kind,

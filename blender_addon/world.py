@@ -3,10 +3,10 @@
 `world_description(world, folder)` reads the shader feeding the active World Output as a
 weighted sum of backgrounds (constant colours, an equirectangular environment image written
 next to the .glb as a float EXR, Blender's Nishita, Preetham and Hosek-Wilkie skies), once for
-camera rays and once for the others, and names what it cannot carry (the pre-flight report shows those). Links are followed
-as Cycles follows them (node_graph.py: muted links and nodes, reroutes, node groups). It
-imports only bpy, numpy, node_graph.py and shared.py: it runs in the export's child
-process too.
+camera rays and once for the others, and names what it cannot carry (the pre-flight report
+shows those). Links are followed as Cycles follows them (node_graph.py: muted links and nodes,
+reroutes, node groups). It imports only bpy, numpy, node_graph.py and shared.py: it runs in
+the export's child process too.
 """
 
 from __future__ import annotations
@@ -42,13 +42,13 @@ def world_description(world, folder: Path | None = None) -> tuple[dict, list[str
     feeding the active World Output's Surface, read as a weighted sum of backgrounds:
     Background (and Emission) nodes whose colour is a constant, an Environment Texture
     (written into `folder` as a float EXR, see `environment_extension`) or a Sky Texture of
-    the Nishita, Preetham or Hosek-Wilkie model (its settings, evaluated by the renderer), mixed by Mix Shader (a constant factor)
-    and Add Shader nodes. A Mix Shader whose factor is a Light Path node's "Is Camera Ray"
-    gives camera rays another background than the rest: the tree is read once for each, and
-    when they differ the camera's goes under "camera". One background of weight 1 is written
-    alone ({"color", "strength"[, "environment" | "sky"]}), several under "mix" with their
-    weights. Anything else is named in the problems and left out (a Background's colour fed by
-    another node keeps its own colour value)."""
+    the Nishita, Preetham or Hosek-Wilkie model (its settings, evaluated by the renderer),
+    mixed by Mix Shader (a constant factor) and Add Shader nodes. A Mix Shader whose factor is
+    a Light Path node's "Is Camera Ray" gives camera rays another background than the rest: the
+    tree is read once for each, and when they differ the camera's goes under "camera". One
+    background of weight 1 is written alone ({"color", "strength"[, "environment" | "sky"]}),
+    several under "mix" with their weights. Anything else is named in the problems and left out
+    (a Background's colour fed by another node keeps its own colour value)."""
     black = {"color": [0.0, 0.0, 0.0], "strength": 1.0}
     if world is None:
         return black, []

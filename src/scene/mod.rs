@@ -561,8 +561,9 @@ pub enum Projection {
         fov: f32,
         sensor: (f32, f32),
     },
-    /// Cycles' mirror ball: the image is a mirror sphere filling the frame, seen from far
-    /// along the camera's +X, each pixel the direction its point of the sphere reflects.
+    /// Cycles' mirror ball: the image is a unit mirror sphere filling the frame, each pixel the
+    /// reflection of the camera's −Z about the sphere's normal there (the centre looks along
+    /// −Z, the rim along +Z).
     MirrorBall,
     /// Cycles' equiangular cube-map face: the 90° square in front of the camera (−Z), the
     /// angle (not its tangent) growing linearly across the image.

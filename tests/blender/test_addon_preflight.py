@@ -153,14 +153,15 @@ def test_other_rules(photon_addon):
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
     scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
     scene.camera.data.type = "PANO"
-    scene.camera.data.panorama_type = "MIRRORBALL"
+    scene.camera.data.panorama_type = "CENTRAL_CYLINDRICAL"
     bpy.data.objects["Cube"].visible_shadow = False  # carried (PHOTON_object)
     bpy.data.objects["Cube"].visible_glossy = False
 
     messages = messages_for(scene)
     expected = ("light 'Light': the Wavelength node",
                 "Volume object 'Cloud' is not rendered: it has no OpenVDB file",
-                "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
+                "camera 'Camera': the CENTRAL_CYLINDRICAL panoramic",
+                "object 'Cube': ray visibility")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages

@@ -952,4 +952,56 @@ mod tests {
         );
         assert_eq!((area.power, area.spread), (10.0, PI));
     }
+
+    /// The analytic skies and the panoramas added to Cycles' set are read with their fields
+    /// and defaults; a zero sun direction or an unknown type is refused.
+    #[test]
+    fn analytic_skies_and_more_panoramas_are_read() {
+        let layer = |value| {
+            WorldExtension::read(&json!({ "sky": value }))
+                .map(|mut w| w.background.remove(0).source)
+        };
+        let Ok(BackgroundSource::Sky(sky)) =
+            layer(json!({"type": "HOSEK_WILKIE", "sun_direction": [0, 1, 1]}))
+        else {
+            panic!("a sky");
+        };
+        let SkyModel::HosekWilkie {
+            sun_direction,
+            turbidity,
+            ground_albedo,
+        } = sky.model
+        else {
+            panic!("Hosek-Wilkie");
+        };
+        assert_eq!(
+            (sun_direction, turbidity, ground_albedo),
+            (Vec3::new(0.0, 1.0, 1.0), 2.2, 0.3)
+        );
+        let Ok(BackgroundSource::Sky(sky)) = layer(json!({"type": "PREETHAM", "turbidity": 4}))
+        else {
+            panic!("a sky");
+        };
+        assert!(matches!(sky.model, SkyModel::Preetham { turbidity, .. } if turbidity == 4.0));
+        assert!(layer(json!({"type": "PREETHAM", "sun_direction": [0, 0, 0]})).is_err());
+        assert!(layer(json!({"type": "MULTIPLE_SCATTERING"})).is_err());
+        let panorama =
+            |value| CameraExtension::read(&json!({ "panorama": value })).map(|c| c.panorama);
+        assert_eq!(
+            panorama(json!({"type": "MIRRORBALL"})).ok(),
+            Some(Some(Projection::MirrorBall))
+        );
+        assert_eq!(
+            panorama(
+                json!({"type": "FISHEYE_LENS_POLYNOMIAL", "k": [0, -0.03, 0, 0, 0], "fov": 2})
+            )
+            .ok(),
+            Some(Some(Projection::FisheyePolynomial {
+                k: [0.0, -0.03, 0.0, 0.0, 0.0],
+                fov: 2.0,
+                sensor: (36.0, 24.0)
+            }))
+        );
+        assert!(panorama(json!({"type": "FISHEYE_LENS_POLYNOMIAL", "k": [1, 2]})).is_err());
+    }
 }
