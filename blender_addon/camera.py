@@ -48,7 +48,8 @@ def camera_extension(obj, scene, motion: list | None = None) -> dict:
 
 # The panoramic projections PHOTON_camera carries (the others are named by the pre-flight).
 PANORAMAS = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID",
-             "FISHEYE_LENS_POLYNOMIAL", "MIRRORBALL", "EQUIANGULAR_CUBEMAP_FACE")
+             "FISHEYE_LENS_POLYNOMIAL", "MIRRORBALL", "EQUIANGULAR_CUBEMAP_FACE",
+             "CENTRAL_CYLINDRICAL")
 
 
 def panorama_extension(camera, width: float, height: float) -> dict:
@@ -72,6 +73,14 @@ def panorama_extension(camera, width: float, height: float) -> dict:
             return {"type": kind, "k": k, "fov": float(camera.fisheye_fov), "sensor": sensor}
         return {"type": kind, "lens": float(camera.fisheye_lens),
                 "fov": float(camera.fisheye_fov), "sensor": sensor}
+    if kind == "CENTRAL_CYLINDRICAL":
+        # Heights on the cylinder in units of its radius, as Cycles takes them.
+        radius = max(float(camera.central_cylindrical_radius), 1e-6)
+        return {"type": kind,
+                "longitude": [float(camera.central_cylindrical_range_u_min),
+                              float(camera.central_cylindrical_range_u_max)],
+                "height": [float(camera.central_cylindrical_range_v_min) / radius,
+                           float(camera.central_cylindrical_range_v_max) / radius]}
     if kind in ("MIRRORBALL", "EQUIANGULAR_CUBEMAP_FACE"):
         return {"type": kind}
     return {}

@@ -34,8 +34,8 @@ empty list, so the rules below only flag what really changes the image:
 - shadow catchers without a transparent film, Cycles' Shadow Catcher pass;
 - render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
-- cameras: the central cylindrical panorama, depth of field with a panorama, a depth-of-field
-  focus on a bone; with motion blur on, deforming objects other than meshes (armatures,
+- cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
+  on a bone; with motion blur on, deforming objects other than meshes (armatures,
   animated shape keys of curves, surfaces, text: meshes' deformation is blurred).
 """
 
@@ -335,6 +335,9 @@ def _camera_features(camera_object) -> list[str]:
     if camera.type == "PANO" and camera.panorama_type not in PANORAMAS:
         messages.append(f"{what}: the {camera.panorama_type} panoramic projection is not "
                         f"exported; Photon renders a perspective view")
+    elif camera.type == "CUSTOM":
+        messages.append(f"{what}: Cycles' custom (OSL) camera is not exported; Photon renders "
+                        f"a perspective view")
     elif camera.type == "PANO" and camera.dof.use_dof:
         messages.append(f"{what}: depth of field is not rendered with a panoramic camera")
     if camera.dof.use_dof and camera.dof.focus_object is not None and camera.dof.focus_subtarget:

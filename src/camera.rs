@@ -5,9 +5,9 @@
 //! depth of field: aperture radius, focus distance, polygonal blades, anamorphic ratio) spreads
 //! ray origins over the aperture while rays through one film point meet on the focus plane, as
 //! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant, equisolid and
-//! polynomial fisheye, mirror ball, equiangular cube-map face) map the image onto directions
-//! around the camera; film positions a fisheye or the mirror ball does not cover give a ray
-//! that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
+//! polynomial fisheye, mirror ball, central cylindrical, equiangular cube-map face) map the image
+//! onto directions around the camera; film positions a fisheye or the mirror ball does not
+//! cover give a ray that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
 //! is open (Blender's motion blur) is placed, per sample, at the pose of a moment within it.
 
 use crate::accel::{Ray, FRAME_TIME};
@@ -169,6 +169,11 @@ impl CameraRays {
                 }
             }
             Projection::MirrorBall => mirror_ball_direction(2.0 * u - 1.0, 2.0 * v - 1.0),
+            Projection::CentralCylindrical { longitude, height } => {
+                let lon = longitude.0 + u * (longitude.1 - longitude.0);
+                let h = height.0 + v * (height.1 - height.0);
+                Vec3::new(lon.sin(), h, -lon.cos()).normalize()
+            }
             Projection::CubeMapFace => {
                 let quarter = std::f32::consts::FRAC_PI_2;
                 Vec3::new(

@@ -942,6 +942,7 @@ fn run_info(path: &Path, options: &LoadOptions, quality: Quality) -> Result<()> 
             format!("panoramic, polynomial fisheye {:.1} deg", fov.to_degrees())
         }
         Projection::MirrorBall => "panoramic, mirror ball".to_string(),
+        Projection::CentralCylindrical { .. } => "panoramic, central cylindrical".to_string(),
         Projection::CubeMapFace => "panoramic, equiangular cube-map face".to_string(),
     };
     println!("camera: '{}', {projection}", scene.camera.name);

@@ -565,6 +565,14 @@ pub enum Projection {
     /// reflection of the camera's −Z about the sphere's normal there (the centre looks along
     /// −Z, the rim along +Z).
     MirrorBall,
+    /// Cycles' central cylindrical panorama: longitude (radians, 0 along the camera's −Z,
+    /// positive towards +X) from `longitude.0` at the left edge to `longitude.1` at the right,
+    /// and height on a cylinder of radius 1 around the camera's Y axis from `height.0` at the
+    /// bottom to `height.1` at the top, each direction pointing at its cylinder point.
+    CentralCylindrical {
+        longitude: (f32, f32),
+        height: (f32, f32),
+    },
     /// Cycles' equiangular cube-map face: the 90° square in front of the camera (−Z), the
     /// angle (not its tangent) growing linearly across the image.
     CubeMapFace,
@@ -1277,6 +1285,11 @@ impl Scene {
                     && [fov, sensor.0, sensor.1]
                         .iter()
                         .all(|v| v.is_finite() && *v > 0.0)
+            }
+            Projection::CentralCylindrical { longitude, height } => {
+                [longitude.0, longitude.1, height.0, height.1]
+                    .iter()
+                    .all(|v| v.is_finite())
             }
             Projection::MirrorBall | Projection::CubeMapFace => true,
         };

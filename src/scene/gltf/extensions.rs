@@ -475,10 +475,15 @@ fn read_panorama(fields: Fields) -> Read<Projection> {
             })
         }
         Some("MIRRORBALL") => Ok(Projection::MirrorBall),
+        Some("CENTRAL_CYLINDRICAL") => Ok(Projection::CentralCylindrical {
+            longitude: fields.pair("longitude", (-PI, PI), finite)?,
+            height: fields.pair("height", (-1.0, 1.0), finite)?,
+        }),
         Some("EQUIANGULAR_CUBEMAP_FACE") => Ok(Projection::CubeMapFace),
         other => Err(fields.fail(format!(
             "unknown panorama type {other:?} (EQUIRECTANGULAR, FISHEYE_EQUIDISTANT, \
-             FISHEYE_EQUISOLID, FISHEYE_LENS_POLYNOMIAL, MIRRORBALL or EQUIANGULAR_CUBEMAP_FACE)"
+             FISHEYE_EQUISOLID, FISHEYE_LENS_POLYNOMIAL, MIRRORBALL, CENTRAL_CYLINDRICAL or \
+             EQUIANGULAR_CUBEMAP_FACE)"
         ))),
     }
 }
