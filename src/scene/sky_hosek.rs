@@ -29,8 +29,8 @@ pub struct HosekSky {
     radiances: [f32; 3],
 }
 
-/// The quintic Bézier curve through `points` (six control points `stride` apart from `first`)
-/// at `t` ∈ [0, 1].
+/// The quintic Bézier curve whose six control points are `data[first + k × stride]`, at
+/// `t` ∈ [0, 1].
 fn bezier(data: &[f64], first: usize, stride: usize, t: f64) -> f64 {
     const BINOMIAL: [f64; 6] = [1.0, 5.0, 10.0, 10.0, 5.0, 1.0];
     (0..6)

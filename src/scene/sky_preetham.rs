@@ -109,8 +109,8 @@ mod tests {
     use super::*;
 
     /// The zenith's distribution value is divided out, so the zenith's luminance is the
-    /// paper's fit (× Cycles' 0.06): for turbidity 2.2 and the sun 30° above
-    /// the horizon, (4.0453 T − 4.9710) tan χ − 0.2155 T + 2.4192 = 4.17 kcd/m².
+    /// paper's fit (× Cycles' 0.06): for turbidity 2.2 and the sun 30° above the horizon,
+    /// (4.0453 T − 4.9710) tan χ − 0.2155 T + 2.4192 = 3.83 kcd/m².
     #[test]
     fn the_zenith_has_the_fitted_luminance() {
         let sun = Vec3::new(0.0, 60f32.to_radians().sin(), 30f32.to_radians().sin());

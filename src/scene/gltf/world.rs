@@ -1,6 +1,7 @@
 //! The scene-level extensions: `PHOTON_world` (a constant colour, an equirectangular EXR or
-//! Blender's Nishita, Preetham or Hosek-Wilkie sky baked into a map, a Nishita sun as a light; mixes of them; what camera
-//! rays see) and `PHOTON_render` (resolution, transparent film, pixel filter).
+//! Blender's Nishita, Preetham or Hosek-Wilkie sky baked into a map, a Nishita sun as a light;
+//! mixes of them; what camera rays see) and `PHOTON_render` (resolution, transparent film,
+//! pixel filter).
 
 use super::container::Loader;
 use super::extensions::{
