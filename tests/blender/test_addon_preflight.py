@@ -152,15 +152,15 @@ def test_other_rules(photon_addon):
     # Carried as tubes (points_curves.py): no message.
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
     scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
-    scene.camera.data.type = "PANO"
-    scene.camera.data.panorama_type = "MIRRORBALL"
+    scene.camera.data.type = "CUSTOM"
     bpy.data.objects["Cube"].visible_shadow = False  # carried (PHOTON_object)
     bpy.data.objects["Cube"].visible_glossy = False
 
     messages = messages_for(scene)
     expected = ("light 'Light': the Wavelength node",
                 "Volume object 'Cloud' is not rendered: it has no OpenVDB file",
-                "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
+                "camera 'Camera': Cycles' custom (OSL) camera",
+                "object 'Cube': ray visibility")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages
