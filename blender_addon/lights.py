@@ -51,9 +51,9 @@ def light_extension(obj) -> dict:
     light's colour x its blackbody colour when "Temperature" is on x the colour of the Emission
     node of its node tree; power x 2^exposure x the node's strength), which the glTF exporter
     gets wrong with a node tree (it keeps only the node's colour); plus what glTF cannot say:
-    point/spot radius, Soft Falloff and which rays see the lamp (camera; scattered rays when
-    diffuse, glossy and transmission visibility are all on), Cycles' exact spot cone (size and
-    blend), sun angle, area lights."""
+    point/spot radius, Soft Falloff and which rays see the lamp (camera, also for a sun's
+    disc; scattered rays when diffuse, glossy and transmission visibility are all on), Cycles'
+    exact spot cone (size and blend), sun angle, area lights."""
     light = obj.data
     color, strength = light_tint(light)
     scale = 2.0 ** float(getattr(light, "exposure", 0.0)) * strength
@@ -70,7 +70,7 @@ def light_extension(obj) -> dict:
         return data
     if light.type == "SUN":
         return {"angle": float(light.angle), "strength": float(light.energy) * scale,
-                "color": color}
+                "color": color, "visible_camera": bool(getattr(obj, "visible_camera", False))}
     if light.type != "AREA":
         return {}
     size = float(light.size)

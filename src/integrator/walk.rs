@@ -294,17 +294,21 @@ impl PathState {
         self.beta.is_finite() && self.beta != Vec3::ZERO
     }
 
-    /// The ray left the scene: the world's light, MIS-weighted.
-    fn escaped(&mut self, ctx: &Context) {
+    /// The ray left the scene: the world's light, MIS-weighted (`camera`: a camera ray).
+    fn escaped(&mut self, ctx: &Context, camera: bool) {
         let pass = self.pass(0, FirstVertex::Surface);
         let (beta, previous) = (self.beta, self.previous);
         let (clamp, direct) = (self.clamp, self.direct_clamp(0));
         let passes = &mut self.passes;
-        ctx.lights
-            .escaped(previous.receiver(), self.ray.direction, |le, light_pdf| {
+        ctx.lights.escaped(
+            previous.receiver(),
+            self.ray.direction,
+            camera,
+            |le, light_pdf| {
                 let l = beta * le * previous.weight(light_pdf);
                 passes.add(pass, clamp.apply(l, direct));
-            });
+            },
+        );
     }
 
     /// The lamps the ray to the next vertex meets before `reach` (`Lights::lamps_met`),
@@ -664,7 +668,7 @@ fn walk_from(
                     Some(seen) if visibility == Visibility::Camera => {
                         state.add(0, seen.radiance(ray.direction));
                     }
-                    _ => state.escaped(ctx),
+                    _ => state.escaped(ctx, visibility == Visibility::Camera),
                 }
             }
             if depth == 0 {
@@ -883,7 +887,7 @@ pub fn follow_specular(
             if let Some(le) = emission {
                 let beta = chain.beta;
                 ctx.lights
-                    .escaped(Receiver::at(ray.origin), wi, |l, _| *le += beta * l);
+                    .escaped(Receiver::at(ray.origin), wi, false, |l, _| *le += beta * l);
             }
             return None;
         };

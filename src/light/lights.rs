@@ -65,7 +65,8 @@ pub struct Lights {
     lamps: LampSet,
     world: Option<u32>,
     environment: Option<EnvironmentLight>,
-    suns: Vec<u32>,
+    /// The suns' sources, and whether camera rays see their discs.
+    suns: Vec<(u32, bool)>,
     scene_center: Vec3,
     scene_radius: f32,
     /// Some material lets shadow rays through where its node tree gives a Transparent BSDF:
@@ -199,8 +200,9 @@ impl Lights {
                     direction,
                     irradiance,
                     angle,
+                    camera,
                 } => {
-                    suns.push(sources.len() as u32);
+                    suns.push((sources.len() as u32, camera));
                     let half = (0.5 * angle).clamp(0.0, 0.5 * PI);
                     sources.push(LightSource::Sun {
                         to_sun: -direction.normalize_or(-Vec3::Z),
@@ -240,7 +242,7 @@ impl Lights {
             }
         }
         let soft_sun = suns.iter().any(
-            |&s| matches!(sources[s as usize], LightSource::Sun { cos_max, .. } if cos_max < 1.0),
+            |&(s, _)| matches!(sources[s as usize], LightSource::Sun { cos_max, .. } if cos_max < 1.0),
         );
         let emitting_mesh = mesh_first_light.iter().any(Option::is_some)
             || instance_light.iter().any(Option::is_some);
@@ -672,13 +674,23 @@ impl Lights {
 
     /// Radiance of distant emitters (world and soft suns) seen along `dir`, each paired with its
     /// light-sampling density for MIS at `from`, the vertex the ray left: returns (radiance,
-    /// pdf) per emitter via `visit`.
-    pub fn escaped(&self, from: Receiver, dir: Vec3, mut visit: impl FnMut(Vec3, f32)) {
+    /// pdf) per emitter via `visit`. A `camera` ray misses the discs of suns hidden from the
+    /// camera.
+    pub fn escaped(
+        &self,
+        from: Receiver,
+        dir: Vec3,
+        camera: bool,
+        mut visit: impl FnMut(Vec3, f32),
+    ) {
         if let Some(w) = self.world {
             let (radiance, pdf) = self.world_radiance(dir);
             visit(radiance, self.pick_pmf(from, w as usize) * pdf);
         }
-        for &s in &self.suns {
+        for &(s, seen_by_camera) in &self.suns {
+            if camera && !seen_by_camera {
+                continue;
+            }
             if let LightSource::Sun {
                 to_sun,
                 irradiance,

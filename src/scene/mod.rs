@@ -498,6 +498,9 @@ pub enum Light {
         irradiance: Vec3,
         /// Angular diameter in radians (Blender's sun angle); 0 is a hard sun.
         angle: f32,
+        /// Camera rays see the disc of a sun with an angle (the light object's
+        /// `visible_camera`); other rays always do.
+        camera: bool,
     },
 }
 
@@ -1219,6 +1222,7 @@ impl Scene {
                     direction,
                     irradiance,
                     angle,
+                    ..
                 } => direction.is_finite() && irradiance.is_finite() && angle.is_finite(),
             };
             if !ok {

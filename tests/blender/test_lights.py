@@ -129,3 +129,18 @@ def test_blackbody_node_on_a_light(tmp_path):
     tree.links.new(blackbody.outputs["Color"], tree.nodes["Emission"].inputs["Color"])
     compare("blackbody node 3500 K", scene, tmp_path)
     assert light.temperature == 6500.0, "the light's temperature is put back"
+
+
+@pytest.mark.parametrize("visible", [False, True])
+def test_sun_disc_seen_by_the_camera_only_when_visible(tmp_path, visible):
+    """A sun of 10 degrees in view of a camera looking up over the floor: its disc is in the
+    image only with the light's Ray Visibility > Camera on (off by default for lights, so a
+    default sun's disc is not seen); it lights the floor either way."""
+    scene = floor_scene(world=0.1)
+    camera = scene.camera
+    camera.location = (0.0, -3.0, 0.6)
+    camera.rotation_euler = (math.radians(95.0), 0.0, 0.0)
+    sun = common.light("Sun", "SUN", (0, 0, 5), (-80.0, 0.0, 0.0), energy=3.0,
+                       angle=math.radians(10.0))
+    sun.visible_camera = visible
+    compare(f"sun disc visible {visible}", scene, tmp_path)

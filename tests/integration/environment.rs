@@ -258,6 +258,7 @@ fn nishita_sky_becomes_a_map_and_a_sun() {
         direction,
         irradiance,
         angle,
+        ..
     }] = scene.lights[..]
     else {
         panic!("one sun expected: {:?}", scene.lights);

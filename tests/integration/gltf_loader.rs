@@ -194,6 +194,7 @@ fn materials_scene_has_glass_metal_texture_sun_and_world() {
         irradiance,
         angle,
         direction,
+        ..
     } = &scene.lights[0]
     {
         assert!(close(*irradiance, Vec3::splat(3.0)));
@@ -851,6 +852,7 @@ fn sun_direction_is_the_nodes_minus_z_and_lux_become_watts() {
         direction,
         irradiance,
         angle,
+        ..
     } = &scene.lights[0]
     else {
         panic!("not a sun")

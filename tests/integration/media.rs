@@ -182,6 +182,7 @@ fn a_world_volume_stops_the_sun() {
             direction: Vec3::new(0.2, -1.0, 0.1).normalize(),
             irradiance: Vec3::splat(3.0),
             angle: 0.0,
+            camera: true,
         }],
         camera_looking_at(
             Vec3::new(0.0, 3.0, 3.0),

@@ -431,6 +431,7 @@ fn aimed_caustic_photons_carry_the_same_flux_as_unaimed_ones() {
             direction: Vec3::new(0.3, -1.0, 0.1).normalize(),
             irradiance: Vec3::splat(2.0),
             angle: 0.05,
+            camera: true,
         },
     ];
     let mut setups: Vec<(String, Scene)> = Vec::new();

@@ -92,6 +92,7 @@ fn sun_irradiance_follows_the_cosine_law() {
             direction,
             irradiance: Vec3::splat(3.0),
             angle: 0.0,
+            camera: true,
         },
     );
     let image = render_with(&scene, &settings(8, 4));
@@ -113,6 +114,7 @@ fn soft_sun_gives_the_same_irradiance_as_a_hard_sun() {
             direction,
             irradiance: Vec3::splat(2.0),
             angle: 0.2,
+            camera: true,
         },
     );
     let image = render_with(&scene, &settings(8, 64));
@@ -441,4 +443,34 @@ fn emission_rays_keep_the_image_and_smooth_the_lamps_edges() {
             "pixel {i}"
         );
     }
+}
+
+/// A soft sun's disc is seen by camera rays only when the light is visible to the camera
+/// (Blender's Ray Visibility › Camera on the light object); it lights the scene either way.
+#[test]
+fn a_sun_hidden_from_the_camera_shows_no_disc_but_still_lights() {
+    let sun = |camera| Light::Sun {
+        direction: Vec3::new(0.0, -1.0, -1.0).normalize(),
+        irradiance: Vec3::splat(2.0),
+        angle: 0.2,
+        camera,
+    };
+    let looking_at_the_sun = |camera| {
+        let mut scene = scenes::lit_floor(1.0, sun(camera));
+        scene.meshes.clear();
+        scene.camera = scenes::camera_looking_at(
+            Vec3::ZERO,
+            Vec3::new(0.0, 1.0, 1.0),
+            Projection::Perspective { yfov: 0.1 },
+        );
+        render_with(&scene, &settings(8, 4)).mean_rgb().x
+    };
+    assert!(looking_at_the_sun(true) > 1.0, "the disc is seen");
+    assert_eq!(looking_at_the_sun(false), 0.0, "the disc is hidden");
+    let floor = |camera| {
+        render_with(&scenes::lit_floor(1.0, sun(camera)), &settings(8, 16))
+            .mean_rgb()
+            .x
+    };
+    assert_eq!(floor(true), floor(false), "it lights the floor either way");
 }

@@ -204,6 +204,7 @@ fn slab_with(method: SubsurfaceMethod, colour: Vec3, mfp: f32, ior: f32, e: f32)
             direction: -Vec3::Y,
             irradiance: Vec3::splat(e),
             angle: 0.0,
+            camera: true,
         },
     );
     s.meshes = vec![scenes::floor(2.0, 0.0, 0)];

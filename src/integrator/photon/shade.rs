@@ -522,7 +522,7 @@ impl<'a> Gather<'a> {
             let Some(hit) = hit else {
                 let (through, mut l) = (along.through, along.lamps);
                 ctx.lights
-                    .escaped(previous.receiver(), ray.direction, |le, lpdf| {
+                    .escaped(previous.receiver(), ray.direction, false, |le, lpdf| {
                         l += through * (le * previous.weight(lpdf))
                     });
                 return Err((l, along.scattered));

@@ -84,6 +84,7 @@ impl Loader {
                         None => color * units::lux_to_watts_per_m2(light.intensity()),
                     },
                     angle: extension.angle,
+                    camera: extension.lamp.camera,
                 }
             }
         };

@@ -195,6 +195,7 @@ fn bake_sky(sky: &SkyTexture, strength: f32, space: WorkingSpace) -> (Environmen
         direction: -(to_map.transpose() * sun.direction),
         irradiance: space.convert_rec709(sun.irradiance) * strength,
         angle: sun.angle,
+        camera: true,
     });
     (map, sun)
 }
