@@ -246,30 +246,11 @@ def material_features(material) -> list[str]:
             messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film is not rendered "
                             f"(the node tree is not evaluated, and glTF carries no film); the "
                             f"surface renders without its iridescence")
-    if evaluated and bpy.app.version >= (5, 0, 0):
-        messages += _metallic_thin_film(what, upstream(output.inputs["Surface"]))
     messages += _volume_features(material, output)
     displacement = output.inputs.get("Displacement")
     displaced = source(displacement).node if displacement is not None else None
     if displaced is not None and not (evaluated and "displacement" in extension):
         messages.append(f"{what}: displacement ('{displaced.name}') is not exported")
-    return messages
-
-
-def _metallic_thin_film(what, feeding) -> list[str]:
-    """Blender 5 puts a Principled BSDF's Thin Film on its metallic layer too; Photon renders
-    the film as Blender 4.5 does, on the specular layer and glass only."""
-    messages = []
-    for found in feeding:
-        node = found.node
-        if node.type != "BSDF_PRINCIPLED":
-            continue
-        used = [source(node.inputs[name], found.groups).linked
-                or node.inputs[name].default_value > 0.0
-                for name in ("Metallic", "Thin Film Thickness")]
-        if all(used):
-            messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film on the metallic "
-                            f"layer (Blender 5) is not rendered; the metal renders without it")
     return messages
 
 

@@ -5,6 +5,7 @@
 //! (`shader`) is evaluated by its program instead, at the full shading point.
 
 use crate::accel::{hit_mesh, interpolate};
+use crate::bsdf::thin_film::FilmModel;
 use crate::interaction::{SurfaceHit, View};
 use crate::math::{Vec2, Vec3, Vec4};
 use crate::scene::{Material, Scene, Subsurface, TextureRef};
@@ -60,6 +61,8 @@ pub struct SurfaceMaterial {
     /// on the specular layer and the glass (`bsdf::thin_film`).
     pub thin_film_thickness: f32,
     pub thin_film_ior: f32,
+    /// Whose Cycles' film it is (`bsdf::thin_film::FilmModel`).
+    pub thin_film_model: FilmModel,
     /// How much of the film's reflectance replaces the film-free one (1: all, as Blender's;
     /// KHR_materials_iridescence's iridescenceFactor).
     pub thin_film_weight: f32,
@@ -129,6 +132,7 @@ impl Default for SurfaceMaterial {
             diffuse_roughness: 0.0,
             thin_film_thickness: 0.0,
             thin_film_ior: 1.33,
+            thin_film_model: FilmModel::Blender4,
             thin_film_weight: 1.0,
             transparent: false,
             translucent: false,
@@ -402,6 +406,11 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         diffuse_roughness: c.diffuse_roughness,
         thin_film_thickness: c.thin_film_thickness,
         thin_film_ior: c.thin_film_ior,
+        thin_film_model: if c.thin_film_blender_5 {
+            FilmModel::Blender5
+        } else {
+            FilmModel::Blender4
+        },
         thin_film_weight: 1.0,
         transparent: c.transparent,
         translucent: c.translucent,
