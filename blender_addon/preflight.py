@@ -31,7 +31,7 @@ empty list, so the rules below only flag what really changes the image:
   Visibility; camera and shadow visibility and holdout objects and collections are carried),
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
-- shadow catchers without a transparent film, Cycles' Shadow Catcher pass;
+- shadow catchers without a transparent film;
 - render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
 - cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
@@ -91,7 +91,7 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
                         f"tracks volumes exactly, without ray-marching steps")
     messages += light_path_features(scene)
     messages += light_linking_features(scene, objects)
-    messages += shadow_catcher_features(scene, objects, view_layer)
+    messages += shadow_catcher_features(scene, objects)
     for layer_collection in _layer_collections(view_layer):
         what = f"collection '{layer_collection.name}'"
         if layer_collection.exclude:
@@ -143,9 +143,9 @@ def light_path_features(scene) -> list[str]:
     return messages
 
 
-def shadow_catcher_features(scene, objects, view_layer) -> list[str]:
+def shadow_catcher_features(scene, objects) -> list[str]:
     """What of Blender's shadow catchers Photon does not render: catchers without a
-    transparent film (rendered as the objects they are), and Cycles' Shadow Catcher pass."""
+    transparent film (rendered as the objects they are)."""
     # Light objects report is_shadow_catcher too; only geometry catches shadows.
     catchers = sorted(obj.name for obj in objects if obj.type in GEOMETRY_TYPES
                       and getattr(obj, "is_shadow_catcher", False))
@@ -156,10 +156,6 @@ def shadow_catcher_features(scene, objects, view_layer) -> list[str]:
     if not scene.render.film_transparent:
         messages.append(f"shadow catcher ({names}): only rendered with Film > Transparent; "
                         f"Photon renders it as the object it is")
-    layer_cycles = getattr(view_layer, "cycles", None)
-    if getattr(layer_cycles, "use_pass_shadow_catcher", False):
-        messages.append("view layer: the Shadow Catcher pass is not written (the Combined pass "
-                        "holds the caught shadows in its alpha)")
     return messages
 
 
