@@ -47,13 +47,15 @@ def camera_extension(obj, scene, motion: list | None = None) -> dict:
 
 
 # The panoramic projections PHOTON_camera carries (the others are named by the pre-flight).
-PANORAMAS = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID")
+PANORAMAS = ("EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID",
+             "FISHEYE_LENS_POLYNOMIAL", "MIRRORBALL", "EQUIANGULAR_CUBEMAP_FACE",
+             "CENTRAL_CYLINDRICAL")
 
 
 def panorama_extension(camera, width: float, height: float) -> dict:
     """The "panorama" of PHOTON_camera for a panoramic camera (Cycles' projection and its
-    parameters; the equisolid sensor fitted to an image of `width` x `height` as Cycles fits
-    it); empty for a projection Photon does not render."""
+    parameters; the equisolid and polynomial fisheyes' sensor fitted to an image of `width` x
+    `height` as Cycles fits it); empty for a projection Photon does not render."""
     kind = camera.panorama_type
     if kind == "EQUIRECTANGULAR":
         return {"type": kind,
@@ -61,13 +63,26 @@ def panorama_extension(camera, width: float, height: float) -> dict:
                 "latitude": [float(camera.latitude_min), float(camera.latitude_max)]}
     if kind == "FISHEYE_EQUIDISTANT":
         return {"type": kind, "fov": float(camera.fisheye_fov)}
-    if kind == "FISHEYE_EQUISOLID":
+    if kind in ("FISHEYE_EQUISOLID", "FISHEYE_LENS_POLYNOMIAL"):
         fit = camera.sensor_fit
         horizontal = width > height if fit == "AUTO" else fit == "HORIZONTAL"
         size = float(camera.sensor_height if fit == "VERTICAL" else camera.sensor_width)
         sensor = [size, size * height / width] if horizontal else [size * width / height, size]
+        if kind == "FISHEYE_LENS_POLYNOMIAL":
+            k = [float(getattr(camera, f"fisheye_polynomial_k{i}")) for i in range(5)]
+            return {"type": kind, "k": k, "fov": float(camera.fisheye_fov), "sensor": sensor}
         return {"type": kind, "lens": float(camera.fisheye_lens),
                 "fov": float(camera.fisheye_fov), "sensor": sensor}
+    if kind == "CENTRAL_CYLINDRICAL":
+        # Heights on the cylinder in units of its radius, as Cycles takes them.
+        radius = max(float(camera.central_cylindrical_radius), 1e-6)
+        return {"type": kind,
+                "longitude": [float(camera.central_cylindrical_range_u_min),
+                              float(camera.central_cylindrical_range_u_max)],
+                "height": [float(camera.central_cylindrical_range_v_min) / radius,
+                           float(camera.central_cylindrical_range_v_max) / radius]}
+    if kind in ("MIRRORBALL", "EQUIANGULAR_CUBEMAP_FACE"):
+        return {"type": kind}
     return {}
 
 

@@ -46,6 +46,8 @@ SETTINGS = {
     "ShaderNodeObjectInfo": (),
     "ShaderNodeWireframe": ("use_pixel_size",),
     "ShaderNodeLightPath": (),
+    "ShaderNodeAmbientOcclusion": ("samples", "inside", "only_local"),
+    "ShaderNodeBevel": ("samples",),
     "ShaderNodeValue": (),
     "ShaderNodeRGB": (),
     "ShaderNodeMapping": ("vector_type",),

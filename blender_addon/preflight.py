@@ -10,8 +10,8 @@ empty list, so the rules below only flag what really changes the image:
   other nodes it follows), unless the whole tree is one Photon evaluates itself (node_tree.py:
   it is then exported as PHOTON_material_nodes and nothing is dropped), and what of the world's
   node tree PHOTON_world does not carry (world.world_problems: anything but Background,
-  Emission, Environment Texture, Nishita Sky Texture, Mix Shader with a constant or "Is Camera
-  Ray" factor and Add Shader);
+  Emission, Environment Texture, Sky Texture of any model but Blender 5's Multiple Scattering,
+  Mix Shader with a constant or "Is Camera Ray" factor and Add Shader);
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
   (the tree route renders it; glTF carries no film), and under Blender 5 the film on a metallic
   Principled BSDF (Blender 5 puts it on the metal too, Photon as 4.5 does not); a Principled
@@ -34,10 +34,9 @@ empty list, so the rules below only flag what really changes the image:
 - shadow catchers without a transparent film;
 - render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
-- cameras: mirror ball, polynomial fisheye, cube-map face and cylindrical panoramas, depth of
-  field with a panorama, a depth-of-field focus on a bone; with motion blur on, deforming
-  objects other than meshes (armatures, animated shape keys of curves, surfaces, text:
-  meshes' deformation is blurred).
+- cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
+  on a bone; with motion blur on, deforming objects other than meshes (armatures,
+  animated shape keys of curves, surfaces, text: meshes' deformation is blurred).
 """
 
 from __future__ import annotations
@@ -313,6 +312,9 @@ def _camera_features(camera_object) -> list[str]:
     if camera.type == "PANO" and camera.panorama_type not in PANORAMAS:
         messages.append(f"{what}: the {camera.panorama_type} panoramic projection is not "
                         f"exported; Photon renders a perspective view")
+    elif camera.type == "CUSTOM":
+        messages.append(f"{what}: Cycles' custom (OSL) camera is not exported; Photon renders "
+                        f"a perspective view")
     elif camera.type == "PANO" and camera.dof.use_dof:
         messages.append(f"{what}: depth of field is not rendered with a panoramic camera")
     if camera.dof.use_dof and camera.dof.focus_object is not None and camera.dof.focus_subtarget:

@@ -2,11 +2,11 @@
 
 `world_description(world, folder)` reads the shader feeding the active World Output as a
 weighted sum of backgrounds (constant colours, an equirectangular environment image written
-next to the .glb as a float EXR, Blender's Nishita sky), once for camera rays and once for the
-others, and names what it cannot carry (the pre-flight report shows those). Links are followed
-as Cycles follows them (node_graph.py: muted links and nodes, reroutes, node groups). It
-imports only bpy, numpy, node_graph.py and shared.py: it runs in the export's child
-process too.
+next to the .glb as a float EXR, Blender's Nishita, Preetham and Hosek-Wilkie skies), once for
+camera rays and once for the others, and names what it cannot carry (the pre-flight report
+shows those). Links are followed as Cycles follows them (node_graph.py: muted links and nodes,
+reroutes, node groups). It imports only bpy, numpy, node_graph.py and shared.py: it runs in
+the export's child process too.
 """
 
 from __future__ import annotations
@@ -41,14 +41,14 @@ def world_description(world, folder: Path | None = None) -> tuple[dict, list[str
     Without nodes the world's viewport colour; without a world black. With nodes, the shader
     feeding the active World Output's Surface, read as a weighted sum of backgrounds:
     Background (and Emission) nodes whose colour is a constant, an Environment Texture
-    (written into `folder` as a float EXR, see `environment_extension`) or a Nishita Sky
-    Texture (its settings, evaluated by the renderer), mixed by Mix Shader (a constant factor)
-    and Add Shader nodes. A Mix Shader whose factor is a Light Path node's "Is Camera Ray"
-    gives camera rays another background than the rest: the tree is read once for each, and
-    when they differ the camera's goes under "camera". One background of weight 1 is written
-    alone ({"color", "strength"[, "environment" | "sky"]}), several under "mix" with their
-    weights. Anything else is named in the problems and left out (a Background's colour fed by
-    another node keeps its own colour value)."""
+    (written into `folder` as a float EXR, see `environment_extension`) or a Sky Texture of
+    the Nishita, Preetham or Hosek-Wilkie model (its settings, evaluated by the renderer),
+    mixed by Mix Shader (a constant factor) and Add Shader nodes. A Mix Shader whose factor is
+    a Light Path node's "Is Camera Ray" gives camera rays another background than the rest: the
+    tree is read once for each, and when they differ the camera's goes under "camera". One
+    background of weight 1 is written alone ({"color", "strength"[, "environment" | "sky"]}),
+    several under "mix" with their weights. Anything else is named in the problems and left out
+    (a Background's colour fed by another node keeps its own colour value)."""
     black = {"color": [0.0, 0.0, 0.0], "strength": 1.0}
     if world is None:
         return black, []
@@ -144,7 +144,7 @@ def _world_background_layer(node, groups, folder, written, problems) -> dict:
             if written[texture.name]:
                 layer["environment"] = written[texture.name]
         return layer
-    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type in NISHITA_SKY_TYPES:
+    if texture.bl_idname == "ShaderNodeTexSky" and texture.sky_type in SKY_TYPES:
         layer["color"] = [0.0, 0.0, 0.0]
         layer["sky"] = sky_extension(texture, color.groups)
         return layer
@@ -156,14 +156,24 @@ def _world_background_layer(node, groups, folder, written, problems) -> dict:
 
 
 # Sky Texture models Photon evaluates: Nishita's single scattering, named "Nishita" up to
-# Blender 4.5 and "Single Scattering" from Blender 5.0.
+# Blender 4.5 and "Single Scattering" from Blender 5.0; Preetham's and Hosek-Wilkie's analytic
+# skies.
 NISHITA_SKY_TYPES = ("NISHITA", "SINGLE_SCATTERING")
+SKY_TYPES = NISHITA_SKY_TYPES + ("PREETHAM", "HOSEK_WILKIE")
 
 
 def sky_extension(node, groups: tuple = ()) -> dict:
-    """The "sky" of PHOTON_world for a Sky Texture node of the Nishita model (inside the group
-    nodes `groups`): its settings (radians, metres, factors) and the rotation of a Mapping node
+    """The "sky" of PHOTON_world for a Sky Texture node of a model Photon evaluates (inside the
+    group nodes `groups`): its settings (radians, metres, factors; the Preetham and Hosek-Wilkie
+    skies' sun direction, turbidity and ground albedo) and the rotation of a Mapping node
     feeding its vector. Blender 5 calls the dust density "aerosol density"."""
+    rotation = _mapping_rotation(node, groups)
+    if node.sky_type in ("PREETHAM", "HOSEK_WILKIE"):
+        data = {"type": node.sky_type, "sun_direction": [float(c) for c in node.sun_direction],
+                "turbidity": float(node.turbidity), "rotation": rotation}
+        if node.sky_type == "HOSEK_WILKIE":
+            data["ground_albedo"] = float(node.ground_albedo)
+        return data
     dust = getattr(node, "aerosol_density", None)
     return {"type": "NISHITA", "sun_disc": bool(node.sun_disc),
             "sun_size": float(node.sun_size), "sun_intensity": float(node.sun_intensity),
@@ -171,7 +181,7 @@ def sky_extension(node, groups: tuple = ()) -> dict:
             "sun_rotation": float(node.sun_rotation), "altitude": float(node.altitude),
             "air": float(node.air_density),
             "dust": float(node.dust_density if dust is None else dust),
-            "ozone": float(node.ozone_density), "rotation": _mapping_rotation(node, groups)}
+            "ozone": float(node.ozone_density), "rotation": rotation}
 
 
 def environment_extension(node, folder: Path, groups: tuple = ()) -> dict:

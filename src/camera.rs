@@ -4,8 +4,9 @@
 //! aspect. Blender's lens shift moves the image window in its plane, and a thin lens (Blender's
 //! depth of field: aperture radius, focus distance, polygonal blades, anamorphic ratio) spreads
 //! ray origins over the aperture while rays through one film point meet on the focus plane, as
-//! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant and equisolid
-//! fisheye) map the image onto directions around the camera; film positions a fisheye does not
+//! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant, equisolid and
+//! polynomial fisheye, mirror ball, central cylindrical, equiangular cube-map face) map the image
+//! onto directions around the camera; film positions a fisheye or the mirror ball does not
 //! cover give a ray that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
 //! is open (Blender's motion blur) is placed, per sample, at the pose of a moment within it.
 
@@ -157,6 +158,31 @@ impl CameraRays {
                     fisheye_direction(p, r, 2.0 * (r / (2.0 * lens)).asin())
                 }
             }
+            Projection::FisheyePolynomial { k, fov, sensor } => {
+                let p = Vec2::new((u - 0.5) * sensor.0, (v - 0.5) * sensor.1);
+                let r = p.length();
+                let theta = -(k[0] + r * (k[1] + r * (k[2] + r * (k[3] + r * k[4]))));
+                if theta.abs() > 0.5 * fov {
+                    Vec3::ZERO
+                } else {
+                    fisheye_direction(p, r, theta)
+                }
+            }
+            Projection::MirrorBall => mirror_ball_direction(2.0 * u - 1.0, 2.0 * v - 1.0),
+            Projection::CentralCylindrical { longitude, height } => {
+                let lon = longitude.0 + u * (longitude.1 - longitude.0);
+                let h = height.0 + v * (height.1 - height.0);
+                Vec3::new(lon.sin(), h, -lon.cos()).normalize()
+            }
+            Projection::CubeMapFace => {
+                let quarter = std::f32::consts::FRAC_PI_2;
+                Vec3::new(
+                    ((u - 0.5) * quarter).tan(),
+                    ((v - 0.5) * quarter).tan(),
+                    -1.0,
+                )
+                .normalize()
+            }
         };
         (Vec3::ZERO, dir)
     }
@@ -188,6 +214,20 @@ fn fisheye_direction(p: Vec2, r: f32, theta: f32) -> Vec3 {
         (1.0, 0.0)
     };
     Vec3::new(cos_phi * theta.sin(), sin_phi * theta.sin(), -theta.cos())
+}
+
+/// The direction Cycles' mirror ball maps image point (`a`, `b`) ∈ [−1, 1]² of its outline to
+/// (`a` along the image's width, `b` up): the reflection of the camera's view axis (−Z) about
+/// the normal (a, b, −√(1 − a² − b²)) of the unit sphere, so the centre looks along −Z, the
+/// directions turning away from it twice as fast as the normal and reaching +Z at the rim; zero
+/// outside the outline.
+fn mirror_ball_direction(a: f32, b: f32) -> Vec3 {
+    let r2 = a * a + b * b;
+    if r2 > 1.0 {
+        return Vec3::ZERO;
+    }
+    let s = (1.0 - r2).sqrt();
+    Vec3::new(2.0 * s * a, 2.0 * s * b, 1.0 - 2.0 * s * s).normalize()
 }
 
 /// A point of the aperture (camera-space x, y), uniform over its area: a disk without blades,
@@ -359,6 +399,47 @@ mod tests {
             .sample_ray(centre, Vec2::ZERO, None)
             .origin
             .abs_diff_eq(Vec3::ZERO, 1e-6));
+    }
+
+    /// Cycles' mirror ball looks along −Z at the image centre, sideways (±X, ±Y) where the
+    /// sphere's normal is 45° from the view axis, back along +Z at the rim and nowhere outside
+    /// it; the cube-map face spans 90° with equal angles per pixel.
+    #[test]
+    fn mirror_ball_and_cube_map_face_directions() {
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        for ((a, b), expected) in [
+            ((0.0, 0.0), Vec3::NEG_Z),
+            ((s, 0.0), Vec3::X),
+            ((-s, 0.0), Vec3::NEG_X),
+            ((0.0, s), Vec3::Y),
+            ((0.0, 1.0), Vec3::Z),
+        ] {
+            let d = mirror_ball_direction(a, b);
+            assert!(d.abs_diff_eq(expected, 1e-5), "({a}, {b}): {d}");
+        }
+        assert_eq!(mirror_ball_direction(0.8, 0.7), Vec3::ZERO);
+        let camera = |projection| Camera {
+            name: "c".into(),
+            to_world: Affine3A::IDENTITY,
+            projection,
+            aspect_ratio: None,
+            shift: Vec2::ZERO,
+            lens: None,
+            motion: Vec::new(),
+            near_clip: 0.0,
+        };
+        let rays = CameraRays::new(&camera(Projection::MirrorBall), 40, 40);
+        assert_eq!(rays.ray(Vec2::new(1.0, 1.0)).t_max, 0.0);
+        assert!(rays
+            .ray(Vec2::new(20.0, 20.0))
+            .direction
+            .abs_diff_eq(Vec3::NEG_Z, 1e-5));
+        let face = CameraRays::new(&camera(Projection::CubeMapFace), 90, 90);
+        for (x, degrees) in [(0.0, -45.0f32), (30.0, -15.0), (45.0, 0.0), (90.0, 45.0)] {
+            let d = face.ray(Vec2::new(x, 45.0)).direction;
+            let angle = d.x.atan2(-d.z).to_degrees();
+            assert!((angle - degrees).abs() < 1e-3, "{x}: {angle}");
+        }
     }
 
     /// Every ray through one film point meets the others on the plane in focus.

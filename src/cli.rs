@@ -938,6 +938,12 @@ fn run_info(path: &Path, options: &LoadOptions, quality: Quality) -> Result<()> 
             "panoramic, equisolid fisheye {lens} mm, {:.1} deg",
             fov.to_degrees()
         ),
+        Projection::FisheyePolynomial { fov, .. } => {
+            format!("panoramic, polynomial fisheye {:.1} deg", fov.to_degrees())
+        }
+        Projection::MirrorBall => "panoramic, mirror ball".to_string(),
+        Projection::CentralCylindrical { .. } => "panoramic, central cylindrical".to_string(),
+        Projection::CubeMapFace => "panoramic, equiangular cube-map face".to_string(),
     };
     println!("camera: '{}', {projection}", scene.camera.name);
     println!("{}", plan_for_image(&scene, quality, width, height));

@@ -2,14 +2,16 @@
 //! `SurfaceMaterial` that shading reads (yocto-gl's `eval_material` habit), following the glTF
 //! 2.0 specification §3.9 (metallic-roughness) and the KHR_materials_transmission, _ior,
 //! _specular, _emissive_strength and _volume extensions. A material with a Blender node tree
-//! (`shader`) is evaluated by its program instead, at the full shading point.
+//! (`shader`) is evaluated by its program instead, at the full shading point, its Ambient
+//! Occlusion and Bevel nodes tracing rays from the point through the scene's BVH
+//! (`TracedScene`).
 
-use crate::accel::{hit_mesh, interpolate};
+use crate::accel::{hit_mesh, interpolate, Accel, Hit, Ray, Visibility, NO_INSTANCE};
 use crate::bsdf::thin_film::FilmModel;
 use crate::interaction::{SurfaceHit, View};
 use crate::math::{Vec2, Vec3, Vec4};
-use crate::scene::{Material, Scene, Subsurface, TextureRef};
-use crate::shader::Closure;
+use crate::scene::{blender_axes, Material, Scene, Subsurface, TextureRef};
+use crate::shader::{Closure, LocalHit, SceneRays, Tracing};
 
 /// A material's values at one point, with textures applied. Colours are linear RGB.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -250,12 +252,27 @@ fn gltf_axes(v: Vec3) -> Vec3 {
     Vec3::new(v.x, v.z, -v.y)
 }
 
+/// What a node tree's Ambient Occlusion and Bevel nodes trace where a surface is shaded: the
+/// scene's BVH, and the seed of their random numbers (fixed by the path and the point).
+#[derive(Clone, Copy)]
+pub struct Rays<'a> {
+    pub accel: &'a Accel,
+    pub seed: u64,
+}
+
 /// The material at surface point `sh` seen from `view`: its node tree when it has one (`u` in
 /// [0, 1) picks the
-/// BSDF of Mix and Add Shader nodes), else `eval_material` at the point's UV with the base
+/// BSDF of Mix and Add Shader nodes; its Ambient Occlusion and Bevel nodes trace `rays`, or
+/// read 1 and the normal without), else `eval_material` at the point's UV with the base
 /// colour and alpha times the vertex colour COLOR_0 when the mesh has one (glTF §3.7.2.1),
 /// the clearcoat normal texture and the anisotropy's direction.
-pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> SurfaceMaterial {
+pub fn eval_surface(
+    scene: &Scene,
+    sh: &SurfaceHit,
+    view: View,
+    u: f32,
+    rays: Option<Rays>,
+) -> SurfaceMaterial {
     let material = &scene.materials[sh.material as usize];
     match &material.nodes {
         None => {
@@ -292,19 +309,166 @@ pub fn eval_surface(scene: &Scene, sh: &SurfaceHit, view: View, u: f32) -> Surfa
             s
         }
         Some(program) => {
+            let traced = rays.map(|r| TracedScene {
+                scene,
+                accel: r.accel,
+                from: sh,
+            });
+            let tracing = traced.as_ref().zip(rays).map(|(t, r)| Tracing {
+                scene: t,
+                seed: r.seed,
+            });
             let mut s = from_closure(
                 material,
-                &program.eval(
+                &program.eval_tracing(
                     &sh.node_inputs(scene, program.needs_offsets, program.reads, view),
                     &scene.textures,
                     u,
+                    tracing.as_ref(),
                 ),
             );
+            // Cycles' geometric and shading normals are the viewer's side's.
+            let side = if view.backfacing { -1.0 } else { 1.0 };
+            let (ng, shading) = (side * sh.ng, side * sh.frame.n);
+            let valid = |n: Vec3| reflecting_normal(ng, shading, view.wo, n);
+            s.normal = s.normal.map(valid);
+            s.coat_normal = s.coat_normal.map(valid);
             if s.hair.is_some() {
                 on_fibre(scene, sh, view, &mut s);
             }
             s
         }
+    }
+}
+
+/// A node tree's normal `n` (unit), as Cycles corrects every BSDF node's normal that differs
+/// from the `shading` normal (`ensure_valid_specular_reflection`): turned towards the
+/// geometric normal `ng`, in the plane of the two, just enough that the mirror direction of
+/// the view `i` about it rises above the surface by min(0.9 cos θ, 0.01) (θ the view's angle
+/// to `ng`; `ng`, `shading` and `i` on the viewer's side). Cycles bends the normal of its
+/// microfacet lobes alone and keeps the diffuse lobe's; Photon's lobes share one frame, and its
+/// diffuse lobe is black seen from below its normal, so the bent normal serves them all
+/// (closer to Cycles than an unbent one: a Bevel's edges seen at a grazing angle, a strong
+/// Bump).
+fn reflecting_normal(ng: Vec3, shading: Vec3, i: Vec3, n: Vec3) -> Vec3 {
+    if n.dot(shading) > 1.0 - 1e-6 {
+        return n;
+    }
+    let iz = i.dot(ng);
+    let rise = (0.9 * iz).min(0.01);
+    if (2.0 * n.dot(i) * n - i).dot(ng) >= rise || !(iz > 0.0) {
+        return n;
+    }
+    // With x the unit direction of n across ng, the normal sought is s x + c ng (s, c ≥ 0,
+    // s² + c² = 1) whose mirror direction rises by `rise`: 2 (s Ix + c Iz) c − Iz = rise.
+    // Squared, a quadratic in z = c²: 4 (Ix² + Iz²) z² − 4 (Ix² + Iz² + Iz rise) z
+    // + (Iz + rise)² = 0, of which the root where s c Ix has the sign of rise + Iz − 2 z Iz.
+    let x = (n - n.dot(ng) * ng).normalize_or(n);
+    let ix = i.dot(x);
+    let a = ix * ix + iz * iz;
+    let b = a + iz * rise;
+    let root = (b * b - a * (iz + rise) * (iz + rise)).max(0.0).sqrt();
+    let z = if ix < 0.0 {
+        (b + root) / (2.0 * a)
+    } else {
+        (b - root) / (2.0 * a)
+    };
+    let z = z.clamp(0.0, 1.0);
+    ((1.0 - z).sqrt() * x + z.sqrt() * ng).normalize_or(n)
+}
+
+/// The scene as the nodes that trace rays see it from the surface point `from`
+/// (`shader::SceneRays`, in Blender's axes). A point's object is its instance, or for a
+/// world-space mesh every mesh of the same glTF node (an object's material slots are meshes
+/// of their own).
+struct TracedScene<'a> {
+    scene: &'a Scene,
+    accel: &'a Accel,
+    from: &'a SurfaceHit,
+}
+
+/// Surfaces a segment of `SceneRays::local_hits` (or an Only Local occlusion ray) passes at
+/// most: past them the rest of the segment is left.
+const MAX_CROSSINGS: usize = 16;
+
+impl TracedScene<'_> {
+    /// Whether `hit` lies on the object of the point the rays leave from.
+    fn on_own_object(&self, hit: &Hit) -> bool {
+        let own = &self.from.hit;
+        if hit.instance != NO_INSTANCE || own.instance != NO_INSTANCE {
+            return hit.instance == own.instance;
+        }
+        let node = |mesh: u32| {
+            let name = &self.scene.meshes[mesh as usize].name;
+            name.split_once('/').map_or(name.as_str(), |(node, _)| node)
+        };
+        hit.mesh == own.mesh || node(hit.mesh) == node(own.mesh)
+    }
+
+    /// Each surface of the point's own object along `ray` in turn, until `visit` returns
+    /// false.
+    fn own_surfaces(&self, mut ray: Ray, mut visit: impl FnMut(&SurfaceHit) -> bool) {
+        for _ in 0..MAX_CROSSINGS {
+            let Some(hit) = self
+                .accel
+                .intersect(self.scene, &ray, Visibility::Secondary)
+            else {
+                return;
+            };
+            let at = SurfaceHit::new(self.scene, &ray, &hit);
+            if self.on_own_object(&hit) && !visit(&at) {
+                return;
+            }
+            ray = Ray {
+                t_max: ray.t_max - hit.t,
+                ..at.spawn(ray.direction)
+            };
+        }
+    }
+}
+
+impl SceneRays for TracedScene<'_> {
+    fn occluded(&self, direction: Vec3, distance: f32, local: bool) -> bool {
+        let ray = Ray {
+            t_max: distance,
+            ..self.from.spawn(gltf_axes(direction))
+        };
+        if !local {
+            return !self.accel.unoccluded(self.scene, &ray);
+        }
+        let mut met = false;
+        self.own_surfaces(ray, |_| {
+            met = true;
+            false
+        });
+        met
+    }
+
+    fn local_hits(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        length: f32,
+        visit: &mut dyn FnMut(LocalHit),
+    ) {
+        let ray = Ray {
+            origin: gltf_axes(origin),
+            direction: gltf_axes(direction),
+            t_max: length,
+            time: self.from.time,
+        };
+        self.own_surfaces(ray, |at| {
+            visit(LocalHit {
+                position: blender_axes(at.p),
+                geometric_normal: blender_axes(at.ng),
+                normal: blender_axes(at.frame.n),
+            });
+            true
+        });
+    }
+
+    fn geometric_normal(&self) -> Vec3 {
+        blender_axes(self.from.ng)
     }
 }
 
@@ -430,6 +594,32 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_normal_turned_from_the_viewer_is_bent_until_its_mirror_direction_clears_the_surface() {
+        let ng = Vec3::Z;
+        let rises = |i: Vec3, n: Vec3| (2.0 * n.dot(i) * n - i).dot(ng);
+        for (i, n) in [
+            // A grazing view, the normal leaning away from it (and past it).
+            (Vec3::new(0.95, 0.0, 0.3122), Vec3::new(-0.6, 0.0, 0.8)),
+            (Vec3::new(0.95, 0.0, 0.3122), Vec3::new(-0.8, 0.3, 0.52)),
+            // The normal leaning towards the view too far: the mirror goes under.
+            (Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.9, 0.0, 0.4359)),
+        ] {
+            let (i, n) = (i.normalize(), n.normalize());
+            let bent = reflecting_normal(ng, ng, i, n);
+            let rise = (0.9 * i.z).min(0.01);
+            assert!(rises(i, n) < rise);
+            assert!((rises(i, bent) - rise).abs() < 1e-3, "{i} {n} -> {bent}");
+            assert!((bent.length() - 1.0).abs() < 1e-5);
+        }
+        // A valid normal, and the shading normal itself, are kept.
+        let i = Vec3::new(0.6, 0.0, 0.8);
+        let n = Vec3::new(0.1, 0.2, 0.97).normalize();
+        assert_eq!(reflecting_normal(ng, ng, i, n), n);
+        let flat = Vec3::new(-0.9, 0.0, 0.1).normalize();
+        assert_eq!(reflecting_normal(ng, flat, i, flat), flat);
+    }
 
     #[test]
     fn absorption_follows_beer_lambert() {

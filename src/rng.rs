@@ -50,7 +50,7 @@ enum Source {
 }
 
 /// 32-bit fraction to [0, 1), never 1.
-fn fraction(x: u32) -> f32 {
+pub fn fraction(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 

@@ -22,6 +22,7 @@
 //! own estimate (see `irradiance_cache`).
 
 use super::classify::diffuse_reflectance;
+use super::media::MediumStack;
 use super::photon::build::PhotonMaps;
 use super::photon::shade::cache_gather;
 use super::shading::Shading;
@@ -114,8 +115,14 @@ pub fn build_cache(
         // record, reading half the irradiance, darkened a band of its own width along the edge.
         let film = Vec2::new(x as f32, y as f32) + 0.25 + 0.5 * rng.uniform2();
         let (ray, next) = (camera.ray(film), camera.ray(film + Vec2::X));
-        let (s, length) = first_surface(ctx, ray, rng)?;
+        let (mut s, length) = first_surface(ctx, ray, rng)?;
         diffuse_reflectance(&s.bsdf, s.opaque)?;
+        if ctx.scene.has_media() {
+            // The media where the record's gather rays start, found once for all of them (they
+            // leave on one side of the surface, from one point).
+            let probe = s.sh.spawn(s.ng);
+            s.media = MediumStack::at(ctx, probe.origin, probe.time);
+        }
         let at = |r: &Ray| r.origin + r.direction * length;
         let site = Site {
             p: s.sh.p,

@@ -221,7 +221,7 @@ pub fn shadow_transmittance(
         ]);
         let u = (u >> 40) as f32 * (1.0 / 16_777_216.0);
         let view = View::new(&sh, wo, path.shadow(), length);
-        let surface = eval_surface(scene, &sh, view, u);
+        let surface = eval_surface(scene, &sh, view, u, None);
         if !surface.transparent {
             return Vec3::ZERO;
         }

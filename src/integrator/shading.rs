@@ -15,7 +15,7 @@ use crate::accel::{Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample, Scattering, ViewedBsdf};
 use crate::interaction::{SurfaceHit, View};
 use crate::irradiance_cache::IrradianceCache;
-use crate::material::{eval_surface, SurfaceMaterial};
+use crate::material::{eval_surface, Rays, SurfaceMaterial};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::rng::{hash_combine, Rng};
 use crate::shader::RayPath;
@@ -83,9 +83,19 @@ impl Shading {
                 hit.triangle as u64 | ((hit.t.to_bits() as u64) << 32),
             ]);
             let u = (h >> 40) as f32 * (1.0 / 16_777_216.0);
-            eval_surface(ctx.scene, &sh, View::new(&sh, wo, path, length), u)
+            let rays = Rays {
+                accel: ctx.accel,
+                seed: h,
+            };
+            eval_surface(
+                ctx.scene,
+                &sh,
+                View::new(&sh, wo, path, length),
+                u,
+                Some(rays),
+            )
         } else {
-            eval_surface(ctx.scene, &sh, View::new(&sh, wo, path, length), 0.0)
+            eval_surface(ctx.scene, &sh, View::new(&sh, wo, path, length), 0.0, None)
         };
         // A node tree's normal (Bump), on the side of the surface's own.
         let toward = |n: Vec3| if n.dot(sh.frame.n) < 0.0 { -n } else { n };

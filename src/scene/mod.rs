@@ -13,6 +13,9 @@ pub mod gltf;
 pub mod grids;
 pub mod load;
 pub mod sky;
+pub mod sky_hosek;
+mod sky_hosek_data;
+pub mod sky_preetham;
 pub mod texture;
 pub mod units;
 pub mod vdb;
@@ -550,6 +553,29 @@ pub enum Projection {
         fov: f32,
         sensor: (f32, f32),
     },
+    /// Cycles' polynomial fisheye: on a sensor of `sensor` (width, height, millimetres) the
+    /// angle to the camera's −Z at distance r from the centre is −(k0 + k1 r + … + k4 r⁴), cut
+    /// at `fov / 2`.
+    FisheyePolynomial {
+        k: [f32; 5],
+        fov: f32,
+        sensor: (f32, f32),
+    },
+    /// Cycles' mirror ball: the image is a unit mirror sphere filling the frame, each pixel the
+    /// reflection of the camera's −Z about the sphere's normal there (the centre looks along
+    /// −Z, the rim along +Z).
+    MirrorBall,
+    /// Cycles' central cylindrical panorama: longitude (radians, 0 along the camera's −Z,
+    /// positive towards +X) from `longitude.0` at the left edge to `longitude.1` at the right,
+    /// and height on a cylinder of radius 1 around the camera's Y axis from `height.0` at the
+    /// bottom to `height.1` at the top, each direction pointing at its cylinder point.
+    CentralCylindrical {
+        longitude: (f32, f32),
+        height: (f32, f32),
+    },
+    /// Cycles' equiangular cube-map face: the 90° square in front of the camera (−Z), the
+    /// angle (not its tangent) growing linearly across the image.
+    CubeMapFace,
 }
 
 impl Projection {
@@ -1254,6 +1280,18 @@ impl Scene {
             Projection::FisheyeEquisolid { lens, fov, sensor } => [lens, fov, sensor.0, sensor.1]
                 .iter()
                 .all(|v| v.is_finite() && *v > 0.0),
+            Projection::FisheyePolynomial { k, fov, sensor } => {
+                k.iter().all(|v| v.is_finite())
+                    && [fov, sensor.0, sensor.1]
+                        .iter()
+                        .all(|v| v.is_finite() && *v > 0.0)
+            }
+            Projection::CentralCylindrical { longitude, height } => {
+                [longitude.0, longitude.1, height.0, height.1]
+                    .iter()
+                    .all(|v| v.is_finite())
+            }
+            Projection::MirrorBall | Projection::CubeMapFace => true,
         };
         if !panorama_ok {
             return Err(format!(

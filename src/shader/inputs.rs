@@ -1,8 +1,11 @@
 //! What a node tree reads about a shading point (`PointInputs`, `ShadingInputs`), the ray it
 //! is evaluated for (`RayPath`, as Cycles' path state describes it to the Light Path node),
-//! and how a node's evaluation reads its inputs (`Operands`).
+//! the scene the nodes that trace rays see from the point (`SceneRays`, `Tracing`), and how a
+//! node's evaluation reads its inputs (`Operands`).
 
 use crate::math::{Mat3, Vec2, Vec3, Vec4};
+use crate::rng::{fraction, hash64, hash_combine};
+use crate::sobol::{sample_2d, Seeds};
 
 /// UV maps node trees read (`TEXCOORD_0` …).
 pub const UV_SETS: usize = 4;
@@ -132,6 +135,68 @@ impl ShadingInputs {
             points: [point; 3],
             ..ShadingInputs::default()
         }
+    }
+}
+
+/// The scene as the nodes that trace rays (Ambient Occlusion, Bevel) see it from the shading
+/// point, in Blender's axes: the integrator that shades the point provides it (`Tracing`).
+/// Where there is no scene to trace (light tables, emitters sampled as lights, shadow rays'
+/// transparency), there is no `Tracing`: Ambient Occlusion reads 1 and Bevel the normal, as
+/// Cycles' shaders read them where they cannot trace.
+pub trait SceneRays {
+    /// Whether a ray from the shading point along the unit `direction` meets a surface before
+    /// `distance`: any surface that casts shadows, or with `local` only the surfaces of the
+    /// point's own object.
+    fn occluded(&self, direction: Vec3, distance: f32, local: bool) -> bool;
+
+    /// Each surface of the shading point's own object that the segment from `origin` along the
+    /// unit `direction`, `length` long, crosses, in order along it.
+    fn local_hits(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        length: f32,
+        visit: &mut dyn FnMut(LocalHit),
+    );
+
+    /// The shading point's unit geometric normal (of the triangle's winding).
+    fn geometric_normal(&self) -> Vec3;
+}
+
+/// A surface point `SceneRays::local_hits` found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalHit {
+    pub position: Vec3,
+    /// The triangle's unit normal (of its winding) and the interpolated smooth normal.
+    pub geometric_normal: Vec3,
+    pub normal: Vec3,
+}
+
+/// What a node tree traces rays with at one shading point: the scene and the seed of the
+/// random numbers (fixed by the caller for the path and the point, so renders are
+/// deterministic).
+#[derive(Clone, Copy)]
+pub struct Tracing<'a> {
+    pub scene: &'a dyn SceneRays,
+    pub seed: u64,
+}
+
+impl Tracing<'_> {
+    /// Point `k` of the 2D points of the node whose instruction writes register `stream`: an
+    /// Owen-scrambled (0, 2)-sequence per node and shading point, so a node's first 2^m
+    /// samples fall one in each of 2^m strata of the square, as Cycles stratifies a node's
+    /// samples (its branched path samples).
+    pub(super) fn point(&self, stream: u64, k: u32) -> Vec2 {
+        let a = hash_combine(&[self.seed, stream, 0x0a0b_e7e1_5a3f_c0de]);
+        let b = hash64(a);
+        let seeds = Seeds {
+            shuffle: a as u32,
+            x: (a >> 32) as u32,
+            y: b as u32,
+            z: (b >> 32) as u32,
+        };
+        let (x, y) = sample_2d(k, seeds);
+        Vec2::new(fraction(x), fraction(y))
     }
 }
 
@@ -356,6 +421,14 @@ pub trait Operands {
     #[inline(always)]
     fn vector(&self, k: usize) -> Vec3 {
         self.value(k).truncate()
+    }
+}
+
+/// A node's inputs given as values (unit tests of a node's evaluation).
+#[cfg(test)]
+impl<const N: usize> Operands for [Vec4; N] {
+    fn value(&self, k: usize) -> Vec4 {
+        self[k]
     }
 }
 

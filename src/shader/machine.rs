@@ -5,9 +5,10 @@
 use super::closure::{Closure, ADD_SHADER_INPUTS, MIX_SHADER_INPUTS};
 use super::color::gray;
 use super::geometry::uv_value;
-use super::inputs::{input, splat, v3, Operands, PointInputs, ShadingInputs};
+use super::inputs::{input, splat, v3, Operands, PointInputs, ShadingInputs, Tracing};
 use super::noise::NOISE_INPUTS;
 use super::program::{Instr, NodeProgram, Op, Src, MAX_CLOSURES, MAX_REGISTERS};
+use super::{ambient_occlusion, bevel};
 use super::{
     blackbody, brick, bump, checker, closure, color, convert, fresnel, gabor, geometry, gradient,
     image, magic,
@@ -85,30 +86,53 @@ impl NodeProgram {
     /// With a displacement tree, its bumped normal is the shading normal the surface tree
     /// reads, and the normal of its BSDFs whose Normal input is unlinked (Cycles sets the
     /// shading point's N before evaluating the surface).
-    pub fn eval(&self, at: &ShadingInputs, textures: &[Texture], mut u: f32) -> Closure {
+    pub fn eval(&self, at: &ShadingInputs, textures: &[Texture], u: f32) -> Closure {
+        self.eval_tracing(at, textures, u, None)
+    }
+
+    /// `eval` where the nodes that trace rays (Ambient Occlusion, Bevel) trace them with
+    /// `tracing` (without it they read 1 and the normal).
+    pub fn eval_tracing(
+        &self,
+        at: &ShadingInputs,
+        textures: &[Texture],
+        mut u: f32,
+        tracing: Option<&Tracing>,
+    ) -> Closure {
         let Some(displacement) = &self.displacement else {
-            return self.eval_closure(at, textures, &mut u);
+            return self.eval_closure(at, textures, &mut u, tracing);
         };
-        let n = displacement.eval_vector(at, textures);
+        let n = displacement.eval_vector(at, textures, tracing);
         let bumped = ShadingInputs { normal: n, ..*at };
-        let mut c = self.eval_closure(&bumped, textures, &mut u);
+        let mut c = self.eval_closure(&bumped, textures, &mut u, tracing);
         if c.normal == Vec3::ZERO {
             c.normal = n;
         }
         c
     }
 
-    fn eval_closure(&self, at: &ShadingInputs, textures: &[Texture], u: &mut f32) -> Closure {
+    fn eval_closure(
+        &self,
+        at: &ShadingInputs,
+        textures: &[Texture],
+        u: &mut f32,
+        tracing: Option<&Tracing>,
+    ) -> Closure {
         Machine::with(self, |m| {
-            run_all(&self.instrs, at, textures, m, u);
+            run_all(&self.instrs, at, textures, tracing, m, u);
             read_closure(m, self.output)
         })
     }
 
     /// A vector-output program's value (the displacement tree's normal, unit).
-    fn eval_vector(&self, at: &ShadingInputs, textures: &[Texture]) -> Vec3 {
+    fn eval_vector(
+        &self,
+        at: &ShadingInputs,
+        textures: &[Texture],
+        tracing: Option<&Tracing>,
+    ) -> Vec3 {
         Machine::with(self, |m| {
-            run_all(&self.instrs, at, textures, m, &mut 0.5);
+            run_all(&self.instrs, at, textures, tracing, m, &mut 0.5);
             load(m, &at.points[0], self.output)
                 .truncate()
                 .normalize_or(at.normal)
@@ -186,13 +210,14 @@ pub(super) fn run_all(
     instrs: &[Instr],
     inputs: &ShadingInputs,
     textures: &[Texture],
+    tracing: Option<&Tracing>,
     m: &mut Machine,
     u: &mut f32,
 ) {
     for instr in instrs {
         // Opaque to the optimiser: else it hoists the shared inputs' conversions (which few
         // instructions read) out of the loop, ~200 instructions per evaluation.
-        run(instr, std::hint::black_box(inputs), textures, m, u);
+        run(instr, std::hint::black_box(inputs), textures, tracing, m, u);
     }
 }
 
@@ -202,6 +227,7 @@ pub(super) fn run(
     instr: &Instr,
     inputs: &ShadingInputs,
     textures: &[Texture],
+    tracing: Option<&Tracing>,
     m: &mut Machine,
     u: &mut f32,
 ) {
@@ -230,6 +256,13 @@ pub(super) fn run(
             m.put(o, geometry::object_info(inputs, *material_index))
         }
         Op::LightPath => m.put_used(o, used, geometry::light_path(inputs)),
+        Op::AmbientOcclusion(ao) => m.put(
+            o,
+            ambient_occlusion::eval_ambient_occlusion(ao, inputs, tracing, o as u64, ins),
+        ),
+        Op::Bevel { samples } => {
+            m.regs[o] = bevel::eval_bevel(*samples, inputs, tracing, o as u64, ins)
+        }
         Op::Value(v) => m.regs[o] = splat(*v),
         Op::Rgb(c) => m.regs[o] = *c,
         Op::Mapping(kind, fixed) => m.regs[o] = vector::eval_mapping(*kind, fixed, ins),
@@ -487,7 +520,7 @@ mod profile {
                 let mut u = 0.5;
                 for _ in 0..reps {
                     for at in &points {
-                        run(instr, at, textures, m, &mut u);
+                        run(instr, at, textures, None, m, &mut u);
                     }
                 }
                 let per = t0.elapsed().as_secs_f64() / (reps * points.len()) as f64;

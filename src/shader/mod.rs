@@ -16,6 +16,11 @@
 //! `rgb_ramp_lookup` over the 256-entry table the add-on bakes with Blender's own
 //! `ColorRamp.evaluate`), written here from those definitions.
 //!
+//! Ambient Occlusion and Bevel trace rays from the shading point through the scene the
+//! integrator gives the evaluation (`NodeProgram::eval_tracing` with a `Tracing`: a
+//! `SceneRays` trait object, so this layer knows no BVH, and the seed of the nodes' random
+//! numbers); without one they read 1 and the normal.
+//!
 //! Light Path reads the ray the point is evaluated for (`RayPath`): its kind and bounce counts
 //! as Cycles' path state keeps them (`path_state_next`), kept by the path walk; shadow rays and
 //! sampled emitters read Cycles' shadow and emission conventions (`RayPath::shadow`,
@@ -59,13 +64,16 @@
 //! node's JSON into its operation (`parse`), the tree into a program (`compile`, `program`) and
 //! its optimisations (`optimise`); running it (`machine`: the registers and the dispatch loop,
 //! each instruction one call into its node family's file); and one file per node family, with
-//! its socket tables and evaluation: `geometry` (the input nodes), `math`, `vector`, `color`,
+//! its socket tables and evaluation: `geometry` (the input nodes), `ambient_occlusion` and
+//! `bevel` (which trace rays: `inputs::Tracing`), `math`, `vector`, `color`,
 //! `convert`, `bump`, `fresnel`, `closure` (the shader nodes), and the textures `noise` (with
 //! its AVX2 kernels), `voronoi`, `checker`, `gradient`, `brick`, `magic`, `gabor`,
 //! `wave`, `white_noise`, `image`, with `blackbody`, and the volume shaders (`volume`); `hash` is Jenkins' lookup3 the textures
 //! draw from, and `lanes` the one, four or eight lanes of floats and words the noise and the
 //! Voronoi search are written over. ARCHITECTURE.md says how to add a node.
 
+mod ambient_occlusion;
+mod bevel;
 mod blackbody;
 mod brick;
 mod bump;
@@ -99,8 +107,8 @@ mod white_noise;
 pub use closure::{default_tangent, principled_aspect, Closure, Hair, Toon, VolumeClosure};
 pub use compile::compile;
 pub use inputs::{
-    NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, ShadingInputs, NAMED_ATTRIBUTES,
-    UV_SETS,
+    LocalHit, NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, SceneRays,
+    ShadingInputs, Tracing, NAMED_ATTRIBUTES, UV_SETS,
 };
 pub use program::{
     CompileWarnings, NodeProgram, MAX_CLOSURES, MAX_REGISTERS, READS_ALL, READS_COLOR,

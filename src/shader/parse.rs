@@ -1,6 +1,7 @@
 //! The exported JSON of one node (`PHOTON_material_nodes`, written by the add-on) into its
 //! operation `Op` with its settings.
 
+use super::ambient_occlusion::AmbientOcclusion;
 use super::brick::BrickLayout;
 use super::bump::NormalMapSpace;
 use super::closure::HairColoring;
@@ -122,6 +123,23 @@ pub(super) fn parse_op(
             material_index: node.get("material_index").and_then(number).unwrap_or(0.0),
         },
         "LightPath" => Op::LightPath,
+        "AmbientOcclusion" => Op::AmbientOcclusion(AmbientOcclusion {
+            samples: node
+                .get("samples")
+                .and_then(number)
+                .map_or(16, |n| n.clamp(1.0, 128.0) as u32),
+            inside: node.get("inside").and_then(Value::as_bool).unwrap_or(false),
+            only_local: node
+                .get("only_local")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
+        }),
+        "Bevel" => Op::Bevel {
+            samples: node
+                .get("samples")
+                .and_then(number)
+                .map_or(4, |n| n.clamp(0.0, 128.0) as u32),
+        },
         "Value" => Op::Value(
             node.get("value")
                 .and_then(number)

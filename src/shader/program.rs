@@ -64,6 +64,12 @@ pub(super) enum Op {
     },
     /// Light Path: only what every integrator can tell (Is Camera Ray, Ray Length).
     LightPath,
+    /// Ambient Occlusion: rays traced from the point (`Tracing`).
+    AmbientOcclusion(super::ambient_occlusion::AmbientOcclusion),
+    /// Bevel with its number of probes, traced from the point (`Tracing`).
+    Bevel {
+        samples: u32,
+    },
     Value(f32),
     Rgb(Vec4),
     /// Mapping; its rotation's sines and cosines when the Rotation input is constant.
@@ -358,6 +364,8 @@ impl NodeProgram {
                         | Op::ObjectInfo { .. }
                         | Op::Wireframe { .. }
                         | Op::LightPath
+                        | Op::AmbientOcclusion(_)
+                        | Op::Bevel { .. }
                         | Op::Bump { .. }
                         | Op::NormalMap(_)
                         | Op::Displacement { .. }

@@ -5,6 +5,7 @@
 use super::color::MixData;
 use super::inputs::Socket;
 use super::program::Op;
+use super::{ambient_occlusion, bevel};
 use super::{blackbody, brick, bump, checker, closure, color, convert, fresnel, gabor, geometry};
 use super::{gradient, image, magic, math, noise, vector, volume, voronoi, wave, white_noise};
 
@@ -26,6 +27,8 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::ObjectInfo { .. } => (&[], geometry::OBJECT_INFO_OUTPUTS),
         Op::Wireframe { .. } => (geometry::WIREFRAME_INPUTS, geometry::WIREFRAME_OUTPUTS),
         Op::LightPath => (&[], geometry::LIGHT_PATH_OUTPUTS),
+        Op::AmbientOcclusion(_) => (ambient_occlusion::AO_INPUTS, ambient_occlusion::AO_OUTPUTS),
+        Op::Bevel { .. } => (bevel::BEVEL_INPUTS, bevel::BEVEL_OUTPUTS),
         Op::Value(_) => (&[], geometry::VALUE_OUTPUTS),
         Op::Rgb(_) => (&[], geometry::RGB_OUTPUTS),
         Op::Mapping(..) => (vector::MAPPING_INPUTS, vector::MAPPING_OUTPUTS),

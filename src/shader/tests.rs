@@ -253,13 +253,13 @@ fn invalid_programs_are_refused_with_a_reason() {
 fn unknown_nodes_warn_and_fall_back() {
     let mut w = Vec::new();
     let tree = json!({"nodes": [
-        {"name": "AO", "type": "ShaderNodeAmbientOcclusion"},
+        {"name": "Particles", "type": "ShaderNodeParticleInfo"},
         {"name": "E", "type": "ShaderNodeEmission", "inputs": {
-            "Color": {"node": 0, "output": "Color"}, "Strength": 1.0}}
+            "Color": {"node": 0, "output": "Velocity"}, "Strength": 1.0}}
     ], "output": {"node": 1, "output": "Emission"}});
     let p = compile(&tree, 0, &mut w).unwrap();
     assert_eq!(w.len(), 1);
-    assert!(w[0].contains("AO"), "{w:?}");
+    assert!(w[0].contains("Particles"), "{w:?}");
     // The Emission colour's default (white) is used.
     assert_eq!(
         p.eval(&ShadingInputs::default(), &[], 0.5).emission,
@@ -605,4 +605,66 @@ fn principled_hair_resolves_melanin_and_its_model() {
         .hair
         .is_none());
     assert!(!w.is_empty());
+}
+
+/// A scene whose every ray is blocked, and whose own object is a plane through the point with
+/// normal +X.
+struct Enclosed;
+
+impl SceneRays for Enclosed {
+    fn occluded(&self, _: Vec3, _: f32, _: bool) -> bool {
+        true
+    }
+    fn local_hits(&self, o: Vec3, d: Vec3, length: f32, visit: &mut dyn FnMut(LocalHit)) {
+        let t = -o.x / d.x;
+        if t >= 0.0 && t <= length {
+            visit(LocalHit {
+                position: o + t * d,
+                geometric_normal: Vec3::X,
+                normal: Vec3::X,
+            });
+        }
+    }
+    fn geometric_normal(&self) -> Vec3 {
+        Vec3::X
+    }
+}
+
+#[test]
+fn ambient_occlusion_and_bevel_trace_the_scene_they_are_given() {
+    let tree = |node: Value, output: &str| {
+        json!({"nodes": [
+            node,
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": output}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}})
+    };
+    let ao = tree(
+        json!({"name": "AO", "type": "ShaderNodeAmbientOcclusion", "samples": 8.0,
+               "inside": false, "only_local": false,
+               "inputs": {"Color": [0.5, 0.25, 1.0, 1.0], "Distance": 2.0}}),
+        "Color",
+    );
+    let bevel = tree(
+        json!({"name": "B", "type": "ShaderNodeBevel", "samples": 4.0,
+               "inputs": {"Radius": 0.1}}),
+        "Normal",
+    );
+    let mut w = Vec::new();
+    let ao = compile(&ao, 0, &mut w).expect("compiles");
+    let bevel = compile(&bevel, 0, &mut w).expect("compiles");
+    assert!(w.is_empty(), "{w:?}");
+    assert!(ao.varies() && bevel.varies());
+    let at = at_positions([Vec3::ZERO; 3], Vec3::Z);
+    let tracing = Tracing {
+        scene: &Enclosed,
+        seed: 1,
+    };
+    // Without a scene: AO 1 (the colour itself) and the shading normal.
+    assert_eq!(ao.eval(&at, &[], 0.5).emission, Vec3::new(0.5, 0.25, 1.0));
+    assert_eq!(bevel.eval(&at, &[], 0.5).emission, Vec3::Z);
+    // Enclosed: black; the bevel finds only the plane of normal +X.
+    let traced = |p: &NodeProgram| p.eval_tracing(&at, &[], 0.5, Some(&tracing)).emission;
+    assert_eq!(traced(&ao), Vec3::ZERO);
+    assert!((traced(&bevel) - Vec3::X).length() < 1e-6);
 }

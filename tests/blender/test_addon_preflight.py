@@ -57,15 +57,15 @@ def render_warnings(capfd, route, monkeypatch) -> tuple[list[str], str]:
 
 
 def add_unsupported_features(scene):
-    """An Ambient Occlusion node (a node Photon does not evaluate yet: Noise, for one, it does)
+    """A Particle Info node (a node Photon does not evaluate: Noise, for one, it does)
     into the cube's base colour, a second cube whose volume's density is one too (volume
     trees are evaluated with the nodes surface trees have), and a particle
     system on the cube rendered as halos (hair particles are carried: points_curves.py)."""
     cube = bpy.data.objects["Cube"]
     tree = cube.active_material.node_tree
-    noise = tree.nodes.new("ShaderNodeAmbientOcclusion")
+    noise = tree.nodes.new("ShaderNodeParticleInfo")
     noise.name = "Clouds"
-    tree.links.new(noise.outputs["AO"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    tree.links.new(noise.outputs["Random"], tree.nodes["Principled BSDF"].inputs["Base Color"])
 
     smoke = bpy.data.objects.new("Smoke", cube.data.copy())
     smoke.location = (3.0, 0.0, 0.0)
@@ -75,9 +75,9 @@ def add_unsupported_features(scene):
     nodes = fog.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
     volume = nodes.new("ShaderNodeVolumeScatter")
-    wisps = nodes.new("ShaderNodeAmbientOcclusion")
+    wisps = nodes.new("ShaderNodeParticleInfo")
     wisps.name = "Wisps"
-    fog.node_tree.links.new(wisps.outputs["AO"], volume.inputs["Density"])
+    fog.node_tree.links.new(wisps.outputs["Random"], volume.inputs["Density"])
     fog.node_tree.links.new(volume.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
     smoke.data.materials.clear()
     smoke.data.materials.append(fog)
@@ -101,8 +101,8 @@ def test_each_unsupported_feature_gives_one_warning(scene, capfd, monkeypatch, r
     add_unsupported_features(scene)
     warnings, status = render_warnings(capfd, route, monkeypatch)
     expected = {
-        "ao node": lambda w: "material 'Material'" in w and "Occlusion node 'Clouds'" in w,
-        "volume": lambda w: "material 'Fog'" in w and "Occlusion node 'Wisps'" in w,
+        "node": lambda w: "material 'Material'" in w and "Particle Info node 'Clouds'" in w,
+        "volume": lambda w: "material 'Fog'" in w and "Particle Info node 'Wisps'" in w,
         "halos": lambda w: "object 'Cube'" in w and "'Sparks' rendered as HALO" in w,
     }
     for feature, matches in expected.items():
@@ -152,15 +152,15 @@ def test_other_rules(photon_addon):
     # Carried as tubes (points_curves.py): no message.
     scene.collection.objects.link(bpy.data.objects.new("Fur", bpy.data.hair_curves.new("Fur")))
     scene.camera.data.dof.use_dof = True  # carried (PHOTON_camera): no message
-    scene.camera.data.type = "PANO"
-    scene.camera.data.panorama_type = "MIRRORBALL"
+    scene.camera.data.type = "CUSTOM"
     bpy.data.objects["Cube"].visible_shadow = False  # carried (PHOTON_object)
     bpy.data.objects["Cube"].visible_glossy = False
 
     messages = messages_for(scene)
     expected = ("light 'Light': the Wavelength node",
                 "Volume object 'Cloud' is not rendered: it has no OpenVDB file",
-                "camera 'Camera': the MIRRORBALL panoramic", "object 'Cube': ray visibility")
+                "camera 'Camera': Cycles' custom (OSL) camera",
+                "object 'Cube': ray visibility")
     for start in expected:
         assert sum(m.startswith(start) for m in messages) == 1, (start, messages)
     assert len(messages) == len(expected), messages

@@ -201,15 +201,15 @@ def test_image_textured_material_preview(captured, tmp_path):
 
 
 def test_fallback_material_preview(captured):
-    """A tree with a node Photon does not evaluate (Ambient Occlusion into the Base Color) falls
+    """A tree with a node Photon does not evaluate (Particle Info into the Base Color) falls
     back to the Principled BSDF's unlinked values: here an orange emission of strength 4,
     which lights the sphere orange (the linked Base Color reads as grey)."""
     material = bpy.data.materials.new("Gabor")
     material.use_nodes = True
     tree = material.node_tree
     bsdf = tree.nodes["Principled BSDF"]
-    occlusion = tree.nodes.new("ShaderNodeAmbientOcclusion")
-    tree.links.new(occlusion.outputs["AO"], bsdf.inputs["Base Color"])
+    particles = tree.nodes.new("ShaderNodeParticleInfo")
+    tree.links.new(particles.outputs["Random"], bsdf.inputs["Base Color"])
     bsdf.inputs["Emission Color"].default_value = (1.0, 0.3, 0.0, 1.0)
     bsdf.inputs["Emission Strength"].default_value = 4.0
     pixels, run = generate_preview(material, captured)

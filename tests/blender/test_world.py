@@ -1,8 +1,9 @@
 """Worlds as Cycles renders them (PHOTON_world): Blender's Nishita Sky Texture (the sky baked by
-the renderer into an environment map, its sun disc a sun light) at two sun elevations, and
-backgrounds mixed by a Mix Shader, with a constant factor and with Light Path "Is Camera Ray".
-Each scene is rendered by Cycles and by Photon through the add-on at 48x32: mean within 2 % and
-relMSE <= 0.01.
+the renderer into an environment map, its sun disc a sun light) at two sun elevations, the
+Preetham and Hosek-Wilkie skies, and backgrounds mixed by a Mix Shader, with a constant factor
+and with Light Path "Is Camera Ray". Each scene is rendered by Cycles and by Photon through the
+add-on at 48x32: mean within 2 % and relMSE <= 0.01 (the analytic skies: mean within 1 %,
+4x4-block relMSE <= 0.001).
 """
 
 import math
@@ -12,6 +13,7 @@ import pytest
 
 import common
 from cycles_compare import compare
+from helpers import rel_mse
 
 
 # Nishita's single-scattering sky: Blender 5 calls it "Single Scattering".
@@ -72,6 +74,34 @@ def test_nishita_sky(tmp_path, elevation):
     compare(f"nishita sky {elevation:.0f} deg", scene, tmp_path, photon_spp=512)
 
 
+def block_means(img, size=4):
+    """The means of `size` x `size` pixel blocks of an (H, W, C) image."""
+    h, w = img.shape[0] // size * size, img.shape[1] // size * size
+    return img[:h, :w].reshape(h // size, size, w // size, size, -1).mean(axis=(1, 3))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["PREETHAM", "HOSEK_WILKIE"])
+def test_analytic_sky(tmp_path, model):
+    """Blender's Preetham and Hosek-Wilkie skies (Cycles evaluates them analytically; Photon
+    bakes them): the sun low in front of the camera and to the right, a hazy sky (turbidity
+    3.5), a bright ground for the Hosek-Wilkie sky. Mean within 1 % and 4x4-block relMSE at most
+    0.001; before these models were evaluated the world rendered the Background's grey."""
+    scene = ground_scene()
+    tree, background = world_nodes(scene)
+    sky = tree.nodes.new("ShaderNodeTexSky")
+    sky.sky_type = model
+    sky.sun_direction = (0.45, 0.75, 0.35)
+    sky.turbidity = 3.5
+    sky.ground_albedo = 0.6
+    tree.links.new(sky.outputs["Color"], background.inputs["Color"])
+    background.inputs["Strength"].default_value = 0.5
+    img, ref = compare(f"{model.lower()} sky", scene, tmp_path, mean_tol=0.01)
+    err = rel_mse(block_means(img), block_means(ref))
+    print(f"{model.lower()} sky: 4x4-block relMSE {err:.5f}")
+    assert err <= 0.001, err
+
+
 @pytest.mark.slow
 def test_mix_of_two_backgrounds(tmp_path):
     """A blue and an orange background mixed 0.3 : 0.7 by a Mix Shader, with a sun."""
@@ -106,16 +136,26 @@ def test_camera_ray_sees_another_background(tmp_path):
 
 
 def test_world_problems_are_named(photon_addon):
-    """What PHOTON_world does not carry is named for the pre-flight report: a Preetham sky, a
-    Mix Shader factor from a texture; the export keeps the rest."""
+    """What PHOTON_world does not carry is named for the pre-flight report: Blender 5's
+    Multiple Scattering sky, a Mix Shader factor from a texture; the export keeps the rest, the
+    Preetham and Hosek-Wilkie skies with their settings."""
     from blender_addon import world
     scene = ground_scene()
     tree, background = world_nodes(scene)
     sky = nishita(tree, 20.0, 0.0)
-    sky.sky_type = "PREETHAM"
     tree.links.new(sky.outputs["Color"], background.inputs["Color"])
-    data, problems = world.world_description(scene.world)
-    assert "sky" not in data and len(problems) == 1 and "PREETHAM" in problems[0], problems
+    for model in ("PREETHAM", "HOSEK_WILKIE"):
+        sky.sky_type = model
+        sky.sun_direction = (0.0, 0.6, 0.8)
+        data, problems = world.world_description(scene.world)
+        assert problems == [] and data["sky"]["type"] == model, (data, problems)
+        assert data["sky"]["sun_direction"] == pytest.approx([0.0, 0.6, 0.8])
+        assert ("ground_albedo" in data["sky"]) == (model == "HOSEK_WILKIE")
+    if "MULTIPLE_SCATTERING" in sky.bl_rna.properties["sky_type"].enum_items.keys():
+        sky.sky_type = "MULTIPLE_SCATTERING"
+        data, problems = world.world_description(scene.world)
+        assert "sky" not in data and len(problems) == 1, problems
+        assert "MULTIPLE_SCATTERING" in problems[0], problems
     sky.sky_type = NISHITA
     noise = tree.nodes.new("ShaderNodeTexNoise")
     other = tree.nodes.new("ShaderNodeBackground")

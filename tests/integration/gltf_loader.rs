@@ -1659,7 +1659,7 @@ fn photon_camera_panoramas_are_read_also_on_camera_less_nodes() {
         }
     );
     for bad in [
-        json!({"type": "MIRRORBALL"}),
+        json!({"type": "CUSTOM"}),
         json!({"type": "FISHEYE_EQUIDISTANT", "fov": 0.0}),
         json!({"type": "FISHEYE_EQUISOLID", "sensor": [36.0, -1.0]}),
     ] {

@@ -83,7 +83,7 @@ fn checker_material(emission_input: &str) -> Value {
                 {"name": "Checker", "type": "ShaderNodeTexChecker",
                  "inputs": {"Color1": [0.9, 0.3, 0.1, 1.0], "Color2": [0.05, 0.2, 0.6, 1.0],
                             "Scale": 3.0}},
-                {"name": "Occlusion", "type": "ShaderNodeAmbientOcclusion"},
+                {"name": "Particles", "type": "ShaderNodeParticleInfo"},
                 {"name": "Emission", "type": "ShaderNodeEmission",
                  "inputs": {"Color": {"node": 0, "output": emission_input}, "Strength": 2.0}}
             ],
@@ -160,7 +160,7 @@ fn unknown_nodes_are_listed_by_photon_info_and_the_fac_output_converts() {
     let text =
         String::from_utf8_lossy(&info.stdout).to_string() + &String::from_utf8_lossy(&info.stderr);
     assert!(
-        text.contains("material 'Board'") && text.contains("Occlusion"),
+        text.contains("material 'Board'") && text.contains("Particles"),
         "photon info does not name the node it cannot evaluate: {text}"
     );
     let out = dir.join("fac.exr");

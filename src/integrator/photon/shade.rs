@@ -826,8 +826,8 @@ pub fn trace(
 /// Radiance arriving at `s` along `wi` for an irradiance-cache record, with the distance of the
 /// first hit: the global estimate behind specular surfaces, as a final-gather ray reads it, but
 /// without emission (the cached point samples its lights itself); through media, attenuated
-/// and with the light they scatter towards `s` (the media at the ray's origin found as
-/// `MediumStack::at` finds them: a record's shading point does not know them).
+/// and with the light they scatter towards `s` (`s.media`: the media at the record, which
+/// `cache::build_cache` finds once per record).
 pub fn cache_gather(
     ctx: &Context,
     maps: &PhotonMaps,
@@ -836,11 +836,6 @@ pub fn cache_gather(
     rng: &mut Rng,
 ) -> Incoming {
     let mut gather = Gather::new(ctx, maps, None);
-    let mut from = *s;
-    if ctx.scene.has_media() {
-        let ray = s.sh.spawn(wi);
-        from.media = MediumStack::at(ctx, ray.origin, ray.time);
-    }
     let bs = BsdfSample {
         wi: s.frame.to_local(wi),
         weight: Vec3::ONE,
@@ -849,7 +844,7 @@ pub fn cache_gather(
         transmitted: false,
         scattering: Scattering::Diffuse,
     };
-    let (met, along) = match gather.cast(&from, &bs, wi, Vec3::ZERO, true, rng) {
+    let (met, along) = match gather.cast(s, &bs, wi, Vec3::ZERO, true, rng) {
         Ok(met) => met,
         Err((_, scattered)) => {
             return Incoming {

@@ -454,9 +454,36 @@ fn read_panorama(fields: Fields) -> Read<Projection> {
             fov: positive_number("fov", PI)?,
             sensor: fields.pair("sensor", (36.0, 24.0), |x| x.is_finite() && x > 0.0)?,
         }),
+        Some("FISHEYE_LENS_POLYNOMIAL") => {
+            // Blender's defaults: the fit of a 50 mm lens on a 36 mm sensor.
+            let k = match fields.get("k") {
+                None => [
+                    -1.1735144e-5,
+                    -0.019988737,
+                    -3.3525323e-6,
+                    3.0992753e-6,
+                    -2.6064646e-8,
+                ],
+                Some(v) => numbers::<5>(v)
+                    .filter(|k| k.iter().all(|x| x.is_finite()))
+                    .ok_or_else(|| fields.fail(format!("'k' must be five numbers, found {v}")))?,
+            };
+            Ok(Projection::FisheyePolynomial {
+                k,
+                fov: positive_number("fov", PI)?,
+                sensor: fields.pair("sensor", (36.0, 24.0), |x| x.is_finite() && x > 0.0)?,
+            })
+        }
+        Some("MIRRORBALL") => Ok(Projection::MirrorBall),
+        Some("CENTRAL_CYLINDRICAL") => Ok(Projection::CentralCylindrical {
+            longitude: fields.pair("longitude", (-PI, PI), finite)?,
+            height: fields.pair("height", (-1.0, 1.0), finite)?,
+        }),
+        Some("EQUIANGULAR_CUBEMAP_FACE") => Ok(Projection::CubeMapFace),
         other => Err(fields.fail(format!(
-            "unknown panorama type {other:?} (EQUIRECTANGULAR, FISHEYE_EQUIDISTANT or \
-             FISHEYE_EQUISOLID)"
+            "unknown panorama type {other:?} (EQUIRECTANGULAR, FISHEYE_EQUIDISTANT, \
+             FISHEYE_EQUISOLID, FISHEYE_LENS_POLYNOMIAL, MIRRORBALL, CENTRAL_CYLINDRICAL or \
+             EQUIANGULAR_CUBEMAP_FACE)"
         ))),
     }
 }
@@ -604,10 +631,25 @@ pub(super) struct EnvironmentTexture {
     pub(super) closest: bool,
 }
 
-/// Blender's Sky Texture (Nishita).
+/// Blender's Sky Texture: its model and that model's settings.
 pub(super) struct SkyTexture {
-    pub(super) settings: NishitaSettings,
+    pub(super) model: SkyModel,
     pub(super) rotation: Mat3,
+}
+
+/// The sky models of Blender's Sky Texture that Photon evaluates.
+pub(super) enum SkyModel {
+    Nishita(NishitaSettings),
+    /// The sun towards `sun_direction` (Blender's Sun Direction, any length but zero).
+    Preetham {
+        sun_direction: Vec3,
+        turbidity: f32,
+    },
+    HosekWilkie {
+        sun_direction: Vec3,
+        turbidity: f32,
+        ground_albedo: f32,
+    },
 }
 
 impl WorldExtension {
@@ -682,10 +724,42 @@ fn read_layer(fields: &Fields) -> Read<BackgroundLayer> {
 }
 
 fn read_sky(sky: &Fields) -> Read<SkyTexture> {
-    match sky.string("type")? {
-        None | Some("NISHITA") => {}
-        Some(other) => return Err(sky.fail(format!("unknown sky type '{other}' (NISHITA)"))),
-    }
+    let analytic = |hosek: bool| -> Read<SkyModel> {
+        let sun_direction = sky
+            .vec3("sun_direction", "a non-zero [x, y, z]", |v| v != Vec3::ZERO)?
+            .unwrap_or(Vec3::Z);
+        let turbidity = sky.number("turbidity", 2.2, |t| (1.0..=10.0).contains(&t))?;
+        Ok(if hosek {
+            SkyModel::HosekWilkie {
+                sun_direction,
+                turbidity,
+                ground_albedo: sky.number("ground_albedo", 0.3, |a| (0.0..=1.0).contains(&a))?,
+            }
+        } else {
+            SkyModel::Preetham {
+                sun_direction,
+                turbidity,
+            }
+        })
+    };
+    let model = match sky.string("type")? {
+        None | Some("NISHITA") => SkyModel::Nishita(read_nishita(sky)?),
+        Some("PREETHAM") => analytic(false)?,
+        Some("HOSEK_WILKIE") => analytic(true)?,
+        Some(other) => {
+            return Err(sky.fail(format!(
+                "unknown sky type '{other}' (NISHITA, PREETHAM or HOSEK_WILKIE)"
+            )))
+        }
+    };
+    Ok(SkyTexture {
+        model,
+        rotation: mapping_rotation(sky)?,
+    })
+}
+
+/// The settings of a Nishita sky.
+fn read_nishita(sky: &Fields) -> Read<NishitaSettings> {
     let defaults = NishitaSettings::default();
     let settings = NishitaSettings {
         sun_elevation: sky.number("sun_elevation", defaults.sun_elevation, any)?,
@@ -698,10 +772,7 @@ fn read_sky(sky: &Fields) -> Read<SkyTexture> {
         dust: sky.number("dust", defaults.dust, non_negative)?,
         ozone: sky.number("ozone", defaults.ozone, non_negative)?,
     };
-    Ok(SkyTexture {
-        settings,
-        rotation: mapping_rotation(sky)?,
-    })
+    Ok(settings)
 }
 
 /// The rotation of a Mapping node (`"rotation": [x, y, z]`, Blender's Euler XYZ, radians)
@@ -885,5 +956,57 @@ mod tests {
             (AreaShape::Square, 1.0, 1.0)
         );
         assert_eq!((area.power, area.spread), (10.0, PI));
+    }
+
+    /// The analytic skies and the panoramas added to Cycles' set are read with their fields
+    /// and defaults; a zero sun direction or an unknown type is refused.
+    #[test]
+    fn analytic_skies_and_more_panoramas_are_read() {
+        let layer = |value| {
+            WorldExtension::read(&json!({ "sky": value }))
+                .map(|mut w| w.background.remove(0).source)
+        };
+        let Ok(BackgroundSource::Sky(sky)) =
+            layer(json!({"type": "HOSEK_WILKIE", "sun_direction": [0, 1, 1]}))
+        else {
+            panic!("a sky");
+        };
+        let SkyModel::HosekWilkie {
+            sun_direction,
+            turbidity,
+            ground_albedo,
+        } = sky.model
+        else {
+            panic!("Hosek-Wilkie");
+        };
+        assert_eq!(
+            (sun_direction, turbidity, ground_albedo),
+            (Vec3::new(0.0, 1.0, 1.0), 2.2, 0.3)
+        );
+        let Ok(BackgroundSource::Sky(sky)) = layer(json!({"type": "PREETHAM", "turbidity": 4}))
+        else {
+            panic!("a sky");
+        };
+        assert!(matches!(sky.model, SkyModel::Preetham { turbidity, .. } if turbidity == 4.0));
+        assert!(layer(json!({"type": "PREETHAM", "sun_direction": [0, 0, 0]})).is_err());
+        assert!(layer(json!({"type": "MULTIPLE_SCATTERING"})).is_err());
+        let panorama =
+            |value| CameraExtension::read(&json!({ "panorama": value })).map(|c| c.panorama);
+        assert_eq!(
+            panorama(json!({"type": "MIRRORBALL"})).ok(),
+            Some(Some(Projection::MirrorBall))
+        );
+        assert_eq!(
+            panorama(
+                json!({"type": "FISHEYE_LENS_POLYNOMIAL", "k": [0, -0.03, 0, 0, 0], "fov": 2})
+            )
+            .ok(),
+            Some(Some(Projection::FisheyePolynomial {
+                k: [0.0, -0.03, 0.0, 0.0, 0.0],
+                fov: 2.0,
+                sensor: (36.0, 24.0)
+            }))
+        );
+        assert!(panorama(json!({"type": "FISHEYE_LENS_POLYNOMIAL", "k": [1, 2]})).is_err());
     }
 }

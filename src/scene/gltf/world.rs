@@ -1,16 +1,19 @@
 //! The scene-level extensions: `PHOTON_world` (a constant colour, an equirectangular EXR or
-//! Blender's Nishita sky baked into a map, with its sun as a light; mixes of them; what camera
-//! rays see) and `PHOTON_render` (resolution, transparent film, pixel filter).
+//! Blender's Nishita, Preetham or Hosek-Wilkie sky baked into a map, a Nishita sun as a light;
+//! mixes of them; what camera rays see) and `PHOTON_render` (resolution, transparent film,
+//! pixel filter).
 
 use super::container::Loader;
 use super::extensions::{
-    BackgroundLayer, BackgroundSource, EnvironmentTexture, RenderExtension, SkyTexture,
+    BackgroundLayer, BackgroundSource, EnvironmentTexture, RenderExtension, SkyModel, SkyTexture,
     WorldExtension,
 };
 use crate::color_space::WorkingSpace;
 use crate::error::Result;
 use crate::math::Vec3;
 use crate::scene::sky::NishitaSky;
+use crate::scene::sky_hosek::HosekSky;
+use crate::scene::sky_preetham::PreethamSky;
 use crate::scene::{Background, Environment, Light, SceneRenderSettings, Volume};
 
 /// Width of the environment map a sky is baked into (height half of it): 0.35° pixels, each
@@ -159,14 +162,35 @@ impl Loader {
     }
 }
 
-/// Blender's Sky Texture (Nishita) baked × `strength` into an environment map, and its sun
+/// Blender's Sky Texture baked × `strength` into an environment map, and a Nishita sky's sun
 /// disc as a sun light (in scene directions), in the working colour space `space`.
 fn bake_sky(sky: &SkyTexture, strength: f32, space: WorkingSpace) -> (Environment, Option<Light>) {
     let to_map = sky.rotation * Environment::Y_UP_TO_Z_UP;
-    let model = NishitaSky::new(&sky.settings);
-    let map = Environment::bake(SKY_MAP_WIDTH, SKY_MAP_WIDTH / 2, to_map, 3, |d| {
-        space.convert_rec709(model.sky_radiance(d)) * strength
-    });
+    let bake = |radiance: &(dyn Fn(Vec3) -> Vec3 + Sync)| {
+        Environment::bake(SKY_MAP_WIDTH, SKY_MAP_WIDTH / 2, to_map, 3, |d| {
+            space.convert_rec709(radiance(d)) * strength
+        })
+    };
+    let settings = match sky.model {
+        SkyModel::Nishita(settings) => settings,
+        SkyModel::Preetham {
+            sun_direction,
+            turbidity,
+        } => {
+            let model = PreethamSky::new(sun_direction, turbidity);
+            return (bake(&|d| model.radiance(d)), None);
+        }
+        SkyModel::HosekWilkie {
+            sun_direction,
+            turbidity,
+            ground_albedo,
+        } => {
+            let model = HosekSky::new(sun_direction, turbidity, ground_albedo);
+            return (bake(&|d| model.radiance(d)), None);
+        }
+    };
+    let model = NishitaSky::new(&settings);
+    let map = bake(&|d| model.sky_radiance(d));
     let sun = model.sun().map(|sun| Light::Sun {
         direction: -(to_map.transpose() * sun.direction),
         irradiance: space.convert_rec709(sun.irradiance) * strength,
