@@ -63,6 +63,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Denoising Albedo", 3, "RGB", "COLOR")
         for name in properties.enabled_light_passes(renderlayer):
             self.register_pass(scene, renderlayer, name, 3, "RGB", "COLOR")
+        if properties.shadow_catcher_pass(renderlayer):
+            self.register_pass(scene, renderlayer, "Shadow Catcher", 3, "RGB", "COLOR")
 
     def render(self, depsgraph):
         self.timings = {"start": time.perf_counter()}
@@ -216,6 +218,10 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self.end_result(result, cancel=True)
             raise runner.PhotonError(f"Blender could not load the rendered image: {exc}") from None
         try:
+            catcher = result.layers[0].passes.get("Shadow Catcher")
+            if catcher is not None and f"{layer_name}.Shadow Catcher.R" not in channels:
+                # No shadow catcher in the scene: Cycles' pass is white (the file has none).
+                catcher.rect.foreach_set([1.0] * (width * height * 3))
             if denoising is not None:
                 self._denoise(result.layers[0], width, height, denoising)
         finally:

@@ -31,10 +31,10 @@ from __future__ import annotations
 
 try:
     from .node_graph import Source, active_output, source
-    from .shared import REC709, material_tree, working_space
+    from .shared import REC709, blender_5, material_tree, working_space
 except ImportError:  # loaded by export.py as a top-level module in the export's child process
     from node_graph import Source, active_output, source
-    from shared import REC709, material_tree, working_space
+    from shared import REC709, blender_5, material_tree, working_space
 
 # Nodes the renderer evaluates, by bl_idname, with the settings it reads.
 SETTINGS = {
@@ -364,6 +364,10 @@ class _Walker:
                 entry["image"] = {"uri": self.image_uri(image),
                                   "colorspace": IMAGE_COLORSPACES[
                                       image.colorspace_settings.name]}
+        if kind == "ShaderNodeBsdfPrincipled" and blender_5():
+            entry["thin_film_model"] = "BLENDER_5"  # its film's spectra and the metal's film
+        if kind == "ShaderNodeTexVoronoi" and blender_5():
+            entry["cell_hash"] = "PCG"  # Blender 5 hashes integer cells (Blender 4: lookup3)
         if kind == "ShaderNodeMath" and node.operation not in MATH_OPS:
             self.problems.append(f"{self.what}: Math node '{name}' with operation "
                                  f"{node.operation} is not evaluated by Photon")

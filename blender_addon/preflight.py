@@ -31,7 +31,7 @@ empty list, so the rules below only flag what really changes the image:
   Visibility; camera and shadow visibility and holdout objects and collections are carried),
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
-- shadow catchers without a transparent film, Cycles' Shadow Catcher pass;
+- shadow catchers without a transparent film;
 - render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
 - cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
@@ -90,7 +90,7 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
                         f"tracks volumes exactly, without ray-marching steps")
     messages += light_path_features(scene)
     messages += light_linking_features(scene, objects)
-    messages += shadow_catcher_features(scene, objects, view_layer)
+    messages += shadow_catcher_features(scene, objects)
     for layer_collection in _layer_collections(view_layer):
         what = f"collection '{layer_collection.name}'"
         if layer_collection.exclude:
@@ -142,9 +142,9 @@ def light_path_features(scene) -> list[str]:
     return messages
 
 
-def shadow_catcher_features(scene, objects, view_layer) -> list[str]:
+def shadow_catcher_features(scene, objects) -> list[str]:
     """What of Blender's shadow catchers Photon does not render: catchers without a
-    transparent film (rendered as the objects they are), and Cycles' Shadow Catcher pass."""
+    transparent film (rendered as the objects they are)."""
     # Light objects report is_shadow_catcher too; only geometry catches shadows.
     catchers = sorted(obj.name for obj in objects if obj.type in GEOMETRY_TYPES
                       and getattr(obj, "is_shadow_catcher", False))
@@ -155,10 +155,6 @@ def shadow_catcher_features(scene, objects, view_layer) -> list[str]:
     if not scene.render.film_transparent:
         messages.append(f"shadow catcher ({names}): only rendered with Film > Transparent; "
                         f"Photon renders it as the object it is")
-    layer_cycles = getattr(view_layer, "cycles", None)
-    if getattr(layer_cycles, "use_pass_shadow_catcher", False):
-        messages.append("view layer: the Shadow Catcher pass is not written (the Combined pass "
-                        "holds the caught shadows in its alpha)")
     return messages
 
 
@@ -245,30 +241,11 @@ def material_features(material) -> list[str]:
             messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film is not rendered "
                             f"(the node tree is not evaluated, and glTF carries no film); the "
                             f"surface renders without its iridescence")
-    if evaluated and bpy.app.version >= (5, 0, 0):
-        messages += _metallic_thin_film(what, upstream(output.inputs["Surface"]))
     messages += _volume_features(material, output)
     displacement = output.inputs.get("Displacement")
     displaced = source(displacement).node if displacement is not None else None
     if displaced is not None and not (evaluated and "displacement" in extension):
         messages.append(f"{what}: displacement ('{displaced.name}') is not exported")
-    return messages
-
-
-def _metallic_thin_film(what, feeding) -> list[str]:
-    """Blender 5 puts a Principled BSDF's Thin Film on its metallic layer too; Photon renders
-    the film as Blender 4.5 does, on the specular layer and glass only."""
-    messages = []
-    for found in feeding:
-        node = found.node
-        if node.type != "BSDF_PRINCIPLED":
-            continue
-        used = [source(node.inputs[name], found.groups).linked
-                or node.inputs[name].default_value > 0.0
-                for name in ("Metallic", "Thin Film Thickness")]
-        if all(used):
-            messages.append(f"{what}: Principled BSDF '{node.name}': Thin Film on the metallic "
-                            f"layer (Blender 5) is not rendered; the metal renders without it")
     return messages
 
 

@@ -149,6 +149,12 @@ def enabled_light_passes(view_layer) -> list[str]:
     return names
 
 
+def shadow_catcher_pass(view_layer) -> bool:
+    """Whether `view_layer` asks for Cycles' Shadow Catcher pass (the renderer writes it when
+    the scene has a shadow catcher; without one it is white, as Cycles leaves it)."""
+    return bool(getattr(getattr(view_layer, "cycles", None), "use_pass_shadow_catcher", False))
+
+
 class PhotonPreferences(bpy.types.AddonPreferences):
     bl_idname = __package__
 

@@ -15,6 +15,13 @@ GEOMETRY_TYPES = ("MESH", "CURVE", "SURFACE", "META", "FONT")
 REC709 = "lin_rec709_scene"
 
 
+def blender_5() -> bool:
+    """Whether the file is rendered by Blender 5 (whose Cycles changed some textures and
+    materials: the add-on says so where the renderer must follow)."""
+    import bpy
+    return bpy.app.version >= (5, 0, 0)
+
+
 def working_space() -> str:
     """The file's working colour space as its Color Interop Forum id (Blender 5's
     `bpy.data.colorspace`; Blender 4 renders in linear Rec.709)."""

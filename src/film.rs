@@ -258,6 +258,10 @@ pub struct Image {
     /// Camera samples taken per pixel (Cycles' Sample Count pass): all the same unless adaptive
     /// sampling stopped some pixels early (`adaptive`).
     pub samples: Vec<u32>,
+    /// Cycles' Shadow Catcher pass: per pixel the light the shadow catchers keep of what they
+    /// receive without the other objects, over white by the pixel's alpha (1 where no catcher
+    /// is seen; `shadow_catcher::CatcherSum::compose`). Empty for scenes without catchers.
+    pub shadow_catcher: Vec<Vec3>,
 }
 
 impl Image {
@@ -273,6 +277,7 @@ impl Image {
             passes: Vec::new(),
             camera_rotation: Mat3::IDENTITY,
             samples: vec![0; n],
+            shadow_catcher: Vec::new(),
         }
     }
 
@@ -308,6 +313,11 @@ impl Image {
             }
             self.albedo[k] = self.albedo[k] * a + other.albedo[k] * b;
             self.normal[k] = (self.normal[k] * a + other.normal[k] * b).normalize_or_zero();
+            if let (Some(s), Some(p)) =
+                (self.shadow_catcher.get_mut(k), other.shadow_catcher.get(k))
+            {
+                *s = *s * a + *p * b;
+            }
             if let (Some(s), Some(p)) = (self.passes.get_mut(k), other.passes.get(k)) {
                 let mut p = *p;
                 p.scale(b);

@@ -18,7 +18,8 @@ pub enum ExrLayout {
     /// Blender's multilayer naming `<view layer>.<pass>.<channel>` (Combined, Depth, Normal,
     /// Denoising Albedo, Denoising Normal), which `RenderResult.load_from_file` reads; with
     /// `light_passes`, also the light-path passes under the names in `LIGHT_PASS_NAMES` (the
-    /// volume passes only when the image has volume light).
+    /// volume passes only when the image has volume light); and Cycles' Shadow Catcher pass
+    /// when the scene has a shadow catcher (`Image::shadow_catcher`).
     Blender {
         view_layer: String,
         light_passes: bool,
@@ -137,6 +138,11 @@ fn exr_channels(image: &Image, layout: &ExrLayout) -> Vec<(String, Vec<f32>)> {
                 (name("Denoising Albedo", "G"), vec3(&image.albedo, 1)),
                 (name("Denoising Albedo", "B"), vec3(&image.albedo, 2)),
             ];
+            if !image.shadow_catcher.is_empty() {
+                for (c, chan) in ["R", "G", "B"].iter().enumerate() {
+                    channels.push((name("Shadow Catcher", chan), vec3(&image.shadow_catcher, c)));
+                }
+            }
             if *light_passes {
                 for (p, pass) in LIGHT_PASS_NAMES.iter().enumerate() {
                     let lit = || image.passes.iter().any(|v| v.0[p] != Vec3::ZERO);

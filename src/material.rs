@@ -7,6 +7,7 @@
 //! (`TracedScene`).
 
 use crate::accel::{hit_mesh, interpolate, Accel, Hit, Ray, Visibility, NO_INSTANCE};
+use crate::bsdf::thin_film::FilmModel;
 use crate::interaction::{SurfaceHit, View};
 use crate::math::{Vec2, Vec3, Vec4};
 use crate::scene::{blender_axes, Material, Scene, Subsurface, TextureRef};
@@ -62,6 +63,8 @@ pub struct SurfaceMaterial {
     /// on the specular layer and the glass (`bsdf::thin_film`).
     pub thin_film_thickness: f32,
     pub thin_film_ior: f32,
+    /// Whose Cycles' film it is (`bsdf::thin_film::FilmModel`).
+    pub thin_film_model: FilmModel,
     /// How much of the film's reflectance replaces the film-free one (1: all, as Blender's;
     /// KHR_materials_iridescence's iridescenceFactor).
     pub thin_film_weight: f32,
@@ -131,6 +134,7 @@ impl Default for SurfaceMaterial {
             diffuse_roughness: 0.0,
             thin_film_thickness: 0.0,
             thin_film_ior: 1.33,
+            thin_film_model: FilmModel::Blender4,
             thin_film_weight: 1.0,
             transparent: false,
             translucent: false,
@@ -566,6 +570,11 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         diffuse_roughness: c.diffuse_roughness,
         thin_film_thickness: c.thin_film_thickness,
         thin_film_ior: c.thin_film_ior,
+        thin_film_model: if c.thin_film_blender_5 {
+            FilmModel::Blender5
+        } else {
+            FilmModel::Blender4
+        },
         thin_film_weight: 1.0,
         transparent: c.transparent,
         translucent: c.translucent,

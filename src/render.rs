@@ -500,6 +500,9 @@ fn render_round(
         image.passes = vec![Passes::default(); image.rgba.len()];
     }
     image.camera_rotation = crate::math::Mat3::from(scene.camera.to_world.matrix3);
+    if round.catcher.is_some() {
+        image.shadow_catcher = vec![Vec3::ONE; image.rgba.len()];
+    }
     // Alpha as Cycles writes it: the coverage with a transparent film, else 1 less the
     // samples that met a Holdout.
     let alpha = |px: &PixelSum| match round.ctx.transparent_background {
@@ -522,7 +525,11 @@ fn render_round(
             let c = px.sum / n;
             image.rgba[k] = match round.catcher {
                 None => [c.x, c.y, c.z, alpha(px)],
-                Some(_) => px.catcher.compose(px.sum, px.coverage, n),
+                Some(_) => {
+                    let (rgba, shadow) = px.catcher.compose(px.sum, px.coverage, n);
+                    image.shadow_catcher[k] = shadow;
+                    rgba
+                }
             };
             image.albedo[k] = px.albedo / n;
             image.normal[k] = px.normal.normalize_or_zero();

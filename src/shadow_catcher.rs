@@ -9,7 +9,9 @@
 //! with / without, is the light the catcher keeps (Cycles' Shadow Catcher pass); the colour is
 //! that of the samples that met no catcher (Cycles' matte), and the alpha is their coverage,
 //! the rest of the pixel covered by the shadow, 1 − the ratio's mean (Cycles'
-//! `film_calculate_shadow_catcher_matte_with_shadow`).
+//! `film_calculate_shadow_catcher_matte_with_shadow`). The ratio over white by the pixel's
+//! coverage is Cycles' Shadow Catcher pass (`film_calculate_shadow_catcher`), written beside
+//! the Combined pass (`film::Image::shadow_catcher`).
 
 use crate::accel::Accel;
 use crate::integrator::Context;
@@ -77,8 +79,8 @@ impl CatcherSum {
     }
 
     /// The pixel's colour and alpha from the sum `sum` of all its `n` samples' radiance, of
-    /// which `coverage` met an object (module header).
-    pub fn compose(&self, sum: Vec3, coverage: f32, n: f32) -> [f32; 4] {
+    /// which `coverage` met an object, and its Shadow Catcher pass (module header).
+    pub fn compose(&self, sum: Vec3, coverage: f32, n: f32) -> ([f32; 4], Vec3) {
         let matte = (sum - self.with) / n;
         let objects = ((coverage - self.samples) / n).clamp(0.0, 1.0);
         let ratio = |w: f32, wo: f32| if wo != 0.0 { w / wo } else { 1.0 };
@@ -91,6 +93,6 @@ impl CatcherSum {
         let shadow = Vec3::splat(1.0 - covered) + covered * kept;
         let mean = ((shadow.x + shadow.y + shadow.z) / 3.0).clamp(0.0, 1.0);
         let alpha = (1.0 - objects) * (1.0 - mean) + objects;
-        [matte.x, matte.y, matte.z, alpha]
+        ([matte.x, matte.y, matte.z, alpha], shadow)
     }
 }

@@ -61,16 +61,31 @@ pub struct F82Tint {
 
 impl F82Tint {
     pub fn new(f0: Vec3, tint: Vec3) -> Self {
-        let f0 = f0.clamp(Vec3::ZERO, Vec3::ONE);
+        let (f0, schlick_82, p6_over_7) = Self::at_82(f0);
         let tint = tint.clamp(Vec3::ZERO, Vec3::ONE);
+        F82Tint {
+            f0,
+            b: schlick_82 * (Vec3::ONE - tint) / p6_over_7,
+        }
+    }
+
+    /// `f0` clamped to [0, 1], the plain Schlick value at μ = 1/7 (≈ 82°) and μ(1 − μ)⁶ there.
+    fn at_82(f0: Vec3) -> (Vec3, Vec3, f32) {
+        let f0 = f0.clamp(Vec3::ZERO, Vec3::ONE);
         // At μ = 1/7: (1 − μ)⁵ = (6/7)⁵ and μ(1 − μ)⁶ = (6/7)⁶ / 7.
         let one_minus = 6.0f32 / 7.0;
         let p5 = one_minus.powi(5);
         let p6_over_7 = one_minus.powi(6) / 7.0;
-        let schlick_82 = f0 + (Vec3::ONE - f0) * p5;
+        (f0, f0 + (Vec3::ONE - f0) * p5, p6_over_7)
+    }
+
+    /// The model through `f0` and the value `f82` at μ = 1/7 (Blender 5's film over a metal
+    /// takes the metal's edge anew against the film).
+    pub fn from_f82(f0: Vec3, f82: Vec3) -> Self {
+        let (f0, schlick_82, p6_over_7) = Self::at_82(f0);
         F82Tint {
             f0,
-            b: schlick_82 * (Vec3::ONE - tint) / p6_over_7,
+            b: (schlick_82 - f82) / p6_over_7,
         }
     }
 

@@ -81,7 +81,9 @@ use oren_nayar::OrenNayar;
 use sheen::SheenLobe;
 use std::f32::consts::FRAC_1_PI;
 use tables::albedo_tables;
-use thin_film::{scale_to_f0, thin_film_reflectance, weigh_film, ThinFilm};
+use thin_film::{
+    scale_to_f0, thin_film_reflectance, weigh_film, ConductorFilm, FilmModel, ThinFilm,
+};
 
 /// Below this perceptual roughness the specular, metal and glass lobes are perfectly smooth
 /// (delta lobes).
@@ -195,6 +197,8 @@ pub struct Bsdf {
     /// How much of the film's reflectance replaces the plain one (`weigh_film`).
     film_weight: f32,
     metal_fresnel: F82Tint,
+    /// Blender 5's film on the metal (`thin_film::ConductorFilm`); `None`: the plain F82 tint.
+    metal_film: Option<ConductorFilm>,
     /// IOR of the glass (inside over outside).
     glass_ior: f32,
     glass_f0: Vec3,
@@ -301,8 +305,12 @@ impl Bsdf {
         let alpha = (roughness * roughness).max(MIN_ALPHA);
         let aspect = clean(m.aspect, 0.01, 1.0);
         let film_weight = clean(m.thin_film_weight, 0.0, 1.0);
-        let film =
-            ThinFilm::new(m.thin_film_thickness, m.thin_film_ior).filter(|_| film_weight > 0.0);
+        let film = ThinFilm::new(m.thin_film_thickness, m.thin_film_ior, m.thin_film_model)
+            .filter(|_| film_weight > 0.0);
+        let metal_fresnel = F82Tint::new(clamped_base, m.metal_tint.unwrap_or(tint));
+        let metal_film = film
+            .filter(|f| f.model == FilmModel::Blender5)
+            .map(|f| ConductorFilm::new(f, &metal_fresnel));
 
         let coat_weight = clean(m.coat_weight, 0.0, f32::MAX);
         let coat = if coat_weight > WEIGHT_CUTOFF {
@@ -365,7 +373,8 @@ impl Bsdf {
             spec_film_substrate: if ior < 1.0 { 1.0 / spec_eta } else { spec_eta },
             spec_f0_real: f0_from_ior(spec_eta),
             film_weight,
-            metal_fresnel: F82Tint::new(clamped_base, m.metal_tint.unwrap_or(tint)),
+            metal_fresnel,
+            metal_film,
             glass_ior: ior,
             glass_f0: (tint * f0_from_ior(ior)).min(Vec3::ONE),
             // A Transparent BSDF passes its colour (Cycles' weight); glass tints by the
@@ -468,6 +477,16 @@ impl Bsdf {
     /// (Cycles keeps the layer for a film alone).
     fn has_spec_layer(&self) -> bool {
         self.base_weight > 0.0 && (self.spec_eta != 1.0 || self.film.is_some())
+    }
+
+    /// The metal's reflectance for a microfacet (or the macro-surface) at cosine `cos_i`:
+    /// the F82 tint, or with Blender 5's film the film's over it.
+    fn metal_reflectance(&self, cos_i: f32) -> Vec3 {
+        let plain = self.metal_fresnel.eval(cos_i);
+        match &self.metal_film {
+            None => plain,
+            Some(film) => weigh_film(plain, film.reflectance(cos_i), self.film_weight),
+        }
     }
 
     /// The specular layer's reflectance for a microfacet (or the macro-surface) at cosine
@@ -791,7 +810,7 @@ impl LobeSet {
                 (t.ggx_e(mu, rough).max(1e-3), t.ggx_e_avg(rough).max(1e-3))
             };
             let missing = (1.0 - e) / e;
-            let f_view = b.metal_fresnel.eval(mu);
+            let f_view = b.metal_reflectance(mu);
             let f_ms = if b.single_scatter {
                 Vec3::ZERO
             } else {
@@ -1096,7 +1115,7 @@ fn eval_and_pdf(b: &Bsdf, l: &LobeSet, wi: Vec3) -> (Vec3, f32) {
                 pdf += l.prob[SPECULAR] * reflect_pdf;
             }
             if l.prob[METAL] > 0.0 {
-                f += b.metal_fresnel.eval(cos_oh) * l.metal_scale * single;
+                f += b.metal_reflectance(cos_oh) * l.metal_scale * single;
                 pdf += l.prob[METAL] * reflect_pdf;
             }
         }
@@ -1294,7 +1313,7 @@ fn sample(b: &Bsdf, l: &LobeSet, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfS
             let value = if lobe == SPECULAR {
                 b.spec_fresnel(wo_up.z) * l.spec_scale
             } else {
-                b.metal_fresnel.eval(wo_up.z) * l.metal_scale
+                b.metal_reflectance(wo_up.z) * l.metal_scale
             };
             return delta(mirror, value, p_lobe);
         }

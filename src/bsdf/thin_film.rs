@@ -11,7 +11,13 @@
 //!
 //! Energy: each polarisation's series is a reflectance of a lossless stack, so the result lies
 //! in [0, 1] (clamped against the truncation and the fit), and a transmission lobe takes 1 − R.
+//!
+//! Blender 5's Cycles (`FilmModel::Blender5`) integrates over the CIE 1931 functions' Fourier
+//! transform instead of the fit (`CieTable`), fades films under 1 nm, and puts the film on the
+//! Principled BSDF's metal too (`ConductorFilm`: the conductor's complex reflection phases in
+//! the same series).
 
+use super::fresnel::F82Tint;
 use crate::math::Vec3;
 
 /// Films at most this thick (nm) are absent (Cycles' threshold on the Thin Film Thickness).
@@ -20,19 +26,25 @@ pub const MIN_THICKNESS: f32 = 0.1;
 /// Below this thickness (nm) the film's index fades towards the ambient medium's.
 const FADE_THICKNESS: f32 = 30.0;
 
-/// A film on a surface: thickness in nanometres and index of refraction.
+/// Blender 5's `FADE_THICKNESS`.
+const BLENDER5_FADE_THICKNESS: f32 = 1.0;
+
+/// A film on a surface: thickness in nanometres, index of refraction, and whose Cycles
+/// renders it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ThinFilm {
     pub thickness: f32,
     pub ior: f32,
+    pub model: FilmModel,
 }
 
 impl ThinFilm {
     /// The film of a material's inputs; `None` when it is too thin to exist.
-    pub fn new(thickness: f32, ior: f32) -> Option<ThinFilm> {
+    pub fn new(thickness: f32, ior: f32, model: FilmModel) -> Option<ThinFilm> {
         (thickness.is_finite() && thickness > MIN_THICKNESS && ior.is_finite()).then(|| ThinFilm {
             thickness,
             ior: ior.max(1e-5),
+            model,
         })
     }
 }
@@ -140,11 +152,10 @@ const D65: Vec3 = Vec3::new(0.950_47, 1.0, 1.088_83);
 /// at either interface.
 pub fn thin_film_reflectance(cos_i: f32, film: &ThinFilm, substrate: f32) -> Vec3 {
     let cos_i = cos_i.clamp(1e-6, 1.0);
-    let mut film_ior = film.ior;
-    if film.thickness < FADE_THICKNESS {
-        let t = (film.thickness / FADE_THICKNESS).clamp(0.0, 1.0);
-        film_ior = 1.0 + (film_ior - 1.0) * (t * t * (3.0 - 2.0 * t));
+    if film.model == FilmModel::Blender5 {
+        return dielectric_reflectance_blender5(cos_i, film, substrate);
     }
+    let film_ior = faded_ior(film, FADE_THICKNESS);
     let Some((r12, flip12, cos_film)) = interface(cos_i, film_ior) else {
         return Vec3::ONE;
     };
@@ -177,6 +188,405 @@ pub fn scale_to_f0(f: Vec3, f0: Vec3, f0_real: f32) -> Vec3 {
     Vec3::new(channel(f.x, f0.x), channel(f.y, f0.y), channel(f.z, f0.z))
 }
 
+/// Which Cycles' film a material has.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FilmModel {
+    /// Blender 4: the Gaussian fit of the colour matching functions, films under 30 nm
+    /// fading, metals without a film.
+    #[default]
+    Blender4,
+    /// Blender 5: the Fourier transform of the CIE 1931 functions themselves (`CieTable`),
+    /// films under 1 nm fading, and a film on the Principled BSDF's metal too
+    /// (`ConductorFilm`).
+    Blender5,
+}
+
+/// The CIE 1931 2° colour matching functions x̄, ȳ, z̄ every 5 nm from 360 to 830 nm (CIE
+/// 15:2004, table T.4).
+const CIE_1931: [[f64; 3]; 95] = [
+    [0.0001299, 0.000003917, 0.0006061],
+    [0.0002321, 0.000006965, 0.001086],
+    [0.0004149, 0.00001239, 0.001946],
+    [0.0007416, 0.00002202, 0.003486],
+    [0.001368, 0.000039, 0.006450001],
+    [0.002236, 0.000064, 0.01054999],
+    [0.004243, 0.00012, 0.02005001],
+    [0.00765, 0.000217, 0.03621],
+    [0.01431, 0.000396, 0.06785001],
+    [0.02319, 0.00064, 0.1102],
+    [0.04351, 0.00121, 0.2074],
+    [0.07763, 0.00218, 0.3713],
+    [0.13438, 0.004, 0.6456],
+    [0.21477, 0.0073, 1.0390501],
+    [0.2839, 0.0116, 1.3856],
+    [0.3285, 0.01684, 1.62296],
+    [0.34828, 0.023, 1.74706],
+    [0.34806, 0.0298, 1.7826],
+    [0.3362, 0.038, 1.77211],
+    [0.3187, 0.048, 1.7441],
+    [0.2908, 0.06, 1.6692],
+    [0.2511, 0.0739, 1.5281],
+    [0.19536, 0.09098, 1.28764],
+    [0.1421, 0.1126, 1.0419],
+    [0.09564, 0.13902, 0.8129501],
+    [0.05795001, 0.1693, 0.6162],
+    [0.03201, 0.20802, 0.46518],
+    [0.0147, 0.2586, 0.3533],
+    [0.0049, 0.323, 0.272],
+    [0.0024, 0.4073, 0.2123],
+    [0.0093, 0.503, 0.1582],
+    [0.0291, 0.6082, 0.1117],
+    [0.06327, 0.71, 0.07824999],
+    [0.1096, 0.7932, 0.05725001],
+    [0.1655, 0.862, 0.04216],
+    [0.2257499, 0.9148501, 0.02984],
+    [0.2904, 0.954, 0.0203],
+    [0.3597, 0.9803, 0.0134],
+    [0.4334499, 0.9949501, 0.008749999],
+    [0.5120501, 1.0, 0.005749999],
+    [0.5945, 0.995, 0.0039],
+    [0.6784, 0.9786, 0.002749999],
+    [0.7621, 0.952, 0.0021],
+    [0.8425, 0.9154, 0.0018],
+    [0.9163, 0.87, 0.001650001],
+    [0.9786, 0.8163, 0.0014],
+    [1.0263, 0.757, 0.0011],
+    [1.0567, 0.6949, 0.001],
+    [1.0622, 0.631, 0.0008],
+    [1.0456, 0.5668, 0.0006],
+    [1.0026, 0.503, 0.00034],
+    [0.9384, 0.4412, 0.00024],
+    [0.8544499, 0.381, 0.00019],
+    [0.7514, 0.321, 0.0001],
+    [0.6424, 0.265, 0.00005],
+    [0.5419, 0.217, 0.00003],
+    [0.4479, 0.175, 0.00002],
+    [0.3608, 0.1382, 0.00001],
+    [0.2835, 0.107, 0.0],
+    [0.2187, 0.0816, 0.0],
+    [0.1649, 0.061, 0.0],
+    [0.1212, 0.04458, 0.0],
+    [0.0874, 0.032, 0.0],
+    [0.0636, 0.0232, 0.0],
+    [0.04677, 0.017, 0.0],
+    [0.0329, 0.01192, 0.0],
+    [0.0227, 0.00821, 0.0],
+    [0.01584, 0.005723, 0.0],
+    [0.01135916, 0.004102, 0.0],
+    [0.008110916, 0.002929, 0.0],
+    [0.005790346, 0.002091, 0.0],
+    [0.004109457, 0.001484, 0.0],
+    [0.002899327, 0.001047, 0.0],
+    [0.00204919, 0.00074, 0.0],
+    [0.001439971, 0.00052, 0.0],
+    [0.000999949, 0.0003611, 0.0],
+    [0.000690079, 0.0002492, 0.0],
+    [0.000476021, 0.0001719, 0.0],
+    [0.000332301, 0.00012, 0.0],
+    [0.000234826, 0.0000848, 0.0],
+    [0.000166151, 0.00006, 0.0],
+    [0.000117413, 0.0000424, 0.0],
+    [0.0000830753, 0.00003, 0.0],
+    [0.0000587065, 0.0000212, 0.0],
+    [0.0000415099, 0.00001499, 0.0],
+    [0.0000293533, 0.0000106, 0.0],
+    [0.0000206738, 0.0000074657, 0.0],
+    [0.0000145598, 0.0000052578, 0.0],
+    [0.000010254, 0.0000037029, 0.0],
+    [0.00000722146, 0.0000026078, 0.0],
+    [0.00000508587, 0.0000018366, 0.0],
+    [0.00000358165, 0.0000012934, 0.0],
+    [0.00000252253, 0.00000091093, 0.0],
+    [0.00000177651, 0.00000064153, 0.0],
+    [0.00000125114, 0.00000045181, 0.0],
+];
+
+/// The first wavelength of `CIE_1931` and its step (nm).
+const CIE_START: f64 = 360.0;
+const CIE_STEP: f64 = 5.0;
+
+/// Entries of the Fourier table: path differences 0 to `TABLE_SPAN` nm.
+const TABLE_SIZE: usize = 512;
+
+/// The path difference (nm) at the table's last entry, 60 µm / 2π.
+const TABLE_SPAN: f32 = 60000.0 / std::f32::consts::TAU;
+
+/// Frequencies (1/µm, π/60 apart from 0) at which the colour matching functions are sampled
+/// before their discrete Fourier transform: twice the table's entries less two, so that the
+/// transform of these real samples has `TABLE_SIZE` distinct values.
+const SAMPLES: usize = 2 * TABLE_SIZE - 2;
+
+/// Blender 5's spectral integration of a film's reflectance (Belcour & Barla's Fourier
+/// reformulation, §4, over the CIE 1931 functions rather than a fit): the colour matching
+/// functions, as densities over frequency ν = 1/λ, sampled every π/60 µm⁻¹ (a natural cubic
+/// spline between the 5 nm values), their discrete Fourier transform, taken to linear
+/// Rec. 709 (XYZ with the white of D65) and divided by its value at zero path difference so
+/// that each channel of a flat spectrum is 1. Entry k holds the sensitivity at path
+/// difference k · `TABLE_SPAN` / (`TABLE_SIZE` − 1) as (real, imaginary) parts; between
+/// entries it is read linearly.
+struct CieTable {
+    entries: Vec<(Vec3, Vec3)>,
+}
+
+impl CieTable {
+    fn get() -> &'static CieTable {
+        static TABLE: std::sync::OnceLock<CieTable> = std::sync::OnceLock::new();
+        TABLE.get_or_init(CieTable::build)
+    }
+
+    fn build() -> CieTable {
+        let spline: [NaturalSpline; 3] =
+            std::array::from_fn(|c| NaturalSpline::new(&CIE_1931.map(|row| row[c])));
+        let step = std::f64::consts::PI / 60.0;
+        let samples: Vec<[f64; 3]> = (0..SAMPLES)
+            .map(|j| {
+                let nu = (j as f64 * step).max(1e-40);
+                let lambda = 1000.0 / nu;
+                let x = (lambda - CIE_START) / CIE_STEP;
+                std::array::from_fn(|c| spline[c].at(x) / (nu * nu))
+            })
+            .collect();
+        let to_rgb = |xyz: [f64; 3]| {
+            Vec3::new(
+                (3.240_454_2 * xyz[0] - 1.537_138_5 * xyz[1] - 0.498_531_4 * xyz[2]) as f32,
+                (-0.969_266 * xyz[0] + 1.876_010_8 * xyz[1] + 0.041_556 * xyz[2]) as f32,
+                (0.055_643_4 * xyz[0] - 0.204_025_9 * xyz[1] + 1.057_225_2 * xyz[2]) as f32,
+            )
+        };
+        let mut entries: Vec<(Vec3, Vec3)> = (0..TABLE_SIZE)
+            .map(|k| {
+                let (mut re, mut im) = ([0.0f64; 3], [0.0f64; 3]);
+                for (j, s) in samples.iter().enumerate() {
+                    let turn = (j * k) % SAMPLES;
+                    let angle = -std::f64::consts::TAU * turn as f64 / SAMPLES as f64;
+                    let (sin, cos) = angle.sin_cos();
+                    for c in 0..3 {
+                        re[c] += s[c] * cos;
+                        im[c] += s[c] * sin;
+                    }
+                }
+                (to_rgb(re), to_rgb(im))
+            })
+            .collect();
+        let white = Vec3::ONE / entries[0].0;
+        for (re, im) in &mut entries {
+            *re *= white;
+            *im *= white;
+        }
+        CieTable { entries }
+    }
+
+    /// The sensitivity (real, imaginary per channel) at path difference `opd` (nm), the
+    /// last entry beyond the table.
+    fn at(&self, opd: f32) -> (Vec3, Vec3) {
+        let x = (opd / TABLE_SPAN).clamp(0.0, 1.0) * (TABLE_SIZE - 1) as f32;
+        let i = (x as usize).min(TABLE_SIZE - 1);
+        let j = (i + 1).min(TABLE_SIZE - 1);
+        let t = x - i as f32;
+        let (a, b) = (self.entries[i], self.entries[j]);
+        (a.0 * (1.0 - t) + b.0 * t, a.1 * (1.0 - t) + b.1 * t)
+    }
+}
+
+/// A natural cubic spline through values at the whole numbers 0 … n − 1, zero outside.
+struct NaturalSpline {
+    values: Vec<f64>,
+    /// Second derivatives at the knots.
+    curvature: Vec<f64>,
+}
+
+impl NaturalSpline {
+    fn new(values: &[f64]) -> NaturalSpline {
+        // The tridiagonal system m[i−1] + 4 m[i] + m[i+1] = 6 (y[i+1] − 2 y[i] + y[i−1]),
+        // m = 0 at both ends, by the Thomas algorithm.
+        let n = values.len();
+        let mut curvature = vec![0.0; n];
+        let mut diag = vec![4.0; n];
+        let mut rhs = vec![0.0; n];
+        for i in 1..n - 1 {
+            rhs[i] = 6.0 * (values[i + 1] - 2.0 * values[i] + values[i - 1]);
+        }
+        for i in 2..n - 1 {
+            let w = 1.0 / diag[i - 1];
+            diag[i] -= w;
+            rhs[i] -= w * rhs[i - 1];
+        }
+        for i in (1..n - 1).rev() {
+            curvature[i] = (rhs[i] - curvature[i + 1]) / diag[i];
+        }
+        NaturalSpline {
+            values: values.to_vec(),
+            curvature,
+        }
+    }
+
+    fn at(&self, x: f64) -> f64 {
+        let n = self.values.len();
+        if !(x >= 0.0 && x <= (n - 1) as f64) {
+            return 0.0;
+        }
+        let i = (x.floor() as usize).min(n - 2);
+        let t = x - i as f64;
+        let (y0, y1) = (self.values[i], self.values[i + 1]);
+        let (m0, m1) = (self.curvature[i], self.curvature[i + 1]);
+        (1.0 - t) * y0
+            + t * y1
+            + ((1.0 - t).powi(3) - (1.0 - t)) * m0 / 6.0
+            + (t.powi(3) - t) * m1 / 6.0
+    }
+}
+
+/// The Airy series of one polarisation (Belcour & Barla eq. 10, orders 0…3) with Blender 5's
+/// table, per channel: `r12` the top interface's reflectance, `r23` the bottom's, `opd` the
+/// round trip's path difference (nm), `phasor` e^{iφ} of the round trip's reflection phase
+/// (real and imaginary parts per channel).
+fn airy_series_table(r12: f32, r23: Vec3, opd: f32, phasor: (Vec3, Vec3)) -> Vec3 {
+    let table = CieTable::get();
+    let t121 = 1.0 - r12;
+    let r123 = r23 * r12;
+    let amplitude = Vec3::new(r123.x.sqrt(), r123.y.sqrt(), r123.z.sqrt());
+    let inside = t121 * t121 * r23 / (Vec3::ONE - r123);
+    let mut sum = inside + Vec3::splat(r12);
+    let mut c = inside - Vec3::splat(t121);
+    let (mut re, mut im) = phasor;
+    for m in 1..4 {
+        c *= amplitude;
+        let (s_re, s_im) = table.at(m as f32 * opd);
+        sum += 2.0 * c * (re * s_re + im * s_im);
+        (re, im) = (re * phasor.0 - im * phasor.1, re * phasor.1 + im * phasor.0);
+    }
+    sum
+}
+
+/// The film's index, faded towards the ambient medium's (1) in films thinner than `fade`
+/// nm (a smoothstep).
+fn faded_ior(film: &ThinFilm, fade: f32) -> f32 {
+    if film.thickness < fade {
+        let t = (film.thickness / fade).clamp(0.0, 1.0);
+        1.0 + (film.ior - 1.0) * (t * t * (3.0 - 2.0 * t))
+    } else {
+        film.ior
+    }
+}
+
+/// Blender 5's `thin_film_reflectance` on a dielectric.
+fn dielectric_reflectance_blender5(cos_i: f32, film: &ThinFilm, substrate: f32) -> Vec3 {
+    let film_ior = faded_ior(film, BLENDER5_FADE_THICKNESS);
+    let Some((r12, flip12, cos_film)) = interface(cos_i, film_ior) else {
+        return Vec3::ONE;
+    };
+    let Some((r23, flip23, _)) = interface(cos_film, substrate / film_ior) else {
+        return Vec3::ONE;
+    };
+    let opd = 2.0 * film_ior * film.thickness * cos_film;
+    let mut rgb = Vec3::ZERO;
+    for k in 0..2 {
+        // The round trip's phase: π − φ₁₂ + φ₂₃, each φ 0 or π.
+        let turn = if flip12[k] == flip23[k] { -1.0 } else { 1.0 };
+        let phasor = (Vec3::splat(turn), Vec3::ZERO);
+        rgb += 0.5 * airy_series_table(r12[k], Vec3::splat(r23[k]), opd, phasor);
+    }
+    rgb.clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// Blender 5's film on the Principled BSDF's metal: the F82-tint metal taken as a conductor
+/// of complex index n + ik per channel (Gulbrandsen 2014, "Artist Friendly Metallic Fresnel",
+/// its reflectivity r the metal's F0 and its edge tint g the model's value at 82°), whose
+/// reflection phases (Born & Wolf §14.4.1) shift the film's interference while the
+/// reflectance under the film stays the F82-tint model's, its F0 that of n + ik relative to
+/// the film.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConductorFilm {
+    film: ThinFilm,
+    n: Vec3,
+    k: Vec3,
+    f82: Vec3,
+}
+
+impl ConductorFilm {
+    /// The film over an F82-tint metal.
+    pub fn new(film: ThinFilm, metal: &F82Tint) -> ConductorFilm {
+        let f82 = metal.eval(1.0 / 7.0);
+        let channel = |f0: f32, g: f32| {
+            let r = f0.min(0.999);
+            let root = r.sqrt();
+            let lo = (1.0 + root) / (1.0 - root);
+            let n = lo + ((1.0 - r) / (1.0 + r) - lo) * g;
+            let k2 = (r * (n + 1.0) * (n + 1.0) - (n - 1.0) * (n - 1.0)) / (1.0 - r);
+            (n, k2.max(0.0).sqrt())
+        };
+        let [(nx, kx), (ny, ky), (nz, kz)] = [0, 1, 2].map(|c| channel(metal.f0[c], f82[c]));
+        ConductorFilm {
+            film,
+            n: Vec3::new(nx, ny, nz),
+            k: Vec3::new(kx, ky, kz),
+            f82,
+        }
+    }
+
+    /// The reflectance (linear Rec. 709, in [0, 1]) at cosine `cos_i` from a medium of
+    /// index 1.
+    pub fn reflectance(&self, cos_i: f32) -> Vec3 {
+        let cos_i = cos_i.clamp(1e-6, 1.0);
+        let film_ior = faded_ior(&self.film, BLENDER5_FADE_THICKNESS);
+        let Some((r12, flip12, cos_film)) = interface(cos_i, film_ior) else {
+            return Vec3::ONE;
+        };
+        let n = self.n / film_ior;
+        let k2 = (self.k / film_ior) * (self.k / film_ior);
+        let one = Vec3::ONE;
+        let f0 = ((n - one) * (n - one) + k2) / ((n + one) * (n + one) + k2);
+        let r23 = F82Tint::from_f82(f0, self.f82).eval(cos_film);
+        let phasors = conductor_phasors(cos_film, film_ior, self.n, self.k);
+        let opd = 2.0 * film_ior * self.film.thickness * cos_film;
+        let mut rgb = Vec3::ZERO;
+        for p in 0..2 {
+            let turn = if flip12[p] { 1.0 } else { -1.0 };
+            let (re, im) = phasors[p];
+            rgb += 0.5 * airy_series_table(r12[p], r23, opd, (re * turn, im * turn));
+        }
+        rgb.clamp(Vec3::ZERO, Vec3::ONE)
+    }
+}
+
+/// The phases of the waves a conductor of index n + ik reflects into a medium of index
+/// `eta1`, light arriving at cosine `cos` (Born & Wolf §14.4.1), as unit phasors e^{iφ}
+/// (real, imaginary per channel) for s and p polarisation; their signs agree with
+/// `interface`'s on a dielectric (k = 0).
+fn conductor_phasors(cos: f32, eta1: f32, n: Vec3, k: Vec3) -> [(Vec3, Vec3); 2] {
+    let n2_k2 = n * n - k * k;
+    let two_nk = 2.0 * n * k;
+    let t1 = n2_k2 - Vec3::splat(eta1 * eta1 * (1.0 - cos * cos));
+    let t2 = (t1 * t1 + two_nk * two_nk).powf(0.5);
+    let u2 = (0.5 * (t2 + t1)).max(Vec3::ZERO);
+    let v2 = (0.5 * (t2 - t1)).max(Vec3::ZERO);
+    let (u, v) = (u2.powf(0.5), v2.powf(0.5));
+    let unit = |re: Vec3, im: Vec3| {
+        let len = (re * re + im * im).powf(0.5);
+        let pick = |l: f32, a: f32, fallback: f32| if l > 0.0 { a / l } else { fallback };
+        (
+            Vec3::new(
+                pick(len.x, re.x, 1.0),
+                pick(len.y, re.y, 1.0),
+                pick(len.z, re.z, 1.0),
+            ),
+            Vec3::new(
+                pick(len.x, im.x, 0.0),
+                pick(len.y, im.y, 0.0),
+                pick(len.z, im.z, 0.0),
+            ),
+        )
+    };
+    let ec = eta1 * cos;
+    let s = unit(Vec3::splat(ec * ec) - u2 - v2, -2.0 * ec * v);
+    let mag = (n * n + k * k) * cos;
+    let p = unit(
+        mag * mag - eta1 * eta1 * (u2 + v2),
+        2.0 * ec * (two_nk * u - n2_k2 * v),
+    );
+    [s, p]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,10 +601,12 @@ mod tests {
                 ThinFilm {
                     thickness: 500.0,
                     ior: 1.0,
+                    model: FilmModel::Blender4,
                 },
                 ThinFilm {
                     thickness: 0.2,
                     ior: 1.33,
+                    model: FilmModel::Blender4,
                 },
             ] {
                 let f = thin_film_reflectance(cos, &film, 1.5);
@@ -205,8 +617,8 @@ mod tests {
                 );
             }
         }
-        assert!(ThinFilm::new(0.0, 1.33).is_none());
-        assert!(ThinFilm::new(MIN_THICKNESS, 1.33).is_none());
+        assert!(ThinFilm::new(0.0, 1.33, FilmModel::Blender4).is_none());
+        assert!(ThinFilm::new(MIN_THICKNESS, 1.33, FilmModel::Blender5).is_none());
     }
 
     #[test]
@@ -218,6 +630,7 @@ mod tests {
                         let film = ThinFilm {
                             thickness: 1.0 + 25.0 * t as f32,
                             ior,
+                            model: FilmModel::Blender4,
                         };
                         let f = thin_film_reflectance((c as f32 + 0.5) / 20.0, &film, sub);
                         assert!(f.is_finite() && f.min_element() >= 0.0 && f.max_element() <= 1.0);
@@ -312,6 +725,7 @@ mod tests {
             let film = ThinFilm {
                 thickness: d,
                 ior: 1.33,
+                model: FilmModel::Blender4,
             };
             let cos = (angle as f32).to_radians().cos();
             let f = thin_film_reflectance(cos, &film, 1.5);
@@ -325,6 +739,7 @@ mod tests {
         let film = ThinFilm {
             thickness: 400.0,
             ior: 1.8,
+            model: FilmModel::Blender4,
         };
         let f = thin_film_reflectance(1.0, &film, 1.1);
         assert!(
@@ -387,5 +802,79 @@ mod tests {
         let half = scale_to_f0(Vec3::splat(0.04), Vec3::splat(0.02), 0.04);
         assert!((half - Vec3::splat(0.02)).length() < 1e-6);
         assert_eq!(scale_to_f0(Vec3::ONE, Vec3::ZERO, 0.04), Vec3::ONE);
+    }
+
+    /// Blender 5's film: a film of index 1 is no film (the table's white is each channel's
+    /// 1), on a dielectric and on a metal (Gulbrandsen's n + ik gives back the metal's F0, so
+    /// the F82 tint under no film is the metal's own).
+    #[test]
+    fn blender5_invisible_films_give_the_plain_reflectance() {
+        let (re, im) = CieTable::get().at(0.0);
+        assert!((re - Vec3::ONE).abs().max_element() < 1e-6 && im.abs().max_element() < 1e-6);
+        let none = ThinFilm {
+            thickness: 500.0,
+            ior: 1.0,
+            model: FilmModel::Blender5,
+        };
+        let metal = F82Tint::new(Vec3::new(0.9, 0.6, 0.3), Vec3::new(0.8, 0.9, 1.0));
+        let on_metal = ConductorFilm::new(none, &metal);
+        for &cos in &[1.0f32, 0.8, 0.5, 0.2] {
+            let f = thin_film_reflectance(cos, &none, 1.5);
+            let plain = crate::bsdf::fresnel::fresnel_dielectric(cos, 1.5);
+            assert!(
+                (f - Vec3::splat(plain)).abs().max_element() < 1e-5,
+                "{cos} {f}"
+            );
+            let m = on_metal.reflectance(cos);
+            assert!(
+                (m - metal.eval(cos)).abs().max_element() < 1e-3,
+                "{cos} {m}"
+            );
+        }
+    }
+
+    /// On a conductor of no extinction the reflection phases are a dielectric's (0 or π, the
+    /// same sign as `interface`'s amplitude ratios).
+    #[test]
+    fn conductor_phases_reduce_to_a_dielectrics() {
+        for &cos in &[1.0f32, 0.7, 0.3] {
+            for &n in &[1.2f32, 2.0, 0.8] {
+                let Some((_, flips, _)) = interface(cos, n) else {
+                    continue;
+                };
+                let [s, p] = conductor_phasors(cos, 1.0, Vec3::splat(n), Vec3::ZERO);
+                for (k, (re, im)) in [s, p].into_iter().enumerate() {
+                    let want = if flips[k] { -1.0 } else { 1.0 };
+                    assert!(
+                        (re.x - want).abs() < 1e-4 && im.x.abs() < 1e-4,
+                        "{cos} {n} {k}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn blender5_reflectances_stay_in_the_unit_interval() {
+        let metal = F82Tint::new(Vec3::new(0.95, 0.64, 0.54), Vec3::new(1.0, 0.7, 0.5));
+        for t in 0..40 {
+            for &ior in &[1.1f32, 1.33, 1.8, 2.5] {
+                let film = ThinFilm {
+                    thickness: 0.5 + 37.0 * t as f32,
+                    ior,
+                    model: FilmModel::Blender5,
+                };
+                let on_metal = ConductorFilm::new(film, &metal);
+                for c in 0..20 {
+                    let cos = (c as f32 + 0.5) / 20.0;
+                    for f in [
+                        thin_film_reflectance(cos, &film, 1.5),
+                        on_metal.reflectance(cos),
+                    ] {
+                        assert!(f.is_finite() && f.min_element() >= 0.0 && f.max_element() <= 1.0);
+                    }
+                }
+            }
+        }
     }
 }

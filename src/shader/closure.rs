@@ -442,6 +442,9 @@ pub struct Closure {
     /// The Principled Thin Film: thickness (nm) and IOR.
     pub thin_film_thickness: f32,
     pub thin_film_ior: f32,
+    /// Blender 5's thin film (`bsdf::thin_film::FilmModel::Blender5`: the CIE table, and the
+    /// metal filmed too); else Blender 4's.
+    pub thin_film_blender_5: bool,
     /// A Transparent BSDF: its pass is not a bounce, and shadow rays go through it.
     pub transparent: bool,
     /// A Translucent BSDF: Lambertian transmission of `base_color` and nothing else.
@@ -497,6 +500,7 @@ impl Closure {
         diffuse_roughness: 0.0,
         thin_film_thickness: 0.0,
         thin_film_ior: 1.33,
+        thin_film_blender_5: false,
         transparent: false,
         translucent: false,
         refraction: false,
@@ -584,6 +588,7 @@ pub fn default_tangent(inputs: &ShadingInputs, at: &PointInputs) -> Vec3 {
 #[inline(always)]
 pub(super) fn eval_principled(
     multiscatter: bool,
+    blender_5_film: bool,
     inputs: &ShadingInputs,
     at: &PointInputs,
     ins: &impl Operands,
@@ -648,6 +653,7 @@ pub(super) fn eval_principled(
         diffuse_roughness: ins.float(DIFFUSE_ROUGHNESS).clamp(0.0, 1.0),
         thin_film_thickness: ins.float(THIN_FILM_THICKNESS).max(0.0),
         thin_film_ior: ins.float(THIN_FILM_IOR).max(1e-5),
+        thin_film_blender_5: blender_5_film,
         transparent: false,
         translucent: false,
         refraction: false,

@@ -338,8 +338,12 @@ pub(super) fn run(
             m.regs[o] = bump::eval_displacement(*object_space, inputs, ins)
         }
         Op::NormalMap(space) => m.regs[o] = bump::eval_normal_map(*space, inputs, at, ins),
-        Op::Principled { multiscatter } => {
-            m.closures[o] = closure::eval_principled(*multiscatter, inputs, at, ins, u)
+        Op::Principled {
+            multiscatter,
+            blender_5_film,
+        } => {
+            m.closures[o] =
+                closure::eval_principled(*multiscatter, *blender_5_film, inputs, at, ins, u)
         }
         Op::Diffuse => m.closures[o] = closure::eval_diffuse(ins),
         Op::Glossy { multiscatter } => {
@@ -391,7 +395,7 @@ mod profile {
     use super::*;
     use crate::shader::noise::{perlin3, snoise3_lanes};
     use crate::shader::voronoi::{
-        cell_point, voronoi, Metric, VoronoiFeature, VoronoiKind, VoronoiParams,
+        cell_point, voronoi, CellHash, Metric, VoronoiFeature, VoronoiKind, VoronoiParams,
     };
 
     #[test]
@@ -458,6 +462,7 @@ mod profile {
                     feature: VoronoiFeature::F1,
                     metric: Metric::Euclidean,
                     normalize: false,
+                    cell_hash: CellHash::Lookup3,
                 },
             };
             let t0 = std::time::Instant::now();

@@ -13,7 +13,7 @@ use super::program::CompileWarnings;
 use super::program::Op;
 use super::vector::{MappingKind, VectorOp};
 use super::volume::ScatterPhase;
-use super::voronoi::{Metric, VoronoiFeature, VoronoiKind};
+use super::voronoi::{CellHash, Metric, VoronoiFeature, VoronoiKind};
 use super::wave::{WaveKind, WaveProfile};
 use crate::color_space::WorkingSpace;
 use crate::math::Vec4;
@@ -331,6 +331,11 @@ pub(super) fn parse_op(
                     .get("normalize")
                     .and_then(Value::as_bool)
                     .unwrap_or(false),
+                cell_hash: match setting(node, "cell_hash").unwrap_or("LOOKUP3") {
+                    "LOOKUP3" => CellHash::Lookup3,
+                    "PCG" => CellHash::Pcg,
+                    _ => return Err(bad("cell_hash")),
+                },
             })
         }
         "TexWave" => {
@@ -432,13 +437,22 @@ pub(super) fn parse_op(
                 _ => return Err(bad("space")),
             },
         },
-        "BsdfPrincipled" => match setting(node, "distribution").unwrap_or("MULTI_GGX") {
-            "MULTI_GGX" => Op::Principled { multiscatter: true },
-            "GGX" => Op::Principled {
-                multiscatter: false,
-            },
-            _ => return Err(bad("distribution")),
-        },
+        "BsdfPrincipled" => {
+            let multiscatter = match setting(node, "distribution").unwrap_or("MULTI_GGX") {
+                "MULTI_GGX" => true,
+                "GGX" => false,
+                _ => return Err(bad("distribution")),
+            };
+            let blender_5_film = match setting(node, "thin_film_model").unwrap_or("BLENDER_4") {
+                "BLENDER_4" => false,
+                "BLENDER_5" => true,
+                _ => return Err(bad("thin_film_model")),
+            };
+            Op::Principled {
+                multiscatter,
+                blender_5_film,
+            }
+        }
         "BsdfDiffuse" => Op::Diffuse,
         "BsdfGlossy" | "BsdfAnisotropic" => {
             match setting(node, "distribution").unwrap_or("MULTI_GGX") {

@@ -164,9 +164,11 @@ pub(super) enum Op {
     },
     Fresnel,
     LayerWeight,
-    /// Principled BSDF; `multiscatter`: its distribution is Multiscatter GGX (else GGX).
+    /// Principled BSDF; `multiscatter`: its distribution is Multiscatter GGX (else GGX);
+    /// `blender_5_film`: its thin film is Blender 5's (`Closure::thin_film_blender_5`).
     Principled {
         multiscatter: bool,
+        blender_5_film: bool,
     },
     Diffuse,
     /// Glossy and Anisotropic BSDF; `multiscatter` as the Principled's.

@@ -3,7 +3,7 @@
 
 use super::noise::{noise_texture, Fractal};
 use super::program::Op;
-use super::voronoi::{voronoi, Metric, VoronoiFeature, VoronoiKind, VoronoiParams};
+use super::voronoi::{voronoi, CellHash, Metric, VoronoiFeature, VoronoiKind, VoronoiParams};
 use super::*;
 use crate::math::{Vec2, Vec3, Vec4};
 use serde_json::{json, Value};
@@ -386,6 +386,7 @@ fn blender_voronoi_at_chosen_points() {
                 feature,
                 metric,
                 normalize: false,
+                cell_hash: CellHash::Lookup3,
             },
         };
         for (k, p) in points.iter().enumerate() {

@@ -1,9 +1,12 @@
 //! The Voronoi Texture (Worley's cellular texture, Worley 1996) as Blender defines it (Cycles'
 //! `voronoi.h`: F1, F2 and Smooth F1 over 2D and 3D cells, four metrics, fractal octaves), cell
-//! points from Jenkins' lookup3 (`hash`). The F1 search visits cells nearest first and skips those
-//! that cannot hold a nearer point; in 3D with the Euclidean metric several cells at a time, the
-//! search written once over `lanes::Lanes` and run on four lanes, or eight with AVX2, with the
-//! same result bit for bit.
+//! points hashed as the file's Blender version hashes them (`CellHash`): Blender 4 from the bits
+//! of the cell's float coordinates by Jenkins' lookup3 (`hash`), Blender 5 from its integer
+//! coordinates by the PCG hashes of Jarzynski & Olano 2020 ("Hash Functions for GPU
+//! Rendering"), kept to signed 31-bit results. The F1 search visits cells nearest first and
+//! skips those that cannot hold a nearer point; in 3D with the Euclidean metric and lookup3
+//! several cells at a time, the search written once over `lanes::Lanes` and run on four lanes,
+//! or eight with AVX2, with the same result bit for bit.
 
 use super::hash::{self, has_avx2, hash2, hash3, unit, LOOKUP3_SEED};
 use super::inputs::{input, splat, v3, Operands, Socket, Ty};
@@ -47,12 +50,22 @@ pub(super) enum Metric {
     Minkowski,
 }
 
+/// How a cell's point and colour are drawn from its coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum CellHash {
+    /// Blender 4: lookup3 of the float coordinates' bits.
+    Lookup3,
+    /// Blender 5: PCG of the integer coordinates.
+    Pcg,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct VoronoiKind {
     pub(super) dimensions: u8,
     pub(super) feature: VoronoiFeature,
     pub(super) metric: Metric,
     pub(super) normalize: bool,
+    pub(super) cell_hash: CellHash,
 }
 
 pub(super) struct VoronoiParams {
@@ -90,6 +103,74 @@ pub(super) fn cell_color(dimensions: u8, c: Vec3) -> Vec3 {
     }
 }
 
+/// PCG's 2D hash (Jarzynski & Olano 2020) on signed words, its result kept to 31 bits.
+fn pcg2(x: i32, y: i32) -> [i32; 2] {
+    const M: i32 = 1664525;
+    let mut v = [x, y].map(|c| c.wrapping_mul(M).wrapping_add(1013904223));
+    v[0] = v[0].wrapping_add(v[1].wrapping_mul(M));
+    v[1] = v[1].wrapping_add(v[0].wrapping_mul(M));
+    v = v.map(|c| c ^ (c >> 16));
+    v[0] = v[0].wrapping_add(v[1].wrapping_mul(M));
+    v[1] = v[1].wrapping_add(v[0].wrapping_mul(M));
+    v.map(|c| c & 0x7FFF_FFFF)
+}
+
+/// PCG's 3D hash (Jarzynski & Olano 2020) on signed words, its result kept to 31 bits.
+fn pcg3(x: i32, y: i32, z: i32) -> [i32; 3] {
+    let mut v = [x, y, z].map(|c| c.wrapping_mul(1664525).wrapping_add(1013904223));
+    let round = |v: &mut [i32; 3]| {
+        v[0] = v[0].wrapping_add(v[1].wrapping_mul(v[2]));
+        v[1] = v[1].wrapping_add(v[2].wrapping_mul(v[0]));
+        v[2] = v[2].wrapping_add(v[0].wrapping_mul(v[1]));
+    };
+    round(&mut v);
+    v = v.map(|c| c ^ (c >> 16));
+    round(&mut v);
+    v.map(|c| c & 0x7FFF_FFFF)
+}
+
+/// A 31-bit hash as a float in [0, 1].
+fn pcg_unit(h: i32) -> f32 {
+    h as f32 * (1.0 / 2147483648.0)
+}
+
+/// The integer coordinates of the cell `cell + offset` (both whole numbers), z = 0 in 2D:
+/// what Blender 5 hashes.
+fn cell_words(dimensions: u8, cell: Vec3, offset: Vec3) -> [i32; 3] {
+    let c = [cell.x, cell.y, cell.z].map(|v| v as i32);
+    let o = [offset.x, offset.y, offset.z].map(|v| v as i32);
+    let z = if dimensions == 2 {
+        0
+    } else {
+        c[2].wrapping_add(o[2])
+    };
+    [c[0].wrapping_add(o[0]), c[1].wrapping_add(o[1]), z]
+}
+
+/// The point offset of the cell `cell + offset` (both whole numbers) by `hash`.
+pub(super) fn hashed_point(hash: CellHash, dimensions: u8, cell: Vec3, offset: Vec3) -> Vec3 {
+    match hash {
+        CellHash::Lookup3 => cell_point(dimensions, cell + offset),
+        CellHash::Pcg if dimensions == 2 => {
+            let [x, y, _] = cell_words(dimensions, cell, offset);
+            let [a, b] = pcg2(x, y);
+            Vec3::new(pcg_unit(a), pcg_unit(b), 0.0)
+        }
+        CellHash::Pcg => hashed_color(hash, dimensions, cell, offset),
+    }
+}
+
+/// The colour of the cell `cell + offset` (both whole numbers) by `hash`.
+pub(super) fn hashed_color(hash: CellHash, dimensions: u8, cell: Vec3, offset: Vec3) -> Vec3 {
+    match hash {
+        CellHash::Lookup3 => cell_color(dimensions, cell + offset),
+        CellHash::Pcg => {
+            let [x, y, z] = cell_words(dimensions, cell, offset);
+            Vec3::from_array(pcg3(x, y, z).map(pcg_unit))
+        }
+    }
+}
+
 pub(super) fn voronoi_distance(metric: Metric, exponent: f32, a: Vec3, b: Vec3) -> f32 {
     let d = (a - b).abs();
     match metric {
@@ -119,6 +200,7 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
     let cell = Vec3::new(floor(coord.x), floor(coord.y), floor(coord.z));
     let local = coord - cell;
     let metric = p.kind.metric;
+    let hash = p.kind.cell_hash;
     match p.kind.feature {
         VoronoiFeature::SmoothF1 if p.smoothness != 0.0 => {
             let mut distance = 0.0f32;
@@ -126,7 +208,7 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
             let mut position = Vec3::ZERO;
             let mut h = -1.0f32;
             for offset in cell_offsets(dims, 2) {
-                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let point = offset + hashed_point(hash, dims, cell, offset) * p.randomness;
                 let d = voronoi_distance(metric, p.exponent, point, local);
                 h = if h == -1.0 {
                     1.0
@@ -136,7 +218,7 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
                 let mut correction = p.smoothness * h * (1.0 - h);
                 distance = lerp(distance, d, h) - correction;
                 correction /= 1.0 + 3.0 * p.smoothness;
-                let c = cell_color(dims, cell + offset);
+                let c = hashed_color(hash, dims, cell, offset);
                 color = color.lerp(c, h) - Vec3::splat(correction);
                 position = position.lerp(point, h) - Vec3::splat(correction);
             }
@@ -147,7 +229,7 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
             let (mut o1, mut o2) = (Vec3::ZERO, Vec3::ZERO);
             let (mut p1, mut p2) = (Vec3::ZERO, Vec3::ZERO);
             for offset in cell_offsets(dims, 1) {
-                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let point = offset + hashed_point(hash, dims, cell, offset) * p.randomness;
                 let d = voronoi_distance(metric, p.exponent, point, local);
                 if d < d1 {
                     (d2, o2, p2) = (d1, o1, p1);
@@ -156,7 +238,7 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
                     (d2, o2, p2) = (d, offset, point);
                 }
             }
-            (d2, cell_color(dims, cell + o2), p2 + cell)
+            (d2, hashed_color(hash, dims, cell, o2), p2 + cell)
         }
         _ => {
             // The nearest point, the first in Cycles' order on a tie. A cell's point lies in
@@ -181,11 +263,11 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
                     g * g
                 })
             });
-            if metric == Metric::Euclidean && dims == 3 {
+            if metric == Metric::Euclidean && dims == 3 && hash == CellHash::Lookup3 {
                 let (best, offset, point) =
                     nearest_point_euclidean_3d(cell, local, p.randomness, &gap2);
                 let color = if color {
-                    cell_color(dims, cell + offset)
+                    hashed_color(hash, dims, cell, offset)
                 } else {
                     Vec3::ZERO
                 };
@@ -210,14 +292,14 @@ pub(super) fn voronoi_octave(p: &VoronoiParams, coord: Vec3, color: bool) -> (f3
                         continue;
                     }
                 }
-                let point = offset + cell_point(dims, cell + offset) * p.randomness;
+                let point = offset + hashed_point(hash, dims, cell, offset) * p.randomness;
                 let d = voronoi_distance(metric, p.exponent, point, local);
                 if d < best || (d == best && index < best_index) {
                     (best, best_index, target_offset, target) = (d, index, offset, point);
                 }
             }
             let color = if color {
-                cell_color(dims, cell + target_offset)
+                hashed_color(hash, dims, cell, target_offset)
             } else {
                 Vec3::ZERO
             };
@@ -608,7 +690,10 @@ mod tests {
             Metric::Chebychev,
             Metric::Minkowski,
         ] {
-            for dims in [2u8, 3] {
+            for (dims, hash) in [2u8, 3]
+                .into_iter()
+                .flat_map(|d| [CellHash::Lookup3, CellHash::Pcg].map(move |h| (d, h)))
+            {
                 for randomness in [1.0f32, 0.6, 0.0] {
                     let p = VoronoiParams {
                         scale: 1.0,
@@ -623,6 +708,7 @@ mod tests {
                             feature: VoronoiFeature::F1,
                             metric,
                             normalize: false,
+                            cell_hash: hash,
                         },
                     };
                     for k in 0..5_000 {
@@ -634,19 +720,23 @@ mod tests {
                         // Cycles' search: every cell in its order, the first on a tie.
                         let (mut nearest, mut at) = (f32::MAX, Vec3::ZERO);
                         for o in cell_offsets(dims, 1) {
-                            let point = o + cell_point(dims, cell + o) * randomness;
+                            let point = o + hashed_point(hash, dims, cell, o) * randomness;
                             let d = voronoi_distance(metric, 1.5, point, x - cell);
                             if d < nearest {
                                 (nearest, at) = (d, o);
                             }
                         }
-                        let position = at + cell_point(dims, cell + at) * randomness + cell;
+                        let position = at + hashed_point(hash, dims, cell, at) * randomness + cell;
                         let (d, color, found) = voronoi_octave(&p, x, true);
-                        assert_eq!(d.to_bits(), nearest.to_bits(), "{metric:?} {x}");
-                        assert_eq!(found, position, "{metric:?} {x}");
-                        assert_eq!(color, cell_color(dims, cell + at), "{metric:?} {x}");
+                        assert_eq!(d.to_bits(), nearest.to_bits(), "{metric:?} {hash:?} {x}");
+                        assert_eq!(found, position, "{metric:?} {hash:?} {x}");
+                        assert_eq!(
+                            color,
+                            hashed_color(hash, dims, cell, at),
+                            "{metric:?} {hash:?} {x}"
+                        );
                         let (d, _, found) = voronoi_octave(&p, x, false);
-                        assert_eq!((d, found), (nearest, position), "{metric:?} {x}");
+                        assert_eq!((d, found), (nearest, position), "{metric:?} {hash:?} {x}");
                     }
                 }
             }

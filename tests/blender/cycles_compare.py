@@ -18,8 +18,10 @@ RELMSE_MAX = 0.01
 
 
 def compare(name, scene, tmp_path, *, photon_spp=256, cycles_spp=1024, method="PATH",
-            mean_tol=MEAN_TOL, relmse_max=RELMSE_MAX):
-    """Render `scene` with both engines and assert that they agree; returns (photon, cycles)."""
+            mean_tol=MEAN_TOL, relmse_max=RELMSE_MAX, glint=None):
+    """Render `scene` with both engines and assert that they agree; returns (photon, cycles).
+    With `glint`, the pixels where either image has a channel above it are left out: set to 0
+    in both before they are compared (and as returned)."""
     t0 = time.perf_counter()
     ref = scenes_bpy.render(scene, "CYCLES", tmp_path / f"{name}_cycles.exr", cycles_spp)
     t1 = time.perf_counter()
@@ -27,6 +29,10 @@ def compare(name, scene, tmp_path, *, photon_spp=256, cycles_spp=1024, method="P
     img = scenes_bpy.render(scene, "PHOTON", tmp_path / f"{name}_photon.exr", photon_spp)
     t2 = time.perf_counter()
     assert img.shape == ref.shape, (img.shape, ref.shape)
+    if glint is not None:
+        bright = (img.max(axis=-1) > glint) | (ref.max(axis=-1) > glint)
+        img, ref = img.copy(), ref.copy()
+        img[bright] = ref[bright] = 0.0
     assert np.isfinite(img).all()
     err = rel_mse(img, ref)
     diff = float(img.mean() / ref.mean()) - 1.0

@@ -58,12 +58,15 @@ def sliding_camera_scene(position):
     return scene
 
 
-def compare_blurred(name, scene, tmp_path):
-    """`compare`, then check that Photon's image without motion blur is more than 3 times
-    further from Cycles' blurred one."""
-    img, ref = compare(name, scene, tmp_path)
+def compare_blurred(name, scene, tmp_path, glint=None):
+    """`compare` (leaving out pixels above `glint` if given), then check that Photon's image
+    without motion blur is more than 3 times further from Cycles' blurred one."""
+    img, ref = compare(name, scene, tmp_path, glint=glint)
     scene.render.use_motion_blur = False
     still = scenes_bpy.render(scene, "PHOTON", tmp_path / "still.exr", 256)
+    if glint is not None:
+        # The pixels `compare` left out (and those black in both): 0 here too.
+        still[(img.max(axis=-1) == 0.0) & (ref.max(axis=-1) == 0.0)] = 0.0
     away = rel_mse(still, ref)
     print(f"{name}: unblurred against Cycles' blurred image: relMSE {away:.5f}")
     assert away > 3 * rel_mse(img, ref), away
@@ -176,6 +179,14 @@ def checker():
     return mat
 
 
+# The turning glass box shows the sun's disc (0.5°, radiance ~5·10⁴) to a rare camera sample
+# (through two faces at an angle, or mirrored): a real path that neither engine converges at
+# these samples. Cycles 5.0's reference at seed 1 holds one such sample (a pixel of 5.6, the
+# image mean +6 %); at seeds 2-4, and Cycles 4.5's at seeds 1-4, none (every other pixel
+# below 0.48, means 0.0589 ± 0.0001). Pixels above 1 in either image are left out.
+GLINT = 1.0
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("material", [glass, emissive, checker])
 def test_moving_objects_of_any_material_are_blurred(tmp_path, material):
@@ -187,7 +198,8 @@ def test_moving_objects_of_any_material_are_blurred(tmp_path, material):
     box.data.materials[0] = material()
     animate(box, SLIDE)
     scene.frame_set(1, subframe=0.5)
-    compare_blurred(f"moving {material.__name__} box", scene, tmp_path)
+    glint = GLINT if material is glass else None
+    compare_blurred(f"moving {material.__name__} box", scene, tmp_path, glint=glint)
 
 
 def scatter(scene, moving_points=False):
