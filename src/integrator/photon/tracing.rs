@@ -568,7 +568,8 @@ impl Targets {
 pub enum MapKind {
     /// Every photon at every storing hit (the global map; caustic photons included and flagged).
     Global,
-    /// Only light → specular+ → diffuse photons; the path ends at the first storing hit.
+    /// Only light → specular+ → diffuse photons (the light may be a scattering in a medium
+    /// straight from a light); the path ends at the first storing hit.
     Caustic,
 }
 
@@ -676,7 +677,8 @@ fn walk_photon(
     // roulette's reweighting), for Clamp Indirect on caustics (`caustic_clamp`).
     let mut throughput = Vec3::ONE;
     let clamp = Clamp::of(ctx.scene);
-    // True while every bounce so far was specular (light → S*).
+    // True while every bounce so far was specular (light → S*; the light may be the photon's
+    // first scattering in a medium, `lit_by_medium`).
     let mut specular_path = true;
     // Surfaces it scattered from, not counting transparent passes (a volume's boundary, a
     // Transparent BSDF, alpha): light through them alone is direct light, which shadow rays
@@ -695,6 +697,9 @@ fn walk_photon(
         None => MediumStack::at(ctx, ray.origin, ray.time),
     };
     let mut volume_bounces = 0;
+    // Its first scattering was in a medium, straight from the light: from there on the
+    // scattering is its light (`specular_path`).
+    let mut lit_by_medium = false;
     // The scatterings in media the photon may make (`None` until its first scattering
     // anywhere): as many as a camera path continues from (Blender's Volume bounces), and one
     // more where the photon reaches the medium from a light or leaves an emitting medium
@@ -749,7 +754,18 @@ fn walk_photon(
                         return;
                     }
                     power /= q;
-                    specular_path = false;
+                    // A scattering straight from a light is where a camera path's light sample in
+                    // the medium leaves from, at any Volume bounces: light that goes on from it
+                    // through specular surfaces to a diffuse one (fog lit by a lamp, seen
+                    // through glass) is found by no light sample from that surface, so it is a
+                    // caustic of the medium's light (not clamped: Cycles' light sample there
+                    // carries the phase function's share of the light). After any other
+                    // scattering the path is no longer specular.
+                    if scattered {
+                        specular_path = false;
+                    } else {
+                        lit_by_medium = true;
+                    }
                     scattered = true;
                     ray = Ray {
                         origin: p,
@@ -776,7 +792,7 @@ fn walk_photon(
             power * adjoint_scale(ior)
         };
         let caustic = surface_bounces > 0 && specular_path;
-        if storing && caustic && clamp.is_on() {
+        if storing && caustic && clamp.is_on() && !lit_by_medium {
             stored *= caustic_clamp(clamp, &s, throughput, emitted.radiance);
         }
         if storing && !store(&s, stored, bounce, caustic) {
