@@ -27,7 +27,7 @@
 
 use super::classify::stores_photons;
 use super::direct::{sample_direct_from, Previous, Vertex};
-use super::media::MediumStack;
+use super::media::{MediumStack, StackMedia};
 use super::random_walk;
 use super::shading::{transmittance, Shading};
 use super::{CameraSample, Context};
@@ -221,8 +221,9 @@ impl PathState {
     }
 
     /// The light the media along the path's ray over `reach` scatter towards it straight from
-    /// the lights, times the throughput: one light sample along the segment without MIS
-    /// (`light_scattered_along`), for integrators that only attenuate paths through media.
+    /// the lights, times the throughput: `CAMERA_SEGMENT_POINTS` light samples along the
+    /// segment without MIS (`light_scattered_along`), for the photon method's camera paths,
+    /// which are only attenuated through media.
     /// Counts its shadow rays in `rays`.
     pub fn light_scattered_on_segment(
         &self,
@@ -232,7 +233,10 @@ impl PathState {
         rays: &mut u32,
     ) -> Vec3 {
         let (ray, media, kind, beta) = (self.ray, self.media, self.light_path, self.beta);
-        light_scattered_along(ctx, &ray, reach, &media, kind, beta, false, rng, rays)
+        let points = CAMERA_SEGMENT_POINTS;
+        light_scattered_along(
+            ctx, &ray, reach, &media, kind, beta, false, points, rng, rays,
+        )
     }
 
     /// The Emission pass so far: at the first vertex, what the camera sees directly (the light
@@ -389,6 +393,7 @@ impl PathState {
             path,
             beta,
             true,
+            1,
             rng,
             &mut self.rays,
         );
@@ -754,11 +759,20 @@ fn hit_catcher(scene: &Scene, hit: &Hit) -> bool {
     }
 }
 
+/// Points the photon method's camera paths draw on each segment through media for the light
+/// the media scatter towards them (`light_scattered_along`). Its other estimates (the
+/// irradiance cache, the photon maps) are smooth, so one point per segment would leave most of
+/// its noise in fog: stratified along the segment, a few points see a shaft of light crossing
+/// it (a sun through a window, a spot's cone) far more evenly, for a shadow ray each. The path
+/// tracer, whose noise lies mostly elsewhere, takes one point as Cycles does.
+pub const CAMERA_SEGMENT_POINTS: u32 = 4;
+
 /// The light that the media along `ray` (of kind `path`, through `media`, over `reach`)
-/// scatter towards its origin straight from the lights, times `beta`: one light sample through
-/// the phase function (MIS-weighted against phase sampling with `mis`) from one point drawn
-/// on the segment by distance or equiangular sampling (`medium::SegmentSampler`, centred on a
-/// point drawn on a light from the segment's middle). Counts its shadow rays in `rays`.
+/// scatter towards its origin straight from the lights, times `beta`: light samples through
+/// the phase function (MIS-weighted against phase sampling with `mis`) from points drawn on
+/// the segment by distance or equiangular sampling (`medium::SegmentSampler`, centred on a
+/// point drawn on a light from the segment's middle), `points` of them stratified in the
+/// sampler's distance and averaged. Counts its shadow rays in `rays`.
 #[allow(clippy::too_many_arguments)]
 pub fn light_scattered_along(
     ctx: &Context,
@@ -768,6 +782,7 @@ pub fn light_scattered_along(
     path: RayPath,
     beta: Vec3,
     mis: bool,
+    points: u32,
     rng: &mut Rng,
     rays: &mut u32,
 ) -> Vec3 {
@@ -797,38 +812,77 @@ pub fn light_scattered_along(
         Some(c) => SegmentSampler::new(ray.origin, dir, reach, c.extinction(), beta, centre),
         None => SegmentSampler::through_majorant(&in_media, ray.origin, dir, reach, centre),
     };
-    let Some((t, pdf)) = sampler.sample([rng.uniform(), rng.uniform(), rng.uniform()]) else {
-        return Vec3::ZERO;
-    };
-    let p = ray.origin + dir * t;
-    let (through, at) = match homogeneous {
-        Some(c) => ((-c.extinction() * t).exp(), c),
-        None => (
-            medium_transmittance(&in_media, ray.origin, dir, t, rng),
-            in_media.at(p, rng.uniform()),
-        ),
-    };
-    let weight = beta * through * at.scattering / pdf;
-    if weight == Vec3::ZERO || !weight.is_finite() {
-        return Vec3::ZERO;
-    }
-    let phase = at.phase;
-    let vertex = Vertex::Medium { p, time: ray.time };
-    sample_direct_from(
-        ctx,
-        vertex,
-        None,
-        path,
+    let segment = Segment {
+        ray,
+        dir,
         media,
-        weight,
+        in_media: &in_media,
+        homogeneous,
+        path,
+        beta,
         mis,
-        rng,
-        rays,
-        |wi| {
-            let cos = dir.dot(wi);
-            (Vec3::splat(phase.eval(cos)), phase.pdf(cos))
-        },
-    )
+    };
+    let n = points.max(1);
+    let mut sum = Vec3::ZERO;
+    for k in 0..n {
+        // Each point's distance in its own stratum; strategy and light drawn freely.
+        let stratum = (k as f32 + rng.uniform()) / n as f32;
+        let u = [rng.uniform(), stratum, rng.uniform()];
+        if let Some((t, pdf)) = sampler.sample(u) {
+            sum += segment.light_at(ctx, t, pdf, rng, rays);
+        }
+    }
+    sum / n as f32
+}
+
+/// A segment of a ray through media, as `light_scattered_along` takes light samples on it.
+struct Segment<'a> {
+    ray: &'a Ray,
+    /// The ray's unit direction.
+    dir: Vec3,
+    media: &'a MediumStack,
+    in_media: &'a StackMedia<'a>,
+    homogeneous: Option<Coefficients>,
+    path: RayPath,
+    beta: Vec3,
+    mis: bool,
+}
+
+impl Segment<'_> {
+    /// The light scattered towards the ray's origin at distance `t` (drawn with density
+    /// `pdf`): one light sample through the phase function there.
+    fn light_at(&self, ctx: &Context, t: f32, pdf: f32, rng: &mut Rng, rays: &mut u32) -> Vec3 {
+        let (ray, dir) = (self.ray, self.dir);
+        let p = ray.origin + dir * t;
+        let (through, at) = match self.homogeneous {
+            Some(c) => ((-c.extinction() * t).exp(), c),
+            None => (
+                medium_transmittance(self.in_media, ray.origin, dir, t, rng),
+                self.in_media.at(p, rng.uniform()),
+            ),
+        };
+        let weight = self.beta * through * at.scattering / pdf;
+        if weight == Vec3::ZERO || !weight.is_finite() {
+            return Vec3::ZERO;
+        }
+        let phase = at.phase;
+        let vertex = Vertex::Medium { p, time: ray.time };
+        sample_direct_from(
+            ctx,
+            vertex,
+            None,
+            self.path,
+            self.media,
+            weight,
+            self.mis,
+            rng,
+            rays,
+            |wi| {
+                let cos = dir.dot(wi);
+                (Vec3::splat(phase.eval(cos)), phase.pdf(cos))
+            },
+        )
+    }
 }
 
 /// The throughput, medium and length of a specular chain as `follow_specular` walks it.

@@ -408,6 +408,7 @@ impl<'a> Gather<'a> {
             path,
             Vec3::ONE,
             false,
+            1,
             rng,
             &mut self.rays,
         );
