@@ -756,6 +756,7 @@ fn pilot_shares(
     use crate::math::{luminance, Vec2};
     use crate::photon_map::Photon;
     use crate::rng::Rng;
+    use rayon::prelude::*;
     let lights = Lights::new(scene);
     let ctx = Context {
         scene,
@@ -772,77 +773,90 @@ fn pilot_shares(
     let width = PILOT_WIDTH;
     let height = ((width as f32 / aspect).round() as u32).max(1);
     let camera = CameraRays::new(&scene.camera, width, height);
-    let mut rng = Rng::for_item(0x0f1a_7e59, 0, 0);
-    let (mut share_sum, mut pixels) = (0.0f64, 0u32);
-    // Relative variance of the pixels' indirect light, of the emission they see directly, and of
-    // the rest.
-    let (mut rays, mut noise_indirect, mut noise_seen, mut noise_rest) = (0u64, 0.0, 0.0, 0.0);
-    // The light media scatter straight from the lights: its noise in the path tracer's free
-    // flights, and in the photon method's light samples along each segment, which it leaves.
-    let (mut noise_media, mut noise_segments) = (0.0, 0.0);
     let media = scene.has_media();
-    for y in 0..height {
-        for x in 0..width {
-            let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
-            // Sums and sums of squares of the pixel's samples: indirect light (on surfaces and
-            // in media), emission seen directly, the light media scatter straight from the
-            // lights towards the camera, the rest; and that light in media as the photon
-            // method estimates it.
-            let mut sums = [[0.0f64; 2]; 5];
-            let (mut mean, mut other_mean) = (0.0, 0.0);
-            for _ in 0..PILOT_SPP {
-                let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
-                let camera_ray = camera.ray(film);
-                let sample = path::trace(&ctx, camera_ray, &mut rng);
-                rays += sample.rays as u64;
-                let pass = |p: LightPass| luminance(sample.passes.0[p as usize]) as f64;
-                indirect += pass(LightPass::Indirect);
-                reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
-                let whole = luminance(sample.radiance) as f64;
-                let seen = luminance(sample.seen_emission) as f64;
-                // With media, the pixel's mean is taken over both estimators' samples: a few
-                // path-traced samples that all miss a lit cone of fog would make the other's
-                // noise there look unbounded.
-                let (scattered, media_direct, segments) = match media {
-                    true => {
-                        let segments = path::trace_through_media(&ctx, camera_ray, &mut rng);
-                        other_mean += luminance(segments.radiance) as f64;
-                        let direct = LightPass::VolumeDirect as usize;
-                        (
-                            pass(LightPass::VolumeIndirect),
-                            pass(LightPass::VolumeDirect),
-                            luminance(segments.passes.0[direct]) as f64,
-                        )
+    // The rows in parallel, each with its own random numbers, summed in order (the same plan
+    // on any number of threads).
+    let rows: Vec<PilotRow> = (0..height)
+        .into_par_iter()
+        .map(|y| {
+            let mut rng = Rng::for_item(0x0f1a_7e59, y as u64, 0);
+            let mut row = PilotRow::default();
+            for x in 0..width {
+                let (mut indirect, mut reflected) = (0.0f64, 0.0f64);
+                // Sums and sums of squares of the pixel's samples: indirect light (on surfaces
+                // and in media), emission seen directly, the light media scatter straight from
+                // the lights towards the camera, the rest; and that light in media as the
+                // photon method estimates it.
+                let mut sums = [[0.0f64; 2]; 5];
+                let (mut mean, mut other_mean) = (0.0, 0.0);
+                for _ in 0..PILOT_SPP {
+                    let film = Vec2::new(x as f32, y as f32) + rng.uniform2();
+                    let camera_ray = camera.ray(film);
+                    let sample = path::trace(&ctx, camera_ray, &mut rng);
+                    row.rays += sample.rays as u64;
+                    let pass = |p: LightPass| luminance(sample.passes.0[p as usize]) as f64;
+                    indirect += pass(LightPass::Indirect);
+                    reflected += pass(LightPass::Direct) + pass(LightPass::Indirect);
+                    let whole = luminance(sample.radiance) as f64;
+                    let seen = luminance(sample.seen_emission) as f64;
+                    // With media, the pixel's mean is taken over both estimators' samples: a
+                    // few path-traced samples that all miss a lit cone of fog would make the
+                    // other's noise there look unbounded.
+                    let (scattered, media_direct, segments) = match media {
+                        true => {
+                            let segments = path::trace_through_media(&ctx, camera_ray, &mut rng);
+                            other_mean += luminance(segments.radiance) as f64;
+                            let direct = LightPass::VolumeDirect as usize;
+                            (
+                                pass(LightPass::VolumeIndirect),
+                                pass(LightPass::VolumeDirect),
+                                luminance(segments.passes.0[direct]) as f64,
+                            )
+                        }
+                        false => (0.0, 0.0, 0.0),
+                    };
+                    let indirect_light = pass(LightPass::Indirect) + scattered;
+                    let rest = whole - indirect_light - seen - media_direct;
+                    let parts = [indirect_light, seen, media_direct, rest, segments];
+                    for (sum, v) in sums.iter_mut().zip(parts) {
+                        *sum = [sum[0] + v, sum[1] + v * v];
                     }
-                    false => (0.0, 0.0, 0.0),
-                };
-                let indirect_light = pass(LightPass::Indirect) + scattered;
-                let rest = whole - indirect_light - seen - media_direct;
-                let parts = [indirect_light, seen, media_direct, rest, segments];
-                for (sum, v) in sums.iter_mut().zip(parts) {
-                    *sum = [sum[0] + v, sum[1] + v * v];
+                    mean += whole;
                 }
-                mean += whole;
+                if reflected > 0.0 {
+                    row.share_sum += indirect / reflected;
+                    row.pixels += 1;
+                }
+                let n = PILOT_SPP as f64;
+                mean /= n;
+                if media {
+                    mean = 0.5 * (mean + other_mean / n);
+                }
+                if mean > 0.0 {
+                    let variance = |[sum, squares]: [f64; 2]| (squares - sum * sum / n).max(0.0);
+                    for (noise, sum) in row.noise.iter_mut().zip(sums) {
+                        *noise += variance(sum) / (mean * mean);
+                    }
+                }
             }
-            if reflected > 0.0 {
-                share_sum += indirect / reflected;
-                pixels += 1;
-            }
-            let n = PILOT_SPP as f64;
-            mean /= n;
-            if media {
-                mean = 0.5 * (mean + other_mean / n);
-            }
-            if mean > 0.0 {
-                let variance = |[sum, squares]: [f64; 2]| (squares - sum * sum / n).max(0.0);
-                noise_indirect += variance(sums[0]) / (mean * mean);
-                noise_seen += variance(sums[1]) / (mean * mean);
-                noise_media += variance(sums[2]) / (mean * mean);
-                noise_rest += variance(sums[3]) / (mean * mean);
-                noise_segments += variance(sums[4]) / (mean * mean);
-            }
+            row
+        })
+        .collect();
+    let (mut share_sum, mut pixels, mut rays) = (0.0f64, 0u32, 0u64);
+    // Relative variance of the pixels' indirect light, of the emission they see directly, of
+    // the light media scatter straight from the lights (in the path tracer's free flights), of
+    // the rest, and of that light in media in the photon method's light samples along each
+    // segment, which it leaves.
+    let mut noise = [0.0f64; 5];
+    for row in &rows {
+        share_sum += row.share_sum;
+        pixels += row.pixels;
+        rays += row.rays;
+        for (total, n) in noise.iter_mut().zip(row.noise) {
+            *total += n;
         }
     }
+    let [noise_indirect, noise_seen, noise_media, noise_rest, noise_segments] = noise;
     let noise_total = noise_indirect + noise_seen + noise_media + noise_rest;
     let indirect = match global {
         true => (share_sum / pixels.max(1) as f64) as f32,
@@ -914,6 +928,17 @@ fn pilot_shares(
         shares.hard_caustic = (power(&photons) / total) as f32;
     }
     shares
+}
+
+/// One row of the path-traced pilot image: its pixels' indirect shares, their relative
+/// variances (indirect light, emission seen directly, light in media by free flights, the
+/// rest, light in media by segment samples) and the rays it cast.
+#[derive(Default)]
+struct PilotRow {
+    share_sum: f64,
+    pixels: u32,
+    noise: [f64; 5],
+    rays: u64,
 }
 
 /// Share of the global photons that should land where the camera sees them; a scene whose
