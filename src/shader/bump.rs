@@ -1,6 +1,8 @@
 //! The nodes that bend the shading normal: Bump (Cycles' `svm_node_set_bump`, the height read
-//! at the point and at two points a small step along its tangents), Displacement (as Cycles'
-//! "bump only" method) and Normal Map (`svm_node_normal_map`).
+//! at the point and at two points a small step along its tangents, in world or object space),
+//! Displacement (the vector the Material Output's Displacement reads: Cycles' "bump only"
+//! method bumps by it, true displacement moves the vertices by it, `crate::scene::displace`)
+//! and Normal Map (`svm_node_normal_map`).
 
 use super::inputs::{input, normal_input, v3, Operands, PointInputs, ShadingInputs, Socket, Ty};
 use crate::math::{Vec3, Vec4};
@@ -105,9 +107,16 @@ pub(super) fn normal_map(
 /// The Bump node: Strength, Distance, Filter Width, Height, Normal, and the heights at the
 /// two offset points (inputs 5 and 6, the copies of the Height subtree); Cycles'
 /// `svm_node_set_bump` with our steps as dPdx, dPdy: the normal of the surface displaced by
-/// distance × height.
+/// distance × height. With `object_space` the normal and the steps are taken to object space,
+/// the normal bumped there and taken back (Cycles' bump over true displacement: the height is
+/// a world length, its slope measured along the object's own axes).
 #[inline(always)]
-pub(super) fn eval_bump(invert: bool, inputs: &ShadingInputs, ins: &impl Operands) -> Vec4 {
+pub(super) fn eval_bump(
+    invert: bool,
+    object_space: bool,
+    inputs: &ShadingInputs,
+    ins: &impl Operands,
+) -> Vec4 {
     const STRENGTH: usize = input(BUMP_INPUTS, "Strength");
     const DISTANCE: usize = input(BUMP_INPUTS, "Distance");
     const HEIGHT: usize = input(BUMP_INPUTS, "Height");
@@ -129,8 +138,19 @@ pub(super) fn eval_bump(invert: bool, inputs: &ShadingInputs, ins: &impl Operand
         ins.float(HEIGHT_AT_STEPS[0]),
         ins.float(HEIGHT_AT_STEPS[1]),
     );
-    let dx = inputs.points[1].position - inputs.points[0].position;
-    let dy = inputs.points[2].position - inputs.points[0].position;
+    let mut dx = inputs.points[1].position - inputs.points[0].position;
+    let mut dy = inputs.points[2].position - inputs.points[0].position;
+    // World to object: directions by the inverse of the linear part (the normal matrix's
+    // transpose), normals by its transpose (the normal matrix's inverse).
+    let to_world_normal = inputs.object_to_world_normal;
+    let world_n = n;
+    let n = if object_space {
+        dx = to_world_normal.transpose() * dx;
+        dy = to_world_normal.transpose() * dy;
+        (to_world_normal.inverse() * n).normalize_or(n)
+    } else {
+        n
+    };
     let rx = dy.cross(n);
     let ry = n.cross(dx);
     let det = dx.dot(rx);
@@ -141,7 +161,11 @@ pub(super) fn eval_bump(invert: bool, inputs: &ShadingInputs, ins: &impl Operand
     } else {
         (strength * out + (1.0 - strength) * n).normalize_or(n)
     };
-    v3(out)
+    if object_space {
+        v3((to_world_normal * out).normalize_or(world_n))
+    } else {
+        v3(out)
+    }
 }
 
 /// The Displacement node: Height, Midlevel, Scale, Normal to a displacement vector.

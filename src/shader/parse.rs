@@ -421,6 +421,10 @@ pub(super) fn parse_op(
         "LayerWeight" => Op::LayerWeight,
         "Bump" => Op::Bump {
             invert: node.get("invert").and_then(Value::as_bool).unwrap_or(false),
+            object_space: node
+                .get("object_space")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
         },
         "NormalMap" => Op::NormalMap(match setting(node, "space").unwrap_or("TANGENT") {
             "TANGENT" => NormalMapSpace::Tangent,
