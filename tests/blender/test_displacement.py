@@ -82,7 +82,7 @@ def dim_world(scene):
 def test_noise_relief_on_a_subdivided_plane_under_a_low_sun(tmp_path, method):
     scene = common.reset_scene(SIZE, SIZE)
     dim_world(scene)
-    mat = displaced_material(f"Relief {method}", method, "WORLD", 2.0, 0.6)
+    mat = displaced_material(f"Relief {method}", method, "WORLD", 3.0, 1.0)
     bpy.ops.mesh.primitive_plane_add(size=3.0)
     plane = bpy.context.active_object
     plane.data.materials.append(mat)
@@ -90,14 +90,14 @@ def test_noise_relief_on_a_subdivided_plane_under_a_low_sun(tmp_path, method):
     subdivision.subdivision_type = "SIMPLE"
     subdivision.levels = subdivision.render_levels = 6
     common.camera("Camera", (0.0, -3.6, 3.0), (50.0, 0.0, 0.0), 45.0)
-    common.light("Sun", "SUN", (0, 0, 5), (72.0, 0.0, 35.0), energy=4.0, angle=0.02)
+    common.light("Sun", "SUN", (0, 0, 5), (75.0, 0.0, 35.0), energy=3.0, angle=0.02)
     matches_cycles(f"relief {method.lower()}", scene, tmp_path)
 
 
 def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path):
     scene = common.reset_scene(SIZE, SIZE)
     dim_world(scene)
-    mat = displaced_material("Scaled relief", "DISPLACEMENT", "OBJECT", 4.0, 0.3)
+    mat = displaced_material("Scaled relief", "DISPLACEMENT", "OBJECT", 3.0, 0.5)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0)
     sphere = bpy.context.active_object
     bpy.ops.object.shade_smooth()
@@ -105,5 +105,5 @@ def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path):
     sphere.scale = (1.3, 0.9, 0.7)
     sphere.rotation_euler = (math.radians(15.0), 0.0, math.radians(25.0))
     common.camera("Camera", (0.0, -5.0, 1.5), (75.0, 0.0, 0.0), 40.0)
-    common.light("Sun", "SUN", (0, 0, 5), (55.0, 0.0, 60.0), energy=4.0, angle=0.02)
+    common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 60.0), energy=2.0, angle=0.02)
     matches_cycles("scaled sphere relief", scene, tmp_path)
