@@ -83,6 +83,7 @@ SETTINGS = {
     "ShaderNodeBump": ("invert",),
     "ShaderNodeNormalMap": ("space",),
     "ShaderNodeDisplacement": ("space",),
+    "ShaderNodeVectorDisplacement": ("space",),
     "ShaderNodeFresnel": (),
     "ShaderNodeLayerWeight": (),
     "ShaderNodeBsdfPrincipled": ("distribution",),

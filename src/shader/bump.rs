@@ -34,6 +34,13 @@ pub(super) const DISPLACEMENT_INPUTS: &[Socket] = &[
 /// The Displacement node's outputs.
 pub(super) const DISPLACEMENT_OUTPUTS: &[Socket] = &[Socket::output("Displacement", Ty::Vector)];
 
+/// The Vector Displacement node's inputs (its output is the Displacement node's).
+pub(super) const VECTOR_DISPLACEMENT_INPUTS: &[Socket] = &[
+    Socket::color("Vector", Vec4::new(0.0, 0.0, 0.0, 1.0)),
+    Socket::float("Midlevel", 0.0),
+    Socket::float("Scale", 1.0),
+];
+
 /// The Normal Map node's inputs.
 pub(super) const NORMAL_MAP_INPUTS: &[Socket] = &[
     Socket::float("Strength", 1.0),
@@ -192,6 +199,40 @@ pub(super) fn eval_displacement(
     v3(direction * height)
 }
 
+/// The Vector Displacement node (Cycles' `svm_node_vector_displacement`): (Vector − Midlevel)
+/// × Scale as a displacement in `space`. In tangent space x runs along the tangent, y along the
+/// normal and z along the bitangent, the frame built in object space (the normal and the
+/// tangent taken there, the bitangent normal × tangent with the tangent's sign); tangent and
+/// object space then go to world space as directions, so the object's scale scales them.
+/// Without tangents, tangent space reads the displacement as object space.
+#[inline(always)]
+pub(super) fn eval_vector_displacement(
+    space: NormalMapSpace,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    ins: &impl Operands,
+) -> Vec4 {
+    const VECTOR: usize = input(VECTOR_DISPLACEMENT_INPUTS, "Vector");
+    const MIDLEVEL: usize = input(VECTOR_DISPLACEMENT_INPUTS, "Midlevel");
+    const SCALE: usize = input(VECTOR_DISPLACEMENT_INPUTS, "Scale");
+    let d = (ins.vector(VECTOR) - Vec3::splat(ins.float(MIDLEVEL))) * ins.float(SCALE);
+    if space == NormalMapSpace::World {
+        return v3(d);
+    }
+    // World to object: normals by the normal matrix's inverse, directions by its transpose;
+    // object directions back to world by its inverse transpose.
+    let to_world_normal = inputs.object_to_world_normal;
+    let object = if space == NormalMapSpace::Tangent && at.tangent != Vec4::ZERO {
+        let normal = (to_world_normal.inverse() * inputs.normal).normalize_or_zero();
+        let tangent = (to_world_normal.transpose() * at.tangent.truncate()).normalize_or_zero();
+        let bitangent = at.tangent.w * normal.cross(tangent).normalize_or_zero();
+        d.x * tangent + d.y * normal + d.z * bitangent
+    } else {
+        d
+    };
+    v3(to_world_normal.inverse().transpose() * object)
+}
+
 /// The Normal Map node: Strength, Color.
 #[inline(always)]
 pub(super) fn eval_normal_map(
@@ -214,6 +255,37 @@ pub(super) fn eval_normal_map(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Mat3;
+
+    #[test]
+    fn vector_displacement_reads_tangent_normal_bitangent_and_scales_with_the_object() {
+        let vector = |c: Vec3, space, inputs: &ShadingInputs, at: &PointInputs| {
+            let ins = [c.extend(1.0), Vec4::splat(0.0), Vec4::splat(2.0)];
+            eval_vector_displacement(space, inputs, at, &ins).truncate()
+        };
+        let c = Vec3::new(0.1, 0.2, 0.3);
+        let inputs = ShadingInputs {
+            normal: Vec3::Z,
+            object_to_world_normal: Mat3::IDENTITY,
+            ..ShadingInputs::default()
+        };
+        let at = PointInputs {
+            tangent: Vec4::new(1.0, 0.0, 0.0, 1.0),
+            ..PointInputs::default()
+        };
+        // Tangent space: x along the tangent, y along the normal, z along normal × tangent.
+        let d = vector(c, NormalMapSpace::Tangent, &inputs, &at);
+        assert!((d - Vec3::new(0.2, 0.6, 0.4)).length() < 1e-6, "{d}");
+        assert_eq!(vector(c, NormalMapSpace::World, &inputs, &at), 2.0 * c);
+        // An object stretched 2× along x: object space stretches with it, world space not.
+        let stretched = ShadingInputs {
+            object_to_world_normal: Mat3::from_diagonal(Vec3::new(0.5, 1.0, 1.0)),
+            ..inputs
+        };
+        let d = vector(c, NormalMapSpace::Object, &stretched, &at);
+        assert!((d - Vec3::new(0.4, 0.4, 0.6)).length() < 1e-6, "{d}");
+        assert_eq!(vector(c, NormalMapSpace::World, &stretched, &at), 2.0 * c);
+    }
 
     #[test]
     fn normal_map_weighs_tangent_bitangent_and_normal() {

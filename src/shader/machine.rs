@@ -374,6 +374,9 @@ pub(super) fn run(
             m.regs[o] = bump::eval_displacement(*object_space, inputs, ins)
         }
         Op::NormalMap(space) => m.regs[o] = bump::eval_normal_map(*space, inputs, at, ins),
+        Op::VectorDisplacement(space) => {
+            m.regs[o] = bump::eval_vector_displacement(*space, inputs, at, ins)
+        }
         Op::Principled {
             multiscatter,
             blender_5_film,

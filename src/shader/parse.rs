@@ -434,6 +434,14 @@ pub(super) fn parse_op(
             "BLENDER_WORLD" => NormalMapSpace::BlenderWorld,
             _ => return Err(bad("space")),
         }),
+        "VectorDisplacement" => {
+            Op::VectorDisplacement(match setting(node, "space").unwrap_or("TANGENT") {
+                "TANGENT" => NormalMapSpace::Tangent,
+                "OBJECT" => NormalMapSpace::Object,
+                "WORLD" => NormalMapSpace::World,
+                _ => return Err(bad("space")),
+            })
+        }
         "Displacement" => Op::Displacement {
             object_space: match setting(node, "space").unwrap_or("OBJECT") {
                 "OBJECT" => true,

@@ -161,6 +161,8 @@ pub(super) enum Op {
         object_space: bool,
     },
     NormalMap(NormalMapSpace),
+    /// The Vector Displacement node, in tangent, object or world space.
+    VectorDisplacement(NormalMapSpace),
     /// The Displacement node: its height along the normal, in object or world space.
     Displacement {
         object_space: bool,
@@ -281,7 +283,7 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
             }
             Op::UvMap { .. } => READS_UV,
             Op::VertexColor | Op::Attribute { .. } => READS_COLOR,
-            Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
+            Op::NormalMap(_) | Op::VectorDisplacement(_) => READS_TANGENT | READS_OBJECT_NORMAL,
             Op::Displacement { .. }
             | Op::Bump {
                 object_space: true, ..
@@ -333,7 +335,8 @@ pub struct NodeProgram {
     /// True when the tree can give a Transparent BSDF (a Transparent node, or a Principled
     /// BSDF's Alpha): shadow rays must evaluate it to pass.
     pub shadow_transparent: bool,
-    /// The Material Output's Displacement as Cycles' "bump only" method: a program whose
+    /// The Material Output's Displacement as Cycles bumps by it ("Bump Only", and over true
+    /// displacement "Displacement and Bump"): a program whose
     /// output is the bumped normal, which the surface tree then reads as the shading normal.
     pub(super) displacement: Option<Box<NodeProgram>>,
     /// The Material Output's Displacement as Cycles' true displacement ("Displacement Only",
@@ -379,6 +382,7 @@ impl NodeProgram {
                         | Op::Bevel { .. }
                         | Op::Bump { .. }
                         | Op::NormalMap(_)
+                        | Op::VectorDisplacement(_)
                         | Op::Displacement { .. }
                         | Op::Fresnel
                         | Op::LayerWeight
