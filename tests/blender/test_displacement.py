@@ -27,8 +27,6 @@ from cycles_compare import compare
 from helpers import rel_mse
 from test_volumes import block_means
 
-pytestmark = pytest.mark.slow  # renders Cycles
-
 SIZE = 48
 MEAN_TOL = 0.01
 BLOCK_RELMSE_MAX = 1e-3
@@ -94,6 +92,7 @@ def plane_under_a_low_sun(mat, size):
     return plane
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["DISPLACEMENT", "BOTH"])
 def test_noise_relief_on_a_subdivided_plane_under_a_low_sun(tmp_path, method):
     scene = common.reset_scene(SIZE, SIZE)
@@ -103,6 +102,7 @@ def test_noise_relief_on_a_subdivided_plane_under_a_low_sun(tmp_path, method):
     matches_cycles(f"relief {method.lower()}", scene, tmp_path)
 
 
+@pytest.mark.slow
 def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path):
     scene = common.reset_scene(SIZE, SIZE)
     dim_world(scene)
@@ -118,6 +118,7 @@ def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path):
     matches_cycles("scaled sphere relief", scene, tmp_path)
 
 
+@pytest.mark.slow
 def test_object_space_vector_displacement_of_a_noise_colour_on_a_scaled_plane(tmp_path):
     """A Noise texture's Color (minus 0.5) into a Vector Displacement node in object space, on
     the subdivided plane scaled 1.5x along its x: the vertices move sideways too, stretched
@@ -135,3 +136,28 @@ def test_object_space_vector_displacement_of_a_noise_colour_on_a_scaled_plane(tm
     plane = plane_under_a_low_sun(mat, 2.0)
     plane.scale = (1.5, 1.0, 1.0)
     matches_cycles("vector relief", scene, tmp_path)
+
+
+def test_preflight_names_adaptive_subdivision_not_true_displacement():
+    """Displacement Only and Displacement and Bump are rendered (nothing named); Cycles'
+    adaptive subdivision (its dicing rate) is not, and is named."""
+    from blender_addon import preflight
+
+    scene = common.reset_scene(SIZE, SIZE)
+    for method in ("DISPLACEMENT", "BOTH"):
+        bpy.ops.mesh.primitive_plane_add(size=2.0)
+        plane = bpy.context.active_object
+        plane.name = f"Plane {method}"
+        plane.data.materials.append(displaced_material(method, method, "WORLD", 3.0, 0.5))
+        plane.modifiers.new("Subdivision", "SUBSURF")
+    messages = preflight.unsupported_features(scene, list(scene.objects))
+    assert not [m for m in messages if "displace" in m.lower()], messages
+    plane = bpy.data.objects["Plane BOTH"]
+    cycles = getattr(plane, "cycles", None)
+    if cycles is not None and hasattr(cycles, "use_adaptive_subdivision"):
+        cycles.use_adaptive_subdivision = True
+    else:
+        plane.modifiers["Subdivision"].use_adaptive_subdivision = True
+    messages = preflight.unsupported_features(scene, list(scene.objects))
+    named = [m for m in messages if "adaptive subdivision" in m]
+    assert len(named) == 1 and "'Plane BOTH'" in named[0], messages
