@@ -165,11 +165,14 @@ impl NodeProgram {
     /// move its vertices.
     pub fn displacement_at(&self, at: &ShadingInputs, textures: &[Texture]) -> Option<Vec3> {
         let vector = self.displace.as_ref()?.eval_raw_vector(at, textures, None);
-        Some(if vector.is_finite() {
-            vector
-        } else {
-            Vec3::ZERO
-        })
+        // Each component that is not finite reads 0, as Cycles keeps vertices finite.
+        Some(Vec3::from_array(vector.to_array().map(|x| {
+            if x.is_finite() {
+                x
+            } else {
+                0.0
+            }
+        })))
     }
 
     /// Number of instructions (for tests and `photon info`).

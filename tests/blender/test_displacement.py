@@ -9,6 +9,7 @@ the material's displacement method as Cycles renders it.
 - a smooth-shaded UV sphere under a non-uniform object scale, the Displacement node in object
   space (the displacement scales with the object), "Displacement Only": the vertex normals are
   computed again from the displaced faces;
+- one such sphere's mesh shared by two objects of different transforms (instances);
 - a Noise texture's colour into a Vector Displacement node in object space on the subdivided
   plane under a non-uniform scale.
 
@@ -116,6 +117,28 @@ def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path):
     common.camera("Camera", (0.0, -5.0, 1.5), (75.0, 0.0, 0.0), 40.0)
     common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 60.0), energy=2.0, angle=0.02)
     matches_cycles("scaled sphere relief", scene, tmp_path)
+
+
+@pytest.mark.slow
+def test_one_displaced_mesh_shared_by_two_objects_of_different_transforms(tmp_path):
+    """A smooth UV sphere's mesh shared by two objects (a linked duplicate: one mesh, placed
+    twice), moved and scaled differently, object-space displacement: the mesh is displaced
+    once and both copies show the relief, stretched with each object."""
+    scene = common.reset_scene(SIZE, SIZE)
+    dim_world(scene)
+    mat = displaced_material("Shared relief", "DISPLACEMENT", "OBJECT", 3.0, 0.4)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=0.8,
+                                         location=(-1.1, 0.0, 0.0))
+    first = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    first.data.materials.append(mat)
+    second = common.link(bpy.data.objects.new("Second", first.data))
+    second.location = (1.1, 0.0, 0.1)
+    second.rotation_euler = (0.0, math.radians(30.0), math.radians(90.0))
+    second.scale = (1.0, 1.3, 0.8)
+    common.camera("Camera", (0.0, -6.0, 1.5), (78.0, 0.0, 0.0), 40.0)
+    common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 60.0), energy=2.0, angle=0.02)
+    matches_cycles("shared sphere relief", scene, tmp_path)
 
 
 @pytest.mark.slow
