@@ -9,6 +9,8 @@ the material's displacement method as Cycles renders it.
 - a smooth-shaded UV sphere under a non-uniform object scale, the Displacement node in object
   space (the displacement scales with the object), "Displacement Only": the vertex normals are
   computed again from the displaced faces;
+- "Displacement and Bump" on that sphere (the bump's slope taken in object space);
+- a grid of two materials, one displaced: the vertices on their border move once, for both;
 - one such sphere's mesh shared by two objects of different transforms (instances);
 - a Noise texture's colour into a Vector Displacement node in object space on the subdivided
   plane under a non-uniform scale.
@@ -104,10 +106,11 @@ def test_noise_relief_on_a_subdivided_plane_under_a_low_sun(tmp_path, method):
 
 
 @pytest.mark.slow
-def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path):
+@pytest.mark.parametrize("method", ["DISPLACEMENT", "BOTH"])
+def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path, method):
     scene = common.reset_scene(SIZE, SIZE)
     dim_world(scene)
-    mat = displaced_material("Scaled relief", "DISPLACEMENT", "OBJECT", 3.0, 0.5)
+    mat = displaced_material(f"Scaled relief {method}", method, "OBJECT", 3.0, 0.5)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0)
     sphere = bpy.context.active_object
     bpy.ops.object.shade_smooth()
@@ -116,7 +119,7 @@ def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path):
     sphere.rotation_euler = (math.radians(15.0), 0.0, math.radians(25.0))
     common.camera("Camera", (0.0, -5.0, 1.5), (75.0, 0.0, 0.0), 40.0)
     common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 60.0), energy=2.0, angle=0.02)
-    matches_cycles("scaled sphere relief", scene, tmp_path)
+    matches_cycles(f"scaled sphere relief {method.lower()}", scene, tmp_path)
 
 
 @pytest.mark.slow
@@ -139,6 +142,26 @@ def test_one_displaced_mesh_shared_by_two_objects_of_different_transforms(tmp_pa
     common.camera("Camera", (0.0, -6.0, 1.5), (78.0, 0.0, 0.0), 40.0)
     common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 60.0), energy=2.0, angle=0.02)
     matches_cycles("shared sphere relief", scene, tmp_path)
+
+
+@pytest.mark.slow
+def test_vertices_on_a_border_between_a_displaced_and_a_plain_material(tmp_path):
+    """A 64 x 64 grid whose faces on the right take a plain material and those on the left a
+    displaced one: the vertices they share move once, by the displaced material, and the
+    plain faces beside them stretch up to them (one Blender mesh, two glTF primitives)."""
+    scene = common.reset_scene(SIZE, SIZE)
+    dim_world(scene)
+    displaced = displaced_material("Border relief", "DISPLACEMENT", "WORLD", 3.0, 1.0)
+    plain = common.principled("Plain", (0.5, 0.6, 0.8), roughness=1.0)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=64, y_subdivisions=64, size=3.0)
+    grid = bpy.context.active_object
+    grid.data.materials.append(displaced)
+    grid.data.materials.append(plain)
+    for polygon in grid.data.polygons:
+        polygon.material_index = 1 if polygon.center.x > 0.2 else 0
+    common.camera("Camera", (0.0, -3.6, 3.0), (50.0, 0.0, 0.0), 45.0)
+    common.light("Sun", "SUN", (0, 0, 5), (75.0, 0.0, 35.0), energy=3.0, angle=0.02)
+    matches_cycles("border relief", scene, tmp_path)
 
 
 @pytest.mark.slow
