@@ -2,8 +2,9 @@
 //! mesh when the scene is built: the material's displacement tree (`NodeProgram::
 //! displacement_at`) is evaluated once at every vertex of the object's triangles that use it,
 //! with the vertex's position, smooth normal, UVs, colours, attributes and object, and the
-//! vertex moves by the world-space vector it gives, taken to the mesh's stored space. No
-//! vertex is added.
+//! vertex moves by the world-space vector it gives, taken to the mesh's stored space. The
+//! surface gains no vertex (flat triangles that moved get copies of their own three, as a flat
+//! mesh without normals has them, bounded as those by three per triangle).
 //!
 //! An object's primitives (one per material) are displaced together, as Cycles displaces one
 //! mesh: copies of a vertex split by the file (seams, flat faces, material borders) move as one

@@ -25,14 +25,11 @@ impl Loader {
         if !self.prototype_ids.contains_key(&mesh.index()) {
             let first = self.scene.prototypes.len() as u32;
             self.add_mesh(node, mesh, &Mat4::IDENTITY, true)?;
+            // Displaced as placed by its first instance, as Cycles displaces a shared mesh.
             let scene = &mut self.scene;
-            let (first_placed, materials) = (Affine3A::from_mat4(*world), &scene.materials);
-            displace_object(
-                &mut scene.prototypes[first as usize..],
-                &first_placed,
-                materials,
-                &scene.textures,
-            );
+            let placed = Affine3A::from_mat4(*world);
+            let prototypes = &mut scene.prototypes[first as usize..];
+            displace_object(prototypes, &placed, &scene.materials, &scene.textures);
             let ids = (first..self.scene.prototypes.len() as u32).collect();
             self.prototype_ids.insert(mesh.index(), ids);
         }
@@ -287,8 +284,13 @@ impl Loader {
         }
         if !prototype {
             let scene = &mut self.scene;
-            let (meshes, identity) = (&mut scene.meshes[first_mesh..], Affine3A::IDENTITY);
-            displace_object(meshes, &identity, &scene.materials, &scene.textures);
+            let meshes = &mut scene.meshes[first_mesh..];
+            displace_object(
+                meshes,
+                &Affine3A::IDENTITY,
+                &scene.materials,
+                &scene.textures,
+            );
         }
         Ok(())
     }
