@@ -14,10 +14,13 @@
 - `problems` names every node (or node setting, or linked input) the renderer cannot evaluate.
   When there is one, `extension` is None: the material keeps the glTF path (Blender's exporter
   and its metallic-roughness values) and the pre-flight report names what is lost, so nothing
-  is dropped without a word. What feeds the Material Output's Displacement is written as
-  `extension["displacement"]`, a tree of the same form whose output is the normal Cycles'
-  "Bump Only" method gives (a Bump node of distance 1 over the displacement's component along
-  the normal); other displacement methods are problems. What feeds the Volume socket is
+  is dropped without a word. What feeds the Material Output's Displacement is written by the
+  material's displacement method (`_displacement_trees`): as `extension["displacement"]`, a
+  tree of the same form whose output is the normal Cycles' bump gives (a Bump node of distance
+  1 over the displacement's component along the normal; "Bump Only" and "Displacement and
+  Bump"), and as `extension["displace"]`, a tree whose output is the world-space vector the
+  renderer moves each vertex by ("Displacement Only" and "Displacement and Bump"). What feeds
+  the Volume socket is
   written as `extension["volume"]`, a tree of the same form whose output is the volume shader
   (`volume_tree`, also used for the world's); a material with a Volume and no Surface is
   `{"nodes": [], "volume": …}`: its surface only bounds the medium. `extension` is also None for trees
@@ -80,6 +83,7 @@ SETTINGS = {
     "ShaderNodeBump": ("invert",),
     "ShaderNodeNormalMap": ("space",),
     "ShaderNodeDisplacement": ("space",),
+    "ShaderNodeVectorDisplacement": ("space",),
     "ShaderNodeFresnel": (),
     "ShaderNodeLayerWeight": (),
     "ShaderNodeBsdfPrincipled": ("distribution",),
@@ -472,16 +476,19 @@ def material_nodes(material, folder=None, *, keep_trivial=False, unlinked=frozen
         return ({"nodes": [], "volume": volume}, []) if volume is not None else (None, [])
     out = src.output
     index = walker.visit(src.node, src.groups)
-    displacement, problems = _displacement_as_bump(material, output, walker)
+    displacement, displace, problems = _displacement_trees(material, output, walker)
     problems = walker.problems + problems + volume_problems
     if problems or index is None:
         return None, [f"{p}; the material falls back to glTF's metallic-roughness values "
                       f"(Blender's exporter)" for p in problems]
-    if walker.trivial and displacement is None and volume is None and not keep_trivial:
+    if walker.trivial and displacement is None and displace is None and volume is None \
+            and not keep_trivial:
         return None, []
     extension = {"nodes": walker.nodes, "output": {"node": index, "output": out.identifier}}
     if displacement is not None:
         extension["displacement"] = displacement
+    if displace is not None:
+        extension["displace"] = displace
     if volume is not None:
         extension["volume"] = volume
     return extension, []
@@ -507,37 +514,55 @@ def volume_tree(owner, output, surface=None, folder=None):
     return {"nodes": walker.nodes, "output": {"node": index, "output": src.output.identifier}}, []
 
 
-def _displacement_as_bump(material, output, surface):
-    """`(tree or None, problems)`: what feeds the Material Output's Displacement, as Cycles'
-    "Bump Only" method renders it: the displacement vector's component along the normal as
-    the height of a Bump node (distance 1), whose normal the surface then reads. The tree's
-    output is that normal. `surface` is the surface's walker (images are shared)."""
+def _displacement_trees(material, output, surface):
+    """`(bump tree or None, displace tree or None, problems)`: what feeds the Material Output's
+    Displacement, as Cycles renders it by the material's displacement method. "Bump Only" and
+    "Displacement and Bump" bump the normal as Cycles' `bump_from_displacement` does: the
+    displacement vector's component along the normal as the height of a Bump node (distance 1;
+    over true displacement its slope taken in object space), whose normal the surface then
+    reads (the bump tree's output). "Displacement Only" and "Displacement and Bump" move the
+    mesh's vertices by the vector (the displace tree's output, world space as Cycles adds it
+    to the vertex). `surface` is the surface's walker (images are shared)."""
     socket = output.inputs.get("Displacement")
     if socket is None:
-        return None, []
-    walker = _Walker(material, surface.folder, surface.unlinked)
-    walker.images = surface.images
+        return None, None, []
     src = source(socket)
     if not src.linked:
-        return None, []
+        return None, None, []
     method = getattr(material, "displacement_method", "BUMP")
-    if method != "BUMP":
-        return None, [f"{walker.what}: displacement method {method} moves the surface; Photon "
-                      f"renders displacement as bump only"]
-    out = src.output
-    index = walker.visit(src.node, src.groups)
-    if walker.problems or index is None:
-        return None, walker.problems
-    geometry = len(walker.nodes)
-    walker.nodes += [
-        {"name": "Displacement as bump/Geometry", "type": "ShaderNodeNewGeometry",
-         "inputs": {}},
-        {"name": "Displacement as bump/Height", "type": "ShaderNodeVectorMath",
-         "operation": "DOT_PRODUCT",
-         "inputs": {"Vector": {"node": index, "output": out.identifier},
-                    "Vector_001": {"node": geometry, "output": "Normal"}}},
-        {"name": "Displacement as bump/Bump", "type": "ShaderNodeBump", "invert": False,
-         "inputs": {"Strength": 1.0, "Distance": 1.0,
-                    "Height": {"node": geometry + 1, "output": "Value"}}},
-    ]
-    return {"nodes": walker.nodes, "output": {"node": geometry + 2, "output": "Normal"}}, []
+    if method not in ("BUMP", "DISPLACEMENT", "BOTH"):
+        return None, None, [f"material '{material.name}': displacement method {method} is not "
+                            f"rendered by Photon"]
+    bump = displace = None
+    if method in ("DISPLACEMENT", "BOTH"):
+        walker = _Walker(material, surface.folder, surface.unlinked)
+        walker.images = surface.images
+        index = walker.visit(src.node, src.groups)
+        if walker.problems or index is None:
+            return None, None, walker.problems
+        displace = {"nodes": walker.nodes,
+                    "output": {"node": index, "output": src.output.identifier}}
+    if method in ("BUMP", "BOTH"):
+        walker = _Walker(material, surface.folder, surface.unlinked)
+        walker.images = surface.images
+        index = walker.visit(src.node, src.groups)
+        if walker.problems or index is None:
+            return None, None, walker.problems
+        geometry = len(walker.nodes)
+        bump_node = {"name": "Displacement as bump/Bump", "type": "ShaderNodeBump",
+                     "invert": False,
+                     "inputs": {"Strength": 1.0, "Distance": 1.0,
+                                "Height": {"node": geometry + 1, "output": "Value"}}}
+        if method == "BOTH":
+            bump_node["object_space"] = True
+        walker.nodes += [
+            {"name": "Displacement as bump/Geometry", "type": "ShaderNodeNewGeometry",
+             "inputs": {}},
+            {"name": "Displacement as bump/Height", "type": "ShaderNodeVectorMath",
+             "operation": "DOT_PRODUCT",
+             "inputs": {"Vector": {"node": index, "output": src.output.identifier},
+                        "Vector_001": {"node": geometry, "output": "Normal"}}},
+            bump_node,
+        ]
+        bump = {"nodes": walker.nodes, "output": {"node": geometry + 2, "output": "Normal"}}
+    return bump, displace, []

@@ -22,7 +22,8 @@ empty list, so the rules below only flag what really changes the image:
   (volumes.problems: packed or missing files, modifiers, grid types), and smoke and fire in
   fluid domains (Photon renders their bake as a Volume object);
 - displacement linked into a material output (unless Photon evaluates the tree and its
-  displacement as bump: node_tree.py);
+  displacement, as bump, true displacement of the vertices or both: node_tree.py); Cycles'
+  adaptive subdivision (its dicing rate: Photon displaces the mesh as the modifier leaves it);
 - particles rendered as halos or paths (hair particle systems, Curves objects and point
   clouds are carried: points_curves.py);
 - lights: what a light's node tree does beyond an Emission node's colour and strength (or a
@@ -187,6 +188,11 @@ def _object_features(obj) -> list[str]:
             messages.append(f"{what}: the smoke and fire of fluid domains are not rendered "
                             f"(import the bake's OpenVDB files as a Volume object to render "
                             f"them); its material fills the domain's box")
+        adaptive = getattr(getattr(obj, "cycles", None), "use_adaptive_subdivision", False) \
+            or getattr(modifier, "use_adaptive_subdivision", False)
+        if modifier.type == "SUBSURF" and adaptive:
+            messages.append(f"{what}: adaptive subdivision (Cycles' dicing rate) is not "
+                            f"rendered; Photon subdivides by the modifier's Render levels")
     for system in getattr(obj, "particle_systems", ()):
         # Objects and collections go as instances, hair strands (PATH) as tubes.
         carried = ("OBJECT", "COLLECTION", "NONE", "PATH" if system.settings.type == "HAIR"
@@ -244,7 +250,8 @@ def material_features(material) -> list[str]:
     messages += _volume_features(material, output)
     displacement = output.inputs.get("Displacement")
     displaced = source(displacement).node if displacement is not None else None
-    if displaced is not None and not (evaluated and "displacement" in extension):
+    if displaced is not None and not (evaluated and ("displacement" in extension
+                                                     or "displace" in extension)):
         messages.append(f"{what}: displacement ('{displaced.name}') is not exported")
     return messages
 

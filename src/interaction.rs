@@ -529,7 +529,12 @@ fn move_point(
             Some(space) => {
                 let stored = interpolate(idx.map(|i| mesh.positions[i as usize]), b1, b2);
                 let o = space.to_object.transform_point3(stored);
-                (o, space.generated(o))
+                if mesh.undisplaced.is_empty() {
+                    (o, space.generated(o))
+                } else {
+                    let before = interpolate(idx.map(|i| mesh.undisplaced[i as usize]), b1, b2);
+                    (o, space.generated(space.to_object.transform_point3(before)))
+                }
             }
             None => (blender_axes(p), blender_axes(p)),
         };

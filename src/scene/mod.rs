@@ -9,6 +9,7 @@
 
 pub mod attributes;
 pub mod builtin;
+pub mod displace;
 pub mod gltf;
 pub mod grids;
 pub mod load;
@@ -86,6 +87,10 @@ pub struct Mesh {
     pub object_info: crate::shader::ObjectInfo,
     /// The named attributes its material's node tree reads, per vertex.
     pub node_attributes: attributes::NodeAttributes,
+    /// The stored positions before true displacement moved them (`displace`), which
+    /// Generated coordinates read as Cycles reads them (an attribute of the undisplaced
+    /// mesh); empty when the mesh was not displaced.
+    pub undisplaced: Vec<Vec3>,
 }
 
 /// Where a mesh's stored positions sit in its Blender object: object coordinates (Blender's

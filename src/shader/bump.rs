@@ -1,6 +1,8 @@
 //! The nodes that bend the shading normal: Bump (Cycles' `svm_node_set_bump`, the height read
-//! at the point and at two points a small step along its tangents), Displacement (as Cycles'
-//! "bump only" method) and Normal Map (`svm_node_normal_map`).
+//! at the point and at two points a small step along its tangents, in world or object space),
+//! Displacement (the vector the Material Output's Displacement reads: Cycles' "bump only"
+//! method bumps by it, true displacement moves the vertices by it, `crate::scene::displace`)
+//! and Normal Map (`svm_node_normal_map`).
 
 use super::inputs::{input, normal_input, v3, Operands, PointInputs, ShadingInputs, Socket, Ty};
 use crate::math::{Vec3, Vec4};
@@ -31,6 +33,13 @@ pub(super) const DISPLACEMENT_INPUTS: &[Socket] = &[
 
 /// The Displacement node's outputs.
 pub(super) const DISPLACEMENT_OUTPUTS: &[Socket] = &[Socket::output("Displacement", Ty::Vector)];
+
+/// The Vector Displacement node's inputs (its output is the Displacement node's).
+pub(super) const VECTOR_DISPLACEMENT_INPUTS: &[Socket] = &[
+    Socket::color("Vector", Vec4::new(0.0, 0.0, 0.0, 1.0)),
+    Socket::float("Midlevel", 0.0),
+    Socket::float("Scale", 1.0),
+];
 
 /// The Normal Map node's inputs.
 pub(super) const NORMAL_MAP_INPUTS: &[Socket] = &[
@@ -105,9 +114,16 @@ pub(super) fn normal_map(
 /// The Bump node: Strength, Distance, Filter Width, Height, Normal, and the heights at the
 /// two offset points (inputs 5 and 6, the copies of the Height subtree); Cycles'
 /// `svm_node_set_bump` with our steps as dPdx, dPdy: the normal of the surface displaced by
-/// distance × height.
+/// distance × height. With `object_space` the normal and the steps are taken to object space,
+/// the normal bumped there and taken back (Cycles' bump over true displacement: the height is
+/// a world length, its slope measured along the object's own axes).
 #[inline(always)]
-pub(super) fn eval_bump(invert: bool, inputs: &ShadingInputs, ins: &impl Operands) -> Vec4 {
+pub(super) fn eval_bump(
+    invert: bool,
+    object_space: bool,
+    inputs: &ShadingInputs,
+    ins: &impl Operands,
+) -> Vec4 {
     const STRENGTH: usize = input(BUMP_INPUTS, "Strength");
     const DISTANCE: usize = input(BUMP_INPUTS, "Distance");
     const HEIGHT: usize = input(BUMP_INPUTS, "Height");
@@ -129,8 +145,19 @@ pub(super) fn eval_bump(invert: bool, inputs: &ShadingInputs, ins: &impl Operand
         ins.float(HEIGHT_AT_STEPS[0]),
         ins.float(HEIGHT_AT_STEPS[1]),
     );
-    let dx = inputs.points[1].position - inputs.points[0].position;
-    let dy = inputs.points[2].position - inputs.points[0].position;
+    let mut dx = inputs.points[1].position - inputs.points[0].position;
+    let mut dy = inputs.points[2].position - inputs.points[0].position;
+    // World to object: directions by the inverse of the linear part (the normal matrix's
+    // transpose), normals by its transpose (the normal matrix's inverse).
+    let to_world_normal = inputs.object_to_world_normal;
+    let world_n = n;
+    let n = if object_space {
+        dx = to_world_normal.transpose() * dx;
+        dy = to_world_normal.transpose() * dy;
+        (to_world_normal.inverse() * n).normalize_or(n)
+    } else {
+        n
+    };
     let rx = dy.cross(n);
     let ry = n.cross(dx);
     let det = dx.dot(rx);
@@ -141,7 +168,11 @@ pub(super) fn eval_bump(invert: bool, inputs: &ShadingInputs, ins: &impl Operand
     } else {
         (strength * out + (1.0 - strength) * n).normalize_or(n)
     };
-    v3(out)
+    if object_space {
+        v3((to_world_normal * out).normalize_or(world_n))
+    } else {
+        v3(out)
+    }
 }
 
 /// The Displacement node: Height, Midlevel, Scale, Normal to a displacement vector.
@@ -168,6 +199,40 @@ pub(super) fn eval_displacement(
     v3(direction * height)
 }
 
+/// The Vector Displacement node (Cycles' `svm_node_vector_displacement`): (Vector − Midlevel)
+/// × Scale as a displacement in `space`. In tangent space x runs along the tangent, y along the
+/// normal and z along the bitangent, the frame built in object space (the normal and the
+/// tangent taken there, the bitangent normal × tangent with the tangent's sign); tangent and
+/// object space then go to world space as directions, so the object's scale scales them.
+/// Without tangents, tangent space reads the displacement as object space.
+#[inline(always)]
+pub(super) fn eval_vector_displacement(
+    space: NormalMapSpace,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    ins: &impl Operands,
+) -> Vec4 {
+    const VECTOR: usize = input(VECTOR_DISPLACEMENT_INPUTS, "Vector");
+    const MIDLEVEL: usize = input(VECTOR_DISPLACEMENT_INPUTS, "Midlevel");
+    const SCALE: usize = input(VECTOR_DISPLACEMENT_INPUTS, "Scale");
+    let d = (ins.vector(VECTOR) - Vec3::splat(ins.float(MIDLEVEL))) * ins.float(SCALE);
+    if space == NormalMapSpace::World {
+        return v3(d);
+    }
+    // World to object: normals by the normal matrix's inverse, directions by its transpose;
+    // object directions back to world by its inverse transpose.
+    let to_world_normal = inputs.object_to_world_normal;
+    let object = if space == NormalMapSpace::Tangent && at.tangent != Vec4::ZERO {
+        let normal = (to_world_normal.inverse() * inputs.normal).normalize_or_zero();
+        let tangent = (to_world_normal.transpose() * at.tangent.truncate()).normalize_or_zero();
+        let bitangent = at.tangent.w * normal.cross(tangent).normalize_or_zero();
+        d.x * tangent + d.y * normal + d.z * bitangent
+    } else {
+        d
+    };
+    v3(to_world_normal.inverse().transpose() * object)
+}
+
 /// The Normal Map node: Strength, Color.
 #[inline(always)]
 pub(super) fn eval_normal_map(
@@ -190,6 +255,37 @@ pub(super) fn eval_normal_map(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Mat3;
+
+    #[test]
+    fn vector_displacement_reads_tangent_normal_bitangent_and_scales_with_the_object() {
+        let vector = |c: Vec3, space, inputs: &ShadingInputs, at: &PointInputs| {
+            let ins = [c.extend(1.0), Vec4::splat(0.0), Vec4::splat(2.0)];
+            eval_vector_displacement(space, inputs, at, &ins).truncate()
+        };
+        let c = Vec3::new(0.1, 0.2, 0.3);
+        let inputs = ShadingInputs {
+            normal: Vec3::Z,
+            object_to_world_normal: Mat3::IDENTITY,
+            ..ShadingInputs::default()
+        };
+        let at = PointInputs {
+            tangent: Vec4::new(1.0, 0.0, 0.0, 1.0),
+            ..PointInputs::default()
+        };
+        // Tangent space: x along the tangent, y along the normal, z along normal × tangent.
+        let d = vector(c, NormalMapSpace::Tangent, &inputs, &at);
+        assert!((d - Vec3::new(0.2, 0.6, 0.4)).length() < 1e-6, "{d}");
+        assert_eq!(vector(c, NormalMapSpace::World, &inputs, &at), 2.0 * c);
+        // An object stretched 2× along x: object space stretches with it, world space not.
+        let stretched = ShadingInputs {
+            object_to_world_normal: Mat3::from_diagonal(Vec3::new(0.5, 1.0, 1.0)),
+            ..inputs
+        };
+        let d = vector(c, NormalMapSpace::Object, &stretched, &at);
+        assert!((d - Vec3::new(0.4, 0.4, 0.6)).length() < 1e-6, "{d}");
+        assert_eq!(vector(c, NormalMapSpace::World, &stretched, &at), 2.0 * c);
+    }
 
     #[test]
     fn normal_map_weighs_tangent_bitangent_and_normal() {

@@ -22,7 +22,9 @@ use serde_json::Value;
 /// renderer cannot evaluate are replaced by their fallback with a warning in `warnings`.
 /// `textures` is the number of textures in the scene (Image Texture nodes name one of them).
 /// A `displacement` tree (same form, its `output` a vector: the bumped normal) is compiled
-/// alongside; the surface tree then reads its normal (`NodeProgram::eval`).
+/// alongside; the surface tree then reads its normal (`NodeProgram::eval`). A `displace` tree
+/// (its `output` the world-space vector a vertex moves by) is compiled alongside too, for the
+/// scene's vertices (`NodeProgram::displacement_at`); shading points never read it.
 pub fn compile(
     ext: &Value,
     textures: usize,
@@ -37,6 +39,11 @@ pub fn compile(
         program.reads |= normal.reads;
         program.reads_ray_state |= normal.reads_ray_state;
         program.displacement = Some(Box::new(normal));
+    }
+    if let Some(tree) = ext.get("displace").filter(|d| !d.is_null()) {
+        let vector = compile_tree(tree, textures, warnings, Ty::Vector)
+            .map_err(|m| format!("displace: {m}"))?;
+        program.displace = Some(Box::new(vector));
     }
     Ok(program)
 }
@@ -384,6 +391,7 @@ pub(super) fn compile_tree(
         reads_ray_state: light_path_reads & RAY_STATE_OUTPUTS != 0,
         shadow_transparent,
         displacement: None,
+        displace: None,
         attributes,
     })
 }

@@ -131,12 +131,48 @@ impl NodeProgram {
         textures: &[Texture],
         tracing: Option<&Tracing>,
     ) -> Vec3 {
+        self.eval_raw_vector(at, textures, tracing)
+            .normalize_or(at.normal)
+    }
+
+    /// A vector-output program's value as it comes.
+    fn eval_raw_vector(
+        &self,
+        at: &ShadingInputs,
+        textures: &[Texture],
+        tracing: Option<&Tracing>,
+    ) -> Vec3 {
         Machine::with(self, |m| {
             run_all(&self.instrs, at, textures, tracing, m, &mut 0.5);
-            load(m, &at.points[0], self.output)
-                .truncate()
-                .normalize_or(at.normal)
+            load(m, &at.points[0], self.output).truncate()
         })
+    }
+
+    /// Whether the material moves its vertices (Cycles' true displacement).
+    pub fn displaces(&self) -> bool {
+        self.displace.is_some()
+    }
+
+    /// Whether the surface keeps the bump of the displacement over the moved vertices
+    /// (Cycles' "Displacement and Bump"): their normals are then left as they were; with
+    /// "Displacement Only" they are computed again from the displaced surface.
+    pub fn bumps_displaced_surface(&self) -> bool {
+        self.displace.is_some() && self.displacement.is_some()
+    }
+
+    /// The world-space vector (Blender's axes) the vertex at `at` moves by (`at.normal`: the
+    /// vertex's smooth normal, seen from its front); `None` when the material does not
+    /// move its vertices.
+    pub fn displacement_at(&self, at: &ShadingInputs, textures: &[Texture]) -> Option<Vec3> {
+        let vector = self.displace.as_ref()?.eval_raw_vector(at, textures, None);
+        // Each component that is not finite reads 0, as Cycles keeps vertices finite.
+        Some(Vec3::from_array(vector.to_array().map(|x| {
+            if x.is_finite() {
+                x
+            } else {
+                0.0
+            }
+        })))
     }
 
     /// Number of instructions (for tests and `photon info`).
@@ -333,11 +369,17 @@ pub(super) fn run(
         Op::VectorMath(op) => m.put(o, vector::eval_vector_math(*op, ins)),
         Op::Fresnel => m.regs[o] = fresnel::eval_fresnel(inputs, ins),
         Op::LayerWeight => m.put(o, fresnel::eval_layer_weight(inputs, ins)),
-        Op::Bump { invert } => m.regs[o] = bump::eval_bump(*invert, inputs, ins),
+        Op::Bump {
+            invert,
+            object_space,
+        } => m.regs[o] = bump::eval_bump(*invert, *object_space, inputs, ins),
         Op::Displacement { object_space } => {
             m.regs[o] = bump::eval_displacement(*object_space, inputs, ins)
         }
         Op::NormalMap(space) => m.regs[o] = bump::eval_normal_map(*space, inputs, at, ins),
+        Op::VectorDisplacement(space) => {
+            m.regs[o] = bump::eval_vector_displacement(*space, inputs, at, ins)
+        }
         Op::Principled {
             multiscatter,
             blender_5_film,

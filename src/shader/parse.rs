@@ -421,6 +421,10 @@ pub(super) fn parse_op(
         "LayerWeight" => Op::LayerWeight,
         "Bump" => Op::Bump {
             invert: node.get("invert").and_then(Value::as_bool).unwrap_or(false),
+            object_space: node
+                .get("object_space")
+                .and_then(Value::as_bool)
+                .unwrap_or(false),
         },
         "NormalMap" => Op::NormalMap(match setting(node, "space").unwrap_or("TANGENT") {
             "TANGENT" => NormalMapSpace::Tangent,
@@ -430,6 +434,14 @@ pub(super) fn parse_op(
             "BLENDER_WORLD" => NormalMapSpace::BlenderWorld,
             _ => return Err(bad("space")),
         }),
+        "VectorDisplacement" => {
+            Op::VectorDisplacement(match setting(node, "space").unwrap_or("TANGENT") {
+                "TANGENT" => NormalMapSpace::Tangent,
+                "OBJECT" => NormalMapSpace::Object,
+                "WORLD" => NormalMapSpace::World,
+                _ => return Err(bad("space")),
+            })
+        }
         "Displacement" => Op::Displacement {
             object_space: match setting(node, "space").unwrap_or("OBJECT") {
                 "OBJECT" => true,

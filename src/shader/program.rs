@@ -154,10 +154,15 @@ pub(super) enum Op {
     Gamma,
     BrightContrast,
     VectorMath(VectorOp),
+    /// Bump; `object_space`: its normal and steps taken to object space and back (the bump
+    /// Cycles adds over true displacement, "Displacement and Bump").
     Bump {
         invert: bool,
+        object_space: bool,
     },
     NormalMap(NormalMapSpace),
+    /// The Vector Displacement node, in tangent, object or world space.
+    VectorDisplacement(NormalMapSpace),
     /// The Displacement node: its height along the normal, in object or world space.
     Displacement {
         object_space: bool,
@@ -278,8 +283,11 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
             }
             Op::UvMap { .. } => READS_UV,
             Op::VertexColor | Op::Attribute { .. } => READS_COLOR,
-            Op::NormalMap(_) => READS_TANGENT | READS_OBJECT_NORMAL,
-            Op::Displacement { .. } => READS_OBJECT_NORMAL,
+            Op::NormalMap(_) | Op::VectorDisplacement(_) => READS_TANGENT | READS_OBJECT_NORMAL,
+            Op::Displacement { .. }
+            | Op::Bump {
+                object_space: true, ..
+            } => READS_OBJECT_NORMAL,
             Op::Wireframe { .. } => READS_TRIANGLE,
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
             // the object-to-world normal matrix, unless the anisotropy is a constant `run`
@@ -327,9 +335,15 @@ pub struct NodeProgram {
     /// True when the tree can give a Transparent BSDF (a Transparent node, or a Principled
     /// BSDF's Alpha): shadow rays must evaluate it to pass.
     pub shadow_transparent: bool,
-    /// The Material Output's Displacement as Cycles' "bump only" method: a program whose
+    /// The Material Output's Displacement as Cycles bumps by it ("Bump Only", and over true
+    /// displacement "Displacement and Bump"): a program whose
     /// output is the bumped normal, which the surface tree then reads as the shading normal.
     pub(super) displacement: Option<Box<NodeProgram>>,
+    /// The Material Output's Displacement as Cycles' true displacement ("Displacement Only",
+    /// or "Displacement and Bump" with `displacement` too): a program whose output is the
+    /// world-space vector each vertex moves by, evaluated once per vertex when the scene is
+    /// built (`crate::scene::displace`), never at shading points.
+    pub(super) displace: Option<Box<NodeProgram>>,
     /// The named attributes the program reads (Attribute nodes, Principled Volume's attribute
     /// inputs), at most `NAMED_ATTRIBUTES`: `ShadingInputs::attributes` holds their values.
     pub attributes: Vec<String>,
@@ -368,6 +382,7 @@ impl NodeProgram {
                         | Op::Bevel { .. }
                         | Op::Bump { .. }
                         | Op::NormalMap(_)
+                        | Op::VectorDisplacement(_)
                         | Op::Displacement { .. }
                         | Op::Fresnel
                         | Op::LayerWeight

@@ -74,6 +74,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Bump { .. } => (bump::BUMP_INPUTS, bump::BUMP_OUTPUTS),
         Op::Displacement { .. } => (bump::DISPLACEMENT_INPUTS, bump::DISPLACEMENT_OUTPUTS),
         Op::NormalMap(_) => (bump::NORMAL_MAP_INPUTS, bump::NORMAL_MAP_OUTPUTS),
+        Op::VectorDisplacement(_) => (bump::VECTOR_DISPLACEMENT_INPUTS, bump::DISPLACEMENT_OUTPUTS),
         Op::Principled { .. } => (closure::PRINCIPLED_INPUTS, closure::PRINCIPLED_OUTPUTS),
         Op::Mix { data, .. } => match data {
             MixData::Float => (color::MIX_FLOAT_INPUTS, color::MIX_FLOAT_OUTPUTS),

@@ -13,6 +13,7 @@ mod adaptive;
 mod bench;
 mod bsdf;
 mod cli;
+mod displacement;
 mod emitter_pixels;
 mod environment;
 mod fuzz_gltf;

@@ -190,6 +190,7 @@ impl Loader {
             shadow_catcher: false,
             object_info: Default::default(),
             node_attributes: Default::default(),
+            undisplaced: Vec::new(),
         });
         Ok(())
     }

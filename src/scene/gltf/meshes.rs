@@ -1,12 +1,13 @@
 //! glTF meshes become the scene's meshes (flattened to world space) or prototypes placed by
 //! instances: triangles from lists, strips and fans, vertex attributes, mirrored transforms
-//! (winding and tangent handedness flipped), flat shading where normals are missing, and the
-//! Blender object space node trees read.
+//! (winding and tangent handedness flipped), flat shading where normals are missing, the
+//! Blender object space node trees read, and true displacement (`crate::scene::displace`).
 
 use super::container::Loader;
 use super::hierarchy::{MAX_TRIANGLES, MAX_VERTICES};
 use crate::error::Result;
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
+use crate::scene::displace::displace_object;
 use crate::scene::{Bounds, Instance, Mesh, ObjectSpace};
 use gltf::mesh::Mode;
 use std::rc::Rc;
@@ -24,6 +25,11 @@ impl Loader {
         if !self.prototype_ids.contains_key(&mesh.index()) {
             let first = self.scene.prototypes.len() as u32;
             self.add_mesh(node, mesh, &Mat4::IDENTITY, true)?;
+            // Displaced as placed by its first instance, as Cycles displaces a shared mesh.
+            let scene = &mut self.scene;
+            let placed = Affine3A::from_mat4(*world);
+            let prototypes = &mut scene.prototypes[first as usize..];
+            displace_object(prototypes, &placed, &scene.materials, &scene.textures);
             let ids = (first..self.scene.prototypes.len() as u32).collect();
             self.prototype_ids.insert(mesh.index(), ids);
         }
@@ -69,6 +75,7 @@ impl Loader {
         let mirrored = linear.determinant() < 0.0;
         let extensions = Rc::clone(&self.node_extensions);
         let extension = &extensions[node.index()].object;
+        let first_mesh = self.scene.meshes.len();
         for primitive in mesh.primitives() {
             let object = format!("{mesh_name} primitive {}", primitive.index());
             let mode = primitive.mode();
@@ -243,6 +250,7 @@ impl Loader {
                     &object,
                     vertex_count,
                 )?,
+                undisplaced: Vec::new(),
             };
             if let Some(file) = &extension.volume {
                 out.volume_grids = self.volume_grids(&object, file, material)?;
@@ -273,6 +281,16 @@ impl Loader {
             } else {
                 self.scene.meshes.push(out);
             }
+        }
+        if !prototype {
+            let scene = &mut self.scene;
+            let meshes = &mut scene.meshes[first_mesh..];
+            displace_object(
+                meshes,
+                &Affine3A::IDENTITY,
+                &scene.materials,
+                &scene.textures,
+            );
         }
         Ok(())
     }
