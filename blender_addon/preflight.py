@@ -32,7 +32,7 @@ empty list, so the rules below only flag what really changes the image:
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
 - shadow catchers without a transparent film;
-- render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
+- render settings: Filter Glossy on hair BSDFs (their lobes are not widened), Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
 - cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
   on a bone; with motion blur on, deforming objects other than meshes (armatures,
@@ -88,7 +88,7 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     if abs(rate - 1.0) > 1e-6:
         messages.append(f"render settings: Volume Step Rate {rate:g} is not used: Photon "
                         f"tracks volumes exactly, without ray-marching steps")
-    messages += light_path_features(scene)
+    messages += light_path_features(scene, materials.values())
     messages += light_linking_features(scene, objects)
     messages += shadow_catcher_features(scene, objects)
     for layer_collection in _layer_collections(view_layer):
@@ -115,23 +115,20 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     return messages
 
 
-def light_path_features(scene) -> list[str]:
+def light_path_features(scene, materials=()) -> list[str]:
     """What of Render > Light Paths Photon does not render as Cycles does (Clamp Direct and
-    Clamp Indirect are carried: export.render_extension)."""
+    Clamp Indirect, the caustics switches and Filter Glossy are carried:
+    export.render_extension); `materials`: the materials rendered."""
     cycles = getattr(scene, "cycles", None)
     if cycles is None:
         return []
     messages = []
-    for prop, label in (("caustics_reflective", "Reflective"),
-                        ("caustics_refractive", "Refractive")):
-        if not getattr(cycles, prop, True):
-            messages.append(f"render settings: {label} Caustics off is not exported; Photon "
-                            f"renders those caustics")
-    # Photon renders as Filter Glossy 0; Blender's default of 1 is not named.
-    blur = float(getattr(cycles, "blur_glossy", 1.0))
-    if blur > 1.0 + 1e-6:
-        messages.append(f"render settings: Filter Glossy {blur:g} is not used; Photon renders "
-                        f"glossy surfaces unfiltered after diffuse bounces")
+    if float(getattr(cycles, "blur_glossy", 0.0)) > 0.0:
+        hair = sorted(m.name for m in materials if _has_hair_bsdf(m))
+        if hair:
+            listed = ", ".join(f"'{name}'" for name in hair[:3])
+            messages.append(f"render settings: Filter Glossy does not widen hair BSDFs "
+                            f"(materials {listed}); Cycles roughens them after rough bounces")
     method = getattr(getattr(scene, "photon", None), "method", "")
     if method == "PHOTON" and float(getattr(cycles, "sample_clamp_indirect", 0.0)) > 0.0:
         messages.append("render settings: with the photon method, Clamp Indirect holds each "
@@ -140,6 +137,13 @@ def light_path_features(scene) -> list[str]:
                         "lamps after two diffuse bounces that Cycles' clamp removes stays (the "
                         "path tracer clamps as Cycles)")
     return messages
+
+
+def _has_hair_bsdf(material) -> bool:
+    """Whether `material`'s node tree holds a Principled Hair or Hair BSDF node."""
+    tree = material_tree(material)
+    kinds = ("BSDF_HAIR_PRINCIPLED", "BSDF_HAIR")
+    return tree is not None and any(node.type in kinds for node in tree.nodes)
 
 
 def shadow_catcher_features(scene, objects) -> list[str]:
