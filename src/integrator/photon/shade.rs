@@ -844,10 +844,12 @@ pub fn cache_gather(
     rng: &mut Rng,
 ) -> Incoming {
     let mut gather = Gather::new(ctx, maps, None);
+    let local = s.frame.to_local(wi);
+    // The records' gather rays are cosine-distributed: the density Filter Glossy reads.
     let bs = BsdfSample {
-        wi: s.frame.to_local(wi),
+        wi: local,
         weight: Vec3::ONE,
-        pdf: 1.0,
+        pdf: local.z.abs() / PI,
         delta: false,
         transmitted: false,
         scattering: Scattering::Diffuse,
