@@ -32,7 +32,8 @@ empty list, so the rules below only flag what really changes the image:
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
 - shadow catchers without a transparent film;
-- render settings: Filter Glossy on hair BSDFs (their lobes are not widened), Clamp
+- render settings: Filter Glossy on hair BSDFs (their lobes are not widened) and, with the
+  photon method, on the specular surfaces caustic photons pass, Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
 - cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
   on a bone; with motion blur on, deforming objects other than meshes (armatures,
@@ -123,13 +124,17 @@ def light_path_features(scene, materials=()) -> list[str]:
     if cycles is None:
         return []
     messages = []
+    method = getattr(getattr(scene, "photon", None), "method", "")
     if float(getattr(cycles, "blur_glossy", 0.0)) > 0.0:
         hair = sorted(m.name for m in materials if _has_hair_bsdf(m))
         if hair:
             listed = ", ".join(f"'{name}'" for name in hair[:3])
             messages.append(f"render settings: Filter Glossy does not widen hair BSDFs "
                             f"(materials {listed}); Cycles roughens them after rough bounces")
-    method = getattr(getattr(scene, "photon", None), "method", "")
+        if method == "PHOTON":
+            messages.append("render settings: with the photon method, Filter Glossy does not "
+                            "widen the mirror-like surfaces caustic photons pass (their "
+                            "caustics stay sharp; the path tracer widens them as Cycles)")
     if method == "PHOTON" and float(getattr(cycles, "sample_clamp_indirect", 0.0)) > 0.0:
         messages.append("render settings: with the photon method, Clamp Indirect holds each "
                         "global photon-map and cache estimate as one contribution (caustic "
