@@ -122,6 +122,15 @@ impl LightPathFilter {
         }
     }
 
+    /// The lobes the caustics switches drop on a surface met straight after a diffuse bounce.
+    pub fn after_diffuse(&self) -> PathFilter {
+        PathFilter {
+            drop_reflection: self.reflective_off,
+            drop_refraction: self.refractive_off,
+            min_alpha: 0.0,
+        }
+    }
+
     /// What a path of `history` leaves of the BSDF it meets: with the caustics switched off,
     /// straight after a diffuse bounce, no glossy reflection or transmission; with Filter
     /// Glossy F and the path's smallest density p, where p / F < 1, every GGX lobe at least as

@@ -866,8 +866,9 @@ impl Chain {
 }
 
 /// Follow specular surfaces (sampling their BSDF) from `s` to the first surface that stores
-/// photons and return it (each surface reached by the path from `s` on, `Shading::reached_by`), at most `MAX_SPECULAR_CHAIN` surfaces including `s`; with `emission`,
-/// add there the emission met on the way (× the chain's throughput, unweighted: nothing on a
+/// photons and return it (each surface shaded as the path from `s` reaches it,
+/// `Shading::reached_by`), at most `MAX_SPECULAR_CHAIN` surfaces including `s`; with
+/// `emission`, add there the emission met on the way (× the chain's throughput, unweighted: nothing on a
 /// specular chain samples lights). Counts its rays in `rays`. `None` when the chain escapes,
 /// ends or runs too long.
 pub fn follow_specular(

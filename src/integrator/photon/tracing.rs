@@ -34,7 +34,7 @@ use crate::bsdf::BsdfSample;
 use crate::error::{Error, Result};
 use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::media::MediumStack;
-use crate::integrator::shading::{transmittance, LightPathFilter, PathHistory, Shading};
+use crate::integrator::shading::{transmittance, LightPathFilter, Shading};
 use crate::integrator::walk::Clamp;
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
@@ -711,7 +711,7 @@ fn walk_photon(
     // bounce, and whether the photon's last scattering was by one of them (light a camera path
     // finds only by leaving the next surface diffusely: not stored, and not carried on by a
     // diffuse bounce).
-    let dropped = LightPathFilter::of(ctx.scene).at(PathHistory::GATHER);
+    let dropped = LightPathFilter::of(ctx.scene).after_diffuse();
     let mut arrived_by_dropped = false;
     for bounce in 0..=max_bounces {
         let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
@@ -814,11 +814,9 @@ fn walk_photon(
         if arrived_by_dropped && bs.scattering == crate::bsdf::Scattering::Diffuse {
             return;
         }
-        if bs.scattering != crate::bsdf::Scattering::Transparent {
-            arrived_by_dropped = dropped.drops(&s.bsdf, &bs);
-        }
         specular_path &= bs.delta || !storing;
         if bs.scattering != crate::bsdf::Scattering::Transparent {
+            arrived_by_dropped = dropped.drops(&s.bsdf, &bs);
             surface_bounces += 1;
             scattered = true;
             volume_allowance.get_or_insert(limit);
