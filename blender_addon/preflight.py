@@ -32,8 +32,8 @@ empty list, so the rules below only flag what really changes the image:
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
 - shadow catchers without a transparent film;
-- render settings: Filter Glossy on hair BSDFs (their lobes are not widened) and, with the
-  photon method, on the specular surfaces caustic photons pass, Clamp
+- render settings: Filter Glossy, with the photon method, on the specular surfaces caustic
+  photons pass, Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
 - cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
   on a bone; with motion blur on, deforming objects other than meshes (armatures,
@@ -89,7 +89,7 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     if abs(rate - 1.0) > 1e-6:
         messages.append(f"render settings: Volume Step Rate {rate:g} is not used: Photon "
                         f"tracks volumes exactly, without ray-marching steps")
-    messages += light_path_features(scene, materials.values())
+    messages += light_path_features(scene)
     messages += light_linking_features(scene, objects)
     messages += shadow_catcher_features(scene, objects)
     for layer_collection in _layer_collections(view_layer):
@@ -116,21 +116,16 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
     return messages
 
 
-def light_path_features(scene, materials=()) -> list[str]:
+def light_path_features(scene) -> list[str]:
     """What of Render > Light Paths Photon does not render as Cycles does (Clamp Direct and
     Clamp Indirect, the caustics switches and Filter Glossy are carried:
-    export.render_extension); `materials`: the materials rendered."""
+    export.render_extension)."""
     cycles = getattr(scene, "cycles", None)
     if cycles is None:
         return []
     messages = []
     method = getattr(getattr(scene, "photon", None), "method", "")
     if float(getattr(cycles, "blur_glossy", 0.0)) > 0.0:
-        hair = sorted(m.name for m in materials if _has_hair_bsdf(m))
-        if hair:
-            listed = ", ".join(f"'{name}'" for name in hair[:3])
-            messages.append(f"render settings: Filter Glossy does not widen hair BSDFs "
-                            f"(materials {listed}); Cycles roughens them after rough bounces")
         if method == "PHOTON":
             messages.append("render settings: with the photon method, Filter Glossy does not "
                             "widen the mirror-like surfaces caustic photons pass (their "
@@ -142,13 +137,6 @@ def light_path_features(scene, materials=()) -> list[str]:
                         "lamps after two diffuse bounces that Cycles' clamp removes stays (the "
                         "path tracer clamps as Cycles)")
     return messages
-
-
-def _has_hair_bsdf(material) -> bool:
-    """Whether `material`'s node tree holds a Principled Hair or Hair BSDF node."""
-    tree = material_tree(material)
-    kinds = ("BSDF_HAIR_PRINCIPLED", "BSDF_HAIR")
-    return tree is not None and any(node.type in kinds for node in tree.nodes)
 
 
 def shadow_catcher_features(scene, objects) -> list[str]:

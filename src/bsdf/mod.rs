@@ -99,7 +99,8 @@ const SMOOTH_ALPHA: f32 = SMOOTH_ROUGHNESS * SMOOTH_ROUGHNESS;
 /// and the coat, which then dim nothing below them; the glass's reflection; the Toon BSDF's
 /// glossy lobe) or transmission lobe (the glass's refraction; a Transparent BSDF's pass
 /// stays); hair fibres and the sheen stay. Filter Glossy widens every GGX lobe (the specular
-/// layer, the metal, the glass and the coat) to at least `min_alpha`.
+/// layer, the metal, the glass and the coat) to at least `min_alpha`, and Chiang's hair fibre
+/// (`hair::HairBsdf::widened`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PathFilter {
     pub drop_reflection: bool,
@@ -552,6 +553,7 @@ impl Bsdf {
             self.smooth &= m < SMOOTH_ALPHA;
             self.coat.alpha = self.coat.alpha.max(m);
             self.coat.smooth &= m < SMOOTH_ALPHA;
+            self.hair = self.hair.map(|fibre| fibre.widened(m));
         }
         self
     }

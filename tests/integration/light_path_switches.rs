@@ -3,7 +3,7 @@
 //! path meets loses or widens the lobes Cycles does: straight after a diffuse bounce, with a
 //! switch off, the glossy reflection lobes (metal, specular layer, coat, the glass's
 //! reflection) or the glass's refraction, a Transparent BSDF's pass kept; Filter Glossy widens
-//! GGX lobes by the path's smallest density.
+//! GGX lobes and hair fibres by the path's smallest density.
 
 use crate::support::gltf::triangle_doc;
 use photon::bsdf::{Bsdf, BsdfSample, PathFilter, Scattering};
@@ -12,6 +12,7 @@ use photon::material::SurfaceMaterial;
 use photon::math::{Vec2, Vec3};
 use photon::scene::gltf::{load_slice, LoadOptions};
 use photon::scene::Scene;
+use photon::shader::Hair;
 use serde_json::{json, Value};
 
 fn with_render(render: Value) -> photon::error::Result<Scene> {
@@ -173,4 +174,21 @@ fn light_path_switches_drop_only_after_a_diffuse_bounce_and_blur_by_the_smallest
     };
     assert!(Bsdf::new(&mirror).is_delta_only());
     assert!(!Bsdf::new(&mirror).filtered(widened).has_delta());
+    // A Principled Hair fibre's R lobe widened: its variance at least the blur's value.
+    let fibre = SurfaceMaterial {
+        hair: Some(Hair::Chiang {
+            sigma: Vec3::splat(0.5),
+            roughness: 0.1,
+            radial_roughness: 0.1,
+            coat: 0.0,
+            ior: 1.55,
+            tilt: 0.0,
+        }),
+        ..SurfaceMaterial::default()
+    };
+    // `roughness` reads the R lobe's variance v as v^(1/4): 0.28 for roughness 0.1.
+    let before = Bsdf::new(&fibre).roughness();
+    let widened = Bsdf::new(&fibre).filtered(widened).roughness();
+    assert!(before < 0.3, "{before}");
+    assert!((widened - 0.3f32.sqrt().sqrt()).abs() < 1e-5, "{widened}");
 }
