@@ -396,8 +396,8 @@ def film_filter(scene) -> dict:
 
 def render_extension(scene) -> dict:
     """PHOTON_render: the final image size (resolution x percentage), transparent film, the
-    pixel filter, Blender's Volume bounces and Clamp Direct / Clamp Indirect (Light Paths,
-    Cycles' settings) and the file's working colour space."""
+    pixel filter, Blender's Volume bounces, Clamp Direct / Clamp Indirect and the Caustics
+    settings (Light Paths, Cycles' settings) and the file's working colour space."""
     r = scene.render
     scale = r.resolution_percentage / 100.0
     extension = {"width": max(1, int(r.resolution_x * scale)),
@@ -414,6 +414,14 @@ def render_extension(scene) -> dict:
         limit = float(getattr(cycles, setting, 0.0))
         if limit > 0.0:
             extension[key] = limit
+    # Reflective and Refractive Caustics are on in Blender and in the extension by default;
+    # Filter Glossy is 1 in Blender and 0 (off) in the extension.
+    for key in ("caustics_reflective", "caustics_refractive"):
+        if not bool(getattr(cycles, key, True)):
+            extension[key] = False
+    blur = float(getattr(cycles, "blur_glossy", 0.0))
+    if blur > 0.0:
+        extension["filter_glossy"] = blur
     space = working_space()
     if space != REC709:  # the extension's default
         extension["working_space"] = space

@@ -33,7 +33,8 @@ empty list, so the rules below only flag what really changes the image:
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
 - shadow catchers without a transparent film;
-- render settings: Reflective or Refractive Caustics off, Filter Glossy above 1, Clamp
+- render settings: Filter Glossy, with the photon method, on the specular surfaces caustic
+  photons pass, Clamp
   Indirect with the photon method (its global-map and cache estimates are clamped whole);
 - cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
   on a bone; with motion blur on, deforming objects other than meshes (armatures,
@@ -118,22 +119,18 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
 
 def light_path_features(scene) -> list[str]:
     """What of Render > Light Paths Photon does not render as Cycles does (Clamp Direct and
-    Clamp Indirect are carried: export.render_extension)."""
+    Clamp Indirect, the caustics switches and Filter Glossy are carried:
+    export.render_extension)."""
     cycles = getattr(scene, "cycles", None)
     if cycles is None:
         return []
     messages = []
-    for prop, label in (("caustics_reflective", "Reflective"),
-                        ("caustics_refractive", "Refractive")):
-        if not getattr(cycles, prop, True):
-            messages.append(f"render settings: {label} Caustics off is not exported; Photon "
-                            f"renders those caustics")
-    # Photon renders as Filter Glossy 0; Blender's default of 1 is not named.
-    blur = float(getattr(cycles, "blur_glossy", 1.0))
-    if blur > 1.0 + 1e-6:
-        messages.append(f"render settings: Filter Glossy {blur:g} is not used; Photon renders "
-                        f"glossy surfaces unfiltered after diffuse bounces")
     method = getattr(getattr(scene, "photon", None), "method", "")
+    if float(getattr(cycles, "blur_glossy", 0.0)) > 0.0:
+        if method == "PHOTON":
+            messages.append("render settings: with the photon method, Filter Glossy does not "
+                            "widen the mirror-like surfaces caustic photons pass (their "
+                            "caustics stay sharp; the path tracer widens them as Cycles)")
     if method == "PHOTON" and float(getattr(cycles, "sample_clamp_indirect", 0.0)) > 0.0:
         messages.append("render settings: with the photon method, Clamp Indirect holds each "
                         "global photon-map and cache estimate as one contribution (caustic "

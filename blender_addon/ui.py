@@ -195,7 +195,8 @@ class RENDER_PT_photon_denoise(PhotonPanel, bpy.types.Panel):
 
 
 class RENDER_PT_photon_light_paths(PhotonPanel, bpy.types.Panel):
-    """Cycles' Light Paths settings Photon reads: Clamping (export.render_extension)."""
+    """Cycles' Light Paths settings Photon reads: Clamping and Caustics
+    (export.render_extension)."""
     bl_label = "Light Paths"
     bl_options = {"DEFAULT_CLOSED"}
 
@@ -206,6 +207,10 @@ class RENDER_PT_photon_light_paths(PhotonPanel, bpy.types.Panel):
         col = _split(self.layout)
         col.prop(cycles, "sample_clamp_direct", text="Clamp Direct")
         col.prop(cycles, "sample_clamp_indirect", text="Clamp Indirect")
+        col = _split(self.layout)
+        col.prop(cycles, "blur_glossy", text="Filter Glossy")
+        col.prop(cycles, "caustics_reflective", text="Reflective Caustics")
+        col.prop(cycles, "caustics_refractive", text="Refractive Caustics")
 
 
 class RENDER_PT_photon_photons(PhotonPanel, bpy.types.Panel):

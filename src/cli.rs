@@ -191,6 +191,17 @@ struct RenderArgs {
     /// Blender's Clamp Indirect: the same for light after more bounces [default: the scene's].
     #[arg(long, value_name = "LIMIT", value_parser = non_negative_limit)]
     clamp_indirect: Option<f32>,
+    /// Blender's Reflective Caustics off: glossy reflection is left out of surfaces a path meets
+    /// straight after a diffuse bounce [default: the scene's, else on].
+    #[arg(long)]
+    no_reflective_caustics: bool,
+    /// Blender's Refractive Caustics off: the same for glossy transmission.
+    #[arg(long)]
+    no_refractive_caustics: bool,
+    /// Blender's Filter Glossy: glossy lobes are roughened by the smallest density of the
+    /// path's bounces so far, divided by this; 0: off [default: the scene's, else 0].
+    #[arg(long, value_name = "FILTER", value_parser = non_negative_limit)]
+    filter_glossy: Option<f32>,
     /// Worker threads (0: one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -513,6 +524,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let settings = &mut scene.render_settings;
     settings.clamp_direct = args.clamp_direct.unwrap_or(settings.clamp_direct);
     settings.clamp_indirect = args.clamp_indirect.unwrap_or(settings.clamp_indirect);
+    settings.reflective_caustics_off |= args.no_reflective_caustics;
+    settings.refractive_caustics_off |= args.no_refractive_caustics;
+    settings.filter_glossy = args.filter_glossy.unwrap_or(settings.filter_glossy);
     for w in &scene.warnings {
         if mode == ProgressMode::Json {
             json_line(serde_json::json!({"stage": "load", "fraction": 1.0, "warning": w}));

@@ -159,6 +159,22 @@ impl HairBsdf {
         })
     }
 
+    /// The fibre as Blender's Filter Glossy widens it (`crate::bsdf::PathFilter`): Chiang's
+    /// longitudinal variance (the TT, TRT and residual lobes' base), the R lobe's and the
+    /// logistic's scale each at least `least`, which Cycles compares with them as they are;
+    /// Blender's older Hair BSDF is left as it is, as in Cycles.
+    pub fn widened(self, least: f32) -> HairBsdf {
+        match self {
+            HairBsdf::Chiang(mut c) => {
+                let v = (0.25 * c.variance[2]).max(least);
+                c.variance = [c.variance[0].max(least), 0.25 * v, 4.0 * v, 4.0 * v];
+                c.scale = c.scale.max(least);
+                HairBsdf::Chiang(c)
+            }
+            HairBsdf::Gaussian(g) => HairBsdf::Gaussian(g),
+        }
+    }
+
     /// Perceptual roughness of the narrowest lobe (for the photon method's classification).
     pub fn roughness(&self) -> f32 {
         match self {

@@ -89,6 +89,43 @@ use thin_film::{
 /// (delta lobes).
 pub const SMOOTH_ROUGHNESS: f32 = 0.02;
 
+/// The GGX α of `SMOOTH_ROUGHNESS`: a lobe blurred to at least this is no longer a delta.
+const SMOOTH_ALPHA: f32 = SMOOTH_ROUGHNESS * SMOOTH_ROUGHNESS;
+
+/// What the path that reaches a surface leaves of its BSDF: Blender's Light Paths › Caustics
+/// settings, as Cycles applies them when it builds a shading point's closures for the path.
+/// Reflective and Refractive Caustics off leave out, on a surface reached straight after a
+/// diffuse bounce, every glossy and singular reflection lobe (the metal, the specular layer
+/// and the coat, which then dim nothing below them; the glass's reflection; the Toon BSDF's
+/// glossy lobe) or transmission lobe (the glass's refraction; a Transparent BSDF's pass
+/// stays); hair fibres and the sheen stay. Filter Glossy widens every GGX lobe (the specular
+/// layer, the metal, the glass and the coat) to at least `min_alpha`, and Chiang's hair fibre
+/// (`hair::HairBsdf::widened`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PathFilter {
+    pub drop_reflection: bool,
+    pub drop_refraction: bool,
+    /// Least GGX α of the microfacet lobes (0: none).
+    pub min_alpha: f32,
+}
+
+impl PathFilter {
+    /// It leaves every BSDF as it is.
+    pub fn is_none(&self) -> bool {
+        !self.drop_reflection && !self.drop_refraction && !(self.min_alpha > 0.0)
+    }
+
+    /// Whether the lobe of `bsdf` that drew `bs` is one this filter leaves out.
+    pub fn drops(&self, bsdf: &Bsdf, bs: &BsdfSample) -> bool {
+        let glossy = matches!(bs.scattering, Scattering::Glossy | Scattering::Singular);
+        let left_out = match bs.transmitted {
+            true => self.drop_refraction,
+            false => self.drop_reflection,
+        };
+        glossy && left_out && bsdf.hair.is_none()
+    }
+}
+
 /// Glass whose IOR is this close to 1 neither reflects nor bends light: a delta pass-through.
 const IOR_ONE_TOLERANCE: f32 = 1e-4;
 
@@ -113,6 +150,9 @@ struct Coat {
     tint: Vec3,
     /// Unit coat normal in the local frame (+Z: the shading normal).
     normal: Vec3,
+    /// Its reflection is left out (`PathFilter`): it then dims nothing below it, its tint
+    /// stays.
+    dropped: bool,
 }
 
 impl Coat {
@@ -125,15 +165,16 @@ impl Coat {
         smooth: false,
         tint: Vec3::ONE,
         normal: Vec3::Z,
+        dropped: false,
     };
 
     fn present(&self) -> bool {
         self.weight > WEIGHT_CUTOFF
     }
 
-    /// The coat reflects (its IOR is not 1).
+    /// The coat reflects (its IOR is not 1, and its reflection is not left out).
     fn reflects(&self) -> bool {
-        self.present() && self.eta - 1.0 > IOR_ONE_TOLERANCE
+        self.present() && self.eta - 1.0 > IOR_ONE_TOLERANCE && !self.dropped
     }
 
     /// What the coat's tint lets through towards a viewer at cosine `cos_i` from the coat's
@@ -185,6 +226,8 @@ pub struct Bsdf {
     /// Relative IOR of the dielectric specular layer after the specular-level adjustment; 1 when
     /// the layer is absent.
     spec_eta: f32,
+    /// The specular layer is left out (`PathFilter`): the diffuse below it gives nothing up.
+    spec_dropped: bool,
     /// F0 of the specular layer times the specular tint.
     spec_f0: Vec3,
     /// The Principled BSDF's thin film (`thin_film`) on the specular layer and the glass;
@@ -329,6 +372,7 @@ impl Bsdf {
                 smooth: rough < SMOOTH_ROUGHNESS,
                 tint: clean3(m.coat_tint),
                 normal: Vec3::Z,
+                dropped: false,
             }
         } else {
             Coat::NONE
@@ -368,6 +412,7 @@ impl Bsdf {
             smooth: roughness < SMOOTH_ROUGHNESS,
             single_scatter: m.single_scatter,
             spec_eta,
+            spec_dropped: false,
             spec_f0,
             film,
             spec_film_substrate: if ior < 1.0 { 1.0 / spec_eta } else { spec_eta },
@@ -476,7 +521,41 @@ impl Bsdf {
     /// The dielectric base has a specular layer: its IOR is not 1, or a thin film reflects
     /// (Cycles keeps the layer for a film alone).
     fn has_spec_layer(&self) -> bool {
-        self.base_weight > 0.0 && (self.spec_eta != 1.0 || self.film.is_some())
+        self.base_weight > 0.0
+            && (self.spec_eta != 1.0 || self.film.is_some())
+            && !self.spec_dropped
+    }
+
+    /// This BSDF as path filter `f` leaves it (`PathFilter`).
+    pub fn filtered(mut self, f: PathFilter) -> Bsdf {
+        if f.drop_reflection {
+            // The metal's share stays out of the layers below it, as Cycles' weight keeps
+            // 1 − metallic when it allocates no metal closure.
+            self.metal_weight = 0.0;
+            self.spec_dropped = true;
+            self.coat.dropped = true;
+            self.glass_reflect_tint = Vec3::ZERO;
+            if self.toon.is_some_and(|t| t.glossy) {
+                self.toon = None;
+            }
+        }
+        if f.drop_refraction && !self.transparent {
+            self.glass_transmit_tint = Vec3::ZERO;
+        }
+        if f.min_alpha > 0.0 {
+            // Only the lobes' shape widens: their energy compensation and the layering stay
+            // those of the material's roughness (`roughness`, which the albedo tables read),
+            // as in Cycles.
+            let m = f.min_alpha;
+            self.alpha = self.alpha.max(m);
+            self.alpha_x = self.alpha_x.max(m);
+            self.alpha_y = self.alpha_y.max(m);
+            self.smooth &= m < SMOOTH_ALPHA;
+            self.coat.alpha = self.coat.alpha.max(m);
+            self.coat.smooth &= m < SMOOTH_ALPHA;
+            self.hair = self.hair.map(|fibre| fibre.widened(m));
+        }
+        self
     }
 
     /// The metal's reflectance for a microfacet (or the macro-surface) at cosine `cos_i`:
@@ -1233,6 +1312,11 @@ impl ViewedBsdf {
     /// attenuates the Principled BSDF's emission by it too); one without them.
     pub fn layer_transmittance(&self) -> Vec3 {
         self.lobes.as_ref().map_or(Vec3::ONE, |l| l.under)
+    }
+
+    /// The same view of `Bsdf::filtered`.
+    pub fn filtered(&self, f: PathFilter) -> ViewedBsdf {
+        self.bsdf.filtered(f).viewed_from(self.wo)
     }
 
     /// The same view of `Bsdf::without_subsurface`.

@@ -440,6 +440,7 @@ fn exit_shading(sh: SurfaceHit, dir: Vec3, path: RayPath) -> Shading {
         wo,
         wo_local,
         media: Default::default(),
+        history: Default::default(),
     }
 }
 

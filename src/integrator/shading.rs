@@ -6,18 +6,25 @@
 //! face the viewer (a single-sided plane is lit and shaded from whichever side is looked at);
 //! transmissive surfaces keep the winding side, so the BSDF knows inside from outside. Media:
 //! inside a transmissive object a ray is attenuated by Beer–Lambert absorption.
+//!
+//! Blender's Light Paths › Caustics settings change the BSDF by the path that reaches the point
+//! (`LightPathFilter`, `Shading::reached_by`), as Cycles builds a point's closures for its path:
+//! Reflective and Refractive Caustics off leave out glossy reflection or transmission on a
+//! surface met straight after a diffuse bounce; Filter Glossy widens glossy lobes by the
+//! smallest density of the path's bounces so far (`PathHistory`).
 
 use super::classify::{diffuse_reflectance, is_lambertian, lambertian_reflectance};
 use super::direct::{sample_direct_from, Vertex};
 use super::media::MediumStack;
 use super::Context;
 use crate::accel::{Hit, Ray};
-use crate::bsdf::{Bsdf, BsdfSample, Scattering, ViewedBsdf};
+use crate::bsdf::{Bsdf, BsdfSample, PathFilter, Scattering, ViewedBsdf};
 use crate::interaction::{SurfaceHit, View};
 use crate::irradiance_cache::IrradianceCache;
 use crate::material::{eval_surface, Rays, SurfaceMaterial};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::rng::{hash_combine, Rng};
+use crate::scene::Scene;
 use crate::shader::RayPath;
 use std::f32::consts::PI;
 
@@ -39,6 +46,107 @@ pub struct Shading {
     pub wo_local: Vec3,
     /// The media the viewer is in (where light samples' shadow rays start).
     pub media: MediumStack,
+    /// What the path that reached the point did before (`reached_by`).
+    pub history: PathHistory,
+}
+
+/// What Blender's Light Paths settings read of the path that reaches a shading point (Cycles'
+/// "diffuse ray" flag and `min_ray_pdf`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathHistory {
+    /// The path's last bounce, transparent passes aside, was a diffuse one on a surface (a
+    /// scattering in a medium is not).
+    pub after_diffuse: bool,
+    /// The smallest solid-angle density of the path's bounces so far, delta ones left out
+    /// (infinite: none yet).
+    pub min_pdf: f32,
+}
+
+impl Default for PathHistory {
+    /// A camera ray's.
+    fn default() -> Self {
+        PathHistory {
+            after_diffuse: false,
+            min_pdf: f32::INFINITY,
+        }
+    }
+}
+
+impl PathHistory {
+    /// A diffuse gather ray's, of unknown density: the largest a cosine-distributed ray has.
+    pub const GATHER: PathHistory = PathHistory {
+        after_diffuse: true,
+        min_pdf: std::f32::consts::FRAC_1_PI,
+    };
+
+    /// The path after the BSDF sample `bs` (a transparent pass changes nothing).
+    pub fn after(self, bs: &BsdfSample) -> PathHistory {
+        if bs.scattering == Scattering::Transparent {
+            return self;
+        }
+        PathHistory {
+            after_diffuse: bs.scattering == Scattering::Diffuse,
+            min_pdf: match bs.delta {
+                true => self.min_pdf,
+                false => self.min_pdf.min(bs.pdf),
+            },
+        }
+    }
+
+    /// The path after a scattering in a medium sampled with density `pdf`.
+    pub fn after_medium(self, pdf: f32) -> PathHistory {
+        PathHistory {
+            after_diffuse: false,
+            min_pdf: self.min_pdf.min(pdf),
+        }
+    }
+}
+
+/// Blender's Light Paths › Caustics settings (`SceneRenderSettings`) as they change the BSDF a
+/// path meets (`crate::bsdf::PathFilter`).
+#[derive(Clone, Copy, Debug)]
+pub struct LightPathFilter {
+    reflective_off: bool,
+    refractive_off: bool,
+    /// Filter Glossy (0: off).
+    filter_glossy: f32,
+}
+
+impl LightPathFilter {
+    pub fn of(scene: &Scene) -> LightPathFilter {
+        let settings = &scene.render_settings;
+        LightPathFilter {
+            reflective_off: settings.reflective_caustics_off,
+            refractive_off: settings.refractive_caustics_off,
+            filter_glossy: settings.filter_glossy,
+        }
+    }
+
+    /// The lobes the caustics switches drop on a surface met straight after a diffuse bounce.
+    pub fn after_diffuse(&self) -> PathFilter {
+        PathFilter {
+            drop_reflection: self.reflective_off,
+            drop_refraction: self.refractive_off,
+            min_alpha: 0.0,
+        }
+    }
+
+    /// What a path of `history` leaves of the BSDF it meets: with the caustics switched off,
+    /// straight after a diffuse bounce, no glossy reflection or transmission; with Filter
+    /// Glossy F and the path's smallest density p, where p / F < 1, every GGX lobe at least as
+    /// rough as α = ½ √(1 − p / F) (Cycles' blur, which compares that value to α).
+    pub fn at(&self, history: PathHistory) -> PathFilter {
+        let blur = history.min_pdf / self.filter_glossy;
+        PathFilter {
+            drop_reflection: self.reflective_off && history.after_diffuse,
+            drop_refraction: self.refractive_off && history.after_diffuse,
+            min_alpha: if self.filter_glossy > 0.0 && blur < 1.0 {
+                0.5 * (1.0 - blur).sqrt()
+            } else {
+                0.0
+            },
+        }
+    }
 }
 
 /// Beer–Lambert transmittance along `ray` up to `hit` through a medium of absorption
@@ -137,6 +245,17 @@ impl Shading {
             wo_local,
             surface,
             media: MediumStack::default(),
+            history: PathHistory::default(),
+        }
+    }
+
+    /// This point reached by a path of `history`: its BSDF as Blender's Light Paths settings
+    /// leave it for that path (`LightPathFilter`).
+    pub fn reached_by(&mut self, scene: &Scene, history: PathHistory) {
+        self.history = history;
+        let filter = LightPathFilter::of(scene).at(history);
+        if !filter.is_none() {
+            self.bsdf = self.bsdf.filtered(filter);
         }
     }
 

@@ -18,6 +18,9 @@
 //! integrator says which materials it walks (`Scatter::walks_subsurface`): the photon method
 //! leaves Christensen–Burley ones to its dipole.
 //!
+//! Blender's Light Paths › Caustics settings change the BSDF of each surface the walk meets by
+//! the path so far (`PathState::history`, `Shading::reached_by`).
+//!
 //! Blender's Light Paths › Clamping (`Clamp`) is applied where the walk adds a contribution
 //! (`PathState::add` and the emission it meets), as Cycles clamps each contribution on its way
 //! to the film.
@@ -29,7 +32,7 @@ use super::classify::stores_photons;
 use super::direct::{sample_direct_from, Previous, Vertex};
 use super::media::{MediumStack, StackMedia};
 use super::random_walk;
-use super::shading::{transmittance, Shading};
+use super::shading::{transmittance, PathHistory, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{hit_holdout, hit_mesh, Hit, Ray, Visibility, NO_INSTANCE};
 use crate::bsdf::{BsdfSample, Scattering};
@@ -148,6 +151,8 @@ pub struct PathState {
     pub bounces: u32,
     /// Blender's clamping of the contributions this path adds.
     pub clamp: Clamp,
+    /// What the Light Paths settings read of the path so far (the BSDFs it meets depend on it).
+    pub history: PathHistory,
 }
 
 impl PathState {
@@ -184,6 +189,11 @@ impl PathState {
             },
             bounces: 0,
             clamp,
+            history: if gather {
+                PathHistory::GATHER
+            } else {
+                PathHistory::default()
+            },
         }
     }
 
@@ -293,6 +303,7 @@ impl PathState {
         self.subsurface = true;
         *s = Shading {
             media: self.media,
+            history: self.history,
             ..exit
         };
         self.beta.is_finite() && self.beta != Vec3::ZERO
@@ -420,6 +431,7 @@ impl PathState {
         }
         self.beta *= f / pdf;
         self.bounces += 1;
+        self.history = self.history.after_medium(pdf);
         self.count_vertex(FirstVertex::Medium);
         self.volume_bounces += 1;
         if self.volume_bounces > ctx.scene.render_settings.volume_bounces {
@@ -480,6 +492,7 @@ impl PathState {
             self.diffuse_ancestor = true;
         }
         self.light_path = self.light_path.after(bs.scattering, bs.transmitted);
+        self.history = self.history.after(bs);
         // A transparent pass is no vertex: emission met beyond it is weighed against the
         // light sample of the vertex before, whose shadow ray passed it too (as Cycles keeps
         // its MIS state through transparent surfaces).
@@ -695,6 +708,7 @@ fn walk_from(
         let primary = depth == 0 && !gather;
         let mut s = Shading::on_path(ctx, &ray, &hit, state.light_path, primary);
         s.media = state.media;
+        s.reached_by(ctx.scene, state.history);
         // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
         if primary && (s.surface.holdout || hit_holdout(ctx.scene, &hit)) {
             out.seen_emission = state.seen_emission();
@@ -906,8 +920,9 @@ impl Chain {
 }
 
 /// Follow specular surfaces (sampling their BSDF) from `s` to the first surface that stores
-/// photons and return it, at most `MAX_SPECULAR_CHAIN` surfaces including `s`; with `emission`,
-/// add there the emission met on the way (× the chain's throughput, unweighted: nothing on a
+/// photons and return it (each surface shaded as the path from `s` reaches it,
+/// `Shading::reached_by`), at most `MAX_SPECULAR_CHAIN` surfaces including `s`; with
+/// `emission`, add there the emission met on the way (× the chain's throughput, unweighted: nothing on a
 /// specular chain samples lights). Counts its rays in `rays`. `None` when the chain escapes,
 /// ends or runs too long.
 pub fn follow_specular(
@@ -947,7 +962,9 @@ pub fn follow_specular(
         };
         chain.length += hit.t * ray.direction.length();
         chain.beta *= transmittance(chain.absorption, &hit, &ray);
+        let history = s.history.after(&bs);
         s = Shading::new(ctx, &ray, &hit, false);
+        s.reached_by(ctx.scene, history);
         if let Some(le) = emission.as_deref_mut() {
             *le += chain.beta * emitted_radiance(ctx.scene, &s.sh, s.wo, s.surface.emission);
         }

@@ -820,6 +820,14 @@ pub struct SceneRenderSettings {
     /// (`integrator::walk::Clamp`).
     pub clamp_direct: f32,
     pub clamp_indirect: f32,
+    /// Blender's Light Paths › Caustics › Reflective and Refractive Caustics switched off
+    /// (both on by default): a surface a path reaches straight after a diffuse bounce loses
+    /// its glossy reflection, or transmission, lobes (`integrator::shading::LightPathFilter`).
+    pub reflective_caustics_off: bool,
+    pub refractive_caustics_off: bool,
+    /// Blender's Light Paths › Caustics › Filter Glossy (0: off): glossy lobes roughened by the
+    /// smallest density of the path's bounces so far.
+    pub filter_glossy: f32,
     /// The file's working colour space, the one the image is computed and written in.
     pub working_space: crate::color_space::WorkingSpace,
 }

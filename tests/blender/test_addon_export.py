@@ -61,7 +61,8 @@ def check_extensions(doc: dict):
     assert ext["PHOTON_world"]["strength"] == pytest.approx(2.0)
     assert ext["PHOTON_render"] == {"width": 960, "height": 540, "film_transparent": True,
                                     "filter": {"type": "GAUSSIAN", "width": 2.5},
-                                    "clamp_indirect": 10.0}  # Blender's default clamp
+                                    "clamp_indirect": 10.0,  # Blender's default clamp
+                                    "filter_glossy": 1.0}  # and Filter Glossy
 
 
 def test_hooks_write_photon_extensions(lights_scene, tmp_path):

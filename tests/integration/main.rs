@@ -23,6 +23,7 @@ mod gltf_loader;
 mod instancing;
 mod irradiance_cache;
 mod light_passes;
+mod light_path_switches;
 mod light_paths;
 mod lights_lamps;
 mod media;

@@ -50,6 +50,13 @@
 //! map's estimate Volume Indirect (both Indirect once a glossy vertex came before);
 //! what media scatter along x's gather rays is part of x's Indirect light.
 //!
+//! **Caustics switches and Filter Glossy** (Blender's Light Paths › Caustics): every surface a
+//! camera path, a final-gather ray or a specular chain meets is shaded with the BSDF its path
+//! leaves it (`Shading::reached_by`), so a final-gather hit loses the glossy lobes the switches
+//! drop after a diffuse bounce; photons that reach a surface through such a lobe are not stored
+//! and end at their next diffuse bounce (`tracing`), as every camera path that would read them
+//! leaves that surface by a diffuse bounce.
+//!
 //! **Clamping** (Blender's Clamp Direct and Indirect, `walk::Clamp`): the camera path's own
 //! contributions are clamped as the path tracer's are. At x, each contribution a Cycles path
 //! would add is clamped with the camera path's throughput: the light sample, and each
@@ -538,6 +545,7 @@ impl<'a> Gather<'a> {
                 continue;
             }
             y.media = media;
+            y.reached_by(scene, s.history.after(bs));
             let met = Met {
                 ray,
                 hit,
@@ -837,10 +845,12 @@ pub fn cache_gather(
     rng: &mut Rng,
 ) -> Incoming {
     let mut gather = Gather::new(ctx, maps, None);
+    let local = s.frame.to_local(wi);
+    // The records' gather rays are cosine-distributed: the density Filter Glossy reads.
     let bs = BsdfSample {
-        wi: s.frame.to_local(wi),
+        wi: local,
         weight: Vec3::ONE,
-        pdf: 1.0,
+        pdf: local.z.abs() / PI,
         delta: false,
         transmitted: false,
         scattering: Scattering::Diffuse,

@@ -34,7 +34,7 @@ use crate::bsdf::BsdfSample;
 use crate::error::{Error, Result};
 use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::media::MediumStack;
-use crate::integrator::shading::{transmittance, Shading};
+use crate::integrator::shading::{transmittance, LightPathFilter, Shading};
 use crate::integrator::walk::Clamp;
 use crate::integrator::Context;
 use crate::interaction::{offset_origin, LightPoint};
@@ -707,6 +707,12 @@ fn walk_photon(
     // emission it meets).
     let limit = ctx.scene.render_settings.volume_bounces;
     let mut volume_allowance = emitted.left_a_medium().then_some(limit + 1);
+    // Blender's caustics switches: the lobes a camera path drops straight after a diffuse
+    // bounce, and whether the photon's last scattering was by one of them (light a camera path
+    // finds only by leaving the next surface diffusely: not stored, and not carried on by a
+    // diffuse bounce).
+    let dropped = LightPathFilter::of(ctx.scene).after_diffuse();
+    let mut arrived_by_dropped = false;
     for bounce in 0..=max_bounces {
         let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
         if !media.is_vacuum(ctx.scene) {
@@ -767,6 +773,7 @@ fn walk_photon(
                         lit_by_medium = true;
                     }
                     scattered = true;
+                    arrived_by_dropped = false;
                     ray = Ray {
                         origin: p,
                         direction: wi,
@@ -795,7 +802,7 @@ fn walk_photon(
         if storing && caustic && clamp.is_on() && !lit_by_medium {
             stored *= caustic_clamp(clamp, &s, throughput, emitted.radiance);
         }
-        if storing && !store(&s, stored, bounce, caustic) {
+        if storing && !arrived_by_dropped && !store(&s, stored, bounce, caustic) {
             return;
         }
         if bounce == max_bounces {
@@ -804,8 +811,12 @@ fn walk_photon(
         let Some((bs, wi)) = scatter_photon(&s, rng) else {
             return;
         };
+        if arrived_by_dropped && bs.scattering == crate::bsdf::Scattering::Diffuse {
+            return;
+        }
         specular_path &= bs.delta || !storing;
         if bs.scattering != crate::bsdf::Scattering::Transparent {
+            arrived_by_dropped = dropped.drops(&s.bsdf, &bs);
             surface_bounces += 1;
             scattered = true;
             volume_allowance.get_or_insert(limit);

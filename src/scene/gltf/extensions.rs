@@ -832,6 +832,11 @@ pub(super) struct RenderExtension {
     /// Blender's Clamp Direct and Clamp Indirect (0, no limit, when absent).
     pub(super) clamp_direct: f32,
     pub(super) clamp_indirect: f32,
+    /// Blender's Reflective and Refractive Caustics (on when absent) and Filter Glossy (0, off,
+    /// when absent).
+    pub(super) caustics_reflective: bool,
+    pub(super) caustics_refractive: bool,
+    pub(super) filter_glossy: f32,
     /// Blender's working colour space (Rec.709 when absent).
     pub(super) working_space: WorkingSpace,
 }
@@ -864,6 +869,9 @@ impl RenderExtension {
             },
             clamp_direct: fields.number("clamp_direct", 0.0, non_negative)?,
             clamp_indirect: fields.number("clamp_indirect", 0.0, non_negative)?,
+            caustics_reflective: fields.flag("caustics_reflective", true)?,
+            caustics_refractive: fields.flag("caustics_refractive", true)?,
+            filter_glossy: fields.number("filter_glossy", 0.0, non_negative)?,
             working_space: match fields.string("working_space")? {
                 None => WorkingSpace::Rec709,
                 Some(id) => WorkingSpace::from_interop_id(id).ok_or_else(|| {

@@ -155,6 +155,9 @@ impl Loader {
                 volume_bounces: render.volume_bounces,
                 clamp_direct: render.clamp_direct,
                 clamp_indirect: render.clamp_indirect,
+                reflective_caustics_off: !render.caustics_reflective,
+                refractive_caustics_off: !render.caustics_refractive,
+                filter_glossy: render.filter_glossy,
                 working_space: render.working_space,
             };
         }
