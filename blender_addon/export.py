@@ -603,7 +603,7 @@ def named_attributes(trees) -> set[str]:
     """The attribute names the trees' Attribute nodes of type Geometry read."""
     return {n["attribute_name"] for tree in trees for n in tree["nodes"]
             if n["type"] == "ShaderNodeAttribute" and n.get("attribute_name")
-            and n.get("attribute_type", "GEOMETRY") == "GEOMETRY"}
+            and n.get("attribute_type", "GEOMETRY") == "GEOMETRY"} | node_tree.hair_info_attributes(trees)
 
 
 def reads_vertex_colors(trees) -> bool:

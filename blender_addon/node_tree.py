@@ -47,6 +47,7 @@ SETTINGS = {
     "ShaderNodeAttribute": ("attribute_name", "attribute_type"),
     "ShaderNodeNewGeometry": (),
     "ShaderNodeObjectInfo": (),
+    "ShaderNodeHairInfo": (),
     "ShaderNodeWireframe": ("use_pixel_size",),
     "ShaderNodeLightPath": (),
     "ShaderNodeAmbientOcclusion": ("samples", "inside", "only_local"),
@@ -150,6 +151,9 @@ READ_OUTPUTS = {
     "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
+    # Cycles' Tangent Normal is the view direction made perpendicular to the fibre's
+    # direction, which the node's attributes do not carry.
+    "ShaderNodeHairInfo": {"Is Strand", "Intercept", "Length", "Thickness", "Random"},
 }
 
 # Settings values the renderer does not evaluate.
@@ -197,6 +201,17 @@ MATH_OPS = {
 }
 
 RAMP_TABLE_SIZE = 256
+
+# The hair tube's vertex attributes the Hair Info node reads (points_curves.py writes them):
+# "fibre" (intercept, strand length, diameter) and "curve" (the strand's index, whose hash is
+# Random).
+HAIR_INFO_ATTRIBUTES = {"fibre": "photon_hair", "curve": "photon_hair_curve"}
+
+
+def hair_info_attributes(trees) -> set[str]:
+    """The names of the hair attributes `trees` read (Hair Info nodes)."""
+    return {name for tree in trees for n in tree["nodes"]
+            if n["type"] == "ShaderNodeHairInfo" for name in n["attributes"].values()}
 # Nodes with a black body's colour, which the renderer takes into the working colour space.
 BLACKBODY_NODES = ("ShaderNodeBlackbody", "ShaderNodeVolumePrincipled")
 
@@ -377,6 +392,8 @@ class _Walker:
                                  f"{node.operation} is not evaluated by Photon")
         if kind == "ShaderNodeObjectInfo":
             entry["material_index"] = int(self.material.pass_index)
+        if kind == "ShaderNodeHairInfo":
+            entry["attributes"] = dict(HAIR_INFO_ATTRIBUTES)
         if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
             entry["value"] = _value(node.outputs[0])
         if kind == "ShaderNodeValToRGB":

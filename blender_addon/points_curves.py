@@ -20,8 +20,18 @@ the renderer takes the fibre's direction, which hair BSDFs scatter around, from 
 (src/material.rs, `fibre_tangent`), and the offset across the fibre from the view and the
 tube's smooth normal (src/bsdf/hair.rs).
 
-This file runs inside the add-on and as the export child's script: it imports only bpy and the
-standard library.
+The Hair Info node reads two more vertex attributes of the tube (`node_tree.HAIR_INFO_ATTRIBUTES`),
+computed on the curve's points as Cycles computes them and carried to the tube's rings:
+"fibre" holds the intercept (the length of the control polygon from the root to the point over
+the whole polygon's length; 0 on a curve of no length), that length, and the diameter (twice
+the radius); "curve" the curve's index in its object (for particle hair, counted over all the
+emitter's hair systems, as Cycles counts them: `PARTICLE_CURVE_INDEX`), from which the renderer
+hashes Random. Between control points Cycles interpolates them linearly along the segment; the
+tube's rings between the points of a Catmull-Rom curve have them interpolated along the spline
+instead, alike where the points are evenly spaced.
+
+This file runs inside the add-on and as the export child's script: it imports only bpy, the
+standard library and node_tree.py.
 """
 
 from __future__ import annotations
@@ -30,6 +40,11 @@ import contextlib
 import math
 
 import bpy
+
+try:
+    from .node_tree import HAIR_INFO_ATTRIBUTES
+except ImportError:  # loaded by export.py as a top-level module in the export's child process
+    from node_tree import HAIR_INFO_ATTRIBUTES
 
 # Name of the Geometry Nodes group added for an export.
 GROUP_NAME = "Photon points and curves"
@@ -46,6 +61,9 @@ TUBE_SIDES = 8
 TUBE_UV_MAP = "UVMap"
 # The curve parameter carried from the curve's points to the tube's vertices (removed after).
 _CURVE_FACTOR = "photon_curve_factor"
+# A curve attribute a particle hair's Curves object carries: its curve's index among all hair
+# curves of the emitter (Cycles numbers them across the emitter's systems).
+PARTICLE_CURVE_INDEX = "photon_particle_curve"
 
 
 def tube_profile_radius(sides: int = TUBE_SIDES) -> float:
@@ -97,7 +115,7 @@ def _build_group():
     links.new(nodes.new("GeometryNodeSplineParameter").outputs["Factor"],
               factor.inputs["Value"])
     tube = nodes.new("GeometryNodeCurveToMesh")
-    links.new(factor.outputs["Geometry"], tube.inputs["Curve"])
+    links.new(_hair_info_stored(nodes, links, factor.outputs["Geometry"]), tube.inputs["Curve"])
     links.new(profile.outputs["Curve"], tube.inputs["Profile Curve"])
     links.new(nodes.new("GeometryNodeInputRadius").outputs[0], tube.inputs["Scale"])
     # The parameter along the curve as the tube's UV map (u), then dropped.
@@ -123,6 +141,66 @@ def _build_group():
         links.new(socket, join.inputs["Geometry"])
     links.new(join.outputs["Geometry"], group_out.inputs["Geometry"])
     return group, material_socket.identifier
+
+
+def _hair_info_stored(nodes, links, curves):
+    """`curves` with the Hair Info attributes on their points (module documentation)."""
+    def node(kind, **settings):
+        made = nodes.new(kind)
+        for key, value in settings.items():
+            setattr(made, key, value)
+        return made
+
+    def math(operation, a, b):
+        made = node("ShaderNodeMath", operation=operation)
+        for socket, value in zip(made.inputs, (a, b)):
+            if isinstance(value, float):
+                socket.default_value = value
+            else:
+                links.new(value, socket)
+        return made.outputs[0]
+
+    position = node("GeometryNodeInputPosition").outputs[0]
+    previous = node("GeometryNodeOffsetPointInCurve")
+    previous.inputs["Offset"].default_value = -1
+    previous_position = node("GeometryNodeFieldAtIndex", data_type="FLOAT_VECTOR",
+                             domain="POINT")
+    links.new(previous.outputs["Point Index"], previous_position.inputs["Index"])
+    links.new(position, previous_position.inputs["Value"])
+    step = node("ShaderNodeVectorMath", operation="DISTANCE")
+    links.new(position, step.inputs[0])
+    links.new(previous_position.outputs["Value"], step.inputs[1])
+    # The root has no segment before it.
+    step = math("MULTIPLY", step.outputs["Value"], previous.outputs["Is Valid Offset"])
+    curve_index = node("GeometryNodeCurveOfPoint").outputs["Curve Index"]
+    along = node("GeometryNodeAccumulateField", data_type="FLOAT", domain="POINT")
+    links.new(step, along.inputs["Value"])
+    links.new(curve_index, along.inputs[1])  # Group ID
+    fibre = node("ShaderNodeCombineXYZ")
+    # Blender's Divide gives 0 over 0, Cycles' intercept on a curve of no length.
+    links.new(math("DIVIDE", along.outputs["Leading"], along.outputs["Total"]),
+              fibre.inputs["X"])
+    links.new(along.outputs["Total"], fibre.inputs["Y"])
+    links.new(math("MULTIPLY", node("GeometryNodeInputRadius").outputs[0], 2.0),
+              fibre.inputs["Z"])
+    # A particle hair's index over its emitter's systems where given, else its own index.
+    given = node("GeometryNodeInputNamedAttribute", data_type="FLOAT")
+    given.inputs["Name"].default_value = PARTICLE_CURVE_INDEX
+    index = node("GeometryNodeSwitch", input_type="FLOAT")
+    links.new(given.outputs["Exists"], index.inputs["Switch"])
+    links.new(curve_index, index.inputs["False"])
+    links.new(given.outputs["Attribute"], index.inputs["True"])
+    stored = curves
+    for name, data_type, value in ((HAIR_INFO_ATTRIBUTES["fibre"], "FLOAT_VECTOR",
+                                    fibre.outputs[0]),
+                                   (HAIR_INFO_ATTRIBUTES["curve"], "FLOAT",
+                                    index.outputs[0])):
+        store = node("GeometryNodeStoreNamedAttribute", data_type=data_type, domain="POINT")
+        store.inputs["Name"].default_value = name
+        links.new(stored, store.inputs["Geometry"])
+        links.new(value, store.inputs["Value"])
+        stored = store.outputs["Geometry"]
+    return stored
 
 
 def _first_material(obj):
@@ -186,7 +264,10 @@ def hair_particles_as_curves(scene):
                        if m.type == "PARTICLE_SYSTEM" and m.show_render]
             strands = [s for s in systems
                        if s.settings.type == "HAIR" and s.settings.render_type == "PATH"]
-            made += [_strands(scene, obj, system) for system in strands]
+            first = 0
+            for system in strands:
+                made.append(_strands(scene, obj, system, first))
+                first += len(made[-1].data.curves)
             if strands and len(strands) == len(systems) and not obj.show_instancer_for_render:
                 obj.hide_render = True
                 hidden.append(obj)
@@ -200,7 +281,9 @@ def hair_particles_as_curves(scene):
             bpy.data.hair_curves.remove(data)
 
 
-def _strands(scene, obj, system):
+def _strands(scene, obj, system, first_curve):
+    """The Curves object of `system`'s strands, whose curves are numbered from `first_curve`
+    (`PARTICLE_CURVE_INDEX`)."""
     settings = system.settings
     shown = ("display_step", "display_percentage", "child_percent")
     kept = {name: getattr(settings, name) for name in shown}
@@ -234,6 +317,8 @@ def _strands(scene, obj, system):
             radii.append(hair_radius(settings, length / total, k == keys - 1))
     curves.position_data.foreach_set("vector", positions)
     curves.attributes.new("radius", "FLOAT", "POINT").data.foreach_set("value", radii)
+    curves.attributes.new(PARTICLE_CURVE_INDEX, "FLOAT", "CURVE").data.foreach_set(
+        "value", [float(first_curve + i) for i in range(len(strands))])
     slot = settings.material - 1
     if 0 <= slot < len(obj.material_slots) and obj.material_slots[slot].material is not None:
         curves.materials.append(obj.material_slots[slot].material)

@@ -1,7 +1,9 @@
 //! The input nodes: Texture Coordinate, UV Map, Color Attribute, Attribute, Geometry, Object
-//! Info and Light Path (read off `ShadingInputs`, its `ObjectInfo` and its `RayPath`).
+//! Info, Hair Info and Light Path (read off `ShadingInputs`, its `ObjectInfo` and its
+//! `RayPath`).
 
 use super::color::gray;
+use super::hash::{hash2, unit};
 use super::inputs::{input, splat, v3, Operands, PointInputs, RayPath, ShadingInputs, Socket, Ty};
 use crate::math::{Vec3, Vec4};
 
@@ -38,6 +40,16 @@ pub(super) const OBJECT_INFO_OUTPUTS: &[Socket] = &[
     Socket::output("Alpha", Ty::Float),
     Socket::output("Object Index", Ty::Float),
     Socket::output("Material Index", Ty::Float),
+    Socket::output("Random", Ty::Float),
+];
+
+/// The Hair Info node's outputs (Blender's Curves Info).
+pub(super) const HAIR_INFO_OUTPUTS: &[Socket] = &[
+    Socket::output("Is Strand", Ty::Float),
+    Socket::output("Intercept", Ty::Float),
+    Socket::output("Length", Ty::Float),
+    Socket::output("Thickness", Ty::Float),
+    Socket::output("Tangent Normal", Ty::Vector),
     Socket::output("Random", Ty::Float),
 ];
 
@@ -152,6 +164,29 @@ pub(super) fn object_info(inputs: &ShadingInputs, material_index: f32) -> [Vec4;
         splat(object.pass_index),
         splat(material_index),
         splat(object.random),
+    ]
+}
+
+/// Hair Info on a hair tube (the add-on's `points_curves.py`): `fibre` holds the intercept
+/// (the fraction of the strand's length from its root), the strand's length and the diameter,
+/// `curve` the strand's index, whose hash is Random as Cycles gives each curve its random
+/// number (`hash_uint2_to_float(index, 0)`). Is Strand is 1 where the mesh has `fibre`; a mesh
+/// without it is no hair and reads 0 everywhere, as Cycles' node does off curves. Tangent
+/// Normal is not evaluated (zero; the add-on names it when linked).
+#[inline(always)]
+pub(super) fn hair_info(fibre: Option<Vec4>, curve: Option<Vec4>) -> [Vec4; 6] {
+    let Some(fibre) = fibre else {
+        return [Vec4::ZERO; 6];
+    };
+    // The index is the same at the three corners; interpolation may leave it a rounding off.
+    let random = curve.map_or(0.0, |c| unit(hash2(c.x.round().max(0.0) as u32, 0)));
+    [
+        splat(1.0),
+        splat(fibre.x),
+        splat(fibre.y),
+        splat(fibre.z),
+        Vec4::ZERO,
+        splat(random),
     ]
 }
 

@@ -291,6 +291,10 @@ pub(super) fn run(
         Op::ObjectInfo { material_index } => {
             m.put(o, geometry::object_info(inputs, *material_index))
         }
+        Op::HairInfo { fibre, curve } => m.put(
+            o,
+            geometry::hair_info(inputs.attributes.get(*fibre), inputs.attributes.get(*curve)),
+        ),
         Op::LightPath => m.put_used(o, used, geometry::light_path(inputs)),
         Op::AmbientOcclusion(ao) => m.put(
             o,

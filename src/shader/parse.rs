@@ -87,6 +87,20 @@ fn attribute_slot(
     (names.len() - 1) as u8
 }
 
+/// The slot of the attribute the node names as `key` of its "attributes" (`attribute_slot`).
+fn named_slot(
+    node: &Value,
+    key: &str,
+    names: &mut Vec<String>,
+    warnings: &mut CompileWarnings,
+) -> u8 {
+    let name = node
+        .get("attributes")
+        .and_then(|a| a.get(key))
+        .and_then(Value::as_str);
+    attribute_slot(name, names, warnings)
+}
+
 /// The operation of one exported node. `Ok(None)`: a node type the renderer does not evaluate.
 /// Named attributes the node reads are given slots in `names`.
 pub(super) fn parse_op(
@@ -111,6 +125,10 @@ pub(super) fn parse_op(
                 "GEOMETRY" => attribute_slot(setting(node, "attribute_name"), names, warnings),
                 _ => NO_ATTRIBUTE,
             },
+        },
+        "HairInfo" => Op::HairInfo {
+            fibre: named_slot(node, "fibre", names, warnings),
+            curve: named_slot(node, "curve", names, warnings),
         },
         "NewGeometry" => Op::Geometry,
         "Wireframe" => Op::Wireframe {
@@ -534,11 +552,7 @@ pub(super) fn parse_op(
         "MixShader" => Op::MixShader,
         "AddShader" => Op::AddShader,
         "VolumePrincipled" => {
-            let attributes = node.get("attributes");
-            let mut slot = |key: &str| {
-                let name = attributes.and_then(|a| a.get(key)).and_then(Value::as_str);
-                attribute_slot(name, names, warnings)
-            };
+            let mut slot = |key: &str| named_slot(node, key, names, warnings);
             Op::PrincipledVolume {
                 attributes: [slot("density"), slot("color"), slot("temperature")],
                 space: working_space(node)?,

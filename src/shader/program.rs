@@ -58,6 +58,12 @@ pub(super) enum Op {
     ObjectInfo {
         material_index: f32,
     },
+    /// Hair Info (Blender's Curves Info): the slots of the hair tube's attributes (intercept,
+    /// length, thickness per vertex; the curve's index), read as zero where the mesh has none.
+    HairInfo {
+        fibre: u8,
+        curve: u8,
+    },
     /// Wireframe: its Size in pixels (`pixel_size`) or in scene units.
     Wireframe {
         pixel_size: bool,
@@ -376,6 +382,7 @@ impl NodeProgram {
                         | Op::Attribute { .. }
                         | Op::Geometry
                         | Op::ObjectInfo { .. }
+                        | Op::HairInfo { .. }
                         | Op::Wireframe { .. }
                         | Op::LightPath
                         | Op::AmbientOcclusion(_)

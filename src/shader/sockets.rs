@@ -25,6 +25,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Attribute { .. } => (&[], geometry::ATTRIBUTE_OUTPUTS),
         Op::Geometry => (&[], geometry::GEOMETRY_OUTPUTS),
         Op::ObjectInfo { .. } => (&[], geometry::OBJECT_INFO_OUTPUTS),
+        Op::HairInfo { .. } => (&[], geometry::HAIR_INFO_OUTPUTS),
         Op::Wireframe { .. } => (geometry::WIREFRAME_INPUTS, geometry::WIREFRAME_OUTPUTS),
         Op::LightPath => (&[], geometry::LIGHT_PATH_OUTPUTS),
         Op::AmbientOcclusion(_) => (ambient_occlusion::AO_INPUTS, ambient_occlusion::AO_OUTPUTS),

@@ -488,6 +488,44 @@ fn object_info_reads_the_object_and_the_material_index() {
 }
 
 #[test]
+fn hair_info_reads_the_tube_attributes_and_zero_off_hair() {
+    let output = |name: &str, attributes: NamedAttributes| {
+        let tree = json!({"nodes": [
+            {"name": "H", "type": "ShaderNodeHairInfo",
+             "attributes": {"fibre": "photon_hair", "curve": "photon_hair_curve"}},
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": name}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}});
+        let at = ShadingInputs {
+            attributes,
+            ..ShadingInputs::default()
+        };
+        emission_of(tree, &at)
+    };
+    let mut values = [Vec4::ZERO; NAMED_ATTRIBUTES];
+    values[0] = Vec4::new(0.25, 1.5, 0.02, 1.0);
+    // The index as a triangle's interpolation may leave it.
+    values[1] = Vec4::splat(6.999_999);
+    let hair = NamedAttributes {
+        values,
+        found: 0b11,
+    };
+    assert_eq!(output("Is Strand", hair), Vec3::ONE);
+    assert_eq!(output("Intercept", hair), Vec3::splat(0.25));
+    assert_eq!(output("Length", hair), Vec3::splat(1.5));
+    assert_eq!(output("Thickness", hair), Vec3::splat(0.02));
+    let random = super::hash::unit(super::hash::hash2(7, 0));
+    assert_eq!(output("Random", hair), Vec3::splat(random));
+    for name in ["Is Strand", "Intercept", "Length", "Thickness", "Random"] {
+        assert_eq!(
+            output(name, NamedAttributes::default()),
+            Vec3::ZERO,
+            "{name}"
+        );
+    }
+}
+
+#[test]
 fn metallic_conductor_meets_its_exact_fresnel_at_normal_incidence_and_82_degrees() {
     use super::closure::conductor_fresnel;
     // Copper's complex index: F0 from n and k, and the F82-tint model through both points.
