@@ -11,7 +11,8 @@
 //! Lambertian surfaces only. Metals, glass and glossy-only surfaces have no records. A record
 //! gathers *indirect* irradiance only: emission found by the gather rays is left out, since the shading point samples its lights itself when it
 //! reads the cache (MIS-weighted with one BSDF ray that counts only emission, wherever a ray can
-//! meet a light). Two gather sources:
+//! meet a light); each gather ray's light is held to Clamp Indirect as one sample of the
+//! diffuse bounce of a camera path that sees the record. Two gather sources:
 //! - `Source::Photon`: final gathering into the global photon map, as the photon renderer's own
 //!   gather rays do (`photon::shade::cache_gather`: the global estimate behind specular surfaces);
 //! - `Source::Path`: path-traced rays (`path::incident_radiance`), so the cache is used and tested
@@ -26,7 +27,7 @@ use super::media::MediumStack;
 use super::photon::build::PhotonMaps;
 use super::photon::shade::cache_gather;
 use super::shading::Shading;
-use super::walk::{follow_specular, Chain};
+use super::walk::{follow_specular, Chain, Clamp};
 use super::{path, CameraSample, Context};
 use crate::accel::{Ray, Visibility};
 use crate::camera::CameraRays;
@@ -131,15 +132,26 @@ pub fn build_cache(
         };
         Some((site, s))
     };
+    let clamp = Clamp::of(ctx.scene);
     let gather = |s: &Shading, wi: Vec3, rng: &mut Rng| {
         // After a cancel the level's remaining records finish at once; the build then stops.
         if wi.dot(s.ng) <= 0.0 || progress.cancel.load(Ordering::Relaxed) {
             return Incoming::NONE;
         }
-        match source {
+        let mut incoming = match source {
             Source::Photon(maps) => cache_gather(ctx, maps, s, wi, rng),
             Source::Path => path::incident_radiance(ctx, s.sh.spawn(wi), rng),
+        };
+        // Each gather ray is one sample of the diffuse bounce of a camera path that sees the
+        // record's surface: its light is held to Clamp Indirect as that path's contribution
+        // (the diffuse reflectance times it), as Cycles clamps each sample. Left to the
+        // record's average, one bright ray (a lamp's glow in fog, a caustic) would light the
+        // record's whole neighbourhood.
+        if clamp.is_on() {
+            let albedo = diffuse_reflectance(&s.bsdf, s.opaque).unwrap_or(Vec3::ONE);
+            incoming.radiance = clamp.behind(albedo, incoming.radiance, false);
         }
+        incoming
     };
     let check = |fraction: f32| {
         progress.check()?;

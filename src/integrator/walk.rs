@@ -586,7 +586,8 @@ pub fn walk(
         ..CameraSample::default()
     };
     let emission = integrator.counts_emission();
-    // A cache record's gather rays carry an average, clamped where a camera path reads it.
+    // A cache record's gather ray is clamped whole by the cache's build, as the contribution
+    // of the diffuse bounce of a camera path at the record (`cache::build_cache`).
     let clamp = if gather {
         Clamp::NONE
     } else {
