@@ -550,19 +550,21 @@ def _displacement_trees(material, output, surface):
     if method not in ("BUMP", "DISPLACEMENT", "BOTH"):
         return None, None, [f"material '{material.name}': displacement method {method} is not "
                             f"rendered by Photon"]
-    bump = displace = None
-    if method in ("DISPLACEMENT", "BOTH"):
+    def walked():
+        """A walker over what feeds the Displacement socket, and the index of its source node."""
         walker = _Walker(material, surface.folder, surface.unlinked)
         walker.images = surface.images
-        index = walker.visit(src.node, src.groups)
+        return walker, walker.visit(src.node, src.groups)
+
+    bump = displace = None
+    if method in ("DISPLACEMENT", "BOTH"):
+        walker, index = walked()
         if walker.problems or index is None:
             return None, None, walker.problems
         displace = {"nodes": walker.nodes,
                     "output": {"node": index, "output": src.output.identifier}}
     if method in ("BUMP", "BOTH"):
-        walker = _Walker(material, surface.folder, surface.unlinked)
-        walker.images = surface.images
-        index = walker.visit(src.node, src.groups)
+        walker, index = walked()
         if walker.problems or index is None:
             return None, None, walker.problems
         geometry = len(walker.nodes)
