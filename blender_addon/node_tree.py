@@ -563,6 +563,9 @@ def _displacement_trees(material, output, surface):
             return None, None, walker.problems
         displace = {"nodes": walker.nodes,
                     "output": {"node": index, "output": src.output.identifier}}
+        if method == "BOTH" and blender_5():
+            # Blender 5's Cycles shades flat faces smooth under the bump.
+            displace["smooth_flat_faces"] = True
     if method in ("BUMP", "BOTH"):
         walker, index = walked()
         if walker.problems or index is None:

@@ -12,7 +12,8 @@
 //! normals of the vertices of "Displacement Only" triangles are the normalised sum of the unit
 //! normals of those triangles (Cycles' vertex normals of a displaced mesh); "Displacement and
 //! Bump" keeps the normals, its bump bending them at shading time; flat triangles take the
-//! normal of their displaced face. Generated coordinates keep reading the undisplaced vertices
+//! normal of their displaced face, or, where the material says so (Blender 5's Cycles under
+//! "Displacement and Bump"), are shaded smooth by their vertices' normals before the move. Generated coordinates keep reading the undisplaced vertices
 //! (`Mesh::undisplaced`).
 
 use super::{Material, Mesh, Texture, BLENDER_AXES};
@@ -108,22 +109,23 @@ pub fn displace_object(
         }
     }
 
-    // Flat triangles that moved take their displaced face's normal, on vertices of their own.
+    // Flat triangles that moved take their displaced face's normal, on vertices of their own;
+    // where the material shades them smooth under its bump, their vertices' normals before
+    // the displacement instead.
     for (k, mesh) in meshes.iter_mut().enumerate() {
+        let smooth = programs[k].is_some_and(|p| p.smooths_flat_faces());
         let mut copied: Vec<u32> = Vec::new();
         let mut copied_normals: Vec<Vec3> = Vec::new();
         let first = mesh.positions.len() as u32;
         for (t, &is_flat) in flat[k].iter().enumerate() {
             let tri = mesh.indices[t];
-            let touched = tri
-                .iter()
-                .any(|&v| offsets[welded.group[k][v as usize]].is_some());
-            if is_flat && touched {
+            let groups = tri.map(|v| welded.group[k][v as usize]);
+            if is_flat && groups.iter().any(|&g| offsets[g].is_some()) {
                 let face = face_normal(mesh, &tri);
                 let next = first + copied.len() as u32;
                 mesh.indices[t] = [next, next + 1, next + 2];
                 copied.extend(tri);
-                copied_normals.extend([face; 3]);
+                copied_normals.extend(groups.map(|g| if smooth { normals[g] } else { face }));
             }
         }
         append_copies(mesh, &copied, &copied_normals);

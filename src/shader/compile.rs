@@ -24,7 +24,9 @@ use serde_json::Value;
 /// A `displacement` tree (same form, its `output` a vector: the bumped normal) is compiled
 /// alongside; the surface tree then reads its normal (`NodeProgram::eval`). A `displace` tree
 /// (its `output` the world-space vector a vertex moves by) is compiled alongside too, for the
-/// scene's vertices (`NodeProgram::displacement_at`); shading points never read it.
+/// scene's vertices (`NodeProgram::displacement_at`); shading points never read it. Its
+/// `smooth_flat_faces` (default false) shades flat faces smooth under the bump
+/// (`NodeProgram::smooths_flat_faces`).
 pub fn compile(
     ext: &Value,
     textures: usize,
@@ -44,6 +46,10 @@ pub fn compile(
         let vector = compile_tree(tree, textures, warnings, Ty::Vector)
             .map_err(|m| format!("displace: {m}"))?;
         program.displace = Some(Box::new(vector));
+        program.smooth_flat_faces = tree
+            .get("smooth_flat_faces")
+            .and_then(Value::as_bool)
+            .unwrap_or(false);
     }
     Ok(program)
 }
@@ -392,6 +398,7 @@ pub(super) fn compile_tree(
         shadow_transparent,
         displacement: None,
         displace: None,
+        smooth_flat_faces: false,
         attributes,
     })
 }

@@ -160,6 +160,13 @@ impl NodeProgram {
         self.displace.is_some() && self.displacement.is_some()
     }
 
+    /// Whether flat faces that moved are shaded smooth, by their vertices' normals before the
+    /// displacement, under the bump ("Displacement and Bump" as Blender 5's Cycles renders
+    /// it), rather than by their displaced face's normal.
+    pub fn smooths_flat_faces(&self) -> bool {
+        self.bumps_displaced_surface() && self.smooth_flat_faces
+    }
+
     /// The world-space vector (Blender's axes) the vertex at `at` moves by (`at.normal`: the
     /// vertex's smooth normal, seen from its front); `None` when the material does not
     /// move its vertices.

@@ -350,6 +350,10 @@ pub struct NodeProgram {
     /// world-space vector each vertex moves by, evaluated once per vertex when the scene is
     /// built (`crate::scene::displace`), never at shading points.
     pub(super) displace: Option<Box<NodeProgram>>,
+    /// With "Displacement and Bump": flat faces are shaded smooth, by their vertices'
+    /// normals before the displacement, under the bump (Blender 5's Cycles does; Blender 4's
+    /// keeps a flat face's displaced normal under the bump).
+    pub(super) smooth_flat_faces: bool,
     /// The named attributes the program reads (Attribute nodes, Principled Volume's attribute
     /// inputs), at most `NAMED_ATTRIBUTES`: `ShadingInputs::attributes` holds their values.
     pub attributes: Vec<String>,

@@ -163,3 +163,32 @@ fn a_vertex_on_a_border_between_materials_moves_once_for_both() {
         assert!(close(p.y, expected), "{p}");
     }
 }
+
+#[test]
+fn displacement_and_bump_shades_flat_faces_smooth_only_where_the_material_says_so() {
+    // "Displacement and Bump" (a `displacement` tree beside `displace`) over the tilting
+    // height: Blender 4's Cycles keeps a flat face's displaced normal, Blender 5's shades it
+    // by its vertices' normals from before the move (the flat grid's).
+    let tilted = Vec3::new(-0.5, 1.0, 0.0).normalize();
+    for (smooth, expected) in [(false, tilted), (true, Vec3::Y)] {
+        let (positions, normals, indices) = grid();
+        let mut doc = Doc::new();
+        let mesh = doc.mesh("Grid", &positions, &normals, &indices);
+        doc.json["meshes"][mesh]["primitives"][0]["material"] = json!(0);
+        doc.node(json!({"name": "Grid", "mesh": mesh}), true);
+        let (height, nodes) = height_is_x();
+        let mut material = displaced_material(height, 0.5, "WORLD", nodes);
+        let ext = &mut material["extensions"]["PHOTON_material_nodes"];
+        ext["displacement"] = json!({
+            "nodes": [{"name": "G", "type": "ShaderNodeNewGeometry"}],
+            "output": {"node": 0, "output": "Normal"}});
+        ext["displace"]["smooth_flat_faces"] = json!(smooth);
+        let scene = load(&mut doc, vec![material]);
+        let plane = &scene.meshes[0];
+        assert!(plane.positions.iter().all(|p| close(p.y, 0.5 * p.x)));
+        for &v in plane.indices.iter().flatten() {
+            let n = plane.normals[v as usize];
+            assert!((n - expected).length() < 1e-5, "smooth {smooth}: {n}");
+        }
+    }
+}
