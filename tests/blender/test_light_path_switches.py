@@ -92,15 +92,20 @@ def render(scene, engine, path, samples, light_paths):
         common.configure_cycles = configure
 
 
-def check(tmp_path, name, scene, method, light_paths, feature, samples=1):
+def check(tmp_path, name, scene, method, light_paths, feature, samples=1, glint=None):
     """Photon (`method`) against Cycles with `light_paths`, and without them; `samples`
-    multiplies every render's samples."""
+    multiplies every render's samples. With `glint`, the pixels where Photon's or Cycles'
+    image with `light_paths` has a channel above it are left out of all three (set to 0)."""
     ref = render(scene, "CYCLES", tmp_path / "cycles.exr", CYCLES_SPP * samples,
                  {**TODAY, **light_paths})
     scene.photon.method = method
     spp = (PHOTON_SPP if method == "PATH" else PHOTON_METHOD_SPP) * samples
     img = render(scene, "PHOTON", tmp_path / "photon.exr", spp, {**TODAY, **light_paths})
     without = render(scene, "PHOTON", tmp_path / "today.exr", spp, TODAY)
+    if glint is not None:
+        bright = (img.max(axis=-1) > glint) | (ref.max(axis=-1) > glint)
+        img, ref, without = img.copy(), ref.copy(), without.copy()
+        img[bright] = ref[bright] = without[bright] = 0.0
     assert_matches_only_with(f"{name}, {method.lower()}", img, ref, without, feature)
 
 
@@ -119,13 +124,16 @@ def test_refractive_caustics_off_matches_cycles(tmp_path, method):
     # 4x4-block relMSE of 0.4 at 512 spp): the path tracer's sun is 5 degrees wide, and all
     # samples four times as many (at 1x, 0.002-0.003 was left). The photon method keeps the
     # default sun: with the 5 degree one it stays 0.0014 off Cycles in 4x4 blocks with both
-    # switches on too (its estimate on the sphere's top).
+    # switches on too (its estimate on the sphere's top). Cycles then sees that small sun
+    # through the sphere in a few samples, each about 45 in its pixel at 1024 spp (the other
+    # pixels at most 0.6): 0 to 4 such pixels by seed, on Blender 4.5 and 5.0 alike, moving
+    # the reference's mean over 0.485-0.500 (12 seeds); they are left out of the comparison.
     if method == "PATH":
-        scene, samples = glass_sphere_scene(5.0), 4
+        scene, samples, glint = glass_sphere_scene(5.0), 4, None
     else:
-        scene, samples = glass_sphere_scene(0.526), 1
+        scene, samples, glint = glass_sphere_scene(0.526), 1, 2.0
     check(tmp_path, "glass sphere", scene, method, {"caustics_refractive": False}, "the switch",
-          samples=samples)
+          samples=samples, glint=glint)
 
 
 @pytest.mark.slow
