@@ -9,7 +9,8 @@ the material's displacement method as Cycles renders it.
 - a smooth-shaded UV sphere under a non-uniform object scale, the Displacement node in object
   space (the displacement scales with the object), "Displacement Only": the vertex normals are
   computed again from the displaced faces;
-- "Displacement and Bump" on that sphere (the bump's slope taken in object space);
+- "Displacement and Bump" on that sphere (the bump's slope taken in object space), and on a
+  flat-shaded icosphere (whose faces Blender 5's Cycles shades smooth under the bump);
 - a grid of two materials, one displaced: the vertices on their border move once, for both;
 - one such sphere's mesh shared by two objects of different transforms (instances);
 - a Noise texture's colour into a Vector Displacement node in object space on the subdivided
@@ -120,6 +121,21 @@ def test_object_space_relief_on_a_scaled_smooth_sphere(tmp_path, method):
     common.camera("Camera", (0.0, -5.0, 1.5), (75.0, 0.0, 0.0), 40.0)
     common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 60.0), energy=2.0, angle=0.02)
     matches_cycles(f"scaled sphere relief {method.lower()}", scene, tmp_path)
+
+
+@pytest.mark.slow
+def test_displacement_and_bump_on_a_flat_shaded_icosphere(tmp_path):
+    """"Displacement and Bump" on a flat-shaded icosphere: Blender 4's Cycles shades each
+    displaced face by its own normal under the bump, Blender 5's shades the faces smooth (by
+    the vertex normals from before the displacement) under the bump."""
+    scene = common.reset_scene(SIZE, SIZE)
+    dim_world(scene)
+    mat = displaced_material("Faceted relief", "BOTH", "OBJECT", 3.0, 0.5)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, radius=1.0)
+    bpy.context.active_object.data.materials.append(mat)
+    common.camera("Camera", (0.0, -5.0, 1.5), (75.0, 0.0, 0.0), 40.0)
+    common.light("Sun", "SUN", (0, 0, 5), (60.0, 0.0, 60.0), energy=2.0, angle=0.02)
+    matches_cycles("faceted sphere relief both", scene, tmp_path)
 
 
 @pytest.mark.slow
