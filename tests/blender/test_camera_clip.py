@@ -5,7 +5,7 @@ camera rays start on the clip start plane and end on the clip end plane (glTF `z
 
 - clip start hides a sphere nearer the camera than it;
 - clip end hides the far part of a long floor, showing the world there;
-- a camera inside fog with clip start 0.5 m: the fog between the camera and the plane is not
+- a camera inside fog with clip start 0.5 m (perspective and orthographic): the fog between the camera and the plane is not
   seen, neither its light nor its attenuation.
 """
 
@@ -56,9 +56,12 @@ def test_clip_end_hides_the_far_floor(tmp_path):
     compare("clip end", s, tmp_path, photon_spp=128, cycles_spp=512)
 
 
-def test_camera_inside_fog_sees_it_from_clip_start(tmp_path):
+@pytest.mark.parametrize("kind", ["PERSP", "ORTHO"])
+def test_camera_inside_fog_sees_it_from_clip_start(tmp_path, kind):
     s = scene_with_camera(0.5, 100.0, (0.0, -2.0, 1.5), (75.0, 0.0, 0.0))
+    s.camera.data.type = kind
+    s.camera.data.ortho_scale = 3.0
     mat, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Density=0.5)
     cube("Fog", mat, 5.0, (0.0, 0.0, 2.49))
     common.light("Lamp", "POINT", (1.0, 0.5, 2.5), energy=300.0)
-    compare("camera in fog", s, tmp_path, photon_spp=128, cycles_spp=512)
+    compare(f"camera in fog {kind.lower()}", s, tmp_path, photon_spp=128, cycles_spp=512)
