@@ -7,7 +7,8 @@
 //! Cycles' camera does. Cycles' panoramic cameras (equirectangular, equidistant, equisolid and
 //! polynomial fisheye, mirror ball, central cylindrical, equiangular cube-map face) map the image
 //! onto directions around the camera; film positions a fisheye or the mirror ball does not
-//! cover give a ray that sees nothing (`Ray::t_max` 0). A camera that moves while the shutter
+//! cover give a ray that sees nothing (`Ray::t_max` 0). Rays start on Blender's clip start plane
+//! and end on its clip end plane (spheres for panoramas), as Cycles' camera rays do. A camera that moves while the shutter
 //! is open (Blender's motion blur) is placed, per sample, at the pose of a moment within it.
 
 use crate::accel::{Ray, FRAME_TIME};
@@ -27,6 +28,11 @@ pub struct CameraRays {
     /// Offset of the image window in the image plane (same units as `half_height`).
     shift: Vec2,
     lens: Option<ThinLens>,
+    /// Blender's clip start and end (`Camera::near_clip`, `far_clip`): rays start on the near
+    /// plane and end on the far one, as Cycles' do.
+    near_clip: f32,
+    far_clip: f32,
+    panoramic: bool,
 }
 
 impl CameraRays {
@@ -50,6 +56,9 @@ impl CameraRays {
                 camera.shift * (2.0 * half_height)
             },
             lens: camera.lens.filter(|l| l.radius > 0.0 && !panoramic),
+            near_clip: camera.near_clip,
+            far_clip: camera.far_clip,
+            panoramic,
         }
     }
 
@@ -196,10 +205,22 @@ impl CameraRays {
                 time: FRAME_TIME,
             };
         }
+        // Clip planes lie across the camera's axis (−Z); panoramas clip on spheres.
+        let along = |clip: f32| match (self.panoramic, -dir.z) {
+            (true, _) => clip,
+            (false, cos) if cos > 0.0 => clip / cos,
+            _ => f32::INFINITY,
+        };
+        let near = if self.near_clip > 0.0 {
+            along(self.near_clip)
+        } else {
+            0.0
+        };
+        let near = if near.is_finite() { near } else { 0.0 };
         Ray {
-            origin: to_world.transform_point3(origin),
+            origin: to_world.transform_point3(origin + dir * near),
             direction: to_world.transform_vector3(dir).normalize(),
-            t_max: f32::INFINITY,
+            t_max: (along(self.far_clip) - near).max(0.0),
             time: FRAME_TIME,
         }
     }
@@ -337,6 +358,7 @@ mod tests {
                 lens: None,
                 motion: Vec::new(),
                 near_clip: 0.0,
+                far_clip: f32::INFINITY,
             };
             let rays = CameraRays::new(&camera, 64, 48);
             for (fx, fy, t) in [(0.5, 0.5, 1.0), (63.2, 47.9, 7.0), (20.3, 30.1, 0.3)] {
@@ -364,6 +386,50 @@ mod tests {
     }
 
     #[test]
+    fn rays_run_from_the_near_clip_plane_to_the_far_one() {
+        let to_world = Affine3A::from_rotation_translation(
+            Quat::from_rotation_x(-0.4),
+            Vec3::new(1.0, 2.0, 3.0),
+        );
+        let forward = to_world.transform_vector3(Vec3::NEG_Z);
+        let eye: Vec3 = to_world.translation.into();
+        for projection in [
+            Projection::Perspective { yfov: 1.2 },
+            Projection::Equirectangular {
+                longitude: (-3.0, 3.0),
+                latitude: (-1.5, 1.5),
+            },
+        ] {
+            let camera = Camera {
+                name: "c".into(),
+                to_world,
+                projection,
+                aspect_ratio: None,
+                shift: Vec2::ZERO,
+                lens: None,
+                motion: Vec::new(),
+                near_clip: 0.5,
+                far_clip: 10.0,
+            };
+            let rays = CameraRays::new(&camera, 64, 48);
+            for film in [Vec2::new(32.0, 24.0), Vec2::new(3.5, 40.5)] {
+                let ray = rays.ray(film);
+                let start = ray.origin - eye;
+                let end = start + ray.direction * ray.t_max;
+                if projection.is_panoramic() {
+                    // Spheres around the camera.
+                    assert!((start.length() - 0.5).abs() < 1e-5, "{projection:?}");
+                    assert!((end.length() - 10.0).abs() < 1e-4, "{projection:?}");
+                } else {
+                    // Planes across its axis.
+                    assert!((start.dot(forward) - 0.5).abs() < 1e-5, "{start}");
+                    assert!((end.dot(forward) - 10.0).abs() < 1e-4, "{end}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn moving_camera_interpolates_its_poses() {
         let open = Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.0));
         let close = Affine3A::from_rotation_translation(
@@ -379,6 +445,7 @@ mod tests {
             lens: None,
             motion: vec![open, close],
             near_clip: 0.0,
+            far_clip: f32::INFINITY,
         };
         let rays = CameraRays::new(&camera, 40, 30);
         assert!(rays.moves());
@@ -427,6 +494,7 @@ mod tests {
             lens: None,
             motion: Vec::new(),
             near_clip: 0.0,
+            far_clip: f32::INFINITY,
         };
         let rays = CameraRays::new(&camera(Projection::MirrorBall), 40, 40);
         assert_eq!(rays.ray(Vec2::new(1.0, 1.0)).t_max, 0.0);
@@ -454,6 +522,7 @@ mod tests {
             lens: Some(lens(5, 1.0)),
             motion: Vec::new(),
             near_clip: 0.0,
+            far_clip: f32::INFINITY,
         };
         let rays = CameraRays::new(&camera, 40, 30);
         let film = Vec2::new(7.3, 21.8);

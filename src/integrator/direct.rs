@@ -13,8 +13,7 @@
 
 use super::media::MediumStack;
 use super::Context;
-use crate::accel::Ray;
-use crate::accel::Visibility;
+use crate::accel::{Hit, Ray, Visibility};
 use crate::interaction::{spawn_to, LightPoint, SurfaceHit, View};
 use crate::light::{hit_links, LightSample, Receiver};
 use crate::material::eval_surface;
@@ -204,28 +203,7 @@ pub fn shadow_transmittance(
                 return Vec3::ZERO;
             }
         }
-        let material = &scene.materials[sh.material as usize];
-        if !material
-            .nodes
-            .as_ref()
-            .is_some_and(|program| program.shadow_transparent)
-        {
-            return Vec3::ZERO;
-        }
-        let wo = -ray.direction.normalize();
-        let length = hit.t * ray.direction.length();
-        let u = hash_combine(&[
-            ray.origin.x.to_bits() as u64 | ((ray.origin.y.to_bits() as u64) << 32),
-            ray.origin.z.to_bits() as u64 | ((hit.t.to_bits() as u64) << 32),
-            hit.triangle as u64 | ((passed as u64) << 32),
-        ]);
-        let u = (u >> 40) as f32 * (1.0 / 16_777_216.0);
-        let view = View::new(&sh, wo, path.shadow(), length);
-        let surface = eval_surface(scene, &sh, view, u, None);
-        if !surface.transparent {
-            return Vec3::ZERO;
-        }
-        through *= surface.base_color.clamp(Vec3::ZERO, Vec3::ONE);
+        through *= pass_through_weight(ctx, &ray, &hit, &sh, path.shadow(), passed);
         if through == Vec3::ZERO {
             return through;
         }
@@ -234,6 +212,44 @@ pub fn shadow_transmittance(
         ray = sh.spawn_to(target);
     }
     Vec3::ZERO
+}
+
+/// The weight with which a ray of kind `path` goes straight on through the surface `sh` it
+/// met (`hit`, along `ray`): the colour of the transparent closures its node tree gives for
+/// that ray (a Mix Shader's pick drawn from a hash of the ray and of `passed`, the surfaces
+/// passed before, so the weight is right on average); zero for a surface that lets nothing
+/// through.
+pub fn pass_through_weight(
+    ctx: &Context,
+    ray: &Ray,
+    hit: &Hit,
+    sh: &SurfaceHit,
+    path: RayPath,
+    passed: u32,
+) -> Vec3 {
+    let scene = ctx.scene;
+    let material = &scene.materials[sh.material as usize];
+    if !material
+        .nodes
+        .as_ref()
+        .is_some_and(|program| program.shadow_transparent)
+    {
+        return Vec3::ZERO;
+    }
+    let wo = -ray.direction.normalize();
+    let length = hit.t * ray.direction.length();
+    let u = hash_combine(&[
+        ray.origin.x.to_bits() as u64 | ((ray.origin.y.to_bits() as u64) << 32),
+        ray.origin.z.to_bits() as u64 | ((hit.t.to_bits() as u64) << 32),
+        hit.triangle as u64 | ((passed as u64) << 32),
+    ]);
+    let u = (u >> 40) as f32 * (1.0 / 16_777_216.0);
+    let view = View::new(sh, wo, path, length);
+    let surface = eval_surface(scene, sh, view, u, None);
+    if !surface.transparent {
+        return Vec3::ZERO;
+    }
+    surface.base_color.clamp(Vec3::ZERO, Vec3::ONE)
 }
 
 /// The scattering vertex a ray left, for the MIS weight of the emission that ray meets.

@@ -168,18 +168,15 @@ impl Shading {
         } else {
             RayPath::default()
         };
-        Shading::on_path(ctx, ray, hit, path, camera)
+        Shading::on_path(ctx, ray, hit, path)
     }
 
-    /// The hit of a ray of camera path `path`; `primary`: the ray left the camera (Ray Length
-    /// then counts from the near clip plane, where Cycles starts camera rays).
-    pub fn on_path(ctx: &Context, ray: &Ray, hit: &Hit, path: RayPath, primary: bool) -> Shading {
+    /// The hit of a ray of camera path `path` (a camera ray starts on the near clip plane, so
+    /// its Ray Length counts from there, as Cycles').
+    pub fn on_path(ctx: &Context, ray: &Ray, hit: &Hit, path: RayPath) -> Shading {
         let sh = SurfaceHit::new(ctx.scene, ray, hit);
         let wo = -ray.direction.normalize();
-        let mut length = hit.t * ray.direction.length();
-        if primary {
-            length -= ctx.scene.camera.near_clip_distance(-wo);
-        }
+        let length = hit.t * ray.direction.length();
         let material = &ctx.scene.materials[sh.material as usize];
         let surface = if material.nodes.is_some() {
             // The closure pick of Mix and Add Shader nodes: a hash of the ray and the hit, so

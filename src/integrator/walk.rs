@@ -29,13 +29,14 @@
 //! lobes, `classify::stores_photons` false) from a hit to the first surface that stores photons.
 
 use super::classify::stores_photons;
-use super::direct::{sample_direct_from, Previous, Vertex};
+use super::direct::{pass_through_weight, sample_direct_from, Previous, Vertex};
 use super::media::{MediumStack, StackMedia};
 use super::random_walk;
 use super::shading::{transmittance, PathHistory, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{hit_holdout, hit_mesh, Hit, Ray, Visibility, NO_INSTANCE};
 use crate::bsdf::{BsdfSample, Scattering};
+use crate::interaction::SurfaceHit;
 use crate::light::{emitted_radiance, hit_links, Receiver};
 use crate::light_pass::{FirstVertex, LightPass, Passes};
 use crate::math::{max_component, Vec3};
@@ -411,6 +412,23 @@ impl PathState {
         self.add_in_medium(1, l);
     }
 
+    /// Go straight on through the surface `hit` the ray met, weighted by what it lets through
+    /// (`direct::pass_through_weight`; `passed`: the walk's depth, for its Mix Shader picks).
+    /// False when it lets nothing through.
+    fn pass_through(&mut self, ctx: &Context, hit: &Hit, passed: u32) -> bool {
+        let sh = SurfaceHit::new(ctx.scene, &self.ray, hit);
+        let path = self.light_path;
+        self.beta *= pass_through_weight(ctx, &self.ray, hit, &sh, path, passed);
+        if self.beta == Vec3::ZERO || !self.beta.is_finite() {
+            return false;
+        }
+        let entering = self.ray.direction.dot(sh.ng) < 0.0;
+        self.media = self.media.crossed(ctx.scene, hit, sh.material, entering);
+        self.light_path = path.after(Scattering::Transparent, true);
+        self.ray = sh.spawn(self.ray.direction.normalize());
+        true
+    }
+
     /// A scattering at distance `t` along the ray in media `at`: the path goes on along a
     /// direction drawn from the phase function (counting only the emission it meets once
     /// Blender's Volume bounces are spent). False when the path ends.
@@ -642,7 +660,8 @@ fn walk_from(
         state.rays += 1;
         let hit = ctx.accel.intersect(ctx.scene, &ray, visibility);
         let counts = emission && !(gather && depth == 0);
-        let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+        // A camera ray that meets nothing ends on the far clip plane.
+        let reach = hit.map_or(ray.t_max, |h| h.t) * ray.direction.length();
         if counts {
             state.lamps(ctx, reach, visibility == Visibility::Camera, rng);
         }
@@ -695,19 +714,24 @@ fn walk_from(
             }
             break;
         };
-        // Only emission is wanted: a surface that cannot emit ends the walk unshaded.
+        if state.absorption != Vec3::ZERO {
+            state.beta *= transmittance(state.absorption, &hit, &ray);
+        }
+        // Only emission is wanted: a surface that cannot emit ends the walk unshaded, unless
+        // the ray goes on through it (a volume's boundary, a Transparent BSDF), as Cycles
+        // goes on through transparent surfaces after a path's last bounce.
         let material = hit_mesh(ctx.scene, &hit).material;
         if state.emission_only && !ctx.scene.materials[material as usize].is_emissive() {
             if depth == 0 {
                 out.seen_emission = state.seen_emission();
             }
+            if depth < ctx.max_depth && state.pass_through(ctx, &hit, depth) {
+                continue;
+            }
             break;
         }
-        if state.absorption != Vec3::ZERO {
-            state.beta *= transmittance(state.absorption, &hit, &ray);
-        }
         let primary = depth == 0 && !gather;
-        let mut s = Shading::on_path(ctx, &ray, &hit, state.light_path, primary);
+        let mut s = Shading::on_path(ctx, &ray, &hit, state.light_path);
         s.media = state.media;
         s.reached_by(ctx.scene, state.history);
         // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
@@ -721,7 +745,15 @@ fn walk_from(
             out.catcher = primary && hit_catcher(ctx.scene, &hit);
             out.albedo = s.surface.base_color;
             out.normal = s.sh.frame.n;
-            out.depth = hit.t * ray.direction.length();
+            // From the camera: its rays start on the near clip plane.
+            let near = match primary {
+                true => ctx
+                    .scene
+                    .camera
+                    .near_clip_distance(ray.direction.normalize()),
+                false => 0.0,
+            };
+            out.depth = hit.t * ray.direction.length() + near;
         }
         if emission && !(gather && depth == 0) {
             state.emitted(ctx, &s);
@@ -947,7 +979,8 @@ pub fn follow_specular(
         let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
         if let Some(le) = emission.as_deref_mut() {
             let (beta, absorption) = (chain.beta, chain.absorption);
-            let reach = hit.map_or(f32::INFINITY, |h| h.t * ray.direction.length());
+            // A camera ray that meets nothing ends on the far clip plane.
+            let reach = hit.map_or(ray.t_max, |h| h.t) * ray.direction.length();
             ctx.lights
                 .lamps_met(&ray, Receiver::at(ray.origin), reach, false, |l, _, t| {
                     *le += beta * (-absorption * t).exp() * l;

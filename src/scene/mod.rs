@@ -617,26 +617,37 @@ pub struct Camera {
     /// Blender's clip start (glTF `znear`): Cycles starts camera rays on this plane, so its
     /// Light Path Ray Length is measured from there. Zero when the file gives none.
     pub near_clip: f32,
+    /// Blender's clip end (glTF `zfar`): Cycles' camera rays end on this plane, and what lies
+    /// beyond it is not seen. Infinite when the file gives none.
+    pub far_clip: f32,
 }
 
 impl Camera {
-    /// How far along unit camera-ray direction `dir` the near clip plane lies (Cycles'
-    /// `nearclip × z_inv`; panoramas: the clip distance itself).
+    /// How far along unit camera-ray direction `dir` (in world space) the near clip plane lies
+    /// (Cycles' `nearclip × z_inv`; panoramas: the clip distance itself).
     pub fn near_clip_distance(&self, dir: Vec3) -> f32 {
-        if self.near_clip <= 0.0 {
+        let forward = -self.to_world.z_axis.normalize_or(Vec3A::Z);
+        let cos = Vec3A::from(dir).dot(forward);
+        self.clip_distance(self.near_clip, cos)
+    }
+
+    /// How far along a camera ray at angle acos(`cos`) to the camera's axis a clip plane at
+    /// `clip` lies: `clip / cos` for planar projections, `clip` itself for panoramas (which
+    /// clip on a sphere); 0 for a clip of 0 and for rays that never meet the plane, whose far
+    /// clip is then infinite.
+    pub fn clip_distance(&self, clip: f32, cos: f32) -> f32 {
+        if clip <= 0.0 {
             return 0.0;
         }
-        match self.projection {
-            Projection::Perspective { .. } | Projection::Orthographic { .. } => {
-                let forward = -self.to_world.z_axis.normalize_or(Vec3A::Z);
-                let cos = Vec3A::from(dir).dot(forward);
-                if cos > 0.0 {
-                    self.near_clip / cos
-                } else {
-                    0.0
-                }
-            }
-            _ => self.near_clip,
+        if self.projection.is_panoramic() {
+            return clip;
+        }
+        if cos > 0.0 {
+            clip / cos
+        } else if clip.is_infinite() {
+            clip
+        } else {
+            0.0
         }
     }
 }
@@ -1343,6 +1354,7 @@ mod tests {
             lens: None,
             motion: Vec::new(),
             near_clip: 0.5,
+            far_clip: f32::INFINITY,
         };
         assert!((camera.near_clip_distance(-Vec3::Z) - 0.5).abs() < 1e-6);
         let off_axis = Vec3::new(0.6, 0.0, -0.8);

@@ -84,7 +84,7 @@ use crate::light::{emitted_radiance, hit_links};
 use crate::light_pass::{LightPass, Passes};
 use crate::math::{max_component, Vec2, Vec3};
 use crate::medium::{fly, transmittance as medium_transmittance, Flight, Media, WithoutScattering};
-use crate::photon_map::Neighbors;
+use crate::photon_map::{Neighbors, Photon};
 use crate::rng::Rng;
 use crate::scene::{Subsurface, SubsurfaceMethod};
 use crate::shader::RayPath;
@@ -154,6 +154,8 @@ struct Gather<'a> {
     clamp: Clamp,
     beta: Vec3,
     direct_clamp: bool,
+    /// The photons of one beam estimate in a heterogeneous medium, reused between estimates.
+    beam_photons: Vec<(f32, Photon)>,
 }
 
 impl<'a> Gather<'a> {
@@ -167,6 +169,7 @@ impl<'a> Gather<'a> {
             depth: 0,
             clamp: Clamp::NONE,
             beta: Vec3::ONE,
+            beam_photons: Vec::new(),
             direct_clamp: false,
         }
     }
@@ -444,11 +447,24 @@ impl<'a> Gather<'a> {
                     (-sigma_t * t).exp() * c.phase.eval(dir.dot(photon.incoming()))
                 })
             }
-            None => map.beam(ray.origin, dir, reach, |t, photon| {
-                let through = medium_transmittance(&in_media, ray.origin, dir, t, rng);
-                let at = in_media.at(photon.position(), rng.uniform());
-                through * at.phase.eval(dir.dot(photon.incoming()))
-            }),
+            None => {
+                // Transmittance tracked once along the beam, from each photon to the next
+                // (the product of independent estimates over consecutive pieces).
+                let (mut through, mut tracked) = (Vec3::ONE, 0.0);
+                let mut buffer = std::mem::take(&mut self.beam_photons);
+                let sum = map.beam_in_order(ray.origin, dir, reach, &mut buffer, |t, photon| {
+                    if through == Vec3::ZERO {
+                        return Vec3::ZERO;
+                    }
+                    let from = ray.origin + dir * tracked;
+                    through *= medium_transmittance(&in_media, from, dir, t - tracked, rng);
+                    tracked = t;
+                    let at = in_media.at(photon.position(), rng.uniform());
+                    through * at.phase.eval(dir.dot(photon.incoming()))
+                });
+                self.beam_photons = buffer;
+                sum
+            }
         }
     }
 

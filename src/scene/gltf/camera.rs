@@ -34,7 +34,7 @@ pub(super) fn node_camera(
             FoundCamera {
                 node_name: name.clone(),
                 camera_name: name.clone(),
-                camera: rigid_camera(name, world, placeholder, None, 0.0),
+                camera: rigid_camera(name, world, placeholder, None, 0.0, f32::INFINITY),
             }
         }
         None => return Ok(None),
@@ -58,6 +58,7 @@ fn rigid_camera(
     projection: Projection,
     aspect_ratio: Option<f32>,
     near_clip: f32,
+    far_clip: f32,
 ) -> Camera {
     let (_, rotation, translation) = world.to_scale_rotation_translation();
     Camera {
@@ -69,6 +70,7 @@ fn rigid_camera(
         lens: None,
         motion: Vec::new(),
         near_clip,
+        far_clip,
     }
 }
 
@@ -87,6 +89,13 @@ fn convert_camera(
     } else {
         0.0
     };
+    // No far plane (an infinite projection) or one not beyond the near plane: nothing clipped.
+    let far_clip = match camera.projection() {
+        gltf::camera::Projection::Perspective(p) => p.zfar(),
+        gltf::camera::Projection::Orthographic(o) => Some(o.zfar()),
+    }
+    .filter(|&far| far.is_finite() && far > near_clip)
+    .unwrap_or(f32::INFINITY);
     let (projection, aspect_ratio) = match camera.projection() {
         gltf::camera::Projection::Perspective(p) => {
             let yfov = p.yfov();
@@ -122,6 +131,7 @@ fn convert_camera(
         projection,
         aspect_ratio,
         near_clip,
+        far_clip,
     ))
 }
 
@@ -145,6 +155,7 @@ pub(super) fn framing_camera(bounds: Bounds) -> Camera {
         lens: None,
         motion: Vec::new(),
         near_clip: 0.0,
+        far_clip: f32::INFINITY,
     }
 }
 

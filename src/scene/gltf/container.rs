@@ -200,6 +200,7 @@ impl Loader {
                     lens: None,
                     motion: Vec::new(),
                     near_clip: 0.0,
+                    far_clip: f32::INFINITY,
                 },
                 world: World::default(),
                 render_settings: SceneRenderSettings::default(),

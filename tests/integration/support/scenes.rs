@@ -134,6 +134,7 @@ pub fn camera_looking_at(eye: Vec3, target: Vec3, projection: Projection) -> Cam
         lens: None,
         motion: Vec::new(),
         near_clip: 0.0,
+        far_clip: f32::INFINITY,
     }
 }
 
