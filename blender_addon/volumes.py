@@ -1,5 +1,5 @@
 """Volume objects (OpenVDB grids: imported .vdb files, baked smoke and fire) as boxes the glTF
-exporter writes, for the time of an export.
+exporter writes, and the smoke and fire of baked fluid domains, for the time of an export.
 
 The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered Volume object
 whose grids come from a file on disk has a mesh object beside it: a box around its grids (one
@@ -10,6 +10,18 @@ grid names, where this Blender puts a voxel's value, the volume's space (its den
 of the object's length or of the world's) and its clipping value (voxels below it hold no
 medium); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
 
+A fluid domain of type Gas (smoke and fire) is rendered as Cycles renders it: its own mesh (the
+box the Fluid modifier makes, the adaptive domain's box included) filled with the frame's baked
+grids. Mantaflow writes them, with its OpenVDB cache, to `data/fluid_data_####.vdb` in the
+cache directory: "density", "flame", "temperature" (Mantaflow's heat), "color_r/g/b",
+"velocity", half floats. Cycles reads the same grids from memory, under its own attribute
+names: "density" and "flame" as they are, "heat" as Mantaflow's heat × ½ and "temperature"
+made from the flame, the domain's Ignition + flame × (Maximum − Ignition) where the flame is
+above 0.01, else 0; each over the mesh's texture space, a value at each cell's centre. The
+domain's `PHOTON_object` "volume" says so: `attributes` maps those names to the file's grids,
+`index_to_object` places the voxels. A domain without baked data at the frame renders
+nothing, as in Cycles.
+
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
 """
@@ -17,6 +29,8 @@ standard library.
 from __future__ import annotations
 
 import contextlib
+import struct
+from pathlib import Path
 
 import bpy
 
@@ -58,6 +72,110 @@ def problems(obj) -> list[str]:
     unread = [g.name for g in obj.data.grids if g.data_type not in READ_TYPES]
     if unread:
         out.append(f"{what}: grids of other types are not read ({', '.join(unread)})")
+    return out
+
+
+def fluid_domain(obj):
+    """The settings of `obj`'s rendered Fluid modifier of type Domain with gas (smoke and fire),
+    or None."""
+    for modifier in getattr(obj, "modifiers", ()):
+        if modifier.type == "FLUID" and modifier.fluid_type == "DOMAIN" \
+                and modifier.show_render and modifier.domain_settings.domain_type == "GAS":
+            return modifier.domain_settings
+    return None
+
+
+def fluid_file(obj, frame) -> tuple[Path | None, str | None]:
+    """`(path, None)`: the OpenVDB file of fluid domain `obj`'s baked grids at `frame`;
+    `(None, reason)` when it has none Photon reads (it then renders nothing)."""
+    settings = fluid_domain(obj)
+    if not settings.cache_frame_start <= frame <= settings.cache_frame_end:
+        return None, f"frame {frame} is outside its cache's frames"
+    if settings.cache_data_format != "OPENVDB":
+        return None, "its cache's data format is not OpenVDB"
+    folder = Path(bpy.path.abspath(settings.cache_directory))
+    path = folder / "data" / f"fluid_data_{frame:04d}.vdb"
+    if not path.is_file():
+        return None, f"it has no baked data at frame {frame} (bake it: Cycles renders nothing)"
+    return path, None
+
+
+def _vdb_string(data, at):
+    (size,) = struct.unpack_from("<I", data, at)
+    return data[at + 4:at + 4 + size].decode("utf-8", "replace"), at + 4 + size
+
+
+def vdb_resolution(path) -> tuple[int, int, int] | None:
+    """The voxels per axis of the first grid of Mantaflow's OpenVDB file `path` (its
+    "file_base_resolution" metadata: the grid's size, which an adaptive domain changes)."""
+    data = Path(path).read_bytes()
+    try:
+        at = 8 + 4 + 8 + 1 + 36  # magic, version, library version, offsets flag, UUID
+        (count,) = struct.unpack_from("<I", data, at)
+        at += 4
+        for _ in range(count):  # the file's metadata
+            _, at = _vdb_string(data, at)
+            _, at = _vdb_string(data, at)
+            (size,) = struct.unpack_from("<I", data, at)
+            at += 4 + size
+        at += 4  # grid count
+        for _ in range(3):  # name, tree type, instance parent
+            _, at = _vdb_string(data, at)
+        at += 3 * 8 + 4  # stream offsets, compression flags
+        (count,) = struct.unpack_from("<I", data, at)
+        at += 4
+        for _ in range(count):
+            name, at = _vdb_string(data, at)
+            kind, at = _vdb_string(data, at)
+            (size,) = struct.unpack_from("<I", data, at)
+            if name == "file_base_resolution" and kind == "vec3i" and size == 12:
+                return struct.unpack_from("<3i", data, at + 4)
+            at += 4 + size
+    except (struct.error, UnicodeDecodeError):
+        return None
+    return None
+
+
+def fluid_volume(obj, path) -> dict | None:
+    """The `PHOTON_object` "volume" of fluid domain `obj` whose frame's grids are in `path`
+    (module documentation), or None when the file's grid size is not found."""
+    settings = fluid_domain(obj)
+    resolution = vdb_resolution(path)
+    if resolution is None or min(resolution) <= 0:
+        return None
+    mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    location, size = mesh.texspace_location, mesh.texspace_size
+    cell = [2.0 * size[a] / resolution[a] for a in range(3)]
+    first = [location[a] - size[a] + 0.5 * cell[a] for a in range(3)]
+    ignition, hottest = settings.flame_ignition, settings.flame_max_temp
+    return {"uri": str(path),
+            "grids": ["density", "flame", "heat", "temperature"],
+            "space": "world",
+            "clipping": settings.clipping,
+            "values_at_index": True,
+            "index_to_object": [cell[0], 0.0, 0.0, 0.0, 0.0, cell[1], 0.0, 0.0,
+                                0.0, 0.0, cell[2], 0.0, *first, 1.0],
+            "attributes": {"heat": {"grid": "temperature", "scale": 0.5},
+                           "temperature": {"grid": "flame", "above": 0.01,
+                                           "offset": ignition,
+                                           "scale": hottest - ignition}}}
+
+
+def fluid_problems(obj, frame) -> list[str]:
+    """What of fluid domain `obj`'s smoke and fire at `frame` is not rendered as Cycles
+    renders it."""
+    settings = fluid_domain(obj)
+    what = f"fluid domain '{obj.name}'"
+    path, reason = fluid_file(obj, frame)
+    if path is None:
+        return [f"{what}: no smoke or fire is rendered: {reason}"]
+    out = []
+    if settings.use_noise:
+        out.append(f"{what}: its noise (the upres grids) is not rendered; Photon renders the "
+                   f"simulation's own resolution")
+    if vdb_resolution(path) is None:
+        out.append(f"{what}: its OpenVDB file {path} does not give its grids' size; its smoke "
+                   f"and fire are not rendered")
     return out
 
 
@@ -106,10 +224,23 @@ def _box_mesh(name, lo, hi):
 @contextlib.contextmanager
 def as_boxes(scene):
     """Within the block, each rendered Volume object of `scene` whose grids Photon reads has a
-    box mesh object standing for it (module documentation); removed after."""
+    box mesh object standing for it, and each rendered fluid domain of gas carries its baked
+    grids or, without them at the frame, is hidden (module documentation); undone after."""
     made = []
+    hidden = []
+    domains = []
     try:
         for obj in list(scene.objects):
+            if obj.type == "MESH" and not obj.hide_render and fluid_domain(obj) is not None:
+                path, _ = fluid_file(obj, scene.frame_current)
+                volume = fluid_volume(obj, path) if path is not None else None
+                if volume is None:
+                    obj.hide_render = True  # nothing to render, as in Cycles
+                    hidden.append(obj)
+                else:
+                    BOXES[obj.name] = volume
+                    domains.append(obj.name)
+                continue
             if obj.type != "VOLUME" or obj.hide_render:
                 continue
             path, _ = volume_file(obj)
@@ -132,10 +263,14 @@ def as_boxes(scene):
             if VALUES_AT_INDEX:
                 BOXES[box.name]["values_at_index"] = True
             made.append(box)
-        if made:
+        if made or hidden:
             bpy.context.view_layer.update()
         yield
     finally:
+        for obj in hidden:
+            obj.hide_render = False
+        for name in domains:
+            BOXES.pop(name, None)
         for box in made:
             mesh = box.data
             BOXES.pop(box.name, None)

@@ -107,6 +107,9 @@ impl Grid {
     /// to the grid): the largest voxel value touching it.
     pub fn max_over(&self, lo: [i64; 3], hi: [i64; 3]) -> Vec3 {
         let mut most = Vec3::ZERO; // interpolation outside the voxels reaches zero too
+        if self.size.contains(&0) {
+            return most; // an empty grid (a fluid's flame before anything burns)
+        }
         let clamp = |v: i64, a: usize| v.clamp(0, self.size[a] as i64 - 1);
         for z in clamp(lo[2], 2)..=clamp(hi[2], 2) {
             for y in clamp(lo[1], 1)..=clamp(hi[1], 1) {
