@@ -110,12 +110,14 @@ def fire_material():
                                       **{"Blackbody Intensity": 1.0})[0]
 
 
-def bake_gas(folder, flow_type="SMOKE", resolution=16, frames=8, location=(0.0, 0.0, 1.0),
+def bake_gas(folder, flow_type="SMOKE", resolution=16, frames=8, location=(0.0, 0.0, 1.1),
              scale=1.0, material=None):
     """A 2 m gas domain (at `location`, scaled by `scale`) over a 0.5 m cube emitting
     `flow_type` ("SMOKE", "FIRE" or "BOTH") near its floor, baked over frames 1..`frames` at
     `resolution` cells along its longest side into `folder` (OpenVDB, Blender's defaults);
-    the scene is left at frame `frames`. Returns the domain object."""
+    the scene is left at frame `frames`. Returns the domain object. By default the domain's
+    bottom is 0.1 m above a floor at height 0: a box face lying in the floor leaves which of
+    the two a ray meets first to chance, in Cycles as in Photon."""
     mantaflow_bases()
     scene = bpy.context.scene
     x, y, z = location
