@@ -324,6 +324,14 @@ mod tests {
         );
     }
 
+    /// A grid without voxels (a fluid's flame before anything burns) is zero everywhere.
+    #[test]
+    fn an_empty_grid_is_zero_everywhere() {
+        let g = Grid::new("flame".into(), 1, [0, 0, 0], Vec::new(), Mat4::IDENTITY).unwrap();
+        assert_eq!(g.max_over([-4, -4, -4], [4, 4, 4]), Vec3::ZERO);
+        assert_eq!(g.sample(Vec3::ZERO).x, 0.0);
+    }
+
     /// Leaves (8³ voxels at index multiples of 8) hold the medium where an active voxel or a
     /// face neighbour of one lies, and nowhere else.
     #[test]

@@ -11,6 +11,8 @@ Photon, and compares: mean within 2 % and relMSE <= 0.01 (`cycles_compare.compar
   flame), lighting the floor, under a dim world;
 - a domain at a frame it has no baked data for: nothing, in both engines.
 
+Blender 5 (bpy 5.0): smoke and the unbaked frame match; the fire does not (marked below).
+
 The Cycles references are rendered without reference_cache.py's sharing: its walk over every
 property reads the fluid domain's grids from the original object, where bpy (as a module)
 holds none, and crashes. Each test ends on an empty scene: a fluid domain still loaded when
@@ -59,6 +61,13 @@ def test_baked_smoke(tmp_path):
     compare("fluid smoke", scene, tmp_path, photon_spp=256, cycles_spp=1024)
 
 
+# Blender 5's Cycles renders this fire 14 % brighter than Blender 4.5's from the same grids (the
+# domain's temperature, flame and density read the same in both) while a Volume object's fire
+# (test_volumes.py -k openvdb_fire) still matches; the cause is not established (a guess:
+# Blender 5 interpolates voxels stochastically, and this temperature jumps from 0 to the
+# Ignition temperature at the flame's edge, where T^4 of an interpolated T differs most).
+@pytest.mark.xfail(bpy.app.version >= (5, 0, 0), strict=False,
+                   reason="Cycles 5 renders a fluid domain's fire brighter (see above)")
 def test_baked_fire(tmp_path):
     scene = floor_scene(world=0.02)
     bake_gas(tmp_path / "cache", "FIRE", material=fire_material())

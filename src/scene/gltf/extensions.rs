@@ -998,6 +998,57 @@ mod tests {
         assert!(object.err().unwrap().message.contains("'visible_shadow'"));
     }
 
+    /// A fluid domain's volume: its own index-to-object transform and attributes made from
+    /// grids of other names; a singular transform or an attribute without a grid is refused.
+    #[test]
+    fn fluid_volume_fields_are_read() {
+        let volume = |extra: Value| {
+            let mut value = json!({"uri": "fluid_data_0008.vdb"});
+            value
+                .as_object_mut()
+                .unwrap()
+                .extend(extra.as_object().unwrap().clone());
+            VolumeFile::read(&value)
+        };
+        let plain = volume(json!({})).unwrap();
+        assert!(plain.index_to_object.is_none() && plain.attributes.is_empty());
+        let matrix = [
+            0.125, 0., 0., 0., 0., 0.125, 0., 0., 0., 0., 0.25, 0., -0.9, -0.9, 0.1, 1.,
+        ];
+        let fluid = volume(json!({
+            "index_to_object": matrix,
+            "attributes": {"temperature": {"grid": "flame", "above": 0.01, "offset": 1.5,
+                                           "scale": 1.5},
+                           "heat": {"grid": "temperature", "scale": 0.5}}
+        }))
+        .unwrap();
+        assert_eq!(fluid.index_to_object, Some(Mat4::from_cols_array(&matrix)));
+        let heat = fluid.attributes.iter().find(|a| a.name == "heat").unwrap();
+        assert_eq!(
+            (heat.grid.as_str(), heat.scale, heat.offset, heat.above),
+            ("temperature", 0.5, 0.0, None)
+        );
+        let hot = fluid
+            .attributes
+            .iter()
+            .find(|a| a.name == "temperature")
+            .unwrap();
+        assert_eq!((hot.grid.as_str(), hot.above), ("flame", Some(0.01)));
+        let zeros = vec![0.0f32; 16];
+        let singular = volume(json!({ "index_to_object": zeros }));
+        assert!(singular
+            .err()
+            .unwrap()
+            .message
+            .contains("'index_to_object'"));
+        let gridless = volume(json!({"attributes": {"heat": {"scale": 0.5}}}));
+        let invalid = gridless.err().unwrap();
+        assert_eq!(
+            (invalid.at.as_str(), invalid.message.as_str()),
+            ("attributes heat", "'grid' must be a string")
+        );
+    }
+
     #[test]
     fn absent_fields_take_their_defaults() {
         let object = ObjectExtension::read(&json!({})).unwrap();
