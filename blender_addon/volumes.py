@@ -174,10 +174,27 @@ def fluid_problems(obj, frame) -> list[str]:
     if settings.use_noise:
         out.append(f"{what}: its noise (the upres grids) is not rendered; Photon renders the "
                    f"simulation's own resolution")
+    if any(_reads_color(slot.material) for slot in obj.material_slots if slot.material):
+        out.append(f"{what}: its \"color\" attribute (the flows' smoke colours) is not read; "
+                   f"the material sees none")
     if vdb_resolution(path) is None:
         out.append(f"{what}: its OpenVDB file {path} does not give its grids' size; its smoke "
                    f"and fire are not rendered")
     return out
+
+
+def _reads_color(material) -> bool:
+    """Whether `material`'s nodes read the attribute "color" (Principled Volume's Color
+    Attribute, an Attribute node)."""
+    tree = material.node_tree
+    for node in tree.nodes if tree is not None else ():
+        if node.bl_idname == "ShaderNodeVolumePrincipled":
+            socket = node.inputs.get("Color Attribute")
+            if socket is not None and getattr(socket, "default_value", "") == "color":
+                return True
+        if node.bl_idname == "ShaderNodeAttribute" and node.attribute_name == "color":
+            return True
+    return False
 
 
 def _default_material():

@@ -9,7 +9,9 @@ Photon, and compares: mean within 2 % and relMSE <= 0.01 (`cycles_compare.compar
   domain's);
 - fire (Quick Fire's: Blackbody Intensity 1 from the "temperature" Cycles makes from the
   flame), lighting the floor, under a dim world;
-- a domain at a frame it has no baked data for: nothing, in both engines.
+- a domain at a frame it has no baked data for: nothing, in both engines;
+- the pre-flight report on a baked domain: silent for Quick Smoke's material, one message when
+  the material reads the "color" attribute.
 
 Blender 5 (bpy 5.0): smoke and the unbaked frame match; the fire does not (marked below).
 
@@ -89,3 +91,19 @@ def test_unbaked_frame_renders_nothing(tmp_path):
     assert abs(ref.mean() / empty.mean() - 1.0) < 0.01, "Cycles renders an unbaked frame empty"
     assert abs(img.mean() / empty.mean() - 1.0) < 0.02
     assert np.isfinite(img).all()
+
+
+def test_preflight_names_what_of_a_baked_domain_is_not_rendered(tmp_path):
+    """A baked domain whose material reads the "color" attribute: one message (the flows'
+    colours are not read); Quick Smoke's material (density only): none."""
+    from blender_addon import preflight
+    scene = floor_scene()
+    domain = bake_gas(tmp_path / "cache", "SMOKE", frames=3, material=smoke_material())
+    assert not [m for m in preflight.unsupported_features(scene, list(scene.objects))
+                if "Domain" in m]
+    principled = domain.data.materials[0].node_tree.nodes["Principled Volume"]
+    principled.inputs["Color Attribute"].default_value = "color"
+    messages = [m for m in preflight.unsupported_features(scene, list(scene.objects))
+                if "Domain" in m]
+    assert len(messages) == 1 and messages[0].startswith(
+        "fluid domain 'Domain': its \"color\" attribute"), messages
