@@ -22,7 +22,7 @@ empty list, so the rules below only flag what really changes the image:
   converter nodes the surface trees have), Volume objects whose grids Photon cannot read
   (volumes.problems: packed or missing files, modifiers, grid types), and fluid domains whose
   smoke and fire Photon does not render (volumes.fluid_problems: no baked OpenVDB data at the
-  frame, noise, the "color" attribute);
+  frame, the "color" attribute, "heat" with noise);
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement, as bump, true displacement of the vertices or both: node_tree.py); Cycles'
   adaptive subdivision (its dicing rate: Photon displaces the mesh as the modifier leaves it);

@@ -15,13 +15,14 @@ A fluid domain of type Gas (smoke and fire) is rendered as Cycles renders it: it
 box the Fluid modifier makes, the adaptive domain's box included) filled with the frame's baked
 grids. Mantaflow writes them, with its OpenVDB cache, to `data/fluid_data_####.vdb` in the
 cache directory: "density", "flame", "temperature" (Mantaflow's heat), "color_r/g/b",
-"velocity", half floats. Cycles reads the same grids from memory, under its own attribute
-names: "density" and "flame" as they are, "heat" as Mantaflow's heat × ½ and "temperature"
-made from the flame, the domain's Ignition + flame × (Maximum − Ignition) where the flame is
-above 0.01, else 0; each over the mesh's texture space, a value at each cell's centre. The
-domain's `PHOTON_object` "volume" says so: `attributes` maps those names to the file's grids,
-`index_to_object` places the voxels. A domain without baked data at the frame renders
-nothing, as in Cycles.
+"velocity", half floats; with noise, `noise/fluid_noise_####.vdb` holds the upres
+"density_noise" and "flame_noise", which Cycles renders in their place. Cycles reads the same
+grids from memory, under its own attribute names: "density" and "flame" as they are, "heat" as
+Mantaflow's heat × ½ and "temperature" made from the flame, the domain's Ignition + flame ×
+(Maximum − Ignition) where the flame is above 0.01, else 0; each over the mesh's texture space,
+a value at each cell's centre. The domain's `PHOTON_object` "volume" says so: `attributes` maps
+those names to the file's grids, `index_to_object` places the voxels. A domain without baked
+data at the frame renders nothing, as in Cycles.
 
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
@@ -98,6 +99,10 @@ def fluid_file(obj, frame) -> tuple[Path | None, str | None]:
     path = folder / "data" / f"fluid_data_{frame:04d}.vdb"
     if not path.is_file():
         return None, f"it has no baked data at frame {frame} (bake it: Cycles renders nothing)"
+    if settings.use_noise:
+        path = folder / "noise" / f"fluid_noise_{frame:04d}.vdb"
+        if not path.is_file():
+            return None, f"its noise is not baked at frame {frame}"
     return path, None
 
 
@@ -149,17 +154,23 @@ def fluid_volume(obj, path) -> dict | None:
     cell = [2.0 * size[a] / resolution[a] for a in range(3)]
     first = [location[a] - size[a] + 0.5 * cell[a] for a in range(3)]
     ignition, hottest = settings.flame_ignition, settings.flame_max_temp
+    # With noise, the upres density and flame (the noise file's "density_noise" and
+    # "flame_noise") stand for the simulation's; its heat stays in the data file, unread.
+    suffix = "_noise" if settings.use_noise else ""
+    attributes = {"density": {"grid": f"density{suffix}"},
+                  "flame": {"grid": f"flame{suffix}"},
+                  "temperature": {"grid": f"flame{suffix}", "above": 0.01,
+                                  "offset": ignition, "scale": hottest - ignition}}
+    if not settings.use_noise:
+        attributes["heat"] = {"grid": "temperature", "scale": 0.5}
     return {"uri": str(path),
-            "grids": ["density", "flame", "heat", "temperature"],
+            "grids": sorted(attributes),
             "space": "world",
             "clipping": settings.clipping,
             "values_at_index": True,
             "index_to_object": [cell[0], 0.0, 0.0, 0.0, 0.0, cell[1], 0.0, 0.0,
                                 0.0, 0.0, cell[2], 0.0, *first, 1.0],
-            "attributes": {"heat": {"grid": "temperature", "scale": 0.5},
-                           "temperature": {"grid": "flame", "above": 0.01,
-                                           "offset": ignition,
-                                           "scale": hottest - ignition}}}
+            "attributes": attributes}
 
 
 def fluid_problems(obj, frame) -> list[str]:
@@ -171,10 +182,10 @@ def fluid_problems(obj, frame) -> list[str]:
     if path is None:
         return [f"{what}: no smoke or fire is rendered: {reason}"]
     out = []
-    if settings.use_noise:
-        out.append(f"{what}: its noise (the upres grids) is not rendered; Photon renders the "
-                   f"simulation's own resolution")
-    if any(_reads_color(slot.material) for slot in obj.material_slots if slot.material):
+    if settings.use_noise and _reads(obj, "heat"):
+        out.append(f"{what}: its \"heat\" attribute is not read with noise (the noise file "
+                   f"has none); the material sees none")
+    if _reads(obj, "color"):
         out.append(f"{what}: its \"color\" attribute (the flows' smoke colours) is not read; "
                    f"the material sees none")
     if vdb_resolution(path) is None:
@@ -183,17 +194,18 @@ def fluid_problems(obj, frame) -> list[str]:
     return out
 
 
-def _reads_color(material) -> bool:
-    """Whether `material`'s nodes read the attribute "color" (Principled Volume's Color
-    Attribute, an Attribute node)."""
-    tree = material.node_tree
-    for node in tree.nodes if tree is not None else ():
-        if node.bl_idname == "ShaderNodeVolumePrincipled":
-            socket = node.inputs.get("Color Attribute")
-            if socket is not None and getattr(socket, "default_value", "") == "color":
+def _reads(obj, attribute) -> bool:
+    """Whether the nodes of `obj`'s materials read `attribute` (a Principled Volume's
+    attribute inputs, an Attribute node)."""
+    for slot in obj.material_slots:
+        tree = slot.material.node_tree if slot.material is not None else None
+        for node in tree.nodes if tree is not None else ():
+            if node.bl_idname == "ShaderNodeVolumePrincipled" and any(
+                    getattr(node.inputs.get(f"{kind} Attribute"), "default_value", "")
+                    == attribute for kind in ("Density", "Color", "Temperature")):
                 return True
-        if node.bl_idname == "ShaderNodeAttribute" and node.attribute_name == "color":
-            return True
+            if node.bl_idname == "ShaderNodeAttribute" and node.attribute_name == attribute:
+                return True
     return False
 
 

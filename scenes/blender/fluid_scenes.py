@@ -111,11 +111,12 @@ def fire_material():
 
 
 def bake_gas(folder, flow_type="SMOKE", resolution=16, frames=8, location=(0.0, 0.0, 1.1),
-             scale=1.0, material=None):
+             scale=1.0, material=None, noise=False):
     """A 2 m gas domain (at `location`, scaled by `scale`) over a 0.5 m cube emitting
     `flow_type` ("SMOKE", "FIRE" or "BOTH") near its floor, baked over frames 1..`frames` at
     `resolution` cells along its longest side into `folder` (OpenVDB, Blender's defaults);
-    the scene is left at frame `frames`. Returns the domain object. By default the domain's
+    the scene is left at frame `frames`; with `noise`, Blender's noise upres (2x) is baked
+    too. Returns the domain object. By default the domain's
     bottom is 0.1 m above a floor at height 0: a box face lying in the floor leaves which of
     the two a ray meets first to chance, in Cycles as in Photon."""
     mantaflow_bases()
@@ -142,6 +143,7 @@ def bake_gas(folder, flow_type="SMOKE", resolution=16, frames=8, location=(0.0, 
     settings.cache_frame_start = 1
     settings.cache_frame_end = frames
     settings.cache_type = "ALL"
+    settings.use_noise = noise
     domain.data.materials.append(material or smoke_material())
     with bpy.context.temp_override(object=domain, active_object=domain,
                                    selected_objects=[domain], scene=scene):

@@ -7,6 +7,7 @@ Photon, and compares: mean within 2 % and relMSE <= 0.01 (`cycles_compare.compar
 - smoke (Quick Smoke's material: Principled Volume, density 5 from the "density" grid) over a
   sunlit floor, the domain scaled by 0.8 (its density stays per metre, as Cycles keeps a
   domain's);
+- smoke with noise (2x upres: the noise file's density, as Cycles renders it);
 - fire (Quick Fire's: Blackbody Intensity 1 from the "temperature" Cycles makes from the
   flame), lighting the floor, under a dim world;
 - a domain at a frame it has no baked data for: nothing, in both engines;
@@ -70,6 +71,14 @@ def test_baked_smoke(tmp_path):
 # Ignition temperature at the flame's edge, where T^4 of an interpolated T differs most).
 @pytest.mark.xfail(bpy.app.version >= (5, 0, 0), strict=False,
                    reason="Cycles 5 renders a fluid domain's fire brighter (see above)")
+def test_baked_smoke_with_noise(tmp_path):
+    """Noise (2x upres): Cycles renders the noise file's density, 32 cells a side."""
+    scene = floor_scene()
+    bake_gas(tmp_path / "cache", "SMOKE", material=smoke_material(), noise=True)
+    common.light("Sun", "SUN", (0, 0, 5), (30.0, 10.0, 40.0), energy=3.0)
+    compare("fluid smoke with noise", scene, tmp_path, photon_spp=256, cycles_spp=1024)
+
+
 def test_baked_fire(tmp_path):
     scene = floor_scene(world=0.02)
     bake_gas(tmp_path / "cache", "FIRE", material=fire_material())
