@@ -2,8 +2,8 @@
 exporter writes, and the smoke and fire of baked fluid domains, for the time of an export.
 
 The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered Volume object
-whose grids come from a file on disk (in the scene, or in a collection that an Empty or a
-particle system instances: the box then goes with each instance) has a mesh object beside it: a box around its grids (one
+whose grids come from a file on disk (in the scene, or in a collection that an Empty
+instances: the box then goes with each instance) has a mesh object beside it: a box around its grids (one
 voxel of margin, where interpolation still reaches), at its place, with its material, or with
 Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
 `gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
@@ -252,8 +252,8 @@ def _box_mesh(name, lo, hi):
 
 
 def rendered_volume_objects(scene) -> list:
-    """The Volume objects of `scene` and those it instances: in collections that Empties
-    (collection instances) or particle systems instance, and particle systems' objects."""
+    """The Volume objects of `scene` and those in the collections its Empties instance
+    (collection instances, nested ones too)."""
     found = {}
     collections = set()
     stack = list(scene.objects)
@@ -262,19 +262,10 @@ def rendered_volume_objects(scene) -> list:
         if obj.name in found:
             continue
         found[obj.name] = obj
-        instanced = []
-        if obj.instance_type == "COLLECTION" and obj.instance_collection is not None:
-            instanced.append(obj.instance_collection)
-        for system in getattr(obj, "particle_systems", ()):
-            settings = system.settings
-            if settings.render_type == "OBJECT" and settings.instance_object is not None:
-                stack.append(settings.instance_object)
-            if settings.render_type == "COLLECTION" and settings.instance_collection is not None:
-                instanced.append(settings.instance_collection)
-        for collection in instanced:
-            if collection.name not in collections:
-                collections.add(collection.name)
-                stack.extend(collection.all_objects)
+        instanced = obj.instance_collection if obj.instance_type == "COLLECTION" else None
+        if instanced is not None and instanced.name not in collections:
+            collections.add(instanced.name)
+            stack.extend(instanced.all_objects)
     return [obj for obj in found.values() if obj.type == "VOLUME"]
 
 

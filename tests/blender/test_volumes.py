@@ -26,7 +26,9 @@ sets them.
 - three overlapping Volume objects of one OpenVDB file at different scales (their media add);
 - a scaled Volume object in volume space World (its density per metre);
 - a Volume object emitting a constant colour: only where its voxels are (the leaves Cycles
-  builds its volume mesh from), not in the whole box.
+  builds its volume mesh from), not in the whole box;
+- a Volume object in a collection outside the scene, instanced twice by Empties: each instance
+  at its transform.
 """
 
 import math
