@@ -198,6 +198,11 @@ def _object_features(obj) -> list[str]:
             messages.append(f"{what}: particle system '{system.name}' rendered as "
                             f"{system.settings.render_type} is not exported (objects and "
                             f"collections are)")
+        instanced = system.settings.instance_object
+        if system.settings.render_type == "OBJECT" and getattr(instanced, "type", "") == "VOLUME":
+            messages.append(f"{what}: particle system '{system.name}' instances Volume object "
+                            f"'{instanced.name}', which is not rendered there (collection "
+                            f"instances of Volume objects are)")
     if obj.type in GEOMETRY_TYPES:
         hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:
