@@ -21,6 +21,7 @@ render` and `photon bench`; the bakes stay in OUT_DIR/*_cache, which the .glb na
 from __future__ import annotations
 
 import ctypes
+import os
 import sys
 from pathlib import Path
 
@@ -145,9 +146,18 @@ def bake_gas(folder, flow_type="SMOKE", resolution=16, frames=8, location=(0.0, 
     settings.cache_type = "ALL"
     settings.use_noise = noise
     domain.data.materials.append(material or smoke_material())
-    with bpy.context.temp_override(object=domain, active_object=domain,
-                                   selected_objects=[domain], scene=scene):
-        result = bpy.ops.fluid.bake_all()
+    # Mantaflow's noise writes its wavelet tile (waveletNoiseTile.bin, 24 MiB) to the current
+    # folder: bake in the cache's.
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    here = os.getcwd()
+    os.chdir(folder)
+    try:
+        with bpy.context.temp_override(object=domain, active_object=domain,
+                                       selected_objects=[domain], scene=scene):
+            result = bpy.ops.fluid.bake_all()
+    finally:
+        os.chdir(here)
     assert "FINISHED" in result, result
     scene.frame_set(frames)
     return domain
