@@ -2,8 +2,8 @@
 exporter writes, and the smoke and fire of baked fluid domains, for the time of an export.
 
 The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered Volume object
-whose grids come from a file on disk (in the scene, or in a collection that an Empty
-instances: the box then goes with each instance) has a mesh object beside it: a box around its grids (one
+whose grids come from a file on disk (in the scene, or in a collection that an Empty instances:
+the box then goes with each instance) has a mesh object beside it: a box around its grids (one
 voxel of margin, where interpolation still reaches), at its place, with its material, or with
 Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
 `gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
