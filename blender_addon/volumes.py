@@ -181,6 +181,9 @@ def fluid_problems(obj, frame) -> list[str]:
     path, reason = fluid_file(obj, frame)
     if path is None:
         return [f"{what}: no smoke or fire is rendered: {reason}"]
+    if not reads_fluid_grids(obj):
+        return [f"{what}: no smoke or fire is rendered: its material reads none of its grids "
+                f"(as in Cycles)"]
     out = []
     if settings.use_noise and _reads(obj, "heat"):
         out.append(f"{what}: its \"heat\" attribute is not read with noise (the noise file "
@@ -194,15 +197,44 @@ def fluid_problems(obj, frame) -> list[str]:
     return out
 
 
+def reads_fluid_grids(obj) -> bool:
+    """Whether `obj`'s materials read any of a fluid domain's grids (its attributes, or a
+    Volume Info node): Cycles builds a domain's volume from the grids it reads, so with none
+    nothing renders."""
+    names = ("density", "flame", "heat", "temperature", "color")
+    return any(_reads(obj, name) for name in names) or any(
+        node.bl_idname == "ShaderNodeVolumeInfo"
+        for slot in obj.material_slots
+        if slot.material is not None and slot.material.node_tree is not None
+        for node in slot.material.node_tree.nodes)
+
+
+def _principled_volume_reads(node) -> set[str]:
+    """The attributes a Principled Volume node reads, as Cycles asks for them: its Density
+    and Color Attributes when it has density, its Temperature Attribute when it glows as a
+    black body."""
+
+    def active(name):
+        socket = node.inputs.get(name)
+        return socket is not None and (socket.is_linked or socket.default_value > 0.0)
+
+    def named(kind):
+        return getattr(node.inputs.get(f"{kind} Attribute"), "default_value", "")
+
+    reads = {named("Density"), named("Color")} if active("Density") else set()
+    if active("Blackbody Intensity"):
+        reads.add(named("Temperature"))
+    return reads - {""}
+
+
 def _reads(obj, attribute) -> bool:
     """Whether the nodes of `obj`'s materials read `attribute` (a Principled Volume's
     attribute inputs, an Attribute node)."""
     for slot in obj.material_slots:
         tree = slot.material.node_tree if slot.material is not None else None
         for node in tree.nodes if tree is not None else ():
-            if node.bl_idname == "ShaderNodeVolumePrincipled" and any(
-                    getattr(node.inputs.get(f"{kind} Attribute"), "default_value", "")
-                    == attribute for kind in ("Density", "Color", "Temperature")):
+            if node.bl_idname == "ShaderNodeVolumePrincipled" \
+                    and attribute in _principled_volume_reads(node):
                 return True
             if node.bl_idname == "ShaderNodeAttribute" and node.attribute_name == attribute:
                 return True
@@ -282,7 +314,7 @@ def as_boxes(scene):
             if obj.type == "MESH" and not obj.hide_render and fluid_domain(obj) is not None:
                 path, _ = fluid_file(obj, scene.frame_current)
                 volume = fluid_volume(obj, path) if path is not None else None
-                if volume is None:
+                if volume is None or not reads_fluid_grids(obj):
                     obj.hide_render = True  # nothing to render, as in Cycles
                     hidden.append(obj)
                 else:

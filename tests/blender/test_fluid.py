@@ -10,7 +10,8 @@ Photon, and compares: mean within 2 % and relMSE <= 0.01 (`cycles_compare.compar
 - smoke with noise (2x upres: the noise file's density, as Cycles renders it);
 - fire (Quick Fire's: Blackbody Intensity 1 from the "temperature" Cycles makes from the
   flame), lighting the floor, under a dim world;
-- a domain at a frame it has no baked data for: nothing, in both engines;
+- a domain at a frame it has no baked data for: nothing, in both engines; nor for a domain
+  whose material reads none of its grids;
 - the pre-flight report on a baked domain: silent for Quick Smoke's material, one message when
   the material reads the "color" attribute; and on a particle system instancing a Volume
   object (not rendered there, where collection instances are).
@@ -31,7 +32,7 @@ import common
 import reference_cache
 import scenes_bpy
 from cycles_compare import compare
-from fluid_scenes import bake_gas, fire_material, smoke_material
+from fluid_scenes import bake_gas, fire_material, principled_volume_material, smoke_material
 
 SIZE = 40
 
@@ -86,21 +87,37 @@ def test_baked_fire(tmp_path):
     compare("fluid fire", scene, tmp_path, photon_spp=512, cycles_spp=1024)
 
 
+def assert_renders_nothing(name, scene, domain, tmp_path):
+    """Cycles renders the scene as it does without `domain`, and so does Photon."""
+    ref = scenes_bpy.render(scene, "CYCLES", tmp_path / f"{name}_cycles.exr", 16)
+    domain.hide_render = True
+    empty = scenes_bpy.render(scene, "CYCLES", tmp_path / "empty_cycles.exr", 16)
+    domain.hide_render = False
+    img = scenes_bpy.render(scene, "PHOTON", tmp_path / f"{name}_photon.exr", 16)
+    print(f"{name}: mean cycles {ref.mean():.5f} (without the domain {empty.mean():.5f}), "
+          f"photon {img.mean():.5f}")
+    assert abs(ref.mean() / empty.mean() - 1.0) < 0.01, "Cycles renders nothing for it"
+    assert abs(img.mean() / empty.mean() - 1.0) < 0.02
+    assert np.isfinite(img).all()
+
+
 def test_unbaked_frame_renders_nothing(tmp_path):
     scene = floor_scene(world=1.0)
     domain = bake_gas(tmp_path / "cache", "SMOKE", frames=4, material=smoke_material())
     domain.modifiers["Fluid"].domain_settings.cache_frame_end = 8
     scene.frame_set(6)  # inside the cache's frames, never baked
-    ref = scenes_bpy.render(scene, "CYCLES", tmp_path / "unbaked_cycles.exr", 16)
-    domain.hide_render = True
-    empty = scenes_bpy.render(scene, "CYCLES", tmp_path / "empty_cycles.exr", 16)
-    domain.hide_render = False
-    img = scenes_bpy.render(scene, "PHOTON", tmp_path / "unbaked_photon.exr", 16)
-    print(f"unbaked: mean cycles {ref.mean():.5f} (without the domain {empty.mean():.5f}), "
-          f"photon {img.mean():.5f}")
-    assert abs(ref.mean() / empty.mean() - 1.0) < 0.01, "Cycles renders an unbaked frame empty"
-    assert abs(img.mean() / empty.mean() - 1.0) < 0.02
-    assert np.isfinite(img).all()
+    assert_renders_nothing("unbaked", scene, domain, tmp_path)
+
+
+def test_domain_whose_material_reads_no_grid_renders_nothing(tmp_path):
+    """A baked domain whose Principled Volume reads no grid (Density Attribute cleared): Cycles
+    renders nothing for it (it builds a domain's volume from the grids read), nor does Photon,
+    where the box would otherwise be filled."""
+    scene = floor_scene(world=1.0)
+    material, node = principled_volume_material("Constant", Density=1.0)
+    node.inputs["Density Attribute"].default_value = ""
+    domain = bake_gas(tmp_path / "cache", "SMOKE", frames=4, material=material)
+    assert_renders_nothing("no grid read", scene, domain, tmp_path)
 
 
 def test_preflight_names_what_of_a_baked_domain_is_not_rendered(tmp_path):

@@ -114,7 +114,11 @@ impl Loader {
         if let (true, Some((index_to_local, voxels))) = (comparable, active) {
             let object_to_index = Affine3A::from_mat4(index_to_local).inverse();
             if object_to_index.is_finite() {
-                grids.leaves = ActiveLeaves::of_voxels(object_to_index, voxels.into_iter());
+                // No voxel at or above the clipping value: no medium (Cycles builds none).
+                grids.leaves = Some(
+                    ActiveLeaves::of_voxels(object_to_index, voxels.into_iter())
+                        .unwrap_or_else(|| ActiveLeaves::none(object_to_index)),
+                );
             }
         }
         Ok((!grids.grids.is_empty()).then(|| Arc::new(grids)))
