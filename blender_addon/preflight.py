@@ -20,8 +20,9 @@ empty list, so the rules below only flag what really changes the image:
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
   Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
   converter nodes the surface trees have), Volume objects whose grids Photon cannot read
-  (volumes.problems: packed or missing files, modifiers, grid types), and smoke and fire in
-  fluid domains (Photon renders their bake as a Volume object);
+  (volumes.problems: packed or missing files, modifiers, grid types), and fluid domains whose
+  smoke and fire Photon does not render (volumes.fluid_problems: no baked OpenVDB data at the
+  frame, the "color" attribute, "heat" with noise);
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement, as bump, true displacement of the vertices or both: node_tree.py); Cycles'
   adaptive subdivision (its dicing rate: Photon displaces the mesh as the modifier leaves it);
@@ -52,6 +53,7 @@ from .motion import deforms
 from .node_graph import active_output, source, upstream
 from .node_tree import material_nodes, volume_tree
 from .shared import GEOMETRY_TYPES, material_tree
+from .volumes import fluid_domain, fluid_problems
 from .volumes import problems as volume_problems
 from .world import world_problems, world_uses_nodes
 
@@ -178,14 +180,11 @@ def _object_features(obj) -> list[str]:
     what = f"object '{obj.name}'"
     if obj.type == "VOLUME":
         messages += volume_problems(obj)
+    elif fluid_domain(obj) is not None:
+        messages += fluid_problems(obj, bpy.context.scene.frame_current)
     elif obj.type == "LIGHT":
         messages += light_features(obj)
     for modifier in getattr(obj, "modifiers", ()):
-        if modifier.type == "FLUID" and modifier.fluid_type == "DOMAIN" \
-                and modifier.domain_settings.domain_type == "GAS":
-            messages.append(f"{what}: the smoke and fire of fluid domains are not rendered "
-                            f"(import the bake's OpenVDB files as a Volume object to render "
-                            f"them); its material fills the domain's box")
         adaptive = getattr(getattr(obj, "cycles", None), "use_adaptive_subdivision", False) \
             or getattr(modifier, "use_adaptive_subdivision", False)
         if modifier.type == "SUBSURF" and adaptive:
@@ -199,6 +198,11 @@ def _object_features(obj) -> list[str]:
             messages.append(f"{what}: particle system '{system.name}' rendered as "
                             f"{system.settings.render_type} is not exported (objects and "
                             f"collections are)")
+        instanced = system.settings.instance_object
+        if system.settings.render_type == "OBJECT" and getattr(instanced, "type", "") == "VOLUME":
+            messages.append(f"{what}: particle system '{system.name}' instances Volume object "
+                            f"'{instanced.name}', which is not rendered there (collection "
+                            f"instances of Volume objects are)")
     if obj.type in GEOMETRY_TYPES:
         hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:

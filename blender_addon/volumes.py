@@ -1,14 +1,28 @@
 """Volume objects (OpenVDB grids: imported .vdb files, baked smoke and fire) as boxes the glTF
-exporter writes, for the time of an export.
+exporter writes, and the smoke and fire of baked fluid domains, for the time of an export.
 
 The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered Volume object
-whose grids come from a file on disk has a mesh object beside it: a box around its grids (one
+whose grids come from a file on disk (in the scene, or in a collection that an Empty instances:
+the box then goes with each instance) has a mesh object beside it: a box around its grids (one
 voxel of margin, where interpolation still reaches), at its place, with its material, or with
 Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
 `gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
 grid names, where this Blender puts a voxel's value, the volume's space (its density per unit
 of the object's length or of the world's) and its clipping value (voxels below it hold no
 medium); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
+
+A fluid domain of type Gas (smoke and fire) is rendered as Cycles renders it: its own mesh (the
+box the Fluid modifier makes, the adaptive domain's box included) filled with the frame's baked
+grids. Mantaflow writes them, with its OpenVDB cache, to `data/fluid_data_####.vdb` in the
+cache directory: "density", "flame", "temperature" (Mantaflow's heat), "color_r/g/b",
+"velocity", half floats; with noise, `noise/fluid_noise_####.vdb` holds the upres
+"density_noise" and "flame_noise", which Cycles renders in their place. Cycles reads the same
+grids from memory, under its own attribute names: "density" and "flame" as they are, "heat" as
+Mantaflow's heat × ½ and "temperature" made from the flame, the domain's Ignition + flame ×
+(Maximum − Ignition) where the flame is above 0.01, else 0; each over the mesh's texture space,
+a value at each cell's centre. The domain's `PHOTON_object` "volume" says so: `attributes` maps
+those names to the file's grids, `index_to_object` places the voxels. A domain without baked
+data at the frame renders nothing, as in Cycles.
 
 This file runs inside the add-on and as the export child's script: it imports only bpy and the
 standard library.
@@ -17,6 +31,8 @@ standard library.
 from __future__ import annotations
 
 import contextlib
+import struct
+from pathlib import Path
 
 import bpy
 
@@ -61,6 +77,170 @@ def problems(obj) -> list[str]:
     return out
 
 
+def fluid_domain(obj):
+    """The settings of `obj`'s rendered Fluid modifier of type Domain with gas (smoke and fire),
+    or None."""
+    for modifier in getattr(obj, "modifiers", ()):
+        if modifier.type == "FLUID" and modifier.fluid_type == "DOMAIN" \
+                and modifier.show_render and modifier.domain_settings.domain_type == "GAS":
+            return modifier.domain_settings
+    return None
+
+
+def fluid_file(obj, frame) -> tuple[Path | None, str | None]:
+    """`(path, None)`: the OpenVDB file of fluid domain `obj`'s baked grids at `frame`;
+    `(None, reason)` when it has none Photon reads (it then renders nothing)."""
+    settings = fluid_domain(obj)
+    if not settings.cache_frame_start <= frame <= settings.cache_frame_end:
+        return None, f"frame {frame} is outside its cache's frames"
+    if settings.cache_data_format != "OPENVDB":
+        return None, "its cache's data format is not OpenVDB"
+    folder = Path(bpy.path.abspath(settings.cache_directory))
+    path = folder / "data" / f"fluid_data_{frame:04d}.vdb"
+    if not path.is_file():
+        return None, f"it has no baked data at frame {frame} (bake it: Cycles renders nothing)"
+    if settings.use_noise:
+        path = folder / "noise" / f"fluid_noise_{frame:04d}.vdb"
+        if not path.is_file():
+            return None, f"its noise is not baked at frame {frame}"
+    return path, None
+
+
+def _vdb_string(data, at):
+    (size,) = struct.unpack_from("<I", data, at)
+    return data[at + 4:at + 4 + size].decode("utf-8", "replace"), at + 4 + size
+
+
+def vdb_resolution(path) -> tuple[int, int, int] | None:
+    """The voxels per axis of the first grid of Mantaflow's OpenVDB file `path` (its
+    "file_base_resolution" metadata: the grid's size, which an adaptive domain changes)."""
+    data = Path(path).read_bytes()
+    try:
+        at = 8 + 4 + 8 + 1 + 36  # magic, version, library version, offsets flag, UUID
+        (count,) = struct.unpack_from("<I", data, at)
+        at += 4
+        for _ in range(count):  # the file's metadata
+            _, at = _vdb_string(data, at)
+            _, at = _vdb_string(data, at)
+            (size,) = struct.unpack_from("<I", data, at)
+            at += 4 + size
+        at += 4  # grid count
+        for _ in range(3):  # name, tree type, instance parent
+            _, at = _vdb_string(data, at)
+        at += 3 * 8 + 4  # stream offsets, compression flags
+        (count,) = struct.unpack_from("<I", data, at)
+        at += 4
+        for _ in range(count):
+            name, at = _vdb_string(data, at)
+            kind, at = _vdb_string(data, at)
+            (size,) = struct.unpack_from("<I", data, at)
+            if name == "file_base_resolution" and kind == "vec3i" and size == 12:
+                return struct.unpack_from("<3i", data, at + 4)
+            at += 4 + size
+    except (struct.error, UnicodeDecodeError):
+        return None
+    return None
+
+
+def fluid_volume(obj, path) -> dict | None:
+    """The `PHOTON_object` "volume" of fluid domain `obj` whose frame's grids are in `path`
+    (module documentation), or None when the file's grid size is not found."""
+    settings = fluid_domain(obj)
+    resolution = vdb_resolution(path)
+    if resolution is None or min(resolution) <= 0:
+        return None
+    mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    location, size = mesh.texspace_location, mesh.texspace_size
+    cell = [2.0 * size[a] / resolution[a] for a in range(3)]
+    first = [location[a] - size[a] + 0.5 * cell[a] for a in range(3)]
+    ignition, hottest = settings.flame_ignition, settings.flame_max_temp
+    # With noise, the upres density and flame (the noise file's "density_noise" and
+    # "flame_noise") stand for the simulation's; its heat stays in the data file, unread.
+    suffix = "_noise" if settings.use_noise else ""
+    attributes = {"density": {"grid": f"density{suffix}"},
+                  "flame": {"grid": f"flame{suffix}"},
+                  "temperature": {"grid": f"flame{suffix}", "above": 0.01,
+                                  "offset": ignition, "scale": hottest - ignition}}
+    if not settings.use_noise:
+        attributes["heat"] = {"grid": "temperature", "scale": 0.5}
+    return {"uri": str(path),
+            "grids": sorted(attributes),
+            "space": "world",
+            "clipping": settings.clipping,
+            "values_at_index": True,
+            "index_to_object": [cell[0], 0.0, 0.0, 0.0, 0.0, cell[1], 0.0, 0.0,
+                                0.0, 0.0, cell[2], 0.0, *first, 1.0],
+            "attributes": attributes}
+
+
+def fluid_problems(obj, frame) -> list[str]:
+    """What of fluid domain `obj`'s smoke and fire at `frame` is not rendered as Cycles
+    renders it."""
+    settings = fluid_domain(obj)
+    what = f"fluid domain '{obj.name}'"
+    path, reason = fluid_file(obj, frame)
+    if path is None:
+        return [f"{what}: no smoke or fire is rendered: {reason}"]
+    if not reads_fluid_grids(obj):
+        return [f"{what}: no smoke or fire is rendered: its material reads none of its grids "
+                f"(as in Cycles)"]
+    out = []
+    if settings.use_noise and _reads(obj, "heat"):
+        out.append(f"{what}: its \"heat\" attribute is not read with noise (the noise file "
+                   f"has none); the material sees none")
+    if _reads(obj, "color"):
+        out.append(f"{what}: its \"color\" attribute (the flows' smoke colours) is not read; "
+                   f"the material sees none")
+    if vdb_resolution(path) is None:
+        out.append(f"{what}: its OpenVDB file {path} does not give its grids' size; its smoke "
+                   f"and fire are not rendered")
+    return out
+
+
+def reads_fluid_grids(obj) -> bool:
+    """Whether `obj`'s materials read any of a fluid domain's grids (its attributes, or a
+    Volume Info node): Cycles builds a domain's volume from the grids it reads, so with none
+    nothing renders."""
+    names = ("density", "flame", "heat", "temperature", "color")
+    return any(_reads(obj, name) for name in names) or any(
+        node.bl_idname == "ShaderNodeVolumeInfo"
+        for slot in obj.material_slots
+        if slot.material is not None and slot.material.node_tree is not None
+        for node in slot.material.node_tree.nodes)
+
+
+def _principled_volume_reads(node) -> set[str]:
+    """The attributes a Principled Volume node reads, as Cycles asks for them: its Density
+    and Color Attributes when it has density, its Temperature Attribute when it glows as a
+    black body."""
+
+    def active(name):
+        socket = node.inputs.get(name)
+        return socket is not None and (socket.is_linked or socket.default_value > 0.0)
+
+    def named(kind):
+        return getattr(node.inputs.get(f"{kind} Attribute"), "default_value", "")
+
+    reads = {named("Density"), named("Color")} if active("Density") else set()
+    if active("Blackbody Intensity"):
+        reads.add(named("Temperature"))
+    return reads - {""}
+
+
+def _reads(obj, attribute) -> bool:
+    """Whether the nodes of `obj`'s materials read `attribute` (a Principled Volume's
+    attribute inputs, an Attribute node)."""
+    for slot in obj.material_slots:
+        tree = slot.material.node_tree if slot.material is not None else None
+        for node in tree.nodes if tree is not None else ():
+            if node.bl_idname == "ShaderNodeVolumePrincipled" \
+                    and attribute in _principled_volume_reads(node):
+                return True
+            if node.bl_idname == "ShaderNodeAttribute" and node.attribute_name == attribute:
+                return True
+    return False
+
+
 def _default_material():
     material = bpy.data.materials.get(DEFAULT_MATERIAL)
     if material is None:
@@ -103,14 +283,45 @@ def _box_mesh(name, lo, hi):
     return mesh
 
 
+def rendered_volume_objects(scene) -> list:
+    """The Volume objects of `scene` and those in the collections its Empties instance
+    (collection instances, nested ones too)."""
+    found = {}
+    collections = set()
+    stack = list(scene.objects)
+    while stack:
+        obj = stack.pop()
+        if obj.name in found:
+            continue
+        found[obj.name] = obj
+        instanced = obj.instance_collection if obj.instance_type == "COLLECTION" else None
+        if instanced is not None and instanced.name not in collections:
+            collections.add(instanced.name)
+            stack.extend(instanced.all_objects)
+    return [obj for obj in found.values() if obj.type == "VOLUME"]
+
+
 @contextlib.contextmanager
 def as_boxes(scene):
     """Within the block, each rendered Volume object of `scene` whose grids Photon reads has a
-    box mesh object standing for it (module documentation); removed after."""
+    box mesh object standing for it, and each rendered fluid domain of gas carries its baked
+    grids or, without them at the frame, is hidden (module documentation); undone after."""
     made = []
+    hidden = []
+    domains = []
     try:
         for obj in list(scene.objects):
-            if obj.type != "VOLUME" or obj.hide_render:
+            if obj.type == "MESH" and not obj.hide_render and fluid_domain(obj) is not None:
+                path, _ = fluid_file(obj, scene.frame_current)
+                volume = fluid_volume(obj, path) if path is not None else None
+                if volume is None or not reads_fluid_grids(obj):
+                    obj.hide_render = True  # nothing to render, as in Cycles
+                    hidden.append(obj)
+                else:
+                    BOXES[obj.name] = volume
+                    domains.append(obj.name)
+        for obj in rendered_volume_objects(scene):
+            if obj.hide_render:
                 continue
             path, _ = volume_file(obj)
             if path is None:
@@ -132,10 +343,14 @@ def as_boxes(scene):
             if VALUES_AT_INDEX:
                 BOXES[box.name]["values_at_index"] = True
             made.append(box)
-        if made:
+        if made or hidden:
             bpy.context.view_layer.update()
         yield
     finally:
+        for obj in hidden:
+            obj.hide_render = False
+        for name in domains:
+            BOXES.pop(name, None)
         for box in made:
             mesh = box.data
             BOXES.pop(box.name, None)

@@ -107,6 +107,9 @@ impl Grid {
     /// to the grid): the largest voxel value touching it.
     pub fn max_over(&self, lo: [i64; 3], hi: [i64; 3]) -> Vec3 {
         let mut most = Vec3::ZERO; // interpolation outside the voxels reaches zero too
+        if self.size.contains(&0) {
+            return most; // an empty grid (a fluid's flame before anything burns)
+        }
         let clamp = |v: i64, a: usize| v.clamp(0, self.size[a] as i64 - 1);
         for z in clamp(lo[2], 2)..=clamp(hi[2], 2) {
             for y in clamp(lo[1], 1)..=clamp(hi[1], 1) {
@@ -220,6 +223,17 @@ impl ActiveLeaves {
         })
     }
 
+    /// No leaf holds medium: the grids read have no voxel at or above the clipping value (as
+    /// Cycles builds no volume from them).
+    pub fn none(object_to_index: Affine3A) -> ActiveLeaves {
+        ActiveLeaves {
+            object_to_index,
+            first: [0; 3],
+            dims: [0; 3],
+            mask: Vec::new(),
+        }
+    }
+
     /// Whether object point `p` lies in a leaf that holds medium.
     pub fn contains(&self, p: Vec3) -> bool {
         let index = self.object_to_index.transform_point3(p);
@@ -259,6 +273,9 @@ impl MajorantGrid {
     /// The bound along the ray `origin + t dir` (object coordinates) at `t`, and where along
     /// the ray it stops holding (the ray leaves the block; infinite when it never does).
     pub fn along(&self, origin: Vec3, dir: Vec3, t: f32) -> (f32, f32) {
+        if self.values.is_empty() {
+            return (0.0, f32::INFINITY); // the blocks of a grid without voxels
+        }
         let o = self.object_to_voxel.transform_point3(origin);
         let d = self.object_to_voxel.transform_vector3(dir);
         let p = o + t * d;
@@ -319,6 +336,23 @@ mod tests {
             g.sample(Vec3::new(-5.0, 0.0, 0.0)),
             Vec4::new(0.0, 0.0, 0.0, 1.0)
         );
+    }
+
+    /// A grid without voxels (a fluid's flame before anything burns) is zero everywhere, and
+    /// so are its majorant's blocks; no leaf holds medium.
+    #[test]
+    fn an_empty_grid_is_zero_everywhere() {
+        let g = Grid::new("flame".into(), 1, [0, 0, 0], Vec::new(), Mat4::IDENTITY).unwrap();
+        assert_eq!(g.max_over([-4, -4, -4], [4, 4, 4]), Vec3::ZERO);
+        assert_eq!(g.sample(Vec3::ZERO).x, 0.0);
+        let blocks = MajorantGrid {
+            blocks: [0; 3],
+            edge: [1; 3],
+            values: Vec::new(),
+            object_to_voxel: Affine3A::IDENTITY,
+        };
+        assert_eq!(blocks.along(Vec3::ZERO, Vec3::X, 0.0), (0.0, f32::INFINITY));
+        assert!(!ActiveLeaves::none(Affine3A::IDENTITY).contains(Vec3::ZERO));
     }
 
     /// Leaves (8³ voxels at index multiples of 8) hold the medium where an active voxel or a

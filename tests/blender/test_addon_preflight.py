@@ -167,15 +167,15 @@ def test_other_rules(photon_addon):
 
 
 def test_volume_settings_photon_does_not_use_are_named(photon_addon):
-    """A smoke domain (its simulation is not rendered), a Volume Step Rate other than 1 (Photon
-    tracks volumes without steps) and a Volume object with modifiers: one message each."""
+    """A smoke domain without baked data (it renders nothing, as in Cycles), a Volume Step Rate
+    other than 1 (Photon tracks volumes without steps): one message each."""
     bpy.ops.wm.read_factory_settings()
     scene = bpy.context.scene
     domain = bpy.data.objects["Cube"].modifiers.new("Fluid", "FLUID")
     domain.fluid_type = "DOMAIN"
     scene.cycles.volume_step_rate = 4.0
     assert len(messages_for(scene)) == 2, messages_for(scene)
-    expected = ("object 'Cube': the smoke and fire of fluid domains",
+    expected = ("fluid domain 'Cube': no smoke or fire is rendered: it has no baked data",
                 "render settings: Volume Step Rate 4")
     for start in expected:
         assert sum(m.startswith(start) for m in messages_for(scene)) == 1, messages_for(scene)

@@ -26,7 +26,9 @@ sets them.
 - three overlapping Volume objects of one OpenVDB file at different scales (their media add);
 - a scaled Volume object in volume space World (its density per metre);
 - a Volume object emitting a constant colour: only where its voxels are (the leaves Cycles
-  builds its volume mesh from), not in the whole box.
+  builds its volume mesh from), not in the whole box;
+- a Volume object in a collection outside the scene, instanced twice by Empties: each instance
+  at its transform.
 """
 
 import math
@@ -318,3 +320,28 @@ def test_constant_emission_only_where_the_voxels_are(tmp_path):
     node.inputs["Emission Color"].default_value = (1.0, 0.5, 0.2, 1.0)
     volume_object("Glowing smoke", path, mat, (0.0, 0.0, 1.0), scale=0.9, rotation_z=15.0)
     compare("constant emission in smoke", scene, tmp_path, photon_spp=256)
+
+
+def test_instanced_openvdb_volume_objects(tmp_path):
+    """A Volume object of one OpenVDB file in a collection that is not in the scene, instanced
+    twice by Empties (collection instances) at different places, turns and scales: each
+    instance renders at its transform, as Cycles renders it."""
+    path = baked_smoke_vdb(tmp_path / "bake")
+    scene = floor_scene()
+    mat, node = volume_material("Smoke", "ShaderNodeVolumePrincipled")
+    node.inputs["Color"].default_value = (0.9, 0.5, 0.2, 1.0)
+    node.inputs["Density"].default_value = 6.0
+    smoke = volume_object("Smoke", path, mat, (0.0, 0.0, 0.0), scale=0.7)
+    scene.collection.objects.unlink(smoke)
+    group = bpy.data.collections.new("Smoke set")
+    group.objects.link(smoke)
+    for k, (x, turn, scale) in enumerate([(-0.9, 20.0, 1.0), (0.9, 70.0, 1.3)]):
+        empty = bpy.data.objects.new(f"Smoke instance {k}", None)
+        empty.instance_type = "COLLECTION"
+        empty.instance_collection = group
+        empty.location = (x, 0.2 * k, 0.9)
+        empty.rotation_euler = (0.0, 0.0, math.radians(turn))
+        empty.scale = (scale, scale, scale)
+        common.link(empty)
+    sun()
+    compare("instanced openvdb smoke", scene, tmp_path, photon_spp=256)

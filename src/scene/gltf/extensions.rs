@@ -244,6 +244,22 @@ pub(super) struct VolumeFile {
     /// A voxel's value sits at its index (Blender 5, OpenVDB's convention), else at index + ½
     /// (Blender 4).
     pub(super) values_at_index: bool,
+    /// Index space (a voxel's value at its index) → object space, column-major, in place of
+    /// the file's own transforms ("index_to_object": a fluid domain's grids fill its texture
+    /// space).
+    pub(super) index_to_object: Option<Mat4>,
+    /// Attributes read from a grid of another name through a linear map ("attributes").
+    pub(super) attributes: Vec<GridAttribute>,
+}
+
+/// An attribute the volume tree reads, made from grid `grid` of the file: each value `v`
+/// becomes `offset + scale * v`, or 0 where `v` is not above `above` (when given).
+pub(super) struct GridAttribute {
+    pub(super) name: String,
+    pub(super) grid: String,
+    pub(super) scale: f32,
+    pub(super) offset: f32,
+    pub(super) above: Option<f32>,
 }
 
 impl VolumeFile {
@@ -275,12 +291,43 @@ impl VolumeFile {
                 _ => return Err(fields.fail("'clipping' must be a number >= 0".into())),
             },
         };
+        let index_to_object = match fields.get("index_to_object") {
+            None => None,
+            Some(v) => Some(
+                numbers::<16>(v)
+                    .map(|m| Mat4::from_cols_array(&m))
+                    .filter(|m| m.is_finite() && m.determinant() != 0.0)
+                    .ok_or_else(|| {
+                        fields.fail(format!(
+                            "'index_to_object' must be 16 numbers of an invertible matrix, found {v}"
+                        ))
+                    })?,
+            ),
+        };
+        let mut attributes = Vec::new();
+        if let Some(map) = fields.object("attributes")? {
+            for (name, value) in map.object {
+                let entry = Fields::nested_in(value, map.inside(name))?;
+                let grid = entry
+                    .string("grid")?
+                    .ok_or_else(|| entry.fail("'grid' must be a string".into()))?;
+                attributes.push(GridAttribute {
+                    name: name.clone(),
+                    grid: grid.to_string(),
+                    scale: entry.number("scale", 1.0, any)?,
+                    offset: entry.number("offset", 0.0, any)?,
+                    above: entry.optional_number("above", any)?,
+                });
+            }
+        }
         Ok(VolumeFile {
             uri: uri.to_string(),
             grids,
             world_space,
             clipping,
             values_at_index: fields.flag("values_at_index", false)?,
+            index_to_object,
+            attributes,
         })
     }
 }
@@ -949,6 +996,57 @@ mod tests {
         assert_eq!(invalid.message, "'dust' is out of range: -1");
         let object = ObjectExtension::read(&json!({"visible_shadow": 0}));
         assert!(object.err().unwrap().message.contains("'visible_shadow'"));
+    }
+
+    /// A fluid domain's volume: its own index-to-object transform and attributes made from
+    /// grids of other names; a singular transform or an attribute without a grid is refused.
+    #[test]
+    fn fluid_volume_fields_are_read() {
+        let volume = |extra: Value| {
+            let mut value = json!({"uri": "fluid_data_0008.vdb"});
+            value
+                .as_object_mut()
+                .unwrap()
+                .extend(extra.as_object().unwrap().clone());
+            VolumeFile::read(&value)
+        };
+        let plain = volume(json!({})).unwrap();
+        assert!(plain.index_to_object.is_none() && plain.attributes.is_empty());
+        let matrix = [
+            0.125, 0., 0., 0., 0., 0.125, 0., 0., 0., 0., 0.25, 0., -0.9, -0.9, 0.1, 1.,
+        ];
+        let fluid = volume(json!({
+            "index_to_object": matrix,
+            "attributes": {"temperature": {"grid": "flame", "above": 0.01, "offset": 1.5,
+                                           "scale": 1.5},
+                           "heat": {"grid": "temperature", "scale": 0.5}}
+        }))
+        .unwrap();
+        assert_eq!(fluid.index_to_object, Some(Mat4::from_cols_array(&matrix)));
+        let heat = fluid.attributes.iter().find(|a| a.name == "heat").unwrap();
+        assert_eq!(
+            (heat.grid.as_str(), heat.scale, heat.offset, heat.above),
+            ("temperature", 0.5, 0.0, None)
+        );
+        let hot = fluid
+            .attributes
+            .iter()
+            .find(|a| a.name == "temperature")
+            .unwrap();
+        assert_eq!((hot.grid.as_str(), hot.above), ("flame", Some(0.01)));
+        let zeros = vec![0.0f32; 16];
+        let singular = volume(json!({ "index_to_object": zeros }));
+        assert!(singular
+            .err()
+            .unwrap()
+            .message
+            .contains("'index_to_object'"));
+        let gridless = volume(json!({"attributes": {"heat": {"scale": 0.5}}}));
+        let invalid = gridless.err().unwrap();
+        assert_eq!(
+            (invalid.at.as_str(), invalid.message.as_str()),
+            ("attributes heat", "'grid' must be a string")
+        );
     }
 
     #[test]

@@ -49,15 +49,17 @@ impl Loader {
         let mut active: Option<(Mat4, Vec<[i64; 3]>)> = None;
         let mut comparable = true;
         for name in wanted {
-            if !in_file.iter().any(|(n, _)| n == name) {
+            let alias = file.attributes.iter().find(|a| &a.name == name);
+            let source = alias.map_or(name, |a| &a.grid);
+            if !in_file.iter().any(|(n, _)| n == source) {
                 self.scene.warnings.push(format!(
-                    "{object}: its OpenVDB file {} has no grid '{name}'",
+                    "{object}: its OpenVDB file {} has no grid '{source}'",
                     path.display()
                 ));
                 continue;
             }
             let left = MAX_GRID_BYTES - self.grid_bytes;
-            let read = vdb::read_grid(&path, name, left).map_err(|e| {
+            let mut read = vdb::read_grid(&path, source, left).map_err(|e| {
                 self.err(
                     object,
                     format!(
@@ -66,6 +68,20 @@ impl Loader {
                     ),
                 )
             })?;
+            if let Some(alias) = alias {
+                read.name = name.clone();
+                for v in &mut read.values {
+                    let kept = alias.above.is_none_or(|above| *v > above);
+                    *v = if kept {
+                        alias.offset + alias.scale * *v
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            if let Some(index_to_object) = file.index_to_object {
+                read.index_to_local = index_to_object;
+            }
             if comparable {
                 let (space, list) = active.get_or_insert_with(|| (read.index_to_local, Vec::new()));
                 comparable = *space == read.index_to_local;
@@ -79,7 +95,9 @@ impl Loader {
             }
             // Blender 4 puts a voxel's value at the centre of its cell, index + ½; Blender 5 at
             // the index itself.
-            let offset = if file.values_at_index { 0.0 } else { 0.5 };
+            // A transform given with the file puts values at the index.
+            let at_index = file.values_at_index || file.index_to_object.is_some();
+            let offset = if at_index { 0.0 } else { 0.5 };
             let first = Vec3::from(read.origin.map(|i| i as f32 + offset));
             let voxel_to_object = read.index_to_local * Mat4::from_translation(first);
             let grid = Grid::new(
@@ -96,7 +114,11 @@ impl Loader {
         if let (true, Some((index_to_local, voxels))) = (comparable, active) {
             let object_to_index = Affine3A::from_mat4(index_to_local).inverse();
             if object_to_index.is_finite() {
-                grids.leaves = ActiveLeaves::of_voxels(object_to_index, voxels.into_iter());
+                // No voxel at or above the clipping value: no medium (Cycles builds none).
+                grids.leaves = Some(
+                    ActiveLeaves::of_voxels(object_to_index, voxels.into_iter())
+                        .unwrap_or_else(|| ActiveLeaves::none(object_to_index)),
+                );
             }
         }
         Ok((!grids.grids.is_empty()).then(|| Arc::new(grids)))
