@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Create or refresh the Python virtual environment used by the Blender-side tests and the
 # scripts in scenes/blender/: <repo>/.venv with Blender 4.5 LTS as a module (bpy, includes
-# Cycles), pytest, numpy and an OpenEXR reader.
+# Cycles), pytest with pytest-xdist (tests/run runs the Blender tests in two worker processes),
+# numpy and an OpenEXR reader.
 #
 # Idempotent: if the venv already holds the pinned packages it does nothing but report them.
 # Works from nothing on a fresh machine (needs python3.11 and access to PyPI).
@@ -21,7 +22,7 @@ if [[ -z "${PYTHON:-}" ]]; then
 fi
 
 # Pins. bpy==4.5.* is Blender 4.5 LTS; the others are loose lower bounds.
-PACKAGES=("bpy==4.5.*" "pytest>=7" "numpy>=1.24" "OpenEXR>=3.2")
+PACKAGES=("bpy==4.5.*" "pytest>=7" "pytest-xdist>=3" "numpy>=1.24" "OpenEXR>=3.2")
 
 die() { echo "setup_python.sh: ERROR: $*" >&2; exit 1; }
 log() { echo "setup_python.sh: $*"; }
@@ -31,16 +32,16 @@ check_venv() {
     "$VENV/bin/python" - <<'EOF' 2>/dev/null
 import importlib.metadata as md, sys
 ok = md.version("bpy").startswith("4.5.")
-for name in ("pytest", "numpy", "OpenEXR"):
+for name in ("pytest", "pytest-xdist", "numpy", "OpenEXR"):
     md.version(name)
-import numpy, OpenEXR  # noqa: F401  (bpy itself is slow to import; checked by metadata only)
+import numpy, OpenEXR, xdist  # noqa: F401  (bpy itself is slow to import; checked by metadata only)
 sys.exit(0 if ok else 1)
 EOF
 }
 
 if [[ -x "$VENV/bin/python" ]] && check_venv; then
     log "venv at $VENV already has ${PACKAGES[*]}; nothing to do"
-    "$VENV/bin/python" -c 'import importlib.metadata as m; print("setup_python.sh:", ", ".join(f"{p} {m.version(p)}" for p in ("bpy","pytest","numpy","OpenEXR")))'
+    "$VENV/bin/python" -c 'import importlib.metadata as m; print("setup_python.sh:", ", ".join(f"{p} {m.version(p)}" for p in ("bpy","pytest","pytest-xdist","numpy","OpenEXR")))'
     exit 0
 fi
 

@@ -4,7 +4,9 @@ Run with the project venv: `.venv/bin/python -m pytest tests/blender` (create it
 tests/setup_python.sh). Tests that render need $PHOTON_BINARY; without it they fail, never skip.
 
 Tests marked `slow` render Cycles references or take more than about 10 s; `-m "not slow"`
-leaves them out for a quick check, and tests/run runs them all.
+leaves them out for a quick check, and tests/run runs them all, in two pytest-xdist workers
+(`-n 2 --dist loadfile`: each file's tests in one worker, each worker with its own temporary
+directory and Cycles references).
 """
 
 import sys

@@ -13,6 +13,10 @@ never reads) and the output path are left out. A property the digest missed coul
 that differ only in it share one reference, and a Photon that ignored that property would then
 pass: every shared reference is named in the test's output ("shared with an earlier case"), so
 that a new parametrized test can be checked for it.
+
+Each pytest process keeps its own entries: with pytest-xdist every worker has its own folder
+(its own temporary directory), and tests/run hands each worker whole test files
+(`--dist loadfile`), so the cases that can share a reference meet in the same worker.
 """
 
 from __future__ import annotations

@@ -6,7 +6,11 @@
 //! stream. Each mutant must load to a valid scene or fail with a scene error, never panic; one in
 //! eight of the mutants that load is also rendered at 4 × 4 to catch panics downstream.
 //!
-//! `PHOTON_FUZZ_ITERATIONS` (default 200 per scene) runs it longer, e.g. for a night.
+//! A run mutates every scene `MUTANTS_PER_SCENE` times, mutants numbered from a first one that
+//! moves on by that many every day: each run is reproducible within its day, and the runs of
+//! successive days cover new mutants rather than repeating the same few. `PHOTON_FUZZ_ITERATIONS`
+//! runs more per scene (e.g. for a night), `PHOTON_FUZZ_FIRST` starts at a given mutant (a
+//! failure names the one to start at).
 
 use crate::support::gltf;
 use crate::support::scenes;
@@ -193,12 +197,26 @@ fn render_tiny(scene: &photon::scene::Scene) {
     assert!(image.rgba.iter().flatten().all(|v| v.is_finite()));
 }
 
+/// Mutants of every scene in one run.
+const MUTANTS_PER_SCENE: u64 = 40;
+
+fn env_number(name: &str) -> Option<u64> {
+    std::env::var(name).ok().and_then(|v| v.parse().ok())
+}
+
 #[test]
 fn mutated_scenes_load_or_fail_cleanly() {
-    let iterations: u64 = std::env::var("PHOTON_FUZZ_ITERATIONS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(200);
+    let iterations = env_number("PHOTON_FUZZ_ITERATIONS").unwrap_or(MUTANTS_PER_SCENE);
+    let first = env_number("PHOTON_FUZZ_FIRST").unwrap_or_else(|| {
+        let days = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |elapsed| elapsed.as_secs() / 86_400);
+        days * MUTANTS_PER_SCENE
+    });
+    eprintln!(
+        "fuzz: mutants {first}..{} of every scene",
+        first + iterations
+    );
     let (mut loaded, mut refused) = (0u64, 0u64);
     let mut files: Vec<(String, Vec<u8>)> = scene_files()
         .iter()
@@ -214,7 +232,7 @@ fn mutated_scenes_load_or_fail_cleanly() {
     ));
     for (file_index, (name, file)) in files.iter().enumerate() {
         let original = Glb::parse(file);
-        for i in 0..iterations {
+        for i in first..first + iterations {
             let mut rng = Rng::for_item(0xf022, file_index as u64, i);
             let (bytes, what) = mutate(&original, &mut rng);
             let outcome = std::panic::catch_unwind(|| {
@@ -236,7 +254,10 @@ fn mutated_scenes_load_or_fail_cleanly() {
                 Err(_) => {
                     let dump = std::env::temp_dir().join(format!("fuzz-{name}-{i}.glb"));
                     std::fs::write(&dump, &bytes).expect("write the failing mutant");
-                    panic!("{name}, mutation {i} ({what}) panicked; mutant in {dump:?}")
+                    panic!(
+                        "{name}, mutation {i} ({what}) panicked; mutant in {dump:?} \
+                         (PHOTON_FUZZ_FIRST={i} PHOTON_FUZZ_ITERATIONS=1 repeats it)"
+                    )
                 }
             }
         }

@@ -144,25 +144,28 @@ pub fn chi2_test(
     Ok(p)
 }
 
-/// Simpson's rule on a rectangle with a 3×3 stencil.
-fn simpson_2d(f: &impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
-    let (xm, ym) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let w = [1.0, 4.0, 1.0];
-    let xs = [x0, xm, x1];
-    let ys = [y0, ym, y1];
+const SIMPSON_WEIGHTS: [f64; 3] = [1.0, 4.0, 1.0];
+
+/// Simpson's rule on a rectangle from its 3×3 stencil of values: `values[i][j]` is `f` at the
+/// `i`-th of (x0, midpoint, x1) and the `j`-th of (y0, midpoint, y1).
+fn simpson_2d(values: &[[f64; 3]; 3], x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
     let mut sum = 0.0;
-    for (i, &x) in xs.iter().enumerate() {
-        for (j, &y) in ys.iter().enumerate() {
-            sum += w[i] * w[j] * f(x, y);
+    for (i, row) in values.iter().enumerate() {
+        for (j, &value) in row.iter().enumerate() {
+            sum += SIMPSON_WEIGHTS[i] * SIMPSON_WEIGHTS[j] * value;
         }
     }
     sum * (x1 - x0) * (y1 - y0) / 36.0
 }
 
-/// Adaptive Simpson integration of `f` over a rectangle, to absolute tolerance `tol`.
+/// Adaptive Simpson integration of `f` over a rectangle, to absolute tolerance `tol`. `values`
+/// is the rectangle's stencil and `whole` Simpson's rule over it. The four quarters' stencils
+/// are one 5×5 grid whose every other point is the parent's stencil, so a refinement evaluates
+/// `f` at the 16 new points only (the same points, so the same sums, as four separate stencils).
 #[allow(clippy::too_many_arguments)]
 fn adaptive_2d(
     f: &impl Fn(f64, f64) -> f64,
+    values: &[[f64; 3]; 3],
     x0: f64,
     x1: f64,
     y0: f64,
@@ -172,13 +175,31 @@ fn adaptive_2d(
     depth: u32,
 ) -> f64 {
     let (xm, ym) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let xs = [x0, 0.5 * (x0 + xm), xm, 0.5 * (xm + x1), x1];
+    let ys = [y0, 0.5 * (y0 + ym), ym, 0.5 * (ym + y1), y1];
+    let mut grid = [[0.0; 5]; 5];
+    for (a, row) in grid.iter_mut().enumerate() {
+        for (b, value) in row.iter_mut().enumerate() {
+            *value = if a % 2 == 0 && b % 2 == 0 {
+                values[a / 2][b / 2]
+            } else {
+                f(xs[a], ys[b])
+            };
+        }
+    }
+    // The quarters, each with the offset of its stencil in the grid.
     let quads = [
-        (x0, xm, y0, ym),
-        (xm, x1, y0, ym),
-        (x0, xm, ym, y1),
-        (xm, x1, ym, y1),
+        (x0, xm, y0, ym, 0, 0),
+        (xm, x1, y0, ym, 2, 0),
+        (x0, xm, ym, y1, 0, 2),
+        (xm, x1, ym, y1, 2, 2),
     ];
-    let parts = quads.map(|(a, b, c, d)| simpson_2d(f, a, b, c, d));
+    let stencils = quads.map(|(.., a, b)| {
+        std::array::from_fn::<_, 3, _>(|i| std::array::from_fn::<_, 3, _>(|j| grid[a + i][b + j]))
+    });
+    let parts: [f64; 4] = std::array::from_fn(|k| {
+        simpson_2d(&stencils[k], quads[k].0, quads[k].1, quads[k].2, quads[k].3)
+    });
     let sum: f64 = parts.iter().sum();
     // Converged when the refinement changes little in absolute or in relative terms.
     if depth == 0 || (sum - whole).abs() <= 15.0 * tol.max(1e-5 * sum.abs()) {
@@ -186,13 +207,16 @@ fn adaptive_2d(
     }
     quads
         .iter()
-        .zip(parts)
-        .map(|(&(a, b, c, d), part)| adaptive_2d(f, a, b, c, d, part, 0.25 * tol, depth - 1))
+        .zip(stencils.iter().zip(parts))
+        .map(|(&(a, b, c, d, ..), (values, part))| {
+            adaptive_2d(f, values, a, b, c, d, part, 0.25 * tol, depth - 1)
+        })
         .sum()
 }
 
 /// Integral of `f` over a rectangle: a fixed `pre`×`pre` grid (so narrow peaks are seen) refined
-/// adaptively.
+/// adaptively. Neighbouring cells share their edges' stencil points, so `f` is evaluated once on
+/// the (2 `pre` + 1)² points of the grid.
 pub fn integrate_2d(
     f: &impl Fn(f64, f64) -> f64,
     x0: f64,
@@ -202,16 +226,35 @@ pub fn integrate_2d(
     pre: usize,
     tol: f64,
 ) -> f64 {
-    let mut total = 0.0;
     let cell_tol = tol / (pre * pre) as f64;
+    let edges = |lo: f64, hi: f64| -> Vec<f64> {
+        (0..=pre)
+            .map(|i| lo + (hi - lo) * i as f64 / pre as f64)
+            .collect()
+    };
+    let (x_edges, y_edges) = (edges(x0, x1), edges(y0, y1));
+    // Cell edges at even indices, their midpoints at odd ones.
+    let points = |edges: &[f64]| -> Vec<f64> {
+        let mut out = vec![edges[0]];
+        for pair in edges.windows(2) {
+            out.extend([0.5 * (pair[0] + pair[1]), pair[1]]);
+        }
+        out
+    };
+    let (xs, ys) = (points(&x_edges), points(&y_edges));
+    let grid: Vec<Vec<f64>> = xs
+        .iter()
+        .map(|&x| ys.iter().map(|&y| f(x, y)).collect())
+        .collect();
+    let mut total = 0.0;
     for i in 0..pre {
         for j in 0..pre {
-            let a = x0 + (x1 - x0) * i as f64 / pre as f64;
-            let b = x0 + (x1 - x0) * (i + 1) as f64 / pre as f64;
-            let c = y0 + (y1 - y0) * j as f64 / pre as f64;
-            let d = y0 + (y1 - y0) * (j + 1) as f64 / pre as f64;
-            let whole = simpson_2d(f, a, b, c, d);
-            total += adaptive_2d(f, a, b, c, d, whole, cell_tol, 8);
+            let (a, b) = (x_edges[i], x_edges[i + 1]);
+            let (c, d) = (y_edges[j], y_edges[j + 1]);
+            let values: [[f64; 3]; 3] =
+                std::array::from_fn(|k| std::array::from_fn(|l| grid[2 * i + k][2 * j + l]));
+            let whole = simpson_2d(&values, a, b, c, d);
+            total += adaptive_2d(f, &values, a, b, c, d, whole, cell_tol, 8);
         }
     }
     total.max(0.0)
