@@ -318,14 +318,12 @@ pub fn eval_surface(
                 scene: t,
                 seed: r.seed,
             });
-            let mut s = from_closure(
-                material,
-                &program.eval_tracing(
-                    &sh.node_inputs(scene, program.needs_offsets, program.reads, view),
-                    &scene.textures,
-                    u,
-                    tracing.as_ref(),
-                ),
+            let mut s = program.eval_then(
+                &sh.node_inputs(scene, program.needs_offsets, program.reads, view),
+                &scene.textures,
+                u,
+                tracing.as_ref(),
+                |c| from_closure(material, c),
             );
             // Cycles' geometric and shading normals are the viewer's side's.
             let side = if view.backfacing { -1.0 } else { 1.0 };

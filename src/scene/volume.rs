@@ -61,16 +61,22 @@ impl Volume {
         let Some(program) = &self.program else {
             return Coefficients::VACUUM;
         };
-        let (inputs, density) = match object {
+        // Each `ShadingInputs` built where it is kept: a tuple of it would be a copy.
+        let inputs;
+        let density;
+        match object {
             Some((mesh, instance)) => {
-                let inputs = scene.volume_inputs(mesh, instance, p, time, &program.attributes);
+                inputs = scene.volume_inputs(mesh, instance, p, time, &program.attributes);
                 if !scene.holds_medium(mesh, instance, inputs.points[0].object) {
                     return Coefficients::VACUUM;
                 }
-                (inputs, scene.object_space_density(mesh, instance, time))
+                density = scene.object_space_density(mesh, instance, time);
             }
-            None => (world_volume_inputs(p), 1.0),
-        };
+            None => {
+                inputs = world_volume_inputs(p);
+                density = 1.0;
+            }
+        }
         let c = program.eval_volume(&inputs, &scene.textures);
         Coefficients {
             scattering: density * c.scattering,
@@ -175,6 +181,7 @@ impl Scene {
     /// them) at moment `time`: the position, and the Object and Generated coordinates of the
     /// object's texture space (what Cycles' volume shading points read), and the `named`
     /// attributes the object's grids have, sampled at the point.
+    #[allow(clippy::field_reassign_with_default)] // a literal with `..default()` copies more
     pub fn volume_inputs(
         &self,
         mesh: u32,
@@ -203,7 +210,9 @@ impl Scene {
             }
             None => (blender_axes(p), blender_axes(p)),
         };
-        let mut inputs = ShadingInputs::at_point(point);
+        // As `ShadingInputs::at_point`, built in place (its result moved here was a copy).
+        let mut inputs = ShadingInputs::default();
+        inputs.points = [point; 3];
         if let Some(grids) = &mesh.volume_grids {
             inputs.attributes = grid_attributes(grids, named, |g| g.sample(point.object));
         }

@@ -529,14 +529,14 @@ pub(super) fn transparent(color: Vec3) -> Closure {
 
 /// Mix Shader: `a` with probability 1 − t, else `b` (`u` picks, and is stretched back to
 /// [0, 1) for later picks), with their emissions mixed exactly.
-pub(super) fn mix_closures(u: &mut f32, t: f32, a: Closure, b: Closure) -> Closure {
+pub(super) fn mix_closures(u: &mut f32, t: f32, a: &Closure, b: &Closure) -> Closure {
     let emission = a.emission.lerp(b.emission, t);
     let mut picked = if *u < 1.0 - t {
         *u /= (1.0 - t).max(1e-12);
-        a
+        *a
     } else {
         *u = (*u - (1.0 - t)) / t.max(1e-12);
-        b
+        *b
     };
     *u = u.clamp(0.0, 0.999_999_94);
     picked.emission = emission;
@@ -668,7 +668,7 @@ pub(super) fn eval_principled(
     };
     let alpha = ins.float(ALPHA).clamp(0.0, 1.0);
     if alpha < 1.0 {
-        mix_closures(u, alpha, transparent(Vec3::ONE), principled)
+        mix_closures(u, alpha, &transparent(Vec3::ONE), &principled)
     } else {
         principled
     }
@@ -927,35 +927,38 @@ pub(super) fn eval_translucent(ins: &impl Operands) -> Closure {
 
 /// The Mix Shader: Fac, and the two shaders `a` and `b`.
 #[inline(always)]
-pub(super) fn eval_mix_shader(ins: &impl Operands, a: Closure, b: Closure, u: &mut f32) -> Closure {
+pub(super) fn eval_mix_shader(
+    ins: &impl Operands,
+    a: &Closure,
+    b: &Closure,
+    u: &mut f32,
+) -> Closure {
     const FAC: usize = input(MIX_SHADER_INPUTS, "Fac");
     let t = ins.float(FAC).clamp(0.0, 1.0);
-    let volume = combine(&a.volume, &b.volume, Some(t));
-    Closure {
-        volume,
-        ..mix_closures(u, t, a, b)
-    }
+    let mut mixed = mix_closures(u, t, a, b);
+    mixed.volume = combine(&a.volume, &b.volume, Some(t));
+    mixed
 }
 
 /// The Add Shader: emission summed; of two BSDFs one with probability ½, doubled.
 #[inline(always)]
-pub(super) fn eval_add_shader(a: Closure, b: Closure, u: &mut f32) -> Closure {
+pub(super) fn eval_add_shader(a: &Closure, b: &Closure, u: &mut f32) -> Closure {
     let emission = a.emission + b.emission;
-    let a_bsdf = !is_black_bsdf(&a);
-    let b_bsdf = !is_black_bsdf(&b);
+    let a_bsdf = !is_black_bsdf(a);
+    let b_bsdf = !is_black_bsdf(b);
     let mut picked = match (a_bsdf, b_bsdf) {
-        (true, false) => a,
-        (false, true) => b,
+        (true, false) => *a,
+        (false, true) => *b,
         _ => {
             // One of the two with probability ½, doubled: their sum on average, as
             // Cycles sums closures. A Transparent BSDF carries it in its colour,
             // which shadow rays read as their tint.
             let mut one = if *u < 0.5 {
                 *u *= 2.0;
-                a
+                *a
             } else {
                 *u = 2.0 * *u - 1.0;
-                b
+                *b
             };
             if one.transparent {
                 one.base_color *= 2.0;

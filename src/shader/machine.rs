@@ -25,8 +25,11 @@ pub(super) struct Machine {
 
 impl Machine {
     /// Run `program` on this thread's register file (one per thread, reused: clearing the
-    /// registers and closures the program uses costs far less than a fresh 6 KB file), and
-    /// return what `run` reads off it. Nothing is allocated per shading point.
+    /// registers the program uses costs far less than a fresh 15 KB machine), and return what
+    /// `run` reads off it. Nothing is allocated per shading point. The closure slots are not
+    /// cleared: the compiler gives each shader node its own slot and an instruction that
+    /// writes it whole, and a slot is read only by the nodes after its own (and the output),
+    /// so every slot a program reads it has written in the same run.
     fn with<R>(program: &NodeProgram, run: impl FnOnce(&mut Machine) -> R) -> R {
         thread_local! {
             static MACHINE: std::cell::RefCell<Box<Machine>> =
@@ -40,7 +43,6 @@ impl Machine {
             m.regs[..program.registers].fill(Vec4::ZERO);
             let end = program.registers + program.constants.len();
             m.regs[program.registers..end].copy_from_slice(&program.constants);
-            m.closures[..program.closures].fill(Closure::BLACK);
             run(&mut m)
         })
     }
@@ -68,13 +70,12 @@ impl NodeProgram {
     /// The medium a volume tree describes at the point `at` (what feeds a Volume socket: its
     /// scattering, absorption, emission and phase function).
     pub fn eval_volume(&self, at: &ShadingInputs, textures: &[Texture]) -> Coefficients {
-        let c = self.eval(at, textures, 0.5);
-        Coefficients {
+        self.eval_then(at, textures, 0.5, None, |c| Coefficients {
             scattering: c.volume.scattering,
             absorption: c.volume.absorption,
             emission: c.emission,
             phase: c.volume.phase,
-        }
+        })
     }
 }
 
@@ -96,31 +97,57 @@ impl NodeProgram {
         &self,
         at: &ShadingInputs,
         textures: &[Texture],
-        mut u: f32,
+        u: f32,
         tracing: Option<&Tracing>,
     ) -> Closure {
+        self.eval_then(at, textures, u, tracing, |c| *c)
+    }
+
+    /// `eval_tracing` handing the closure to `read` where the machine holds it, so that a
+    /// caller that keeps part of it does not copy the whole closure. `read` runs while this
+    /// thread's machine is in use: it must not evaluate a node program itself.
+    pub fn eval_then<R>(
+        &self,
+        at: &ShadingInputs,
+        textures: &[Texture],
+        mut u: f32,
+        tracing: Option<&Tracing>,
+        read: impl FnOnce(&Closure) -> R,
+    ) -> R {
         let Some(displacement) = &self.displacement else {
-            return self.eval_closure(at, textures, &mut u, tracing);
+            return self.eval_closure(at, textures, &mut u, tracing, None, read);
         };
         let n = displacement.eval_vector(at, textures, tracing);
         let bumped = ShadingInputs { normal: n, ..*at };
-        let mut c = self.eval_closure(&bumped, textures, &mut u, tracing);
-        if c.normal == Vec3::ZERO {
-            c.normal = n;
-        }
-        c
+        self.eval_closure(&bumped, textures, &mut u, tracing, Some(n), read)
     }
 
-    fn eval_closure(
+    /// Run the program and hand its closure to `read`; with `unlinked_normal`, the normal of
+    /// a closure without one (zero) is set to it first.
+    fn eval_closure<R>(
         &self,
         at: &ShadingInputs,
         textures: &[Texture],
         u: &mut f32,
         tracing: Option<&Tracing>,
-    ) -> Closure {
+        unlinked_normal: Option<Vec3>,
+        read: impl FnOnce(&Closure) -> R,
+    ) -> R {
         Machine::with(self, |m| {
             run_all(&self.instrs, at, textures, tracing, m, u);
-            read_closure(m, self.output)
+            let c = match self.output {
+                Src::Closure(k) => &mut m.closures[k as usize],
+                _ => {
+                    m.closures[0] = Closure::BLACK;
+                    &mut m.closures[0]
+                }
+            };
+            if let Some(n) = unlinked_normal {
+                if c.normal == Vec3::ZERO {
+                    c.normal = n;
+                }
+            }
+            read(c)
         })
     }
 
@@ -239,10 +266,11 @@ impl Operands for Reader<'_> {
     }
 }
 
-pub(super) fn read_closure(m: &Machine, s: Src) -> Closure {
+/// The closure `s` names (black when it names none), where the machine holds it.
+pub(super) fn read_closure(m: &Machine, s: Src) -> &Closure {
     match s {
-        Src::Closure(c) => m.closures[c as usize],
-        _ => Closure::BLACK,
+        Src::Closure(c) => &m.closures[c as usize],
+        _ => &Closure::BLACK,
     }
 }
 
