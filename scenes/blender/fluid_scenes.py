@@ -176,22 +176,15 @@ def smoke_scene(folder, size=48, flow_type="SMOKE", frames=8, resolution=16):
 
 
 def main(out_dir: Path):
-    import blender_addon
-    from blender_addon import export
+    from volume_scenes import save_scenes
 
-    blender_addon.register()
+    def build(flow_type, name):
+        return lambda out: smoke_scene((out / f"{name}_cache").resolve(), 64, flow_type, 12, 32)
+
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        for name, flow_type in (("fluid_smoke", "SMOKE"), ("fluid_fire", "FIRE")):
-            smoke_scene((out_dir / f"{name}_cache").resolve(), 64, flow_type, 12, 32)
-            blend = out_dir / f"{name}.blend"
-            bpy.ops.wm.save_as_mainfile(filepath=str(blend.resolve()))
-            glb = out_dir / f"{name}.glb"
-            for warning in export.export_in_process(glb, "blender_addon"):
-                print(f"{name}: export warning: {warning}")
-            print(f"wrote {blend} and {glb}")
+        save_scenes(out_dir, [(name, build(flow_type, name))
+                              for name, flow_type in (("fluid_smoke", "SMOKE"), ("fluid_fire", "FIRE"))])
     finally:
-        blender_addon.unregister()
         # A fluid domain still loaded when the process ends makes bpy's Mantaflow abort it.
         bpy.ops.wm.read_factory_settings(use_empty=True)
 

@@ -40,6 +40,25 @@ import common  # noqa: E402
 SIZE = 64
 
 
+def floor_scene(size, world=0.05, camera=((0.0, -4.0, 3.0), (53.0, 0.0, 0.0))):
+    """A fresh `size` x `size` scene: a diffuse 6 m floor, a 45-degree camera (`camera`: its
+    location and rotation in degrees; by default looking down at the origin) and a white world
+    of strength `world`."""
+    scene = common.reset_scene(size, size)
+    background = scene.world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    background.inputs["Strength"].default_value = world
+    floor = common.principled("Floor", (0.8, 0.8, 0.8), roughness=1.0)
+    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
+    common.camera("Camera", camera[0], camera[1], 45.0)
+    return scene
+
+
+def sun(strength=3.0, rotation=(30.0, 10.0, 40.0)):
+    """A sun of `strength` W/m² turned by `rotation` (degrees)."""
+    common.light("Sun", "SUN", (0, 0, 5), rotation, energy=strength)
+
+
 def shader_material(name, kind, socket, **inputs):
     """A material of one shader node `kind` (a bl_idname) with `inputs` set, into the Material
     Output's `socket` (Surface or Volume; the other unlinked). Returns (material, node)."""
@@ -268,15 +287,17 @@ def vdb_smoke(out_dir, size=SIZE, resolution=256):
 SCENES = {"glass_fog": glass_fog, "god_rays": god_rays, "vdb_smoke": vdb_smoke}
 
 
-def main(out_dir: Path):
+def save_scenes(out_dir: Path, builds):
+    """For each `(name, build)` of `builds`: `build(out_dir)` makes the scene, which is saved as
+    OUT_DIR/name.blend and exported through the add-on as OUT_DIR/name.glb."""
     import blender_addon
     from blender_addon import export
 
     blender_addon.register()
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
-        for name, build in SCENES.items():
-            build(out_dir) if build is vdb_smoke else build()
+        for name, build in builds:
+            build(out_dir)
             blend = out_dir / f"{name}.blend"
             bpy.ops.wm.save_as_mainfile(filepath=str(blend.resolve()))
             glb = out_dir / f"{name}.glb"
@@ -285,6 +306,11 @@ def main(out_dir: Path):
             print(f"wrote {blend} and {glb}")
     finally:
         blender_addon.unregister()
+
+
+def main(out_dir: Path):
+    save_scenes(out_dir, [(name, lambda out, build=build: build(out) if build is vdb_smoke else build())
+                          for name, build in SCENES.items()])
 
 
 if __name__ == "__main__":

@@ -32,6 +32,7 @@ import common
 import reference_cache
 import scenes_bpy
 from cycles_compare import compare
+import volume_scenes
 from fluid_scenes import bake_gas, fire_material, principled_volume_material, smoke_material
 
 SIZE = 40
@@ -49,20 +50,14 @@ def _addon(photon_addon, binary_env, monkeypatch):
 
 
 def floor_scene(world=0.05):
-    scene = common.reset_scene(SIZE, SIZE)
-    background = scene.world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    background.inputs["Strength"].default_value = world
-    floor = common.principled("Floor", (0.8, 0.8, 0.8), roughness=1.0)
-    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
-    common.camera("Camera", (0.0, -5.0, 2.5), (75.0, 0.0, 0.0), 45.0)
-    return scene
+    """A fresh scene of this file's size (`volume_scenes.floor_scene`), the camera lower."""
+    return volume_scenes.floor_scene(SIZE, world, ((0.0, -5.0, 2.5), (75.0, 0.0, 0.0)))
 
 
 def test_baked_smoke(tmp_path):
     scene = floor_scene()
     bake_gas(tmp_path / "cache", "SMOKE", scale=0.8, material=smoke_material())
-    common.light("Sun", "SUN", (0, 0, 5), (30.0, 10.0, 40.0), energy=3.0)
+    volume_scenes.sun()
     compare("fluid smoke", scene, tmp_path, photon_spp=256, cycles_spp=1024)
 
 
@@ -70,7 +65,7 @@ def test_baked_smoke_with_noise(tmp_path):
     """Noise (2x upres): Cycles renders the noise file's density, 32 cells a side."""
     scene = floor_scene()
     bake_gas(tmp_path / "cache", "SMOKE", material=smoke_material(), noise=True)
-    common.light("Sun", "SUN", (0, 0, 5), (30.0, 10.0, 40.0), energy=3.0)
+    volume_scenes.sun()
     compare("fluid smoke with noise", scene, tmp_path, photon_spp=256, cycles_spp=1024)
 
 

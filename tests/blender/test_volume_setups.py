@@ -22,7 +22,8 @@ import pytest
 
 import common
 from cycles_compare import compare
-from volume_scenes import cube, shader_material, sphere, volume_material
+import volume_scenes
+from volume_scenes import cube, shader_material, sphere, sun, volume_material
 
 SIZE = 32
 
@@ -35,20 +36,8 @@ def _addon(photon_addon, binary_env):
 
 
 def floor_scene(world=0.05, cam=((0.0, -4.0, 3.0), (53.0, 0.0, 0.0))):
-    """A fresh scene: a diffuse 6 m floor, a camera (`cam`: location and rotation in degrees),
-    a white world of strength `world`."""
-    scene = common.reset_scene(SIZE, SIZE)
-    bg = scene.world.node_tree.nodes["Background"]
-    bg.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    bg.inputs["Strength"].default_value = world
-    floor = common.principled("Floor", (0.8, 0.8, 0.8), roughness=1.0)
-    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
-    common.camera("Camera", cam[0], cam[1], 45.0)
-    return scene
-
-
-def sun(strength=3.0, rotation=(30.0, 10.0, 40.0)):
-    common.light("Sun", "SUN", (0, 0, 5), rotation, energy=strength)
+    """A fresh scene of this file's size (`volume_scenes.floor_scene`)."""
+    return volume_scenes.floor_scene(SIZE, world, cam)
 
 
 def glass_volume_material(name, volume_kind, **volume_inputs):

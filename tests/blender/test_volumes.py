@@ -39,7 +39,8 @@ import pytest
 import common
 from cycles_compare import compare
 from helpers import rel_mse
-from volume_scenes import (baked_smoke_vdb, checker_vdb, cube, fire_vdb, glass_fog, god_rays, shader_material, sphere,
+import volume_scenes
+from volume_scenes import (baked_smoke_vdb, checker_vdb, cube, fire_vdb, glass_fog, god_rays, shader_material, sphere, sun,
                            volume_material, volume_object)
 
 SIZE = 32
@@ -59,19 +60,8 @@ def block_means(image, k=4):
 
 
 def floor_scene(world=0.05):
-    """A fresh scene: a diffuse 6 m floor, a camera looking down at the origin, a dim world."""
-    scene = common.reset_scene(SIZE, SIZE)
-    bg = scene.world.node_tree.nodes["Background"]
-    bg.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    bg.inputs["Strength"].default_value = world
-    floor = common.principled("Floor", (0.8, 0.8, 0.8), roughness=1.0)
-    common.quad("Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor)
-    common.camera("Camera", (0.0, -4.0, 3.0), (53.0, 0.0, 0.0), 45.0)
-    return scene
-
-
-def sun(strength=3.0, rotation=(30.0, 10.0, 40.0)):
-    common.light("Sun", "SUN", (0, 0, 5), rotation, energy=strength)
+    """A fresh scene of this file's size (`volume_scenes.floor_scene`)."""
+    return volume_scenes.floor_scene(SIZE, world)
 
 
 @pytest.mark.parametrize("method", ["PATH", "PHOTON"])
