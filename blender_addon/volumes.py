@@ -47,6 +47,16 @@ READ_TYPES = ("FLOAT", "DOUBLE", "VECTOR_FLOAT", "VECTOR_DOUBLE")
 VALUES_AT_INDEX = bpy.app.version >= (5, 0, 0)
 
 
+def medium_extent(scene) -> str:
+    """Which part of a Volume object's box Cycles fills with its medium (`PHOTON_object`
+    "volume" "extent"): Blender 5's unbiased volumes fill the bounding box of the voxels at or
+    above the Clipping value, grown by one voxel ("bounds"); Blender 4, and Blender 5 when
+    Light Paths > Volumes > Biased ray-marches them, fill the OpenVDB leaves (8³ voxels)
+    holding such voxels ("leaves")."""
+    biased = getattr(getattr(scene, "cycles", None), "volume_biased", False)
+    return "bounds" if VALUES_AT_INDEX and not biased else "leaves"
+
+
 def volume_file(obj) -> tuple[str | None, str | None]:
     """`(path, None)`: the absolute path of the OpenVDB file `obj` (a Volume object) shows at
     the current frame; `(None, reason)` when Photon cannot read its grids."""
@@ -142,9 +152,9 @@ def vdb_resolution(path) -> tuple[int, int, int] | None:
     return None
 
 
-def fluid_volume(obj, path) -> dict | None:
-    """The `PHOTON_object` "volume" of fluid domain `obj` whose frame's grids are in `path`
-    (module documentation), or None when the file's grid size is not found."""
+def fluid_volume(obj, path, scene) -> dict | None:
+    """The `PHOTON_object` "volume" of fluid domain `obj` of `scene` whose frame's grids are in
+    `path` (module documentation), or None when the file's grid size is not found."""
     settings = fluid_domain(obj)
     resolution = vdb_resolution(path)
     if resolution is None or min(resolution) <= 0:
@@ -167,6 +177,7 @@ def fluid_volume(obj, path) -> dict | None:
             "grids": sorted(attributes),
             "space": "world",
             "clipping": settings.clipping,
+            "extent": medium_extent(scene),
             "values_at_index": True,
             "index_to_object": [cell[0], 0.0, 0.0, 0.0, 0.0, cell[1], 0.0, 0.0,
                                 0.0, 0.0, cell[2], 0.0, *first, 1.0],
@@ -313,7 +324,7 @@ def as_boxes(scene):
         for obj in list(scene.objects):
             if obj.type == "MESH" and not obj.hide_render and fluid_domain(obj) is not None:
                 path, _ = fluid_file(obj, scene.frame_current)
-                volume = fluid_volume(obj, path) if path is not None else None
+                volume = fluid_volume(obj, path, scene) if path is not None else None
                 if volume is None or not reads_fluid_grids(obj):
                     obj.hide_render = True  # nothing to render, as in Cycles
                     hidden.append(obj)
@@ -339,7 +350,8 @@ def as_boxes(scene):
                                "grids": [g.name for g in obj.data.grids
                                          if g.data_type in READ_TYPES],
                                "space": obj.data.render.space.lower(),
-                               "clipping": obj.data.render.clipping}
+                               "clipping": obj.data.render.clipping,
+                               "extent": medium_extent(scene)}
             if VALUES_AT_INDEX:
                 BOXES[box.name]["values_at_index"] = True
             made.append(box)

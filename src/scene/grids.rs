@@ -163,38 +163,61 @@ pub struct VolumeGrids {
     /// The medium's density is per unit of world length (Blender's volume space "World"),
     /// not of the object's own ("Object", the default: `Scene::object_space_density`).
     pub world_space: bool,
-    /// Where the medium is (`ActiveLeaves`); `None`: the whole box.
-    pub leaves: Option<ActiveLeaves>,
+    /// Where the medium is; `None`: the whole box.
+    pub extent: Option<MediumExtent>,
 }
 
-/// The part of a Volume object that holds its medium, as Cycles bounds it: the voxels of the
-/// grids its material reads whose value reaches the volume's Clipping (Blender's
-/// `volume.render.clipping`), grown by one voxel to each face neighbour (linear
-/// interpolation's reach), and every OpenVDB leaf node (8³ voxels, at index multiples of 8)
-/// holding one of them. Cycles builds the mesh it renders the medium in from those leaves;
-/// outside them a tree that does not follow the grids (a constant emission) has no medium.
+/// Which part of a Volume object's box holds its medium, as Cycles bounds it. Both rules
+/// start from the voxels of the grids its material reads whose value reaches the volume's
+/// Clipping (Blender's `volume.render.clipping`), grown by one voxel to each face neighbour
+/// (linear interpolation's reach); outside the part, a tree that does not follow the grids (a
+/// constant emission) has no medium.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExtentRule {
+    /// Every OpenVDB leaf node (8³ voxels, at index multiples of 8) holding one of those
+    /// voxels: the mesh Cycles 4 builds, and Cycles 5 when it ray-marches volumes.
+    Leaves,
+    /// The bounding box of those voxels: the mesh Cycles 5 builds for its unbiased (null
+    /// scattering) volumes.
+    Bounds,
+}
+
+/// The part of a Volume object that holds its medium (`ExtentRule`): cells of whole voxels
+/// in the grids' index space, each holding medium or not.
 #[derive(Debug)]
-pub struct ActiveLeaves {
-    /// Object coordinates → the grids' OpenVDB index coordinates (voxel centres at whole
-    /// indices).
+pub struct MediumExtent {
+    /// Object coordinates → the grids' OpenVDB index coordinates (voxel `i` spans `i..i + 1`).
     pub object_to_index: Affine3A,
-    /// The first leaf (index ÷ 8) of the mask and the leaves per axis.
-    pub first: [i64; 3],
+    /// Where the first cell starts (an index), each cell's edge in voxels and the cells per
+    /// axis.
+    pub start: [i64; 3],
+    pub cell: [i64; 3],
     pub dims: [usize; 3],
-    /// Whether each leaf holds medium, x fastest.
+    /// Whether each cell holds medium, x fastest.
     pub mask: Vec<bool>,
 }
 
 /// Voxels per OpenVDB leaf node edge.
 const LEAF: i64 = 8;
 
-impl ActiveLeaves {
-    /// The leaves of the voxels at `indices` (OpenVDB index coordinates), each grown by one
-    /// voxel to its face neighbours; `None` when there are none.
+impl MediumExtent {
+    /// The part of the voxels at `indices` (OpenVDB index coordinates), each grown by one
+    /// voxel to its face neighbours, that `rule` makes; `None` when there are none.
     pub fn of_voxels(
+        rule: ExtentRule,
         object_to_index: Affine3A,
         indices: impl Iterator<Item = [i64; 3]>,
-    ) -> Option<ActiveLeaves> {
+    ) -> Option<MediumExtent> {
+        match rule {
+            ExtentRule::Leaves => Self::leaves(object_to_index, indices),
+            ExtentRule::Bounds => Self::bounds(object_to_index, indices),
+        }
+    }
+
+    fn leaves(
+        object_to_index: Affine3A,
+        indices: impl Iterator<Item = [i64; 3]>,
+    ) -> Option<MediumExtent> {
         let mut leaves = std::collections::HashSet::new();
         for v in indices {
             leaves.insert(v.map(|i| i.div_euclid(LEAF)));
@@ -215,36 +238,57 @@ impl ActiveLeaves {
             let [x, y, z] = [0, 1, 2].map(|a| (l[a] - first[a]) as usize);
             mask[(z * dims[1] + y) * dims[0] + x] = true;
         }
-        Some(ActiveLeaves {
+        Some(MediumExtent {
             object_to_index,
-            first,
+            start: first.map(|f| f * LEAF),
+            cell: [LEAF; 3],
             dims,
             mask,
         })
     }
 
-    /// No leaf holds medium: the grids read have no voxel at or above the clipping value (as
-    /// Cycles builds no volume from them).
-    pub fn none(object_to_index: Affine3A) -> ActiveLeaves {
-        ActiveLeaves {
+    /// One cell: from the lowest voxel less one to the highest plus one, per axis.
+    fn bounds(
+        object_to_index: Affine3A,
+        indices: impl Iterator<Item = [i64; 3]>,
+    ) -> Option<MediumExtent> {
+        let mut range: Option<([i64; 3], [i64; 3])> = None;
+        for v in indices {
+            let (lo, hi) = range.get_or_insert((v, v));
+            for a in 0..3 {
+                lo[a] = lo[a].min(v[a]);
+                hi[a] = hi[a].max(v[a]);
+            }
+        }
+        let (lo, hi) = range?;
+        Some(MediumExtent {
             object_to_index,
-            first: [0; 3],
+            start: lo.map(|i| i - 1),
+            cell: [0, 1, 2].map(|a| hi[a] - lo[a] + 3),
+            dims: [1; 3],
+            mask: vec![true],
+        })
+    }
+
+    /// Nothing holds medium: the grids read have no voxel at or above the clipping value (as
+    /// Cycles builds no volume from them).
+    pub fn none(object_to_index: Affine3A) -> MediumExtent {
+        MediumExtent {
+            object_to_index,
+            start: [0; 3],
+            cell: [1; 3],
             dims: [0; 3],
             mask: Vec::new(),
         }
     }
 
-    /// Whether object point `p` lies in a leaf that holds medium.
+    /// Whether object point `p` lies in a cell that holds medium.
     pub fn contains(&self, p: Vec3) -> bool {
         let index = self.object_to_index.transform_point3(p);
         let mut at = [0usize; 3];
         for a in 0..3 {
-            let leaf = (index[a] / LEAF as f32).floor();
-            if !leaf.is_finite() {
-                return false;
-            }
-            let k = leaf as i64 - self.first[a];
-            if k < 0 || k >= self.dims[a] as i64 {
+            let k = ((index[a] as f64 - self.start[a] as f64) / self.cell[a] as f64).floor();
+            if !(k >= 0.0 && k < self.dims[a] as f64) {
                 return false;
             }
             at[a] = k as usize;
@@ -352,7 +396,7 @@ mod tests {
             object_to_voxel: Affine3A::IDENTITY,
         };
         assert_eq!(blocks.along(Vec3::ZERO, Vec3::X, 0.0), (0.0, f32::INFINITY));
-        assert!(!ActiveLeaves::none(Affine3A::IDENTITY).contains(Vec3::ZERO));
+        assert!(!MediumExtent::none(Affine3A::IDENTITY).contains(Vec3::ZERO));
     }
 
     /// Leaves (8³ voxels at index multiples of 8) hold the medium where an active voxel or a
@@ -361,8 +405,10 @@ mod tests {
     fn active_leaves_are_the_leaves_of_the_voxels_and_their_neighbours() {
         // Object coordinates are index coordinates halved.
         let object_to_index = Affine3A::from_scale(Vec3::splat(2.0));
+        let voxels = [[0, 0, 0], [20, 3, 3]];
         let leaves =
-            ActiveLeaves::of_voxels(object_to_index, [[0, 0, 0], [20, 3, 3]].into_iter()).unwrap();
+            MediumExtent::of_voxels(ExtentRule::Leaves, object_to_index, voxels.into_iter())
+                .unwrap();
         let at = |i: [f32; 3]| leaves.contains(Vec3::from(i) * 0.5);
         assert!(at([3.0, 3.0, 3.0]) && at([7.9, 0.0, 0.0]));
         // Voxel 0's neighbour −1 lies in leaf −1; leaf 1 (indices 8..16) holds nothing.
@@ -370,7 +416,25 @@ mod tests {
         assert!(!at([12.0, 3.0, 3.0]) && !at([3.0, 12.0, 3.0]));
         assert!(at([16.0, 0.0, 0.0]) && at([23.9, 7.0, 7.0]));
         assert!(!at([30.0, 3.0, 3.0]) && !at([f32::NAN, 0.0, 0.0]));
-        assert!(ActiveLeaves::of_voxels(object_to_index, std::iter::empty()).is_none());
+        let none = std::iter::empty();
+        assert!(MediumExtent::of_voxels(ExtentRule::Leaves, object_to_index, none).is_none());
+    }
+
+    /// The bounds rule holds the medium in the box from the lowest voxel less one to the
+    /// highest plus one (voxel `i` spanning indices `i..i + 1`), leaves or not.
+    #[test]
+    fn bounds_are_the_box_of_the_voxels_grown_by_one() {
+        let object_to_index = Affine3A::from_scale(Vec3::splat(2.0));
+        let voxels = [[0, 0, 0], [2, 0, 0]];
+        let bounds =
+            MediumExtent::of_voxels(ExtentRule::Bounds, object_to_index, voxels.into_iter())
+                .unwrap();
+        let at = |i: [f32; 3]| bounds.contains(Vec3::from(i) * 0.5);
+        assert!(at([-1.0, -1.0, -1.0]) && at([3.99, 1.99, 1.99]) && at([1.5, 0.5, 0.5]));
+        assert!(!at([-1.01, 0.0, 0.0]) && !at([4.0, 0.0, 0.0]) && !at([0.0, 2.0, 0.0]));
+        assert!(!at([0.0, 0.0, f32::NAN]));
+        let none = std::iter::empty();
+        assert!(MediumExtent::of_voxels(ExtentRule::Bounds, object_to_index, none).is_none());
     }
 
     #[test]

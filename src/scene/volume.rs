@@ -220,8 +220,8 @@ impl Scene {
     }
 
     /// Whether object point `object_point` of the object of `mesh` and `instance` (as
-    /// `volume_inputs` has them) holds its medium: inside a Volume object's active leaves
-    /// (`grids::ActiveLeaves`), anywhere in other objects.
+    /// `volume_inputs` has them) holds its medium: inside a Volume object's extent
+    /// (`grids::MediumExtent`), anywhere in other objects.
     fn holds_medium(&self, mesh: u32, instance: u32, object_point: Vec3) -> bool {
         let stored = match self.instances.get(instance as usize) {
             Some(inst) => &self.prototypes[inst.prototype as usize],
@@ -230,8 +230,8 @@ impl Scene {
         stored
             .volume_grids
             .as_ref()
-            .and_then(|g| g.leaves.as_ref())
-            .is_none_or(|leaves| leaves.contains(object_point))
+            .and_then(|g| g.extent.as_ref())
+            .is_none_or(|extent| extent.contains(object_point))
     }
 
     /// How many times denser per unit of world length the medium inside the object of `mesh`

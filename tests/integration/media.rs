@@ -132,7 +132,7 @@ fn a_density_grid_attenuates_by_its_value_along_the_ray() {
         grids: vec![grid],
         majorant: None,
         world_space: false,
-        leaves: None,
+        extent: None,
     }));
     // Object coordinates: the world's in Blender's axes (as a Volume object at the origin).
     s.meshes[0].object_space = Some(ObjectSpace {

@@ -83,7 +83,7 @@ fn scaled_smoke(scale: f32, world_space: bool) -> Scene {
         grids: vec![grid],
         majorant: None,
         world_space,
-        leaves: None,
+        extent: None,
     }));
     s.meshes[0].object_space = Some(ObjectSpace {
         to_object: Affine3A::from_mat3(

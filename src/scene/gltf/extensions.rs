@@ -11,6 +11,7 @@ use crate::color_space::WorkingSpace;
 use crate::error::Error;
 use crate::film::{FilterKind, FilterSettings};
 use crate::math::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+use crate::scene::grids::ExtentRule;
 use crate::scene::sky::NishitaSettings;
 use crate::scene::{Lamp, LightLinks, Projection, Subsurface, SubsurfaceMethod, ThinLens};
 use serde_json::Value;
@@ -244,6 +245,9 @@ pub(super) struct VolumeFile {
     /// A voxel's value sits at its index (Blender 5, OpenVDB's convention), else at index + ½
     /// (Blender 4).
     pub(super) values_at_index: bool,
+    /// Which part of the box holds the medium ("extent": "leaves", the default, or
+    /// "bounds").
+    pub(super) extent: ExtentRule,
     /// Index space (a voxel's value at its index) → object space, column-major, in place of
     /// the file's own transforms ("index_to_object": a fluid domain's grids fill its texture
     /// space).
@@ -281,6 +285,15 @@ impl VolumeFile {
             Some(other) => {
                 return Err(fields.fail(format!(
                     "'space' must be \"object\" or \"world\", not \"{other}\""
+                )))
+            }
+        };
+        let extent = match fields.string("extent")? {
+            None | Some("leaves") => ExtentRule::Leaves,
+            Some("bounds") => ExtentRule::Bounds,
+            Some(other) => {
+                return Err(fields.fail(format!(
+                    "'extent' must be \"leaves\" or \"bounds\", not \"{other}\""
                 )))
             }
         };
@@ -326,6 +339,7 @@ impl VolumeFile {
             world_space,
             clipping,
             values_at_index: fields.flag("values_at_index", false)?,
+            extent,
             index_to_object,
             attributes,
         })

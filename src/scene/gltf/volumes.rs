@@ -6,7 +6,7 @@ use super::container::Loader;
 use super::extensions::VolumeFile;
 use crate::error::Result;
 use crate::math::{Affine3A, Mat4, Vec3};
-use crate::scene::grids::{ActiveLeaves, Grid, VolumeGrids, MAX_GRID_BYTES};
+use crate::scene::grids::{Grid, MediumExtent, VolumeGrids, MAX_GRID_BYTES};
 use crate::scene::vdb;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -115,9 +115,9 @@ impl Loader {
             let object_to_index = Affine3A::from_mat4(index_to_local).inverse();
             if object_to_index.is_finite() {
                 // No voxel at or above the clipping value: no medium (Cycles builds none).
-                grids.leaves = Some(
-                    ActiveLeaves::of_voxels(object_to_index, voxels.into_iter())
-                        .unwrap_or_else(|| ActiveLeaves::none(object_to_index)),
+                grids.extent = Some(
+                    MediumExtent::of_voxels(file.extent, object_to_index, voxels.into_iter())
+                        .unwrap_or_else(|| MediumExtent::none(object_to_index)),
                 );
             }
         }
