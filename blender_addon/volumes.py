@@ -57,6 +57,16 @@ def medium_extent(scene) -> str:
     return "bounds" if VALUES_AT_INDEX and not biased else "leaves"
 
 
+def grid_fields(scene) -> dict:
+    """The `PHOTON_object` "volume" fields that say how this Blender's Cycles reads grids:
+    where a voxel's value sits, how lookups interpolate (Blender 5 reads one voxel drawn by
+    the trilinear weights, Blender 4 their weighted sum) and which part holds the medium."""
+    fields = {"extent": medium_extent(scene)}
+    if VALUES_AT_INDEX:
+        fields.update(values_at_index=True, interpolation="stochastic")
+    return fields
+
+
 def volume_file(obj) -> tuple[str | None, str | None]:
     """`(path, None)`: the absolute path of the OpenVDB file `obj` (a Volume object) shows at
     the current frame; `(None, reason)` when Photon cannot read its grids."""
@@ -177,7 +187,7 @@ def fluid_volume(obj, path, scene) -> dict | None:
             "grids": sorted(attributes),
             "space": "world",
             "clipping": settings.clipping,
-            "extent": medium_extent(scene),
+            **grid_fields(scene),
             "values_at_index": True,
             "index_to_object": [cell[0], 0.0, 0.0, 0.0, 0.0, cell[1], 0.0, 0.0,
                                 0.0, 0.0, cell[2], 0.0, *first, 1.0],
@@ -351,9 +361,7 @@ def as_boxes(scene):
                                          if g.data_type in READ_TYPES],
                                "space": obj.data.render.space.lower(),
                                "clipping": obj.data.render.clipping,
-                               "extent": medium_extent(scene)}
-            if VALUES_AT_INDEX:
-                BOXES[box.name]["values_at_index"] = True
+                               **grid_fields(scene)}
             made.append(box)
         if made or hidden:
             bpy.context.view_layer.update()

@@ -150,7 +150,7 @@ fn object_space_density(to_object: Affine3A) -> f32 {
 fn grid_attributes(
     grids: &grids::VolumeGrids,
     named: &[String],
-    value: impl Fn(&grids::Grid) -> Vec4,
+    mut value: impl FnMut(&grids::Grid) -> Vec4,
 ) -> NamedAttributes {
     let mut out = NamedAttributes::default();
     for (k, name) in named.iter().enumerate().take(NAMED_ATTRIBUTES) {
@@ -160,6 +160,16 @@ fn grid_attributes(
         }
     }
     out
+}
+
+/// Three numbers in [0, 1) drawn from the bits of point `p` and `lookup`: the point of a
+/// medium is itself random (a free flight's or a step's), so its bits serve as the random
+/// numbers of a stochastic grid lookup there, a different triple for each lookup.
+fn point_random(p: Vec3, lookup: u32) -> Vec3 {
+    let bits = [p.x, p.y, p.z].map(|c| u64::from(c.to_bits()));
+    let h = crate::rng::hash_combine(&[bits[0], bits[1], bits[2], u64::from(lookup)]);
+    let unit = |k: u32| ((h >> (21 * k)) & 0x1f_ffff) as f32 * (1.0 / (1u32 << 21) as f32);
+    Vec3::new(unit(0), unit(1), unit(2))
 }
 
 /// What the world's volume tree reads at world point `p`: the position, which its Object and
@@ -214,7 +224,15 @@ impl Scene {
         let mut inputs = ShadingInputs::default();
         inputs.points = [point; 3];
         if let Some(grids) = &mesh.volume_grids {
-            inputs.attributes = grid_attributes(grids, named, |g| g.sample(point.object));
+            inputs.attributes = if grids.stochastic {
+                let mut lookup = 0u32;
+                grid_attributes(grids, named, |g| {
+                    lookup += 1;
+                    g.sample_one_voxel(point.object, point_random(point.object, lookup))
+                })
+            } else {
+                grid_attributes(grids, named, |g| g.sample(point.object))
+            };
         }
         inputs
     }

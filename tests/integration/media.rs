@@ -133,6 +133,7 @@ fn a_density_grid_attenuates_by_its_value_along_the_ray() {
         majorant: None,
         world_space: false,
         extent: None,
+        stochastic: false,
     }));
     // Object coordinates: the world's in Blender's axes (as a Volume object at the origin).
     s.meshes[0].object_space = Some(ObjectSpace {

@@ -84,6 +84,7 @@ fn scaled_smoke(scale: f32, world_space: bool) -> Scene {
         majorant: None,
         world_space,
         extent: None,
+        stochastic: false,
     }));
     s.meshes[0].object_space = Some(ObjectSpace {
         to_object: Affine3A::from_mat3(

@@ -136,6 +136,23 @@ impl<'a> Fields<'a> {
         }
     }
 
+    /// The value of `choices` whose word `key` holds; the first's when absent.
+    fn word<T: Copy>(&self, key: &str, choices: &[(&str, T)]) -> Read<T> {
+        let Some(found) = self.string(key)? else {
+            return Ok(choices[0].1);
+        };
+        match choices.iter().find(|(word, _)| *word == found) {
+            Some(&(_, value)) => Ok(value),
+            None => {
+                let words: Vec<String> = choices.iter().map(|(w, _)| format!("\"{w}\"")).collect();
+                Err(self.fail(format!(
+                    "'{key}' must be {}, not \"{found}\"",
+                    words.join(" or ")
+                )))
+            }
+        }
+    }
+
     /// Three finite numbers for which `ok` holds, if present; `what` says what they must be.
     fn vec3(&self, key: &str, what: &str, ok: fn(Vec3) -> bool) -> Read<Option<Vec3>> {
         match self.get(key) {
@@ -248,6 +265,9 @@ pub(super) struct VolumeFile {
     /// Which part of the box holds the medium ("extent": "leaves", the default, or
     /// "bounds").
     pub(super) extent: ExtentRule,
+    /// Each lookup reads one voxel drawn by the trilinear weights ("interpolation":
+    /// "stochastic", Blender 5) rather than their weighted sum ("linear", the default).
+    pub(super) stochastic: bool,
     /// Index space (a voxel's value at its index) → object space, column-major, in place of
     /// the file's own transforms ("index_to_object": a fluid domain's grids fill its texture
     /// space).
@@ -279,24 +299,16 @@ impl VolumeFile {
                 .and_then(|a| a.iter().map(|g| g.as_str().map(str::to_string)).collect())
                 .ok_or_else(|| fields.fail("'grids' must be a list of names".into()))?,
         };
-        let world_space = match fields.string("space")? {
-            None | Some("object") => false,
-            Some("world") => true,
-            Some(other) => {
-                return Err(fields.fail(format!(
-                    "'space' must be \"object\" or \"world\", not \"{other}\""
-                )))
-            }
-        };
-        let extent = match fields.string("extent")? {
-            None | Some("leaves") => ExtentRule::Leaves,
-            Some("bounds") => ExtentRule::Bounds,
-            Some(other) => {
-                return Err(fields.fail(format!(
-                    "'extent' must be \"leaves\" or \"bounds\", not \"{other}\""
-                )))
-            }
-        };
+        let world_space = fields.word("space", &[("object", false), ("world", true)])?;
+        let extent = fields.word(
+            "extent",
+            &[
+                ("leaves", ExtentRule::Leaves),
+                ("bounds", ExtentRule::Bounds),
+            ],
+        )?;
+        let stochastic =
+            fields.word("interpolation", &[("linear", false), ("stochastic", true)])?;
         let clipping = match fields.get("clipping") {
             None => 0.001,
             Some(v) => match v.as_f64() {
@@ -340,6 +352,7 @@ impl VolumeFile {
             clipping,
             values_at_index: fields.flag("values_at_index", false)?,
             extent,
+            stochastic,
             index_to_object,
             attributes,
         })

@@ -42,6 +42,7 @@ impl Loader {
         let in_file = vdb::grid_names(&path).map_err(|e| self.err(object, e.to_string()))?;
         let mut grids = VolumeGrids {
             world_space: file.world_space,
+            stochastic: file.stochastic,
             ..VolumeGrids::default()
         };
         // The voxels at or above the clipping value, in the first grid's index space (`None`
