@@ -1,0 +1,204 @@
+"""The Rendered viewport through the add-on (bpy 4.5 in the background, where nothing can be
+drawn): the view request made from Blender's view and projection matrices (checked against the
+scene camera's own), the depsgraph updates that make the viewport export again (an object, a
+material) and those that do not (a camera), and the session the engine keeps for a viewport —
+the scene exported as F12 exports it, `photon view` started on it, a first image of the default
+cube, a camera move answered by an image in which the cube has moved, an object move answered
+by a new export whose image shows it, the renderer gone after `close`. The latencies are
+printed (docs/bench/viewport.md); the bounds asserted leave room for a loaded machine.
+"""
+
+import math
+import os
+import time
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Matrix, Vector
+
+import scenes_bpy
+from helpers import photon_binary
+
+WIDTH, HEIGHT = 96, 54
+# Bounds for a loaded two-core machine; the measured values are printed.
+FIRST_IMAGE_SECONDS = 30.0
+RESTART_SECONDS = 3.0
+
+
+@pytest.fixture(autouse=True)
+def binary(photon_addon):
+    return photon_binary()
+
+
+@pytest.fixture
+def modules(photon_addon):
+    from blender_addon import engine, viewport
+    return engine, viewport
+
+
+def camera_request(viewport, scene, width=WIDTH, height=HEIGHT, moved=None):
+    """The request a viewport looking through the scene camera sends (its view matrix and
+    projection as `region_data` holds them in camera view), the eye moved by `moved` (in the
+    camera's own axes) if given."""
+    camera = scene.camera
+    to_world = camera.matrix_world.copy()
+    if moved is not None:
+        to_world = to_world @ Matrix.Translation(Vector(moved))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    window = camera.calc_matrix_camera(depsgraph, x=width, y=height)
+    return viewport.view_request([list(r) for r in to_world.inverted()],
+                                 [list(r) for r in window], width, height)
+
+
+def test_view_request_matches_the_camera(modules):
+    _, viewport = modules
+    scene = scenes_bpy.default_scene()
+    camera = scene.camera
+    request = camera_request(viewport, scene)
+    assert request["projection"] == "perspective"
+    # Sensor fit Auto on a wide image: the horizontal angle is the camera's.
+    yfov = 2.0 * math.atan(math.tan(camera.data.angle / 2.0) * HEIGHT / WIDTH)
+    assert request["yfov"] == pytest.approx(yfov, rel=1e-5)
+    assert request["clip"] == pytest.approx([camera.data.clip_start, camera.data.clip_end],
+                                            rel=1e-4)
+    assert request["shift"] == pytest.approx([0.0, 0.0], abs=1e-6)
+    # glTF is Y-up: Blender's (x, y, z) is (x, z, -y).
+    m = np.array(request["camera_to_world"]).reshape(4, 4)
+    eye = camera.matrix_world.translation
+    assert m[:3, 3] == pytest.approx([eye.x, eye.z, -eye.y], rel=1e-5)
+    forward = camera.matrix_world.to_3x3() @ Vector((0, 0, -1))
+    assert -m[:3, 2] == pytest.approx([forward.x, forward.z, -forward.y], abs=1e-5)
+    # Lens shift: a fraction of the wider side in Blender, of the height in the request.
+    camera.data.shift_x, camera.data.shift_y = 0.1, -0.05
+    request = camera_request(viewport, scene)
+    assert request["shift"] == pytest.approx([0.1 * WIDTH / HEIGHT, -0.05 * WIDTH / HEIGHT],
+                                             rel=1e-4)
+    camera.data.shift_x = camera.data.shift_y = 0.0
+    camera.data.type = "ORTHO"
+    camera.data.ortho_scale = 6.0
+    request = camera_request(viewport, scene)
+    assert request["projection"] == "orthographic"
+    assert request["ymag"] == pytest.approx(3.0 * HEIGHT / WIDTH, rel=1e-5)
+    assert request["clip"][0] == pytest.approx(camera.data.clip_start, abs=1e-4)
+
+
+def test_depsgraph_updates_that_export_again(modules):
+    engine, viewport = modules
+    scene = scenes_bpy.default_scene()
+    bpy.context.view_layer.update()  # the scene's own set-up is no update of the test's
+    seen = []
+
+    def record(_scene, depsgraph):
+        seen.append(engine.update_kinds(depsgraph))
+
+    bpy.app.handlers.depsgraph_update_post.append(record)
+    try:
+        def updates(change):
+            seen.clear()
+            change()
+            bpy.context.view_layer.update()
+            return [kind for kinds in seen for kind in kinds]
+
+        moved_camera = updates(lambda: setattr(scene.camera, "location",
+                                               scene.camera.location + Vector((0.5, 0, 0))))
+        assert moved_camera, "moving the camera is a depsgraph update"
+        assert not viewport.needs_export(moved_camera), moved_camera
+        cube = bpy.data.objects["Cube"]
+        moved_cube = updates(lambda: setattr(cube, "location", (0.5, 0.0, 0.0)))
+        assert viewport.needs_export(moved_cube), moved_cube
+
+        def recolour():
+            bsdf = cube.active_material.node_tree.nodes["Principled BSDF"]
+            bsdf.inputs["Base Color"].default_value = (0.8, 0.1, 0.1, 1.0)
+
+        recoloured = updates(recolour)
+        assert viewport.needs_export(recoloured), recoloured
+    finally:
+        bpy.app.handlers.depsgraph_update_post.remove(record)
+
+
+def cube_column(frame):
+    """The cube's mean column as a fraction of the width: the mean over pixels brighter than
+    the grey world."""
+    luminance = frame.pixels[..., :3].mean(axis=2)
+    columns = np.nonzero(luminance > 0.15)[1]
+    assert columns.size > 0, "the cube is in view"
+    return (columns.mean() + 0.5) / frame.width
+
+
+def wait_frame(session, request_id=None, final=False, seconds=FIRST_IMAGE_SECONDS):
+    """The next image of the session's current view (of `request_id` if given; the last one
+    with `final`), failing with the renderer's errors after `seconds`."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        session.latest()
+        frame = session.frame
+        if frame is not None and (request_id is None or frame.request == request_id):
+            if not final or frame.request in session.finished:
+                return frame
+        if session.errors:
+            pytest.fail(f"the session failed: {session.errors}")
+        time.sleep(0.01)
+    pytest.fail(f"no image within {seconds} s (errors: {session.errors})")
+
+
+def test_rendered_viewport_session(modules):
+    engine, viewport = modules
+    scene = scenes_bpy.default_scene()
+    scene.photon.viewport_samples = 8
+    args = engine.runner.settings_arguments(engine.properties.viewport_settings(scene.photon))
+    assert args[args.index("--spp") + 1] == "8"
+    start = time.perf_counter()
+    session = engine.new_view_session(args)
+    try:
+        engine.export_view_scene(scene, session)
+        session.show(camera_request(viewport, scene))
+        first = wait_frame(session)
+        first_seconds = time.perf_counter() - start
+        assert session.announced[0] == (1, WIDTH // 4, HEIGHT // 4, 1), "a quarter first"
+        last = wait_frame(session, final=True)
+        assert (last.width, last.height, last.spp) == (WIDTH, HEIGHT, 8)
+        assert np.isfinite(last.pixels).all()
+        centred = cube_column(last)
+        assert 0.35 < centred < 0.65, f"the cube in the middle ({centred})"
+        pid = session.proc.pid
+
+        # The view moves right: the cube moves left, with no new export.
+        moved = time.perf_counter()
+        session.show(camera_request(viewport, scene, moved=(1.5, 0.0, 0.0)))
+        restart = wait_frame(session, session.request_id)
+        restart_seconds = time.perf_counter() - moved
+        full = wait_frame(session, session.request_id, final=True)
+        full_seconds = time.perf_counter() - moved
+        assert session.exports == 1 and session.proc.pid == pid, "a view move exports nothing"
+        left = cube_column(full)
+        assert left < centred - 0.1, f"the cube moved left ({centred} -> {left})"
+        assert cube_column(restart) < centred - 0.1
+
+        # The cube moves (a depsgraph change): the scene is exported again, a new renderer
+        # draws the current view, in which the cube is further left.
+        bpy.data.objects["Cube"].location = (0.0, -1.5, 0.0)
+        bpy.context.view_layer.update()
+        exported = time.perf_counter()
+        engine.export_view_scene(scene, session)
+        session.wait_exported(FIRST_IMAGE_SECONDS)
+        assert session.exports == 2 and session.proc.pid != pid
+        again = wait_frame(session, session.request_id, final=True)
+        export_seconds = time.perf_counter() - exported
+        further = cube_column(again)
+        assert abs(further - left) > 0.05, f"the moved cube is seen ({left} -> {further})"
+        print(f"viewport, default cube {WIDTH}x{HEIGHT}, 8 spp: first image {first_seconds:.2f} s "
+              f"after the session started (export included); after a view move first image "
+              f"{restart_seconds:.3f} s, 8 spp {full_seconds:.3f} s; after an object move "
+              f"(export + new renderer) 8 spp {export_seconds:.2f} s")
+        assert first_seconds < FIRST_IMAGE_SECONDS
+        assert restart_seconds < RESTART_SECONDS
+    finally:
+        proc = session.proc
+        engine.close_views()
+    assert proc is not None and proc.poll() is not None, "the renderer has ended"
+    with pytest.raises(ProcessLookupError):
+        os.kill(proc.pid, 0)  # waited for: no zombie left
+    assert not session.folder.exists()
+    assert session not in engine.VIEW_SESSIONS
