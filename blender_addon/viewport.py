@@ -139,7 +139,8 @@ class ViewSession:
         self.frame = None         # that image
         self.finished = set()     # requests whose last image has been written
         self.exports = 0          # scenes exported (and renderers started)
-        self.timings: dict = {}   # request id -> seconds to its first and last images
+        # request id -> seconds from sending it to its first, first full-size and last images
+        self.timings: dict = {}
         self.announced: list = []  # (request, width, height, spp) of each image, in order
         self._lock = threading.Lock()
         self._export_thread = None
@@ -237,6 +238,8 @@ class ViewSession:
                         seconds = time.perf_counter() - sent
                         timing = self.timings.setdefault(request, {"first": seconds})
                         timing["last"] = seconds
+                        if self.view and event.get("width") == self.view.get("width"):
+                            timing.setdefault("full", seconds)
                     if event.get("final"):
                         self.finished.add(request)
             if proc is not None and proc.poll() is not None and proc.returncode != 0:

@@ -202,3 +202,44 @@ def test_rendered_viewport_session(modules):
         os.kill(proc.pid, 0)  # waited for: no zombie left
     assert not session.folder.exists()
     assert session not in engine.VIEW_SESSIONS
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("grid", [0, 709], ids=["cube", "million"])
+def test_rendered_viewport_latency(modules, grid):
+    """Latencies at a common viewport size, 800x450, for the default scene and for it over a
+    grid of 1 005 362 triangles: the first image (export included) and the first image after
+    a view move, printed for docs/bench/viewport.md."""
+    engine, viewport = modules
+    width, height = 800, 450
+    scene = scenes_bpy.default_scene()
+    if grid:
+        bpy.ops.mesh.primitive_grid_add(x_subdivisions=grid, y_subdivisions=grid, size=8.0,
+                                        location=(0.0, 0.0, -1.0))
+    triangles = sum(len(p.vertices) - 2 for o in scene.objects if o.type == "MESH"
+                    for p in o.data.polygons)
+    scene.photon.viewport_samples = 16
+    args = engine.runner.settings_arguments(engine.properties.viewport_settings(scene.photon))
+    start = time.perf_counter()
+    session = engine.new_view_session(args)
+    try:
+        engine.export_view_scene(scene, session)
+        session.show(camera_request(viewport, scene, width, height))
+        wait_frame(session, seconds=300.0)
+        first_seconds = time.perf_counter() - start
+        wait_frame(session, final=True, seconds=300.0)
+        moved = time.perf_counter()
+        session.show(camera_request(viewport, scene, width, height, moved=(0.5, 0.0, 0.0)))
+        wait_frame(session, session.request_id)
+        restart_seconds = time.perf_counter() - moved
+        full = wait_frame(session, session.request_id, final=True, seconds=300.0)
+        full_seconds = time.perf_counter() - moved
+        timing = session.timings[session.request_id]
+        print(f"viewport, {triangles} triangles, {width}x{height}, 16 spp: first image "
+              f"{first_seconds:.2f} s after the session started (export included); after a view "
+              f"move: first image {restart_seconds:.3f} s, first full-size image "
+              f"{timing.get('full', float('nan')):.3f} s, 16 spp {full_seconds:.2f} s")
+        assert full.spp == 16
+        assert restart_seconds < RESTART_SECONDS
+    finally:
+        engine.close_views()
