@@ -22,6 +22,7 @@ import collections
 import dataclasses
 import json
 import math
+import os
 import queue
 import struct
 import subprocess
@@ -77,7 +78,7 @@ def view_request(view_matrix, window_matrix, width: int, height: int) -> dict:
             # Blender's orthographic view clips in front of and behind its eye: start the rays
             # on the near plane by moving the eye back along its view axis.
             back = np.eye(4)
-            back[2][3] = near
+            back[2][3] = -near  # the near plane lies at z = -near in the eye's frame
             to_world = to_world @ back
             near, far = 0.0, far - near
     world = Z_UP_TO_Y_UP @ to_world
@@ -102,6 +103,16 @@ def needs_export(updates) -> bool:
 def view_command(binary, glb, image, settings_args) -> list[str]:
     """The `photon view` command line."""
     return [str(binary), "view", str(glb), "-o", str(image), *settings_args, "--progress", "json"]
+
+
+def image_version(path):
+    """What tells one image file from the next (each is a new file renamed into place), or
+    None while there is none."""
+    try:
+        stat = os.stat(path)
+    except OSError:
+        return None
+    return stat.st_ino, stat.st_mtime_ns, stat.st_size
 
 
 def read_frame(path) -> Frame | None:
@@ -135,7 +146,7 @@ class ViewSession:
         self.errors: list[str] = []
         self.view = None          # the latest view asked for (request without id)
         self.request_id = 0       # id of the latest request sent
-        self.shown = None         # (request, spp, width) of the last image `latest` returned
+        self.shown = None         # image_version of the last image `latest` returned
         self.frame = None         # that image
         self.finished = set()     # requests whose last image has been written
         self.exports = 0          # scenes exported (and renderers started)
@@ -251,12 +262,13 @@ class ViewSession:
     def latest(self) -> Frame | None:
         """The newest image of the current view not returned before, or None."""
         self.poll()
+        version = image_version(self.image)
+        if version is None or version == self.shown:
+            return None
         frame = read_frame(self.image)
+        self.shown = version
         if frame is None or frame.request != self.request_id:
-            return None
-        if self.shown == (frame.request, frame.spp, frame.width):
-            return None
-        self.shown = (frame.request, frame.spp, frame.width)
+            return None  # an image of a view no longer asked for
         self.frame = frame
         return frame
 

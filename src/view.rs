@@ -1,9 +1,10 @@
 //! `photon view`: progressive rendering for an interactive viewer (the Blender add-on's Rendered
 //! viewport). The scene is loaded and its BVH built once; then each line on stdin is a JSON
 //! request naming a view (image size, camera pose and projection), answered by images of that
-//! view that grow better: a quarter-resolution path-traced sample first, then the full
-//! resolution in rounds of 1, 1, 2, 4, … samples per pixel up to the settings' samples, with the
-//! render settings' method. A new request cancels the render running (the render's cancel flag,
+//! view that grow better: a quarter-resolution path-traced sample first (and, before the photon
+//! and cache methods, which build their maps and cache for each view, a full-resolution one),
+//! then the full resolution in rounds of 1, 1, 2, 4, … samples per pixel up to the settings'
+//! samples, with the render settings' method. A new request cancels the render running (the render's cancel flag,
 //! which it checks every few milliseconds) and starts on the new view; a malformed request is
 //! answered by an error event and changes nothing; the end of stdin ends the process (exit 0).
 //!
@@ -330,12 +331,20 @@ fn render_view(
         }));
         Ok(())
     };
-    // The first look: a quarter of the resolution, one path-traced sample (no photon maps to
-    // build), unless the image is already that small.
+    // The first looks: one path-traced sample (no photon maps or cache to build) at a quarter
+    // of the resolution, unless the image is already that small, and, before a method that
+    // builds maps and a cache for each view (seconds), at the full resolution too.
+    let mut divisors = Vec::new();
     if request.width >= 2 * PREVIEW_DIVISOR && request.height >= 2 * PREVIEW_DIVISOR {
+        divisors.push(PREVIEW_DIVISOR);
+    }
+    if base.method != Method::Path {
+        divisors.push(1);
+    }
+    for divisor in divisors {
         let preview = RenderSettings {
-            width: request.width / PREVIEW_DIVISOR,
-            height: request.height / PREVIEW_DIVISOR,
+            width: request.width / divisor,
+            height: request.height / divisor,
             spp: 1,
             method: Method::Path,
             adaptive: None,

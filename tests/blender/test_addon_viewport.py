@@ -81,6 +81,16 @@ def test_view_request_matches_the_camera(modules):
     assert request["projection"] == "orthographic"
     assert request["ymag"] == pytest.approx(3.0 * HEIGHT / WIDTH, rel=1e-5)
     assert request["clip"][0] == pytest.approx(camera.data.clip_start, abs=1e-4)
+    # An orthographic viewport clips in front of and behind its eye (here from -50 to 50):
+    # the eye moves back 50 along its view axis and the rays start there.
+    window = Matrix(((0.25, 0, 0, 0), (0, 0.25, 0, 0), (0, 0, -2.0 / 100.0, 0), (0, 0, 0, 1)))
+    request = viewport.view_request([list(r) for r in Matrix.Identity(4)],
+                                    [list(r) for r in window], 100, 100)
+    assert request["projection"] == "orthographic" and request["ymag"] == pytest.approx(4.0)
+    assert request["clip"] == pytest.approx([0.0, 100.0])
+    # Blender's eye at the origin looking down -Z moved back to z = 50: glTF's y = 50.
+    m = np.array(request["camera_to_world"]).reshape(4, 4)
+    assert m[:3, 3] == pytest.approx([0.0, 50.0, 0.0])
 
 
 def test_depsgraph_updates_that_export_again(modules):

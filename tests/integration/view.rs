@@ -39,22 +39,23 @@ struct Viewer {
 }
 
 impl Viewer {
-    /// `photon view` of the embedded Cornell box at `spp` samples, its image in a fresh folder.
+    /// `photon view` of the embedded Cornell box by the path tracer at `spp` samples, its image
+    /// in a fresh folder.
     #[track_caller]
     fn start(name: &str, spp: u32) -> Viewer {
+        Viewer::start_with(name, &["--method", "path", "--spp", &spp.to_string()])
+    }
+
+    /// `photon view` of the embedded Cornell box with `flags`, its image in a fresh folder.
+    #[track_caller]
+    fn start_with(name: &str, flags: &[&str]) -> Viewer {
         let dir = temp_dir(name);
         let image = dir.join("view.raw");
         let mut child = photon()
             .args(["view", "-o"])
             .arg(&image)
-            .args([
-                "--method",
-                "path",
-                "--spp",
-                &spp.to_string(),
-                "--progress",
-                "json",
-            ])
+            .args(flags)
+            .args(["--progress", "json"])
             .stdin(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -238,4 +239,35 @@ fn view_ends_when_stdin_closes_even_while_rendering() {
     viewer.image_of(1, false, 30.0);
     let seconds = viewer.finish();
     assert!(seconds < 2.0, "took {seconds} s to end");
+}
+
+#[test]
+fn view_photon_mapping_shows_a_full_size_path_traced_sample_before_its_maps() {
+    let mut viewer = Viewer::start_with(
+        "photon",
+        &[
+            "--method",
+            "photon",
+            "--spp",
+            "2",
+            "--photons",
+            "4000",
+            "--caustic-photons",
+            "0",
+        ],
+    );
+    viewer.send(&request(1, 32, false));
+    viewer.image_of(1, true, 60.0);
+    let images: Vec<(u64, u64)> = viewer
+        .log
+        .iter()
+        .filter(|e| e["stage"] == "image")
+        .map(|e| (e["width"].as_u64().unwrap(), e["spp"].as_u64().unwrap()))
+        .collect();
+    // Quarter size, full size (path traced), then the photon method's rounds of 1 and 1.
+    assert_eq!(images, [(8, 1), (32, 1), (32, 1), (32, 2)]);
+    let (w, h, spp, id, left, right) = read_image(&viewer.image);
+    assert_eq!((w, h, spp, id), (32, 32, 2, 1));
+    assert!(left > right + 0.05, "red on the left ({left} vs {right})");
+    viewer.finish();
 }
