@@ -1,7 +1,7 @@
 """The Rendered viewport through the add-on (bpy 4.5 in the background, where nothing can be
 drawn): the view request made from Blender's view and projection matrices (checked against the
 scene camera's own), the depsgraph updates that make the viewport export again (an object, a
-material) and those that do not (a camera), and the session the engine keeps for a viewport —
+material, a light) and those that do not (a camera, a selection), and the session the engine keeps for a viewport —
 the scene exported as F12 exports it, `photon view` started on it, a first image of the default
 cube, a camera move answered by an image in which the cube has moved, an object move answered
 by a new export whose image shows it, the renderer gone after `close`. The latencies are
@@ -115,6 +115,10 @@ def test_depsgraph_updates_that_export_again(modules):
         assert moved_camera, "moving the camera is a depsgraph update"
         assert not viewport.needs_export(moved_camera), moved_camera
         cube = bpy.data.objects["Cube"]
+        selected = updates(lambda: cube.select_set(not cube.select_get()))
+        assert not viewport.needs_export(selected), selected
+        brighter = updates(lambda: setattr(bpy.data.lights["Light"], "energy", 500.0))
+        assert viewport.needs_export(brighter), brighter
         moved_cube = updates(lambda: setattr(cube, "location", (0.5, 0.0, 0.0)))
         assert viewport.needs_export(moved_cube), moved_cube
 
@@ -166,8 +170,8 @@ def test_rendered_viewport_session(modules):
         session.show(camera_request(viewport, scene))
         first = wait_frame(session)
         first_seconds = time.perf_counter() - start
-        assert session.announced[0] == (1, WIDTH // 4, HEIGHT // 4, 1), "a quarter first"
         last = wait_frame(session, final=True)
+        assert session.announced[0] == (1, WIDTH // 4, HEIGHT // 4, 1), "a quarter first"
         assert (last.width, last.height, last.spp) == (WIDTH, HEIGHT, 8)
         assert np.isfinite(last.pixels).all()
         centred = cube_column(last)
