@@ -304,13 +304,7 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self._view_spp = frame.spp
         texture = getattr(self, "_view_texture", None)
         if texture is not None:
-            import gpu
-            from gpu_extras.presets import draw_texture_2d
-            gpu.state.blend_set("ALPHA_PREMULT")
-            self.bind_display_space_shader(depsgraph.scene)
-            draw_texture_2d(texture, (0, 0), region.width, region.height)
-            self.unbind_display_space_shader()
-            gpu.state.blend_set("NONE")
+            _draw(self, depsgraph.scene, texture, region.width, region.height)
         if session.errors:
             self.update_stats("", f"Photon: {session.errors[-1]}")
         elif texture is not None:
@@ -362,6 +356,17 @@ def _texture(frame):
     pixels = frame.pixels.astype("float32").ravel()
     buffer = gpu.types.Buffer("FLOAT", pixels.size, pixels)
     return gpu.types.GPUTexture((frame.width, frame.height), format="RGBA16F", data=buffer)
+
+
+def _draw(engine, scene, texture, width, height):
+    """Draw `texture` over the viewport's region through Blender's display transform."""
+    import gpu
+    from gpu_extras.presets import draw_texture_2d
+    gpu.state.blend_set("ALPHA_PREMULT")
+    engine.bind_display_space_shader(scene)
+    draw_texture_2d(texture, (0, 0), width, height)
+    engine.unbind_display_space_shader()
+    gpu.state.blend_set("NONE")
 
 
 # Sessions of the Rendered viewports open: closed when their engine is freed, when the add-on

@@ -11,6 +11,7 @@ printed (docs/bench/viewport.md); the bounds asserted leave room for a loaded ma
 import math
 import os
 import time
+import types
 
 import bpy
 import numpy as np
@@ -216,6 +217,84 @@ def test_rendered_viewport_session(modules):
         os.kill(proc.pid, 0)  # waited for: no zombie left
     assert not session.folder.exists()
     assert session not in engine.VIEW_SESSIONS
+
+
+class ViewportEngine:
+    """The engine's viewport methods on a stand-in for the RenderEngine Blender would make
+    (one cannot be made from Python): it records the status lines and the redraws asked for."""
+
+    def __init__(self, engine):
+        cls = engine.PhotonRenderEngine
+        self.methods = {name: getattr(cls, name) for name in
+                        ("view_update", "_view_update", "view_draw", "__del__")}
+        self.stats, self.redraws = [], 0
+
+    def __getattr__(self, name):
+        method = self.__dict__["methods"].get(name)
+        if method is None:
+            raise AttributeError(name)
+        return method.__get__(self)
+
+    def update_stats(self, _stats, info):
+        self.stats.append(info)
+
+    def tag_redraw(self):
+        self.redraws += 1
+
+
+def test_view_update_and_view_draw(modules, monkeypatch):
+    """The engine's `view_update` and `view_draw` (the GPU texture and the drawing, which
+    background mode cannot do, replaced by recorders): the first update exports and starts a
+    renderer, each draw sends the region's view and draws the newest image, redraws are asked
+    for until the last image is in, an update without changes exports nothing, a changed
+    Viewport Samples restarts the renderer, freeing the engine ends it."""
+    engine, viewport = modules
+    scene = scenes_bpy.default_scene()
+    scene.photon.viewport_samples = 4
+    drawn = []
+    monkeypatch.setattr(engine, "_texture", lambda frame: frame)
+    monkeypatch.setattr(engine, "_draw", lambda _engine, _scene, frame, width, height:
+                        drawn.append((frame.request, frame.width, frame.spp, width, height)))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    camera = scene.camera
+    region_data = types.SimpleNamespace(
+        view_matrix=camera.matrix_world.inverted(),
+        window_matrix=camera.calc_matrix_camera(depsgraph, x=WIDTH, y=HEIGHT))
+    context = types.SimpleNamespace(region=types.SimpleNamespace(width=WIDTH, height=HEIGHT),
+                                    region_data=region_data)
+    fake = ViewportEngine(engine)
+    fake.view_update(context, depsgraph)
+    session = fake._view
+    assert session.exports == 1, fake.stats
+
+    def draw_until_done():
+        end = time.perf_counter() + FIRST_IMAGE_SECONDS
+        while time.perf_counter() < end:
+            redraws = fake.redraws
+            fake.view_draw(context, depsgraph)
+            if drawn and fake.redraws == redraws:
+                return  # no redraw asked for: the view's last image is in
+            time.sleep(0.01)
+        pytest.fail(f"the view did not finish (status: {fake.stats[-3:]})")
+
+    draw_until_done()
+    assert drawn[-1] == (session.request_id, WIDTH, 4, WIDTH, HEIGHT), drawn
+    assert fake.stats[-1] == "Photon: 4 samples"
+    sent = session.request_id
+    fake.view_draw(context, depsgraph)
+    assert session.request_id == sent, "an unchanged view is not sent again"
+    fake.view_update(context, depsgraph)
+    assert session.exports == 1, "no change, no export"
+    pid = session.proc.pid
+    scene.photon.viewport_samples = 2
+    fake.view_update(context, depsgraph)
+    session.wait_exported(FIRST_IMAGE_SECONDS)
+    assert session.exports == 2 and session.proc.pid != pid
+    draw_until_done()
+    assert drawn[-1][2] == 2, drawn
+    proc = session.proc
+    fake.__del__()
+    assert proc.poll() is not None and session not in engine.VIEW_SESSIONS
 
 
 @pytest.mark.slow
