@@ -82,6 +82,7 @@ def view_request(view_matrix, window_matrix, width: int, height: int) -> dict:
             to_world = to_world @ back
             near, far = 0.0, far - near
     world = Z_UP_TO_Y_UP @ to_world
+    world[3] = (0.0, 0.0, 0.0, 1.0)  # exactly, whatever the inverse's rounding
     request.update(width=int(width), height=int(height),
                    camera_to_world=[float(v) for v in world.reshape(16)],
                    clip=[max(float(near), 0.0), float(far)])

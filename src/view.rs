@@ -36,6 +36,8 @@ const MAX_SIDE: u32 = 16_384;
 const MAX_PIXELS: u64 = 64 << 20;
 /// The first image's resolution divisor.
 const PREVIEW_DIVISOR: u32 = 4;
+/// Longest request line read, in bytes (a request is a few hundred).
+const MAX_LINE: usize = 64 << 10;
 /// Size of the image file's header in bytes.
 pub const HEADER_BYTES: usize = 24;
 
@@ -141,17 +143,41 @@ pub fn serve(
 }
 
 /// Read requests line by line until stdin ends; each valid one replaces the pending one and
-/// cancels the render running, each invalid one is answered by an error event.
-fn read_requests(input: impl BufRead, base: &Camera, shared: &Shared) {
-    for (number, line) in input.lines().enumerate() {
-        let Ok(line) = line else { break };
-        if line.trim().is_empty() {
-            continue;
+/// cancels the render running, each invalid one (also one that is not UTF-8 or longer than
+/// `MAX_LINE` bytes, which is not kept) is answered by an error event.
+fn read_requests(mut input: impl BufRead, base: &Camera, shared: &Shared) {
+    let mut bytes = Vec::new();
+    for number in 1.. {
+        bytes.clear();
+        let mut too_long = false;
+        loop {
+            let limit = (MAX_LINE + 1).saturating_sub(bytes.len()) as u64;
+            match std::io::Read::take(&mut input, limit).read_until(b'\n', &mut bytes) {
+                Ok(_) if bytes.len() > MAX_LINE && !bytes.ends_with(b"\n") => {
+                    // Drop what was read and go on to the end of the line.
+                    too_long = true;
+                    bytes.clear();
+                }
+                Ok(_) => break,
+                Err(_) => {
+                    bytes.clear();
+                    break;
+                }
+            }
         }
-        match parse_request(&line, base) {
+        if bytes.is_empty() && !too_long {
+            break; // the end of stdin (or a read error, which ends it too)
+        }
+        let outcome = match std::str::from_utf8(&bytes) {
+            _ if too_long => Err(format!("longer than {MAX_LINE} bytes")),
+            Err(_) => Err("not UTF-8 text".into()),
+            Ok(line) if line.trim().is_empty() => continue,
+            Ok(line) => parse_request(line, base),
+        };
+        match outcome {
             Ok(request) => shared.post(|inbox| inbox.pending = Some(request)),
             Err(message) => event(serde_json::json!({"stage": "request", "error":
-                format!("view request on line {}: {message}", number + 1)})),
+                format!("view request on line {number}: {message}")})),
         }
     }
     shared.post(|inbox| inbox.closed = true);
@@ -276,7 +302,8 @@ pub fn parse_request(line: &str, base: &Camera) -> std::result::Result<ViewReque
 /// A row-major 4×4 camera-to-world matrix as a rigid transform: the last row must be
 /// (0, 0, 0, 1) and the axes independent; they are normalised (a view matrix may carry scale).
 fn rigid(m: &[f32]) -> std::result::Result<Affine3A, String> {
-    if (m[12], m[13], m[14], m[15]) != (0.0, 0.0, 0.0, 1.0) {
+    let last_row = [m[12], m[13], m[14], m[15] - 1.0];
+    if last_row.iter().any(|x| x.abs() > 1e-6) {
         return Err("'camera_to_world' must end with the row 0, 0, 0, 1".into());
     }
     let matrix = Mat4::from_cols_array(&[

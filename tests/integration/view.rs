@@ -81,8 +81,13 @@ impl Viewer {
     }
 
     fn send(&mut self, line: &str) {
+        self.send_bytes(line.as_bytes());
+    }
+
+    fn send_bytes(&mut self, line: &[u8]) {
         let stdin = self.stdin.as_mut().unwrap();
-        writeln!(stdin, "{line}").unwrap();
+        stdin.write_all(line).unwrap();
+        stdin.write_all(b"\n").unwrap();
         stdin.flush().unwrap();
     }
 
@@ -218,12 +223,22 @@ fn view_malformed_requests_get_error_events_and_change_nothing() {
                "projection": "perspective", "yfov": 0.5})
         .to_string(),
     ];
-    for line in &bad {
-        assert_ne!(line, &good, "each bad request differs from the good one");
-        viewer.send(line);
+    let mut lines: Vec<Vec<u8>> = bad.iter().map(|l| l.as_bytes().to_vec()).collect();
+    // Not UTF-8, and a line of a megabyte: answered like the others, and the lines after them
+    // are still read.
+    lines.push(b"{\"id\": \xff}".to_vec());
+    lines.push(vec![b'x'; 1 << 20]);
+    for (i, line) in lines.iter().enumerate() {
+        assert_ne!(
+            line,
+            good.as_bytes(),
+            "each bad request differs from the good one"
+        );
+        viewer.send_bytes(line);
         let error = viewer.wait(30.0, |e| e.get("error").is_some());
         let message = error["error"].as_str().unwrap();
-        assert!(message.starts_with("view request on line"), "{message}");
+        let start = format!("view request on line {}: ", i + 1);
+        assert!(message.starts_with(&start), "{message}");
     }
     assert!(!viewer.image.exists(), "no image for a bad request");
     viewer.send(&good);
