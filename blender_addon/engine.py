@@ -11,7 +11,10 @@ error, unreadable image) ends as one `report({'ERROR'}, ...)` with the renderer'
 never a traceback and never a silently black image (in `blender -b` such a report also makes
 Blender exit non-zero). With Denoise on, the loaded image is denoised (denoise.py) before
 Blender gets it; a missing denoiser is a warning. Esc (`test_break`) stops the child within a
-second; the temporary folder is always removed.
+second; the temporary folder is always removed. The Rendered viewport (`view_update`,
+`view_draw`) keeps a viewport.py session per viewport: the scene exported as F12 exports it in
+the UI, `photon view` rendering the viewport's view, its images drawn as GPU textures through
+Blender's display transform.
 """
 
 import atexit
@@ -43,7 +46,9 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
     bl_use_preview = True
     bl_use_postprocess = True
     bl_use_shading_nodes_custom = False
-    bl_use_eevee_viewport = False
+    # Material Preview only (Blender reads the flag for that mode alone): EEVEE there, as for
+    # Cycles; Rendered mode draws Photon's own image (view_update, view_draw).
+    bl_use_eevee_viewport = True
 
     def update_render_passes(self, scene=None, renderlayer=None):
         """Passes the renderer writes: Combined always; Depth, Normal, the denoising data (so

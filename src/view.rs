@@ -121,6 +121,9 @@ pub fn serve(
         let Some(request) = request else { continue };
         let arrived = Instant::now();
         scene.camera = request.camera.clone();
+        // The frame's size: what pixel footprints (ray differentials) are measured against.
+        scene.render_settings.width = Some(request.width);
+        scene.render_settings.height = Some(request.height);
         let outcome = pool.install(|| {
             render_view(
                 &scene,

@@ -262,6 +262,9 @@ def test_view_update_and_view_draw(modules, monkeypatch):
         window_matrix=camera.calc_matrix_camera(depsgraph, x=WIDTH, y=HEIGHT))
     context = types.SimpleNamespace(region=types.SimpleNamespace(width=WIDTH, height=HEIGHT),
                                     region_data=region_data)
+    cls = engine.PhotonRenderEngine
+    assert cls.bl_use_eevee_viewport, "Material Preview stays EEVEE's, as with Cycles"
+    assert "view_draw" in cls.__dict__ and "view_update" in cls.__dict__
     fake = ViewportEngine(engine)
     fake.view_update(context, depsgraph)
     session = fake._view
