@@ -181,12 +181,13 @@ class ViewSession:
         self._export_thread.start()
 
     def wait_exported(self, timeout=None):
-        """Wait for the export running (tests and the engine's first image)."""
+        """Wait for the export running (the tests do; the engine never waits)."""
         if self._export_thread is not None:
             self._export_thread.join(timeout)
 
     def _start(self, glb):
         self._stop()
+        self.errors.clear()  # a new scene: the old renderer's and export's errors are past
         command = view_command(self.binary, glb, self.image, self.settings_args)
         try:
             self.proc = subprocess.Popen(command, stdin=subprocess.PIPE,

@@ -4,16 +4,17 @@
 //! view that grow better: a quarter-resolution path-traced sample first (and, before the photon
 //! and cache methods, which build their maps and cache for each view, a full-resolution one),
 //! then the full resolution in rounds of 1, 1, 2, 4, … samples per pixel up to the settings'
-//! samples, with the render settings' method. A new request cancels the render running (the render's cancel flag,
-//! which it checks every few milliseconds) and starts on the new view; a malformed request is
-//! answered by an error event and changes nothing; the end of stdin ends the process (exit 0).
+//! samples, with the render settings' method. A new request cancels the render running (the
+//! render's cancel flag, which it checks every few milliseconds) and starts on the new view; a
+//! malformed request is answered by an error event and changes nothing; the end of stdin ends
+//! the process (exit 0).
 //!
 //! Each image replaces the output file (written to a temporary name, then renamed): a 24-byte
 //! header (`PHVW`, then little-endian u32 width, height, samples per pixel and u64 request id),
 //! then width × height linear RGBA f32 pixels, little-endian, rows from the bottom up (as a GPU
 //! texture is filled). After each image a JSON line on stderr says so:
 //! `{"stage": "image", "request": ID, "width": W, "height": H, "spp": N, "final": bool,
-//! "seconds": S}` (seconds since the request arrived). The request protocol is specified in the
+//! "seconds": S}` (seconds since the request was read). The request protocol is specified in the
 //! project README ("Interactive rendering"). Camera model as glTF's (Khronos glTF 2.0, §3.10),
 //! with Blender's lens shift in units of the image height.
 
@@ -54,7 +55,8 @@ pub struct ViewRequest {
 /// whether stdin has ended.
 #[derive(Default)]
 struct Inbox {
-    pending: Option<ViewRequest>,
+    /// The request and when it was read.
+    pending: Option<(ViewRequest, Instant)>,
     closed: bool,
 }
 
@@ -118,8 +120,9 @@ pub fn serve(
             shared.cancel.store(false, Ordering::SeqCst);
             inbox.pending.take()
         };
-        let Some(request) = request else { continue };
-        let arrived = Instant::now();
+        let Some((request, arrived)) = request else {
+            continue;
+        };
         scene.camera = request.camera.clone();
         // The frame's size: what pixel footprints (ray differentials) are measured against.
         scene.render_settings.width = Some(request.width);
@@ -178,7 +181,7 @@ fn read_requests(mut input: impl BufRead, base: &Camera, shared: &Shared) {
             Ok(line) => parse_request(line, base),
         };
         match outcome {
-            Ok(request) => shared.post(|inbox| inbox.pending = Some(request)),
+            Ok(request) => shared.post(|inbox| inbox.pending = Some((request, Instant::now()))),
             Err(message) => event(serde_json::json!({"stage": "request", "error":
                 format!("view request on line {number}: {message}")})),
         }

@@ -1,8 +1,9 @@
 """The Rendered viewport through the add-on (bpy 4.5 in the background, where nothing can be
 drawn): the view request made from Blender's view and projection matrices (checked against the
 scene camera's own), the depsgraph updates that make the viewport export again (an object, a
-material, a light) and those that do not (a camera, a selection), and the session the engine keeps for a viewport —
-the scene exported as F12 exports it, `photon view` started on it, a first image of the default
+material, a light) and those that do not (a camera, a selection), the engine's `view_update`
+and `view_draw` on a stand-in engine, and the session the engine keeps for a viewport — the
+scene exported as F12 exports it, `photon view` started on it, a first image of the default
 cube, a camera move answered by an image in which the cube has moved, an object move answered
 by a new export whose image shows it, the renderer gone after `close`. The latencies are
 printed (docs/bench/viewport.md); the bounds asserted leave room for a loaded machine.
@@ -12,6 +13,7 @@ import math
 import os
 import time
 import types
+from pathlib import Path
 
 import bpy
 import numpy as np
@@ -217,6 +219,46 @@ def test_rendered_viewport_session(modules):
         os.kill(proc.pid, 0)  # waited for: no zombie left
     assert not session.folder.exists()
     assert session not in engine.VIEW_SESSIONS
+
+
+def test_session_reports_failures_and_recovers(modules, tmp_path, binary):
+    """A failed export and a scene the renderer refuses are reported in `errors` with their
+    messages (nothing crashes, no image); the next good scene clears them and renders."""
+    _, viewport = modules
+    from blender_addon import runner
+    session = viewport.ViewSession(binary, ["--method", "path", "--spp", "2"], tmp_path)
+    cornell = (Path(__file__).resolve().parents[2] / "scenes" / "cornell_box.glb")
+    request = {"width": 16, "height": 16, "projection": "perspective", "yfov": 0.686,
+               "camera_to_world": [1, 0, 0, 0, 0, 1, 0, 2.775, 0, 0, 1, 10.775, 0, 0, 0, 1]}
+    try:
+        session.show(request)
+
+        def fail():
+            raise runner.PhotonError("glTF export failed: no such thing")
+
+        session.rescene(fail, tmp_path / "never.glb")
+        session.wait_exported(FIRST_IMAGE_SECONDS)
+        assert session.errors == ["glTF export failed: no such thing"]
+        broken = tmp_path / "broken.glb"
+        broken.write_bytes(b"not a glb")
+        session.rescene(lambda: None, broken)
+        session.wait_exported(FIRST_IMAGE_SECONDS)
+        end = time.perf_counter() + FIRST_IMAGE_SECONDS
+        while not session.errors and time.perf_counter() < end:
+            session.poll()
+            time.sleep(0.01)
+        # The new renderer cleared the export's error; its own failure is reported.
+        assert len(session.errors) == 1, session.errors
+        assert "photon view failed (exit code 2, bad input)" in session.errors[0], session.errors
+        assert session.latest() is None
+        session.rescene(lambda: None, cornell)
+        session.wait_exported(FIRST_IMAGE_SECONDS)
+        assert session.errors == []
+        frame = wait_frame(session, final=True)
+        assert (frame.width, frame.height, frame.spp) == (16, 16, 2)
+    finally:
+        session.close()
+    assert session.proc is None
 
 
 class ViewportEngine:
