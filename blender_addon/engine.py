@@ -287,10 +287,16 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         session = getattr(self, "_view", None)
         if session is None:
             session = self._view = new_view_session(args)
-        elif args == session.settings_args and not viewport.needs_export(
+        elif args == session.settings_args and not session.stale and not viewport.needs_export(
                 update_kinds(depsgraph)):
             return
         session.settings_args = args
+        if session.exporting():
+            # One export at a time (an object dragged updates the depsgraph many times a
+            # second): this change is exported when the one running ends (view_draw asks).
+            session.stale = True
+            return
+        session.stale = False
         export_view_scene(scene, session)
 
     def view_draw(self, context, depsgraph):
@@ -314,6 +320,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self.update_stats("", f"Photon: {session.errors[-1]}")
         elif texture is not None:
             self.update_stats("", f"Photon: {getattr(self, '_view_spp', 0)} samples")
+        if session.stale and not session.exporting():
+            self.tag_update()  # Blender calls view_update, which exports the changes since
         if session.rendering():
             self.tag_redraw()
 

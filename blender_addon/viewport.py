@@ -6,7 +6,8 @@ No bpy here (as runner.py), so tests drive it without a window. The engine (engi
 on every redraw (only a changed view is sent: the renderer then drops the image it was working
 on and starts on the new view), `ViewSession.rescene` when the depsgraph reports a change other
 than the view (the export runs in a thread, then a new renderer starts on the new scene and is
-sent the current view), `ViewSession.latest` to get an image not drawn yet, and
+sent the current view; the engine runs one export at a time, marking the session `stale` for
+changes made meanwhile), `ViewSession.latest` to get an image not drawn yet, and
 `ViewSession.close` when the viewport leaves Rendered mode or the engine is freed.
 
 The renderer's protocol (its README section "Interactive rendering"): a JSON request per line
@@ -151,6 +152,7 @@ class ViewSession:
         self.frame = None         # that image
         self.finished = set()     # requests whose last image has been written
         self.exports = 0          # scenes exported (and renderers started)
+        self.stale = False        # the scene changed while an export ran: export again after
         # request id -> seconds from sending it to its first, first full-size and last images
         self.timings: dict = {}
         self.announced: list = []  # (request, width, height, spp) of each image, in order
@@ -274,12 +276,17 @@ class ViewSession:
         self.frame = frame
         return frame
 
+    def exporting(self) -> bool:
+        """Whether an export is running."""
+        return self._export_thread is not None and self._export_thread.is_alive()
+
     def rendering(self) -> bool:
-        """Whether more images of the current view are to come (the engine keeps redrawing)."""
+        """Whether more images are to come (the engine keeps redrawing): an export running or
+        waiting, or a view whose last image is not in."""
         with self._lock:
-            exporting = self._export_thread is not None and self._export_thread.is_alive()
-            return exporting or (self.proc is not None and self.request_id > 0
-                                 and self.request_id not in self.finished)
+            return self.exporting() or self.stale or (
+                self.proc is not None and self.request_id > 0
+                and self.request_id not in self.finished)
 
     def alive(self) -> bool:
         return self.proc is not None and self.proc.poll() is None

@@ -269,7 +269,7 @@ class ViewportEngine:
         cls = engine.PhotonRenderEngine
         self.methods = {name: getattr(cls, name) for name in
                         ("view_update", "_view_update", "view_draw", "__del__")}
-        self.stats, self.redraws = [], 0
+        self.stats, self.redraws, self.updates_asked = [], 0, 0
 
     def __getattr__(self, name):
         method = self.__dict__["methods"].get(name)
@@ -282,6 +282,9 @@ class ViewportEngine:
 
     def tag_redraw(self):
         self.redraws += 1
+
+    def tag_update(self):
+        self.updates_asked += 1
 
 
 def test_view_update_and_view_draw(modules, monkeypatch):
@@ -331,10 +334,19 @@ def test_view_update_and_view_draw(modules, monkeypatch):
     fake.view_update(context, depsgraph)
     assert session.exports == 1, "no change, no export"
     pid = session.proc.pid
+    # Two changes while the first one's export runs: one export for both, once it ends.
+    scene.photon.viewport_samples = 3
+    fake.view_update(context, depsgraph)
     scene.photon.viewport_samples = 2
     fake.view_update(context, depsgraph)
+    assert session.exports == 2 and session.stale
     session.wait_exported(FIRST_IMAGE_SECONDS)
-    assert session.exports == 2 and session.proc.pid != pid
+    fake.view_draw(context, depsgraph)
+    assert fake.updates_asked == 1, "the draw asks Blender for a view_update"
+    fake.view_update(context, depsgraph)
+    assert session.exports == 3 and not session.stale
+    session.wait_exported(FIRST_IMAGE_SECONDS)
+    assert session.proc.pid != pid
     draw_until_done()
     assert drawn[-1][2] == 2, drawn
     proc = session.proc
