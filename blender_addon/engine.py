@@ -347,13 +347,14 @@ def new_view_session(settings_args):
 def export_view_scene(scene, session):
     """Export `scene` for the viewport as F12 does in the UI (a snapshot .blend here, exported
     by a background Blender in the session's thread: the viewport's drawing never waits for
-    it), then restart the session's renderer on it."""
+    it; closing the session stops it), then restart the session's renderer on it."""
     number = session.exports + 1
     snapshot = session.folder / f"snapshot{number}.blend"
     glb = session.folder / f"scene{number}.glb"
     export.write_snapshot(scene, snapshot)
     command = export.child_command(snapshot, glb, export.scripts_may_run())
-    session.rescene(lambda: runner.run(command, what="glTF export (background Blender)",
+    session.rescene(lambda: runner.run(command, None, lambda: session.closed,
+                                       what="glTF export (background Blender)",
                                        cwd=str(session.folder)), glb)
 
 

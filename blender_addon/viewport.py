@@ -153,6 +153,7 @@ class ViewSession:
         self.finished = set()     # requests whose last image has been written
         self.exports = 0          # scenes exported (and renderers started)
         self.stale = False        # the scene changed while an export ran: export again after
+        self.closed = False       # `close` was called: exports running stop
         # request id -> seconds from sending it to its first, first full-size and last images
         self.timings: dict = {}
         self.announced: list = []  # (request, width, height, spp) of each image, in order
@@ -163,14 +164,17 @@ class ViewSession:
     # -- the scene ---------------------------------------------------------------------
     def rescene(self, export, glb):
         """Export the scene again (`export()` writes `glb`, run in a thread; it raises
-        runner.PhotonError to report a failure) and then start a renderer on it; the running
-        renderer keeps drawing the old scene until then. The last export asked for wins."""
+        runner.PhotonError to report a failure, runner.Cancelled once `closed`) and then start
+        a renderer on it; the running renderer keeps drawing the old scene until then. The last
+        export asked for wins."""
         self.exports += 1
         number = self.exports
 
         def work():
             try:
                 export()
+            except runner.Cancelled:
+                return  # the session was closed
             except (runner.PhotonError, OSError) as exc:
                 with self._lock:
                     self.errors.append(str(exc))
@@ -309,5 +313,6 @@ class ViewSession:
     def close(self):
         """Stop the renderer (no process is left behind) and forget the export running."""
         with self._lock:
-            self.exports += 1  # an export still running starts no renderer
+            self.closed = True  # an export still running stops and starts no renderer
+            self.exports += 1
             self._stop()

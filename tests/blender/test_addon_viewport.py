@@ -350,8 +350,16 @@ def test_view_update_and_view_draw(modules, monkeypatch):
     draw_until_done()
     assert drawn[-1][2] == 2, drawn
     proc = session.proc
+    # Freed while an export runs: the export's background process is stopped too.
+    bpy.data.objects["Cube"].location = (0.0, 0.0, 0.5)
+    scene.photon.viewport_samples = 1
+    fake.view_update(context, depsgraph)
+    assert session.exporting()
     fake.__del__()
     assert proc.poll() is not None and session not in engine.VIEW_SESSIONS
+    session.wait_exported(2.0)
+    assert not session.exporting(), "the export stopped within a poll of its process"
+    assert session.proc is None, "no renderer started after the close"
 
 
 @pytest.mark.slow
