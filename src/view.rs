@@ -14,7 +14,9 @@
 //! then width × height linear RGBA f32 pixels, little-endian, rows from the bottom up (as a GPU
 //! texture is filled). After each image a JSON line on stderr says so:
 //! `{"stage": "image", "request": ID, "width": W, "height": H, "spp": N, "final": bool,
-//! "seconds": S}` (seconds since the request was read). The request protocol is specified in the
+//! "seconds": S}` (seconds since the request was read); a render a newer request stops is
+//! followed by `{"stage": "cancelled", "request": ID, "by": NEWER, "seconds": S}` (seconds from
+//! reading the newer request to the render's stop). The request protocol is specified in the
 //! project README ("Interactive rendering"). Camera model as glTF's (Khronos glTF 2.0, §3.10),
 //! with Blender's lens shift in units of the image height.
 
@@ -139,7 +141,21 @@ pub fn serve(
             )
         });
         match outcome {
-            Ok(()) | Err(Error::Cancelled) => {}
+            Ok(()) => {}
+            Err(Error::Cancelled) => {
+                // How long the render took to stop after the request that cancelled it was
+                // read (none when stdin ended).
+                let since = shared.inbox.lock().ok().and_then(|inbox| {
+                    let (next, read) = inbox.pending.as_ref()?;
+                    Some((next.id, read.elapsed().as_secs_f64()))
+                });
+                if let Some((next, seconds)) = since {
+                    event(
+                        serde_json::json!({"stage": "cancelled", "request": request.id,
+                                             "by": next, "seconds": seconds}),
+                    );
+                }
+            }
             Err(e) => event(serde_json::json!({"stage": "view", "request": request.id,
                                                "error": e.to_string()})),
         }

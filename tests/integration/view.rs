@@ -170,9 +170,19 @@ fn view_a_new_request_cancels_the_running_one_and_shows_the_new_view() {
     viewer.send(&request(2, 256, true));
     let second = viewer.image_of(2, false, 30.0);
     let latency = sent.elapsed().as_secs_f64();
-    // The running render stops within its cancel checks' few milliseconds; the bound leaves
+    // The running render stops within its cancel checks' few milliseconds; the bounds leave
     // room for a loaded machine.
     assert!(latency < 2.0, "the new view's first image took {latency} s");
+    let stopped = viewer
+        .log
+        .iter()
+        .find(|e| e["stage"] == "cancelled" && e["request"] == 1)
+        .cloned()
+        .expect("request 1 was cancelled");
+    assert_eq!(stopped["by"], 2);
+    let seconds = stopped["seconds"].as_f64().unwrap();
+    assert!(seconds < 0.5, "request 1 took {seconds} s to stop");
+    println!("view: request 1 stopped {seconds:.4} s after request 2 was read");
     assert!(second["seconds"].as_f64().unwrap() < 2.0, "{second}");
     // The rolled view, small, to its last image.
     viewer.send(&request(3, 16, true));
