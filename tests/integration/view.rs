@@ -1,8 +1,10 @@
 //! `photon view`, the interactive mode behind the Blender add-on's Rendered viewport: a request
 //! on stdin renders its view into the image file; a newer request cancels the one running and
 //! the images that follow show the new view; malformed requests get error events and change
-//! nothing; the end of stdin ends the process. Scene: the embedded Cornell box (red wall on
-//! the left, green on the right, seen from its camera at (0, 2.775, 10.775) looking along −Z).
+//! nothing; the end of stdin ends the process; photon mapping shows a path-traced sample while
+//! its maps are built; render-only flags and unreadable scenes exit with 2. Scene: the embedded
+//! Cornell box (red wall on the left, green on the right, seen from its camera at
+//! (0, 2.775, 10.775) looking along −Z).
 
 use crate::support::binary::{photon, temp_dir};
 use serde_json::{json, Value};
@@ -295,4 +297,30 @@ fn view_photon_mapping_shows_a_full_size_path_traced_sample_before_its_maps() {
     assert_eq!((w, h, spp, id), (32, 32, 2, 1));
     assert!(left > right + 0.05, "red on the left ({left} vs {right})");
     viewer.finish();
+}
+
+#[test]
+fn view_refuses_render_only_flags_and_bad_scenes_with_exit_code_2() {
+    let dir = temp_dir("flags");
+    let image = dir.join("view.raw");
+    let broken = dir.join("broken.glb");
+    std::fs::write(&broken, b"not a glb").unwrap();
+    for args in [
+        vec!["view", "--time-limit", "1"],
+        vec!["view", "--region", "0", "0", "4", "4"],
+        vec!["view", broken.to_str().unwrap()],
+    ] {
+        let output = photon()
+            .args(&args)
+            .arg("-o")
+            .arg(&image)
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains("photon: error:"), "{args:?}: {stderr}");
+        assert!(!image.exists());
+    }
+    let _ = std::fs::remove_dir_all(dir);
 }
