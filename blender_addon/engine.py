@@ -11,9 +11,13 @@ error, unreadable image) ends as one `report({'ERROR'}, ...)` with the renderer'
 never a traceback and never a silently black image (in `blender -b` such a report also makes
 Blender exit non-zero). With Denoise on, the loaded image is denoised (denoise.py) before
 Blender gets it; a missing denoiser is a warning. Esc (`test_break`) stops the child within a
-second; the temporary folder is always removed.
+second; the temporary folder is always removed. The Rendered viewport (`view_update`,
+`view_draw`) keeps a viewport.py session per viewport: the scene exported as F12 exports it in
+the UI, `photon view` rendering the viewport's view, its images drawn as GPU textures through
+Blender's display transform.
 """
 
+import atexit
 import dataclasses
 import shutil
 import tempfile
@@ -23,7 +27,7 @@ from pathlib import Path
 
 import bpy
 
-from . import denoise, export, preflight, preview, properties, runner
+from . import denoise, export, preflight, preview, properties, runner, viewport
 
 ADDON_DIR = Path(__file__).resolve().parent
 
@@ -42,6 +46,8 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
     bl_use_preview = True
     bl_use_postprocess = True
     bl_use_shading_nodes_custom = False
+    # Material Preview only (Blender reads the flag for that mode alone): EEVEE there, as for
+    # Cycles; Rendered mode draws Photon's own image (view_update, view_draw).
     bl_use_eevee_viewport = True
 
     def update_render_passes(self, scene=None, renderlayer=None):
@@ -263,6 +269,140 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         return ", ".join(parts + [f"total {time.perf_counter() - start:.2f} s"])
 
 
+    # -- the Rendered viewport (viewport.py holds the session) ---------------------------
+    def view_update(self, context, depsgraph):
+        """The viewport's scene changed (or Rendered mode began): export it again, unless only
+        cameras moved, and start a renderer on it; a changed Photon setting does the same."""
+        try:
+            self._view_update(depsgraph)
+        except (runner.PhotonError, export.ExportError) as exc:
+            self.update_stats("", f"Photon: {exc}")
+        except Exception as exc:  # noqa: BLE001 - a bug in the add-on: say so, log the trace
+            traceback.print_exc()
+            self.update_stats("", f"Photon add-on internal error: {exc!r}")
+
+    def _view_update(self, depsgraph):
+        scene = depsgraph.scene
+        args = runner.settings_arguments(properties.viewport_settings(scene.photon))
+        session = getattr(self, "_view", None)
+        if session is None:
+            session = self._view = new_view_session(args)
+        elif args == session.settings_args and not session.stale and not viewport.needs_export(
+                update_kinds(depsgraph)):
+            return
+        session.settings_args = args
+        if session.exporting():
+            # One export at a time (an object dragged updates the depsgraph many times a
+            # second): this change is exported when the one running ends (view_draw asks).
+            session.stale = True
+            return
+        session.stale = False
+        export_view_scene(scene, session)
+
+    def view_draw(self, context, depsgraph):
+        """Send the viewport's view (a changed one restarts the render) and draw the newest
+        image, through Blender's display transform; redraw while images are still coming."""
+        session = getattr(self, "_view", None)
+        if session is None:
+            return
+        region, view = context.region, context.region_data
+        session.show(viewport.view_request([list(r) for r in view.view_matrix],
+                                           [list(r) for r in view.window_matrix],
+                                           region.width, region.height))
+        frame = session.latest()
+        if frame is not None:
+            self._view_texture = _texture(frame)
+            self._view_spp = frame.spp
+        texture = getattr(self, "_view_texture", None)
+        if texture is not None:
+            _draw(self, depsgraph.scene, texture, region.width, region.height)
+        if session.errors:
+            self.update_stats("", f"Photon: {session.errors[-1]}")
+        elif texture is not None:
+            self.update_stats("", f"Photon: {getattr(self, '_view_spp', 0)} samples")
+        if session.stale and not session.exporting():
+            self.tag_update()  # Blender calls view_update, which exports the changes since
+        if session.rendering():
+            self.tag_redraw()
+
+    def __del__(self):
+        """The engine is freed (the viewport left Rendered mode): stop its renderer."""
+        try:
+            session = getattr(self, "_view", None)
+        except ReferenceError:
+            return
+        if session is not None:
+            _close_view(session)
+
+
+def new_view_session(settings_args):
+    """A Rendered viewport's session (no renderer yet: `export_view_scene` starts one)."""
+    binary = runner.find_binary(properties.preference_binary(bpy.context), ADDON_DIR)
+    session = viewport.ViewSession(binary, settings_args,
+                                   tempfile.mkdtemp(prefix="photon_view_"))
+    VIEW_SESSIONS.append(session)
+    return session
+
+
+def export_view_scene(scene, session):
+    """Export `scene` for the viewport as F12 does in the UI (a snapshot .blend here, exported
+    by a background Blender in the session's thread: the viewport's drawing never waits for
+    it; closing the session stops it), then restart the session's renderer on it."""
+    number = session.exports + 1
+    snapshot = session.folder / f"snapshot{number}.blend"
+    glb = session.folder / f"scene{number}.glb"
+    export.write_snapshot(scene, snapshot)
+    command = export.child_command(snapshot, glb, export.scripts_may_run())
+    session.rescene(lambda: runner.run(command, None, lambda: session.closed,
+                                       what="glTF export (background Blender)",
+                                       cwd=str(session.folder)), glb)
+
+
+def update_kinds(depsgraph):
+    """The depsgraph's updates as viewport.needs_export reads them."""
+    return [(type(u.id).__name__.upper(), getattr(u.id, "type", None), u.is_updated_geometry,
+             u.is_updated_shading, u.is_updated_transform) for u in depsgraph.updates]
+
+
+def _texture(frame):
+    """A GPU texture holding `frame`'s pixels (already bottom row first)."""
+    import gpu
+    pixels = frame.pixels.astype("float32").ravel()
+    buffer = gpu.types.Buffer("FLOAT", pixels.size, pixels)
+    return gpu.types.GPUTexture((frame.width, frame.height), format="RGBA16F", data=buffer)
+
+
+def _draw(engine, scene, texture, width, height):
+    """Draw `texture` over the viewport's region through Blender's display transform."""
+    import gpu
+    from gpu_extras.presets import draw_texture_2d
+    gpu.state.blend_set("ALPHA_PREMULT")
+    engine.bind_display_space_shader(scene)
+    draw_texture_2d(texture, (0, 0), width, height)
+    engine.unbind_display_space_shader()
+    gpu.state.blend_set("NONE")
+
+
+# Sessions of the Rendered viewports open: closed when their engine is freed, when the add-on
+# is disabled and when Blender quits.
+VIEW_SESSIONS = []
+
+
+def _close_view(session):
+    session.close()
+    shutil.rmtree(session.folder, ignore_errors=True)
+    if session in VIEW_SESSIONS:
+        VIEW_SESSIONS.remove(session)
+
+
+def close_views():
+    for session in list(VIEW_SESSIONS):
+        _close_view(session)
+
+
+atexit.register(close_views)
+
+
 class AnimationExport:
     """The background Blender that exports every frame of an animation rendered in the UI
     route: started at the animation's first frame on a snapshot of the scene, asked for each
@@ -330,6 +470,7 @@ def register():
 
 def unregister():
     ANIMATION_EXPORT.close()
+    close_views()
     for name in HANDLERS:
         handlers = getattr(bpy.app.handlers, name)
         if _end_animation_export in handlers:

@@ -33,6 +33,10 @@ class PhotonRenderSettings(bpy.types.PropertyGroup):
     samples: IntProperty(
         name="Samples", description="Samples per pixel (0: from the quality preset, or as many "
         "as the time limit allows)", default=D.samples, min=0, soft_max=4096, max=1_000_000)
+    viewport_samples: IntProperty(
+        name="Viewport Samples", description="Samples per pixel of the Rendered viewport, "
+        "which shows them as they come (as Cycles' Viewport samples)", default=32, min=1,
+        soft_max=4096, max=1_000_000)
     time_limit: FloatProperty(
         name="Time Limit", description="Stop adding samples after this time (0: no limit)",
         default=D.time_limit, min=0.0, soft_max=3600.0, subtype="TIME_ABSOLUTE")
@@ -109,6 +113,13 @@ def render_settings(props) -> RenderSettings:
         value = getattr(props, field.name)
         values[field.name] = value.lower() if isinstance(value, str) else value
     return RenderSettings(**values)
+
+
+def viewport_settings(props) -> RenderSettings:
+    """The Rendered viewport's settings: the render's, at the viewport's samples, without a
+    time limit (the viewport keeps adding samples up to its count)."""
+    return dataclasses.replace(render_settings(props), samples=props.viewport_samples,
+                               time_limit=0.0)
 
 
 class PhotonViewLayerSettings(bpy.types.PropertyGroup):

@@ -160,6 +160,7 @@ class RENDER_PT_photon_sampling(PhotonPanel, bpy.types.Panel):
         col.prop(settings, "method")
         col.prop(settings, "quality")
         col.prop(settings, "samples")
+        col.prop(settings, "viewport_samples")
         col.prop(settings, "time_limit")
         # Blender's Noise Threshold, Cycles' settings, which Photon reads
         # (properties.adaptive_sampling).

@@ -17,7 +17,7 @@ use photon::progress::{Progress, ProgressEvent};
 use photon::render::{Method, RenderSettings, RenderStats, Sampler};
 use photon::rounds::{render_in_rounds, RoundsResult};
 use photon::scene::load::{image_size, load_scene_with, LoadOptions};
-use photon::scene::{Projection, SubsurfaceMethod};
+use photon::scene::{Projection, Scene, SubsurfaceMethod};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -73,6 +73,11 @@ enum Command {
     },
     /// Benchmark run time against error for each method on each scene.
     Bench(crate::bench::BenchArgs),
+    /// Interactive rendering (Blender's Rendered viewport): load the scene once, then render
+    /// each view requested on stdin (one JSON object a line) progressively into the -o file,
+    /// a new request cancelling the one running; ends when stdin closes. Takes the render
+    /// flags (--method, --spp, ...); --width and --height size the planner's pilot only.
+    View(Box<RenderArgs>),
 }
 
 /// Quality preset (`--quality`): samples and photon counts.
@@ -427,6 +432,7 @@ pub fn main() -> i32 {
                 run_info(&scene, &options, quality.into())
             }
             Command::Bench(args) => crate::bench::run_bench(args),
+            Command::View(args) => run_view(*args),
             Command::Compare {
                 image,
                 reference,
@@ -474,8 +480,23 @@ fn non_negative_limit(text: &str) -> std::result::Result<f32, String> {
     }
 }
 
-fn run_render(args: RenderArgs) -> Result<()> {
-    let process = Instant::now();
+/// A scene loaded and a render configured from the command line: what `render` and `view`
+/// share.
+pub(crate) struct Prepared {
+    pub scene: Scene,
+    /// The BVH, when the planner's pilot needed it (`--method auto`).
+    pub accel: Option<Accel>,
+    pub settings: RenderSettings,
+    pub pool: rayon::ThreadPool,
+    pub threads: usize,
+    pub time_limit: Option<Duration>,
+    pub load_seconds: f64,
+    pub pilot_build_seconds: f64,
+}
+
+/// Load the scene and turn the command line into render settings (the planner's for `auto`),
+/// reporting the stages and warnings as `mode` says.
+fn prepare(args: &RenderArgs, mode: ProgressMode, process: Instant) -> Result<Prepared> {
     let filter = args
         .filter
         .as_deref()
@@ -492,12 +513,6 @@ fn run_render(args: RenderArgs) -> Result<()> {
             min_samples: args.adaptive_min_samples,
         }),
         None => None,
-    };
-    let cancel = install_signal_handlers()?;
-    let mode = match args.progress {
-        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
-        ProgressMode::Auto => ProgressMode::None,
-        m => m,
     };
     if mode == ProgressMode::Json {
         json_line(
@@ -680,6 +695,55 @@ fn run_render(args: RenderArgs) -> Result<()> {
         },
     };
 
+    Ok(Prepared {
+        scene,
+        accel,
+        settings,
+        pool,
+        threads,
+        time_limit,
+        load_seconds,
+        pilot_build_seconds,
+    })
+}
+
+/// `photon view`: prepare as `render` does (progress as JSON lines), then serve view requests
+/// (`view::serve`). No signal handlers: SIGTERM ends the process at once.
+fn run_view(args: RenderArgs) -> Result<()> {
+    if args.region.is_some() || args.passes || args.time_limit.is_some() {
+        return Err(Error::Settings(
+            "view takes no --region, --passes or --time-limit (each request is a whole view, \
+             rendered up to --spp)"
+                .into(),
+        ));
+    }
+    let prepared = prepare(&args, ProgressMode::Json, Instant::now())?;
+    crate::view::serve(
+        prepared.scene,
+        prepared.accel,
+        &prepared.settings,
+        &prepared.pool,
+        &args.output,
+    )
+}
+
+fn run_render(args: RenderArgs) -> Result<()> {
+    let process = Instant::now();
+    let cancel = install_signal_handlers()?;
+    let mode = match args.progress {
+        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
+        ProgressMode::Auto => ProgressMode::None,
+        m => m,
+    };
+    let prepared = prepare(&args, mode, process)?;
+    let (scene, accel, settings, pool) = (
+        prepared.scene,
+        prepared.accel,
+        prepared.settings,
+        prepared.pool,
+    );
+    let (threads, time_limit) = (prepared.threads, prepared.time_limit);
+    let (load_seconds, pilot_build_seconds) = (prepared.load_seconds, prepared.pilot_build_seconds);
     let bar = (mode == ProgressMode::Bar).then(|| {
         let bar = indicatif::ProgressBar::new(1000);
         bar.set_style(

@@ -2,6 +2,7 @@
 
 mod bench;
 mod cli;
+mod view;
 
 fn main() {
     // Rust ignores SIGPIPE, so printing to a closed pipe (`photon compare a b | head -1`) would

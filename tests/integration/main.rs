@@ -38,5 +38,6 @@ mod sampler;
 mod scenes;
 mod stress;
 mod subsurface;
+mod view;
 mod volume_objects;
 mod warps;
