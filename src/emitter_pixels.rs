@@ -1,20 +1,23 @@
 //! The pixels whose filter window can see an emitter directly, so that emission rays
-//! (`render::see_emission`) are traced only there.
+//! (`render::see_emission`) are traced only there. Seen directly means met going straight on
+//! from the camera: through transparent surfaces and media, and by smooth mirrors and glass.
 //!
-//! Elsewhere every camera ray's first hit emits nothing, so the emission rays would all find
-//! zero, as the sample's own ray did: skipping them leaves every pixel's value exactly as it
-//! was. The bound is conservative: the image box of each emitting triangle (of a still mesh;
-//! the box of a deforming mesh or a placed instance's corners), each lamp the camera sees (the
-//! cube around its sphere), widened by the pixel filter's radius and a pixel. The whole image
+//! Elsewhere every camera ray meets no emission before it first scatters, so the emission rays
+//! would all find zero, as the sample's own ray did: skipping them leaves every pixel's value
+//! exactly as it was. The bound is conservative: the image box of each emitting triangle (of a
+//! still mesh; the box of a deforming mesh or a placed instance's corners), of each mesh that
+//! may be a smooth mirror or glass (which may show any emitter), and of each lamp the camera
+//! sees (the cube around its sphere), widened by the pixel filter's radius and a pixel. The whole image
 //! counts where no such bound exists: a background or sun disc the camera can see, a lens, a
 //! moving camera, a panorama, an emitter reaching behind the camera. (Screen-space bounds of
 //! geometry as in a rasteriser's bounding-box setup; nothing here is from a paper.)
 
+use crate::bsdf::SMOOTH_ROUGHNESS;
 use crate::camera::CameraRays;
 use crate::integrator::Context;
 use crate::light::{lamp_of, LightSource};
 use crate::math::{Vec2, Vec3};
-use crate::scene::Mesh;
+use crate::scene::{Material, Mesh};
 
 /// Which pixels of a `width` × `height` image may see an emitter directly.
 pub struct EmitterPixels {
@@ -42,7 +45,10 @@ impl EmitterPixels {
         }
         let mut boxes = Boxes::new(width, height, filter_radius);
         let scene = ctx.scene;
-        let emits = |m: &Mesh| scene.materials[m.material as usize].is_emissive();
+        let emits = |m: &Mesh| {
+            let material = &scene.materials[m.material as usize];
+            material.is_emissive() || may_be_smooth(material)
+        };
         for mesh in scene.meshes.iter().filter(|m| m.camera_visible && emits(m)) {
             let fits = if mesh.deformation.is_empty() {
                 mesh.indices
@@ -99,6 +105,18 @@ impl EmitterPixels {
             Some(f) => f.iter().filter(|&&b| b).count() as f64 / f.len().max(1) as f64,
         }
     }
+}
+
+/// Whether `material` may have a delta lobe (a smooth specular layer, metal, glass or coat),
+/// through which a camera ray goes straight on to what it reflects or refracts: a node tree
+/// or a roughness texture may, whatever its factors.
+fn may_be_smooth(material: &Material) -> bool {
+    material.nodes.is_some()
+        || material.metallic_roughness_texture.is_some()
+        || material.roughness < SMOOTH_ROUGHNESS
+        || (material.coat > 0.0
+            && (material.coat_roughness < SMOOTH_ROUGHNESS
+                || material.coat_roughness_texture.is_some()))
 }
 
 /// A camera ray that leaves the scene may see light: the world's (or the camera's own

@@ -64,8 +64,9 @@ pub struct CameraSample {
     /// `radiance` split by light path (`crate::light_pass::LightPass`); every integrator sets
     /// both so that the passes sum to `radiance`.
     pub passes: Passes,
-    /// The part of `radiance` the camera ray sees directly: the emission of the first surface
-    /// it meets, or the background it escapes to (`walk::seen_emission` estimates the same
-    /// for another ray).
+    /// The part of `radiance` the camera ray sees directly: the emission it meets going
+    /// straight on through transparent surfaces, media and delta lobes (smooth mirrors and
+    /// glass) before any other scattering, or the background it escapes to (the Emission
+    /// pass; `walk::seen_emission` estimates the same for another ray).
     pub seen_emission: Vec3,
 }

@@ -35,7 +35,7 @@ use super::random_walk;
 use super::shading::{transmittance, PathHistory, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{hit_holdout, hit_mesh, Hit, Ray, Visibility, NO_INSTANCE};
-use crate::bsdf::{BsdfSample, Scattering};
+use crate::bsdf::{BsdfSample, Scattering, SMOOTH_ROUGHNESS};
 use crate::interaction::SurfaceHit;
 use crate::light::{emitted_radiance, hit_links, Receiver};
 use crate::light_pass::{FirstVertex, LightPass, Passes};
@@ -614,29 +614,44 @@ pub fn walk(
     let mut state = PathState::new(ray, gather, false, clamp);
     state.media = MediumStack::at(ctx, ray.origin, ray.time);
     walk_from(ctx, &mut state, rng, gather, emission, integrator, &mut out);
+    out.seen_emission = state.seen_emission();
     out.radiance = state.passes.total();
     out.passes = state.passes;
     out.rays = state.rays;
     out
 }
 
-/// What the camera sees directly along `ray`: the emission of the first surface it meets, or
-/// the background it escapes to, exactly as `walk` counts it at its first vertex
-/// (`CameraSample::seen_emission`), with the rays traced. A surface whose material cannot emit
-/// is not shaded.
+/// What the camera sees directly along `ray`: the emission it meets going straight on
+/// (through transparent surfaces and media without scattering, and smooth mirrors and glass)
+/// until its first other scattering, or the background it escapes to, exactly as `walk`
+/// counts it (`CameraSample::seen_emission`: the Emission pass, light met before any vertex
+/// that is not a delta one), with the rays traced.
 pub fn seen_emission(ctx: &Context, ray: Ray, rng: &mut Rng) -> (Vec3, u32) {
-    /// The walk ends at the first surface before any integrator acts.
-    struct Nothing;
-    impl Scatter for Nothing {
-        fn scatter(&mut self, _: &mut PathState, _: &mut Shading, _: &mut Rng) -> Next {
-            Next::End
+    /// The walk goes on only through delta lobes: past the first other vertex nothing it
+    /// meets is seen directly.
+    struct Straight;
+    impl Scatter for Straight {
+        fn walks_subsurface(&self, _: &Subsurface) -> bool {
+            false
+        }
+        fn scatters_in_media(&self) -> bool {
+            false
+        }
+        fn scatter(&mut self, path: &mut PathState, s: &mut Shading, _: &mut Rng) -> Next {
+            let smooth = s.bsdf.has_specular() && s.bsdf.roughness() < SMOOTH_ROUGHNESS;
+            match path.diffuse == 0 && smooth {
+                true => Next::Continue {
+                    light_sampled: false,
+                },
+                false => Next::End,
+            }
         }
     }
-    let mut state = PathState::new(ray, false, true, Clamp::of(ctx.scene));
+    let mut state = PathState::new(ray, false, false, Clamp::of(ctx.scene));
     state.media = MediumStack::at(ctx, ray.origin, ray.time);
     let mut out = CameraSample::default();
-    walk_from(ctx, &mut state, rng, false, true, &mut Nothing, &mut out);
-    (out.seen_emission, state.rays)
+    walk_from(ctx, &mut state, rng, false, true, &mut Straight, &mut out);
+    (state.seen_emission(), state.rays)
 }
 
 /// The loop of `walk` from `state`, filling `out`'s first-hit fields.
@@ -677,15 +692,9 @@ fn walk_from(
             match state.through_media(ctx, reach, counts, scatters, rng) {
                 Flight::Passed => {}
                 Flight::Absorbed => {
-                    if depth == 0 {
-                        out.seen_emission = state.seen_emission();
-                    }
                     break;
                 }
                 Flight::Scattered { t, at } => {
-                    if depth == 0 {
-                        out.seen_emission = state.seen_emission();
-                    }
                     if depth == ctx.max_depth
                         || state.emission_only
                         || !state.scatter_in_medium(ctx, t, &at, rng)
@@ -709,9 +718,6 @@ fn walk_from(
                     _ => state.escaped(ctx, visibility == Visibility::Camera),
                 }
             }
-            if depth == 0 {
-                out.seen_emission = state.seen_emission();
-            }
             break;
         };
         if state.absorption != Vec3::ZERO {
@@ -722,9 +728,6 @@ fn walk_from(
         // goes on through transparent surfaces after a path's last bounce.
         let material = hit_mesh(ctx.scene, &hit).material;
         if state.emission_only && !ctx.scene.materials[material as usize].is_emissive() {
-            if depth == 0 {
-                out.seen_emission = state.seen_emission();
-            }
             if depth < ctx.max_depth && state.pass_through(ctx, &hit, depth) {
                 continue;
             }
@@ -736,7 +739,6 @@ fn walk_from(
         s.reached_by(ctx.scene, state.history);
         // A node tree's Holdout seen by the camera: black, and a hole in the film's alpha.
         if primary && (s.surface.holdout || hit_holdout(ctx.scene, &hit)) {
-            out.seen_emission = state.seen_emission();
             out.holdout = true;
             break;
         }
@@ -757,9 +759,6 @@ fn walk_from(
         }
         if emission && !(gather && depth == 0) {
             state.emitted(ctx, &s);
-        }
-        if depth == 0 {
-            out.seen_emission = state.seen_emission();
         }
         if depth == ctx.max_depth || state.emission_only {
             break;
