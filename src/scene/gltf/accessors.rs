@@ -26,7 +26,9 @@ impl Loader {
                     &object,
                 )?;
             }
-            None if accessor.count() > MAX_VIEWLESS_ELEMENTS => {
+            None if accessor.count() > MAX_VIEWLESS_ELEMENTS
+                && !self.decoded_accessors.contains_key(&accessor.index()) =>
+            {
                 return Err(self.err(
                     &object,
                     format!(
@@ -130,6 +132,27 @@ impl Loader {
                                 normalized,
                             ));
                         }
+                    }
+                }
+                values
+            }
+            None if self.decoded_accessors.contains_key(&accessor.index()) => {
+                let bytes = &self.decoded_accessors[&accessor.index()];
+                if bytes.len() != count.saturating_mul(element_size) {
+                    return Err(self.err(
+                        &object,
+                        format!("decoded to {} bytes, not {count} elements", bytes.len()),
+                    ));
+                }
+                let mut values = Vec::with_capacity(total);
+                for element in bytes.chunks_exact(element_size.max(1)) {
+                    for c in 0..components {
+                        let start = c * component_size;
+                        values.push(decode(
+                            &element[start..start + component_size],
+                            data_type,
+                            normalized,
+                        ));
                     }
                 }
                 values
