@@ -1,7 +1,8 @@
 """Writes the Draco test files of tests/data/draco with Blender's own glTF exporter (bpy 4.5,
 whose exporter bundles the Draco encoder): one small scene (a smooth UV sphere with UVs, a
 subdivided cube with flat faces and vertex colours, a plane with a UV seam, and a mesh of two
-materials, so two primitives) exported uncompressed and Draco-compressed at the levels that
+materials, so two primitives, over a floor lit by a sun and seen by a camera) exported
+uncompressed and Draco-compressed at the levels that
 pick each of Draco's mesh encoders and prediction schemes, with and without quantization.
 
     .venv/bin/python tests/data/draco/make_draco.py
@@ -64,10 +65,18 @@ def build_scene():
     for poly in cylinder.data.polygons:
         poly.material_index = 1 if abs(poly.normal.z) > 0.5 else 0
 
+    # A floor, a sun and a camera, so the files render.
+    bpy.ops.mesh.primitive_plane_add(size=6, location=(0, 0, -0.01))
+    bpy.context.active_object.name = "Floor"
+    bpy.ops.object.light_add(type="SUN", rotation=(0.6, 0.3, 0.4))
+    bpy.context.active_object.data.energy = 3.0
+    bpy.ops.object.camera_add(location=(0.5, -5.0, 3.5), rotation=(1.05, 0.0, 0.1))
+    bpy.context.scene.camera = bpy.context.active_object
+
 
 def export(path, level=None, bits=None):
-    options = dict(filepath=str(path), export_format="GLB", export_cameras=False,
-                   export_lights=False, export_apply=True)
+    options = dict(filepath=str(path), export_format="GLB", export_cameras=True,
+                   export_lights=True, export_apply=True)
     if level is not None:
         p, n, t, c = bits
         options.update(export_draco_mesh_compression_enable=True,

@@ -11,9 +11,8 @@ use super::octahedron::Octahedron;
 use super::prediction::{read_ids, MeshData, Scheme};
 use super::rans::decode_symbols;
 
-/// Draco's attribute semantics.
+/// Draco's position attribute type.
 pub(super) const POSITION: u8 = 0;
-pub(super) const NORMAL: u8 = 1;
 
 /// How one attribute is stored, as its group's header says.
 #[derive(Clone, Debug)]
@@ -201,6 +200,11 @@ pub(super) fn decode_group<'a>(
                 }
                 let range = r.f32("a quantization's range")?;
                 let bits = r.u8("a quantization's bits")?;
+                if !range.is_finite() || min.iter().any(|m| !m.is_finite()) {
+                    return Err(
+                        "a quantization's bounds are not finite: the file is damaged".into(),
+                    );
+                }
                 if !(1..=30).contains(&bits) {
                     return Err(format!(
                         "a quantization of {bits} bits: the file is damaged"

@@ -22,11 +22,6 @@ pub(super) enum Transform {
 }
 
 impl Transform {
-    /// Whether corrections are stored unsigned (no zig-zag sign in the symbols).
-    pub(super) fn positive_corrections(&self) -> bool {
-        matches!(self, Transform::Octahedron(_))
-    }
-
     fn read_data(kind: i8, r: &mut Reader<'_>) -> Decoded<Transform> {
         match kind {
             1 => {
@@ -626,20 +621,17 @@ fn tex_coord_prediction(
             return Ok(());
         }
     }
-    let mut offset = None;
-    if prev < p {
-        offset = Some(prev);
-    }
-    if next < p {
-        offset = Some(next);
+    // Draco's fallback: the next corner's value if decoded, else the previous value (even
+    // when the previous corner's is decoded), else zero.
+    let d = if next < p {
+        next
     } else if p > 0 {
-        offset = Some(p - 1);
+        p - 1
     } else {
         out[0] = 0;
         out[1] = 0;
         return Ok(());
-    }
-    let d = offset.unwrap_or(0);
+    };
     out[0] = values[2 * d];
     out[1] = values[2 * d + 1];
     Ok(())
