@@ -5,7 +5,9 @@
 //! corners, never its winding), corner for corner in position, normal, UV and colour. The
 //! levels cover the sequential connectivity (level 0), Edgebreaker's standard traversal (3)
 //! and its valence traversal (6, 10: parallelogram, constrained multi-parallelogram,
-//! portable UV and geometric normal prediction, prediction-degree order), quantized and not.
+//! portable UV and geometric normal prediction, prediction-degree order), quantized and not;
+//! glTF Transform's files (positions merged, so UVs and normals split along interior seams:
+//! per-corner attribute connectivity) cover the seams.
 //! The files render as the uncompressed one (relMSE at most 1e-4 at 48 × 32 pixels, 16 spp).
 //! Damaged, cut or oversized Draco data is a scene error (exit code 2), never a
 //! panic.
@@ -164,6 +166,18 @@ fn gltf_draco_edgebreaker_valence_traversal_matches_the_uncompressed_file() {
     );
 }
 
+#[test]
+fn gltf_draco_gltf_transform_files_with_merged_positions_match_the_uncompressed_file() {
+    // glTF Transform's defaults: 14-bit positions, 10-bit normals, 12-bit UVs, 8-bit colours.
+    let bits = Errors {
+        color: 1.0 / 255.0,
+        ..default_bits()
+    };
+    check("gltf_transform.glb", &bits);
+    check("gltf_transform_speed0.glb", &bits);
+    check("gltf_transform_sequential.glb", &bits);
+}
+
 /// The Draco bytes of the file's first primitive: (offset in the file, length).
 fn first_draco_view(glb: &[u8]) -> (usize, usize) {
     let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
@@ -182,7 +196,14 @@ fn first_draco_view(glb: &[u8]) -> (usize, usize) {
 
 #[test]
 fn gltf_draco_damaged_bytes_are_scene_errors_never_panics() {
-    for name in ["level0.glb", "level3.glb", "level6.glb", "level10.glb"] {
+    for name in [
+        "level0.glb",
+        "level3.glb",
+        "level6.glb",
+        "level10.glb",
+        "gltf_transform.glb",
+        "gltf_transform_speed0.glb",
+    ] {
         let glb = data(name);
         let (start, len) = first_draco_view(&glb);
         let mut rng = Rng::new(7 + name.len() as u64);
@@ -303,6 +324,8 @@ fn gltf_draco_files_render_as_the_uncompressed_file() {
         ("level6.glb", 1e-4),
         ("level6_raw.glb", 1e-4),
         ("level10.glb", 1e-4),
+        ("gltf_transform.glb", 1e-4),
+        ("gltf_transform_speed0.glb", 1e-4),
     ] {
         let error = metrics::compare(&render(&load(name)), &reference);
         println!(

@@ -6,7 +6,7 @@
 
 use super::attributes::{decode_group, read_layouts, Attribute, Positions};
 use super::buffer::{Decoded, Reader};
-use super::corner_table::CornerTable;
+use super::corner_table::{CornerTable, NONE};
 use super::seams::{assign_points, attribute_table, AttributeTable};
 use super::traversal::sequence;
 use super::{edgebreaker, sequential};
@@ -64,6 +64,9 @@ pub(super) fn decode(data: &[u8], faces: usize, points: usize) -> Decoded<DracoM
             let c = edgebreaker::decode(&mut r, faces)?;
             let attributes: Vec<AttributeTable> =
                 c.seams.iter().map(|s| attribute_table(&c.table, s)).collect();
+            if attributes.iter().any(|a| a.table.vertex.contains(&NONE)) {
+                return Err("an attribute seam leaves a corner without a vertex: the file is damaged".into());
+            }
             let (corner_to_point, p) = if attributes.is_empty() {
                 (c.table.vertex.clone(), c.vertices)
             } else {

@@ -117,7 +117,9 @@ impl Symbols<'_> {
                 add(prev, 2)?;
             }
         }
-        let valence = valences[table.vertex(next) as usize];
+        let valence = *valences
+            .get(table.vertex(next) as usize)
+            .ok_or_else(|| damaged("a vertex out of range"))?;
         *active = Some(valence.clamp(2, 7) as usize - 2);
         Ok(())
     }
