@@ -14,6 +14,6 @@ from test_gltf_import import compare_with_blender
 DATA = Path(__file__).resolve().parents[1] / "data" / "draco"
 
 
-@pytest.mark.parametrize("name", ["level6.glb", "level10.glb", "gltf_transform.glb"])
+@pytest.mark.parametrize("name", ["plain.glb", "level6.glb", "level10.glb", "gltf_transform.glb"])
 def test_draco_file_renders_as_blenders_import(tmp_path, name):
     compare_with_blender(DATA / name, tmp_path, photon_args=["--method", "path"])

@@ -48,6 +48,15 @@ def build_scene():
     for i, loop in enumerate(cube.data.loops):
         v = cube.data.vertices[loop.vertex_index].co
         colours.data[i].color = (0.5 + v.x, 0.5 + v.y, 0.5 + v.z, 1.0)
+    # A material that reads the colours, so the exporter writes COLOR_0 and glTF readers
+    # multiply the base colour by it.
+    painted = bpy.data.materials.new("Painted")
+    painted.use_nodes = True
+    tree = painted.node_tree
+    attribute = tree.nodes.new("ShaderNodeVertexColor")
+    attribute.layer_name = "Col"
+    tree.links.new(attribute.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    cube.data.materials.append(painted)
 
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=3, size=1.5, location=(0.5, -1.2, 0))
     plane = bpy.context.active_object
