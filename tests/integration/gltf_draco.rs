@@ -13,11 +13,10 @@
 //! panic.
 
 use crate::support::binary::{photon, temp_dir};
-use crate::support::scenes;
+use crate::support::scenes::render_small as render;
 use photon::error::Error;
 use photon::math::{Vec2, Vec3, Vec4};
 use photon::metrics;
-use photon::render::RenderSettings;
 use photon::rng::Rng;
 use photon::scene::gltf::{load_slice, LoadOptions};
 use photon::scene::{Mesh, Scene};
@@ -85,8 +84,8 @@ fn compare(decoded: &Mesh, plain: &Mesh) -> Errors {
             plain.name
         );
         used[j] = true;
-        for k in 0..3 {
-            let (p, n, uv, c) = corner(decoded, tri[k]);
+        for (k, &v) in tri.iter().enumerate() {
+            let (p, n, uv, c) = corner(decoded, v);
             let (p0, n0, uv0, c0) = corner(plain, plain.indices[j][(k + rot) % 3]);
             errors.position = errors.position.max((p - p0).abs().max_element());
             errors.normal = errors.normal.max((n - n0).abs().max_element());
@@ -247,7 +246,7 @@ fn gltf_draco_oversized_counts_and_views_exit_with_code_2() {
     let json: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
     let rebuild = |json: &serde_json::Value| -> Vec<u8> {
         let mut text = serde_json::to_vec(json).unwrap();
-        while text.len() % 4 != 0 {
+        while !text.len().is_multiple_of(4) {
             text.push(b' ');
         }
         let bin = &glb[20 + json_len..];
@@ -262,7 +261,8 @@ fn gltf_draco_oversized_counts_and_views_exit_with_code_2() {
         out
     };
     let dir = temp_dir("oversized");
-    let cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>)> = vec![
+    type Change = Box<dyn Fn(&mut serde_json::Value)>;
+    let cases: Vec<(&str, Change)> = vec![
         (
             "a huge vertex count",
             Box::new(|j| j["accessors"][0]["count"] = 4_000_000_000u64.into()),
@@ -303,16 +303,6 @@ fn gltf_draco_oversized_counts_and_views_exit_with_code_2() {
         assert_eq!(out.status.code(), Some(2), "{what}: {stderr}");
         assert!(!stderr.contains("panicked"), "{what}: {stderr}");
     }
-}
-
-fn render(scene: &Scene) -> Vec<[f32; 4]> {
-    let settings = RenderSettings {
-        width: 48,
-        height: 32,
-        spp: 16,
-        ..RenderSettings::default()
-    };
-    scenes::render_quietly(scene, &settings).unwrap().0.rgba
 }
 
 #[test]

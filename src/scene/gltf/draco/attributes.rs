@@ -224,7 +224,7 @@ pub(super) fn decode_group<'a>(
                     .ok_or_else(|| format!("normals of {bits} bits: the file is damaged"))?;
                 Values::Float(
                     ints.chunks_exact(2)
-                        .flat_map(|st| o.to_unit_vector(st[0], st[1]))
+                        .flat_map(|st| o.unit_vector(st[0], st[1]))
                         .collect(),
                 )
             }

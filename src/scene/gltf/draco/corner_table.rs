@@ -55,7 +55,7 @@ impl CornerTable {
     pub(super) fn previous(c: u32) -> u32 {
         if c == NONE {
             NONE
-        } else if c % 3 == 0 {
+        } else if c.is_multiple_of(3) {
             c + 2
         } else {
             c - 1

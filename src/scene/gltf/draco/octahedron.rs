@@ -29,7 +29,7 @@ impl Octahedron {
     }
 
     /// The unit vector at quantized coordinates (s, t).
-    pub(super) fn to_unit_vector(&self, s: i32, t: i32) -> [f32; 3] {
+    pub(super) fn unit_vector(&self, s: i32, t: i32) -> [f32; 3] {
         let scale = 2.0 / self.max_value as f32;
         let mut y = s as f32 * scale - 1.0;
         let mut z = t as f32 * scale - 1.0;
@@ -81,7 +81,8 @@ impl Octahedron {
 
     fn canonicalize_coords(&self, mut s: i32, mut t: i32) -> (i32, i32) {
         let (m, c) = (self.max_value, self.center);
-        if (s == 0 && t == 0) || (s == 0 && t == m) || (s == m && t == 0) {
+        let corner = (s == 0 && (t == 0 || t == m)) || (s == m && t == 0);
+        if corner {
             s = m;
             t = m;
         } else if s == 0 && t > c {
@@ -141,13 +142,13 @@ mod tests {
     #[test]
     fn the_centre_is_plus_x_and_vectors_round_trip_through_their_coordinates() {
         let o = Octahedron::new(10).unwrap();
-        let [x, y, z] = o.to_unit_vector(o.center, o.center);
+        let [x, y, z] = o.unit_vector(o.center, o.center);
         assert!((x - 1.0).abs() < 1e-6 && y.abs() < 1e-6 && z.abs() < 1e-6);
         for v in [[3i64, -4, 5], [-7, 2, -1], [0, 0, -9], [-1, 5, 3]] {
             let q = o.canonicalize_vector(v);
             assert_eq!(q[0].abs() + q[1].abs() + q[2].abs(), o.center);
             let (s, t) = o.vector_to_coords(q);
-            let n = o.to_unit_vector(s, t);
+            let n = o.unit_vector(s, t);
             let len = ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) as f32).sqrt();
             for k in 0..3 {
                 assert!((n[k] - v[k] as f32 / len).abs() < 0.02, "{v:?} -> {n:?}");

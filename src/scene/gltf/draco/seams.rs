@@ -40,12 +40,13 @@ pub(super) fn attribute_table(mesh: &CornerTable, seam_corners: &[u32]) -> Attri
         }
     }
     let mut table = CornerTable::new(mesh.faces());
-    for c in 0..corners {
-        table.opposite[c] = if edge_on_seam[c] {
-            NONE
-        } else {
-            mesh.opposite[c]
-        };
+    for ((opposite, &seam), &across) in table
+        .opposite
+        .iter_mut()
+        .zip(&edge_on_seam)
+        .zip(&mesh.opposite)
+    {
+        *opposite = if seam { NONE } else { across };
     }
     for v in 0..mesh.vertices() as u32 {
         let c = mesh.left_most(v);

@@ -162,10 +162,7 @@ fn by_prediction_degree(
         }
         p.min(PRIORITIES - 1)
     };
-    loop {
-        let Some(level) = (best..PRIORITIES).find(|&i| !stacks[i].is_empty()) else {
-            break;
-        };
+    while let Some(level) = (best..PRIORITIES).find(|&i| !stacks[i].is_empty()) {
         best = level;
         let mut corner = stacks[level].pop().unwrap();
         if visited.face(corner) {
