@@ -9,6 +9,7 @@
 use crate::support::binary::{render_tiny, temp_dir};
 use crate::support::gltf;
 use crate::support::scenes;
+use crate::support::scenes::render_small as render;
 
 use photon::error::Error;
 use photon::metrics;
@@ -378,16 +379,6 @@ const FILTERED: [Store; 6] = [
 
 fn load(bytes: &[u8]) -> Scene {
     load_slice(bytes, "compressed.glb", &LoadOptions::default()).expect("the file loads")
-}
-
-fn render(scene: &Scene) -> Vec<[f32; 4]> {
-    let settings = RenderSettings {
-        width: 48,
-        height: 32,
-        spp: 16,
-        ..RenderSettings::default()
-    };
-    scenes::render_quietly(scene, &settings).unwrap().0.rgba
 }
 
 #[test]

@@ -19,6 +19,7 @@ mod environment;
 mod fuzz_gltf;
 mod gltf_compression;
 mod gltf_core;
+mod gltf_draco;
 mod gltf_loader;
 mod instancing;
 mod irradiance_cache;

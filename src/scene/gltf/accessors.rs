@@ -26,7 +26,9 @@ impl Loader {
                     &object,
                 )?;
             }
-            None if accessor.count() > MAX_VIEWLESS_ELEMENTS => {
+            None if accessor.count() > MAX_VIEWLESS_ELEMENTS
+                && !self.decoded_accessors.contains_key(&accessor.index()) =>
+            {
                 return Err(self.err(
                     &object,
                     format!(
@@ -105,46 +107,80 @@ impl Loader {
         decode: fn(&[u8], DataType, bool) -> T,
     ) -> Result<Vec<T>> {
         let object = named("accessor", accessor.index(), accessor.name());
-        let count = accessor.count();
-        let components = accessor.dimensions().multiplicity();
-        let data_type = accessor.data_type();
-        let component_size = data_type.size();
-        let element_size = components * component_size;
-        let normalized = accessor.normalized();
+        let e = Elements::of(accessor);
+        let Elements {
+            count,
+            components,
+            data_type,
+            component_size,
+            element_size,
+            normalized,
+        } = e;
         let total = count
             .checked_mul(components)
             .ok_or_else(|| self.err(&object, format!("count {count} is absurd")))?;
 
-        let mut values = match accessor.view() {
+        // The elements' bytes and stride: the view's, or the bytes a compressed primitive
+        // decoded to (`draco`); `None` for no elements.
+        let region = match accessor.view() {
             Some(view) => {
-                let region =
-                    self.element_region(&view, accessor.offset(), count, element_size, &object)?;
-                let mut values = Vec::with_capacity(total);
-                if let Some((bytes, stride)) = region {
-                    for element in bytes.chunks(stride).take(count) {
-                        for c in 0..components {
-                            let start = c * component_size;
-                            values.push(decode(
-                                &element[start..start + component_size],
-                                data_type,
-                                normalized,
-                            ));
-                        }
-                    }
-                }
-                values
+                self.element_region(&view, accessor.offset(), count, element_size, &object)?
             }
-            None => {
-                if count > MAX_VIEWLESS_ELEMENTS {
+            None => match self.decoded_accessors.get(&accessor.index()) {
+                Some(bytes) if bytes.len() == count.saturating_mul(element_size) => {
+                    (count > 0).then_some((&bytes[..], element_size))
+                }
+                Some(bytes) => {
+                    return Err(self.err(
+                        &object,
+                        format!("decoded to {} bytes, not {count} elements", bytes.len()),
+                    ))
+                }
+                None if count > MAX_VIEWLESS_ELEMENTS => {
                     return Err(self.err(
                         &object,
                         format!("count {count} without a buffer view is too large"),
+                    ))
+                }
+                None => {
+                    return self.sparse_over(
+                        accessor,
+                        e,
+                        vec![T::default(); total],
+                        decode,
+                        &object,
+                    )
+                }
+            },
+        };
+        let mut values = Vec::with_capacity(total);
+        if let Some((bytes, stride)) = region {
+            for element in bytes.chunks(stride).take(count) {
+                for c in 0..components {
+                    let start = c * component_size;
+                    values.push(decode(
+                        &element[start..start + component_size],
+                        data_type,
+                        normalized,
                     ));
                 }
-                vec![T::default(); total]
             }
-        };
+        }
+        self.sparse_over(accessor, e, values, decode, &object)
+    }
 
+    /// `values` with the accessor's sparse substitution applied.
+    fn sparse_over<T: Copy + Default>(
+        &self,
+        accessor: &gltf::Accessor,
+        e: Elements,
+        mut values: Vec<T>,
+        decode: fn(&[u8], DataType, bool) -> T,
+        object: &str,
+    ) -> Result<Vec<T>> {
+        let (count, components, data_type) = (e.count, e.components, e.data_type);
+        let (component_size, element_size) = (e.component_size, e.element_size);
+        let normalized = e.normalized;
         if let Some(sparse) = accessor.sparse() {
             let sparse_count = sparse.count();
             let indices = sparse.indices();
@@ -179,7 +215,7 @@ impl Loader {
                             as usize;
                     if target >= count {
                         return Err(self.err(
-                            &object,
+                            object,
                             format!("sparse index {target} is past the count {count}"),
                         ));
                     }
@@ -264,6 +300,32 @@ impl Loader {
                     ),
                 )
             })
+    }
+}
+
+/// How an accessor's elements are laid out.
+#[derive(Clone, Copy)]
+struct Elements {
+    count: usize,
+    components: usize,
+    data_type: DataType,
+    component_size: usize,
+    element_size: usize,
+    normalized: bool,
+}
+
+impl Elements {
+    fn of(accessor: &gltf::Accessor) -> Elements {
+        let components = accessor.dimensions().multiplicity();
+        let data_type = accessor.data_type();
+        Elements {
+            count: accessor.count(),
+            components,
+            data_type,
+            component_size: data_type.size(),
+            element_size: components * data_type.size(),
+            normalized: accessor.normalized(),
+        }
     }
 }
 

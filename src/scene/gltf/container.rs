@@ -37,6 +37,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
     "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
     "KHR_texture_basisu",
 ];
 
@@ -50,6 +51,9 @@ pub(super) struct Loader {
     /// The bytes of each buffer view stored with `EXT_meshopt_compression`, decoded, by view
     /// index: read in place of the view's own buffer range.
     pub(super) decoded_views: HashMap<usize, Vec<u8>>,
+    /// The bytes of each accessor filled from a `KHR_draco_mesh_compression` primitive,
+    /// decoded, by accessor index: read in place of the accessor's (absent) buffer view.
+    pub(super) decoded_accessors: HashMap<usize, Vec<u8>>,
     /// Scene material index of each glTF material, in document order; the glTF default
     /// material, when used, is appended after them.
     pub(super) default_material: Option<u32>,
@@ -142,27 +146,38 @@ impl Loader {
             .iter()
             .any(|e| e == "KHR_mesh_quantization");
 
-        let document = gltf::Document::from_json(root).map_err(|e| match e {
-            gltf::Error::Validation(errors) => {
-                let listed: Vec<String> = errors
-                    .iter()
-                    .take(5)
-                    .map(|(p, e)| format!("{p}: {e}"))
-                    .collect();
-                let more = errors.len().saturating_sub(5);
-                let suffix = if more > 0 {
-                    format!(" (and {more} more)")
-                } else {
-                    String::new()
-                };
-                Error::scene(
-                    path,
-                    "document",
-                    format!("invalid glTF: {}{suffix}", listed.join("; ")),
-                )
-            }
-            other => Error::scene(path, "document", format!("invalid glTF: {other}")),
-        })?;
+        // Accessors filled from Draco data have neither a buffer view nor sparse values, which
+        // the gltf crate's validation reports; the Draco glue gives them their bytes.
+        let draco = draco_accessors(&root);
+        let mut errors = Vec::new();
+        {
+            use gltf::json::validation::Validate;
+            root.validate(&root, gltf::json::Path::new, &mut |path, error| {
+                errors.push((path(), error))
+            });
+        }
+        errors.retain(|(p, e)| {
+            !(matches!(e, gltf::json::validation::Error::Missing) && draco.contains(&p.to_string()))
+        });
+        if !errors.is_empty() {
+            let listed: Vec<String> = errors
+                .iter()
+                .take(5)
+                .map(|(p, e)| format!("{p}: {e}"))
+                .collect();
+            let more = errors.len().saturating_sub(5);
+            let suffix = if more > 0 {
+                format!(" (and {more} more)")
+            } else {
+                String::new()
+            };
+            return Err(Error::scene(
+                path,
+                "document",
+                format!("invalid glTF: {}{suffix}", listed.join("; ")),
+            ));
+        }
+        let document = gltf::Document::from_json_without_validation(root);
 
         let node_extensions = document
             .nodes()
@@ -180,6 +195,7 @@ impl Loader {
             document,
             buffers: Vec::new(),
             decoded_views: HashMap::new(),
+            decoded_accessors: HashMap::new(),
             default_material: None,
             images: HashMap::new(),
             texture_slots: HashMap::new(),
@@ -222,6 +238,7 @@ impl Loader {
         };
         loader.load_buffers(blob)?;
         loader.decode_meshopt_views()?;
+        loader.decode_draco_primitives()?;
         Ok(loader)
     }
 
@@ -298,12 +315,42 @@ impl Loader {
     }
 }
 
+/// The validation paths (`accessors[i].bufferView`) of the accessors that primitives with
+/// `KHR_draco_mesh_compression` fill from their Draco data.
+fn draco_accessors(root: &gltf::json::Root) -> std::collections::HashSet<String> {
+    let mut out = std::collections::HashSet::new();
+    for mesh in &root.meshes {
+        for primitive in &mesh.primitives {
+            let compressed = primitive
+                .extensions
+                .as_ref()
+                .and_then(|e| e.others.get("KHR_draco_mesh_compression"))
+                .and_then(|e| e.get("attributes"))
+                .and_then(Value::as_object);
+            let Some(compressed) = compressed else {
+                continue;
+            };
+            let mut add = |index: usize| {
+                out.insert(format!("accessors[{index}].bufferView"));
+            };
+            if let Some(indices) = &primitive.indices {
+                add(indices.value());
+            }
+            for (semantic, accessor) in &primitive.attributes {
+                if let gltf::json::validation::Checked::Valid(semantic) = semantic {
+                    if compressed.contains_key(&semantic.to_string()) {
+                        add(accessor.value());
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Why Photon does not read a known extension a file may require.
 fn unsupported_reason(name: &str) -> Option<&'static str> {
     Some(match name {
-        "KHR_draco_mesh_compression" => {
-            "Draco-compressed geometry is not decoded: export the file without compression"
-        }
         "KHR_materials_dispersion" => {
             "not rendered: Blender 4.5 and Cycles have no dispersion, and Blender's importer does \
              not read it"

@@ -10,6 +10,8 @@
 //! - `container`: the `.glb`/`.gltf` container, buffers and URIs (`encoding`: base64 and
 //!   percent-escapes), and the `Loader` that carries the document and the scene being built;
 //!   `meshopt`: buffer views compressed with `EXT_meshopt_compression`, decoded once;
+//!   `draco`: primitives compressed with `KHR_draco_mesh_compression`, decoded once into
+//!   their accessors' bytes;
 //! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
 //! - `build`: the entry points, the walk of the default scene and the choice of camera;
 //! - `hierarchy`: the node hierarchy, the limits checked before allocating, instancing;
@@ -33,6 +35,7 @@ mod attributes;
 mod build;
 mod camera;
 mod container;
+mod draco;
 mod encoding;
 mod extensions;
 mod gpu_instancing;

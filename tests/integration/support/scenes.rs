@@ -307,6 +307,17 @@ pub fn transformed(mut scene: Scene, s: f32, offset: Vec3) -> Scene {
     scene
 }
 
+/// A 48 × 32 render at 16 samples per pixel, the size the compressed-file tests compare.
+pub fn render_small(scene: &Scene) -> Vec<[f32; 4]> {
+    let settings = RenderSettings {
+        width: 48,
+        height: 32,
+        spp: 16,
+        ..RenderSettings::default()
+    };
+    render_quietly(scene, &settings).unwrap().0.rgba
+}
+
 /// Render with no progress output and no cancellation.
 pub fn render_quietly(
     scene: &Scene,
