@@ -541,8 +541,8 @@ const NOISE_LEFT_FLOOR: f32 = 0.1;
 /// image has pixels. Error a/photons + b/spp at cost c·photons + d·pixels·spp is least for
 /// photons ∝ spp·√pixels. Counting the pixels fully traced 200 000 photons at 256 px from 3 spp
 /// on, where the Cornell box's preparation took twice its camera samples' time. The cap: past
-/// 5000 photons per sample per pixel the Cornell box at 256 px and 2–4 spp gains 2–4 % relMSE
-/// for 15–25 % more time (docs/bench/cornell_and_methods.md, "Preparation sized to the
+/// 5000 photons per sample per pixel the Cornell box at 256 px and 2–4 spp gains 2–3 % relMSE
+/// for 13–24 % more time (docs/bench/cornell_and_methods.md, "Preparation sized to the
 /// budget"), so the maps follow the samples alone there, as `photon bench`'s budgets scale them.
 const FULL_PHOTON_SPP: f32 = 64.0;
 const FULL_PHOTON_PIXELS: f32 = 48.0 * 48.0;
