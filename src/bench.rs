@@ -3,7 +3,8 @@
 //! (seeds 1 and 2) and cached in `OUT/refs/` (keyed by a hash of the scene file, the renderer
 //! version, the resolution and the samples) with the estimate of its own noise the halves give;
 //! then each method (path, photon map, photon map + irradiance cache, auto) renders at a series
-//! of budgets (samples per pixel and photon counts scaled together). Every render runs as a
+//! of budgets (samples per pixel and photon counts scaled together; auto with the photons the
+//! planner sizes, as `photon render` runs it). Every render runs as a
 //! child process of this binary, so its wall time and peak memory (the child's VmHWM) are its
 //! own. From the (time, relMSE) points it derives the time each method needs to reach a target
 //! error and judges auto against the best fixed method at auto's time, both by log-log
@@ -456,14 +457,17 @@ fn bench_scene(scene_path: &Path, args: &BenchArgs, rows: &mut Vec<Row>) -> Resu
                 .iter()
                 .map(|s| s.to_string())
                 .collect();
-            extra.extend([
-                "--spp".into(),
-                budget.to_string(),
-                "--photons".into(),
-                (per_generation as u64 * GLOBAL_PHOTONS_PER_BUDGET).to_string(),
-                "--caustic-photons".into(),
-                (per_generation as u64 * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
-            ]);
+            extra.extend(["--spp".into(), budget.to_string()]);
+            // The planner's methods are timed as `photon render` runs them: with the photons it
+            // sizes to the image and the samples.
+            if !method.starts_with("auto") {
+                extra.extend([
+                    "--photons".into(),
+                    (per_generation as u64 * GLOBAL_PHOTONS_PER_BUDGET).to_string(),
+                    "--caustic-photons".into(),
+                    (per_generation as u64 * CAUSTIC_PHOTONS_PER_BUDGET).to_string(),
+                ]);
+            }
             jobs.push((method, budget, extra));
         }
     }
@@ -794,8 +798,8 @@ fn csv(rows: &[Row]) -> String {
 fn report(rows: &[Row], scenes: &[SceneResult], args: &BenchArgs) -> String {
     let mut out = format!(
         "# Photon benchmark\n\n{} px wide, reference: {} at {} spp; budget b = b spp, \
-         {}·min(b, 64) global and {}·min(b, 64) caustic photons per generation of maps, {} \
-         thread(s). Time is the wall time of the whole \
+         {}·min(b, 64) global and {}·min(b, 64) caustic photons per generation of maps (auto: \
+         the planner's, as `photon render` sizes them), {} thread(s). Time is the wall time of the whole \
          render process, the fastest of {} run(s). \
          Time to target: log-log interpolation between the two measured points that bracket it. \
          Targets: photon-ic reaches relMSE 0.01 in at most 1/5 of path's time on caustic \

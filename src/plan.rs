@@ -26,8 +26,9 @@
 //!   photon method costs at most `CAUSTIC_COST_RATIO` times the path tracer, or when much of
 //!   the reflected light in a small path-traced image is indirect (`INDIRECT_SHARE_FOR_PHOTONS`)
 //!   and the photon method should reach less error in the render's time
-//!   (`Cost::photons_win`), the path tracer otherwise. The photons scale with the budget
-//!   (`FULL_PHOTON_SAMPLES`), the volume photons too. Scenes with participating media are
+//!   (`Cost::photons_win`), the path tracer otherwise. The photons scale with the samples
+//!   per pixel and the square root of the pixels, at most 5000 per sample per pixel
+//!   (`photon_share`), the volume photons too. Scenes with participating media are
 //!   planned alike: their light samples in media are the same in both methods, the photon
 //!   method trades the noise of indirect light for its maps, and volume photons are traced only
 //!   where camera paths gather them (`stores_volume_photons`).
@@ -527,12 +528,36 @@ const PHOTON_SAMPLE_COST: f32 = 0.5;
 const NOISE_LEFT_SCALE: f32 = 1.5;
 const NOISE_LEFT_FLOOR: f32 = 0.1;
 
-/// Camera samples per generation for which `auto` traces the preset's photons; a smaller
-/// budget traces proportionally fewer, down to `MIN_PHOTON_SHARE` of them, so that preparing
-/// the maps does not outweigh the render (the window-lit rooms of `tests/blender` at 48 px
-/// and 64 spp need the preset's photons).
-const FULL_PHOTON_SAMPLES: f32 = 48.0 * 48.0 * 64.0;
+/// The budget for which `auto` traces the preset's photons: `FULL_PHOTON_SPP` samples per
+/// pixel of a generation on an image of `FULL_PHOTON_PIXELS` (the window-lit rooms of
+/// `tests/blender` at 48 px and 64 spp need the preset's photons). Other budgets trace the
+/// preset's photons times spp / `FULL_PHOTON_SPP` × √(pixels / `FULL_PHOTON_PIXELS`), at most
+/// `MAX_PHOTON_SHARE_PER_SPP` × spp, between `MIN_PHOTON_SHARE` and 1 (`photon_share`).
+///
+/// Why the samples count fully and the pixels by their square root: the photon maps' error in
+/// a pixel (the blotches of their density estimates, read through the records and gather rays)
+/// falls as 1/photons whatever the image's size, and the camera samples' as 1/spp, while a
+/// photon costs the same at any size and a sample per pixel costs as many camera paths as the
+/// image has pixels. Error a/photons + b/spp at cost c·photons + d·pixels·spp is least for
+/// photons ∝ spp·√pixels. Counting the pixels fully traced 200 000 photons at 256 px from 3 spp
+/// on, where the Cornell box's preparation took twice its camera samples' time. The cap: past
+/// 5000 photons per sample per pixel the Cornell box at 256 px and 2–4 spp gains 2–3 % relMSE
+/// for 13–24 % more time (docs/bench/cornell_and_methods.md, "Preparation sized to the
+/// budget"), so the maps follow the samples alone there, as `photon bench`'s budgets scale them.
+const FULL_PHOTON_SPP: f32 = 64.0;
+const FULL_PHOTON_PIXELS: f32 = 48.0 * 48.0;
+const MAX_PHOTON_SHARE_PER_SPP: f32 = 1.0 / 40.0;
 const MIN_PHOTON_SHARE: f32 = 0.05;
+
+/// The share of the preset's photons `auto` traces per generation for a `pixels` image at `spp`
+/// samples per pixel (`FULL_PHOTON_SPP`).
+pub fn photon_share(pixels: f32, spp: u32) -> f32 {
+    let spp = spp.min(GENERATION_SPP) as f32;
+    let balanced = spp / FULL_PHOTON_SPP * (pixels / FULL_PHOTON_PIXELS).sqrt();
+    balanced
+        .min(MAX_PHOTON_SHARE_PER_SPP * spp)
+        .clamp(MIN_PHOTON_SHARE, 1.0)
+}
 
 /// Caustics of lamps and emitting meshes, which the path tracer finds by chance or never: the
 /// photon method renders them unless it costs more than this many times the path tracer's
@@ -560,7 +585,11 @@ const CAUSTIC_COST_RATIO: f32 = 16.0;
 /// ÷ 1.25 for +45 %, so only renders of at most `EMISSION_RAYS_MAX_SPP` get them, unless the
 /// emitters cover at most `EMISSION_RAYS_FEW_PIXELS` of the image: only pixels that may see
 /// one trace them (`EmitterPixels`), and then they cost little (docs/bench/photon_method.md,
-/// "Emission rays where an emitter can be seen").
+/// "Emission rays where an emitter can be seen"), so then any emission the pilot sees directly
+/// earns them: a lamp seen edge-on under a ceiling is a strip a pixel high in the 32-pixel
+/// pilot, whose share of the noise (1 % on a Blender-built Cornell box) says little of its
+/// edges' share at 256 px (docs/bench/cornell_and_methods.md, "Emission rays for a lamp seen
+/// edge-on").
 const PHOTON_EMISSION_RAYS: u32 = 3;
 const SEEN_SHARE_FOR_EMISSION_RAYS: f32 = 0.02;
 const EMISSION_RAYS_MAX_SPP: u32 = 32;
@@ -1072,9 +1101,11 @@ pub fn plan_with_pilot(
             pilot.scale.unwrap_or_else(|| pilot_scale(samples)),
             (global_map.needed, caustic_map.needed),
         );
-        let photon_emission_rays = match shares.noise_seen >= SEEN_SHARE_FOR_EMISSION_RAYS
-            && (spp <= EMISSION_RAYS_MAX_SPP
-                || emitter_pixel_share(scene, pilot.accel, width, height)
+        let seen = shares.noise_seen;
+        let photon_emission_rays = match (seen >= SEEN_SHARE_FOR_EMISSION_RAYS
+            && spp <= EMISSION_RAYS_MAX_SPP)
+            || (seen > 0.0
+                && emitter_pixel_share(scene, pilot.accel, width, height)
                     <= EMISSION_RAYS_FEW_PIXELS)
         {
             true => PHOTON_EMISSION_RAYS,
@@ -1089,8 +1120,7 @@ pub fn plan_with_pilot(
                 percent(shares.seen)
             );
         }
-        let generation_samples = width as f32 * height as f32 * spp.min(GENERATION_SPP) as f32;
-        budget_share = (generation_samples / FULL_PHOTON_SAMPLES).clamp(MIN_PHOTON_SHARE, 1.0);
+        budget_share = photon_share(width as f32 * height as f32, spp);
         let [global_given, caustic_given] = pilot.photons;
         let global = global_given.map_or(
             budget_share * scale(defaults.global_photons) as f32 * global_boost,

@@ -350,3 +350,25 @@ fn auto_places_records_coarser_only_at_a_few_samples() {
         last = (a, s);
     }
 }
+
+#[test]
+fn auto_sizes_its_photons_to_the_samples_and_the_square_root_of_the_pixels() {
+    use photon::plan::photon_share;
+    // The window-lit rooms' budget (48 px, 64 spp) keeps the preset's photons; the samples count
+    // fully and the pixels by their square root, at most 1/40 of the preset (5000 photons) per
+    // sample per pixel, up to the preset and down to 5 % of it.
+    let at = |side: f32, spp: u32| photon_share(side * side, spp);
+    assert!((at(48.0, 64) - 1.0).abs() < 1e-6);
+    let (small, larger) = (at(24.0, 16), at(48.0, 16));
+    assert!((small - 0.125).abs() < 1e-5, "{small}");
+    assert!((larger - 2.0 * small).abs() < 1e-5, "{small} {larger}");
+    assert!((at(24.0, 32) - 2.0 * small).abs() < 1e-5);
+    // At 256 px the cap: 5000 photons per sample per pixel, not 200 000 from 3 spp on as when
+    // the pixels counted fully.
+    assert!((at(256.0, 4) - 0.1).abs() < 1e-6);
+    assert!((at(1024.0, 4) - 0.1).abs() < 1e-6);
+    assert!(at(256.0, 39) < 1.0 && at(256.0, 40) == 1.0);
+    // Past a generation's samples, more generations rather than larger maps.
+    assert_eq!(at(256.0, 1024), 1.0);
+    assert_eq!(at(8.0, 1), 0.05);
+}
