@@ -28,13 +28,14 @@ pub struct EmitterPixels {
 
 impl EmitterPixels {
     /// The pixels of `camera`'s image where the pixel filter of radius `filter_radius` (pixels)
-    /// may gather emission seen directly.
+    /// may gather emission seen directly; with `mirrors`, also by way of meshes that may be
+    /// smooth mirrors or glass (else only emitters seen themselves).
     pub fn new(
         ctx: &Context,
         camera: &CameraRays,
         filter_radius: f32,
-        width: u32,
-        height: u32,
+        (width, height): (u32, u32),
+        mirrors: bool,
     ) -> Self {
         let every = EmitterPixels {
             width,
@@ -47,7 +48,7 @@ impl EmitterPixels {
         let scene = ctx.scene;
         let emits = |m: &Mesh| {
             let material = &scene.materials[m.material as usize];
-            material.is_emissive() || may_be_smooth(material)
+            material.is_emissive() || (mirrors && may_be_smooth(material))
         };
         for mesh in scene.meshes.iter().filter(|m| m.camera_visible && emits(m)) {
             let fits = if mesh.deformation.is_empty() {

@@ -595,8 +595,8 @@ const SEEN_SHARE_FOR_EMISSION_RAYS: f32 = 0.02;
 const EMISSION_RAYS_MAX_SPP: u32 = 32;
 const EMISSION_RAYS_FEW_PIXELS: f64 = 0.25;
 
-/// The share of a `width` × `height` image whose pixels may see an emitter directly
-/// (`EmitterPixels`, with the scene's pixel filter).
+/// The share of a `width` × `height` image whose pixels may see an emitter itself
+/// (`EmitterPixels` without mirrors, with the scene's pixel filter).
 fn emitter_pixel_share(scene: &Scene, accel: &Accel, width: u32, height: u32) -> f64 {
     use crate::camera::CameraRays;
     use crate::emitter_pixels::EmitterPixels;
@@ -612,7 +612,7 @@ fn emitter_pixel_share(scene: &Scene, accel: &Accel, width: u32, height: u32) ->
     };
     let camera = CameraRays::new(&scene.camera, width, height);
     let radius = scene.render_settings.filter.unwrap_or_default().radius();
-    EmitterPixels::new(&ctx, &camera, radius, width, height).share()
+    EmitterPixels::new(&ctx, &camera, radius, (width, height), false).share()
 }
 
 /// The predicted cost of a render, in path-tracer rays, from the pilots.

@@ -281,8 +281,8 @@ pub fn render_scheduled(
             &ctx,
             &camera,
             filter.radius(),
-            settings.width,
-            settings.height,
+            (settings.width, settings.height),
+            true,
         )
     });
     // Methods that read photon maps or an irradiance cache rebuild them every `GENERATION_SPP`

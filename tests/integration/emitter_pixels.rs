@@ -49,7 +49,7 @@ fn emission_rays_go_to_every_pixel_that_sees_the_lamp_and_few_others() {
     let ctx = context(&scene, &accel, &lights);
     let (width, height) = (48, 48);
     let camera = CameraRays::new(&scene.camera, width, height);
-    let pixels = EmitterPixels::new(&ctx, &camera, 1.5, width, height);
+    let pixels = EmitterPixels::new(&ctx, &camera, 1.5, (width, height), true);
     let mut seeing = 0;
     for y in 0..height {
         for x in 0..width {
@@ -78,13 +78,16 @@ fn a_lens_or_a_lit_world_makes_every_pixel_count() {
     let (accel, lights) = (Accel::new(&scene), Lights::new(&scene));
     let ctx = context(&scene, &accel, &lights);
     let camera = CameraRays::new(&scene.camera, 16, 16);
-    assert_eq!(EmitterPixels::new(&ctx, &camera, 1.5, 16, 16).share(), 1.0);
+    assert_eq!(
+        EmitterPixels::new(&ctx, &camera, 1.5, (16, 16), true).share(),
+        1.0
+    );
     // Film → Transparent: the world is not seen, so only the lamp counts again.
     let hidden = Context {
         transparent_background: true,
         ..ctx
     };
-    assert!(EmitterPixels::new(&hidden, &camera, 1.5, 16, 16).share() < 0.5);
+    assert!(EmitterPixels::new(&hidden, &camera, 1.5, (16, 16), true).share() < 0.5);
     // A lens blurs the lamp over any pixel.
     let mut lensed = scene.camera.clone();
     lensed.lens = Some(photon::scene::ThinLens {
@@ -96,7 +99,7 @@ fn a_lens_or_a_lit_world_makes_every_pixel_count() {
     });
     let camera = CameraRays::new(&lensed, 16, 16);
     assert_eq!(
-        EmitterPixels::new(&hidden, &camera, 1.5, 16, 16).share(),
+        EmitterPixels::new(&hidden, &camera, 1.5, (16, 16), true).share(),
         1.0
     );
 }
