@@ -639,3 +639,21 @@ def test_mesh_without_material(tmp_path):
     doc.node({"name": "Plain", "mesh": box, "translation": [0.0, 0.6, 0.0],
               "rotation": [0.0, math.sin(0.4), 0.0, math.cos(0.4)]})
     compare_with_blender(doc.write(tmp_path / "no_material.glb"), tmp_path)
+
+
+def test_mesh_without_material_with_vertex_colours(tmp_path):
+    """A box with vertex colours (COLOR_0, red and blue corners) and no material: Blender's
+    importer gives it a Principled BSDF (roughness 0.5) of the vertex colour, which Photon
+    follows (before, it showed Cycles' grey default surface)."""
+    doc = stage()
+    box = doc.box("Painted", 0.6)
+    corners = len(doc.json["accessors"][doc.json["meshes"][box]["primitives"][0]
+                                        ["attributes"]["POSITION"]]["count"] * [0])
+    colours = []
+    for k in range(corners):
+        colours += [0.9, 0.1, 0.05, 1.0] if k % 2 else [0.05, 0.2, 0.9, 1.0]
+    doc.json["meshes"][box]["primitives"][0]["attributes"]["COLOR_0"] = doc.accessor(
+        colours, "VEC4")
+    doc.node({"name": "Painted", "mesh": box, "translation": [0.0, 0.6, 0.0],
+              "rotation": [0.0, math.sin(0.4), 0.0, math.cos(0.4)]})
+    compare_with_blender(doc.write(tmp_path / "vertex_colours.glb"), tmp_path)

@@ -57,6 +57,9 @@ pub(super) struct Loader {
     /// Scene material index of each glTF material, in document order; the glTF default
     /// material, when used, is appended after them.
     pub(super) default_material: Option<u32>,
+    /// The material made for primitives without one that have vertex colours
+    /// (`Loader::material_index`).
+    pub(super) vertex_color_material: Option<u32>,
     /// Decoded RGBA8 images by glTF image index.
     pub(super) images: HashMap<usize, DecodedImage>,
     /// Scene texture index per (glTF texture index, sRGB).
@@ -197,6 +200,7 @@ impl Loader {
             decoded_views: HashMap::new(),
             decoded_accessors: HashMap::new(),
             default_material: None,
+            vertex_color_material: None,
             images: HashMap::new(),
             texture_slots: HashMap::new(),
             uv_set_warnings: Vec::new(),

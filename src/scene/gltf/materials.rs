@@ -20,19 +20,43 @@ impl Loader {
         Ok(())
     }
 
-    /// Scene material index for a glTF material index (`None`: a primitive without a
-    /// material, which shows Cycles' default surface, `Loader::default_surface`).
-    pub(super) fn material_index(&mut self, gltf_index: Option<usize>) -> Result<u32> {
+    /// Scene material index for a glTF material index; `None` is a primitive without a
+    /// material, shown as Blender imports it. With vertex colours (`colored`) Blender's
+    /// importer gives it a material of its own: a Principled BSDF (roughness 0.5) whose Base
+    /// Color is the vertex colour, as glTF's base colour is multiplied by COLOR_0. Without,
+    /// it leaves the object without a material, which Cycles shades with its default surface
+    /// (`Loader::default_surface`).
+    pub(super) fn material_index(
+        &mut self,
+        gltf_index: Option<usize>,
+        colored: bool,
+    ) -> Result<u32> {
         if let Some(i) = gltf_index {
             return Ok(i as u32);
         }
-        if let Some(i) = self.default_material {
+        let made = match colored {
+            true => self.vertex_color_material,
+            false => self.default_material,
+        };
+        if let Some(i) = made {
             return Ok(i);
         }
-        let material = self.default_surface()?;
+        let material = match colored {
+            true => Material {
+                name: "vertex colour".into(),
+                metallic: 0.0,
+                roughness: 0.5,
+                double_sided: true,
+                ..Material::default()
+            },
+            false => self.default_surface()?,
+        };
         self.scene.materials.push(material);
         let index = (self.scene.materials.len() - 1) as u32;
-        self.default_material = Some(index);
+        match colored {
+            true => self.vertex_color_material = Some(index),
+            false => self.default_material = Some(index),
+        }
         Ok(index)
     }
 

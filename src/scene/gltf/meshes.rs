@@ -218,7 +218,7 @@ impl Loader {
                 .collect();
 
             let material = self.variant_material(&primitive)?;
-            let material = self.material_index(material)?;
+            let material = self.material_index(material, !colors.is_empty())?;
             let mut out = Mesh {
                 name: format!(
                     "{}/{} primitive {}",
