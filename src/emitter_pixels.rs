@@ -12,12 +12,12 @@
 //! moving camera, a panorama, an emitter reaching behind the camera. (Screen-space bounds of
 //! geometry as in a rasteriser's bounding-box setup; nothing here is from a paper.)
 
-use crate::bsdf::SMOOTH_ROUGHNESS;
+use crate::bsdf::may_be_smooth;
 use crate::camera::CameraRays;
 use crate::integrator::Context;
 use crate::light::{lamp_of, LightSource};
 use crate::math::{Vec2, Vec3};
-use crate::scene::{Material, Mesh};
+use crate::scene::Mesh;
 
 /// Which pixels of a `width` × `height` image may see an emitter directly.
 pub struct EmitterPixels {
@@ -106,18 +106,6 @@ impl EmitterPixels {
             Some(f) => f.iter().filter(|&&b| b).count() as f64 / f.len().max(1) as f64,
         }
     }
-}
-
-/// Whether `material` may have a delta lobe (a smooth specular layer, metal, glass or coat),
-/// through which a camera ray goes straight on to what it reflects or refracts: a node tree
-/// or a roughness texture may, whatever its factors.
-fn may_be_smooth(material: &Material) -> bool {
-    material.nodes.is_some()
-        || material.metallic_roughness_texture.is_some()
-        || material.roughness < SMOOTH_ROUGHNESS
-        || (material.coat > 0.0
-            && (material.coat_roughness < SMOOTH_ROUGHNESS
-                || material.coat_roughness_texture.is_some()))
 }
 
 /// A camera ray that leaves the scene may see light: the world's (or the camera's own

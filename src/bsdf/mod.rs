@@ -89,6 +89,18 @@ use thin_film::{
 /// (delta lobes).
 pub const SMOOTH_ROUGHNESS: f32 = 0.02;
 
+/// Whether `material` may have a delta lobe (a smooth specular layer, metal, glass or coat),
+/// through which a camera ray goes straight on to what it reflects or refracts: a node tree
+/// or a roughness texture may, whatever its factors.
+pub fn may_be_smooth(material: &crate::scene::Material) -> bool {
+    material.nodes.is_some()
+        || material.metallic_roughness_texture.is_some()
+        || material.roughness < SMOOTH_ROUGHNESS
+        || (material.coat > 0.0
+            && (material.coat_roughness < SMOOTH_ROUGHNESS
+                || material.coat_roughness_texture.is_some()))
+}
+
 /// The GGX α of `SMOOTH_ROUGHNESS`: a lobe blurred to at least this is no longer a delta.
 const SMOOTH_ALPHA: f32 = SMOOTH_ROUGHNESS * SMOOTH_ROUGHNESS;
 

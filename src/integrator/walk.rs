@@ -35,7 +35,7 @@ use super::random_walk;
 use super::shading::{transmittance, PathHistory, Shading};
 use super::{CameraSample, Context};
 use crate::accel::{hit_holdout, hit_mesh, Hit, Ray, Visibility, NO_INSTANCE};
-use crate::bsdf::{BsdfSample, Scattering, SMOOTH_ROUGHNESS};
+use crate::bsdf::{may_be_smooth, BsdfSample, Scattering, SMOOTH_ROUGHNESS};
 use crate::interaction::SurfaceHit;
 use crate::light::{emitted_radiance, hit_links, Receiver};
 use crate::light_pass::{FirstVertex, LightPass, Passes};
@@ -140,6 +140,9 @@ pub struct PathState {
     pub diffuse_ancestor: bool,
     /// The next surface adds only its emission, then the walk ends.
     pub emission_only: bool,
+    /// Only what the camera sees straight on is wanted (`seen_emission`): a surface that
+    /// neither emits nor may be a smooth mirror or glass ends the walk unshaded.
+    pub straight_only: bool,
     /// Radiance gathered so far, by light pass.
     pub passes: Passes,
     /// Rays traced so far (closest-hit and shadow).
@@ -181,6 +184,7 @@ impl PathState {
             subsurface: false,
             diffuse_ancestor: gather,
             emission_only,
+            straight_only: false,
             passes: Passes::default(),
             rays: 0,
             light_path: if gather {
@@ -648,6 +652,7 @@ pub fn seen_emission(ctx: &Context, ray: Ray, rng: &mut Rng) -> (Vec3, u32) {
         }
     }
     let mut state = PathState::new(ray, false, false, Clamp::of(ctx.scene));
+    state.straight_only = true;
     state.media = MediumStack::at(ctx, ray.origin, ray.time);
     let mut out = CameraSample::default();
     walk_from(ctx, &mut state, rng, false, true, &mut Straight, &mut out);
@@ -723,11 +728,17 @@ fn walk_from(
         if state.absorption != Vec3::ZERO {
             state.beta *= transmittance(state.absorption, &hit, &ray);
         }
-        // Only emission is wanted: a surface that cannot emit ends the walk unshaded, unless
-        // the ray goes on through it (a volume's boundary, a Transparent BSDF), as Cycles
-        // goes on through transparent surfaces after a path's last bounce.
-        let material = hit_mesh(ctx.scene, &hit).material;
-        if state.emission_only && !ctx.scene.materials[material as usize].is_emissive() {
+        // Only emission is wanted (or only what is seen straight on): a surface that cannot
+        // emit (nor be a smooth mirror or glass) ends the walk unshaded, unless the ray goes on
+        // through it (a volume's boundary, a Transparent BSDF), as Cycles goes on through
+        // transparent surfaces after a path's last bounce.
+        let material = &ctx.scene.materials[hit_mesh(ctx.scene, &hit).material as usize];
+        let unshaded = match (state.emission_only, state.straight_only) {
+            (true, _) => !material.is_emissive(),
+            (false, true) => !material.is_emissive() && !may_be_smooth(material),
+            (false, false) => false,
+        };
+        if unshaded {
             if depth < ctx.max_depth && state.pass_through(ctx, &hit, depth) {
                 continue;
             }
