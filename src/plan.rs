@@ -589,15 +589,25 @@ const CAUSTIC_COST_RATIO: f32 = 16.0;
 /// earns them: a lamp seen edge-on under a ceiling is a strip a pixel high in the 32-pixel
 /// pilot, whose share of the noise (1 % on a Blender-built Cornell box) says little of its
 /// edges' share at 256 px (docs/bench/cornell_and_methods.md, "Emission rays for a lamp seen
-/// edge-on").
+/// edge-on"). Pixels that may see an emitter only by way of smooth mirrors and glass earn them
+/// the same way when they are few, whatever the pilot saw: a lamp hidden from the camera whose
+/// image in a glass sphere covers a few pixels is met by no ray of the small pilot
+/// (docs/bench/volumes.md, "Emission rays and Filter Glossy in glass_fog").
 const PHOTON_EMISSION_RAYS: u32 = 3;
 const SEEN_SHARE_FOR_EMISSION_RAYS: f32 = 0.02;
 const EMISSION_RAYS_MAX_SPP: u32 = 32;
 const EMISSION_RAYS_FEW_PIXELS: f64 = 0.25;
 
-/// The share of a `width` × `height` image whose pixels may see an emitter itself
-/// (`EmitterPixels` without mirrors, with the scene's pixel filter).
-fn emitter_pixel_share(scene: &Scene, accel: &Accel, width: u32, height: u32) -> f64 {
+/// The share of a `width` × `height` image whose pixels may see an emitter itself, or with
+/// `mirrors` also by way of smooth mirrors and glass (`EmitterPixels`, with the scene's pixel
+/// filter).
+fn emitter_pixel_share(
+    scene: &Scene,
+    accel: &Accel,
+    width: u32,
+    height: u32,
+    mirrors: bool,
+) -> f64 {
     use crate::camera::CameraRays;
     use crate::emitter_pixels::EmitterPixels;
     use crate::integrator::Context;
@@ -612,7 +622,7 @@ fn emitter_pixel_share(scene: &Scene, accel: &Accel, width: u32, height: u32) ->
     };
     let camera = CameraRays::new(&scene.camera, width, height);
     let radius = scene.render_settings.filter.unwrap_or_default().radius();
-    EmitterPixels::new(&ctx, &camera, radius, (width, height), false).share()
+    EmitterPixels::new(&ctx, &camera, radius, (width, height), mirrors).share()
 }
 
 /// The predicted cost of a render, in path-tracer rays, from the pilots.
@@ -1102,11 +1112,18 @@ pub fn plan_with_pilot(
             (global_map.needed, caustic_map.needed),
         );
         let seen = shares.noise_seen;
+        let few = |share: f64| share > 0.0 && share <= EMISSION_RAYS_FEW_PIXELS;
         let photon_emission_rays = match (seen >= SEEN_SHARE_FOR_EMISSION_RAYS
             && spp <= EMISSION_RAYS_MAX_SPP)
             || (seen > 0.0
-                && emitter_pixel_share(scene, pilot.accel, width, height)
-                    <= EMISSION_RAYS_FEW_PIXELS)
+                && few(emitter_pixel_share(
+                    scene,
+                    pilot.accel,
+                    width,
+                    height,
+                    false,
+                )))
+            || few(emitter_pixel_share(scene, pilot.accel, width, height, true))
         {
             true => PHOTON_EMISSION_RAYS,
             false => 0,

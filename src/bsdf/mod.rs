@@ -91,10 +91,12 @@ pub const SMOOTH_ROUGHNESS: f32 = 0.02;
 
 /// Whether `material` may have a delta lobe (a smooth specular layer, metal, glass or coat),
 /// through which a camera ray goes straight on to what it reflects or refracts: a node tree
-/// or a roughness texture may, whatever its factors.
+/// with such a BSDF or a roughness texture may, whatever its factors.
 pub fn may_be_smooth(material: &crate::scene::Material) -> bool {
-    material.nodes.is_some()
-        || material.metallic_roughness_texture.is_some()
+    if let Some(program) = &material.nodes {
+        return program.may_be_smooth;
+    }
+    material.metallic_roughness_texture.is_some()
         || material.roughness < SMOOTH_ROUGHNESS
         || (material.coat > 0.0
             && (material.coat_roughness < SMOOTH_ROUGHNESS

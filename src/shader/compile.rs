@@ -74,6 +74,7 @@ pub(super) fn compile_tree(
     let mut reads_color = false;
     let mut needs_offsets = false;
     let mut shadow_transparent = false;
+    let mut may_be_smooth = false;
     let mut attributes: Vec<String> = Vec::new();
     // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
     let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
@@ -218,6 +219,15 @@ pub(super) fn compile_tree(
             Op::Principled { .. } => !matches!(ins[ALPHA], Src::Const(v) if v.x >= 1.0),
             _ => false,
         };
+        may_be_smooth |= matches!(
+            op,
+            Op::Principled { .. }
+                | Op::Glossy { .. }
+                | Op::Metallic { .. }
+                | Op::Glass { .. }
+                | Op::Refraction
+                | Op::Toon { glossy: true }
+        );
         if matches!(op, Op::Bump { .. }) {
             // The Height subtree again at the two offset points; the heights there are the
             // Bump's inputs `HEIGHT_AT_STEPS`, pushed after its sockets' below.
@@ -396,6 +406,7 @@ pub(super) fn compile_tree(
         reads,
         reads_ray_state: light_path_reads & RAY_STATE_OUTPUTS != 0,
         shadow_transparent,
+        may_be_smooth,
         displacement: None,
         displace: None,
         smooth_flat_faces: false,

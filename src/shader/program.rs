@@ -341,6 +341,11 @@ pub struct NodeProgram {
     /// True when the tree can give a Transparent BSDF (a Transparent node, or a Principled
     /// BSDF's Alpha): shadow rays must evaluate it to pass.
     pub shadow_transparent: bool,
+    /// True when some node gives a lobe that may be a smooth mirror or glass (the Principled,
+    /// Glossy, Metallic, Glass and Refraction BSDFs, the Toon's glossy part): a tree without
+    /// one never sends a ray on by a delta reflection or refraction (a volume's boundary, a
+    /// diffuse or emitting surface).
+    pub may_be_smooth: bool,
     /// The Material Output's Displacement as Cycles bumps by it ("Bump Only", and over true
     /// displacement "Displacement and Bump"): a program whose
     /// output is the bumped normal, which the surface tree then reads as the shading normal.

@@ -125,6 +125,23 @@ fn light_path_outputs_read_the_ray_path() {
 }
 
 #[test]
+fn only_reflecting_and_refracting_bsdfs_may_be_smooth() {
+    for (kind, output, smooth) in [
+        ("ShaderNodeBsdfTransparent", "BSDF", false),
+        ("ShaderNodeBsdfDiffuse", "BSDF", false),
+        ("ShaderNodeEmission", "Emission", false),
+        ("ShaderNodeBsdfGlass", "BSDF", true),
+        ("ShaderNodeBsdfRefraction", "BSDF", true),
+        ("ShaderNodeBsdfPrincipled", "BSDF", true),
+    ] {
+        let tree = json!({"nodes": [{"name": "S", "type": kind}],
+                          "output": {"node": 0, "output": output}});
+        let program = compile(&tree, 0, &mut Vec::new()).expect("compiles");
+        assert_eq!(program.may_be_smooth, smooth, "{kind}");
+    }
+}
+
+#[test]
 fn transparent_closures_let_shadows_through() {
     let tree = |alpha: Value| {
         json!({"nodes": [
