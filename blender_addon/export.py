@@ -641,7 +641,8 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             args["export_tangents"] = True
         with collected_warnings() as warnings, render_visibility(scene), \
                 shape_keys_applied(scene), points_curves.as_meshes(scene), \
-                volumes.as_boxes(scene), motion.shutter_poses_recorded(scene), \
+                volumes.as_boxes(scene, Path(glb), holdout_objects(bpy.context.view_layer)), \
+                motion.shutter_poses_recorded(scene), \
                 lights.temperature_hidden(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report
