@@ -71,29 +71,54 @@ def volume_file(obj) -> tuple[str | None, str | None]:
     """`(path, None)`: the absolute path of the OpenVDB file `obj` (a Volume object) shows at
     the current frame; `(None, reason)` when Photon cannot read its grids."""
     volume = obj.data
-    if volume.packed_file is not None:
-        return None, "its OpenVDB file is packed into the .blend (unpack it to render it)"
     if not volume.grids.load():
         return None, f"its OpenVDB file cannot be read ({volume.grids.error_message})"
     path = bpy.path.abspath(volume.grids.frame_filepath)
     if not path:
-        return None, "it has no OpenVDB file (its grids come from modifiers alone)"
+        return None, "it has no OpenVDB file"
     return path, None
 
 
 def problems(obj) -> list[str]:
     """What of Volume object `obj` is not rendered as Blender shows it."""
     what = f"Volume object '{obj.name}'"
-    path, reason = volume_file(obj)
-    if path is None:
-        return [f"{what} is not rendered: {reason}"]
+    original = getattr(obj, "original", obj)
+    if from_its_file(original):
+        path, reason = volume_file(original)
+        if path is None:
+            return [f"{what} is not rendered: {reason}"]
+        grids = original.data.grids
+    else:  # its modifiers' or its packed file's grids, written out by the export
+        grids = original.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.grids
+        if len(grids) == 0:
+            return [f"{what} is not rendered: it has no grids"]
+    return _unread_grids(what, grids)
+
+
+def _unread_grids(what, grids) -> list[str]:
+    unread = [g.name for g in grids if g.data_type not in READ_TYPES]
+    return [f"{what}: grids of other types are not read ({', '.join(unread)})"] if unread else []
+
+
+def instanced_problems(depsgraph, named) -> list[str]:
+    """What of the Volumes that `depsgraph` instances (particle systems, Geometry Nodes,
+    collection instances) or Geometry Nodes make is not rendered, each Volume object once and
+    none of those whose names are in `named` (reported as objects of the scene)."""
+    seen = set(named)
     out = []
-    if any(m.show_render for m in obj.modifiers):
-        out.append(f"{what}: its modifiers are not applied; Photon renders the grids of its "
-                   f"file")
-    unread = [g.name for g in obj.data.grids if g.data_type not in READ_TYPES]
-    if unread:
-        out.append(f"{what}: grids of other types are not read ({', '.join(unread)})")
+    for inst in depsgraph.object_instances:
+        evaluated = inst.object
+        if not inst.is_instance or evaluated.type != "VOLUME":
+            continue
+        original = evaluated.original
+        if original.name in seen:
+            continue
+        seen.add(original.name)
+        if original.type == "VOLUME":
+            out += problems(original)
+        else:
+            out += _unread_grids(f"object '{original.name}': the volume its Geometry Nodes make",
+                                 evaluated.data.grids)
     return out
 
 
@@ -294,9 +319,11 @@ def _box(evaluated):
 
 
 def from_its_file(original) -> bool:
-    """Whether Volume object `original` renders the grids of its OpenVDB file as they are (no
-    modifier changes them): Photon then reads that file."""
-    return original.type == "VOLUME" and not any(m.show_render for m in original.modifiers)
+    """Whether Volume object `original` renders the grids of its OpenVDB file on disk as they
+    are (no modifier changes them, the file is not packed into the .blend): Photon then reads
+    that file."""
+    return original.type == "VOLUME" and original.data.packed_file is None \
+        and not any(m.show_render for m in original.modifiers)
 
 
 def _source(key, name, evaluated, uri, material, scene) -> dict:

@@ -249,3 +249,65 @@ def test_mesh_to_volume_instanced_by_geometry_nodes(tmp_path):
     links.new(place.outputs[0], nodes["Group Output"].inputs[0])
     sun()
     compare("mesh to volume instances", scene, tmp_path, photon_spp=256)
+
+
+def test_volume_displace_modifier(tmp_path):
+    """A Volume object of baked smoke whose Volume Displace modifier (a Clouds texture, strength
+    0.4) moves its voxels: the grids Blender evaluates render, not the file's."""
+    path = baked_smoke_vdb(tmp_path / "bake")
+    scene = floor_scene()
+    smoke = volume_object("Smoke", path, smoke_material(), (0.0, 0.0, 0.9), rotation_z=20.0)
+    displace = smoke.modifiers.new("Displace", "VOLUME_DISPLACE")
+    displace.texture = bpy.data.textures.new("Clouds", "CLOUDS")
+    displace.texture.noise_scale = 0.4
+    displace.strength = 0.4
+    sun()
+    compare("displaced volume", scene, tmp_path, photon_spp=256)
+
+
+def particles_of(volume, count=3):
+    """An emitter quad whose hair particle system renders `volume` (an object) `count` times."""
+    emitter = common.quad("Emitter", [(-1, -1, 0.5), (1, -1, 0.5), (1, 1, 0.5), (-1, 1, 0.5)],
+                          None)
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.type = "HAIR"
+    settings.count = count
+    settings.render_type = "OBJECT"
+    settings.instance_object = volume
+    return emitter
+
+
+def volume_messages(scene):
+    from blender_addon import preflight
+    return [m for m in preflight.unsupported_features(scene, list(scene.objects))
+            if "olume" in m or "particle" in m]
+
+
+def test_preflight_silent_on_volumes_it_renders(tmp_path):
+    """Particles of a Volume object, a Volume object with a modifier and a Volume Cube made by
+    Geometry Nodes: the pre-flight report names none of them."""
+    path = baked_smoke_vdb(tmp_path / "bake")
+    scene = floor_scene()
+    smoke = hidden_smoke(path, smoke_material())
+    particles_of(smoke)
+    displaced = volume_object("Displaced", path, smoke_material(), (0.0, 0.0, 1.0))
+    displaced.modifiers.new("Displace", "VOLUME_DISPLACE")
+    holder = common.mesh_object("Holder", [(0, 0, 0)], [], None)
+    group = nodes_modifier(holder, "Cloud")
+    cube = group.nodes.new("GeometryNodeVolumeCube")
+    group.links.new(cube.outputs[0], group.nodes["Group Output"].inputs[0])
+    bpy.context.view_layer.update()
+    assert volume_messages(scene) == []
+
+
+def test_preflight_names_an_instanced_volume_object_it_cannot_read(tmp_path):
+    """A hidden Volume object whose OpenVDB file is missing, instanced by particles: one message
+    naming it as not rendered."""
+    scene = floor_scene()
+    smoke = hidden_smoke(tmp_path / "missing.vdb", smoke_material())
+    particles_of(smoke)
+    bpy.context.view_layer.update()
+    messages = volume_messages(scene)
+    assert len(messages) == 1 and messages[0].startswith(
+        "Volume object 'Smoke' is not rendered: its OpenVDB file cannot be read"), messages
