@@ -1,15 +1,22 @@
 """Volume objects (OpenVDB grids: imported .vdb files, baked smoke and fire) as boxes the glTF
 exporter writes, and the smoke and fire of baked fluid domains, for the time of an export.
 
-The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered Volume object
-whose grids come from a file on disk (in the scene, or in a collection that an Empty instances:
-the box then goes with each instance) has a mesh object beside it: a box around its grids (one
-voxel of margin, where interpolation still reaches), at its place, with its material, or with
-Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
-`gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
-grid names, where this Blender puts a voxel's value, the volume's space (its density per unit
-of the object's length or of the world's) and its clipping value (voxels below it hold no
-medium); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
+The glTF exporter skips Volume objects. Within `as_boxes(scene, glb)` each Volume the render
+shows, as the depsgraph yields it (`volume_instances`: a Volume object in the scene, in a
+collection an Empty instances, instanced by a particle system or by Geometry Nodes, or the
+Volume geometry a Geometry Nodes tree makes: Volume Cube, Mesh to Volume, Points to Volume),
+has a mesh object in the scene: a box around its grids (one voxel of margin, where
+interpolation still reaches), at the instance's world matrix, with the Volume's material, or
+with Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has
+none. The boxes of one Volume share one mesh, which the renderer stores once as a prototype
+with its grids. A Volume object without modifiers is read from its OpenVDB file on disk; the
+grids of every other Volume (Geometry Nodes', those a Volume object's modifiers change, a
+packed file's) exist only in Blender's memory and are written once, with `VolumeGrids.save`,
+to an OpenVDB file beside the .glb. `gather_node_hook` writes each box's `PHOTON_object`
+"volume": the file of the current frame, its grid names, where this Blender puts a voxel's
+value, the volume's space (its density per unit of the object's length or of the world's) and
+its clipping value (voxels below it hold no medium); the renderer reads the grids the
+material's tree names (docs/gltf_extensions.md).
 
 A fluid domain of type Gas (smoke and fire) is rendered as Cycles renders it: its own mesh (the
 box the Fluid modifier makes, the adaptive domain's box included) filled with the frame's baked
@@ -352,7 +359,8 @@ def volume_instances(scene, glb) -> list[tuple[dict, object, object]]:
 
     A Volume object without modifiers is read from its OpenVDB file; other volumes exist only
     in memory, and their evaluated grids are written once each to an OpenVDB file beside
-    `glb` (the scene's file: `NAME.glb` gets `NAME.volume0.vdb`, ...). Volumes that are not rendered, or whose grids cannot be read, are left out."""
+    `glb` (the scene's file: `NAME.glb` gets `NAME.volume0.vdb`, ...). Volumes that are not
+    rendered, or whose grids cannot be read, are left out."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     sources: dict = {}
     placed = []
@@ -411,11 +419,11 @@ def _box_mesh(name, lo, hi):
 
 @contextlib.contextmanager
 def as_boxes(scene, glb, holdouts=frozenset()):
-    """Within the block, each rendered instance of a Volume object of `scene` whose grids
-    Photon reads has a box mesh object standing for it (`volume_instances`; grids that exist
-    only in memory are written to OpenVDB files beside `glb`, the scene's file), and each rendered fluid domain of
-    gas carries its baked grids or, without them at the frame, is hidden (module
-    documentation); undone after. `holdouts`: names of the objects in holdout collections,
+    """Within the block, each rendered instance of a Volume of `scene` whose grids Photon
+    reads has a box mesh object standing for it (`volume_instances`; grids that exist only in
+    memory are written to OpenVDB files beside `glb`, the scene's file), and each rendered
+    fluid domain of gas carries its baked grids or, without them at the frame, is hidden
+    (module documentation); undone after. `holdouts`: names of the objects in holdout collections,
     whose boxes are holdouts."""
     made = []
     meshes = {}

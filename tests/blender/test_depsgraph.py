@@ -13,6 +13,7 @@ import pytest
 import common
 import scenes_bpy
 from cycles_compare import compare
+from volume_scenes import shader_material
 
 pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
@@ -158,14 +159,7 @@ def test_particle_instances_that_emit_light(tmp_path, source):
     scene = lit_floor()
     bpy.data.objects["Sun"].data.energy = 0.0
     scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.02
-    glow = bpy.data.materials.new("Glow")
-    if bpy.app.version < (5, 0, 0):
-        glow.use_nodes = True
-    tree = glow.node_tree
-    tree.nodes.remove(tree.nodes["Principled BSDF"])
-    emission = tree.nodes.new("ShaderNodeEmission")
-    emission.inputs["Strength"].default_value = 50.0
-    tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    glow, _ = shader_material("Glow", "ShaderNodeEmission", "Surface", Strength=50.0)
     lamp = common.box("Lamp", (0.1, 0.1, 0.1), glow, (0.0, 0.0, -3.0), 0.0)
     lamp.hide_render = source == "hidden"
     emitter = common.quad("Emitter", [(-1.5, -0.8, 0.6), (1.5, -0.8, 0.6), (1.5, 1.4, 0.6),

@@ -75,6 +75,24 @@ def points_on_a_line(group, count, start, end):
     return line.outputs["Mesh"]
 
 
+def particles_of(volume, count, half_x, half_y, height):
+    """A quad (2 `half_x` by 2 `half_y` at `height`, not rendered itself) whose hair particle
+    system renders `volume` (an object) at `count` hairs one metre long (a hair's instance is
+    scaled by its length as well as by the particle size). Returns the particle settings."""
+    x, y = half_x, half_y
+    emitter = common.quad("Emitter", [(-x, -y, height), (x, -y, height), (x, y, height),
+                                      (-x, y, height)], None)
+    emitter.show_instancer_for_render = False
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.type = "HAIR"
+    settings.hair_length = 1.0
+    settings.count = count
+    settings.render_type = "OBJECT"
+    settings.instance_object = volume
+    return settings
+
+
 def constant_vdb(path, n=4):
     """Writes an OpenVDB file of one "density" grid of value 1 to `path`: `n`³ voxels 1/`n`
     apart over [−½, ½]³. Along a line through its middle third, parallel to an axis, the
@@ -97,31 +115,12 @@ def test_one_particle_instance_transmittance(tmp_path, space):
     orthographic camera against a white world: in the middle of the instance, the light that
     gets through is exp(−1.5) in volume space Object (the density per unit of the instance's own
     length) and exp(−1.5 × 0.5) in World, in Photon as in Cycles."""
-    scene = common.reset_scene(SIZE, SIZE)
-    background = scene.world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    background.inputs["Strength"].default_value = 1.0
-    mat, node = volume_material("Absorbing", "ShaderNodeVolumePrincipled")
-    node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    node.inputs["Density"].default_value = 1.5
+    scene, mat = volume_scenes.absorber_from_above(SIZE, 1.0)
     box = volume_object("Box", constant_vdb(tmp_path / "constant.vdb"), mat, (0.0, 0.0, 5.0))
     box.data.render.space = space
     box.hide_render = True
-    e = 0.01
-    emitter = common.quad("Emitter", [(-e, -e, 0.0), (e, -e, 0.0), (e, e, 0.0), (-e, e, 0.0)],
-                          None)
-    emitter.show_instancer_for_render = False
-    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
-    settings = emitter.particle_systems[0].settings
-    settings.type = "HAIR"
-    settings.hair_length = 1.0  # a hair's instance is scaled by its length too
-    settings.count = 1
-    settings.render_type = "OBJECT"
-    settings.instance_object = box
+    settings = particles_of(box, 1, 0.01, 0.01, 0.0)
     settings.particle_size = 0.5
-    common.camera("Camera", (0.0, 0.0, 3.0), (0.0, 0.0, 0.0), 45.0)
-    scene.camera.data.type = "ORTHO"
-    scene.camera.data.ortho_scale = 1.0
     photon, cycles = compare(f"one particle instance {space}", scene, tmp_path, photon_spp=256,
                              cycles_spp=256)
     middle = slice(SIZE // 2 - 6, SIZE // 2 + 6)
@@ -134,26 +133,17 @@ def test_one_particle_instance_transmittance(tmp_path, space):
 
 def test_particles_scatter_a_volume_object(tmp_path):
     """A hair particle system (five hairs, rendered as Object) scattering a Volume object of
-    baked smoke over a quad below the camera's view, each instance at a random turn and size."""
+    baked smoke over a quad (not rendered itself), each instance at a random turn and size."""
     path = baked_smoke_vdb(tmp_path / "bake")
     scene = floor_scene()
     smoke = hidden_smoke(path, smoke_material())
-    emitter = common.quad("Emitter", [(-1.6, -1.2, 0.6), (1.6, -1.2, 0.6), (1.6, 1.2, 0.6),
-                                      (-1.6, 1.2, 0.6)], None)
-    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
-    settings = emitter.particle_systems[0].settings
-    settings.type = "HAIR"
-    settings.count = 5
-    settings.hair_length = 1.0  # a hair's instance is scaled by its length too
-    settings.render_type = "OBJECT"
-    settings.instance_object = smoke
+    settings = particles_of(smoke, 5, 1.6, 1.2, 0.6)
     settings.particle_size = 0.6
     settings.size_random = 0.5
     settings.use_rotations = True
     settings.rotation_mode = "GLOB_Z"
     settings.phase_factor_random = 2.0
     settings.use_rotation_instance = True
-    emitter.show_instancer_for_render = False
     sun()
     compare("particle volumes", scene, tmp_path, photon_spp=256)
 
@@ -203,21 +193,12 @@ def test_volume_cube_made_by_geometry_nodes(tmp_path):
     holder.scale = (1.2, 1.0, 0.9)
     group = nodes_modifier(holder, "Cloud")
     nodes, links = group.nodes, group.links
-    position = nodes.new("GeometryNodeInputPosition")
-    length = nodes.new("ShaderNodeVectorMath")
-    length.operation = "LENGTH"
-    links.new(position.outputs[0], length.inputs[0])
-    ball = nodes.new("ShaderNodeMapRange")
-    ball.inputs["From Max"].default_value = 0.8
-    ball.inputs["To Min"].default_value = 1.0
-    ball.inputs["To Max"].default_value = 0.0
-    links.new(length.outputs["Value"], ball.inputs["Value"])
     cube = nodes.new("GeometryNodeVolumeCube")
     for axis in "XYZ":
         cube.inputs[f"Resolution {axis}"].default_value = 24
     cube.inputs["Min"].default_value = (-0.8, -0.8, -0.8)
     cube.inputs["Max"].default_value = (0.8, 0.8, 0.8)
-    links.new(ball.outputs["Result"], cube.inputs["Density"])
+    links.new(volume_scenes.soft_ball(group, 0.8), cube.inputs["Density"])
     material = nodes.new("GeometryNodeSetMaterial")
     material.inputs["Material"].default_value = smoke_material(4.0)
     links.new(cube.outputs[0], material.inputs["Geometry"])
@@ -265,19 +246,6 @@ def test_volume_displace_modifier(tmp_path):
     compare("displaced volume", scene, tmp_path, photon_spp=256)
 
 
-def particles_of(volume, count=3):
-    """An emitter quad whose hair particle system renders `volume` (an object) `count` times."""
-    emitter = common.quad("Emitter", [(-1, -1, 0.5), (1, -1, 0.5), (1, 1, 0.5), (-1, 1, 0.5)],
-                          None)
-    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
-    settings = emitter.particle_systems[0].settings
-    settings.type = "HAIR"
-    settings.count = count
-    settings.render_type = "OBJECT"
-    settings.instance_object = volume
-    return emitter
-
-
 def volume_messages(scene):
     from blender_addon import preflight
     return [m for m in preflight.unsupported_features(scene, list(scene.objects))
@@ -290,7 +258,7 @@ def test_preflight_silent_on_volumes_it_renders(tmp_path):
     path = baked_smoke_vdb(tmp_path / "bake")
     scene = floor_scene()
     smoke = hidden_smoke(path, smoke_material())
-    particles_of(smoke)
+    particles_of(smoke, 3, 1.0, 1.0, 0.5)
     displaced = volume_object("Displaced", path, smoke_material(), (0.0, 0.0, 1.0))
     displaced.modifiers.new("Displace", "VOLUME_DISPLACE")
     holder = common.mesh_object("Holder", [(0, 0, 0)], [], None)
@@ -306,7 +274,7 @@ def test_preflight_names_an_instanced_volume_object_it_cannot_read(tmp_path):
     naming it as not rendered."""
     scene = floor_scene()
     smoke = hidden_smoke(tmp_path / "missing.vdb", smoke_material())
-    particles_of(smoke)
+    particles_of(smoke, 3, 1.0, 1.0, 0.5)
     bpy.context.view_layer.update()
     messages = volume_messages(scene)
     assert len(messages) == 1 and messages[0].startswith(
