@@ -20,6 +20,8 @@ import pytest
 
 import common
 from cycles_compare import compare
+from helpers import rel_mse
+from test_volumes import block_means
 import volume_scenes
 from volume_scenes import baked_smoke_vdb, sun, volume_material, volume_object
 
@@ -234,16 +236,21 @@ def test_mesh_to_volume_instanced_by_geometry_nodes(tmp_path):
 
 def test_volume_displace_modifier(tmp_path):
     """A Volume object of baked smoke whose Volume Displace modifier (a Clouds texture, strength
-    0.4) moves its voxels: the grids Blender evaluates render, not the file's."""
+    0.8) moves its voxels: the grids Blender evaluates render, not the file's."""
     path = baked_smoke_vdb(tmp_path / "bake")
     scene = floor_scene()
     smoke = volume_object("Smoke", path, smoke_material(), (0.0, 0.0, 0.9), rotation_z=20.0)
     displace = smoke.modifiers.new("Displace", "VOLUME_DISPLACE")
     displace.texture = bpy.data.textures.new("Clouds", "CLOUDS")
-    displace.texture.noise_scale = 0.4
-    displace.strength = 0.4
+    displace.texture.noise_scale = 0.3
+    displace.strength = 0.8
     sun()
-    compare("displaced volume", scene, tmp_path, photon_spp=256)
+    # Photon's image has a few fireflies where the displaced smoke is thin (Cycles' has none):
+    # relMSE over 4x4 blocks is the criterion (the undisplaced grids of the file: 0.28 per pixel).
+    img, ref = compare("displaced volume", scene, tmp_path, photon_spp=256, relmse_max=0.05)
+    blocks = rel_mse(block_means(img), block_means(ref))
+    print(f"displaced volume: relMSE of 4x4 blocks {blocks:.5f}")
+    assert blocks <= 0.01
 
 
 def volume_messages(scene):
