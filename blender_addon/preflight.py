@@ -21,9 +21,9 @@ empty list, so the rules below only flag what really changes the image:
   Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
   converter nodes the surface trees have), Volume objects whose grids Photon cannot read, in
   the scene or instanced (volumes.problems, volumes.instanced_problems: missing files, grid
-  types), and fluid domains whose
-  smoke and fire Photon does not render (volumes.fluid_problems: no baked OpenVDB data at the
-  frame, the "color" attribute, "heat" with noise);
+  types), and fluid domains whose smoke and fire Photon does not render
+  (volumes.fluid_problems: no baked OpenVDB data at the frame, the "color" attribute, "heat"
+  with noise);
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement, as bump, true displacement of the vertices or both: node_tree.py); Cycles'
   adaptive subdivision (its dicing rate: Photon displaces the mesh as the modifier leaves it);

@@ -423,8 +423,8 @@ def as_boxes(scene, glb, holdouts=frozenset()):
     reads has a box mesh object standing for it (`volume_instances`; grids that exist only in
     memory are written to OpenVDB files beside `glb`, the scene's file), and each rendered
     fluid domain of gas carries its baked grids or, without them at the frame, is hidden
-    (module documentation); undone after. `holdouts`: names of the objects in holdout collections,
-    whose boxes are holdouts."""
+    (module documentation); undone after. `holdouts`: names of the objects in holdout
+    collections, whose boxes are holdouts."""
     made = []
     meshes = {}
     hidden = []
