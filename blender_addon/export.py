@@ -90,6 +90,11 @@ CARRIED_BY_HOOKS = ("Unsupported light source AREA",
                     "No quadratic light falloff node attached to emission strength property")
 
 
+# The exporter's warning about a mesh without faces, which an object whose Geometry Nodes make
+# only volumes has (the volumes are exported as boxes: volumes.as_boxes).
+EMPTY_MESH = "Mesh '{}' has no primitives and will be omitted."
+
+
 class ExportError(Exception):
     """The scene could not be exported; the message is meant for the user."""
 
@@ -494,7 +499,8 @@ class _Collector(logging.Handler):
     def emit(self, record):
         text = record.getMessage().strip()
         if record.name in GLTF_LOGGERS:
-            if text in CARRIED_BY_HOOKS:
+            if text in CARRIED_BY_HOOKS or any(text == EMPTY_MESH.format(name)
+                                               for name in volumes.ONLY_VOLUMES):
                 return
             text = f"glTF exporter: {text}"
         if text and text not in self.messages:

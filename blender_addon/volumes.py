@@ -45,6 +45,9 @@ import bpy
 
 # What a box object's `PHOTON_object` "volume" holds, by the box's object name.
 BOXES: dict[str, dict] = {}
+# Names of the meshes of the objects whose evaluated geometry is only the Volumes they make or
+# instance (Geometry Nodes), during an export: the glTF exporter warns that it omits them.
+ONLY_VOLUMES: set[str] = set()
 # Name of the material made for Volume objects without one.
 DEFAULT_MATERIAL = "Photon default volume"
 # Grid value types the renderer reads (float and three-float grids).
@@ -389,6 +392,9 @@ def volume_instances(scene, glb) -> list[tuple[dict, object, object]]:
         if source is None or not all(a < b for a, b in zip(*source["box"])):
             continue
         placed.append((source, inst.matrix_world.copy(), original))
+        maker = inst.parent if inst.is_instance else None
+        if maker is not None and maker.type == "MESH" and len(maker.data.vertices) == 0:
+            ONLY_VOLUMES.add(maker.original.data.name)
     return placed
 
 
@@ -465,6 +471,7 @@ def as_boxes(scene, glb, holdouts=frozenset()):
             obj.hide_render = False
         for name in domains:
             BOXES.pop(name, None)
+        ONLY_VOLUMES.clear()
         for box in made:
             BOXES.pop(box.name, None)
             bpy.data.objects.remove(box)
