@@ -90,6 +90,11 @@ CARRIED_BY_HOOKS = ("Unsupported light source AREA",
                     "No quadratic light falloff node attached to emission strength property")
 
 
+# The exporter's warning about a mesh without faces, which an object whose Geometry Nodes make
+# only volumes has (the volumes are exported as boxes: volumes.as_boxes).
+EMPTY_MESH = "Mesh '{}' has no primitives and will be omitted."
+
+
 class ExportError(Exception):
     """The scene could not be exported; the message is meant for the user."""
 
@@ -148,6 +153,26 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             if data:
                 self._add(gltf_node, "PHOTON_camera", data)
 
+    def vtree_after_filter_hook(self, vtree, export_settings):
+        """Write each particle instance once. The exporter walks an instancer's depsgraph
+        instances twice: as duplis (nodes of the instanced object, which its filter then drops
+        when that object is disabled for rendering) and again, for Geometry Nodes
+        (`export_gn_mesh`), as nodes of its data; for particle systems both walks yield the
+        same instances, so those of a rendered object would stand twice at one place (twice
+        the light of an emitting instance, two coincident boundaries of a volume). After the
+        filter, a data node is dropped where a dupli node of the same parent stands at the
+        same matrix."""
+        for parent in list(vtree.nodes.values()):
+            children = [vtree.nodes[uuid] for uuid in parent.children if uuid in vtree.nodes]
+            duplis = {_matrix_key(c.matrix_world) for c in children
+                      if c.blender_object is not None and c.matrix_world is not None}
+            if not duplis:
+                continue
+            for child in children:
+                if child.blender_object is None and child.matrix_world is not None \
+                        and _matrix_key(child.matrix_world) in duplis:
+                    _drop_node(vtree, parent, child)
+
     def gather_attribute_keep(self, keep_attribute, export_settings):
         """Keep the mesh attributes node trees read by name (Attribute nodes of type
         Geometry), written as `_NAME`."""
@@ -186,6 +211,20 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
                     known.extension["info"] = info
                 else:
                     self._add(gltf_node, "PHOTON_object", {"info": info})
+
+
+def _matrix_key(matrix):
+    """A world matrix, rounded, as a key for finding nodes at one place."""
+    return tuple(round(float(matrix[r][c]), 5) for r in range(3) for c in range(4))
+
+
+def _drop_node(vtree, parent, node):
+    """Remove `node` (a leaf of the exporter's tree: an instance of data) from `vtree`."""
+    parent.children.remove(node.uuid)
+    parent.children_type.pop(node.uuid, None)
+    for uuid in node.children:
+        vtree.nodes.pop(uuid, None)
+    vtree.nodes.pop(node.uuid, None)
 
 
 def texture_space(obj) -> dict:
@@ -460,7 +499,8 @@ class _Collector(logging.Handler):
     def emit(self, record):
         text = record.getMessage().strip()
         if record.name in GLTF_LOGGERS:
-            if text in CARRIED_BY_HOOKS:
+            if text in CARRIED_BY_HOOKS or any(text == EMPTY_MESH.format(name)
+                                               for name in volumes.ONLY_VOLUMES):
                 return
             text = f"glTF exporter: {text}"
         if text and text not in self.messages:
@@ -641,7 +681,8 @@ def export_in_process(glb: Path, hook_module: str) -> list[str]:
             args["export_tangents"] = True
         with collected_warnings() as warnings, render_visibility(scene), \
                 shape_keys_applied(scene), points_curves.as_meshes(scene), \
-                volumes.as_boxes(scene), motion.shutter_poses_recorded(scene), \
+                volumes.as_boxes(scene, Path(glb), holdout_objects(bpy.context.view_layer)), \
+                motion.shutter_poses_recorded(scene), \
                 lights.temperature_hidden(scene):
             result = bpy.ops.export_scene.gltf(filepath=str(glb), **args)
     except Exception as exc:  # the operator raises RuntimeError with Blender's own report

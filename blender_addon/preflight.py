@@ -19,10 +19,11 @@ empty list, so the rules below only flag what really changes the image:
   Normal (its other outputs are evaluated);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
   Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
-  converter nodes the surface trees have), Volume objects whose grids Photon cannot read
-  (volumes.problems: packed or missing files, modifiers, grid types), and fluid domains whose
-  smoke and fire Photon does not render (volumes.fluid_problems: no baked OpenVDB data at the
-  frame, the "color" attribute, "heat" with noise);
+  converter nodes the surface trees have), Volume objects whose grids Photon cannot read, in
+  the scene or instanced (volumes.problems, volumes.instanced_problems: missing files, grid
+  types), and fluid domains whose smoke and fire Photon does not render
+  (volumes.fluid_problems: no baked OpenVDB data at the frame, the "color" attribute, "heat"
+  with noise);
 - displacement linked into a material output (unless Photon evaluates the tree and its
   displacement, as bump, true displacement of the vertices or both: node_tree.py); Cycles'
   adaptive subdivision (its dicing rate: Photon displaces the mesh as the modifier leaves it);
@@ -54,6 +55,7 @@ from .node_graph import active_output, source, upstream
 from .node_tree import material_nodes, volume_tree
 from .shared import GEOMETRY_TYPES, material_tree
 from .volumes import fluid_domain, fluid_problems
+from .volumes import instanced_problems as instanced_volume_problems
 from .volumes import problems as volume_problems
 from .world import world_problems, world_uses_nodes
 
@@ -83,6 +85,9 @@ def unsupported_features(scene, objects, view_layer=None) -> list[str]:
         for slot in getattr(obj, "material_slots", ()):
             if slot.material is not None:
                 materials.setdefault(slot.material.name, slot.material)
+    messages += instanced_volume_problems(bpy.context.evaluated_depsgraph_get(),
+                                          {getattr(obj, "original", obj).name for obj in objects
+                                           if obj.type == "VOLUME"})
     for name in sorted(materials):
         messages += material_features(materials[name])
     if scene.world is not None:
@@ -198,11 +203,6 @@ def _object_features(obj) -> list[str]:
             messages.append(f"{what}: particle system '{system.name}' rendered as "
                             f"{system.settings.render_type} is not exported (objects and "
                             f"collections are)")
-        instanced = system.settings.instance_object
-        if system.settings.render_type == "OBJECT" and getattr(instanced, "type", "") == "VOLUME":
-            messages.append(f"{what}: particle system '{system.name}' instances Volume object "
-                            f"'{instanced.name}', which is not rendered there (collection "
-                            f"instances of Volume objects are)")
     if obj.type in GEOMETRY_TYPES:
         hidden = [ray for prop, ray in RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:

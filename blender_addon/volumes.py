@@ -1,15 +1,22 @@
 """Volume objects (OpenVDB grids: imported .vdb files, baked smoke and fire) as boxes the glTF
 exporter writes, and the smoke and fire of baked fluid domains, for the time of an export.
 
-The glTF exporter skips Volume objects. Within `as_boxes(scene)` each rendered Volume object
-whose grids come from a file on disk (in the scene, or in a collection that an Empty instances:
-the box then goes with each instance) has a mesh object beside it: a box around its grids (one
-voxel of margin, where interpolation still reaches), at its place, with its material, or with
-Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has none.
-`gather_node_hook` writes the box's `PHOTON_object` "volume": the file of the current frame, its
-grid names, where this Blender puts a voxel's value, the volume's space (its density per unit
-of the object's length or of the world's) and its clipping value (voxels below it hold no
-medium); the renderer reads the grids the material's tree names (docs/gltf_extensions.md).
+The glTF exporter skips Volume objects. Within `as_boxes(scene, glb)` each Volume the render
+shows, as the depsgraph yields it (`volume_instances`: a Volume object in the scene, in a
+collection an Empty instances, instanced by a particle system or by Geometry Nodes, or the
+Volume geometry a Geometry Nodes tree makes: Volume Cube, Mesh to Volume, Points to Volume),
+has a mesh object in the scene: a box around its grids (one voxel of margin, where
+interpolation still reaches), at the instance's world matrix, with the Volume's material, or
+with Cycles' default volume shader (a Principled Volume reading the "density" grid) when it has
+none. The boxes of one Volume share one mesh, which the renderer stores once as a prototype
+with its grids. A Volume object without modifiers is read from its OpenVDB file on disk; the
+grids of every other Volume (Geometry Nodes', those a Volume object's modifiers change, a
+packed file's) exist only in Blender's memory and are written once, with `VolumeGrids.save`,
+to an OpenVDB file beside the .glb. `gather_node_hook` writes each box's `PHOTON_object`
+"volume": the file of the current frame, its grid names, where this Blender puts a voxel's
+value, the volume's space (its density per unit of the object's length or of the world's) and
+its clipping value (voxels below it hold no medium); the renderer reads the grids the
+material's tree names (docs/gltf_extensions.md).
 
 A fluid domain of type Gas (smoke and fire) is rendered as Cycles renders it: its own mesh (the
 box the Fluid modifier makes, the adaptive domain's box included) filled with the frame's baked
@@ -38,6 +45,9 @@ import bpy
 
 # What a box object's `PHOTON_object` "volume" holds, by the box's object name.
 BOXES: dict[str, dict] = {}
+# Names of the meshes of the objects whose evaluated geometry is only the Volumes they make or
+# instance (Geometry Nodes), during an export: the glTF exporter warns that it omits them.
+ONLY_VOLUMES: set[str] = set()
 # Name of the material made for Volume objects without one.
 DEFAULT_MATERIAL = "Photon default volume"
 # Grid value types the renderer reads (float and three-float grids).
@@ -71,29 +81,54 @@ def volume_file(obj) -> tuple[str | None, str | None]:
     """`(path, None)`: the absolute path of the OpenVDB file `obj` (a Volume object) shows at
     the current frame; `(None, reason)` when Photon cannot read its grids."""
     volume = obj.data
-    if volume.packed_file is not None:
-        return None, "its OpenVDB file is packed into the .blend (unpack it to render it)"
     if not volume.grids.load():
         return None, f"its OpenVDB file cannot be read ({volume.grids.error_message})"
     path = bpy.path.abspath(volume.grids.frame_filepath)
     if not path:
-        return None, "it has no OpenVDB file (its grids come from modifiers alone)"
+        return None, "it has no OpenVDB file"
     return path, None
 
 
 def problems(obj) -> list[str]:
     """What of Volume object `obj` is not rendered as Blender shows it."""
     what = f"Volume object '{obj.name}'"
-    path, reason = volume_file(obj)
-    if path is None:
-        return [f"{what} is not rendered: {reason}"]
+    original = getattr(obj, "original", obj)
+    if from_its_file(original):
+        path, reason = volume_file(original)
+        if path is None:
+            return [f"{what} is not rendered: {reason}"]
+        grids = original.data.grids
+    else:  # its modifiers' or its packed file's grids, written out by the export
+        grids = original.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.grids
+        if len(grids) == 0:
+            return [f"{what} is not rendered: it has no grids"]
+    return _unread_grids(what, grids)
+
+
+def _unread_grids(what, grids) -> list[str]:
+    unread = [g.name for g in grids if g.data_type not in READ_TYPES]
+    return [f"{what}: grids of other types are not read ({', '.join(unread)})"] if unread else []
+
+
+def instanced_problems(depsgraph, named) -> list[str]:
+    """What of the Volumes that `depsgraph` instances (particle systems, Geometry Nodes,
+    collection instances) or Geometry Nodes make is not rendered, each Volume object once and
+    none of those whose names are in `named` (reported as objects of the scene)."""
+    seen = set(named)
     out = []
-    if any(m.show_render for m in obj.modifiers):
-        out.append(f"{what}: its modifiers are not applied; Photon renders the grids of its "
-                   f"file")
-    unread = [g.name for g in obj.data.grids if g.data_type not in READ_TYPES]
-    if unread:
-        out.append(f"{what}: grids of other types are not read ({', '.join(unread)})")
+    for inst in depsgraph.object_instances:
+        evaluated = inst.object
+        if not inst.is_instance or evaluated.type != "VOLUME":
+            continue
+        original = evaluated.original
+        if original.name in seen:
+            continue
+        seen.add(original.name)
+        if original.type == "VOLUME":
+            out += problems(original)
+        else:
+            out += _unread_grids(f"object '{original.name}': the volume its Geometry Nodes make",
+                                 evaluated.data.grids)
     return out
 
 
@@ -276,14 +311,13 @@ def _default_material():
     return material
 
 
-def _box(obj):
-    """Corners (object space) of a box around `obj`'s grids: their voxels' bounds and one
-    voxel more each side."""
+def _box(evaluated):
+    """Corners (object space) of a box around the grids of `evaluated` (an evaluated Volume
+    object): their voxels' bounds and one voxel more each side."""
     lo = [float("inf")] * 3
     hi = [float("-inf")] * 3
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
     margin = 0.0
-    for grid in obj.data.grids:
+    for grid in evaluated.data.grids:
         matrix = grid.matrix_object
         margin = max(margin, *(sum(matrix[r][c] ** 2 for r in range(3)) ** 0.5
                                for c in range(3)))
@@ -292,6 +326,91 @@ def _box(obj):
             lo[a] = min(lo[a], corner[a] - margin)
             hi[a] = max(hi[a], corner[a] + margin)
     return lo, hi
+
+
+def from_its_file(original) -> bool:
+    """Whether Volume object `original` renders the grids of its OpenVDB file on disk as they
+    are (no modifier changes them, the file is not packed into the .blend): Photon then reads
+    that file."""
+    return original.type == "VOLUME" and original.data.packed_file is None \
+        and not any(m.show_render for m in original.modifiers)
+
+
+def _source(key, name, evaluated, uri, material, scene) -> dict:
+    """What the boxes of one Volume (`evaluated`, an evaluated object showing it) share: the
+    box's corners and mesh name, its material, and the `PHOTON_object` "volume" reading `uri`."""
+    volume = evaluated.data
+    return {"key": key,
+            "name": name,
+            "box": _box(evaluated),
+            "material": material,
+            "volume": {"uri": uri,
+                       "grids": [g.name for g in volume.grids if g.data_type in READ_TYPES],
+                       "space": volume.render.space.lower(),
+                       "clipping": volume.render.clipping,
+                       **grid_fields(scene)}}
+
+
+def volume_instances(scene, glb) -> list[tuple[dict, object, object]]:
+    """Every Volume the render of `scene` shows, as the depsgraph yields them: Volume objects
+    in the scene, in collections that Empties instance, instanced by particle systems or by
+    Geometry Nodes, and Volume geometry that Geometry Nodes make (Volume Cube, Mesh to Volume,
+    Points to Volume) or Volume objects' modifiers change. Each is `(source, world matrix,
+    owner)`: `source` (`_source`) is shared by every instance of one Volume, so that its grids
+    are read once; `owner` is the object whose ray visibility and holdout the box takes (the
+    Volume object, or the object whose modifiers make the volume).
+
+    A Volume object without modifiers is read from its OpenVDB file; other volumes exist only
+    in memory, and their evaluated grids are written once each to an OpenVDB file beside
+    `glb` (the scene's file: `NAME.glb` gets `NAME.volume0.vdb`, ...). Volumes that are not
+    rendered, or whose grids cannot be read, are left out."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    sources: dict = {}
+    placed = []
+    for inst in depsgraph.object_instances:
+        evaluated = inst.object
+        if evaluated.type != "VOLUME":
+            continue
+        shown_by = inst.parent if inst.is_instance else evaluated
+        if shown_by is None or shown_by.original.hide_render:
+            continue
+        original = evaluated.original
+        if from_its_file(original):
+            key = ("file", original.name)
+            if key not in sources:
+                path, _ = volume_file(original)
+                material = next((s.material for s in original.material_slots if s.material),
+                                None)
+                sources[key] = None if path is None else _source(
+                    key, original.name, evaluated, path, material, scene)
+        else:
+            key = ("evaluated", evaluated.data.as_pointer())
+            if key not in sources:
+                sources[key] = _evaluated_source(key, original, evaluated, glb, len(sources),
+                                                 scene)
+        source = sources[key]
+        if source is None or not all(a < b for a, b in zip(*source["box"])):
+            continue
+        placed.append((source, inst.matrix_world.copy(), original))
+        maker = inst.parent if inst.is_instance else None
+        if maker is not None and maker.type == "MESH" and len(maker.data.vertices) == 0:
+            ONLY_VOLUMES.add(maker.original.data.name)
+    return placed
+
+
+def _evaluated_source(key, original, evaluated, glb, number, scene) -> dict | None:
+    """The source (`_source`) of a volume that exists only in the evaluated depsgraph (Geometry
+    Nodes' volume geometry, a Volume object's modifiers), its grids written to an OpenVDB file
+    beside `glb` numbered `number`; None when it has no grid or cannot be written."""
+    grids = evaluated.data.grids
+    if len(grids) == 0:
+        return None
+    path = Path(glb).with_suffix(f".volume{number}.vdb")
+    if not grids.save(str(path)) or not path.is_file():
+        return None
+    materials = [s.material for s in evaluated.material_slots if s.material is not None]
+    material = getattr(materials[0], "original", None) if materials else None
+    return _source(key, f"{original.name} volume", evaluated, str(path), material, scene)
 
 
 def _box_mesh(name, lo, hi):
@@ -304,30 +423,16 @@ def _box_mesh(name, lo, hi):
     return mesh
 
 
-def rendered_volume_objects(scene) -> list:
-    """The Volume objects of `scene` and those in the collections its Empties instance
-    (collection instances, nested ones too)."""
-    found = {}
-    collections = set()
-    stack = list(scene.objects)
-    while stack:
-        obj = stack.pop()
-        if obj.name in found:
-            continue
-        found[obj.name] = obj
-        instanced = obj.instance_collection if obj.instance_type == "COLLECTION" else None
-        if instanced is not None and instanced.name not in collections:
-            collections.add(instanced.name)
-            stack.extend(instanced.all_objects)
-    return [obj for obj in found.values() if obj.type == "VOLUME"]
-
-
 @contextlib.contextmanager
-def as_boxes(scene):
-    """Within the block, each rendered Volume object of `scene` whose grids Photon reads has a
-    box mesh object standing for it, and each rendered fluid domain of gas carries its baked
-    grids or, without them at the frame, is hidden (module documentation); undone after."""
+def as_boxes(scene, glb, holdouts=frozenset()):
+    """Within the block, each rendered instance of a Volume of `scene` whose grids Photon
+    reads has a box mesh object standing for it (`volume_instances`; grids that exist only in
+    memory are written to OpenVDB files beside `glb`, the scene's file), and each rendered
+    fluid domain of gas carries its baked grids or, without them at the frame, is hidden
+    (module documentation); undone after. `holdouts`: names of the objects in holdout
+    collections, whose boxes are holdouts."""
     made = []
+    meshes = {}
     hidden = []
     domains = []
     try:
@@ -341,27 +446,22 @@ def as_boxes(scene):
                 else:
                     BOXES[obj.name] = volume
                     domains.append(obj.name)
-        for obj in rendered_volume_objects(scene):
-            if obj.hide_render:
-                continue
-            path, _ = volume_file(obj)
-            if path is None:
-                continue
-            lo, hi = _box(obj)
-            if not all(a < b for a, b in zip(lo, hi)):
-                continue
-            box = bpy.data.objects.new(f"{obj.name} (volume)", _box_mesh(obj.name, lo, hi))
-            for collection in obj.users_collection:
-                collection.objects.link(box)
-            box.matrix_world = obj.matrix_world
-            material = next((s.material for s in obj.material_slots if s.material), None)
-            box.data.materials.append(material or _default_material())
-            BOXES[box.name] = {"uri": path,
-                               "grids": [g.name for g in obj.data.grids
-                                         if g.data_type in READ_TYPES],
-                               "space": obj.data.render.space.lower(),
-                               "clipping": obj.data.render.clipping,
-                               **grid_fields(scene)}
+        placed = volume_instances(scene, glb)
+        for k, (source, matrix, owner) in enumerate(placed):
+            if source["key"] not in meshes:
+                lo, hi = source["box"]
+                meshes[source["key"]] = _box_mesh(source["name"], lo, hi)
+                meshes[source["key"]].materials.append(source["material"]
+                                                       or _default_material())
+            box = bpy.data.objects.new(f"{source['name']} (volume {k})",
+                                       meshes[source["key"]])
+            scene.collection.objects.link(box)
+            box.matrix_world = matrix
+            for setting in ("visible_camera", "visible_shadow", "is_holdout"):
+                setattr(box, setting, getattr(owner, setting, getattr(box, setting)))
+            if owner.name in holdouts:
+                box.is_holdout = True
+            BOXES[box.name] = source["volume"]
             made.append(box)
         if made or hidden:
             bpy.context.view_layer.update()
@@ -371,8 +471,9 @@ def as_boxes(scene):
             obj.hide_render = False
         for name in domains:
             BOXES.pop(name, None)
+        ONLY_VOLUMES.clear()
         for box in made:
-            mesh = box.data
             BOXES.pop(box.name, None)
             bpy.data.objects.remove(box)
+        for mesh in meshes.values():
             bpy.data.meshes.remove(mesh)

@@ -131,6 +131,23 @@ def bake_volume(folder, build):
     return found[0]
 
 
+def soft_ball(group, radius, position=None):
+    """Nodes in Geometry Nodes `group` making max(0, 1 − |p| / `radius`) of the position p
+    (`position`: a Position node's, a new one by default); returns their output socket."""
+    nodes, links = group.nodes, group.links
+    if position is None:
+        position = nodes.new("GeometryNodeInputPosition")
+    length = nodes.new("ShaderNodeVectorMath")
+    length.operation = "LENGTH"
+    links.new(position.outputs[0], length.inputs[0])
+    ball = nodes.new("ShaderNodeMapRange")
+    ball.inputs["From Max"].default_value = radius
+    ball.inputs["To Min"].default_value = 1.0
+    ball.inputs["To Max"].default_value = 0.0
+    links.new(length.outputs["Value"], ball.inputs["Value"])
+    return ball.outputs["Result"]
+
+
 def baked_smoke_vdb(folder, resolution=12):
     """Bakes a Geometry Nodes Volume Cube over [-1, 1]³ (`resolution` voxels a side) to an
     OpenVDB file in `folder` and returns its path: its "density" grid a soft ball,
@@ -139,20 +156,13 @@ def baked_smoke_vdb(folder, resolution=12):
     def build(group):
         nodes, links = group.nodes, group.links
         position = nodes.new("GeometryNodeInputPosition")
-        length = nodes.new("ShaderNodeVectorMath")
-        length.operation = "LENGTH"
-        links.new(position.outputs[0], length.inputs[0])
-        ball = nodes.new("ShaderNodeMapRange")
-        ball.inputs["From Max"].default_value = 0.9
-        ball.inputs["To Min"].default_value = 1.0
-        ball.inputs["To Max"].default_value = 0.0
-        links.new(length.outputs["Value"], ball.inputs["Value"])
+        ball = soft_ball(group, 0.9, position)
         noise = nodes.new("ShaderNodeTexNoise")
         noise.inputs["Scale"].default_value = 1.5
         links.new(position.outputs[0], noise.inputs["Vector"])
         times = nodes.new("ShaderNodeMath")
         times.operation = "MULTIPLY"
-        links.new(ball.outputs["Result"], times.inputs[0])
+        links.new(ball, times.inputs[0])
         links.new(noise.outputs["Fac"], times.inputs[1])
         volume_cube = nodes.new("GeometryNodeVolumeCube")
         for axis in "XYZ":
@@ -221,6 +231,23 @@ def checker_vdb(path, n=4):
         [[2 / n, 0, 0, 0], [0, 2 / n, 0, 0], [0, 0, 2 / n, 0], [-1, -1, -1, 1]])
     vdb.write(str(path), grids=[grid])
     return path
+
+
+def absorber_from_above(size, ortho_scale):
+    """A fresh `size` x `size` scene: a white world of strength 1 seen straight down by an
+    orthographic camera (5 m up, `ortho_scale` wide), and a material absorbing 1.5 per unit of
+    the "density" grid (a black Principled Volume). Returns (scene, material)."""
+    scene = common.reset_scene(size, size)
+    background = scene.world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    background.inputs["Strength"].default_value = 1.0
+    mat, node = volume_material("Absorbing", "ShaderNodeVolumePrincipled")
+    node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    node.inputs["Density"].default_value = 1.5
+    common.camera("Camera", (0.0, 0.0, 5.0), (0.0, 0.0, 0.0), 45.0)
+    scene.camera.data.type = "ORTHO"
+    scene.camera.data.ortho_scale = ortho_scale
+    return scene, mat
 
 
 def volume_object(name, path, material, location, scale=1.0, rotation_z=0.0):

@@ -2,7 +2,8 @@
 settings (a Subdivision Surface with viewport level 0 and render level 3 renders smooth; a
 modifier enabled only for rendering is applied), collections excluded from the view layer,
 objects and collections disabled for rendering left out, and objects disabled only in
-viewports kept. Each scene is rendered by Cycles and by Photon through the add-on at 48x32:
+viewports kept; particle instances written once each (emitting boxes lighting a floor).
+Each scene is rendered by Cycles and by Photon through the add-on at 48x32:
 mean within 2 % and relMSE <= 0.01. The viewport settings are put back after the export.
 """
 
@@ -12,6 +13,7 @@ import pytest
 import common
 import scenes_bpy
 from cycles_compare import compare
+from volume_scenes import shader_material
 
 pytestmark = pytest.mark.slow  # renders Cycles or takes more than ~10 s
 
@@ -144,3 +146,31 @@ def test_particle_system_rendering_objects(tmp_path, render_type):
     settings.use_rotation_instance = True
     emitter.show_instancer_for_render = True
     compare(f"particle system rendering {render_type.lower()}", scene, tmp_path)
+
+
+@pytest.mark.parametrize("source", ["hidden", "rendered"])
+def test_particle_instances_that_emit_light(tmp_path, source):
+    """A hair particle system scattering six small emitting boxes (Emission, strength 50) over
+    a floor under a dark world, the box they instance disabled for rendering or rendered (under
+    the floor, out of sight): each instance is written once, so the floor gets each box's light
+    once (the glTF exporter walks a particle system's instances twice, as duplis and as
+    Geometry Nodes instances, and keeps the duplis of a rendered object: written twice, the
+    instances' light doubled)."""
+    scene = lit_floor()
+    bpy.data.objects["Sun"].data.energy = 0.0
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.02
+    glow, _ = shader_material("Glow", "ShaderNodeEmission", "Surface", Strength=50.0)
+    lamp = common.box("Lamp", (0.1, 0.1, 0.1), glow, (0.0, 0.0, -3.0), 0.0)
+    lamp.hide_render = source == "hidden"
+    emitter = common.quad("Emitter", [(-1.5, -0.8, 0.6), (1.5, -0.8, 0.6), (1.5, 1.4, 0.6),
+                                      (-1.5, 1.4, 0.6)], None)
+    emitter.show_instancer_for_render = False
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.type = "HAIR"
+    settings.hair_length = 1.0
+    settings.count = 6
+    settings.render_type = "OBJECT"
+    settings.instance_object = lamp
+    # The floor's light alone: the boxes seen straight on left out.
+    compare(f"emitting particle instances ({source})", scene, tmp_path, glint=1.0)

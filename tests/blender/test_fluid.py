@@ -13,8 +13,7 @@ Photon, and compares: mean within 2 % and relMSE <= 0.01 (`cycles_compare.compar
 - a domain at a frame it has no baked data for: nothing, in both engines; nor for a domain
   whose material reads none of its grids;
 - the pre-flight report on a baked domain: silent for Quick Smoke's material, one message when
-  the material reads the "color" attribute; and on a particle system instancing a Volume
-  object (not rendered there, where collection instances are).
+  the material reads the "color" attribute.
 
 Blender 5 (bpy 5.0): smoke and the unbaked frame match; the fire does not (marked below).
 
@@ -28,7 +27,6 @@ import bpy
 import numpy as np
 import pytest
 
-import common
 import reference_cache
 import scenes_bpy
 from cycles_compare import compare
@@ -126,22 +124,3 @@ def test_preflight_names_what_of_a_baked_domain_is_not_rendered(tmp_path):
                 if "Domain" in m]
     assert len(messages) == 1 and messages[0].startswith(
         "fluid domain 'Domain': its \"color\" attribute"), messages
-
-
-def test_preflight_names_volume_objects_that_particles_instance(tmp_path):
-    """A particle system rendering a Volume object as its instances: one message (not
-    rendered there)."""
-    from blender_addon import preflight
-    from volume_scenes import volume_object
-    scene = floor_scene()
-    smoke = volume_object("Smoke", tmp_path / "missing.vdb", smoke_material(), (0, 0, 5))
-    emitter = common.quad("Emitter", [(-1, -1, 0.5), (1, -1, 0.5), (1, 1, 0.5), (-1, 1, 0.5)],
-                          smoke_material())
-    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
-    settings = emitter.particle_systems[0].settings
-    settings.type = "HAIR"
-    settings.render_type = "OBJECT"
-    settings.instance_object = smoke
-    messages = [m for m in preflight.unsupported_features(scene, list(scene.objects))
-                if "particle system" in m]
-    assert len(messages) == 1 and "instances Volume object 'Smoke'" in messages[0], messages

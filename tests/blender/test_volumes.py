@@ -254,17 +254,8 @@ def test_openvdb_voxels_sit_where_blender_puts_them(tmp_path):
     of the grid's transform, so the columns' shadows must fall where Cycles draws them (with
     values at whole indices instead, relMSE is 1.75)."""
     path = checker_vdb(tmp_path / "checker.vdb")
-    scene = common.reset_scene(48, 48)
-    background = scene.world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    background.inputs["Strength"].default_value = 1.0
-    mat, node = volume_material("Absorbing", "ShaderNodeVolumePrincipled")
-    node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    node.inputs["Density"].default_value = 1.5
+    scene, mat = volume_scenes.absorber_from_above(48, 3.0)
     volume_object("Checker", path, mat, (0.0, 0.0, 0.0))
-    common.camera("Camera", (0.0, 0.0, 5.0), (0.0, 0.0, 0.0), 45.0)
-    scene.camera.data.type = "ORTHO"
-    scene.camera.data.ortho_scale = 3.0
     compare("openvdb voxels", scene, tmp_path, photon_spp=64, cycles_spp=256)
 
 
