@@ -262,6 +262,9 @@ pub struct Image {
     /// receive without the other objects, over white by the pixel's alpha (1 where no catcher
     /// is seen; `shadow_catcher::CatcherSum::compose`). Empty for scenes without catchers.
     pub shadow_catcher: Vec<Vec3>,
+    /// Text attributes of the EXR header (name, value): the samples the image holds
+    /// (`exr_merge::SampleRanges`). Not written to PNG.
+    pub metadata: Vec<(String, String)>,
 }
 
 impl Image {
@@ -278,6 +281,7 @@ impl Image {
             camera_rotation: Mat3::IDENTITY,
             samples: vec![0; n],
             shadow_catcher: Vec::new(),
+            metadata: Vec::new(),
         }
     }
 

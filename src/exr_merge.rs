@@ -1,0 +1,444 @@
+//! One frame split across machines: the samples an EXR holds (its header's sample ranges) and
+//! the merge of renders of disjoint sample ranges into the render of their union, after
+//! Cycles' Sample Offset and its image merging (Blender's `intern/cycles/session/merge.cpp`,
+//! 2022): every pass that is a mean over samples is averaged weighted by each file's sample
+//! count, so renders of samples [0, a) and [a, b) merge into the render of [0, b) up to float
+//! rounding.
+//!
+//! Which passes are means: all but Depth, which is the nearest of the files' depths (as
+//! `film::Image::merge` joins rounds: a file whose samples all missed holds 1e10 there; Cycles
+//! copies the first file's Depth, its depth being the first sample's), and the normals
+//! (Normal, Denoising Normal), averaged and then made unit length again as the renderer makes
+//! each pixel's. A denoised image (one with Blender's Noisy Image pass) is refused: denoising
+//! is not linear in the samples, so the parts are merged noisy and the merged image denoised.
+//!
+//! Everything is checked from the headers before any pixel is read: the files must have the
+//! same size and channels (Volume Direct and Indirect may be missing from some, as the
+//! renderer leaves them out when nothing in the image has volume light: they count as black
+//! there), the same seed, and sample ranges that do not overlap.
+
+use crate::error::{Error, Result};
+use crate::image_io::write_atomically;
+use exr::meta::attribute::{AttributeValue, Text};
+use exr::meta::MetaData;
+use exr::prelude::*;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+/// Header attribute: the number of samples per pixel the image holds.
+pub const SAMPLES_KEY: &str = "photon.samples";
+/// Header attribute: the half-open ranges of the pixels' sample sequence the image holds,
+/// `first-end` separated by commas ("0-16", "0-16,32-48").
+pub const RANGES_KEY: &str = "photon.sample_ranges";
+/// Header attribute: the seed of the sample sequence.
+pub const SEED_KEY: &str = "photon.seed";
+
+/// Passes that may be missing from some files (written only when lit), counting as black.
+const OPTIONAL_PASSES: [&str; 2] = ["VolumeDir", "VolumeInd"];
+/// Passes of unit vectors: averaged, then normalised.
+const NORMAL_PASSES: [&str; 2] = ["Normal", "Denoising Normal"];
+
+/// The samples of the pixels' sequence (from `seed`) an image holds.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SampleRanges {
+    pub seed: u64,
+    /// Sorted, disjoint, non-empty half-open ranges, adjacent ones joined.
+    pub ranges: Vec<(u32, u32)>,
+}
+
+impl SampleRanges {
+    /// Samples `offset .. offset + spp`.
+    pub fn single(seed: u64, offset: u32, spp: u32) -> Self {
+        SampleRanges {
+            seed,
+            ranges: vec![(offset, offset.saturating_add(spp))],
+        }
+    }
+
+    /// Samples per pixel.
+    pub fn count(&self) -> u64 {
+        self.ranges.iter().map(|&(a, b)| (b - a) as u64).sum()
+    }
+
+    /// The header attributes that record them.
+    pub fn metadata(&self) -> Vec<(String, String)> {
+        let ranges: Vec<String> = self
+            .ranges
+            .iter()
+            .map(|(a, b)| format!("{a}-{b}"))
+            .collect();
+        vec![
+            (SAMPLES_KEY.into(), self.count().to_string()),
+            (RANGES_KEY.into(), ranges.join(",")),
+            (SEED_KEY.into(), self.seed.to_string()),
+        ]
+    }
+
+    /// Read from the attributes `get` looks up; `None` when the ranges are not recorded.
+    pub fn parse(
+        get: impl Fn(&str) -> Option<String>,
+    ) -> std::result::Result<Option<Self>, String> {
+        let (Some(ranges), Some(seed)) = (get(RANGES_KEY), get(SEED_KEY)) else {
+            return Ok(None);
+        };
+        let seed = seed
+            .trim()
+            .parse::<u64>()
+            .map_err(|_| format!("{SEED_KEY} {seed:?} is not a seed"))?;
+        let mut parsed = Vec::new();
+        for part in ranges.split(',') {
+            let range = part.split_once('-').and_then(|(a, b)| {
+                let (a, b) = (a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?);
+                (a < b).then_some((a, b))
+            });
+            parsed.push(range.ok_or_else(|| {
+                format!("{RANGES_KEY} {ranges:?}: {part:?} is not a range FIRST-END")
+            })?);
+        }
+        let mut all = SampleRanges {
+            seed,
+            ranges: Vec::new(),
+        };
+        for range in parsed {
+            all = all
+                .union(&SampleRanges {
+                    seed,
+                    ranges: vec![range],
+                })
+                .map_err(|(a, b)| format!("{RANGES_KEY} {ranges:?} overlaps itself at {a}-{b}"))?;
+        }
+        Ok(Some(all))
+    }
+
+    /// Both sets of samples, or the first overlapping range when they share samples.
+    pub fn union(&self, other: &SampleRanges) -> std::result::Result<SampleRanges, (u32, u32)> {
+        let mut all: Vec<(u32, u32)> = self.ranges.iter().chain(&other.ranges).copied().collect();
+        all.sort_unstable();
+        let mut joined: Vec<(u32, u32)> = Vec::with_capacity(all.len());
+        for (a, b) in all {
+            match joined.last_mut() {
+                Some(last) if a < last.1 => return Err((a, b.min(last.1))),
+                Some(last) if a == last.1 => last.1 = b,
+                _ => joined.push((a, b)),
+            }
+        }
+        Ok(SampleRanges {
+            seed: self.seed,
+            ranges: joined,
+        })
+    }
+}
+
+/// How a channel is merged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Rule {
+    /// The sample-weighted mean.
+    Mean,
+    /// The sample-weighted mean of a unit vector, normalised afterwards.
+    UnitMean,
+    /// The smallest value (Depth).
+    Nearest,
+}
+
+/// The pass of a channel named `<view layer>.<pass>.<channel>` (Blender's multilayer names),
+/// `None` for plain names (R, G, B, A).
+fn pass_of(channel: &str) -> Option<&str> {
+    let (rest, _) = channel.rsplit_once('.')?;
+    Some(rest.rsplit_once('.').map_or(rest, |(_, pass)| pass))
+}
+
+fn rule(channel: &str) -> Rule {
+    match pass_of(channel) {
+        Some("Depth") => Rule::Nearest,
+        Some(pass) if NORMAL_PASSES.contains(&pass) => Rule::UnitMean,
+        None if channel == "Z" => Rule::Nearest,
+        _ => Rule::Mean,
+    }
+}
+
+/// One input's header: what is checked before its pixels are read.
+struct Input {
+    path: PathBuf,
+    size: (usize, usize),
+    channels: Vec<String>,
+    samples: SampleRanges,
+    attributes: HashMap<Text, AttributeValue>,
+}
+
+fn read_header(path: &Path) -> Result<Input> {
+    let bad = |m: String| Error::scene(path, "EXR", m);
+    let meta = MetaData::read_from_file(path, false).map_err(|e| match e {
+        exr::error::Error::Io(io) => Error::io(path, io),
+        e => bad(e.to_string()),
+    })?;
+    let [header] = meta.headers.as_slice() else {
+        return Err(bad(format!(
+            "has {} parts; a render has one",
+            meta.headers.len()
+        )));
+    };
+    if header.deep {
+        return Err(bad("is a deep image, which cannot be merged".into()));
+    }
+    let attributes = header.own_attributes.other.clone();
+    let get = |key: &str| match attributes.get(&Text::from(key)) {
+        Some(AttributeValue::Text(t)) => Some(t.to_string()),
+        _ => None,
+    };
+    let samples = SampleRanges::parse(get).map_err(bad)?.ok_or_else(|| {
+        bad(format!(
+            "records no sample range ({RANGES_KEY}, {SEED_KEY}): only renders by photon \
+                 render, or by the Blender add-on, can be merged"
+        ))
+    })?;
+    let channels: Vec<String> = header
+        .channels
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    if let Some(c) = channels.iter().find(|c| pass_of(c) == Some("Noisy Image")) {
+        return Err(bad(format!(
+            "is denoised (it has the {c} channel): denoising does not average, so render the \
+             parts with Denoise off, merge them, then denoise the merged image"
+        )));
+    }
+    Ok(Input {
+        path: path.to_path_buf(),
+        size: (header.layer_size.width(), header.layer_size.height()),
+        channels,
+        samples,
+        attributes,
+    })
+}
+
+/// Check that `inputs` can be merged and return the samples of the merge.
+fn check(inputs: &[Input]) -> Result<SampleRanges> {
+    let first = &inputs[0];
+    let optional = |c: &String| pass_of(c).is_some_and(|p| OPTIONAL_PASSES.contains(&p));
+    let required = |i: &Input| -> Vec<String> {
+        let mut c: Vec<String> = i
+            .channels
+            .iter()
+            .filter(|c| !optional(c))
+            .cloned()
+            .collect();
+        c.sort();
+        c
+    };
+    let mut samples = first.samples.clone();
+    for input in &inputs[1..] {
+        let refuse = |m: String| {
+            Error::Settings(format!(
+                "cannot merge {} with {}: {m}",
+                input.path.display(),
+                first.path.display()
+            ))
+        };
+        if input.size != first.size {
+            return Err(refuse(format!(
+                "{}x{} pixels against {}x{}",
+                input.size.0, input.size.1, first.size.0, first.size.1
+            )));
+        }
+        let (a, b) = (required(first), required(input));
+        if a != b {
+            let only = |x: &[String], y: &[String]| {
+                x.iter()
+                    .filter(|c| !y.contains(c))
+                    .take(4)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            return Err(refuse(format!(
+                "different passes or view layers (only in the first: [{}]; only in this one: [{}])",
+                only(&a, &b),
+                only(&b, &a)
+            )));
+        }
+        if input.samples.seed != samples.seed {
+            return Err(refuse(format!(
+                "seed {} against {}: the parts of a split frame render one sample sequence",
+                input.samples.seed, samples.seed
+            )));
+        }
+        samples = samples.union(&input.samples).map_err(|(a, b)| {
+            refuse(format!(
+                "both hold samples {a}-{b} (render each part with its own --sample-offset)"
+            ))
+        })?;
+    }
+    Ok(samples)
+}
+
+/// What `merge` did.
+pub struct MergeSummary {
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub samples: SampleRanges,
+}
+
+/// Merge the renders `inputs` (EXR files of disjoint sample ranges of one frame) into `output`.
+pub fn merge(inputs: &[PathBuf], output: &Path, cancel: &AtomicBool) -> Result<MergeSummary> {
+    if inputs.len() < 2 {
+        return Err(Error::Settings("merge needs at least two images".into()));
+    }
+    let headers = inputs
+        .iter()
+        .map(|p| read_header(p))
+        .collect::<Result<Vec<_>>>()?;
+    let samples = check(&headers)?;
+    let (w, h) = headers[0].size;
+    let total = samples.count() as f64;
+    // Every channel of any input, in a fixed order; sums in f64.
+    let mut sums: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for input in &headers {
+        for c in &input.channels {
+            let init = if rule(c) == Rule::Nearest {
+                f64::INFINITY
+            } else {
+                0.0
+            };
+            sums.entry(c.clone()).or_insert_with(|| vec![init; w * h]);
+        }
+    }
+    for input in &headers {
+        let bad = |m: String| Error::scene(&input.path, "EXR", m);
+        let image = read_all_flat_layers_from_file(&input.path).map_err(|e| bad(e.to_string()))?;
+        let layer = image
+            .layer_data
+            .first()
+            .ok_or_else(|| bad("no layer".into()))?;
+        let weight = input.samples.count() as f64 / total;
+        for channel in &layer.channel_data.list {
+            let name = channel.name.to_string();
+            let sum = sums
+                .get_mut(&name)
+                .ok_or_else(|| bad(format!("channel {name} is not in its header")))?;
+            let values = channel.sample_data.values_as_f32();
+            match rule(&name) {
+                Rule::Nearest => {
+                    for (s, v) in sum.iter_mut().zip(values) {
+                        *s = s.min(v as f64);
+                    }
+                }
+                Rule::Mean | Rule::UnitMean => {
+                    for (s, v) in sum.iter_mut().zip(values) {
+                        *s += v as f64 * weight;
+                    }
+                }
+            }
+        }
+    }
+    normalise_unit_passes(&mut sums, w * h);
+    let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = sums
+        .iter()
+        .map(|(name, values)| {
+            let values = values.iter().map(|&v| v as f32).collect();
+            AnyChannel::new(name.as_str(), FlatSamples::F32(values))
+        })
+        .collect();
+    let count = channels.len();
+    let mut attributes = LayerAttributes::default();
+    attributes.other = headers[0].attributes.clone();
+    for (key, value) in samples.metadata() {
+        attributes.other.insert(
+            Text::from(key.as_str()),
+            AttributeValue::Text(Text::from(value.as_str())),
+        );
+    }
+    let layer = Layer::new(
+        (w, h),
+        attributes,
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    write_atomically(output, cancel, |tmp| {
+        exr::image::Image::from_layer(layer)
+            .write()
+            .to_file(tmp)
+            .map_err(|e| Error::io(output, std::io::Error::other(e.to_string())))
+    })?;
+    Ok(MergeSummary {
+        width: w,
+        height: h,
+        channels: count,
+        samples,
+    })
+}
+
+/// Make the normal passes' vectors unit length again (zero stays zero), three channels a pass.
+fn normalise_unit_passes(sums: &mut BTreeMap<String, Vec<f64>>, pixels: usize) {
+    let mut groups: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for name in sums.keys().filter(|n| rule(n) == Rule::UnitMean) {
+        let (pass, _) = name.rsplit_once('.').unwrap_or((name, ""));
+        groups
+            .entry(pass.to_string())
+            .or_default()
+            .push(name.clone());
+    }
+    for names in groups.values() {
+        for k in 0..pixels {
+            let length = names.iter().map(|n| sums[n][k].powi(2)).sum::<f64>().sqrt();
+            if length > 0.0 {
+                for n in names {
+                    if let Some(v) = sums.get_mut(n) {
+                        v[k] /= length;
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_join_adjacent_and_refuse_overlaps() {
+        let a = SampleRanges::single(3, 0, 4);
+        let b = SampleRanges::single(3, 4, 4);
+        let ab = a.union(&b).unwrap();
+        assert_eq!(ab.ranges, vec![(0, 8)]);
+        assert_eq!(ab.count(), 8);
+        let gap = ab.union(&SampleRanges::single(3, 16, 8)).unwrap();
+        assert_eq!(gap.ranges, vec![(0, 8), (16, 24)]);
+        assert_eq!(gap.union(&SampleRanges::single(3, 6, 4)), Err((6, 8)));
+        assert_eq!(a.union(&a), Err((0, 4)));
+    }
+
+    #[test]
+    fn ranges_round_trip_through_the_header_text() {
+        let r = SampleRanges {
+            seed: 42,
+            ranges: vec![(0, 8), (16, 24)],
+        };
+        let meta: HashMap<String, String> = r.metadata().into_iter().collect();
+        assert_eq!(meta[SAMPLES_KEY], "16");
+        let back = SampleRanges::parse(|k| meta.get(k).cloned()).unwrap();
+        assert_eq!(back, Some(r));
+        assert_eq!(SampleRanges::parse(|_| None), Ok(None));
+        for bad in ["4-4", "x-3", "0-4,2-6", "5"] {
+            let get = |k: &str| match k {
+                RANGES_KEY => Some(bad.to_string()),
+                _ => Some("1".to_string()),
+            };
+            assert!(SampleRanges::parse(get).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn passes_merge_by_their_rules() {
+        assert_eq!(rule("ViewLayer.Combined.R"), Rule::Mean);
+        assert_eq!(rule("R"), Rule::Mean);
+        assert_eq!(rule("ViewLayer.Depth.Z"), Rule::Nearest);
+        assert_eq!(rule("ViewLayer.Denoising Normal.X"), Rule::UnitMean);
+        assert_eq!(rule("My.Layer.Normal.Y"), Rule::UnitMean);
+        assert_eq!(rule("ViewLayer.Denoising Albedo.G"), Rule::Mean);
+        assert_eq!(pass_of("ViewLayer.DiffInd.B"), Some("DiffInd"));
+    }
+}
