@@ -5,11 +5,13 @@
 //! count, so renders of samples [0, a) and [a, b) merge into the render of [0, b) up to float
 //! rounding.
 //!
-//! Which passes are means: all but Depth, which is the nearest of the files' depths (as
-//! `film::Image::merge` joins rounds: a file whose samples all missed holds 1e10 there; Cycles
-//! copies the first file's Depth, its depth being the first sample's), and the normals
-//! (Normal, Denoising Normal), averaged and then made unit length again as the renderer makes
-//! each pixel's. A denoised image (one with Blender's Noisy Image pass) is refused: denoising
+//! Which passes are means: all, with two qualifications. Depth is the mean distance of the
+//! samples that hit something (`film::NO_HIT_DEPTH` where none did), so it is averaged over
+//! the files whose samples hit something there, as `film::Image::merge` joins a render's
+//! rounds: exact where every sample hits, a mean weighted by samples rather than by hits at
+//! silhouettes (Cycles copies the first file's Depth instead, its depth being one sample's). The normals (Normal, Denoising Normal) are unit vectors, the
+//! normalised sum of the samples' normals: they are averaged and made unit length again, exact
+//! where the pixel's samples see one surface, close where they see several. A denoised image (one with Blender's Noisy Image pass) is refused: denoising
 //! is not linear in the samples, so the parts are merged noisy and the merged image denoised.
 //!
 //! Everything is checked from the headers before any pixel is read: the files must have the
@@ -18,6 +20,7 @@
 //! there), the same seed, and sample ranges that do not overlap.
 
 use crate::error::{Error, Result};
+use crate::film::NO_HIT_DEPTH;
 use crate::image_io::write_atomically;
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::meta::MetaData;
@@ -137,8 +140,8 @@ enum Rule {
     Mean,
     /// The sample-weighted mean of a unit vector, normalised afterwards.
     UnitMean,
-    /// The smallest value (Depth).
-    Nearest,
+    /// The sample-weighted mean over the files that hold a value there (Depth: not `NO_HIT`).
+    HitMean,
 }
 
 /// The pass of a channel named `<view layer>.<pass>.<channel>` (Blender's multilayer names),
@@ -150,9 +153,9 @@ fn pass_of(channel: &str) -> Option<&str> {
 
 fn rule(channel: &str) -> Rule {
     match pass_of(channel) {
-        Some("Depth") => Rule::Nearest,
+        Some("Depth") => Rule::HitMean,
         Some(pass) if NORMAL_PASSES.contains(&pass) => Rule::UnitMean,
-        None if channel == "Z" => Rule::Nearest,
+        None if channel == "Z" => Rule::HitMean,
         _ => Rule::Mean,
     }
 }
@@ -293,16 +296,16 @@ pub fn merge(inputs: &[PathBuf], output: &Path, cancel: &AtomicBool) -> Result<M
     let samples = check(&headers)?;
     let (w, h) = headers[0].size;
     let total = samples.count() as f64;
-    // Every channel of any input, in a fixed order; sums in f64.
+    // Every channel of any input, in a fixed order; weighted sums in f64, and for `HitMean`
+    // channels the weights summed.
     let mut sums: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    let mut weights: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for input in &headers {
         for c in &input.channels {
-            let init = if rule(c) == Rule::Nearest {
-                f64::INFINITY
-            } else {
-                0.0
-            };
-            sums.entry(c.clone()).or_insert_with(|| vec![init; w * h]);
+            sums.entry(c.clone()).or_insert_with(|| vec![0.0; w * h]);
+            if rule(c) == Rule::HitMean {
+                weights.entry(c.clone()).or_insert_with(|| vec![0.0; w * h]);
+            }
         }
     }
     for input in &headers {
@@ -319,17 +322,31 @@ pub fn merge(inputs: &[PathBuf], output: &Path, cancel: &AtomicBool) -> Result<M
                 .get_mut(&name)
                 .ok_or_else(|| bad(format!("channel {name} is not in its header")))?;
             let values = channel.sample_data.values_as_f32();
-            match rule(&name) {
-                Rule::Nearest => {
-                    for (s, v) in sum.iter_mut().zip(values) {
-                        *s = s.min(v as f64);
+            match weights.get_mut(&name) {
+                Some(weight_sum) => {
+                    for ((s, ws), v) in sum.iter_mut().zip(weight_sum.iter_mut()).zip(values) {
+                        if v < NO_HIT_DEPTH {
+                            *s += v as f64 * weight;
+                            *ws += weight;
+                        }
                     }
                 }
-                Rule::Mean | Rule::UnitMean => {
+                None => {
                     for (s, v) in sum.iter_mut().zip(values) {
                         *s += v as f64 * weight;
                     }
                 }
+            }
+        }
+    }
+    for (name, weight_sum) in &weights {
+        if let Some(sum) = sums.get_mut(name) {
+            for (s, ws) in sum.iter_mut().zip(weight_sum) {
+                *s = if *ws > 0.0 {
+                    *s / ws
+                } else {
+                    NO_HIT_DEPTH as f64
+                };
             }
         }
     }
@@ -435,7 +452,7 @@ mod tests {
     fn passes_merge_by_their_rules() {
         assert_eq!(rule("ViewLayer.Combined.R"), Rule::Mean);
         assert_eq!(rule("R"), Rule::Mean);
-        assert_eq!(rule("ViewLayer.Depth.Z"), Rule::Nearest);
+        assert_eq!(rule("ViewLayer.Depth.Z"), Rule::HitMean);
         assert_eq!(rule("ViewLayer.Denoising Normal.X"), Rule::UnitMean);
         assert_eq!(rule("My.Layer.Normal.Y"), Rule::UnitMean);
         assert_eq!(rule("ViewLayer.Denoising Albedo.G"), Rule::Mean);

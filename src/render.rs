@@ -15,7 +15,7 @@ use crate::adaptive::{is_class_a, spread_active, AdaptiveSettings, Convergence};
 use crate::camera::CameraRays;
 use crate::emitter_pixels::EmitterPixels;
 use crate::error::{Error, Result};
-use crate::film::{FilterSettings, Image, PixelFilter};
+use crate::film::{FilterSettings, Image, PixelFilter, NO_HIT_DEPTH};
 use crate::integrator::cache::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::build::{build_maps, PhotonMaps};
 use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
@@ -554,7 +554,7 @@ fn render_round(
             stats.camera_samples += px.n as u64;
             image.samples[k] = px.n;
             if px.n == 0 {
-                image.depth[k] = 1e10;
+                image.depth[k] = NO_HIT_DEPTH;
                 continue;
             }
             let n = px.n as f32;
@@ -574,7 +574,7 @@ fn render_round(
             image.depth[k] = if px.coverage > 0.0 {
                 px.depth_sum / px.coverage
             } else {
-                1e10
+                NO_HIT_DEPTH
             };
             if settings.light_passes {
                 let mut passes = px.passes;
