@@ -4,7 +4,7 @@ Images (`bpy.ops.cycles.merge_images`, after Blender's `intern/cycles/session/me
 Each machine renders the same frame with its own Sample Offset (Render › Sampling, Cycles'
 `scene.cycles.sample_offset`, which Photon reads) and saves it as an OpenEXR Multilayer file;
 the engine records the samples each render holds in the file's metadata (`photon.samples`,
-`photon.sample_ranges`, `photon.seed`). `photon.merge_images` runs `photon merge` on those
+such as "0-16 seed 1"). `photon.merge_images` runs `photon merge` on those
 files: every pass averaged by the files' sample counts, which gives the image one machine
 would have rendered with all the samples. Parts rendered with Denoise on are refused (their
 Combined is denoised): render them noisy, merge, then denoise the merged file (for example

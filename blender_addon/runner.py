@@ -402,7 +402,7 @@ def exr_channels(path) -> list[str]:
 
 def exr_text_attributes(path, prefix: str = "") -> dict[str, str]:
     """The text attributes of an OpenEXR file's header whose names start with `prefix`: the
-    renderer's sample range (`photon.samples`, `photon.sample_ranges`, `photon.seed`)."""
+    renderer's samples (`photon.samples`: "0-16 seed 1")."""
     return {name: value.decode("utf-8", errors="replace")
             for name, (kind, value) in _exr_header(path).items()
             if kind == "string" and name.startswith(prefix)}

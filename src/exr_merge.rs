@@ -29,13 +29,11 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-/// Header attribute: the number of samples per pixel the image holds.
+/// The header attribute that records the samples an image holds: the half-open ranges of the
+/// pixels' sample sequence, `first-end` separated by commas, then the sequence's seed:
+/// "0-16 seed 1", "0-16,32-48 seed 7". One attribute, so that the header's bytes do not depend
+/// on the order the EXR writer lists attributes in.
 pub const SAMPLES_KEY: &str = "photon.samples";
-/// Header attribute: the half-open ranges of the pixels' sample sequence the image holds,
-/// `first-end` separated by commas ("0-16", "0-16,32-48").
-pub const RANGES_KEY: &str = "photon.sample_ranges";
-/// Header attribute: the seed of the sample sequence.
-pub const SEED_KEY: &str = "photon.seed";
 
 /// Passes that may be missing from some files (written only when lit), counting as black.
 const OPTIONAL_PASSES: [&str; 2] = ["VolumeDir", "VolumeInd"];
@@ -64,52 +62,46 @@ impl SampleRanges {
         self.ranges.iter().map(|&(a, b)| (b - a) as u64).sum()
     }
 
-    /// The header attributes that record them.
+    /// The header attribute that records them (`SAMPLES_KEY`).
     pub fn metadata(&self) -> Vec<(String, String)> {
         let ranges: Vec<String> = self
             .ranges
             .iter()
             .map(|(a, b)| format!("{a}-{b}"))
             .collect();
-        vec![
-            (SAMPLES_KEY.into(), self.count().to_string()),
-            (RANGES_KEY.into(), ranges.join(",")),
-            (SEED_KEY.into(), self.seed.to_string()),
-        ]
+        let text = format!("{} seed {}", ranges.join(","), self.seed);
+        vec![(SAMPLES_KEY.into(), text)]
     }
 
-    /// Read from the attributes `get` looks up; `None` when the ranges are not recorded.
+    /// Read from the attributes `get` looks up; `None` when the samples are not recorded.
     pub fn parse(
         get: impl Fn(&str) -> Option<String>,
     ) -> std::result::Result<Option<Self>, String> {
-        let (Some(ranges), Some(seed)) = (get(RANGES_KEY), get(SEED_KEY)) else {
+        let Some(text) = get(SAMPLES_KEY) else {
             return Ok(None);
         };
+        let bad = |what: &str| format!("{SAMPLES_KEY} {text:?}: {what} (expected \"0-16 seed 1\")");
+        let (ranges, seed) = text.split_once(" seed ").ok_or_else(|| bad("no seed"))?;
         let seed = seed
             .trim()
             .parse::<u64>()
-            .map_err(|_| format!("{SEED_KEY} {seed:?} is not a seed"))?;
-        let mut parsed = Vec::new();
+            .map_err(|_| bad("the seed is not a number"))?;
+        let mut all = SampleRanges {
+            seed,
+            ranges: Vec::new(),
+        };
         for part in ranges.split(',') {
             let range = part.split_once('-').and_then(|(a, b)| {
                 let (a, b) = (a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?);
                 (a < b).then_some((a, b))
             });
-            parsed.push(range.ok_or_else(|| {
-                format!("{RANGES_KEY} {ranges:?}: {part:?} is not a range FIRST-END")
-            })?);
-        }
-        let mut all = SampleRanges {
-            seed,
-            ranges: Vec::new(),
-        };
-        for range in parsed {
+            let range = range.ok_or_else(|| bad(&format!("{part:?} is not a range FIRST-END")))?;
             all = all
                 .union(&SampleRanges {
                     seed,
                     ranges: vec![range],
                 })
-                .map_err(|(a, b)| format!("{RANGES_KEY} {ranges:?} overlaps itself at {a}-{b}"))?;
+                .map_err(|(a, b)| bad(&format!("the ranges overlap at {a}-{b}")))?;
         }
         Ok(Some(all))
     }
@@ -191,8 +183,8 @@ fn read_header(path: &Path) -> Result<Input> {
     };
     let samples = SampleRanges::parse(get).map_err(bad)?.ok_or_else(|| {
         bad(format!(
-            "records no sample range ({RANGES_KEY}, {SEED_KEY}): only renders by photon \
-                 render, or by the Blender add-on, can be merged"
+            "records no samples ({SAMPLES_KEY}): only renders by photon render, or by the \
+             Blender add-on, can be merged"
         ))
     })?;
     let channels: Vec<String> = header
@@ -435,15 +427,19 @@ mod tests {
             ranges: vec![(0, 8), (16, 24)],
         };
         let meta: HashMap<String, String> = r.metadata().into_iter().collect();
-        assert_eq!(meta[SAMPLES_KEY], "16");
+        assert_eq!(meta[SAMPLES_KEY], "0-8,16-24 seed 42");
         let back = SampleRanges::parse(|k| meta.get(k).cloned()).unwrap();
         assert_eq!(back, Some(r));
         assert_eq!(SampleRanges::parse(|_| None), Ok(None));
-        for bad in ["4-4", "x-3", "0-4,2-6", "5"] {
-            let get = |k: &str| match k {
-                RANGES_KEY => Some(bad.to_string()),
-                _ => Some("1".to_string()),
-            };
+        for bad in [
+            "4-4 seed 1",
+            "x-3 seed 1",
+            "0-4,2-6 seed 1",
+            "5 seed 1",
+            "0-4",
+            "0-4 seed x",
+        ] {
+            let get = |_: &str| Some(bad.to_string());
             assert!(SampleRanges::parse(get).is_err(), "{bad}");
         }
     }
