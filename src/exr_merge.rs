@@ -14,6 +14,9 @@
 //! where the pixel's samples see one surface, close where they see several. A denoised image (one with Blender's Noisy Image pass) is refused: denoising
 //! is not linear in the samples, so the parts are merged noisy and the merged image denoised.
 //!
+//! The merge is one part holding every channel, whether the inputs are one part (the renderer's
+//! files, Blender 4's multilayer files) or a part a pass (Blender 5's).
+//!
 //! Everything is checked from the headers before any pixel is read: the files must have the
 //! same size and channels (Volume Direct and Indirect may be missing from some, as the
 //! renderer leaves them out when nothing in the image has volume light: they count as black
@@ -167,32 +170,54 @@ fn read_header(path: &Path) -> Result<Input> {
         exr::error::Error::Io(io) => Error::io(path, io),
         e => bad(e.to_string()),
     })?;
-    let [header] = meta.headers.as_slice() else {
-        return Err(bad(format!(
-            "has {} parts; a render has one",
-            meta.headers.len()
-        )));
+    // Blender 4 writes a multilayer file as one part, Blender 5 as a part a pass: the
+    // channels of all parts, which must have one size, and the samples from whichever part
+    // records them (the first).
+    let Some(first) = meta.headers.first() else {
+        return Err(bad("has no parts".into()));
     };
-    if header.deep {
-        return Err(bad("is a deep image, which cannot be merged".into()));
+    let size = first.layer_size;
+    let mut channels: Vec<String> = Vec::new();
+    for header in &meta.headers {
+        if header.deep {
+            return Err(bad("is a deep image, which cannot be merged".into()));
+        }
+        if header.layer_size != size {
+            return Err(bad("has parts of different sizes".into()));
+        }
+        for c in &header.channels.list {
+            let name = c.name.to_string();
+            if channels.contains(&name) {
+                return Err(bad(format!("has the channel {name} twice")));
+            }
+            channels.push(name);
+        }
     }
-    let attributes = header.own_attributes.other.clone();
-    let get = |key: &str| match attributes.get(&Text::from(key)) {
+    let text = |header: &exr::meta::header::Header| match header
+        .own_attributes
+        .other
+        .get(&Text::from(SAMPLES_KEY))
+    {
         Some(AttributeValue::Text(t)) => Some(t.to_string()),
         _ => None,
     };
-    let samples = SampleRanges::parse(get).map_err(bad)?.ok_or_else(|| {
-        bad(format!(
-            "records no samples ({SAMPLES_KEY}): only renders by photon render, or by the \
-             Blender add-on, can be merged"
-        ))
-    })?;
-    let channels: Vec<String> = header
-        .channels
-        .list
+    let recorded = meta.headers.iter().find_map(text);
+    let attributes = meta
+        .headers
         .iter()
-        .map(|c| c.name.to_string())
-        .collect();
+        .find(|h| text(h).is_some())
+        .unwrap_or(first)
+        .own_attributes
+        .other
+        .clone();
+    let samples = SampleRanges::parse(|_| recorded.clone())
+        .map_err(bad)?
+        .ok_or_else(|| {
+            bad(format!(
+                "records no samples ({SAMPLES_KEY}): only renders by photon render, or by the \
+                 Blender add-on, can be merged"
+            ))
+        })?;
     if let Some(c) = channels.iter().find(|c| pass_of(c) == Some("Noisy Image")) {
         return Err(bad(format!(
             "is denoised (it has the {c} channel): denoising does not average, so render the \
@@ -201,7 +226,7 @@ fn read_header(path: &Path) -> Result<Input> {
     }
     Ok(Input {
         path: path.to_path_buf(),
-        size: (header.layer_size.width(), header.layer_size.height()),
+        size: (size.width(), size.height()),
         channels,
         samples,
         attributes,
@@ -303,12 +328,8 @@ pub fn merge(inputs: &[PathBuf], output: &Path, cancel: &AtomicBool) -> Result<M
     for input in &headers {
         let bad = |m: String| Error::scene(&input.path, "EXR", m);
         let image = read_all_flat_layers_from_file(&input.path).map_err(|e| bad(e.to_string()))?;
-        let layer = image
-            .layer_data
-            .first()
-            .ok_or_else(|| bad("no layer".into()))?;
         let weight = input.samples.count() as f64 / total;
-        for channel in &layer.channel_data.list {
+        for channel in image.layer_data.iter().flat_map(|l| &l.channel_data.list) {
             let name = channel.name.to_string();
             let sum = sums
                 .get_mut(&name)

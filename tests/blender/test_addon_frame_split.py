@@ -50,9 +50,11 @@ def run_worker(blend: Path, output: str) -> subprocess.CompletedProcess:
 
 def channels(path: Path) -> tuple[dict[str, np.ndarray], dict]:
     import OpenEXR
+    # Blender 4 saves a multilayer file as one part, Blender 5 as a part a pass.
     with OpenEXR.File(str(path), separate_channels=True) as f:
-        planes = {name: np.asarray(c.pixels, dtype=np.float32) for name, c in f.channels().items()}
-        header = dict(f.header())
+        planes = {name: np.asarray(c.pixels, dtype=np.float32)
+                  for part in f.parts for name, c in part.channels.items()}
+        header = dict(f.parts[0].header)
     return planes, header
 
 
