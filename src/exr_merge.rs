@@ -9,10 +9,12 @@
 //! samples that hit something (`film::NO_HIT_DEPTH` where none did), so it is averaged over
 //! the files whose samples hit something there, as `film::Image::merge` joins a render's
 //! rounds: exact where every sample hits, a mean weighted by samples rather than by hits at
-//! silhouettes (Cycles copies the first file's Depth instead, its depth being one sample's). The normals (Normal, Denoising Normal) are unit vectors, the
-//! normalised sum of the samples' normals: they are averaged and made unit length again, exact
-//! where the pixel's samples see one surface, close where they see several. A denoised image (one with Blender's Noisy Image pass) is refused: denoising
-//! is not linear in the samples, so the parts are merged noisy and the merged image denoised.
+//! silhouettes (Cycles copies the first file's Depth instead, its depth being one sample's).
+//! The normals (Normal, Denoising Normal) are unit vectors, the normalised sum of the samples'
+//! normals: they are averaged and made unit length again, exact where the pixel's samples see
+//! one surface, close where they see several. A denoised image (one with Blender's Noisy Image
+//! pass) is refused: denoising is not linear in the samples, so the parts are merged noisy and
+//! the merged image denoised.
 //!
 //! The merge is one part holding every channel, whether the inputs are one part (the renderer's
 //! files, Blender 4's multilayer files) or a part a pass (Blender 5's).

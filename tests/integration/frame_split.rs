@@ -63,9 +63,10 @@ fn read(path: &Path) -> (BTreeMap<String, Vec<f32>>, BTreeMap<String, String>) {
     (channels, attributes)
 }
 
-/// Assert that every channel but the normals of `merged` equals `whole`'s to float rounding
-/// (Depth where every sample hit something, which in the closed box is everywhere), and that the normals, unit vectors averaged and normalised again, equal the whole's
-/// wherever the pixel's samples saw one surface and stay close where they saw several.
+/// Assert that every channel of `merged` but Depth and the normals equals `whole`'s to float
+/// rounding; Depth where every sample of the pixel hit something (most pixels, and close
+/// elsewhere); the normals, unit vectors averaged and normalised again, where the pixel's
+/// samples saw one surface (and close where they saw several).
 fn assert_same_render(merged: &Path, whole: &Path) {
     let (m, m_attributes) = read(merged);
     let (w, w_attributes) = read(whole);
