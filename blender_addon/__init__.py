@@ -4,10 +4,10 @@ The glTF exporter looks for `glTF2ExportUserExtension` in the top-level module o
 add-on, so the hook class defined in export.py is made visible here.
 """
 
-from . import engine, properties, ui
+from . import engine, merge, properties, ui
 from .export import glTF2ExportUserExtension  # noqa: F401 - found by the glTF exporter
 
-modules = (properties, engine, ui)
+modules = (properties, engine, merge, ui)
 
 
 def register():

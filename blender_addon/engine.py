@@ -106,6 +106,12 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
         objects, view_layer = depsgraph.objects, depsgraph.view_layer
         for message in preflight.unsupported_features(scene, objects, view_layer):
             self._warn(message)
+        offset, adaptive = properties.sample_offset(scene), properties.adaptive_sampling(scene)
+        if offset > 0 and adaptive is not None:
+            raise runner.PhotonError(
+                "Sample Offset needs Noise Threshold off: with adaptive sampling, which pixels "
+                "stop depends on the samples before the offset (turn it off on every machine "
+                "rendering a part of the frame)")
         self._progress("export", 0.0, "exporting scene")
         with runner.temporary_folder() as folder:
             glb, exr = folder / "scene.glb", folder / "render.exr"
@@ -118,7 +124,7 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
                 camera=scene.camera.name,
                 view_layer=view_layer.name, region=region,
                 passes=bool(properties.enabled_light_passes(view_layer)),
-                adaptive=properties.adaptive_sampling(scene))
+                adaptive=adaptive, sample_offset=offset)
             stats = runner.run(command, self._on_event, self.test_break)
             if region:
                 width, height = region[2] - region[0], region[3] - region[1]
@@ -224,6 +230,11 @@ class PhotonRenderEngine(bpy.types.RenderEngine):
             self.end_result(result, cancel=True)
             raise runner.PhotonError(f"Blender could not load the rendered image: {exc}") from None
         try:
+            # The samples the image holds, kept in the files Blender saves (stamp metadata of
+            # the whole render's result, as Cycles stamps its samples) so that renders of parts
+            # of one frame can be merged (merge.py).
+            for name, value in runner.exr_text_attributes(exr, "photon.").items():
+                self.get_result().stamp_data_add_field(name, value)
             catcher = result.layers[0].passes.get("Shadow Catcher")
             if catcher is not None and f"{layer_name}.Shadow Catcher.R" not in channels:
                 # No shadow catcher in the scene: Cycles' pass is white (the file has none).

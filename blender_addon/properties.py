@@ -95,6 +95,14 @@ def adaptive_sampling(scene):
             int(getattr(cycles, "adaptive_min_samples", 0)))
 
 
+def sample_offset(scene) -> int:
+    """Cycles' Sample Offset (Render > Sampling > Advanced, `scene.cycles.sample_offset`), which
+    Photon reads as Cycles does: the render takes samples offset .. offset + Samples - 1 of the
+    pixels' sequence, so machines rendering disjoint ranges of one frame can merge their images
+    (merge.py). 0 without the Cycles settings."""
+    return int(getattr(getattr(scene, "cycles", None), "sample_offset", 0))
+
+
 def frame_seed(scene) -> int:
     """The seed of the frame being rendered: Photon's Seed, or with Cycles' Animated Seed
     (Render > Sampling, `scene.cycles.use_animated_seed`) that seed mixed with the frame and

@@ -144,11 +144,12 @@ def settings_arguments(settings: RenderSettings) -> list[str]:
 
 def render_command(binary, scene, output, *, width, height, settings: RenderSettings,
                    camera=None, view_layer=None, region=None, passes=False,
-                   adaptive=None) -> list[str]:
+                   adaptive=None, sample_offset=0) -> list[str]:
     """The `photon render` command line for one frame, with JSON progress on stderr. `region`
     is (x0, y0, x1, y1) in full-frame pixels from the top-left, x1 and y1 exclusive; `passes`
     adds the light passes to the view layer's EXR; `adaptive` is adaptive sampling's (noise
-    threshold, min samples), 0 meaning automatic for either, or None for none."""
+    threshold, min samples), 0 meaning automatic for either, or None for none; `sample_offset`
+    the first sample of the pixels' sequence to render (Cycles' Sample Offset)."""
     cmd = [str(binary), "render", str(scene), "-o", str(output),
            "--width", str(width), "--height", str(height), *settings_arguments(settings),
            "--progress", "json"]
@@ -164,7 +165,15 @@ def render_command(binary, scene, output, *, width, height, settings: RenderSett
         threshold, min_samples = adaptive
         cmd += ["--adaptive-threshold", f"{threshold:g}", "--adaptive-min-samples",
                 str(min_samples)]
+    if sample_offset > 0:
+        cmd += ["--sample-offset", str(sample_offset)]
     return cmd
+
+
+def merge_command(binary, output, inputs) -> list[str]:
+    """The `photon merge` command line: `inputs` (renders of disjoint sample ranges of one
+    frame) averaged by their sample counts into `output`."""
+    return [str(binary), "merge", str(output), *(str(p) for p in inputs)]
 
 
 def border_region(width, height, min_x, max_x, min_y, max_y):
@@ -355,32 +364,48 @@ def _failure_message(what: str, code: int, tail) -> str:
     return f"{what} failed ({meaning}). Last output:\n{detail}"
 
 
-def exr_channels(path) -> list[str]:
-    """Channel names in the header of a single-part OpenEXR file (raises PhotonError if the file
-    is not one). Used to check the renderer's image before Blender loads it, because Blender's
-    loader silently loads nothing when the names do not match."""
+def _exr_header(path) -> dict[str, tuple[str, bytes]]:
+    """The attributes of a single-part OpenEXR file's header, name -> (type, raw value), from its
+    first 64 KiB (raises PhotonError if the file is not an OpenEXR file)."""
     try:
         with open(path, "rb") as f:
             data = f.read(1 << 16)
     except OSError as exc:
-        raise PhotonError(f"cannot read the rendered image {path}: {exc.strerror}") from None
+        raise PhotonError(f"cannot read the image {path}: {exc.strerror}") from None
     if len(data) < 8 or struct.unpack_from("<I", data, 0)[0] != 20000630:
-        raise PhotonError(f"the rendered image {path} is not an OpenEXR file")
-    pos = 8
+        raise PhotonError(f"the image {path} is not an OpenEXR file")
+    attributes, pos = {}, 8
     while pos < len(data) and data[pos] != 0:
         name, pos = _cstring(data, pos)
-        _type, pos = _cstring(data, pos)
+        kind, pos = _cstring(data, pos)
         (size,) = struct.unpack_from("<i", data, pos)
         pos += 4
-        if name == "channels":
-            channels, p = [], pos
-            while data[p] != 0:
-                chan, p = _cstring(data, p)
-                channels.append(chan)
-                p += 16
-            return channels
+        attributes[name] = (kind, data[pos:pos + size])
         pos += size
-    raise PhotonError(f"the rendered image {path} has no channel list")
+    return attributes
+
+
+def exr_channels(path) -> list[str]:
+    """Channel names in the header of a single-part OpenEXR file (raises PhotonError if the file
+    is not one). Used to check the renderer's image before Blender loads it, because Blender's
+    loader silently loads nothing when the names do not match."""
+    kind, value = _exr_header(path).get("channels", ("", b""))
+    if kind != "chlist":
+        raise PhotonError(f"the rendered image {path} has no channel list")
+    channels, p = [], 0
+    while p < len(value) and value[p] != 0:
+        chan, p = _cstring(value, p)
+        channels.append(chan)
+        p += 16
+    return channels
+
+
+def exr_text_attributes(path, prefix: str = "") -> dict[str, str]:
+    """The text attributes of an OpenEXR file's header whose names start with `prefix`: the
+    renderer's samples (`photon.samples`: "0-16 seed 1")."""
+    return {name: value.decode("utf-8", errors="replace")
+            for name, (kind, value) in _exr_header(path).items()
+            if kind == "string" and name.startswith(prefix)}
 
 
 def _cstring(data: bytes, pos: int):

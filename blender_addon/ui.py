@@ -175,6 +175,10 @@ class RENDER_PT_photon_sampling(PhotonPanel, bpy.types.Panel):
         col.prop(settings, "seed")
         if cycles is not None:
             col.prop(cycles, "use_animated_seed", text="Animated Seed")
+            # Cycles' Sample Offset, which Photon reads (properties.sample_offset): one frame
+            # split across machines, their images merged by photon.merge_images.
+            col.prop(cycles, "sample_offset", text="Sample Offset")
+            col.operator("photon.merge_images", icon="IMAGE_DATA")
         col.prop(settings, "threads")
 
 

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use photon::accel::Accel;
 use photon::adaptive::AdaptiveSettings;
 use photon::error::{Error, Result};
+use photon::exr_merge::SampleRanges;
 use photon::film::FilterSettings;
 use photon::image_io::{write_image, ExrLayout};
 use photon::integrator::photon::settings::PhotonSettings;
@@ -53,6 +54,17 @@ enum Command {
         /// Also write a false-colour map of the per-pixel relative error (.exr or .png).
         #[arg(long)]
         error_image: Option<PathBuf>,
+    },
+    /// Merge renders of one frame made from disjoint sample ranges (`render --sample-offset`,
+    /// Blender's Sample Offset) into the render of all their samples: each pass averaged by
+    /// the files' sample counts (Depth: the nearest; normals made unit length again).
+    Merge {
+        /// The merged EXR (may be one of the inputs).
+        output: PathBuf,
+        /// The renders (EXR files written by photon render or saved by Blender from the
+        /// add-on's renders), with the same size, passes and seed.
+        #[arg(required = true, num_args = 2..)]
+        inputs: Vec<PathBuf>,
     },
     /// Describe a scene: what it holds and how it would be rendered.
     Info {
@@ -213,6 +225,11 @@ struct RenderArgs {
     /// Random seed; the same seed gives the same image.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Render samples N .. N+spp-1 of the pixels' sample sequence (Blender's Sample Offset):
+    /// renders of disjoint ranges of one frame, on several machines, merge with `photon
+    /// merge` into the render of their union. Not with --time-limit or adaptive sampling.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    sample_offset: u32,
     /// Camera to render through (glTF node or camera name; default: the first camera).
     #[arg(long)]
     camera: Option<String>,
@@ -438,6 +455,7 @@ pub fn main() -> i32 {
                 reference,
                 error_image,
             } => run_compare(&image, &reference, error_image.as_deref()),
+            Command::Merge { output, inputs } => run_merge(&output, &inputs),
         },
     };
     match result {
@@ -551,6 +569,13 @@ fn prepare(args: &RenderArgs, mode: ProgressMode, process: Instant) -> Result<Pr
     }
     let (width, height) = image_size(&scene, args.width, args.height);
     let quality = Quality::from(args.quality);
+    if args.sample_offset > 0 && args.time_limit.is_some() {
+        return Err(Error::Settings(
+            "--sample-offset cannot be combined with --time-limit: the parts of a split frame \
+             need known sample ranges"
+                .into(),
+        ));
+    }
     let time_limit = match args.time_limit {
         Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
         Some(t) => {
@@ -693,6 +718,7 @@ fn prepare(args: &RenderArgs, mode: ProgressMode, process: Instant) -> Result<Pr
             (None, MethodArg::Auto) => plan.emission_rays,
             (None, _) => 0,
         },
+        sample_offset: args.sample_offset,
     };
 
     Ok(Prepared {
@@ -710,10 +736,10 @@ fn prepare(args: &RenderArgs, mode: ProgressMode, process: Instant) -> Result<Pr
 /// `photon view`: prepare as `render` does (progress as JSON lines), then serve view requests
 /// (`view::serve`). No signal handlers: SIGTERM ends the process at once.
 fn run_view(args: RenderArgs) -> Result<()> {
-    if args.region.is_some() || args.passes || args.time_limit.is_some() {
+    if args.region.is_some() || args.passes || args.time_limit.is_some() || args.sample_offset > 0 {
         return Err(Error::Settings(
-            "view takes no --region, --passes or --time-limit (each request is a whole view, \
-             rendered up to --spp)"
+            "view takes no --region, --passes, --time-limit or --sample-offset (each request is \
+             a whole view, rendered up to --spp)"
                 .into(),
         ));
     }
@@ -810,6 +836,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
         },
         None => ExrLayout::Rgba,
     };
+    let mut image = image;
+    image.metadata =
+        SampleRanges::single(settings.seed, settings.sample_offset, settings.spp).metadata();
     let writing = Instant::now();
     write_image(&args.output, &image, &layout, &cancel)?;
     let timing = ProcessTiming {
@@ -1028,6 +1057,28 @@ fn run_info(path: &Path, options: &LoadOptions, quality: Quality) -> Result<()> 
     for w in scene.warnings.iter().chain(&scene.export_notes) {
         println!("warning: {w}");
     }
+    Ok(())
+}
+
+fn run_merge(output: &Path, inputs: &[PathBuf]) -> Result<()> {
+    let cancel = install_signal_handlers()?;
+    let summary = photon::exr_merge::merge(inputs, output, &cancel)?;
+    let ranges: Vec<String> = summary
+        .samples
+        .ranges
+        .iter()
+        .map(|(a, b)| format!("{a}-{b}"))
+        .collect();
+    eprintln!(
+        "photon: merged {} images into {} ({}x{}, {} channels, {} samples: {})",
+        inputs.len(),
+        output.display(),
+        summary.width,
+        summary.height,
+        summary.channels,
+        summary.samples.count(),
+        ranges.join(", ")
+    );
     Ok(())
 }
 

@@ -236,6 +236,9 @@ impl Default for PixelFilter {
     }
 }
 
+/// The depth of a pixel none of whose samples hit anything (Blender's Z of the background).
+pub const NO_HIT_DEPTH: f32 = 1e10;
+
 /// A rendered image with its auxiliary passes. Row 0 is the top row.
 #[derive(Clone, Debug)]
 pub struct Image {
@@ -247,7 +250,8 @@ pub struct Image {
     pub albedo: Vec<Vec3>,
     /// World-space shading normal of the first surface (Denoising Normal).
     pub normal: Vec<Vec3>,
-    /// Distance from the camera to the first surface; 1e10 for the background (Blender's Z).
+    /// Distance from the camera to the first surface, averaged over the samples that hit
+    /// something; `NO_HIT_DEPTH` where none did (Blender's Z).
     pub depth: Vec<f32>,
     /// Radiance by light path (`light_pass::LightPass`), filtered like `rgba`, so the passes
     /// of a pixel add up to its colour (all zero for the debug views of the cache). Empty
@@ -262,6 +266,9 @@ pub struct Image {
     /// receive without the other objects, over white by the pixel's alpha (1 where no catcher
     /// is seen; `shadow_catcher::CatcherSum::compose`). Empty for scenes without catchers.
     pub shadow_catcher: Vec<Vec3>,
+    /// Text attributes of the EXR header (name, value): the samples the image holds
+    /// (`exr_merge::SampleRanges`). Not written to PNG.
+    pub metadata: Vec<(String, String)>,
 }
 
 impl Image {
@@ -278,6 +285,7 @@ impl Image {
             camera_rotation: Mat3::IDENTITY,
             samples: vec![0; n],
             shadow_catcher: Vec::new(),
+            metadata: Vec::new(),
         }
     }
 
@@ -324,8 +332,15 @@ impl Image {
                 s.scale(a);
                 *s += p;
             }
+            // Depth is a mean over the samples that hit something: the parts' means weighted by
+            // their samples (by their hits at silhouettes, which the images do not keep).
             if more > 0 {
-                self.depth[k] = self.depth[k].min(other.depth[k]);
+                let (d, e) = (self.depth[k], other.depth[k]);
+                self.depth[k] = match (own > 0 && d < NO_HIT_DEPTH, e < NO_HIT_DEPTH) {
+                    (true, true) => d * a + e * b,
+                    (true, false) => d,
+                    (false, _) => e,
+                };
             }
             self.samples[k] = own + more;
         }

@@ -56,7 +56,7 @@ pub fn temporary_path(path: &Path) -> PathBuf {
 
 /// Write with `write` to a temporary file, then rename it over `path` unless `cancel` was set
 /// meanwhile. The temporary file is removed on every failure.
-fn write_atomically(
+pub fn write_atomically(
     path: &Path,
     cancel: &AtomicBool,
     write: impl FnOnce(&Path) -> Result<()>,
@@ -175,9 +175,20 @@ fn write_exr(tmp: &Path, target: &Path, image: &Image, layout: &ExrLayout) -> Re
         .into_iter()
         .map(|(name, data)| AnyChannel::new(name.as_str(), FlatSamples::F32(data)))
         .collect();
+    let mut attributes = LayerAttributes::default();
+    for (name, value) in &image.metadata {
+        let text = |t: &str| {
+            Text::new_or_none(t).ok_or_else(|| {
+                Error::Settings(format!("EXR attribute {name}: not writable as EXR text"))
+            })
+        };
+        attributes
+            .other
+            .insert(text(name)?, AttributeValue::Text(text(value)?));
+    }
     let layer = Layer::new(
         (image.width as usize, image.height as usize),
-        LayerAttributes::default(),
+        attributes,
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(channels),
     );

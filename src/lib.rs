@@ -12,6 +12,7 @@ pub mod camera;
 pub mod color_space;
 pub mod emitter_pixels;
 pub mod error;
+pub mod exr_merge;
 pub mod film;
 pub mod image_io;
 pub mod integrator;

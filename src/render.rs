@@ -15,7 +15,7 @@ use crate::adaptive::{is_class_a, spread_active, AdaptiveSettings, Convergence};
 use crate::camera::CameraRays;
 use crate::emitter_pixels::EmitterPixels;
 use crate::error::{Error, Result};
-use crate::film::{FilterSettings, Image, PixelFilter};
+use crate::film::{FilterSettings, Image, PixelFilter, NO_HIT_DEPTH};
 use crate::integrator::cache::{self, CacheView, IcInfo, Source};
 use crate::integrator::photon::build::{build_maps, PhotonMaps};
 use crate::integrator::photon::settings::{PhotonInfo, PhotonSettings};
@@ -68,6 +68,12 @@ pub struct RenderSettings {
     /// the camera sees directly (a lamp's edge against a dark ceiling, a bright window) is
     /// averaged over these instead of the sample's own ray, whose path keeps the rest. 0: off.
     pub emission_rays: u32,
+    /// The first sample of the pixels' sample sequence this render takes (Cycles' Sample
+    /// Offset): it renders samples `sample_offset .. sample_offset + spp` of the same sequence
+    /// a render from 0 takes, and the photon methods' generations follow the samples, so
+    /// renders of disjoint ranges merged by their sample counts (`exr_merge`) are the render of
+    /// their union. Only the first round is offset; adaptive sampling needs it 0.
+    pub sample_offset: u32,
 }
 
 /// A window of the frame in pixels, top-left origin, `x1` and `y1` exclusive.
@@ -152,6 +158,7 @@ impl Default for RenderSettings {
             sampler: Sampler::default(),
             adaptive: None,
             emission_rays: 0,
+            sample_offset: 0,
         }
     }
 }
@@ -214,6 +221,19 @@ pub fn render_scheduled(
     if settings.width == 0 || settings.height == 0 || settings.spp == 0 {
         return Err(Error::Settings(
             "width, height and samples must be at least 1".into(),
+        ));
+    }
+    if settings.sample_offset.checked_add(settings.spp).is_none() {
+        return Err(Error::Settings(format!(
+            "sample offset {} plus {} samples passes the last sample number",
+            settings.sample_offset, settings.spp
+        )));
+    }
+    if settings.sample_offset > 0 && settings.adaptive.is_some() {
+        return Err(Error::Settings(
+            "a sample offset cannot be combined with adaptive sampling (which pixels stop \
+             depends on the samples before the offset)"
+                .into(),
         ));
     }
     let window = settings.region.unwrap_or(Region {
@@ -302,20 +322,32 @@ pub fn render_scheduled(
         info.guide_seconds += start.elapsed().as_secs_f64();
         emitters
     });
-    let mut done_spp = 0u32;
+    let mut done_spp = settings.sample_offset;
     let mut adaptive = settings
         .adaptive
         .map(|a| AdaptiveFilm::new(&a, settings.spp, window));
     let mut prepared: Option<Prepared> = None;
     let mut previous = None;
+    let mut first_round = true;
     while let Some((seed, spp)) = schedule(previous.take()) {
         if spp == 0 {
             return Err(Error::Settings(
                 "samples per pixel must be at least 1".into(),
             ));
         }
-        // The round, split where a generation ends: the first part keeps the round's seed.
-        let (mut image, mut image_spp, mut part_seed): (Option<Image>, u32, u64) = (None, 0, seed);
+        // The round, split where a generation ends: the first part keeps the round's seed and
+        // takes the pixels' samples from 0, unless the render starts at a sample offset: then
+        // from where a render from 0 would have reached, with the seed it would have.
+        let (mut part_seed, mut part_first) = match (first_round, progressive) {
+            (false, _) => (seed, 0),
+            (true, false) => (seed, done_spp),
+            (true, true) => {
+                let start = done_spp - done_spp % GENERATION_SPP;
+                (generation_seed(seed, start), done_spp - start)
+            }
+        };
+        first_round = false;
+        let (mut image, mut image_spp): (Option<Image>, u32) = (None, 0);
         while image_spp < spp {
             let generation = if progressive {
                 done_spp / GENERATION_SPP
@@ -373,6 +405,7 @@ pub fn render_scheduled(
             let round = RoundSetup {
                 ctx: &ctx,
                 integrator,
+                first_sample: part_first,
                 camera: &camera,
                 filter: &filter,
                 emitter_pixels: emitter_pixels.as_ref(),
@@ -389,6 +422,7 @@ pub fn render_scheduled(
             image_spp += n;
             done_spp += n;
             part_seed = generation_seed(seed, done_spp);
+            part_first = 0;
         }
         previous = image.map(|image| (image, spp));
         if adaptive.as_ref().is_some_and(AdaptiveFilm::all_converged) {
@@ -404,6 +438,8 @@ pub fn render_scheduled(
 struct RoundSetup<'a> {
     ctx: &'a Context<'a>,
     integrator: Integrator<'a>,
+    /// The number of the pixels' first sample in this round (`RenderSettings::sample_offset`).
+    first_sample: u32,
     camera: &'a CameraRays,
     filter: &'a PixelFilter,
     /// Where emission rays can meet an emitter; `None` without emission rays.
@@ -518,7 +554,7 @@ fn render_round(
             stats.camera_samples += px.n as u64;
             image.samples[k] = px.n;
             if px.n == 0 {
-                image.depth[k] = 1e10;
+                image.depth[k] = NO_HIT_DEPTH;
                 continue;
             }
             let n = px.n as f32;
@@ -538,7 +574,7 @@ fn render_round(
             image.depth[k] = if px.coverage > 0.0 {
                 px.depth_sum / px.coverage
             } else {
-                1e10
+                NO_HIT_DEPTH
             };
             if settings.light_passes {
                 let mut passes = px.passes;
@@ -913,7 +949,8 @@ fn render_tile(
         let (x, y) = (tile.x0 + i as u32 % width, tile.y0 + i as u32 / width);
         progress.check()?;
         let pixel_index = y as u64 * settings.width as u64 + x as u64;
-        for s in px.n..px.n + step {
+        let first = round.first_sample;
+        for s in first + px.n..first + px.n + step {
             // The camera's dimensions (film, lens, moment) come from the pixel's Sobol sequence
             // for every method; the path tracer's and the photon method's paths go on drawing
             // from it, the cache methods' from a pseudo-random stream.

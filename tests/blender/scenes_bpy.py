@@ -50,6 +50,18 @@ def area_light_scene():
     return scene
 
 
+def area_light_photon_path(samples: int, seed: int = 1):
+    """`area_light_scene` rendered by Photon's path tracer with `samples` and `seed` (Cycles
+    configured alike): the farm tests' scene."""
+    scene = area_light_scene()
+    common.configure_cycles(scene, samples, seed=seed, threads=THREADS)
+    scene.render.engine = "PHOTON"
+    scene.photon.samples = samples
+    scene.photon.seed = seed
+    scene.photon.method = "PATH"
+    return scene
+
+
 def sun_world_scene():
     """A box on a floor lit by a 3 W/m² sun at 40 degrees and a blue-grey world (0.2, 0.3,
     0.5) x 1."""

@@ -45,15 +45,9 @@ def save_animation(path: Path, animated_seed: bool, denoise: bool):
     """The animation, saved to `path` with the given seed and denoise settings."""
     import bpy
 
-    import common
     import scenes_bpy
 
-    scene = scenes_bpy.area_light_scene()
-    common.configure_cycles(scene, SPP, seed=1, threads=scenes_bpy.THREADS)
-    scene.render.engine = "PHOTON"
-    scene.photon.samples = SPP
-    scene.photon.seed = 1
-    scene.photon.method = "PATH"
+    scene = scenes_bpy.area_light_photon_path(SPP)
     scene.photon.use_denoising = denoise
     scene.cycles.use_animated_seed = animated_seed
     scene.frame_start, scene.frame_end = FRAMES[0], FRAMES[-1]

@@ -191,10 +191,13 @@ def test_exr_channels(tmp_path):
     path = tmp_path / "t.exr"
     plane = np.zeros((2, 3), np.float32)
     names = ["ViewLayer.Combined.R", "ViewLayer.Combined.G", "ViewLayer.Depth.Z"]
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+              "photon.samples": "0-4,8-12 seed 7", "other": "x"}
     with OpenEXR.File(header, {n: plane for n in names}) as f:
         f.write(str(path))
     assert sorted(runner.exr_channels(path)) == sorted(names)
+    assert runner.exr_text_attributes(path, "photon.") == {
+        "photon.samples": "0-4,8-12 seed 7"}
     (tmp_path / "bad.exr").write_bytes(b"not an exr at all")
     with pytest.raises(runner.PhotonError, match="not an OpenEXR"):
         runner.exr_channels(tmp_path / "bad.exr")

@@ -16,6 +16,7 @@ mod cli;
 mod displacement;
 mod emitter_pixels;
 mod environment;
+mod frame_split;
 mod fuzz_gltf;
 mod gltf_compression;
 mod gltf_core;
