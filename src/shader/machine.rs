@@ -319,6 +319,11 @@ pub(super) fn run(
         Op::UvMap { uv_set } => m.regs[o] = geometry::uv_value(at, *uv_set),
         Op::VertexColor => m.put(o, geometry::vertex_color(at)),
         Op::Attribute { slot } => m.put(o, geometry::attribute(at, inputs.attributes.get(*slot))),
+        Op::ObjectAttribute { slot } => m.put(
+            o,
+            geometry::attribute(at, Some(inputs.object.attributes[*slot as usize])),
+        ),
+        Op::LayerAttribute(value) => m.put(o, geometry::attribute(at, Some(*value))),
         Op::Geometry => m.put(o, geometry::geometry(inputs, at)),
         Op::Wireframe { pixel_size } => {
             m.regs[o] = geometry::eval_wireframe(*pixel_size, inputs, at, ins)
@@ -328,7 +333,12 @@ pub(super) fn run(
         }
         Op::HairInfo { fibre, curve } => m.put(
             o,
-            geometry::hair_info(inputs.attributes.get(*fibre), inputs.attributes.get(*curve)),
+            geometry::hair_info(
+                inputs.attributes.get(*fibre),
+                inputs.attributes.get(*curve),
+                inputs.incoming,
+                inputs.fibre,
+            ),
         ),
         Op::LightPath => m.put_used(o, used, geometry::light_path(inputs)),
         Op::AmbientOcclusion(ao) => m.put(

@@ -53,6 +53,13 @@ pub(super) enum Op {
     Attribute {
         slot: u8,
     },
+    /// Attribute of type Object or Instancer: its slot in the object's
+    /// `ObjectInfo::attributes` (the values the add-on found for the object or instance).
+    ObjectAttribute {
+        slot: u8,
+    },
+    /// Attribute of type View Layer: the value the add-on found (one per render).
+    LayerAttribute(Vec4),
     Geometry,
     /// Object Info, with the material's pass index (its Material Index output).
     ObjectInfo {
@@ -264,8 +271,15 @@ pub const READS_COORDS: u8 = 8;
 pub const READS_OBJECT_NORMAL: u8 = 16;
 /// The triangle's vertices and the ray's footprint (`ShadingInputs::triangle`, `pixel_width`).
 pub const READS_TRIANGLE: u8 = 32;
-pub const READS_ALL: u8 =
-    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL | READS_TRIANGLE;
+/// The fibre's direction (`ShadingInputs::fibre`: Hair Info's Tangent Normal).
+pub const READS_FIBRE: u8 = 64;
+pub const READS_ALL: u8 = READS_UV
+    | READS_COLOR
+    | READS_TANGENT
+    | READS_COORDS
+    | READS_OBJECT_NORMAL
+    | READS_TRIANGLE
+    | READS_FIBRE;
 
 /// The `READS_*` bits of what `instrs` read of the shading points (`run`, `load`).
 pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
@@ -295,6 +309,8 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
                 object_space: true, ..
             } => READS_OBJECT_NORMAL,
             Op::Wireframe { .. } => READS_TRIANGLE,
+            // Output 4 is Tangent Normal.
+            Op::HairInfo { .. } => bit(used & 0b10000 != 0, READS_FIBRE),
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
             // the object-to-world normal matrix, unless the anisotropy is a constant `run`
             // reads as none.
@@ -384,6 +400,7 @@ impl NodeProgram {
                         | Op::UvMap { .. }
                         | Op::VertexColor
                         | Op::Attribute { .. }
+                        | Op::ObjectAttribute { .. }
                         | Op::Geometry
                         | Op::ObjectInfo { .. }
                         | Op::HairInfo { .. }

@@ -22,7 +22,9 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::TexCoord { .. } => (&[], geometry::TEX_COORD_OUTPUTS),
         Op::UvMap { .. } => (&[], geometry::UV_MAP_OUTPUTS),
         Op::VertexColor => (&[], geometry::VERTEX_COLOR_OUTPUTS),
-        Op::Attribute { .. } => (&[], geometry::ATTRIBUTE_OUTPUTS),
+        Op::Attribute { .. } | Op::ObjectAttribute { .. } | Op::LayerAttribute(_) => {
+            (&[], geometry::ATTRIBUTE_OUTPUTS)
+        }
         Op::Geometry => (&[], geometry::GEOMETRY_OUTPUTS),
         Op::ObjectInfo { .. } => (&[], geometry::OBJECT_INFO_OUTPUTS),
         Op::HairInfo { .. } => (&[], geometry::HAIR_INFO_OUTPUTS),
