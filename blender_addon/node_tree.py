@@ -102,6 +102,7 @@ SETTINGS = {
     "ShaderNodeBsdfRefraction": ("distribution",),
     "ShaderNodeEmission": (),
     "ShaderNodeBsdfTransparent": (),
+    "ShaderNodeBsdfRayPortal": (),
     "ShaderNodeBsdfTranslucent": (),
     "ShaderNodeHoldout": (),
     "ShaderNodeMixShader": (),
@@ -139,6 +140,8 @@ READ_INPUTS = {
     "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
     "ShaderNodeBsdfTransparent": {"Color"},
+    # Unlinked, Position and Direction are implicit: the shading point, the ray's direction.
+    "ShaderNodeBsdfRayPortal": {"Color", "Position", "Direction"},
     # The attribute names (Density Attribute, …) are written as the node's "attributes".
     "ShaderNodeVolumePrincipled": {"Color", "Density", "Anisotropy", "Absorption Color",
                                    "Emission Strength", "Emission Color",

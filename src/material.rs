@@ -89,6 +89,8 @@ pub struct SurfaceMaterial {
     /// A node tree's Holdout: no light, and transparent in the film's alpha where the camera
     /// sees it (Cycles' holdout).
     pub holdout: bool,
+    /// A node tree's Ray Portal BSDF: the ray goes on from elsewhere (`Portal`).
+    pub portal: Option<Portal>,
     /// GGX without Multiscatter GGX's energy compensation of the metal and specular lobes.
     pub single_scatter: bool,
     /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
@@ -143,6 +145,7 @@ impl Default for SurfaceMaterial {
             refraction: false,
             glass: false,
             holdout: false,
+            portal: None,
             single_scatter: false,
             weight: 1.0,
             toon: None,
@@ -150,6 +153,16 @@ impl Default for SurfaceMaterial {
             metal_tint: None,
         }
     }
+}
+
+/// Where a Ray Portal BSDF sends a ray that meets it (scene axes, world), as Cycles'
+/// `integrate_surface_ray_portal`: on from `position` along `direction` (unit), its
+/// throughput times `weight` (the closure's colour and weight).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Portal {
+    pub position: Vec3,
+    pub direction: Vec3,
+    pub weight: Vec3,
 }
 
 impl SurfaceMaterial {
@@ -548,6 +561,11 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         refraction: c.refraction,
         glass: c.glass,
         holdout: c.holdout,
+        portal: c.portal.map(|p| Portal {
+            position: gltf_axes(p.position),
+            direction: gltf_axes(p.direction).normalize_or_zero(),
+            weight: c.base_color * c.weight,
+        }),
         single_scatter: c.single_scatter,
         weight: c.weight,
         toon: c.toon,

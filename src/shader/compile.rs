@@ -74,6 +74,7 @@ pub(super) fn compile_tree(
     let mut reads_color = false;
     let mut needs_offsets = false;
     let mut shadow_transparent = false;
+    let mut ray_portal = false;
     let mut attributes: Vec<String> = Vec::new();
     // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
     let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
@@ -212,6 +213,7 @@ pub(super) fn compile_tree(
             _ => false,
         };
         reads_color |= matches!(op, Op::VertexColor | Op::Attribute { .. });
+        ray_portal |= matches!(op, Op::RayPortal { .. });
         shadow_transparent |= match op {
             // Seen from inside its tube a fibre passes light (`crate::material`).
             Op::Transparent | Op::PrincipledHair { .. } | Op::Hair { .. } => true,
@@ -396,6 +398,7 @@ pub(super) fn compile_tree(
         reads,
         reads_ray_state: light_path_reads & RAY_STATE_OUTPUTS != 0,
         shadow_transparent,
+        ray_portal,
         displacement: None,
         displace: None,
         smooth_flat_faces: false,

@@ -456,6 +456,9 @@ pub(super) fn run(
         Op::Refraction => m.closures[o] = closure::eval_glass(true, true, ins),
         Op::Emission => m.closures[o] = closure::eval_emission(ins),
         Op::Transparent => m.closures[o] = closure::eval_transparent(ins),
+        Op::RayPortal { position_given } => {
+            m.closures[o] = closure::eval_ray_portal(*position_given, inputs, at, ins)
+        }
         Op::Holdout => m.closures[o] = closure::eval_holdout(),
         Op::Translucent => m.closures[o] = closure::eval_translucent(ins),
         Op::MixShader => {

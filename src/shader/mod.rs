@@ -104,7 +104,9 @@ mod voronoi;
 mod wave;
 mod white_noise;
 
-pub use closure::{default_tangent, principled_aspect, Closure, Hair, Toon, VolumeClosure};
+pub use closure::{
+    default_tangent, principled_aspect, Closure, Hair, RayPortal, Toon, VolumeClosure,
+};
 pub use compile::compile;
 pub use inputs::{
     LocalHit, NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, SceneRays,

@@ -569,6 +569,10 @@ pub(super) fn parse_op(
         "BsdfRefraction" => Op::Refraction,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
+        // An unlinked Position is implicit (the add-on writes no value for it).
+        "BsdfRayPortal" => Op::RayPortal {
+            position_given: node.get("inputs").and_then(|i| i.get("Position")).is_some(),
+        },
         "Holdout" => Op::Holdout,
         "BsdfTranslucent" => Op::Translucent,
         "MixShader" => Op::MixShader,

@@ -222,6 +222,11 @@ pub(super) enum Op {
     Holdout,
     Emission,
     Transparent,
+    /// Ray Portal BSDF; `position_given`: its Position input is linked or set (else the
+    /// shading point).
+    RayPortal {
+        position_given: bool,
+    },
     Translucent,
     MixShader,
     AddShader,
@@ -357,6 +362,8 @@ pub struct NodeProgram {
     /// True when the tree can give a Transparent BSDF (a Transparent node, or a Principled
     /// BSDF's Alpha): shadow rays must evaluate it to pass.
     pub shadow_transparent: bool,
+    /// True when the tree has a Ray Portal BSDF: camera paths follow it, photons end on it.
+    pub ray_portal: bool,
     /// The Material Output's Displacement as Cycles bumps by it ("Bump Only", and over true
     /// displacement "Displacement and Bump"): a program whose
     /// output is the bumped normal, which the surface tree then reads as the shading normal.
@@ -408,6 +415,7 @@ impl NodeProgram {
                         | Op::LightPath
                         | Op::AmbientOcclusion(_)
                         | Op::Bevel { .. }
+                        | Op::RayPortal { .. }
                         | Op::Bump { .. }
                         | Op::NormalMap(_)
                         | Op::VectorDisplacement(_)

@@ -97,6 +97,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Glass { .. } | Op::Refraction => (closure::GLASS_INPUTS, closure::GLASS_OUTPUTS),
         Op::Emission => (closure::EMISSION_INPUTS, closure::EMISSION_OUTPUTS),
         Op::Transparent => (closure::TRANSPARENT_INPUTS, closure::TRANSPARENT_OUTPUTS),
+        Op::RayPortal { .. } => (closure::RAY_PORTAL_INPUTS, closure::RAY_PORTAL_OUTPUTS),
         Op::Holdout => (&[], closure::HOLDOUT_OUTPUTS),
         Op::Translucent => (closure::TRANSLUCENT_INPUTS, closure::TRANSLUCENT_OUTPUTS),
         Op::MixShader => (closure::MIX_SHADER_INPUTS, closure::MIX_SHADER_OUTPUTS),

@@ -549,6 +549,39 @@ fn object_instancer_and_view_layer_attributes_read_their_values() {
 }
 
 #[test]
+fn ray_portal_sends_the_ray_from_its_position_along_its_direction() {
+    let portal = |inputs: Value| {
+        let tree = json!({"nodes": [
+            {"name": "G", "type": "ShaderNodeNewGeometry"},
+            {"name": "M", "type": "ShaderNodeVectorMath", "operation": "ADD",
+             "inputs": {"Vector": {"node": 0, "output": "Position"},
+                        "Vector_001": [5.0, 0.0, 0.0]}},
+            {"name": "P", "type": "ShaderNodeBsdfRayPortal", "inputs": inputs},
+        ], "output": {"node": 2, "output": "BSDF"}});
+        let program = compile(&tree, 0, &mut Vec::new()).expect("compiles");
+        assert!(program.ray_portal && !program.shadow_transparent);
+        let at = ShadingInputs {
+            incoming: Vec3::new(0.0, 0.6, 0.8),
+            ..at_positions([Vec3::new(1.0, 2.0, 0.0); 3], Vec3::Z)
+        };
+        program.eval(&at, &[], 0.5)
+    };
+    // Unlinked: on from the point itself, straight on (against the incoming direction).
+    let straight = portal(json!({"Color": [0.5, 0.25, 1.0, 1.0]}));
+    let p = straight.portal.expect("a portal");
+    assert_eq!(p.position, Vec3::new(1.0, 2.0, 0.0));
+    assert_eq!(p.direction, Vec3::new(0.0, -0.6, -0.8));
+    assert_eq!(straight.base_color, Vec3::new(0.5, 0.25, 1.0));
+    // Position linked (the point moved along x), Direction set.
+    let moved = portal(json!({"Position": {"node": 1, "output": "Vector"},
+                              "Direction": [0.0, 0.0, -1.0]}));
+    let p = moved.portal.expect("a portal");
+    assert_eq!(p.position, Vec3::new(6.0, 2.0, 0.0));
+    assert_eq!(p.direction, -Vec3::Z);
+    assert_eq!(moved.base_color, Vec3::ONE);
+}
+
+#[test]
 fn hair_info_reads_the_tube_attributes_and_zero_off_hair() {
     let output = |name: &str, attributes: NamedAttributes| {
         let tree = json!({"nodes": [

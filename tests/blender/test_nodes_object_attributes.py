@@ -21,7 +21,7 @@ attributes' values themselves, so the engines differ only in anti-aliasing noise
 import bpy
 import pytest
 
-from test_nodes import node_material
+from test_nodes import bare_material, node_material
 from test_nodes_object import emission_of, instances_on_a_grid, matches_cycles, square, top_camera
 
 
@@ -188,11 +188,7 @@ def test_scene_attributes_are_evaluated_and_named_past_the_slots(kind):
         assert node["object_slot"] == 0
     if kind != "VIEW_LAYER":
         # Past the slots a scene carries, the material falls back and says why.
-        many, tree = bpy.data.materials.new("Many"), None
-        if bpy.app.version < (5, 0, 0):
-            many.use_nodes = True
-        tree = many.node_tree
-        tree.nodes.remove(tree.nodes["Principled BSDF"])
+        many, tree = bare_material("Many")
         colour = attribute(tree, kind, "a0").outputs["Color"]
         for k in range(1, 9):
             colour = multiply(tree, colour, attribute(tree, kind, f"a{k}").outputs["Color"])
