@@ -18,6 +18,10 @@
 //! integrator says which materials it walks (`Scatter::walks_subsurface`): the photon method
 //! leaves Christensen–Burley ones to its dipole.
 //!
+//! A Ray Portal BSDF (`PathState::through_portal`), before the integrator acts: the path goes
+//! on from the portal's position along its direction, as Cycles' `integrate_surface_ray_portal`
+//! (Blender 4.2), with no vertex and no light sample there.
+//!
 //! Blender's Light Paths › Caustics settings change the BSDF of each surface the walk meets by
 //! the path so far (`PathState::history`, `Shading::reached_by`).
 //!
