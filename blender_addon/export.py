@@ -233,7 +233,8 @@ def reads_object_info() -> bool:
 def object_infos(vtree, slots=None):
     """`(glTF node, PHOTON_object "info")` of every mesh node the exporter wrote: what
     Object Info reads of its object as Cycles syncs it (blender/object.cpp): the location of
-    the node, the colour and pass index of the object it shows, and the random id of the
+    the node, the colour of the object it shows (of its instancer for an instance, as Blender's
+    depsgraph gives it), the pass index of the object it shows, and the random id of the
     depsgraph instance it is (found by its world matrix: Geometry Nodes and particle
     instances, objects of instanced collections), else Cycles' hash of the object's name;
     with `slots` (object_attributes.attribute_slots), the values of the Object and Instancer
@@ -252,9 +253,10 @@ def object_infos(vtree, slots=None):
                 index = inst.persistent_id[1] if inst.particle_system is None else -1
                 values = lookup.values(inst.object, parent=inst.parent,
                                        particles=inst.particle_system, index=index)
+            # An instance's colour is its instancer's (Blender's depsgraph copies it).
             instances.setdefault(key(inst.matrix_world), []).append(
                 (inst.object.original.name, getattr(inst.object.data, "name", None),
-                 inst.random_id & 0xFFFFFFFF, inst.object, values))
+                 inst.random_id & 0xFFFFFFFF, inst.object, values, list(inst.parent.color)))
     for vnode in vtree.nodes.values():
         gltf_node = getattr(vnode, "node", None)
         if gltf_node is None or gltf_node.mesh is None or vnode.matrix_world is None:
@@ -267,15 +269,15 @@ def object_infos(vtree, slots=None):
             data = getattr(vnode.data, "name", None)
             found = [c for c in candidates if c[1] == data] or candidates
         if found:
-            random_id, shown, values = found[0][2], found[0][3], found[0][4]
+            random_id, shown, values, color = found[0][2:6]
         elif obj is not None:
-            random_id, shown = cycles_name_hash(obj.name), obj
+            random_id, shown, color = cycles_name_hash(obj.name), obj, obj.color
             values = lookup.values(obj) if lookup is not None else None
         else:
             continue
         info = {
             "location": [float(v) for v in vnode.matrix_world.translation],
-            "color": [float(v) for v in shown.color],
+            "color": [float(v) for v in color],
             "pass_index": int(shown.pass_index),
             "random_id": random_id,
         }

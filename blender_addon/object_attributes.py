@@ -103,6 +103,15 @@ def _instance_domain(parent, name: str) -> list | None:
     return None
 
 
+def _object_rgba(obj, parent, name: str) -> list[float] | None:
+    """`property_rgba` on object `obj`, shown by instancer `parent` (None: not an instance):
+    an instance's Object Color is its instancer's, as Blender's depsgraph gives each instance
+    (`deg_iterator_duplis_step`), which is what Cycles reads."""
+    if parent is not None and name == "color" and name not in obj.keys():
+        return _rgba(parent.color)
+    return property_rgba(obj, name)
+
+
 class InstanceLookup:
     """Object and Instancer attribute values of depsgraph instances and plain objects, slot by
     slot (`attribute_slots`)."""
@@ -131,7 +140,7 @@ class InstanceLookup:
                 if found is None:
                     found = property_rgba(parent, name)
             if found is None:
-                found = property_rgba(obj, name)
+                found = _object_rgba(obj, parent, name)
             if found is None:
                 found = property_rgba(getattr(obj, "data", None), name)
             out.append(found if found is not None else list(NOT_FOUND))

@@ -15,7 +15,9 @@ attributes' values themselves, so the engines differ only in anti-aliasing noise
   property of the instancer object ("boost") also read through Instancer, and the tile mesh's
   custom property read as an Object attribute;
 - a view layer property, a scene property and a world property read as View Layer attributes,
-  over a gradient.
+  over a gradient;
+- particles rendering an object, with custom properties on the particle settings and the
+  emitter read through Instancer.
 """
 
 import bpy
@@ -196,3 +198,33 @@ def test_scene_attributes_are_evaluated_and_named_past_the_slots(kind):
         extension, problems = node_tree.material_nodes(many)
         assert extension is None
         assert any("carries 8 object and instancer attributes" in p for p in problems), problems
+
+
+@pytest.mark.slow  # renders Cycles
+def test_instancer_attributes_of_particles(tmp_path):
+    """Particles rendering an object: Instancer reads the particle settings' custom property
+    ("boost"), then the emitter's ("tint"); Object reads the instance's Object Color, which is
+    the emitter's (white), not the tile's (Blender's depsgraph gives each instance its
+    instancer's colour; read as the tile's: -32 %)."""
+    mat, tree = node_material("Particles")
+    colour = multiply(tree, attribute(tree, "INSTANCER", "tint").outputs["Color"],
+                      attribute(tree, "OBJECT", "color").outputs["Color"])
+    strength = add_value(tree, attribute(tree, "INSTANCER", "boost").outputs["Fac"], 0.3)
+    emission_of(tree, colour, strength)
+    tile = square("Tile", mat, (40.0, 0.0, 0.0), 0.12)
+    tile.color = (0.5, 1.0, 0.8, 1.0)
+    emitter = square("Emitter", mat, (0.0, 0.0, 0.0), 0.8)
+    emitter.show_instancer_for_render = False
+    emitter["tint"] = (0.9, 0.4, 0.2)
+    emitter.modifiers.new("Scatter", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.count = 12
+    settings.frame_start = settings.frame_end = 1
+    settings.lifetime = 1000
+    settings.physics_type = "NO"
+    settings.render_type = "OBJECT"
+    settings.instance_object = tile
+    settings.particle_size = 1.0
+    settings["boost"] = 0.8
+    top_camera()
+    matches_cycles("particle instancer attributes", bpy.context.scene, tmp_path)
