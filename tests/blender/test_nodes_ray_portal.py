@@ -10,7 +10,9 @@ relMSE over 4x4-pixel blocks <= 1e-3 (test_nodes_object.matches_cycles):
   around it an emitting floor seen directly;
 - a portal with its Position unlinked and its Direction the view turned upside down (Incoming
   times (1, 1, -1)): the floor under it seen mirrored, through a second, default portal
-  (straight on) beside it.
+  (straight on) beside it;
+- the world's camera background (Light Path "Is Camera Ray") seen through a tinted portal and a
+  tinted Transparent BSDF: still camera rays, weighted by the tints.
 """
 
 import bpy
@@ -19,6 +21,7 @@ import pytest
 import common
 from test_nodes import bare_material, node_material
 from test_nodes_object import emission_of, matches_cycles, square, top_camera
+from test_world import mix_into_output, world_nodes
 
 pytestmark = pytest.mark.slow  # renders Cycles
 
@@ -89,3 +92,24 @@ def test_portal_turns_the_view_by_its_direction(tmp_path):
     square("Straight", portal_material("Straight"), (0.6, 0.0, 0.0), 0.45)
     top_camera()
     matches_cycles("ray portal direction", scene, tmp_path)
+
+
+def test_camera_background_through_a_portal_and_a_transparent_surface(tmp_path):
+    node_material("Unused")
+    scene = bpy.context.scene
+    tree, dark = world_nodes(scene)
+    seen = tree.nodes.new("ShaderNodeBackground")
+    seen.inputs["Color"].default_value = (0.3, 0.6, 0.9, 1.0)
+    light_path = tree.nodes.new("ShaderNodeLightPath")
+    mix = mix_into_output(tree, dark, seen)
+    tree.links.new(light_path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    square("Portal", portal_material("Portal", color=(0.5, 1.0, 1.0, 1.0)), (-0.6, 0.0, 0.0),
+           0.45)
+    clear, clear_tree = bare_material("Clear")
+    transparent = clear_tree.nodes.new("ShaderNodeBsdfTransparent")
+    transparent.inputs["Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    clear_tree.links.new(transparent.outputs["BSDF"],
+                         clear_tree.nodes["Material Output"].inputs["Surface"])
+    square("Clear", clear, (0.6, 0.0, 0.0), 0.45)
+    top_camera()
+    matches_cycles("camera background through a portal", scene, tmp_path)
