@@ -51,7 +51,8 @@ from pathlib import Path
 import bpy
 
 try:
-    from . import camera, lights, motion, node_tree, points_curves, volumes, world
+    from . import (camera, lights, motion, node_tree, object_attributes, points_curves,
+                   volumes, world)
     from .node_graph import active_output, source, upstream
     from .shared import GEOMETRY_TYPES, LOG, REC709, working_space
 except ImportError:  # run as the child's script: the add-on's folder holds the other modules
@@ -60,6 +61,7 @@ except ImportError:  # run as the child's script: the add-on's folder holds the 
     import lights
     import motion
     import node_tree
+    import object_attributes
     import points_curves
     import volumes
     import world
@@ -204,8 +206,9 @@ class glTF2ExportUserExtension:  # noqa: N801 - the name the glTF exporter looks
             described = {**described, "volume": volume}
         self._add(gltf_scene, "PHOTON_world", described)
         self._add(gltf_scene, "PHOTON_render", render_extension(blender_scene))
-        if reads_object_info():
-            for gltf_node, info in object_infos(export_settings["vtree"]):
+        slots = object_attributes.attribute_slots()
+        if reads_object_info() or slots:
+            for gltf_node, info in object_infos(export_settings["vtree"], slots):
                 known = (gltf_node.extensions or {}).get("PHOTON_object")
                 if known is not None:
                     known.extension["info"] = info
@@ -266,21 +269,33 @@ def reads_object_info() -> bool:
     return any(n.bl_idname == "ShaderNodeObjectInfo" for t in trees for n in t.nodes)
 
 
-def object_infos(vtree):
+def object_infos(vtree, slots=None):
     """`(glTF node, PHOTON_object "info")` of every mesh node the exporter wrote: what
     Object Info reads of its object as Cycles syncs it (blender/object.cpp): the location of
-    the node, the colour and pass index of the object it shows, and the random id of the
+    the node, the colour of the object it shows (of its instancer for an instance, as Blender's
+    depsgraph gives it), the pass index of the object it shows, and the random id of the
     depsgraph instance it is (found by its world matrix: Geometry Nodes and particle
-    instances, objects of instanced collections), else Cycles' hash of the object's name."""
+    instances, objects of instanced collections), else Cycles' hash of the object's name;
+    with `slots` (object_attributes.attribute_slots), the values of the Object and Instancer
+    attributes the node trees read, in slot order."""
     def key(matrix):
         return tuple(round(float(matrix[r][c]), 4) for r in range(3) for c in range(4))
 
+    lookup = object_attributes.InstanceLookup(slots) if slots else None
     instances = {}
     for inst in bpy.context.evaluated_depsgraph_get().object_instances:
         if inst.is_instance:
+            values = None
+            if lookup is not None:
+                # A Geometry Nodes instance's index among its instancer's instances (the
+                # dupli's second level: the first numbers the geometry's components).
+                index = inst.persistent_id[1] if inst.particle_system is None else -1
+                values = lookup.values(inst.object, parent=inst.parent,
+                                       particles=inst.particle_system, index=index)
+            # An instance's colour is its instancer's (Blender's depsgraph copies it).
             instances.setdefault(key(inst.matrix_world), []).append(
                 (inst.object.original.name, getattr(inst.object.data, "name", None),
-                 inst.random_id & 0xFFFFFFFF, inst.object))
+                 inst.random_id & 0xFFFFFFFF, inst.object, values, list(inst.parent.color)))
     for vnode in vtree.nodes.values():
         gltf_node = getattr(vnode, "node", None)
         if gltf_node is None or gltf_node.mesh is None or vnode.matrix_world is None:
@@ -293,17 +308,21 @@ def object_infos(vtree):
             data = getattr(vnode.data, "name", None)
             found = [c for c in candidates if c[1] == data] or candidates
         if found:
-            random_id, shown = found[0][2], found[0][3]
+            random_id, shown, values, color = found[0][2:6]
         elif obj is not None:
-            random_id, shown = cycles_name_hash(obj.name), obj
+            random_id, shown, color = cycles_name_hash(obj.name), obj, obj.color
+            values = lookup.values(obj) if lookup is not None else None
         else:
             continue
-        yield gltf_node, {
+        info = {
             "location": [float(v) for v in vnode.matrix_world.translation],
-            "color": [float(v) for v in shown.color],
+            "color": [float(v) for v in color],
             "pass_index": int(shown.pass_index),
             "random_id": random_id,
         }
+        if values is not None:
+            info["attributes"] = values
+        yield gltf_node, info
 
 
 def cycles_name_hash(name: str) -> int:

@@ -33,9 +33,11 @@ It needs no bpy import: it reads nodes through their attributes (and runs in the
 from __future__ import annotations
 
 try:
+    from . import object_attributes
     from .node_graph import Source, active_output, source
     from .shared import REC709, blender_5, material_tree, working_space
 except ImportError:  # loaded by export.py as a top-level module in the export's child process
+    import object_attributes
     from node_graph import Source, active_output, source
     from shared import REC709, blender_5, material_tree, working_space
 
@@ -100,6 +102,7 @@ SETTINGS = {
     "ShaderNodeBsdfRefraction": ("distribution",),
     "ShaderNodeEmission": (),
     "ShaderNodeBsdfTransparent": (),
+    "ShaderNodeBsdfRayPortal": (),
     "ShaderNodeBsdfTranslucent": (),
     "ShaderNodeHoldout": (),
     "ShaderNodeMixShader": (),
@@ -137,6 +140,8 @@ READ_INPUTS = {
     "ShaderNodeBsdfRefraction": {"Color", "Roughness", "IOR", "Normal"},
     "ShaderNodeBsdfTranslucent": {"Color", "Normal"},
     "ShaderNodeBsdfTransparent": {"Color"},
+    # Unlinked, Position and Direction are implicit: the shading point, the ray's direction.
+    "ShaderNodeBsdfRayPortal": {"Color", "Position", "Direction"},
     # The attribute names (Density Attribute, …) are written as the node's "attributes".
     "ShaderNodeVolumePrincipled": {"Color", "Density", "Anisotropy", "Absorption Color",
                                    "Emission Strength", "Emission Color",
@@ -151,15 +156,10 @@ READ_OUTPUTS = {
     "ShaderNodeTexCoord": {"Generated", "Normal", "UV", "Object", "Reflection"},
     "ShaderNodeNewGeometry": {"Position", "Normal", "True Normal", "Incoming", "Backfacing"},
     "ShaderNodeTexVoronoi": {"Distance", "Color", "Position"},
-    # Cycles' Tangent Normal is the view direction made perpendicular to the fibre's
-    # direction, which the node's attributes do not carry.
-    "ShaderNodeHairInfo": {"Is Strand", "Intercept", "Length", "Thickness", "Random"},
 }
 
 # Settings values the renderer does not evaluate.
 UNSUPPORTED_SETTINGS = {
-    # Object, instancer and view-layer attributes: only the meshes' own (Geometry) are read.
-    ("ShaderNodeAttribute", "attribute_type"): {"OBJECT", "INSTANCER", "VIEW_LAYER"},
     ("ShaderNodeMix", "data_type"): {"ROTATION"},
     ("ShaderNodeMapRange", "data_type"): {"FLOAT_VECTOR"},
     ("ShaderNodeSeparateColor", "mode"): {"HSL"},
@@ -347,6 +347,22 @@ class _Walker:
                 shutil.copyfile(path, target)
         return uri
 
+    def scene_attribute(self, node, name, entry):
+        """An Attribute node of type Object or Instancer gets its `object_slot` (the values
+        are the objects', PHOTON_object "info"), one of type View Layer its `value`."""
+        kind = node.attribute_type
+        if kind == "VIEW_LAYER":
+            entry["value"] = object_attributes.view_layer_value(node.attribute_name)
+        elif kind in object_attributes.PER_OBJECT:
+            slot = object_attributes.attribute_slots()[(kind, node.attribute_name)]
+            if slot >= object_attributes.OBJECT_ATTRIBUTES:
+                self.problems.append(
+                    f"{self.what}: Attribute node '{name}' reads {kind.lower()} attribute "
+                    f"'{node.attribute_name}'; Photon carries "
+                    f"{object_attributes.OBJECT_ATTRIBUTES} object and instancer attributes "
+                    f"in a scene")
+            entry["object_slot"] = slot
+
     def node_name(self, node, groups):
         return "/".join([g.name for g in groups] + [node.name])
 
@@ -394,6 +410,8 @@ class _Walker:
             entry["material_index"] = int(self.material.pass_index)
         if kind == "ShaderNodeHairInfo":
             entry["attributes"] = dict(HAIR_INFO_ATTRIBUTES)
+        if kind == "ShaderNodeAttribute":
+            self.scene_attribute(node, name, entry)
         if kind in ("ShaderNodeValue", "ShaderNodeRGB"):
             entry["value"] = _value(node.outputs[0])
         if kind == "ShaderNodeValToRGB":

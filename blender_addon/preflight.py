@@ -15,8 +15,7 @@ empty list, so the rules below only flag what really changes the image:
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
   (the tree route renders it; glTF carries no film), and under Blender 5 the film on a metallic
   Principled BSDF (Blender 5 puts it on the metal too, Photon as 4.5 does not); a Principled
-  Hair BSDF of the Huang model (Photon's is Chiang's); a Curves Info (Hair Info) node's Tangent
-  Normal (its other outputs are evaluated);
+  Hair BSDF of the Huang model (Photon's is Chiang's);
 - volumes: a Volume shader tree Photon does not evaluate (node_tree.volume_tree: Principled
   Volume, Volume Scatter, Volume Absorption, Emission, Mix and Add Shader over the texture and
   converter nodes the surface trees have), Volume objects whose grids Photon cannot read, in
@@ -281,14 +280,11 @@ def _material_node_reason(found) -> str:
     kind = node.type
     if kind == "ATTRIBUTE" and node.attribute_type != "GEOMETRY":
         return (f"reads an attribute of type {node.attribute_type.title().replace('_', ' ')}, "
-                f"which Photon does not read (only the meshes' own); the material renders "
-                f"without it")
+                f"which glTF's metallic-roughness material does not carry (Photon reads it "
+                f"where it evaluates the node tree); the material renders without it")
     if kind == "BSDF_HAIR_PRINCIPLED" and getattr(node, "model", "") == "HUANG":
         return ("uses the Huang model, which Photon does not render (its Principled Hair is "
                 "the Chiang model); the material renders without it")
-    if kind == "HAIR_INFO" and node.outputs["Tangent Normal"].is_linked:
-        return ("reads Tangent Normal, which Photon does not evaluate (its other outputs it "
-                "does); the material renders without it")
     if kind in MATERIAL_NODES:
         return ""
     if kind == "MIX" and getattr(node, "blend_type", "") == "MULTIPLY":

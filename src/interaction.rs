@@ -10,8 +10,8 @@ use crate::accel::{hit_mesh, hit_uv, interpolate, Hit, Ray};
 use crate::math::{gamma, Affine3A, Frame, Mat3, Quat, Vec2, Vec3, Vec4};
 use crate::scene::{blender_axes, Mesh, Scene, TextureRef, BLENDER_AXES};
 use crate::shader::{
-    PointInputs, RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_OBJECT_NORMAL,
-    READS_TANGENT, READS_TRIANGLE, READS_UV,
+    PointInputs, RayPath, ShadingInputs, READS_ALL, READS_COLOR, READS_COORDS, READS_FIBRE,
+    READS_OBJECT_NORMAL, READS_TANGENT, READS_TRIANGLE, READS_UV,
 };
 
 /// Everything shading needs about a surface point.
@@ -213,6 +213,39 @@ impl SurfaceHit {
         })
     }
 
+    /// The direction of the fibre at this point (world, unit), from root to tip: the
+    /// gradient of the first UV map's u over the triangle, which the add-on sets to the curve's
+    /// parameter along each tube; without UVs (a hair BSDF on a mesh that is not a tube), the
+    /// direction the triangle's three vertex normals are most nearly perpendicular to (a tube's
+    /// axis, of either sense).
+    pub fn fibre_tangent(&self, scene: &Scene) -> Vec3 {
+        let mesh = hit_mesh(scene, &self.hit);
+        let idx = mesh.indices[self.hit.triangle as usize];
+        let p = mesh.triangle_at(self.hit.triangle, self.time);
+        let along_u = (!mesh.uvs.is_empty()).then(|| {
+            let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+            let uv = idx.map(|i| mesh.uvs[i as usize]);
+            let (du1, du2) = (uv[1].x - uv[0].x, uv[2].x - uv[0].x);
+            // The in-plane gradient g of u: g·e1 = du1, g·e2 = du2 (up to a positive factor).
+            let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            (du1 * c - du2 * b) * e1 + (du2 * a - du1 * b) * e2
+        });
+        let local = along_u
+            .filter(|g| g.length_squared() > 0.0 && g.is_finite())
+            .unwrap_or_else(|| {
+                let n = idx.map(|i| mesh.normals[i as usize]);
+                [n[0].cross(n[1]), n[1].cross(n[2]), n[2].cross(n[0])]
+                    .into_iter()
+                    .max_by(|x, y| x.length_squared().total_cmp(&y.length_squared()))
+                    .unwrap_or(Vec3::ZERO)
+            });
+        let world = match scene.instances.get(self.hit.instance as usize) {
+            Some(inst) => inst.to_world_at(self.time).transform_vector3(local),
+            None => local,
+        };
+        world.normalize_or(self.frame.t)
+    }
+
     /// What a node tree reads at this point (`shader::ShadingInputs`), and with
     /// `offsets` at the points a small step along the frame's two tangents (for Bump nodes;
     /// else copies of the point).
@@ -239,6 +272,9 @@ impl SurfaceHit {
         let mut inputs = node_inputs_reading(mesh, tri, b1, b2, self.p, n, view, placed, reads);
         if let Some(inst) = instance {
             inputs.object = inst.object_info;
+        }
+        if reads & READS_FIBRE != 0 {
+            inputs.fibre = blender_axes(self.fibre_tangent(scene));
         }
         if reads & READS_TRIANGLE != 0 {
             let to_world = instance.map(|inst| inst.to_world_at(self.time));
@@ -467,6 +503,8 @@ fn node_inputs_reading(
             [Vec3::ZERO; 3]
         },
         pixel_width: 0.0,
+        // Set by `SurfaceHit::node_inputs`, which knows the hit.
+        fibre: Vec3::ZERO,
     }
 }
 

@@ -89,6 +89,8 @@ pub struct SurfaceMaterial {
     /// A node tree's Holdout: no light, and transparent in the film's alpha where the camera
     /// sees it (Cycles' holdout).
     pub holdout: bool,
+    /// A node tree's Ray Portal BSDF: the ray goes on from elsewhere (`Portal`).
+    pub portal: Option<Portal>,
     /// GGX without Multiscatter GGX's energy compensation of the metal and specular lobes.
     pub single_scatter: bool,
     /// What the whole BSDF is multiplied by (1; a node tree's Add Shader of two BSDFs picks
@@ -143,6 +145,7 @@ impl Default for SurfaceMaterial {
             refraction: false,
             glass: false,
             holdout: false,
+            portal: None,
             single_scatter: false,
             weight: 1.0,
             toon: None,
@@ -150,6 +153,16 @@ impl Default for SurfaceMaterial {
             metal_tint: None,
         }
     }
+}
+
+/// Where a Ray Portal BSDF sends a ray that meets it (scene axes, world), as Cycles'
+/// `integrate_surface_ray_portal`: on from `position` along `direction` (unit), its
+/// throughput times `weight` (the closure's colour and weight).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Portal {
+    pub position: Vec3,
+    pub direction: Vec3,
+    pub weight: Vec3,
 }
 
 impl SurfaceMaterial {
@@ -471,7 +484,7 @@ impl SceneRays for TracedScene<'_> {
 }
 
 /// A hair closure on a tube swept along a curve (`blender_addon/points_curves.py`): seen from
-/// outside, the fibre runs along the tube's direction at the point (`fibre_tangent`), which
+/// outside, the fibre runs along the tube's direction at the point (`SurfaceHit::fibre_tangent`), which
 /// the shading frame takes as its tangent (the offset h across the fibre then follows from the
 /// view and the smooth normal: `bsdf::hair`); seen from inside, the tube is the far side of a
 /// fibre whose scattering the BSDF at its near side already holds, and light passes it
@@ -491,40 +504,7 @@ fn on_fibre(scene: &Scene, sh: &SurfaceHit, view: View, s: &mut SurfaceMaterial)
         };
         return;
     }
-    s.tangent = Some(fibre_tangent(scene, sh));
-}
-
-/// The direction of the fibre at surface point `sh` (world, unit), from root to tip: the
-/// gradient of the first UV map's u over the triangle, which the add-on sets to the curve's
-/// parameter along each tube; without UVs (a hair BSDF on a mesh that is not a tube), the
-/// direction the triangle's three vertex normals are most nearly perpendicular to (a tube's
-/// axis, of either sense).
-pub fn fibre_tangent(scene: &Scene, sh: &SurfaceHit) -> Vec3 {
-    let mesh = hit_mesh(scene, &sh.hit);
-    let idx = mesh.indices[sh.hit.triangle as usize];
-    let p = mesh.triangle_at(sh.hit.triangle, sh.time);
-    let along_u = (!mesh.uvs.is_empty()).then(|| {
-        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
-        let uv = idx.map(|i| mesh.uvs[i as usize]);
-        let (du1, du2) = (uv[1].x - uv[0].x, uv[2].x - uv[0].x);
-        // The in-plane gradient g of u: g·e1 = du1, g·e2 = du2 (up to a positive factor).
-        let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-        (du1 * c - du2 * b) * e1 + (du2 * a - du1 * b) * e2
-    });
-    let local = along_u
-        .filter(|g| g.length_squared() > 0.0 && g.is_finite())
-        .unwrap_or_else(|| {
-            let n = idx.map(|i| mesh.normals[i as usize]);
-            [n[0].cross(n[1]), n[1].cross(n[2]), n[2].cross(n[0])]
-                .into_iter()
-                .max_by(|x, y| x.length_squared().total_cmp(&y.length_squared()))
-                .unwrap_or(Vec3::ZERO)
-        });
-    let world = match scene.instances.get(sh.hit.instance as usize) {
-        Some(inst) => inst.to_world_at(sh.time).transform_vector3(local),
-        None => local,
-    };
-    world.normalize_or(sh.frame.t)
+    s.tangent = Some(sh.fibre_tangent(scene));
 }
 
 /// A node tree's closure as the material every integrator reads; the volume and subsurface
@@ -581,6 +561,11 @@ pub fn from_closure(material: &Material, c: &Closure) -> SurfaceMaterial {
         refraction: c.refraction,
         glass: c.glass,
         holdout: c.holdout,
+        portal: c.portal.map(|p| Portal {
+            position: gltf_axes(p.position),
+            direction: gltf_axes(p.direction).normalize_or_zero(),
+            weight: c.base_color * c.weight,
+        }),
         single_scatter: c.single_scatter,
         weight: c.weight,
         toon: c.toon,

@@ -1090,6 +1090,11 @@ pub fn plan_with_pilot(
             Method::Path,
             "node trees read Light Path's ray kind or depths, which only the path tracer's camera paths carry".into(),
         )
+    } else if !scene.ray_portal_materials().is_empty() {
+        (
+            Method::Path,
+            "Ray Portal BSDFs: camera paths follow them, photons end on them".into(),
+        )
     } else if subsurface.needed {
         (
             Method::Photon,

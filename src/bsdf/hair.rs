@@ -5,7 +5,7 @@
 //! around the fibre, as Cycles' `bsdf_hair`).
 //!
 //! Frame: the shading frame's x axis is the fibre's tangent (root to tip), z the fibre's
-//! normal at the point (`crate::material::fibre_tangent`). θ is the longitudinal angle
+//! normal at the point (`crate::interaction::SurfaceHit::fibre_tangent`). θ is the longitudinal angle
 //! (sin θ = ω·x), φ the azimuth around the fibre. The offset h ∈ [−1, 1] across the fibre
 //! follows from the view: h = sin γ_o, γ_o the angle between the normal and the view
 //! projected on the normal plane, with the sign convention of Cycles' curves (h = −ω_o,y / |ω_o

@@ -18,6 +18,10 @@
 //! integrator says which materials it walks (`Scatter::walks_subsurface`): the photon method
 //! leaves Christensen–Burley ones to its dipole.
 //!
+//! A Ray Portal BSDF (`PathState::through_portal`), before the integrator acts: the path goes
+//! on from the portal's position along its direction, as Cycles' `integrate_surface_ray_portal`
+//! (Blender 4.2), with no vertex and no light sample there.
+//!
 //! Blender's Light Paths › Caustics settings change the BSDF of each surface the walk meets by
 //! the path so far (`PathState::history`, `Shading::reached_by`).
 //!
@@ -39,6 +43,7 @@ use crate::bsdf::{may_be_smooth, BsdfSample, Scattering, SMOOTH_ROUGHNESS};
 use crate::interaction::SurfaceHit;
 use crate::light::{emitted_radiance, hit_links, Receiver};
 use crate::light_pass::{FirstVertex, LightPass, Passes};
+use crate::material::Portal;
 use crate::math::{max_component, Vec3};
 use crate::medium::{
     fly, transmittance as medium_transmittance, Coefficients, Flight, Media, SegmentSampler,
@@ -433,6 +438,31 @@ impl PathState {
         true
     }
 
+    /// Go on from the Ray Portal BSDF `portal` the ray met at `s`, as Cycles'
+    /// `integrate_surface_ray_portal`: from the portal's position (from `s` itself when that is
+    /// where it lies) along its direction, weighted by its colour. No vertex: the ray stays the
+    /// kind it was (a camera ray one), and as no light sample ran there, the emission it meets
+    /// beyond counts in full (Cycles' MIS skip past a portal). False when nothing goes on.
+    fn through_portal(&mut self, s: &Shading, portal: &Portal) -> bool {
+        self.beta *= portal.weight;
+        if self.beta == Vec3::ZERO || !self.beta.is_finite() || portal.direction == Vec3::ZERO {
+            return false;
+        }
+        self.light_path = self.light_path.after(Scattering::Transparent, true);
+        self.previous.delta = true;
+        self.ray = if (portal.position - s.sh.p).length_squared() > 1e-9 {
+            Ray {
+                origin: portal.position,
+                direction: portal.direction,
+                t_max: f32::INFINITY,
+                time: self.ray.time,
+            }
+        } else {
+            s.sh.spawn(portal.direction)
+        };
+        true
+    }
+
     /// A scattering at distance `t` along the ray in media `at`: the path goes on along a
     /// direction drawn from the phase function (counting only the emission it meets once
     /// Blender's Volume bounces are spent). False when the path ends.
@@ -716,9 +746,10 @@ fn walk_from(
         let Some(hit) = hit else {
             if emission && !(depth == 0 && (ctx.transparent_background || gather)) {
                 match &ctx.scene.world.camera_background {
-                    // No light sample precedes a camera ray: nothing to weigh against.
+                    // No light sample precedes a camera ray: nothing to weigh against. What it
+                    // passed (a tinted Transparent BSDF or Ray Portal, a medium) weighs it.
                     Some(seen) if visibility == Visibility::Camera => {
-                        state.add(0, seen.radiance(ray.direction));
+                        state.add(0, state.beta * seen.radiance(ray.direction));
                     }
                     _ => state.escaped(ctx, visibility == Visibility::Camera),
                 }
@@ -773,6 +804,13 @@ fn walk_from(
         }
         if depth == ctx.max_depth || state.emission_only {
             break;
+        }
+        // A Ray Portal BSDF: on from elsewhere, in every integrator's camera walk.
+        if let Some(portal) = s.surface.portal {
+            if !state.through_portal(&s, &portal) {
+                break;
+            }
+            continue;
         }
         state.depth = depth;
         if s.opaque

@@ -1020,9 +1020,22 @@ impl Scene {
     /// Materials whose node tree reads the camera path's state (Light Path's Is Diffuse Ray
     /// … and depths), which only the path tracer carries to every shading point.
     pub fn ray_state_materials(&self) -> Vec<&str> {
+        self.node_materials_where(|p| p.reads_ray_state)
+    }
+
+    /// Materials whose node tree has a Ray Portal BSDF, which only the camera paths follow.
+    pub fn ray_portal_materials(&self) -> Vec<&str> {
+        self.node_materials_where(|p| p.ray_portal)
+    }
+
+    /// The names of the materials whose node tree passes `test`.
+    fn node_materials_where(
+        &self,
+        test: impl Fn(&crate::shader::NodeProgram) -> bool,
+    ) -> Vec<&str> {
         self.materials
             .iter()
-            .filter(|m| m.nodes.as_ref().is_some_and(|p| p.reads_ray_state))
+            .filter(|m| m.nodes.as_ref().is_some_and(|p| test(p)))
             .map(|m| m.name.as_str())
             .collect()
     }

@@ -115,6 +115,17 @@ pub(super) const TRANSPARENT_INPUTS: &[Socket] = &[Socket::color("Color", Vec4::
 /// The Transparent node's outputs.
 pub(super) const TRANSPARENT_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
 
+/// The Ray Portal node's inputs: Position and Direction unlinked are the shading point and
+/// the ray's own direction (`eval_ray_portal`).
+pub(super) const RAY_PORTAL_INPUTS: &[Socket] = &[
+    Socket::color("Color", Vec4::ONE),
+    Socket::vector("Position", Vec4::ZERO),
+    Socket::vector("Direction", Vec4::ZERO),
+];
+
+/// The Ray Portal node's outputs.
+pub(super) const RAY_PORTAL_OUTPUTS: &[Socket] = &[Socket::output("BSDF", Ty::Shader)];
+
 /// The Holdout node's outputs.
 pub(super) const HOLDOUT_OUTPUTS: &[Socket] = &[Socket::output("Holdout", Ty::Shader)];
 
@@ -456,6 +467,8 @@ pub struct Closure {
     pub glass: bool,
     /// A Holdout: black, and transparent in the film's alpha where the camera sees it.
     pub holdout: bool,
+    /// A Ray Portal BSDF: the ray goes on from elsewhere, weighted by `base_color`.
+    pub portal: Option<RayPortal>,
     /// The GGX distribution without Multiscatter GGX's energy compensation of the metal and
     /// specular lobes (a Principled, Glossy or Anisotropic BSDF set to GGX, as scenes made
     /// before Blender 4.0 are).
@@ -506,6 +519,7 @@ impl Closure {
         refraction: false,
         glass: false,
         holdout: false,
+        portal: None,
         single_scatter: false,
         weight: 1.0,
         toon: None,
@@ -523,6 +537,43 @@ pub(super) fn transparent(color: Vec3) -> Closure {
         ior: 1.0,
         transmission: 1.0,
         transparent: true,
+        ..Closure::BLACK
+    }
+}
+
+/// Where a Ray Portal BSDF sends the ray (Blender's axes, world), as Cycles' `RayPortalClosure`:
+/// a new ray from `position` along `direction` (not normalised).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayPortal {
+    pub position: Vec3,
+    pub direction: Vec3,
+}
+
+/// The Ray Portal BSDF (Cycles' `bsdf_ray_portal_setup`): its Position, else the shading
+/// point (`position_given` false: the input is unlinked); its Direction, else (zero) the
+/// incoming ray's, so that by default the ray passes straight on; weighted by its Color.
+pub(super) fn eval_ray_portal(
+    position_given: bool,
+    inputs: &ShadingInputs,
+    at: &PointInputs,
+    ins: &impl Operands,
+) -> Closure {
+    const COLOR: usize = input(RAY_PORTAL_INPUTS, "Color");
+    const POSITION: usize = input(RAY_PORTAL_INPUTS, "Position");
+    const DIRECTION: usize = input(RAY_PORTAL_INPUTS, "Direction");
+    let direction = ins.vector(DIRECTION);
+    Closure {
+        base_color: ins.vector(COLOR),
+        portal: Some(RayPortal {
+            position: match position_given {
+                true => ins.vector(POSITION),
+                false => at.position,
+            },
+            direction: match direction == Vec3::ZERO {
+                true => -inputs.incoming,
+                false => direction,
+            },
+        }),
         ..Closure::BLACK
     }
 }
@@ -659,6 +710,7 @@ pub(super) fn eval_principled(
         refraction: false,
         glass: false,
         holdout: false,
+        portal: None,
         single_scatter: !multiscatter,
         weight: 1.0,
         toon: None,

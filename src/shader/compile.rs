@@ -75,6 +75,7 @@ pub(super) fn compile_tree(
     let mut needs_offsets = false;
     let mut shadow_transparent = false;
     let mut may_be_smooth = false;
+    let mut ray_portal = false;
     let mut attributes: Vec<String> = Vec::new();
     // Per node: its instruction and the nodes its inputs read (for copying Bump subtrees).
     let mut node_instr: Vec<Option<usize>> = Vec::with_capacity(nodes.len());
@@ -213,6 +214,7 @@ pub(super) fn compile_tree(
             _ => false,
         };
         reads_color |= matches!(op, Op::VertexColor | Op::Attribute { .. });
+        ray_portal |= matches!(op, Op::RayPortal { .. });
         shadow_transparent |= match op {
             // Seen from inside its tube a fibre passes light (`crate::material`).
             Op::Transparent | Op::PrincipledHair { .. } | Op::Hair { .. } => true,
@@ -227,6 +229,7 @@ pub(super) fn compile_tree(
                 | Op::Glass { .. }
                 | Op::Refraction
                 | Op::Toon { glossy: true }
+                | Op::RayPortal { .. }
         );
         if matches!(op, Op::Bump { .. }) {
             // The Height subtree again at the two offset points; the heights there are the
@@ -407,6 +410,7 @@ pub(super) fn compile_tree(
         reads_ray_state: light_path_reads & RAY_STATE_OUTPUTS != 0,
         shadow_transparent,
         may_be_smooth,
+        ray_portal,
         displacement: None,
         displace: None,
         smooth_flat_faces: false,

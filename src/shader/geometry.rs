@@ -172,9 +172,15 @@ pub(super) fn object_info(inputs: &ShadingInputs, material_index: f32) -> [Vec4;
 /// `curve` the strand's index, whose hash is Random as Cycles gives each curve its random
 /// number (`hash_uint2_to_float(index, 0)`). Is Strand is 1 where the mesh has `fibre`; a mesh
 /// without it is no hair and reads 0 everywhere, as Cycles' node does off curves. Tangent
-/// Normal is not evaluated (zero; the add-on names it when linked).
+/// Normal is Cycles' `curve_tangent_normal`: the direction to the viewer (`incoming`) made
+/// perpendicular to the fibre (`along`, the tube's axis), normalised.
 #[inline(always)]
-pub(super) fn hair_info(fibre: Option<Vec4>, curve: Option<Vec4>) -> [Vec4; 6] {
+pub(super) fn hair_info(
+    fibre: Option<Vec4>,
+    curve: Option<Vec4>,
+    incoming: Vec3,
+    along: Vec3,
+) -> [Vec4; 6] {
     let Some(fibre) = fibre else {
         return [Vec4::ZERO; 6];
     };
@@ -185,7 +191,7 @@ pub(super) fn hair_info(fibre: Option<Vec4>, curve: Option<Vec4>) -> [Vec4; 6] {
         splat(fibre.x),
         splat(fibre.y),
         splat(fibre.z),
-        Vec4::ZERO,
+        v3((incoming - along * along.dot(incoming)).normalize_or_zero()),
         splat(random),
     ]
 }

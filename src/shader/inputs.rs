@@ -67,6 +67,9 @@ pub struct ShadingInputs {
     /// The ray's footprint at the point, as Cycles' compact differential `dP` (the width one
     /// pixel of the camera covers there), for the Wireframe node's pixel size.
     pub pixel_width: f32,
+    /// The fibre's direction at the point (world, unit; a hair tube's axis), where the program
+    /// reads it (`READS_FIBRE`: Hair Info's Tangent Normal).
+    pub fibre: Vec3,
 }
 
 /// What Blender's Object Info node reads of the object (or the instance) a point lies on,
@@ -81,16 +84,24 @@ pub struct ObjectInfo {
     pub color: Vec4,
     pub pass_index: f32,
     pub random: f32,
+    /// The Object and Instancer attributes node trees read (Attribute nodes of those types),
+    /// in the scene's slot order, as Cycles finds them per object or instance: (0, 0, 0, 0)
+    /// for one found nowhere.
+    pub attributes: [Vec4; OBJECT_ATTRIBUTES],
 }
 
+/// Object and Instancer attributes a scene's node trees may read.
+pub const OBJECT_ATTRIBUTES: usize = 8;
+
 impl Default for ObjectInfo {
-    /// Blender's defaults: at the origin, white, index 0, random 0.
+    /// Blender's defaults: at the origin, white, index 0, random 0, no attributes.
     fn default() -> ObjectInfo {
         ObjectInfo {
             location: Vec3::ZERO,
             color: Vec4::ONE,
             pass_index: 0.0,
             random: 0.0,
+            attributes: [Vec4::ZERO; OBJECT_ATTRIBUTES],
         }
     }
 }

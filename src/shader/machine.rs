@@ -319,6 +319,11 @@ pub(super) fn run(
         Op::UvMap { uv_set } => m.regs[o] = geometry::uv_value(at, *uv_set),
         Op::VertexColor => m.put(o, geometry::vertex_color(at)),
         Op::Attribute { slot } => m.put(o, geometry::attribute(at, inputs.attributes.get(*slot))),
+        Op::ObjectAttribute { slot } => m.put(
+            o,
+            geometry::attribute(at, Some(inputs.object.attributes[*slot as usize])),
+        ),
+        Op::LayerAttribute(value) => m.put(o, geometry::attribute(at, Some(*value))),
         Op::Geometry => m.put(o, geometry::geometry(inputs, at)),
         Op::Wireframe { pixel_size } => {
             m.regs[o] = geometry::eval_wireframe(*pixel_size, inputs, at, ins)
@@ -328,7 +333,12 @@ pub(super) fn run(
         }
         Op::HairInfo { fibre, curve } => m.put(
             o,
-            geometry::hair_info(inputs.attributes.get(*fibre), inputs.attributes.get(*curve)),
+            geometry::hair_info(
+                inputs.attributes.get(*fibre),
+                inputs.attributes.get(*curve),
+                inputs.incoming,
+                inputs.fibre,
+            ),
         ),
         Op::LightPath => m.put_used(o, used, geometry::light_path(inputs)),
         Op::AmbientOcclusion(ao) => m.put(
@@ -446,6 +456,9 @@ pub(super) fn run(
         Op::Refraction => m.closures[o] = closure::eval_glass(true, true, ins),
         Op::Emission => m.closures[o] = closure::eval_emission(ins),
         Op::Transparent => m.closures[o] = closure::eval_transparent(ins),
+        Op::RayPortal { position_given } => {
+            m.closures[o] = closure::eval_ray_portal(*position_given, inputs, at, ins)
+        }
         Op::Holdout => m.closures[o] = closure::eval_holdout(),
         Op::Translucent => m.closures[o] = closure::eval_translucent(ins),
         Op::MixShader => {

@@ -104,15 +104,17 @@ mod voronoi;
 mod wave;
 mod white_noise;
 
-pub use closure::{default_tangent, principled_aspect, Closure, Hair, Toon, VolumeClosure};
+pub use closure::{
+    default_tangent, principled_aspect, Closure, Hair, RayPortal, Toon, VolumeClosure,
+};
 pub use compile::compile;
 pub use inputs::{
     LocalHit, NamedAttributes, ObjectInfo, PointInputs, RayPath, Scattering, SceneRays,
-    ShadingInputs, Tracing, NAMED_ATTRIBUTES, UV_SETS,
+    ShadingInputs, Tracing, NAMED_ATTRIBUTES, OBJECT_ATTRIBUTES, UV_SETS,
 };
 pub use program::{
     CompileWarnings, NodeProgram, MAX_CLOSURES, MAX_REGISTERS, READS_ALL, READS_COLOR,
-    READS_COORDS, READS_OBJECT_NORMAL, READS_TANGENT, READS_TRIANGLE, READS_UV,
+    READS_COORDS, READS_FIBRE, READS_OBJECT_NORMAL, READS_TANGENT, READS_TRIANGLE, READS_UV,
 };
 
 #[cfg(test)]

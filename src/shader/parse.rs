@@ -7,7 +7,7 @@ use super::bump::NormalMapSpace;
 use super::closure::HairColoring;
 use super::color::{blend_mode, MixData};
 use super::gradient::GradientKind;
-use super::inputs::{NAMED_ATTRIBUTES, NO_ATTRIBUTE, UV_SETS};
+use super::inputs::{NAMED_ATTRIBUTES, NO_ATTRIBUTE, OBJECT_ATTRIBUTES, UV_SETS};
 use super::math::{math_op, MapRangeKind};
 use super::program::CompileWarnings;
 use super::program::Op;
@@ -119,12 +119,34 @@ pub(super) fn parse_op(
             uv_set: uv_set(node)?,
         },
         "VertexColor" => Op::VertexColor,
-        "Attribute" => Op::Attribute {
-            // Geometry attributes (Blender's default type) are the ones objects carry.
-            slot: match setting(node, "attribute_type").unwrap_or("GEOMETRY") {
-                "GEOMETRY" => attribute_slot(setting(node, "attribute_name"), names, warnings),
-                _ => NO_ATTRIBUTE,
+        "Attribute" => match setting(node, "attribute_type").unwrap_or("GEOMETRY") {
+            "GEOMETRY" => Op::Attribute {
+                slot: attribute_slot(setting(node, "attribute_name"), names, warnings),
             },
+            // Constant per object or instance: `ObjectInfo::attributes`.
+            "OBJECT" | "INSTANCER" => Op::ObjectAttribute {
+                slot: match node.get("object_slot") {
+                    None => {
+                        return Err("Attribute: an object attribute has no 'object_slot'".into())
+                    }
+                    Some(v) => v
+                        .as_u64()
+                        .filter(|&k| (k as usize) < OBJECT_ATTRIBUTES)
+                        .ok_or_else(|| {
+                            format!(
+                                "Attribute: 'object_slot' {v} is out of range (0 to {})",
+                                OBJECT_ATTRIBUTES - 1
+                            )
+                        })? as u8,
+                },
+            },
+            // Constant over the render.
+            "VIEW_LAYER" => Op::LayerAttribute(
+                node.get("value")
+                    .and_then(const_value)
+                    .ok_or("Attribute: a view layer attribute needs a 'value' (RGBA)")?,
+            ),
+            other => return Err(format!("Attribute: unknown attribute_type '{other}'")),
         },
         "HairInfo" => Op::HairInfo {
             fibre: named_slot(node, "fibre", names, warnings),
@@ -547,6 +569,10 @@ pub(super) fn parse_op(
         "BsdfRefraction" => Op::Refraction,
         "Emission" => Op::Emission,
         "BsdfTransparent" => Op::Transparent,
+        // An unlinked Position is implicit (the add-on writes no value for it).
+        "BsdfRayPortal" => Op::RayPortal {
+            position_given: node.get("inputs").and_then(|i| i.get("Position")).is_some(),
+        },
         "Holdout" => Op::Holdout,
         "BsdfTranslucent" => Op::Translucent,
         "MixShader" => Op::MixShader,

@@ -53,6 +53,13 @@ pub(super) enum Op {
     Attribute {
         slot: u8,
     },
+    /// Attribute of type Object or Instancer: its slot in the object's
+    /// `ObjectInfo::attributes` (the values the add-on found for the object or instance).
+    ObjectAttribute {
+        slot: u8,
+    },
+    /// Attribute of type View Layer: the value the add-on found (one per render).
+    LayerAttribute(Vec4),
     Geometry,
     /// Object Info, with the material's pass index (its Material Index output).
     ObjectInfo {
@@ -215,6 +222,11 @@ pub(super) enum Op {
     Holdout,
     Emission,
     Transparent,
+    /// Ray Portal BSDF; `position_given`: its Position input is linked or set (else the
+    /// shading point).
+    RayPortal {
+        position_given: bool,
+    },
     Translucent,
     MixShader,
     AddShader,
@@ -264,8 +276,15 @@ pub const READS_COORDS: u8 = 8;
 pub const READS_OBJECT_NORMAL: u8 = 16;
 /// The triangle's vertices and the ray's footprint (`ShadingInputs::triangle`, `pixel_width`).
 pub const READS_TRIANGLE: u8 = 32;
-pub const READS_ALL: u8 =
-    READS_UV | READS_COLOR | READS_TANGENT | READS_COORDS | READS_OBJECT_NORMAL | READS_TRIANGLE;
+/// The fibre's direction (`ShadingInputs::fibre`: Hair Info's Tangent Normal).
+pub const READS_FIBRE: u8 = 64;
+pub const READS_ALL: u8 = READS_UV
+    | READS_COLOR
+    | READS_TANGENT
+    | READS_COORDS
+    | READS_OBJECT_NORMAL
+    | READS_TRIANGLE
+    | READS_FIBRE;
 
 /// The `READS_*` bits of what `instrs` read of the shading points (`run`, `load`).
 pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
@@ -295,6 +314,8 @@ pub(super) fn input_reads(instrs: &[Instr]) -> u8 {
                 object_space: true, ..
             } => READS_OBJECT_NORMAL,
             Op::Wireframe { .. } => READS_TRIANGLE,
+            // Output 4 is Tangent Normal.
+            Op::HairInfo { .. } => bit(used & 0b10000 != 0, READS_FIBRE),
             // An unlinked Tangent input (`tangent_input`) reads the Generated coordinates and
             // the object-to-world normal matrix, unless the anisotropy is a constant `run`
             // reads as none.
@@ -342,10 +363,13 @@ pub struct NodeProgram {
     /// BSDF's Alpha): shadow rays must evaluate it to pass.
     pub shadow_transparent: bool,
     /// True when some node gives a lobe that may be a smooth mirror or glass (the Principled,
-    /// Glossy, Metallic, Glass and Refraction BSDFs, the Toon's glossy part): a tree without
+    /// Glossy, Metallic, Glass and Refraction BSDFs, the Toon's glossy part, the Ray Portal
+    /// BSDF, which sends the ray on from elsewhere): a tree without
     /// one never sends a ray on by a delta reflection or refraction (a volume's boundary, a
     /// diffuse or emitting surface).
     pub may_be_smooth: bool,
+    /// True when the tree has a Ray Portal BSDF: camera paths follow it, photons end on it.
+    pub ray_portal: bool,
     /// The Material Output's Displacement as Cycles bumps by it ("Bump Only", and over true
     /// displacement "Displacement and Bump"): a program whose
     /// output is the bumped normal, which the surface tree then reads as the shading normal.
@@ -389,6 +413,7 @@ impl NodeProgram {
                         | Op::UvMap { .. }
                         | Op::VertexColor
                         | Op::Attribute { .. }
+                        | Op::ObjectAttribute { .. }
                         | Op::Geometry
                         | Op::ObjectInfo { .. }
                         | Op::HairInfo { .. }
@@ -396,6 +421,7 @@ impl NodeProgram {
                         | Op::LightPath
                         | Op::AmbientOcclusion(_)
                         | Op::Bevel { .. }
+                        | Op::RayPortal { .. }
                         | Op::Bump { .. }
                         | Op::NormalMap(_)
                         | Op::VectorDisplacement(_)

@@ -22,7 +22,9 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::TexCoord { .. } => (&[], geometry::TEX_COORD_OUTPUTS),
         Op::UvMap { .. } => (&[], geometry::UV_MAP_OUTPUTS),
         Op::VertexColor => (&[], geometry::VERTEX_COLOR_OUTPUTS),
-        Op::Attribute { .. } => (&[], geometry::ATTRIBUTE_OUTPUTS),
+        Op::Attribute { .. } | Op::ObjectAttribute { .. } | Op::LayerAttribute(_) => {
+            (&[], geometry::ATTRIBUTE_OUTPUTS)
+        }
         Op::Geometry => (&[], geometry::GEOMETRY_OUTPUTS),
         Op::ObjectInfo { .. } => (&[], geometry::OBJECT_INFO_OUTPUTS),
         Op::HairInfo { .. } => (&[], geometry::HAIR_INFO_OUTPUTS),
@@ -95,6 +97,7 @@ pub(super) fn spec(op: &Op) -> Spec {
         Op::Glass { .. } | Op::Refraction => (closure::GLASS_INPUTS, closure::GLASS_OUTPUTS),
         Op::Emission => (closure::EMISSION_INPUTS, closure::EMISSION_OUTPUTS),
         Op::Transparent => (closure::TRANSPARENT_INPUTS, closure::TRANSPARENT_OUTPUTS),
+        Op::RayPortal { .. } => (closure::RAY_PORTAL_INPUTS, closure::RAY_PORTAL_OUTPUTS),
         Op::Holdout => (&[], closure::HOLDOUT_OUTPUTS),
         Op::Translucent => (closure::TRANSLUCENT_INPUTS, closure::TRANSLUCENT_OUTPUTS),
         Op::MixShader => (closure::MIX_SHADER_INPUTS, closure::MIX_SHADER_OUTPUTS),

@@ -491,6 +491,7 @@ fn object_info_reads_the_object_and_the_material_index() {
                 color: Vec4::new(0.5, 0.25, 0.125, 0.75),
                 pass_index: 6.0,
                 random: ObjectInfo::random_of(u32::MAX / 4),
+                ..ObjectInfo::default()
             },
             ..ShadingInputs::default()
         };
@@ -505,6 +506,99 @@ fn object_info_reads_the_object_and_the_material_index() {
 }
 
 #[test]
+fn object_instancer_and_view_layer_attributes_read_their_values() {
+    // An Attribute node with `settings`, its output `name` into an Emission's colour.
+    let tree_of = |settings: &Value, name: &str| {
+        let mut node = json!({"name": "A", "type": "ShaderNodeAttribute"});
+        node.as_object_mut()
+            .unwrap()
+            .extend(settings.as_object().unwrap().clone());
+        json!({"nodes": [node,
+            {"name": "E", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"node": 0, "output": name}, "Strength": 1.0}}
+        ], "output": {"node": 1, "output": "Emission"}})
+    };
+    let output = |attribute: Value, name: &str, object: ObjectInfo| {
+        let mut at = ShadingInputs {
+            object,
+            ..ShadingInputs::default()
+        };
+        // A vertex colour the object attributes must not read.
+        at.points[0].color = Vec4::new(0.9, 0.9, 0.9, 0.9);
+        emission_of(tree_of(&attribute, name), &at)
+    };
+    let mut object = ObjectInfo::default();
+    object.attributes[3] = Vec4::new(0.25, 0.5, 0.75, 0.125);
+    let slot3 = json!({"attribute_type": "INSTANCER", "attribute_name": "tint", "object_slot": 3});
+    assert_eq!(
+        output(slot3.clone(), "Color", object),
+        Vec3::new(0.25, 0.5, 0.75)
+    );
+    assert_eq!(
+        output(slot3.clone(), "Vector", object),
+        Vec3::new(0.25, 0.5, 0.75)
+    );
+    // Fac is the average of the colour (Cycles' float4 attribute read as a float).
+    assert_eq!(output(slot3.clone(), "Fac", object), Vec3::splat(0.5));
+    assert_eq!(output(slot3, "Alpha", object), Vec3::splat(0.125));
+    // A slot the object has no value in reads zero, as Cycles' attribute found nowhere.
+    let slot0 = json!({"attribute_type": "OBJECT", "attribute_name": "x", "object_slot": 0});
+    assert_eq!(output(slot0, "Color", object), Vec3::ZERO);
+    let layer = json!({"attribute_type": "VIEW_LAYER", "attribute_name": "y",
+                       "value": [1.0, 0.0, 0.5, 1.0]});
+    assert_eq!(
+        output(layer.clone(), "Color", object),
+        Vec3::new(1.0, 0.0, 0.5)
+    );
+    assert_eq!(output(layer, "Fac", object), Vec3::splat(0.5));
+    // A slot out of range, or none, refuses the tree.
+    for bad in [
+        json!({"attribute_type": "OBJECT", "object_slot": 8}),
+        json!({"attribute_type": "OBJECT"}),
+        json!({"attribute_type": "VIEW_LAYER"}),
+        json!({"attribute_type": "ELSEWHERE"}),
+    ] {
+        assert!(
+            compile(&tree_of(&bad, "Color"), 0, &mut Vec::new()).is_err(),
+            "{bad}"
+        );
+    }
+}
+
+#[test]
+fn ray_portal_sends_the_ray_from_its_position_along_its_direction() {
+    let portal = |inputs: Value| {
+        let tree = json!({"nodes": [
+            {"name": "G", "type": "ShaderNodeNewGeometry"},
+            {"name": "M", "type": "ShaderNodeVectorMath", "operation": "ADD",
+             "inputs": {"Vector": {"node": 0, "output": "Position"},
+                        "Vector_001": [5.0, 0.0, 0.0]}},
+            {"name": "P", "type": "ShaderNodeBsdfRayPortal", "inputs": inputs},
+        ], "output": {"node": 2, "output": "BSDF"}});
+        let program = compile(&tree, 0, &mut Vec::new()).expect("compiles");
+        assert!(program.ray_portal && !program.shadow_transparent);
+        let at = ShadingInputs {
+            incoming: Vec3::new(0.0, 0.6, 0.8),
+            ..at_positions([Vec3::new(1.0, 2.0, 0.0); 3], Vec3::Z)
+        };
+        program.eval(&at, &[], 0.5)
+    };
+    // Unlinked: on from the point itself, straight on (against the incoming direction).
+    let straight = portal(json!({"Color": [0.5, 0.25, 1.0, 1.0]}));
+    let p = straight.portal.expect("a portal");
+    assert_eq!(p.position, Vec3::new(1.0, 2.0, 0.0));
+    assert_eq!(p.direction, Vec3::new(0.0, -0.6, -0.8));
+    assert_eq!(straight.base_color, Vec3::new(0.5, 0.25, 1.0));
+    // Position linked (the point moved along x), Direction set.
+    let moved = portal(json!({"Position": {"node": 1, "output": "Vector"},
+                              "Direction": [0.0, 0.0, -1.0]}));
+    let p = moved.portal.expect("a portal");
+    assert_eq!(p.position, Vec3::new(6.0, 2.0, 0.0));
+    assert_eq!(p.direction, -Vec3::Z);
+    assert_eq!(moved.base_color, Vec3::ONE);
+}
+
+#[test]
 fn hair_info_reads_the_tube_attributes_and_zero_off_hair() {
     let output = |name: &str, attributes: NamedAttributes| {
         let tree = json!({"nodes": [
@@ -515,6 +609,9 @@ fn hair_info_reads_the_tube_attributes_and_zero_off_hair() {
         ], "output": {"node": 1, "output": "Emission"}});
         let at = ShadingInputs {
             attributes,
+            // The viewer up and ahead of a fibre along x.
+            incoming: Vec3::new(0.6, 0.0, 0.8),
+            fibre: Vec3::X,
             ..ShadingInputs::default()
         };
         emission_of(tree, &at)
@@ -533,7 +630,16 @@ fn hair_info_reads_the_tube_attributes_and_zero_off_hair() {
     assert_eq!(output("Thickness", hair), Vec3::splat(0.02));
     let random = super::hash::unit(super::hash::hash2(7, 0));
     assert_eq!(output("Random", hair), Vec3::splat(random));
-    for name in ["Is Strand", "Intercept", "Length", "Thickness", "Random"] {
+    // Tangent Normal: the view made perpendicular to the fibre.
+    assert_eq!(output("Tangent Normal", hair), Vec3::Z);
+    for name in [
+        "Is Strand",
+        "Intercept",
+        "Length",
+        "Thickness",
+        "Tangent Normal",
+        "Random",
+    ] {
         assert_eq!(
             output(name, NamedAttributes::default()),
             Vec3::ZERO,

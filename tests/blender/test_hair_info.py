@@ -13,8 +13,8 @@ which strand is in front matters little. The image is the node's values themselv
 - Random through a Color Ramp (Cycles' hash of each curve's index);
 - Length and Thickness (strands of random lengths and radii) as the colour's red and green,
   Is Strand as its blue (the quad behind: black).
-- Random on the strands of two hair particle systems of one emitter (numbered over both).
-Tangent Normal is named by the pre-flight report.
+- Random on the strands of two hair particle systems of one emitter (numbered over both);
+- Tangent Normal (the direction to the viewer made perpendicular to the strand) as a colour.
 """
 
 import random
@@ -147,13 +147,23 @@ def test_length_thickness_and_is_strand(tmp_path):
     matches_cycles("hair length", tmp_path)
 
 
-def test_tangent_normal_is_named_by_the_preflight_report():
+def test_tangent_normal_against_cycles(tmp_path):
+    """Tangent Normal (the view made perpendicular to the fibre) as a colour, 0.5 + v/2, on
+    the curtain and on the quad behind it (no hair: zero, grey)."""
     from blender_addon import preflight
     mat, tree = node_material("Tangent normal")
     info = tree.nodes.new("ShaderNodeHairInfo")
-    emission(tree, info.outputs["Tangent Normal"])
-    messages = preflight.material_features(mat)
-    assert any("Tangent Normal" in m for m in messages), messages
+    mapped = tree.nodes.new("ShaderNodeVectorMath")
+    mapped.operation = "MULTIPLY_ADD"
+    mapped.inputs[1].default_value = (0.5, 0.5, 0.5)
+    mapped.inputs[2].default_value = (0.5, 0.5, 0.5)
+    tree.links.new(info.outputs["Tangent Normal"], mapped.inputs[0])
+    emission(tree, mapped.outputs["Vector"])
+    assert preflight.material_features(mat) == []
+    curtain(mat, lengths=(0.6, 1.9))
+    backdrop(mat)
+    front_camera()
+    matches_cycles("hair tangent normal", tmp_path)
 
 
 def test_random_on_particle_hair_of_two_systems(tmp_path):

@@ -43,15 +43,20 @@ def _addon(photon_addon, binary_env):
     return photon_addon
 
 
-def node_material(name):
-    """A fresh scene (black world) and a node material without its Principled BSDF."""
-    common.reset_scene(SIZE, SIZE)
+def bare_material(name):
+    """A node material without its Principled BSDF (its Material Output alone)."""
     mat = bpy.data.materials.new(name)
     if bpy.app.version < (5, 0, 0):
         mat.use_nodes = True
     nodes = mat.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
     return mat, mat.node_tree
+
+
+def node_material(name):
+    """A fresh scene (black world) and a node material without its Principled BSDF."""
+    common.reset_scene(SIZE, SIZE)
+    return bare_material(name)
 
 
 def emission_into_output(tree, socket, strength=1.0):

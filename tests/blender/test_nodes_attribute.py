@@ -7,8 +7,8 @@ Store Named Attribute writes a float on the points (linear in the position, so a
 triangulation interpolates it alike), a colour on the faces and a float on the face corners;
 the material reads them by name (Fac through a Color Ramp, times the colour, the corners'
 float as the strength). Mean within 1 % of Cycles', relMSE over 4x4-pixel blocks <= 1e-3.
-Attribute nodes of the other types (Object, Instancer, View Layer) are named by the pre-flight
-report.
+Attribute nodes of the other types (Object, Instancer, View Layer):
+test_nodes_object_attributes.py.
 """
 
 import bpy
@@ -110,17 +110,3 @@ def test_named_attributes_of_geometry_nodes_into_emission(tmp_path):
     attributed_grid(mat)
     top_camera()
     matches_cycles("named attributes", bpy.context.scene, tmp_path)
-
-
-@pytest.mark.parametrize("kind", ["INSTANCER", "OBJECT", "VIEW_LAYER"])
-def test_attributes_photon_does_not_read_are_named_by_the_preflight_report(kind):
-    from blender_addon import preflight
-    mat, tree = node_material(f"Attribute {kind}")
-    attribute = tree.nodes.new("ShaderNodeAttribute")
-    attribute.attribute_type = kind
-    attribute.attribute_name = "tint"
-    emission = tree.nodes.new("ShaderNodeEmission")
-    tree.links.new(attribute.outputs["Color"], emission.inputs["Color"])
-    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
-    messages = preflight.material_features(mat)
-    assert any("Attribute node" in m and "Photon does not read" in m for m in messages), messages

@@ -2,7 +2,7 @@
 //! Checker on Generated coordinates wired into an Emission shader renders the checker's colours
 //! cell by cell; COLOR_0 multiplies a plain material's base colour; an invalid tree is refused
 //! with exit code 2 and a message naming the material; `photon info` lists the nodes Photon
-//! does not evaluate.
+//! does not evaluate; a Ray Portal BSDF sends camera rays on along its Direction.
 
 use crate::support::binary;
 use binary::*;
@@ -273,4 +273,33 @@ fn what_the_add_on_could_not_describe_is_listed_by_info_and_not_repeated_by_rend
     let result = render(&scene, &out, 8);
     assert_success(&result);
     assert!(!String::from_utf8_lossy(&result.stderr).contains("Gabor"));
+}
+
+#[test]
+fn a_ray_portal_sends_camera_rays_on_along_its_direction_tinted_by_its_colour() {
+    let dir = temp_dir("portal");
+    let portal = json!({
+        "name": "Portal",
+        "extensions": {"PHOTON_material_nodes": {
+            "nodes": [{"name": "Portal", "type": "ShaderNodeBsdfRayPortal",
+                       "inputs": {"Color": [0.5, 1.0, 0.25, 1.0], "Direction": [0.0, 0.0, 1.0]}}],
+            "output": {"node": 0, "output": "BSDF"}
+        }}
+    });
+    // Turned up (Blender +Z), the camera rays leave the scene and, still camera rays, see the
+    // world's camera background (`camera`), not its light (`color`).
+    let mut doc: Value = serde_json::from_str(&plane_gltf(portal, None)).unwrap();
+    doc["extensionsUsed"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!("PHOTON_world"));
+    doc["scenes"][0]["extensions"] = json!({"PHOTON_world": {
+        "color": [1.0, 1.0, 1.0], "camera": {"color": [0.2, 0.4, 0.8]}}});
+    let scene = dir.join("portal.gltf");
+    std::fs::write(&scene, doc.to_string()).unwrap();
+    let out = dir.join("portal.exr");
+    assert_success(&render(&scene, &out, 8));
+    let (w, _, pixels) = photon::image_io::read_exr_rgba(&out).unwrap();
+    let got = pixel(&pixels, w as usize, 4, 4);
+    assert!(close(got, [0.1, 0.4, 0.2], 1e-4), "{got:?}");
 }

@@ -1,5 +1,6 @@
 //! What node trees read of objects and meshes beyond their geometry: `PHOTON_object`'s "info"
-//! (Object Info: location, colour, pass index, random id) on flattened meshes and on instances,
+//! (Object Info: location, colour, pass index, random id; the Object and Instancer attributes'
+//! values) on flattened meshes and on instances,
 //! and the named vertex attributes (`_NAME`) a material's Attribute nodes read, per slot.
 
 use crate::support::gltf;
@@ -90,4 +91,33 @@ fn object_attributes_a_bad_random_id_is_refused_naming_the_field() {
         .expect_err("refused")
         .to_string();
     assert!(message.contains("random_id"), "{message}");
+}
+
+#[test]
+fn object_attributes_per_object_values_reach_each_instance_and_a_bad_one_is_refused() {
+    let with = |attributes: Value, x: f32| {
+        json!({"mesh": 0, "translation": [x, 0.0, 0.0],
+               "extensions": {"PHOTON_object": {"info": {"attributes": attributes}}}})
+    };
+    let placed = load(&triangle_glb(&[
+        with(json!([[0.5, 0.25, 1.0, 1.0]]), 0.0),
+        with(json!([[0.0, 0.0, 0.0, 0.0], [2.0, 3.0, 4.0, 1.0]]), 3.0),
+    ]))
+    .expect("loads");
+    let values: Vec<[Vec4; 2]> = placed
+        .instances
+        .iter()
+        .map(|i| [i.object_info.attributes[0], i.object_info.attributes[1]])
+        .collect();
+    assert_eq!(
+        values,
+        [
+            [Vec4::new(0.5, 0.25, 1.0, 1.0), Vec4::ZERO],
+            [Vec4::ZERO, Vec4::new(2.0, 3.0, 4.0, 1.0)]
+        ]
+    );
+    let message = load(&triangle_glb(&[with(json!([[1.0, "red", 0.0, 1.0]]), 0.0)]))
+        .expect_err("refused")
+        .to_string();
+    assert!(message.contains("attributes"), "{message}");
 }

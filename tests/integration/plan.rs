@@ -42,6 +42,25 @@ fn a_caustic_seen_through_a_glass_slab_counts_and_one_behind_a_ball_does_not() {
 }
 
 #[test]
+fn a_ray_portal_makes_auto_take_the_path_tracer() {
+    // The Cornell box goes to photons (above); with a Ray Portal BSDF on one of its
+    // materials, which photons do not follow, to the path tracer.
+    let mut box_scene = scene("cornell_box.glb");
+    let tree = serde_json::json!({"nodes": [
+        {"name": "Portal", "type": "ShaderNodeBsdfRayPortal", "inputs": {}}
+    ], "output": {"node": 0, "output": "BSDF"}});
+    let program = photon::shader::compile(&tree, 0, &mut Vec::new()).expect("compiles");
+    box_scene.materials[0].nodes = Some(std::sync::Arc::new(program));
+    let p = plan(&box_scene, Quality::Default);
+    assert_eq!(p.method, Method::Path, "{}", p.method_reason);
+    assert!(
+        p.method_reason.contains("Ray Portal"),
+        "{}",
+        p.method_reason
+    );
+}
+
+#[test]
 fn glass_caustic_needs_a_caustic_map_and_auto_uses_photons() {
     let p = plan(&scene("glass_caustic.glb"), Quality::Default);
     assert!(p.caustic_map.needed, "{}", p.caustic_map.reason);

@@ -791,6 +791,10 @@ fn walk_photon(
         power *= through;
         throughput *= through;
         let s = Shading::new(ctx, &ray, &hit, false);
+        // A Ray Portal BSDF: only camera paths follow it (the planner takes the path tracer).
+        if s.surface.portal.is_some() {
+            return;
+        }
         let storing = stores_photons(&s.bsdf);
         // Inside a medium of index η a photon stands for 1/η² of its flux (`adjoint_scale`).
         let mut stored = if ior == 1.0 {

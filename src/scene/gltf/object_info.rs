@@ -1,12 +1,15 @@
 //! `PHOTON_object`'s "info": what Blender's Object Info node reads of an object or instance
-//! (its location, colour, pass index and random id), into `shader::ObjectInfo`.
+//! (its location, colour, pass index and random id) and the values of the Object and Instancer
+//! attributes node trees read (as Cycles' `sync_object_attributes` finds them), into
+//! `shader::ObjectInfo`.
 
 use crate::math::{Vec3, Vec4};
-use crate::shader::ObjectInfo;
+use crate::shader::{ObjectInfo, OBJECT_ATTRIBUTES};
 use serde_json::Value;
 
 /// The object info in `value` (`{"location": [x, y, z], "color": [r, g, b, a], "pass_index":
-/// n, "random_id": u32}`, each field optional); an error names the field.
+/// n, "random_id": u32, "attributes": [[r, g, b, a], …]}`, each field optional); an error
+/// names the field.
 pub(super) fn read(value: &Value) -> Result<ObjectInfo, String> {
     let fail = |key: &str, v: &Value| format!("'info' '{key}' is out of range: {v}");
     let Some(object) = value.as_object() else {
@@ -45,6 +48,26 @@ pub(super) fn read(value: &Value) -> Result<ObjectInfo, String> {
             .ok_or_else(|| fail("random_id", v))?;
         info.random = ObjectInfo::random_of(id);
     }
+    if let Some(v) = object.get("attributes") {
+        let list = v
+            .as_array()
+            .filter(|a| a.len() <= OBJECT_ATTRIBUTES)
+            .ok_or_else(|| {
+                format!("'info' 'attributes' must be a list of at most {OBJECT_ATTRIBUTES} RGBA values, found {v}")
+            })?;
+        for (slot, value) in list.iter().enumerate() {
+            let rgba: Option<Vec<f32>> = value
+                .as_array()
+                .filter(|a| a.len() == 4)
+                .and_then(|a| a.iter().map(|x| x.as_f64().map(|x| x as f32)).collect());
+            match rgba {
+                Some(c) if c.iter().all(|x| x.is_finite()) => {
+                    info.attributes[slot] = Vec4::new(c[0], c[1], c[2], c[3])
+                }
+                _ => return Err(fail("attributes", value)),
+            }
+        }
+    }
     Ok(info)
 }
 
@@ -57,14 +80,24 @@ mod tests {
         let value = serde_json::json!({
             "location": [1.0, 2.0, 3.0], "color": [0.5, 0.25, 1.0, 0.75],
             "pass_index": 7, "random_id": 4294967295u32,
+            "attributes": [[0.0, 0.0, 0.0, 0.0], [0.5, 1.0, 2.0, 1.0]],
         });
         let info = read(&value).unwrap();
         assert_eq!(info.location, Vec3::new(1.0, 2.0, 3.0));
         assert_eq!(info.color, Vec4::new(0.5, 0.25, 1.0, 0.75));
         assert_eq!(info.pass_index, 7.0);
         assert_eq!(info.random, 1.0);
+        assert_eq!(info.attributes[1], Vec4::new(0.5, 1.0, 2.0, 1.0));
+        assert_eq!(info.attributes[2], Vec4::ZERO);
         assert_eq!(read(&serde_json::json!({})).unwrap(), ObjectInfo::default());
         let bad = read(&serde_json::json!({"random_id": -1})).unwrap_err();
         assert!(bad.contains("random_id"), "{bad}");
+        for bad in [
+            serde_json::json!({"attributes": [[1.0, 2.0, 3.0]]}),
+            serde_json::json!({"attributes": vec![[0.0f32; 4]; 9]}),
+        ] {
+            let message = read(&bad).unwrap_err();
+            assert!(message.contains("attributes"), "{message}");
+        }
     }
 }
