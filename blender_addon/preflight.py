@@ -35,9 +35,8 @@ empty list, so the rules below only flag what really changes the image:
   'indirect only' collections;
 - shadow linking with photon mapping (photons ignore it), past 63 linking collections;
 - shadow catchers without a transparent film;
-- render settings: Filter Glossy, with the photon method, on the specular surfaces caustic
-  photons pass, Clamp
-  Indirect with the photon method (its global-map and cache estimates are clamped whole);
+- render settings: Clamp Indirect with the photon method (its global-map and cache estimates
+  are clamped whole);
 - cameras: Cycles' custom (OSL) camera, depth of field with a panorama, a depth-of-field focus
   on a bone; with motion blur on, deforming objects other than meshes (armatures,
   animated shape keys of curves, surfaces, text: meshes' deformation is blurred).
@@ -133,11 +132,6 @@ def light_path_features(scene) -> list[str]:
         return []
     messages = []
     method = getattr(getattr(scene, "photon", None), "method", "")
-    if float(getattr(cycles, "blur_glossy", 0.0)) > 0.0:
-        if method == "PHOTON":
-            messages.append("render settings: with the photon method, Filter Glossy does not "
-                            "widen the mirror-like surfaces caustic photons pass (their "
-                            "caustics stay sharp; the path tracer widens them as Cycles)")
     if method == "PHOTON" and float(getattr(cycles, "sample_clamp_indirect", 0.0)) > 0.0:
         messages.append("render settings: with the photon method, Clamp Indirect holds each "
                         "global photon-map and cache estimate as one contribution (caustic "

@@ -30,23 +30,23 @@
 use super::guide::{EmissionGuide, ReadRegion};
 use super::volume_emitters::{volume_emitters, VolumeEmitter};
 use crate::accel::{Ray, Visibility, FRAME_TIME};
-use crate::bsdf::BsdfSample;
+use crate::bsdf::{BsdfSample, PathFilter};
 use crate::error::{Error, Result};
 use crate::integrator::classify::{is_specular, stores_photons};
 use crate::integrator::media::MediumStack;
-use crate::integrator::shading::{transmittance, LightPathFilter, Shading};
+use crate::integrator::shading::{transmittance, LightPathFilter, PathHistory, Shading};
 use crate::integrator::walk::Clamp;
 use crate::integrator::Context;
-use crate::interaction::{offset_origin, LightPoint};
-use crate::light::{smoothstep, spread_factor, EmitterSample, LightSource};
+use crate::interaction::{offset_origin, LightPoint, SurfaceHit};
+use crate::light::{smoothstep, spread_factor, EmitterSample, LightSource, Receiver};
 use crate::math::{luminance, max_component, Frame, Vec2, Vec3};
-use crate::medium::{fly, Flight};
+use crate::medium::{fly, transmittance as medium_transmittance, Flight};
 use crate::photon_map::Photon;
 use crate::progress::{Progress, ProgressEvent};
 use crate::rng::{Rng, Sampler};
 use crate::sampling::{
-    square_to_cosine_hemisphere, square_to_disk, square_to_uniform_cone, square_to_uniform_sphere,
-    uniform_cone_pdf, Distribution1D,
+    power_heuristic, square_to_cosine_hemisphere, square_to_disk, square_to_uniform_cone,
+    square_to_uniform_sphere, uniform_cone_pdf, Distribution1D,
 };
 use crate::scene::{instance_bounds, Bounds, Scene};
 use crate::subsurface::Sample;
@@ -713,6 +713,14 @@ fn walk_photon(
     // diffuse bounce).
     let dropped = LightPathFilter::of(ctx.scene).after_diffuse();
     let mut arrived_by_dropped = false;
+    // Blender's Filter Glossy: every surface a photon scatters from is met by the camera paths
+    // that read it after a diffuse bounce at least (the surface where it is read), so the photon
+    // scatters by the lobes as those paths see them, blurred (`blurred_by_filter_glossy`).
+    let blur = blurred_by_filter_glossy(ctx.scene);
+    // The densities with which a camera path at the photon's first surface draws the direction
+    // to the photon's light, by its BSDF and by its light sample, when that surface scattered
+    // it by a lobe a light sample also reaches (`caustic_clamp`).
+    let mut first_vertex_pdfs = None;
     for bounce in 0..=max_bounces {
         let hit = ctx.accel.intersect(ctx.scene, &ray, Visibility::Secondary);
         if !media.is_vacuum(ctx.scene) {
@@ -804,7 +812,7 @@ fn walk_photon(
         };
         let caustic = surface_bounces > 0 && specular_path;
         if storing && caustic && clamp.is_on() && !lit_by_medium {
-            stored *= caustic_clamp(clamp, &s, throughput, emitted.radiance);
+            stored *= caustic_clamp(clamp, &s, throughput, emitted.radiance, first_vertex_pdfs);
         }
         if storing && !arrived_by_dropped && !store(&s, stored, bounce, caustic) {
             return;
@@ -812,9 +820,16 @@ fn walk_photon(
         if bounce == max_bounces {
             return;
         }
+        let mut s = s;
+        if !blur.is_none() {
+            s.bsdf = s.bsdf.filtered(blur);
+        }
         let Some((bs, wi)) = scatter_photon(&s, rng) else {
             return;
         };
+        if !scattered && !bs.delta && bs.scattering != crate::bsdf::Scattering::Transparent {
+            first_vertex_pdfs = light_sample_pdfs(ctx, &s, &bs, &ray, &media, rng);
+        }
         if arrived_by_dropped && bs.scattering == crate::bsdf::Scattering::Diffuse {
             return;
         }
@@ -1028,7 +1043,22 @@ pub fn trace_photons<T: Send + Clone>(
 /// is the photon's times the share this returns, so the caustic estimate keeps what Cycles'
 /// clamped caustic keeps on average (nothing of a sun's or a small lamp's caustic at the
 /// default limit, 10). `radiance` `None` (an emitting medium): no clamp.
-fn caustic_clamp(clamp: Clamp, s: &Shading, throughput: Vec3, radiance: Option<Vec3>) -> f32 {
+///
+/// Where the photon's first surface scattered it by a lobe that is not a delta (rough glass,
+/// or smooth glass as Filter Glossy blurs it), the camera path also finds the light by its
+/// light sample there, and Cycles clamps each of the two contributions apart, each weighted by
+/// the power heuristic: `first_vertex_pdfs`, the BSDF's and the light sample's densities of
+/// the direction to the light there, give each strategy its share of the path and the
+/// contribution it would have made (the BSDF's: the path's, × its weight; the light sample's:
+/// the path's × p_bsdf / p_light × its shadow ray's transmittance, × its weight: a camera path
+/// through scattering media without scattering carries no transmittance, a shadow ray does).
+fn caustic_clamp(
+    clamp: Clamp,
+    s: &Shading,
+    throughput: Vec3,
+    radiance: Option<Vec3>,
+    first_vertex_pdfs: Option<(f32, f32, Vec3)>,
+) -> f32 {
     let Some(radiance) = radiance else {
         return 1.0;
     };
@@ -1044,7 +1074,83 @@ fn caustic_clamp(clamp: Clamp, s: &Shading, throughput: Vec3, radiance: Option<V
     if !(sum > 0.0) {
         return 1.0;
     }
-    clamp.apply(contribution, false).abs().element_sum() / sum
+    let kept = |c: Vec3| {
+        let sum = c.abs().element_sum();
+        if sum > 0.0 {
+            clamp.apply(c, false).abs().element_sum() / sum
+        } else {
+            1.0
+        }
+    };
+    match first_vertex_pdfs {
+        Some((p_bsdf, p_light, through)) if p_light > 0.0 && p_bsdf > 0.0 => {
+            let w_bsdf = power_heuristic(p_bsdf, p_light);
+            let w_light = 1.0 - w_bsdf;
+            w_bsdf * kept(contribution * w_bsdf)
+                + w_light * kept(contribution * through * (w_light * p_bsdf / p_light))
+        }
+        _ => kept(contribution),
+    }
+}
+
+/// The filter Blender's Filter Glossy applies to the surfaces a photon scatters from: the blur
+/// of a camera path after a diffuse bounce of the largest density a cosine-distributed
+/// direction has (`PathHistory::GATHER`); the caustics switches are left to the walk.
+fn blurred_by_filter_glossy(scene: &Scene) -> PathFilter {
+    PathFilter {
+        drop_reflection: false,
+        drop_refraction: false,
+        min_alpha: LightPathFilter::of(scene).at(PathHistory::GATHER).min_alpha,
+    }
+}
+
+/// At the first surface `s` a photon met straight from its light, along `ray`, and scattered by
+/// the sample `bs`: the densities (solid angle) with which a camera path arriving along the
+/// photon's new direction draws the direction back to the light, by `s`'s BSDF and by a light
+/// sample, and the transmittance of the `media` the light sample's shadow ray crosses (an
+/// estimate); `None` where no light sample finds that light that way (light linking aside).
+fn light_sample_pdfs(
+    ctx: &Context,
+    s: &Shading,
+    bs: &BsdfSample,
+    ray: &Ray,
+    media: &MediumStack,
+    rng: &mut Rng,
+) -> Option<(f32, f32, Vec3)> {
+    let p_bsdf = s.bsdf.viewed_from(bs.wi).pdf(s.wo_local);
+    if !(p_bsdf > 0.0) {
+        return None;
+    }
+    let from = Receiver::at(s.sh.p);
+    let back = s.sh.spawn(-ray.direction.normalize());
+    let hit = ctx.accel.intersect(ctx.scene, &back, Visibility::Secondary);
+    let mut p_light = 0.0;
+    let reach = hit.map_or(f32::INFINITY, |h| h.t * back.direction.length());
+    ctx.lights
+        .lamps_met(&back, from, reach, false, |l, pdf, _| {
+            if l != Vec3::ZERO {
+                p_light += pdf;
+            }
+        });
+    match hit {
+        Some(h) => {
+            let sh = SurfaceHit::new(ctx.scene, &back, &h);
+            p_light += ctx.lights.triangle_pdf(ctx.scene, from, &sh);
+        }
+        None => ctx.lights.escaped(from, back.direction, false, |l, pdf| {
+            if l != Vec3::ZERO {
+                p_light += pdf;
+            }
+        }),
+    }
+    if !(p_light > 0.0) {
+        return None;
+    }
+    let through = match media.is_vacuum(ctx.scene) {
+        true => Vec3::ONE,
+        false => medium_transmittance(&media.media(ctx), back.origin, back.direction, reach, rng),
+    };
+    Some((p_bsdf, p_light, through))
 }
 
 /// The radiance a ray meets on a point or spot lamp of `intensity` and `radius` (a sphere of
