@@ -283,14 +283,14 @@ impl Compressed {
 
     /// Decode `data` (exactly the compressed bytes) into `count` elements of `stride` bytes.
     fn decode(&self, data: &[u8]) -> std::result::Result<Vec<u8>, String> {
+        let size = self.count * self.stride;
+        if self.count == 0 {
+            return Ok(Vec::new());
+        }
         if self.mode == Mode::Attributes {
             self.check_attribute_stream(data)?;
         }
-        let size = self.count * self.stride;
         let mut out = vec![0u8; size];
-        if self.count == 0 {
-            return Ok(out);
-        }
         // SAFETY: `out` holds `count` elements of `stride` bytes, the sizes the decoders write;
         // `check` has enforced every precondition the decoders assert (stride a multiple of 4
         // up to 256 for attributes, 2 or 4 for indices, a count divisible by 3 for triangles,
@@ -356,9 +356,9 @@ impl Compressed {
 
 /// Which of the two extensions a buffer or a buffer view carries (`values`: its EXT and KHR
 /// objects), if any; both is an error.
-fn extension_of<'a>(
-    values: [Option<&'a Value>; 2],
-) -> std::result::Result<Option<(Extension, &'a Value)>, String> {
+fn extension_of(
+    values: [Option<&Value>; 2],
+) -> std::result::Result<Option<(Extension, &Value)>, String> {
     match values {
         [Some(_), Some(_)] => Err(
             "has both EXT_meshopt_compression and KHR_meshopt_compression, which \
