@@ -472,10 +472,20 @@ fn load(bytes: &[u8]) -> Scene {
 
 #[test]
 fn gltf_compression_meshopt_without_filters_renders_bit_for_bit_as_uncompressed() {
-    let reference = render(&load(&scene_file(PLAIN, false, Extensions::Ext)));
+    let plain = scene_file(PLAIN, false, Extensions::Ext);
+    let reference = render(&load(&plain));
+    println!("uncompressed file: {} bytes", plain.len());
     for extensions in [Extensions::Ext, Extensions::Khr, Extensions::Both] {
         for tag_fallback in [false, true] {
             let file = scene_file(LOSSLESS, tag_fallback, extensions);
+            if !tag_fallback {
+                println!(
+                    "without filters (KHR: {}, EXT: {}): {} bytes",
+                    extensions != Extensions::Ext,
+                    extensions != Extensions::Khr,
+                    file.len()
+                );
+            }
             let image = render(&load(&file));
             assert!(
                 image == reference,
@@ -500,11 +510,15 @@ fn gltf_compression_meshopt_filters_render_within_their_quantization() {
         (EXT, FILTERED, Extensions::Ext),
         (KHR, FILTERED_KHR, Extensions::Khr),
     ] {
-        let image = render(&load(&scene_file(stores, true, extensions)));
+        let file = scene_file(stores, true, extensions);
+        let image = render(&load(&file));
         let error = metrics::compare(&image, &reference);
         println!(
-            "{name} filtered: relMSE {:.2e}, mean {:+.2e} (reference mean {:.3})",
-            error.rel_mse, error.mean_relative_difference, error.mean_reference
+            "{name} filtered ({} bytes): relMSE {:.2e}, mean {:+.2e} (reference mean {:.3})",
+            file.len(),
+            error.rel_mse,
+            error.mean_relative_difference,
+            error.mean_reference
         );
         assert!(
             error.rel_mse < 2e-3 && error.mean_relative_difference.abs() < 2e-3,
