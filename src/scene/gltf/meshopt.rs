@@ -4,15 +4,15 @@
 //! extensions' own (their bitstream appendices, after Kapoulkine's meshoptimizer; no paper),
 //! decoded by the `meshopt` crate: the three modes (ATTRIBUTES, TRIANGLES, INDICES) and the
 //! filters (OCTAHEDRAL, QUATERNION, EXPONENTIAL, and KHR's COLOR). The Khronos extension
-//! (Kapoulkine, St. Pierre, Knyazev & McCurdy, release candidate) differs from the EXT one in
-//! three ways, each checked here: its attribute streams may be version 1 (header 0xa1, control
-//! and channel modes; EXT allows only version 0, 0xa0), it has the COLOR filter, and a view or a
-//! buffer may carry only one of the two extensions (a file may use both on different views).
-//! Every rule the extensions set on stride, count, filter, fallback buffers and the stream's
-//! version and channel modes is checked before the decoder runs (the decoder asserts some and
-//! silently accepts others), and the decoded size is bounded before anything is allocated: by
-//! the compressed bytes (no codec expands a byte into more than `MAX_EXPANSION`) and by
-//! `MAX_DECODED_BYTES` for the whole file.
+//! (Kapoulkine, St. Pierre, Knyazev & McCurdy, 2025) differs from the EXT one in three ways,
+//! each checked here: its attribute streams may be version 1 (header 0xa1, control and channel
+//! modes; EXT allows only version 0, 0xa0), it has the COLOR filter, and a view or a buffer may
+//! carry only one of the two extensions (a file may use both on different views). Every rule
+//! the extensions set on stride, count, filter, fallback buffers and the stream's version and
+//! channel modes is checked before the decoder runs (the decoder asserts some and silently
+//! accepts others), the COLOR filter's bit counts before the filter runs, and the decoded size
+//! is bounded before anything is allocated: by the compressed bytes (no codec expands a byte
+//! into more than `MAX_EXPANSION`) and by `MAX_DECODED_BYTES` for the whole file.
 
 use super::container::{named, Loader};
 use crate::error::Result;
