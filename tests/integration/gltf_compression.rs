@@ -1,8 +1,11 @@
-//! Compressed glTF data: `EXT_meshopt_compression` files written here with meshoptimizer's
-//! encoders (the `meshopt` crate; gltfpack lays its files out the same way: the compressed bytes in
-//! the binary chunk, the decoded views in a placeholder buffer with no bytes) load to the same
-//! scene as the uncompressed file and render the same image: bit for bit without filters, within
-//! the filters' quantization with them. `KHR_texture_basisu` textures (KTX2 files in
+//! Compressed glTF data: `EXT_meshopt_compression` and `KHR_meshopt_compression` files written
+//! here with meshoptimizer's encoders (the `meshopt` crate; gltfpack lays its files out the same
+//! way: the compressed bytes in the binary chunk, the decoded views in a placeholder buffer with no
+//! bytes; version 0 attribute streams for EXT, version 1 for KHR) load to the same scene as the
+//! uncompressed file and render the same image: bit for bit without filters, within the filters'
+//! quantization with them. Files breaking the KHR extension's rules (a view or buffer with both
+//! extensions, version 1 streams or the COLOR filter under EXT, fallback buffers read) are
+//! refused. `KHR_texture_basisu` textures (KTX2 files in
 //! `tests/data/ktx2`) render as the PNG they were encoded from. Damaged or oversized compressed
 //! data is a scene error (exit code 2), never a panic.
 
@@ -36,6 +39,34 @@ enum Store {
     Octahedral,
     /// ATTRIBUTES with the QUATERNION filter (rotations as four normalized signed shorts).
     Quaternion,
+    /// ATTRIBUTES with the COLOR filter (`KHR_meshopt_compression` only: RGBA as four
+    /// normalized unsigned bytes, 8-bit YCoCg).
+    Color,
+}
+
+const EXT: &str = "EXT_meshopt_compression";
+const KHR: &str = "KHR_meshopt_compression";
+
+/// Which extension compresses each buffer view of a test file.
+#[derive(Clone, Copy, PartialEq)]
+enum Extensions {
+    /// `EXT_meshopt_compression`, version 0 attribute streams.
+    Ext,
+    /// `KHR_meshopt_compression`, version 1 attribute streams.
+    Khr,
+    /// KHR on the even views, EXT on the odd ones, each with its own placeholder buffer.
+    Both,
+}
+
+impl Extensions {
+    fn of_view(self, view: usize) -> &'static str {
+        match self {
+            Extensions::Ext => EXT,
+            Extensions::Khr => KHR,
+            Extensions::Both if view.is_multiple_of(2) => KHR,
+            Extensions::Both => EXT,
+        }
+    }
 }
 
 /// One buffer view of the test file: the values it holds, as floats or indices.
@@ -78,6 +109,12 @@ impl View {
                 let bytes = encoded.iter().flatten().flat_map(|v| v.to_le_bytes());
                 (bytes.collect(), 12)
             }
+            (Data::Floats { values, .. }, Store::Color) => {
+                let rows: Vec<[f32; 4]> =
+                    values.chunks(4).map(|v| [v[0], v[1], v[2], v[3]]).collect();
+                let encoded = ::meshopt::encode_filter_color::<u8>(&rows, 8);
+                (encoded.iter().flatten().copied().collect(), 4)
+            }
             (Data::Floats { values, width }, _) => {
                 let bytes = values.iter().flat_map(|v| v.to_le_bytes()).collect();
                 (bytes, 4 * width)
@@ -87,15 +124,27 @@ impl View {
         }
     }
 
-    /// The extension's compressed bytes, mode and filter for the decoded `bytes`.
-    fn compress(&self, bytes: &[u8], stride: usize) -> Option<(Vec<u8>, &'static str, &str)> {
+    /// The extension's compressed bytes, mode and filter for the decoded `bytes`: attribute
+    /// streams of `version` 0 (EXT) or 1 (KHR, at the encoder's highest level, which tries
+    /// every channel mode).
+    fn compress(
+        &self,
+        bytes: &[u8],
+        stride: usize,
+        version: i32,
+    ) -> Option<(Vec<u8>, &'static str, &str)> {
         let rows =
             |bytes: &[u8]| -> Vec<Vec<u8>> { bytes.chunks(stride).map(<[u8]>::to_vec).collect() };
+        let level = if version == 0 { 2 } else { 3 };
+        fn encode<const N: usize>(rows: &[Vec<u8>], level: i32, version: i32) -> Vec<u8> {
+            ::meshopt::encode_vertex_buffer_level(&as_rows::<N>(rows), level, Some(version))
+                .unwrap()
+        }
         let attributes = |bytes: &[u8]| match stride {
-            4 => ::meshopt::encode_vertex_buffer(&as_rows::<4>(&rows(bytes))).unwrap(),
-            8 => ::meshopt::encode_vertex_buffer(&as_rows::<8>(&rows(bytes))).unwrap(),
-            12 => ::meshopt::encode_vertex_buffer(&as_rows::<12>(&rows(bytes))).unwrap(),
-            16 => ::meshopt::encode_vertex_buffer(&as_rows::<16>(&rows(bytes))).unwrap(),
+            4 => encode::<4>(&rows(bytes), level, version),
+            8 => encode::<8>(&rows(bytes), level, version),
+            12 => encode::<12>(&rows(bytes), level, version),
+            16 => encode::<16>(&rows(bytes), level, version),
             _ => unreachable!("no view of this stride"),
         };
         let indices = || -> Vec<u32> {
@@ -111,6 +160,7 @@ impl View {
             Store::Exponential => (attributes(bytes), "ATTRIBUTES", "EXPONENTIAL"),
             Store::Octahedral => (attributes(bytes), "ATTRIBUTES", "OCTAHEDRAL"),
             Store::Quaternion => (attributes(bytes), "ATTRIBUTES", "QUATERNION"),
+            Store::Color => (attributes(bytes), "ATTRIBUTES", "COLOR"),
             Store::Triangles | Store::Indices => {
                 let i = indices();
                 let n = 1 + *i.iter().max().unwrap() as usize;
@@ -141,15 +191,16 @@ fn as_rows<const N: usize>(rows: &[Vec<u8>]) -> Vec<[u8; N]> {
         .collect()
 }
 
-/// A sphere placed three times by `EXT_mesh_gpu_instancing` (rotated instances) over a floor,
-/// lit by a sun and seen by a camera. `stores` says how each of the six views is stored:
-/// sphere positions, normals, indices, floor positions, floor indices (16-bit), instance
-/// rotations. All plain gives the uncompressed file; any other puts the compressed bytes in
-/// the binary chunk and the decoded views in a placeholder buffer (tagged as a fallback when
-/// `tag_fallback`).
-fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
+/// A sphere with vertex colours placed three times by `EXT_mesh_gpu_instancing` (rotated
+/// instances) over a floor, lit by a sun and seen by a camera. `stores` says how each of the
+/// seven views is stored: sphere positions, normals, indices, floor positions, floor indices
+/// (16-bit), instance rotations, sphere colours. All plain gives the uncompressed file; any
+/// other puts the compressed bytes in the binary chunk and the decoded views in a placeholder
+/// buffer per extension (tagged as that extension's fallback when `tag_fallback`).
+fn scene_file(stores: [Store; 7], tag_fallback: bool, extensions: Extensions) -> Vec<u8> {
     let (rings, sides) = (12usize, 20usize);
     let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+    let mut colors = Vec::new();
     for r in 0..=rings {
         let theta = std::f32::consts::PI * r as f32 / rings as f32;
         for s in 0..=sides {
@@ -161,6 +212,8 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
             ];
             normals.extend(n);
             positions.extend(n.map(|c| 0.6 * c));
+            let (u, v) = (s as f32 / sides as f32, r as f32 / rings as f32);
+            colors.extend([0.2 + 0.8 * u, 1.0 - 0.7 * v, 0.3 + 0.5 * u * v, 1.0]);
         }
     }
     let row = sides as u32 + 1;
@@ -228,17 +281,36 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
             },
             stores[5],
         ),
+        (
+            Data::Floats {
+                values: colors,
+                width: 4,
+            },
+            stores[6],
+        ),
     ]
     .map(|(data, store)| View { data, store });
 
-    let compressed = stores.iter().any(|&s| s != Store::Plain);
-    // Buffer 0: the binary chunk (plain views, compressed bytes); buffer 1: the decoded views.
-    let (mut bin, mut decoded_len) = (Vec::<u8>::new(), 0usize);
+    // The extensions the file uses, each with its placeholder buffer (1, then 2).
+    let mut used_extensions: Vec<&str> = Vec::new();
+    for (i, &store) in stores.iter().enumerate() {
+        let name = extensions.of_view(i);
+        if store != Store::Plain && !used_extensions.contains(&name) {
+            used_extensions.push(name);
+        }
+    }
+    used_extensions.sort();
+    // Buffer 0: the binary chunk (plain views, compressed bytes); buffers 1 and 2: the decoded
+    // views of each extension.
+    let mut bin = Vec::<u8>::new();
+    let mut decoded_len = vec![0usize; used_extensions.len()];
     let mut buffer_views = Vec::new();
     let pad = |v: &mut Vec<u8>| v.resize(v.len().next_multiple_of(4), 0);
-    for view in &views {
+    for (i, view) in views.iter().enumerate() {
         let (bytes, stride) = view.bytes();
-        let mut json = match view.compress(&bytes, stride) {
+        let name = extensions.of_view(i);
+        let version = if name == KHR { 1 } else { 0 };
+        let mut json = match view.compress(&bytes, stride, version) {
             None => {
                 pad(&mut bin);
                 let at = bin.len();
@@ -249,21 +321,23 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
                 pad(&mut bin);
                 let at = bin.len();
                 bin.extend(&encoded);
-                decoded_len = decoded_len.next_multiple_of(4);
-                let json = json!({"buffer": 1, "byteOffset": decoded_len,
+                let placeholder = used_extensions.iter().position(|&e| e == name).unwrap();
+                let end = &mut decoded_len[placeholder];
+                *end = end.next_multiple_of(4);
+                let json = json!({"buffer": 1 + placeholder, "byteOffset": *end,
                     "byteLength": bytes.len(),
-                    "extensions": {"EXT_meshopt_compression": {
+                    "extensions": {name: {
                         "buffer": 0, "byteOffset": at, "byteLength": encoded.len(),
                         "byteStride": stride, "mode": mode, "filter": filter,
                         "count": bytes.len() / stride}}});
-                decoded_len += bytes.len();
+                *end += bytes.len();
                 json
             }
         };
         if matches!(view.data, Data::Floats { width: 3, .. }) && stride != 12 {
             json["byteStride"] = json!(stride);
         }
-        if view.store == Store::Quaternion {
+        if matches!(view.store, Store::Quaternion | Store::Color) {
             json["byteStride"] = json!(stride);
         }
         buffer_views.push(json);
@@ -277,6 +351,11 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
         json!({"bufferView": 1, "componentType": 5120, "normalized": true, "count": count(1), "type": "VEC3"})
     } else {
         json!({"bufferView": 1, "componentType": 5126, "count": count(1), "type": "VEC3"})
+    };
+    let color_accessor = if stores[6] == Store::Color {
+        json!({"bufferView": 6, "componentType": 5121, "normalized": true, "count": count(6), "type": "VEC4"})
+    } else {
+        json!({"bufferView": 6, "componentType": 5126, "count": count(6), "type": "VEC4"})
     };
     let rotation_accessor = if stores[5] == Store::Quaternion {
         json!({"bufferView": 5, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC4"})
@@ -293,19 +372,17 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
 
     let mut used = vec!["KHR_lights_punctual", "EXT_mesh_gpu_instancing"];
     let mut required = vec!["EXT_mesh_gpu_instancing"];
-    if compressed {
-        used.push("EXT_meshopt_compression");
-        required.push("EXT_meshopt_compression");
-    }
+    used.extend(&used_extensions);
+    required.extend(&used_extensions);
     if stores[1] == Store::Octahedral {
         used.push("KHR_mesh_quantization");
         required.push("KHR_mesh_quantization");
     }
     let mut buffers = vec![json!({"byteLength": bin.len()})];
-    if compressed {
-        let mut placeholder = json!({"byteLength": decoded_len});
+    for (name, length) in used_extensions.iter().zip(decoded_len) {
+        let mut placeholder = json!({"byteLength": length});
         if tag_fallback {
-            placeholder["extensions"] = json!({"EXT_meshopt_compression": {"fallback": true}});
+            placeholder["extensions"] = json!({*name: {"fallback": true}});
         }
         buffers.push(placeholder);
     }
@@ -330,10 +407,12 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
              "min": [-4.0, -0.8, -4.0], "max": [4.0, -0.8, 4.0]},
             {"bufferView": 4, "componentType": 5123, "count": 6, "type": "SCALAR"},
             rotation_accessor,
-            {"bufferView": 6, "componentType": 5126, "count": 3, "type": "VEC3"}],
+            {"bufferView": 7, "componentType": 5126, "count": 3, "type": "VEC3"},
+            color_accessor],
         "meshes": [
             {"name": "Egg", "primitives": [
-                {"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]},
+                {"attributes": {"POSITION": 0, "NORMAL": 1, "COLOR_0": 7}, "indices": 2,
+                 "material": 0}]},
             {"name": "Floor", "primitives": [
                 {"attributes": {"POSITION": 3}, "indices": 4, "material": 1}]}],
         "nodes": [
@@ -350,32 +429,42 @@ fn scene_file(stores: [Store; 6], tag_fallback: bool) -> Vec<u8> {
     gltf::glb(&document, &bin)
 }
 
-const PLAIN: [Store; 6] = [Store::Plain; 6];
+const PLAIN: [Store; 7] = [Store::Plain; 7];
 
 /// The test scene with every filter and both index modes, for the fuzzer (`fuzz_gltf`).
 pub fn filtered_file() -> Vec<u8> {
-    scene_file(FILTERED, true)
+    scene_file(FILTERED, true, Extensions::Ext)
 }
 
 /// Every view compressed without a filter.
-const LOSSLESS: [Store; 6] = [
+const LOSSLESS: [Store; 7] = [
     Store::Attributes,
     Store::Attributes,
     Store::Triangles,
     Store::Attributes,
     Store::Indices,
     Store::Attributes,
+    Store::Attributes,
 ];
 
-/// Every filter, and each index mode.
-const FILTERED: [Store; 6] = [
+/// Every filter of `EXT_meshopt_compression`, and each index mode.
+const FILTERED: [Store; 7] = [
     Store::Exponential,
     Store::Octahedral,
     Store::Triangles,
     Store::Exponential,
     Store::Indices,
     Store::Quaternion,
+    Store::Attributes,
 ];
+
+/// Every filter of `KHR_meshopt_compression` (COLOR on the vertex colours), and each index
+/// mode.
+const FILTERED_KHR: [Store; 7] = {
+    let mut stores = FILTERED;
+    stores[6] = Store::Color;
+    stores
+};
 
 fn load(bytes: &[u8]) -> Scene {
     load_slice(bytes, "compressed.glb", &LoadOptions::default()).expect("the file loads")
@@ -383,37 +472,76 @@ fn load(bytes: &[u8]) -> Scene {
 
 #[test]
 fn gltf_compression_meshopt_without_filters_renders_bit_for_bit_as_uncompressed() {
-    let reference = render(&load(&scene_file(PLAIN, false)));
-    for tag_fallback in [false, true] {
-        let stores = LOSSLESS;
-        let file = scene_file(stores, tag_fallback);
-        let image = render(&load(&file));
-        assert!(
-            image == reference,
-            "a lossless compressed file renders differently (fallback tagged: {tag_fallback})"
-        );
+    let plain = scene_file(PLAIN, false, Extensions::Ext);
+    let reference = render(&load(&plain));
+    println!("uncompressed file: {} bytes", plain.len());
+    for extensions in [Extensions::Ext, Extensions::Khr, Extensions::Both] {
+        for tag_fallback in [false, true] {
+            let file = scene_file(LOSSLESS, tag_fallback, extensions);
+            if !tag_fallback {
+                println!(
+                    "without filters (KHR: {}, EXT: {}): {} bytes",
+                    extensions != Extensions::Ext,
+                    extensions != Extensions::Khr,
+                    file.len()
+                );
+            }
+            let image = render(&load(&file));
+            assert!(
+                image == reference,
+                "a lossless compressed file renders differently (KHR: {}, EXT: {}, fallback \
+                 tagged: {tag_fallback})",
+                extensions != Extensions::Ext,
+                extensions != Extensions::Khr,
+            );
+        }
     }
     // 16-bit triangle lists too (TRIANGLES with a stride of 2).
     let mut stores = PLAIN;
     stores[4] = Store::Triangles;
-    assert!(render(&load(&scene_file(stores, true))) == reference);
+    assert!(render(&load(&scene_file(stores, true, Extensions::Ext))) == reference);
+    assert!(render(&load(&scene_file(stores, true, Extensions::Khr))) == reference);
 }
 
 #[test]
 fn gltf_compression_meshopt_filters_render_within_their_quantization() {
-    let reference = render(&load(&scene_file(PLAIN, false)));
-    let stores = FILTERED;
-    let image = render(&load(&scene_file(stores, true)));
+    let reference = render(&load(&scene_file(PLAIN, false, Extensions::Ext)));
+    for (name, stores, extensions) in [
+        (EXT, FILTERED, Extensions::Ext),
+        (KHR, FILTERED_KHR, Extensions::Khr),
+    ] {
+        let file = scene_file(stores, true, extensions);
+        let image = render(&load(&file));
+        let error = metrics::compare(&image, &reference);
+        println!(
+            "{name} filtered ({} bytes): relMSE {:.2e}, mean {:+.2e} (reference mean {:.3})",
+            file.len(),
+            error.rel_mse,
+            error.mean_relative_difference,
+            error.mean_reference
+        );
+        assert!(
+            error.rel_mse < 2e-3 && error.mean_relative_difference.abs() < 2e-3,
+            "{name}: {error:?}"
+        );
+        // Each filter alone changes the image, so each is decoded (undecoded data would be
+        // garbage).
+        assert!(image != reference);
+    }
+    // The COLOR filter alone: the 8-bit YCoCg colours are within their quantization, and
+    // differ from the exact ones, so the filter ran.
+    let mut stores = PLAIN;
+    stores[6] = Store::Color;
+    let image = render(&load(&scene_file(stores, true, Extensions::Khr)));
     let error = metrics::compare(&image, &reference);
     println!(
-        "filtered: relMSE {:.2e}, mean {:+.2e} (reference mean {:.3})",
-        error.rel_mse, error.mean_relative_difference, error.mean_reference
+        "COLOR filter alone: relMSE {:.2e}, mean {:+.2e}",
+        error.rel_mse, error.mean_relative_difference
     );
     assert!(
-        error.rel_mse < 2e-3 && error.mean_relative_difference.abs() < 2e-3,
+        error.rel_mse < 2e-5 && error.mean_relative_difference.abs() < 1e-3,
         "{error:?}"
     );
-    // Each filter alone changes the image, so each is decoded (undecoded data would be garbage).
     assert!(image != reference);
 }
 
@@ -427,7 +555,7 @@ fn split(file: &[u8]) -> (Value, Vec<u8>) {
 
 /// Buffer view `view`'s `EXT_meshopt_compression` object.
 fn extension(json: &mut Value, view: usize) -> &mut Value {
-    &mut json["bufferViews"][view]["extensions"]["EXT_meshopt_compression"]
+    &mut json["bufferViews"][view]["extensions"][EXT]
 }
 
 fn assert_refused(file: &[u8], words: &[&str]) {
@@ -444,7 +572,7 @@ fn assert_refused(file: &[u8], words: &[&str]) {
 #[test]
 fn gltf_compression_meshopt_damaged_or_oversized_views_are_scene_errors() {
     let stores = FILTERED;
-    let file = scene_file(stores, true);
+    let file = scene_file(stores, true, Extensions::Ext);
     let (json, bin) = split(&file);
     let edit = |view: usize, f: &dyn Fn(&mut Value)| {
         let mut json = json.clone();
@@ -473,71 +601,156 @@ fn gltf_compression_meshopt_damaged_or_oversized_views_are_scene_errors() {
     // Compressed bytes outside their buffer.
     let outside = edit(1, &|e| e["byteOffset"] = json!(1u64 << 40));
     assert_refused(&outside, &["buffer view 1", "outside buffer 0"]);
-    // A plain view reading the placeholder buffer has no bytes to read.
+    // A plain view reading the placeholder buffer has no bytes to read; when the placeholder
+    // is tagged as the fallback, the view breaks the extension's rule.
     let mut plain = json.clone();
     plain["bufferViews"][0]["extensions"] = json!({});
+    assert_refused(
+        &gltf::glb(&plain, &bin),
+        &["buffer view 0", "fallback buffer"],
+    );
+    plain["buffers"][1]["extensions"] = json!({});
     assert_refused(
         &gltf::glb(&plain, &bin),
         &["buffer view 0", "outside buffer 1"],
     );
 }
 
+/// The file's JSON with every `from` extension name written as `to`.
+fn renamed(json: &Value, from: &str, to: &str) -> Value {
+    serde_json::from_str(&json.to_string().replace(from, to)).unwrap()
+}
+
+#[test]
+fn gltf_compression_khr_meshopt_files_breaking_its_rules_are_scene_errors() {
+    // An EXT file read as KHR is the same scene (version 0 streams are KHR's too), as the
+    // extension says a renaming converts one to the other.
+    let (ext_json, ext_bin) = split(&scene_file(LOSSLESS, true, Extensions::Ext));
+    let as_khr = gltf::glb(&renamed(&ext_json, EXT, KHR), &ext_bin);
+    assert!(render(&load(&as_khr)) == render(&load(&scene_file(PLAIN, false, Extensions::Ext))));
+    // The other way, KHR's version 1 streams and COLOR filter are not EXT's.
+    let (json, bin) = split(&scene_file(LOSSLESS, true, Extensions::Khr));
+    let as_ext = gltf::glb(&renamed(&json, KHR, EXT), &bin);
+    assert_refused(&as_ext, &["buffer view 0", EXT, "version 1"]);
+    let (filtered, filtered_bin) = split(&scene_file(FILTERED_KHR, true, Extensions::Khr));
+    let as_ext = gltf::glb(&renamed(&filtered, KHR, EXT), &filtered_bin);
+    assert_refused(&as_ext, &["buffer view 6", EXT, "COLOR"]);
+
+    let khr = |json: &mut Value, view: usize| json["bufferViews"][view]["extensions"][KHR].clone();
+    // A view with both extensions.
+    let mut both = json.clone();
+    let object = khr(&mut both, 3);
+    both["bufferViews"][3]["extensions"][EXT] = object;
+    assert_refused(
+        &gltf::glb(&both, &bin),
+        &["buffer view 3", "both", "forbids"],
+    );
+    // A buffer tagged by both.
+    let mut both = json.clone();
+    both["buffers"][1]["extensions"][EXT] = json!({"fallback": true});
+    assert_refused(&gltf::glb(&both, &bin), &["buffer 1", "both", "forbids"]);
+    // A plain view reading KHR's fallback buffer, and compressed bytes read from it.
+    let mut plain = json.clone();
+    plain["bufferViews"][5]["extensions"] = json!({});
+    assert_refused(
+        &gltf::glb(&plain, &bin),
+        &["buffer view 5", "KHR_meshopt_compression fallback buffer"],
+    );
+    let mut source = json.clone();
+    source["bufferViews"][5]["extensions"][KHR]["buffer"] = json!(1);
+    assert_refused(
+        &gltf::glb(&source, &bin),
+        &["buffer view 5", KHR, "fallback buffer"],
+    );
+    // An EXT view whose decoded bytes go to KHR's fallback buffer.
+    let mut mixed = json.clone();
+    let object = khr(&mut mixed, 5);
+    mixed["bufferViews"][5]["extensions"] = json!({EXT: object});
+    assert_refused(
+        &gltf::glb(&mixed, &bin),
+        &["buffer view 5", "fallback buffer"],
+    );
+    // A channel mode byte (the stream's last bytes) the version 1 stream may not hold.
+    let end = |view: usize| {
+        let e = khr(&mut json.clone(), view);
+        (e["byteOffset"].as_u64().unwrap() + e["byteLength"].as_u64().unwrap()) as usize
+    };
+    let mut damaged = bin.clone();
+    damaged[end(0) - 1] = 0x13;
+    assert_refused(
+        &gltf::glb(&json, &damaged),
+        &["buffer view 0", KHR, "channel mode"],
+    );
+    // A version the extension does not know.
+    let mut damaged = bin.clone();
+    let start = khr(&mut json.clone(), 3)["byteOffset"].as_u64().unwrap() as usize;
+    damaged[start] = 0xa2;
+    assert_refused(&gltf::glb(&json, &damaged), &["buffer view 3", "header"]);
+}
+
 #[test]
 fn gltf_compression_meshopt_damaged_bytes_never_panic() {
-    let stores = FILTERED;
-    let file = scene_file(stores, true);
-    let (json, bin) = split(&file);
-    let (mut loaded, mut refused) = (0, 0);
-    for i in 0..300u64 {
-        let mut rng = Rng::for_item(0x3e5d, 0, i);
-        let mut damaged = bin.clone();
-        for _ in 0..1 + (rng.uniform() * 6.0) as usize {
-            let at = (rng.uniform() * damaged.len() as f32) as usize % damaged.len();
-            damaged[at] = (rng.uniform() * 256.0) as u8;
-        }
-        match load_slice(
-            &gltf::glb(&json, &damaged),
-            "x.glb",
-            &LoadOptions::default(),
-        ) {
-            Ok(scene) => {
-                assert!(scene.validate().is_ok());
-                loaded += 1;
+    for (file, seed) in [
+        (scene_file(FILTERED, true, Extensions::Ext), 0x3e5d),
+        (scene_file(FILTERED_KHR, true, Extensions::Khr), 0x3e5e),
+    ] {
+        let (json, bin) = split(&file);
+        let (mut loaded, mut refused) = (0, 0);
+        for i in 0..300u64 {
+            let mut rng = Rng::for_item(seed, 0, i);
+            let mut damaged = bin.clone();
+            for _ in 0..1 + (rng.uniform() * 6.0) as usize {
+                let at = (rng.uniform() * damaged.len() as f32) as usize % damaged.len();
+                damaged[at] = (rng.uniform() * 256.0) as u8;
             }
-            Err(Error::Scene { .. }) => refused += 1,
-            Err(other) => panic!("not a scene error: {other:?}"),
+            match load_slice(
+                &gltf::glb(&json, &damaged),
+                "x.glb",
+                &LoadOptions::default(),
+            ) {
+                Ok(scene) => {
+                    assert!(scene.validate().is_ok());
+                    loaded += 1;
+                }
+                Err(Error::Scene { .. }) => refused += 1,
+                Err(other) => panic!("not a scene error: {other:?}"),
+            }
         }
+        println!("damaged compressed bytes: {loaded} loaded, {refused} refused");
+        assert!(refused > 0);
     }
-    println!("damaged compressed bytes: {loaded} loaded, {refused} refused");
-    assert!(refused > 0);
 }
 
 #[test]
 fn gltf_compression_meshopt_required_renders_and_damage_exits_with_code_2() {
     let dir = temp_dir("gltf_compression_cli");
-    let stores = FILTERED;
-    let file = scene_file(stores, false);
-    let good = dir.join("meshopt.glb");
-    std::fs::write(&good, &file).unwrap();
-    let run = |path: &std::path::Path| render_tiny(path, &dir);
-    let out = run(&good);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let (mut json, bin) = split(&file);
-    json["bufferViews"][2]["extensions"]["EXT_meshopt_compression"]["byteLength"] = json!(20);
-    let bad = dir.join("damaged.glb");
-    std::fs::write(&bad, gltf::glb(&json, &bin)).unwrap();
-    let out = run(&bad);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(
-        stderr.contains("EXT_meshopt_compression") && stderr.contains("damaged"),
-        "{stderr}"
-    );
+    for (name, stores, extensions) in [
+        (EXT, FILTERED, Extensions::Ext),
+        (KHR, FILTERED_KHR, Extensions::Khr),
+    ] {
+        let file = scene_file(stores, false, extensions);
+        let good = dir.join(format!("{name}.glb"));
+        std::fs::write(&good, &file).unwrap();
+        let run = |path: &std::path::Path| render_tiny(path, &dir);
+        let out = run(&good);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let (mut json, bin) = split(&file);
+        json["bufferViews"][2]["extensions"][name]["byteLength"] = json!(20);
+        let bad = dir.join(format!("damaged_{name}.glb"));
+        std::fs::write(&bad, gltf::glb(&json, &bin)).unwrap();
+        let out = run(&bad);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains(name) && stderr.contains("damaged"),
+            "{stderr}"
+        );
+    }
 }
 
 /// The stripes image and its KTX2 encodings (`tests/data/ktx2/README.md`).

@@ -37,6 +37,7 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
     "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
     "KHR_draco_mesh_compression",
     "KHR_texture_basisu",
 ];
@@ -48,8 +49,9 @@ pub(super) struct Loader {
     pub(super) base: Option<PathBuf>,
     pub(super) document: gltf::Document,
     pub(super) buffers: Vec<Vec<u8>>,
-    /// The bytes of each buffer view stored with `EXT_meshopt_compression`, decoded, by view
-    /// index: read in place of the view's own buffer range.
+    /// The bytes of each buffer view stored with `EXT_meshopt_compression` or
+    /// `KHR_meshopt_compression`, decoded, by view index: read in place of the view's own
+    /// buffer range.
     pub(super) decoded_views: HashMap<usize, Vec<u8>>,
     /// The bytes of each accessor filled from a `KHR_draco_mesh_compression` primitive,
     /// decoded, by accessor index: read in place of the accessor's (absent) buffer view.

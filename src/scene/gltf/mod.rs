@@ -9,7 +9,8 @@
 //! split by concern:
 //! - `container`: the `.glb`/`.gltf` container, buffers and URIs (`encoding`: base64 and
 //!   percent-escapes), and the `Loader` that carries the document and the scene being built;
-//!   `meshopt`: buffer views compressed with `EXT_meshopt_compression`, decoded once;
+//!   `meshopt`: buffer views compressed with `EXT_meshopt_compression` or
+//!   `KHR_meshopt_compression`, decoded once;
 //!   `draco`: primitives compressed with `KHR_draco_mesh_compression`, decoded once into
 //!   their accessors' bytes;
 //! - `extensions`: the `PHOTON_*` extensions as typed structures, each read once and checked;
