@@ -21,21 +21,16 @@ Run under Blender 5 (bpy 5.0.1):  /work/venv5/bin/python scenes/blender/multiple
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import bpy
-import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent.parent))
 import common  # noqa: E402
-import refimage  # noqa: E402
 
 WIDTH, HEIGHT = 48, 32
 SAMPLES = 4096
@@ -65,38 +60,14 @@ def build(elevation_deg: float):
 def make(name: str, elevation_deg: float, out_dir: Path, samples: int) -> dict:
     from blender_addon import export
 
-    scene, sky = build(elevation_deg)
-    # Cycles' settings first: the export carries its clamps and glossy filter.
-    settings = common.configure_cycles(scene, samples, SEEDS[0], os.cpu_count() or 2)
-    glb = out_dir / f"{name}.glb"
-    warnings = list(export.export_in_process(glb, "blender_addon"))
-    if warnings:
-        raise RuntimeError(f"{name}: the export warned: {warnings}")
-    renders, times = [], []
-    with tempfile.TemporaryDirectory() as tmp:
-        for seed in SEEDS:
-            path = Path(tmp) / f"{name}_seed{seed}.exr"
-            times.append(round(common.render_exr(scene, path, seed), 2))
-            renders.append(refimage.read_exr(path))
-            print(f"[{name}] seed {seed}: {samples} spp in {times[-1]:.1f} s", flush=True)
-    ref = np.mean(renders, axis=0).astype(np.float32)
-    refimage.write_exr(out_dir / f"{name}.exr", ref)
-    noise = refimage.rel_mse(renders[0], renders[1])
-    info = {
-        "scene": name,
-        "blender": bpy.app.version_string,
-        "glb": glb.name, "reference": f"{name}.exr",
-        "width": WIDTH, "height": HEIGHT,
-        "samples_per_render": samples, "seeds": list(SEEDS),
-        "reference_is": f"mean of {len(SEEDS)} Cycles renders with the seeds above "
-                        f"({samples * len(SEEDS)} spp in total)",
-        "render_seconds": times,
-        "relmse_between_seeds": noise,
-        "estimated_relmse_of_reference": noise / 4.0,
-        "mean_rgb": [round(float(x), 6) for x in ref.reshape(-1, 3).mean(axis=0)],
-        "mean": float(ref.mean()),
-        "export": "the add-on's export (blender_addon.export.export_in_process)",
-        "cycles": settings,
+    def addon_export(glb: Path):
+        warnings = list(export.export_in_process(glb, "blender_addon"))
+        if warnings:
+            raise RuntimeError(f"{name}: the export warned: {warnings}")
+
+    _, sky = build(elevation_deg)
+    extra = {
+        "gltf_export": "the add-on's export (blender_addon.export.export_in_process)",
         "sky": {"sky_type": sky.sky_type, "sun_elevation_deg": elevation_deg,
                 "sun_rotation_deg": SUN_ROTATION_DEG, "sun_size": sky.sun_size,
                 "sun_intensity": sky.sun_intensity, "sun_disc": sky.sun_disc,
@@ -104,9 +75,8 @@ def make(name: str, elevation_deg: float, out_dir: Path, samples: int) -> dict:
                 "aerosol_density": sky.aerosol_density, "ozone_density": sky.ozone_density,
                 "background_strength": 1.0},
     }
-    (out_dir / f"{name}.json").write_text(json.dumps(info, indent=2) + "\n")
-    print(f"[{name}] relMSE between seeds {noise:.3g}; mean {info['mean_rgb']}", flush=True)
-    return info
+    return common.make_reference(name, out_dir, samples=samples, seeds=SEEDS,
+                                 export=addon_export, extra=extra)
 
 
 def main():

@@ -379,7 +379,7 @@ pub(crate) fn limb_darkening(gamma: f32, half: f32) -> f32 {
 /// The irradiance a disc of angular diameter `size` centred on unit `centre` gives a surface
 /// facing it: `radiance` integrated over the disc, cosine-weighted from its centre (48 rings of
 /// 96 cells).
-pub(crate) fn disc_irradiance(centre: Vec3, size: f32, radiance: impl Fn(Vec3) -> Vec3) -> Vec3 {
+fn disc_irradiance(centre: Vec3, size: f32, radiance: impl Fn(Vec3) -> Vec3) -> Vec3 {
     let frame = crate::math::Frame::from_normal(centre);
     let half = 0.5 * size;
     const RINGS: usize = 48;
@@ -404,6 +404,37 @@ pub(crate) fn disc_irradiance(centre: Vec3, size: f32, radiance: impl Fn(Vec3) -
         }
     }
     irradiance
+}
+
+/// Unit direction towards the sun at `elevation` and the kernel's `rotation` (Cycles' kernel:
+/// the tables' sun azimuth turned by the rotation).
+pub(crate) fn sun_towards(elevation: f32, rotation: f32) -> Vec3 {
+    let r = rotation - FRAC_PI_2;
+    Vec3::new(
+        -elevation.cos() * r.cos(),
+        -elevation.cos() * r.sin(),
+        elevation.sin(),
+    )
+}
+
+/// The disc of angular diameter `size` about `centre` as a sun light: its irradiance
+/// (`disc_irradiance` of `radiance`); `None` when it is not `shown`, has no size or none of it
+/// shines.
+pub(crate) fn disc_light(
+    shown: bool,
+    centre: Vec3,
+    size: f32,
+    radiance: impl Fn(Vec3) -> Vec3,
+) -> Option<SunDisc> {
+    if !shown || size <= 0.0 {
+        return None;
+    }
+    let irradiance = disc_irradiance(centre, size, radiance);
+    (irradiance.max_element() > 0.0).then_some(SunDisc {
+        direction: centre,
+        angle: size,
+        irradiance,
+    })
 }
 
 impl NishitaSky {
@@ -472,9 +503,7 @@ impl NishitaSky {
 
     /// Unit direction towards the centre of the sun.
     pub fn sun_direction(&self) -> Vec3 {
-        // Cycles' kernel: the table's longitude 0 turned by the rotation.
-        let (e, r) = (self.sun_elevation, self.sun_rotation - FRAC_PI_2);
-        Vec3::new(-e.cos() * r.cos(), -e.cos() * r.sin(), e.sin())
+        sun_towards(self.sun_elevation, self.sun_rotation)
     }
 
     /// Radiance of the sun disc along unit `dir` (zero outside it and below the horizon):
@@ -501,15 +530,9 @@ impl NishitaSky {
     /// The sun disc as a light (`None` without a disc or below the horizon): the irradiance is
     /// `sun_radiance` integrated over the disc, cosine-weighted from its centre.
     pub fn sun(&self) -> Option<SunDisc> {
-        if !self.sun_disc || self.sun_size <= 0.0 || self.sun_intensity <= 0.0 {
-            return None;
-        }
-        let centre = self.sun_direction();
-        let irradiance = disc_irradiance(centre, self.sun_size, |d| self.sun_radiance(d));
-        (irradiance.max_element() > 0.0).then_some(SunDisc {
-            direction: centre,
-            angle: self.sun_size,
-            irradiance,
+        let shown = self.sun_disc && self.sun_intensity > 0.0;
+        disc_light(shown, self.sun_direction(), self.sun_size, |d| {
+            self.sun_radiance(d)
         })
     }
 }

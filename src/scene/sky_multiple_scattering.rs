@@ -23,7 +23,7 @@
 
 use crate::math::{Vec3, Vec4};
 use crate::scene::sky::{
-    angle_between, bilinear, disc_irradiance, limb_darkening, sun_position, xyz_to_rec709,
+    angle_between, bilinear, disc_light, limb_darkening, sun_position, sun_towards, xyz_to_rec709,
     NishitaSettings, SunDisc,
 };
 use rayon::prelude::*;
@@ -55,7 +55,7 @@ const AEROSOL_SCALE_HEIGHT: f32 = 0.73;
 /// Rows of the 4 × 3 matrix from the four samples to CIE XYZ.
 const SPECTRAL_TO_XYZ: [[f32; 3]; 4] = [
     [53.386_917, 22.981_337, 0.0],
-    [43.904_846, 71.347_797, 0.102_506_87],
+    [43.904_846, 71.347_8, 0.102_506_87],
     [1.613_727_8, 18.422_96, 31.742_92],
     [20.762_669, 2.361_421_4, 110.480_1],
 ];
@@ -377,8 +377,7 @@ impl MultipleScatteringSky {
 
     /// Unit direction towards the centre of the sun.
     pub fn sun_direction(&self) -> Vec3 {
-        let (e, r) = (self.sun_elevation, self.sun_rotation - FRAC_PI_2);
-        Vec3::new(-e.cos() * r.cos(), -e.cos() * r.sin(), e.sin())
+        sun_towards(self.sun_elevation, self.sun_rotation)
     }
 
     /// Radiance of the sun disc along unit `dir` (zero outside it and below the horizon's dip):
@@ -397,15 +396,9 @@ impl MultipleScatteringSky {
 
     /// The sun disc as a light (`None` without a disc or when none of it is seen).
     pub fn sun(&self) -> Option<SunDisc> {
-        if !self.sun_disc || self.sun_size <= 0.0 || self.sun_intensity <= 0.0 {
-            return None;
-        }
-        let centre = self.sun_direction();
-        let irradiance = disc_irradiance(centre, self.sun_size, |d| self.sun_radiance(d));
-        (irradiance.max_element() > 0.0).then_some(SunDisc {
-            direction: centre,
-            angle: self.sun_size,
-            irradiance,
+        let shown = self.sun_disc && self.sun_intensity > 0.0;
+        disc_light(shown, self.sun_direction(), self.sun_size, |d| {
+            self.sun_radiance(d)
         })
     }
 }
