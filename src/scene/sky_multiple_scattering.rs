@@ -1,14 +1,14 @@
 //! Blender 5's Sky Texture in its Multiple Scattering model (the node's default from Blender
-//! 5.0): García Liñán's spectral sky (F. García Liñán, 2022, master's thesis "Real-time rendering
-//! of the sky", and "Spectral sky rendering with 4 wavelengths", 2024), built on Hillaire's
-//! atmosphere (S. Hillaire, 2016, "Physically Based Sky, Atmosphere and Cloud Rendering in
-//! Frostbite"). Air (Rayleigh), aerosols (Henyey–Greenstein, g = 0.8) and ozone over a spherical
-//! Earth 6371 km in radius with a 100 km atmosphere, sampled at four wavelengths (630, 560, 490
-//! and 430 nm) and turned into CIE XYZ by a fitted 4 × 3 matrix. Light scattered once towards
-//! the viewer is integrated along the view ray (64 segments, each integrated analytically over
-//! its own extinction, Hillaire's energy-conserving step); the light scattered more than once
-//! is an analytic fit: the ground's (albedo 0.3) light scattered a second time plus a term of
-//! the sun's cosine at each point.
+//! 5.0): Fernando García Liñán's spectral sky (his master's thesis, 2022: four wavelength samples
+//! and an analytic fit of multiple scattering; his article on the four-sample method, 2024),
+//! built on Hillaire's atmosphere (S. Hillaire, 2016, "Physically Based Sky, Atmosphere and
+//! Cloud Rendering in Frostbite"). Air (Rayleigh), aerosols (Henyey–Greenstein, g = 0.8) and
+//! ozone over a spherical Earth 6371 km in radius with a 100 km atmosphere, sampled at four
+//! wavelengths (630, 560, 490 and 430 nm) and turned into CIE XYZ by a fitted 4 × 3 matrix.
+//! Light scattered once towards the viewer is integrated along the view ray (64 segments, each
+//! integrated analytically over its own extinction, Hillaire's energy-conserving step); the
+//! light scattered more than once is an analytic fit: the ground's (albedo 0.3) light scattered
+//! a second time plus a term of the sun's cosine at each point.
 //!
 //! It is evaluated the way Cycles evaluates it, so that a Blender 5 sky lights a scene alike in
 //! both: the transmittance towards the sun is tabulated (256 sun cosines × 64 heights), the sky
