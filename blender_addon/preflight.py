@@ -10,8 +10,8 @@ empty list, so the rules below only flag what really changes the image:
   other nodes it follows), unless the whole tree is one Photon evaluates itself (node_tree.py:
   it is then exported as PHOTON_material_nodes and nothing is dropped), and what of the world's
   node tree PHOTON_world does not carry (world.world_problems: anything but Background,
-  Emission, Environment Texture, Sky Texture of any model but Blender 5's Multiple Scattering,
-  Mix Shader with a constant or "Is Camera Ray" factor and Add Shader);
+  Emission, Environment Texture, Sky Texture of any model, Mix Shader with a constant or
+  "Is Camera Ray" factor and Add Shader);
 - a Principled BSDF's Thin Film (iridescence) when its node tree is not one Photon evaluates
   (the tree route renders it; glTF carries no film), and under Blender 5 the film on a metallic
   Principled BSDF (Blender 5 puts it on the metal too, Photon as 4.5 does not); a Principled

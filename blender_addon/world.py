@@ -156,17 +156,18 @@ def _world_background_layer(node, groups, folder, written, problems) -> dict:
 
 
 # Sky Texture models Photon evaluates: Nishita's single scattering, named "Nishita" up to
-# Blender 4.5 and "Single Scattering" from Blender 5.0; Preetham's and Hosek-Wilkie's analytic
-# skies.
+# Blender 4.5 and "Single Scattering" from Blender 5.0; Blender 5's Multiple Scattering (García
+# Liñán's spectral sky, Blender 5.0's default); Preetham's and Hosek-Wilkie's analytic skies.
 NISHITA_SKY_TYPES = ("NISHITA", "SINGLE_SCATTERING")
-SKY_TYPES = NISHITA_SKY_TYPES + ("PREETHAM", "HOSEK_WILKIE")
+SKY_TYPES = NISHITA_SKY_TYPES + ("MULTIPLE_SCATTERING", "PREETHAM", "HOSEK_WILKIE")
 
 
 def sky_extension(node, groups: tuple = ()) -> dict:
     """The "sky" of PHOTON_world for a Sky Texture node of a model Photon evaluates (inside the
     group nodes `groups`): its settings (radians, metres, factors; the Preetham and Hosek-Wilkie
     skies' sun direction, turbidity and ground albedo) and the rotation of a Mapping node
-    feeding its vector. Blender 5 calls the dust density "aerosol density"."""
+    feeding its vector. Blender 5 calls the dust density "aerosol density"; its Multiple
+    Scattering sky has the Nishita sky's settings and keeps its own type."""
     rotation = _mapping_rotation(node, groups)
     if node.sky_type in ("PREETHAM", "HOSEK_WILKIE"):
         data = {"type": node.sky_type, "sun_direction": [float(c) for c in node.sun_direction],
@@ -175,7 +176,8 @@ def sky_extension(node, groups: tuple = ()) -> dict:
             data["ground_albedo"] = float(node.ground_albedo)
         return data
     dust = getattr(node, "aerosol_density", None)
-    return {"type": "NISHITA", "sun_disc": bool(node.sun_disc),
+    kind = "MULTIPLE_SCATTERING" if node.sky_type == "MULTIPLE_SCATTERING" else "NISHITA"
+    return {"type": kind, "sun_disc": bool(node.sun_disc),
             "sun_size": float(node.sun_size), "sun_intensity": float(node.sun_intensity),
             "sun_elevation": float(node.sun_elevation),
             "sun_rotation": float(node.sun_rotation), "altitude": float(node.altitude),

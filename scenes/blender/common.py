@@ -273,16 +273,18 @@ def render_exr(scene, path: Path, seed: int) -> float:
 
 
 def make_reference(name: str, out_dir: Path, *, samples: int, seeds=(1, 2), threads=None,
-                   extra: dict | None = None, analytic=None) -> dict:
-    """Export <name>.glb, render the reference with two seeds and write <name>.exr (their mean)
-    and <name>.json. `analytic(width, height) -> (image, mask)` optionally gives an expected image
-    to check the reference against. Returns the sidecar dict."""
+                   extra: dict | None = None, analytic=None, export=export_glb) -> dict:
+    """Export <name>.glb (with `export(path)`; Blender's glTF exporter unless told), render the
+    reference with two seeds and write <name>.exr (their mean) and <name>.json. Cycles is set up
+    before the export, so an export that carries its settings (the add-on's) sees them.
+    `analytic(width, height) -> (image, mask)` optionally gives an expected image to check the
+    reference against. Returns the sidecar dict."""
     out_dir.mkdir(parents=True, exist_ok=True)
     scene = bpy.context.scene
     threads = threads or os.cpu_count() or 2
-    glb = out_dir / f"{name}.glb"
-    export_glb(glb)
     settings = configure_cycles(scene, samples, seeds[0], threads)
+    glb = out_dir / f"{name}.glb"
+    export(glb)
 
     renders, times = [], []
     with tempfile.TemporaryDirectory() as tmp:

@@ -16,6 +16,7 @@ pub mod load;
 pub mod sky;
 pub mod sky_hosek;
 mod sky_hosek_data;
+pub mod sky_multiple_scattering;
 pub mod sky_preetham;
 pub mod texture;
 pub mod units;

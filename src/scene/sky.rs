@@ -335,26 +335,113 @@ fn sun_radiance(eye: Vec3, dir: Vec3, scale: Vec3, solid_angle: f32) -> Vec3 {
 }
 
 /// Angle between two unit vectors, accurate for small angles.
-fn angle_between(a: Vec3, b: Vec3) -> f32 {
+pub(crate) fn angle_between(a: Vec3, b: Vec3) -> f32 {
     2.0 * (a - b).length().atan2((a + b).length())
+}
+
+/// The sun's elevation in [−π/2, π/2] and its rotation as Cycles' kernel reads it (2π − the
+/// node's rotation, in (0, 2π]): Blender lets the sun go round, so an elevation past the zenith
+/// comes back down on the other side, the rotation turned by π.
+pub(crate) fn sun_position(settings: &NishitaSettings) -> (f32, f32) {
+    let mut elevation = settings.sun_elevation % TAU;
+    let mut rotation = settings.sun_rotation;
+    if elevation.abs() >= PI {
+        elevation -= 2.0 * PI * elevation.signum();
+    }
+    if elevation.abs() >= FRAC_PI_2 {
+        elevation = PI * elevation.signum() - elevation;
+        rotation += PI;
+    }
+    (elevation, TAU - rotation.rem_euclid(TAU))
+}
+
+/// Bilinear lookup at (u, v) ∈ [0, 1]² in a `width` × `height` table of texels centred at
+/// ((i + ½)/width, (j + ½)/height), edges extended (Cycles' linear image lookup).
+pub(crate) fn bilinear(table: &[Vec3], width: usize, height: usize, u: f32, v: f32) -> Vec3 {
+    let texel = |coordinate: f32, size: usize| {
+        let f = coordinate * size as f32 - 0.5;
+        let i = f.floor();
+        let clamp = |k: f32| (k.max(0.0) as usize).min(size - 1);
+        (clamp(i), clamp(i + 1.0), f - i)
+    };
+    let (x0, x1, fx) = texel(u, width);
+    let (y0, y1, fy) = texel(v, height);
+    let row = |y: usize| table[y * width + x0] * (1.0 - fx) + table[y * width + x1] * fx;
+    row(y0) * (1.0 - fy) + row(y1) * fy
+}
+
+/// Cycles' limb darkening of the sun disc at angle `gamma` from its centre (`half` its angular
+/// radius): 1 at the centre, 0.4 at the rim.
+pub(crate) fn limb_darkening(gamma: f32, half: f32) -> f32 {
+    1.0 - 0.6 * (1.0 - (1.0 - (gamma / half).powi(2)).sqrt())
+}
+
+/// The irradiance a disc of angular diameter `size` centred on unit `centre` gives a surface
+/// facing it: `radiance` integrated over the disc, cosine-weighted from its centre (48 rings of
+/// 96 cells).
+fn disc_irradiance(centre: Vec3, size: f32, radiance: impl Fn(Vec3) -> Vec3) -> Vec3 {
+    let frame = crate::math::Frame::from_normal(centre);
+    let half = 0.5 * size;
+    const RINGS: usize = 48;
+    const SECTORS: usize = 96;
+    let mut irradiance = Vec3::ZERO;
+    for i in 0..RINGS {
+        let (g0, g1) = (
+            half * i as f32 / RINGS as f32,
+            half * (i + 1) as f32 / RINGS as f32,
+        );
+        let gamma = 0.5 * (g0 + g1);
+        // Solid angle of one cell of the ring, times the cosine to the disc's centre.
+        let cell = (g0.cos() - g1.cos()) * TAU / SECTORS as f32 * gamma.cos();
+        for j in 0..SECTORS {
+            let phi = TAU * (j as f32 + 0.5) / SECTORS as f32;
+            let local = Vec3::new(
+                gamma.sin() * phi.cos(),
+                gamma.sin() * phi.sin(),
+                gamma.cos(),
+            );
+            irradiance += radiance(frame.to_world(local)) * cell;
+        }
+    }
+    irradiance
+}
+
+/// Unit direction towards the sun at `elevation` and the kernel's `rotation` (Cycles' kernel:
+/// the tables' sun azimuth turned by the rotation).
+pub(crate) fn sun_towards(elevation: f32, rotation: f32) -> Vec3 {
+    let r = rotation - FRAC_PI_2;
+    Vec3::new(
+        -elevation.cos() * r.cos(),
+        -elevation.cos() * r.sin(),
+        elevation.sin(),
+    )
+}
+
+/// The disc of angular diameter `size` about `centre` as a sun light: its irradiance
+/// (`disc_irradiance` of `radiance`); `None` when it is not `shown`, has no size or none of it
+/// shines.
+pub(crate) fn disc_light(
+    shown: bool,
+    centre: Vec3,
+    size: f32,
+    radiance: impl Fn(Vec3) -> Vec3,
+) -> Option<SunDisc> {
+    if !shown || size <= 0.0 {
+        return None;
+    }
+    let irradiance = disc_irradiance(centre, size, radiance);
+    (irradiance.max_element() > 0.0).then_some(SunDisc {
+        direction: centre,
+        angle: size,
+        irradiance,
+    })
 }
 
 impl NishitaSky {
     /// Tabulate the sky for `settings`: 256 × 128 view rays of 32 steps, each step with a ray
     /// to the sun, spread over rayon's threads.
     pub fn new(settings: &NishitaSettings) -> NishitaSky {
-        // Blender lets the sun go round: bring the elevation into [−π/2, π/2] (flipping the
-        // rotation when it passes the zenith) and the rotation into Cycles' form.
-        let mut elevation = settings.sun_elevation % TAU;
-        let mut rotation = settings.sun_rotation;
-        if elevation.abs() >= PI {
-            elevation -= 2.0 * PI * elevation.signum();
-        }
-        if elevation.abs() >= FRAC_PI_2 {
-            elevation = PI * elevation.signum() - elevation;
-            rotation += PI;
-        }
-        let rotation = TAU - rotation.rem_euclid(TAU);
+        let (elevation, rotation) = sun_position(settings);
         // Below a metre the model misbehaves; above 60 km is space.
         let altitude = settings.altitude.clamp(1.0, 59_999.0);
         let eye = Vec3::new(0.0, 0.0, EARTH_RADIUS + altitude);
@@ -394,20 +481,8 @@ impl NishitaSky {
         }
     }
 
-    /// Bilinear lookup in the table at (u, v) ∈ [0, 1]², edges extended.
     fn lookup(&self, u: f32, v: f32) -> Vec3 {
-        let texel = |coordinate: f32, size: usize| {
-            let f = coordinate * size as f32 - 0.5;
-            let i = f.floor();
-            let clamp = |k: f32| (k.max(0.0) as usize).min(size - 1);
-            (clamp(i), clamp(i + 1.0), f - i)
-        };
-        let (x0, x1, fx) = texel(u, TABLE_WIDTH);
-        let (y0, y1, fy) = texel(v, TABLE_HEIGHT);
-        let row = |y: usize| {
-            self.table[y * TABLE_WIDTH + x0] * (1.0 - fx) + self.table[y * TABLE_WIDTH + x1] * fx
-        };
-        row(y0) * (1.0 - fy) + row(y1) * fy
+        bilinear(&self.table, TABLE_WIDTH, TABLE_HEIGHT, u, v)
     }
 
     /// Radiance of the sky along unit `dir`, without the sun disc: the table above the horizon,
@@ -428,9 +503,7 @@ impl NishitaSky {
 
     /// Unit direction towards the centre of the sun.
     pub fn sun_direction(&self) -> Vec3 {
-        // Cycles' kernel: the table's longitude 0 turned by the rotation.
-        let (e, r) = (self.sun_elevation, self.sun_rotation - FRAC_PI_2);
-        Vec3::new(-e.cos() * r.cos(), -e.cos() * r.sin(), e.sin())
+        sun_towards(self.sun_elevation, self.sun_rotation)
     }
 
     /// Radiance of the sun disc along unit `dir` (zero outside it and below the horizon):
@@ -451,44 +524,15 @@ impl NishitaSky {
             return Vec3::ZERO;
         };
         let xyz = self.sun_bottom.lerp(self.sun_top, t) * self.sun_intensity;
-        let limb = 1.0 - 0.6 * (1.0 - (1.0 - (gamma / half).powi(2)).sqrt());
-        xyz_to_rec709(xyz) * limb
+        xyz_to_rec709(xyz) * limb_darkening(gamma, half)
     }
 
     /// The sun disc as a light (`None` without a disc or below the horizon): the irradiance is
     /// `sun_radiance` integrated over the disc, cosine-weighted from its centre.
     pub fn sun(&self) -> Option<SunDisc> {
-        if !self.sun_disc || self.sun_size <= 0.0 || self.sun_intensity <= 0.0 {
-            return None;
-        }
-        let centre = self.sun_direction();
-        let frame = crate::math::Frame::from_normal(centre);
-        let half = 0.5 * self.sun_size;
-        const RINGS: usize = 48;
-        const SECTORS: usize = 96;
-        let mut irradiance = Vec3::ZERO;
-        for i in 0..RINGS {
-            let (g0, g1) = (
-                half * i as f32 / RINGS as f32,
-                half * (i + 1) as f32 / RINGS as f32,
-            );
-            let gamma = 0.5 * (g0 + g1);
-            // Solid angle of one cell of the ring, times the cosine to the disc's centre.
-            let cell = (g0.cos() - g1.cos()) * TAU / SECTORS as f32 * gamma.cos();
-            for j in 0..SECTORS {
-                let phi = TAU * (j as f32 + 0.5) / SECTORS as f32;
-                let local = Vec3::new(
-                    gamma.sin() * phi.cos(),
-                    gamma.sin() * phi.sin(),
-                    gamma.cos(),
-                );
-                irradiance += self.sun_radiance(frame.to_world(local)) * cell;
-            }
-        }
-        (irradiance.max_element() > 0.0).then_some(SunDisc {
-            direction: centre,
-            angle: self.sun_size,
-            irradiance,
+        let shown = self.sun_disc && self.sun_intensity > 0.0;
+        disc_light(shown, self.sun_direction(), self.sun_size, |d| {
+            self.sun_radiance(d)
         })
     }
 }

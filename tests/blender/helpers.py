@@ -6,6 +6,8 @@
   --width W --height H --spp N --seed S --threads T` with a timeout and return its RGB image.
   Any problem (PHOTON_BINARY unset or not executable, non-zero exit, timeout, missing or
   malformed output) fails the calling test with a message that includes photon's stderr.
+- `block_means(img, size)`: the means of size x size pixel blocks, to compare images whose
+  pixels differ by noise or by a sub-pixel shift.
 - `rel_mse`, `read_exr`, `lit_mask`, `luminance` come from scenes/blender/refimage.py.
 """
 
@@ -41,6 +43,12 @@ def reference(name: str):
             pytest.fail(f"missing reference file {p}: regenerate with "
                         f".venv/bin/python scenes/blender/make_references.py", pytrace=False)
     return read_exr(exr), json.loads(side.read_text())
+
+
+def block_means(img: np.ndarray, size: int = 4) -> np.ndarray:
+    """The means of `size` x `size` pixel blocks of an (H, W, C) image."""
+    h, w = img.shape[0] // size * size, img.shape[1] // size * size
+    return img[:h, :w].reshape(h // size, size, w // size, size, -1).mean(axis=(1, 3))
 
 
 def photon_binary() -> Path:

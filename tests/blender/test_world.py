@@ -13,7 +13,7 @@ import pytest
 
 import common
 from cycles_compare import compare
-from helpers import rel_mse
+from helpers import block_means, rel_mse
 
 
 # Nishita's single-scattering sky: Blender 5 calls it "Single Scattering".
@@ -74,12 +74,6 @@ def test_nishita_sky(tmp_path, elevation):
     compare(f"nishita sky {elevation:.0f} deg", scene, tmp_path, photon_spp=512)
 
 
-def block_means(img, size=4):
-    """The means of `size` x `size` pixel blocks of an (H, W, C) image."""
-    h, w = img.shape[0] // size * size, img.shape[1] // size * size
-    return img[:h, :w].reshape(h // size, size, w // size, size, -1).mean(axis=(1, 3))
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("model", ["PREETHAM", "HOSEK_WILKIE"])
 def test_analytic_sky(tmp_path, model):
@@ -136,9 +130,9 @@ def test_camera_ray_sees_another_background(tmp_path):
 
 
 def test_world_problems_are_named(photon_addon):
-    """What PHOTON_world does not carry is named for the pre-flight report: Blender 5's
-    Multiple Scattering sky, a Mix Shader factor from a texture; the export keeps the rest, the
-    Preetham and Hosek-Wilkie skies with their settings."""
+    """What PHOTON_world does not carry is named for the pre-flight report: a Mix Shader factor
+    from a texture; the export keeps the rest, the Preetham and Hosek-Wilkie skies (and under
+    Blender 5 the Multiple Scattering sky) with their settings."""
     from blender_addon import world
     scene = ground_scene()
     tree, background = world_nodes(scene)
@@ -152,10 +146,15 @@ def test_world_problems_are_named(photon_addon):
         assert data["sky"]["sun_direction"] == pytest.approx([0.0, 0.6, 0.8])
         assert ("ground_albedo" in data["sky"]) == (model == "HOSEK_WILKIE")
     if "MULTIPLE_SCATTERING" in sky.bl_rna.properties["sky_type"].enum_items.keys():
+        # Blender 5 (run this file under bpy 5.0 to check it): the Multiple Scattering sky is
+        # exported with its settings, the aerosol density as "dust".
         sky.sky_type = "MULTIPLE_SCATTERING"
+        sky.altitude, sky.aerosol_density, sky.ozone_density = 250.0, 2.5, 0.5
         data, problems = world.world_description(scene.world)
-        assert "sky" not in data and len(problems) == 1, problems
-        assert "MULTIPLE_SCATTERING" in problems[0], problems
+        assert problems == [] and data["sky"]["type"] == "MULTIPLE_SCATTERING", (data, problems)
+        assert (data["sky"]["altitude"], data["sky"]["dust"], data["sky"]["ozone"]) == \
+            pytest.approx((250.0, 2.5, 0.5))
+        assert data["sky"]["sun_elevation"] == pytest.approx(math.radians(20.0))
     sky.sky_type = NISHITA
     noise = tree.nodes.new("ShaderNodeTexNoise")
     other = tree.nodes.new("ShaderNodeBackground")

@@ -353,7 +353,8 @@ fn camera_rays_may_see_another_background() {
 fn bad_sky_settings_are_scene_errors() {
     let dir = temp_dir("badsky");
     for (sky, needle) in [
-        (json!({"type": "MULTIPLE_SCATTERING"}), "unknown sky type"),
+        (json!({"type": "MULTIPLE"}), "unknown sky type"),
+        (json!({"type": "MULTIPLE_SCATTERING", "air": -1.0}), "'air'"),
         (json!({"dust": -1.0}), "'dust'"),
         (json!({"sun_size": 4.0}), "'sun_size'"),
         (json!({"rotation": [0.0, 1.0]}), "'rotation'"),

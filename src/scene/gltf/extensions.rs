@@ -714,6 +714,8 @@ pub(super) struct SkyTexture {
 /// The sky models of Blender's Sky Texture that Photon evaluates.
 pub(super) enum SkyModel {
     Nishita(NishitaSettings),
+    /// Blender 5's Multiple Scattering sky: the Nishita sky's settings, `dust` its aerosols.
+    MultipleScattering(NishitaSettings),
     /// The sun towards `sun_direction` (Blender's Sun Direction, any length but zero).
     Preetham {
         sun_direction: Vec3,
@@ -818,11 +820,13 @@ fn read_sky(sky: &Fields) -> Read<SkyTexture> {
     };
     let model = match sky.string("type")? {
         None | Some("NISHITA") => SkyModel::Nishita(read_nishita(sky)?),
+        Some("MULTIPLE_SCATTERING") => SkyModel::MultipleScattering(read_nishita(sky)?),
         Some("PREETHAM") => analytic(false)?,
         Some("HOSEK_WILKIE") => analytic(true)?,
         Some(other) => {
             return Err(sky.fail(format!(
-                "unknown sky type '{other}' (NISHITA, PREETHAM or HOSEK_WILKIE)"
+                "unknown sky type '{other}' (NISHITA, MULTIPLE_SCATTERING, PREETHAM or \
+                 HOSEK_WILKIE)"
             )))
         }
     };
@@ -832,7 +836,7 @@ fn read_sky(sky: &Fields) -> Read<SkyTexture> {
     })
 }
 
-/// The settings of a Nishita sky.
+/// The settings of a Nishita or Multiple Scattering sky.
 fn read_nishita(sky: &Fields) -> Read<NishitaSettings> {
     let defaults = NishitaSettings::default();
     let settings = NishitaSettings {
@@ -1122,7 +1126,14 @@ mod tests {
         };
         assert!(matches!(sky.model, SkyModel::Preetham { turbidity, .. } if turbidity == 4.0));
         assert!(layer(json!({"type": "PREETHAM", "sun_direction": [0, 0, 0]})).is_err());
-        assert!(layer(json!({"type": "MULTIPLE_SCATTERING"})).is_err());
+        let Ok(BackgroundSource::Sky(sky)) =
+            layer(json!({"type": "MULTIPLE_SCATTERING", "altitude": 250, "dust": 2}))
+        else {
+            panic!("a sky");
+        };
+        assert!(matches!(sky.model, SkyModel::MultipleScattering(s)
+            if s.altitude == 250.0 && s.dust == 2.0 && s.air == 1.0));
+        assert!(layer(json!({"type": "MULTIPLE"})).is_err());
         let panorama =
             |value| CameraExtension::read(&json!({ "panorama": value })).map(|c| c.panorama);
         assert_eq!(

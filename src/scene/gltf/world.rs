@@ -1,5 +1,6 @@
 //! The scene-level extensions: `PHOTON_world` (a constant colour, an equirectangular EXR or
-//! Blender's Nishita, Preetham or Hosek-Wilkie sky baked into a map, a Nishita sun as a light;
+//! Blender's Nishita, Multiple Scattering, Preetham or Hosek-Wilkie sky baked into a map, the
+//! Nishita and Multiple Scattering skies' sun discs as lights;
 //! mixes of them; what camera rays see) and `PHOTON_render` (resolution, transparent film,
 //! pixel filter).
 
@@ -11,8 +12,9 @@ use super::extensions::{
 use crate::color_space::WorkingSpace;
 use crate::error::Result;
 use crate::math::Vec3;
-use crate::scene::sky::NishitaSky;
+use crate::scene::sky::{NishitaSky, SunDisc};
 use crate::scene::sky_hosek::HosekSky;
+use crate::scene::sky_multiple_scattering::MultipleScatteringSky;
 use crate::scene::sky_preetham::PreethamSky;
 use crate::scene::{Background, Environment, Light, SceneRenderSettings, Volume};
 
@@ -165,8 +167,9 @@ impl Loader {
     }
 }
 
-/// Blender's Sky Texture baked × `strength` into an environment map, and a Nishita sky's sun
-/// disc as a sun light (in scene directions), in the working colour space `space`.
+/// Blender's Sky Texture baked × `strength` into an environment map, and a Nishita or Multiple
+/// Scattering sky's sun disc as a sun light (in scene directions), in the working colour space
+/// `space`.
 fn bake_sky(sky: &SkyTexture, strength: f32, space: WorkingSpace) -> (Environment, Option<Light>) {
     let to_map = sky.rotation * Environment::Y_UP_TO_Z_UP;
     let bake = |radiance: &(dyn Fn(Vec3) -> Vec3 + Sync)| {
@@ -174,8 +177,18 @@ fn bake_sky(sky: &SkyTexture, strength: f32, space: WorkingSpace) -> (Environmen
             space.convert_rec709(radiance(d)) * strength
         })
     };
+    let as_light = |sun: SunDisc| Light::Sun {
+        direction: -(to_map.transpose() * sun.direction),
+        irradiance: space.convert_rec709(sun.irradiance) * strength,
+        angle: sun.angle,
+        camera: true,
+    };
     let settings = match sky.model {
         SkyModel::Nishita(settings) => settings,
+        SkyModel::MultipleScattering(settings) => {
+            let model = MultipleScatteringSky::new(&settings);
+            return (bake(&|d| model.sky_radiance(d)), model.sun().map(as_light));
+        }
         SkyModel::Preetham {
             sun_direction,
             turbidity,
@@ -194,11 +207,5 @@ fn bake_sky(sky: &SkyTexture, strength: f32, space: WorkingSpace) -> (Environmen
     };
     let model = NishitaSky::new(&settings);
     let map = bake(&|d| model.sky_radiance(d));
-    let sun = model.sun().map(|sun| Light::Sun {
-        direction: -(to_map.transpose() * sun.direction),
-        irradiance: space.convert_rec709(sun.irradiance) * strength,
-        angle: sun.angle,
-        camera: true,
-    });
-    (map, sun)
+    (map, model.sun().map(as_light))
 }
