@@ -17,6 +17,20 @@ that a new parametrized test can be checked for it.
 Each pytest process keeps its own entries: with pytest-xdist every worker has its own folder
 (its own temporary directory), and tests/run hands each worker whole test files
 (`--dist loadfile`), so the cases that can share a reference meet in the same worker.
+
+Between runs the references are kept in the store, tests/data/cycles_references/<Blender
+version>/, a file per key (its name a hash of the test function or scope, the digest and the
+file type): a Cycles render of a scene whose digest is unchanged is the same image on every run
+(a fixed seed, a CPU render), so the tests read it instead of rendering Cycles. An EXR is kept
+as half floats (a relative rounding of at most 2^-11 per value, far below every tolerance the
+tests assert against a reference: their means are compared to 0.3 % and more, and 48 x 32
+references at 1024 samples hold noise of a few per cent per pixel). A key without a stored file
+renders Cycles as before and says so ("rendered, none stored"): a changed scene, a new test, or
+another Blender version (bpy 5.0's keys are its own; only 4.5's are stored). The store is
+written by tests/blender/store_references.sh, which empties this version's folder and renders
+every reference anew; run it, and commit the folder, after a change to a test's scene or Cycles
+settings (a file whose scene changed is never read again: its key went with the scene, and the
+script's fresh folder drops it).
 """
 
 from __future__ import annotations
@@ -47,6 +61,13 @@ ID_COLLECTIONS = ("scenes", "objects", "meshes", "materials", "lights", "cameras
                   "node_groups", "images", "curves", "hair_curves", "pointclouds", "volumes",
                   "particles", "textures", "collections", "lattices", "metaballs", "fonts",
                   "lightprobes")
+
+# The stored references: Cycles renders kept between test runs, written by
+# tests/blender/store_references.sh (PHOTON_STORE_REFERENCES=1 renders every reference and
+# stores it), one folder per Blender version.
+STORE = Path(__file__).resolve().parents[1] / "data" / "cycles_references"
+# Largest magnitude kept as a half float (its largest finite value is 65504).
+HALF_LIMIT = 60000.0
 
 _entries: dict[tuple, Path] = {}
 # Where the first render of each key is kept: a folder under pytest's temporary directory, set by
@@ -186,13 +207,59 @@ def test_function() -> str:
     return current.split(" ")[0].split("[")[0]
 
 
-def cached_render(render, path: Path, scope: str | None = None):
-    """`render()` (which renders the scene as it is now set up, writes the EXR at `path` and
-    returns its image) run once per test function (or `scope`, a name the tests that share
-    references across their functions pass) and scene digest, taken with every setting the
-    render reads already set; later calls with the same key copy the first EXR to `path` and
-    return its image. Returns (image, whether it was shared)."""
+def _store_file(key: tuple, suffix: str) -> Path:
+    """Where the stored reference of `key` (test function or scope, digest, suffix) lives: one
+    folder per Blender version (its Cycles renders differ between versions)."""
+    import bpy
+
+    version = ".".join(str(v) for v in bpy.app.version)
+    name = hashlib.sha256(repr(key).encode()).hexdigest()[:32]
+    return STORE / version / f"{name}{suffix}"
+
+
+def _write_stored(rendered: Path, stored: Path) -> None:
+    """Keep a rendered reference in the store: an EXR as half floats, ZIP-compressed (a channel
+    with values beyond half's range, a depth pass say, stays 32-bit float), anything else as
+    it is."""
+    stored.parent.mkdir(parents=True, exist_ok=True)
+    if rendered.suffix.lower() != ".exr":
+        shutil.copyfile(rendered, stored)
+        return
+    import OpenEXR
+
+    with OpenEXR.File(str(rendered), separate_channels=True) as f:
+        if len(f.parts) != 1:
+            shutil.copyfile(rendered, stored)
+            return
+        planes = {}
+        for name, channel in f.channels().items():
+            values = np.asarray(channel.pixels)
+            finite = values[np.isfinite(values)]
+            fits = values.dtype.kind == "f" and (finite.size == 0
+                                                 or np.abs(finite).max() < HALF_LIMIT)
+            planes[name] = np.ascontiguousarray(values.astype(np.float16) if fits else values)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    partial = stored.with_suffix(".partial" + stored.suffix)
+    with OpenEXR.File(header, planes) as out:
+        out.write(str(partial))
+    partial.replace(stored)
+
+
+def _read_default(path: Path):
+    from refimage import read_exr
+    return read_exr(path)
+
+
+def cached_render(render, path: Path, scope: str | None = None, read=None):
+    """`render()` (which renders the scene as it is now set up, writes its file at `path` and
+    returns what the test reads of it) run once per test function (or `scope`, a name the tests
+    that share references across their functions pass) and scene digest, taken with every
+    setting the render reads already set; later calls with the same key copy the first file to
+    `path` and return `read(path)` (default: its RGB). A reference kept in the store
+    (tests/data/cycles_references, this Blender version's folder) is used in place of
+    rendering it at all. Returns (image, whether it was shared or stored)."""
     path = Path(path)
+    read = read or _read_default
     try:
         key = (scope or test_function(), scene_digest(), path.suffix)
     except Exception as exc:  # noqa: BLE001 - a scene the walk cannot read is rendered, not shared
@@ -202,9 +269,19 @@ def cached_render(render, path: Path, scope: str | None = None):
     if stored is not None:
         shutil.copyfile(stored, path)
         print(f"cycles reference {path.name}: shared with an earlier case of {key[0]}")
-        from refimage import read_exr
-        return read_exr(path), True
+        return read(path), True
+    kept = _store_file(key, path.suffix)
+    if kept.exists() and os.environ.get("PHOTON_STORE_REFERENCES") != "1":
+        shutil.copyfile(kept, path)
+        print(f"cycles reference {path.name}: stored ({kept.parent.name}/{kept.name})")
+        _entries[key] = kept
+        return read(path), True
+    if STORE.exists():
+        print(f"cycles reference {path.name}: rendered, none stored for {key[0]} in "
+              f"{kept.parent.name}/{kept.name}")
     image = render()
+    if os.environ.get("PHOTON_STORE_REFERENCES") == "1":
+        _write_stored(path, kept)
     if folder is not None:
         stored = folder / f"{len(_entries)}{path.suffix}"
         shutil.copyfile(path, stored)

@@ -176,7 +176,8 @@ def _write_still(engine: str, path: Path) -> np.ndarray:
 
 def render_layers(scene, engine: str, path: Path, samples: int) -> dict:
     """Render the scene camera with `engine` to a multilayer EXR at `path` (the view layers'
-    passes) and return its channels by full name (`ViewLayer.Combined.R`, …)."""
+    passes) and return its channels by full name (`ViewLayer.Combined.R`, …). Cycles' render
+    is shared or stored as `render`'s (reference_cache.py)."""
     import OpenEXR
 
     common.configure_cycles(scene, samples, seed=1, threads=THREADS)
@@ -185,8 +186,18 @@ def render_layers(scene, engine: str, path: Path, samples: int) -> dict:
     scene.photon.samples = samples
     scene.render.filepath = str(path)
     scene.render.use_file_extension = False
-    bpy.ops.render.render(write_still=True)
-    # Blender 5 writes one part per pass, Blender 4 a single part: read every part.
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        return {name: np.array(chan.pixels) for part in f.parts
-                for name, chan in part.channels.items()}
+
+    def read(path):
+        # Blender 5 writes one part per pass, Blender 4 a single part: read every part.
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            return {name: np.array(chan.pixels) for part in f.parts
+                    for name, chan in part.channels.items()}
+
+    def render():
+        bpy.ops.render.render(write_still=True)
+        return read(path)
+
+    if engine == "CYCLES":
+        import reference_cache
+        return reference_cache.cached_render(render, path, read=read)[0]
+    return render()

@@ -41,7 +41,7 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(autouse=True)
 def _addon(photon_addon, binary_env, monkeypatch):
     monkeypatch.setattr(reference_cache, "cached_render",
-                        lambda render, path, scope=None: (render(), False))
+                        lambda render, path, scope=None, read=None: (render(), False))
     yield photon_addon
     # A domain still loaded when the process ends makes bpy's Mantaflow abort it (exit 134).
     bpy.ops.wm.read_factory_settings(use_empty=True)
