@@ -111,6 +111,11 @@ impl MediumStack {
         };
         let mut out = *self;
         if entering {
+            // Entered again without leaving (a boundary face coplanar with another object's,
+            // which the ray passed as one): held once, as Cycles' volume stack holds an object.
+            if out.entries.iter().flatten().any(|e| *e == entry) {
+                return out;
+            }
             if let Some(slot) = out.entries.iter_mut().find(|e| e.is_none()) {
                 *slot = Some(entry);
             }
@@ -124,6 +129,14 @@ impl MediumStack {
             out.entries[DEPTH - 1] = None;
         }
         out
+    }
+
+    /// The stack of a ray that meets no surface any more: only the world's volume. An object's
+    /// medium ends at its surface, so an object medium still held (its boundary passed
+    /// unnoticed where it lies in the plane of another object's boundary the ray crossed) does
+    /// not reach to infinity.
+    pub fn escaping(&self) -> MediumStack {
+        MediumStack::default()
     }
 
     /// The media of this stack in `ctx`'s scene, as `medium::fly` and

@@ -379,7 +379,13 @@ impl PathState {
     ) -> Flight {
         let dir = self.ray.direction.normalize();
         let mut emitted = Vec3::ZERO;
-        let media = self.media;
+        let media = match reach.is_finite() {
+            true => self.media,
+            false => self.media.escaping(),
+        };
+        if media.is_vacuum(ctx.scene) {
+            return Flight::Passed;
+        }
         let in_media = media.media(ctx);
         let (origin, beta) = (self.ray.origin, &mut self.beta);
         let flight = match scatters {
@@ -405,7 +411,14 @@ impl PathState {
     /// a scattering in the medium. The scattering the walk then continues from (`scatter_in_medium`) takes
     /// no light sample of its own.
     fn light_in_media(&mut self, ctx: &Context, reach: f32, rng: &mut Rng) {
-        let (ray, media, path, beta) = (self.ray, self.media, self.light_path, self.beta);
+        let (ray, path, beta) = (self.ray, self.light_path, self.beta);
+        let media = match reach.is_finite() {
+            true => self.media,
+            false => self.media.escaping(),
+        };
+        if media.is_vacuum(ctx.scene) {
+            return;
+        }
         let l = light_scattered_along(
             ctx,
             &ray,

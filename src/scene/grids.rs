@@ -316,8 +316,9 @@ impl MediumExtent {
 }
 
 /// A bound of a medium's extinction over blocks of voxels of one grid: constant in each block,
-/// the first and last blocks of each axis reaching on to infinity (interpolation past the
-/// grid's edge only fades towards zero).
+/// the first and last blocks of each axis reaching on over a margin of a block (interpolation
+/// past the grid's edge only fades towards zero, and the medium's extent is grown by one voxel),
+/// zero beyond it.
 #[derive(Debug)]
 pub struct MajorantGrid {
     /// Blocks per axis.
@@ -340,6 +341,16 @@ impl MajorantGrid {
         }
         let o = self.object_to_voxel.transform_point3(origin);
         let d = self.object_to_voxel.transform_vector3(dir);
+        // Past the blocks by more than a block on any axis nothing is interpolated from the
+        // grid's voxels, nor is any cell of the medium's extent there: no bound, until the ray
+        // reaches that padded box (if it does).
+        let (enter, leave) = self.padded_span(o, d);
+        if t < enter {
+            return (0.0, enter);
+        }
+        if !(t < leave) {
+            return (0.0, f32::INFINITY);
+        }
         let p = o + t * d;
         let mut index = [0usize; 3];
         let mut end = f32::INFINITY;
@@ -359,12 +370,37 @@ impl MajorantGrid {
                 end = end.min((wall - o[a]) / d[a]);
             }
         }
+        end = end.min(leave);
         // Rounding can put the wall behind `t`: step past it.
         if !(end > t) {
             end = t + 1e-5 * (1.0 + t.abs());
         }
         let [bx, by, _] = self.blocks;
         (self.values[(index[2] * by + index[1]) * bx + index[0]], end)
+    }
+}
+
+impl MajorantGrid {
+    /// Where the ray `o + t d` (voxel coordinates) is within the blocks grown by a block (at
+    /// least two voxels) on every side: (enter, leave), empty (enter ≥ leave) when it misses
+    /// them.
+    fn padded_span(&self, o: Vec3, d: Vec3) -> (f32, f32) {
+        let (mut enter, mut leave) = (f32::NEG_INFINITY, f32::INFINITY);
+        for a in 0..3 {
+            let e = self.edge[a] as f32;
+            let pad = e.max(2.0);
+            let (lo, hi) = (-pad, self.blocks[a] as f32 * e + pad);
+            if d[a] == 0.0 {
+                if !(o[a] >= lo && o[a] <= hi) {
+                    return (f32::INFINITY, f32::INFINITY);
+                }
+                continue;
+            }
+            let (t0, t1) = ((lo - o[a]) / d[a], (hi - o[a]) / d[a]);
+            enter = enter.max(t0.min(t1));
+            leave = leave.min(t0.max(t1));
+        }
+        (enter, leave)
     }
 }
 
@@ -493,14 +529,23 @@ mod tests {
             values: vec![1.0, 5.0, 2.0],
             object_to_voxel: Affine3A::from_scale(Vec3::splat(2.0)),
         };
-        // Voxel x = 2 t − 1: block 0 until t = 1.5, block 1 until 2.5, block 2 for ever.
+        // Voxel x = 2 t − 1: block 0 until t = 1.5, block 1 until 2.5, block 2 on over its
+        // margin of a block (to voxel 8) until t = 4.5, nothing after.
         let origin = Vec3::new(-0.5, 0.2, 0.2);
         let x = Vec3::X;
         assert_eq!(m.along(origin, x, 0.0), (1.0, 1.5));
         assert_eq!(m.along(origin, x, 1.5), (5.0, 2.5));
-        assert_eq!(m.along(origin, x, 2.5), (2.0, f32::INFINITY));
-        // Backwards from the far side: the last block reaches to infinity behind.
-        assert_eq!(m.along(Vec3::new(10.0, 0.0, 0.0), -x, 0.0), (2.0, 8.0));
+        assert_eq!(m.along(origin, x, 2.5), (2.0, 4.5));
+        assert_eq!(m.along(origin, x, 4.5), (0.0, f32::INFINITY));
+        // Backwards from the far side (voxel 20): nothing until the margin at voxel 8, t = 6,
+        // then the last block until its wall at voxel 4.
+        assert_eq!(m.along(Vec3::new(10.0, 0.0, 0.0), -x, 0.0), (0.0, 6.0));
+        assert_eq!(m.along(Vec3::new(10.0, 0.0, 0.0), -x, 6.0), (2.0, 8.0));
+        // A ray that passes beside the blocks and their margin meets no bound.
+        assert_eq!(
+            m.along(Vec3::new(0.0, 5.0, 0.0), x, 0.0),
+            (0.0, f32::INFINITY)
+        );
     }
 
     #[test]
