@@ -174,12 +174,20 @@ def _write_still(engine: str, path: Path) -> np.ndarray:
     return read_exr(path)
 
 
-def render_layers(scene, engine: str, path: Path, samples: int) -> dict:
-    """Render the scene camera with `engine` to a multilayer EXR at `path` (the view layers'
-    passes) and return its channels by full name (`ViewLayer.Combined.R`, …). Cycles' render
-    is shared or stored as `render`'s (reference_cache.py)."""
+def read_layers(path) -> dict:
+    """The channels of the multilayer EXR at `path` by full name (`ViewLayer.Combined.R`, …).
+    Blender 5 writes one part per pass, Blender 4 a single part: every part is read."""
     import OpenEXR
 
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {name: np.array(chan.pixels) for part in f.parts
+                for name, chan in part.channels.items()}
+
+
+def render_layers(scene, engine: str, path: Path, samples: int) -> dict:
+    """Render the scene camera with `engine` to a multilayer EXR at `path` (the view layers'
+    passes) and return its channels by full name (`read_layers`). Cycles' render is shared or
+    stored as `render`'s (reference_cache.py)."""
     common.configure_cycles(scene, samples, seed=1, threads=THREADS)
     common.set_multilayer_exr(scene.render.image_settings)
     scene.render.engine = engine
@@ -187,17 +195,11 @@ def render_layers(scene, engine: str, path: Path, samples: int) -> dict:
     scene.render.filepath = str(path)
     scene.render.use_file_extension = False
 
-    def read(path):
-        # Blender 5 writes one part per pass, Blender 4 a single part: read every part.
-        with OpenEXR.File(str(path), separate_channels=True) as f:
-            return {name: np.array(chan.pixels) for part in f.parts
-                    for name, chan in part.channels.items()}
-
     def render():
         bpy.ops.render.render(write_still=True)
-        return read(path)
+        return read_layers(path)
 
     if engine == "CYCLES":
         import reference_cache
-        return reference_cache.cached_render(render, path, read=read)[0]
+        return reference_cache.cached_render(render, path, read=read_layers)[0]
     return render()

@@ -168,10 +168,9 @@ def render_passes(scene, engine, path: Path, spp: int, *, denoise: bool):
     or off, to a multilayer EXR; returns (channels by pass name, seconds: those of reading a
     stored Cycles render where there is one)."""
     import bpy
-    import OpenEXR
 
     import common
-    from scenes_bpy import THREADS
+    from scenes_bpy import THREADS, read_layers
 
     common.configure_cycles(scene, spp, seed=1, threads=THREADS)
     scene.cycles.use_denoising = denoise
@@ -187,20 +186,15 @@ def render_passes(scene, engine, path: Path, spp: int, *, denoise: bool):
     scene.render.filepath = str(path)
     scene.render.use_file_extension = False
 
-    def read(path):
-        with OpenEXR.File(str(path), separate_channels=True) as f:
-            return {name: np.array(chan.pixels) for part in f.parts
-                    for name, chan in part.channels.items()}
-
     def render():
         bpy.ops.render.render(write_still=True)
-        return read(path)
+        return read_layers(path)
 
     start = time.perf_counter()
     if engine == "CYCLES":
         # Cycles' renders do not change between runs: shared or stored (reference_cache.py).
         import reference_cache
-        channels = reference_cache.cached_render(render, path, read=read)[0]
+        channels = reference_cache.cached_render(render, path, read=read_layers)[0]
     else:
         channels = render()
     seconds = time.perf_counter() - start
