@@ -827,7 +827,10 @@ fn walk_photon(
         let Some((bs, wi)) = scatter_photon(&s, rng) else {
             return;
         };
-        if !scattered && !bs.delta && bs.scattering != crate::bsdf::Scattering::Transparent {
+        // Only a caustic photon's clamp reads them: a first surface that stores photons ends
+        // the caustic path (a delta lobe aside, which no light sample reaches).
+        let may_be_caustic = clamp.is_on() && !storing && !bs.delta;
+        if may_be_caustic && !scattered && bs.scattering != crate::bsdf::Scattering::Transparent {
             first_vertex_pdfs = light_sample_pdfs(ctx, &s, &bs, &ray, &media, rng);
         }
         if arrived_by_dropped && bs.scattering == crate::bsdf::Scattering::Diffuse {
